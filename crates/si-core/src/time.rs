@@ -1,0 +1,171 @@
+//! Monotonic time for Sans-IO engines.
+//!
+//! Engines never read a clock: every input carries the current [`Instant`], a count of
+//! microseconds from an arbitrary origin chosen by the driver (the tokio driver uses the moment it
+//! started, the simulator uses virtual time zero). Microseconds are fine enough for the shortest
+//! interval the manuals name (one character at 115 200 bit/s is 95.5 µs) and a `u64` of them lasts
+//! 584 000 years, so arithmetic saturates instead of wrapping and never panics.
+
+use core::fmt;
+use core::ops::{Add, AddAssign, Sub};
+use serde::{Deserialize, Serialize};
+
+/// A point in monotonic time, in microseconds since the driver's origin.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub struct Instant(u64);
+
+impl Instant {
+    /// The driver's origin.
+    pub const ZERO: Instant = Instant(0);
+
+    /// The instant `micros` microseconds after the origin.
+    pub const fn from_micros(micros: u64) -> Self {
+        Instant(micros)
+    }
+
+    /// Microseconds since the origin.
+    pub const fn as_micros(self) -> u64 {
+        self.0
+    }
+
+    /// Time from `earlier` to `self`, zero if `earlier` is later.
+    pub const fn saturating_since(self, earlier: Instant) -> Duration {
+        Duration(self.0.saturating_sub(earlier.0))
+    }
+
+    /// The earlier of two optional deadlines (`None` = no deadline), used when an
+    /// engine combines several timers into one `Wait`.
+    pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
+        match (a, b) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, None) => a,
+            (None, b) => b,
+        }
+    }
+}
+
+impl fmt::Display for Instant {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}.{:06} s", self.0 / 1_000_000, self.0 % 1_000_000)
+    }
+}
+
+/// A span of time in microseconds.
+///
+/// The manuals give timers in milliseconds (ZVZ 220 ms, QVZ 2000 ms) and character times in
+/// fractions of a millisecond; both fit exactly.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub struct Duration(u64);
+
+impl Duration {
+    /// No time at all.
+    pub const ZERO: Duration = Duration(0);
+
+    /// `micros` microseconds.
+    pub const fn from_micros(micros: u64) -> Self {
+        Duration(micros)
+    }
+
+    /// `millis` milliseconds.
+    pub const fn from_millis(millis: u64) -> Self {
+        Duration(millis.saturating_mul(1_000))
+    }
+
+    /// `secs` seconds.
+    pub const fn from_secs(secs: u64) -> Self {
+        Duration(secs.saturating_mul(1_000_000))
+    }
+
+    /// Whole microseconds.
+    pub const fn as_micros(self) -> u64 {
+        self.0
+    }
+
+    /// Whole milliseconds, rounded down.
+    pub const fn as_millis(self) -> u64 {
+        self.0 / 1_000
+    }
+
+    /// `self × n`, saturating.
+    pub const fn saturating_mul(self, n: u64) -> Duration {
+        Duration(self.0.saturating_mul(n))
+    }
+
+    /// `self − other`, zero if `other` is longer.
+    pub const fn saturating_sub(self, other: Duration) -> Duration {
+        Duration(self.0.saturating_sub(other.0))
+    }
+}
+
+impl fmt::Display for Duration {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.0 % 1_000 == 0 {
+            write!(f, "{} ms", self.0 / 1_000)
+        } else {
+            write!(f, "{}.{:03} ms", self.0 / 1_000, self.0 % 1_000)
+        }
+    }
+}
+
+impl From<Duration> for core::time::Duration {
+    fn from(d: Duration) -> Self {
+        core::time::Duration::from_micros(d.0)
+    }
+}
+
+impl Add<Duration> for Instant {
+    type Output = Instant;
+    fn add(self, rhs: Duration) -> Instant {
+        Instant(self.0.saturating_add(rhs.0))
+    }
+}
+
+impl AddAssign<Duration> for Instant {
+    fn add_assign(&mut self, rhs: Duration) {
+        *self = *self + rhs;
+    }
+}
+
+impl Sub<Instant> for Instant {
+    type Output = Duration;
+    /// Saturating: an earlier minus a later instant is zero, never a panic.
+    fn sub(self, rhs: Instant) -> Duration {
+        self.saturating_since(rhs)
+    }
+}
+
+impl Add for Duration {
+    type Output = Duration;
+    fn add(self, rhs: Duration) -> Duration {
+        Duration(self.0.saturating_add(rhs.0))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn arithmetic_saturates_instead_of_panicking() {
+        let t = Instant::from_micros(u64::MAX - 1);
+        assert_eq!((t + Duration::from_secs(1)).as_micros(), u64::MAX);
+        assert_eq!(Instant::ZERO - t, Duration::ZERO);
+        assert_eq!(Duration::from_millis(u64::MAX).as_micros(), u64::MAX);
+    }
+
+    #[test]
+    fn display_uses_the_manuals_units() {
+        assert_eq!(Duration::from_millis(220).to_string(), "220 ms");
+        assert_eq!(Duration::from_micros(1_146).to_string(), "1.146 ms");
+        assert_eq!(Instant::from_micros(4_000_001).to_string(), "4.000001 s");
+    }
+
+    #[test]
+    fn earliest_deadline_wins() {
+        let a = Some(Instant::from_micros(5));
+        let b = Some(Instant::from_micros(3));
+        assert_eq!(Instant::earliest(a, b), b);
+        assert_eq!(Instant::earliest(None, a), a);
+        assert_eq!(Instant::earliest(None, None), None);
+    }
+}
