@@ -45,7 +45,8 @@ pub fn parse(text: &str) -> Result<Vec<u8>, HexError> {
             i += 2;
         }
         let mut high: Option<u8> = None;
-        while i < chars.len() && !(chars[i].is_whitespace() || matches!(chars[i], ',' | ':' | '-')) {
+        while i < chars.len() && !(chars[i].is_whitespace() || matches!(chars[i], ',' | ':' | '-'))
+        {
             let d = chars[i].to_digit(16).ok_or(HexError::InvalidDigit {
                 found: chars[i],
                 position: i + 1,

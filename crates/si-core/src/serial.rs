@@ -143,7 +143,12 @@ impl Default for SerialSettings {
 
 impl SerialSettings {
     /// Validated settings with any of the twelve manual baud rates.
-    pub fn new(baud: u32, data_bits: u8, parity: Parity, stop_bits: u8) -> Result<Self, SettingsError> {
+    pub fn new(
+        baud: u32,
+        data_bits: u8,
+        parity: Parity,
+        stop_bits: u8,
+    ) -> Result<Self, SettingsError> {
         Self::with_rates(baud, data_bits, parity, stop_bits, &BAUD_RATES)
     }
 
@@ -156,7 +161,10 @@ impl SerialSettings {
         allowed: &'static [u32],
     ) -> Result<Self, SettingsError> {
         if !allowed.contains(&baud) {
-            return Err(SettingsError::Baud { value: baud, allowed });
+            return Err(SettingsError::Baud {
+                value: baud,
+                allowed,
+            });
         }
         if !(7..=8).contains(&data_bits) {
             return Err(SettingsError::DataBits(data_bits));
@@ -223,7 +231,11 @@ impl SerialSettings {
 impl fmt::Display for SerialSettings {
     /// `9600 8E1`.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} {}{}{}", self.baud, self.data_bits, self.parity, self.stop_bits)
+        write!(
+            f,
+            "{} {}{}{}",
+            self.baud, self.data_bits, self.parity, self.stop_bits
+        )
     }
 }
 
@@ -249,9 +261,14 @@ mod tests {
     #[test]
     fn out_of_range_settings_name_the_value() {
         let e = SerialSettings::new(9_601, 8, Parity::Even, 1).unwrap_err();
-        assert!(e.to_string().starts_with("baud rate 9601 is not one of"), "{e}");
+        assert!(
+            e.to_string().starts_with("baud rate 9601 is not one of"),
+            "{e}"
+        );
         assert_eq!(
-            SerialSettings::new(9_600, 6, Parity::Even, 1).unwrap_err().to_string(),
+            SerialSettings::new(9_600, 6, Parity::Even, 1)
+                .unwrap_err()
+                .to_string(),
             "data bits 6 out of range: 7 or 8"
         );
         assert_eq!(

@@ -1,0 +1,695 @@
+//! A deterministic discrete-event line simulator.
+//!
+//! Engines are attached as *stations* and wired either point to point (RS-232/RS-422: full
+//! duplex, A's transmitter drives B's receiver and vice versa, RTS→CTS and DTR→DSR/DCD crossed
+//! as in a null-modem cable) or to a shared RS-485 bus (half duplex: every member hears every
+//! character, its own included, and characters that overlap in time garble each other, so every
+//! receiver gets a framing error for them).
+//!
+//! Characters take exactly their character time: the k-th character of a back-to-back burst ends
+//! at `burst start + ceil(k × bits × 10⁶ / baud)` µs ([`SerialSettings::chars_time`]), so there is
+//! no drift however long the burst. Time is virtual: an hour of traffic runs in well under a
+//! second of real time.
+//!
+//! Faults are drawn from a seeded generator, so a failing run is reproduced by its seed:
+//! bit flips, dropped and inserted characters and extra latency per wire ([`Faults`]), BREAK at a
+//! given instant ([`Simulator::schedule_break`]) and a partner that stops transmitting
+//! ([`Simulator::silence`]).
+//!
+//! ```
+//! use si_core::sim::Simulator;
+//! use si_core::{Engine, Instant, Output, SerialSettings};
+//!
+//! /// An engine that reports every character it receives.
+//! #[derive(Default)]
+//! struct Listener(Vec<u8>);
+//! impl Engine for Listener {
+//!     type Event = u8;
+//!     fn handle_rx(&mut self, _: Instant, bytes: &[u8]) { self.0.extend_from_slice(bytes) }
+//!     fn handle_timeout(&mut self, _: Instant) {}
+//!     fn poll_output(&mut self) -> Output<u8> {
+//!         if self.0.is_empty() { Output::Wait(None) } else { Output::Event(self.0.remove(0)) }
+//!     }
+//! }
+//!
+//! let mut sim = Simulator::new(42);
+//! let settings = SerialSettings::default(); // 9600 8E1: 11 bits a character
+//! let a = sim.add_station("A", settings, Listener::default());
+//! let b = sim.add_station("B", settings, Listener::default());
+//! sim.connect(a, b);
+//! sim.transmit(a, &[0x55]);
+//! sim.run_until_quiet(Instant::from_micros(1_000_000));
+//! assert_eq!(sim.take_events(b), vec![0x55]);
+//! assert_eq!(sim.trace().received("B")[0].0, Instant::from_micros(1_146)); // 11 / 9600 s
+//! ```
+
+mod rng;
+mod trace;
+
+pub use rng::SplitMix64;
+pub use trace::{Trace, TraceEntry, TraceKind};
+
+use crate::sansio::{Engine, LineError, ModemSignals, Output, SignalUpdate};
+use crate::serial::SerialSettings;
+use crate::time::{Duration, Instant};
+use core::any::Any;
+use core::marker::PhantomData;
+use std::cmp::Ordering;
+use std::collections::{BinaryHeap, HashMap, VecDeque};
+
+/// Seeded faults on the characters a station receives from others (its own bus echo is clean).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Faults {
+    /// Probability that a character arrives with one random bit inverted.
+    pub bit_flip: f64,
+    /// Probability that a character is lost.
+    pub drop: f64,
+    /// Probability that a random extra character arrives right after a real one.
+    pub insert: f64,
+    /// Delay added to every character (a slow converter, a device server).
+    pub extra_latency: Duration,
+}
+
+/// A typed handle to a station; `E` is its engine type, so events and the engine come back typed.
+#[derive(Debug)]
+pub struct StationId<E> {
+    index: usize,
+    _engine: PhantomData<fn() -> E>,
+}
+
+impl<E> Clone for StationId<E> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<E> Copy for StationId<E> {}
+
+impl<E> StationId<E> {
+    /// Position in the order stations were added.
+    pub fn index(self) -> usize {
+        self.index
+    }
+}
+
+/// The object-safe face of an [`Engine`], so stations of different engine types share one line.
+trait Station {
+    fn rx(&mut self, now: Instant, bytes: &[u8]);
+    fn timeout(&mut self, now: Instant);
+    fn tx_done(&mut self, now: Instant);
+    fn line_error(&mut self, now: Instant, e: LineError);
+    fn signals(&mut self, now: Instant, s: ModemSignals);
+    fn poll(&mut self) -> Output<Box<dyn Any>>;
+    fn as_any_mut(&mut self) -> &mut dyn Any;
+    fn as_any(&self) -> &dyn Any;
+    fn describe(&self, event: &dyn Any) -> String;
+}
+
+impl<E> Station for E
+where
+    E: Engine + 'static,
+    E::Event: 'static,
+{
+    fn rx(&mut self, now: Instant, bytes: &[u8]) {
+        self.handle_rx(now, bytes)
+    }
+    fn timeout(&mut self, now: Instant) {
+        self.handle_timeout(now)
+    }
+    fn tx_done(&mut self, now: Instant) {
+        self.handle_tx_done(now)
+    }
+    fn line_error(&mut self, now: Instant, e: LineError) {
+        self.handle_line_error(now, e)
+    }
+    fn signals(&mut self, now: Instant, s: ModemSignals) {
+        self.handle_signals(now, s)
+    }
+    fn poll(&mut self) -> Output<Box<dyn Any>> {
+        match self.poll_output() {
+            Output::Transmit(b) => Output::Transmit(b),
+            Output::SetSignals(s) => Output::SetSignals(s),
+            Output::Event(e) => Output::Event(Box::new(e)),
+            Output::Wait(d) => Output::Wait(d),
+        }
+    }
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
+    }
+    fn describe(&self, event: &dyn Any) -> String {
+        event
+            .downcast_ref::<E::Event>()
+            .map(|e| format!("{e:?}"))
+            .unwrap_or_default()
+    }
+}
+
+/// Which wire a station is on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Wiring {
+    Unconnected,
+    /// Full duplex to the station with this index.
+    PointToPoint(usize),
+    /// Member of the bus with this index.
+    Bus(usize),
+}
+
+struct Slot {
+    name: String,
+    settings: SerialSettings,
+    engine: Box<dyn Station>,
+    events: VecDeque<Box<dyn Any>>,
+    wiring: Wiring,
+    faults: Faults,
+    /// Transmitter: when the current burst started, how many characters it holds, and when the
+    /// last of them ends.
+    burst_start: Instant,
+    burst_chars: u64,
+    tx_free_at: Instant,
+    tx_generation: u64,
+    deadline: Option<Instant>,
+    timer_generation: u64,
+    silent_from: Option<Instant>,
+    signals: ModemSignals,
+}
+
+/// A character on an RS-485 bus, kept until its last delivery so later overlapping
+/// transmissions can garble it.
+struct BusChar {
+    start: Instant,
+    end: Instant,
+    sender: usize,
+    garbled: bool,
+    pending: usize,
+}
+
+#[derive(Debug)]
+enum What {
+    Deliver {
+        to: usize,
+        item: Result<u8, LineError>,
+        bus_char: Option<u64>,
+    },
+    TxDone {
+        station: usize,
+        generation: u64,
+    },
+    Timeout {
+        station: usize,
+        generation: u64,
+    },
+}
+
+struct Scheduled {
+    at: Instant,
+    seq: u64,
+    what: What,
+}
+
+impl PartialEq for Scheduled {
+    fn eq(&self, o: &Self) -> bool {
+        (self.at, self.seq) == (o.at, o.seq)
+    }
+}
+impl Eq for Scheduled {}
+impl PartialOrd for Scheduled {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Scheduled {
+    /// Reversed, so the `BinaryHeap` pops the earliest; ties go in scheduling order.
+    fn cmp(&self, o: &Self) -> Ordering {
+        (o.at, o.seq).cmp(&(self.at, self.seq))
+    }
+}
+
+/// The simulator: stations, wires, a clock and an event queue.
+pub struct Simulator {
+    now: Instant,
+    seq: u64,
+    queue: BinaryHeap<Scheduled>,
+    slots: Vec<Slot>,
+    buses: Vec<Vec<usize>>,
+    bus_chars: HashMap<u64, BusChar>,
+    next_bus_char: u64,
+    rng: SplitMix64,
+    trace: Option<Trace>,
+}
+
+impl Simulator {
+    /// An empty simulation at virtual time zero whose faults are drawn from `seed`. The trace is
+    /// recorded; switch it off with [`without_trace`](Self::without_trace) for long runs.
+    pub fn new(seed: u64) -> Self {
+        Simulator {
+            now: Instant::ZERO,
+            seq: 0,
+            queue: BinaryHeap::new(),
+            slots: Vec::new(),
+            buses: Vec::new(),
+            bus_chars: HashMap::new(),
+            next_bus_char: 0,
+            rng: SplitMix64::new(seed),
+            trace: Some(Trace::default()),
+        }
+    }
+
+    /// Do not record a trace (hours of virtual traffic would fill memory).
+    pub fn without_trace(mut self) -> Self {
+        self.trace = None;
+        self
+    }
+
+    /// Attach an engine as a station with the given character format.
+    pub fn add_station<E>(
+        &mut self,
+        name: &str,
+        settings: SerialSettings,
+        engine: E,
+    ) -> StationId<E>
+    where
+        E: Engine + 'static,
+        E::Event: 'static,
+    {
+        self.slots.push(Slot {
+            name: name.to_owned(),
+            settings,
+            engine: Box::new(engine),
+            events: VecDeque::new(),
+            wiring: Wiring::Unconnected,
+            faults: Faults::default(),
+            burst_start: Instant::ZERO,
+            burst_chars: 0,
+            tx_free_at: Instant::ZERO,
+            tx_generation: 0,
+            deadline: None,
+            timer_generation: 0,
+            silent_from: None,
+            signals: ModemSignals::default(),
+        });
+        let index = self.slots.len() - 1;
+        self.drain(index);
+        StationId {
+            index,
+            _engine: PhantomData,
+        }
+    }
+
+    /// Wire two stations point to point, full duplex, with a null-modem cable.
+    pub fn connect<A, B>(&mut self, a: StationId<A>, b: StationId<B>) {
+        self.slots[a.index].wiring = Wiring::PointToPoint(b.index);
+        self.slots[b.index].wiring = Wiring::PointToPoint(a.index);
+    }
+
+    /// Put stations on one shared half-duplex RS-485 bus.
+    pub fn bus(&mut self, members: &[usize]) {
+        let bus = self.buses.len();
+        for &m in members {
+            self.slots[m].wiring = Wiring::Bus(bus);
+        }
+        self.buses.push(members.to_vec());
+    }
+
+    /// Faults on what `station` receives from others.
+    pub fn set_faults<E>(&mut self, station: StationId<E>, faults: Faults) {
+        self.slots[station.index].faults = faults;
+    }
+
+    /// From `from` on, whatever `station` transmits never reaches the line (a partner that
+    /// stops answering, a broken transmit wire).
+    pub fn silence<E>(&mut self, station: StationId<E>, from: Instant) {
+        self.slots[station.index].silent_from = Some(from);
+    }
+
+    /// A BREAK reaches `station`'s receiver at `at`.
+    pub fn schedule_break<E>(&mut self, station: StationId<E>, at: Instant) {
+        self.schedule(
+            at.max(self.now),
+            What::Deliver {
+                to: station.index,
+                item: Err(LineError::Break),
+                bus_char: None,
+            },
+        );
+    }
+
+    /// Current virtual time.
+    pub fn now(&self) -> Instant {
+        self.now
+    }
+
+    /// The recorded trace (empty when recording is off).
+    pub fn trace(&self) -> &Trace {
+        static EMPTY: Trace = Trace {
+            entries: Vec::new(),
+        };
+        self.trace.as_ref().unwrap_or(&EMPTY)
+    }
+
+    /// The station's engine, to inspect.
+    pub fn engine<E: 'static>(&self, station: StationId<E>) -> &E {
+        self.slots[station.index]
+            .engine
+            .as_any()
+            .downcast_ref()
+            .expect("StationId type matches the engine added")
+    }
+
+    /// Call the station's engine (a command such as `send`) at the current time, then drain its
+    /// outputs into the simulation. Returns what the closure returns.
+    pub fn with<E: 'static, R>(
+        &mut self,
+        station: StationId<E>,
+        f: impl FnOnce(&mut E, Instant) -> R,
+    ) -> R {
+        let now = self.now;
+        let engine = self.slots[station.index]
+            .engine
+            .as_any_mut()
+            .downcast_mut()
+            .expect("StationId type matches the engine added");
+        let r = f(engine, now);
+        self.drain(station.index);
+        r
+    }
+
+    /// Put raw bytes on the line from `station` as if its engine had sent them (a scripted or
+    /// misbehaving partner).
+    pub fn transmit<E>(&mut self, station: StationId<E>, bytes: &[u8]) {
+        self.start_transmit(station.index, bytes);
+    }
+
+    /// Events the station's engine reported since the last call, oldest first.
+    pub fn take_events<E>(&mut self, station: StationId<E>) -> Vec<E::Event>
+    where
+        E: Engine + 'static,
+        E::Event: 'static,
+    {
+        self.slots[station.index]
+            .events
+            .drain(..)
+            .filter_map(|e| e.downcast::<E::Event>().ok().map(|b| *b))
+            .collect()
+    }
+
+    /// True when nothing is scheduled: no character in flight, no timer running.
+    pub fn is_quiet(&self) -> bool {
+        self.queue.is_empty()
+    }
+
+    /// Process the next scheduled happening; false if there is none.
+    pub fn step(&mut self) -> bool {
+        let Some(next) = self.queue.pop() else {
+            return false;
+        };
+        self.now = self.now.max(next.at);
+        self.dispatch(next.what);
+        true
+    }
+
+    /// Process everything scheduled up to and including `until`, then set the clock to `until`.
+    pub fn run_until(&mut self, until: Instant) {
+        while self.queue.peek().is_some_and(|n| n.at <= until) {
+            self.step();
+        }
+        self.now = self.now.max(until);
+    }
+
+    /// [`run_until`](Self::run_until) `now + span`.
+    pub fn run_for(&mut self, span: Duration) {
+        self.run_until(self.now + span);
+    }
+
+    /// Run until nothing is scheduled or the clock would pass `limit`; true if quiet.
+    pub fn run_until_quiet(&mut self, limit: Instant) -> bool {
+        while self.queue.peek().is_some_and(|n| n.at <= limit) {
+            self.step();
+        }
+        self.is_quiet()
+    }
+
+    fn schedule(&mut self, at: Instant, what: What) {
+        self.seq += 1;
+        self.queue.push(Scheduled {
+            at,
+            seq: self.seq,
+            what,
+        });
+    }
+
+    fn record(&mut self, station: usize, kind: TraceKind) {
+        if let Some(trace) = &mut self.trace {
+            trace.entries.push(TraceEntry {
+                at: self.now,
+                station: self.slots[station].name.clone(),
+                kind,
+            });
+        }
+    }
+
+    fn dispatch(&mut self, what: What) {
+        let now = self.now;
+        match what {
+            What::Deliver { to, item, bus_char } => {
+                let item = match bus_char.and_then(|id| self.release_bus_char(id)) {
+                    Some(true) => Err(LineError::Framing),
+                    _ => item,
+                };
+                match item {
+                    Ok(byte) => {
+                        self.record(to, TraceKind::Rx { byte });
+                        self.slots[to].engine.rx(now, &[byte]);
+                    }
+                    Err(error) => {
+                        self.record(to, TraceKind::RxError { error });
+                        self.slots[to].engine.line_error(now, error);
+                    }
+                }
+                self.drain(to);
+            }
+            What::TxDone {
+                station,
+                generation,
+            } => {
+                if self.slots[station].tx_generation == generation {
+                    self.slots[station].engine.tx_done(now);
+                    self.drain(station);
+                }
+            }
+            What::Timeout {
+                station,
+                generation,
+            } => {
+                if self.slots[station].timer_generation == generation {
+                    self.slots[station].deadline = None;
+                    self.slots[station].engine.timeout(now);
+                    self.drain(station);
+                }
+            }
+        }
+    }
+
+    /// Drain a station's outputs until it waits (the contract's rule), acting on each.
+    fn drain(&mut self, station: usize) {
+        let mut pending = vec![station];
+        while let Some(s) = pending.pop() {
+            loop {
+                match self.slots[s].engine.poll() {
+                    Output::Transmit(bytes) => {
+                        self.record(
+                            s,
+                            TraceKind::Tx {
+                                bytes: bytes.to_vec(),
+                            },
+                        );
+                        self.start_transmit(s, &bytes);
+                    }
+                    Output::SetSignals(update) => {
+                        self.record(s, TraceKind::Signals { update });
+                        if let Some(partner) = self.apply_signals(s, update) {
+                            pending.push(partner);
+                        }
+                    }
+                    Output::Event(event) => {
+                        if self.trace.is_some() {
+                            let text = self.slots[s].engine.describe(event.as_ref());
+                            self.record(s, TraceKind::Event { text });
+                        }
+                        self.slots[s].events.push_back(event);
+                    }
+                    Output::Wait(deadline) => {
+                        self.set_timer(s, deadline);
+                        break;
+                    }
+                }
+            }
+        }
+    }
+
+    fn set_timer(&mut self, s: usize, deadline: Option<Instant>) {
+        let slot = &mut self.slots[s];
+        if slot.deadline == deadline {
+            return;
+        }
+        slot.deadline = deadline;
+        slot.timer_generation += 1;
+        let generation = slot.timer_generation;
+        if let Some(at) = deadline {
+            self.schedule(
+                at.max(self.now),
+                What::Timeout {
+                    station: s,
+                    generation,
+                },
+            );
+        }
+    }
+
+    /// Null-modem crossing: our RTS is the partner's CTS, our DTR its DSR and DCD.
+    fn apply_signals(&mut self, s: usize, update: SignalUpdate) -> Option<usize> {
+        let own = &mut self.slots[s].signals;
+        own.rts = update.rts.unwrap_or(own.rts);
+        own.dtr = update.dtr.unwrap_or(own.dtr);
+        let own = *own;
+        let Wiring::PointToPoint(p) = self.slots[s].wiring else {
+            return None;
+        };
+        let partner = &mut self.slots[p].signals;
+        let before = *partner;
+        partner.cts = own.rts;
+        partner.dsr = own.dtr;
+        partner.dcd = own.dtr;
+        let after = *partner;
+        if before == after {
+            return None;
+        }
+        self.slots[p].engine.signals(self.now, after);
+        Some(p)
+    }
+
+    fn start_transmit(&mut self, s: usize, bytes: &[u8]) {
+        if bytes.is_empty() {
+            return;
+        }
+        let now = self.now;
+        let silenced = self.slots[s].silent_from.is_some_and(|t| now >= t);
+        let slot = &mut self.slots[s];
+        if slot.tx_free_at <= now {
+            slot.burst_start = now;
+            slot.burst_chars = 0;
+        }
+        let settings = slot.settings;
+        for &byte in bytes {
+            let slot = &mut self.slots[s];
+            let start = slot.burst_start + settings.chars_time(slot.burst_chars);
+            slot.burst_chars += 1;
+            let end = slot.burst_start + settings.chars_time(slot.burst_chars);
+            if !silenced {
+                self.put_on_wire(s, byte, start, end);
+            }
+        }
+        let slot = &mut self.slots[s];
+        slot.tx_free_at = slot.burst_start + settings.chars_time(slot.burst_chars);
+        slot.tx_generation += 1;
+        let (at, generation) = (slot.tx_free_at, slot.tx_generation);
+        self.schedule(
+            at,
+            What::TxDone {
+                station: s,
+                generation,
+            },
+        );
+    }
+
+    fn put_on_wire(&mut self, s: usize, byte: u8, start: Instant, end: Instant) {
+        match self.slots[s].wiring {
+            Wiring::Unconnected => {}
+            Wiring::PointToPoint(p) => self.deliver(s, p, byte, end, None),
+            Wiring::Bus(bus) => {
+                let id = self.next_bus_char;
+                self.next_bus_char += 1;
+                let mut garbled = false;
+                for other in self.bus_chars.values_mut() {
+                    if other.sender != s && other.start < end && start < other.end {
+                        other.garbled = true;
+                        garbled = true;
+                    }
+                }
+                let members = self.buses[bus].clone();
+                self.bus_chars.insert(
+                    id,
+                    BusChar {
+                        start,
+                        end,
+                        sender: s,
+                        garbled,
+                        pending: members.len(),
+                    },
+                );
+                for m in members {
+                    self.deliver(s, m, byte, end, Some(id));
+                }
+            }
+        }
+    }
+
+    /// Schedule one character's arrival at `to`, applying `to`'s faults unless it is the
+    /// sender's own echo. Characters sent with a different format arrive as framing errors.
+    fn deliver(&mut self, from: usize, to: usize, byte: u8, end: Instant, bus_char: Option<u64>) {
+        let mismatch = self.slots[from].settings != self.slots[to].settings;
+        let mut item = if mismatch {
+            Err(LineError::Framing)
+        } else {
+            Ok(byte)
+        };
+        let mut at = end;
+        let mut extra = None;
+        if from != to {
+            let f = self.slots[to].faults;
+            at += f.extra_latency;
+            if self.rng.chance(f.drop) {
+                // Still scheduled so a bus character is released, but as nothing.
+                if let Some(id) = bus_char {
+                    self.release_bus_char(id);
+                }
+                return;
+            }
+            if self.rng.chance(f.bit_flip) {
+                let bit = self
+                    .rng
+                    .below(u64::from(self.slots[to].settings.data_bits()));
+                item = item.map(|b| b ^ (1 << bit));
+            }
+            if self.rng.chance(f.insert) {
+                extra = Some(self.rng.next_u64() as u8 & self.slots[to].settings.data_mask());
+            }
+        }
+        self.schedule(at, What::Deliver { to, item, bus_char });
+        if let Some(noise) = extra {
+            self.schedule(
+                at,
+                What::Deliver {
+                    to,
+                    item: Ok(noise),
+                    bus_char: None,
+                },
+            );
+        }
+    }
+
+    /// One delivery of a bus character done; returns whether it was garbled.
+    fn release_bus_char(&mut self, id: u64) -> Option<bool> {
+        let c = self.bus_chars.get_mut(&id)?;
+        let garbled = c.garbled;
+        c.pending -= 1;
+        if c.pending == 0 {
+            self.bus_chars.remove(&id);
+        }
+        Some(garbled)
+    }
+}
+
+#[cfg(test)]
+mod tests;
