@@ -19,6 +19,9 @@ pub mod sim;
 pub mod status;
 pub mod time;
 
+#[cfg(feature = "tokio")]
+pub mod driver;
+
 pub use sansio::{Engine, LineError, ModemSignals, Output, SignalUpdate};
 pub use serial::{Parity, SerialSettings, SettingsError, BAUD_RATES};
 pub use status::{Status, StatusInfo};
