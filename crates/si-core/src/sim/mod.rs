@@ -172,6 +172,9 @@ struct Slot {
     deadline: Option<Instant>,
     timer_generation: u64,
     silent_from: Option<Instant>,
+    /// A scripted corruption: the character with this index (counting from 0 at the time of
+    /// the call) among those received from others gets its bits XORed with the mask.
+    corrupt: Option<(u64, u8)>,
     signals: ModemSignals,
 }
 
@@ -287,6 +290,7 @@ impl Simulator {
             deadline: None,
             timer_generation: 0,
             silent_from: None,
+            corrupt: None,
             signals: ModemSignals::default(),
         });
         let index = self.slots.len() - 1;
@@ -321,6 +325,13 @@ impl Simulator {
     /// stops answering, a broken transmit wire).
     pub fn silence<E>(&mut self, station: StationId<E>, from: Instant) {
         self.slots[station.index].silent_from = Some(from);
+    }
+
+    /// The `nth` character (0 = the next) that `station` receives from others arrives with its
+    /// bits XORed with `mask`: a deterministic single fault for scenario tests (a BCC error, a
+    /// wrong address), where seeded random faults would be too blunt.
+    pub fn corrupt_received<E>(&mut self, station: StationId<E>, nth: u64, mask: u8) {
+        self.slots[station.index].corrupt = Some((nth, mask));
     }
 
     /// A BREAK reaches `station`'s receiver at `at`.
@@ -661,6 +672,12 @@ impl Simulator {
                     .rng
                     .below(u64::from(self.slots[to].settings.data_bits()));
                 item = item.map(|b| b ^ (1 << bit));
+            }
+            if let Some((nth, mask)) = self.slots[to].corrupt {
+                self.slots[to].corrupt = nth.checked_sub(1).map(|n| (n, mask));
+                if nth == 0 {
+                    item = item.map(|b| b ^ mask);
+                }
             }
             if self.rng.chance(f.insert) {
                 extra = Some(self.rng.next_u64() as u8 & self.slots[to].settings.data_mask());

@@ -197,6 +197,22 @@ fn timers_fire_at_their_deadline_and_stale_ones_are_ignored() {
 }
 
 #[test]
+fn scripted_corruption_hits_exactly_the_nth_character() {
+    let mut sim = Simulator::new(0);
+    let a = sim.add_station("A", s8e1(), Probe::default());
+    let b = sim.add_station("B", s8e1(), Probe::default());
+    sim.connect(a, b);
+    sim.corrupt_received(b, 2, 0x01);
+    sim.with(a, |p, _| p.send(&[0x10, 0x20, 0x30, 0x40]));
+    sim.run_until_quiet(Instant::from_micros(1_000_000));
+    let got: Vec<u8> = bytes_of(&sim.take_events(b))
+        .iter()
+        .map(|(_, b)| *b)
+        .collect();
+    assert_eq!(got, vec![0x10, 0x20, 0x31, 0x40]);
+}
+
+#[test]
 fn silence_break_and_format_mismatch() {
     let mut sim = Simulator::new(0);
     let a = sim.add_station("A", s8e1(), Probe::default());
