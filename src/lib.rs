@@ -1,1 +1,31 @@
-//! si-serial
+//! # si-serial
+//!
+//! Host-side implementations of the serial protocols of the SIMATIC ET 200S serial interface
+//! modules, so a PC, gateway or test tool can talk to what those modules talk to — or stand in
+//! for the module itself.
+//!
+//! This facade re-exports the crates of the family, one feature per protocol:
+//!
+//! | feature | crate | what |
+//! |---|---|---|
+//! | (always) | [`core`] (`si-core`) | time, serial settings, STATUS codes, the Sans-IO contract, simulator, tokio driver |
+//! | `3964r` (default) | [`r3964`] (`si-3964r`) | the 3964 / 3964(R) procedure and its FBs |
+//! | `modbus` (default) | [`modbus`] (`si-modbus`) | Modbus RTU master and slave, S_MODB |
+//! | `uss` (default) | [`uss`] (`si-uss`) | the USS master and its FC equivalents |
+//! | `tokio` | | the async driver and handles |
+//!
+//! The ASCII driver and the DP coordination-byte protocol follow as their crates land.
+//!
+//! Every engine is Sans-IO: it is fed bytes and time and says what to transmit and when to wake
+//! it, so the same code runs under tokio, in the deterministic simulator, and in tests.
+
+pub use si_core as core;
+
+#[cfg(feature = "3964r")]
+pub use si_3964r as r3964;
+
+#[cfg(feature = "modbus")]
+pub use si_modbus as modbus;
+
+#[cfg(feature = "uss")]
+pub use si_uss as uss;

@@ -1,1 +1,122 @@
-fn main() {}
+//! `si`: speak the ET 200S serial-module protocols from a PC.
+//!
+//! `si <protocol> <action>` over `--port` or `--tcp`, `si frame encode|decode` offline,
+//! `si sim` for two simulated peers. Human output by default, `--json` lines for scripts,
+//! `-v`/`-vv` for `tracing` logs. Errors print one line and exit non-zero; a protocol failure
+//! prints its STATUS.
+
+mod cmd;
+mod conn;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Speak the SIMATIC ET 200S serial interface module protocols: 3964(R), Modbus RTU, USS.
+#[derive(Debug, Parser)]
+#[command(name = "si", version, about, propagate_version = true)]
+struct Cli {
+    #[command(flatten)]
+    connection: conn::Connection,
+    /// Print JSON lines instead of text.
+    #[arg(long, global = true)]
+    json: bool,
+    /// More log output (-v info, -vv debug, -vvv trace) on stderr.
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    verbose: u8,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// List the serial ports of this machine.
+    Ports,
+    /// Encode or decode frames offline, from hex.
+    #[command(subcommand)]
+    Frame(cmd::frame::FrameCommand),
+    /// Run a scenario between simulated stations and print the line trace.
+    Sim(cmd::sim::SimArgs),
+    /// 3964 / 3964(R) procedure: send and receive blocks.
+    #[command(name = "3964r", subcommand)]
+    R3964(cmd::r3964::Command),
+    /// Modbus RTU master (read, write, diagnostics) and slave (serve).
+    #[command(subcommand)]
+    Modbus(cmd::modbus::Command),
+    /// USS master: poll drives, read and write parameters; a simulated drive.
+    #[command(subcommand)]
+    Uss(cmd::uss::Command),
+}
+
+/// An error for the user: one line, exit code 1.
+#[derive(Debug)]
+pub struct CliError(String);
+
+impl CliError {
+    /// An error with this text.
+    pub fn new(text: impl Into<String>) -> Self {
+        CliError(text.into())
+    }
+}
+
+impl<E: std::error::Error> From<E> for CliError {
+    fn from(e: E) -> Self {
+        CliError(e.to_string())
+    }
+}
+
+/// How results are printed.
+#[derive(Debug, Clone, Copy)]
+pub struct Output {
+    /// JSON lines instead of text.
+    pub json: bool,
+}
+
+impl Output {
+    /// Print one result: `text` for people, `json` as one line for scripts.
+    pub fn line(&self, text: &str, json: serde_json::Value) {
+        if self.json {
+            println!("{json}");
+        } else {
+            println!("{text}");
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let level = match cli.verbose {
+        0 => "warn",
+        1 => "info",
+        2 => "debug",
+        _ => "trace",
+    };
+    tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level)),
+        )
+        .init();
+    let out = Output { json: cli.json };
+    let result = match cli.command {
+        Command::Ports => cmd::ports::run(&out),
+        Command::Frame(c) => c.run(&out),
+        Command::Sim(a) => cli.connection.settings().and_then(|s| a.run(s, &out)),
+        Command::R3964(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
+        Command::Modbus(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
+        Command::Uss(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(CliError(text)) => {
+            eprintln!("si: error: {text}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn runtime() -> Result<tokio::runtime::Runtime, CliError> {
+    Ok(tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()?)
+}

@@ -1,0 +1,15 @@
+//! One module per top-level command.
+//!
+//! Every protocol module (`r3964`, `modbus`, `uss`) has the same face, so `main`, `frame` and
+//! `sim` wire them without knowing their insides:
+//!
+//! - `Command`: its clap subcommands, run with `Command::run(self, &Connection, &Output)`;
+//! - `EncodeArgs` / `DecodeArgs`: `si frame encode|decode <protocol> …`, run with `.run(&Output)`;
+//! - `SCENARIOS`: the named simulator scenarios `si sim` offers.
+
+pub mod frame;
+pub mod modbus;
+pub mod ports;
+pub mod r3964;
+pub mod sim;
+pub mod uss;
