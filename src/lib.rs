@@ -10,11 +10,12 @@
 //! |---|---|---|
 //! | (always) | [`core`] (`si-core`) | time, serial settings, STATUS codes, the Sans-IO contract, simulator, tokio driver |
 //! | `3964r` (default) | [`r3964`] (`si-3964r`) | the 3964 / 3964(R) procedure and its FBs |
+//! | `ascii` (default) | [`ascii`] (`si-ascii`) | the ASCII driver and its FBs |
 //! | `modbus` (default) | [`modbus`] (`si-modbus`) | Modbus RTU master and slave, S_MODB |
 //! | `uss` (default) | [`uss`] (`si-uss`) | the USS master and its FC equivalents |
 //! | `tokio` | | the async driver and handles |
 //!
-//! The ASCII driver and the DP coordination-byte protocol follow as their crates land.
+//! The DP coordination-byte protocol follows as its crate lands.
 //!
 //! Every engine is Sans-IO: it is fed bytes and time and says what to transmit and when to wake
 //! it, so the same code runs under tokio, in the deterministic simulator, and in tests.
@@ -23,6 +24,9 @@ pub use si_core as core;
 
 #[cfg(feature = "3964r")]
 pub use si_3964r as r3964;
+
+#[cfg(feature = "ascii")]
+pub use si_ascii as ascii;
 
 #[cfg(feature = "modbus")]
 pub use si_modbus as modbus;

@@ -1,12 +1,14 @@
 //! One module per top-level command.
 //!
-//! Every protocol module (`r3964`, `modbus`, `uss`) has the same face, so `main`, `frame` and
+//! Every protocol module (`r3964`, `ascii`, `modbus`, `uss`) has the same face, so `main`, `frame` and
 //! `sim` wire them without knowing their insides:
 //!
 //! - `Command`: its clap subcommands, run with `Command::run(self, &Connection, &Output)`;
-//! - `EncodeArgs` / `DecodeArgs`: `si frame encode|decode <protocol> …`, run with `.run(&Output)`;
+//! - `EncodeArgs` / `DecodeArgs`: `si frame encode|decode <protocol> …`, run with `.run(&Output)`
+//!   (not for `ascii`, whose frames are the bytes themselves);
 //! - `SCENARIOS`: the named simulator scenarios `si sim` offers.
 
+pub mod ascii;
 pub mod frame;
 pub mod modbus;
 pub mod ports;
