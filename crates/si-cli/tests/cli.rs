@@ -44,7 +44,7 @@ fn bad_hex_is_one_line_naming_the_position() {
     assert!(!o.status.success());
     let err = stderr(&o);
     assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(err.contains("'G' at position 7"), "{err}");
+    assert!(err.contains("'G' at position 8"), "{err}");
 }
 
 #[test]
@@ -62,4 +62,48 @@ fn bad_serial_settings_name_the_value() {
     let o = si(&["--port", "/dev/null", "--baud", "9601", "3964r", "send", "01"]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("baud rate 9601"), "{}", stderr(&o));
+}
+
+#[test]
+fn sim_lists_its_scenarios_and_rejects_unknown_ones() {
+    let o = si(&["sim"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(text.contains("line-timing") && text.contains("rs485-collision"), "{text}");
+    let o = si(&["sim", "no-such-thing"]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("unknown scenario \"no-such-thing\""), "{err}");
+}
+
+/// `si sim line-timing --json`: every character arrives at ceil(k × 11 / 9600 s) at 9600 8E1.
+#[test]
+fn sim_line_timing_prints_characters_at_their_character_times() {
+    let o = si(&["--json", "--baud", "9600", "sim", "line-timing"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let arrivals: Vec<(u64, u64)> = stdout(&o)
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).expect("JSON line"))
+        .filter(|v| v["kind"] == "rx" && v["station"] == "B")
+        .map(|v| (v["at"].as_u64().unwrap(), v["byte"].as_u64().unwrap()))
+        .collect();
+    let expected: Vec<(u64, u64)> = (1..=10u64)
+        .map(|k| ((k * 11 * 1_000_000).div_ceil(9600), u64::from(b'0') + k - 1))
+        .collect();
+    assert_eq!(arrivals, expected);
+}
+
+#[test]
+fn sim_rs485_collision_garbles_every_character() {
+    let o = si(&["sim", "rs485-collision"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(text.contains("rx error Framing"), "{text}");
+    // Both senders' characters overlap in both character slots: the listener gets a framing
+    // error for each of the four and not one clean character.
+    assert!(
+        text.contains("listener C: 4 garbled characters, 0 clean ones"),
+        "{text}"
+    );
 }

@@ -155,14 +155,12 @@ fn rs485_collision(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     sim.transmit(b, &[0x33, 0x44]);
     sim.run_until_quiet(Instant::from_micros(60_000_000));
     print_trace(sim.trace(), out);
-    let errors = sim
-        .take_events(c)
-        .iter()
-        .filter(|e| e.is_err())
-        .count();
+    let heard = sim.take_events(c);
+    let garbled = heard.iter().filter(|e| e.is_err()).count();
+    let clean = heard.len() - garbled;
     out.line(
-        &format!("listener C heard {errors} garbled characters and nothing else"),
-        serde_json::json!({"garbled_at_c": errors}),
+        &format!("listener C: {garbled} garbled characters, {clean} clean ones"),
+        serde_json::json!({"garbled_at_c": garbled, "clean_at_c": clean}),
     );
     Ok(())
 }
