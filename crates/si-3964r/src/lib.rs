@@ -1,1 +1,53 @@
-//! si-3964r
+//! # si-3964r
+//!
+//! The 3964 and 3964(R) procedure of the SIMATIC ET 200S serial interface module (and the
+//! CP 341), for hosts: a PC, a gateway or a test tool talks to a module, a CP or any 3964(R)
+//! partner, or stands in for one (et200s-si-3964r-ascii.md §5, cp341-3964r-rk512-ascii.md §3).
+//!
+//! - [`frame`]: the block on the wire (DLE doubling, `DLE ETX`, BCC) and a byte-by-byte decoder
+//!   that says exactly what is wrong;
+//! - [`config`]: the parameters of Table 2-11 with the manual's defaults and ranges (serde);
+//! - [`link`]: one Sans-IO engine that is sender and receiver, with both timers, both attempt
+//!   counters, the initialization conflict, the 4 s block wait and the 400 ms buffer wait;
+//! - [`status`]: the STATUS codes of classes 07H and 08H with the manual's texts;
+//! - [`fb`]: S_SEND and S_RCV with the S7 call semantics;
+//! - `tokio` (feature `tokio`): an async handle, `send(bytes).await` and `recv().await`.
+//!
+//! Two stations exchange blocks on the deterministic line simulator:
+//!
+//! ```
+//! use si_3964r::config::Priority;
+//! use si_3964r::{Config, Event, Link};
+//! use si_core::sim::Simulator;
+//! use si_core::{Instant, SerialSettings};
+//!
+//! let line = SerialSettings::default(); // 9600 8E1
+//! let mut sim = Simulator::new(7);
+//! let plc = sim.add_station("PLC", line, Link::new(Config::default(), line).unwrap());
+//! let host_config = Config { priority: Priority::High, ..Config::default() };
+//! let host = sim.add_station("host", line, Link::new(host_config, line).unwrap());
+//! sim.connect(plc, host);
+//!
+//! // Both send at the same instant: an initialization conflict, the low-priority PLC yields.
+//! let from_plc = sim.with(plc, |l, now| l.send(now, &b"status"[..])).unwrap();
+//! let from_host = sim.with(host, |l, now| l.send(now, &b"setpoint"[..])).unwrap();
+//! sim.run_until_quiet(Instant::from_micros(30_000_000));
+//!
+//! assert_eq!(sim.take_events(host), vec![Event::Sent { job: from_host }, Event::Received { len: 6 }]);
+//! assert_eq!(sim.take_events(plc), vec![Event::Received { len: 8 }, Event::Sent { job: from_plc }]);
+//! assert_eq!(sim.with(plc, |l, now| l.take_block(now)).unwrap(), &b"setpoint"[..]);
+//! assert_eq!(sim.with(host, |l, now| l.take_block(now)).unwrap(), &b"status"[..]);
+//! ```
+#![cfg_attr(docsrs, feature(doc_cfg))]
+
+pub mod config;
+pub mod fb;
+pub mod frame;
+pub mod link;
+pub mod status;
+#[cfg(feature = "tokio")]
+pub mod tokio;
+
+pub use config::{Config, ConfigError, Priority};
+pub use frame::{FrameError, Mode};
+pub use link::{Event, JobId, Link, SendError};

@@ -1,0 +1,343 @@
+//! The 3964(R) parameters of Table 2-11 with the manual's defaults and ranges
+//! (et200s-si-3964r-ascii.md §5.8 and §7.2, et200s-si-2005-window-protocol.md §3.2,
+//! cp341-3964r-rk512-ascii.md §3.8).
+//!
+//! A value outside its range is rejected with an error naming the parameter, the range and the
+//! value, both by [`Config::validate`] (called by [`Link::new`](crate::Link::new)) and when a
+//! configuration is deserialized:
+//!
+//! ```
+//! use si_3964r::Config;
+//!
+//! let c: Config = serde_json::from_str(r#"{"block_check": false}"#).unwrap();
+//! assert_eq!(c.ack_delay_ms, 550); // the manual's QVZ default without block check
+//! let e = serde_json::from_str::<Config>(r#"{"char_delay_ms": 5}"#).unwrap_err();
+//! assert!(e.to_string().contains("character delay time (ZVZ) must be 20 … 655350 ms, got 5"));
+//! ```
+//!
+//! # Readings
+//!
+//! - **QVZ range.** The ET 200S tables (et200s-si-3964r-ascii.md §5.8, window-protocol §3.2) give
+//!   10 … 655 350 ms, the CP 341 table (cp341 §3.8) 20 … 655 350 ms. This crate speaks for the
+//!   ET 200S module, so the minimum is 10 ms.
+//! - **10 ms steps.** The module stores times as counts of 10 ms (§5.8 [derived], A-11); a host has
+//!   microsecond timers, so any whole millisecond in range is accepted and used as given.
+//! - **QVZ default without block check.** 550 ms (Table 2-11, cp341 Table 2-4), not the 500 ms of
+//!   the CP 341 flowchart (cp341 A-6). It is the default only when `ack_delay_ms` is not given
+//!   (A-28: a default, not a forced value).
+//! - **Baud-rate minimums.** The manuals require them but give no 3964(R) table (A-15, H-21); the
+//!   CP 341 table (300 bit/s: 60 ms …) is not applied.
+
+use crate::frame::Mode;
+use serde::{Deserialize, Serialize};
+use si_core::Duration;
+
+/// Which partner yields in an initialization conflict (et200s-si-3964r-ascii.md §5.6).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Priority {
+    /// Yields: answers the partner's STX with DLE and receives first (the manual's default).
+    #[default]
+    Low,
+    /// Keeps waiting for the partner's DLE.
+    High,
+}
+
+/// Block wait time: how long the receiver waits for the repetition after its NAK, fixed at 4 s
+/// (et200s-si-3964r-ascii.md §5.5, §5.8).
+pub const BLOCK_WAIT: Duration = Duration::from_secs(4);
+
+/// Wait for a free receive buffer after STX, fixed at 400 ms (et200s-si-3964r-ascii.md §5.4
+/// point 4, §5.8).
+pub const BUFFER_WAIT: Duration = Duration::from_millis(400);
+
+/// Range of the character delay time in ms (Table 2-11).
+pub const CHAR_DELAY_RANGE: (u32, u32) = (20, 655_350);
+/// Range of the acknowledgement delay time in ms (Table 2-11, ET 200S).
+pub const ACK_DELAY_RANGE: (u32, u32) = (10, 655_350);
+/// Range of both attempt counters (Table 2-11).
+pub const ATTEMPTS_RANGE: (u32, u32) = (1, 255);
+/// Range of the maximum block length: the ET 200S limit is 200 bytes (S_SEND LEN 1 … 200,
+/// §8.2); a host may go up to the 1024 bytes of S7 point-to-point blocks (public-facts.md §1).
+pub const MAX_BLOCK_RANGE: (u32, u32) = (1, 1024);
+/// Range of the receive buffer, in blocks.
+pub const RECEIVE_BUFFER_RANGE: (u32, u32) = (1, 255);
+
+/// A parameter outside its range.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{parameter} must be {min} … {max}{unit}, got {value}")]
+pub struct ConfigError {
+    /// The parameter's name as the manual gives it.
+    pub parameter: &'static str,
+    /// Smallest allowed value.
+    pub min: u32,
+    /// Largest allowed value.
+    pub max: u32,
+    /// Unit of the range, with its leading space (empty for counts).
+    pub unit: &'static str,
+    /// The value given.
+    pub value: u64,
+}
+
+/// The 3964(R) parameters (Table 2-11), plus the two bounds a host needs: the longest block and
+/// the receive buffer size.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "RawConfig")]
+pub struct Config {
+    /// Protocol mode: 3964(R) with block check (default) or plain 3964.
+    pub block_check: bool,
+    /// Priority in an initialization conflict; the partners must differ. Default low.
+    pub priority: Priority,
+    /// Character delay time ZVZ in ms: the longest gap between two received characters.
+    /// 20 … 655 350, default 220.
+    pub char_delay_ms: u32,
+    /// Acknowledgement delay time QVZ in ms: the longest wait for the partner's DLE after STX and
+    /// after DLE ETX. 10 … 655 350, default 2000 (550 without block check).
+    pub ack_delay_ms: u32,
+    /// Connection attempts (STX) per transmission attempt, 1 … 255, default 6.
+    pub connection_attempts: u8,
+    /// Transmission attempts of one block, the first included, 1 … 255, default 6; also the
+    /// receiver's limit of receptions of one block (A-17).
+    pub transmission_attempts: u8,
+    /// Longest block in user-data bytes, sent or received, 1 … 1024, default 200 (§8.2).
+    pub max_block_len: u16,
+    /// Received blocks held until the application takes them, 1 … 255, default 5 (the module's
+    /// 1024-byte buffer holds five 200-byte blocks, A-42). When it is full, an STX starts the
+    /// 400 ms buffer wait.
+    pub receive_buffer_blocks: u8,
+}
+
+impl Default for Config {
+    /// 3964(R), low priority, ZVZ 220 ms, QVZ 2000 ms, 6 and 6 attempts, 200-byte blocks.
+    fn default() -> Self {
+        Config {
+            block_check: true,
+            priority: Priority::Low,
+            char_delay_ms: 220,
+            ack_delay_ms: 2000,
+            connection_attempts: 6,
+            transmission_attempts: 6,
+            max_block_len: 200,
+            receive_buffer_blocks: 5,
+        }
+    }
+}
+
+impl Config {
+    /// The defaults for plain 3964 (no block check): QVZ 550 ms.
+    pub fn without_block_check() -> Self {
+        Config {
+            block_check: false,
+            ack_delay_ms: 550,
+            ..Config::default()
+        }
+    }
+
+    /// The defaults for `mode`.
+    pub fn for_mode(mode: Mode) -> Self {
+        match mode {
+            Mode::BlockCheck => Config::default(),
+            Mode::NoBlockCheck => Config::without_block_check(),
+        }
+    }
+
+    /// The protocol mode.
+    pub fn mode(&self) -> Mode {
+        if self.block_check {
+            Mode::BlockCheck
+        } else {
+            Mode::NoBlockCheck
+        }
+    }
+
+    /// ZVZ as a duration.
+    pub fn char_delay(&self) -> Duration {
+        Duration::from_millis(u64::from(self.char_delay_ms))
+    }
+
+    /// QVZ as a duration.
+    pub fn ack_delay(&self) -> Duration {
+        Duration::from_millis(u64::from(self.ack_delay_ms))
+    }
+
+    /// Checks every parameter against its range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        check(
+            "character delay time (ZVZ)",
+            CHAR_DELAY_RANGE,
+            " ms",
+            self.char_delay_ms.into(),
+        )?;
+        check(
+            "acknowledgement delay time (QVZ)",
+            ACK_DELAY_RANGE,
+            " ms",
+            self.ack_delay_ms.into(),
+        )?;
+        check(
+            "connection attempts",
+            ATTEMPTS_RANGE,
+            "",
+            self.connection_attempts.into(),
+        )?;
+        check(
+            "transmission attempts",
+            ATTEMPTS_RANGE,
+            "",
+            self.transmission_attempts.into(),
+        )?;
+        check(
+            "maximum block length",
+            MAX_BLOCK_RANGE,
+            " bytes",
+            self.max_block_len.into(),
+        )?;
+        check(
+            "receive buffer",
+            RECEIVE_BUFFER_RANGE,
+            " blocks",
+            self.receive_buffer_blocks.into(),
+        )
+    }
+}
+
+fn check(
+    parameter: &'static str,
+    (min, max): (u32, u32),
+    unit: &'static str,
+    value: u64,
+) -> Result<(), ConfigError> {
+    if value < u64::from(min) || value > u64::from(max) {
+        return Err(ConfigError {
+            parameter,
+            min,
+            max,
+            unit,
+            value,
+        });
+    }
+    Ok(())
+}
+
+/// The serialized form: every field optional, QVZ defaulting by mode, numbers wide so an
+/// out-of-range value is reported as given rather than as a type overflow.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawConfig {
+    block_check: Option<bool>,
+    priority: Option<Priority>,
+    char_delay_ms: Option<u64>,
+    ack_delay_ms: Option<u64>,
+    connection_attempts: Option<u64>,
+    transmission_attempts: Option<u64>,
+    max_block_len: Option<u64>,
+    receive_buffer_blocks: Option<u64>,
+}
+
+impl TryFrom<RawConfig> for Config {
+    type Error = ConfigError;
+    fn try_from(r: RawConfig) -> Result<Config, ConfigError> {
+        let base = if r.block_check.unwrap_or(true) {
+            Config::default()
+        } else {
+            Config::without_block_check()
+        };
+        let zvz = r.char_delay_ms.unwrap_or(base.char_delay_ms.into());
+        let qvz = r.ack_delay_ms.unwrap_or(base.ack_delay_ms.into());
+        let con = r
+            .connection_attempts
+            .unwrap_or(base.connection_attempts.into());
+        let tx = r
+            .transmission_attempts
+            .unwrap_or(base.transmission_attempts.into());
+        let max = r.max_block_len.unwrap_or(base.max_block_len.into());
+        let buf = r
+            .receive_buffer_blocks
+            .unwrap_or(base.receive_buffer_blocks.into());
+        check("character delay time (ZVZ)", CHAR_DELAY_RANGE, " ms", zvz)?;
+        check(
+            "acknowledgement delay time (QVZ)",
+            ACK_DELAY_RANGE,
+            " ms",
+            qvz,
+        )?;
+        check("connection attempts", ATTEMPTS_RANGE, "", con)?;
+        check("transmission attempts", ATTEMPTS_RANGE, "", tx)?;
+        check("maximum block length", MAX_BLOCK_RANGE, " bytes", max)?;
+        check("receive buffer", RECEIVE_BUFFER_RANGE, " blocks", buf)?;
+        // Every value is now within a range that fits its field.
+        let config = Config {
+            block_check: base.block_check,
+            priority: r.priority.unwrap_or(base.priority),
+            char_delay_ms: zvz as u32,
+            ack_delay_ms: qvz as u32,
+            connection_attempts: con as u8,
+            transmission_attempts: tx as u8,
+            max_block_len: max as u16,
+            receive_buffer_blocks: buf as u8,
+        };
+        config.validate()?;
+        Ok(config)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_table_2_11() {
+        let c = Config::default();
+        assert_eq!(c.char_delay(), Duration::from_millis(220));
+        assert_eq!(c.ack_delay(), Duration::from_millis(2000));
+        assert_eq!((c.connection_attempts, c.transmission_attempts), (6, 6));
+        assert_eq!(c.priority, Priority::Low);
+        assert_eq!(c.mode(), Mode::BlockCheck);
+        assert_eq!(Config::without_block_check().ack_delay_ms, 550);
+        assert_eq!(
+            Config::for_mode(Mode::NoBlockCheck).mode(),
+            Mode::NoBlockCheck
+        );
+        assert_eq!(c.validate(), Ok(()));
+    }
+
+    #[test]
+    fn out_of_range_names_parameter_range_and_value() {
+        let c = Config {
+            char_delay_ms: 19,
+            ..Config::default()
+        };
+        assert_eq!(
+            c.validate().unwrap_err().to_string(),
+            "character delay time (ZVZ) must be 20 … 655350 ms, got 19"
+        );
+        let c = Config {
+            ack_delay_ms: 655_351,
+            ..Config::default()
+        };
+        assert!(c.validate().unwrap_err().to_string().contains("(QVZ)"));
+        let c = Config {
+            connection_attempts: 0,
+            ..Config::default()
+        };
+        assert_eq!(
+            c.validate().unwrap_err().to_string(),
+            "connection attempts must be 1 … 255, got 0"
+        );
+    }
+
+    #[test]
+    fn serde_rejects_out_of_range_and_keeps_defaults() {
+        let c: Config = serde_json::from_str("{}").unwrap();
+        assert_eq!(c, Config::default());
+        let e = serde_json::from_str::<Config>(r#"{"transmission_attempts": 256}"#).unwrap_err();
+        assert!(e
+            .to_string()
+            .contains("transmission attempts must be 1 … 255, got 256"));
+        let c: Config =
+            serde_json::from_str(r#"{"priority": "high", "ack_delay_ms": 10}"#).unwrap();
+        assert_eq!((c.priority, c.ack_delay_ms), (Priority::High, 10));
+        let back: Config = serde_json::from_str(&serde_json::to_string(&c).unwrap()).unwrap();
+        assert_eq!(back, c);
+    }
+}

@@ -1,0 +1,375 @@
+//! The 3964 / 3964(R) block on the wire: DLE doubling, the closing `DLE ETX`, and the block check
+//! character (pure functions and a byte-by-byte decoder, no timing, no state beyond one block).
+//!
+//! What this module calls a *block* is everything the sender puts on the line after the
+//! partner's `DLE` answered its `STX`: the user data with every `DLE` doubled, then `DLE ETX`,
+//! then (3964(R) only) the BCC (et200s-si-3964r-ascii.md §5.1–§5.2, cp341-3964r-rk512-ascii.md
+//! §3.2–§3.3, public-facts.md §1).
+//!
+//! ```
+//! use si_3964r::frame::{decode, encode, Mode};
+//!
+//! // The worked example of et200s-si-3964r-ascii.md §5.2: BCC = 53H.
+//! let block = encode(&[0x41, 0x42, 0x10, 0x43], Mode::BlockCheck);
+//! assert_eq!(block, [0x41, 0x42, 0x10, 0x10, 0x43, 0x10, 0x03, 0x53]);
+//! assert_eq!(decode(&block, Mode::BlockCheck, 200).unwrap(), [0x41, 0x42, 0x10, 0x43]);
+//! ```
+//!
+//! # BCC coverage (the texts disagree; our reading)
+//!
+//! et200s-si-3964r-ascii.md §5.2 and cp341-3964r-rk512-ascii.md §3.3 say the BCC is the XOR of
+//! every byte sent after `STX`, *both* DLEs of a doubled pair and the closing `DLE ETX` included;
+//! et200s-si-2005-window-protocol.md §3.1 only says "XOR of all data bytes" (H-25). We follow the
+//! two explicit manuals and public-facts.md §1 (which agree): the wire form, doubled DLEs twice
+//! (they cancel), `DLE ETX` included, the BCC byte itself never doubled even when it equals `DLE`.
+
+use serde::{Deserialize, Serialize};
+
+/// Start of text: the connection request (02H, public-facts.md §1; the manuals give no value, A-37).
+pub const STX: u8 = 0x02;
+/// End of text, second half of the closing `DLE ETX` (03H).
+pub const ETX: u8 = 0x03;
+/// Data link escape: positive acknowledgement and first half of `DLE ETX` (10H).
+pub const DLE: u8 = 0x10;
+/// Negative acknowledgement (15H; cp341-3964r-rk512-ascii.md A-4: the figure's "10H" is a slip).
+pub const NAK: u8 = 0x15;
+
+/// Protocol mode of Table 2-11: plain 3964 or 3964(R) with block check.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Mode {
+    /// 3964(R): the block ends `DLE ETX BCC` (the manual's default, "Block check").
+    #[default]
+    BlockCheck,
+    /// Plain 3964: the block ends `DLE ETX`, no BCC ("No block check").
+    NoBlockCheck,
+}
+
+impl Mode {
+    /// True for 3964(R).
+    pub const fn has_bcc(self) -> bool {
+        matches!(self, Mode::BlockCheck)
+    }
+}
+
+/// What is wrong with a received block, as precisely as the bytes tell.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum FrameError {
+    /// A `DLE` was followed by something other than `DLE` or `ETX`: the partner did not double a
+    /// data DLE (STATUS 0805, et200s-si-3964r-ascii.md §11.3).
+    #[error("odd DLE: DLE followed by {after:02X}H at block byte {at} (expected DLE or ETX)")]
+    OddDle {
+        /// The byte after the lone DLE.
+        after: u8,
+        /// Its position in the block (0 = first byte after the partner's DLE).
+        at: usize,
+    },
+    /// The bytes ended before `DLE ETX`.
+    #[error("missing DLE ETX: the block ends after {len} bytes without its end sequence")]
+    MissingEtx {
+        /// How many bytes there were.
+        len: usize,
+    },
+    /// 3964(R): the bytes ended after `DLE ETX` without the BCC.
+    #[error("missing BCC after DLE ETX")]
+    MissingBcc,
+    /// 3964(R): the received BCC differs from the XOR of the block (STATUS 0808).
+    #[error("BCC error: expected {expected:02X}H, found {found:02X}H")]
+    Bcc {
+        /// What the XOR of the received bytes gives.
+        expected: u8,
+        /// What the partner sent.
+        found: u8,
+    },
+    /// More user data than the configured maximum (STATUS 0850).
+    #[error("block longer than the maximum of {max} bytes")]
+    TooLong {
+        /// The maximum.
+        max: usize,
+    },
+    /// Bytes after the end of the block (only from [`decode`], which is given a whole block).
+    #[error("{count} bytes after the end of the block")]
+    Trailing {
+        /// How many.
+        count: usize,
+    },
+}
+
+/// XOR of `bytes`: the block check character of 3964(R) when `bytes` is the block as sent after
+/// `STX`, doubled DLEs and `DLE ETX` included (et200s-si-3964r-ascii.md §5.2).
+pub fn bcc(bytes: &[u8]) -> u8 {
+    bytes.iter().fold(0, |acc, b| acc ^ b)
+}
+
+/// Appends the block for `payload` to `out`: data with DLEs doubled, `DLE ETX`, and for
+/// 3964(R) the BCC. `out` is reused by the engine, so a steady state allocates nothing.
+pub fn encode_into(payload: &[u8], mode: Mode, out: &mut Vec<u8>) {
+    let start = out.len();
+    out.reserve(payload.len() + 3);
+    for &b in payload {
+        out.push(b);
+        if b == DLE {
+            out.push(DLE);
+        }
+    }
+    out.extend_from_slice(&[DLE, ETX]);
+    if mode.has_bcc() {
+        let check = bcc(&out[start..]);
+        out.push(check);
+    }
+}
+
+/// The block for `payload` (see [`encode_into`]).
+pub fn encode(payload: &[u8], mode: Mode) -> Vec<u8> {
+    let mut out = Vec::with_capacity(payload.len() + 4);
+    encode_into(payload, mode, &mut out);
+    out
+}
+
+/// Decodes one whole block (what follows the receiver's `DLE`) into its user data.
+///
+/// Returns the *first* error found, as the manual's receiver reports the first error
+/// (et200s-si-3964r-ascii.md §5.7, A-39).
+pub fn decode(block: &[u8], mode: Mode, max_len: usize) -> Result<Vec<u8>, FrameError> {
+    let mut decoder = Decoder::new(mode, max_len);
+    for (i, &b) in block.iter().enumerate() {
+        if let Some(result) = decoder.push(b) {
+            result?;
+            let count = block.len() - i - 1;
+            if count > 0 {
+                return Err(FrameError::Trailing { count });
+            }
+            return Ok(decoder.payload().to_vec());
+        }
+    }
+    Err(decoder.incomplete_error())
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum DecodeState {
+    Data,
+    AfterDle,
+    WaitBcc,
+    Finished,
+}
+
+/// A receiver of one block, fed one character at a time.
+///
+/// Like the manual's receiver (et200s-si-3964r-ascii.md §5.4 point 5, §5.10) it does not stop at
+/// the first error: it keeps reading to the end sequence, remembers the first error, and reports
+/// the outcome once, when the block is complete. The payload buffer never grows beyond the
+/// maximum length.
+#[derive(Debug, Clone)]
+pub struct Decoder {
+    mode: Mode,
+    max_len: usize,
+    state: DecodeState,
+    payload: Vec<u8>,
+    bcc: u8,
+    received: usize,
+    error: Option<FrameError>,
+}
+
+impl Decoder {
+    /// A decoder for blocks of at most `max_len` user-data bytes.
+    pub fn new(mode: Mode, max_len: usize) -> Self {
+        Decoder {
+            mode,
+            max_len,
+            state: DecodeState::Data,
+            payload: Vec::with_capacity(max_len.min(4096)),
+            bcc: 0,
+            received: 0,
+            error: None,
+        }
+    }
+
+    /// Start a new block (after the receiver's `DLE`), keeping the buffer's capacity.
+    pub fn reset(&mut self) {
+        self.state = DecodeState::Data;
+        self.payload.clear();
+        self.bcc = 0;
+        self.received = 0;
+        self.error = None;
+    }
+
+    /// Feed one received character. `Some` once the block is complete (after `DLE ETX`, or the
+    /// BCC for 3964(R)): `Ok(())` if it is good, or the first error found in it. Characters fed
+    /// after completion are ignored (`None`) until [`reset`](Self::reset).
+    pub fn push(&mut self, byte: u8) -> Option<Result<(), FrameError>> {
+        let at = self.received;
+        self.received = self.received.saturating_add(1);
+        match self.state {
+            DecodeState::Finished => return None,
+            DecodeState::WaitBcc => {
+                self.state = DecodeState::Finished;
+                if self.bcc != byte {
+                    self.note(FrameError::Bcc {
+                        expected: self.bcc,
+                        found: byte,
+                    });
+                }
+                return Some(self.outcome());
+            }
+            DecodeState::Data => {
+                self.bcc ^= byte;
+                if byte == DLE {
+                    self.state = DecodeState::AfterDle;
+                } else {
+                    self.store(byte);
+                }
+            }
+            DecodeState::AfterDle => {
+                self.bcc ^= byte;
+                match byte {
+                    DLE => {
+                        self.state = DecodeState::Data;
+                        self.store(DLE);
+                    }
+                    ETX => {
+                        if self.mode.has_bcc() {
+                            self.state = DecodeState::WaitBcc;
+                        } else {
+                            self.state = DecodeState::Finished;
+                            return Some(self.outcome());
+                        }
+                    }
+                    after => {
+                        self.state = DecodeState::Data;
+                        self.note(FrameError::OddDle { after, at });
+                    }
+                }
+            }
+        }
+        None
+    }
+
+    /// True once the end sequence (and BCC) has been read.
+    pub fn is_complete(&self) -> bool {
+        self.state == DecodeState::Finished
+    }
+
+    /// True while the last character was a lone `DLE` (the next decides between doubled data
+    /// and the end sequence).
+    pub fn after_dle(&self) -> bool {
+        self.state == DecodeState::AfterDle
+    }
+
+    /// True when the end sequence has been read and only the BCC is missing (3964(R)).
+    pub fn awaiting_bcc(&self) -> bool {
+        self.state == DecodeState::WaitBcc
+    }
+
+    /// Characters fed since the last reset.
+    pub fn received(&self) -> usize {
+        self.received
+    }
+
+    /// The user data stored so far (at most the maximum length).
+    pub fn payload(&self) -> &[u8] {
+        &self.payload
+    }
+
+    /// The first error seen so far, if any.
+    pub fn error(&self) -> Option<FrameError> {
+        self.error
+    }
+
+    /// What is missing if the input stops now.
+    pub fn incomplete_error(&self) -> FrameError {
+        match self.state {
+            DecodeState::WaitBcc => FrameError::MissingBcc,
+            _ => FrameError::MissingEtx { len: self.received },
+        }
+    }
+
+    fn store(&mut self, byte: u8) {
+        if self.payload.len() < self.max_len {
+            self.payload.push(byte);
+        } else {
+            self.note(FrameError::TooLong { max: self.max_len });
+        }
+    }
+
+    fn note(&mut self, e: FrameError) {
+        self.error.get_or_insert(e);
+    }
+
+    fn outcome(&self) -> Result<(), FrameError> {
+        self.error.map_or(Ok(()), Err)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn worked_example_of_5_2_bcc_is_53h() {
+        let block = encode(&[0x41, 0x42, 0x10, 0x43], Mode::BlockCheck);
+        assert_eq!(block, [0x41, 0x42, 0x10, 0x10, 0x43, 0x10, 0x03, 0x53]);
+        assert_eq!(bcc(&block[..7]), 0x53);
+    }
+
+    #[test]
+    fn plain_3964_has_no_bcc() {
+        assert_eq!(
+            encode(&[0x10], Mode::NoBlockCheck),
+            [0x10, 0x10, 0x10, 0x03]
+        );
+        assert_eq!(
+            decode(&[0x10, 0x10, 0x10, 0x03], Mode::NoBlockCheck, 200),
+            Ok(vec![0x10])
+        );
+    }
+
+    #[test]
+    fn bcc_equal_to_dle_is_not_doubled() {
+        // 0x03 ^ 0x10 ^ 0x03 = 0x10: data 03 gives BCC 10H, sent once (public-facts.md §1).
+        let block = encode(&[0x03], Mode::BlockCheck);
+        assert_eq!(block, [0x03, 0x10, 0x03, 0x10]);
+        assert_eq!(decode(&block, Mode::BlockCheck, 200), Ok(vec![0x03]));
+    }
+
+    #[test]
+    fn decoder_names_each_error() {
+        let m = Mode::BlockCheck;
+        assert_eq!(
+            decode(&[0x41, 0x10, 0x03, 0x00], m, 200),
+            Err(FrameError::Bcc {
+                expected: 0x52,
+                found: 0x00
+            })
+        );
+        assert_eq!(
+            decode(&[0x41, 0x10, 0x41, 0x10, 0x03, 0x41], m, 200),
+            Err(FrameError::OddDle { after: 0x41, at: 2 })
+        );
+        assert_eq!(
+            decode(&[0x41, 0x42], m, 200),
+            Err(FrameError::MissingEtx { len: 2 })
+        );
+        assert_eq!(
+            decode(&[0x41, 0x10, 0x03], m, 200),
+            Err(FrameError::MissingBcc)
+        );
+        assert_eq!(
+            decode(&encode(&[1, 2, 3], m), m, 2),
+            Err(FrameError::TooLong { max: 2 })
+        );
+        let mut long = encode(&[1], m);
+        long.push(7);
+        assert_eq!(
+            decode(&long, m, 200),
+            Err(FrameError::Trailing { count: 1 })
+        );
+    }
+
+    #[test]
+    fn zero_length_block_decodes_to_nothing() {
+        assert_eq!(
+            decode(&[0x10, 0x03, 0x13], Mode::BlockCheck, 200),
+            Ok(vec![])
+        );
+    }
+}

@@ -1,0 +1,701 @@
+//! The 3964 / 3964(R) procedure as one Sans-IO engine that is both sender and receiver, as the
+//! module's driver is (et200s-si-3964r-ascii.md §5.3–§5.10, cp341-3964r-rk512-ascii.md §3.5–§3.7
+//! and the reconstruction of §3.12, et200s-si-2005-window-protocol.md §3.3–§3.5).
+//!
+//! ```
+//! use si_3964r::{Config, Event, Link};
+//! use si_core::sim::Simulator;
+//! use si_core::{Instant, SerialSettings};
+//! use si_3964r::config::Priority;
+//!
+//! let settings = SerialSettings::default();
+//! let high = Config { priority: Priority::High, ..Config::default() };
+//! let mut sim = Simulator::new(1);
+//! let a = sim.add_station("A", settings, Link::new(high, settings).unwrap());
+//! let b = sim.add_station("B", settings, Link::new(Config::default(), settings).unwrap());
+//! sim.connect(a, b);
+//! let job = sim.with(a, |link, now| link.send(now, &b"hello"[..])).unwrap();
+//! sim.run_until_quiet(Instant::from_micros(10_000_000));
+//! assert_eq!(sim.take_events(a), vec![Event::Sent { job }]);
+//! assert_eq!(sim.take_events(b), vec![Event::Received { len: 5 }]);
+//! assert_eq!(sim.with(b, |link, now| link.take_block(now)).unwrap(), &b"hello"[..]);
+//! ```
+//!
+//! # Readings where the texts are silent or disagree
+//!
+//! - **Counting attempts (A-16, cp341 A-25).** A failed `STX` (NAK, other character, QVZ expiry)
+//!   costs a *connection* attempt; the counter starts again at 1 for every transmission attempt
+//!   (Siemens practice, §5.9). A block that went out and was not acknowledged with `DLE` (NAK or
+//!   other characters during or after it, QVZ expiry at the end) costs a *transmission* attempt.
+//!   Yielding in an initialization conflict costs nothing: the job stays pending and starts again
+//!   with fresh connection attempts once the partner's block is received (§5.6).
+//! - **Initialization conflict, high priority (A-18).** The high-priority side ignores the
+//!   partner's `STX` and keeps waiting for `DLE` (cp341 §3.4, public-facts.md §1). When its
+//!   connection attempts run out after such an `STX` was seen, the job fails with 070B (both
+//!   high). A low-priority side that yielded and then receives a lone `DLE` followed by silence
+//!   (the partner yielded too) counts a failed connection attempt with 070C (both low).
+//! - **NAK before the repetition.** Only where the manual says so: after other characters
+//!   interrupted our block (wait for quiet, NAK, repeat, §5.3 point 3) and when giving up
+//!   (§5.3 points 1 and 5). After a NAK or a QVZ expiry the sender repeats `STX` directly.
+//! - **ZVZ expiry while receiving.** NAK and report 0806 at once; the receiver starts no retry of
+//!   its own and goes to idle (§5.4 point 3, cp341 §3.6 point 3). Errors that let the block run
+//!   to its end (BCC, parity, framing, odd DLE, overlong) are answered with NAK and a 4 s wait for
+//!   the repetition, and reported only when the repetitions are used up or do not come (§5.4
+//!   point 5, §5.7), with the *first* error (A-39).
+//! - **Receiver repetition limit (A-17, cp341 A-20).** The configured transmission attempts.
+//! - **Zero-length block.** Acknowledged with `DLE`, not queued, reported as 0807 "not an error".
+//! - **Overlong block (A-20).** Received to its end, answered with NAK like a BCC error, reported
+//!   as 0850 (et200s-si-2005-window-protocol.md §6.1).
+//! - **A corrupted character in idle** is reported at once as 080C (§5.7); other characters in
+//!   idle are answered, once the line is quiet for ZVZ, with NAK and 0802 (§5.4 point 1). An `STX`
+//!   arriving during that wait is taken as a connection request (after reporting the 0802).
+//! - **BREAK** ends whatever runs at once, without retries: a send job fails with 080D, and 080D
+//!   is reported as a receive error (§5.7, cp341 §3.5 point 4).
+//! - **"DLE too early" (0706)** is a `DLE` received before our transmitter reported the block
+//!   sent ([`Engine::handle_tx_done`]). Drivers must report tx-done promptly; the simulator is
+//!   exact, and the tokio handle of this crate reports it when the write completes.
+//! - **"More characters after STX without waiting for DLE" (0802)** cannot be told apart from
+//!   prompt data on a host with OS buffering, so such characters are received as the block.
+
+use crate::config::{Config, ConfigError, Priority, BLOCK_WAIT, BUFFER_WAIT};
+use crate::frame::{self, Decoder, FrameError, DLE, NAK, STX};
+use crate::status;
+use bytes::Bytes;
+use core::fmt;
+use serde::{Deserialize, Serialize};
+use si_core::{Engine, Instant, LineError, Output, SerialSettings, Status};
+use std::collections::VecDeque;
+
+/// Identifies one send job, so its completion can be matched to it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct JobId(pub u64);
+
+impl fmt::Display for JobId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "job {}", self.0)
+    }
+}
+
+/// What the engine tells the application.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum Event {
+    /// The partner acknowledged the block of this job with `DLE`: S_SEND's DONE.
+    Sent {
+        /// The job.
+        job: JobId,
+    },
+    /// The job gave up with the manual's STATUS (class 07H, or 080C / 080D): S_SEND's ERROR.
+    SendFailed {
+        /// The job.
+        job: JobId,
+        /// The first error of the job (§5.7, A-39).
+        status: Status,
+    },
+    /// A block arrived intact and waits in the receive buffer; take it with
+    /// [`Link::take_block`]. Reported once per block.
+    Received {
+        /// Its length in bytes.
+        len: usize,
+    },
+    /// A reception failed, or the idle line saw something wrong: S_RCV's ERROR (class 08H).
+    ReceiveError(Status),
+}
+
+/// Why a send job was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum SendError {
+    /// A job is still running; like S_SEND, one job at a time.
+    #[error("a send job is still running")]
+    Busy,
+    /// No data (S_SEND LEN must be at least 1).
+    #[error("nothing to send: a block needs at least 1 byte")]
+    Empty,
+    /// More data than the configured maximum block length.
+    #[error("block of {len} bytes is longer than the maximum of {max}")]
+    TooLong {
+        /// Bytes given.
+        len: usize,
+        /// The configured maximum.
+        max: usize,
+    },
+}
+
+impl SendError {
+    /// The STATUS an FB would show for this refusal (1E41 "invalid LEN", or 0502 when busy).
+    pub fn status(self) -> Status {
+        match self {
+            SendError::Busy => si_core::status::common::NOT_POSSIBLE_IN_MODE,
+            SendError::Empty | SendError::TooLong { .. } => si_core::status::common::INVALID_LEN,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum State {
+    /// Waiting for a job or the partner's STX.
+    Idle,
+    /// A character other than STX/NAK arrived in idle: wait until the line is quiet, then NAK.
+    IdleQuiet { until: Instant },
+    /// We sent STX and wait for the partner's DLE.
+    WaitConnAck { deadline: Instant },
+    /// Our block is on its way out; `deadline` is the latest the QVZ can end if the driver never
+    /// reports tx-done.
+    Sending { deadline: Instant },
+    /// Block sent (DLE ETX [BCC]); waiting for the partner's DLE.
+    WaitEndAck { deadline: Instant },
+    /// The partner interrupted our block with characters: wait for quiet, NAK, repeat.
+    SendQuiet { until: Instant },
+    /// STX arrived with the receive buffer full: wait up to 400 ms for a free slot.
+    WaitBuffer { deadline: Instant, conflict: bool },
+    /// Receiving a block; `deadline` is ZVZ after the last character.
+    Receiving { deadline: Instant, conflict: bool },
+    /// We answered a bad block with NAK and wait up to 4 s for the repetition.
+    WaitRepeat { deadline: Instant },
+}
+
+#[derive(Debug)]
+struct Job {
+    id: JobId,
+    data: Bytes,
+    conn_try: u8,
+    tx_try: u8,
+    first_err: Option<Status>,
+    conflict_seen: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Attempt {
+    Connection,
+    Transmission,
+}
+
+/// The 3964 / 3964(R) engine: sender and receiver on one line.
+///
+/// Drive it as every [`Engine`]: feed it bytes, line errors, tx-done and timeouts, drain
+/// [`poll_output`](Engine::poll_output) until `Wait`. Start a job with [`send`](Link::send); take
+/// received blocks with [`take_block`](Link::take_block).
+pub struct Link {
+    config: Config,
+    settings: SerialSettings,
+    state: State,
+    job: Option<Job>,
+    next_job: u64,
+    decoder: Decoder,
+    rx_line_error: bool,
+    rx_try: u8,
+    rx_first_err: Option<Status>,
+    received: VecDeque<Bytes>,
+    out: VecDeque<Output<Event>>,
+    tx_buf: Vec<u8>,
+    last_outcome: Option<(JobId, Result<(), Status>)>,
+    last_receive_error: Option<Status>,
+}
+
+impl fmt::Debug for Link {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Link")
+            .field("state", &self.state)
+            .field("job", &self.job.as_ref().map(|j| j.id))
+            .field("received", &self.received.len())
+            .finish()
+    }
+}
+
+impl Link {
+    /// A link with `config` on a line with `settings` (used to know how long our own bytes take
+    /// on the wire). Queues the startup NAK that puts the partner into idle (§5.4 point 6).
+    pub fn new(config: Config, settings: SerialSettings) -> Result<Link, ConfigError> {
+        config.validate()?;
+        let max = usize::from(config.max_block_len);
+        let mut link = Link {
+            config,
+            settings,
+            state: State::Idle,
+            job: None,
+            next_job: 1,
+            decoder: Decoder::new(config.mode(), max),
+            rx_line_error: false,
+            rx_try: 0,
+            rx_first_err: None,
+            received: VecDeque::with_capacity(config.receive_buffer_blocks.into()),
+            out: VecDeque::with_capacity(8),
+            tx_buf: Vec::with_capacity(2 * max + 3),
+            last_outcome: None,
+            last_receive_error: None,
+        };
+        link.transmit_static(&[NAK]);
+        Ok(link)
+    }
+
+    /// The parameters.
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
+    /// Start sending `data` as one block (S_SEND with REQ). The job ends with exactly one
+    /// [`Event::Sent`] or [`Event::SendFailed`] carrying the returned id.
+    pub fn send(&mut self, now: Instant, data: impl Into<Bytes>) -> Result<JobId, SendError> {
+        let data = data.into();
+        if self.job.is_some() {
+            return Err(SendError::Busy);
+        }
+        if data.is_empty() {
+            return Err(SendError::Empty);
+        }
+        let max = usize::from(self.config.max_block_len);
+        if data.len() > max {
+            return Err(SendError::TooLong {
+                len: data.len(),
+                max,
+            });
+        }
+        let id = JobId(self.next_job);
+        self.next_job += 1;
+        self.job = Some(Job {
+            id,
+            data,
+            conn_try: 1,
+            tx_try: 1,
+            first_err: None,
+            conflict_seen: false,
+        });
+        if self.state == State::Idle {
+            self.connect(now);
+        }
+        Ok(id)
+    }
+
+    /// True while a send job runs (or waits for the line).
+    pub fn is_sending(&self) -> bool {
+        self.job.is_some()
+    }
+
+    /// The outcome of job `id` if it was the last job to finish.
+    pub fn job_outcome(&self, id: JobId) -> Option<Result<(), Status>> {
+        self.last_outcome.filter(|(j, _)| *j == id).map(|(_, r)| r)
+    }
+
+    /// Take the oldest received block from the receive buffer. Freeing a slot while a partner
+    /// waits for one (the 400 ms buffer wait) answers its STX with DLE at `now`.
+    pub fn take_block(&mut self, now: Instant) -> Option<Bytes> {
+        let block = self.received.pop_front()?;
+        if let State::WaitBuffer { conflict, .. } = self.state {
+            self.start_receiving(now, conflict);
+        }
+        Some(block)
+    }
+
+    /// Blocks waiting in the receive buffer.
+    pub fn received_blocks(&self) -> usize {
+        self.received.len()
+    }
+
+    /// True when more than 2/3 of the receive buffer is in use (S_RCV's warning 0B01, §8.3).
+    pub fn buffer_two_thirds_full(&self) -> bool {
+        self.received.len() * 3 > usize::from(self.config.receive_buffer_blocks) * 2
+    }
+
+    /// The last receive error not yet taken (for the S_RCV equivalent; newer replace older, as
+    /// a PLC output would).
+    pub fn take_receive_error(&mut self) -> Option<Status> {
+        self.last_receive_error.take()
+    }
+
+    // --- sending -------------------------------------------------------------------------
+
+    /// Send STX for the pending job and wait for DLE.
+    fn connect(&mut self, now: Instant) {
+        self.transmit_static(&[STX]);
+        self.state = State::WaitConnAck {
+            deadline: now + self.settings.char_time() + self.config.ack_delay(),
+        };
+    }
+
+    fn send_block(&mut self, now: Instant) {
+        let Some(job) = &self.job else {
+            self.state = State::Idle;
+            return;
+        };
+        self.tx_buf.clear();
+        frame::encode_into(&job.data, self.config.mode(), &mut self.tx_buf);
+        let on_wire = self.settings.chars_time(self.tx_buf.len() as u64);
+        self.out
+            .push_back(Output::Transmit(Bytes::copy_from_slice(&self.tx_buf)));
+        self.state = State::Sending {
+            deadline: now + on_wire + self.config.ack_delay(),
+        };
+    }
+
+    /// One attempt failed with `error`; repeat or give up (§5.3, §5.9).
+    fn attempt_failed(&mut self, now: Instant, kind: Attempt, error: Status, nak_first: bool) {
+        let (conn_max, tx_max) = (
+            self.config.connection_attempts,
+            self.config.transmission_attempts,
+        );
+        let Some(job) = &mut self.job else {
+            self.enter_idle(now);
+            return;
+        };
+        job.first_err.get_or_insert(error);
+        let exhausted = match kind {
+            Attempt::Connection => {
+                job.conn_try = job.conn_try.saturating_add(1);
+                job.conn_try > conn_max
+            }
+            Attempt::Transmission => {
+                job.tx_try = job.tx_try.saturating_add(1);
+                job.conn_try = 1;
+                job.tx_try > tx_max
+            }
+        };
+        if exhausted {
+            let mut status = job.first_err.unwrap_or(error);
+            if kind == Attempt::Connection
+                && job.conflict_seen
+                && self.config.priority == Priority::High
+            {
+                status = status::CONFLICT_BOTH_HIGH;
+            }
+            // Giving up: NAK to the partner (§5.3 points 1 and 5).
+            self.transmit_static(&[NAK]);
+            self.finish_job(Err(status));
+            self.enter_idle(now);
+        } else {
+            if nak_first {
+                self.transmit_static(&[NAK]);
+            }
+            self.connect(now);
+        }
+    }
+
+    fn finish_job(&mut self, result: Result<(), Status>) {
+        if let Some(job) = self.job.take() {
+            self.last_outcome = Some((job.id, result));
+            self.out.push_back(Output::Event(match result {
+                Ok(()) => Event::Sent { job: job.id },
+                Err(status) => Event::SendFailed {
+                    job: job.id,
+                    status,
+                },
+            }));
+        }
+    }
+
+    // --- receiving -----------------------------------------------------------------------
+
+    /// STX from the partner: answer DLE if a buffer slot is free, else start the buffer wait.
+    fn accept_stx(&mut self, now: Instant, conflict: bool) {
+        if self.received.len() < usize::from(self.config.receive_buffer_blocks) {
+            self.start_receiving(now, conflict);
+        } else {
+            self.state = State::WaitBuffer {
+                deadline: now + BUFFER_WAIT,
+                conflict,
+            };
+        }
+    }
+
+    fn start_receiving(&mut self, now: Instant, conflict: bool) {
+        self.transmit_static(&[DLE]);
+        self.decoder.reset();
+        self.rx_line_error = false;
+        self.state = State::Receiving {
+            deadline: now + self.settings.char_time() + self.config.char_delay(),
+            conflict,
+        };
+    }
+
+    /// The block is complete: acknowledge or reject it (§5.4 point 5, §5.5).
+    fn end_of_block(&mut self, now: Instant, result: Result<(), FrameError>) {
+        let error = match result {
+            _ if self.rx_line_error => Some(status::TRANSMISSION_ERROR),
+            Ok(()) => None,
+            Err(e) => Some(match e {
+                FrameError::OddDle { .. } => status::ODD_DLE,
+                FrameError::Bcc { .. } => status::BCC_ERROR,
+                FrameError::TooLong { .. } => status::BLOCK_TOO_LONG,
+                _ => status::TRANSMISSION_ERROR,
+            }),
+        };
+        match error {
+            None => {
+                self.transmit_static(&[DLE]);
+                self.rx_try = 0;
+                self.rx_first_err = None;
+                let payload = self.decoder.payload();
+                if payload.is_empty() {
+                    self.receive_error(status::ZERO_LENGTH);
+                } else {
+                    let len = payload.len();
+                    self.received.push_back(Bytes::copy_from_slice(payload));
+                    self.out.push_back(Output::Event(Event::Received { len }));
+                }
+                self.enter_idle(now);
+            }
+            Some(error) => {
+                self.transmit_static(&[NAK]);
+                self.rx_first_err.get_or_insert(error);
+                self.rx_try = self.rx_try.saturating_add(1);
+                if self.rx_try >= self.config.transmission_attempts {
+                    self.give_up_receiving(now);
+                } else {
+                    self.state = State::WaitRepeat {
+                        deadline: now + BLOCK_WAIT,
+                    };
+                }
+            }
+        }
+    }
+
+    fn give_up_receiving(&mut self, now: Instant) {
+        let error = self.rx_first_err.take().unwrap_or(status::CHARACTER_DELAY);
+        self.rx_try = 0;
+        self.receive_error(error);
+        self.enter_idle(now);
+    }
+
+    fn receive_error(&mut self, status: Status) {
+        self.last_receive_error = Some(status);
+        self.out
+            .push_back(Output::Event(Event::ReceiveError(status)));
+    }
+
+    /// Back to idle; a pending job (postponed by a conflict or a reception) starts now.
+    fn enter_idle(&mut self, now: Instant) {
+        self.state = State::Idle;
+        if let Some(job) = &mut self.job {
+            job.conn_try = 1;
+            self.connect(now);
+        }
+    }
+
+    fn transmit_static(&mut self, bytes: &'static [u8]) {
+        self.out
+            .push_back(Output::Transmit(Bytes::from_static(bytes)));
+    }
+
+    // --- input dispatch ------------------------------------------------------------------
+
+    fn on_byte(&mut self, now: Instant, byte: u8) {
+        match self.state {
+            State::Idle => match byte {
+                STX => {
+                    self.rx_try = 0;
+                    self.rx_first_err = None;
+                    self.accept_stx(now, false);
+                }
+                NAK => {}
+                _ => {
+                    self.state = State::IdleQuiet {
+                        until: now + self.config.char_delay(),
+                    }
+                }
+            },
+            State::IdleQuiet { .. } => {
+                if byte == STX {
+                    self.receive_error(status::IDLE_GARBAGE);
+                    self.rx_try = 0;
+                    self.rx_first_err = None;
+                    self.accept_stx(now, false);
+                } else {
+                    self.state = State::IdleQuiet {
+                        until: now + self.config.char_delay(),
+                    };
+                }
+            }
+            State::WaitConnAck { .. } => match byte {
+                DLE => self.send_block(now),
+                STX => {
+                    if let Some(job) = &mut self.job {
+                        job.conflict_seen = true;
+                    }
+                    if self.config.priority == Priority::Low {
+                        // Yield: answer DLE and receive first; the job stays pending (§5.6).
+                        self.rx_try = 0;
+                        self.rx_first_err = None;
+                        self.accept_stx(now, true);
+                    }
+                }
+                _ => self.attempt_failed(now, Attempt::Connection, status::SETUP_REJECTED, false),
+            },
+            State::Sending { .. } => match byte {
+                NAK => self.attempt_failed(
+                    now,
+                    Attempt::Transmission,
+                    status::NAK_WHILE_SENDING,
+                    false,
+                ),
+                DLE => self.attempt_failed(now, Attempt::Transmission, status::END_REJECTED, false),
+                _ => self.interrupted(now, status::ABORTED_BY_PARTNER),
+            },
+            State::SendQuiet { .. } => {
+                self.state = State::SendQuiet {
+                    until: now + self.config.char_delay(),
+                };
+            }
+            State::WaitEndAck { .. } => {
+                if byte == DLE {
+                    self.finish_job(Ok(()));
+                    self.enter_idle(now);
+                } else {
+                    self.attempt_failed(now, Attempt::Transmission, status::END_REJECTED, false);
+                }
+            }
+            State::WaitBuffer { .. } => {}
+            State::Receiving { conflict, .. } => {
+                self.state = State::Receiving {
+                    deadline: now + self.config.char_delay(),
+                    conflict,
+                };
+                if let Some(result) = self.decoder.push(byte) {
+                    self.end_of_block(now, result);
+                }
+            }
+            State::WaitRepeat { .. } => {
+                if byte == STX {
+                    self.accept_stx(now, false);
+                }
+            }
+        }
+    }
+
+    /// Characters from the partner while our block goes out: wait for quiet, then NAK and
+    /// repeat (§5.3 point 3).
+    fn interrupted(&mut self, now: Instant, error: Status) {
+        if let Some(job) = &mut self.job {
+            job.first_err.get_or_insert(error);
+        }
+        self.state = State::SendQuiet {
+            until: now + self.config.char_delay(),
+        };
+    }
+
+    fn on_line_error(&mut self, now: Instant, error: LineError) {
+        if error == LineError::Break {
+            return self.on_break(now);
+        }
+        let bad = status::TRANSMISSION_ERROR;
+        match self.state {
+            State::Idle => self.receive_error(bad),
+            State::IdleQuiet { .. } | State::SendQuiet { .. } => self.on_byte(now, 0xFF),
+            State::WaitConnAck { .. } => self.attempt_failed(now, Attempt::Connection, bad, false),
+            State::Sending { .. } => self.interrupted(now, bad),
+            State::WaitEndAck { .. } => self.attempt_failed(now, Attempt::Transmission, bad, false),
+            State::WaitBuffer { .. } | State::WaitRepeat { .. } => {}
+            State::Receiving { conflict, .. } => {
+                self.rx_line_error = true;
+                if self.decoder.awaiting_bcc() {
+                    // The BCC itself arrived corrupted: the block is complete and bad.
+                    self.end_of_block(now, Ok(()));
+                } else {
+                    self.state = State::Receiving {
+                        deadline: now + self.config.char_delay(),
+                        conflict,
+                    };
+                }
+            }
+        }
+    }
+
+    /// BREAK: back to idle at once, no retries (§5.7).
+    fn on_break(&mut self, now: Instant) {
+        self.finish_job(Err(status::BREAK));
+        self.rx_try = 0;
+        self.rx_first_err = None;
+        self.receive_error(status::BREAK);
+        self.state = State::Idle;
+        let _ = now;
+    }
+
+    fn deadline(&self) -> Option<Instant> {
+        match self.state {
+            State::Idle => None,
+            State::IdleQuiet { until } | State::SendQuiet { until } => Some(until),
+            State::WaitConnAck { deadline }
+            | State::Sending { deadline }
+            | State::WaitEndAck { deadline }
+            | State::WaitBuffer { deadline, .. }
+            | State::Receiving { deadline, .. }
+            | State::WaitRepeat { deadline } => Some(deadline),
+        }
+    }
+
+    fn on_deadline(&mut self, now: Instant) {
+        match self.state {
+            State::Idle => {}
+            State::IdleQuiet { .. } => {
+                self.transmit_static(&[NAK]);
+                self.receive_error(status::IDLE_GARBAGE);
+                self.enter_idle(now);
+            }
+            State::WaitConnAck { .. } => {
+                self.attempt_failed(now, Attempt::Connection, status::SETUP_TIMEOUT, false)
+            }
+            State::Sending { .. } | State::WaitEndAck { .. } => {
+                self.attempt_failed(now, Attempt::Transmission, status::END_TIMEOUT, false)
+            }
+            State::SendQuiet { .. } => {
+                let error = self
+                    .job
+                    .as_ref()
+                    .and_then(|j| j.first_err)
+                    .unwrap_or(status::ABORTED_BY_PARTNER);
+                self.attempt_failed(now, Attempt::Transmission, error, true)
+            }
+            State::WaitBuffer { .. } => {
+                self.transmit_static(&[NAK]);
+                self.receive_error(status::NO_FREE_BUFFER);
+                self.enter_idle(now);
+            }
+            State::Receiving { conflict, .. } => {
+                if conflict && self.decoder.received() == 1 && self.decoder.after_dle() {
+                    // We yielded and the partner's answer was a lone DLE: it yielded too.
+                    self.state = State::Idle;
+                    self.attempt_failed(now, Attempt::Connection, status::CONFLICT_BOTH_LOW, false);
+                    return;
+                }
+                self.transmit_static(&[NAK]);
+                let error = self.rx_first_err.take().unwrap_or(status::CHARACTER_DELAY);
+                self.rx_try = 0;
+                self.receive_error(error);
+                self.enter_idle(now);
+            }
+            State::WaitRepeat { .. } => self.give_up_receiving(now),
+        }
+    }
+}
+
+impl Engine for Link {
+    type Event = Event;
+
+    fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+        for &b in bytes {
+            self.on_byte(now, b);
+        }
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        if self.deadline().is_some_and(|d| now >= d) {
+            self.on_deadline(now);
+        }
+    }
+
+    fn handle_tx_done(&mut self, now: Instant) {
+        if let State::Sending { .. } = self.state {
+            self.state = State::WaitEndAck {
+                deadline: now + self.config.ack_delay(),
+            };
+        }
+    }
+
+    fn handle_line_error(&mut self, now: Instant, error: LineError) {
+        self.on_line_error(now, error);
+    }
+
+    fn poll_output(&mut self) -> Output<Event> {
+        self.out
+            .pop_front()
+            .unwrap_or_else(|| Output::Wait(self.deadline()))
+    }
+}
