@@ -1,0 +1,569 @@
+//! The ASCII driver's parameters with the manual's ranges and defaults
+//! (et200s-si-3964r-ascii.md §7.1 Table 2-10, §6.5 Table 2-9, §6.10 / §9.8 Table 2-26).
+//!
+//! [`Config::validate`] rejects a value outside its range with an error naming the parameter,
+//! the range and the value. Times are whole milliseconds, as in the manual's tables.
+//!
+//! Readings chosen where the texts disagree:
+//! - **Baud rates** (§7.1 vs et200s-si-2005-window-protocol.md §4.6): all twelve rates of the 2005
+//!   manual (110 … 115 200 bit/s) are accepted; the 2004 module stops at 19 200.
+//! - **Minimum character delay time** (§6.5 Table 2-9 vs 2005 Table 2-7): for 110 … 19 200 bit/s
+//!   the ET 200S SI table (364, 134, 68, 34, 18, 9, 4, 4 ms) applies; above 19 200 the 2005 table
+//!   gives 1 ms, and the parameter range starts at 4 ms (H-22), so 4 ms is the minimum there.
+//! - **Maximum frame length**: 200 bytes (§12, Table 2-13/2-14, 1E41H "1 … 200"); the later 1SI
+//!   module's 224 is not used.
+//! - **Time steps** (A-11): the flow-control times are counts of 10 ms on the wire, so values that
+//!   are not multiples of 10 ms are rejected rather than silently rounded.
+//! - **End-of-text characters** (A-30, H-29): two characters form a *sequence* (char 1 then char 2,
+//!   as on the CP 340/341); char 2 = 0 means "unused".
+
+use crate::status;
+use serde::{Deserialize, Serialize};
+use si_core::{Duration, SerialSettings, SettingsError, Status, BAUD_RATES};
+
+/// Longest frame the driver sends or receives (et200s-si-3964r-ascii.md §12: 200 bytes).
+pub const MAX_FRAME_LEN: usize = 200;
+
+/// Size of the receive ring buffer (et200s-si-3964r-ascii.md §6.6: 1024 bytes).
+pub const RECEIVE_BUFFER_SIZE: usize = 1024;
+
+/// XOFF (or RTS = OFF) goes out when this many bytes or fewer are free in the receive buffer
+/// (et200s-si-3964r-ascii.md §6.9: "50 characters before the receive buffer is full").
+pub const XOFF_MARGIN: usize = 50;
+
+/// The physical interface (Table 2-10 "Interface type").
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Interface {
+    /// RS-232C: the only interface with secondary signals (§6.7).
+    #[default]
+    Rs232,
+    /// RS-422, full duplex.
+    Rs422,
+    /// RS-485, two-wire half duplex: no flow control (§6.9), turnaround after each frame.
+    Rs485,
+}
+
+/// Data flow control (Table 2-10 "Data flow control", §6.8, §6.9).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FlowControl {
+    /// No flow control (the default, and the only choice on RS-485).
+    #[default]
+    None,
+    /// Software flow control with the XON and XOFF characters (RS-232C and RS-422).
+    XonXoff,
+    /// Hardware flow control with RTS and CTS (RS-232C only).
+    RtsCts,
+    /// Automatic operation of the V.24 signals: RTS on before, off after each frame (RS-232C only).
+    AutoV24,
+}
+
+/// How the receiver recognises the end of a frame (§6.3, Table 2-10 "Indicator for end of
+/// receive frame").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case", tag = "kind")]
+pub enum EndCriterion {
+    /// A gap longer than the character delay time ends the frame (code transparent).
+    CharDelay,
+    /// The end-of-text character `first`, followed by `second` unless it is 0 (not transparent).
+    /// The delivered frame includes the end characters.
+    EndChars {
+        /// End-of-text character 1: 1 … 7FH (7 data bits) or 1 … FFH (8 data bits); default 03H.
+        first: u8,
+        /// End-of-text character 2: 0 = unused (the default), else the second of a sequence.
+        second: u8,
+    },
+    /// A fixed number of characters, 1 … 200 (default 100), ends the frame (code transparent).
+    FixedLength {
+        /// Characters per frame.
+        len: u16,
+    },
+}
+
+impl Default for EndCriterion {
+    /// "Expiration of character delay time" (Table 2-10 default).
+    fn default() -> Self {
+        EndCriterion::CharDelay
+    }
+}
+
+impl EndCriterion {
+    /// End-of-text characters with the manual's defaults: ETX (03H) alone.
+    pub const DEFAULT_END_CHARS: EndCriterion = EndCriterion::EndChars {
+        first: 0x03,
+        second: 0,
+    };
+    /// Fixed length with the manual's default of 100 characters.
+    pub const DEFAULT_FIXED: EndCriterion = EndCriterion::FixedLength { len: 100 };
+}
+
+/// XON/XOFF parameters (S_XON, Table 2-26 block 20H).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(default)]
+pub struct XonXoff {
+    /// XON character, default DC1 = 11H (A-9: the 0BH of Table 2-27 is a decimal slip).
+    pub xon: u8,
+    /// XOFF character, default DC3 = 13H.
+    pub xoff: u8,
+    /// Wait time for XON after XOFF, 20 … 655 350 ms in 10 ms steps, default 2000 ms.
+    pub wait_for_xon_ms: u32,
+}
+
+impl Default for XonXoff {
+    fn default() -> Self {
+        XonXoff {
+            xon: 0x11,
+            xoff: 0x13,
+            wait_for_xon_ms: 2_000,
+        }
+    }
+}
+
+/// RTS/CTS parameters (S_RTS, Table 2-26 block 21H).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(default)]
+pub struct RtsCts {
+    /// Wait time for CTS = ON, 20 … 655 350 ms in 10 ms steps, default 2000 ms.
+    pub wait_for_cts_ms: u32,
+}
+
+impl Default for RtsCts {
+    fn default() -> Self {
+        RtsCts {
+            wait_for_cts_ms: 2_000,
+        }
+    }
+}
+
+/// Automatic V.24 parameters (S_V24, Table 2-26 block 22H).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(default)]
+pub struct AutoV24 {
+    /// Time from the last byte sent until RTS = OFF, 0 … 655 350 ms in 10 ms steps, default 10 ms.
+    pub time_rts_off_ms: u32,
+    /// Time to wait for CTS = ON after RTS = ON, 0 … 655 350 ms in 10 ms steps, default 10 ms.
+    pub data_wait_time_ms: u32,
+}
+
+impl Default for AutoV24 {
+    fn default() -> Self {
+        AutoV24 {
+            time_rts_off_ms: 10,
+            data_wait_time_ms: 10,
+        }
+    }
+}
+
+/// Every parameter of the ASCII driver (Table 2-10 plus the run-time blocks of Table 2-26).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Config {
+    /// Character format; default 9600 8E1.
+    pub settings: SerialSettings,
+    /// Interface type; default RS-232C.
+    pub interface: Interface,
+    /// Data flow control; default none.
+    pub flow_control: FlowControl,
+    /// End-of-frame criterion; default character delay time.
+    pub end: EndCriterion,
+    /// Character delay time, 4 … 65 535 ms and at least the Table 2-9 minimum for the baud rate;
+    /// default 4 ms. Also the monitoring time of the other two criteria and the transmit
+    /// inter-frame pause.
+    pub char_delay_ms: u32,
+    /// Buffer several frames of different lengths (true, the Table 2-10 default) or one.
+    pub dynamic_frames: bool,
+    /// Do not overwrite stored frames when the buffer is full (default yes).
+    pub prevent_overwrite: bool,
+    /// Clear the receive buffer at CPU startup (default yes).
+    pub clear_at_startup: bool,
+    /// XON/XOFF parameters, used with [`FlowControl::XonXoff`].
+    pub xon_xoff: XonXoff,
+    /// RTS/CTS parameters, used with [`FlowControl::RtsCts`].
+    pub rts_cts: RtsCts,
+    /// Automatic V.24 parameters, used with [`FlowControl::AutoV24`].
+    pub auto_v24: AutoV24,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            settings: SerialSettings::default(),
+            interface: Interface::Rs232,
+            flow_control: FlowControl::None,
+            end: EndCriterion::CharDelay,
+            char_delay_ms: 4,
+            dynamic_frames: true,
+            prevent_overwrite: true,
+            clear_at_startup: true,
+            xon_xoff: XonXoff::default(),
+            rts_cts: RtsCts::default(),
+            auto_v24: AutoV24::default(),
+        }
+    }
+}
+
+/// A parameter the manual does not allow.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ConfigError {
+    /// A value outside its range.
+    #[error("{parameter} {value} out of range: {range}")]
+    OutOfRange {
+        /// The parameter's name as the manual gives it.
+        parameter: &'static str,
+        /// The rejected value, with its unit.
+        value: String,
+        /// The allowed range, with its unit.
+        range: String,
+    },
+    /// Two parameters that the manual does not allow together.
+    #[error("{parameter} {value} not allowed: {reason}")]
+    NotAllowed {
+        /// The parameter's name.
+        parameter: &'static str,
+        /// The rejected value.
+        value: String,
+        /// Why, citing the manual.
+        reason: &'static str,
+    },
+    /// The character format itself.
+    #[error(transparent)]
+    Settings(#[from] SettingsError),
+}
+
+impl ConfigError {
+    /// The STATUS an FB reports for this error: 1E20H "parameter out of range", or 0550H when
+    /// the request does not match the configured flow control.
+    pub fn status(&self) -> Status {
+        match self {
+            ConfigError::NotAllowed {
+                parameter: "flow control",
+                ..
+            } => status::FLOW_PARAMETERS_MISMATCH,
+            _ => status::PARAMETER_OUT_OF_RANGE,
+        }
+    }
+}
+
+/// The smallest character delay time for `baud` (et200s-si-3964r-ascii.md §6.5, Table 2-9;
+/// above 19 200 bit/s et200s-si-2005-window-protocol.md §4.2 Table 2-7 raised to the 4 ms floor).
+pub const fn min_char_delay_ms(baud: u32) -> u32 {
+    match baud {
+        0..=110 => 364,
+        111..=300 => 134,
+        301..=600 => 68,
+        601..=1_200 => 34,
+        1_201..=2_400 => 18,
+        2_401..=4_800 => 9,
+        _ => 4,
+    }
+}
+
+fn out_of_range(parameter: &'static str, value: impl ToString, range: String) -> ConfigError {
+    ConfigError::OutOfRange {
+        parameter,
+        value: value.to_string(),
+        range,
+    }
+}
+
+/// A time in whole 10 ms steps within `min ..= 655 350` ms (Table 2-26, A-11).
+fn check_step_time(parameter: &'static str, ms: u32, min: u32) -> Result<(), ConfigError> {
+    if ms < min || ms > 655_350 || (ms / 10) * 10 != ms {
+        return Err(out_of_range(
+            parameter,
+            format!("{ms} ms"),
+            format!("{min} … 655350 ms in 10 ms steps"),
+        ));
+    }
+    Ok(())
+}
+
+impl XonXoff {
+    /// Check the characters against the data width and the wait time against its range.
+    pub fn validate(&self, settings: &SerialSettings) -> Result<(), ConfigError> {
+        let mask = settings.data_mask();
+        for (parameter, c) in [("XON character", self.xon), ("XOFF character", self.xoff)] {
+            if c & !mask != 0 {
+                return Err(out_of_range(
+                    parameter,
+                    format!("{c:02X}H"),
+                    format!("00H … {mask:02X}H with {} data bits", settings.data_bits()),
+                ));
+            }
+        }
+        if self.xon == self.xoff {
+            return Err(ConfigError::NotAllowed {
+                parameter: "XOFF character",
+                value: format!("{:02X}H", self.xoff),
+                reason: "it must differ from the XON character",
+            });
+        }
+        check_step_time("wait time for XON", self.wait_for_xon_ms, 20)
+    }
+}
+
+impl RtsCts {
+    /// Check the wait time against its range (20 … 655 350 ms, 10 ms steps).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        check_step_time("wait time for CTS", self.wait_for_cts_ms, 20)
+    }
+}
+
+impl AutoV24 {
+    /// Check both times against their range (0 … 655 350 ms, 10 ms steps).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        check_step_time("time to RTS off", self.time_rts_off_ms, 0)?;
+        check_step_time("data output wait time", self.data_wait_time_ms, 0)
+    }
+}
+
+impl Config {
+    /// Check every parameter against Table 2-10 / Table 2-26 and the combinations §6.7–§6.9
+    /// forbid.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let s = &self.settings;
+        SerialSettings::with_rates(
+            s.baud(),
+            s.data_bits(),
+            s.parity(),
+            s.stop_bits(),
+            &BAUD_RATES,
+        )?;
+        let min = min_char_delay_ms(s.baud());
+        if self.char_delay_ms < min || self.char_delay_ms > 65_535 {
+            return Err(out_of_range(
+                "character delay time",
+                format!("{} ms", self.char_delay_ms),
+                format!("{min} … 65535 ms at {} bit/s", s.baud()),
+            ));
+        }
+        let mask = s.data_mask();
+        match self.end {
+            EndCriterion::CharDelay => {}
+            EndCriterion::EndChars { first, second } => {
+                if first == 0 || first & !mask != 0 {
+                    return Err(out_of_range(
+                        "end-of-text character 1",
+                        format!("{first:02X}H"),
+                        format!("01H … {mask:02X}H with {} data bits", s.data_bits()),
+                    ));
+                }
+                if second & !mask != 0 {
+                    return Err(out_of_range(
+                        "end-of-text character 2",
+                        format!("{second:02X}H"),
+                        format!("00H … {mask:02X}H with {} data bits", s.data_bits()),
+                    ));
+                }
+            }
+            EndCriterion::FixedLength { len } => {
+                if len == 0 || usize::from(len) > MAX_FRAME_LEN {
+                    return Err(out_of_range(
+                        "length of received frame",
+                        len,
+                        format!("1 … {MAX_FRAME_LEN} bytes"),
+                    ));
+                }
+            }
+        }
+        match (self.flow_control, self.interface) {
+            (FlowControl::None, _) => {}
+            (_, Interface::Rs485) => {
+                return Err(ConfigError::NotAllowed {
+                    parameter: "flow control",
+                    value: format!("{:?}", self.flow_control),
+                    reason: "flow control is not possible on RS-485 (§6.9)",
+                })
+            }
+            (FlowControl::RtsCts | FlowControl::AutoV24, Interface::Rs422) => {
+                return Err(ConfigError::NotAllowed {
+                    parameter: "flow control",
+                    value: format!("{:?}", self.flow_control),
+                    reason: "RTS/CTS and automatic V.24 operation need RS-232C (§6.9)",
+                })
+            }
+            _ => {}
+        }
+        self.xon_xoff.validate(s)?;
+        self.rts_cts.validate()?;
+        self.auto_v24.validate()?;
+        if self.flow_control == FlowControl::XonXoff {
+            if let EndCriterion::EndChars { first, second } = self.end {
+                let flow = [self.xon_xoff.xon, self.xon_xoff.xoff];
+                if flow.contains(&first) || (second != 0 && flow.contains(&second)) {
+                    return Err(ConfigError::NotAllowed {
+                        parameter: "end-of-text character",
+                        value: format!("{first:02X}H/{second:02X}H"),
+                        reason: "it must differ from the XON and XOFF characters (§6.4)",
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The character delay time.
+    pub fn char_delay(&self) -> Duration {
+        Duration::from_millis(u64::from(self.char_delay_ms))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use si_core::Parity;
+
+    #[test]
+    fn defaults_are_table_2_10() {
+        let c = Config::default();
+        assert_eq!(c.settings.to_string(), "9600 8E1");
+        assert_eq!(c.end, EndCriterion::CharDelay);
+        assert_eq!(c.char_delay_ms, 4);
+        assert!(c.dynamic_frames && c.prevent_overwrite && c.clear_at_startup);
+        assert_eq!((c.xon_xoff.xon, c.xon_xoff.xoff), (0x11, 0x13));
+        assert_eq!(c.xon_xoff.wait_for_xon_ms, 2_000);
+        assert_eq!(c.rts_cts.wait_for_cts_ms, 2_000);
+        assert_eq!(
+            c.auto_v24,
+            AutoV24 {
+                time_rts_off_ms: 10,
+                data_wait_time_ms: 10
+            }
+        );
+        c.validate().unwrap();
+    }
+
+    #[test]
+    fn table_2_9_minimum_character_delay_per_baud() {
+        let want = [
+            (110, 364),
+            (300, 134),
+            (600, 68),
+            (1_200, 34),
+            (2_400, 18),
+            (4_800, 9),
+            (9_600, 4),
+            (19_200, 4),
+            (115_200, 4),
+        ];
+        for (baud, min) in want {
+            assert_eq!(min_char_delay_ms(baud), min, "{baud}");
+            let mut c = Config {
+                settings: SerialSettings::new(baud, 8, Parity::Even, 1).unwrap(),
+                char_delay_ms: min,
+                ..Config::default()
+            };
+            c.validate().unwrap();
+            c.char_delay_ms = min - 1;
+            let e = c.validate().unwrap_err();
+            assert_eq!(
+                e.to_string(),
+                format!(
+                    "character delay time {} ms out of range: {min} … 65535 ms at {baud} bit/s",
+                    min - 1
+                )
+            );
+        }
+    }
+
+    #[test]
+    fn errors_name_parameter_range_and_value() {
+        let c = Config {
+            end: EndCriterion::EndChars {
+                first: 0,
+                second: 0,
+            },
+            ..Config::default()
+        };
+        assert_eq!(
+            c.validate().unwrap_err().to_string(),
+            "end-of-text character 1 00H out of range: 01H … FFH with 8 data bits"
+        );
+        let c = Config {
+            settings: SerialSettings::new(9_600, 7, Parity::Even, 1).unwrap(),
+            end: EndCriterion::EndChars {
+                first: 0x03,
+                second: 0x80,
+            },
+            ..Config::default()
+        };
+        assert_eq!(
+            c.validate().unwrap_err().to_string(),
+            "end-of-text character 2 80H out of range: 00H … 7FH with 7 data bits"
+        );
+        let c = Config {
+            end: EndCriterion::FixedLength { len: 201 },
+            ..Config::default()
+        };
+        assert_eq!(
+            c.validate().unwrap_err().to_string(),
+            "length of received frame 201 out of range: 1 … 200 bytes"
+        );
+        let mut c = Config::default();
+        c.xon_xoff.wait_for_xon_ms = 15;
+        assert_eq!(
+            c.validate().unwrap_err().to_string(),
+            "wait time for XON 15 ms out of range: 20 … 655350 ms in 10 ms steps"
+        );
+        c.xon_xoff.wait_for_xon_ms = 2_005;
+        assert!(c.validate().is_err());
+        let mut c = Config::default();
+        c.auto_v24.time_rts_off_ms = 655_360;
+        assert_eq!(
+            c.validate().unwrap_err().status(),
+            status::PARAMETER_OUT_OF_RANGE
+        );
+    }
+
+    #[test]
+    fn flow_control_needs_the_right_interface() {
+        let c = Config {
+            interface: Interface::Rs485,
+            flow_control: FlowControl::XonXoff,
+            ..Config::default()
+        };
+        let e = c.validate().unwrap_err();
+        assert!(e.to_string().contains("not possible on RS-485"), "{e}");
+        assert_eq!(e.status(), status::FLOW_PARAMETERS_MISMATCH);
+        let c = Config {
+            interface: Interface::Rs422,
+            flow_control: FlowControl::RtsCts,
+            ..Config::default()
+        };
+        assert!(c.validate().is_err());
+        let c = Config {
+            interface: Interface::Rs422,
+            flow_control: FlowControl::XonXoff,
+            ..Config::default()
+        };
+        c.validate().unwrap();
+    }
+
+    #[test]
+    fn end_chars_must_not_be_flow_characters() {
+        let c = Config {
+            flow_control: FlowControl::XonXoff,
+            end: EndCriterion::EndChars {
+                first: 0x13,
+                second: 0,
+            },
+            ..Config::default()
+        };
+        assert!(c.validate().is_err());
+    }
+
+    #[test]
+    fn serde_fills_defaults() {
+        let c: Config = serde_json_like();
+        assert_eq!(c, Config::default());
+    }
+
+    /// Deserialize an empty map through serde's value-free path.
+    fn serde_json_like() -> Config {
+        use serde::de::value::{Error, MapDeserializer};
+        let empty: MapDeserializer<'_, std::iter::Empty<(&str, &str)>, Error> =
+            MapDeserializer::new(std::iter::empty());
+        Config::deserialize(empty).unwrap()
+    }
+}

@@ -1,0 +1,215 @@
+//! The pure part of receive framing: deciding, byte by byte, where a frame ends by the
+//! end-of-text or fixed-length criterion, and guarding the maximum length
+//! (et200s-si-3964r-ascii.md §6.3, cp341-3964r-rk512-ascii.md §5.3, public-facts.md §4).
+//!
+//! Time-based decisions (the character delay time as terminator or as monitoring time) belong to
+//! the [link](crate::link), which owns the clock; this module has no state beyond the frame in
+//! progress, so it is easy to test exhaustively.
+//!
+//! The ASCII driver has no frame *encoding*: the user data are the frame (§6.1). Surplus bytes
+//! after an end criterion start the next frame (cp341 §5.3: "merged with the next frame").
+
+use crate::config::{EndCriterion, MAX_FRAME_LEN};
+
+/// What one more byte means for the frame in progress.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Cut {
+    /// The frame goes on.
+    Continue,
+    /// This byte completes the frame (it belongs to it).
+    Complete,
+    /// This byte would make the frame longer than [`MAX_FRAME_LEN`].
+    TooLong,
+}
+
+/// Tracks the frame in progress against an end criterion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Cutter {
+    end: EndCriterion,
+    len: usize,
+    /// The last byte was end-of-text character 1 (for a two-character sequence).
+    after_first: bool,
+}
+
+impl Cutter {
+    /// A cutter for `end` with no frame in progress.
+    pub const fn new(end: EndCriterion) -> Self {
+        Cutter {
+            end,
+            len: 0,
+            after_first: false,
+        }
+    }
+
+    /// Bytes of the frame in progress.
+    pub const fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True when no frame is in progress.
+    pub const fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Start a new frame.
+    pub fn reset(&mut self) {
+        self.len = 0;
+        self.after_first = false;
+    }
+
+    /// Track the end-of-text sequence only (no length): true when `byte` ends it. Used while a
+    /// broken frame is being skipped, to find where the next one starts.
+    pub fn ends_text(&mut self, byte: u8) -> bool {
+        let EndCriterion::EndChars { first, second } = self.end else {
+            return false;
+        };
+        if second == 0 {
+            return byte == first;
+        }
+        let done = self.after_first && byte == second;
+        self.after_first = !done && byte == first;
+        done
+    }
+
+    /// Account for one more byte of the frame.
+    pub fn push(&mut self, byte: u8) -> Cut {
+        self.len += 1;
+        if self.len > MAX_FRAME_LEN {
+            return Cut::TooLong;
+        }
+        let complete = match self.end {
+            EndCriterion::CharDelay => false,
+            EndCriterion::EndChars { .. } => self.ends_text(byte),
+            EndCriterion::FixedLength { len } => self.len >= usize::from(len),
+        };
+        if complete {
+            Cut::Complete
+        } else {
+            Cut::Continue
+        }
+    }
+}
+
+/// Split `stream` into the frames the end-of-text or fixed-length criterion cuts when nothing
+/// else (no timing) intervenes; the unterminated rest comes last, if any. An allocation-free
+/// iterator over sub-slices, handy for tests and for offline tools.
+pub fn split(end: EndCriterion, stream: &[u8]) -> Split<'_> {
+    Split {
+        cutter: Cutter::new(end),
+        rest: stream,
+    }
+}
+
+/// Iterator of [`split`]: `(frame, complete)`.
+#[derive(Debug, Clone)]
+pub struct Split<'a> {
+    cutter: Cutter,
+    rest: &'a [u8],
+}
+
+impl<'a> Iterator for Split<'a> {
+    type Item = (&'a [u8], bool);
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.rest.is_empty() {
+            return None;
+        }
+        self.cutter.reset();
+        for (i, &b) in self.rest.iter().enumerate() {
+            match self.cutter.push(b) {
+                Cut::Continue => {}
+                Cut::Complete => {
+                    let (frame, rest) = self.rest.split_at(i + 1);
+                    self.rest = rest;
+                    return Some((frame, true));
+                }
+                Cut::TooLong => {
+                    let (frame, rest) = self.rest.split_at(i);
+                    self.rest = rest;
+                    return Some((frame, false));
+                }
+            }
+        }
+        let frame = core::mem::take(&mut self.rest);
+        Some((frame, false))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn frames(end: EndCriterion, s: &[u8]) -> Vec<(Vec<u8>, bool)> {
+        split(end, s).map(|(f, c)| (f.to_vec(), c)).collect()
+    }
+
+    #[test]
+    fn one_end_character_cuts_after_it() {
+        let end = EndCriterion::DEFAULT_END_CHARS;
+        assert_eq!(
+            frames(end, b"ab\x03cd\x03e"),
+            vec![
+                (b"ab\x03".to_vec(), true),
+                (b"cd\x03".to_vec(), true),
+                (b"e".to_vec(), false)
+            ]
+        );
+    }
+
+    #[test]
+    fn two_end_characters_are_a_sequence() {
+        let end = EndCriterion::EndChars {
+            first: 0x0D,
+            second: 0x0A,
+        };
+        // A lone CR or LF does not end the frame; CR LF does.
+        assert_eq!(
+            frames(end, b"a\rb\nc\r\nd"),
+            vec![(b"a\rb\nc\r\n".to_vec(), true), (b"d".to_vec(), false)]
+        );
+        // CR CR LF: the second CR restarts the sequence.
+        assert_eq!(frames(end, b"\r\r\n"), vec![(b"\r\r\n".to_vec(), true)]);
+    }
+
+    #[test]
+    fn fixed_length_surplus_starts_the_next_frame() {
+        let end = EndCriterion::FixedLength { len: 3 };
+        assert_eq!(
+            frames(end, b"abcdefg"),
+            vec![
+                (b"abc".to_vec(), true),
+                (b"def".to_vec(), true),
+                (b"g".to_vec(), false)
+            ]
+        );
+    }
+
+    #[test]
+    fn the_201st_byte_is_too_long() {
+        let mut c = Cutter::new(EndCriterion::CharDelay);
+        for _ in 0..MAX_FRAME_LEN {
+            assert_eq!(c.push(0), Cut::Continue);
+        }
+        assert_eq!(c.push(0), Cut::TooLong);
+    }
+
+    proptest! {
+        #[test]
+        fn fixed_length_split_reassembles(len in 1u16..=200, stream in proptest::collection::vec(any::<u8>(), 0..1500)) {
+            let end = EndCriterion::FixedLength { len };
+            let parts: Vec<_> = split(end, &stream).collect();
+            let joined: Vec<u8> = parts.iter().flat_map(|(f, _)| f.iter().copied()).collect();
+            prop_assert_eq!(&joined, &stream);
+            for (f, complete) in &parts {
+                if *complete { prop_assert_eq!(f.len(), usize::from(len)); }
+            }
+        }
+
+        #[test]
+        fn end_char_split_reassembles(first in 1u8.., second: u8, stream in proptest::collection::vec(any::<u8>(), 0..600)) {
+            let end = EndCriterion::EndChars { first, second };
+            let joined: Vec<u8> = split(end, &stream).flat_map(|(f, _)| f.iter().copied()).collect();
+            prop_assert_eq!(joined, stream);
+        }
+    }
+}

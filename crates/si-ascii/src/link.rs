@@ -1,0 +1,878 @@
+//! The ASCII driver as a Sans-IO engine (et200s-si-3964r-ascii.md §6): receive end criteria,
+//! the receive frame buffer, transmit with inter-frame pause, XON/XOFF and RTS/CTS flow control,
+//! automatic V.24 operation and RS-485 half duplex.
+//!
+//! ```
+//! use si_ascii::{Config, EndCriterion, Event, Link};
+//! use si_core::{Duration, Engine, Instant, Output};
+//!
+//! let config = Config { end: EndCriterion::DEFAULT_END_CHARS, ..Config::default() };
+//! let mut link = Link::new(config).unwrap();
+//! link.handle_rx(Instant::ZERO, b"ab\x03c");
+//! assert!(matches!(link.poll_output(), Output::Event(Event::Received { len: 3, .. })));
+//! assert_eq!(link.read_frame_vec().unwrap(), b"ab\x03");
+//! // "c" waits for its end character, monitored by the character delay time.
+//! assert!(matches!(link.poll_output(), Output::Wait(Some(_))));
+//! ```
+//!
+//! # Readings of the manual
+//!
+//! - **Character delay time** (§4.3): "the longest gap allowed between two characters". The host
+//!   sees a character when it is complete, so the next character must *complete* within
+//!   CDT + one character time of the previous one; a gap of exactly the CDT keeps the frame whole,
+//!   one microsecond more ends it.
+//! - **Inter-frame pause** (§6.2): in CDT mode a frame starts only after *more than* one CDT since
+//!   the end of our previous frame (the 2005 manual's "a gap longer than the CDT"), so a partner
+//!   with the same CDT always sees two frames.
+//! - **Errors inside a frame** (parity, framing, overrun, BREAK, too long, no buffer): the frame is
+//!   discarded, the error reported once, and the rest of that frame skipped until the line is quiet
+//!   for the CDT (or, with end characters, until the end characters), so its tail never becomes a
+//!   frame of its own.
+//! - **Frame longer than 200 bytes** in CDT or end-character mode (A-20, A-29): reported with
+//!   0850H (2005 manual, "received frame longer than the configured length") and discarded; 050EH
+//!   is class 05 "error executing a CPU job" and stays with the send side.
+//! - **Buffer full** (§6.6): with dynamic frames and overwrite allowed the oldest frames make room
+//!   (reported with 080AH, the manual's "diagnostic interrupt"); with overwrite prevented the
+//!   newest frame is lost with 080AH, or with 0812H when we had already sent XOFF / RTS = OFF (§6.9).
+//!   Without dynamic frames one frame is stored (A-34): prevent overwrite keeps it and loses the
+//!   new one (080AH); otherwise the new frame replaces it, the manual's "only the newest frame".
+//! - **XOFF threshold** (A-12, A-33): XOFF / RTS = OFF when 50 bytes or fewer are free, or, without
+//!   dynamic frames, when the one frame the buffer holds is stored (the "configured number of
+//!   frames" is reached); XON / RTS = ON once a read makes room again.
+//! - **Automatic V.24** (A-31): RTS = ON, then the data go out as soon as CTS = ON, and the send
+//!   fails with 0818H if CTS is still off when the data output wait time ends; RTS = OFF after the
+//!   RTS-off time from the last byte, and only then is the job done.
+//! - **Flow-control wait** (§6.9): the XON / CTS wait time runs from the moment sending is held
+//!   (XOFF or CTS = OFF while sending, or at the start of a send that finds it held).
+//! - Transmission goes out one character at a time whenever a flow control is configured, so XOFF
+//!   or CTS = OFF stops the sender after the character on the line, as the module does. Without
+//!   flow control the whole frame is handed out at once.
+
+use crate::buffer::FrameBuffer;
+use crate::config::{
+    AutoV24, Config, ConfigError, EndCriterion, FlowControl, Interface, RtsCts, XonXoff,
+    MAX_FRAME_LEN, XOFF_MARGIN,
+};
+use crate::frame::{Cut, Cutter};
+use crate::status;
+use bytes::Bytes;
+use serde::{Deserialize, Serialize};
+use si_core::{Duration, Engine, Instant, LineError, ModemSignals, Output, SignalUpdate, Status};
+use std::collections::VecDeque;
+
+/// Identifies one send job, so its completion can be matched.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct JobId(pub u32);
+
+/// What the link reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Event {
+    /// A frame of `len` bytes was cut and stored; read it with [`Link::read_frame`].
+    Received {
+        /// Frame length in bytes.
+        len: usize,
+        /// When the end criterion was met.
+        at: Instant,
+    },
+    /// Receiving failed (0806H, 080AH, 080CH, 080DH, 0810H, 0811H, 0812H, 0818H, 0850H).
+    ReceiveError {
+        /// What went wrong.
+        status: Status,
+        /// When.
+        at: Instant,
+    },
+    /// A send job is complete: the last byte has left (and, with automatic V.24, RTS is off).
+    Sent {
+        /// The job.
+        job: JobId,
+        /// When.
+        at: Instant,
+    },
+    /// A send job failed (0708H, 0818H).
+    SendFailed {
+        /// The job.
+        job: JobId,
+        /// Why.
+        status: Status,
+        /// When.
+        at: Instant,
+    },
+}
+
+/// Why [`Link::send`] refused a frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum SendError {
+    /// A send job is still running (S_SEND's BUSY).
+    #[error("a send job is still running")]
+    Busy,
+    /// Length outside 1 … 200 bytes.
+    #[error("frame length {0} out of range: 1 … 200 bytes")]
+    Length(usize),
+    /// With XON/XOFF, user data must not contain the XON or XOFF character (§6.2).
+    #[error("frame contains the flow-control character {0:02X}H, not allowed with XON/XOFF")]
+    FlowCharacter(u8),
+}
+
+impl SendError {
+    /// The STATUS S_SEND reports: 1E41H for a bad length, 0502H otherwise.
+    pub fn status(&self) -> Status {
+        match self {
+            SendError::Length(_) => status::INVALID_LEN,
+            _ => status::NOT_POSSIBLE_IN_MODE,
+        }
+    }
+}
+
+/// A signal or parameter job the configuration does not allow.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("job refused: {status}{}", detail.as_ref().map(|d| format!(" ({d})")).unwrap_or_default())]
+pub struct Refused {
+    /// The STATUS an FB reports.
+    pub status: Status,
+    /// The parameter error behind it, if any.
+    pub detail: Option<ConfigError>,
+}
+
+impl Refused {
+    fn new(status: Status) -> Self {
+        Refused {
+            status,
+            detail: None,
+        }
+    }
+}
+
+impl From<ConfigError> for Refused {
+    fn from(e: ConfigError) -> Self {
+        Refused {
+            status: e.status(),
+            detail: Some(e),
+        }
+    }
+}
+
+/// Receiver state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Rx {
+    /// Between frames.
+    Idle,
+    /// A frame is being received into the buffer.
+    Receiving,
+    /// The rest of a broken frame is being skipped.
+    Skipping,
+}
+
+/// Transmitter state.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Tx {
+    Idle,
+    /// Accepted; waiting for the inter-frame pause or (RS-485) a quiet receiver.
+    Waiting {
+        job: JobId,
+        frame: Bytes,
+        not_before: Instant,
+    },
+    /// Automatic V.24: RTS is on, waiting for CTS until `until`.
+    WaitCts {
+        job: JobId,
+        frame: Bytes,
+        until: Instant,
+    },
+    /// Handing out bytes; `hold_until` while XOFF / CTS = OFF holds us.
+    Sending {
+        job: JobId,
+        frame: Bytes,
+        pos: usize,
+        hold_until: Option<Instant>,
+    },
+    /// Automatic V.24: all sent, RTS goes off at `at`.
+    RtsOff {
+        job: JobId,
+        at: Instant,
+    },
+}
+
+const fn all_bytes() -> [u8; 256] {
+    let mut a = [0u8; 256];
+    let mut i = 0;
+    while i < 256 {
+        a[i] = i as u8;
+        i += 1;
+    }
+    a
+}
+
+/// One static byte per value, so a flow-control character is sent without allocating.
+static ALL_BYTES: [u8; 256] = all_bytes();
+
+fn single(byte: u8) -> Bytes {
+    let i = usize::from(byte);
+    Bytes::from_static(&ALL_BYTES[i..i + 1])
+}
+
+/// The ASCII driver engine.
+#[derive(Debug)]
+pub struct Link {
+    cfg: Config,
+    cdt: Duration,
+    char_time: Duration,
+    mask: u8,
+    buffer: FrameBuffer,
+    cutter: Cutter,
+    rx: Rx,
+    rx_deadline: Option<Instant>,
+    rx_error: Option<Status>,
+    /// We told the partner to stop (XOFF sent / RTS = OFF).
+    stop_sent: bool,
+    tx: Tx,
+    /// Bytes handed out whose tx-done has not come yet.
+    in_flight: bool,
+    last_tx_end: Option<Instant>,
+    /// The partner sent XOFF.
+    partner_stopped: bool,
+    next_job: u32,
+    send_result: Option<(JobId, Result<(), Status>)>,
+    inputs: ModemSignals,
+    rts: bool,
+    dtr: bool,
+    out: VecDeque<Output<Event>>,
+}
+
+impl Link {
+    /// A link with validated parameters, entering its flow-control mode as the module does at
+    /// startup (§6.8, §6.9): XON is sent, or RTS = ON, or (automatic V.24) DTR = ON, RTS = OFF.
+    pub fn new(config: Config) -> Result<Link, ConfigError> {
+        config.validate()?;
+        let mut link = Link {
+            cfg: config,
+            cdt: config.char_delay(),
+            char_time: config.settings.char_time(),
+            mask: config.settings.data_mask(),
+            buffer: FrameBuffer::new(),
+            cutter: Cutter::new(config.end),
+            rx: Rx::Idle,
+            rx_deadline: None,
+            rx_error: None,
+            stop_sent: false,
+            tx: Tx::Idle,
+            in_flight: false,
+            last_tx_end: None,
+            partner_stopped: false,
+            next_job: 0,
+            send_result: None,
+            inputs: ModemSignals::default(),
+            rts: false,
+            dtr: false,
+            out: VecDeque::with_capacity(16),
+        };
+        link.enter_mode();
+        Ok(link)
+    }
+
+    /// The parameters in force.
+    pub fn config(&self) -> &Config {
+        &self.cfg
+    }
+
+    /// CPU STOP → RUN (§10): clear the receive buffer if so configured, and announce the
+    /// flow-control mode again. A send job in progress is completed (§10, "CPU STOP").
+    pub fn restart(&mut self, now: Instant) {
+        if self.cfg.clear_at_startup {
+            self.buffer.clear();
+            self.cutter.reset();
+            self.rx = Rx::Idle;
+            self.rx_deadline = None;
+        }
+        self.stop_sent = false;
+        self.enter_mode();
+        self.pump(now);
+    }
+
+    fn enter_mode(&mut self) {
+        match self.cfg.flow_control {
+            FlowControl::None => {}
+            FlowControl::XonXoff => self.transmit_flow_char(self.cfg.xon_xoff.xon),
+            FlowControl::RtsCts => self.set_rts(true),
+            FlowControl::AutoV24 => {
+                self.dtr = true;
+                self.rts = false;
+                self.out.push_back(Output::SetSignals(SignalUpdate {
+                    dtr: Some(true),
+                    rts: Some(false),
+                }));
+            }
+        }
+    }
+
+    // ---------------------------------------------------------------- send side
+
+    /// Start a send job (S_SEND). The frame is the user data, 1 … 200 bytes, including any start
+    /// and end characters the partner needs (§6.1, §6.2). Completion comes as [`Event::Sent`] or
+    /// [`Event::SendFailed`].
+    pub fn send(&mut self, now: Instant, frame: Bytes) -> Result<JobId, SendError> {
+        if self.tx != Tx::Idle {
+            return Err(SendError::Busy);
+        }
+        if frame.is_empty() || frame.len() > MAX_FRAME_LEN {
+            return Err(SendError::Length(frame.len()));
+        }
+        if self.cfg.flow_control == FlowControl::XonXoff {
+            let XonXoff { xon, xoff, .. } = self.cfg.xon_xoff;
+            if let Some(&b) = frame.iter().find(|&&b| b == xon || b == xoff) {
+                return Err(SendError::FlowCharacter(b));
+            }
+        }
+        let job = JobId(self.next_job);
+        self.next_job = self.next_job.wrapping_add(1);
+        let not_before = match (self.cfg.end, self.last_tx_end) {
+            (EndCriterion::CharDelay, Some(end)) => end + self.cdt + Duration::from_micros(1),
+            _ => now,
+        };
+        self.tx = Tx::Waiting {
+            job,
+            frame,
+            not_before,
+        };
+        self.pump(now);
+        Ok(job)
+    }
+
+    /// True while a send job runs.
+    pub fn is_sending(&self) -> bool {
+        self.tx != Tx::Idle
+    }
+
+    /// The outcome of `job` once it has finished (kept until the next job finishes).
+    pub fn send_result(&self, job: JobId) -> Option<Result<(), Status>> {
+        self.send_result.filter(|(j, _)| *j == job).map(|(_, r)| r)
+    }
+
+    fn held(&self) -> bool {
+        match self.cfg.flow_control {
+            FlowControl::XonXoff => self.partner_stopped,
+            FlowControl::RtsCts => !self.inputs.cts,
+            _ => false,
+        }
+    }
+
+    fn hold_time(&self) -> Duration {
+        let ms = match self.cfg.flow_control {
+            FlowControl::XonXoff => self.cfg.xon_xoff.wait_for_xon_ms,
+            _ => self.cfg.rts_cts.wait_for_cts_ms,
+        };
+        Duration::from_millis(u64::from(ms))
+    }
+
+    fn rx_busy(&self) -> bool {
+        self.rx != Rx::Idle
+    }
+
+    /// Move the transmitter on as far as the state allows.
+    fn pump(&mut self, now: Instant) {
+        if let Tx::Waiting { not_before, .. } = self.tx {
+            let half_duplex_busy = self.cfg.interface == Interface::Rs485 && self.rx_busy();
+            if now >= not_before && !half_duplex_busy {
+                let Tx::Waiting { job, frame, .. } = std::mem::replace(&mut self.tx, Tx::Idle)
+                else {
+                    return;
+                };
+                self.start(now, job, frame);
+            }
+        }
+        if let Tx::Sending {
+            frame,
+            pos,
+            hold_until: None,
+            ..
+        } = &mut self.tx
+        {
+            if !self.in_flight && *pos < frame.len() {
+                let n = match self.cfg.flow_control {
+                    FlowControl::None => frame.len() - *pos,
+                    _ => 1,
+                };
+                let chunk = frame.slice(*pos..*pos + n);
+                *pos += n;
+                self.in_flight = true;
+                self.out.push_back(Output::Transmit(chunk));
+            }
+        }
+    }
+
+    fn start(&mut self, now: Instant, job: JobId, frame: Bytes) {
+        if self.cfg.flow_control == FlowControl::AutoV24 {
+            if !self.inputs.dsr {
+                // §6.8: while the partner is not ready a send job is aborted.
+                self.fail_send(now, job, status::DSR_CTS_OFF);
+                return;
+            }
+            self.set_rts(true);
+            if !self.inputs.cts {
+                let wait = Duration::from_millis(u64::from(self.cfg.auto_v24.data_wait_time_ms));
+                self.tx = Tx::WaitCts {
+                    job,
+                    frame,
+                    until: now + wait,
+                };
+                return;
+            }
+        }
+        let hold_until = self.held().then(|| now + self.hold_time());
+        self.tx = Tx::Sending {
+            job,
+            frame,
+            pos: 0,
+            hold_until,
+        };
+        self.pump(now);
+    }
+
+    fn fail_send(&mut self, now: Instant, job: JobId, status: Status) {
+        self.tx = Tx::Idle;
+        self.last_tx_end = Some(now);
+        if self.cfg.flow_control == FlowControl::AutoV24 && self.rts {
+            self.set_rts(false);
+        }
+        self.send_result = Some((job, Err(status)));
+        self.out.push_back(Output::Event(Event::SendFailed {
+            job,
+            status,
+            at: now,
+        }));
+    }
+
+    fn finish_send(&mut self, now: Instant, job: JobId) {
+        self.tx = Tx::Idle;
+        self.send_result = Some((job, Ok(())));
+        self.out
+            .push_back(Output::Event(Event::Sent { job, at: now }));
+    }
+
+    fn set_rts(&mut self, on: bool) {
+        self.rts = on;
+        self.out.push_back(Output::SetSignals(SignalUpdate {
+            dtr: None,
+            rts: Some(on),
+        }));
+    }
+
+    fn transmit_flow_char(&mut self, c: u8) {
+        self.in_flight = true;
+        self.out.push_back(Output::Transmit(single(c)));
+    }
+
+    /// XOFF received or CTS = OFF: hold sending and start the wait time.
+    fn hold(&mut self, now: Instant) {
+        let until = now + self.hold_time();
+        if let Tx::Sending { hold_until, .. } = &mut self.tx {
+            hold_until.get_or_insert(until);
+        }
+    }
+
+    /// XON received or CTS = ON: go on sending.
+    fn resume(&mut self, now: Instant) {
+        if let Tx::Sending { hold_until, .. } = &mut self.tx {
+            *hold_until = None;
+        }
+        self.pump(now);
+    }
+
+    // ------------------------------------------------------------- receive side
+
+    /// Copy the oldest received frame into `out` and remove it from the buffer (S_RCV); its
+    /// length. `None` if no frame is stored or `out` is shorter than the frame (then it stays;
+    /// 200 bytes always suffice).
+    pub fn read_frame(&mut self, out: &mut [u8]) -> Option<usize> {
+        let n = self.buffer.pop_into(out)?;
+        self.check_resume();
+        Some(n)
+    }
+
+    /// [`read_frame`](Self::read_frame) into a new vector.
+    pub fn read_frame_vec(&mut self) -> Option<Vec<u8>> {
+        let mut v = vec![0; self.buffer.oldest_len()?];
+        self.read_frame(&mut v)?;
+        Some(v)
+    }
+
+    /// Frames stored and waiting to be read.
+    pub fn frames_waiting(&self) -> usize {
+        self.buffer.frames()
+    }
+
+    /// The receive buffer (read-only), for diagnostics.
+    pub fn buffer(&self) -> &FrameBuffer {
+        &self.buffer
+    }
+
+    /// S_RCV's STATUS when there is no error: 0B01H while the buffer is more than 2/3 full,
+    /// else 0000H (§6.6, A-41).
+    pub fn receive_status(&self) -> Status {
+        if self.buffer.above_two_thirds() {
+            status::BUFFER_TWO_THIRDS_FULL
+        } else {
+            Status::OK
+        }
+    }
+
+    /// The latest receive error not yet taken (S_RCV reports it once).
+    pub fn take_receive_error(&mut self) -> Option<Status> {
+        self.rx_error.take()
+    }
+
+    fn rx_fail(&mut self, now: Instant, status: Status) {
+        self.rx_error = Some(status);
+        self.out
+            .push_back(Output::Event(Event::ReceiveError { status, at: now }));
+        self.check_resume();
+    }
+
+    /// The rest of the current frame is to be skipped; `byte` (the one that broke it) may
+    /// already end it.
+    fn skip_rest(&mut self, byte: Option<u8>) {
+        self.buffer.discard_pending();
+        self.cutter.reset();
+        if byte.is_some_and(|b| self.cutter.ends_text(b)) {
+            self.rx = Rx::Idle;
+            self.rx_deadline = None;
+        } else {
+            self.rx = Rx::Skipping;
+        }
+    }
+
+    fn check_stop(&mut self) {
+        let full = self.buffer.free() <= XOFF_MARGIN
+            || (!self.cfg.dynamic_frames && self.buffer.frames() >= 1);
+        if self.stop_sent || !full {
+            return;
+        }
+        match self.cfg.flow_control {
+            FlowControl::XonXoff => self.transmit_flow_char(self.cfg.xon_xoff.xoff),
+            FlowControl::RtsCts => self.set_rts(false),
+            _ => return,
+        }
+        self.stop_sent = true;
+    }
+
+    fn check_resume(&mut self) {
+        let room = self.buffer.free() > XOFF_MARGIN
+            && (self.cfg.dynamic_frames || self.buffer.frames() == 0);
+        if !self.stop_sent || !room {
+            return;
+        }
+        self.stop_sent = false;
+        match self.cfg.flow_control {
+            FlowControl::XonXoff => self.transmit_flow_char(self.cfg.xon_xoff.xon),
+            FlowControl::RtsCts => self.set_rts(true),
+            _ => {}
+        }
+    }
+
+    fn on_byte(&mut self, now: Instant, byte: u8) {
+        let byte = byte & self.mask;
+        if self.cfg.flow_control == FlowControl::XonXoff {
+            if byte == self.cfg.xon_xoff.xoff {
+                self.partner_stopped = true;
+                self.hold(now);
+                return;
+            }
+            if byte == self.cfg.xon_xoff.xon {
+                self.partner_stopped = false;
+                self.resume(now);
+                return;
+            }
+        }
+        if self.cfg.interface == Interface::Rs485 && self.in_flight {
+            return; // half duplex: our own echo
+        }
+        if self.cfg.flow_control == FlowControl::AutoV24 && !self.inputs.dsr {
+            return; // §6.8: nothing is received while DSR = OFF
+        }
+        self.rx_deadline = Some(now + self.cdt + self.char_time);
+        match self.rx {
+            Rx::Skipping => {
+                if self.cutter.ends_text(byte) {
+                    self.rx = Rx::Idle;
+                    self.rx_deadline = None;
+                    self.pump(now);
+                }
+                return;
+            }
+            Rx::Idle => {
+                self.cutter.reset();
+                self.rx = Rx::Receiving;
+            }
+            Rx::Receiving => {}
+        }
+        let cut = self.cutter.push(byte);
+        if cut == Cut::TooLong {
+            self.skip_rest(Some(byte));
+            self.rx_fail(now, status::FRAME_TOO_LONG);
+            return;
+        }
+        if !self.store(now, byte) {
+            return;
+        }
+        if cut == Cut::Complete {
+            self.rx_deadline = None;
+            self.complete_frame(now);
+        }
+    }
+
+    /// Put a received byte into the buffer, making room or losing the frame when full.
+    fn store(&mut self, now: Instant, byte: u8) -> bool {
+        if !self.buffer.push(byte) {
+            if self.cfg.dynamic_frames && !self.cfg.prevent_overwrite {
+                while self.buffer.free() == 0 && self.buffer.drop_oldest().is_some() {
+                    self.rx_fail(now, status::NO_FREE_RECEIVE_BUFFER);
+                }
+            }
+            if !self.buffer.push(byte) {
+                let code = if self.stop_sent {
+                    status::RECEIVED_AFTER_XOFF
+                } else {
+                    status::NO_FREE_RECEIVE_BUFFER
+                };
+                self.skip_rest(Some(byte));
+                self.rx_fail(now, code);
+                return false;
+            }
+        }
+        self.check_stop();
+        true
+    }
+
+    fn complete_frame(&mut self, now: Instant) {
+        self.rx = Rx::Idle;
+        if !self.cfg.dynamic_frames && self.buffer.frames() >= 1 {
+            if self.cfg.prevent_overwrite {
+                self.buffer.discard_pending();
+                self.rx_fail(now, status::NO_FREE_RECEIVE_BUFFER);
+                self.pump(now);
+                return;
+            }
+            self.buffer.drop_oldest();
+        }
+        let len = self.buffer.pending_len();
+        self.buffer.commit();
+        self.out
+            .push_back(Output::Event(Event::Received { len, at: now }));
+        self.check_stop();
+        self.pump(now);
+    }
+
+    // ------------------------------------------------------------------ signals
+
+    /// The V.24 signals: our outputs DTR and RTS, the partner's DSR, CTS and DCD as last
+    /// reported (S_VSTAT, §8.7; always possible).
+    pub fn signals(&self) -> ModemSignals {
+        ModemSignals {
+            dtr: self.dtr,
+            rts: self.rts,
+            ..self.inputs
+        }
+    }
+
+    /// Set DTR and/or RTS by job (S_VSET, §8.8). Refused with 0502H on RS-422/485, under
+    /// automatic V.24 operation, and for RTS under RTS/CTS flow control (§6.7).
+    pub fn set_signals(&mut self, update: SignalUpdate) -> Result<(), Refused> {
+        let refused = self.cfg.interface != Interface::Rs232
+            || self.cfg.flow_control == FlowControl::AutoV24
+            || (self.cfg.flow_control == FlowControl::RtsCts && update.rts.is_some());
+        if refused {
+            return Err(Refused::new(status::NOT_POSSIBLE_IN_MODE));
+        }
+        if let Some(dtr) = update.dtr {
+            self.dtr = dtr;
+        }
+        if let Some(rts) = update.rts {
+            self.rts = rts;
+        }
+        if update.dtr.is_some() || update.rts.is_some() {
+            self.out.push_back(Output::SetSignals(update));
+        }
+        Ok(())
+    }
+
+    /// New XON/XOFF parameters (S_XON, Table 2-26 block 20H); 0550H unless XON/XOFF is the
+    /// configured flow control, 1E20H when out of range.
+    pub fn set_xon_xoff(&mut self, params: XonXoff) -> Result<(), Refused> {
+        self.update(FlowControl::XonXoff, |c| c.xon_xoff = params)
+    }
+
+    /// New RTS/CTS parameters (S_RTS, block 21H).
+    pub fn set_rts_cts(&mut self, params: RtsCts) -> Result<(), Refused> {
+        self.update(FlowControl::RtsCts, |c| c.rts_cts = params)
+    }
+
+    /// New automatic V.24 parameters (S_V24, block 22H).
+    pub fn set_auto_v24(&mut self, params: AutoV24) -> Result<(), Refused> {
+        self.update(FlowControl::AutoV24, |c| c.auto_v24 = params)
+    }
+
+    fn update(&mut self, needs: FlowControl, f: impl FnOnce(&mut Config)) -> Result<(), Refused> {
+        if self.cfg.flow_control != needs {
+            return Err(Refused::new(status::FLOW_PARAMETERS_MISMATCH));
+        }
+        let mut cfg = self.cfg;
+        f(&mut cfg);
+        cfg.validate()?;
+        self.cfg = cfg;
+        Ok(())
+    }
+
+    fn tx_deadline(&self) -> Option<Instant> {
+        match &self.tx {
+            Tx::Idle => None,
+            Tx::Waiting { not_before, .. } => {
+                (!self.rx_busy() || self.cfg.interface != Interface::Rs485).then_some(*not_before)
+            }
+            Tx::WaitCts { until, .. } => Some(*until),
+            Tx::Sending { hold_until, .. } => *hold_until,
+            Tx::RtsOff { at, .. } => Some(*at),
+        }
+    }
+}
+
+impl Engine for Link {
+    type Event = Event;
+
+    fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+        for &b in bytes {
+            self.on_byte(now, b);
+        }
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        if self.rx_deadline.is_some_and(|d| now >= d) {
+            self.rx_deadline = None;
+            match self.rx {
+                Rx::Receiving if self.cfg.end == EndCriterion::CharDelay => {
+                    self.complete_frame(now)
+                }
+                Rx::Receiving => {
+                    // §6.3: the CDT ran out before the end criterion; fragment discarded.
+                    self.buffer.discard_pending();
+                    self.rx = Rx::Idle;
+                    self.rx_fail(now, status::CHAR_DELAY_EXCEEDED);
+                }
+                Rx::Skipping | Rx::Idle => self.rx = Rx::Idle,
+            }
+        }
+        match self.tx {
+            Tx::WaitCts { job, until, .. } if now >= until => {
+                self.fail_send(now, job, status::DSR_CTS_OFF)
+            }
+            Tx::Sending {
+                job,
+                hold_until: Some(until),
+                ..
+            } if now >= until => self.fail_send(now, job, status::XON_CTS_TIMEOUT),
+            Tx::RtsOff { job, at } if now >= at => {
+                self.set_rts(false);
+                self.finish_send(now, job);
+            }
+            _ => {}
+        }
+        self.pump(now);
+    }
+
+    fn handle_tx_done(&mut self, now: Instant) {
+        if !self.in_flight {
+            return;
+        }
+        self.in_flight = false;
+        if let Tx::Sending {
+            job, frame, pos, ..
+        } = &self.tx
+        {
+            if *pos >= frame.len() {
+                let job = *job;
+                self.last_tx_end = Some(now);
+                if self.cfg.flow_control == FlowControl::AutoV24 {
+                    let off = Duration::from_millis(u64::from(self.cfg.auto_v24.time_rts_off_ms));
+                    self.tx = Tx::RtsOff { job, at: now + off };
+                    if off == Duration::ZERO {
+                        self.handle_timeout(now);
+                    }
+                } else {
+                    self.finish_send(now, job);
+                }
+            }
+        }
+        self.pump(now);
+    }
+
+    fn handle_line_error(&mut self, now: Instant, error: LineError) {
+        if self.cfg.interface == Interface::Rs485 && self.in_flight {
+            return; // our own transmission
+        }
+        let code = match error {
+            LineError::Parity => status::PARITY_ERROR,
+            LineError::Framing => status::FRAMING_ERROR,
+            LineError::Overrun => status::TRANSMISSION_ERROR,
+            LineError::Break => status::BREAK,
+        };
+        self.skip_rest(None);
+        self.rx_deadline = Some(now + self.cdt + self.char_time);
+        self.rx_fail(now, code);
+    }
+
+    fn handle_signals(&mut self, now: Instant, signals: ModemSignals) {
+        let before = self.inputs;
+        self.inputs = ModemSignals {
+            dtr: self.dtr,
+            rts: self.rts,
+            ..signals
+        };
+        match self.cfg.flow_control {
+            FlowControl::RtsCts => {
+                if signals.cts {
+                    self.resume(now);
+                } else {
+                    self.hold(now);
+                }
+            }
+            FlowControl::AutoV24 => {
+                if before.dsr && !signals.dsr {
+                    // §6.8: DSR ON → OFF aborts a send and a reception.
+                    if let Tx::WaitCts { job, .. } | Tx::Sending { job, .. } = self.tx {
+                        self.fail_send(now, job, status::DSR_CTS_OFF);
+                    }
+                    if self.rx == Rx::Receiving {
+                        self.skip_rest(None);
+                        self.rx = Rx::Idle;
+                        self.rx_deadline = None;
+                        self.rx_fail(now, status::DSR_CTS_OFF);
+                    }
+                }
+                match self.tx {
+                    Tx::WaitCts { job, .. } if signals.cts => {
+                        let Tx::WaitCts { frame, .. } = std::mem::replace(&mut self.tx, Tx::Idle)
+                        else {
+                            return;
+                        };
+                        self.tx = Tx::Sending {
+                            job,
+                            frame,
+                            pos: 0,
+                            hold_until: None,
+                        };
+                        self.pump(now);
+                    }
+                    Tx::Sending { job, .. } if !signals.cts => {
+                        self.fail_send(now, job, status::DSR_CTS_OFF)
+                    }
+                    _ => {}
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn poll_output(&mut self) -> Output<Event> {
+        self.out.pop_front().unwrap_or_else(|| {
+            Output::Wait(Instant::earliest(self.rx_deadline, self.tx_deadline()))
+        })
+    }
+}
