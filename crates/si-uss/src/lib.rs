@@ -1,5 +1,50 @@
-//! # si-uss (not yet implemented)
+//! # si-uss
 //!
-//! Will hold the USS master (et200s-si-modbus-uss.md §6, public-facts.md §3): the telegram codec
-//! (STX LGE ADR net data BCC), the cyclic polling list with its timing, the PKW/PZD handshakes and
-//! the FB equivalents S_USST, S_USSR and S_USSI. Nothing here works yet.
+//! The USS master of the ET 200S SI Modbus/USS module, for hosts (et200s-si-modbus-uss.md §6,
+//! et200s-si-2005-window-protocol.md §5.11–§5.12 and §8, public-facts.md §3):
+//!
+//! - [`frame`]: the telegram `STX LGE ADR net-data BCC`, PKW and PZD areas, task and response IDs;
+//! - [`config`]: polling list, timing and ranges;
+//! - [`master`]: the Sans-IO master engine with its polling cycle, PKW handshake, broadcast and
+//!   mirror telegrams and diagnostic counters;
+//! - [`drive`]: a simulated USS slave (a drive with parameters, a status word that follows the
+//!   control word and an actual value that ramps to the setpoint) for tests, examples and `si sim`;
+//! - [`status`]: the STATUS codes every job ends with;
+//! - [`fb`]: the net-data DB and the FC equivalents S_USST, S_USSR and S_USSI;
+//! - `tokio` (feature `tokio`): an async handle over the si-core driver.
+//!
+//! ```
+//! use si_core::sim::Simulator;
+//! use si_core::Instant;
+//! use si_uss::config::{MasterConfig, PollEntry};
+//! use si_uss::drive::{Drive, DriveConfig};
+//! use si_uss::frame::PkwWords;
+//! use si_uss::master::{Event, Master};
+//!
+//! let settings = si_uss::config::uss_settings(9600).unwrap();
+//! let mut config = MasterConfig::new(vec![PollEntry::new(1, PkwWords::Four, 2)]);
+//! config.settings = settings;
+//! let mut sim = Simulator::new(1);
+//! let m = sim.add_station("master", settings, Master::new(config).unwrap());
+//! let d = sim.add_station("drive1", settings, Drive::new(DriveConfig::new(settings, 1)).unwrap());
+//! sim.connect(m, d);
+//! sim.with(m, |m, now| m.start(now));
+//! sim.run_until(Instant::from_micros(200_000));
+//! let events = sim.take_events(m);
+//! assert!(events.iter().any(|e| matches!(e, Event::Response { address: 1, .. })));
+//! ```
+#![cfg_attr(docsrs, feature(doc_cfg))]
+
+pub mod config;
+pub mod drive;
+pub mod fb;
+pub mod frame;
+pub mod master;
+mod rx;
+pub mod status;
+#[cfg(feature = "tokio")]
+pub mod tokio;
+
+pub use config::{MasterConfig, PollEntry};
+pub use frame::{Adr, NetData, ParamAddress, Pke, Pkw, PkwWords, Pzd};
+pub use master::{Event, JobId, Master, ParamRequest};

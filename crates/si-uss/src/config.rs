@@ -1,0 +1,247 @@
+//! Master and drive parameters with the manuals' ranges and defaults.
+//!
+//! - Polling list: 1…31 entries (SANZ, et200s-si-modbus-uss.md §6.6), each a node number 0…31
+//!   (TNU), PKW 0/3/4 words and PZD 0…16 words (§6.8); a slave may appear several times to raise its
+//!   priority, with the same structure each time.
+//! - WDH, permitted PKW repetitions 0…32 767 (§6.6, §6.8).
+//! - Baud rates: the module offers 110…38 400 (§9) or 110…115 200 (et200s-si-2005-window-protocol.md
+//!   §8.5, Table 3-78); a host also meets drives at 187 500 bit/s (public-facts.md §3 start-interval
+//!   table), so [`USS_BAUD_RATES`] is the twelve manual rates plus 187 500.
+//! - Timing (public-facts.md §3): start interval 2 character times, response delay ≤ 20 ms,
+//!   residual run time 1.5 × (n + 3) character times.
+
+use crate::frame::{PkwWords, MAX_ADDRESS, MAX_NET, MAX_PZD_WORDS};
+use serde::{Deserialize, Serialize};
+use si_core::{Duration, Parity, SerialSettings, SettingsError};
+
+/// Baud rates a USS line may use: the ET 200S table plus 187 500 bit/s.
+pub const USS_BAUD_RATES: [u32; 13] = [
+    110, 300, 600, 1_200, 2_400, 4_800, 9_600, 19_200, 38_400, 57_600, 76_800, 115_200, 187_500,
+];
+
+/// USS character format: 8 data bits, even parity, 1 stop bit (public-facts.md §3, 11 bits a
+/// character) at `baud`, which must be one of [`USS_BAUD_RATES`].
+pub fn uss_settings(baud: u32) -> Result<SerialSettings, SettingsError> {
+    SerialSettings::with_rates(baud, 8, Parity::Even, 1, &USS_BAUD_RATES)
+}
+
+/// Most entries in the polling list (SANZ 1…31).
+pub const MAX_ENTRIES: usize = 31;
+/// Longest response delay the USS spec allows a slave (public-facts.md §3).
+pub const RESPONSE_DELAY_MAX: Duration = Duration::from_millis(20);
+
+/// One entry of the polling list: whom to poll and with which net-data structure.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PollEntry {
+    /// Node number TNU, 0…31.
+    pub address: u8,
+    /// PKW words: 0, 3, 4 or variable.
+    pub pkw: PkwWords,
+    /// PZD words, 0…16.
+    pub pzd_words: u8,
+}
+
+impl PollEntry {
+    /// An entry; checked by [`MasterConfig::validate`].
+    pub const fn new(address: u8, pkw: PkwWords, pzd_words: u8) -> Self {
+        PollEntry {
+            address,
+            pkw,
+            pzd_words,
+        }
+    }
+
+    /// Net bytes of a request with a fixed PKW area (variable areas count PKE + IND + one word).
+    pub fn net_len(&self) -> usize {
+        2 * (self.pkw.fixed().unwrap_or(3) + usize::from(self.pzd_words))
+    }
+}
+
+/// A parameter outside its range, naming the parameter, the range and the value.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ConfigError {
+    /// A value outside the manual's range.
+    #[error("{name} = {value} is out of range: {range}")]
+    OutOfRange {
+        /// The parameter's name as the manual spells it.
+        name: &'static str,
+        /// The rejected value.
+        value: String,
+        /// The allowed range.
+        range: &'static str,
+    },
+    /// The same node listed twice with different structures.
+    #[error("node {address} is listed with two different PKW/PZD structures")]
+    ConflictingStructure {
+        /// The node.
+        address: u8,
+    },
+}
+
+fn check(
+    ok: bool,
+    name: &'static str,
+    value: impl ToString,
+    range: &'static str,
+) -> Result<(), ConfigError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(ConfigError::OutOfRange {
+            name,
+            value: value.to_string(),
+            range,
+        })
+    }
+}
+
+/// How the USS master runs.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MasterConfig {
+    /// Character format and speed (USS: 8E1, see [`uss_settings`]).
+    pub settings: SerialSettings,
+    /// The polling list, in cycle order.
+    pub polling_list: Vec<PollEntry>,
+    /// How long to wait for the response's STX after the request's last character: the USS spec's
+    /// 20 ms (public-facts.md §3, "node x does not transmit after 20 ms"). Longer values (up to
+    /// 10 s) are for converters and device servers that add latency.
+    pub response_timeout: Duration,
+    /// WDH: how many times a PKW request is repeated without a matching response before the job
+    /// fails with a PKW interface error (0…32 767, et200s-si-modbus-uss.md §6.6).
+    pub pkw_retries: u16,
+    /// Extra pause after each complete cycle (0 = poll back to back).
+    pub cycle_pause: Duration,
+    /// The transceiver hears our own transmission (an RS-485 bus, the simulator's bus): discard
+    /// as many received characters as we sent before looking for the response.
+    pub local_echo: bool,
+}
+
+impl MasterConfig {
+    /// A master polling `polling_list` at 9600 8E1 with the USS defaults (20 ms response timeout,
+    /// 20 PKW repetitions, no pause, no echo).
+    pub fn new(polling_list: Vec<PollEntry>) -> Self {
+        MasterConfig {
+            settings: SerialSettings::default(),
+            polling_list,
+            response_timeout: RESPONSE_DELAY_MAX,
+            pkw_retries: 20,
+            cycle_pause: Duration::ZERO,
+            local_echo: false,
+        }
+    }
+
+    /// Check every parameter against its range.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let n = self.polling_list.len();
+        check(
+            (1..=MAX_ENTRIES).contains(&n),
+            "SANZ (polling list entries)",
+            n,
+            "1…31",
+        )?;
+        for (i, e) in self.polling_list.iter().enumerate() {
+            check(
+                e.address <= MAX_ADDRESS,
+                "TNU (node number)",
+                e.address,
+                "0…31",
+            )?;
+            check(
+                usize::from(e.pzd_words) <= MAX_PZD_WORDS,
+                "PZD words",
+                e.pzd_words,
+                "0…16",
+            )?;
+            check(
+                e.net_len() <= MAX_NET,
+                "net data bytes",
+                e.net_len(),
+                "0…252",
+            )?;
+            if self.polling_list[..i]
+                .iter()
+                .any(|o| o.address == e.address && (o.pkw, o.pzd_words) != (e.pkw, e.pzd_words))
+            {
+                return Err(ConfigError::ConflictingStructure { address: e.address });
+            }
+        }
+        let t = self.response_timeout;
+        check(
+            t >= Duration::from_millis(1) && t <= Duration::from_secs(10),
+            "response timeout",
+            t,
+            "1 ms … 10 s",
+        )?;
+        check(
+            self.pkw_retries <= 32_767,
+            "WDH (PKW repetitions)",
+            self.pkw_retries,
+            "0…32767",
+        )?;
+        check(
+            self.cycle_pause <= Duration::from_secs(60),
+            "cycle pause",
+            self.cycle_pause,
+            "0 … 60 s",
+        )?;
+        Ok(())
+    }
+
+    /// Start interval: 2 character times of silence before every STX (public-facts.md §3).
+    pub fn start_interval(&self) -> Duration {
+        start_interval(&self.settings)
+    }
+}
+
+/// Start interval of a line: 2 character times (public-facts.md §3, USS spec §5.1.2).
+pub fn start_interval(settings: &SerialSettings) -> Duration {
+    settings.chars_time(2)
+}
+
+/// Residual run time for `n` net bytes: 1.5 × (n + 3) character times, counted from the end of STX
+/// (public-facts.md §3, USS spec §5.2.1.2), rounded up to a microsecond.
+pub fn residual_run_time(settings: &SerialSettings, n: usize) -> Duration {
+    let three_halves = settings.chars_time(3 * (n as u64 + 3)).as_micros();
+    Duration::from_micros(three_halves.div_ceil(2))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn timing_matches_the_uss_spec_table() {
+        // public-facts.md §3: start interval 9600: 2.30 ms; 19200: 1.15 ms; 38400: 0.58 ms; 187500: 0.12 ms.
+        let ms = |baud| start_interval(&uss_settings(baud).unwrap()).as_micros();
+        assert_eq!(ms(9_600), 2_292);
+        assert_eq!(ms(19_200), 1_146);
+        assert_eq!(ms(38_400), 573);
+        assert_eq!(ms(187_500), 118);
+        // 16-byte telegram at 9600: 1.5 × 15 × 1.1458 ms = 25.78 ms.
+        let r = residual_run_time(&uss_settings(9_600).unwrap(), 12);
+        assert_eq!(r.as_micros(), 25_782);
+    }
+
+    #[test]
+    fn out_of_range_names_parameter_range_and_value() {
+        let mut c = MasterConfig::new(vec![PollEntry::new(32, PkwWords::Four, 2)]);
+        assert_eq!(
+            c.validate().unwrap_err().to_string(),
+            "TNU (node number) = 32 is out of range: 0…31"
+        );
+        c.polling_list = vec![];
+        assert!(c.validate().unwrap_err().to_string().starts_with("SANZ"));
+        c.polling_list = vec![PollEntry::new(1, PkwWords::Four, 17)];
+        assert!(c.validate().unwrap_err().to_string().contains("0…16"));
+        c.polling_list = vec![
+            PollEntry::new(1, PkwWords::Four, 2),
+            PollEntry::new(1, PkwWords::Three, 2),
+        ];
+        assert_eq!(
+            c.validate().unwrap_err(),
+            ConfigError::ConflictingStructure { address: 1 }
+        );
+        assert!(uss_settings(187_500).is_ok());
+        assert!(uss_settings(187_000).is_err());
+    }
+}

@@ -1,0 +1,636 @@
+//! A simulated USS slave: a drive with parameters and process data, for tests, examples and
+//! `si sim` / `si uss sim-slave`.
+//!
+//! What it does (public-facts.md §3 unless noted):
+//! - receives telegrams with the start-interval and residual-run-time rules, discards any with a
+//!   character error, wrong LGE or wrong BCC and does **not** answer them (USS spec §5.2.2);
+//! - answers a normal telegram to its address after its response delay (≥ start interval,
+//!   ≤ 20 ms), with its PKW response and PZD (ZSW, HIW, then zeros);
+//! - takes a broadcast's PZD (control word, setpoint) without answering; sends a mirror telegram
+//!   back unchanged; ignores special telegrams (bit 7) and undefined ADR combinations;
+//! - PKW: executes a request once and answers the same response while the master repeats it
+//!   (the handshake); read/write word and double word, arrays; AK 7 with error numbers 0 (no such
+//!   parameter), 1 (read-only), 2 (limit), 3 (sub-index), 4 (no array), 5 (type), 101 (task not
+//!   supported by this simulation);
+//! - the status word follows the control word and the actual value ramps to the setpoint
+//!   ([`zsw`] bits).
+
+use crate::config::{start_interval, ConfigError, RESPONSE_DELAY_MAX};
+use crate::frame::{
+    self, response, task, Adr, NetData, ParamAddress, Pke, Pkw, PkwWords, Pzd, MAX_ADDRESS,
+    MAX_TELEGRAM,
+};
+use crate::rx::{Receiver, RxOutcome};
+use bytes::Bytes;
+use serde::{Deserialize, Serialize};
+use si_core::{Duration, Engine, Instant, LineError, Output, SerialSettings};
+use std::collections::VecDeque;
+
+/// Control word STW bits the drive reacts to (PROFIdrive/MICROMASTER meaning).
+pub mod stw {
+    /// Bit 0: ON / OFF1.
+    pub const ON: u16 = 1 << 0;
+    /// Bit 1: no OFF2 (coast stop).
+    pub const NO_OFF2: u16 = 1 << 1;
+    /// Bit 2: no OFF3 (quick stop).
+    pub const NO_OFF3: u16 = 1 << 2;
+    /// Bit 3: enable operation.
+    pub const ENABLE: u16 = 1 << 3;
+    /// Bit 7: acknowledge fault (rising edge).
+    pub const ACK_FAULT: u16 = 1 << 7;
+    /// Bit 10: control by PLC.
+    pub const PLC_CONTROL: u16 = 1 << 10;
+    /// The usual "run" word: ON, no OFF2, no OFF3, enable, ramp generator bits 4–6, PLC control.
+    pub const RUN: u16 = 0x047F;
+    /// The usual "ready, stopped" word: as RUN without ON.
+    pub const STOP: u16 = 0x047E;
+}
+
+/// Status word ZSW bits the drive sets.
+pub mod zsw {
+    /// Bit 0: ready to switch on.
+    pub const READY_TO_SWITCH_ON: u16 = 1 << 0;
+    /// Bit 1: ready to operate (STW ON).
+    pub const READY: u16 = 1 << 1;
+    /// Bit 2: operation enabled (STW ON and ENABLE, no OFF2/OFF3).
+    pub const RUNNING: u16 = 1 << 2;
+    /// Bit 3: fault (the master sets comm status bit 6 from it).
+    pub const FAULT: u16 = 1 << 3;
+    /// Bit 4: no OFF2 active.
+    pub const NO_OFF2: u16 = 1 << 4;
+    /// Bit 5: no OFF3 active.
+    pub const NO_OFF3: u16 = 1 << 5;
+    /// Bit 7: warning (the master sets comm status bit 7 from it).
+    pub const WARNING: u16 = 1 << 7;
+    /// Bit 8: actual value equals the setpoint.
+    pub const AT_SETPOINT: u16 = 1 << 8;
+    /// Bit 9: control by PLC requested (with STW bit 10 the master sets comm status bit 8).
+    pub const PLC_REQUESTED: u16 = 1 << 9;
+    /// Bit 10: running and the setpoint reached.
+    pub const SETPOINT_REACHED: u16 = 1 << 10;
+}
+
+/// One parameter of the simulated drive.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Parameter {
+    /// Full parameter number (0…15 999).
+    pub number: u16,
+    /// Values by sub-index; one for a simple parameter.
+    pub values: Vec<u32>,
+    /// A double-word parameter (answered with response IDs 2/5).
+    pub dword: bool,
+    /// Writes are refused with error 1.
+    pub read_only: bool,
+    /// Smallest value a write may set.
+    pub min: u32,
+    /// Largest value a write may set.
+    pub max: u32,
+}
+
+impl Parameter {
+    /// A writable word parameter 0…65 535.
+    pub fn word(number: u16, value: u16) -> Self {
+        Parameter {
+            number,
+            values: vec![u32::from(value)],
+            dword: false,
+            read_only: false,
+            min: 0,
+            max: u32::from(u16::MAX),
+        }
+    }
+    /// A writable double-word parameter.
+    pub fn dword(number: u16, value: u32) -> Self {
+        Parameter {
+            dword: true,
+            max: u32::MAX,
+            values: vec![value],
+            ..Parameter::word(number, 0)
+        }
+    }
+    /// The same, read-only.
+    pub fn read_only(mut self) -> Self {
+        self.read_only = true;
+        self
+    }
+    /// The same, with write limits.
+    pub fn limits(mut self, min: u32, max: u32) -> Self {
+        self.min = min;
+        self.max = max;
+        self
+    }
+    /// The same, as an array of `values`.
+    pub fn array(mut self, values: &[u32]) -> Self {
+        self.values = values.to_vec();
+        self
+    }
+}
+
+/// How the simulated drive behaves.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DriveConfig {
+    /// Character format.
+    pub settings: SerialSettings,
+    /// Bus address 0…31.
+    pub address: u8,
+    /// PKW words (P2013).
+    pub pkw: PkwWords,
+    /// PZD words 0…16 (P2012).
+    pub pzd_words: u8,
+    /// Delay from the request's last character to the response (≥ start interval, ≤ 20 ms).
+    pub response_delay: Duration,
+    /// How fast the actual value follows the setpoint, in units per second.
+    pub ramp_per_second: u32,
+    /// The transceiver hears its own transmission (RS-485 bus): skip that many characters.
+    pub local_echo: bool,
+    /// Parameters.
+    pub parameters: Vec<Parameter>,
+}
+
+impl DriveConfig {
+    /// A drive at `address` with PKW 4 / PZD 2, answering after the start interval, ramping
+    /// 10 000 units a second, with a few parameters: P700 (command source, word, 0…6),
+    /// P1082 (max frequency, word, limit 0…650), P2010 (USS baud index, array of 2), P964
+    /// (firmware version, read-only) and P2000 (reference frequency, double word).
+    pub fn new(settings: SerialSettings, address: u8) -> Self {
+        DriveConfig {
+            settings,
+            address,
+            pkw: PkwWords::Four,
+            pzd_words: 2,
+            response_delay: start_interval(&settings),
+            ramp_per_second: 10_000,
+            local_echo: false,
+            parameters: vec![
+                Parameter::word(700, 5).limits(0, 6),
+                Parameter::word(1082, 50).limits(0, 650),
+                Parameter::word(2010, 6).array(&[6, 6]),
+                Parameter::word(964, 0x0102).read_only(),
+                Parameter::dword(2000, 50_000),
+            ],
+        }
+    }
+}
+
+/// What the drive reports.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum DriveEvent {
+    /// A telegram for this drive was taken (and answered unless broadcast).
+    Polled {
+        /// Control word received.
+        stw: u16,
+        /// Main setpoint received.
+        setpoint: u16,
+        /// Status word answered.
+        zsw: u16,
+        /// Actual value answered.
+        actual: u16,
+    },
+    /// A parameter was changed by a PKW write.
+    Written {
+        /// Which.
+        param: ParamAddress,
+        /// The new value.
+        value: u32,
+    },
+    /// A broadcast was taken.
+    Broadcast,
+    /// A mirror telegram was sent back.
+    Mirrored,
+    /// A telegram was discarded without an answer.
+    Discarded {
+        /// Why.
+        reason: &'static str,
+    },
+}
+
+/// The simulated drive engine.
+pub struct Drive {
+    config: DriveConfig,
+    rx: Receiver,
+    out: VecDeque<Output<DriveEvent>>,
+    tx: [u8; MAX_TELEGRAM],
+    tx_len: usize,
+    reply_at: Option<Instant>,
+    echo_left: usize,
+    stw: u16,
+    setpoint: u16,
+    actual: u16,
+    ramp_remainder: u64,
+    last_update: Option<Instant>,
+    last_request: Option<Pkw>,
+    last_response: Option<Pkw>,
+    fault: bool,
+    warning: bool,
+}
+
+impl Drive {
+    /// A drive; the address must be 0…31, PZD 0…16 words, the response delay at most 20 ms.
+    pub fn new(config: DriveConfig) -> Result<Self, ConfigError> {
+        let range = |ok: bool, name, value: String, range| {
+            if ok {
+                Ok(())
+            } else {
+                Err(ConfigError::OutOfRange { name, value, range })
+            }
+        };
+        range(
+            config.address <= MAX_ADDRESS,
+            "address",
+            config.address.to_string(),
+            "0…31",
+        )?;
+        range(
+            config.pzd_words <= 16,
+            "PZD words",
+            config.pzd_words.to_string(),
+            "0…16",
+        )?;
+        range(
+            config.response_delay <= RESPONSE_DELAY_MAX,
+            "response delay",
+            config.response_delay.to_string(),
+            "start interval … 20 ms",
+        )?;
+        Ok(Drive {
+            rx: Receiver::new(config.settings),
+            out: VecDeque::with_capacity(8),
+            tx: [0; MAX_TELEGRAM],
+            tx_len: 0,
+            reply_at: None,
+            echo_left: 0,
+            stw: 0,
+            setpoint: 0,
+            actual: 0,
+            ramp_remainder: 0,
+            last_update: None,
+            last_request: None,
+            last_response: None,
+            fault: false,
+            warning: false,
+            config,
+        })
+    }
+
+    /// The configuration (parameters as last written).
+    pub fn config(&self) -> &DriveConfig {
+        &self.config
+    }
+
+    /// The value of parameter `number`, sub-index `index`.
+    pub fn parameter(&self, number: u16, index: u8) -> Option<u32> {
+        self.config
+            .parameters
+            .iter()
+            .find(|p| p.number == number)
+            .and_then(|p| p.values.get(usize::from(index)).copied())
+    }
+
+    /// Raise or clear the fault bit (ZSW bit 3); an STW bit 7 edge also clears it.
+    pub fn set_fault(&mut self, fault: bool) {
+        self.fault = fault;
+    }
+
+    /// Raise or clear the warning bit (ZSW bit 7).
+    pub fn set_warning(&mut self, warning: bool) {
+        self.warning = warning;
+    }
+
+    /// The actual value now.
+    pub fn actual(&self) -> u16 {
+        self.actual
+    }
+
+    /// The status word from the last control word and the actual value.
+    pub fn status_word(&self) -> u16 {
+        let s = self.stw;
+        let mut z = zsw::PLC_REQUESTED;
+        if !self.fault {
+            z |= zsw::READY_TO_SWITCH_ON;
+        } else {
+            z |= zsw::FAULT;
+        }
+        let on = s & stw::ON != 0 && !self.fault;
+        if on {
+            z |= zsw::READY;
+        }
+        if s & stw::NO_OFF2 != 0 {
+            z |= zsw::NO_OFF2;
+        }
+        if s & stw::NO_OFF3 != 0 {
+            z |= zsw::NO_OFF3;
+        }
+        let running = self.running();
+        if running {
+            z |= zsw::RUNNING;
+        }
+        if self.warning {
+            z |= zsw::WARNING;
+        }
+        if self.actual == self.target() {
+            z |= zsw::AT_SETPOINT;
+            if running {
+                z |= zsw::SETPOINT_REACHED;
+            }
+        }
+        z
+    }
+
+    fn running(&self) -> bool {
+        let need = stw::ON | stw::NO_OFF2 | stw::NO_OFF3 | stw::ENABLE;
+        self.stw & need == need && !self.fault
+    }
+
+    fn target(&self) -> u16 {
+        if self.running() {
+            self.setpoint
+        } else {
+            0
+        }
+    }
+
+    /// Move the actual value towards the target for the time since the last update.
+    fn ramp(&mut self, now: Instant) {
+        let elapsed = self
+            .last_update
+            .map_or(0, |t| now.saturating_since(t).as_micros());
+        self.last_update = Some(now);
+        let units = u64::from(self.config.ramp_per_second)
+            .saturating_mul(elapsed)
+            .saturating_add(self.ramp_remainder);
+        let step = units / 1_000_000;
+        self.ramp_remainder = units % 1_000_000;
+        let target = self.target();
+        let step = step.min(u64::from(u16::MAX)) as u16;
+        self.actual = if self.actual < target {
+            self.actual.saturating_add(step).min(target)
+        } else {
+            self.actual.saturating_sub(step).max(target)
+        };
+        if self.actual == target {
+            self.ramp_remainder = 0;
+        }
+    }
+
+    fn take_control(&mut self, now: Instant, pzd: &Pzd) {
+        self.ramp(now);
+        if let Some(w) = pzd.first() {
+            if w & stw::ACK_FAULT != 0 && self.stw & stw::ACK_FAULT == 0 {
+                self.fault = false;
+            }
+            self.stw = w;
+        }
+        if let Some(w) = pzd.second() {
+            self.setpoint = w;
+        }
+    }
+
+    fn queue_reply(&mut self, now: Instant, adr: Adr, net: &[u8]) {
+        self.tx_len = frame::encode(adr, net, &mut self.tx).unwrap_or(0);
+        let delay = self
+            .config
+            .response_delay
+            .max(start_interval(&self.config.settings));
+        self.reply_at = Some(now + delay);
+    }
+
+    fn on_telegram(&mut self, now: Instant) {
+        let mut bytes = [0u8; MAX_TELEGRAM];
+        let t = self.rx.telegram();
+        let len = t.len();
+        bytes[..len].copy_from_slice(t);
+        let telegram = match frame::decode(&bytes[..len]) {
+            Ok(t) => t,
+            Err(_) => {
+                self.discard("BCC, LGE or STX error");
+                return;
+            }
+        };
+        let adr = telegram.adr;
+        let mine = adr.address() == self.config.address;
+        match adr.0 & 0xE0 {
+            0x00 if mine => self.data_exchange(now, telegram.net),
+            0x40 if mine => {
+                self.queue_reply(now, adr, telegram.net);
+                self.out.push_back(Output::Event(DriveEvent::Mirrored));
+            }
+            0x20 => {
+                match NetData::parse(
+                    telegram.net,
+                    self.config.pkw,
+                    usize::from(self.config.pzd_words),
+                ) {
+                    Ok(net) => {
+                        self.take_control(now, &net.pzd);
+                        self.out.push_back(Output::Event(DriveEvent::Broadcast));
+                    }
+                    Err(_) => self.discard("broadcast with another net-data structure"),
+                }
+            }
+            0x00 | 0x40 => {} // another slave's telegram
+            _ => self.discard("special or undefined telegram type"),
+        }
+    }
+
+    fn discard(&mut self, reason: &'static str) {
+        self.out
+            .push_back(Output::Event(DriveEvent::Discarded { reason }));
+    }
+
+    fn data_exchange(&mut self, now: Instant, net: &[u8]) {
+        let request = match NetData::parse(net, self.config.pkw, usize::from(self.config.pzd_words))
+        {
+            Ok(r) => r,
+            Err(_) => {
+                self.discard("net data do not match PKW/PZD");
+                return;
+            }
+        };
+        self.take_control(now, &request.pzd);
+        let pkw = request.pkw.map(|p| {
+            if self.last_request == Some(p) {
+                if let Some(r) = self.last_response {
+                    return r;
+                }
+            }
+            let r = self.execute(&p);
+            self.last_request = Some(p);
+            self.last_response = Some(r);
+            r
+        });
+        let zsw = self.status_word();
+        let mut words = [0u16; 16];
+        let n = usize::from(self.config.pzd_words);
+        if n > 0 {
+            words[0] = zsw;
+        }
+        if n > 1 {
+            words[1] = self.actual;
+        }
+        let reply = NetData {
+            pkw,
+            pzd: Pzd::new(&words[..n]),
+        };
+        let mut buf = [0u8; frame::MAX_NET];
+        let len = reply.write(&mut buf).unwrap_or(0);
+        let adr = Adr(self.config.address);
+        self.queue_reply(now, adr, &buf[..len]);
+        self.out.push_back(Output::Event(DriveEvent::Polled {
+            stw: self.stw,
+            setpoint: self.setpoint,
+            zsw,
+            actual: self.actual,
+        }));
+    }
+
+    /// Execute one PKW request and build the response area (same size as the request's).
+    fn execute(&mut self, req: &Pkw) -> Pkw {
+        let ak = req.pke.ak();
+        let pnu = req.pke.pnu();
+        let param = ParamAddress::join(pnu, req.ind);
+        let words = req.pwe().len();
+        let reply = |ak: u8, value: u32, dword: bool| {
+            let pke = Pke::new(ak, false, pnu);
+            let mut pwe = [0u16; 2];
+            match (words, dword) {
+                (0, _) => {}
+                (1, _) => pwe[0] = value as u16,
+                (_, true) => pwe = [(value >> 16) as u16, value as u16],
+                (_, false) => pwe = [0, value as u16],
+            }
+            let mut area = [0u16; frame::MAX_PWE_WORDS];
+            area[..words.min(2)].copy_from_slice(&pwe[..words.min(2)]);
+            Pkw::new(pke, req.ind, &area[..words])
+        };
+        let error = |n: u16| reply(response::CANNOT_EXECUTE, u32::from(n), false);
+        if ak == task::NONE {
+            return Pkw::new(Pke(0), 0, &[0u16; frame::MAX_PWE_WORDS][..words]);
+        }
+        let Some(p) = self
+            .config
+            .parameters
+            .iter_mut()
+            .find(|p| p.number == param.number)
+        else {
+            return error(0);
+        };
+        let index = usize::from(param.index);
+        let is_array = p.values.len() > 1;
+        let dword = p.dword && words >= 2;
+        let (value_id, array_id) = if dword {
+            (response::VALUE_DWORD, response::ARRAY_DWORD)
+        } else {
+            (response::VALUE_WORD, response::ARRAY_WORD)
+        };
+        let requested = req.value();
+        match ak {
+            task::READ | task::READ_ARRAY => {
+                if ak == task::READ_ARRAY && !is_array {
+                    return error(4);
+                }
+                match p.values.get(index) {
+                    Some(&v) => reply(if is_array { array_id } else { value_id }, v, dword),
+                    None => error(3),
+                }
+            }
+            task::READ_ARRAY_LEN => reply(response::ARRAY_LEN, p.values.len() as u32, false),
+            task::WRITE_WORD
+            | task::WRITE_WORD_EEPROM
+            | task::WRITE_DWORD
+            | task::WRITE_DWORD_EEPROM
+            | task::WRITE_ARRAY_WORD
+            | task::WRITE_ARRAY_WORD_EEPROM
+            | task::WRITE_ARRAY_DWORD
+            | task::WRITE_ARRAY_DWORD_EEPROM => {
+                let wants_dword = matches!(
+                    ak,
+                    task::WRITE_DWORD
+                        | task::WRITE_DWORD_EEPROM
+                        | task::WRITE_ARRAY_DWORD
+                        | task::WRITE_ARRAY_DWORD_EEPROM
+                );
+                let array_task = matches!(
+                    ak,
+                    task::WRITE_ARRAY_WORD
+                        | task::WRITE_ARRAY_WORD_EEPROM
+                        | task::WRITE_ARRAY_DWORD
+                        | task::WRITE_ARRAY_DWORD_EEPROM
+                );
+                if p.read_only {
+                    return error(1);
+                }
+                if wants_dword != p.dword {
+                    return error(5);
+                }
+                if array_task && !is_array {
+                    return error(4);
+                }
+                if index >= p.values.len() {
+                    return error(3);
+                }
+                if requested < p.min || requested > p.max {
+                    return error(2);
+                }
+                p.values[index] = requested;
+                self.out.push_back(Output::Event(DriveEvent::Written {
+                    param,
+                    value: requested,
+                }));
+                let id = if array_task { array_id } else { value_id };
+                reply(id, requested, dword)
+            }
+            _ => error(101),
+        }
+    }
+}
+
+impl Engine for Drive {
+    type Event = DriveEvent;
+
+    fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+        for &b in bytes {
+            if self.echo_left > 0 {
+                self.echo_left -= 1;
+                continue;
+            }
+            match self.rx.push(now, b) {
+                RxOutcome::Complete => self.on_telegram(now),
+                RxOutcome::LengthError => self.discard("LGE out of range"),
+                RxOutcome::Pending | RxOutcome::StartNotIdentified => {}
+            }
+        }
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        if self.rx.timeout(now).is_some() {
+            self.discard("residual run time exceeded");
+        }
+        if self.reply_at.is_some_and(|t| now >= t) {
+            self.reply_at = None;
+            let len = self.tx_len;
+            self.out
+                .push_back(Output::Transmit(Bytes::copy_from_slice(&self.tx[..len])));
+            if self.config.local_echo {
+                self.echo_left = len;
+            }
+        }
+    }
+
+    fn handle_line_error(&mut self, now: Instant, error: LineError) {
+        if self.echo_left > 0 {
+            self.echo_left -= 1;
+            return;
+        }
+        if self.rx.is_receiving() {
+            self.discard("character error");
+        }
+        self.rx.line_error(now, error);
+    }
+
+    fn poll_output(&mut self) -> Output<DriveEvent> {
+        if let Some(o) = self.out.pop_front() {
+            return o;
+        }
+        Output::Wait(Instant::earliest(self.reply_at, self.rx.deadline()))
+    }
+}
