@@ -20,7 +20,7 @@
 //! - **Character delay time** (§4.3): "the longest gap allowed between two characters". The host
 //!   sees a character when it is complete, so the next character must *complete* within
 //!   CDT + one character time of the previous one; a gap of exactly the CDT keeps the frame whole,
-//!   one microsecond more ends it.
+//!   one microsecond more ends it, and the frame end is reported at that microsecond.
 //! - **Inter-frame pause** (§6.2): in CDT mode a frame starts only after *more than* one CDT since
 //!   the end of our previous frame (the 2005 manual's "a gap longer than the CDT"), so a partner
 //!   with the same CDT always sees two frames.
@@ -588,7 +588,7 @@ impl Link {
         if self.cfg.flow_control == FlowControl::AutoV24 && !self.inputs.dsr {
             return; // §6.8: nothing is received while DSR = OFF
         }
-        self.rx_deadline = Some(now + self.cdt + self.char_time);
+        self.rx_deadline = Some(self.gap_deadline(now));
         match self.rx {
             Rx::Skipping => {
                 if self.cutter.ends_text(byte) {
@@ -721,6 +721,13 @@ impl Link {
         Ok(())
     }
 
+    /// When the gap after a character completing at `now` exceeds the CDT: the next character
+    /// must complete within CDT + one character time; one microsecond (the clock's resolution)
+    /// later the gap is longer than the CDT.
+    fn gap_deadline(&self, now: Instant) -> Instant {
+        now + self.cdt + self.char_time + Duration::from_micros(1)
+    }
+
     fn tx_deadline(&self) -> Option<Instant> {
         match &self.tx {
             Tx::Idle => None,
@@ -814,7 +821,7 @@ impl Engine for Link {
             LineError::Break => status::BREAK,
         };
         self.skip_rest(None);
-        self.rx_deadline = Some(now + self.cdt + self.char_time);
+        self.rx_deadline = Some(self.gap_deadline(now));
         self.rx_fail(now, code);
     }
 
