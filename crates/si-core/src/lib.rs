@@ -13,6 +13,7 @@
 
 pub mod fb;
 pub mod hex;
+pub mod memory;
 pub mod sansio;
 pub mod serial;
 pub mod sim;

@@ -1,0 +1,257 @@
+//! Parameters of the Modbus master and slave with the manual's ranges and defaults
+//! (et200s-si-modbus-uss.md §3.5, §3.7, §3.8, §4.6 Table 3-17, §5.3 Table 3-20).
+
+use crate::status;
+use serde::{Deserialize, Serialize};
+use si_core::{Duration, SerialSettings, Status};
+
+/// "Operating mode" (§3.7).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Mode {
+    /// Transmission errors and BREAK before or after a message are reported; in the master a
+    /// first response byte other than the address gives 0831H.
+    #[default]
+    Normal,
+    /// A message with a UART error or a leading BREAK is ignored silently; a message starts at
+    /// a correctly received slave address (leading garbage skipped); errors after the CRC are
+    /// ignored.
+    InterferenceSuppression,
+}
+
+/// The end-of-frame gap tZVZ_TAB for a baud rate (§3.5, Table 3-11).
+///
+/// Table 3-11 of the Modbus/USS manual gives 4 ms at 9600–38 400 bit/s and 3.5 character
+/// times (rounded) below: 8, 16, 32, 64, 128 ms. It has no value for 110 bit/s; there we take
+/// 364 ms from the 2005 manual's table (et200s-si-2005-window-protocol.md §7.1, "115 (sic)").
+/// The 2005 table also lists 1 ms at 57 600–115 200 bit/s, rates this module does not offer;
+/// we use that value for them. Where the two tables disagree (19 200: 4 vs 2 ms; 38 400: 4 vs
+/// 1 ms; 600: 64 vs 65 ms; 300: 128 vs 130 ms) we follow the Modbus/USS module's own manual,
+/// which is the module this crate reproduces.
+pub const fn gap_table(baud: u32) -> Duration {
+    Duration::from_millis(match baud {
+        0..=110 => 364,
+        111..=300 => 128,
+        301..=600 => 64,
+        601..=1200 => 32,
+        1201..=2400 => 16,
+        2401..=4800 => 8,
+        4801..=38_400 => 4,
+        _ => 1,
+    })
+}
+
+/// A parameter outside the manual's range: names the parameter, the range and the value, and
+/// carries the STATUS the module would report.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{parameter} = {value} is out of range {range} ({status})")]
+pub struct ConfigError {
+    /// The manual's parameter name.
+    pub parameter: &'static str,
+    /// The allowed range.
+    pub range: &'static str,
+    /// The value given.
+    pub value: String,
+    /// The module's parameter-assignment STATUS (0E20H–0E23H).
+    pub status: Status,
+}
+
+/// The line parameters master and slave share.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LineConfig {
+    /// Character format; always 8 data bits (§3.9).
+    pub settings: SerialSettings,
+    /// Operating mode (§3.7).
+    pub mode: Mode,
+    /// "Character Delay Multiple" fMUL, 1–10: the gap is tZVZ_TAB × fMUL (§3.5).
+    pub char_delay_multiplier: u8,
+    /// Extension for RS-485 transceivers that hear their own transmission (and for the
+    /// simulator's bus): drop as many received bytes as were sent. Off by default.
+    pub local_echo: bool,
+}
+
+impl Default for LineConfig {
+    fn default() -> Self {
+        LineConfig {
+            settings: SerialSettings::default(),
+            mode: Mode::Normal,
+            char_delay_multiplier: 1,
+            local_echo: false,
+        }
+    }
+}
+
+impl LineConfig {
+    /// The end-of-frame gap tZVZ = tZVZ_TAB × fMUL (§3.5).
+    pub fn gap(&self) -> Duration {
+        gap_table(self.settings.baud()).saturating_mul(self.char_delay_multiplier.max(1) as u64)
+    }
+
+    /// Check data bits (0E20H) and the multiplier (0E21H).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if self.settings.data_bits() != 8 {
+            return Err(ConfigError {
+                parameter: "data bits",
+                range: "8",
+                value: self.settings.data_bits().to_string(),
+                status: status::DATA_BITS_NOT_8,
+            });
+        }
+        if !(1..=10).contains(&self.char_delay_multiplier) {
+            return Err(ConfigError {
+                parameter: "character delay multiple",
+                range: "1…10",
+                value: self.char_delay_multiplier.to_string(),
+                status: status::CHAR_DELAY_MULTIPLIER,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Master parameters (§4.6, Table 3-17).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MasterConfig {
+    /// Line parameters.
+    #[serde(flatten)]
+    pub line: LineConfig,
+    /// "Response Time" in ms, 50–655 000, default 2000: the wait for the *start* of a
+    /// response after the request has been sent (§3.8).
+    pub response_timeout_ms: u32,
+    /// Extension (not in the manual, which has no Modbus retries, §3.8): how often a request
+    /// that timed out or came back corrupt (CRC) is sent again before the job fails. Default 0.
+    pub retries: u8,
+    /// Extension for §11.19 (the manual does not say how long the master waits after a
+    /// broadcast): the turnaround delay in ms after the broadcast has left the line before the
+    /// job completes. Default 100 ms, the Modbus over serial line guide's lower bound.
+    pub broadcast_turnaround_ms: u32,
+}
+
+impl Default for MasterConfig {
+    fn default() -> Self {
+        MasterConfig {
+            line: LineConfig::default(),
+            response_timeout_ms: 2_000,
+            retries: 0,
+            broadcast_turnaround_ms: 100,
+        }
+    }
+}
+
+impl MasterConfig {
+    /// Check every range; the error names the parameter.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.line.validate()?;
+        if !(50..=655_000).contains(&self.response_timeout_ms) {
+            return Err(ConfigError {
+                parameter: "response time (ms)",
+                range: "50…655000",
+                value: self.response_timeout_ms.to_string(),
+                status: status::INVALID_TIMEOUT_OR_ADDRESS,
+            });
+        }
+        Ok(())
+    }
+
+    /// The response timeout as a [`Duration`].
+    pub fn response_timeout(&self) -> Duration {
+        Duration::from_millis(self.response_timeout_ms as u64)
+    }
+}
+
+/// Slave parameters (§5.3, Table 3-20).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SlaveConfig {
+    /// Line parameters.
+    #[serde(flatten)]
+    pub line: LineConfig,
+    /// "Slave address", 1–255, default 222 as printed in Table 3-20.
+    ///
+    /// The Modbus/USS manual allows 1–255 (§3.2), the 2005 manual's table 1–247 (§11.4). We
+    /// accept 1–255 because the module does; 248–255 are reserved in standard Modbus and a
+    /// standard master may refuse to address them.
+    pub address: u8,
+}
+
+impl Default for SlaveConfig {
+    fn default() -> Self {
+        SlaveConfig {
+            line: LineConfig::default(),
+            address: 222,
+        }
+    }
+}
+
+impl SlaveConfig {
+    /// Check every range; address 0 gives 0E23H.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.line.validate()?;
+        if self.address == 0 {
+            return Err(ConfigError {
+                parameter: "slave address",
+                range: "1…255",
+                value: "0".into(),
+                status: status::INVALID_TIMEOUT_OR_ADDRESS,
+            });
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use si_core::Parity;
+
+    #[test]
+    fn gap_table_3_11_times_multiplier() {
+        for (baud, ms) in [
+            (38_400, 4),
+            (19_200, 4),
+            (9_600, 4),
+            (4_800, 8),
+            (2_400, 16),
+            (1_200, 32),
+            (600, 64),
+            (300, 128),
+            (110, 364),
+        ] {
+            assert_eq!(gap_table(baud), Duration::from_millis(ms), "{baud}");
+        }
+        let mut line = LineConfig {
+            char_delay_multiplier: 10,
+            ..LineConfig::default()
+        };
+        assert_eq!(line.gap(), Duration::from_millis(40));
+        line.char_delay_multiplier = 11;
+        assert_eq!(line.validate().unwrap_err().status.code(), 0x0E21);
+    }
+
+    #[test]
+    fn ranges_name_parameter_and_status() {
+        let c = MasterConfig {
+            response_timeout_ms: 49,
+            ..MasterConfig::default()
+        };
+        let e = c.validate().unwrap_err();
+        assert_eq!(e.status.code(), 0x0E23);
+        assert!(e
+            .to_string()
+            .starts_with("response time (ms) = 49 is out of range 50…655000"));
+        let s = SlaveConfig {
+            address: 0,
+            ..SlaveConfig::default()
+        };
+        assert_eq!(s.validate().unwrap_err().status.code(), 0x0E23);
+        let seven = LineConfig {
+            settings: SerialSettings::new(9600, 7, Parity::Even, 1).unwrap(),
+            ..LineConfig::default()
+        };
+        assert_eq!(seven.validate().unwrap_err().status.code(), 0x0E20);
+        assert_eq!(SlaveConfig::default().address, 222);
+        assert_eq!(MasterConfig::default().response_timeout_ms, 2_000);
+    }
+}

@@ -1,0 +1,491 @@
+//! The Modbus master engine (et200s-si-modbus-uss.md §3.2, §3.5–§3.8, §4).
+//!
+//! One request at a time. After the request has left the line the master waits "Response
+//! Time" (50–655 000 ms) for the **start** of a response (§3.8, 0830H); the response ends at
+//! the end-of-frame gap (§3.5) and is then checked in the order of §4.4: address (0831H,
+//! Normal mode), CRC (0E57H), function code (0E51H, or an exception 0E61H–0E67H), lengths and
+//! byte counts (0E52H–0E55H), echoed fields (0E56H). A broadcast (address 0, FC05/06/15/16
+//! only, else 0E43H) completes after the turnaround delay without waiting for a reply.
+//!
+//! Every job ends in exactly one [`MasterEvent::Completed`] or [`MasterEvent::Failed`].
+
+use crate::config::{MasterConfig, Mode};
+use crate::frame::{self, fc, Adu, Request, Response, BROADCAST};
+use crate::rx::{Counters, Fault, Received, Receiver};
+use crate::status;
+use bytes::Bytes;
+use si_core::{Duration, Engine, Instant, LineError, Output, Status};
+use std::collections::VecDeque;
+
+/// A finished job: the request and, unless it was a broadcast, the checked response.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Completion {
+    request: Adu,
+    response: Option<Adu>,
+}
+
+impl Completion {
+    /// The slave address the request went to (0 for a broadcast).
+    pub fn unit(&self) -> u8 {
+        self.request.unit()
+    }
+
+    /// The request as sent.
+    pub fn request(&self) -> Request<'_> {
+        self.request
+            .decode_request()
+            .map(|(_, r)| r)
+            .unwrap_or(Request::ReadExceptionStatus)
+    }
+
+    /// The response, `None` for a broadcast. Coil and input reads are cut to the quantity
+    /// requested.
+    pub fn response(&self) -> Option<Response<'_>> {
+        let (_, r) = self.response.as_ref()?.decode_response().ok()?;
+        Some(match (r, self.request()) {
+            (Response::ReadCoils(b), Request::ReadCoils { quantity, .. }) => {
+                Response::ReadCoils(b.truncate(quantity))
+            }
+            (Response::ReadDiscreteInputs(b), Request::ReadDiscreteInputs { quantity, .. }) => {
+                Response::ReadDiscreteInputs(b.truncate(quantity))
+            }
+            (r, _) => r,
+        })
+    }
+
+    /// The response ADU as received (CRC included).
+    pub fn response_bytes(&self) -> Option<&[u8]> {
+        self.response.as_ref().map(Adu::as_bytes)
+    }
+}
+
+/// What the master reports.
+///
+/// A completion carries its request and response inline (no heap per frame), which makes
+/// this enum large; that is deliberate.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MasterEvent {
+    /// The job succeeded.
+    Completed(Completion),
+    /// The job failed with the manual's STATUS (an exception response is 0E61H–0E67H).
+    Failed {
+        /// The slave address of the job.
+        unit: u8,
+        /// Its function code.
+        function: u8,
+        /// Why.
+        status: Status,
+    },
+    /// Something on the line outside a job (0E50H unsolicited response, a line error between
+    /// jobs in Normal mode).
+    Diagnostic(Status),
+}
+
+/// Why [`Master::request`] refused a job.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum RequestError {
+    /// A job is running; one at a time (§4.2).
+    #[error("a job is already running")]
+    Busy,
+    /// The job breaks a rule of §4.3 (0E42H–0E4AH).
+    #[error("job refused: {0}")]
+    Invalid(Status),
+}
+
+impl RequestError {
+    /// The STATUS the module would report for this job.
+    pub fn status(&self) -> Status {
+        match self {
+            RequestError::Busy => si_core::status::common::NOT_POSSIBLE_IN_MODE,
+            RequestError::Invalid(s) => *s,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum State {
+    Idle,
+    /// The request is on the line until `until` (or tx-done).
+    Sending {
+        until: Instant,
+    },
+    /// Waiting for the start of the response until `deadline`.
+    Waiting {
+        deadline: Instant,
+    },
+    /// After a broadcast, until the turnaround delay is over.
+    Turnaround {
+        until: Instant,
+    },
+}
+
+/// The Sans-IO Modbus master.
+#[derive(Debug)]
+pub struct Master {
+    config: MasterConfig,
+    rx: Receiver,
+    state: State,
+    job: Option<(Adu, u8)>,
+    out: VecDeque<Output<MasterEvent>>,
+}
+
+impl Master {
+    /// A master with checked parameters.
+    pub fn new(config: MasterConfig) -> Result<Self, crate::config::ConfigError> {
+        config.validate()?;
+        Ok(Master {
+            rx: Receiver::new(&config.line),
+            config,
+            state: State::Idle,
+            job: None,
+            out: VecDeque::new(),
+        })
+    }
+
+    /// The parameters.
+    pub fn config(&self) -> &MasterConfig {
+        &self.config
+    }
+
+    /// Receive statistics.
+    pub fn counters(&self) -> Counters {
+        self.rx.counters()
+    }
+
+    /// True while a job runs.
+    pub fn is_busy(&self) -> bool {
+        self.job.is_some()
+    }
+
+    /// Start a job: send `request` to `unit` (0 = broadcast). Refused with the manual's STATUS
+    /// when it breaks §4.3, or when a job is running.
+    pub fn request(
+        &mut self,
+        now: Instant,
+        unit: u8,
+        request: &Request<'_>,
+    ) -> Result<(), RequestError> {
+        if self.job.is_some() {
+            return Err(RequestError::Busy);
+        }
+        let f = request.function();
+        if unit == BROADCAST && !fc::broadcast_allowed(f) {
+            return Err(RequestError::Invalid(status::BROADCAST_NOT_ALLOWED_FOR_FC));
+        }
+        let adu = Adu::request(unit, request).map_err(|_| {
+            RequestError::Invalid(match f {
+                fc::READ_COILS | fc::READ_DISCRETE_INPUTS => status::BIT_COUNT,
+                fc::READ_HOLDING_REGISTERS | fc::READ_INPUT_REGISTERS => status::REGISTER_COUNT,
+                _ => status::WRITE_COUNT,
+            })
+        })?;
+        self.job = Some((adu, 1 + self.config.retries));
+        self.send(now);
+        Ok(())
+    }
+
+    fn send(&mut self, now: Instant) {
+        let Some((adu, attempts)) = self.job.as_mut() else {
+            return;
+        };
+        *attempts = attempts.saturating_sub(1);
+        let bytes = adu.as_bytes();
+        if self.config.line.local_echo {
+            self.rx.expect_echo(bytes.len());
+        }
+        let until = now + self.config.line.settings.chars_time(bytes.len() as u64);
+        self.out
+            .push_back(Output::Transmit(Bytes::copy_from_slice(bytes)));
+        self.state = State::Sending { until };
+    }
+
+    fn sent(&mut self, now: Instant) {
+        if let State::Sending { .. } = self.state {
+            let broadcast = self.job.is_some_and(|(a, _)| a.unit() == BROADCAST);
+            self.state = if broadcast {
+                State::Turnaround {
+                    until: now + Duration::from_millis(self.config.broadcast_turnaround_ms as u64),
+                }
+            } else {
+                State::Waiting {
+                    deadline: now + self.config.response_timeout(),
+                }
+            };
+        }
+    }
+
+    fn finish(&mut self, event: MasterEvent) {
+        self.job = None;
+        self.state = State::Idle;
+        self.out.push_back(Output::Event(event));
+    }
+
+    fn fail(&mut self, status: Status) {
+        let (unit, function) = self
+            .job
+            .map_or((0, 0), |(a, _)| (a.unit(), a.as_bytes()[1]));
+        self.finish(MasterEvent::Failed {
+            unit,
+            function,
+            status,
+        });
+    }
+
+    /// Fail, or send again if retries are left and the failure is one a retry can cure.
+    fn fail_or_retry(&mut self, now: Instant, status: Status) {
+        let retry = self.job.is_some_and(|(_, left)| left > 0)
+            && (status == status::RESPONSE_TIMEOUT || status == status::RESPONSE_CRC);
+        if retry {
+            self.send(now);
+        } else {
+            self.fail(status);
+        }
+    }
+
+    fn on_frame(&mut self, now: Instant, frame: Received) {
+        let waiting = matches!(self.state, State::Waiting { .. });
+        if let Some(fault) = frame.fault {
+            let status = fault_status(fault);
+            if waiting {
+                self.fail(status);
+            } else {
+                self.out
+                    .push_back(Output::Event(MasterEvent::Diagnostic(status)));
+            }
+            return;
+        }
+        let Some((request, _)) = self.job.filter(|_| waiting) else {
+            if !frame.adu.as_bytes().is_empty() {
+                self.rx.count_discarded();
+                self.out.push_back(Output::Event(MasterEvent::Diagnostic(
+                    status::UNSOLICITED_RESPONSE,
+                )));
+            }
+            return;
+        };
+        let response = frame.adu.as_bytes();
+        if response.first() != Some(&request.unit()) {
+            if self.config.line.mode == Mode::InterferenceSuppression {
+                // Not a correctly received address: not a response start; keep waiting.
+                self.rx.count_discarded();
+                return;
+            }
+            self.fail(status::WRONG_SLAVE_ADDRESS);
+            return;
+        }
+        match check_response(request.as_bytes(), response) {
+            Ok(()) => {
+                let completion = Completion {
+                    request,
+                    response: Some(frame.adu),
+                };
+                self.finish(MasterEvent::Completed(completion));
+            }
+            Err(s) => {
+                self.rx.count_discarded();
+                self.fail_or_retry(now, s);
+            }
+        }
+    }
+
+    fn tick(&mut self, now: Instant) {
+        if let Some(frame) = self.rx.poll(now) {
+            self.on_frame(now, frame);
+        }
+        match self.state {
+            State::Sending { until } if now >= until => self.sent(now),
+            State::Waiting { deadline } if now >= deadline && !self.rx.is_receiving() => {
+                self.fail_or_retry(now, status::RESPONSE_TIMEOUT)
+            }
+            State::Turnaround { until } if now >= until => {
+                if let Some((request, _)) = self.job {
+                    self.finish(MasterEvent::Completed(Completion {
+                        request,
+                        response: None,
+                    }));
+                }
+            }
+            _ => {}
+        }
+    }
+
+    fn deadline(&self) -> Option<Instant> {
+        let state = match self.state {
+            State::Idle => None,
+            State::Sending { until } | State::Turnaround { until } => Some(until),
+            State::Waiting { deadline } => (!self.rx.is_receiving()).then_some(deadline),
+        };
+        Instant::earliest(state, self.rx.deadline())
+    }
+}
+
+fn fault_status(fault: Fault) -> Status {
+    match fault {
+        Fault::Overflow => status::RECEIVE_BUFFER_OVERFLOW,
+        Fault::Line(LineError::Parity) => status::PARITY_ERROR,
+        Fault::Line(LineError::Framing) => status::FRAMING_ERROR,
+        Fault::Line(LineError::Overrun) => status::TRANSMISSION_ERROR,
+        Fault::Line(LineError::Break) => status::BREAK,
+    }
+}
+
+/// Check a response against its request in the order of §4.4 (address already checked).
+pub fn check_response(request: &[u8], response: &[u8]) -> Result<(), Status> {
+    let n = response.len();
+    if n < 4 {
+        return Err(status::TOO_FEW_BYTES);
+    }
+    if !frame::crc_ok(response) {
+        return Err(status::RESPONSE_CRC);
+    }
+    let f = request[1];
+    let body = n - 2;
+    let exact = |len: usize| -> Result<(), Status> {
+        match body.cmp(&len) {
+            core::cmp::Ordering::Less => Err(status::TOO_FEW_BYTES),
+            core::cmp::Ordering::Greater => Err(status::TOO_MANY_BYTES),
+            core::cmp::Ordering::Equal => Ok(()),
+        }
+    };
+    if response[1] == f | 0x80 {
+        exact(3)?;
+        return match frame::ExceptionCode::from_u8(response[2]) {
+            Some(code) => Err(status::for_exception(code)),
+            None => Err(status::WRONG_FUNCTION),
+        };
+    }
+    if response[1] != f {
+        return Err(status::WRONG_FUNCTION);
+    }
+    let qty = || u16::from_be_bytes([request[4], request[5]]) as usize;
+    let byte_counted = |expected_min: usize, expected_max: usize| -> Result<(), Status> {
+        if body < 3 {
+            return Err(status::TOO_FEW_BYTES);
+        }
+        let bc = response[2] as usize;
+        if bc < expected_min {
+            return Err(status::BYTE_COUNT_TOO_SMALL);
+        }
+        if bc > expected_max {
+            return Err(status::BYTE_COUNT_WRONG);
+        }
+        exact(3 + bc)
+    };
+    match f {
+        fc::READ_COILS | fc::READ_DISCRETE_INPUTS => {
+            let need = qty().div_ceil(8);
+            byte_counted(need, need)?
+        }
+        fc::READ_HOLDING_REGISTERS | fc::READ_INPUT_REGISTERS => {
+            let need = qty() * 2;
+            byte_counted(need, need)?
+        }
+        fc::WRITE_SINGLE_COIL | fc::WRITE_SINGLE_REGISTER | fc::DIAGNOSTICS => {
+            exact(6)?;
+            if response[2..6] != request[2..6] {
+                return Err(status::ECHO_WRONG);
+            }
+        }
+        fc::WRITE_MULTIPLE_COILS | fc::WRITE_MULTIPLE_REGISTERS => {
+            exact(6)?;
+            if response[2..6] != request[2..6] {
+                return Err(status::ECHO_WRONG);
+            }
+        }
+        fc::READ_EXCEPTION_STATUS => exact(3)?,
+        fc::GET_COMM_EVENT_COUNTER => exact(6)?,
+        fc::GET_COMM_EVENT_LOG => byte_counted(6, 6 + frame::MAX_EVENTS)?,
+        _ => return Err(status::WRONG_FUNCTION),
+    }
+    frame::decode_response(response)
+        .map(|_| ())
+        .map_err(|_| status::BYTE_COUNT_WRONG)
+}
+
+impl Engine for Master {
+    type Event = MasterEvent;
+
+    fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+        self.tick(now);
+        let unit = self.job.map(|(a, _)| a.unit());
+        self.rx.push(now, bytes, |b| Some(b) == unit);
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        self.tick(now);
+    }
+
+    fn handle_tx_done(&mut self, now: Instant) {
+        self.tick(now);
+        self.sent(now);
+    }
+
+    fn handle_line_error(&mut self, now: Instant, error: LineError) {
+        self.tick(now);
+        self.rx.line_error(now, error);
+    }
+
+    fn poll_output(&mut self) -> Output<MasterEvent> {
+        self.out
+            .pop_front()
+            .unwrap_or_else(|| Output::Wait(self.deadline()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn adu(hex: &str) -> Vec<u8> {
+        si_core::hex::parse(hex).unwrap()
+    }
+
+    fn with_crc(mut v: Vec<u8>) -> Vec<u8> {
+        let c = frame::crc16(&v).to_le_bytes();
+        v.extend_from_slice(&c);
+        v
+    }
+
+    #[test]
+    fn response_checks_follow_section_4_4() {
+        let req = adu("01 03 00 00 00 02 C4 0B");
+        assert_eq!(
+            check_response(&req, &with_crc(adu("01 03 04 00 01 00 02"))),
+            Ok(())
+        );
+        assert_eq!(
+            check_response(&req, &adu("01 03 04 00 01 00 02 00 00")),
+            Err(status::RESPONSE_CRC)
+        );
+        assert_eq!(
+            check_response(&req, &with_crc(adu("01 04 04 00 01 00 02"))),
+            Err(status::WRONG_FUNCTION)
+        );
+        assert_eq!(
+            check_response(&req, &with_crc(adu("01 03 02 00 01"))),
+            Err(status::BYTE_COUNT_TOO_SMALL)
+        );
+        assert_eq!(
+            check_response(&req, &with_crc(adu("01 03 06 00 01 00 02 00 03"))),
+            Err(status::BYTE_COUNT_WRONG)
+        );
+        assert_eq!(
+            check_response(&req, &with_crc(adu("01 03 04 00 01 00"))),
+            Err(status::TOO_FEW_BYTES)
+        );
+        assert_eq!(
+            check_response(&req, &with_crc(adu("01 03 04 00 01 00 02 FF"))),
+            Err(status::TOO_MANY_BYTES)
+        );
+        assert_eq!(
+            check_response(&req, &with_crc(adu("01 83 02"))),
+            Err(status::EXCEPTION_ILLEGAL_DATA_ADDRESS)
+        );
+        let req = with_crc(adu("01 06 00 01 00 03"));
+        assert_eq!(
+            check_response(&req, &with_crc(adu("01 06 00 01 00 04"))),
+            Err(status::ECHO_WRONG)
+        );
+    }
+}

@@ -1,0 +1,563 @@
+//! The Modbus slave engine (et200s-si-modbus-uss.md §3.2, §3.3, §3.6, §5.1, §5.7).
+//!
+//! The module's slave driver checks every request and S_MODB executes it against the CPU; here
+//! the engine does the driver's part and a [`Store`] does S_MODB's. The engine:
+//!
+//! - answers only its own address (1–255, §3.2); frames for other addresses are neither
+//!   interpreted nor answered; a broadcast (address 0) is executed for FC05/06/15/16 and never
+//!   answered, any other broadcast is logged as 0830H;
+//! - checks the CRC (0836H, no answer), the function code (0831H, exception 01), quantities
+//!   (0832H), FC15/16 byte counts (0833H), the FC05 value (0834H), the FC08 sub-function
+//!   (0835H), all answered with exception 03 (Table 3-12);
+//! - answers FC08 (sub-function 0000) itself, without touching the store (§5.7);
+//! - reports a request that arrives while its previous response is still on the line as
+//!   0837H (sequence error) and drops it.
+
+use crate::config::SlaveConfig;
+use crate::frame::{
+    self, fc, Adu, Bits, DecodeErrorKind, ExceptionCode, Registers, Request, Response, BROADCAST,
+    MAX_ADU,
+};
+use crate::rx::{Counters, Fault, Received, Receiver};
+use crate::status::{self, slave as codes};
+use bytes::Bytes;
+use si_core::{Engine, Instant, LineError, Output, Status};
+use std::collections::VecDeque;
+
+/// Why a [`Store`] refused an access: the exception the master gets, and S_MODB's view of it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("{exception} (S_MODB ERROR_NR {error_nr}, ERROR_INFO {info})")]
+pub struct StoreError {
+    /// Exception code sent to the master (Table 3-12: 02 area not enabled or limits, 03 value,
+    /// 04 FB or CPU error).
+    pub exception: ExceptionCode,
+    /// The driver event to log, if the manual names one (0832H for T/C not in 16-bit steps).
+    pub status: Option<Status>,
+    /// S_MODB ERROR_NR (§5.8), 0 if none applies.
+    pub error_nr: u16,
+    /// S_MODB ERROR_INFO.
+    pub info: u16,
+}
+
+impl StoreError {
+    /// An error with this exception and S_MODB number.
+    pub const fn new(exception: ExceptionCode, error_nr: u16, info: u16) -> Self {
+        StoreError {
+            exception,
+            status: None,
+            error_nr,
+            info,
+        }
+    }
+
+    /// Exception 02, illegal data address, no S_MODB number.
+    pub const fn address() -> Self {
+        StoreError::new(ExceptionCode::IllegalDataAddress, 0, 0)
+    }
+}
+
+/// Where a slave's data live. Quantities are already checked against the manual's limits
+/// (1–2040 bits, 1–127 registers) when these are called.
+pub trait Store {
+    /// FC01: `quantity` coils from `address`, packed LSB first into `out`
+    /// (`ceil(quantity / 8)` bytes, zeroed).
+    fn read_coils(&mut self, address: u16, quantity: u16, out: &mut [u8])
+        -> Result<(), StoreError>;
+    /// FC02: discrete inputs, packed like [`read_coils`](Store::read_coils).
+    fn read_discrete_inputs(
+        &mut self,
+        address: u16,
+        quantity: u16,
+        out: &mut [u8],
+    ) -> Result<(), StoreError>;
+    /// FC03: `quantity` holding registers into `out`, high byte first (`2 × quantity` bytes).
+    fn read_holding_registers(
+        &mut self,
+        address: u16,
+        quantity: u16,
+        out: &mut [u8],
+    ) -> Result<(), StoreError>;
+    /// FC04: input registers, like [`read_holding_registers`](Store::read_holding_registers).
+    fn read_input_registers(
+        &mut self,
+        address: u16,
+        quantity: u16,
+        out: &mut [u8],
+    ) -> Result<(), StoreError>;
+    /// FC05 (one value) and FC15.
+    fn write_coils(&mut self, address: u16, values: Bits<'_>) -> Result<(), StoreError>;
+    /// FC06 (one value) and FC16.
+    fn write_registers(&mut self, address: u16, values: Registers<'_>) -> Result<(), StoreError>;
+}
+
+/// Plain Modbus tables: coils, discrete inputs, holding and input registers from address 0.
+/// An access beyond a table's end is exception 02.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Tables {
+    /// Coils (FC01/05/15).
+    pub coils: Vec<bool>,
+    /// Discrete inputs (FC02).
+    pub discrete_inputs: Vec<bool>,
+    /// Holding registers (FC03/06/16).
+    pub holding_registers: Vec<u16>,
+    /// Input registers (FC04).
+    pub input_registers: Vec<u16>,
+}
+
+impl Tables {
+    /// Tables of these sizes, all zero.
+    pub fn new(coils: usize, discrete_inputs: usize, holding: usize, input: usize) -> Self {
+        Tables {
+            coils: vec![false; coils],
+            discrete_inputs: vec![false; discrete_inputs],
+            holding_registers: vec![0; holding],
+            input_registers: vec![0; input],
+        }
+    }
+}
+
+fn span<T>(
+    table: &[T],
+    address: u16,
+    quantity: usize,
+) -> Result<core::ops::Range<usize>, StoreError> {
+    let start = address as usize;
+    let end = start + quantity;
+    if end > table.len() {
+        return Err(StoreError::address());
+    }
+    Ok(start..end)
+}
+
+fn pack(bits: &[bool], out: &mut [u8]) {
+    for (i, &b) in bits.iter().enumerate() {
+        if b {
+            out[i / 8] |= 1 << (i % 8);
+        }
+    }
+}
+
+fn words(regs: &[u16], out: &mut [u8]) {
+    for (i, r) in regs.iter().enumerate() {
+        out[2 * i..2 * i + 2].copy_from_slice(&r.to_be_bytes());
+    }
+}
+
+impl Store for Tables {
+    fn read_coils(
+        &mut self,
+        address: u16,
+        quantity: u16,
+        out: &mut [u8],
+    ) -> Result<(), StoreError> {
+        let r = span(&self.coils, address, quantity as usize)?;
+        pack(&self.coils[r], out);
+        Ok(())
+    }
+    fn read_discrete_inputs(
+        &mut self,
+        address: u16,
+        quantity: u16,
+        out: &mut [u8],
+    ) -> Result<(), StoreError> {
+        let r = span(&self.discrete_inputs, address, quantity as usize)?;
+        pack(&self.discrete_inputs[r], out);
+        Ok(())
+    }
+    fn read_holding_registers(
+        &mut self,
+        address: u16,
+        quantity: u16,
+        out: &mut [u8],
+    ) -> Result<(), StoreError> {
+        let r = span(&self.holding_registers, address, quantity as usize)?;
+        words(&self.holding_registers[r], out);
+        Ok(())
+    }
+    fn read_input_registers(
+        &mut self,
+        address: u16,
+        quantity: u16,
+        out: &mut [u8],
+    ) -> Result<(), StoreError> {
+        let r = span(&self.input_registers, address, quantity as usize)?;
+        words(&self.input_registers[r], out);
+        Ok(())
+    }
+    fn write_coils(&mut self, address: u16, values: Bits<'_>) -> Result<(), StoreError> {
+        let r = span(&self.coils, address, values.len())?;
+        for (slot, v) in self.coils[r].iter_mut().zip(values.iter()) {
+            *slot = v;
+        }
+        Ok(())
+    }
+    fn write_registers(&mut self, address: u16, values: Registers<'_>) -> Result<(), StoreError> {
+        let r = span(&self.holding_registers, address, values.len())?;
+        for (slot, v) in self.holding_registers[r].iter_mut().zip(values.iter()) {
+            *slot = v;
+        }
+        Ok(())
+    }
+}
+
+/// What the slave reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SlaveEvent {
+    /// A request was executed and answered.
+    Served {
+        /// Function code.
+        function: u8,
+        /// Start address (0 for FC08).
+        address: u16,
+        /// Number of bits or registers (1 for FC05/06/08).
+        quantity: u16,
+    },
+    /// A broadcast write was executed (no answer, §3.2).
+    Broadcast {
+        /// Function code.
+        function: u8,
+        /// Start address.
+        address: u16,
+        /// Number of bits or registers.
+        quantity: u16,
+    },
+    /// A request was answered with an exception (a refused broadcast is reported the same way
+    /// but not answered).
+    Exception {
+        /// Function code of the request.
+        function: u8,
+        /// The exception sent.
+        code: ExceptionCode,
+        /// The driver event (0831H–0835H), if the driver rejected it.
+        status: Option<Status>,
+        /// The store's refusal, if the store rejected it.
+        error: Option<StoreError>,
+    },
+    /// A frame that got no answer: CRC (0836H), broadcast not allowed (0830H), sequence error
+    /// (0837H), a line error in Normal mode (0810H, 0811H, 080CH, 080DH, 080AH).
+    Error(Status),
+}
+
+/// The Sans-IO Modbus slave, served by a [`Store`].
+#[derive(Debug)]
+pub struct Slave<S> {
+    config: SlaveConfig,
+    rx: Receiver,
+    store: S,
+    out: VecDeque<Output<SlaveEvent>>,
+    /// Our response is on the line until then.
+    busy_until: Option<Instant>,
+    /// A request started while we were still transmitting.
+    overlapped: bool,
+    data: [u8; 256],
+}
+
+impl<S: Store> Slave<S> {
+    /// A slave with checked parameters.
+    pub fn new(config: SlaveConfig, store: S) -> Result<Self, crate::config::ConfigError> {
+        config.validate()?;
+        Ok(Slave {
+            rx: Receiver::new(&config.line),
+            config,
+            store,
+            out: VecDeque::new(),
+            busy_until: None,
+            overlapped: false,
+            data: [0; 256],
+        })
+    }
+
+    /// The parameters.
+    pub fn config(&self) -> &SlaveConfig {
+        &self.config
+    }
+
+    /// The store, to inspect.
+    pub fn store(&self) -> &S {
+        &self.store
+    }
+
+    /// The store, to change (a simulated process).
+    pub fn store_mut(&mut self) -> &mut S {
+        &mut self.store
+    }
+
+    /// Receive statistics.
+    pub fn counters(&self) -> Counters {
+        self.rx.counters()
+    }
+
+    fn event(&mut self, e: SlaveEvent) {
+        self.out.push_back(Output::Event(e));
+    }
+
+    fn transmit(&mut self, now: Instant, adu: &Adu) {
+        let bytes = adu.as_bytes();
+        if self.config.line.local_echo {
+            self.rx.expect_echo(bytes.len());
+        }
+        self.busy_until = Some(now + self.config.line.settings.chars_time(bytes.len() as u64));
+        self.out
+            .push_back(Output::Transmit(Bytes::copy_from_slice(bytes)));
+    }
+
+    fn exception(
+        &mut self,
+        now: Instant,
+        function: u8,
+        code: ExceptionCode,
+        status: Option<Status>,
+        error: Option<StoreError>,
+    ) {
+        if let Ok(adu) = Adu::response(self.config.address, &Response::Exception { function, code })
+        {
+            self.transmit(now, &adu);
+        }
+        self.event(SlaveEvent::Exception {
+            function,
+            code,
+            status,
+            error,
+        });
+    }
+
+    fn on_frame(&mut self, now: Instant, frame: Received) {
+        let overlapped = core::mem::take(&mut self.overlapped);
+        if let Some(fault) = frame.fault {
+            self.event(SlaveEvent::Error(fault_status(fault)));
+            return;
+        }
+        let bytes = frame.adu.as_bytes();
+        let unit = bytes[0];
+        if unit != self.config.address && unit != BROADCAST {
+            return; // §3.2: not interpreted, not answered
+        }
+        if overlapped {
+            self.rx.count_discarded();
+            self.event(SlaveEvent::Error(codes::SEQUENCE));
+            return;
+        }
+        let function = bytes[1];
+        let broadcast = unit == BROADCAST;
+        let request = match frame::decode_request(bytes) {
+            Ok((_, r)) => r,
+            Err(e) => {
+                self.rx.count_discarded();
+                let (code, status) = match e.kind {
+                    DecodeErrorKind::Crc => {
+                        self.event(SlaveEvent::Error(codes::CRC));
+                        return;
+                    }
+                    DecodeErrorKind::Function => (
+                        ExceptionCode::IllegalFunction,
+                        Some(codes::INVALID_FUNCTION),
+                    ),
+                    DecodeErrorKind::Quantity => {
+                        (ExceptionCode::IllegalDataValue, Some(codes::QUANTITY))
+                    }
+                    DecodeErrorKind::ByteCount => {
+                        (ExceptionCode::IllegalDataValue, Some(codes::BYTE_COUNT))
+                    }
+                    DecodeErrorKind::CoilValue => {
+                        (ExceptionCode::IllegalDataValue, Some(codes::COIL_VALUE))
+                    }
+                    DecodeErrorKind::SubFunction => {
+                        (ExceptionCode::IllegalDataValue, Some(codes::SUB_FUNCTION))
+                    }
+                    _ => (ExceptionCode::IllegalDataValue, None),
+                };
+                if broadcast {
+                    let s = if fc::broadcast_allowed(function) {
+                        status
+                    } else {
+                        Some(codes::BROADCAST_NOT_ALLOWED)
+                    };
+                    if let Some(s) = s {
+                        self.event(SlaveEvent::Error(s));
+                    }
+                } else {
+                    self.exception(now, function, code, status, None);
+                }
+                return;
+            }
+        };
+        if broadcast && !fc::broadcast_allowed(function) {
+            self.event(SlaveEvent::Error(codes::BROADCAST_NOT_ALLOWED));
+            return;
+        }
+        let mut data = self.data;
+        let result: Result<(Response<'_>, u16, u16), StoreError> = match request {
+            Request::ReadCoils { address, quantity }
+            | Request::ReadDiscreteInputs { address, quantity } => {
+                let n = (quantity as usize).div_ceil(8);
+                data[..n].fill(0);
+                let r = if function == fc::READ_COILS {
+                    self.store.read_coils(address, quantity, &mut data[..n])
+                } else {
+                    self.store
+                        .read_discrete_inputs(address, quantity, &mut data[..n])
+                };
+                r.map(|()| {
+                    let bits = Bits::packed(&data[..n], quantity);
+                    let resp = if function == fc::READ_COILS {
+                        Response::ReadCoils(bits)
+                    } else {
+                        Response::ReadDiscreteInputs(bits)
+                    };
+                    (resp, address, quantity)
+                })
+            }
+            Request::ReadHoldingRegisters { address, quantity }
+            | Request::ReadInputRegisters { address, quantity } => {
+                let n = quantity as usize * 2;
+                let r = if function == fc::READ_HOLDING_REGISTERS {
+                    self.store
+                        .read_holding_registers(address, quantity, &mut data[..n])
+                } else {
+                    self.store
+                        .read_input_registers(address, quantity, &mut data[..n])
+                };
+                r.map(|()| {
+                    let regs = Registers::Wire(&data[..n]);
+                    let resp = if function == fc::READ_HOLDING_REGISTERS {
+                        Response::ReadHoldingRegisters(regs)
+                    } else {
+                        Response::ReadInputRegisters(regs)
+                    };
+                    (resp, address, quantity)
+                })
+            }
+            Request::WriteSingleCoil { address, value } => self
+                .store
+                .write_coils(address, Bits::Bools(&[value]))
+                .map(|()| (Response::WriteSingleCoil { address, value }, address, 1)),
+            Request::WriteSingleRegister { address, value } => self
+                .store
+                .write_registers(address, Registers::Words(&[value]))
+                .map(|()| (Response::WriteSingleRegister { address, value }, address, 1)),
+            Request::Diagnostics { data } => Ok((Response::Diagnostics { data }, 0, 1)),
+            Request::WriteMultipleCoils { address, values } => {
+                let quantity = values.len() as u16;
+                self.store.write_coils(address, values).map(|()| {
+                    (
+                        Response::WriteMultipleCoils { address, quantity },
+                        address,
+                        quantity,
+                    )
+                })
+            }
+            Request::WriteMultipleRegisters { address, values } => {
+                let quantity = values.len() as u16;
+                self.store.write_registers(address, values).map(|()| {
+                    (
+                        Response::WriteMultipleRegisters { address, quantity },
+                        address,
+                        quantity,
+                    )
+                })
+            }
+            Request::ReadExceptionStatus
+            | Request::GetCommEventCounter
+            | Request::GetCommEventLog => {
+                // §5.7: the slave has no FC07, FC11, FC12.
+                self.exception(
+                    now,
+                    function,
+                    ExceptionCode::IllegalFunction,
+                    Some(codes::INVALID_FUNCTION),
+                    None,
+                );
+                return;
+            }
+        };
+        match result {
+            Ok((response, address, quantity)) => {
+                if broadcast {
+                    self.event(SlaveEvent::Broadcast {
+                        function,
+                        address,
+                        quantity,
+                    });
+                } else {
+                    let adu = Adu::response(self.config.address, &response);
+                    if let Ok(adu) = adu {
+                        self.transmit(now, &adu);
+                    }
+                    self.event(SlaveEvent::Served {
+                        function,
+                        address,
+                        quantity,
+                    });
+                }
+            }
+            Err(e) => {
+                if broadcast {
+                    // Refused like a unicast request, but a broadcast is never answered.
+                    self.event(SlaveEvent::Exception {
+                        function,
+                        code: e.exception,
+                        status: e.status,
+                        error: Some(e),
+                    });
+                } else {
+                    self.exception(now, function, e.exception, e.status, Some(e));
+                }
+            }
+        }
+    }
+
+    fn tick(&mut self, now: Instant) {
+        if self.busy_until.is_some_and(|t| now >= t) {
+            self.busy_until = None;
+        }
+        if let Some(frame) = self.rx.poll(now) {
+            self.on_frame(now, frame);
+        }
+    }
+}
+
+fn fault_status(fault: Fault) -> Status {
+    match fault {
+        Fault::Overflow => status::RECEIVE_BUFFER_OVERFLOW,
+        Fault::Line(LineError::Parity) => status::PARITY_ERROR,
+        Fault::Line(LineError::Framing) => status::FRAMING_ERROR,
+        Fault::Line(LineError::Overrun) => status::TRANSMISSION_ERROR,
+        Fault::Line(LineError::Break) => status::BREAK,
+    }
+}
+
+impl<S: Store> Engine for Slave<S> {
+    type Event = SlaveEvent;
+
+    fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+        self.tick(now);
+        let was_receiving = self.rx.is_receiving();
+        let own = self.config.address;
+        self.rx.push(now, bytes, |b| b == own || b == BROADCAST);
+        if !was_receiving && self.rx.is_receiving() && self.busy_until.is_some() {
+            self.overlapped = true;
+        }
+    }
+
+    fn handle_timeout(&mut self, now: Instant) {
+        self.tick(now);
+    }
+
+    fn handle_tx_done(&mut self, now: Instant) {
+        self.tick(now);
+        self.busy_until = None;
+    }
+
+    fn handle_line_error(&mut self, now: Instant, error: LineError) {
+        self.tick(now);
+        self.rx.line_error(now, error);
+    }
+
+    fn poll_output(&mut self) -> Output<SlaveEvent> {
+        self.out
+            .pop_front()
+            .unwrap_or_else(|| Output::Wait(Instant::earliest(self.rx.deadline(), self.busy_until)))
+    }
+}
+
+const _: () = assert!(MAX_ADU >= 256);
