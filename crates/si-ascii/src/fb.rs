@@ -12,11 +12,11 @@
 //! let mut rcv = SRcv::default();
 //! let mut db = [0u8; 200];
 //! link.handle_rx(Instant::ZERO, b"OK\x03");
-//! let out = rcv.call(&mut link, true, false, &mut db);
+//! let out = rcv.call(&mut link, Instant::ZERO, true, false, &mut db);
 //! assert!(out.ndr && !out.error);
 //! assert_eq!(&db[..out.len], b"OK\x03");
 //! // Valid for one call only.
-//! assert!(!rcv.call(&mut link, true, false, &mut db).ndr);
+//! assert!(!rcv.call(&mut link, Instant::ZERO, true, false, &mut db).ndr);
 //! ```
 //!
 //! Readings: R on S_SEND with a job in progress ends it with ERROR and 1E0DH ("job aborted by …
@@ -149,7 +149,14 @@ impl SRcv {
     /// One call. EN_R must be statically 1 to receive; R = 1 resets and blocks receiving.
     /// `dest` is the destination area; one shorter than the waiting frame gives ERROR with
     /// 1E20H and leaves the frame in the buffer.
-    pub fn call(&mut self, link: &mut Link, en_r: bool, r: bool, dest: &mut [u8]) -> Received {
+    pub fn call(
+        &mut self,
+        link: &mut Link,
+        now: Instant,
+        en_r: bool,
+        r: bool,
+        dest: &mut [u8],
+    ) -> Received {
         let idle = Received {
             ndr: false,
             error: false,
@@ -177,7 +184,7 @@ impl SRcv {
                 ..idle
             },
             Some(_) => {
-                let len = link.read_frame(dest).unwrap_or(0);
+                let len = link.read_frame(now, dest).unwrap_or(0);
                 Received {
                     ndr: true,
                     len,

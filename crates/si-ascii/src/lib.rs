@@ -28,7 +28,7 @@
 //! sim.with(a, |link, now| link.send(now, "hello\r\n".into())).unwrap();
 //! sim.run_until_quiet(Instant::from_micros(1_000_000));
 //! assert!(matches!(sim.take_events(b)[..], [Event::Received { len: 7, .. }]));
-//! assert_eq!(sim.with(b, |link, _| link.read_frame_vec()).unwrap(), b"hello\r\n");
+//! assert_eq!(sim.with(b, |link, now| link.read_frame_vec(now)).unwrap(), b"hello\r\n");
 //! ```
 #![cfg_attr(docsrs, feature(doc_cfg))]
 

@@ -10,7 +10,7 @@
 //! let mut link = Link::new(config).unwrap();
 //! link.handle_rx(Instant::ZERO, b"ab\x03c");
 //! assert!(matches!(link.poll_output(), Output::Event(Event::Received { len: 3, .. })));
-//! assert_eq!(link.read_frame_vec().unwrap(), b"ab\x03");
+//! assert_eq!(link.read_frame_vec(Instant::ZERO).unwrap(), b"ab\x03");
 //! // "c" waits for its end character, monitored by the character delay time.
 //! assert!(matches!(link.poll_output(), Output::Wait(Some(_))));
 //! ```
@@ -42,6 +42,9 @@
 //! - **Automatic V.24** (A-31): RTS = ON, then the data go out as soon as CTS = ON, and the send
 //!   fails with 0818H if CTS is still off when the data output wait time ends; RTS = OFF after the
 //!   RTS-off time from the last byte, and only then is the job done.
+//! - **Character delay while holding the partner**: after XOFF / RTS = OFF the partner is
+//!   supposed to pause, possibly inside a frame, so the character delay time is not monitored
+//!   until XON / RTS = ON; then it starts again.
 //! - **Flow-control wait** (§6.9): the XON / CTS wait time runs from the moment sending is held
 //!   (XOFF or CTS = OFF while sending, or at the start of a send that finds it held).
 //! - Transmission goes out one character at a time whenever a flow control is configured, so XOFF
@@ -482,16 +485,18 @@ impl Link {
     /// Copy the oldest received frame into `out` and remove it from the buffer (S_RCV); its
     /// length. `None` if no frame is stored or `out` is shorter than the frame (then it stays;
     /// 200 bytes always suffice).
-    pub fn read_frame(&mut self, out: &mut [u8]) -> Option<usize> {
+    /// `now` matters with flow control: a read that makes room sends XON / sets RTS = ON.
+    pub fn read_frame(&mut self, now: Instant, out: &mut [u8]) -> Option<usize> {
         let n = self.buffer.pop_into(out)?;
-        self.check_resume();
+        self.check_resume(now);
+        self.pump(now);
         Some(n)
     }
 
     /// [`read_frame`](Self::read_frame) into a new vector.
-    pub fn read_frame_vec(&mut self) -> Option<Vec<u8>> {
+    pub fn read_frame_vec(&mut self, now: Instant) -> Option<Vec<u8>> {
         let mut v = vec![0; self.buffer.oldest_len()?];
-        self.read_frame(&mut v)?;
+        self.read_frame(now, &mut v)?;
         Some(v)
     }
 
@@ -524,7 +529,7 @@ impl Link {
         self.rx_error = Some(status);
         self.out
             .push_back(Output::Event(Event::ReceiveError { status, at: now }));
-        self.check_resume();
+        self.check_resume(now);
     }
 
     /// The rest of the current frame is to be skipped; `byte` (the one that broke it) may
@@ -554,13 +559,18 @@ impl Link {
         self.stop_sent = true;
     }
 
-    fn check_resume(&mut self) {
+    fn check_resume(&mut self, now: Instant) {
         let room = self.buffer.free() > XOFF_MARGIN
             && (self.cfg.dynamic_frames || self.buffer.frames() == 0);
         if !self.stop_sent || !room {
             return;
         }
         self.stop_sent = false;
+        // The partner may go on now: the character delay monitoring of a frame it paused in
+        // starts again.
+        if self.rx_deadline.is_some() {
+            self.rx_deadline = Some(self.gap_deadline(now));
+        }
         match self.cfg.flow_control {
             FlowControl::XonXoff => self.transmit_flow_char(self.cfg.xon_xoff.xon),
             FlowControl::RtsCts => self.set_rts(true),
@@ -728,6 +738,16 @@ impl Link {
         now + self.cdt + self.char_time + Duration::from_micros(1)
     }
 
+    /// The receive deadline in force: none while we hold the partner in the middle of a frame
+    /// (XOFF sent / RTS = OFF), since it is then *supposed* to pause.
+    fn rx_monitoring(&self) -> Option<Instant> {
+        if self.stop_sent && self.rx == Rx::Receiving {
+            None
+        } else {
+            self.rx_deadline
+        }
+    }
+
     fn tx_deadline(&self) -> Option<Instant> {
         match &self.tx {
             Tx::Idle => None,
@@ -751,7 +771,7 @@ impl Engine for Link {
     }
 
     fn handle_timeout(&mut self, now: Instant) {
-        if self.rx_deadline.is_some_and(|d| now >= d) {
+        if self.rx_monitoring().is_some_and(|d| now >= d) {
             self.rx_deadline = None;
             match self.rx {
                 Rx::Receiving if self.cfg.end == EndCriterion::CharDelay => {
@@ -879,7 +899,7 @@ impl Engine for Link {
 
     fn poll_output(&mut self) -> Output<Event> {
         self.out.pop_front().unwrap_or_else(|| {
-            Output::Wait(Instant::earliest(self.rx_deadline, self.tx_deadline()))
+            Output::Wait(Instant::earliest(self.rx_monitoring(), self.tx_deadline()))
         })
     }
 }

@@ -102,7 +102,7 @@ impl AsciiHandle {
             };
             match event {
                 Event::Received { at, .. } => {
-                    if let Some(data) = self.inner.call(|l, _| l.read_frame_vec()).await? {
+                    if let Some(data) = self.inner.call(|l, now| l.read_frame_vec(now)).await? {
                         return Ok(Incoming::Frame { data, at });
                     }
                 }

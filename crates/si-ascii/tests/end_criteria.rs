@@ -233,7 +233,7 @@ fn s6_2_inter_frame_pause_keeps_two_sent_frames_apart_for_a_cdt_partner() {
         sim.with(a, |l, now| l.send(now, "two".into())).unwrap();
         sim.run_until_quiet(sim.now() + Duration::from_secs(1));
         let mut frames = Vec::new();
-        while let Some(f) = sim.with(b, |l, _| l.read_frame_vec()) {
+        while let Some(f) = sim.with(b, |l, now| l.read_frame_vec(now)) {
             frames.push(f);
         }
         assert_eq!(frames, vec![b"one".to_vec(), b"two".to_vec()], "{baud}");

@@ -103,7 +103,9 @@ fn s6_6_warning_0b01_above_two_thirds_on_every_s_rcv_call_without_error() {
     send_frames(&mut b, 7..=7); // 700 bytes
     for _ in 0..3 {
         // Every enabled call that leaves the buffer above 2/3 carries the warning.
-        let out = b.sim.with(b.link, |l, _| rcv.call(l, true, false, &mut db));
+        let out = b
+            .sim
+            .with(b.link, |l, now| rcv.call(l, now, true, false, &mut db));
         assert!(out.ndr && !out.error);
         assert_eq!(out.len, 100);
         if b.sim.engine(b.link).buffer().above_two_thirds() {
@@ -111,7 +113,9 @@ fn s6_6_warning_0b01_above_two_thirds_on_every_s_rcv_call_without_error() {
         }
     }
     // 400 bytes left: no warning.
-    let out = b.sim.with(b.link, |l, _| rcv.call(l, true, false, &mut db));
+    let out = b
+        .sim
+        .with(b.link, |l, now| rcv.call(l, now, true, false, &mut db));
     assert_eq!(out.status, si_core::Status::OK);
 }
 
@@ -121,11 +125,15 @@ fn s6_6_warning_while_idle_and_after_the_read_that_leaves_it_above() {
     send_frames(&mut b, 1..=8); // 800 bytes
     let mut rcv = SRcv::default();
     let mut db = [0u8; 200];
-    let first = b.sim.with(b.link, |l, _| rcv.call(l, true, false, &mut db));
+    let first = b
+        .sim
+        .with(b.link, |l, now| rcv.call(l, now, true, false, &mut db));
     // 700 bytes remain: still above 2/3, so NDR comes with the warning, ERROR stays 0.
     assert!(first.ndr && !first.error);
     assert_eq!(first.status, status::BUFFER_TWO_THIRDS_FULL);
-    let second = b.sim.with(b.link, |l, _| rcv.call(l, true, false, &mut db));
+    let second = b
+        .sim
+        .with(b.link, |l, now| rcv.call(l, now, true, false, &mut db));
     assert_eq!(second.status, si_core::Status::OK); // 600 bytes
 }
 
@@ -158,16 +166,32 @@ fn s8_3_s_rcv_reports_a_receive_error_once_then_the_frames() {
     b.run_for_ms(100);
     let mut rcv = SRcv::default();
     let mut db = [0u8; 200];
-    let out = b.sim.with(b.link, |l, _| rcv.call(l, true, false, &mut db));
+    let out = b
+        .sim
+        .with(b.link, |l, now| rcv.call(l, now, true, false, &mut db));
     assert!(out.error && !out.ndr);
     assert_eq!(out.status, status::CHAR_DELAY_EXCEEDED);
-    let out = b.sim.with(b.link, |l, _| rcv.call(l, true, false, &mut db));
+    let out = b
+        .sim
+        .with(b.link, |l, now| rcv.call(l, now, true, false, &mut db));
     assert!(out.ndr && !out.error);
     assert_eq!(&db[..out.len], b"ok\x03");
     // EN_R = 0: nothing received; R = 1: nothing received.
     b.partner_sends(b"x\x03");
     b.run_for_ms(100);
-    assert!(!b.sim.with(b.link, |l, _| rcv.call(l, false, false, &mut db)).ndr);
-    assert!(!b.sim.with(b.link, |l, _| rcv.call(l, true, true, &mut db)).ndr);
-    assert!(b.sim.with(b.link, |l, _| rcv.call(l, true, false, &mut db)).ndr);
+    assert!(
+        !b.sim
+            .with(b.link, |l, now| rcv.call(l, now, false, false, &mut db))
+            .ndr
+    );
+    assert!(
+        !b.sim
+            .with(b.link, |l, now| rcv.call(l, now, true, true, &mut db))
+            .ndr
+    );
+    assert!(
+        b.sim
+            .with(b.link, |l, now| rcv.call(l, now, true, false, &mut db))
+            .ndr
+    );
 }

@@ -3,7 +3,9 @@
 
 use si_ascii::{Config, Event, Link};
 use si_core::sim::{Simulator, StationId};
-use si_core::{Engine, Instant, LineError, ModemSignals, Output, Parity, SerialSettings, SignalUpdate};
+use si_core::{
+    Engine, Instant, LineError, ModemSignals, Output, Parity, SerialSettings, SignalUpdate,
+};
 use std::collections::VecDeque;
 
 /// A partner that only does what the test scripts: transmits through `Simulator::transmit`,
@@ -104,7 +106,7 @@ impl Bench {
 
     pub fn frames(&mut self) -> Vec<Vec<u8>> {
         let mut v = Vec::new();
-        while let Some(f) = self.sim.with(self.link, |l, _| l.read_frame_vec()) {
+        while let Some(f) = self.sim.with(self.link, |l, now| l.read_frame_vec(now)) {
             v.push(f);
         }
         v
