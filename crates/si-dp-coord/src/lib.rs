@@ -1,5 +1,56 @@
-//! # si-dp-coord (not yet implemented)
+//! # si-dp-coord
 //!
-//! Will hold the coordination-byte window protocol through which a PROFIBUS-DP master talks to an
-//! ET 200S serial module (et200s-si-2005-window-protocol.md §2): the host side (the FBs' view) and
-//! the module side (a simulated module driving a line engine). Nothing here works yet.
+//! The coordination-byte window protocol through which a non-S7 PROFIBUS-DP master (a PC card,
+//! a gateway, a test tool) talks to an ET 200S serial interface module
+//! (et200s-si-2005-window-protocol.md §2, the manual's §2.12 "reference data for DP masters other
+//! than S7").
+//!
+//! Each DP cycle the master writes a 4-, 8- or 32-byte output window and reads the input window
+//! of the same size. Byte 0 is the coordination byte (bit 7 reserved, bits 6–4 job code, bit 3
+//! error, bits 2–0 execution number); the other bytes carry segments of 3, 7 or 31 data bytes.
+//!
+//! * [`coord`] and [`frame`]: the coordination byte, window images, payload streams, the V.24
+//!   signal word, flow-control parameter blocks (pure encode/decode).
+//! * [`host`]: the master's engine — one arbiter owning byte 0, jobs send, receive, read/write
+//!   V.24, parameters, with segmenting, go-back on the error bit, back-off on foreign job codes and
+//!   a job watchdog. Every job ends in exactly one completion.
+//! * [`module`]: the module's engine, with its serial line behind the [`module::SerialSide`]
+//!   trait, for simulations and tests (and gateways that play the module).
+//! * [`timing`]: the manual's processing-time estimate and the PPI token rotation formula.
+//! * [`status`]: the STATUS words the window carries.
+//!
+//! ```
+//! use si_dp_coord::{host::{Host, Job, HostEvent, Outcome}, module::{Module, LoopbackSerial}};
+//! use si_dp_coord::config::{HostConfig, ModuleConfig};
+//! use si_dp_coord::frame::WindowSize;
+//! use si_core::Instant;
+//!
+//! let mut host = Host::new(HostConfig::new(WindowSize::Eight)).unwrap();
+//! let mut module = Module::new(ModuleConfig::new(WindowSize::Eight), LoopbackSerial::new()).unwrap();
+//! let id = host.submit(Job::Send(b"hello"[..].into())).unwrap();
+//! let mut input = module.input().to_vec();
+//! for cycle in 0..20u64 {
+//!     let now = Instant::from_micros(cycle * 1_000);
+//!     let output = host.cycle(now, &input).to_vec();
+//!     input = module.cycle(now, &output).to_vec();
+//! }
+//! assert_eq!(
+//!     host.poll_event(),
+//!     Some(HostEvent::Completed { id, code: si_dp_coord::coord::JobCode::Send, result: Ok(Outcome::Sent) })
+//! );
+//! assert_eq!(module.serial().sent().next().map(|f| &f[..]), Some(&b"hello"[..]));
+//! ```
+
+pub mod config;
+pub mod coord;
+pub mod frame;
+pub mod host;
+pub mod module;
+pub mod status;
+pub mod timing;
+
+pub use config::{HostConfig, ModuleConfig};
+pub use coord::{CoordByte, JobCode};
+pub use frame::{ParamBlock, RxStatus, V24Signals, Window, WindowSize};
+pub use host::{Host, HostEvent, Job, JobId, Outcome};
+pub use module::{LoopbackSerial, Module, SerialEvent, SerialSide};

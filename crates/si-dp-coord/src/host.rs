@@ -1,0 +1,663 @@
+//! The host engine: what a non-S7 DP master (PC card, gateway, test tool) runs to talk to an
+//! ET 200S serial module through its coordination-byte window.
+//!
+//! et200s-si-2005-window-protocol.md §2.4 (rules for writing a job code), §2.8 (error handling)
+//! and §2.9 (host-side state machines). Call [`Host::cycle`] once per DP cycle (or host cycle)
+//! with the input window just read; write the returned output window back as one consistent
+//! block. Jobs are submitted with [`Host::submit`] and end in exactly one
+//! [`HostEvent::Completed`], taken with [`Host::poll_event`].
+//!
+//! The engine reads no clock: `now` is only used by the job watchdog.
+//!
+//! # The arbiter
+//!
+//! Only one job owns byte 0 (§2.4, derived in §2.9). A job code is written only in a cycle
+//! where the module shows idle (00H, no error bit) *and* the host's previous output byte 0 was
+//! 00H, so every job starts from a clean idle on both sides. A job that reads the acknowledgement
+//! of a foreign job code backs off (rule 3): it writes 00H, waits for idle, and starts again,
+//! reported as [`HostEvent::BackedOff`].
+//!
+//! # Readings chosen where the manual is unclear
+//!
+//! * A send or parameter job completes when the end-of-job acknowledgement 7xH arrives, with the
+//!   STATUS of bytes 1–2 (0000H = done); write V.24 completes on the 40H acknowledgement. The host
+//!   then writes 00H and waits for the module's idle before the next job (§2.9 `DONE`).
+//! * A receive or read V.24 job completes when the module shows idle after the host's last echo.
+//!   The host holds the echo until then and writes 00H afterwards (H-11; writing 00H earlier would
+//!   abort the transfer, §2.8).
+//! * A receive job answered with 20H and 0101H (or 0000H) completes with
+//!   [`Outcome::NoMessage`]; 20H with any other word is a failure with that STATUS (§2.8).
+//! * An out-of-order receive segment sets the error bit with the last valid number. The host then
+//!   accepts either answer: the segment after the last valid one (the general go-back rule) or
+//!   20H with a STATUS (Table 2-21: 0551H abort; the frame is offered again by a later job, H-7).
+//! * Each job has a watchdog ([`HostConfig::job_timeout`], H-12); on expiry the job fails with
+//!   [`HostConfig::watchdog_status`] and the host writes 00H, which aborts the module's side.
+
+use crate::config::{ConfigError, HostConfig};
+use crate::coord::{exec_of_segment, segment_with_exec, CoordByte, JobCode};
+use crate::frame::{send_stream, ParamBlock, RxStatus, V24Signals, Window};
+use crate::status::{
+    lookup, ABORTED_BY_RESET, INVALID_LEN, NOT_POSSIBLE_IN_MODE, RECEIVED_FRAME_TOO_LONG,
+    TRANSFER_ERROR_TO_CPU,
+};
+use bytes::Bytes;
+use serde::{Deserialize, Serialize};
+use si_core::{Instant, Status};
+use std::collections::VecDeque;
+
+/// Identifies a submitted job in its completion event.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct JobId(pub u32);
+
+/// A job for the module (Table 2-22).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Job {
+    /// Job 1: send a frame of 1 … `max_frame_len` bytes to the serial partner.
+    Send(Bytes),
+    /// Job 2: fetch the oldest received frame.
+    Receive,
+    /// Job 3: read the V.24 signal states.
+    ReadV24,
+    /// Job 4: set RTS and DTR (the other bits are inputs and are sent as 0).
+    WriteV24 {
+        /// Request to send.
+        rts: bool,
+        /// Data terminal ready.
+        dtr: bool,
+    },
+    /// Job 5: transfer a flow-control parameter block.
+    Parameters(ParamBlock),
+}
+
+impl Job {
+    /// The job code this job writes into byte 0.
+    pub const fn code(&self) -> JobCode {
+        match self {
+            Job::Send(_) => JobCode::Send,
+            Job::Receive => JobCode::Receive,
+            Job::ReadV24 => JobCode::ReadV24,
+            Job::WriteV24 { .. } => JobCode::WriteV24,
+            Job::Parameters(_) => JobCode::Parameters,
+        }
+    }
+}
+
+/// What a job produced when it succeeded.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Outcome {
+    /// Send: the module acknowledged the end of the job with 0000H, i.e. the frame went to the
+    /// partner (§2.9).
+    Sent,
+    /// Receive: the complete frame.
+    Received(Bytes),
+    /// Receive: the module had no frame (20H + 0101H, "not an error", §2.8).
+    NoMessage,
+    /// Read V.24: the signal states.
+    Signals(V24Signals),
+    /// Write V.24: acknowledged with 0000H.
+    SignalsWritten,
+    /// Parameters: acknowledged with 0000H.
+    ParametersSet,
+}
+
+/// Something the host engine reports.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum HostEvent {
+    /// A job ended: exactly one per submitted (or automatic) job.
+    Completed {
+        /// The job.
+        id: JobId,
+        /// Its job code.
+        code: JobCode,
+        /// Done, or failed with the STATUS.
+        result: Result<Outcome, Status>,
+    },
+    /// The job read a foreign job acknowledgement, wrote idle and will start again once the module
+    /// is idle (§2.4 rule 3, §2.8 "sender gets another job code").
+    BackedOff {
+        /// The job.
+        id: JobId,
+        /// The coordination byte that caused it.
+        seen: CoordByte,
+    },
+}
+
+/// Why [`Host::submit`] refused a job.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SubmitError {
+    /// The frame is empty or longer than the configured maximum (the FB's LEN check, 1E41H).
+    #[error("frame length {len} outside 1 … {max} (STATUS 16#1E41)")]
+    InvalidLength {
+        /// Length given.
+        len: usize,
+        /// Configured maximum.
+        max: usize,
+    },
+    /// The job queue is full.
+    #[error("job queue full ({capacity} jobs)")]
+    QueueFull {
+        /// Configured capacity.
+        capacity: usize,
+    },
+}
+
+impl SubmitError {
+    /// The STATUS an S7 FB would show for the same refusal (1E41H for a bad LEN, 0502H when no
+    /// job can be taken).
+    pub fn status(&self) -> Status {
+        match self {
+            SubmitError::InvalidLength { .. } => INVALID_LEN,
+            SubmitError::QueueFull { .. } => NOT_POSSIBLE_IN_MODE,
+        }
+    }
+}
+
+/// Counters for diagnostics and tests.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct HostStats {
+    /// Jobs that wrote their request byte (a backed-off job counts again).
+    pub requests: u64,
+    /// Segments the module echoed (send direction).
+    pub segments_sent: u64,
+    /// Segments accepted (receive direction).
+    pub segments_received: u64,
+    /// Go-backs after the module's error bit (send direction).
+    pub resends: u64,
+    /// Times the host set the error bit (receive direction).
+    pub errors_signalled: u64,
+    /// Back-offs after a foreign job code.
+    pub backoffs: u64,
+    /// Jobs ended by the watchdog.
+    pub timeouts: u64,
+    /// Input windows of the wrong length, ignored.
+    pub invalid_windows: u64,
+}
+
+/// At most this many events wait for [`Host::poll_event`] beyond the job queue; back-off notices
+/// beyond it are dropped (never completions) and automatic receives pause.
+const EVENT_SLACK: usize = 64;
+
+#[derive(Debug)]
+enum Phase {
+    /// Writing 00H until the module is idle and the job may write its request.
+    WaitIdle,
+    /// Send/parameters: the request 10H/50H is out, waiting for the acceptance.
+    Request,
+    /// Send/parameters: showing segment `k` of `last`; `acked` = highest echoed segment;
+    /// `in_error` while the module shows its error bit.
+    Sending {
+        k: usize,
+        last: usize,
+        acked: usize,
+        in_error: bool,
+    },
+    /// Receive: `k` segments accepted (0 = request out), `len` from the first segment.
+    Receiving { k: usize, len: usize, error: bool },
+    /// Read V.24 request out.
+    ReadV24,
+    /// Read V.24 echo out, waiting for idle.
+    ReadV24Ack(V24Signals),
+    /// Write V.24 request out.
+    WriteV24,
+}
+
+#[derive(Debug)]
+struct Active {
+    id: JobId,
+    job: Job,
+    started: Instant,
+    phase: Phase,
+}
+
+/// The host side of the window protocol. See the [module docs](self).
+#[derive(Debug)]
+pub struct Host {
+    cfg: HostConfig,
+    out: Window,
+    queue: VecDeque<(JobId, Job)>,
+    active: Option<Active>,
+    events: VecDeque<HostEvent>,
+    next_id: u32,
+    rx_status: Option<RxStatus>,
+    /// Payload stream of the running send/parameter job (reused, no allocation per job once
+    /// grown).
+    stream: Vec<u8>,
+    /// Frame being received.
+    rx: Vec<u8>,
+    stats: HostStats,
+}
+
+impl Host {
+    /// A host engine; its first output is idle (00H), and it waits for the module's idle before
+    /// the first job, as after any host restart (§2.10).
+    pub fn new(cfg: HostConfig) -> Result<Host, ConfigError> {
+        cfg.validate()?;
+        Ok(Host {
+            out: Window::new(cfg.window),
+            queue: VecDeque::with_capacity(cfg.queue_capacity),
+            active: None,
+            events: VecDeque::new(),
+            next_id: 1,
+            rx_status: None,
+            stream: Vec::with_capacity(cfg.max_frame_len + 2),
+            rx: Vec::with_capacity(cfg.max_frame_len),
+            stats: HostStats::default(),
+            cfg,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &HostConfig {
+        &self.cfg
+    }
+
+    /// Queues a job. It runs when the arbiter grants it byte 0 and ends in one
+    /// [`HostEvent::Completed`].
+    pub fn submit(&mut self, job: Job) -> Result<JobId, SubmitError> {
+        if let Job::Send(data) = &job {
+            if data.is_empty() || data.len() > self.cfg.max_frame_len {
+                return Err(SubmitError::InvalidLength {
+                    len: data.len(),
+                    max: self.cfg.max_frame_len,
+                });
+            }
+        }
+        if self.queue.len() >= self.cfg.queue_capacity {
+            return Err(SubmitError::QueueFull {
+                capacity: self.cfg.queue_capacity,
+            });
+        }
+        let id = self.fresh_id();
+        self.queue.push_back((id, job));
+        Ok(id)
+    }
+
+    /// Ends every queued and running job with 1E0DH ("aborted by reset") and writes idle: the
+    /// FB's R input, or a host restart.
+    pub fn reset(&mut self) {
+        if let Some(a) = self.active.take() {
+            self.push_completion(a.id, a.job.code(), Err(ABORTED_BY_RESET));
+        }
+        while let Some((id, job)) = self.queue.pop_front() {
+            self.push_completion(id, job.code(), Err(ABORTED_BY_RESET));
+        }
+        self.out.clear();
+    }
+
+    /// The next event, oldest first.
+    pub fn poll_event(&mut self) -> Option<HostEvent> {
+        self.events.pop_front()
+    }
+
+    /// The receive status of the last idle window read (0000H, 0001H, 0B01H; §2.5).
+    pub fn receive_status(&self) -> Option<RxStatus> {
+        self.rx_status
+    }
+
+    /// True while a job runs or waits.
+    pub fn is_busy(&self) -> bool {
+        self.active.is_some() || !self.queue.is_empty()
+    }
+
+    /// Counters.
+    pub fn stats(&self) -> HostStats {
+        self.stats
+    }
+
+    /// The output window as last computed.
+    pub fn output(&self) -> &[u8] {
+        self.out.as_bytes()
+    }
+
+    /// One DP cycle: reads the module's input window, returns the output window to write.
+    ///
+    /// An input of the wrong length (a failed consistent read) is ignored: the outputs are held
+    /// and only the watchdog runs.
+    pub fn cycle(&mut self, now: Instant, input: &[u8]) -> &[u8] {
+        self.check_watchdog(now);
+        let Some(inw) = Window::from_bytes(input).filter(|w| w.size() == self.cfg.window) else {
+            self.stats.invalid_windows += 1;
+            return self.out.as_bytes();
+        };
+        let c = inw.coord();
+        let out_was_idle = self.out.as_bytes()[0] == 0;
+        if c.is_idle() {
+            self.rx_status = Some(RxStatus::from_word(inw.word()));
+        }
+        if let Some(active) = self.active.take() {
+            self.active = self.step(active, c, &inw);
+        }
+        if self.active.is_none() {
+            self.out.clear();
+            self.active = self.next_job(now);
+        }
+        // A job may write its request only from a clean idle on both sides.
+        if let Some(a) = &mut self.active {
+            if matches!(a.phase, Phase::WaitIdle) && out_was_idle && c.is_idle() {
+                self.stats.requests += 1;
+                a.phase = match &a.job {
+                    Job::Send(_) | Job::Parameters(_) => Phase::Request,
+                    Job::Receive => Phase::Receiving {
+                        k: 0,
+                        len: 0,
+                        error: false,
+                    },
+                    Job::ReadV24 => Phase::ReadV24,
+                    Job::WriteV24 { .. } => Phase::WriteV24,
+                };
+                self.out.clear();
+                self.out.set_coord(CoordByte::new(a.job.code(), 0));
+                if let Job::WriteV24 { rts, dtr } = a.job {
+                    let signals = V24Signals {
+                        rts,
+                        dtr,
+                        ..V24Signals::default()
+                    };
+                    let [b1, b2] = self.cfg.v24_layout.encode(signals);
+                    self.out.data_mut()[..2].copy_from_slice(&[b1, b2]);
+                }
+                match &a.job {
+                    Job::Send(data) => send_stream(data, &mut self.stream),
+                    Job::Parameters(block) => {
+                        let (bytes, n) = block.encode();
+                        self.stream.clear();
+                        self.stream.extend_from_slice(&bytes[..n]);
+                    }
+                    _ => self.rx.clear(),
+                }
+            }
+        }
+        self.out.as_bytes()
+    }
+
+    fn fresh_id(&mut self) -> JobId {
+        let id = JobId(self.next_id);
+        self.next_id = self.next_id.wrapping_add(1).max(1);
+        id
+    }
+
+    fn next_job(&mut self, now: Instant) -> Option<Active> {
+        let status = self.rx_status.unwrap_or(RxStatus::Empty);
+        let auto = self.cfg.auto_receive
+            && status.frame_waiting()
+            && (self.queue.is_empty() || status == RxStatus::TwoThirdsFull)
+            && self.events.len() < self.cfg.queue_capacity + EVENT_SLACK;
+        let (id, job) = if auto {
+            (self.fresh_id(), Job::Receive)
+        } else {
+            self.queue.pop_front()?
+        };
+        Some(Active {
+            id,
+            job,
+            started: now,
+            phase: Phase::WaitIdle,
+        })
+    }
+
+    fn check_watchdog(&mut self, now: Instant) {
+        let (Some(limit), Some(a)) = (self.cfg.job_timeout, &self.active) else {
+            return;
+        };
+        if now.saturating_since(a.started) >= limit {
+            if let Some(a) = self.active.take() {
+                self.stats.timeouts += 1;
+                let status = self.cfg.watchdog_status;
+                self.finish(a, Err(status));
+            }
+        }
+    }
+
+    fn push_completion(&mut self, id: JobId, code: JobCode, result: Result<Outcome, Status>) {
+        self.events
+            .push_back(HostEvent::Completed { id, code, result });
+    }
+
+    /// Ends the job: one completion, idle written.
+    fn finish(&mut self, a: Active, result: Result<Outcome, Status>) {
+        self.push_completion(a.id, a.job.code(), result);
+        self.out.clear();
+    }
+
+    /// Rule 3 / §2.8: cancel, write idle, wait for idle, repeat the whole job.
+    fn back_off(&mut self, mut a: Active, seen: CoordByte) -> Option<Active> {
+        self.stats.backoffs += 1;
+        if self.events.len() < self.cfg.queue_capacity + EVENT_SLACK {
+            self.events
+                .push_back(HostEvent::BackedOff { id: a.id, seen });
+        }
+        a.phase = Phase::WaitIdle;
+        self.out.clear();
+        Some(a)
+    }
+
+    fn show_segment(&mut self, code: JobCode, k: usize) {
+        self.out
+            .set_segment(CoordByte::new(code, exec_of_segment(k)), &self.stream, k);
+    }
+
+    fn step(&mut self, mut a: Active, c: CoordByte, inw: &Window) -> Option<Active> {
+        let code = a.job.code();
+        let word = inw.word();
+        match a.phase {
+            Phase::WaitIdle => Some(a),
+            Phase::Request => {
+                if c.job == JobCode::Idle {
+                    Some(a)
+                } else if c == CoordByte::new(code, 0) {
+                    let last = self.cfg.window.segments(self.stream.len());
+                    a.phase = Phase::Sending {
+                        k: 1,
+                        last,
+                        acked: 0,
+                        in_error: false,
+                    };
+                    self.show_segment(code, 1);
+                    Some(a)
+                } else if c.job == code {
+                    Some(a)
+                } else if c.job == JobCode::EndOfJob {
+                    // Refused before any segment (§2.9: "7xH → rejected").
+                    let status = if word == 0 {
+                        NOT_POSSIBLE_IN_MODE
+                    } else {
+                        lookup(word)
+                    };
+                    self.finish(a, Err(status));
+                    None
+                } else {
+                    self.back_off(a, c)
+                }
+            }
+            Phase::Sending {
+                mut k,
+                last,
+                mut acked,
+                mut in_error,
+            } => {
+                if c.job == code && !c.error {
+                    in_error = false;
+                    if c.exec == exec_of_segment(k) && acked < k {
+                        acked = k;
+                        self.stats.segments_sent += 1;
+                        if k < last {
+                            k += 1;
+                            self.show_segment(code, k);
+                        }
+                    }
+                    a.phase = Phase::Sending {
+                        k,
+                        last,
+                        acked,
+                        in_error,
+                    };
+                    Some(a)
+                } else if c.job == code {
+                    // Error bit: resend from the segment after the last valid one (§2.8).
+                    if let Some(j) = segment_with_exec(k, c.exec) {
+                        if !in_error {
+                            self.stats.resends += 1;
+                        }
+                        in_error = true;
+                        k = (j + 1).min(last);
+                        acked = j.min(acked);
+                        self.show_segment(code, k);
+                    }
+                    a.phase = Phase::Sending {
+                        k,
+                        last,
+                        acked,
+                        in_error,
+                    };
+                    Some(a)
+                } else if c.job == JobCode::EndOfJob {
+                    let result = if word != 0 {
+                        Err(lookup(word))
+                    } else if k == last {
+                        Ok(match a.job {
+                            Job::Parameters(_) => Outcome::ParametersSet,
+                            _ => Outcome::Sent,
+                        })
+                    } else {
+                        Err(NOT_POSSIBLE_IN_MODE)
+                    };
+                    self.finish(a, result);
+                    None
+                } else {
+                    self.back_off(a, c)
+                }
+            }
+            Phase::Receiving {
+                mut k,
+                mut len,
+                mut error,
+            } => {
+                let complete = k > 0 && self.rx.len() >= len;
+                if c.job == JobCode::Receive && !c.error {
+                    if c.exec == 0 {
+                        // 20H + STATUS: nothing there, an erroneous frame, or the abort after
+                        // our error bit (§2.8, Table 2-21).
+                        let result = if k == 0 && !error && (word == 0x0101 || word == 0) {
+                            Ok(Outcome::NoMessage)
+                        } else if word == 0 || word == 0x0101 {
+                            Err(TRANSFER_ERROR_TO_CPU)
+                        } else {
+                            Err(lookup(word))
+                        };
+                        self.finish(a, result);
+                        return None;
+                    }
+                    if c.exec == exec_of_segment(k + 1) && !complete {
+                        let data = inw.data();
+                        if k == 0 {
+                            len = usize::from(word);
+                            if len == 0 || len > self.cfg.max_frame_len {
+                                let status = if len == 0 {
+                                    TRANSFER_ERROR_TO_CPU
+                                } else {
+                                    RECEIVED_FRAME_TOO_LONG
+                                };
+                                self.finish(a, Err(status));
+                                return None;
+                            }
+                            self.rx.clear();
+                            let take = (data.len() - 2).min(len);
+                            self.rx.extend_from_slice(&data[2..2 + take]);
+                        } else {
+                            let take = data.len().min(len - self.rx.len());
+                            self.rx.extend_from_slice(&data[..take]);
+                        }
+                        k += 1;
+                        error = false;
+                        self.stats.segments_received += 1;
+                        self.out.clear();
+                        self.out
+                            .set_coord(CoordByte::new(JobCode::Receive, exec_of_segment(k)));
+                    } else if c.exec != exec_of_segment(k) || k == 0 {
+                        // Out of order: error bit + last valid number (§2.8).
+                        if !error {
+                            self.stats.errors_signalled += 1;
+                        }
+                        error = true;
+                        self.out.clear();
+                        self.out
+                            .set_coord(CoordByte::error(JobCode::Receive, exec_of_segment(k)));
+                    }
+                    a.phase = Phase::Receiving { k, len, error };
+                    Some(a)
+                } else if c.job == JobCode::Idle {
+                    if k == 0 {
+                        // The module has not seen the request yet.
+                        a.phase = Phase::Receiving { k, len, error };
+                        Some(a)
+                    } else if complete {
+                        let frame = Bytes::copy_from_slice(&self.rx[..len]);
+                        self.finish(a, Ok(Outcome::Received(frame)));
+                        None
+                    } else {
+                        self.finish(a, Err(TRANSFER_ERROR_TO_CPU));
+                        None
+                    }
+                } else if c.job == JobCode::EndOfJob {
+                    // 111 during the transfer: aborted (§2.8).
+                    self.finish(a, Err(TRANSFER_ERROR_TO_CPU));
+                    None
+                } else if k == 0 && c.job != JobCode::Receive {
+                    // The module acknowledged someone else's job.
+                    self.back_off(a, c)
+                } else {
+                    // The receiver ignores a foreign code and its data (§2.8).
+                    a.phase = Phase::Receiving { k, len, error };
+                    Some(a)
+                }
+            }
+            Phase::ReadV24 => {
+                if c.job == JobCode::Idle || (c.job == code && c.error) {
+                    Some(a)
+                } else if c.job == code && c.exec == exec_of_segment(1) {
+                    let bytes = inw.data();
+                    let signals = self.cfg.v24_layout.decode([bytes[0], bytes[1]]);
+                    a.phase = Phase::ReadV24Ack(signals);
+                    self.out.clear();
+                    self.out.set_coord(CoordByte::new(code, exec_of_segment(1)));
+                    Some(a)
+                } else if c.job == code && c.exec == 0 {
+                    let status = if word == 0 {
+                        NOT_POSSIBLE_IN_MODE
+                    } else {
+                        lookup(word)
+                    };
+                    self.finish(a, Err(status));
+                    None
+                } else if c.job == code {
+                    Some(a)
+                } else {
+                    self.back_off(a, c)
+                }
+            }
+            Phase::ReadV24Ack(signals) => {
+                if c.job == JobCode::Idle {
+                    self.finish(a, Ok(Outcome::Signals(signals)));
+                    None
+                } else {
+                    Some(a)
+                }
+            }
+            Phase::WriteV24 => {
+                if c.job == JobCode::Idle || (c.job == code && (c.error || c.exec != 0)) {
+                    Some(a)
+                } else if c.job == code {
+                    let result = if word == 0 {
+                        Ok(Outcome::SignalsWritten)
+                    } else {
+                        Err(lookup(word))
+                    };
+                    self.finish(a, result);
+                    None
+                } else {
+                    self.back_off(a, c)
+                }
+            }
+        }
+    }
+}
