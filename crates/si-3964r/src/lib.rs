@@ -50,4 +50,4 @@ pub mod tokio;
 
 pub use config::{Config, ConfigError, Priority};
 pub use frame::{FrameError, Mode};
-pub use link::{Event, JobId, Link, SendError};
+pub use link::{Counters, Event, JobId, Link, SendError};

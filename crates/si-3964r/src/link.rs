@@ -154,6 +154,19 @@ enum State {
     WaitRepeat { deadline: Instant },
 }
 
+/// Running totals since the link was created, for diagnostics and tests.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Counters {
+    /// Blocks put on the line (every transmission attempt that got the partner's DLE).
+    pub blocks_sent: u64,
+    /// Of those, repetitions (transmission attempts after the first of a job).
+    pub repetitions: u64,
+    /// Blocks received intact and queued.
+    pub blocks_received: u64,
+    /// Blocks answered with NAK.
+    pub blocks_rejected: u64,
+}
+
 #[derive(Debug)]
 struct Job {
     id: JobId,
@@ -190,6 +203,7 @@ pub struct Link {
     tx_buf: Vec<u8>,
     last_outcome: Option<(JobId, Result<(), Status>)>,
     last_receive_error: Option<Status>,
+    counters: Counters,
 }
 
 impl fmt::Debug for Link {
@@ -223,9 +237,15 @@ impl Link {
             tx_buf: Vec::with_capacity(2 * max + 3),
             last_outcome: None,
             last_receive_error: None,
+            counters: Counters::default(),
         };
         link.transmit_static(&[NAK]);
         Ok(link)
+    }
+
+    /// Running totals (blocks sent, repetitions, received, rejected).
+    pub fn counters(&self) -> Counters {
+        self.counters
     }
 
     /// The parameters.
@@ -317,6 +337,10 @@ impl Link {
             self.state = State::Idle;
             return;
         };
+        self.counters.blocks_sent += 1;
+        if job.tx_try > 1 {
+            self.counters.repetitions += 1;
+        }
         self.tx_buf.clear();
         frame::encode_into(&job.data, self.config.mode(), &mut self.tx_buf);
         let on_wire = self.settings.chars_time(self.tx_buf.len() as u64);
@@ -428,12 +452,14 @@ impl Link {
                     self.receive_error(status::ZERO_LENGTH);
                 } else {
                     let len = payload.len();
+                    self.counters.blocks_received += 1;
                     self.received.push_back(Bytes::copy_from_slice(payload));
                     self.out.push_back(Output::Event(Event::Received { len }));
                 }
                 self.enter_idle(now);
             }
             Some(error) => {
+                self.counters.blocks_rejected += 1;
                 self.transmit_static(&[NAK]);
                 self.rx_first_err.get_or_insert(error);
                 self.rx_try = self.rx_try.saturating_add(1);
