@@ -22,7 +22,9 @@ fn help_lists_the_subcommands() {
     let o = si(&["--help"]);
     assert!(o.status.success());
     let text = stdout(&o);
-    for sub in ["ports", "frame", "sim", "3964r", "--port", "--tcp", "--baud", "--json"] {
+    for sub in [
+        "ports", "frame", "sim", "3964r", "--port", "--tcp", "--baud", "--json",
+    ] {
         assert!(text.contains(sub), "--help lacks {sub}:\n{text}");
     }
     let o = si(&["frame", "--help"]);
@@ -35,7 +37,10 @@ fn help_lists_the_subcommands() {
 fn version_is_the_crate_version() {
     let o = si(&["--version"]);
     assert!(o.status.success());
-    assert_eq!(stdout(&o).trim(), format!("si {}", env!("CARGO_PKG_VERSION")));
+    assert_eq!(
+        stdout(&o).trim(),
+        format!("si {}", env!("CARGO_PKG_VERSION"))
+    );
 }
 
 #[test]
@@ -59,7 +64,15 @@ fn no_line_given_is_a_clear_error() {
 
 #[test]
 fn bad_serial_settings_name_the_value() {
-    let o = si(&["--port", "/dev/null", "--baud", "9601", "3964r", "send", "01"]);
+    let o = si(&[
+        "--port",
+        "/dev/null",
+        "--baud",
+        "9601",
+        "3964r",
+        "send",
+        "01",
+    ]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("baud rate 9601"), "{}", stderr(&o));
 }
@@ -69,7 +82,10 @@ fn sim_lists_its_scenarios_and_rejects_unknown_ones() {
     let o = si(&["sim"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = stdout(&o);
-    assert!(text.contains("line-timing") && text.contains("rs485-collision"), "{text}");
+    assert!(
+        text.contains("line-timing") && text.contains("rs485-collision"),
+        "{text}"
+    );
     let o = si(&["sim", "no-such-thing"]);
     assert!(!o.status.success());
     let err = stderr(&o);
