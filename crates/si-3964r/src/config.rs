@@ -20,7 +20,7 @@
 //! - **QVZ range.** The ET 200S tables (et200s-si-3964r-ascii.md §5.8, window-protocol §3.2) give
 //!   10 … 655 350 ms, the CP 341 table (cp341 §3.8) 20 … 655 350 ms. This crate speaks for the
 //!   ET 200S module, so the minimum is 10 ms.
-//! - **10 ms steps.** The module stores times as counts of 10 ms (§5.8 [derived], A-11); a host has
+//! - **10 ms steps.** The module stores times as counts of 10 ms (§5.8, derived; A-11); a host has
 //!   microsecond timers, so any whole millisecond in range is accepted and used as given.
 //! - **QVZ default without block check.** 550 ms (Table 2-11, cp341 Table 2-4), not the 500 ms of
 //!   the CP 341 flowchart (cp341 A-6). It is the default only when `ack_delay_ms` is not given

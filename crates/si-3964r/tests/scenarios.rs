@@ -203,8 +203,10 @@ fn s5_3_nak_after_every_block_exhausts_transmission_attempts_0706() {
 
 #[test]
 fn s5_3_nak_during_the_block_then_success_0705_not_reported() {
-    let mut config = Config::default();
-    config.transmission_attempts = 2;
+    let config = Config {
+        transmission_attempts: 2,
+        ..Config::default()
+    };
     let (mut sim, a, p) = scripted(config);
     let job = sim.with(a, |l, now| l.send(now, vec![0x55; 50]).unwrap());
     run_ms(&mut sim, 5);
@@ -222,8 +224,10 @@ fn s5_3_nak_during_the_block_then_success_0705_not_reported() {
 
 #[test]
 fn s5_3_nak_during_every_block_fails_with_0705() {
-    let mut config = Config::default();
-    config.transmission_attempts = 2;
+    let config = Config {
+        transmission_attempts: 2,
+        ..Config::default()
+    };
     let (mut sim, a, p) = scripted(config);
     let job = sim.with(a, |l, now| l.send(now, vec![0x55; 50]).unwrap());
     for _ in 0..2 {
@@ -245,8 +249,10 @@ fn s5_3_nak_during_every_block_fails_with_0705() {
 
 #[test]
 fn s5_3_other_characters_during_the_block_wait_zvz_then_nak_0704() {
-    let mut config = Config::default();
-    config.transmission_attempts = 1;
+    let config = Config {
+        transmission_attempts: 1,
+        ..Config::default()
+    };
     let (mut sim, a, p) = scripted(config);
     let job = sim.with(a, |l, now| l.send(now, vec![0x55; 50]).unwrap());
     run_ms(&mut sim, 5);
@@ -290,8 +296,10 @@ fn s5_3_qvz_expires_after_stx_0703() {
 
 #[test]
 fn s5_3_qvz_expires_after_the_block_0707() {
-    let mut config = Config::default();
-    config.transmission_attempts = 1;
+    let config = Config {
+        transmission_attempts: 1,
+        ..Config::default()
+    };
     let (mut sim, a, p) = scripted(config);
     let job = sim.with(a, |l, now| l.send(now, &b"x"[..]).unwrap());
     run_ms(&mut sim, 5);
@@ -432,8 +440,10 @@ fn s5_5_bcc_error_on_every_repetition_gives_up_after_the_attempts_0808() {
 
 #[test]
 fn s5_4_parity_error_in_the_block_receives_to_the_end_then_nak_080c() {
-    let mut config = Config::default();
-    config.transmission_attempts = 1;
+    let config = Config {
+        transmission_attempts: 1,
+        ..Config::default()
+    };
     let (mut sim, a, p) = scripted(config);
     sim.transmit(p, &[STX]);
     run_ms(&mut sim, 5);
@@ -451,8 +461,10 @@ fn s5_4_parity_error_in_the_block_receives_to_the_end_then_nak_080c() {
 
 #[test]
 fn s5_10_odd_dle_is_0805() {
-    let mut config = Config::default();
-    config.transmission_attempts = 1;
+    let config = Config {
+        transmission_attempts: 1,
+        ..Config::default()
+    };
     let (mut sim, a, p) = scripted(config);
     let mut block = vec![0x41, DLE, 0x42, DLE, ETX];
     block.push(block.iter().fold(0, |x, b| x ^ b));
@@ -472,9 +484,11 @@ fn s5_10_zero_length_block_is_acknowledged_and_reported_0807() {
 
 #[test]
 fn overlong_block_is_received_to_the_end_nakked_and_reported_0850() {
-    let mut config = Config::default();
-    config.max_block_len = 4;
-    config.transmission_attempts = 1;
+    let config = Config {
+        max_block_len: 4,
+        transmission_attempts: 1,
+        ..Config::default()
+    };
     let (mut sim, a, p) = scripted(config);
     partner_sends(&mut sim, p, &encode(b"12345", Mode::BlockCheck));
     settle(&mut sim);
@@ -487,8 +501,10 @@ fn overlong_block_is_received_to_the_end_nakked_and_reported_0850() {
 
 #[test]
 fn s5_4_buffer_full_waits_400_ms_then_nak_080a() {
-    let mut config = Config::default();
-    config.receive_buffer_blocks = 1;
+    let config = Config {
+        receive_buffer_blocks: 1,
+        ..Config::default()
+    };
     let (mut sim, a, p) = scripted(config);
     partner_sends(&mut sim, p, &encode(b"one", Mode::BlockCheck));
     assert_eq!(sim.take_events(a), vec![Event::Received { len: 3 }]);
@@ -508,8 +524,10 @@ fn s5_4_buffer_full_waits_400_ms_then_nak_080a() {
 
 #[test]
 fn s5_4_buffer_freed_within_400_ms_answers_dle() {
-    let mut config = Config::default();
-    config.receive_buffer_blocks = 1;
+    let config = Config {
+        receive_buffer_blocks: 1,
+        ..Config::default()
+    };
     let (mut sim, a, p) = scripted(config);
     partner_sends(&mut sim, p, &encode(b"one", Mode::BlockCheck));
     sim.transmit(p, &[STX]);
@@ -636,8 +654,10 @@ fn s5_8_plain_3964_qvz_default_is_550_ms() {
 
 #[test]
 fn s5_2_3964r_receiver_rejects_a_plain_3964_block() {
-    let mut config = Config::default();
-    config.transmission_attempts = 1;
+    let config = Config {
+        transmission_attempts: 1,
+        ..Config::default()
+    };
     let (mut sim, a, p) = scripted(config);
     // DLE ETX and no BCC: the receiver waits ZVZ for the BCC, then NAKs.
     partner_sends(&mut sim, p, &encode(b"ab", Mode::NoBlockCheck));
