@@ -330,15 +330,31 @@ fn fault_status(fault: Fault) -> Status {
     }
 }
 
-/// Check a response against its request in the order of §4.4 (address already checked).
+/// Check a response against its request (§4.4; the address is already checked).
+///
+/// The manual lists the checks but not their order. We check the structure (function code,
+/// lengths, byte count, echo) and the CRC, and when both fail we report the length error
+/// (0E52H/0E53H) rather than 0E57H: a response cut short by a gap or run into by another
+/// frame fails its CRC as a consequence, and "too few bytes" says what happened.
 pub fn check_response(request: &[u8], response: &[u8]) -> Result<(), Status> {
-    let n = response.len();
-    if n < 4 {
+    if response.len() < 4 {
         return Err(status::TOO_FEW_BYTES);
     }
+    let structure = check_structure(request, response);
     if !frame::crc_ok(response) {
-        return Err(status::RESPONSE_CRC);
+        return match structure {
+            Err(s) if s == status::TOO_FEW_BYTES || s == status::TOO_MANY_BYTES => Err(s),
+            _ => Err(status::RESPONSE_CRC),
+        };
     }
+    structure?;
+    frame::decode_response(response)
+        .map(|_| ())
+        .map_err(|_| status::BYTE_COUNT_WRONG)
+}
+
+fn check_structure(request: &[u8], response: &[u8]) -> Result<(), Status> {
+    let n = response.len();
     let f = request[1];
     let body = n - 2;
     let exact = |len: usize| -> Result<(), Status> {
@@ -398,9 +414,7 @@ pub fn check_response(request: &[u8], response: &[u8]) -> Result<(), Status> {
         fc::GET_COMM_EVENT_LOG => byte_counted(6, 6 + frame::MAX_EVENTS)?,
         _ => return Err(status::WRONG_FUNCTION),
     }
-    frame::decode_response(response)
-        .map(|_| ())
-        .map_err(|_| status::BYTE_COUNT_WRONG)
+    Ok(())
 }
 
 impl Engine for Master {

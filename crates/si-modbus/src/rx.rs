@@ -6,6 +6,11 @@
 //! receiver is in step again at the next gap. A gap inside a frame ends it early: both pieces
 //! fail their checks and are counted.
 //!
+//! The gap is measured the way a UART lets a receiver measure it: from the moment one
+//! character has been received to the moment the next one has (its end), as the module's
+//! character delay time tZVZ is defined "between two characters" (§7.3, 0806H). The silence
+//! on the wire is therefore one character time shorter than the time measured.
+//!
 //! Operating mode (§3.7): in **Normal** mode a frame carrying a UART error or BREAK is handed
 //! up as faulty so the engine reports it. In **interference suppression** mode such frames are
 //! dropped silently, leading bytes before a correctly received slave address are skipped, and
@@ -18,9 +23,9 @@ use si_core::{Duration, Instant, LineError};
 /// Receive statistics, for diagnostics and tests.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Counters {
-    /// Frames handed to the engine with a good CRC.
+    /// Frames of at least 4 bytes handed to the engine.
     pub frames: u64,
-    /// Frames discarded: too short, bad CRC, garbage.
+    /// Frames discarded: too short here, or refused by the engine (CRC, garbage, unsolicited).
     pub discarded: u64,
     /// Bytes skipped before a slave address (interference suppression).
     pub skipped_bytes: u64,
@@ -91,7 +96,6 @@ impl Receiver {
     /// Count a frame the engine threw away after looking at it.
     pub fn count_discarded(&mut self) {
         self.counters.discarded += 1;
-        self.counters.frames = self.counters.frames.saturating_sub(1);
     }
 
     /// We transmitted `n` bytes on a line that echoes them: drop the next `n` received bytes.
@@ -147,9 +151,7 @@ impl Receiver {
                 adu = Adu::from_slice(&self.buf[k..len]).unwrap_or_default();
             }
         }
-        if crc_ok(adu.as_bytes()) {
-            self.counters.frames += 1;
-        }
+        self.counters.frames += 1;
         Some(Received { adu, fault: None })
     }
 

@@ -330,7 +330,12 @@ impl<S: Store> Slave<S> {
         let bytes = frame.adu.as_bytes();
         let unit = bytes[0];
         if unit != self.config.address && unit != BROADCAST {
-            return; // §3.2: not interpreted, not answered
+            // §3.2: not interpreted, not answered; counted as garbage unless it is a good
+            // frame for another slave.
+            if !frame::crc_ok(bytes) {
+                self.rx.count_discarded();
+            }
+            return;
         }
         if overlapped {
             self.rx.count_discarded();
