@@ -159,8 +159,10 @@ pub struct ModuleConfig {
     /// Receive buffer in bytes, 1 … 65 536; default 1024 (the ASCII driver's buffer,
     /// et200s-si-2005-window-protocol.md §4.3). 0B01H is published above 2/3 of it.
     pub rx_buffer_bytes: usize,
-    /// Most frames (and receive errors) buffered, 1 … 1024; default 250 (the ASCII driver's
-    /// "number of buffered frames" maximum).
+    /// Most frames (and receive errors) buffered, 1 … 1024; default 250. The manual bounds the
+    /// buffer by bytes only; the count keeps a flood of 1-byte frames bounded too. When either
+    /// limit is reached the newest frame is discarded ("prevent overwriting", the default of
+    /// §4.3) and the next receive job reports 080AH.
     pub rx_buffer_frames: usize,
     /// Reaction to the host's error bit in a receive job (H-7).
     pub receive_error_policy: ReceiveErrorPolicy,

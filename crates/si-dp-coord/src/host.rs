@@ -573,7 +573,16 @@ impl Host {
                         self.out.clear();
                         self.out
                             .set_coord(CoordByte::new(JobCode::Receive, exec_of_segment(k)));
-                    } else if c.exec != exec_of_segment(k) || k == 0 {
+                    } else if c.exec == exec_of_segment(k) && k > 0 {
+                        // The module shows the last valid segment again (not yet seen our echo,
+                        // or resent it after our error bit): echo it plainly.
+                        if error {
+                            error = false;
+                            self.out.clear();
+                            self.out
+                                .set_coord(CoordByte::new(JobCode::Receive, exec_of_segment(k)));
+                        }
+                    } else {
                         // Out of order: error bit + last valid number (§2.8).
                         if !error {
                             self.stats.errors_signalled += 1;

@@ -17,8 +17,8 @@
 //!   echo; the same number again → ignore (the host holds a segment until echoed); anything else
 //!   → error bit with the last valid number (§2.8). After the last segment a send frame goes to
 //!   the serial side and the module answers 7xH + STATUS only when it has been transmitted
-//!   (§2.9); a parameter block is applied at once. 7xH carries the exec number of the last
-//!   segment. A length word of 0 or above `max_frame_len` is answered at once after the segment
+//!   (§2.9); a parameter block is applied one cycle after its last echo (Table 2-28 shows 53H
+//!   before 73H). 7xH carries the exec number of the last segment. A length word of 0 or above `max_frame_len` is answered at once after the segment
 //!   carrying it with 7xH + 050EH (§2.8 case 1, H-10).
 //! * **Receive (2):** no frame → 20H + 0101H; a buffered receive error → 20H + its STATUS (§2.8
 //!   cases 2–3); else segment 1 at once as 21H with the length word (H-66), each further segment
@@ -112,6 +112,11 @@ enum Phase {
     Transmitting {
         exec: u8,
         handed: bool,
+    },
+    /// The parameter block is complete and echoed; it is applied in the next cycle (the
+    /// module's processing time: Table 2-28 shows the echo 53H before 73H).
+    Applying {
+        exec: u8,
     },
     /// Holding an answer (7xH, 20H, 40H) until the host writes idle.
     Ended,
@@ -222,7 +227,9 @@ impl<S: SerialSide> Module<S> {
             Some(o) => self.step(now, &o),
             None => self.stats.invalid_windows += 1,
         }
-        self.hand_over(now);
+        if matches!(self.phase, Phase::Transmitting { .. }) {
+            self.hand_over(now);
+        }
         if self.phase == Phase::Idle {
             self.publish_idle();
         }
@@ -265,8 +272,14 @@ impl<S: SerialSide> Module<S> {
         }
     }
 
-    /// Hands the collected frame to the serial side once it is free.
+    /// Hands the collected frame to the serial side once it is free; applies a collected
+    /// parameter block.
     fn hand_over(&mut self, now: Instant) {
+        if let Phase::Applying { exec } = self.phase {
+            let word = self.apply_parameters(now);
+            self.end_job(exec, word);
+            return;
+        }
         let Phase::Transmitting {
             exec,
             handed: false,
@@ -330,13 +343,13 @@ impl<S: SerialSide> Module<S> {
                 } else if c.job != job || c.error || c.exec == last {
                     // Foreign code: ignored with its data; same number: the host holds it.
                 } else if c.exec == next_exec(last) {
-                    self.collect(now, job, c.exec, o.data());
+                    self.collect(job, c.exec, o.data());
                 } else {
                     self.stats.out_of_order += 1;
                     self.inw.set_coord_word(CoordByte::error(job, last), 0);
                 }
             }
-            Phase::Transmitting { .. } | Phase::Ended | Phase::ReadV24 => {
+            Phase::Transmitting { .. } | Phase::Applying { .. } | Phase::Ended | Phase::ReadV24 => {
                 let echo = self.phase == Phase::ReadV24
                     && c == CoordByte::new(JobCode::ReadV24, exec_of_segment(1));
                 if abort || echo {
@@ -358,21 +371,19 @@ impl<S: SerialSide> Module<S> {
                         ReceiveErrorPolicy::AbortAndReoffer => {
                             self.answer(JobCode::Receive, TRANSFER_ERROR_TO_CPU.code());
                         }
-                        ReceiveErrorPolicy::GoBack => {
-                            if let Some(j) = segment_with_exec(k, c.exec) {
-                                let k = (j + 1).min(segs);
-                                self.phase = Phase::Deliver { k, segs };
-                                self.publish_segment(k);
+                        ReceiveErrorPolicy::GoBack => match segment_with_exec(k, c.exec) {
+                            // The host reports everything valid: as good as the last echo.
+                            Some(j) if j >= segs => self.delivered(),
+                            Some(j) => {
+                                self.phase = Phase::Deliver { k: j + 1, segs };
+                                self.publish_segment(j + 1);
                             }
-                        }
+                            None => {}
+                        },
                     }
                 } else if c.exec == exec_of_segment(k) {
                     if k >= segs {
-                        if let Some(RxEntry::Frame(f)) = self.rx.pop_front() {
-                            self.rx_bytes = self.rx_bytes.saturating_sub(f.len());
-                        }
-                        self.stats.frames_delivered += 1;
-                        self.phase = Phase::Idle;
+                        self.delivered();
                     } else {
                         self.phase = Phase::Deliver { k: k + 1, segs };
                         self.publish_segment(k + 1);
@@ -380,6 +391,15 @@ impl<S: SerialSide> Module<S> {
                 }
             }
         }
+    }
+
+    /// The host has the whole frame: remove it and go idle.
+    fn delivered(&mut self) {
+        if let Some(RxEntry::Frame(f)) = self.rx.pop_front() {
+            self.rx_bytes = self.rx_bytes.saturating_sub(f.len());
+        }
+        self.stats.frames_delivered += 1;
+        self.phase = Phase::Idle;
     }
 
     fn start(&mut self, now: Instant, job: JobCode, o: &Window) {
@@ -441,7 +461,7 @@ impl<S: SerialSide> Module<S> {
     }
 
     /// Accepts an in-order segment of a send or parameter job.
-    fn collect(&mut self, now: Instant, job: JobCode, exec: u8, data: &[u8]) {
+    fn collect(&mut self, job: JobCode, exec: u8, data: &[u8]) {
         self.stream.extend_from_slice(data);
         let (header, max_body) = match job {
             JobCode::Send => (2, self.cfg.max_frame_len),
@@ -477,8 +497,8 @@ impl<S: SerialSide> Module<S> {
                 handed: false,
             };
         } else {
-            let word = self.apply_parameters(now);
-            self.end_job(exec, word);
+            self.echo(job, exec);
+            self.phase = Phase::Applying { exec };
         }
     }
 
