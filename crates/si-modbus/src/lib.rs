@@ -20,6 +20,9 @@ pub mod simatic;
 pub mod slave;
 pub mod status;
 
+#[cfg(feature = "tokio")]
+pub mod tokio;
+
 pub use config::{MasterConfig, Mode, SlaveConfig};
 pub use frame::{Adu, Bits, ExceptionCode, Registers, Request, Response};
 pub use master::{Master, MasterEvent};

@@ -424,6 +424,12 @@ impl Engine for Master {
         self.tick(now);
         let unit = self.job.map(|(a, _)| a.unit());
         self.rx.push(now, bytes, |b| Some(b) == unit);
+        if matches!(self.state, State::Sending { .. }) && self.rx.is_receiving() {
+            // A reply while we think we are still sending: the transport has no wire time
+            // (a pseudo-terminal, a pipe) or our estimate was long. On a half-duplex line the
+            // request has left, so the response has started.
+            self.sent(now);
+        }
     }
 
     fn handle_timeout(&mut self, now: Instant) {

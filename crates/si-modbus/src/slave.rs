@@ -512,6 +512,7 @@ impl<S: Store> Slave<S> {
     }
 
     fn tick(&mut self, now: Instant) {
+        // Busy until tx-done or the estimated end of our transmission, whichever comes first.
         if self.busy_until.is_some_and(|t| now >= t) {
             self.busy_until = None;
         }
