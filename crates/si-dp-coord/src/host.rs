@@ -184,12 +184,12 @@ enum Phase {
     /// Send/parameters: the request 10H/50H is out, waiting for the acceptance.
     Request,
     /// Send/parameters: showing segment `k` of `last`; `acked` = highest echoed segment;
-    /// `in_error` while the module shows its error bit.
+    /// `in_error` = the last valid number of the error the module shows.
     Sending {
         k: usize,
         last: usize,
         acked: usize,
-        in_error: bool,
+        in_error: Option<u8>,
     },
     /// Receive: `k` segments accepted (0 = request out), `len` from the first segment.
     Receiving { k: usize, len: usize, error: bool },
@@ -314,13 +314,13 @@ impl Host {
     /// An input of the wrong length (a failed consistent read) is ignored: the outputs are held
     /// and only the watchdog runs.
     pub fn cycle(&mut self, now: Instant, input: &[u8]) -> &[u8] {
+        let out_was_idle = self.out.as_bytes()[0] == 0;
         self.check_watchdog(now);
         let Some(inw) = Window::from_bytes(input).filter(|w| w.size() == self.cfg.window) else {
             self.stats.invalid_windows += 1;
             return self.out.as_bytes();
         };
         let c = inw.coord();
-        let out_was_idle = self.out.as_bytes()[0] == 0;
         if c.is_idle() {
             self.rx_status = Some(RxStatus::from_word(inw.word()));
         }
@@ -450,7 +450,7 @@ impl Host {
                         k: 1,
                         last,
                         acked: 0,
-                        in_error: false,
+                        in_error: None,
                     };
                     self.show_segment(code, 1);
                     Some(a)
@@ -476,7 +476,7 @@ impl Host {
                 mut in_error,
             } => {
                 if c.job == code && !c.error {
-                    in_error = false;
+                    in_error = None;
                     if c.exec == exec_of_segment(k) && acked < k {
                         acked = k;
                         self.stats.segments_sent += 1;
@@ -495,10 +495,10 @@ impl Host {
                 } else if c.job == code {
                     // Error bit: resend from the segment after the last valid one (§2.8).
                     if let Some(j) = segment_with_exec(k, c.exec) {
-                        if !in_error {
+                        if in_error != Some(c.exec) {
                             self.stats.resends += 1;
                         }
-                        in_error = true;
+                        in_error = Some(c.exec);
                         k = (j + 1).min(last);
                         acked = j.min(acked);
                         self.show_segment(code, k);
