@@ -1,0 +1,195 @@
+//! `si ascii` over a Linux pseudo-terminal pair made by socat: `si ascii recv --end chars 0D,0A`
+//! receives the lines `si ascii send` writes (et200s-si-3964r-ascii.md §6.3, two end-of-text
+//! characters). Skips with a message when socat is not installed (CI: `apt-get install socat`).
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// A socat process joining two pseudo-terminals; killed on drop.
+struct PtyPair {
+    socat: Child,
+    a: String,
+    b: String,
+}
+
+impl Drop for PtyPair {
+    fn drop(&mut self) {
+        let _ = self.socat.kill();
+        let _ = self.socat.wait();
+    }
+}
+
+fn pty_pair() -> Option<PtyPair> {
+    let mut socat = match Command::new("socat")
+        .args(["-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"])
+        .stderr(Stdio::piped())
+        .spawn()
+    {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!(
+                "SKIPPED: socat not available ({e}); install it with `apt-get install socat`"
+            );
+            return None;
+        }
+    };
+    let stderr = socat.stderr.take().expect("piped stderr");
+    let mut names = Vec::new();
+    for line in BufReader::new(stderr).lines() {
+        let line = line.ok()?;
+        if let Some(i) = line.find("PTY is ") {
+            names.push(line[i + 7..].trim().to_owned());
+            if names.len() == 2 {
+                break;
+            }
+        }
+    }
+    let [a, b] = <[String; 2]>::try_from(names).ok()?;
+    Some(PtyPair { socat, a, b })
+}
+
+fn si() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_si"))
+}
+
+#[test]
+fn recv_end_chars_cr_lf_receives_the_lines_send_writes() {
+    let Some(pair) = pty_pair() else { return };
+    let recv = si()
+        .args([
+            "ascii", "recv", "--port", &pair.a, "--end", "chars", "0D,0A",
+        ])
+        .args(["--count", "2", "--timeout", "20"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start si ascii recv");
+    // Let the receiver open its port before anything is written.
+    std::thread::sleep(Duration::from_millis(700));
+
+    let first = si()
+        .args([
+            "ascii",
+            "send",
+            "--port",
+            &pair.b,
+            "--text",
+            r"first line\r\n",
+        ])
+        .output()
+        .expect("run si ascii send");
+    assert!(
+        first.status.success(),
+        "{}",
+        String::from_utf8_lossy(&first.stderr)
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&first.stdout).trim(),
+        "sent 12 bytes: 66 69 72 73 74 20 6C 69 6E 65 0D 0A"
+    );
+    let second = si()
+        .args([
+            "ascii",
+            "send",
+            "--port",
+            &pair.b,
+            "73 65 63 6F 6E 64 0D 0A",
+        ])
+        .output()
+        .expect("run si ascii send");
+    assert!(second.status.success());
+
+    let started = Instant::now();
+    let out = recv.wait_with_output().expect("si ascii recv ends");
+    assert!(started.elapsed() < Duration::from_secs(25));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines: Vec<&str> = stdout.lines().collect();
+    assert_eq!(
+        lines,
+        vec![
+            r#"frame 12 bytes: 66 69 72 73 74 20 6C 69 6E 65 0D 0A  "first line\r\n""#,
+            r#"frame 8 bytes: 73 65 63 6F 6E 64 0D 0A  "second\r\n""#,
+        ]
+    );
+}
+
+#[test]
+fn recv_json_and_timeout_without_a_partner() {
+    let Some(pair) = pty_pair() else { return };
+    let out = si()
+        .args(["ascii", "recv", "--port", &pair.a, "--end", "fixed", "4"])
+        .args(["--timeout", "0.5"])
+        .output()
+        .expect("run si ascii recv");
+    assert!(!out.status.success());
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr).trim(),
+        "si: error: no 1 frame(s) within 0.5 s"
+    );
+}
+
+#[test]
+fn bad_end_criterion_is_one_clear_line() {
+    let out = si()
+        .args([
+            "ascii",
+            "recv",
+            "--port",
+            "/nonexistent",
+            "--end",
+            "chars",
+            "00",
+        ])
+        .output()
+        .expect("run si");
+    assert!(!out.status.success());
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr).trim(),
+        "si: error: end-of-text character 1 00H out of range: 01H … FFH with 8 data bits"
+    );
+    let out = si()
+        .args([
+            "--baud", "1200", "ascii", "recv", "--port", "/x", "--cdt", "10",
+        ])
+        .output()
+        .expect("run si");
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr).trim(),
+        "si: error: character delay time 10 ms out of range: 34 … 65535 ms at 1200 bit/s"
+    );
+}
+
+#[test]
+fn sim_scenarios_lose_nothing() {
+    let out = si().args(["sim", "ascii"]).output().expect("run si sim");
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains(r#"B received 7 bytes: "HELLO\r\n""#),
+        "{text}"
+    );
+    assert!(
+        text.contains(r#"B received 13 bytes: "SECOND LINE\r\n""#),
+        "{text}"
+    );
+
+    let out = si()
+        .args(["--json", "sim", "ascii-xon-xoff"])
+        .output()
+        .expect("run si sim");
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let last: serde_json::Value =
+        serde_json::from_str(text.lines().last().expect("a summary line")).unwrap();
+    assert_eq!(last["intact"], true);
+    assert_eq!(last["received"], 1200);
+    // The trace shows the XOFF and the XON the receiver sent.
+    assert!(text.contains(r#""bytes":[19]"#), "XOFF in the trace");
+    assert!(text.contains(r#""bytes":[17]"#), "XON in the trace");
+}
