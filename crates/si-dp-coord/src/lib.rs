@@ -16,6 +16,8 @@
 //!   a job watchdog. Every job ends in exactly one completion.
 //! * [`module`]: the module's engine, with its serial line behind the [`module::SerialSide`]
 //!   trait, for simulations and tests (and gateways that play the module).
+//! * [`mod@line`]: [`line::EngineSerial`] makes any Sans-IO line engine the module's serial side, and
+//!   the module itself a station of the line simulator.
 //! * [`timing`]: the manual's processing-time estimate and the PPI token rotation formula.
 //! * [`status`]: the STATUS words the window carries.
 //!
@@ -45,6 +47,7 @@ pub mod config;
 pub mod coord;
 pub mod frame;
 pub mod host;
+pub mod line;
 pub mod module;
 pub mod status;
 pub mod timing;
@@ -53,4 +56,5 @@ pub use config::{HostConfig, ModuleConfig};
 pub use coord::{CoordByte, JobCode};
 pub use frame::{ParamBlock, RxStatus, V24Signals, Window, WindowSize};
 pub use host::{Host, HostEvent, Job, JobId, Outcome};
+pub use line::{EngineSerial, LineHooks};
 pub use module::{LoopbackSerial, Module, SerialEvent, SerialSide};
