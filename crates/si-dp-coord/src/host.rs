@@ -30,6 +30,11 @@
 //! * An out-of-order receive segment sets the error bit with the last valid number. The host then
 //!   accepts either answer: the segment after the last valid one (the general go-back rule) or
 //!   20H with a STATUS (Table 2-21: 0551H abort; the frame is offered again by a later job, H-7).
+//! * The end-of-job acknowledgement is accepted with any exec number: the manual does not say
+//!   which number a 7xH carries when the module ends a job early (H-10).
+//! * A received frame longer than [`HostConfig::max_frame_len`] is still read to its end (and
+//!   dropped, failing with 0850H): aborting instead would leave it first in the module's buffer
+//!   and every later receive job would meet it again.
 //! * Each job has a watchdog ([`HostConfig::job_timeout`], H-12); on expiry the job fails with
 //!   [`HostConfig::watchdog_status`] and the host writes 00H, which aborts the module's side.
 
@@ -191,8 +196,14 @@ enum Phase {
         acked: usize,
         in_error: Option<u8>,
     },
-    /// Receive: `k` segments accepted (0 = request out), `len` from the first segment.
-    Receiving { k: usize, len: usize, error: bool },
+    /// Receive: `k` segments accepted (0 = request out), `len` from the first segment, `got`
+    /// data bytes so far (stored only when `len` fits the configured maximum).
+    Receiving {
+        k: usize,
+        len: usize,
+        got: usize,
+        error: bool,
+    },
     /// Read V.24 request out.
     ReadV24,
     /// Read V.24 echo out, waiting for idle.
@@ -340,6 +351,7 @@ impl Host {
                     Job::Receive => Phase::Receiving {
                         k: 0,
                         len: 0,
+                        got: 0,
                         error: false,
                     },
                     Job::ReadV24 => Phase::ReadV24,
@@ -530,9 +542,11 @@ impl Host {
             Phase::Receiving {
                 mut k,
                 mut len,
+                mut got,
                 mut error,
             } => {
-                let complete = k > 0 && self.rx.len() >= len;
+                let complete = k > 0 && got >= len;
+                let keep = len <= self.cfg.max_frame_len;
                 if c.job == JobCode::Receive && !c.error {
                     if c.exec == 0 {
                         // 20H + STATUS: nothing there, an erroneous frame, or the abort after
@@ -548,23 +562,18 @@ impl Host {
                         return None;
                     }
                     if c.exec == exec_of_segment(k + 1) && !complete {
-                        let data = inw.data();
+                        let mut data = inw.data();
                         if k == 0 {
                             len = usize::from(word);
-                            if len == 0 || len > self.cfg.max_frame_len {
-                                let status = if len == 0 {
-                                    TRANSFER_ERROR_TO_CPU
-                                } else {
-                                    RECEIVED_FRAME_TOO_LONG
-                                };
-                                self.finish(a, Err(status));
-                                return None;
-                            }
+                            got = 0;
+                            data = &data[2..];
                             self.rx.clear();
-                            let take = (data.len() - 2).min(len);
-                            self.rx.extend_from_slice(&data[2..2 + take]);
-                        } else {
-                            let take = data.len().min(len - self.rx.len());
+                        }
+                        let take = data.len().min(len - got);
+                        got += take;
+                        // A frame longer than we may hold is read to its end and dropped, so
+                        // the module removes it instead of offering it forever.
+                        if len <= self.cfg.max_frame_len {
                             self.rx.extend_from_slice(&data[..take]);
                         }
                         k += 1;
@@ -592,16 +601,19 @@ impl Host {
                         self.out
                             .set_coord(CoordByte::error(JobCode::Receive, exec_of_segment(k)));
                     }
-                    a.phase = Phase::Receiving { k, len, error };
+                    a.phase = Phase::Receiving { k, len, got, error };
                     Some(a)
                 } else if c.job == JobCode::Idle {
                     if k == 0 {
                         // The module has not seen the request yet.
-                        a.phase = Phase::Receiving { k, len, error };
+                        a.phase = Phase::Receiving { k, len, got, error };
                         Some(a)
-                    } else if complete {
+                    } else if complete && keep {
                         let frame = Bytes::copy_from_slice(&self.rx[..len]);
                         self.finish(a, Ok(Outcome::Received(frame)));
+                        None
+                    } else if complete {
+                        self.finish(a, Err(RECEIVED_FRAME_TOO_LONG));
                         None
                     } else {
                         self.finish(a, Err(TRANSFER_ERROR_TO_CPU));
@@ -616,7 +628,7 @@ impl Host {
                     self.back_off(a, c)
                 } else {
                     // The receiver ignores a foreign code and its data (§2.8).
-                    a.phase = Phase::Receiving { k, len, error };
+                    a.phase = Phase::Receiving { k, len, got, error };
                     Some(a)
                 }
             }

@@ -291,3 +291,27 @@ fn send_failure_on_the_line_is_reported_in_7x() {
         Ok(Outcome::Sent)
     );
 }
+
+/// A frame longer than the host may hold (its `max_frame_len` below the module's) is read to
+/// its end and dropped with 0850H, so the module does not offer it forever; the next one arrives.
+#[test]
+fn frame_longer_than_the_host_holds_is_dropped_with_0850() {
+    for window in WindowSize::ALL {
+        let host = HostConfig {
+            max_frame_len: 10,
+            ..HostConfig::new(window)
+        };
+        let mut l = Link::new(host, ModuleConfig::new(window), 31);
+        l.module.serial_mut().inject_frame(frame(50, 1));
+        l.module.serial_mut().inject_frame(frame(10, 2));
+        assert_eq!(
+            l.run_job(Job::Receive, 50_000),
+            Err(si_dp_coord::status::RECEIVED_FRAME_TOO_LONG)
+        );
+        assert_eq!(
+            l.run_job(Job::Receive, 50_000),
+            Ok(Outcome::Received(frame(10, 2)))
+        );
+        assert_eq!(l.module.buffered(), 0);
+    }
+}
