@@ -101,3 +101,51 @@ fn poll_shows_changing_status_words_from_a_simulated_drive() {
     assert_eq!(responses[0].0 & 0x0400, 0, "{responses:?}");
     assert_ne!(last.0 & 0x0400, 0, "{responses:?}");
 }
+
+#[test]
+fn read_and_write_param_against_a_simulated_drive_with_an_ak7_refusal() {
+    let Some((_socat, a, b)) = pty_pair() else {
+        eprintln!("SKIPPED: socat not found (apt-get install socat)");
+        return;
+    };
+    let si = env!("CARGO_BIN_EXE_si");
+    let _slave = Kill(
+        Command::new(si)
+            .args(["uss", "sim-slave", "--address", "5", "--port", &b])
+            .stdout(Stdio::null())
+            .spawn()
+            .expect("start sim-slave"),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let run = |args: &[&str]| {
+        let mut all = vec!["uss"];
+        all.extend_from_slice(args);
+        all.extend_from_slice(&["--slave", "5", "--response-timeout", "500", "--port", &a]);
+        Command::new(si).args(&all).output().expect("run si")
+    };
+    let o = run(&["read-param", "700"]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert_eq!(text.trim(), "slave 5 P700:0 = 5 (response ID 1)");
+
+    let o = run(&["write-param", "1082", "120"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run(&["read-param", "1082"]);
+    assert_eq!(
+        String::from_utf8_lossy(&o.stdout).trim(),
+        "slave 5 P1082:0 = 120 (response ID 1)"
+    );
+
+    let o = run(&["write-param", "1082", "1000"]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.starts_with("si: error: 16#1503"), "{err}");
+    assert!(
+        err.contains("error number 2 (lower or upper value limit exceeded)"),
+        "{err}"
+    );
+}

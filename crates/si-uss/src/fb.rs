@@ -389,6 +389,7 @@ pub fn s_usst(dbs: &mut UssDbs, master: &mut Master, now: Instant) {
     if kstw & 2 != 0 {
         kstw &= !2;
         status &= !comm_status::CHANGE_REPORT;
+        let _ = master.acknowledge_change_report(e.tnu);
     }
     d.set_word(n + SlaveLayout::KSTW, kstw);
     d.set_word(n + SlaveLayout::COMM_STATUS, status);

@@ -545,6 +545,14 @@ impl Master {
         Ok(())
     }
 
+    /// The user has seen the parameter change report of `address`: comm status bit 5 is reset
+    /// (KSTW bit 1, et200s-si-modbus-uss.md §6.7).
+    pub fn acknowledge_change_report(&mut self, address: u8) -> Result<(), RequestError> {
+        let i = self.slave_index(address)?;
+        self.slaves[i].comm_status &= !comm_status::CHANGE_REPORT;
+        Ok(())
+    }
+
     /// Start a parameter job at `address`. It ends with exactly one [`Event::ParameterDone`] or
     /// [`Event::ParameterFailed`]. An invalid task sets comm status bit 3 and is refused.
     pub fn request_parameter(
