@@ -288,6 +288,8 @@ impl Link {
         }
         self.stop_sent = false;
         self.enter_mode();
+        // Frames kept over the restart may still call for XOFF / RTS = OFF.
+        self.check_stop();
         self.pump(now);
     }
 
@@ -297,11 +299,13 @@ impl Link {
             FlowControl::XonXoff => self.transmit_flow_char(self.cfg.xon_xoff.xon),
             FlowControl::RtsCts => self.set_rts(true),
             FlowControl::AutoV24 => {
+                // RTS = OFF, unless a send job (which is completed, §10) holds it on.
+                let idle = self.tx == Tx::Idle;
                 self.dtr = true;
-                self.rts = false;
+                self.rts &= !idle;
                 self.out.push_back(Output::SetSignals(SignalUpdate {
                     dtr: Some(true),
-                    rts: Some(false),
+                    rts: idle.then_some(false),
                 }));
             }
         }

@@ -1,0 +1,38 @@
+//! The async handle (feature `tokio`) over an in-memory duplex pipe: two links exchange lines
+//! cut by CR LF, and a refused frame comes back as a typed error.
+#![cfg(feature = "tokio")]
+
+use si_ascii::tokio::{AsciiError, AsciiHandle, Incoming};
+use si_ascii::{Config, EndCriterion, SendError};
+
+fn config() -> Config {
+    Config {
+        end: EndCriterion::EndChars {
+            first: b'\r',
+            second: b'\n',
+        },
+        ..Config::default()
+    }
+}
+
+#[tokio::test]
+async fn two_handles_exchange_lines_over_a_duplex_pipe() {
+    let (left, right) = tokio::io::duplex(1024);
+    let mut a = AsciiHandle::spawn(config(), left).unwrap();
+    let mut b = AsciiHandle::spawn(config(), right).unwrap();
+    a.send(&b"first\r\n"[..]).await.unwrap();
+    a.send(&b"second\r\n"[..]).await.unwrap();
+    assert_eq!(b.recv().await.unwrap(), b"first\r\n");
+    match b.next().await.unwrap() {
+        Incoming::Frame { data, .. } => assert_eq!(data, b"second\r\n"),
+        other => panic!("{other:?}"),
+    }
+    // And back.
+    b.send(&b"ack\r\n"[..]).await.unwrap();
+    assert_eq!(a.recv().await.unwrap(), b"ack\r\n");
+    // A frame over 200 bytes is refused before anything is sent.
+    assert_eq!(
+        a.send(vec![0u8; 201]).await,
+        Err(AsciiError::Send(SendError::Length(201)))
+    );
+}
