@@ -338,48 +338,62 @@ impl Host {
         if let Some(active) = self.active.take() {
             self.active = self.step(active, c, &inw);
         }
+        // Between jobs: idle written, the next job (or an automatic receive) waits for idle.
         if self.active.is_none() {
             self.out.clear();
             self.active = self.next_job(now);
         }
-        // A job may write its request only from a clean idle on both sides.
-        if let Some(a) = &mut self.active {
-            if matches!(a.phase, Phase::WaitIdle) && out_was_idle && c.is_idle() {
-                self.stats.requests += 1;
-                a.phase = match &a.job {
-                    Job::Send(_) | Job::Parameters(_) => Phase::Request,
-                    Job::Receive => Phase::Receiving {
-                        k: 0,
-                        len: 0,
-                        got: 0,
-                        error: false,
-                    },
-                    Job::ReadV24 => Phase::ReadV24,
-                    Job::WriteV24 { .. } => Phase::WriteV24,
-                };
-                self.out.clear();
-                self.out.set_coord(CoordByte::new(a.job.code(), 0));
-                if let Job::WriteV24 { rts, dtr } = a.job {
-                    let signals = V24Signals {
-                        rts,
-                        dtr,
-                        ..V24Signals::default()
-                    };
-                    let [b1, b2] = self.cfg.v24_layout.encode(signals);
-                    self.out.data_mut()[..2].copy_from_slice(&[b1, b2]);
+        // §2.4 rule 1, and our clean-start reading: a job code is written only after the
+        // module's idle was read while our own byte 0 was already idle.
+        if out_was_idle && c.is_idle() {
+            if let Some(mut a) = self.active.take() {
+                if matches!(a.phase, Phase::WaitIdle) {
+                    self.write_request(&mut a);
                 }
-                match &a.job {
-                    Job::Send(data) => send_stream(data, &mut self.stream),
-                    Job::Parameters(block) => {
-                        let (bytes, n) = block.encode();
-                        self.stream.clear();
-                        self.stream.extend_from_slice(&bytes[..n]);
-                    }
-                    _ => self.rx.clear(),
-                }
+                self.active = Some(a);
             }
         }
         self.out.as_bytes()
+    }
+
+    /// Writes the job's request byte (J << 4, exec 0) and prepares its payload.
+    fn write_request(&mut self, a: &mut Active) {
+        self.stats.requests += 1;
+        self.out.clear();
+        self.out.set_coord(CoordByte::new(a.job.code(), 0));
+        a.phase = match &a.job {
+            Job::Send(data) => {
+                send_stream(data, &mut self.stream);
+                Phase::Request
+            }
+            Job::Parameters(block) => {
+                let (bytes, n) = block.encode();
+                self.stream.clear();
+                self.stream.extend_from_slice(&bytes[..n]);
+                Phase::Request
+            }
+            Job::Receive => {
+                self.rx.clear();
+                Phase::Receiving {
+                    k: 0,
+                    len: 0,
+                    got: 0,
+                    error: false,
+                }
+            }
+            Job::ReadV24 => Phase::ReadV24,
+            Job::WriteV24 { rts, dtr } => {
+                // The only job whose request carries data (Table 2-26, H-8).
+                let signals = V24Signals {
+                    rts: *rts,
+                    dtr: *dtr,
+                    ..V24Signals::default()
+                };
+                let word = self.cfg.v24_layout.encode(signals);
+                self.out.data_mut()[..2].copy_from_slice(&word);
+                Phase::WriteV24
+            }
+        };
     }
 
     fn fresh_id(&mut self) -> JobId {

@@ -18,6 +18,7 @@
 //!   trait, for simulations and tests (and gateways that play the module).
 //! * [`mod@line`]: [`line::EngineSerial`] makes any Sans-IO line engine the module's serial side, and
 //!   the module itself a station of the line simulator.
+//! * [`sim`]: a host and a module joined by a seeded, lagging, fault-injecting DP exchange.
 //! * [`timing`]: the manual's processing-time estimate and the PPI token rotation formula.
 //! * [`status`]: the STATUS words the window carries.
 //!
@@ -49,6 +50,7 @@ pub mod frame;
 pub mod host;
 pub mod line;
 pub mod module;
+pub mod sim;
 pub mod status;
 pub mod timing;
 

@@ -222,13 +222,13 @@ impl<S: SerialSide> Module<S> {
     /// An output window of the wrong length is ignored (the job state is kept).
     pub fn cycle(&mut self, now: Instant, output: &[u8]) -> &[u8] {
         self.drain_serial(now);
-        self.hand_over(now);
+        self.advance_pending(now);
         match Window::from_bytes(output).filter(|w| w.size() == self.cfg.window) {
             Some(o) => self.step(now, &o),
             None => self.stats.invalid_windows += 1,
         }
         if matches!(self.phase, Phase::Transmitting { .. }) {
-            self.hand_over(now);
+            self.advance_pending(now);
         }
         if self.phase == Phase::Idle {
             self.publish_idle();
@@ -272,9 +272,10 @@ impl<S: SerialSide> Module<S> {
         }
     }
 
-    /// Hands the collected frame to the serial side once it is free; applies a collected
-    /// parameter block.
-    fn hand_over(&mut self, now: Instant) {
+    /// Moves a complete job on: applies a collected parameter block (one cycle after its echo),
+    /// hands a collected send frame to the serial side once that is free (it may still be busy
+    /// with the frame of an aborted job).
+    fn advance_pending(&mut self, now: Instant) {
         if let Phase::Applying { exec } = self.phase {
             let word = self.apply_parameters(now);
             self.end_job(exec, word);

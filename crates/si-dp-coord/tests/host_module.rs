@@ -5,7 +5,7 @@
 mod common;
 
 use bytes::Bytes;
-use common::{Faults, Link};
+use common::{Faults, Link, RunJob};
 use si_dp_coord::config::ReceiveErrorPolicy;
 use si_dp_coord::host::{HostEvent, Job, Outcome, SubmitError};
 use si_dp_coord::status::{INVALID_FRAME_LENGTH, INVALID_LEN, NO_MESSAGE, TRANSFER_ERROR_TO_CPU};
@@ -16,7 +16,7 @@ fn frame(len: usize, seed: usize) -> Bytes {
 }
 
 fn link(window: WindowSize, seed: u64) -> Link {
-    Link::new(HostConfig::new(window), ModuleConfig::new(window), seed)
+    common::link(HostConfig::new(window), ModuleConfig::new(window), seed)
 }
 
 /// Every frame from 1 byte to the maximum (224) goes host → module → line (loopback) → module
@@ -27,14 +27,14 @@ fn section_2_9_every_length_round_trips_in_every_window() {
         let mut l = link(window, 0xD9C0 + window.bytes() as u64);
         for len in 1..=224 {
             let f = frame(len, len);
-            assert_eq!(l.run_job(Job::Send(f.clone()), 20_000), Ok(Outcome::Sent));
+            assert_eq!(l.run(Job::Send(f.clone()), 20_000), Ok(Outcome::Sent));
             assert_eq!(
                 l.module.serial().sent().last(),
                 Some(&f),
                 "{window} len {len}"
             );
             assert_eq!(
-                l.run_job(Job::Receive, 20_000),
+                l.run(Job::Receive, 20_000),
                 Ok(Outcome::Received(f)),
                 "{window} len {len}"
             );
@@ -54,7 +54,7 @@ fn auto_receive_fetches_every_line_frame_in_order() {
             auto_receive: true,
             ..HostConfig::new(window)
         };
-        let mut l = Link::new(cfg, ModuleConfig::new(window), 77);
+        let mut l = common::link(cfg, ModuleConfig::new(window), 77);
         // 900 bytes in all: within the module's 1024-byte buffer.
         let frames: Vec<Bytes> = (0..30).map(|i| frame(1 + i * 2, i)).collect();
         for f in &frames {
@@ -78,14 +78,14 @@ fn section_2_8_out_of_order_send_segments_recover_through_the_error_bit() {
         };
         for (i, len) in [1, 2, 5, 30, 100, 224].into_iter().enumerate() {
             let f = frame(len, i);
-            assert_eq!(l.run_job(Job::Send(f.clone()), 200_000), Ok(Outcome::Sent));
+            assert_eq!(l.run(Job::Send(f.clone()), 200_000), Ok(Outcome::Sent));
             assert_eq!(l.module.serial().sent().last(), Some(&f));
         }
         assert_eq!(
-            l.run_job(Job::Parameters(ParamBlock::XON_XOFF_DEFAULT), 50_000),
+            l.run(Job::Parameters(ParamBlock::XON_XOFF_DEFAULT), 50_000),
             Ok(Outcome::ParametersSet)
         );
-        assert!(l.injected > 0, "{window}: no fault injected");
+        assert!(l.injected() > 0, "{window}: no fault injected");
         assert!(l.module.stats().out_of_order > 0, "{window}");
         assert!(l.host.stats().resends > 0, "{window}");
         assert!(l.failures().is_empty(), "{window}: {:?}", l.failures());
@@ -102,7 +102,7 @@ fn section_2_8_out_of_order_receive_segments_abort_with_0551_and_reoffer() {
             auto_receive: true,
             ..HostConfig::new(window)
         };
-        let mut l = Link::new(cfg, ModuleConfig::new(window), 99);
+        let mut l = common::link(cfg, ModuleConfig::new(window), 99);
         l.faults = Faults {
             out_of_order_in: 0.05,
             ..Faults::default()
@@ -136,7 +136,7 @@ fn section_2_8_receive_go_back_policy_recovers_without_failures() {
             receive_error_policy: ReceiveErrorPolicy::GoBack,
             ..ModuleConfig::new(window)
         };
-        let mut l = Link::new(cfg, mcfg, 1234);
+        let mut l = common::link(cfg, mcfg, 1234);
         l.faults = Faults {
             out_of_order_in: 0.1,
             ..Faults::default()
@@ -168,12 +168,12 @@ fn section_2_4_conflicting_job_codes_back_off() {
         };
         for i in 0..20 {
             let f = frame(10 + i * 7, i);
-            assert_eq!(l.run_job(Job::Send(f.clone()), 200_000), Ok(Outcome::Sent));
+            assert_eq!(l.run(Job::Send(f.clone()), 200_000), Ok(Outcome::Sent));
             assert_eq!(
-                l.run_job(Job::Receive, 200_000),
+                l.run(Job::Receive, 200_000),
                 Ok(Outcome::Received(f.clone()))
             );
-            let Ok(Outcome::Signals(s)) = l.run_job(Job::ReadV24, 200_000) else {
+            let Ok(Outcome::Signals(s)) = l.run(Job::ReadV24, 200_000) else {
                 panic!("read V.24 failed");
             };
             assert!(s.dcd);
@@ -182,7 +182,7 @@ fn section_2_4_conflicting_job_codes_back_off() {
         assert_eq!(l.host.stats().backoffs as usize, l.backoffs());
         assert!(l.failures().is_empty(), "{:?}", l.failures());
         let first_backoff = l
-            .events
+            .events()
             .iter()
             .find(|e| matches!(e, HostEvent::BackedOff { .. }))
             .unwrap();
@@ -206,17 +206,17 @@ fn section_2_8_frame_over_the_maximum_is_refused_with_050e() {
             max_frame_len: 1000,
             ..HostConfig::new(window)
         };
-        let mut l = Link::new(host, ModuleConfig::new(window), 9);
+        let mut l = common::link(host, ModuleConfig::new(window), 9);
         for len in [225, 226, 400, 1000] {
             assert_eq!(
-                l.run_job(Job::Send(frame(len, 0)), 50_000),
+                l.run(Job::Send(frame(len, 0)), 50_000),
                 Err(INVALID_FRAME_LENGTH),
                 "{window} len {len}"
             );
         }
         // The module is usable again right after.
         let f = frame(224, 3);
-        assert_eq!(l.run_job(Job::Send(f.clone()), 50_000), Ok(Outcome::Sent));
+        assert_eq!(l.run(Job::Send(f.clone()), 50_000), Ok(Outcome::Sent));
         assert_eq!(l.module.serial().sent().count(), 1);
 
         let mut l = link(window, 10);
@@ -233,16 +233,16 @@ fn section_2_8_frame_over_the_maximum_is_refused_with_050e() {
 fn section_2_8_receive_without_message_and_with_erroneous_frame() {
     for window in WindowSize::ALL {
         let mut l = link(window, 3);
-        assert_eq!(l.run_job(Job::Receive, 10_000), Ok(Outcome::NoMessage));
+        assert_eq!(l.run(Job::Receive, 10_000), Ok(Outcome::NoMessage));
         let bcc = si_core::Status::from_code(0x0808);
         l.module.serial_mut().inject_error(bcc);
         l.module.serial_mut().inject_frame(&b"ok"[..]);
-        assert_eq!(l.run_job(Job::Receive, 10_000), Err(bcc));
+        assert_eq!(l.run(Job::Receive, 10_000), Err(bcc));
         assert_eq!(
-            l.run_job(Job::Receive, 10_000),
+            l.run(Job::Receive, 10_000),
             Ok(Outcome::Received(Bytes::from_static(b"ok")))
         );
-        assert_eq!(l.run_job(Job::Receive, 10_000), Ok(Outcome::NoMessage));
+        assert_eq!(l.run(Job::Receive, 10_000), Ok(Outcome::NoMessage));
         assert_eq!(NO_MESSAGE.code(), 0x0101);
     }
 }
@@ -254,10 +254,10 @@ fn section_2_7_write_then_read_v24() {
         let mut l = link(window, 21);
         for (rts, dtr) in [(true, false), (false, true), (true, true), (false, false)] {
             assert_eq!(
-                l.run_job(Job::WriteV24 { rts, dtr }, 10_000),
+                l.run(Job::WriteV24 { rts, dtr }, 10_000),
                 Ok(Outcome::SignalsWritten)
             );
-            let Ok(Outcome::Signals(s)) = l.run_job(Job::ReadV24, 10_000) else {
+            let Ok(Outcome::Signals(s)) = l.run(Job::ReadV24, 10_000) else {
                 panic!("read V.24 failed")
             };
             assert_eq!((s.rts, s.dtr), (rts, dtr));
@@ -270,11 +270,11 @@ fn section_2_7_write_then_read_v24() {
 fn section_2_6_parameter_block_mismatch_is_0550() {
     let mut l = link(WindowSize::Eight, 5);
     assert_eq!(
-        l.run_job(Job::Parameters(ParamBlock::RTS_CTS_DEFAULT), 10_000),
+        l.run(Job::Parameters(ParamBlock::RTS_CTS_DEFAULT), 10_000),
         Err(si_dp_coord::status::FLOW_CONTROL_MISMATCH)
     );
     assert_eq!(
-        l.run_job(Job::Parameters(ParamBlock::XON_XOFF_DEFAULT), 10_000),
+        l.run(Job::Parameters(ParamBlock::XON_XOFF_DEFAULT), 10_000),
         Ok(Outcome::ParametersSet)
     );
 }
@@ -285,11 +285,8 @@ fn send_failure_on_the_line_is_reported_in_7x() {
     let mut l = link(WindowSize::Eight, 6);
     let qvz = si_core::Status::from_code(0x0703);
     l.module.serial_mut().fail_next_send = Some(qvz);
-    assert_eq!(l.run_job(Job::Send(frame(50, 1)), 10_000), Err(qvz));
-    assert_eq!(
-        l.run_job(Job::Send(frame(50, 2)), 10_000),
-        Ok(Outcome::Sent)
-    );
+    assert_eq!(l.run(Job::Send(frame(50, 1)), 10_000), Err(qvz));
+    assert_eq!(l.run(Job::Send(frame(50, 2)), 10_000), Ok(Outcome::Sent));
 }
 
 /// A frame longer than the host may hold (its `max_frame_len` below the module's) is read to
@@ -301,15 +298,15 @@ fn frame_longer_than_the_host_holds_is_dropped_with_0850() {
             max_frame_len: 10,
             ..HostConfig::new(window)
         };
-        let mut l = Link::new(host, ModuleConfig::new(window), 31);
+        let mut l = common::link(host, ModuleConfig::new(window), 31);
         l.module.serial_mut().inject_frame(frame(50, 1));
         l.module.serial_mut().inject_frame(frame(10, 2));
         assert_eq!(
-            l.run_job(Job::Receive, 50_000),
+            l.run(Job::Receive, 50_000),
             Err(si_dp_coord::status::RECEIVED_FRAME_TOO_LONG)
         );
         assert_eq!(
-            l.run_job(Job::Receive, 50_000),
+            l.run(Job::Receive, 50_000),
             Ok(Outcome::Received(frame(10, 2)))
         );
         assert_eq!(l.module.buffered(), 0);

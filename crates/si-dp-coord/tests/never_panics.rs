@@ -4,7 +4,7 @@
 mod common;
 
 use bytes::Bytes;
-use common::Link;
+
 use proptest::prelude::*;
 use si_core::{Duration, Instant, Status};
 use si_dp_coord::host::{Host, HostEvent, Job, JobId};
@@ -130,7 +130,7 @@ proptest! {
         jobs in proptest::collection::vec(job(), 1..8),
     ) {
         let host = HostConfig { max_frame_len: 300, ..HostConfig::new(size) };
-        let mut l = Link::new(host, ModuleConfig::new(size), seed);
+        let mut l = common::link(host, ModuleConfig::new(size), seed);
         for j in jobs {
             let sent = if let Job::Send(f) = &j { Some(f.clone()) } else { None };
             let id = l.host.submit(j).unwrap();
