@@ -1150,7 +1150,9 @@ impl Engine for Master {
         }
         Output::Wait(match self.phase {
             Phase::Stopped => None,
-            Phase::Idle { at } => Instant::earliest(Some(at), self.rx.deadline()),
+            // While a stray telegram is on the line we send nothing: wake at its residual
+            // deadline, not at a send time that may already have passed (no busy loop).
+            Phase::Idle { at } => Some(self.rx.deadline().unwrap_or(at)),
             Phase::Awaiting { deadline, .. } => Some(self.rx.deadline().unwrap_or(deadline)),
         })
     }

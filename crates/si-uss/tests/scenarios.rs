@@ -530,3 +530,32 @@ fn public_facts_3_start_interval_and_residual_run_time_at_9600() {
 fn public_facts_3_start_interval_and_residual_run_time_at_187500() {
     timing_at(187_500);
 }
+
+#[test]
+fn a_stray_telegram_between_polls_delays_the_next_request_without_spinning() {
+    // A scripted partner starts a long telegram right after the master's cycle pause began and
+    // stops sending: the master waits for the residual run time, counts the stray telegram and
+    // goes on; it never asks to be woken at an instant already past (a busy loop).
+    let settings = s9600();
+    let mut sim = Simulator::new(9);
+    let mut cfg = master_config(settings, &[1], false);
+    cfg.cycle_pause = Duration::from_millis(50);
+    let m = sim.add_station("master", settings, Master::new(cfg).unwrap());
+    let s = sim.add_station("script", settings, Script);
+    sim.connect(m, s);
+    sim.with(m, |m, now| m.start(now));
+    let (e, at) = run_to(&mut sim, m, |e| matches!(e, Event::NoAnswer { .. }));
+    assert!(matches!(e, Event::NoAnswer { cycle: 0, .. }));
+    // STX, LGE 254 (the longest telegram, residual run time 1.5 × 255 characters ≈ 438 ms),
+    // ADR, a few bytes, then nothing: the telegram is still "being received" when the pause ends.
+    sim.run_until(at + Duration::from_millis(5));
+    sim.transmit(s, &[0x02, 0xFE, 0x01, 0, 0, 0, 0]);
+    let mut steps = 0;
+    while sim.engine(m).counters().sent < 3 {
+        assert!(sim.step());
+        steps += 1;
+        assert!(steps < 10_000, "spinning");
+    }
+    let c = sim.engine(m).counters();
+    assert_eq!(c.residual_time, 1, "the stretched stray telegram");
+}
