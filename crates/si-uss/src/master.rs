@@ -171,8 +171,7 @@ pub struct ParamRequest {
 }
 
 impl ParamRequest {
-    /// Read a parameter value (AK 1; AK 6 for an array element when `index` > 0 is meant, use
-    /// [`ParamRequest::read_array`]).
+    /// Read a parameter value (AK 1); for an array element use [`ParamRequest::read_array`].
     pub fn read(number: u16, index: u8) -> Self {
         ParamRequest {
             task: task::READ,
@@ -637,7 +636,7 @@ impl Master {
     }
 
     fn new_job(&mut self) -> JobId {
-        self.next_job += 1;
+        self.next_job = self.next_job.wrapping_add(1);
         JobId(self.next_job)
     }
 
@@ -696,7 +695,7 @@ impl Master {
                 (Some(job), _) => {
                     job.sent = job.sent.saturating_add(1);
                     if job.sent > 1 {
-                        self.counters.pkw_repeats += 1;
+                        bump(&mut self.counters.pkw_repeats);
                     }
                     Some(job.request)
                 }
@@ -723,7 +722,7 @@ impl Master {
         let len = self.tx_len;
         self.out
             .push_back(Output::Transmit(Bytes::copy_from_slice(&self.tx[..len])));
-        self.counters.sent += 1;
+        bump(&mut self.counters.sent);
         self.line_free = now + self.config.settings.chars_time(len as u64);
         if self.config.local_echo {
             self.echo_left = len;
@@ -746,8 +745,8 @@ impl Master {
             if self.entry >= self.config.polling_list.len() {
                 self.entry = 0;
                 let cycle = self.cycle;
-                self.cycle += 1;
-                self.counters.cycles = self.counters.cycles.wrapping_add(1);
+                self.cycle = self.cycle.wrapping_add(1);
+                bump(&mut self.counters.cycles);
                 self.emit(Event::CycleDone { cycle });
                 pause = self.config.cycle_pause;
             }
@@ -765,14 +764,14 @@ impl Master {
         match current {
             Current::Mirror { job, address } => {
                 if bytes[..len] == self.tx[..self.tx_len] {
-                    self.counters.ok += 1;
+                    bump(&mut self.counters.ok);
                     self.emit(Event::MirrorDone { job, address });
                 } else {
                     let status = match frame::decode(&bytes[..len]) {
                         Err(e) => self.count_decode_error(&e),
                         Ok(_) => {
-                            self.counters.rejected += 1;
-                            self.counters.address += 1;
+                            bump(&mut self.counters.rejected);
+                            bump(&mut self.counters.address);
                             status::ADDRESS_ERROR
                         }
                     };
@@ -801,29 +800,29 @@ impl Master {
     }
 
     fn count_decode_error(&mut self, e: &DecodeError) -> Status {
-        self.counters.rejected += 1;
+        bump(&mut self.counters.rejected);
         match e {
             DecodeError::Bcc { .. } => {
-                self.counters.bcc += 1;
+                bump(&mut self.counters.bcc);
                 status::BCC_ERROR
             }
             DecodeError::UnexpectedAddress { .. } => {
-                self.counters.address += 1;
+                bump(&mut self.counters.address);
                 status::ADDRESS_ERROR
             }
             DecodeError::NoStx { .. } => {
-                self.counters.start_not_identified += 1;
+                bump(&mut self.counters.start_not_identified);
                 status::NO_STX
             }
             _ => {
-                self.counters.length += 1;
+                bump(&mut self.counters.length);
                 status::LGE_ERROR
             }
         }
     }
 
     fn response(&mut self, address: u8, net: NetData) {
-        self.counters.ok += 1;
+        bump(&mut self.counters.ok);
         let Ok(i) = self.slave_index(address) else {
             return;
         };
@@ -915,7 +914,7 @@ impl Master {
             self.emit(e);
         }
         if failed {
-            self.counters.pkw_failed += 1;
+            bump(&mut self.counters.pkw_failed);
         }
         self.check_retries(i);
     }
@@ -930,7 +929,7 @@ impl Master {
             s.job = None;
             s.comm_status = (s.comm_status & !comm_status::PKW_BUSY) | comm_status::PKW_INTERFACE;
             let address = s.address;
-            self.counters.pkw_failed += 1;
+            bump(&mut self.counters.pkw_failed);
             self.emit(Event::ParameterFailed {
                 job: job.id,
                 address,
@@ -987,6 +986,11 @@ impl Master {
         }
         self.advance(now, current);
     }
+}
+
+/// Count one more; counters wrap after 2³² instead of panicking.
+fn bump(counter: &mut u32) {
+    *counter = counter.wrapping_add(1);
 }
 
 /// How a PKW response relates to the job's request.
@@ -1081,18 +1085,18 @@ impl Engine for Master {
             }
             let outcome = self.rx.push(now, b);
             match (self.phase, outcome) {
-                (_, RxOutcome::StartNotIdentified) => self.counters.start_not_identified += 1,
+                (_, RxOutcome::StartNotIdentified) => bump(&mut self.counters.start_not_identified),
                 (Phase::Awaiting { current, .. }, RxOutcome::Complete) => {
                     self.complete(now, current)
                 }
                 (Phase::Awaiting { current, .. }, RxOutcome::LengthError) => {
-                    self.counters.rejected += 1;
-                    self.counters.length += 1;
+                    bump(&mut self.counters.rejected);
+                    bump(&mut self.counters.length);
                     self.fail_current(now, current, status::LGE_ERROR);
                 }
                 (_, RxOutcome::Complete) | (_, RxOutcome::LengthError) => {
                     // A telegram nobody asked for (a late response): discarded.
-                    self.counters.rejected += 1;
+                    bump(&mut self.counters.rejected);
                 }
                 _ => {}
             }
@@ -1106,15 +1110,15 @@ impl Engine for Master {
 
     fn handle_timeout(&mut self, now: Instant) {
         if self.rx.timeout(now).is_some() {
-            self.counters.residual_time += 1;
-            self.counters.rejected += 1;
+            bump(&mut self.counters.residual_time);
+            bump(&mut self.counters.rejected);
             if let Phase::Awaiting { current, .. } = self.phase {
                 self.fail_current(now, current, status::RESIDUAL_TIME);
             }
         }
         if let Phase::Awaiting { current, deadline } = self.phase {
             if now >= deadline && !self.rx.is_receiving() {
-                self.counters.no_answer += 1;
+                bump(&mut self.counters.no_answer);
                 self.echo_left = 0;
                 self.rx.resync();
                 self.fail_current(now, current, status::NO_ANSWER);
@@ -1129,16 +1133,16 @@ impl Engine for Master {
             return;
         }
         match error {
-            LineError::Framing => self.counters.framing += 1,
-            LineError::Parity => self.counters.parity += 1,
-            LineError::Overrun => self.counters.overrun += 1,
-            LineError::Break => self.counters.breaks += 1,
+            LineError::Framing => bump(&mut self.counters.framing),
+            LineError::Parity => bump(&mut self.counters.parity),
+            LineError::Overrun => bump(&mut self.counters.overrun),
+            LineError::Break => bump(&mut self.counters.breaks),
         }
         let receiving = self.rx.is_receiving();
         self.rx.line_error(now, error);
         if let Phase::Awaiting { current, .. } = self.phase {
             if receiving {
-                self.counters.rejected += 1;
+                bump(&mut self.counters.rejected);
                 self.fail_current(now, current, status::CHARACTER_ERROR);
             }
         }
