@@ -193,3 +193,63 @@ fn sim_scenarios_lose_nothing() {
     assert!(text.contains(r#""bytes":[19]"#), "XOFF in the trace");
     assert!(text.contains(r#""bytes":[17]"#), "XON in the trace");
 }
+
+#[test]
+fn monitor_prints_timestamped_frames_and_never_transmits() {
+    use std::io::{Read, Write};
+    let Some(pair) = pty_pair() else { return };
+    // Even with XON/XOFF asked for, the monitor must not send its startup XON.
+    let monitor = si()
+        .args(["--json", "ascii", "monitor", "--port", &pair.a])
+        .args([
+            "--end", "chars", "0D,0A", "--flow", "xon-xoff", "--count", "2",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start si ascii monitor");
+    std::thread::sleep(Duration::from_millis(700));
+    let mut partner = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(&pair.b)
+        .expect("open the partner side");
+    partner.write_all(b"abc\r\nsecond\r\n").unwrap();
+    partner.flush().unwrap();
+
+    // Whatever the monitor might transmit would arrive here.
+    let mut reader = partner.try_clone().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut byte = [0u8; 1];
+        if let Ok(1) = reader.read(&mut byte) {
+            let _ = tx.send(byte[0]);
+        }
+    });
+
+    let out = monitor
+        .wait_with_output()
+        .expect("monitor ends after two frames");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let frames: Vec<serde_json::Value> = stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("one JSON object per line"))
+        .collect();
+    assert_eq!(frames.len(), 2, "{stdout}");
+    assert_eq!(frames[0]["frame"], "61 62 63 0D 0A");
+    assert_eq!(frames[1]["text"], r"second\r\n");
+    let (t0, t1) = (
+        frames[0]["at_us"].as_u64().unwrap(),
+        frames[1]["at_us"].as_u64().unwrap(),
+    );
+    assert!(t0 > 0 && t1 >= t0, "timestamps in driver time: {t0} {t1}");
+    assert!(
+        rx.recv_timeout(Duration::from_millis(300)).is_err(),
+        "the monitor transmitted something"
+    );
+}
