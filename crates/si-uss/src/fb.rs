@@ -23,8 +23,15 @@
 //!   blocks one after another from DBW2.
 //! - Pafe 1 is byte n+10 (written by S_USSR), Pafe 2 byte n+11 (S_USST), as the DBND table
 //!   prints them; "the last two bytes" / "1 byte" of the FC texts are taken to mean these.
-//! - DBCP is created with its 50 words; the host master needs no S_SEND/S_RCV, so only DBW8
-//!   (length of the last telegram) is kept up to date there.
+//! - DBCP is created with its 50 words and its length is checked (ANZ 6), but a host master needs
+//!   no S_SEND/S_RCV hand-over: the [`Master`] keeps the telegram buffers itself and DBCP stays
+//!   zero.
+//! - SYPA and SLPA (start of the system and slave parameters in DBPA) are not inputs here: the
+//!   manual prints fixed DBPA offsets (§6.8), which we use, i.e. SYPA = 2 and SLPA = 10.
+//! - The telegram monitoring time the FCs derive from the PLC cycle time (DBCP DBW6) is replaced
+//!   by the master's response timeout and residual run time (public-facts.md §3).
+//! - Broadcast and mirror telegrams have no place in the FCs (TNU 0…31 only, §11.20); use
+//!   [`Master::broadcast`] and [`Master::mirror`] directly.
 
 use crate::config::{MasterConfig, PollEntry};
 use crate::frame::{ParamAddress, PkwWords};
