@@ -325,7 +325,9 @@ impl Link {
         }
         if self.cfg.flow_control == FlowControl::XonXoff {
             let XonXoff { xon, xoff, .. } = self.cfg.xon_xoff;
-            if let Some(&b) = frame.iter().find(|&&b| b == xon || b == xoff) {
+            // On the wire a 7-bit character loses its top bit.
+            let mask = self.mask;
+            if let Some(&b) = frame.iter().find(|&&b| b & mask == xon || b & mask == xoff) {
                 return Err(SendError::FlowCharacter(b));
             }
         }

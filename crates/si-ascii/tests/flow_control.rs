@@ -8,7 +8,7 @@ use common::{errors, settings, Bench, Partner};
 use si_ascii::fb::{SRts, SVset, SVstat, SXon};
 use si_ascii::{status, Config, EndCriterion, Event, FlowControl, Link, RtsCts, XonXoff};
 use si_core::sim::{Simulator, StationId, TraceKind};
-use si_core::{Duration, Instant, SignalUpdate};
+use si_core::{Duration, Instant, SerialSettings, SignalUpdate};
 
 const FRAMES: u8 = 20;
 
@@ -419,4 +419,30 @@ fn s6_7_s_vset_is_refused_under_automatic_v24_and_s_vstat_always_reads() {
             rts: None
         }))
         .is_ok());
+}
+
+#[test]
+fn s6_4_with_xon_xoff_the_flow_characters_are_not_data() {
+    let c = Config {
+        settings: settings(9_600),
+        end: EndCriterion::CharDelay,
+        flow_control: FlowControl::XonXoff,
+        ..Config::default()
+    };
+    let mut b = Bench::new(c);
+    b.partner_sends(b"ab\x11cd");
+    b.run_for_ms(100);
+    assert_eq!(b.frames(), vec![b"abcd".to_vec()]);
+    // Sending them is refused (§6.2), also when a 7-bit line would strip the top bit.
+    let err = b.sim.with(b.link, |l, now| l.send(now, "x\x13".into()));
+    assert_eq!(err, Err(si_ascii::SendError::FlowCharacter(0x13)));
+    let c7 = Config {
+        settings: SerialSettings::new(9_600, 7, si_core::Parity::Even, 1).unwrap(),
+        ..c
+    };
+    let mut link = Link::new(c7).unwrap();
+    assert_eq!(
+        link.send(Instant::ZERO, bytes::Bytes::from_static(&[0x91])),
+        Err(si_ascii::SendError::FlowCharacter(0x91))
+    );
 }
