@@ -559,3 +559,92 @@ fn a_stray_telegram_between_polls_delays_the_next_request_without_spinning() {
     let c = sim.engine(m).counters();
     assert_eq!(c.residual_time, 1, "the stretched stray telegram");
 }
+
+#[test]
+fn a_drive_with_the_wrong_parity_is_heard_as_framing_errors_and_counted() {
+    let settings = s9600();
+    let odd = SerialSettings::with_rates(
+        9_600,
+        8,
+        si_core::Parity::Odd,
+        1,
+        &si_uss::config::USS_BAUD_RATES,
+    )
+    .unwrap();
+    let mut sim = Simulator::new(2);
+    let m = sim.add_station(
+        "master",
+        settings,
+        Master::new(master_config(settings, &[1], false)).unwrap(),
+    );
+    let d = sim.add_station("drive1", odd, Drive::new(DriveConfig::new(odd, 1)).unwrap());
+    sim.connect(m, d);
+    sim.with(m, |m, now| m.start(now));
+    let (e, _) = run_to(&mut sim, m, |e| !matches!(e, Event::CycleDone { .. }));
+    // The drive hears only framing errors too, so it never answers.
+    assert_eq!(
+        e,
+        Event::NoAnswer {
+            cycle: 0,
+            address: 1
+        }
+    );
+    assert!(sim.take_events(d).is_empty());
+    let c = sim.engine(m).counters();
+    assert_eq!((c.framing, c.ok), (0, 0));
+    // Now a scripted partner with the wrong parity answers: every character is a framing error.
+    let mut sim = Simulator::new(2);
+    let m = sim.add_station(
+        "master",
+        settings,
+        Master::new(master_config(settings, &[1], false)).unwrap(),
+    );
+    let s = sim.add_station("script", odd, Script);
+    sim.connect(m, s);
+    sim.with(m, |m, now| m.start(now));
+    sim.run_until(Instant::from_micros(25_000));
+    sim.transmit(s, &[0x02, 0x0E, 0x01, 0, 0, 0]);
+    let (e, _) = run_to(&mut sim, m, |e| !matches!(e, Event::CycleDone { .. }));
+    assert_eq!(
+        e,
+        Event::NoAnswer {
+            cycle: 0,
+            address: 1
+        }
+    );
+    assert_eq!(sim.engine(m).counters().framing, 6);
+}
+
+#[test]
+fn stop_ends_a_running_parameter_job_exactly_once() {
+    let (mut sim, m, d) = pair(s9600());
+    sim.silence(d, Instant::ZERO);
+    let job = sim
+        .with(m, |m, now| {
+            m.request_parameter(now, 1, ParamRequest::read(700, 0))
+        })
+        .unwrap();
+    sim.run_for(Duration::from_millis(50));
+    sim.with(m, |m, now| m.stop(now));
+    sim.run_for(Duration::from_millis(500));
+    let ends: Vec<Event> = sim
+        .take_events(m)
+        .into_iter()
+        .filter(|e| {
+            matches!(
+                e,
+                Event::ParameterDone { .. } | Event::ParameterFailed { .. }
+            )
+        })
+        .collect();
+    assert_eq!(
+        ends,
+        [Event::ParameterFailed {
+            job,
+            address: 1,
+            status: si_core::status::common::ABORTED_BY_RESET,
+            error_number: None
+        }]
+    );
+    assert_eq!(sim.engine(m).counters().sent, 2, "nothing sent after stop");
+}
