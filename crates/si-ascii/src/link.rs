@@ -726,6 +726,17 @@ impl Link {
         self.update(FlowControl::AutoV24, |c| c.auto_v24 = params)
     }
 
+    /// Apply a Table 2-26 parameter block as job code 5 carries it (§9.8): 0550H when it does
+    /// not match the configured flow control, 1E20H when a value is out of range.
+    pub fn apply_param_block(&mut self, block: crate::frame::ParamBlock) -> Result<(), Refused> {
+        use crate::frame::ParamBlock;
+        match block {
+            ParamBlock::XonXoff(p) => self.set_xon_xoff(p),
+            ParamBlock::RtsCts(p) => self.set_rts_cts(p),
+            ParamBlock::AutoV24(p) => self.set_auto_v24(p),
+        }
+    }
+
     fn update(&mut self, needs: FlowControl, f: impl FnOnce(&mut Config)) -> Result<(), Refused> {
         if self.cfg.flow_control != needs {
             return Err(Refused::new(status::FLOW_PARAMETERS_MISMATCH));

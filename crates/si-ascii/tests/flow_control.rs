@@ -446,3 +446,26 @@ fn s6_4_with_xon_xoff_the_flow_characters_are_not_data() {
         Err(si_ascii::SendError::FlowCharacter(0x91))
     );
 }
+
+#[test]
+fn s9_8_job_code_5_parameter_block_applies_or_is_0550() {
+    use si_ascii::frame::ParamBlock;
+    // Table 2-27's stream, as a non-S7 master sends it: block 20H, XON/XOFF, 2000 ms.
+    let block = ParamBlock::decode(&[0x20, 0x00, 0x04, 0x0B, 0x0D, 0x00, 0xC8]).unwrap();
+    let mut link = Link::new(config(FlowControl::XonXoff)).unwrap();
+    link.apply_param_block(block).unwrap();
+    assert_eq!(link.config().xon_xoff.xon, 0x0B);
+    assert_eq!(link.config().xon_xoff.wait_for_xon_ms, 2_000);
+    // A block for another flow control: 0550H.
+    let rts = ParamBlock::decode(&[0x21, 0x00, 0x02, 0x00, 0x01]).unwrap();
+    assert_eq!(
+        link.apply_param_block(rts).unwrap_err().status,
+        status::FLOW_PARAMETERS_MISMATCH
+    );
+    // 10 ms for the CTS wait is below its 20 ms minimum: 1E20H.
+    let mut link = Link::new(config(FlowControl::RtsCts)).unwrap();
+    assert_eq!(
+        link.apply_param_block(rts).unwrap_err().status,
+        status::PARAMETER_OUT_OF_RANGE
+    );
+}
