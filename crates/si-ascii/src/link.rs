@@ -23,7 +23,10 @@
 //!   one microsecond more ends it, and the frame end is reported at that microsecond.
 //! - **Inter-frame pause** (§6.2): in CDT mode a frame starts only after *more than* one CDT since
 //!   the end of our previous frame (the 2005 manual's "a gap longer than the CDT"), so a partner
-//!   with the same CDT always sees two frames.
+//!   with the same CDT always sees two frames. Only in CDT mode, as the ET 200S manual says;
+//!   the CP 341 (cp341-3964r-rk512-ascii.md §5.2) also pauses in fixed-length mode, switchably.
+//! - **Surplus characters** after an end-of-text sequence or a fixed-length frame start the next
+//!   frame (cp341 §5.3, public-facts.md §4); if the CDT then runs out they are a fragment: 0806H.
 //! - **Errors inside a frame** (parity, framing, overrun, BREAK, too long, no buffer): the frame is
 //!   discarded, the error reported once, and the rest of that frame skipped until the line is quiet
 //!   for the CDT (or, with end characters, until the end characters), so its tail never becomes a
