@@ -51,9 +51,14 @@
 //!   arriving during that wait is taken as a connection request (after reporting the 0802).
 //! - **BREAK** ends whatever runs at once, without retries: a send job fails with 080D, and 080D
 //!   is reported as a receive error (§5.7, cp341 §3.5 point 4).
-//! - **"DLE too early" (0706)** is a `DLE` received before our transmitter reported the block
-//!   sent ([`Engine::handle_tx_done`]). Drivers must report tx-done promptly; the simulator is
-//!   exact, and the tokio handle of this crate reports it when the write completes.
+//! - **"DLE too early" (0706)** is not reported. A host sees its own transmission end only
+//!   through the driver's tx-done ([`Engine::handle_tx_done`]), which lags the wire by the OS
+//!   buffers and the timer granularity (a pseudo-terminal partner answers within microseconds,
+//!   tokio timers tick per millisecond). Treating a `DLE` that arrives before tx-done as "too
+//!   early" made a prompt partner's acknowledgement look like an error, and the block was sent,
+//!   and delivered, twice; so a `DLE` after our block has started is taken as the
+//!   acknowledgement. For the same reason a NAK that ends our block before tx-done is reported
+//!   as 0705 (NAK while sending) rather than 0706; both repeat the block.
 //! - **"More characters after STX without waiting for DLE" (0802)** cannot be told apart from
 //!   prompt data on a host with OS buffering, so such characters are received as the block.
 
@@ -552,7 +557,12 @@ impl Link {
                     status::NAK_WHILE_SENDING,
                     false,
                 ),
-                DLE => self.attempt_failed(now, Attempt::Transmission, status::END_REJECTED, false),
+                // The acknowledgement, reported by the driver before its tx-done (see the
+                // module docs on "DLE too early").
+                DLE => {
+                    self.finish_job(Ok(()));
+                    self.enter_idle(now);
+                }
                 _ => self.interrupted(now, status::ABORTED_BY_PARTNER),
             },
             State::SendQuiet { .. } => {

@@ -275,6 +275,21 @@ fn s5_3_other_characters_during_the_block_wait_zvz_then_nak_0704() {
 }
 
 #[test]
+fn s5_3_dle_before_our_transmitter_is_done_is_the_acknowledgement() {
+    // Reading "DLE too early" (link.rs): a host's tx-done lags the wire, so a DLE after the
+    // block has started counts as the acknowledgement.
+    let (mut sim, a, p) = scripted(Config::default());
+    let job = sim.with(a, |l, now| l.send(now, vec![0x55; 50]).unwrap());
+    run_ms(&mut sim, 5);
+    sim.transmit(p, &[DLE]);
+    run_ms(&mut sim, 10);
+    sim.transmit(p, &[DLE]);
+    settle(&mut sim);
+    assert_eq!(sim.take_events(a), vec![Event::Sent { job }]);
+    assert_eq!(count_tx(&sim, "A", STX), 1);
+}
+
+#[test]
 fn s5_3_qvz_expires_after_stx_0703() {
     let (mut sim, a, _p) = scripted(Config::default());
     let job = sim.with(a, |l, now| l.send(now, &b"x"[..]).unwrap());
