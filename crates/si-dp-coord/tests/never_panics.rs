@@ -121,24 +121,39 @@ proptest! {
         }
     }
 
-    /// A host and a module with random lag and random job mixes: no panic, every job completes
-    /// exactly once, sends that succeed reach the line intact.
+    /// A host and a module with random lag, random faults on the exchange and random job mixes:
+    /// no panic, every job completes exactly once and none needs the watchdog (liveness), sends
+    /// that succeed reach the line intact, failures are only the protocol's own answers.
     #[test]
     fn host_and_module_complete_random_job_mixes(
         size in window_size(),
         seed in any::<u64>(),
+        out_of_order_out in 0.0..0.3f64,
+        out_of_order_in in 0.0..0.3f64,
+        foreign_request in 0.0..0.3f64,
         jobs in proptest::collection::vec(job(), 1..8),
+        line_frames in proptest::collection::vec(proptest::collection::vec(any::<u8>(), 1..60), 0..4),
     ) {
         let host = HostConfig { max_frame_len: 300, ..HostConfig::new(size) };
         let mut l = common::link(host, ModuleConfig::new(size), seed);
+        l.faults = common::Faults { out_of_order_out, out_of_order_in, foreign_request };
+        for f in line_frames {
+            l.module.serial_mut().inject_frame(f);
+        }
         for j in jobs {
             let sent = if let Job::Send(f) = &j { Some(f.clone()) } else { None };
             let id = l.host.submit(j).unwrap();
-            prop_assert!(l.run_until(100_000, |l| l.completion(id).is_some()));
+            prop_assert!(l.run_until(200_000, |l| l.completion(id).is_some()));
             prop_assert_eq!(l.completions_of(id), 1);
             if let (Some(f), Some(Ok(_))) = (sent, l.completion(id)) {
                 prop_assert_eq!(l.module.serial().sent().last(), Some(&f));
             }
+        }
+        for s in l.failures() {
+            prop_assert!(
+                [0x050E, 0x0551, 0x0550].contains(&s.code()),
+                "unexpected failure {}", s
+            );
         }
     }
 }

@@ -486,3 +486,40 @@ fn wrong_window_lengths_are_ignored() {
     assert_eq!(m.cycle(ms(0), &bytes("30 00 00 00 00 00 00 00"))[0], 0x00);
     assert_eq!(m.stats().invalid_windows, 1);
 }
+
+/// The host as receiver: the module going idle, or showing 111, before the frame is complete
+/// aborts the receive job (§2.8) with 0551H, and the host writes idle.
+#[test]
+fn host_receive_aborted_by_idle_or_111() {
+    for abort in ["00 00 01 xx", "71 00 00 xx"] {
+        let mut h = Host::new(HostConfig::new(WindowSize::Four)).unwrap();
+        let id = h.submit(Job::Receive).unwrap();
+        step_host(&mut h, 0, "00 00 01 xx", "20 xx xx xx");
+        step_host(&mut h, 1, "21 00 05 'h'", "21 xx xx xx");
+        // A foreign code (not 000/111) is ignored by the receiver.
+        step_host(&mut h, 2, "31 00 00 xx", "21 xx xx xx");
+        let ev = step_host(&mut h, 3, abort, "00 xx xx xx");
+        assert_eq!(
+            ev,
+            [HostEvent::Completed {
+                id,
+                code: JobCode::Receive,
+                result: Err(TRANSFER_ERROR_TO_CPU)
+            }]
+        );
+    }
+}
+
+/// The module as sender of a receive job: 000 from the host aborts the delivery without the
+/// error bit, and the frame stays first in the buffer, offered again from segment 1.
+#[test]
+fn module_keeps_the_frame_when_delivery_is_aborted() {
+    let mut m = module(WindowSize::Four);
+    m.serial_mut().inject_frame(&b"hello"[..]);
+    step_module(&mut m, 0, "20 xx xx xx", "21 00 05 'h'");
+    step_module(&mut m, 1, "21 xx xx xx", "22 'e' 'l' 'l'");
+    step_module(&mut m, 2, "00 xx xx xx", "00 00 01 xx");
+    step_module(&mut m, 3, "20 xx xx xx", "21 00 05 'h'");
+    assert_eq!(m.stats().aborts, 1);
+    assert_eq!(m.buffered(), 1);
+}
