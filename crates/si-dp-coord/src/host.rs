@@ -295,9 +295,43 @@ impl Host {
         self.out.clear();
     }
 
+    /// Ends one job with 1E0DH ("aborted by reset"), queued or running: the R input of one FB.
+    /// A running job writes idle, which aborts the module's side (§2.8). False if `id` is
+    /// neither queued nor running (already completed, or unknown).
+    pub fn abort(&mut self, id: JobId) -> bool {
+        if let Some(a) = self.active.take() {
+            if a.id == id {
+                self.finish(a, Err(ABORTED_BY_RESET));
+                return true;
+            }
+            self.active = Some(a);
+        }
+        let Some(pos) = self.queue.iter().position(|(i, _)| *i == id) else {
+            return false;
+        };
+        if let Some((id, job)) = self.queue.remove(pos) {
+            self.push_completion(id, job.code(), Err(ABORTED_BY_RESET));
+        }
+        true
+    }
+
     /// The next event, oldest first.
     pub fn poll_event(&mut self) -> Option<HostEvent> {
         self.events.pop_front()
+    }
+
+    /// Takes the completion of `id` out of the event queue, if it has arrived: how a caller
+    /// that tracks its own jobs (an FB equivalent) collects its result without consuming the
+    /// other events.
+    pub fn take_completion(&mut self, id: JobId) -> Option<Result<Outcome, Status>> {
+        let pos = self
+            .events
+            .iter()
+            .position(|e| matches!(e, HostEvent::Completed { id: i, .. } if *i == id))?;
+        match self.events.remove(pos)? {
+            HostEvent::Completed { result, .. } => Some(result),
+            HostEvent::BackedOff { .. } => None,
+        }
     }
 
     /// The receive status of the last idle window read (0000H, 0001H, 0B01H; §2.5).

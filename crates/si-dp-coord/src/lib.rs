@@ -14,6 +14,8 @@
 //! * [`host`]: the master's engine — one arbiter owning byte 0, jobs send, receive, read/write
 //!   V.24, parameters, with segmenting, go-back on the error bit, back-off on foreign job codes and
 //!   a job watchdog. Every job ends in exactly one completion.
+//! * [`fb`]: S_SEND, S_RCV, S_VSTAT, S_VSET, S_XON, S_RTS, S_V24 with S7 call semantics over the
+//!   host.
 //! * [`module`]: the module's engine, with its serial line behind the [`module::SerialSide`]
 //!   trait, for simulations and tests (and gateways that play the module).
 //! * [`mod@line`]: [`line::EngineSerial`] makes any Sans-IO line engine the module's serial side, and
@@ -46,6 +48,7 @@
 
 pub mod config;
 pub mod coord;
+pub mod fb;
 pub mod frame;
 pub mod host;
 pub mod line;

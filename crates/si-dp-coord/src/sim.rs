@@ -74,6 +74,7 @@ pub struct DpLink<S: SerialSide = LoopbackSerial> {
     events: Vec<HostEvent>,
     injected: u64,
     record: Option<Vec<DpRecord>>,
+    collect: bool,
 }
 
 impl<S: SerialSide> DpLink<S> {
@@ -96,7 +97,15 @@ impl<S: SerialSide> DpLink<S> {
             events: Vec::new(),
             injected: 0,
             record: None,
+            collect: true,
         }
+    }
+
+    /// Leaves the host's events in the host (for FB equivalents, which take their own
+    /// completions with [`Host::take_completion`]); [`events`](Self::events) stays empty.
+    pub fn without_event_collection(mut self) -> Self {
+        self.collect = false;
+        self
     }
 
     /// Records every host cycle from now on (see [`records`](Self::records)).
@@ -147,8 +156,10 @@ impl<S: SerialSide> DpLink<S> {
             0 => {
                 let out = self.host.cycle(self.now, self.host_sees.as_bytes());
                 self.host_out = Window::from_bytes(out).unwrap_or(self.host_out);
-                self.events
-                    .extend(std::iter::from_fn(|| self.host.poll_event()));
+                if self.collect {
+                    self.events
+                        .extend(std::iter::from_fn(|| self.host.poll_event()));
+                }
                 if let Some(r) = &mut self.record {
                     if r.len() >= RECORD_LIMIT {
                         r.remove(0);
