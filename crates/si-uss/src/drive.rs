@@ -12,6 +12,8 @@
 //!   (the handshake); read/write word and double word, arrays; AK 7 with error numbers 0 (no such
 //!   parameter), 1 (read-only), 2 (limit), 3 (sub-index), 4 (no array), 5 (type), 101 (task not
 //!   supported by this simulation);
+//! - parameter change reports ([`Drive::change_locally`]): response ID 9/10 with the SPM toggle
+//!   bit flipped, answered to "no task" requests until the master mirrors the toggle bit;
 //! - the status word follows the control word and the actual value ramps to the setpoint
 //!   ([`zsw`] bits).
 
@@ -222,6 +224,9 @@ pub struct Drive {
     last_response: Option<Pkw>,
     fault: bool,
     warning: bool,
+    /// A parameter changed locally, reported until the master acknowledges the toggle bit.
+    pending_report: Option<(ParamAddress, u32, bool)>,
+    report_toggle: bool,
 }
 
 impl Drive {
@@ -268,6 +273,8 @@ impl Drive {
             last_response: None,
             fault: false,
             warning: false,
+            pending_report: None,
+            report_toggle: false,
             config,
         })
     }
@@ -289,6 +296,28 @@ impl Drive {
     /// Raise or clear the fault bit (ZSW bit 3); an STW bit 7 edge also clears it.
     pub fn set_fault(&mut self, fault: bool) {
         self.fault = fault;
+    }
+
+    /// Change a parameter "at the operator panel": the value is set and a parameter change
+    /// report (response ID 9, or 10 for a double word, with the SPM toggle bit flipped) answers
+    /// the master's "no task" requests until the master sends the toggle bit back. False if
+    /// there is no such parameter or sub-index.
+    pub fn change_locally(&mut self, number: u16, index: u8, value: u32) -> bool {
+        let Some(p) = self
+            .config
+            .parameters
+            .iter_mut()
+            .find(|p| p.number == number)
+        else {
+            return false;
+        };
+        let Some(slot) = p.values.get_mut(usize::from(index)) else {
+            return false;
+        };
+        *slot = value;
+        self.report_toggle = !self.report_toggle;
+        self.pending_report = Some((ParamAddress { number, index }, value, p.dword));
+        true
     }
 
     /// Raise or clear the warning bit (ZSW bit 7).
@@ -447,7 +476,17 @@ impl Drive {
             }
         };
         self.take_control(now, &request.pzd);
+        if let Some(p) = request.pkw {
+            if self.pending_report.is_some() && p.pke.spm() == self.report_toggle {
+                self.pending_report = None; // the master acknowledged the report
+            }
+        }
         let pkw = request.pkw.map(|p| {
+            if let Some((param, value, dword)) = self.pending_report {
+                if p.pke.ak() == task::NONE {
+                    return self.change_report(&p, param, value, dword);
+                }
+            }
             if self.last_request == Some(p) {
                 if let Some(r) = self.last_response {
                     return r;
@@ -481,6 +520,30 @@ impl Drive {
             zsw,
             actual: self.actual,
         }));
+    }
+
+    /// The change report in a PKW area the size of the request's.
+    fn change_report(&self, req: &Pkw, param: ParamAddress, value: u32, dword: bool) -> Pkw {
+        let (pnu, ind) = param.split().unwrap_or((0, 0));
+        let dword = dword && req.pwe().len() >= 2;
+        let id = if dword {
+            response::CHANGE_REPORT_WORD + 1
+        } else {
+            response::CHANGE_REPORT_WORD
+        };
+        let pke = Pke::new(id, self.report_toggle, pnu);
+        match req.pwe().len() {
+            0 => Pkw::new(pke, ind, &[]),
+            1 => Pkw::new(pke, ind, &[value as u16]),
+            n => {
+                let mut pwe = [0u16; frame::MAX_PWE_WORDS];
+                if dword {
+                    pwe[0] = (value >> 16) as u16;
+                }
+                pwe[1] = value as u16;
+                Pkw::new(pke, ind, &pwe[..n])
+            }
+        }
     }
 
     /// Execute one PKW request and build the response area (same size as the request's).

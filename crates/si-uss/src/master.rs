@@ -348,6 +348,10 @@ pub struct SlaveState {
     /// Polls not answered or rejected.
     pub failed: u32,
     job: Option<PkwJob>,
+    /// The SPM toggle bit we send: the toggle of the last change report the user acknowledged.
+    spm_ack: bool,
+    /// The toggle bit of the last change report seen, so a repeated report is reported once.
+    report_spm: Option<bool>,
 }
 
 impl SlaveState {
@@ -434,6 +438,8 @@ impl Master {
                     answered: 0,
                     failed: 0,
                     job: None,
+                    spm_ack: false,
+                    report_spm: None,
                 });
             }
         }
@@ -545,10 +551,20 @@ impl Master {
     }
 
     /// The user has seen the parameter change report of `address`: comm status bit 5 is reset
+    /// and the next requests carry the report's toggle bit (PKE bit 11, SPM) back to the slave,
+    /// which acknowledges it; the slave then sends its next report or resumes normal answers
     /// (KSTW bit 1, et200s-si-modbus-uss.md §6.7).
+    ///
+    /// **Reading chosen:** the manual says only that the FC "acknowledges the report to the
+    /// slave" and masks bit 11 from the user; we acknowledge by mirroring the report's toggle bit
+    /// in SPM, as the PROFIdrive parameter channel does.
     pub fn acknowledge_change_report(&mut self, address: u8) -> Result<(), RequestError> {
         let i = self.slave_index(address)?;
-        self.slaves[i].comm_status &= !comm_status::CHANGE_REPORT;
+        let s = &mut self.slaves[i];
+        s.comm_status &= !comm_status::CHANGE_REPORT;
+        if let Some(t) = s.report_spm {
+            s.spm_ack = t;
+        }
         Ok(())
     }
 
@@ -704,8 +720,12 @@ impl Master {
                     p
                 }),
             };
+            let spm = s.spm_ack;
             NetData {
-                pkw,
+                pkw: pkw.map(|mut p| {
+                    p.pke = Pke::new(p.pke.ak(), spm, p.pke.pnu());
+                    p
+                }),
                 pzd: s.control,
             }
             .write(&mut net)
@@ -856,7 +876,9 @@ impl Master {
                 let ak = reply.pke.ak();
                 if (response::CHANGE_REPORT_WORD..=response::CHANGE_REPORT_ARRAY_DWORD)
                     .contains(&ak)
+                    && s.report_spm != Some(reply.pke.spm())
                 {
+                    s.report_spm = Some(reply.pke.spm());
                     s.comm_status |= comm_status::CHANGE_REPORT;
                     events[1] = Some(Event::ChangeReport {
                         address,

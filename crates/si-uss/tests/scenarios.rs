@@ -648,3 +648,51 @@ fn stop_ends_a_running_parameter_job_exactly_once() {
     );
     assert_eq!(sim.engine(m).counters().sent, 2, "nothing sent after stop");
 }
+
+#[test]
+fn s6_7_parameter_change_report_sets_bit_5_once_until_acknowledged_by_the_toggle_bit() {
+    let (mut sim, m, d) = pair(s9600());
+    run_to(&mut sim, m, |e| matches!(e, Event::CycleDone { cycle: 1 }));
+    assert!(sim.with(d, |d, _| d.change_locally(1082, 0, 77)));
+    for _ in 0..5 {
+        run_to(&mut sim, m, |e| matches!(e, Event::CycleDone { .. }));
+    }
+    let reports = sim
+        .trace()
+        .of("master")
+        .filter(
+            |e| matches!(&e.kind, TraceKind::Event { text } if text.starts_with("ChangeReport")),
+        )
+        .count();
+    assert_eq!(reports, 1, "reported once while repeated");
+    let s = sim.engine(m).slave(1).unwrap();
+    assert_ne!(s.comm_status & comm_status::CHANGE_REPORT, 0);
+    let r = s.pkw_response.unwrap();
+    assert_eq!(
+        (r.pke.ak(), r.pke.spm(), r.pke.pnu(), r.value()),
+        (9, true, 1082, 77)
+    );
+
+    sim.with(m, |m, _| m.acknowledge_change_report(1)).unwrap();
+    for _ in 0..3 {
+        run_to(&mut sim, m, |e| matches!(e, Event::CycleDone { .. }));
+    }
+    let s = sim.engine(m).slave(1).unwrap();
+    assert_eq!(s.comm_status & comm_status::CHANGE_REPORT, 0);
+    assert_eq!(
+        s.pkw_response.unwrap().pke.ak(),
+        0,
+        "the drive took the acknowledgement"
+    );
+
+    // The next report flips the toggle bit and is reported again.
+    sim.with(d, |d, _| d.change_locally(700, 0, 2));
+    let (e, _) = run_to(&mut sim, m, |e| matches!(e, Event::ChangeReport { .. }));
+    let Event::ChangeReport { report, .. } = e else {
+        unreachable!()
+    };
+    assert_eq!(
+        (report.pke.spm(), report.pke.pnu(), report.value()),
+        (false, 700, 2)
+    );
+}
