@@ -1,50 +1,841 @@
-//! `si modbus`: placeholder until the protocol lands; its face is fixed by `cmd/mod.rs`.
+//! `si modbus`: Modbus RTU master jobs, a slave serving simulated SIMATIC memory, offline
+//! frames, and simulator scenarios (et200s-si-modbus-uss.md §3–§5).
 
-use crate::cmd::sim::Scenario;
+use crate::cmd::sim::{print_trace, Scenario, SimOptions};
 use crate::conn::Connection;
 use crate::{CliError, Output};
-use clap::{Args, Subcommand};
+use clap::{Args, Subcommand, ValueEnum};
+use serde::Deserialize;
+use serde_json::json;
+use si_core::memory::{Memory, MemorySizes};
+use si_core::sim::Simulator;
+use si_core::{Duration, Instant, SerialSettings, Status};
+use si_modbus::frame::{self, Request, Response};
+use si_modbus::master::{Completion, Master, MasterEvent};
+use si_modbus::slave::{Slave, SlaveEvent};
+use si_modbus::tokio::{Error as ModbusError, MasterHandle, SlaveServer};
+use si_modbus::{ConversionDb, MasterConfig, Mode, SimaticStore, SlaveConfig};
+
+/// Master parameters every job shares (Table 3-17).
+#[derive(Debug, Clone, Args)]
+pub struct MasterOptions {
+    /// Slave address, 0 = broadcast (FC05/06/15/16 only).
+    #[arg(long, short = 'u')]
+    unit: u8,
+    /// Response time in ms (50–655000): the wait for the start of the response.
+    #[arg(long, default_value_t = 2000)]
+    timeout: u32,
+    /// Extension: send again this many times after a timeout or CRC error.
+    #[arg(long, default_value_t = 0)]
+    retries: u8,
+    /// Operating mode.
+    #[arg(long, value_enum, default_value_t = ModeArg::Normal)]
+    mode: ModeArg,
+    /// Character delay multiplier 1–10 (end-of-frame gap = table value × this).
+    #[arg(long, default_value_t = 1)]
+    char_delay_multiplier: u8,
+}
+
+/// `--mode`.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ModeArg {
+    /// Report transmission errors.
+    Normal,
+    /// Ignore corrupt frames, skip garbage before the address.
+    InterferenceSuppression,
+}
+
+impl From<ModeArg> for Mode {
+    fn from(m: ModeArg) -> Mode {
+        match m {
+            ModeArg::Normal => Mode::Normal,
+            ModeArg::InterferenceSuppression => Mode::InterferenceSuppression,
+        }
+    }
+}
+
+/// What `read` reads.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum ReadKind {
+    /// FC01 read coils.
+    Coils,
+    /// FC02 read discrete inputs.
+    Discrete,
+    /// FC03 read holding registers.
+    Holding,
+    /// FC04 read input registers.
+    Input,
+}
+
+/// What `write` writes.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum WriteKind {
+    /// FC05 write single coil (one value: 1/0, on/off).
+    Coil,
+    /// FC15 write multiple coils.
+    Coils,
+    /// FC06 write single register (one value, decimal or 0x hex).
+    Register,
+    /// FC16 write multiple registers.
+    Registers,
+}
 
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]
-pub enum Command {}
+pub enum Command {
+    /// Read coils, discrete inputs, holding or input registers (FC01–04).
+    Read {
+        /// What to read.
+        #[arg(value_enum)]
+        kind: ReadKind,
+        #[command(flatten)]
+        master: MasterOptions,
+        /// First address (0-based, as on the wire).
+        #[arg(long, default_value_t = 0)]
+        addr: u16,
+        /// How many (bits 1–2040, registers 1–127).
+        #[arg(long, default_value_t = 1)]
+        count: u16,
+        /// Repeat the read every MS milliseconds until interrupted.
+        #[arg(long, value_name = "MS")]
+        poll: Option<u64>,
+    },
+    /// Write coils or registers (FC05, 06, 15, 16).
+    Write {
+        /// What to write.
+        #[arg(value_enum)]
+        kind: WriteKind,
+        #[command(flatten)]
+        master: MasterOptions,
+        /// First address.
+        #[arg(long, default_value_t = 0)]
+        addr: u16,
+        /// The values: coils 1/0/on/off/true/false, registers decimal or 0x hex.
+        #[arg(required = true, num_args = 1..)]
+        values: Vec<String>,
+    },
+    /// FC08 diagnostics, sub-function 0000: the slave echoes the test value.
+    Diag {
+        #[command(flatten)]
+        master: MasterOptions,
+        /// Test value (decimal or 0x hex).
+        #[arg(long, default_value = "0xA537")]
+        data: String,
+    },
+    /// FC11 get comm event counter.
+    EventCounter {
+        #[command(flatten)]
+        master: MasterOptions,
+    },
+    /// FC12 get comm event log.
+    EventLog {
+        #[command(flatten)]
+        master: MasterOptions,
+    },
+    /// FC07 read exception status.
+    ExceptionStatus {
+        #[command(flatten)]
+        master: MasterOptions,
+    },
+    /// Be a slave serving simulated SIMATIC memory through S_MODB's conversion DB.
+    Serve {
+        /// Slave address 1–255.
+        #[arg(long, short = 'u')]
+        unit: u8,
+        /// TOML file with `mode`, `char_delay_multiplier`, `[conversion]` (the 26 fields of
+        /// Table 3-19) and `[memory]` (inputs, outputs, flags, timers, counters, dbs); without
+        /// it, the manual's example conversion DB of Table 3-20.
+        #[arg(long)]
+        config: Option<std::path::PathBuf>,
+        /// Operating mode (overridden by the config file's `mode`).
+        #[arg(long, value_enum, default_value_t = ModeArg::Normal)]
+        mode: ModeArg,
+    },
+}
+
+fn line_config(
+    conn: &Connection,
+    mode: Mode,
+    mul: u8,
+) -> Result<si_modbus::config::LineConfig, CliError> {
+    Ok(si_modbus::config::LineConfig {
+        settings: conn.settings()?,
+        mode,
+        char_delay_multiplier: mul,
+        local_echo: false,
+    })
+}
+
+fn master_config(conn: &Connection, o: &MasterOptions) -> Result<MasterConfig, CliError> {
+    let config = MasterConfig {
+        line: line_config(conn, o.mode.into(), o.char_delay_multiplier)?,
+        response_timeout_ms: o.timeout,
+        retries: o.retries,
+        ..MasterConfig::default()
+    };
+    config.validate()?;
+    Ok(config)
+}
+
+fn failure(e: ModbusError) -> CliError {
+    match e.status() {
+        Some(s) => CliError::new(status_text(s)),
+        None => CliError::new(e.to_string()),
+    }
+}
+
+fn status_text(s: Status) -> String {
+    let s = si_modbus::status::lookup(s.code());
+    match s.info() {
+        Some(info) => format!("{s} (remedy: {})", info.remedy),
+        None => s.to_string(),
+    }
+}
+
+fn parse_u16(text: &str) -> Result<u16, CliError> {
+    let t = text.trim();
+    let r = if let Some(h) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
+        u16::from_str_radix(h, 16)
+    } else {
+        t.parse()
+    };
+    r.map_err(|_| CliError::new(format!("bad value {text:?}: use 0…65535 or 0x0000…0xFFFF")))
+}
+
+fn parse_bool(text: &str) -> Result<bool, CliError> {
+    match text.to_ascii_lowercase().as_str() {
+        "1" | "on" | "true" => Ok(true),
+        "0" | "off" | "false" => Ok(false),
+        _ => Err(CliError::new(format!(
+            "bad coil value {text:?}: use 1/0, on/off or true/false"
+        ))),
+    }
+}
 
 impl Command {
     /// Run it on the line.
-    pub async fn run(self, _conn: &Connection, _out: &Output) -> Result<(), CliError> {
-        match self {}
+    pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
+        match self {
+            Command::Serve { unit, config, mode } => serve(conn, out, unit, config, mode).await,
+            Command::Read {
+                kind,
+                master,
+                addr,
+                count,
+                poll,
+            } => {
+                let request = match kind {
+                    ReadKind::Coils => Request::ReadCoils {
+                        address: addr,
+                        quantity: count,
+                    },
+                    ReadKind::Discrete => Request::ReadDiscreteInputs {
+                        address: addr,
+                        quantity: count,
+                    },
+                    ReadKind::Holding => Request::ReadHoldingRegisters {
+                        address: addr,
+                        quantity: count,
+                    },
+                    ReadKind::Input => Request::ReadInputRegisters {
+                        address: addr,
+                        quantity: count,
+                    },
+                };
+                let mut m = open_master(conn, &master).await?;
+                loop {
+                    let c = m.request(master.unit, &request).await.map_err(failure)?;
+                    print_completion(&c, out);
+                    let Some(ms) = poll else { return Ok(()) };
+                    tokio::select! {
+                        _ = tokio::time::sleep(std::time::Duration::from_millis(ms)) => {}
+                        _ = tokio::signal::ctrl_c() => return Ok(()),
+                    }
+                }
+            }
+            Command::Write {
+                kind,
+                master,
+                addr,
+                values,
+            } => {
+                let single = matches!(kind, WriteKind::Coil | WriteKind::Register);
+                if single && values.len() != 1 {
+                    return Err(CliError::new(format!(
+                        "write {} takes exactly one value, got {}",
+                        match kind {
+                            WriteKind::Coil => "coil",
+                            _ => "register",
+                        },
+                        values.len()
+                    )));
+                }
+                let mut m = open_master(conn, &master).await?;
+                let c = match kind {
+                    WriteKind::Coil | WriteKind::Coils => {
+                        let bits = values
+                            .iter()
+                            .map(|v| parse_bool(v))
+                            .collect::<Result<Vec<_>, _>>()?;
+                        let r = if single {
+                            Request::WriteSingleCoil {
+                                address: addr,
+                                value: bits[0],
+                            }
+                        } else {
+                            Request::WriteMultipleCoils {
+                                address: addr,
+                                values: frame::Bits::Bools(&bits),
+                            }
+                        };
+                        m.request(master.unit, &r).await
+                    }
+                    WriteKind::Register | WriteKind::Registers => {
+                        let regs = values
+                            .iter()
+                            .map(|v| parse_u16(v))
+                            .collect::<Result<Vec<_>, _>>()?;
+                        let r = if single {
+                            Request::WriteSingleRegister {
+                                address: addr,
+                                value: regs[0],
+                            }
+                        } else {
+                            Request::WriteMultipleRegisters {
+                                address: addr,
+                                values: frame::Registers::Words(&regs),
+                            }
+                        };
+                        m.request(master.unit, &r).await
+                    }
+                }
+                .map_err(failure)?;
+                print_completion(&c, out);
+                Ok(())
+            }
+            Command::Diag { master, data } => {
+                let data = parse_u16(&data)?;
+                job(conn, out, &master, Request::Diagnostics { data }).await
+            }
+            Command::EventCounter { master } => {
+                job(conn, out, &master, Request::GetCommEventCounter).await
+            }
+            Command::EventLog { master } => job(conn, out, &master, Request::GetCommEventLog).await,
+            Command::ExceptionStatus { master } => {
+                job(conn, out, &master, Request::ReadExceptionStatus).await
+            }
+        }
+    }
+}
+
+async fn open_master(conn: &Connection, o: &MasterOptions) -> Result<MasterHandle, CliError> {
+    let config = master_config(conn, o)?;
+    let port = conn.open().await?;
+    MasterHandle::spawn(config, port).map_err(failure)
+}
+
+async fn job(
+    conn: &Connection,
+    out: &Output,
+    o: &MasterOptions,
+    request: Request<'static>,
+) -> Result<(), CliError> {
+    let mut m = open_master(conn, o).await?;
+    let c = m.request(o.unit, &request).await.map_err(failure)?;
+    print_completion(&c, out);
+    Ok(())
+}
+
+/// One line per result: values for reads, the echo for writes.
+fn print_completion(c: &Completion, out: &Output) {
+    let unit = c.unit();
+    let request = c.request();
+    let function = request.function();
+    let Some(response) = c.response() else {
+        out.line(
+            &format!("broadcast FC{function:02} sent (no reply by design)"),
+            json!({"unit": unit, "function": function, "broadcast": true}),
+        );
+        return;
+    };
+    let start = match request {
+        Request::ReadCoils { address, .. }
+        | Request::ReadDiscreteInputs { address, .. }
+        | Request::ReadHoldingRegisters { address, .. }
+        | Request::ReadInputRegisters { address, .. } => address,
+        _ => 0,
+    };
+    match response {
+        Response::ReadCoils(bits) | Response::ReadDiscreteInputs(bits) => {
+            let values: Vec<u8> = bits.iter().map(u8::from).collect();
+            let text: Vec<String> = values.iter().map(|v| v.to_string()).collect();
+            out.line(
+                &format!(
+                    "unit {unit} FC{function:02} {start}…{}: {}",
+                    start as usize + values.len().saturating_sub(1),
+                    text.join(" ")
+                ),
+                json!({"unit": unit, "function": function, "address": start, "values": values}),
+            );
+        }
+        Response::ReadHoldingRegisters(regs) | Response::ReadInputRegisters(regs) => {
+            let values: Vec<u16> = regs.iter().collect();
+            let text: Vec<String> = values.iter().map(|v| format!("{v}")).collect();
+            out.line(
+                &format!(
+                    "unit {unit} FC{function:02} {start}…{}: {}",
+                    start as usize + values.len().saturating_sub(1),
+                    text.join(" ")
+                ),
+                json!({"unit": unit, "function": function, "address": start, "values": values}),
+            );
+        }
+        Response::WriteSingleCoil { address, value } => out.line(
+            &format!(
+                "unit {unit} coil {address} = {} written",
+                if value { "ON" } else { "OFF" }
+            ),
+            json!({"unit": unit, "function": function, "address": address, "value": value}),
+        ),
+        Response::WriteSingleRegister { address, value } => out.line(
+            &format!("unit {unit} register {address} = {value} written"),
+            json!({"unit": unit, "function": function, "address": address, "value": value}),
+        ),
+        Response::WriteMultipleCoils { address, quantity }
+        | Response::WriteMultipleRegisters { address, quantity } => out.line(
+            &format!("unit {unit} FC{function:02} wrote {quantity} from {address}"),
+            json!({"unit": unit, "function": function, "address": address, "quantity": quantity}),
+        ),
+        Response::ReadExceptionStatus(s) => out.line(
+            &format!("unit {unit} exception status {s:08b} (0x{s:02X})"),
+            json!({"unit": unit, "function": function, "exception_status": s}),
+        ),
+        Response::Diagnostics { data } => out.line(
+            &format!("unit {unit} diagnostics echo 0x{data:04X}"),
+            json!({"unit": unit, "function": function, "data": data}),
+        ),
+        Response::GetCommEventCounter {
+            status,
+            event_count,
+        } => out.line(
+            &format!("unit {unit} status 0x{status:04X}, event counter {event_count}"),
+            json!({"unit": unit, "function": function, "status": status, "event_count": event_count}),
+        ),
+        Response::GetCommEventLog {
+            status,
+            event_count,
+            message_count,
+            events,
+        } => out.line(
+            &format!(
+                "unit {unit} status 0x{status:04X}, events {event_count}, messages {message_count}, log {}",
+                si_core::hex::format(events)
+            ),
+            json!({"unit": unit, "function": function, "status": status, "event_count": event_count,
+                   "message_count": message_count, "events": events}),
+        ),
+        Response::Exception { function, code } => out.line(
+            &format!("unit {unit} FC{function:02} {code}"),
+            json!({"unit": unit, "function": function, "exception": code.code()}),
+        ),
+    }
+}
+
+/// The `serve --config` file.
+#[derive(Debug, Default, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct ServeFile {
+    mode: Option<Mode>,
+    char_delay_multiplier: Option<u8>,
+    conversion: Option<ConversionDb>,
+    memory: Option<MemoryFile>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct MemoryFile {
+    inputs: u32,
+    outputs: u32,
+    flags: u32,
+    timers: u32,
+    counters: u32,
+    dbs: Vec<DbFile>,
+}
+
+impl Default for MemoryFile {
+    fn default() -> Self {
+        MemoryFile {
+            inputs: 128,
+            outputs: 128,
+            flags: 1256,
+            timers: 256,
+            counters: 256,
+            dbs: (1..=6)
+                .map(|number| DbFile {
+                    number,
+                    length: 1024,
+                })
+                .collect(),
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DbFile {
+    number: u16,
+    length: u32,
+}
+
+async fn serve(
+    conn: &Connection,
+    out: &Output,
+    unit: u8,
+    path: Option<std::path::PathBuf>,
+    mode: ModeArg,
+) -> Result<(), CliError> {
+    let file: ServeFile = match &path {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .map_err(|e| CliError::new(format!("cannot read {}: {e}", p.display())))?;
+            toml::from_str(&text)
+                .map_err(|e| CliError::new(format!("{}: {}", p.display(), e.message())))?
+        }
+        None => ServeFile::default(),
+    };
+    let memory = file.memory.unwrap_or_default();
+    let sizes = MemorySizes {
+        inputs: memory.inputs,
+        outputs: memory.outputs,
+        flags: memory.flags,
+        timers: memory.timers,
+        counters: memory.counters,
+        dbs: memory.dbs.iter().map(|d| (d.number, d.length)).collect(),
+    };
+    let store = SimaticStore::new(
+        Memory::new(&sizes),
+        file.conversion.unwrap_or(ConversionDb::EXAMPLE),
+    );
+    let config = SlaveConfig {
+        line: line_config(
+            conn,
+            file.mode.unwrap_or(mode.into()),
+            file.char_delay_multiplier.unwrap_or(1),
+        )?,
+        address: unit,
+    };
+    config.validate()?;
+    let port = conn.open().await?;
+    let mut server = SlaveServer::spawn(config, store, port).map_err(failure)?;
+    out.line(
+        &format!(
+            "serving as slave {unit} ({}), end-of-frame gap {}",
+            config.line.settings,
+            config.line.gap()
+        ),
+        json!({"serving": unit, "settings": config.line.settings.to_string(),
+               "gap_us": config.line.gap().as_micros()}),
+    );
+    loop {
+        tokio::select! {
+            event = server.next_event() => match event {
+                Some(e) => print_slave_event(&e, out),
+                None => return Ok(()),
+            },
+            _ = tokio::signal::ctrl_c() => return Ok(()),
+        }
+    }
+}
+
+fn print_slave_event(e: &SlaveEvent, out: &Output) {
+    match *e {
+        SlaveEvent::Served {
+            function,
+            address,
+            quantity,
+        } => out.line(
+            &format!("served FC{function:02} address {address} quantity {quantity}"),
+            json!({"served": function, "address": address, "quantity": quantity}),
+        ),
+        SlaveEvent::Broadcast {
+            function,
+            address,
+            quantity,
+        } => out.line(
+            &format!("broadcast FC{function:02} address {address} quantity {quantity} executed"),
+            json!({"broadcast": function, "address": address, "quantity": quantity}),
+        ),
+        SlaveEvent::Exception {
+            function,
+            code,
+            status,
+            error,
+        } => {
+            let why = match (status, error) {
+                (Some(s), _) => status_text(s),
+                (None, Some(e)) => format!("S_MODB ERROR_NR {} ERROR_INFO {}", e.error_nr, e.info),
+                _ => String::new(),
+            };
+            out.line(
+                &format!("answered FC{function:02} with {code}: {why}"),
+                json!({"exception": code.code(), "function": function,
+                       "status": status.map(|s| s.code()),
+                       "error_nr": error.map(|e| e.error_nr)}),
+            )
+        }
+        SlaveEvent::Error(s) => out.line(
+            &format!("not answered: {}", status_text(s)),
+            json!({"error": s.code()}),
+        ),
     }
 }
 
 /// `si frame encode modbus`.
 #[derive(Debug, Args)]
 pub struct EncodeArgs {
-    /// Payload in hex.
+    /// Slave address and PDU in hex, e.g. "01 03 00 00 00 0A".
     hex: String,
 }
 
 impl EncodeArgs {
-    /// Run it.
-    pub fn run(&self, _out: &Output) -> Result<(), CliError> {
-        crate::cmd::frame::parse_hex(&self.hex)?;
-        Err(CliError::new("not implemented yet"))
+    /// Append the CRC (low byte first) and say how the frame reads.
+    pub fn run(&self, out: &Output) -> Result<(), CliError> {
+        let body = crate::cmd::frame::parse_hex(&self.hex)?;
+        if body.len() < 2 {
+            return Err(CliError::new(
+                "give at least the slave address and the function code",
+            ));
+        }
+        if body.len() + 2 > frame::MAX_ADU {
+            return Err(CliError::new(format!(
+                "{} bytes: an ADU holds at most {} bytes with the CRC",
+                body.len(),
+                frame::MAX_ADU
+            )));
+        }
+        let crc = frame::crc16(&body);
+        let mut adu = body.clone();
+        adu.extend_from_slice(&crc.to_le_bytes());
+        let reading = reading(&adu);
+        out.line(
+            &si_core::hex::format(&adu),
+            json!({"adu": si_core::hex::format(&adu), "crc": format!("{crc:04X}"),
+                   "reading": reading.map(|r| r.0)}),
+        );
+        Ok(())
+    }
+}
+
+/// How an ADU with a good CRC reads: `("request" | "response" | "request and response", text)`.
+fn reading(adu: &[u8]) -> Option<(&'static str, String)> {
+    let req = frame::decode_request(adu).ok();
+    let resp = frame::decode_response(adu).ok();
+    match (req, resp) {
+        (Some((u, r)), Some((_, p))) if format!("{r:?}") == format!("{p:?}") => Some((
+            "request and response (an echo reads the same both ways)",
+            format!("unit {u} {r:?}"),
+        )),
+        (Some((u, r)), _) => Some(("request", format!("unit {u} {r:?}"))),
+        (None, Some((u, p))) => Some(("response", format!("unit {u} {p:?}"))),
+        (None, None) => None,
     }
 }
 
 /// `si frame decode modbus`.
 #[derive(Debug, Args)]
 pub struct DecodeArgs {
-    /// Frame in hex.
+    /// ADU in hex with the CRC, e.g. "01 03 00 00 00 0A C5 CD".
     hex: String,
 }
 
 impl DecodeArgs {
-    /// Run it.
-    pub fn run(&self, _out: &Output) -> Result<(), CliError> {
-        crate::cmd::frame::parse_hex(&self.hex)?;
-        Err(CliError::new("not implemented yet"))
+    /// Check the CRC, then read the frame as a request, else as a response.
+    pub fn run(&self, out: &Output) -> Result<(), CliError> {
+        let adu = crate::cmd::frame::parse_hex(&self.hex)?;
+        let as_request = frame::decode_request(&adu);
+        let as_response = frame::decode_response(&adu);
+        match (&as_request, &as_response) {
+            (Err(e), Err(_)) if e.kind == frame::DecodeErrorKind::Crc => {
+                return Err(CliError::new(e.to_string()))
+            }
+            (Err(e), Err(f)) => {
+                return Err(CliError::new(format!(
+                    "neither a request ({e}) nor a response ({f})"
+                )))
+            }
+            _ => {}
+        }
+        let (reading, text) = reading(&adu).unwrap_or(("?", String::new()));
+        let crc = u16::from_le_bytes([adu[adu.len() - 2], adu[adu.len() - 1]]);
+        out.line(
+            &format!("{reading}: {text}, CRC {crc:04X} ok"),
+            json!({"reading": reading, "unit": adu[0], "function": adu[1],
+                   "decoded": text, "crc": format!("{crc:04X}")}),
+        );
+        Ok(())
     }
 }
 
 /// Scenarios for `si sim`.
-pub const SCENARIOS: &[Scenario] = &[];
+pub const SCENARIOS: &[Scenario] = &[
+    Scenario {
+        name: "modbus",
+        about: "a Modbus master polls slave 1 (Table 3-20's conversion DB): write, read back, exception",
+        run: scenario_poll,
+    },
+    Scenario {
+        name: "modbus-timeout",
+        about: "the slave is silent: the master's job fails with 16#0830 after the response time",
+        run: scenario_timeout,
+    },
+    Scenario {
+        name: "modbus-crc-error",
+        about: "one bit of the response flips on the line: the master's job fails with 16#0E57",
+        run: scenario_crc,
+    },
+];
+
+type Rig = (
+    Simulator,
+    si_core::sim::StationId<Master>,
+    si_core::sim::StationId<Slave<SimaticStore>>,
+);
+
+fn rig(o: &SimOptions, timeout_ms: u32) -> Result<Rig, CliError> {
+    let line = si_modbus::config::LineConfig {
+        settings: o.settings,
+        ..Default::default()
+    };
+    let mut sim = Simulator::new(o.seed);
+    let master = Master::new(MasterConfig {
+        line,
+        response_timeout_ms: timeout_ms,
+        ..MasterConfig::default()
+    })?;
+    let slave = Slave::new(SlaveConfig { line, address: 1 }, SimaticStore::example())?;
+    let m = sim.add_station("master", o.settings, master);
+    let s = sim.add_station("slave", o.settings, slave);
+    sim.connect(m, s);
+    Ok((sim, m, s))
+}
+
+fn run_job(
+    sim: &mut Simulator,
+    m: si_core::sim::StationId<Master>,
+    request: &Request<'_>,
+) -> Result<(MasterEvent, Instant), CliError> {
+    sim.with(m, |e, now| e.request(now, 1, request))
+        .map_err(|e| CliError::new(status_text(e.status())))?;
+    // Step until the job's completion event, so its time is the time it happened.
+    while sim.step() {
+        let done = sim
+            .take_events(m)
+            .into_iter()
+            .find(|e| !matches!(e, MasterEvent::Diagnostic(_)));
+        if let Some(e) = done {
+            return Ok((e, sim.now()));
+        }
+    }
+    Err(CliError::new("the job did not complete"))
+}
+
+fn report(event: &MasterEvent, at: Instant, out: &Output) {
+    match event {
+        MasterEvent::Completed(c) => {
+            let text = format!("{:?}", c.response());
+            out.line(
+                &format!("{at}: job done: {text}"),
+                json!({"at_us": at.as_micros(), "done": text}),
+            )
+        }
+        MasterEvent::Failed { status, .. } => out.line(
+            &format!("{at}: job failed: {}", status_text(*status)),
+            json!({"at_us": at.as_micros(), "status": status.code()}),
+        ),
+        MasterEvent::Diagnostic(s) => out.line(
+            &format!("{at}: {}", status_text(*s)),
+            json!({"at_us": at.as_micros(), "diagnostic": s.code()}),
+        ),
+    }
+}
+
+fn check_settings(s: SerialSettings) -> Result<(), CliError> {
+    si_modbus::config::LineConfig {
+        settings: s,
+        ..Default::default()
+    }
+    .validate()?;
+    Ok(())
+}
+
+fn scenario_poll(o: &SimOptions, out: &Output) -> Result<(), CliError> {
+    check_settings(o.settings)?;
+    let (mut sim, m, _) = rig(o, 2000)?;
+    let jobs = [
+        Request::WriteMultipleRegisters {
+            address: 0,
+            values: frame::Registers::Words(&[0x1234, 0x5678]),
+        },
+        Request::ReadHoldingRegisters {
+            address: 0,
+            quantity: 2,
+        },
+        Request::WriteSingleCoil {
+            address: 3,
+            value: true,
+        },
+        Request::ReadCoils {
+            address: 0,
+            quantity: 8,
+        },
+        // R = 512 → DB7: above DB_Max = 6, exception 02.
+        Request::WriteSingleRegister {
+            address: 512,
+            value: 1,
+        },
+    ];
+    let mut results = Vec::new();
+    for job in &jobs {
+        results.push(run_job(&mut sim, m, job)?);
+        sim.run_for(Duration::from_millis(10));
+    }
+    print_trace(sim.trace(), out);
+    for (e, at) in &results {
+        report(e, *at, out);
+    }
+    Ok(())
+}
+
+fn scenario_timeout(o: &SimOptions, out: &Output) -> Result<(), CliError> {
+    check_settings(o.settings)?;
+    let (mut sim, m, s) = rig(o, 2000)?;
+    sim.silence(s, Instant::ZERO);
+    let (e, at) = run_job(
+        &mut sim,
+        m,
+        &Request::ReadHoldingRegisters {
+            address: 0,
+            quantity: 10,
+        },
+    )?;
+    print_trace(sim.trace(), out);
+    report(&e, at, out);
+    Ok(())
+}
+
+fn scenario_crc(o: &SimOptions, out: &Output) -> Result<(), CliError> {
+    check_settings(o.settings)?;
+    let (mut sim, m, _) = rig(o, 2000)?;
+    sim.corrupt_received(m, 3, 0x10);
+    let (e, at) = run_job(
+        &mut sim,
+        m,
+        &Request::ReadHoldingRegisters {
+            address: 0,
+            quantity: 2,
+        },
+    )?;
+    print_trace(sim.trace(), out);
+    report(&e, at, out);
+    Ok(())
+}

@@ -1,0 +1,136 @@
+//! `si frame encode|decode modbus` and the Modbus `si sim` scenarios, offline
+//! (et200s-si-modbus-uss.md §3.1, §3.4, §3.8, §4.4).
+
+use std::process::{Command, Output};
+
+fn si(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_si"))
+        .args(args)
+        .output()
+        .expect("run si")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn frame_encode_appends_the_crc_low_byte_first() {
+    let o = si(&["frame", "encode", "modbus", "01 03 00 00 00 0A"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o).trim(), "01 03 00 00 00 0A C5 CD");
+    let o = si(&["--json", "frame", "encode", "modbus", "05 85 02"]);
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["adu"], "05 85 02 82 90");
+    assert_eq!(v["reading"], "response");
+}
+
+#[test]
+fn frame_decode_says_which_reading_it_used() {
+    let o = si(&["frame", "decode", "modbus", "01 03 00 00 00 0A C5 CD"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        stdout(&o).trim(),
+        "request: unit 1 ReadHoldingRegisters { address: 0, quantity: 10 }, CRC CDC5 ok"
+    );
+    let o = si(&["frame", "decode", "modbus", "01 03 02 00 01 79 84"]);
+    assert!(stdout(&o).starts_with("response: unit 1 ReadHoldingRegisters([0001])"));
+    let o = si(&["frame", "decode", "modbus", "01 06 00 01 00 03 98 0B"]);
+    assert!(
+        stdout(&o).starts_with("request and response"),
+        "{}",
+        stdout(&o)
+    );
+}
+
+#[test]
+fn frame_decode_names_the_crc_error() {
+    let o = si(&["frame", "decode", "modbus", "01 03 00 00 00 0A C5 CE"]);
+    assert!(!o.status.success());
+    assert_eq!(
+        stderr(&o).trim(),
+        "si: error: request byte 6: CRC expected 52677 (0xCDC5), found 52933 (0xCEC5)"
+    );
+}
+
+#[test]
+fn sim_modbus_polls_and_ends_with_the_write_limit_exception() {
+    let o = si(&["sim", "modbus"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        text.contains("job done: Some(ReadHoldingRegisters([1234, 5678]))"),
+        "{text}"
+    );
+    assert!(text.contains("job failed: 16#0E62"), "{text}");
+}
+
+#[test]
+fn sim_modbus_timeout_is_0830h_after_2_s() {
+    let o = si(&["sim", "modbus-timeout"]);
+    let last = stdout(&o).lines().last().unwrap_or_default().to_string();
+    // 8 characters at 9600 8E1 (9.167 ms) + the 2000 ms response time.
+    assert!(
+        last.starts_with("2.009167 s: job failed: 16#0830"),
+        "{last}"
+    );
+}
+
+#[test]
+fn sim_modbus_crc_error_is_0e57h() {
+    let o = si(&["--json", "sim", "modbus-crc-error"]);
+    let last = stdout(&o).lines().last().unwrap_or_default().to_string();
+    let v: serde_json::Value = serde_json::from_str(&last).unwrap();
+    assert_eq!(v["status"], 0x0E57);
+}
+
+#[test]
+fn write_single_with_two_values_is_refused_before_opening_the_line() {
+    let o = si(&["modbus", "write", "register", "--unit", "1", "1", "2"]);
+    assert!(!o.status.success());
+    assert_eq!(
+        stderr(&o).trim(),
+        "si: error: write register takes exactly one value, got 2"
+    );
+}
+
+#[test]
+fn serve_rejects_seven_data_bits_with_0e20h() {
+    let o = si(&[
+        "--port",
+        "/dev/null",
+        "--data-bits",
+        "7",
+        "modbus",
+        "serve",
+        "--unit",
+        "1",
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("16#0E20"), "{}", stderr(&o));
+}
+
+#[test]
+fn serve_config_errors_name_the_file_and_field() {
+    let dir = std::env::temp_dir().join(format!("si-modbus-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("bad.toml");
+    std::fs::write(&path, "[conversion]\nm_fromm = 1\n").unwrap();
+    let o = si(&[
+        "--port",
+        "/dev/null",
+        "modbus",
+        "serve",
+        "--unit",
+        "1",
+        "--config",
+        path.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("m_fromm"), "{}", stderr(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}

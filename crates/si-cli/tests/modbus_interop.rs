@@ -1,0 +1,398 @@
+//! Modbus RTU interop with independent implementations over Linux pseudo-terminal pairs
+//! (et200s-si-modbus-uss.md §3–§5): pymodbus as client against `si modbus serve` and as
+//! server against `si modbus read/write`, and mbpoll (libmodbus) against `si modbus serve`,
+//! covering FC 01–06, 15, 16 and an exception.
+//!
+//! Peers: `pip install pymodbus pyserial`, `apt-get install mbpoll socat`. A missing peer skips
+//! the test with a message; with the environment variable `CI` set it fails instead.
+//!
+//! The line is 19200 baud, 8 data bits, no parity, 2 stop bits: the manual's 11-bit frame with
+//! parity "none" (§3.9), and Linux pseudo-terminals refuse pyserial's even-parity setting.
+
+use std::io::{BufRead, BufReader, Write};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const LINE: &[&str] = &["--baud", "19200", "--parity", "none", "--stop-bits", "2"];
+
+/// Is `program` runnable? With `CI` set a missing peer is a failure, locally a skip.
+fn peer(name: &str, check: &mut Command, install: &str) -> bool {
+    let ok = check
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if ok {
+        return true;
+    }
+    if std::env::var_os("CI").is_some() {
+        panic!("interop peer {name} is missing and CI is set; install it with: {install}");
+    }
+    eprintln!("SKIPPED: interop peer {name} is not installed ({install})");
+    false
+}
+
+fn have_socat() -> bool {
+    peer(
+        "socat",
+        Command::new("socat").arg("-V"),
+        "apt-get install socat",
+    )
+}
+
+fn have_pymodbus() -> bool {
+    peer(
+        "pymodbus",
+        Command::new("python3").args(["-c", "import pymodbus, serial"]),
+        "pip install pymodbus pyserial",
+    )
+}
+
+fn have_mbpoll() -> bool {
+    peer(
+        "mbpoll",
+        Command::new("mbpoll").arg("-V"),
+        "apt-get install mbpoll",
+    )
+}
+
+/// A killed-on-drop child process.
+struct Proc(Child);
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// Two connected pseudo-terminals from socat.
+struct PtyPair {
+    _socat: Proc,
+    a: String,
+    b: String,
+}
+
+fn pty_pair() -> PtyPair {
+    let mut child = Command::new("socat")
+        .args(["-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"])
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("spawn socat");
+    let stderr = child.stderr.take().expect("socat stderr");
+    let mut names = Vec::new();
+    let mut lines = BufReader::new(stderr).lines();
+    while names.len() < 2 {
+        let line = lines.next().expect("socat output").expect("socat line");
+        if let Some(i) = line.find("/dev/pts/") {
+            names.push(line[i..].trim().to_string());
+        }
+    }
+    // Keep draining socat's log so it never blocks on a full pipe.
+    std::thread::spawn(move || for _ in lines {});
+    PtyPair {
+        _socat: Proc(child),
+        b: names.pop().expect("second pty"),
+        a: names.pop().expect("first pty"),
+    }
+}
+
+fn si(port: &str, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_si"))
+        .args(["--port", port])
+        .args(LINE)
+        .args(args)
+        .output()
+        .expect("run si")
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// `si modbus serve --unit 1` on `port`, with its stdout collected until it is killed.
+fn serve(port: &str) -> (Proc, std::sync::mpsc::Receiver<String>) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_si"))
+        .args(["--port", port])
+        .args(LINE)
+        .args(["modbus", "serve", "--unit", "1"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("spawn si modbus serve");
+    let stdout = child.stdout.take().expect("stdout");
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let first = rx
+        .recv_timeout(Duration::from_secs(10))
+        .expect("serve starts");
+    assert!(first.starts_with("serving as slave 1"), "{first}");
+    (Proc(child), rx)
+}
+
+fn served(rx: &std::sync::mpsc::Receiver<String>) -> Vec<String> {
+    std::thread::sleep(Duration::from_millis(200));
+    rx.try_iter().collect()
+}
+
+const PYMODBUS_CLIENT: &str = r#"
+import sys
+from pymodbus.client import ModbusSerialClient
+c = ModbusSerialClient(port=sys.argv[1], baudrate=19200, parity='N', stopbits=2, bytesize=8, timeout=2, retries=0)
+assert c.connect(), "connect"
+def ok(r):
+    assert not r.isError(), r
+    return r
+ok(c.write_registers(0, [11, 22, 33], device_id=1))                      # FC16 -> DB6.DBW0..4
+assert ok(c.read_holding_registers(0, count=3, device_id=1)).registers == [11, 22, 33]  # FC03
+ok(c.write_register(5, 0xBEEF, device_id=1))                             # FC06
+assert ok(c.read_holding_registers(5, count=1, device_id=1)).registers == [0xBEEF]
+assert ok(c.read_input_registers(0, count=2, device_id=1)).registers == [0, 0]          # FC04 (DB2)
+ok(c.write_coil(3, True, device_id=1))                                   # FC05 -> M500.3
+ok(c.write_coils(8, [True, False, True], device_id=1))                   # FC15 -> M501.0..2
+bits = ok(c.read_coils(0, count=16, device_id=1)).bits[:16]              # FC01
+assert bits == [False]*3 + [True] + [False]*4 + [True, False, True] + [False]*5, bits
+assert ok(c.read_discrete_inputs(8160, count=8, device_id=1)).bits[:8] == [False]*8     # FC02 (M800)
+r = c.write_register(512, 1, device_id=1)                                # DB7 > DB_Max: exception 02
+assert r.isError() and r.exception_code == 2, r
+r = c.read_holding_registers(0, count=3, device_id=1)
+assert r.registers == [11, 22, 33], r
+print("OK")
+"#;
+
+#[test]
+fn pymodbus_client_against_si_modbus_serve() {
+    if !(have_socat() && have_pymodbus()) {
+        return;
+    }
+    let pair = pty_pair();
+    let (_serve, log) = serve(&pair.a);
+    let out = Command::new("python3")
+        .args(["-c", PYMODBUS_CLIENT, &pair.b])
+        .output()
+        .expect("run python3");
+    assert!(
+        out.status.success() && text(&out.stdout).contains("OK"),
+        "pymodbus client failed:\n{}\n{}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+    let log = served(&log).join("\n");
+    for fc in [
+        "FC16", "FC03", "FC06", "FC04", "FC05", "FC15", "FC01", "FC02",
+    ] {
+        assert!(
+            log.contains(&format!("served {fc}")),
+            "{fc} missing in:\n{log}"
+        );
+    }
+    assert!(
+        log.contains("answered FC06 with exception 02"),
+        "exception missing in:\n{log}"
+    );
+}
+
+const PYMODBUS_SERVER: &str = r#"
+import sys, warnings
+warnings.filterwarnings("ignore")
+from pymodbus.server import StartSerialServer
+from pymodbus.datastore import ModbusSequentialDataBlock, ModbusServerContext, ModbusDeviceContext
+# pymodbus 3.x data blocks start at 1 for wire address 0.
+dev = ModbusDeviceContext(
+    di=ModbusSequentialDataBlock(1, [False, True] * 50),
+    co=ModbusSequentialDataBlock(1, [False] * 100),
+    hr=ModbusSequentialDataBlock(1, list(range(100))),
+    ir=ModbusSequentialDataBlock(1, [1000 + i for i in range(100)]),
+)
+ctx = ModbusServerContext(devices={1: dev}, single=False)
+print("ready", flush=True)
+StartSerialServer(context=ctx, port=sys.argv[1], baudrate=19200, parity='N', stopbits=2, bytesize=8)
+"#;
+
+#[test]
+fn pymodbus_server_against_si_modbus_read_and_write() {
+    if !(have_socat() && have_pymodbus()) {
+        return;
+    }
+    let pair = pty_pair();
+    let mut child = Command::new("python3")
+        .args(["-c", PYMODBUS_SERVER, &pair.b])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawn pymodbus server");
+    let mut ready = String::new();
+    BufReader::new(child.stdout.take().expect("stdout"))
+        .read_line(&mut ready)
+        .expect("server says ready");
+    let _server = Proc(child);
+    assert_eq!(ready.trim(), "ready");
+    // Give the server a moment to open the port after printing.
+    let start = Instant::now();
+    let run = |args: &[&str]| -> String {
+        let o = si(&pair.a, args);
+        assert!(
+            o.status.success(),
+            "si {args:?} failed: {}",
+            text(&o.stderr)
+        );
+        text(&o.stdout).trim().to_string()
+    };
+    loop {
+        let o = si(
+            &pair.a,
+            &["modbus", "diag", "--unit", "1", "--timeout", "500"],
+        );
+        if o.status.success() {
+            assert_eq!(text(&o.stdout).trim(), "unit 1 diagnostics echo 0xA537"); // FC08
+            break;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(15),
+            "pymodbus server never answered"
+        );
+    }
+    let a = "--addr";
+    assert_eq!(
+        run(&["modbus", "read", "holding", "--unit", "1", a, "0", "--count", "5"]),
+        "unit 1 FC03 0…4: 0 1 2 3 4"
+    );
+    assert_eq!(
+        run(&["modbus", "read", "input", "--unit", "1", a, "2", "--count", "2"]),
+        "unit 1 FC04 2…3: 1002 1003"
+    );
+    assert_eq!(
+        run(&["modbus", "read", "discrete", "--unit", "1", a, "0", "--count", "4"]),
+        "unit 1 FC02 0…3: 0 1 0 1"
+    );
+    assert_eq!(
+        run(&[
+            "modbus",
+            "write",
+            "registers",
+            "--unit",
+            "1",
+            a,
+            "10",
+            "7",
+            "0x0102"
+        ]),
+        "unit 1 FC16 wrote 2 from 10"
+    );
+    assert_eq!(
+        run(&["modbus", "write", "register", "--unit", "1", a, "12", "99"]),
+        "unit 1 register 12 = 99 written"
+    );
+    assert_eq!(
+        run(&["modbus", "read", "holding", "--unit", "1", a, "10", "--count", "3"]),
+        "unit 1 FC03 10…12: 7 258 99"
+    );
+    assert_eq!(
+        run(&["modbus", "write", "coil", "--unit", "1", a, "4", "on"]),
+        "unit 1 coil 4 = ON written"
+    );
+    assert_eq!(
+        run(&["modbus", "write", "coils", "--unit", "1", a, "6", "1", "0", "1"]),
+        "unit 1 FC15 wrote 3 from 6"
+    );
+    assert_eq!(
+        run(&["modbus", "read", "coils", "--unit", "1", a, "0", "--count", "10"]),
+        "unit 1 FC01 0…9: 0 0 0 0 1 0 1 0 1 0"
+    );
+    // Beyond the server's 100 registers: exception 02 → 16#0E62, exit code non-zero.
+    let o = si(
+        &pair.a,
+        &[
+            "modbus", "read", "holding", "--unit", "1", a, "200", "--count", "2",
+        ],
+    );
+    assert!(!o.status.success());
+    assert!(text(&o.stderr).contains("16#0E62"), "{}", text(&o.stderr));
+}
+
+fn mbpoll(port: &str, args: &[&str]) -> Output {
+    Command::new("mbpoll")
+        .args([
+            "-m", "rtu", "-a", "1", "-b", "19200", "-P", "none", "-s", "2", "-0", "-1", "-o", "2",
+        ])
+        .args(args)
+        .arg(port)
+        .output()
+        .expect("run mbpoll")
+}
+
+fn mbpoll_write(port: &str, args: &[&str], values: &[&str]) -> Output {
+    Command::new("mbpoll")
+        .args([
+            "-m", "rtu", "-a", "1", "-b", "19200", "-P", "none", "-s", "2", "-0", "-1", "-o", "2",
+        ])
+        .args(args)
+        .arg(port)
+        .arg("--")
+        .args(values)
+        .output()
+        .expect("run mbpoll")
+}
+
+/// mbpoll prints `[ref]: \tvalue` lines.
+fn values(o: &Output) -> Vec<String> {
+    text(&o.stdout)
+        .lines()
+        .filter(|l| l.starts_with('['))
+        .filter_map(|l| l.split(':').nth(1))
+        .map(|v| v.trim().to_string())
+        .collect()
+}
+
+#[test]
+fn mbpoll_against_si_modbus_serve() {
+    if !(have_socat() && have_mbpoll()) {
+        return;
+    }
+    let pair = pty_pair();
+    let (_serve, log) = serve(&pair.a);
+    let b = pair.b.as_str();
+    let o = mbpoll_write(b, &["-t", "4", "-r", "0"], &["7", "8", "9"]); // FC16
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let o = mbpoll_write(b, &["-t", "4", "-r", "3"], &["4660"]); // FC06
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let o = mbpoll(b, &["-t", "4", "-r", "0", "-c", "4"]); // FC03
+    assert_eq!(values(&o), ["7", "8", "9", "4660"]);
+    let o = mbpoll(b, &["-t", "3", "-r", "0", "-c", "2"]); // FC04
+    assert_eq!(values(&o), ["0", "0"]);
+    let o = mbpoll_write(b, &["-t", "0", "-r", "3"], &["1"]); // FC05
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let o = mbpoll_write(b, &["-t", "0", "-r", "8"], &["1", "0", "1"]); // FC15
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    let o = mbpoll(b, &["-t", "0", "-r", "0", "-c", "12"]); // FC01
+    assert_eq!(
+        values(&o),
+        ["0", "0", "0", "1", "0", "0", "0", "0", "1", "0", "1", "0"]
+    );
+    let o = mbpoll(b, &["-t", "1", "-r", "8160", "-c", "4"]); // FC02
+    assert_eq!(values(&o), ["0", "0", "0", "0"]);
+    // R = 512 → DB7, above DB_Max 6: exception 02.
+    let o = mbpoll_write(b, &["-t", "4", "-r", "512"], &["1"]);
+    assert!(
+        text(&o.stdout).contains("Illegal data address")
+            || text(&o.stderr).contains("Illegal data address"),
+        "{}{}",
+        text(&o.stdout),
+        text(&o.stderr)
+    );
+    let log = served(&log).join("\n");
+    for fc in [
+        "FC16", "FC06", "FC03", "FC04", "FC05", "FC15", "FC01", "FC02",
+    ] {
+        assert!(
+            log.contains(&format!("served {fc}")),
+            "{fc} missing in:\n{log}"
+        );
+    }
+    assert!(log.contains("answered FC06 with exception 02"), "{log}");
+    let _ = std::io::stdout().flush();
+}
