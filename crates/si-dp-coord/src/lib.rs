@@ -24,6 +24,28 @@
 //! * [`timing`]: the manual's processing-time estimate and the PPI token rotation formula.
 //! * [`status`]: the STATUS words the window carries.
 //!
+//! # Readings chosen where the manual is unclear
+//!
+//! et200s-si-2005-window-protocol.md §12.1 lists the gaps; each reading is documented next to the
+//! code that depends on it. In short:
+//!
+//! | Gap | Reading | Configurable |
+//! |---|---|---|
+//! | H-1 Table 2-23 data shifted | the extraction's reconstruction (hold each segment until echoed) | — |
+//! | H-2 receive request printed 10H | 20H | — |
+//! | H-3 XON/XOFF 0BH/0DH in Table 2-28 | defaults DC1/DC3 = 11H/13H; any byte may be sent | values |
+//! | H-4 "LSB" label on the 00H byte | MSB first, as every 16-bit word (§2.5) | — |
+//! | H-5 exec number after 7 | 1 (0 would equal the request bytes 10H/20H); [`coord::next_exec`] | no (see there) |
+//! | H-6 0101H | the answer 20H + 0101H to a receive job with nothing buffered, "not an error" | — |
+//! | H-7 host error bit in a receive job | module aborts with 20H + 0551H and re-offers the frame | [`config::ReceiveErrorPolicy`] |
+//! | H-8 write V.24 | data in the request, answer 40H + STATUS, host writes 00H | — |
+//! | H-9 V.24 bit layout | byte 1 = 00H, byte 2 = `DCD CTS RTS DSR DTR` in bits 4…0 | [`frame::V24Layout`] |
+//! | H-10 LEN > maximum | 7xH (exec of the segment with the length) + 050EH right after it | `max_frame_len` |
+//! | H-11 end of receive / read V.24 | the host holds its last echo until the module is idle, then writes 00H | — |
+//! | H-12 no timeouts | host job watchdog, default 30 s, STATUS 0502H | [`HostConfig`] |
+//! | H-13 don't-care bytes | written as 00H, ignored when read | — |
+//! | H-14 224 vs 200 bytes | 224 (chapter 2); 200 for the Modbus/USS module | `max_frame_len` |
+//!
 //! ```
 //! use si_dp_coord::{host::{Host, Job, HostEvent, Outcome}, module::{Module, LoopbackSerial}};
 //! use si_dp_coord::config::{HostConfig, ModuleConfig};
