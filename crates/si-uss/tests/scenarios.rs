@@ -436,7 +436,7 @@ fn drive_status_word_follows_the_control_word_and_the_actual_value_ramps() {
 }
 
 #[test]
-fn break_and_framing_errors_are_counted_and_discard_the_response() {
+fn a_break_during_a_response_is_counted_and_the_cycle_goes_on() {
     let (mut sim, m, _) = pair(s9600());
     // The first response arrives around 20 ms; a BREAK in the middle of it.
     sim.schedule_break(m, Instant::from_micros(30_000));
