@@ -482,6 +482,63 @@ impl RxStatus {
     }
 }
 
+/// Which way a window travels, for [`describe`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Direction {
+    /// The host's output window (host → module).
+    HostToModule,
+    /// The module's input window (module → host).
+    ModuleToHost,
+}
+
+/// A one-line reading of a window for people (`si frame decode`, traces): the coordination byte
+/// and what bytes 1..n mean for it. A segment's data is shown as hex; whether an exec 1 segment
+/// starts with the length word depends on the job's history, which a single window does not have.
+pub fn describe(window: &Window, dir: Direction, v24: V24Layout) -> String {
+    use crate::coord::JobCode;
+    use core::fmt::Write;
+    let c = window.coord();
+    let word = window.word();
+    let d = window.data();
+    let status = |w: u16| crate::status::lookup(w).to_string();
+    let mut s = c.to_string();
+    let hex = |bytes: &[u8]| si_core::hex::format(bytes);
+    let _ = match (c.job, c.exec, c.error, dir) {
+        (_, _, true, _) => write!(s, ": segment out of order, last valid {}", c.exec),
+        (JobCode::Idle, _, _, Direction::ModuleToHost) => {
+            let rx = RxStatus::from_word(word);
+            write!(s, ": receive status {word:04X}H ({rx:?})")
+        }
+        (JobCode::Idle, _, _, Direction::HostToModule) => Ok(()),
+        (JobCode::WriteV24, 0, _, Direction::HostToModule) => {
+            let sig = v24.decode([d[0], d[1]]);
+            write!(s, ": set RTS={} DTR={}", sig.rts as u8, sig.dtr as u8)
+        }
+        (JobCode::ReadV24, 1, _, Direction::ModuleToHost) => {
+            let g = v24.decode([d[0], d[1]]);
+            write!(
+                s,
+                ": DCD={} CTS={} RTS={} DSR={} DTR={}",
+                g.dcd as u8, g.cts as u8, g.rts as u8, g.dsr as u8, g.dtr as u8
+            )
+        }
+        (JobCode::EndOfJob, _, _, Direction::ModuleToHost)
+        | (JobCode::WriteV24 | JobCode::Receive, 0, _, Direction::ModuleToHost) => {
+            write!(s, ": STATUS {}", status(word))
+        }
+        (_, 0, _, Direction::HostToModule) => write!(s, ": job request"),
+        (JobCode::Send | JobCode::Parameters, 0, _, Direction::ModuleToHost) => {
+            write!(s, ": job accepted")
+        }
+        (JobCode::Send | JobCode::Parameters, _, _, Direction::ModuleToHost)
+        | (JobCode::Receive | JobCode::ReadV24, _, _, Direction::HostToModule) => {
+            write!(s, ": acknowledges segment {}", c.exec)
+        }
+        _ => write!(s, ": data {}", hex(d)),
+    };
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -593,6 +650,49 @@ mod tests {
         }
         assert!(RxStatus::TwoThirdsFull.frame_waiting());
         assert!(!RxStatus::NothingAvailable.frame_waiting());
+    }
+
+    #[test]
+    fn describe_reads_the_manual_examples() {
+        let w = |b: &[u8]| Window::from_bytes(b).unwrap();
+        let l = V24Layout::LowByte;
+        let (h, m) = (Direction::HostToModule, Direction::ModuleToHost);
+        assert_eq!(
+            describe(&w(&[0x00, 0x00, 0x01, 0]), m, l),
+            "00H (idle, exec 0): receive status 0001H (FramePresent)"
+        );
+        assert_eq!(
+            describe(&w(&[0x10, 0, 0, 0]), h, l),
+            "10H (send, exec 0): job request"
+        );
+        assert_eq!(
+            describe(&w(&[0x11, 0x00, 0x16, 0x61]), h, l),
+            "11H (send, exec 1): data 00 16 61"
+        );
+        assert_eq!(
+            describe(&w(&[0x74, 0x00, 0x00, 0]), m, l),
+            "74H (end of job, exec 4): STATUS 16#0000 no error"
+        );
+        assert_eq!(
+            describe(&w(&[0x20, 0x01, 0x01, 0]), m, l),
+            "20H (receive, exec 0): STATUS 16#0101 receive job issued but no received frame is available (not an error)"
+        );
+        assert_eq!(
+            describe(&w(&[0x31, 0x00, 0x1B, 0]), m, l),
+            "31H (read V.24, exec 1): DCD=1 CTS=1 RTS=0 DSR=1 DTR=1"
+        );
+        assert_eq!(
+            describe(&w(&[0x40, 0x00, 0x05, 0]), h, l),
+            "40H (write V.24, exec 0): set RTS=1 DTR=1"
+        );
+        assert_eq!(
+            describe(&w(&[0x19, 0, 0, 0]), m, l),
+            "19H (send, error, last valid 1): segment out of order, last valid 1"
+        );
+        assert_eq!(
+            describe(&w(&[0x12, 0, 0, 0]), m, l),
+            "12H (send, exec 2): acknowledges segment 2"
+        );
     }
 
     #[test]

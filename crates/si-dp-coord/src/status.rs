@@ -53,8 +53,11 @@ si_core::status_codes! {
 /// Every catalog a window STATUS may come from: this crate's and the common one.
 pub const CATALOGS: &[&[si_core::Status]] = &[CATALOG, si_core::status::common::CATALOG];
 
-/// The code with the manual's text when one of [`CATALOGS`] knows it.
+/// The code with the manual's text when one of [`CATALOGS`] knows it (0000H is "no error").
 pub fn lookup(code: u16) -> si_core::Status {
+    if code == 0 {
+        return si_core::Status::OK;
+    }
     si_core::Status::lookup(code, CATALOGS)
 }
 

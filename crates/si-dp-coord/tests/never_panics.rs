@@ -97,6 +97,17 @@ proptest! {
     }
 
     #[test]
+    fn describe_never_panics(size in window_size(), bytes in proptest::collection::vec(any::<u8>(), 32)) {
+        use si_dp_coord::frame::{describe, Direction, V24Layout, Window};
+        let w = Window::from_bytes(&bytes[..size.bytes()]).unwrap();
+        for dir in [Direction::HostToModule, Direction::ModuleToHost] {
+            for layout in [V24Layout::LowByte, V24Layout::HighByte] {
+                prop_assert!(describe(&w, dir, layout).starts_with(&format!("{:02X}H", bytes[0] & 0x7F)));
+            }
+        }
+    }
+
+    #[test]
     fn module_never_panics_and_stays_bounded(
         size in window_size(),
         frames in proptest::collection::vec(proptest::collection::vec(any::<u8>(), 0..300), 0..20),
