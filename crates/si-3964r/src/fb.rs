@@ -154,6 +154,10 @@ impl SRcv {
     ///   which then fills up and makes the link answer the partner's STX with the 400 ms buffer
     ///   wait and NAK (§5.4 point 4).
     /// - `r`: reset; nothing is taken while it is TRUE, and NDR/ERROR/LEN are 0.
+    ///
+    /// The manual's "EN_R = 0 aborts an active transfer" concerns the module-to-CPU copy of a
+    /// block over the backplane; here a block moves from the link to the caller within one
+    /// call, so there is never a transfer in flight to abort.
     pub fn call(&mut self, link: &mut Link, now: Instant, en_r: bool, r: bool) -> SRcvOutput {
         if r || !en_r {
             return SRcvOutput {

@@ -69,7 +69,9 @@ impl Sender {
 }
 
 impl Link3964r {
-    /// Start a link with `config` over `transport` (whose line runs at `settings`).
+    /// Start a link with `config` over `transport` (whose line runs at `settings`). Call it
+    /// inside a tokio runtime: it spawns the driver and a routing task (and panics otherwise,
+    /// as `tokio::spawn` does).
     pub fn spawn<T: Transport>(
         config: Config,
         settings: SerialSettings,

@@ -399,7 +399,7 @@ fn finish(sim: &mut Simulator, a: Station, b: Station, out: &Output) {
 fn exchange(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     let (mut sim, a, b) = two_links(o, high(), Config::default())?;
     send(&mut sim, a, b"temperature?\x10")?;
-    settle(&mut sim);
+    sim.run_for(Duration::from_millis(100));
     send(&mut sim, b, b"21.5 C")?;
     settle(&mut sim);
     finish(&mut sim, a, b, out);
@@ -423,7 +423,7 @@ fn nak_retry(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     let (mut sim, a, b) = two_links(o, high(), b_config)?;
     // B's application does not take the first block: its one-block buffer is full.
     send(&mut sim, a, b"first")?;
-    settle(&mut sim);
+    sim.run_for(Duration::from_millis(100));
     let _first_job = sim.take_events(a);
     send(&mut sim, a, b"second")?;
     // B waits 400 ms for a free buffer, then NAKs (080A); A repeats its STX (0702).
