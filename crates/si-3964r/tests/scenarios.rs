@@ -334,6 +334,28 @@ fn s5_3_qvz_expires_after_the_block_0707() {
 }
 
 #[test]
+fn s5_9_connection_attempts_start_again_for_each_transmission_attempt() {
+    // Reading of A-16: five refused STX, then the block is NAKed; the repetition may again use
+    // up to six STX. Eleven refused STX in all, and the job still succeeds.
+    let (mut sim, a, p) = scripted(Config::default());
+    let job = sim.with(a, |l, now| l.send(now, &b"x"[..]).unwrap());
+    for round in 0..2 {
+        for _ in 0..5 {
+            run_ms(&mut sim, 5);
+            sim.transmit(p, &[NAK]);
+        }
+        run_ms(&mut sim, 5);
+        sim.transmit(p, &[DLE]);
+        run_ms(&mut sim, 10);
+        sim.transmit(p, &[if round == 0 { NAK } else { DLE }]);
+    }
+    settle(&mut sim);
+    assert_eq!(sim.take_events(a), vec![Event::Sent { job }]);
+    assert_eq!(count_tx(&sim, "A", STX), 12);
+    assert_eq!(sim.engine(a).counters().repetitions, 1);
+}
+
+#[test]
 fn s5_3_first_error_is_reported_not_the_last() {
     // First attempt: NAK to STX (0702); then silence (0703) until the attempts run out.
     let (mut sim, a, p) = scripted(Config::default());
@@ -451,6 +473,18 @@ fn s5_5_bcc_error_on_every_repetition_gives_up_after_the_attempts_0808() {
     partner_sends(&mut sim, p, &encode(b"abc", Mode::BlockCheck));
     settle(&mut sim);
     assert_eq!(sim.take_events(a), vec![Event::Received { len: 3 }]);
+}
+
+#[test]
+fn s5_7_receiver_reports_the_first_error_when_the_repetition_breaks_off() {
+    // A BCC error (0808), then the repetition stops mid-block (ZVZ): the first error counts.
+    let (mut sim, a, p) = scripted(Config::default());
+    let mut bad = encode(b"abc", Mode::BlockCheck);
+    *bad.last_mut().unwrap() ^= 0x01;
+    partner_sends(&mut sim, p, &bad);
+    partner_sends(&mut sim, p, &[0x61]);
+    settle(&mut sim);
+    assert_eq!(sim.take_events(a), vec![Event::ReceiveError(BCC_ERROR)]);
 }
 
 #[test]
