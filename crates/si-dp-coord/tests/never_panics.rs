@@ -102,7 +102,9 @@ proptest! {
         let w = Window::from_bytes(&bytes[..size.bytes()]).unwrap();
         for dir in [Direction::HostToModule, Direction::ModuleToHost] {
             for layout in [V24Layout::LowByte, V24Layout::HighByte] {
-                prop_assert!(describe(&w, dir, layout).starts_with(&format!("{:02X}H", bytes[0] & 0x7F)));
+                let head = format!("{:02X}H", bytes[0] & 0x7F);
+                let text = describe(&w, dir, layout);
+                prop_assert!(text.starts_with(&head), "{}", text);
             }
         }
     }
