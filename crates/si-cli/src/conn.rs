@@ -29,23 +29,37 @@ pub struct Connection {
 }
 
 impl Connection {
-    /// The validated character format.
+    /// The validated character format, with one of the manuals' twelve baud rates.
     pub fn settings(&self) -> Result<SerialSettings, CliError> {
+        self.settings_for(&si_core::BAUD_RATES)
+    }
+
+    /// The validated character format, with a baud rate from a protocol's own list (USS adds
+    /// 187 500 bit/s).
+    pub fn settings_for(&self, rates: &'static [u32]) -> Result<SerialSettings, CliError> {
         let parity: Parity = self.parity.parse()?;
-        Ok(SerialSettings::new(
+        Ok(SerialSettings::with_rates(
             self.baud,
             self.data_bits,
             parity,
             self.stop_bits,
+            rates,
         )?)
     }
 
-    /// Open the port or connect to the device server.
+    /// Open the port or connect to the device server, with [`settings`](Self::settings).
     pub async fn open(&self) -> Result<Box<dyn Transport>, CliError> {
-        let settings = self.settings()?;
+        self.open_with(&self.settings()?).await
+    }
+
+    /// Open the port or connect to the device server with these (already validated) settings.
+    pub async fn open_with(
+        &self,
+        settings: &SerialSettings,
+    ) -> Result<Box<dyn Transport>, CliError> {
         match (&self.port, &self.tcp) {
             (Some(path), _) => {
-                let port = open_serial(path, &settings)?;
+                let port = open_serial(path, settings)?;
                 Ok(Box::new(port))
             }
             (None, Some(addr)) => {

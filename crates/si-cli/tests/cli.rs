@@ -123,3 +123,33 @@ fn sim_rs485_collision_garbles_every_character() {
         "{text}"
     );
 }
+
+/// USS allows 187 500 bit/s on top of the manuals' twelve rates; the other protocols do not.
+#[test]
+fn uss_accepts_187500_baud_and_3964r_refuses_it() {
+    let o = si(&[
+        "--port",
+        "/nonexistent/tty",
+        "--baud",
+        "187500",
+        "uss",
+        "poll",
+        "--slaves",
+        "1",
+    ]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(!err.contains("baud rate"), "{err}");
+    assert!(err.contains("cannot open /nonexistent/tty"), "{err}");
+    let o = si(&[
+        "--port",
+        "/nonexistent/tty",
+        "--baud",
+        "187500",
+        "3964r",
+        "send",
+        "01",
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("baud rate 187500"), "{}", stderr(&o));
+}

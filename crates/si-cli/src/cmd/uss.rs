@@ -190,7 +190,7 @@ fn uss_error(e: UssError) -> CliError {
 async fn open_master(conn: &Connection, config: MasterConfig) -> Result<UssMaster, CliError> {
     let settings = config.settings;
     let master = Master::new(config)?;
-    let transport = conn.open().await?;
+    let transport = conn.open_with(&settings).await?;
     let options = DriverOptions {
         settings: Some(settings),
         ..DriverOptions::default()
@@ -208,7 +208,10 @@ impl Command {
             Command::Poll(a) => poll(a, conn, out).await,
             Command::ReadParam(a) => {
                 let param = parse_param(&a.param)?;
-                let config = a.structure.config(conn.settings()?, &[a.slave])?;
+                let config = a.structure.config(
+                    conn.settings_for(&si_uss::config::USS_BAUD_RATES)?,
+                    &[a.slave],
+                )?;
                 let mut m = open_master(conn, config).await?;
                 let request = if a.array {
                     ParamRequest::read_array(param.number, param.index)
@@ -236,7 +239,10 @@ impl Command {
                         "value {value} does not fit a word; add --dword"
                     )));
                 }
-                let config = a.structure.config(conn.settings()?, &[a.slave])?;
+                let config = a.structure.config(
+                    conn.settings_for(&si_uss::config::USS_BAUD_RATES)?,
+                    &[a.slave],
+                )?;
                 let mut m = open_master(conn, config).await?;
                 let request = ParamRequest::write(param.number, param.index, value, a.dword);
                 let r = m.parameter(a.slave, request).await.map_err(uss_error)?;
@@ -253,7 +259,10 @@ impl Command {
 }
 
 async fn poll(a: PollArgs, conn: &Connection, out: &Output) -> Result<(), CliError> {
-    let config = a.structure.config(conn.settings()?, &a.slaves)?;
+    let config = a.structure.config(
+        conn.settings_for(&si_uss::config::USS_BAUD_RATES)?,
+        &a.slaves,
+    )?;
     let mut words = Vec::new();
     if a.stw.is_some() || a.hsw.is_some() {
         words.push(a.stw.as_deref().map_or(Ok(0), |t| parse_word("--stw", t))?);
@@ -348,7 +357,7 @@ async fn poll(a: PollArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
 }
 
 async fn sim_slave(a: SimSlaveArgs, conn: &Connection, out: &Output) -> Result<(), CliError> {
-    let settings = conn.settings()?;
+    let settings = conn.settings_for(&si_uss::config::USS_BAUD_RATES)?;
     let pkw = PkwWords::from_count(a.pkw_words)
         .filter(|p| *p != PkwWords::Variable)
         .ok_or_else(|| {
@@ -362,7 +371,7 @@ async fn sim_slave(a: SimSlaveArgs, conn: &Connection, out: &Output) -> Result<(
         pzd_words: a.pzd_words,
         ..DriveConfig::new(settings, a.address)
     })?;
-    let transport = conn.open().await?;
+    let transport = conn.open_with(&settings).await?;
     let options = DriverOptions {
         settings: Some(settings),
         ..DriverOptions::default()
