@@ -183,6 +183,16 @@ pub struct Config {
     pub rts_cts: RtsCts,
     /// Automatic V.24 parameters, used with [`FlowControl::AutoV24`].
     pub auto_v24: AutoV24,
+    /// Host-side, not a module parameter: characters handed to the driver at once while a flow
+    /// control is active, 1 … 200 (default 16).
+    ///
+    /// The module stops after the character on the line when XOFF or CTS = OFF arrives (§6.9).
+    /// A host cannot: the OS buffers what it writes, and each hand-over costs a timer tick
+    /// (about 1 ms under tokio) that shows up as a gap between characters, which a partner
+    /// monitoring its character delay time may take for a frame end. 16 characters keep the
+    /// overrun well inside the partner's 50-character XOFF margin and the gaps rare. Use 1 in
+    /// simulation to model the module exactly.
+    pub tx_chunk: u8,
 }
 
 impl Default for Config {
@@ -199,6 +209,7 @@ impl Default for Config {
             xon_xoff: XonXoff::default(),
             rts_cts: RtsCts::default(),
             auto_v24: AutoV24::default(),
+            tx_chunk: 16,
         }
     }
 }
@@ -385,6 +396,13 @@ impl Config {
             }
             _ => {}
         }
+        if self.tx_chunk == 0 || usize::from(self.tx_chunk) > MAX_FRAME_LEN {
+            return Err(out_of_range(
+                "transmit chunk",
+                self.tx_chunk,
+                format!("1 … {MAX_FRAME_LEN} characters"),
+            ));
+        }
         self.xon_xoff.validate(s)?;
         self.rts_cts.validate()?;
         self.auto_v24.validate()?;
@@ -514,6 +532,23 @@ mod tests {
             c.validate().unwrap_err().status(),
             status::PARAMETER_OUT_OF_RANGE
         );
+    }
+
+    #[test]
+    fn transmit_chunk_is_1_to_200() {
+        let c = Config {
+            tx_chunk: 0,
+            ..Config::default()
+        };
+        assert_eq!(
+            c.validate().unwrap_err().to_string(),
+            "transmit chunk 0 out of range: 1 … 200 characters"
+        );
+        let c = Config {
+            tx_chunk: 201,
+            ..Config::default()
+        };
+        assert!(c.validate().is_err());
     }
 
     #[test]

@@ -50,8 +50,9 @@
 //!   until XON / RTS = ON; then it starts again.
 //! - **Flow-control wait** (§6.9): the XON / CTS wait time runs from the moment sending is held
 //!   (XOFF or CTS = OFF while sending, or at the start of a send that finds it held).
-//! - Transmission goes out one character at a time whenever a flow control is configured, so XOFF
-//!   or CTS = OFF stops the sender after the character on the line, as the module does. Without
+//! - Transmission goes out in chunks of [`Config::tx_chunk`] characters whenever a flow control
+//!   is configured, so XOFF or CTS = OFF stops the sender after the chunk on the line; with a
+//!   chunk of 1 (for simulation) that is the character on the line, as the module does. Without
 //!   flow control the whole frame is handed out at once.
 
 use crate::buffer::FrameBuffer;
@@ -399,9 +400,10 @@ impl Link {
         } = &mut self.tx
         {
             if !self.in_flight && *pos < frame.len() {
+                let rest = frame.len() - *pos;
                 let n = match self.cfg.flow_control {
-                    FlowControl::None => frame.len() - *pos,
-                    _ => 1,
+                    FlowControl::None => rest,
+                    _ => rest.min(usize::from(self.cfg.tx_chunk)),
                 };
                 let chunk = frame.slice(*pos..*pos + n);
                 *pos += n;

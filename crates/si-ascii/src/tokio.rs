@@ -13,6 +13,12 @@
 //! # Ok(()) }
 //! ```
 
+//! Timing: the driver reports a write's tx-done after the characters' time on the line, and its
+//! timers have about 1 ms granularity (see `si_core::driver`). Under flow control the link hands
+//! out [`Config::tx_chunk`] characters per tx-done, so a real UART sees a gap of about that
+//! latency between chunks; a pseudo-terminal, which does not pace characters at the baud rate,
+//! shows a whole chunk time instead.
+
 use crate::config::{Config, ConfigError};
 use crate::link::{Event, Link, Refused, SendError};
 use bytes::Bytes;

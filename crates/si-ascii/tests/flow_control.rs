@@ -27,8 +27,12 @@ struct Pair {
     b: StationId<Link>,
 }
 
-fn pair(flow: FlowControl) -> Pair {
-    let c = config(flow);
+/// Two links; `tx_chunk` 1 models the module exactly, 16 is the host default.
+fn pair(flow: FlowControl, tx_chunk: u8) -> Pair {
+    let c = Config {
+        tx_chunk,
+        ..config(flow)
+    };
     let mut sim = Simulator::new(11);
     let a = sim.add_station("A", c.settings, Link::new(c).unwrap());
     let b = sim.add_station("B", c.settings, Link::new(c).unwrap());
@@ -90,7 +94,13 @@ fn tx_times(sim: &Simulator, station: &str, byte: u8) -> Vec<Instant> {
 
 #[test]
 fn s6_9_xon_xoff_stops_and_resumes_a_fast_sender_without_losing_a_byte() {
-    let mut p = pair(FlowControl::XonXoff);
+    for chunk in [1, 16] {
+        xon_xoff_fast_sender(chunk);
+    }
+}
+
+fn xon_xoff_fast_sender(chunk: u8) {
+    let mut p = pair(FlowControl::XonXoff, chunk);
     let read_at = Instant::from_micros(1_500_000);
     let (got, a_events) = fast_sender(&mut p, read_at, Instant::from_micros(10_000_000));
     assert_eq!(got.len(), expected().len());
@@ -122,15 +132,25 @@ fn s6_9_xon_xoff_stops_and_resumes_a_fast_sender_without_losing_a_byte() {
         .filter(|e| matches!(e.kind, TraceKind::Tx { .. }))
         .map(|e| e.at)
         .collect();
+    // Nothing new was handed to the line after XOFF reached A (the character, or with a larger
+    // chunk the chunk, already on the line finishes).
     let char_time = config(FlowControl::XonXoff).settings.char_time();
-    assert!(a_tx
-        .iter()
-        .all(|&t| t <= xoff_at_a + char_time || t >= read_at));
+    assert!(
+        a_tx.iter()
+            .all(|&t| t <= xoff_at_a + char_time || t >= read_at),
+        "chunk {chunk}"
+    );
 }
 
 #[test]
 fn s6_9_rts_cts_stops_and_resumes_a_fast_sender_without_losing_a_byte() {
-    let mut p = pair(FlowControl::RtsCts);
+    for chunk in [1, 16] {
+        rts_cts_fast_sender(chunk);
+    }
+}
+
+fn rts_cts_fast_sender(chunk: u8) {
+    let mut p = pair(FlowControl::RtsCts, chunk);
     let read_at = Instant::from_micros(1_500_000);
     let (got, a_events) = fast_sender(&mut p, read_at, Instant::from_micros(10_000_000));
     assert_eq!(got.len(), expected().len());
@@ -161,7 +181,7 @@ fn s6_9_rts_cts_stops_and_resumes_a_fast_sender_without_losing_a_byte() {
 
 #[test]
 fn s6_9_no_xon_within_the_wait_time_is_0708() {
-    let mut p = pair(FlowControl::XonXoff);
+    let mut p = pair(FlowControl::XonXoff, 1);
     let (got, a_events) = fast_sender(&mut p, Instant::MAX_TEST, Instant::from_micros(20_000_000));
     let xoff_at_a = p
         .sim

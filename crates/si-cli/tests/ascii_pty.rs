@@ -253,3 +253,87 @@ fn monitor_prints_timestamped_frames_and_never_transmits() {
         "the monitor transmitted something"
     );
 }
+
+/// Start `si ascii recv` on `port` with `args`, let it open the port, run `send` (each a full
+/// `si ascii send` argument list after the port), and return recv's stdout lines.
+fn recv_while_sending(pair: &PtyPair, recv_args: &[&str], sends: &[&[&str]]) -> Vec<String> {
+    let recv = si()
+        .args([
+            "--json",
+            "ascii",
+            "recv",
+            "--port",
+            &pair.a,
+            "--timeout",
+            "20",
+        ])
+        .args(recv_args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start si ascii recv");
+    std::thread::sleep(Duration::from_millis(700));
+    for (i, args) in sends.iter().enumerate() {
+        if i > 0 {
+            // Longer than the CDT of the character-delay test, so each send is its own frame.
+            std::thread::sleep(Duration::from_millis(400));
+        }
+        let out = si()
+            .args(["ascii", "send", "--port", &pair.b])
+            .args(*args)
+            .output()
+            .expect("run si ascii send");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let out = recv.wait_with_output().expect("recv ends");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(str::to_owned)
+        .collect()
+}
+
+fn frame_of(line: &str) -> String {
+    let v: serde_json::Value = serde_json::from_str(line).expect("a JSON line");
+    v["frame"].as_str().expect("a frame").to_owned()
+}
+
+#[test]
+fn char_delay_criterion_over_a_pty_cuts_one_frame_per_send() {
+    let Some(pair) = pty_pair() else { return };
+    // A generous CDT: a pseudo-terminal and the OS scheduler add jitter the module never sees.
+    let lines = recv_while_sending(
+        &pair,
+        &["--end", "delay", "--cdt", "100", "--count", "2"],
+        &[&["01 02 03"], &["04 05"]],
+    );
+    let frames: Vec<String> = lines.iter().map(|l| frame_of(l)).collect();
+    assert_eq!(frames, vec!["01 02 03", "04 05"]);
+}
+
+#[test]
+fn xon_xoff_on_both_sides_still_delivers_the_line() {
+    let Some(pair) = pty_pair() else { return };
+    // Under flow control the sender hands out a chunk per tx-done; the receiver starts with XON.
+    // A pseudo-terminal does not pace characters at the baud rate: a chunk arrives at once and
+    // the next one a whole chunk time later, so the receiver's CDT must cover that gap here (on
+    // a real UART the gap is only the driver's timer latency).
+    let lines = recv_while_sending(
+        &pair,
+        &[
+            "--end", "chars", "0D,0A", "--cdt", "200", "--flow", "xon-xoff",
+        ],
+        &[&["--flow", "xon-xoff", "--text", r"flow controlled\r\n"]],
+    );
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    let v: serde_json::Value = serde_json::from_str(&lines[0]).unwrap();
+    assert_eq!(v["text"], r"flow controlled\r\n");
+}
