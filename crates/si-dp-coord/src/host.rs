@@ -182,7 +182,7 @@ pub struct HostStats {
 /// beyond it are dropped (never completions) and automatic receives pause.
 const EVENT_SLACK: usize = 64;
 
-#[derive(Debug)]
+#[derive(Debug, Clone, Copy)]
 enum Phase {
     /// Writing 00H until the module is idle and the job may write its request.
     WaitIdle,
@@ -496,237 +496,258 @@ impl Host {
             .set_segment(CoordByte::new(code, exec_of_segment(k)), &self.stream, k);
     }
 
+    /// One cycle of the running job: the phase handler decides, this applies the decision.
     fn step(&mut self, mut a: Active, c: CoordByte, inw: &Window) -> Option<Active> {
-        let code = a.job.code();
-        let word = inw.word();
-        match a.phase {
-            Phase::WaitIdle => Some(a),
-            Phase::Request => {
-                if c.job == JobCode::Idle {
-                    Some(a)
-                } else if c == CoordByte::new(code, 0) {
-                    let last = self.cfg.window.segments(self.stream.len());
-                    a.phase = Phase::Sending {
-                        k: 1,
-                        last,
-                        acked: 0,
-                        in_error: None,
-                    };
-                    self.show_segment(code, 1);
-                    Some(a)
-                } else if c.job == code {
-                    Some(a)
-                } else if c.job == JobCode::EndOfJob {
-                    // Refused before any segment (§2.9: "7xH → rejected").
-                    let status = if word == 0 {
-                        NOT_POSSIBLE_IN_MODE
-                    } else {
-                        lookup(word)
-                    };
-                    self.finish(a, Err(status));
-                    None
-                } else {
-                    self.back_off(a, c)
-                }
-            }
+        let next = match a.phase {
+            Phase::WaitIdle => Next::Stay(Phase::WaitIdle),
+            Phase::Request => self.on_request(&a.job, c, inw.word()),
             Phase::Sending {
-                mut k,
+                k,
                 last,
-                mut acked,
-                mut in_error,
-            } => {
-                if c.job == code && !c.error {
-                    in_error = None;
-                    if c.exec == exec_of_segment(k) && acked < k {
-                        acked = k;
-                        self.stats.segments_sent += 1;
-                        if k < last {
-                            k += 1;
-                            self.show_segment(code, k);
-                        }
-                    }
-                    a.phase = Phase::Sending {
-                        k,
-                        last,
-                        acked,
-                        in_error,
-                    };
-                    Some(a)
-                } else if c.job == code {
-                    // Error bit: resend from the segment after the last valid one (§2.8).
-                    if let Some(j) = segment_with_exec(k, c.exec) {
-                        if in_error != Some(c.exec) {
-                            self.stats.resends += 1;
-                        }
-                        in_error = Some(c.exec);
-                        k = (j + 1).min(last);
-                        acked = j.min(acked);
-                        self.show_segment(code, k);
-                    }
-                    a.phase = Phase::Sending {
-                        k,
-                        last,
-                        acked,
-                        in_error,
-                    };
-                    Some(a)
-                } else if c.job == JobCode::EndOfJob {
-                    let result = if word != 0 {
-                        Err(lookup(word))
-                    } else if k == last {
-                        Ok(match a.job {
-                            Job::Parameters(_) => Outcome::ParametersSet,
-                            _ => Outcome::Sent,
-                        })
-                    } else {
-                        Err(NOT_POSSIBLE_IN_MODE)
-                    };
-                    self.finish(a, result);
-                    None
-                } else {
-                    self.back_off(a, c)
-                }
+                acked,
+                in_error,
+            } => self.on_sending(&a.job, c, inw.word(), k, last, acked, in_error),
+            Phase::Receiving { k, len, got, error } => {
+                self.on_receiving(c, inw, k, len, got, error)
             }
-            Phase::Receiving {
-                mut k,
-                mut len,
-                mut got,
-                mut error,
-            } => {
-                let complete = k > 0 && got >= len;
-                let keep = len <= self.cfg.max_frame_len;
-                if c.job == JobCode::Receive && !c.error {
-                    if c.exec == 0 {
-                        // 20H + STATUS: nothing there, an erroneous frame, or the abort after
-                        // our error bit (§2.8, Table 2-21).
-                        let result = if k == 0 && !error && (word == 0x0101 || word == 0) {
-                            Ok(Outcome::NoMessage)
-                        } else if word == 0 || word == 0x0101 {
-                            Err(TRANSFER_ERROR_TO_CPU)
-                        } else {
-                            Err(lookup(word))
-                        };
-                        self.finish(a, result);
-                        return None;
-                    }
-                    if c.exec == exec_of_segment(k + 1) && !complete {
-                        let mut data = inw.data();
-                        if k == 0 {
-                            len = usize::from(word);
-                            got = 0;
-                            data = &data[2..];
-                            self.rx.clear();
-                        }
-                        let take = data.len().min(len - got);
-                        got += take;
-                        // A frame longer than we may hold is read to its end and dropped, so
-                        // the module removes it instead of offering it forever.
-                        if len <= self.cfg.max_frame_len {
-                            self.rx.extend_from_slice(&data[..take]);
-                        }
-                        k += 1;
-                        error = false;
-                        self.stats.segments_received += 1;
-                        self.out.clear();
-                        self.out
-                            .set_coord(CoordByte::new(JobCode::Receive, exec_of_segment(k)));
-                    } else if c.exec == exec_of_segment(k) && k > 0 {
-                        // The module shows the last valid segment again (not yet seen our echo,
-                        // or resent it after our error bit): echo it plainly.
-                        if error {
-                            error = false;
-                            self.out.clear();
-                            self.out
-                                .set_coord(CoordByte::new(JobCode::Receive, exec_of_segment(k)));
-                        }
-                    } else {
-                        // Out of order: error bit + last valid number (§2.8).
-                        if !error {
-                            self.stats.errors_signalled += 1;
-                        }
-                        error = true;
-                        self.out.clear();
-                        self.out
-                            .set_coord(CoordByte::error(JobCode::Receive, exec_of_segment(k)));
-                    }
-                    a.phase = Phase::Receiving { k, len, got, error };
-                    Some(a)
-                } else if c.job == JobCode::Idle {
-                    if k == 0 {
-                        // The module has not seen the request yet.
-                        a.phase = Phase::Receiving { k, len, got, error };
-                        Some(a)
-                    } else if complete && keep {
-                        let frame = Bytes::copy_from_slice(&self.rx[..len]);
-                        self.finish(a, Ok(Outcome::Received(frame)));
-                        None
-                    } else if complete {
-                        self.finish(a, Err(RECEIVED_FRAME_TOO_LONG));
-                        None
-                    } else {
-                        self.finish(a, Err(TRANSFER_ERROR_TO_CPU));
-                        None
-                    }
-                } else if c.job == JobCode::EndOfJob {
-                    // 111 during the transfer: aborted (§2.8).
-                    self.finish(a, Err(TRANSFER_ERROR_TO_CPU));
-                    None
-                } else if k == 0 && c.job != JobCode::Receive {
-                    // The module acknowledged someone else's job.
-                    self.back_off(a, c)
-                } else {
-                    // The receiver ignores a foreign code and its data (§2.8).
-                    a.phase = Phase::Receiving { k, len, got, error };
-                    Some(a)
-                }
+            Phase::ReadV24 => self.on_read_v24(c, inw),
+            Phase::ReadV24Ack(signals) if c.job == JobCode::Idle => {
+                Next::Done(Ok(Outcome::Signals(signals)))
             }
-            Phase::ReadV24 => {
-                if c.job == JobCode::Idle || (c.job == code && c.error) {
-                    Some(a)
-                } else if c.job == code && c.exec == exec_of_segment(1) {
-                    let bytes = inw.data();
-                    let signals = self.cfg.v24_layout.decode([bytes[0], bytes[1]]);
-                    a.phase = Phase::ReadV24Ack(signals);
-                    self.out.clear();
-                    self.out.set_coord(CoordByte::new(code, exec_of_segment(1)));
-                    Some(a)
-                } else if c.job == code && c.exec == 0 {
-                    let status = if word == 0 {
-                        NOT_POSSIBLE_IN_MODE
-                    } else {
-                        lookup(word)
-                    };
-                    self.finish(a, Err(status));
-                    None
-                } else if c.job == code {
-                    Some(a)
-                } else {
-                    self.back_off(a, c)
-                }
+            Phase::ReadV24Ack(signals) => Next::Stay(Phase::ReadV24Ack(signals)),
+            Phase::WriteV24 => Self::on_write_v24(c, inw.word()),
+        };
+        match next {
+            Next::Stay(phase) => {
+                a.phase = phase;
+                Some(a)
             }
-            Phase::ReadV24Ack(signals) => {
-                if c.job == JobCode::Idle {
-                    self.finish(a, Ok(Outcome::Signals(signals)));
-                    None
-                } else {
-                    Some(a)
-                }
+            Next::Done(result) => {
+                self.finish(a, result);
+                None
             }
-            Phase::WriteV24 => {
-                if c.job == JobCode::Idle || (c.job == code && (c.error || c.exec != 0)) {
-                    Some(a)
-                } else if c.job == code {
-                    let result = if word == 0 {
-                        Ok(Outcome::SignalsWritten)
-                    } else {
-                        Err(lookup(word))
-                    };
-                    self.finish(a, result);
-                    None
-                } else {
-                    self.back_off(a, c)
-                }
-            }
+            Next::BackOff => self.back_off(a, c),
         }
+    }
+
+    /// Send/parameters, request 10H/50H out: wait for the acceptance (§2.4 rule 2).
+    fn on_request(&mut self, job: &Job, c: CoordByte, word: u16) -> Next {
+        let code = job.code();
+        if c.job == JobCode::Idle || (c.job == code && c != CoordByte::new(code, 0)) {
+            Next::Stay(Phase::Request)
+        } else if c.job == code {
+            self.show_segment(code, 1);
+            Next::Stay(Phase::Sending {
+                k: 1,
+                last: self.cfg.window.segments(self.stream.len()),
+                acked: 0,
+                in_error: None,
+            })
+        } else if c.job == JobCode::EndOfJob {
+            // Refused before any segment (§2.9: "7xH → rejected").
+            Next::Done(Err(status_or(word, NOT_POSSIBLE_IN_MODE)))
+        } else {
+            Next::BackOff
+        }
+    }
+
+    /// Send/parameters, segment `k` of `last` shown: advance on the echo, go back on the error
+    /// bit, finish on 7xH (§2.8, §2.9).
+    #[allow(clippy::too_many_arguments)]
+    fn on_sending(
+        &mut self,
+        job: &Job,
+        c: CoordByte,
+        word: u16,
+        mut k: usize,
+        last: usize,
+        mut acked: usize,
+        mut in_error: Option<u8>,
+    ) -> Next {
+        let code = job.code();
+        if c.job == code && !c.error {
+            in_error = None;
+            if c.exec == exec_of_segment(k) && acked < k {
+                acked = k;
+                self.stats.segments_sent += 1;
+                if k < last {
+                    k += 1;
+                    self.show_segment(code, k);
+                }
+            }
+        } else if c.job == code {
+            // Error bit: resend from the segment after the last valid one.
+            if let Some(j) = segment_with_exec(k, c.exec) {
+                if in_error != Some(c.exec) {
+                    self.stats.resends += 1;
+                }
+                in_error = Some(c.exec);
+                k = (j + 1).min(last);
+                acked = j.min(acked);
+                self.show_segment(code, k);
+            }
+        } else if c.job == JobCode::EndOfJob {
+            return Next::Done(if word != 0 {
+                Err(lookup(word))
+            } else if k == last {
+                Ok(match job {
+                    Job::Parameters(_) => Outcome::ParametersSet,
+                    _ => Outcome::Sent,
+                })
+            } else {
+                Err(NOT_POSSIBLE_IN_MODE)
+            });
+        } else {
+            // Another job code: cancel, wait for idle, repeat the whole job (§2.8).
+            return Next::BackOff;
+        }
+        Next::Stay(Phase::Sending {
+            k,
+            last,
+            acked,
+            in_error,
+        })
+    }
+
+    /// Receive: `k` segments accepted (0 = request 20H out). Echo each segment in order, set the
+    /// error bit on one out of order, finish when the module is idle after the last echo.
+    fn on_receiving(
+        &mut self,
+        c: CoordByte,
+        inw: &Window,
+        mut k: usize,
+        mut len: usize,
+        mut got: usize,
+        mut error: bool,
+    ) -> Next {
+        let word = inw.word();
+        let complete = k > 0 && got >= len;
+        if c.job == JobCode::Receive && !c.error {
+            if c.exec == 0 {
+                // 20H + STATUS: nothing there, an erroneous frame, or the abort after our error
+                // bit (§2.8, Table 2-21).
+                return Next::Done(if word == 0x0101 || word == 0 {
+                    if k == 0 && !error {
+                        Ok(Outcome::NoMessage)
+                    } else {
+                        Err(TRANSFER_ERROR_TO_CPU)
+                    }
+                } else {
+                    Err(lookup(word))
+                });
+            }
+            if c.exec == exec_of_segment(k + 1) && !complete {
+                let mut data = inw.data();
+                if k == 0 {
+                    len = usize::from(word);
+                    got = 0;
+                    data = &data[2..];
+                    self.rx.clear();
+                }
+                let take = data.len().min(len - got);
+                got += take;
+                // A frame longer than we may hold is read to its end and dropped, so the module
+                // removes it instead of offering it forever.
+                if len <= self.cfg.max_frame_len {
+                    self.rx.extend_from_slice(&data[..take]);
+                }
+                k += 1;
+                error = false;
+                self.stats.segments_received += 1;
+                self.echo_receive(CoordByte::new(JobCode::Receive, exec_of_segment(k)));
+            } else if c.exec == exec_of_segment(k) && k > 0 {
+                // The last valid segment again (our echo not seen yet, or resent after our
+                // error bit): echo it plainly.
+                if error {
+                    error = false;
+                    self.echo_receive(CoordByte::new(JobCode::Receive, exec_of_segment(k)));
+                }
+            } else {
+                // Out of order: error bit + last valid number (§2.8).
+                if !error {
+                    self.stats.errors_signalled += 1;
+                }
+                error = true;
+                self.echo_receive(CoordByte::error(JobCode::Receive, exec_of_segment(k)));
+            }
+        } else if c.job == JobCode::Idle && k > 0 {
+            return Next::Done(if !complete {
+                // Idle before the end: the transfer was aborted.
+                Err(TRANSFER_ERROR_TO_CPU)
+            } else if len <= self.cfg.max_frame_len {
+                Ok(Outcome::Received(Bytes::copy_from_slice(&self.rx[..len])))
+            } else {
+                Err(RECEIVED_FRAME_TOO_LONG)
+            });
+        } else if c.job == JobCode::EndOfJob {
+            // 111 during the transfer: aborted (§2.8).
+            return Next::Done(Err(TRANSFER_ERROR_TO_CPU));
+        } else if k == 0 && !matches!(c.job, JobCode::Idle | JobCode::Receive) {
+            // The module acknowledged someone else's job.
+            return Next::BackOff;
+        }
+        // Otherwise (idle before the module saw the request, a foreign code mid-transfer, which
+        // the receiver ignores with its data, §2.8): hold.
+        Next::Stay(Phase::Receiving { k, len, got, error })
+    }
+
+    fn echo_receive(&mut self, coord: CoordByte) {
+        self.out.clear();
+        self.out.set_coord(coord);
+    }
+
+    /// Read V.24, request 30H out: 31H + signal word → echo 31H (Table 2-25).
+    fn on_read_v24(&mut self, c: CoordByte, inw: &Window) -> Next {
+        let code = JobCode::ReadV24;
+        if c.job == JobCode::Idle || (c.job == code && c.error) {
+            Next::Stay(Phase::ReadV24)
+        } else if c.job == code && c.exec == exec_of_segment(1) {
+            let d = inw.data();
+            let signals = self.cfg.v24_layout.decode([d[0], d[1]]);
+            self.out.clear();
+            self.out.set_coord(CoordByte::new(code, exec_of_segment(1)));
+            Next::Stay(Phase::ReadV24Ack(signals))
+        } else if c.job == code && c.exec == 0 {
+            Next::Done(Err(status_or(inw.word(), NOT_POSSIBLE_IN_MODE)))
+        } else if c.job == code {
+            Next::Stay(Phase::ReadV24)
+        } else {
+            Next::BackOff
+        }
+    }
+
+    /// Write V.24, request 40H + signals out: 40H + STATUS ends it (Table 2-26).
+    fn on_write_v24(c: CoordByte, word: u16) -> Next {
+        let code = JobCode::WriteV24;
+        if c.job == JobCode::Idle || (c.job == code && (c.error || c.exec != 0)) {
+            Next::Stay(Phase::WriteV24)
+        } else if c.job == code {
+            Next::Done(if word == 0 {
+                Ok(Outcome::SignalsWritten)
+            } else {
+                Err(lookup(word))
+            })
+        } else {
+            Next::BackOff
+        }
+    }
+}
+
+/// What a phase handler decided.
+enum Next {
+    /// Keep the job, in this phase.
+    Stay(Phase),
+    /// The job ends with this result.
+    Done(Result<Outcome, Status>),
+    /// Rule 3: back off and repeat.
+    BackOff,
+}
+
+/// The STATUS of a word, or `fallback` for 0000H (a refusal must carry an error).
+fn status_or(word: u16, fallback: Status) -> Status {
+    if word == 0 {
+        fallback
+    } else {
+        lookup(word)
     }
 }
