@@ -8,11 +8,12 @@
 //! - [`master`]: the Sans-IO master engine, every outcome a STATUS of the manual;
 //! - [`slave`]: the Sans-IO slave engine served by a [`slave::Store`]: plain tables, or the
 //!   SIMATIC memory model reached through S_MODB's conversion DB ([`simatic`]);
-//! - `fb`: S_SEND/S_RCV master jobs and S_MODB as the PLC programmer sees them;
+//! - [`fb`]: S_SEND/S_RCV master jobs and S_MODB as the PLC programmer sees them;
 //! - `tokio` (feature `tokio`): an async master handle and a slave server task.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod config;
+pub mod fb;
 pub mod frame;
 pub mod master;
 pub mod rx;
