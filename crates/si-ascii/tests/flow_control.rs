@@ -489,3 +489,68 @@ fn s9_8_job_code_5_parameter_block_applies_or_is_0550() {
         status::PARAMETER_OUT_OF_RANGE
     );
 }
+
+#[test]
+fn s6_8_automatic_v24_cts_dropping_during_the_send_is_0818() {
+    let mut b = Bench::with_partner(auto_v24(), Partner::modem());
+    b.sim.with(b.partner, |p, _| {
+        p.set(SignalUpdate {
+            dtr: Some(true),
+            rts: None,
+        })
+    });
+    let job = b
+        .sim
+        .with(b.link, |l, now| l.send(now, vec![b'x'; 40].into()))
+        .unwrap();
+    b.run_for_ms(5);
+    let dropped_at = b.sim.now();
+    b.sim.with(b.partner, |p, _| {
+        p.answer_rts = false;
+        p.set(SignalUpdate {
+            dtr: None,
+            rts: Some(false),
+        })
+    });
+    b.run_for_ms(200);
+    assert_eq!(
+        b.events(),
+        vec![Event::SendFailed {
+            job,
+            status: status::DSR_CTS_OFF,
+            at: dropped_at
+        }]
+    );
+    assert!(
+        !b.sim.engine(b.link).signals().rts,
+        "RTS off after the abort"
+    );
+    // Only what was already handed to the line went out.
+    assert!(b.sim.engine(b.partner).bytes().len() < 40);
+}
+
+#[test]
+fn s6_8_automatic_v24_dsr_dropping_aborts_the_reception_with_0818() {
+    let mut b = Bench::new(auto_v24());
+    b.sim.with(b.partner, |p, _| {
+        p.set(SignalUpdate {
+            dtr: Some(true),
+            rts: None,
+        })
+    });
+    b.partner_sends(b"abc");
+    b.run_for_ms(2);
+    let dropped_at = b.sim.now();
+    b.sim.with(b.partner, |p, _| {
+        p.set(SignalUpdate {
+            dtr: Some(false),
+            rts: None,
+        })
+    });
+    b.run_for_ms(100);
+    assert_eq!(
+        errors(&b.events()),
+        vec![(status::DSR_CTS_OFF.code(), dropped_at)]
+    );
+    assert!(b.frames().is_empty());
+}
