@@ -554,3 +554,47 @@ fn s6_8_automatic_v24_dsr_dropping_aborts_the_reception_with_0818() {
     );
     assert!(b.frames().is_empty());
 }
+
+#[test]
+fn s8_6_s_v24_sets_the_rts_off_time() {
+    use si_ascii::fb::SV24;
+    use si_ascii::AutoV24;
+    let mut b = Bench::with_partner(auto_v24(), Partner::modem());
+    b.sim.with(b.partner, |p, _| {
+        p.set(SignalUpdate {
+            dtr: Some(true),
+            rts: None,
+        })
+    });
+    let mut s_v24 = SV24::default();
+    let params = AutoV24 {
+        time_rts_off_ms: 50,
+        data_wait_time_ms: 20,
+    };
+    let out = b
+        .sim
+        .with(b.link, |l, _| s_v24.call(l, true, false, params));
+    assert!(out.done && !out.error);
+    let job = b
+        .sim
+        .with(b.link, |l, now| l.send(now, "ok\x03".into()))
+        .unwrap();
+    b.run_for_ms(500);
+    let last_byte = b.sim.trace().received("P").last().unwrap().0;
+    assert_eq!(
+        b.events(),
+        vec![Event::Sent {
+            job,
+            at: last_byte + Duration::from_millis(50)
+        }]
+    );
+    // 5 ms is not a multiple of 10 ms: 1E20H, and the old value stays.
+    let bad = AutoV24 {
+        time_rts_off_ms: 5,
+        ..params
+    };
+    b.sim.with(b.link, |l, _| s_v24.call(l, false, false, bad));
+    let out = b.sim.with(b.link, |l, _| s_v24.call(l, true, false, bad));
+    assert_eq!(out.status, status::PARAMETER_OUT_OF_RANGE);
+    assert_eq!(b.sim.engine(b.link).config().auto_v24, params);
+}
