@@ -10,6 +10,7 @@
 //! |---|---|---|
 //! | (always) | [`core`] (`si-core`) | time, serial settings, STATUS codes, the Sans-IO contract, simulator, tokio driver |
 //! | `3964r` (default) | [`r3964`] (`si-3964r`) | the 3964 / 3964(R) procedure and its FBs |
+//! | `rk512` (default) | [`rk512`] (`si-rk512`) | RK 512 SEND/FETCH over 3964(R) |
 //! | `ascii` (default) | [`ascii`] (`si-ascii`) | the ASCII driver and its FBs |
 //! | `modbus` (default) | [`modbus`] (`si-modbus`) | Modbus RTU master and slave, S_MODB |
 //! | `uss` (default) | [`uss`] (`si-uss`) | the USS master and its FC equivalents |
@@ -24,6 +25,9 @@ pub use si_core as core;
 
 #[cfg(feature = "3964r")]
 pub use si_3964r as r3964;
+
+#[cfg(feature = "rk512")]
+pub use si_rk512 as rk512;
 
 #[cfg(feature = "ascii")]
 pub use si_ascii as ascii;

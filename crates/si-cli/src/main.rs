@@ -11,7 +11,7 @@ mod conn;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
-/// Speak the SIMATIC ET 200S serial interface module protocols: 3964(R), ASCII, Modbus RTU, USS.
+/// Speak the SIMATIC ET 200S serial interface module protocols: 3964(R), RK 512, ASCII, Modbus RTU, USS.
 #[derive(Debug, Parser)]
 #[command(name = "si", version, about, propagate_version = true)]
 struct Cli {
@@ -39,6 +39,9 @@ enum Command {
     /// 3964 / 3964(R) procedure: send and receive blocks.
     #[command(name = "3964r", subcommand)]
     R3964(cmd::r3964::Command),
+    /// RK 512 over 3964(R): SEND and FETCH jobs, or serve them from a simulated CPU memory.
+    #[command(subcommand)]
+    Rk512(cmd::rk512::Command),
     /// ASCII driver: send and receive frames with the manual's end criteria and flow control.
     #[command(subcommand)]
     Ascii(cmd::ascii::Command),
@@ -106,6 +109,7 @@ fn main() -> ExitCode {
         Command::Frame(c) => c.run(&out),
         Command::Sim(a) => cli.connection.settings().and_then(|s| a.run(s, &out)),
         Command::R3964(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
+        Command::Rk512(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
         Command::Ascii(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
         Command::Modbus(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
         Command::Uss(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),

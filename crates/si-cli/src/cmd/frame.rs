@@ -1,6 +1,6 @@
 //! `si frame encode|decode <protocol> HEX`: frames offline, no line needed.
 
-use crate::cmd::{modbus, r3964, uss};
+use crate::cmd::{modbus, r3964, rk512, uss};
 use crate::{CliError, Output};
 use clap::Subcommand;
 
@@ -33,6 +33,8 @@ pub enum Decode {
     /// 3964(R): the block after DLE, up to and including DLE ETX (and BCC).
     #[command(name = "3964r")]
     R3964(r3964::DecodeArgs),
+    /// RK 512: a command, continuation or reaction telegram, with or without its data.
+    Rk512(rk512::DecodeArgs),
     /// Modbus RTU: an ADU with CRC, read as request or response.
     Modbus(modbus::DecodeArgs),
     /// USS: a telegram from STX to BCC.
@@ -47,6 +49,7 @@ impl FrameCommand {
             FrameCommand::Encode(Encode::Modbus(a)) => a.run(out),
             FrameCommand::Encode(Encode::Uss(a)) => a.run(out),
             FrameCommand::Decode(Decode::R3964(a)) => a.run(out),
+            FrameCommand::Decode(Decode::Rk512(a)) => a.run(out),
             FrameCommand::Decode(Decode::Modbus(a)) => a.run(out),
             FrameCommand::Decode(Decode::Uss(a)) => a.run(out),
         }

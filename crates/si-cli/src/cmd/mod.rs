@@ -1,11 +1,11 @@
 //! One module per top-level command.
 //!
-//! Every protocol module (`r3964`, `ascii`, `modbus`, `uss`) has the same face, so `main`, `frame` and
+//! Every protocol module (`r3964`, `rk512`, `ascii`, `modbus`, `uss`) has the same face, so `main`, `frame` and
 //! `sim` wire them without knowing their insides:
 //!
 //! - `Command`: its clap subcommands, run with `Command::run(self, &Connection, &Output)`;
 //! - `EncodeArgs` / `DecodeArgs`: `si frame encode|decode <protocol> …`, run with `.run(&Output)`
-//!   (not for `ascii`, whose frames are the bytes themselves);
+//!   (not for `ascii`, whose frames are the bytes themselves; `rk512` decodes only);
 //! - `SCENARIOS`: the named simulator scenarios `si sim` offers.
 
 pub mod ascii;
@@ -13,5 +13,6 @@ pub mod frame;
 pub mod modbus;
 pub mod ports;
 pub mod r3964;
+pub mod rk512;
 pub mod sim;
 pub mod uss;

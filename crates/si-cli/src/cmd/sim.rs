@@ -3,7 +3,7 @@
 //! Each protocol module lists its scenarios in `SCENARIOS`; this module adds the ones that show
 //! the simulator itself (character timing, an RS-485 collision) and prints the trace.
 
-use crate::cmd::{ascii, modbus, r3964, uss};
+use crate::cmd::{ascii, modbus, r3964, rk512, uss};
 use crate::{CliError, Output};
 use clap::Args;
 use si_core::sim::{Simulator, Trace};
@@ -56,6 +56,7 @@ const CORE: &[Scenario] = &[
 fn all() -> impl Iterator<Item = &'static Scenario> {
     CORE.iter()
         .chain(r3964::SCENARIOS)
+        .chain(rk512::SCENARIOS)
         .chain(ascii::SCENARIOS)
         .chain(modbus::SCENARIOS)
         .chain(uss::SCENARIOS)
