@@ -188,28 +188,37 @@ enum Phase {
     WaitIdle,
     /// Send/parameters: the request 10H/50H is out, waiting for the acceptance.
     Request,
-    /// Send/parameters: showing segment `k` of `last`; `acked` = highest echoed segment;
-    /// `in_error` = the last valid number of the error the module shows.
-    Sending {
-        k: usize,
-        last: usize,
-        acked: usize,
-        in_error: Option<u8>,
-    },
-    /// Receive: `k` segments accepted (0 = request out), `len` from the first segment, `got`
-    /// data bytes so far (stored only when `len` fits the configured maximum).
-    Receiving {
-        k: usize,
-        len: usize,
-        got: usize,
-        error: bool,
-    },
+    /// Send/parameters: segments going out.
+    Sending(SendState),
+    /// Receive: segments coming in.
+    Receiving(RecvState),
     /// Read V.24 request out.
     ReadV24,
     /// Read V.24 echo out, waiting for idle.
     ReadV24Ack(V24Signals),
     /// Write V.24 request out.
     WriteV24,
+}
+
+/// Send/parameters progress: segment `k` of `last` is shown, `acked` is the highest echoed
+/// segment, `in_error` the last valid number of the error the module shows.
+#[derive(Debug, Clone, Copy)]
+struct SendState {
+    k: usize,
+    last: usize,
+    acked: usize,
+    in_error: Option<u8>,
+}
+
+/// Receive progress: `k` segments accepted (0 = request out), `len` from the first segment,
+/// `got` data bytes so far (stored only when `len` fits the configured maximum), `error` while
+/// our error bit is out.
+#[derive(Debug, Clone, Copy, Default)]
+struct RecvState {
+    k: usize,
+    len: usize,
+    got: usize,
+    error: bool,
 }
 
 #[derive(Debug)]
@@ -408,12 +417,7 @@ impl Host {
             }
             Job::Receive => {
                 self.rx.clear();
-                Phase::Receiving {
-                    k: 0,
-                    len: 0,
-                    got: 0,
-                    error: false,
-                }
+                Phase::Receiving(RecvState::default())
             }
             Job::ReadV24 => Phase::ReadV24,
             Job::WriteV24 { rts, dtr } => {
@@ -501,15 +505,8 @@ impl Host {
         let next = match a.phase {
             Phase::WaitIdle => Next::Stay(Phase::WaitIdle),
             Phase::Request => self.on_request(&a.job, c, inw.word()),
-            Phase::Sending {
-                k,
-                last,
-                acked,
-                in_error,
-            } => self.on_sending(&a.job, c, inw.word(), k, last, acked, in_error),
-            Phase::Receiving { k, len, got, error } => {
-                self.on_receiving(c, inw, k, len, got, error)
-            }
+            Phase::Sending(st) => self.on_sending(&a.job, c, inw.word(), st),
+            Phase::Receiving(st) => self.on_receiving(c, inw, st),
             Phase::ReadV24 => self.on_read_v24(c, inw),
             Phase::ReadV24Ack(signals) if c.job == JobCode::Idle => {
                 Next::Done(Ok(Outcome::Signals(signals)))
@@ -537,12 +534,12 @@ impl Host {
             Next::Stay(Phase::Request)
         } else if c.job == code {
             self.show_segment(code, 1);
-            Next::Stay(Phase::Sending {
+            Next::Stay(Phase::Sending(SendState {
                 k: 1,
                 last: self.cfg.window.segments(self.stream.len()),
                 acked: 0,
                 in_error: None,
-            })
+            }))
         } else if c.job == JobCode::EndOfJob {
             // Refused before any segment (§2.9: "7xH → rejected").
             Next::Done(Err(status_or(word, NOT_POSSIBLE_IN_MODE)))
@@ -553,17 +550,13 @@ impl Host {
 
     /// Send/parameters, segment `k` of `last` shown: advance on the echo, go back on the error
     /// bit, finish on 7xH (§2.8, §2.9).
-    #[allow(clippy::too_many_arguments)]
-    fn on_sending(
-        &mut self,
-        job: &Job,
-        c: CoordByte,
-        word: u16,
-        mut k: usize,
-        last: usize,
-        mut acked: usize,
-        mut in_error: Option<u8>,
-    ) -> Next {
+    fn on_sending(&mut self, job: &Job, c: CoordByte, word: u16, st: SendState) -> Next {
+        let SendState {
+            mut k,
+            last,
+            mut acked,
+            mut in_error,
+        } = st;
         let code = job.code();
         if c.job == code && !c.error {
             in_error = None;
@@ -601,25 +594,23 @@ impl Host {
             // Another job code: cancel, wait for idle, repeat the whole job (§2.8).
             return Next::BackOff;
         }
-        Next::Stay(Phase::Sending {
+        Next::Stay(Phase::Sending(SendState {
             k,
             last,
             acked,
             in_error,
-        })
+        }))
     }
 
     /// Receive: `k` segments accepted (0 = request 20H out). Echo each segment in order, set the
     /// error bit on one out of order, finish when the module is idle after the last echo.
-    fn on_receiving(
-        &mut self,
-        c: CoordByte,
-        inw: &Window,
-        mut k: usize,
-        mut len: usize,
-        mut got: usize,
-        mut error: bool,
-    ) -> Next {
+    fn on_receiving(&mut self, c: CoordByte, inw: &Window, st: RecvState) -> Next {
+        let RecvState {
+            mut k,
+            mut len,
+            mut got,
+            mut error,
+        } = st;
         let word = inw.word();
         let complete = k > 0 && got >= len;
         if c.job == JobCode::Receive && !c.error {
@@ -688,7 +679,7 @@ impl Host {
         }
         // Otherwise (idle before the module saw the request, a foreign code mid-transfer, which
         // the receiver ignores with its data, §2.8): hold.
-        Next::Stay(Phase::Receiving { k, len, got, error })
+        Next::Stay(Phase::Receiving(RecvState { k, len, got, error }))
     }
 
     fn echo_receive(&mut self, coord: CoordByte) {
