@@ -31,6 +31,9 @@
 //!   code → ignored with its data (§2.8). A frame already handed to the serial side is still
 //!   sent (H-60); a frame being delivered stays in the buffer and is offered again.
 //! * The 7xH / 20H / 40H answers are held until the host writes 00H (or 111).
+//! * No module-side timeout (the manual has none, H-12): a DP master that stops makes the
+//!   module's outputs fail safe to 0, which is the idle code, so a half-done job is aborted by
+//!   the rule above; a host restart writes 00H first for the same effect (§2.10).
 
 use crate::config::{ConfigError, FlowControl, ModuleConfig, ReceiveErrorPolicy};
 use crate::coord::{exec_of_segment, next_exec, segment_with_exec, CoordByte, JobCode};
@@ -169,6 +172,20 @@ impl<S: SerialSide> Module<S> {
         };
         m.publish_idle();
         Ok(m)
+    }
+
+    /// A module restart or re-parameterization (et200s-si-modbus-uss.md §8.2, §8.4): the running
+    /// job is dropped and the module shows idle; with `clear_receive_buffer` (the parameter
+    /// "clear receive buffer on startup", default yes, et200s-si-2005-window-protocol.md §4.3)
+    /// the buffered frames are lost too. A frame already with the serial side still goes out.
+    pub fn restart(&mut self, clear_receive_buffer: bool) {
+        self.phase = Phase::Idle;
+        self.stream.clear();
+        if clear_receive_buffer {
+            self.rx.clear();
+            self.rx_bytes = 0;
+        }
+        self.publish_idle();
     }
 
     /// The configuration.

@@ -523,3 +523,21 @@ fn module_keeps_the_frame_when_delivery_is_aborted() {
     assert_eq!(m.stats().aborts, 1);
     assert_eq!(m.buffered(), 1);
 }
+
+/// A module restart drops the running job (the host's next window sees idle and its job
+/// fails or backs off) and, with "clear receive buffer on startup", the buffered frames.
+#[test]
+fn module_restart_drops_the_job_and_optionally_the_buffer() {
+    for clear in [false, true] {
+        let mut m = module(WindowSize::Four);
+        m.serial_mut().inject_frame(&b"kept?"[..]);
+        step_module(&mut m, 0, "10 xx xx xx", "10 00 01 xx");
+        step_module(&mut m, 1, "11 00 02 'o'", "11 xx xx xx");
+        m.restart(clear);
+        assert!(m.is_idle());
+        let expected = if clear { "00 00 00 xx" } else { "00 00 01 xx" };
+        assert_window("after restart", m.input(), expected);
+        // The host's held segment is not a request: the module stays idle.
+        step_module(&mut m, 2, "11 00 02 'o'", expected);
+    }
+}
