@@ -169,4 +169,41 @@ proptest! {
             );
         }
     }
+
+    /// Chaos: jobs, host resets, module restarts and faults in random order. Every submitted job
+    /// still ends exactly once (the watchdog, here 1 s, bounds the waits).
+    #[test]
+    fn every_job_ends_once_under_resets_and_restarts(
+        size in window_size(),
+        seed in any::<u64>(),
+        actions in proptest::collection::vec((0u8..10, job(), any::<bool>()), 1..40),
+    ) {
+        let host = HostConfig {
+            job_timeout: Some(Duration::from_secs(1)),
+            ..HostConfig::new(size)
+        };
+        let mut l = common::link(host, ModuleConfig::new(size), seed);
+        l.faults = common::Faults { out_of_order_out: 0.05, out_of_order_in: 0.05, foreign_request: 0.05 };
+        let mut ids = Vec::new();
+        for (what, j, flag) in actions {
+            match what {
+                0 => l.host.reset(),
+                1 => l.module.restart(flag),
+                2 => l.module.serial_mut().inject_frame(vec![0x42; 1 + usize::from(flag) * 99]),
+                _ => {
+                    if let Ok(id) = l.host.submit(j) {
+                        ids.push(id);
+                    }
+                }
+            }
+            for _ in 0..(usize::from(what) * 40) {
+                l.step();
+            }
+        }
+        let all_done = |l: &common::Link| ids.iter().all(|id| l.completion(*id).is_some());
+        prop_assert!(l.run_until(2_000_000, all_done));
+        for id in &ids {
+            prop_assert_eq!(l.completions_of(*id), 1);
+        }
+    }
 }
