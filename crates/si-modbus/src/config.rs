@@ -89,6 +89,11 @@ impl LineConfig {
     }
 
     /// Check data bits (0E20H) and the multiplier (0E21H).
+    ///
+    /// The module runs with fMUL = 1 after reporting 0E21H (§3.5); a library should not
+    /// silently change a parameter, so we refuse the value and carry 0E21H in the error.
+    /// Parity and stop bits are not checked against the manual's "always 11 bits" rule
+    /// (§3.9, §11.6): its own parameter tables allow 10- and 12-bit frames, and so do we.
     pub fn validate(&self) -> Result<(), ConfigError> {
         if self.settings.data_bits() != 8 {
             return Err(ConfigError {

@@ -249,7 +249,6 @@ pub struct Slave<S> {
     busy_until: Option<Instant>,
     /// A request started while we were still transmitting.
     overlapped: bool,
-    data: [u8; 256],
 }
 
 impl<S: Store> Slave<S> {
@@ -263,7 +262,6 @@ impl<S: Store> Slave<S> {
             out: VecDeque::new(),
             busy_until: None,
             overlapped: false,
-            data: [0; 256],
         })
     }
 
@@ -390,7 +388,7 @@ impl<S: Store> Slave<S> {
             self.event(SlaveEvent::Error(codes::BROADCAST_NOT_ALLOWED));
             return;
         }
-        let mut data = self.data;
+        let mut data = [0u8; 256];
         let result: Result<(Response<'_>, u16, u16), StoreError> = match request {
             Request::ReadCoils { address, quantity }
             | Request::ReadDiscreteInputs { address, quantity } => {
