@@ -5,7 +5,8 @@
 //! and §2.9 (host-side state machines). Call [`Host::cycle`] once per DP cycle (or host cycle)
 //! with the input window just read; write the returned output window back as one consistent
 //! block. Jobs are submitted with [`Host::submit`] and end in exactly one
-//! [`HostEvent::Completed`], taken with [`Host::poll_event`].
+//! [`HostEvent::Completed`], taken with [`Host::poll_event`] (or, for one job, with
+//! [`Host::take_completion`]).
 //!
 //! The engine reads no clock: `now` is only used by the job watchdog.
 //!

@@ -18,8 +18,9 @@
 //!   → error bit with the last valid number (§2.8). After the last segment a send frame goes to
 //!   the serial side and the module answers 7xH + STATUS only when it has been transmitted
 //!   (§2.9); a parameter block is applied one cycle after its last echo (Table 2-28 shows 53H
-//!   before 73H). 7xH carries the exec number of the last segment. A length word of 0 or above `max_frame_len` is answered at once after the segment
-//!   carrying it with 7xH + 050EH (§2.8 case 1, H-10).
+//!   before 73H). 7xH carries the exec number of the last segment. A length word of 0 or above
+//!   `max_frame_len` is answered at once after the segment carrying it with 7xH + 050EH (§2.8
+//!   case 1, H-10).
 //! * **Receive (2):** no frame → 20H + 0101H; a buffered receive error → 20H + its STATUS (§2.8
 //!   cases 2–3); else segment 1 at once as 21H with the length word (H-66), each further segment
 //!   after the host's echo, idle after the echo of the last one (the frame is then removed).
