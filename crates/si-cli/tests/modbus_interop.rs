@@ -112,10 +112,15 @@ fn text(bytes: &[u8]) -> String {
 
 /// `si modbus serve --unit 1` on `port`, with its stdout collected until it is killed.
 fn serve(port: &str) -> (Proc, std::sync::mpsc::Receiver<String>) {
+    serve_with(port, &[])
+}
+
+fn serve_with(port: &str, extra: &[&str]) -> (Proc, std::sync::mpsc::Receiver<String>) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_si"))
         .args(["--port", port])
         .args(LINE)
         .args(["modbus", "serve", "--unit", "1"])
+        .args(extra)
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
         .spawn()
@@ -395,4 +400,60 @@ fn mbpoll_against_si_modbus_serve() {
     }
     assert!(log.contains("answered FC06 with exception 02"), "{log}");
     let _ = std::io::stdout().flush();
+}
+
+const CONFIG: &str = r#"
+mode = "interference-suppression"
+char_delay_multiplier = 2
+
+[conversion]
+db_fc03_06_16 = 3
+db_fc04 = 3
+db_min = 3
+db_max = 3
+
+[memory]
+dbs = [{ number = 3, length = 64 }]
+"#;
+
+const PYMODBUS_CONFIGURED: &str = r#"
+import sys
+from pymodbus.client import ModbusSerialClient
+c = ModbusSerialClient(port=sys.argv[1], baudrate=19200, parity='N', stopbits=2, bytesize=8, timeout=2, retries=0)
+assert c.connect(), "connect"
+r = c.write_registers(30, [0x1111, 0x2222], device_id=1); assert not r.isError(), r   # DB3.DBW60..62
+r = c.read_input_registers(30, count=2, device_id=1); assert r.registers == [0x1111, 0x2222], r  # FC04 base DB3 too
+r = c.read_holding_registers(31, count=2, device_id=1)                           # DBW64: past the 64-byte DB
+assert r.isError() and r.exception_code == 4, r
+print("OK")
+"#;
+
+/// `serve --config`: the TOML file's conversion DB and memory sizes are the ones served.
+#[test]
+fn pymodbus_client_against_si_modbus_serve_with_a_config_file() {
+    if !(have_socat() && have_pymodbus()) {
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("si-modbus-interop-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join("serve.toml");
+    std::fs::write(&path, CONFIG).expect("write config");
+    let pair = pty_pair();
+    let (_serve, log) = serve_with(&pair.a, &["--config", path.to_str().expect("utf-8 path")]);
+    let out = Command::new("python3")
+        .args(["-c", PYMODBUS_CONFIGURED, &pair.b])
+        .output()
+        .expect("run python3");
+    assert!(
+        out.status.success() && text(&out.stdout).contains("OK"),
+        "pymodbus client failed:\n{}\n{}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+    let log = served(&log).join("\n");
+    assert!(
+        log.contains("answered FC03 with exception 04 slave device failure: S_MODB ERROR_NR 21"),
+        "{log}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }
