@@ -308,6 +308,25 @@ fn pymodbus_server_against_si_modbus_read_and_write() {
         run(&["modbus", "read", "coils", "--unit", "1", a, "0", "--count", "10"]),
         "unit 1 FC01 0…9: 0 0 0 0 1 0 1 0 1 0"
     );
+    // --poll repeats the read until interrupted.
+    let mut poll = Command::new(env!("CARGO_BIN_EXE_si"))
+        .args(["--port", &pair.a])
+        .args(LINE)
+        .args([
+            "modbus", "read", "input", "--unit", "1", a, "0", "--count", "1", "--poll", "100",
+        ])
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("spawn si --poll");
+    std::thread::sleep(Duration::from_millis(800));
+    let _ = poll.kill();
+    let polled = text(&poll.wait_with_output().expect("poll output").stdout);
+    let lines: Vec<&str> = polled.lines().collect();
+    assert!(lines.len() >= 3, "{polled}");
+    assert!(
+        lines.iter().all(|l| *l == "unit 1 FC04 0…0: 1000"),
+        "{polled}"
+    );
     // Beyond the server's 100 registers: exception 02 → 16#0E62, exit code non-zero.
     let o = si(
         &pair.a,
