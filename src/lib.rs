@@ -14,9 +14,8 @@
 //! | `ascii` (default) | [`ascii`] (`si-ascii`) | the ASCII driver and its FBs |
 //! | `modbus` (default) | [`modbus`] (`si-modbus`) | Modbus RTU master and slave, S_MODB |
 //! | `uss` (default) | [`uss`] (`si-uss`) | the USS master and its FC equivalents |
+//! | `dp-coord` (default) | [`dp_coord`] (`si-dp-coord`) | the coordination-byte DP window protocol, host and module |
 //! | `tokio` | | the async driver and handles |
-//!
-//! The DP coordination-byte protocol follows as its crate lands.
 //!
 //! Every engine is Sans-IO: it is fed bytes and time and says what to transmit and when to wake
 //! it, so the same code runs under tokio, in the deterministic simulator, and in tests.
@@ -37,3 +36,6 @@ pub use si_modbus as modbus;
 
 #[cfg(feature = "uss")]
 pub use si_uss as uss;
+
+#[cfg(feature = "dp-coord")]
+pub use si_dp_coord as dp_coord;

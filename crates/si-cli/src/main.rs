@@ -48,6 +48,9 @@ enum Command {
     /// Modbus RTU master (read, write, diagnostics) and slave (serve).
     #[command(subcommand)]
     Modbus(cmd::modbus::Command),
+    /// The coordination-byte DP window protocol: be the host (DP master side) or the module.
+    #[command(name = "dp-coord", subcommand)]
+    DpCoord(cmd::dpcoord::Command),
     /// USS master: poll drives, read and write parameters; a simulated drive.
     #[command(subcommand)]
     Uss(cmd::uss::Command),
@@ -112,6 +115,7 @@ fn main() -> ExitCode {
         Command::Rk512(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
         Command::Ascii(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
         Command::Modbus(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
+        Command::DpCoord(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
         Command::Uss(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
     };
     match result {

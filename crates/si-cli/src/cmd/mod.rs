@@ -9,6 +9,7 @@
 //! - `SCENARIOS`: the named simulator scenarios `si sim` offers.
 
 pub mod ascii;
+pub mod dpcoord;
 pub mod frame;
 pub mod modbus;
 pub mod ports;

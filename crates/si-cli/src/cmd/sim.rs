@@ -3,7 +3,7 @@
 //! Each protocol module lists its scenarios in `SCENARIOS`; this module adds the ones that show
 //! the simulator itself (character timing, an RS-485 collision) and prints the trace.
 
-use crate::cmd::{ascii, modbus, r3964, rk512, uss};
+use crate::cmd::{ascii, dpcoord, modbus, r3964, rk512, uss};
 use crate::{CliError, Output};
 use clap::Args;
 use si_core::sim::{Simulator, Trace};
@@ -60,6 +60,7 @@ fn all() -> impl Iterator<Item = &'static Scenario> {
         .chain(ascii::SCENARIOS)
         .chain(modbus::SCENARIOS)
         .chain(uss::SCENARIOS)
+        .chain(dpcoord::SCENARIOS)
 }
 
 impl SimArgs {
