@@ -10,6 +10,34 @@
 //!   SIMATIC memory model reached through S_MODB's conversion DB ([`simatic`]);
 //! - [`fb`]: S_SEND/S_RCV master jobs and S_MODB as the PLC programmer sees them;
 //! - `tokio` (feature `tokio`): an async master handle and a slave server task.
+//!
+//! ```
+//! use si_modbus::frame::{Adu, Request};
+//! // et200s-si-modbus-uss.md §3.1/§3.4: address, PDU, CRC low byte first.
+//! let adu = Adu::request(1, &Request::ReadHoldingRegisters { address: 0, quantity: 10 }).unwrap();
+//! assert_eq!(adu.as_bytes(), [0x01, 0x03, 0x00, 0x00, 0x00, 0x0A, 0xC5, 0xCD]);
+//! ```
+//!
+//! # Readings chosen where the manuals are silent or disagree
+//!
+//! Each is documented where it is implemented; in short:
+//!
+//! - quantity limits are the manual's 2040 bits / 127 registers, not the Modbus
+//!   specification's, so an ADU can reach 264 bytes ([`frame`]; §11.11);
+//! - the end-of-frame gap follows the Modbus/USS manual's Table 3-11 (4 ms floor at
+//!   9600–38 400 bit/s), 364 ms at 110 bit/s and 1 ms above 38 400 from the 2005 manual
+//!   ([`config::gap_table`]; §11.5); it is measured between received characters ([`rx`]);
+//! - a response that fails both a length check and the CRC reports the length (0E52H/0E53H),
+//!   one that fails only the CRC 0E57H ([`master::check_response`]);
+//! - retries (default 0) and the broadcast turnaround (default 100 ms) are extensions
+//!   ([`config::MasterConfig`]; §3.8, §11.19);
+//! - slave addresses 1–255, default 222 as printed ([`config::SlaveConfig`]; §11.4);
+//! - the whole span of a bit access must lie in one conversion range; register spans continue
+//!   into the next DB; write-limit violations answer exception 02, CPU area and DB errors 04,
+//!   FC05/15 on T/C 02, T/C misalignment 03 with 0832H ([`simatic`]; §11.12, §11.13);
+//! - the swapped FC05/FC15 formulas are read the consistent way ([`simatic`]; §11.15);
+//! - a failed master job is reported by S_SEND and S_RCV alike; FC15 sources are sent in S7
+//!   memory order; FC01/02 results go first byte → low byte as printed ([`fb`]; §11.8, §11.9).
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod config;
