@@ -34,6 +34,17 @@ enum Command {
     /// Encode or decode frames offline, from hex.
     #[command(subcommand)]
     Frame(cmd::frame::FrameCommand),
+    /// Watch a line (receive only) or a recorded trace and decode the frames with their timing.
+    Monitor(cmd::monitor::MonitorArgs),
+    /// Decode a module's PROFIBUS slave diagnosis.
+    #[command(subcommand)]
+    Diag(cmd::module::DiagCommand),
+    /// Identification data I&M0 / I&M1 (DS 231 / DS 232): decode and encode.
+    #[command(subcommand)]
+    Im(cmd::module::ImCommand),
+    /// Module parameters per driver: check a TOML/JSON file against the manual's tables.
+    #[command(subcommand)]
+    Params(cmd::module::ParamsCommand),
     /// Run a scenario between simulated stations and print the line trace.
     Sim(cmd::sim::SimArgs),
     /// 3964 / 3964(R) procedure: send and receive blocks.
@@ -110,6 +121,10 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Ports => cmd::ports::run(&out),
         Command::Frame(c) => c.run(&out),
+        Command::Monitor(a) => runtime().and_then(|rt| rt.block_on(a.run(&cli.connection, &out))),
+        Command::Diag(c) => c.run(&out),
+        Command::Im(c) => c.run(&out),
+        Command::Params(c) => c.run(&out),
         Command::Sim(a) => cli.connection.settings().and_then(|s| a.run(s, &out)),
         Command::R3964(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
         Command::Rk512(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),

@@ -12,6 +12,8 @@ pub mod ascii;
 pub mod dpcoord;
 pub mod frame;
 pub mod modbus;
+pub mod module;
+pub mod monitor;
 pub mod ports;
 pub mod r3964;
 pub mod rk512;
