@@ -395,3 +395,77 @@ fn s5_1_s_modb_not_started_answers_exception_04() {
         exception(3, ExceptionCode::SlaveDeviceFailure)
     );
 }
+
+/// §3.7 interference suppression: leading garbage before the slave address is skipped, a
+/// request with a BREAK in it is ignored without a word, and a BREAK after a complete request
+/// does not spoil it.
+#[test]
+fn s3_7_interference_suppression_on_the_slave() {
+    let mut sim = Simulator::new(5);
+    let s = SerialSettings::default();
+    let master = sim.add_station("master", s, Partner);
+    let mut config = SlaveConfig {
+        address: 1,
+        ..SlaveConfig::default()
+    };
+    config.line.mode = si_modbus::Mode::InterferenceSuppression;
+    let slave = sim.add_station(
+        "slave",
+        s,
+        Slave::new(config, SimaticStore::example()).unwrap(),
+    );
+    sim.connect(master, slave);
+    let req = with_crc(vec![1, 3, 0, 0, 0, 1]);
+    let mut noisy = vec![0xFF, 0x7F, 0x55];
+    noisy.extend_from_slice(&req);
+    sim.transmit(master, &noisy);
+    sim.run_until_quiet(LIMIT);
+    assert_eq!(
+        sim.trace().received("master").len(),
+        7,
+        "answered after skipping garbage"
+    );
+    // A BREAK in the middle of the next request: ignored, no event.
+    sim.run_for(Duration::from_millis(20));
+    sim.transmit(master, &req[..3]);
+    sim.run_for(SerialSettings::default().chars_time(3));
+    sim.schedule_break(slave, sim.now());
+    sim.transmit(master, &req[3..]);
+    sim.run_until_quiet(LIMIT);
+    assert_eq!(
+        sim.trace().received("master").len(),
+        7,
+        "corrupt request not answered"
+    );
+    // A BREAK right after a complete request: the request still counts.
+    sim.run_for(Duration::from_millis(20));
+    sim.transmit(master, &req);
+    sim.run_for(SerialSettings::default().chars_time(8) + Duration::from_micros(500));
+    sim.schedule_break(slave, sim.now());
+    sim.run_until_quiet(LIMIT);
+    assert_eq!(sim.trace().received("master").len(), 14);
+    let events = sim.take_events(slave);
+    assert_eq!(events.len(), 2, "{events:?}");
+    assert!(events
+        .iter()
+        .all(|e| matches!(e, SlaveEvent::Served { function: 3, .. })));
+    assert_eq!(sim.engine(slave).counters().suppressed, 1);
+}
+
+/// §3.7 Normal mode: the same BREAK inside a request is reported (080DH) and not answered.
+#[test]
+fn s3_7_normal_mode_reports_a_break_in_a_request() {
+    let mut rig = Rig::new();
+    let req = with_crc(vec![1, 3, 0, 0, 0, 1]);
+    rig.sim.transmit(rig.master, &req[..3]);
+    rig.sim.run_for(SerialSettings::default().chars_time(3));
+    let now = rig.sim.now();
+    rig.sim.schedule_break(rig.slave, now);
+    rig.sim.transmit(rig.master, &req[3..]);
+    rig.sim.run_until_quiet(LIMIT);
+    assert!(rig.sim.trace().received("master").is_empty());
+    assert_eq!(
+        rig.events(),
+        vec![SlaveEvent::Error(si_modbus::status::BREAK)]
+    );
+}
