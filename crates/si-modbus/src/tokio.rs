@@ -72,7 +72,13 @@ pub struct CommEventLog {
 pub struct MasterHandle {
     handle: Handle<Master>,
     task: JoinHandle<std::io::Result<()>>,
+    diagnostics: std::collections::VecDeque<Status>,
+    dropped: u64,
 }
+
+/// How many line diagnostics (0E50H, line errors between jobs) a handle keeps; older ones are
+/// counted in [`MasterHandle::diagnostics_dropped`].
+pub const DIAGNOSTICS_KEPT: usize = 64;
 
 impl MasterHandle {
     /// Start the master on `transport`.
@@ -83,7 +89,12 @@ impl MasterHandle {
             ..DriverOptions::default()
         };
         let (handle, task) = spawn(master, transport, options);
-        Ok(MasterHandle { handle, task })
+        Ok(MasterHandle {
+            handle,
+            task,
+            diagnostics: std::collections::VecDeque::new(),
+            dropped: 0,
+        })
     }
 
     /// Send any request and wait for its completion (a broadcast completes after the
@@ -100,7 +111,13 @@ impl MasterHandle {
             match self.handle.next_event().await {
                 Some(MasterEvent::Completed(c)) => return Ok(c),
                 Some(MasterEvent::Failed { status, .. }) => return Err(Error::Failed(status)),
-                Some(MasterEvent::Diagnostic(_)) => continue,
+                Some(MasterEvent::Diagnostic(s)) => {
+                    if self.diagnostics.len() == DIAGNOSTICS_KEPT {
+                        self.diagnostics.pop_front();
+                        self.dropped += 1;
+                    }
+                    self.diagnostics.push_back(s);
+                }
                 None => return Err(Error::Stopped(DriverStopped)),
             }
         }
@@ -282,6 +299,17 @@ impl MasterHandle {
         )
         .await
         .map(|_| ())
+    }
+
+    /// Line diagnostics seen while waiting for jobs (unsolicited frames 0E50H, line errors in
+    /// Normal mode), oldest first; taking them empties the list.
+    pub fn take_diagnostics(&mut self) -> Vec<Status> {
+        self.diagnostics.drain(..).collect()
+    }
+
+    /// Diagnostics discarded because more than [`DIAGNOSTICS_KEPT`] piled up.
+    pub fn diagnostics_dropped(&self) -> u64 {
+        self.dropped
     }
 
     /// Stop the driver.
