@@ -178,7 +178,12 @@ impl Memory {
         }
     }
 
-    fn range(area: Area, start: u32, len: usize, size: usize) -> Result<core::ops::Range<usize>, MemoryError> {
+    fn range(
+        area: Area,
+        start: u32,
+        len: usize,
+        size: usize,
+    ) -> Result<core::ops::Range<usize>, MemoryError> {
         let end = start as u64 + len as u64;
         if end > size as u64 {
             return Err(MemoryError::OutOfRange {
@@ -214,7 +219,13 @@ impl Memory {
     }
 
     /// Set or clear one bit.
-    pub fn set_bit(&mut self, area: Area, byte: u32, bit: u8, value: bool) -> Result<(), MemoryError> {
+    pub fn set_bit(
+        &mut self,
+        area: Area,
+        byte: u32,
+        bit: u8,
+        value: bool,
+    ) -> Result<(), MemoryError> {
         let bytes = self.bytes_mut(area)?;
         let r = Self::range(area, byte, 1, bytes.len())?;
         let b = &mut bytes[r.start];
@@ -281,10 +292,7 @@ mod tests {
         assert_eq!(m.word(Area::Flags, 1004).unwrap(), 0x0200);
         m.set_word(Area::Db(6), 100, 0xCD09).unwrap();
         assert_eq!(m.bytes(Area::Db(6)).unwrap()[100..102], [0xCD, 0x09]);
-        assert_eq!(
-            m.word(Area::Db(7), 0),
-            Err(MemoryError::NoSuchDb(7))
-        );
+        assert_eq!(m.word(Area::Db(7), 0), Err(MemoryError::NoSuchDb(7)));
         assert_eq!(
             m.read(Area::Outputs, 127, &mut [0; 2]),
             Err(MemoryError::OutOfRange {
