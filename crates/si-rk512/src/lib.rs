@@ -1,3 +1,61 @@
-//! # si-rk512 (in progress)
+//! # si-rk512
 //!
-//! RK 512 on top of 3964(R) (cp341-3964r-rk512-ascii.md §4, public-facts.md §2).
+//! The RK 512 computer link on top of 3964(R), as the CP 341 and the S5/S7 partners speak it
+//! (cp341-3964r-rk512-ascii.md §4, public-facts.md §2): SEND and FETCH jobs of any length,
+//! split into telegrams of 128 data bytes and reassembled, each answered by a reaction
+//! telegram that says whether the partner took the data or had them.
+//!
+//! - [`frame`]: the 10-byte command header, the 4-byte continuation and reaction headers;
+//!   decode errors name the offset, what was expected and what was found;
+//! - [`config`]: TRES, the job length limit, the DW-number convention, and the 3964(R)
+//!   parameters underneath;
+//! - [`station`]: one Sans-IO engine wrapping a [`si_3964r::Link`]: our jobs (active side) and
+//!   the partner's jobs (passive side) over one line;
+//! - [`passive`]: the partner's jobs served from the SIMATIC memory model
+//!   ([`si_core::memory`]), with coordination flags and the reaction error numbers;
+//! - [`status`]: the STATUS codes (class 09H for the partner's error numbers);
+//! - [`fb`]: send and fetch FB equivalents with REQ / DONE / ERROR / STATUS;
+//! - `tokio` (feature `tokio`): an async handle, `send(..).await` and `fetch(..).await`.
+//!
+//! A SEND of 300 bytes (three telegrams) and a FETCH of them back, on the line simulator:
+//!
+//! ```
+//! use si_rk512::frame::{Address, Coordination};
+//! use si_rk512::passive::ServerConfig;
+//! use si_rk512::{Config, Event, Station};
+//! use si_core::sim::Simulator;
+//! use si_core::{Instant, SerialSettings};
+//!
+//! let line = SerialSettings::default();
+//! let mut host_config = Config::default();
+//! host_config.link.priority = si_3964r::Priority::High;
+//! let mut memory = ServerConfig::default();
+//! memory.memory.dbs.insert(10, 1024);
+//! let mut sim = Simulator::new(3);
+//! let host = sim.add_station("host", line, Station::new(host_config, line).unwrap());
+//! let plc = sim.add_station("PLC", line, Station::serving(Config::default(), line, &memory).unwrap());
+//! sim.connect(host, plc);
+//!
+//! let data: Vec<u8> = (0..300u16).map(|i| i as u8).collect();
+//! let to = Address::Db { db: 10, dw: 0 };
+//! sim.with(host, |s, now| s.send(now, to, Coordination::NONE, data.clone())).unwrap();
+//! sim.run_until_quiet(Instant::from_micros(60_000_000));
+//! let job = sim.with(host, |s, now| s.fetch(now, to, Coordination::NONE, 300)).unwrap();
+//! sim.run_until_quiet(Instant::from_micros(120_000_000));
+//! let events = sim.take_events(host);
+//! assert_eq!(events.last(), Some(&Event::Done { job, data: data.into() }));
+//! ```
+#![cfg_attr(docsrs, feature(doc_cfg))]
+
+pub mod config;
+pub mod fb;
+pub mod frame;
+pub mod passive;
+pub mod station;
+pub mod status;
+#[cfg(feature = "tokio")]
+pub mod tokio;
+
+pub use config::{Config, DwUnit};
+pub use frame::{Address, Command, Coordination, DataType};
+pub use station::{Event, JobId, RequestError, Station};

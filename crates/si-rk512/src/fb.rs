@@ -1,0 +1,171 @@
+//! FB equivalents for RK 512 jobs in the style of the CP 341's P_SND_RK (SEND and FETCH
+//! requests; cp341-3964r-rk512-ascii.md §6), with the S7 call semantics of
+//! [`si_core::fb`]: REQ is edge-triggered, R resets, DONE / ERROR / STATUS are valid for
+//! exactly one call.
+//!
+//! The seed has no parameter list for P_SND_RK (§6); the inputs here are the job's header
+//! fields (address, coordination flag, length) and the outputs the usual DONE, ERROR, STATUS.
+//!
+//! ```
+//! use si_rk512::fb::{FetchFb, SendFb};
+//! use si_rk512::frame::{Address, Coordination};
+//! use si_rk512::passive::ServerConfig;
+//! use si_rk512::{Config, Station};
+//! use si_core::sim::Simulator;
+//! use si_core::{Duration, SerialSettings};
+//!
+//! let line = SerialSettings::default();
+//! let mut high = Config::default();
+//! high.link.priority = si_3964r::Priority::High;
+//! let mut memory = ServerConfig::default();
+//! memory.memory.dbs.insert(5, 64);
+//! let mut sim = Simulator::new(1);
+//! let a = sim.add_station("A", line, Station::new(high, line).unwrap());
+//! let b = sim.add_station("B", line, Station::serving(Config::default(), line, &memory).unwrap());
+//! sim.connect(a, b);
+//!
+//! let (mut send, mut fetch) = (SendFb::default(), FetchFb::default());
+//! let to = Address::Db { db: 5, dw: 2 };
+//! let (mut sent, mut fetched) = (false, None);
+//! for _cycle in 0..1000 {
+//!     // One PLC cycle every 10 ms: REQ held TRUE; the FETCH starts once the SEND is DONE.
+//!     let s = sim.with(a, |st, now| send.call(st, now, true, false, to, Coordination::NONE, b"ABCD"));
+//!     assert!(!s.error);
+//!     sent |= s.done;
+//!     if sent {
+//!         let f = sim.with(a, |st, now| fetch.call(st, now, true, false, to, Coordination::NONE, 4));
+//!         if f.done { fetched = f.data; break; }
+//!     }
+//!     sim.run_for(Duration::from_millis(10));
+//! }
+//! assert_eq!(fetched.unwrap(), &b"ABCD"[..]);
+//! ```
+
+use crate::frame::{Address, Coordination};
+use crate::station::{JobId, Station};
+use bytes::Bytes;
+use si_core::fb::{Pulse, RisingEdge};
+use si_core::status::common;
+use si_core::{Instant, Status};
+
+/// What a request FB shows after one call.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FbOutput {
+    /// The job finished without error (this call only).
+    pub done: bool,
+    /// The job finished with an error (this call only).
+    pub error: bool,
+    /// 0000, or the error with ERROR.
+    pub status: Status,
+    /// FETCH only: the data, with DONE.
+    pub data: Option<Bytes>,
+}
+
+/// The REQ / R / DONE / ERROR / STATUS machinery both FBs share.
+#[derive(Debug, Default)]
+struct Request {
+    req: RisingEdge,
+    job: Option<JobId>,
+    result: Pulse<Result<Bytes, Status>>,
+}
+
+impl Request {
+    fn call(
+        &mut self,
+        station: &mut Station,
+        req: bool,
+        r: bool,
+        start: impl FnOnce(&mut Station) -> Result<JobId, crate::RequestError>,
+    ) -> FbOutput {
+        let edge = self.req.update(req);
+        if r {
+            if self.job.take().is_some() {
+                self.result.fire(Err(common::ABORTED_BY_RESET));
+            }
+        } else if let Some(job) = self.job {
+            if let Some(outcome) = station.job_outcome(job) {
+                self.job = None;
+                self.result.fire(outcome);
+            }
+        } else if edge {
+            match start(station) {
+                Ok(job) => self.job = Some(job),
+                Err(e) => self.result.fire(Err(e.status())),
+            }
+        }
+        match self.result.take() {
+            Some(Ok(data)) => FbOutput {
+                done: true,
+                error: false,
+                status: Status::OK,
+                data: Some(data),
+            },
+            Some(Err(status)) => FbOutput {
+                done: false,
+                error: true,
+                status,
+                data: None,
+            },
+            None => FbOutput {
+                done: false,
+                error: false,
+                status: Status::OK,
+                data: None,
+            },
+        }
+    }
+}
+
+/// SEND request (P_SND_RK with a SEND job): a rising edge on REQ sends `data` to `address`.
+#[derive(Debug, Default)]
+pub struct SendFb {
+    inner: Request,
+}
+
+impl SendFb {
+    /// One call of the FB (one PLC cycle). An edge while a job runs is ignored; R forgets the
+    /// job and reports ERROR with 1E0D; refusals (busy 0502, length 1E41, not a DB/DX 1E20)
+    /// show at once.
+    #[allow(clippy::too_many_arguments)]
+    pub fn call(
+        &mut self,
+        station: &mut Station,
+        now: Instant,
+        req: bool,
+        r: bool,
+        address: Address,
+        coordination: Coordination,
+        data: &[u8],
+    ) -> FbOutput {
+        let mut out = self.inner.call(station, req, r, |s| {
+            s.send(now, address, coordination, Bytes::copy_from_slice(data))
+        });
+        out.data = None;
+        out
+    }
+}
+
+/// FETCH request (P_SND_RK with a FETCH job): a rising edge on REQ fetches `len` bytes.
+#[derive(Debug, Default)]
+pub struct FetchFb {
+    inner: Request,
+}
+
+impl FetchFb {
+    /// One call of the FB; DONE comes with the data.
+    #[allow(clippy::too_many_arguments)]
+    pub fn call(
+        &mut self,
+        station: &mut Station,
+        now: Instant,
+        req: bool,
+        r: bool,
+        address: Address,
+        coordination: Coordination,
+        len: usize,
+    ) -> FbOutput {
+        self.inner.call(station, req, r, |s| {
+            s.fetch(now, address, coordination, len)
+        })
+    }
+}
