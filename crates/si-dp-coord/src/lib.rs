@@ -20,6 +20,8 @@
 //!   trait, for simulations and tests (and gateways that play the module).
 //! * [`mod@line`]: [`line::EngineSerial`] makes any Sans-IO line engine the module's serial side, and
 //!   the module itself a station of the line simulator.
+//! * [`engines`]: si-3964r's and si-ascii's links as that serial side, so a simulated module runs
+//!   3964(R) or ASCII on its line.
 //! * [`sim`]: a host and a module joined by a seeded, lagging, fault-injecting DP exchange.
 //! * [`timing`]: the manual's processing-time estimate and the PPI token rotation formula.
 //! * [`status`]: the STATUS words the window carries.
@@ -70,6 +72,7 @@
 
 pub mod config;
 pub mod coord;
+pub mod engines;
 pub mod fb;
 pub mod frame;
 pub mod host;

@@ -2,29 +2,62 @@
 //! through which a 3964(R), ASCII or any other engine becomes the module's line, and through
 //! which the whole module becomes a station of the line simulator.
 //!
-//! The protocol crates do not depend on each other (ARCHITECTURE.md), so the adapter knows an
-//! engine only through three plain functions ([`LineHooks`]): how to start sending a frame, which
-//! of its events mean "frame received", "receive error" and "send finished", and how to apply a
-//! flow-control block. [`EngineSerial`] implements [`SerialSide`] with them, and
+//! The adapter knows an engine only through a few plain functions ([`LineHooks`]): how to start
+//! sending a frame, which of its events mean "frame received", "receive error" and "send
+//! finished", how to take a frame the engine keeps in its own buffer, how to set RTS/DTR and how
+//! to apply a flow-control block. [`EngineSerial`] implements [`SerialSide`] with them, and
 //! `Module<EngineSerial<E>>` implements [`Engine`] by passing the line through to `E`, so a
 //! simulator or the tokio driver runs it like any engine while the DP side is driven with
 //! [`Module::cycle`] (from `Simulator::with` or `Handle::call`).
+//!
+//! The hooks for the finished line engines are in [`crate::engines`]: [`crate::engines::r3964r`]
+//! and [`crate::engines::ascii`] make a simulated module that runs 3964(R) or ASCII on its line.
 
 use crate::frame::{ParamBlock, V24Signals};
 use crate::module::{Module, SerialEvent, SerialSide};
 use crate::status::FLOW_CONTROL_MISMATCH;
+use bytes::Bytes;
 use si_core::{Engine, Instant, LineError, ModemSignals, Output, SignalUpdate, Status};
 use std::collections::VecDeque;
 
 /// Applies a flow-control block to an engine.
 pub type FlowControlHook<E> = fn(&mut E, Instant, ParamBlock) -> Result<(), Status>;
 
+/// Takes the oldest frame out of an engine's own receive buffer.
+pub type TakeFrameHook<E> = fn(&mut E, Instant) -> Option<Bytes>;
+
+/// Sets RTS and DTR through the engine (which may refuse, e.g. under automatic V.24 control).
+pub type SetSignalsHook<E> = fn(&mut E, Instant, SignalUpdate) -> Result<(), Status>;
+
+/// What one engine event means for the module.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LineEvent {
+    /// Passed to the module as it is.
+    Serial(SerialEvent),
+    /// A frame waits in the engine's own buffer (engines that report only a length, like
+    /// si-3964r and si-ascii); it is taken with [`LineHooks::take_frame`] at the module's next
+    /// cycle, in order with the other events, so the engine's buffer frees at that time.
+    FrameWaiting,
+}
+
+impl From<SerialEvent> for LineEvent {
+    fn from(e: SerialEvent) -> Self {
+        LineEvent::Serial(e)
+    }
+}
+
 /// How [`EngineSerial`] talks to one kind of engine.
 pub struct LineHooks<E: Engine> {
     /// Starts sending a frame (the engine's own send command).
     pub send: fn(&mut E, Instant, &[u8]) -> Result<(), Status>,
     /// What an engine event means for the module, if anything.
-    pub classify: fn(&E::Event) -> Option<SerialEvent>,
+    pub classify: fn(&E::Event) -> Option<LineEvent>,
+    /// Takes a waiting frame after [`LineEvent::FrameWaiting`]; `None` when the engine never
+    /// reports that.
+    pub take_frame: Option<TakeFrameHook<E>>,
+    /// Sets RTS/DTR through the engine; `None` sets them directly on the line (the adapter
+    /// emits the [`Output::SetSignals`] itself).
+    pub set_signals: Option<SetSignalsHook<E>>,
     /// Applies a flow-control block; `None` refuses every block with 0550H.
     pub set_flow_control: Option<FlowControlHook<E>>,
 }
@@ -54,7 +87,7 @@ pub struct EngineSerial<E: Engine> {
     signals: ModemSignals,
     /// A write V.24 job's signal change, handed to the driver before the engine's outputs.
     pending_signals: Option<SignalUpdate>,
-    events: VecDeque<SerialEvent>,
+    events: VecDeque<LineEvent>,
     dropped: u64,
 }
 
@@ -117,21 +150,40 @@ impl<E: Engine> SerialSide for EngineSerial<E> {
         (self.hooks.send)(&mut self.engine, now, frame)
     }
 
-    fn poll(&mut self, _now: Instant) -> Option<SerialEvent> {
-        self.events.pop_front()
+    fn poll(&mut self, now: Instant) -> Option<SerialEvent> {
+        while let Some(e) = self.events.pop_front() {
+            match e {
+                LineEvent::Serial(e) => return Some(e),
+                LineEvent::FrameWaiting => {
+                    let frame = self
+                        .hooks
+                        .take_frame
+                        .and_then(|take| take(&mut self.engine, now));
+                    if let Some(frame) = frame {
+                        return Some(SerialEvent::Received(frame));
+                    }
+                }
+            }
+        }
+        None
     }
 
     fn signals(&self) -> V24Signals {
         self.signals.into()
     }
 
-    fn set_signals(&mut self, _now: Instant, rts: bool, dtr: bool) -> Result<(), Status> {
-        self.signals.rts = rts;
-        self.signals.dtr = dtr;
-        self.pending_signals = Some(SignalUpdate {
+    fn set_signals(&mut self, now: Instant, rts: bool, dtr: bool) -> Result<(), Status> {
+        let update = SignalUpdate {
             rts: Some(rts),
             dtr: Some(dtr),
-        });
+        };
+        if let Some(set) = self.hooks.set_signals {
+            // The engine emits the change itself; `poll_engine` notes it in `signals`.
+            return set(&mut self.engine, now, update);
+        }
+        self.signals.rts = rts;
+        self.signals.dtr = dtr;
+        self.pending_signals = Some(update);
         Ok(())
     }
 

@@ -74,9 +74,11 @@ impl Engine for GapFramer {
 const HOOKS: LineHooks<GapFramer> = LineHooks {
     send: GapFramer::send,
     classify: |e| match e {
-        FramerEvent::Frame(f) => Some(SerialEvent::Received(f.clone())),
-        FramerEvent::Sent => Some(SerialEvent::SendDone(Ok(()))),
+        FramerEvent::Frame(f) => Some(SerialEvent::Received(f.clone()).into()),
+        FramerEvent::Sent => Some(SerialEvent::SendDone(Ok(())).into()),
     },
+    take_frame: None,
+    set_signals: None,
     set_flow_control: None,
 };
 

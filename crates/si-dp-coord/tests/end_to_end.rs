@@ -1,0 +1,328 @@
+//! End to end on the simulators: a user program calls S_SEND through the window of module A, the
+//! module runs a real line engine (si-3964r or si-ascii) on a simulated line to module B, and a
+//! second user program calls S_RCV through module B's window
+//! (et200s-si-2005-window-protocol.md §2.9: the module answers the send job only after the frame
+//! has left; §2.8: receive errors reach the next receive job as 20H + STATUS; §5 the FBs).
+//!
+//! Each DP cycle (2 ms of virtual time) every user program calls its FBs once, each host engine
+//! runs one cycle and its module one cycle; then the line simulator runs for the rest of the
+//! cycle. Every test counts the FB completions: each job ends exactly once.
+
+use si_core::sim::{Simulator, StationId};
+use si_core::{Duration, Engine, Instant, SerialSettings, Status};
+use si_dp_coord::engines;
+use si_dp_coord::fb::{Done, Received, SRcv, SSend, SVset, SXon};
+use si_dp_coord::line::EngineSerial;
+use si_dp_coord::module::Module;
+use si_dp_coord::{Host, HostConfig, WindowSize};
+
+/// DP cycle of the simulated master.
+const CYCLE: Duration = Duration::from_millis(2);
+
+type Station<E> = StationId<Module<EngineSerial<E>>>;
+
+/// One DP slave as its host sees it: the module station, the host engine, the input window.
+struct Side<E: Engine> {
+    station: Station<E>,
+    host: Host,
+    input: Vec<u8>,
+}
+
+impl<E: Engine + 'static> Side<E>
+where
+    E::Event: 'static,
+{
+    fn new(
+        sim: &mut Simulator,
+        name: &str,
+        settings: SerialSettings,
+        module: Module<EngineSerial<E>>,
+    ) -> Self {
+        let window = module.config().window;
+        let input = module.input().to_vec();
+        let station = sim.add_station(name, settings, module);
+        Side {
+            station,
+            host: Host::new(HostConfig::new(window)).unwrap(),
+            input,
+        }
+    }
+
+    /// The host's and the module's cycle, with the window exchange between them.
+    fn dp_cycle(&mut self, sim: &mut Simulator) {
+        let out = self.host.cycle(sim.now(), &self.input).to_vec();
+        self.input = sim.with(self.station, |m, now| m.cycle(now, &out).to_vec());
+    }
+}
+
+/// What the user programs saw: every call with DONE/ERROR or NDR/ERROR set.
+#[derive(Debug, Default)]
+struct Seen {
+    sends: Vec<(Instant, Done)>,
+    receives: Vec<(Instant, Received, Vec<u8>)>,
+}
+
+/// S_SEND (REQ on from the first call) on `a`, S_RCV (EN_R = 1) on `b`, for `cycles` DP cycles.
+fn send_and_receive<A, B>(
+    sim: &mut Simulator,
+    a: &mut Side<A>,
+    b: &mut Side<B>,
+    data: &[u8],
+    cycles: usize,
+) -> Seen
+where
+    A: Engine + 'static,
+    B: Engine + 'static,
+    A::Event: 'static,
+    B::Event: 'static,
+{
+    let mut s_send = SSend::default();
+    let mut s_rcv = SRcv::default();
+    let mut dest = [0u8; 256];
+    let mut seen = Seen::default();
+    for _ in 0..cycles {
+        let d = s_send.call(&mut a.host, true, false, data);
+        if d.done || d.error {
+            seen.sends.push((sim.now(), d));
+        }
+        let r = s_rcv.call(&mut b.host, true, false, &mut dest);
+        if r.ndr || r.error {
+            seen.receives.push((sim.now(), r, dest[..r.len].to_vec()));
+        }
+        a.dp_cycle(sim);
+        b.dp_cycle(sim);
+        sim.run_for(CYCLE);
+    }
+    seen
+}
+
+/// 100 bytes with DLE (10H) and ETX (03H) among them, so the 3964(R) sender doubles DLEs.
+fn payload(len: usize) -> Vec<u8> {
+    (0..len).map(|i| (i as u8).wrapping_mul(7) ^ 0x10).collect()
+}
+
+fn r3964r_pair(window: WindowSize) -> (Simulator, Side<si_3964r::Link>, Side<si_3964r::Link>) {
+    let settings = SerialSettings::default();
+    let high = si_3964r::Config {
+        priority: si_3964r::config::Priority::High,
+        ..si_3964r::Config::default()
+    };
+    let mut sim = Simulator::new(3);
+    let a = engines::r3964r_module(window, si_3964r::Link::new(high, settings).unwrap());
+    let b = engines::r3964r_module(
+        window,
+        si_3964r::Link::new(si_3964r::Config::default(), settings).unwrap(),
+    );
+    let a = Side::new(&mut sim, "A", settings, a);
+    let b = Side::new(&mut sim, "B", settings, b);
+    sim.connect(a.station, b.station);
+    (sim, a, b)
+}
+
+fn ascii_pair(window: WindowSize) -> (Simulator, Side<si_ascii::Link>, Side<si_ascii::Link>) {
+    let config = si_ascii::Config {
+        flow_control: si_ascii::FlowControl::XonXoff,
+        tx_chunk: 1,
+        ..si_ascii::Config::default()
+    };
+    let mut sim = Simulator::new(4);
+    let a = engines::ascii_module(window, si_ascii::Link::new(config).unwrap());
+    let b = engines::ascii_module(window, si_ascii::Link::new(config).unwrap());
+    let a = Side::new(&mut sim, "A", config.settings, a);
+    let b = Side::new(&mut sim, "B", config.settings, b);
+    sim.connect(a.station, b.station);
+    (sim, a, b)
+}
+
+fn assert_delivered_once(seen: &Seen, data: &[u8], last_char_at_b: Instant) {
+    assert_eq!(seen.sends.len(), 1, "{:?}", seen.sends);
+    let (done_at, d) = seen.sends[0];
+    assert!(d.done && !d.error, "{d:?}");
+    assert_eq!(d.status, Status::OK);
+    // §2.9: the end-of-job acknowledgement only after the frame has left.
+    assert!(done_at >= last_char_at_b, "{done_at} < {last_char_at_b}");
+    assert_eq!(seen.receives.len(), 1, "{:?}", seen.receives);
+    let (_, r, bytes) = &seen.receives[0];
+    assert!(r.ndr && !r.error, "{r:?}");
+    assert_eq!(r.status, Status::OK);
+    assert_eq!(r.len, data.len());
+    assert_eq!(bytes.as_slice(), data);
+}
+
+#[test]
+fn section_2_9_s_send_module_a_3964r_module_b_s_rcv_every_window_size() {
+    for window in WindowSize::ALL {
+        let (mut sim, mut a, mut b) = r3964r_pair(window);
+        let data = payload(100);
+        let seen = send_and_receive(&mut sim, &mut a, &mut b, &data, 1_000);
+        let line = sim.trace().received("B");
+        let bytes: Vec<u8> = line.iter().map(|&(_, c)| c).collect();
+        // The 3964(R) block on the line: STX … data with DLE doubled … DLE ETX BCC. B's
+        // startup NAK and its DLEs go the other way.
+        let stx = bytes.iter().position(|&c| c == 0x02).unwrap();
+        let body = &bytes[stx + 1..];
+        let doubled = data.iter().filter(|&&c| c == 0x10).count();
+        assert_eq!(body.len(), data.len() + doubled + 3, "{window:?}");
+        assert_eq!(&body[body.len() - 3..body.len() - 1], &[0x10, 0x03]);
+        let bcc = body[..body.len() - 1]
+            .iter()
+            .fold(0x02 ^ 0x02, |x, &c| x ^ c);
+        assert_eq!(body[body.len() - 1], bcc, "BCC over data, DLE, ETX");
+        assert_delivered_once(&seen, &data, line.last().unwrap().0);
+    }
+}
+
+#[test]
+fn section_2_9_s_send_module_a_ascii_module_b_s_rcv_every_window_size() {
+    for window in WindowSize::ALL {
+        let (mut sim, mut a, mut b) = ascii_pair(window);
+        // No XON/XOFF characters in the user data (§6.2 forbids them under XON/XOFF).
+        let data: Vec<u8> = (0..150u8).map(|i| b'0' + i % 64).collect();
+        let seen = send_and_receive(&mut sim, &mut a, &mut b, &data, 1_000);
+        let line = sim.trace().received("B");
+        let bytes: Vec<u8> = line.iter().map(|&(_, c)| c).collect();
+        // The ASCII driver puts the frame on the line as it is: end by character delay time.
+        assert_eq!(bytes, data, "{window:?}");
+        assert_delivered_once(&seen, &data, line.last().unwrap().0);
+    }
+}
+
+#[test]
+fn both_directions_in_turn_3964r() {
+    let (mut sim, mut a, mut b) = r3964r_pair(WindowSize::Eight);
+    let seen = send_and_receive(&mut sim, &mut a, &mut b, b"request", 300);
+    assert_delivered_once(&seen, b"request", Instant::ZERO);
+    let seen = send_and_receive(&mut sim, &mut b, &mut a, b"response", 300);
+    assert_delivered_once(&seen, b"response", Instant::ZERO);
+}
+
+#[test]
+fn section_2_8_partner_transmit_wire_cut_s_send_error_carries_the_3964r_status() {
+    let settings = SerialSettings::default();
+    let config = si_3964r::Config {
+        ack_delay_ms: 100,
+        connection_attempts: 2,
+        ..si_3964r::Config::default()
+    };
+    let mut sim = Simulator::new(5);
+    let a = engines::r3964r_module(
+        WindowSize::Four,
+        si_3964r::Link::new(config, settings).unwrap(),
+    );
+    let b = engines::r3964r_module(
+        WindowSize::Four,
+        si_3964r::Link::new(config, settings).unwrap(),
+    );
+    let mut a = Side::new(&mut sim, "A", settings, a);
+    let mut b = Side::new(&mut sim, "B", settings, b);
+    sim.connect(a.station, b.station);
+    sim.silence(b.station, Instant::ZERO);
+    let seen = send_and_receive(&mut sim, &mut a, &mut b, b"hello", 2_000);
+    // Each STX unanswered for QVZ, attempts used up: 0703H through the window (7xH + 0703H).
+    assert_eq!(seen.sends.len(), 1, "{:?}", seen.sends);
+    let d = seen.sends[0].1;
+    assert!(d.error && !d.done);
+    assert_eq!(d.status, si_3964r::status::SETUP_TIMEOUT);
+    // B heard each STX, answered DLE into the cut wire and waited in vain for the block: its
+    // S_RCV reports the character delay time (0806H); repeats of the same error collapse.
+    assert!(!seen.receives.is_empty());
+    for (_, r, _) in &seen.receives {
+        assert!(r.error && !r.ndr);
+        assert_eq!(r.status, si_3964r::status::CHARACTER_DELAY);
+    }
+}
+
+#[test]
+fn section_2_8_case_2_break_at_module_b_reaches_s_rcv_as_080d() {
+    let (mut sim, mut a, mut b) = r3964r_pair(WindowSize::Eight);
+    sim.run_for(Duration::from_millis(20));
+    sim.schedule_break(b.station, sim.now() + Duration::from_millis(1));
+    // S_SEND with REQ never set: drive only S_RCV.
+    let mut s_rcv = SRcv::default();
+    let mut dest = [0u8; 16];
+    let mut seen = Vec::new();
+    for _ in 0..200 {
+        let r = s_rcv.call(&mut b.host, true, false, &mut dest);
+        if r.ndr || r.error {
+            seen.push(r);
+        }
+        a.dp_cycle(&mut sim);
+        b.dp_cycle(&mut sim);
+        sim.run_for(CYCLE);
+    }
+    assert_eq!(seen.len(), 1, "{seen:?}");
+    assert!(seen[0].error && !seen[0].ndr);
+    assert_eq!(seen[0].status, si_3964r::status::BREAK);
+}
+
+#[test]
+fn section_2_6_s_xon_and_s_vset_through_the_window_reach_the_ascii_engine() {
+    let (mut sim, mut a, mut b) = ascii_pair(WindowSize::Four);
+    let mut s_xon = SXon::default();
+    let mut s_vset = SVset::default();
+    let mut xon_done = Vec::new();
+    let mut vset_done = Vec::new();
+    for _ in 0..100 {
+        let d = s_xon.call(
+            &mut a.host,
+            true,
+            false,
+            0x11,
+            0x13,
+            Duration::from_millis(3_000),
+        );
+        if d.done || d.error {
+            xon_done.push(d);
+        }
+        // Only RS-422/485 and automatic V.24 refuse S_VSET (§6.7): RTS and DTR go on the line.
+        let v = s_vset.call(&mut b.host, true, false, true, true);
+        if v.done || v.error {
+            vset_done.push(v);
+        }
+        a.dp_cycle(&mut sim);
+        b.dp_cycle(&mut sim);
+        sim.run_for(CYCLE);
+    }
+    assert_eq!(xon_done.len(), 1, "{xon_done:?}");
+    assert!(xon_done[0].done, "{xon_done:?}");
+    let a_cfg = sim.engine(a.station).serial().engine().config().xon_xoff;
+    assert_eq!(a_cfg.wait_for_xon_ms, 3_000);
+    assert_eq!(vset_done.len(), 1, "{vset_done:?}");
+    assert!(vset_done[0].done, "{vset_done:?}");
+    let signals = sim.engine(b.station).serial().engine().signals();
+    assert!(signals.rts && signals.dtr);
+}
+
+#[test]
+fn section_2_6_wrong_parameter_block_is_refused_with_0550h() {
+    // The ASCII module is configured for XON/XOFF; an RTS/CTS block gets 0550H; 3964(R) has no
+    // flow control at all, so any block gets 0550H.
+    let (mut sim, mut a, mut b) = ascii_pair(WindowSize::Eight);
+    let (mut rsim, mut ra, mut rb) = r3964r_pair(WindowSize::Eight);
+    let mut s_rts = si_dp_coord::fb::SRts::default();
+    let mut s_xon = SXon::default();
+    let mut got = Vec::new();
+    for _ in 0..100 {
+        let d = s_rts.call(&mut a.host, true, false, Duration::from_millis(2_000));
+        let e = s_xon.call(
+            &mut ra.host,
+            true,
+            false,
+            0x11,
+            0x13,
+            Duration::from_millis(2_000),
+        );
+        got.extend([d, e].into_iter().filter(|d| d.done || d.error));
+        a.dp_cycle(&mut sim);
+        b.dp_cycle(&mut sim);
+        sim.run_for(CYCLE);
+        ra.dp_cycle(&mut rsim);
+        rb.dp_cycle(&mut rsim);
+        rsim.run_for(CYCLE);
+    }
+    assert_eq!(got.len(), 2, "{got:?}");
+    for d in got {
+        assert!(d.error);
+        assert_eq!(d.status.code(), 0x0550);
+    }
+}
