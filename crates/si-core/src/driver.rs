@@ -24,7 +24,9 @@
 
 use crate::sansio::{Engine, ModemSignals, Output, SignalUpdate};
 use crate::serial::SerialSettings;
+use crate::sim::TraceKind;
 use crate::time::Instant;
+use crate::tracefile::Recorder;
 use std::io;
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::sync::{mpsc, oneshot};
@@ -82,7 +84,7 @@ impl Transport for tokio_serial::SerialStream {
 }
 
 /// How the driver runs.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct DriverOptions {
     /// The line's character format, used to report tx-done only after the bytes' character
     /// time. `None` reports it when the write completes.
@@ -92,6 +94,10 @@ pub struct DriverOptions {
     /// Events buffered for the application before the driver stops reading the line (nothing
     /// is dropped: the OS buffers the line meanwhile).
     pub event_capacity: usize,
+    /// Record what the driver sees into a trace file ([`crate::tracefile`]): every write as
+    /// `tx`, every read as `rx_chunk`, signal changes and the engine's events (their `Debug`
+    /// form), under the recorder's station name. `si monitor --trace` reads it back.
+    pub recorder: Option<Recorder>,
 }
 
 impl Default for DriverOptions {
@@ -100,6 +106,7 @@ impl Default for DriverOptions {
             settings: None,
             signal_poll: std::time::Duration::from_millis(10),
             event_capacity: 1024,
+            recorder: None,
         }
     }
 }
@@ -187,6 +194,13 @@ where
     T: Transport,
 {
     let clock = Clock(tokio::time::Instant::now());
+    let record = |kind: TraceKind| {
+        if let Some(r) = &options.recorder {
+            if let Err(e) = r.record(kind) {
+                tracing::warn!("trace recording failed: {e}");
+            }
+        }
+    };
     let mut buf = [0u8; 512];
     let mut tx_done_at: Option<Instant> = None;
     let mut signals = io.read_signals()?;
@@ -198,6 +212,9 @@ where
         let deadline = loop {
             match engine.poll_output() {
                 Output::Transmit(bytes) => {
+                    record(TraceKind::Tx {
+                        bytes: bytes.to_vec(),
+                    });
                     let started = clock.now();
                     io.write_all(&bytes).await?;
                     io.flush().await?;
@@ -207,8 +224,16 @@ where
                     let at = wire_end.max(clock.now());
                     tx_done_at = Some(tx_done_at.map_or(at, |t| t.max(at)));
                 }
-                Output::SetSignals(update) => io.set_signals(update)?,
+                Output::SetSignals(update) => {
+                    record(TraceKind::Signals { update });
+                    io.set_signals(update)?
+                }
                 Output::Event(event) => {
+                    if options.recorder.is_some() {
+                        record(TraceKind::Event {
+                            text: format!("{event:?}"),
+                        });
+                    }
                     if events.send(event).await.is_err() {
                         return Ok(()); // the application is gone
                     }
@@ -227,6 +252,7 @@ where
                 if n == 0 {
                     return Ok(());
                 }
+                record(TraceKind::RxChunk { bytes: buf[..n].to_vec() });
                 engine.handle_rx(clock.now(), &buf[..n]);
             }
             _ = tokio::time::sleep_until(clock.to_tokio(deadline.unwrap_or_default())), if deadline.is_some() => {}
@@ -261,5 +287,91 @@ impl Transport for Box<dyn Transport> {
     }
     fn read_signals(&mut self) -> io::Result<Option<ModemSignals>> {
         (**self).read_signals()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tracefile::{self, Header};
+    use std::io::Write;
+    use std::sync::{Arc, Mutex};
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+    /// Echoes every received chunk back and reports its length.
+    #[derive(Default)]
+    struct Echo {
+        tx: Vec<u8>,
+        events: Vec<usize>,
+    }
+    impl Engine for Echo {
+        type Event = usize;
+        fn handle_rx(&mut self, _: Instant, bytes: &[u8]) {
+            self.tx.extend_from_slice(bytes);
+            self.events.push(bytes.len());
+        }
+        fn handle_timeout(&mut self, _: Instant) {}
+        fn poll_output(&mut self) -> Output<usize> {
+            if !self.tx.is_empty() {
+                return Output::Transmit(std::mem::take(&mut self.tx).into());
+            }
+            match self.events.pop() {
+                Some(n) => Output::Event(n),
+                None => Output::Wait(None),
+            }
+        }
+    }
+
+    #[derive(Clone, Default)]
+    struct Shared(Arc<Mutex<Vec<u8>>>);
+    impl Write for Shared {
+        fn write(&mut self, b: &[u8]) -> io::Result<usize> {
+            self.0.lock().unwrap().extend_from_slice(b);
+            Ok(b.len())
+        }
+        fn flush(&mut self) -> io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn the_recorder_sees_reads_writes_and_events() {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        let file = Shared::default();
+        rt.block_on(async {
+            let recorder = tracefile::Recorder::new(Box::new(file.clone()), &Header::new("driver"))
+                .unwrap()
+                .for_station("host");
+            let (ours, mut theirs) = tokio::io::duplex(64);
+            let options = DriverOptions {
+                recorder: Some(recorder),
+                ..DriverOptions::default()
+            };
+            let (mut handle, _task) = spawn(Echo::default(), ours, options);
+            theirs.write_all(&[0x02, 0x10]).await.unwrap();
+            let mut back = [0u8; 2];
+            theirs.read_exact(&mut back).await.unwrap();
+            assert_eq!(back, [0x02, 0x10]);
+            assert_eq!(handle.next_event().await, Some(2));
+        });
+        let bytes = file.0.lock().unwrap().clone();
+        let f = tracefile::read(&bytes[..]).unwrap();
+        let kinds: Vec<_> = f.trace.entries.iter().map(|e| e.kind.clone()).collect();
+        assert_eq!(
+            kinds,
+            vec![
+                TraceKind::RxChunk {
+                    bytes: vec![0x02, 0x10]
+                },
+                TraceKind::Tx {
+                    bytes: vec![0x02, 0x10]
+                },
+                TraceKind::Event { text: "2".into() },
+            ]
+        );
+        assert!(f.trace.entries.iter().all(|e| e.station == "host"));
     }
 }

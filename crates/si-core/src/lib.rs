@@ -8,6 +8,7 @@
 //! - [`Engine`] and [`Output`]: the Sans-IO contract (see [`sansio`] for the drain rule);
 //! - [`fb`]: edge detection and one-call pulses for the FB equivalents;
 //! - [`sim`]: a deterministic discrete-event line simulator with seeded faults;
+//! - [`tracefile`]: the JSON-lines trace file the simulator, the driver and `si monitor` share;
 //! - `driver` (feature `tokio`): runs any engine over `AsyncRead + AsyncWrite`.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
@@ -19,6 +20,7 @@ pub mod serial;
 pub mod sim;
 pub mod status;
 pub mod time;
+pub mod tracefile;
 
 #[cfg(feature = "tokio")]
 pub mod driver;

@@ -1,4 +1,7 @@
 //! The simulator's timestamped record of what happened on the line.
+//!
+//! The same entries are the lines of a trace file ([`crate::tracefile`]): the simulator, the tokio
+//! driver and `si --record` write them, `si monitor` reads them.
 
 use crate::sansio::{LineError, SignalUpdate};
 use crate::time::Instant;
@@ -31,6 +34,14 @@ pub enum TraceKind {
     Rx {
         /// The character.
         byte: u8,
+    },
+    /// Several characters a real port delivered at once (the tokio driver and `si --record`
+    /// read in chunks): the last arrived no later than `at`; their own arrival times are unknown,
+    /// so a reader must not judge the gaps between them (tracefile format, see
+    /// [`crate::tracefile`]).
+    RxChunk {
+        /// The characters, in arrival order.
+        bytes: Vec<u8>,
     },
     /// The station's UART reported an error instead of a character.
     RxError {
@@ -82,6 +93,7 @@ impl fmt::Display for Trace {
             match &e.kind {
                 TraceKind::Tx { bytes } => writeln!(f, "tx {}", crate::hex::format(bytes))?,
                 TraceKind::Rx { byte } => writeln!(f, "rx {byte:02X}")?,
+                TraceKind::RxChunk { bytes } => writeln!(f, "rx {}", crate::hex::format(bytes))?,
                 TraceKind::RxError { error } => writeln!(f, "rx error {error:?}")?,
                 TraceKind::Signals { update } => writeln!(f, "signals {update:?}")?,
                 TraceKind::Event { text } => writeln!(f, "event {text}")?,

@@ -1,0 +1,427 @@
+//! The trace file: one definition of a recorded line, written by the simulator (`si sim
+//! --record`), by the tokio driver and by `si --record` on real ports, and read back by
+//! `si monitor --trace` and the diagram writer.
+//!
+//! # Format
+//!
+//! JSON lines (UTF-8, one object per line, `\n`-separated), so a trace can be appended while the
+//! line runs, cut with `head`, filtered with `grep` or `jq`, and read after a crash up to the
+//! last complete line.
+//!
+//! 1. An optional **header**: `{"format":"si-trace","version":1,"source":"sim","protocol":"3964r",
+//!    "settings":{"baud":9600,"data_bits":8,"parity":"even","stop_bits":1},"stations":["A","B"]}`
+//!    ([`Header`]). A reader that finds no header assumes nothing about protocol or settings.
+//! 2. Any number of **entries**, exactly the simulator's [`TraceEntry`]: `at` (µs since the
+//!    start of the recording), `station` (who transmitted or received), `kind` and its fields:
+//!    - `{"at":0,"station":"A","kind":"tx","bytes":[2]}` — bytes the station queued for
+//!      transmission (on a real port: the write began at `at`; the characters follow each other
+//!      at the character time);
+//!    - `{"at":1146,"station":"B","kind":"rx","byte":2}` — one character arrived completely
+//!      (simulator: exact arrival time);
+//!    - `{"at":5200,"station":"si","kind":"rx_chunk","bytes":[16,2]}` — the OS delivered several
+//!      characters at once (real port: the last arrived no later than `at`, individual arrival
+//!      times are unknown);
+//!    - `rx_error` (`"error":"parity"|"framing"|"overrun"|"break"`), `signals`, `event` (`"text"`:
+//!      the engine's event in its `Debug` form — the decoded meaning as the engine saw it).
+//!
+//! Entries are in time order. Unknown header fields are ignored, so later versions can add
+//! fields; a line that is neither a header nor an entry is an error naming its line number.
+
+use crate::serial::{Parity, SerialSettings, BAUD_RATES};
+use crate::sim::{Trace, TraceEntry, TraceKind};
+use crate::time::Instant;
+use serde::{Deserialize, Serialize};
+use std::io::{self, BufRead, Write};
+use std::sync::{Arc, Mutex};
+
+/// The value of [`Header::format`]: marks a JSON line as an `si` trace header.
+pub const FORMAT: &str = "si-trace";
+
+/// The format version this module writes ([`Header::version`]).
+pub const VERSION: u32 = 1;
+
+/// The baud rates a trace may name: the manuals' twelve plus USS's 187 500 bit/s, so a USS trace
+/// reads back.
+static TRACE_RATES: [u32; 13] = {
+    let mut r = [187_500; 13];
+    let mut i = 0;
+    while i < BAUD_RATES.len() {
+        r[i] = BAUD_RATES[i];
+        i += 1;
+    }
+    r
+};
+
+/// The line's character format as stored in a header (a plain record, so any baud rate of any
+/// protocol round-trips; [`LineFormat::settings`] validates it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LineFormat {
+    /// Bits per second.
+    pub baud: u32,
+    /// 7 or 8.
+    pub data_bits: u8,
+    /// Parity bit.
+    pub parity: Parity,
+    /// 1 or 2.
+    pub stop_bits: u8,
+}
+
+impl LineFormat {
+    /// The validated settings, `None` if the header names an impossible format.
+    pub fn settings(&self) -> Option<SerialSettings> {
+        SerialSettings::with_rates(
+            self.baud,
+            self.data_bits,
+            self.parity,
+            self.stop_bits,
+            &TRACE_RATES,
+        )
+        .ok()
+    }
+}
+
+impl From<SerialSettings> for LineFormat {
+    fn from(s: SerialSettings) -> Self {
+        LineFormat {
+            baud: s.baud(),
+            data_bits: s.data_bits(),
+            parity: s.parity(),
+            stop_bits: s.stop_bits(),
+        }
+    }
+}
+
+/// The first line of a trace file: what the reader needs to decode the entries.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Header {
+    /// Always [`FORMAT`]; tells a header from an entry.
+    pub format: String,
+    /// [`VERSION`] of the writer.
+    pub version: u32,
+    /// Who wrote it: `"sim"` (the simulator), `"driver"` (the tokio driver), `"port"` (the CLI's
+    /// transport recorder).
+    pub source: String,
+    /// The protocol spoken on the line (`3964r`, `rk512`, `ascii`, `modbus`, `uss`, …) when the
+    /// writer knows it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub protocol: Option<String>,
+    /// The character format, when the writer knows it (needed to compute character times).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub settings: Option<LineFormat>,
+    /// The stations named in the entries, in the order to draw them.
+    #[serde(default)]
+    pub stations: Vec<String>,
+}
+
+impl Header {
+    /// A header for `source` with nothing else known yet.
+    pub fn new(source: &str) -> Self {
+        Header {
+            format: FORMAT.to_owned(),
+            version: VERSION,
+            source: source.to_owned(),
+            protocol: None,
+            settings: None,
+            stations: Vec::new(),
+        }
+    }
+
+    /// With the protocol name.
+    pub fn protocol(mut self, protocol: &str) -> Self {
+        self.protocol = Some(protocol.to_owned());
+        self
+    }
+
+    /// With the character format.
+    pub fn settings(mut self, settings: SerialSettings) -> Self {
+        self.settings = Some(settings.into());
+        self
+    }
+
+    /// With the station names.
+    pub fn stations<S: AsRef<str>>(mut self, stations: &[S]) -> Self {
+        self.stations = stations.iter().map(|s| s.as_ref().to_owned()).collect();
+        self
+    }
+}
+
+/// A trace read back from a file.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct TraceFile {
+    /// The header, if the file has one.
+    pub header: Option<Header>,
+    /// The entries.
+    pub trace: Trace,
+}
+
+impl TraceFile {
+    /// Station names: the header's, then any others in order of first appearance.
+    pub fn stations(&self) -> Vec<String> {
+        let mut names: Vec<String> = self
+            .header
+            .as_ref()
+            .map(|h| h.stations.clone())
+            .unwrap_or_default();
+        for e in &self.trace.entries {
+            if !names.iter().any(|n| n == &e.station) {
+                names.push(e.station.clone());
+            }
+        }
+        names
+    }
+}
+
+/// A trace file that cannot be read.
+#[derive(Debug, thiserror::Error)]
+pub enum TraceFileError {
+    /// Reading failed.
+    #[error("cannot read the trace: {0}")]
+    Io(#[from] io::Error),
+    /// A line is not a header or an entry.
+    #[error("trace line {line}: {message}")]
+    Syntax {
+        /// 1-based line number.
+        line: usize,
+        /// What the JSON parser said.
+        message: String,
+    },
+    /// A header with a format version this reader does not know.
+    #[error("trace format version {0} is newer than this reader (version {VERSION})")]
+    Version(u32),
+}
+
+/// Serialize one entry as its JSON line (without the newline).
+pub fn entry_line(entry: &TraceEntry) -> String {
+    // A TraceEntry holds only strings, numbers and enums: serialization cannot fail.
+    serde_json::to_string(entry).unwrap_or_default()
+}
+
+/// Write a whole trace: the header, then every entry.
+pub fn write<W: Write>(mut out: W, header: &Header, trace: &Trace) -> io::Result<()> {
+    writeln!(out, "{}", serde_json::to_string(header).unwrap_or_default())?;
+    for e in &trace.entries {
+        writeln!(out, "{}", entry_line(e))?;
+    }
+    out.flush()
+}
+
+/// Read a trace file: an optional header line, then entries. Blank lines are skipped.
+pub fn read<R: BufRead>(input: R) -> Result<TraceFile, TraceFileError> {
+    let mut file = TraceFile::default();
+    for (k, line) in input.lines().enumerate() {
+        let line = line?;
+        let text = line.trim();
+        if text.is_empty() {
+            continue;
+        }
+        let syntax = |e: serde_json::Error| TraceFileError::Syntax {
+            line: k + 1,
+            message: e.to_string(),
+        };
+        let value: serde_json::Value = serde_json::from_str(text).map_err(syntax)?;
+        if value.get("format").and_then(|f| f.as_str()) == Some(FORMAT) {
+            let header: Header = serde_json::from_value(value).map_err(syntax)?;
+            if header.version > VERSION {
+                return Err(TraceFileError::Version(header.version));
+            }
+            file.header = Some(header);
+        } else {
+            let entry: TraceEntry = serde_json::from_value(value).map_err(syntax)?;
+            file.trace.entries.push(entry);
+        }
+    }
+    Ok(file)
+}
+
+/// A live trace writer shared by everything that records one line: the driver, a transport
+/// wrapper, a monitor. Cheap to clone; every clone appends to the same file, and each entry is
+/// flushed as it is written so a trace survives Ctrl-C up to its last line.
+///
+/// Entry times are microseconds since the recorder was created (its own monotonic clock), so
+/// several writers sharing one recorder agree on time.
+#[derive(Clone)]
+pub struct Recorder {
+    inner: Arc<Mutex<Box<dyn Write + Send>>>,
+    origin: std::time::Instant,
+    station: Arc<str>,
+}
+
+impl core::fmt::Debug for Recorder {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Recorder").finish_non_exhaustive()
+    }
+}
+
+impl Recorder {
+    /// A recorder writing to `out`, starting with `header`.
+    pub fn new(mut out: Box<dyn Write + Send>, header: &Header) -> io::Result<Self> {
+        writeln!(out, "{}", serde_json::to_string(header).unwrap_or_default())?;
+        out.flush()?;
+        Ok(Recorder {
+            inner: Arc::new(Mutex::new(out)),
+            origin: std::time::Instant::now(),
+            station: Arc::from("local"),
+        })
+    }
+
+    /// A clone that writes its entries under another station name (same file, same clock):
+    /// one per port when a program records several lines.
+    pub fn for_station(&self, station: &str) -> Recorder {
+        Recorder {
+            station: Arc::from(station),
+            ..self.clone()
+        }
+    }
+
+    /// The station name entries are written under (`"local"` unless set with
+    /// [`for_station`](Self::for_station)).
+    pub fn station(&self) -> &str {
+        &self.station
+    }
+
+    /// A recorder writing to a new file at `path` (replacing one that exists).
+    pub fn create(path: &std::path::Path, header: &Header) -> io::Result<Self> {
+        let file = std::fs::File::create(path)?;
+        Recorder::new(Box::new(io::BufWriter::new(file)), header)
+    }
+
+    /// The recorder's clock: microseconds since it was created.
+    pub fn now(&self) -> Instant {
+        Instant::from_micros(u64::try_from(self.origin.elapsed().as_micros()).unwrap_or(u64::MAX))
+    }
+
+    /// Append one entry stamped with [`now`](Self::now). Callers on a live line log a write
+    /// error and carry on: a full disk must not stop a PLC link.
+    pub fn record(&self, kind: TraceKind) -> io::Result<()> {
+        self.record_at(self.now(), kind)
+    }
+
+    /// Append one entry with an explicit time.
+    pub fn record_at(&self, at: Instant, kind: TraceKind) -> io::Result<()> {
+        let line = entry_line(&TraceEntry {
+            at,
+            station: self.station.to_string(),
+            kind,
+        });
+        // A poisoned lock only means another writer panicked mid-line; keep recording.
+        let mut out = self.inner.lock().unwrap_or_else(|p| p.into_inner());
+        writeln!(out, "{line}")?;
+        out.flush()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sansio::LineError;
+
+    fn sample() -> Trace {
+        let e = |at, station: &str, kind| TraceEntry {
+            at: Instant::from_micros(at),
+            station: station.to_owned(),
+            kind,
+        };
+        Trace {
+            entries: vec![
+                e(0, "A", TraceKind::Tx { bytes: vec![0x02] }),
+                e(1146, "B", TraceKind::Rx { byte: 0x02 }),
+                e(
+                    1200,
+                    "B",
+                    TraceKind::RxChunk {
+                        bytes: vec![0x10, 0x10],
+                    },
+                ),
+                e(
+                    1300,
+                    "B",
+                    TraceKind::RxError {
+                        error: LineError::Parity,
+                    },
+                ),
+                e(
+                    1400,
+                    "A",
+                    TraceKind::Event {
+                        text: "Sent".into(),
+                    },
+                ),
+            ],
+        }
+    }
+
+    #[test]
+    fn write_then_read_gives_the_same_trace() {
+        let header = Header::new("sim")
+            .protocol("3964r")
+            .settings(SerialSettings::default())
+            .stations(&["A", "B"]);
+        let mut buf = Vec::new();
+        write(&mut buf, &header, &sample()).unwrap();
+        let back = read(&buf[..]).unwrap();
+        assert_eq!(back.header, Some(header));
+        assert_eq!(back.trace, sample());
+        assert_eq!(back.stations(), vec!["A", "B"]);
+    }
+
+    #[test]
+    fn the_documented_line_shapes_parse() {
+        let text = r#"{"format":"si-trace","version":1,"source":"port","settings":{"baud":187500,"data_bits":8,"parity":"even","stop_bits":1}}
+{"at":0,"station":"A","kind":"tx","bytes":[2]}
+
+{"at":1146,"station":"B","kind":"rx","byte":2}
+{"at":5200,"station":"si","kind":"rx_chunk","bytes":[16,2]}
+"#;
+        let f = read(text.as_bytes()).unwrap();
+        assert_eq!(f.trace.entries.len(), 3);
+        let s = f.header.unwrap().settings.unwrap().settings().unwrap();
+        assert_eq!(s.baud(), 187_500, "USS's rate reads back");
+        assert_eq!(
+            f.trace.entries[2].kind,
+            TraceKind::RxChunk { bytes: vec![16, 2] }
+        );
+    }
+
+    #[test]
+    fn a_bad_line_is_named() {
+        let text = "{\"at\":0,\"station\":\"A\",\"kind\":\"tx\",\"bytes\":[2]}\nnot json\n";
+        match read(text.as_bytes()) {
+            Err(TraceFileError::Syntax { line, .. }) => assert_eq!(line, 2),
+            other => panic!("expected a syntax error, got {other:?}"),
+        }
+        let newer = r#"{"format":"si-trace","version":99,"source":"x"}"#;
+        assert!(matches!(
+            read(newer.as_bytes()),
+            Err(TraceFileError::Version(99))
+        ));
+    }
+
+    #[test]
+    fn recorder_appends_lines_a_reader_understands() {
+        #[derive(Clone, Default)]
+        struct Shared(Arc<Mutex<Vec<u8>>>);
+        impl Write for Shared {
+            fn write(&mut self, b: &[u8]) -> io::Result<usize> {
+                self.0.lock().unwrap().extend_from_slice(b);
+                Ok(b.len())
+            }
+            fn flush(&mut self) -> io::Result<()> {
+                Ok(())
+            }
+        }
+        let buf = Shared::default();
+        let rec = Recorder::new(Box::new(buf.clone()), &Header::new("driver")).unwrap();
+        let rec2 = rec.for_station("si");
+        rec.record_at(Instant::from_micros(5), TraceKind::Tx { bytes: vec![1] })
+            .unwrap();
+        rec2.record(TraceKind::RxChunk { bytes: vec![2, 3] })
+            .unwrap();
+        let bytes = buf.0.lock().unwrap().clone();
+        let f = read(&bytes[..]).unwrap();
+        assert_eq!(f.header.unwrap().source, "driver");
+        assert_eq!(f.trace.entries.len(), 2);
+        assert_eq!(f.trace.entries[0].at, Instant::from_micros(5));
+        assert_eq!(f.trace.entries[0].station, "local");
+        assert_eq!(f.trace.entries[1].station, "si");
+    }
+}
