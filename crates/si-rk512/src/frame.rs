@@ -345,11 +345,13 @@ impl CommandHeader {
 
     /// Decode the first 10 bytes of a first command telegram (any data after them is ignored).
     pub fn decode(bytes: &[u8]) -> Result<CommandHeader, DecodeError> {
-        need(bytes, COMMAND_HEADER_LEN)?;
+        // The identifying bytes first, so a wrong one is named even in a short telegram.
+        need(bytes, SHORT_HEADER_LEN)?;
         expect(bytes, 0, FIRST, "00H (first command telegram)")?;
         expect(bytes, 1, 0x00, "00H")?;
         let command = command_at(bytes)?;
         let data_type = data_type_at(bytes)?;
+        need(bytes, COMMAND_HEADER_LEN)?;
         Ok(CommandHeader {
             command,
             address: Address::from_bytes(data_type, [bytes[4], bytes[5]]),
