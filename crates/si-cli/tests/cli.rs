@@ -153,3 +153,15 @@ fn uss_accepts_187500_baud_and_3964r_refuses_it() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("baud rate 187500"), "{}", stderr(&o));
 }
+
+/// Frame commands take the bytes as one quoted argument or as several words.
+#[test]
+fn frame_hex_may_be_one_argument_or_several_words() {
+    let words = si(&[
+        "frame", "encode", "modbus", "01", "03", "00", "00", "00", "0A",
+    ]);
+    let quoted = si(&["frame", "encode", "modbus", "01 03 00 00 00 0A"]);
+    assert!(words.status.success(), "{}", stderr(&words));
+    assert_eq!(stdout(&words), stdout(&quoted));
+    assert_eq!(stdout(&words).trim(), "01 03 00 00 00 0A C5 CD");
+}

@@ -56,7 +56,8 @@ impl FrameCommand {
     }
 }
 
-/// Parse the user's hex argument, turning a mistake into a one-line error.
+/// Parse the user's hex argument, turning a mistake into a one-line error. Frame commands take
+/// the bytes as one quoted argument or as several words (`01 03 00 00`), joined with spaces.
 pub fn parse_hex(text: &str) -> Result<Vec<u8>, CliError> {
     si_core::hex::parse(text).map_err(|e| CliError::new(format!("bad hex {text:?}: {e}")))
 }

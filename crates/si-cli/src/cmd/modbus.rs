@@ -594,13 +594,14 @@ fn print_slave_event(e: &SlaveEvent, out: &Output) {
 #[derive(Debug, Args)]
 pub struct EncodeArgs {
     /// Slave address and PDU in hex, e.g. "01 03 00 00 00 0A".
-    hex: String,
+    #[arg(required = true, num_args = 1.., value_name = "HEX")]
+    hex: Vec<String>,
 }
 
 impl EncodeArgs {
     /// Append the CRC (low byte first) and say how the frame reads.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let body = crate::cmd::frame::parse_hex(&self.hex)?;
+        let body = crate::cmd::frame::parse_hex(&self.hex.join(" "))?;
         if body.len() < 2 {
             return Err(CliError::new(
                 "give at least the slave address and the function code",
@@ -645,13 +646,14 @@ fn reading(adu: &[u8]) -> Option<(&'static str, String)> {
 #[derive(Debug, Args)]
 pub struct DecodeArgs {
     /// ADU in hex with the CRC, e.g. "01 03 00 00 00 0A C5 CD".
-    hex: String,
+    #[arg(required = true, num_args = 1.., value_name = "HEX")]
+    hex: Vec<String>,
 }
 
 impl DecodeArgs {
     /// Check the CRC, then read the frame as a request, else as a response.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let adu = crate::cmd::frame::parse_hex(&self.hex)?;
+        let adu = crate::cmd::frame::parse_hex(&self.hex.join(" "))?;
         let as_request = frame::decode_request(&adu);
         let as_response = frame::decode_response(&adu);
         match (&as_request, &as_response) {

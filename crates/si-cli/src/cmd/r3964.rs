@@ -189,13 +189,14 @@ pub struct EncodeArgs {
     #[arg(long)]
     no_bcc: bool,
     /// Payload in hex.
-    hex: String,
+    #[arg(required = true, num_args = 1.., value_name = "HEX")]
+    hex: Vec<String>,
 }
 
 impl EncodeArgs {
     /// Print the block that follows the partner's DLE: stuffed data, DLE ETX, BCC.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let payload = crate::cmd::frame::parse_hex(&self.hex)?;
+        let payload = crate::cmd::frame::parse_hex(&self.hex.join(" "))?;
         let mode = mode(self.no_bcc);
         let block = frame::encode(&payload, mode);
         let text = si_core::hex::format(&block);
@@ -218,13 +219,14 @@ pub struct DecodeArgs {
     #[arg(long, default_value_t = 1024)]
     max_len: usize,
     /// The block after the receiver's DLE: data, DLE ETX and (3964R) BCC, in hex.
-    hex: String,
+    #[arg(required = true, num_args = 1.., value_name = "HEX")]
+    hex: Vec<String>,
 }
 
 impl DecodeArgs {
     /// Print the payload, or fail naming what is wrong (and its STATUS).
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let block = crate::cmd::frame::parse_hex(&self.hex)?;
+        let block = crate::cmd::frame::parse_hex(&self.hex.join(" "))?;
         match frame::decode(&block, mode(self.no_bcc), self.max_len) {
             Ok(payload) => {
                 let text = si_core::hex::format(&payload);

@@ -412,13 +412,14 @@ async fn sim_slave(a: SimSlaveArgs, conn: &Connection, out: &Output) -> Result<(
 #[derive(Debug, Args)]
 pub struct EncodeArgs {
     /// ADR then the net data, in hex: `01 12 BC 00 00 00 00 00 00 04 7E 00 00`.
-    hex: String,
+    #[arg(required = true, num_args = 1.., value_name = "HEX")]
+    hex: Vec<String>,
 }
 
 impl EncodeArgs {
     /// Run it.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let bytes = crate::cmd::frame::parse_hex(&self.hex)?;
+        let bytes = crate::cmd::frame::parse_hex(&self.hex.join(" "))?;
         let (&adr, net) = bytes
             .split_first()
             .ok_or_else(|| CliError::new("give at least the ADR byte"))?;
@@ -443,13 +444,14 @@ pub struct DecodeArgs {
     #[arg(long)]
     pzd_words: Option<u8>,
     /// Telegram in hex, STX to BCC.
-    hex: String,
+    #[arg(required = true, num_args = 1.., value_name = "HEX")]
+    hex: Vec<String>,
 }
 
 impl DecodeArgs {
     /// Run it.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let bytes = crate::cmd::frame::parse_hex(&self.hex)?;
+        let bytes = crate::cmd::frame::parse_hex(&self.hex.join(" "))?;
         let t = frame::decode(&bytes)?;
         let mut text = format!(
             "ADR {:02X}H (slave {}{}), LGE {}, {} net bytes: {}",
