@@ -16,6 +16,8 @@
 //!   a job watchdog. Every job ends in exactly one completion.
 //! * [`fb`]: S_SEND, S_RCV, S_VSTAT, S_VSET, S_XON, S_RTS, S_V24 with S7 call semantics over the
 //!   host.
+//! * [`channel`]: the [`channel::Channel`] trait, so one user program calls S_SEND / S_RCV on a
+//!   3964(R) or ASCII link directly or through the window.
 //! * [`module`]: the module's engine, with its serial line behind the [`module::SerialSide`]
 //!   trait, for simulations and tests (and gateways that play the module).
 //! * [`mod@line`]: [`line::EngineSerial`] makes any Sans-IO line engine the module's serial side, and
@@ -70,6 +72,7 @@
 //! assert_eq!(module.serial().sent().next().map(|f| &f[..]), Some(&b"hello"[..]));
 //! ```
 
+pub mod channel;
 pub mod config;
 pub mod coord;
 pub mod engines;

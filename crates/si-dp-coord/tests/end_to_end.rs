@@ -10,6 +10,7 @@
 
 use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Engine, Instant, SerialSettings, Status};
+use si_dp_coord::channel::{AsciiFbs, Channel, R3964rFbs, WindowFbs};
 use si_dp_coord::engines;
 use si_dp_coord::fb::{Done, Received, SRcv, SSend, SVset, SXon};
 use si_dp_coord::line::EngineSerial;
@@ -325,4 +326,152 @@ fn section_2_6_wrong_parameter_block_is_refused_with_0550h() {
         assert!(d.error);
         assert_eq!(d.status.code(), 0x0550);
     }
+}
+
+/// One user program, written once against [`Channel`]: S_SEND with REQ held until DONE/ERROR,
+/// S_RCV with EN_R = 1; it logs every output with DONE, ERROR or NDR set.
+#[derive(Debug, Default)]
+struct UserProgram<C> {
+    fbs: C,
+    dest: Vec<u8>,
+    log: Vec<String>,
+    sent: bool,
+}
+
+impl<C: Channel> UserProgram<C> {
+    fn new(fbs: C) -> Self {
+        UserProgram {
+            fbs,
+            dest: vec![0; 256],
+            log: Vec::new(),
+            sent: false,
+        }
+    }
+
+    fn cycle(&mut self, engine: &mut C::Engine, now: Instant, data: Option<&[u8]>) {
+        if let Some(data) = data.filter(|_| !self.sent) {
+            let d = self.fbs.send(engine, now, true, false, data);
+            if d.done || d.error {
+                self.sent = true;
+                self.log.push(format!(
+                    "send done={} error={} {:04X}",
+                    d.done,
+                    d.error,
+                    d.status.code()
+                ));
+            }
+        }
+        let r = self.fbs.receive(engine, now, true, false, &mut self.dest);
+        if r.ndr || r.error {
+            self.log.push(format!(
+                "rcv ndr={} error={} {:04X} {:02X?}",
+                r.ndr,
+                r.error,
+                r.status.code(),
+                &self.dest[..r.len]
+            ));
+        }
+    }
+}
+
+/// The same two user programs, first on two engines connected directly, then each behind a
+/// window module: the same outputs.
+fn direct_and_window<E, C>(
+    make: impl Fn(bool) -> E,
+    module: impl Fn(E) -> Module<EngineSerial<E>>,
+    settings: SerialSettings,
+    fbs: impl Fn() -> C,
+    window_fbs: impl Fn() -> WindowFbs,
+) -> (Vec<String>, Vec<String>, Vec<String>, Vec<String>)
+where
+    E: Engine + 'static,
+    E::Event: 'static,
+    C: Channel<Engine = E>,
+{
+    let (ping, pong) = (&b"ping 0123456789"[..], &b"pong"[..]);
+    // Direct: each user program owns a line engine.
+    let mut sim = Simulator::new(9);
+    let a = sim.add_station("A", settings, make(true));
+    let b = sim.add_station("B", settings, make(false));
+    sim.connect(a, b);
+    let (mut pa, mut pb) = (UserProgram::new(fbs()), UserProgram::new(fbs()));
+    for i in 0..1_000 {
+        sim.with(a, |e, now| pa.cycle(e, now, Some(ping)));
+        sim.with(b, |e, now| pb.cycle(e, now, (i > 300).then_some(pong)));
+        sim.run_for(CYCLE);
+    }
+    // Through the window: the same programs, each on the host of a module running that engine.
+    let mut sim = Simulator::new(9);
+    let mut a = Side::new(&mut sim, "A", settings, module(make(true)));
+    let mut b = Side::new(&mut sim, "B", settings, module(make(false)));
+    sim.connect(a.station, b.station);
+    let (mut wa, mut wb) = (
+        UserProgram::new(window_fbs()),
+        UserProgram::new(window_fbs()),
+    );
+    for i in 0..1_000 {
+        wa.cycle(&mut a.host, sim.now(), Some(ping));
+        wb.cycle(&mut b.host, sim.now(), (i > 300).then_some(pong));
+        a.dp_cycle(&mut sim);
+        b.dp_cycle(&mut sim);
+        sim.run_for(CYCLE);
+    }
+    (pa.log, pb.log, wa.log, wb.log)
+}
+
+#[test]
+fn channel_same_user_program_on_3964r_directly_and_through_the_window() {
+    let settings = SerialSettings::default();
+    let make = |high: bool| {
+        let priority = if high {
+            si_3964r::config::Priority::High
+        } else {
+            si_3964r::config::Priority::Low
+        };
+        let config = si_3964r::Config {
+            priority,
+            ..si_3964r::Config::default()
+        };
+        si_3964r::Link::new(config, settings).unwrap()
+    };
+    let (pa, pb, wa, wb) = direct_and_window(
+        make,
+        |l| engines::r3964r_module(WindowSize::Eight, l),
+        settings,
+        R3964rFbs::default,
+        WindowFbs::default,
+    );
+    assert_eq!(
+        pa,
+        [
+            "send done=true error=false 0000",
+            "rcv ndr=true error=false 0000 [70, 6F, 6E, 67]"
+        ]
+    );
+    assert_eq!(pb.len(), 2, "{pb:?}");
+    assert_eq!((&pa, &pb), (&wa, &wb));
+}
+
+#[test]
+fn channel_same_user_program_on_ascii_directly_and_through_the_window() {
+    let config = si_ascii::Config {
+        tx_chunk: 1,
+        ..si_ascii::Config::default()
+    };
+    let (pa, pb, wa, wb) = direct_and_window(
+        |_| si_ascii::Link::new(config).unwrap(),
+        |l| engines::ascii_module(WindowSize::Four, l),
+        config.settings,
+        AsciiFbs::default,
+        WindowFbs::default,
+    );
+    assert_eq!(
+        pb,
+        [
+            "rcv ndr=true error=false 0000 [70, 69, 6E, 67, 20, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39]",
+            "send done=true error=false 0000"
+        ]
+    );
+    assert_eq!(pa.len(), 2, "{pa:?}");
+    assert_eq!((&pa, &pb), (&wa, &wb));
 }
