@@ -160,44 +160,58 @@ impl Config {
         Duration::from_millis(u64::from(self.ack_delay_ms))
     }
 
-    /// Checks every parameter against its range.
+    /// Checks every parameter against its range; the first error found.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        check(
-            "character delay time (ZVZ)",
-            CHAR_DELAY_RANGE,
-            " ms",
-            self.char_delay_ms.into(),
-        )?;
-        check(
-            "acknowledgement delay time (QVZ)",
-            ACK_DELAY_RANGE,
-            " ms",
-            self.ack_delay_ms.into(),
-        )?;
-        check(
-            "connection attempts",
-            ATTEMPTS_RANGE,
-            "",
-            self.connection_attempts.into(),
-        )?;
-        check(
-            "transmission attempts",
-            ATTEMPTS_RANGE,
-            "",
-            self.transmission_attempts.into(),
-        )?;
-        check(
-            "maximum block length",
-            MAX_BLOCK_RANGE,
-            " bytes",
-            self.max_block_len.into(),
-        )?;
-        check(
-            "receive buffer",
-            RECEIVE_BUFFER_RANGE,
-            " blocks",
-            self.receive_buffer_blocks.into(),
-        )
+        match self.validate_all().into_iter().next() {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    /// Checks every parameter against its range and returns every error, in field order, so
+    /// a parameter file with several wrong values is reported in one go.
+    pub fn validate_all(&self) -> Vec<ConfigError> {
+        [
+            check(
+                "character delay time (ZVZ)",
+                CHAR_DELAY_RANGE,
+                " ms",
+                self.char_delay_ms.into(),
+            ),
+            check(
+                "acknowledgement delay time (QVZ)",
+                ACK_DELAY_RANGE,
+                " ms",
+                self.ack_delay_ms.into(),
+            ),
+            check(
+                "connection attempts",
+                ATTEMPTS_RANGE,
+                "",
+                self.connection_attempts.into(),
+            ),
+            check(
+                "transmission attempts",
+                ATTEMPTS_RANGE,
+                "",
+                self.transmission_attempts.into(),
+            ),
+            check(
+                "maximum block length",
+                MAX_BLOCK_RANGE,
+                " bytes",
+                self.max_block_len.into(),
+            ),
+            check(
+                "receive buffer",
+                RECEIVE_BUFFER_RANGE,
+                " blocks",
+                self.receive_buffer_blocks.into(),
+            ),
+        ]
+        .into_iter()
+        .filter_map(Result::err)
+        .collect()
     }
 }
 
@@ -324,6 +338,27 @@ mod tests {
             c.validate().unwrap_err().to_string(),
             "connection attempts must be 1 … 255, got 0"
         );
+    }
+
+    #[test]
+    fn validate_all_reports_every_error() {
+        assert!(Config::default().validate_all().is_empty());
+        let c = Config {
+            char_delay_ms: 19,
+            connection_attempts: 0,
+            max_block_len: 0,
+            ..Config::default()
+        };
+        let all: Vec<String> = c.validate_all().iter().map(|e| e.to_string()).collect();
+        assert_eq!(
+            all,
+            [
+                "character delay time (ZVZ) must be 20 … 655350 ms, got 19",
+                "connection attempts must be 1 … 255, got 0",
+                "maximum block length must be 1 … 1024 bytes, got 0",
+            ]
+        );
+        assert_eq!(c.validate().unwrap_err().to_string(), all[0]);
     }
 
     #[test]
