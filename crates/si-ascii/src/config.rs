@@ -293,10 +293,16 @@ fn check_step_time(parameter: &'static str, ms: u32, min: u32) -> Result<(), Con
 impl XonXoff {
     /// Check the characters against the data width and the wait time against its range.
     pub fn validate(&self, settings: &SerialSettings) -> Result<(), ConfigError> {
+        first(self.validate_all(settings))
+    }
+
+    /// Like [`validate`](Self::validate), but every error.
+    pub fn validate_all(&self, settings: &SerialSettings) -> Vec<ConfigError> {
+        let mut errors = Vec::new();
         let mask = settings.data_mask();
         for (parameter, c) in [("XON character", self.xon), ("XOFF character", self.xoff)] {
             if c & !mask != 0 {
-                return Err(out_of_range(
+                errors.push(out_of_range(
                     parameter,
                     format!("{c:02X}H"),
                     format!("00H … {mask:02X}H with {} data bits", settings.data_bits()),
@@ -304,13 +310,14 @@ impl XonXoff {
             }
         }
         if self.xon == self.xoff {
-            return Err(ConfigError::NotAllowed {
+            errors.push(ConfigError::NotAllowed {
                 parameter: "XOFF character",
                 value: format!("{:02X}H", self.xoff),
                 reason: "it must differ from the XON character",
             });
         }
-        check_step_time("wait time for XON", self.wait_for_xon_ms, 20)
+        errors.extend(check_step_time("wait time for XON", self.wait_for_xon_ms, 20).err());
+        errors
     }
 }
 
@@ -324,26 +331,52 @@ impl RtsCts {
 impl AutoV24 {
     /// Check both times against their range (0 … 655 350 ms, 10 ms steps).
     pub fn validate(&self) -> Result<(), ConfigError> {
-        check_step_time("time to RTS off", self.time_rts_off_ms, 0)?;
-        check_step_time("data output wait time", self.data_wait_time_ms, 0)
+        first(self.validate_all())
+    }
+
+    /// Like [`validate`](Self::validate), but every error.
+    pub fn validate_all(&self) -> Vec<ConfigError> {
+        [
+            check_step_time("time to RTS off", self.time_rts_off_ms, 0),
+            check_step_time("data output wait time", self.data_wait_time_ms, 0),
+        ]
+        .into_iter()
+        .filter_map(Result::err)
+        .collect()
+    }
+}
+
+fn first(errors: Vec<ConfigError>) -> Result<(), ConfigError> {
+    match errors.into_iter().next() {
+        Some(e) => Err(e),
+        None => Ok(()),
     }
 }
 
 impl Config {
     /// Check every parameter against Table 2-10 / Table 2-26 and the combinations §6.7–§6.9
-    /// forbid.
+    /// forbid; the first error found.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        first(self.validate_all())
+    }
+
+    /// Like [`validate`](Self::validate), but every error, in the order of the parameter
+    /// table, so a parameter file with several wrong values is reported in one go.
+    pub fn validate_all(&self) -> Vec<ConfigError> {
+        let mut errors = Vec::new();
         let s = &self.settings;
-        SerialSettings::with_rates(
+        if let Err(e) = SerialSettings::with_rates(
             s.baud(),
             s.data_bits(),
             s.parity(),
             s.stop_bits(),
             &BAUD_RATES,
-        )?;
+        ) {
+            errors.push(e.into());
+        }
         let min = min_char_delay_ms(s.baud());
         if self.char_delay_ms < min || self.char_delay_ms > 65_535 {
-            return Err(out_of_range(
+            errors.push(out_of_range(
                 "character delay time",
                 format!("{} ms", self.char_delay_ms),
                 format!("{min} … 65535 ms at {} bit/s", s.baud()),
@@ -354,14 +387,14 @@ impl Config {
             EndCriterion::CharDelay => {}
             EndCriterion::EndChars { first, second } => {
                 if first == 0 || first & !mask != 0 {
-                    return Err(out_of_range(
+                    errors.push(out_of_range(
                         "end-of-text character 1",
                         format!("{first:02X}H"),
                         format!("01H … {mask:02X}H with {} data bits", s.data_bits()),
                     ));
                 }
                 if second & !mask != 0 {
-                    return Err(out_of_range(
+                    errors.push(out_of_range(
                         "end-of-text character 2",
                         format!("{second:02X}H"),
                         format!("00H … {mask:02X}H with {} data bits", s.data_bits()),
@@ -370,7 +403,7 @@ impl Config {
             }
             EndCriterion::FixedLength { len } => {
                 if len == 0 || usize::from(len) > MAX_FRAME_LEN {
-                    return Err(out_of_range(
+                    errors.push(out_of_range(
                         "length of received frame",
                         len,
                         format!("1 … {MAX_FRAME_LEN} bytes"),
@@ -380,15 +413,13 @@ impl Config {
         }
         match (self.flow_control, self.interface) {
             (FlowControl::None, _) => {}
-            (_, Interface::Rs485) => {
-                return Err(ConfigError::NotAllowed {
-                    parameter: "flow control",
-                    value: format!("{:?}", self.flow_control),
-                    reason: "flow control is not possible on RS-485 (§6.9)",
-                })
-            }
+            (_, Interface::Rs485) => errors.push(ConfigError::NotAllowed {
+                parameter: "flow control",
+                value: format!("{:?}", self.flow_control),
+                reason: "flow control is not possible on RS-485 (§6.9)",
+            }),
             (FlowControl::RtsCts | FlowControl::AutoV24, Interface::Rs422) => {
-                return Err(ConfigError::NotAllowed {
+                errors.push(ConfigError::NotAllowed {
                     parameter: "flow control",
                     value: format!("{:?}", self.flow_control),
                     reason: "RTS/CTS and automatic V.24 operation need RS-232C (§6.9)",
@@ -397,20 +428,20 @@ impl Config {
             _ => {}
         }
         if self.tx_chunk == 0 || usize::from(self.tx_chunk) > MAX_FRAME_LEN {
-            return Err(out_of_range(
+            errors.push(out_of_range(
                 "transmit chunk",
                 self.tx_chunk,
                 format!("1 … {MAX_FRAME_LEN} characters"),
             ));
         }
-        self.xon_xoff.validate(s)?;
-        self.rts_cts.validate()?;
-        self.auto_v24.validate()?;
+        errors.extend(self.xon_xoff.validate_all(s));
+        errors.extend(self.rts_cts.validate().err());
+        errors.extend(self.auto_v24.validate_all());
         if self.flow_control == FlowControl::XonXoff {
             if let EndCriterion::EndChars { first, second } = self.end {
                 let flow = [self.xon_xoff.xon, self.xon_xoff.xoff];
                 if flow.contains(&first) || (second != 0 && flow.contains(&second)) {
-                    return Err(ConfigError::NotAllowed {
+                    errors.push(ConfigError::NotAllowed {
                         parameter: "end-of-text character",
                         value: format!("{first:02X}H/{second:02X}H"),
                         reason: "it must differ from the XON and XOFF characters (§6.4)",
@@ -418,7 +449,7 @@ impl Config {
                 }
             }
         }
-        Ok(())
+        errors
     }
 
     /// The character delay time.
@@ -573,6 +604,26 @@ mod tests {
             ..Config::default()
         };
         c.validate().unwrap();
+    }
+
+    #[test]
+    fn validate_all_reports_every_error() {
+        assert!(Config::default().validate_all().is_empty());
+        let mut c = Config {
+            char_delay_ms: 3,
+            end: EndCriterion::FixedLength { len: 0 },
+            interface: Interface::Rs485,
+            flow_control: FlowControl::XonXoff,
+            ..Config::default()
+        };
+        c.auto_v24.data_wait_time_ms = 5;
+        let all: Vec<String> = c.validate_all().iter().map(|e| e.to_string()).collect();
+        assert_eq!(all.len(), 4, "{all:?}");
+        assert!(all[0].starts_with("character delay time 3 ms"), "{all:?}");
+        assert!(all[1].starts_with("length of received frame 0"), "{all:?}");
+        assert!(all[2].contains("not possible on RS-485"), "{all:?}");
+        assert!(all[3].starts_with("data output wait time 5 ms"), "{all:?}");
+        assert_eq!(c.validate().unwrap_err().to_string(), all[0]);
     }
 
     #[test]
