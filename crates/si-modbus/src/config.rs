@@ -95,8 +95,15 @@ impl LineConfig {
     /// Parity and stop bits are not checked against the manual's "always 11 bits" rule
     /// (§3.9, §11.6): its own parameter tables allow 10- and 12-bit frames, and so do we.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        first(self.validate_all())
+    }
+
+    /// Like [`validate`](Self::validate), but every error, so a parameter file with several
+    /// wrong values is reported in one go.
+    pub fn validate_all(&self) -> Vec<ConfigError> {
+        let mut errors = Vec::new();
         if self.settings.data_bits() != 8 {
-            return Err(ConfigError {
+            errors.push(ConfigError {
                 parameter: "data bits",
                 range: "8",
                 value: self.settings.data_bits().to_string(),
@@ -104,14 +111,21 @@ impl LineConfig {
             });
         }
         if !(1..=10).contains(&self.char_delay_multiplier) {
-            return Err(ConfigError {
+            errors.push(ConfigError {
                 parameter: "character delay multiple",
                 range: "1…10",
                 value: self.char_delay_multiplier.to_string(),
                 status: status::CHAR_DELAY_MULTIPLIER,
             });
         }
-        Ok(())
+        errors
+    }
+}
+
+fn first(errors: Vec<ConfigError>) -> Result<(), ConfigError> {
+    match errors.into_iter().next() {
+        Some(e) => Err(e),
+        None => Ok(()),
     }
 }
 
@@ -148,16 +162,21 @@ impl Default for MasterConfig {
 impl MasterConfig {
     /// Check every range; the error names the parameter.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        self.line.validate()?;
+        first(self.validate_all())
+    }
+
+    /// Like [`validate`](Self::validate), but every error.
+    pub fn validate_all(&self) -> Vec<ConfigError> {
+        let mut errors = self.line.validate_all();
         if !(50..=655_000).contains(&self.response_timeout_ms) {
-            return Err(ConfigError {
+            errors.push(ConfigError {
                 parameter: "response time (ms)",
                 range: "50…655000",
                 value: self.response_timeout_ms.to_string(),
                 status: status::INVALID_TIMEOUT_OR_ADDRESS,
             });
         }
-        Ok(())
+        errors
     }
 
     /// The response timeout as a [`Duration`].
@@ -193,16 +212,21 @@ impl Default for SlaveConfig {
 impl SlaveConfig {
     /// Check every range; address 0 gives 0E23H.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        self.line.validate()?;
+        first(self.validate_all())
+    }
+
+    /// Like [`validate`](Self::validate), but every error.
+    pub fn validate_all(&self) -> Vec<ConfigError> {
+        let mut errors = self.line.validate_all();
         if self.address == 0 {
-            return Err(ConfigError {
+            errors.push(ConfigError {
                 parameter: "slave address",
                 range: "1…255",
                 value: "0".into(),
                 status: status::INVALID_TIMEOUT_OR_ADDRESS,
             });
         }
-        Ok(())
+        errors
     }
 }
 
@@ -258,5 +282,27 @@ mod tests {
         assert_eq!(seven.validate().unwrap_err().status.code(), 0x0E20);
         assert_eq!(SlaveConfig::default().address, 222);
         assert_eq!(MasterConfig::default().response_timeout_ms, 2_000);
+    }
+
+    #[test]
+    fn validate_all_reports_every_error() {
+        let c = MasterConfig {
+            line: LineConfig {
+                settings: SerialSettings::new(9600, 7, Parity::Even, 1).unwrap(),
+                char_delay_multiplier: 0,
+                ..LineConfig::default()
+            },
+            response_timeout_ms: 655_001,
+            ..MasterConfig::default()
+        };
+        let codes: Vec<u16> = c.validate_all().iter().map(|e| e.status.code()).collect();
+        assert_eq!(codes, [0x0E20, 0x0E21, 0x0E23]);
+        assert_eq!(c.validate().unwrap_err().status.code(), 0x0E20);
+        let s = SlaveConfig {
+            address: 0,
+            ..SlaveConfig::default()
+        };
+        assert_eq!(s.validate_all().len(), 1);
+        assert!(SlaveConfig::default().validate_all().is_empty());
     }
 }
