@@ -130,61 +130,86 @@ impl MasterConfig {
         }
     }
 
-    /// Check every parameter against its range.
+    /// Check every parameter against its range; the first error found.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        match self.validate_all().into_iter().next() {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    /// Like [`validate`](Self::validate), but every error, so a parameter file with several
+    /// wrong values is reported in one go.
+    pub fn validate_all(&self) -> Vec<ConfigError> {
+        let mut errors = Vec::new();
         let n = self.polling_list.len();
-        check(
-            (1..=MAX_ENTRIES).contains(&n),
-            "SANZ (polling list entries)",
-            n,
-            "1…31",
-        )?;
+        errors.extend(
+            check(
+                (1..=MAX_ENTRIES).contains(&n),
+                "SANZ (polling list entries)",
+                n,
+                "1…31",
+            )
+            .err(),
+        );
         for (i, e) in self.polling_list.iter().enumerate() {
-            check(
-                e.address <= MAX_ADDRESS,
-                "TNU (node number)",
-                e.address,
-                "0…31",
-            )?;
-            check(
-                usize::from(e.pzd_words) <= MAX_PZD_WORDS,
-                "PZD words",
-                e.pzd_words,
-                "0…16",
-            )?;
-            check(
-                e.net_len() <= MAX_NET,
-                "net data bytes",
-                e.net_len(),
-                "0…252",
-            )?;
+            errors.extend(
+                [
+                    check(
+                        e.address <= MAX_ADDRESS,
+                        "TNU (node number)",
+                        e.address,
+                        "0…31",
+                    ),
+                    check(
+                        usize::from(e.pzd_words) <= MAX_PZD_WORDS,
+                        "PZD words",
+                        e.pzd_words,
+                        "0…16",
+                    ),
+                    check(
+                        e.net_len() <= MAX_NET,
+                        "net data bytes",
+                        e.net_len(),
+                        "0…252",
+                    ),
+                ]
+                .into_iter()
+                .filter_map(Result::err),
+            );
             if self.polling_list[..i]
                 .iter()
                 .any(|o| o.address == e.address && (o.pkw, o.pzd_words) != (e.pkw, e.pzd_words))
             {
-                return Err(ConfigError::ConflictingStructure { address: e.address });
+                errors.push(ConfigError::ConflictingStructure { address: e.address });
             }
         }
         let t = self.response_timeout;
-        check(
-            t >= Duration::from_millis(1) && t <= Duration::from_secs(10),
-            "response timeout",
-            t,
-            "1 ms … 10 s",
-        )?;
-        check(
-            self.pkw_retries <= 32_767,
-            "WDH (PKW repetitions)",
-            self.pkw_retries,
-            "0…32767",
-        )?;
-        check(
-            self.cycle_pause <= Duration::from_secs(60),
-            "cycle pause",
-            self.cycle_pause,
-            "0 … 60 s",
-        )?;
-        Ok(())
+        errors.extend(
+            [
+                check(
+                    t >= Duration::from_millis(1) && t <= Duration::from_secs(10),
+                    "response timeout",
+                    t,
+                    "1 ms … 10 s",
+                ),
+                check(
+                    self.pkw_retries <= 32_767,
+                    "WDH (PKW repetitions)",
+                    self.pkw_retries,
+                    "0…32767",
+                ),
+                check(
+                    self.cycle_pause <= Duration::from_secs(60),
+                    "cycle pause",
+                    self.cycle_pause,
+                    "0 … 60 s",
+                ),
+            ]
+            .into_iter()
+            .filter_map(Result::err),
+        );
+        errors
     }
 
     /// Start interval: 2 character times of silence before every STX (public-facts.md §3).
@@ -243,5 +268,25 @@ mod tests {
         );
         assert!(uss_settings(187_500).is_ok());
         assert!(uss_settings(187_000).is_err());
+    }
+
+    #[test]
+    fn validate_all_reports_every_error() {
+        let mut c = MasterConfig::new(vec![
+            PollEntry::new(32, PkwWords::Four, 2),
+            PollEntry::new(3, PkwWords::Four, 17),
+        ]);
+        c.pkw_retries = 40_000;
+        let all: Vec<String> = c.validate_all().iter().map(|e| e.to_string()).collect();
+        assert_eq!(all.len(), 3, "{all:?}");
+        assert!(all[0].starts_with("TNU"));
+        assert!(all[1].starts_with("PZD words"));
+        assert!(all[2].starts_with("WDH"));
+        assert_eq!(c.validate().unwrap_err().to_string(), all[0]);
+        assert!(
+            MasterConfig::new(vec![PollEntry::new(1, PkwWords::Four, 2)])
+                .validate_all()
+                .is_empty()
+        );
     }
 }
