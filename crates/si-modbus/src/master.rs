@@ -13,7 +13,7 @@ use crate::config::{MasterConfig, Mode};
 use crate::frame::{self, fc, Adu, Request, Response, BROADCAST};
 use crate::rx::{Counters, Fault, Received, Receiver};
 use crate::status;
-use bytes::Bytes;
+use bytes::BytesMut;
 use si_core::{Duration, Engine, Instant, LineError, Output, Status};
 use std::collections::VecDeque;
 
@@ -128,6 +128,10 @@ pub struct Master {
     state: State,
     job: Option<(Adu, u8)>,
     out: VecDeque<Output<MasterEvent>>,
+    /// Transmit frames are cut from this buffer (`split().freeze()`); once the driver drops
+    /// the previous frame, `reserve` reclaims the same allocation, so a steady state allocates
+    /// nothing per frame (the si-core contract).
+    tx_pool: BytesMut,
 }
 
 impl Master {
@@ -140,6 +144,7 @@ impl Master {
             state: State::Idle,
             job: None,
             out: VecDeque::new(),
+            tx_pool: BytesMut::with_capacity(4 * crate::frame::MAX_ADU),
         })
     }
 
@@ -195,8 +200,10 @@ impl Master {
             self.rx.expect_echo(bytes.len());
         }
         let until = now + self.config.line.settings.chars_time(bytes.len() as u64);
-        self.out
-            .push_back(Output::Transmit(Bytes::copy_from_slice(bytes)));
+        self.tx_pool.reserve(bytes.len());
+        self.tx_pool.extend_from_slice(bytes);
+        let frame = self.tx_pool.split().freeze();
+        self.out.push_back(Output::Transmit(frame));
         self.state = State::Sending { until };
     }
 

@@ -20,7 +20,7 @@ use crate::frame::{
 };
 use crate::rx::{Counters, Fault, Received, Receiver};
 use crate::status::{self, slave as codes};
-use bytes::Bytes;
+use bytes::BytesMut;
 use si_core::{Engine, Instant, LineError, Output, Status};
 use std::collections::VecDeque;
 
@@ -249,6 +249,10 @@ pub struct Slave<S> {
     busy_until: Option<Instant>,
     /// A request started while we were still transmitting.
     overlapped: bool,
+    /// Transmit frames are cut from this buffer (`split().freeze()`); once the driver drops
+    /// the previous frame, `reserve` reclaims the same allocation, so a steady state allocates
+    /// nothing per frame (the si-core contract).
+    tx_pool: BytesMut,
 }
 
 impl<S: Store> Slave<S> {
@@ -262,6 +266,7 @@ impl<S: Store> Slave<S> {
             out: VecDeque::new(),
             busy_until: None,
             overlapped: false,
+            tx_pool: BytesMut::with_capacity(4 * crate::frame::MAX_ADU),
         })
     }
 
@@ -295,8 +300,10 @@ impl<S: Store> Slave<S> {
             self.rx.expect_echo(bytes.len());
         }
         self.busy_until = Some(now + self.config.line.settings.chars_time(bytes.len() as u64));
-        self.out
-            .push_back(Output::Transmit(Bytes::copy_from_slice(bytes)));
+        self.tx_pool.reserve(bytes.len());
+        self.tx_pool.extend_from_slice(bytes);
+        let frame = self.tx_pool.split().freeze();
+        self.out.push_back(Output::Transmit(frame));
     }
 
     fn exception(
