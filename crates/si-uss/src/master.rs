@@ -45,7 +45,7 @@ use crate::frame::{
 };
 use crate::rx::{Receiver, RxOutcome};
 use crate::status;
-use bytes::Bytes;
+use bytes::BytesMut;
 use serde::{Deserialize, Serialize};
 use si_core::{Duration, Engine, Instant, LineError, Output, Status};
 use std::collections::VecDeque;
@@ -417,6 +417,10 @@ pub struct Master {
     mirror: Option<(u8, PendingSpecial)>,
     next_job: u64,
     counters: Counters,
+    /// Transmit frames are cut from this buffer (`split().freeze()`); once the driver drops
+    /// the previous frame, `reserve` reclaims the same allocation, so a steady state allocates
+    /// nothing per frame (the si-core contract).
+    tx_pool: BytesMut,
 }
 
 impl Master {
@@ -459,6 +463,7 @@ impl Master {
             mirror: None,
             next_job: 0,
             counters: Counters::default(),
+            tx_pool: BytesMut::with_capacity(4 * MAX_TELEGRAM),
             config,
         })
     }
@@ -740,8 +745,10 @@ impl Master {
     fn transmit(&mut self, now: Instant, adr: Adr, net: &[u8]) {
         self.tx_len = frame::encode(adr, net, &mut self.tx).unwrap_or(0);
         let len = self.tx_len;
-        self.out
-            .push_back(Output::Transmit(Bytes::copy_from_slice(&self.tx[..len])));
+        self.tx_pool.reserve(len);
+        self.tx_pool.extend_from_slice(&self.tx[..len]);
+        let telegram = self.tx_pool.split().freeze();
+        self.out.push_back(Output::Transmit(telegram));
         bump(&mut self.counters.sent);
         self.line_free = now + self.config.settings.chars_time(len as u64);
         if self.config.local_echo {
