@@ -103,15 +103,19 @@ pub fn bcc(bytes: &[u8]) -> u8 {
 
 /// Appends the block for `payload` to `out`: data with DLEs doubled, `DLE ETX`, and for
 /// 3964(R) the BCC. `out` is reused by the engine, so a steady state allocates nothing.
+///
+/// Runs between DLEs are copied whole rather than byte by byte (BENCHMARKS.md: the block
+/// encode runs at memory speed, well above 1 GiB/s).
 pub fn encode_into(payload: &[u8], mode: Mode, out: &mut Vec<u8>) {
     let start = out.len();
-    out.reserve(payload.len() + 3);
-    for &b in payload {
-        out.push(b);
-        if b == DLE {
-            out.push(DLE);
-        }
+    out.reserve(payload.len() + 4);
+    let mut rest = payload;
+    while let Some(i) = rest.iter().position(|&b| b == DLE) {
+        out.extend_from_slice(&rest[..=i]);
+        out.push(DLE);
+        rest = &rest[i + 1..];
     }
+    out.extend_from_slice(rest);
     out.extend_from_slice(&[DLE, ETX]);
     if mode.has_bcc() {
         let check = bcc(&out[start..]);
@@ -132,17 +136,17 @@ pub fn encode(payload: &[u8], mode: Mode) -> Vec<u8> {
 /// (et200s-si-3964r-ascii.md §5.7, A-39).
 pub fn decode(block: &[u8], mode: Mode, max_len: usize) -> Result<Vec<u8>, FrameError> {
     let mut decoder = Decoder::new(mode, max_len);
-    for (i, &b) in block.iter().enumerate() {
-        if let Some(result) = decoder.push(b) {
+    match decoder.push_slice(block) {
+        (used, Some(result)) => {
             result?;
-            let count = block.len() - i - 1;
+            let count = block.len() - used;
             if count > 0 {
                 return Err(FrameError::Trailing { count });
             }
-            return Ok(decoder.payload().to_vec());
+            Ok(decoder.payload().to_vec())
         }
+        (_, None) => Err(decoder.incomplete_error()),
     }
-    Err(decoder.incomplete_error())
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -242,6 +246,39 @@ impl Decoder {
             }
         }
         None
+    }
+
+    /// Feed several characters, exactly as if each went through [`push`](Self::push), but
+    /// copying runs of ordinary data characters in one go. Returns how many characters were
+    /// consumed and, when the block completed with the last of them, its outcome: the
+    /// characters after the end of the block are left unconsumed.
+    pub fn push_slice(&mut self, bytes: &[u8]) -> (usize, Option<Result<(), FrameError>>) {
+        let mut i = 0;
+        while i < bytes.len() {
+            if self.state == DecodeState::Data {
+                let rest = &bytes[i..];
+                let run = rest.iter().position(|&b| b == DLE).unwrap_or(rest.len());
+                if run > 0 {
+                    let chunk = &rest[..run];
+                    self.bcc ^= bcc(chunk);
+                    let room = self.max_len.saturating_sub(self.payload.len());
+                    let take = run.min(room);
+                    self.payload.extend_from_slice(&chunk[..take]);
+                    if take < run {
+                        self.note(FrameError::TooLong { max: self.max_len });
+                    }
+                    self.received = self.received.saturating_add(run);
+                    i += run;
+                    continue;
+                }
+            }
+            let result = self.push(bytes[i]);
+            i += 1;
+            if result.is_some() {
+                return (i, result);
+            }
+        }
+        (i, None)
     }
 
     /// True once the end sequence (and BCC) has been read.
@@ -363,6 +400,56 @@ mod tests {
             decode(&long, m, 200),
             Err(FrameError::Trailing { count: 1 })
         );
+    }
+
+    /// Bytes where DLE, ETX and STX are frequent, so runs, doubled DLEs and odd DLEs all occur.
+    fn dle_heavy() -> impl proptest::strategy::Strategy<Value = Vec<u8>> {
+        use proptest::prelude::*;
+        prop::collection::vec(
+            prop_oneof![Just(DLE), Just(ETX), Just(STX), any::<u8>()],
+            0..400,
+        )
+    }
+
+    proptest::proptest! {
+        /// The run-copying fast path of `push_slice` is exactly `push` byte by byte: same
+        /// outcome at the same place, same payload, error and state afterwards.
+        #[test]
+        fn push_slice_is_push_byte_by_byte(bytes in dle_heavy(), max in 0usize..300, bcc_mode: bool) {
+            let mode = if bcc_mode { Mode::BlockCheck } else { Mode::NoBlockCheck };
+            let mut slow = Decoder::new(mode, max);
+            let mut slow_end = (bytes.len(), None);
+            for (i, &b) in bytes.iter().enumerate() {
+                if let Some(r) = slow.push(b) {
+                    slow_end = (i + 1, Some(r));
+                    break;
+                }
+            }
+            let mut fast = Decoder::new(mode, max);
+            proptest::prop_assert_eq!(fast.push_slice(&bytes), slow_end);
+            proptest::prop_assert_eq!(fast.payload(), slow.payload());
+            proptest::prop_assert_eq!(fast.error(), slow.error());
+            proptest::prop_assert_eq!(fast.received(), slow.received());
+            proptest::prop_assert_eq!(fast.state, slow.state);
+        }
+
+        /// The run-copying encoder is the byte-by-byte definition of §5.2.
+        #[test]
+        fn encode_is_the_bytewise_definition(payload in dle_heavy(), bcc_mode: bool) {
+            let mode = if bcc_mode { Mode::BlockCheck } else { Mode::NoBlockCheck };
+            let mut expected = Vec::new();
+            for &b in &payload {
+                expected.push(b);
+                if b == DLE {
+                    expected.push(DLE);
+                }
+            }
+            expected.extend_from_slice(&[DLE, ETX]);
+            if mode.has_bcc() {
+                expected.push(bcc(&expected));
+            }
+            proptest::prop_assert_eq!(encode(&payload, mode), expected);
+        }
     }
 
     #[test]
