@@ -27,6 +27,8 @@
 //! * [`sim`]: a host and a module joined by a seeded, lagging, fault-injecting DP exchange.
 //! * [`timing`]: the manual's processing-time estimate and the PPI token rotation formula.
 //! * [`status`]: the STATUS words the window carries.
+//! * [`diag`], [`ident`], [`params`], [`led`]: the module's PROFIBUS slave diagnosis, its
+//!   identification records I&M0/I&M1, its parameter sets per driver, and its LEDs.
 //!
 //! # Readings chosen where the manual is unclear
 //!
@@ -75,12 +77,16 @@
 pub mod channel;
 pub mod config;
 pub mod coord;
+pub mod diag;
 pub mod engines;
 pub mod fb;
 pub mod frame;
 pub mod host;
+pub mod ident;
+pub mod led;
 pub mod line;
 pub mod module;
+pub mod params;
 pub mod sim;
 pub mod status;
 pub mod timing;
