@@ -1,20 +1,615 @@
-//! `si dp-coord`: placeholder until the commands land; its face is fixed by `cmd/mod.rs`.
+//! `si dp-coord`: the coordination-byte window protocol (et200s-si-2005-window-protocol.md §2)
+//! from the command line.
+//!
+//! * `si dp-coord host --window N JOB`: be the DP master's side of one job. The DP exchange is
+//!   the caller's: each line read from standard input is the module's input window (hex), and
+//!   each answer written to standard output is the host's output window for that cycle. When
+//!   the job ends, a received frame is printed as `frame HEX` and read V.24 signals as
+//!   `signals HEX` (the signal word as the window carries it), then `done STATUS=XXXX` (exit 0)
+//!   or `error STATUS=XXXX` (exit 1). Standard output carries only these lines; logs go to
+//!   standard error.
+//! * `si dp-coord module --window N --protocol ascii|3964r`: the mirror image — a simulated
+//!   ET 200S SI module whose line is the serial port (`--port`/`--tcp`): each line read is the
+//!   host's output window, each line written the module's input window.
+//! * `si dp-coord trace FILE`: annotates a recorded window trace cycle by cycle
+//!   ([`si_dp_coord::frame::describe`]).
+//!
+//! A trace file holds one window per line: `<` (or `in`) for the module's input window, `>` (or
+//! `out`) for the host's output window; lines without a prefix alternate input, output, as the
+//! `host` command reads and writes them, so its transcript is a trace. `#` starts a comment;
+//! the `frame`, `signals`, `done` and `error` lines of a transcript are shown as they are.
 
-use crate::cmd::sim::Scenario;
+use crate::cmd::frame::parse_hex;
+use crate::cmd::sim::{print_trace, Scenario, SimOptions};
 use crate::conn::Connection;
 use crate::{CliError, Output};
-use clap::Subcommand;
+use bytes::Bytes;
+use clap::{Args, Subcommand, ValueEnum};
+use serde_json::json;
+use si_core::driver::{self, DriverOptions, Transport};
+use si_core::sim::Simulator;
+use si_core::{Duration, Engine, Instant, SerialSettings, Status};
+use si_dp_coord::engines;
+use si_dp_coord::fb::{SRcv, SSend};
+use si_dp_coord::frame::{describe, Direction, V24Layout};
+use si_dp_coord::line::EngineSerial;
+use si_dp_coord::module::{LoopbackSerial, Module};
+use si_dp_coord::{
+    Host, HostConfig, HostEvent, Job, ModuleConfig, Outcome, ParamBlock, Window, WindowSize,
+};
+use std::io::BufRead;
 
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]
-pub enum Command {}
+pub enum Command {
+    /// Be the host (DP master side) of one job: input windows on stdin, output windows on stdout.
+    Host(HostArgs),
+    /// Be the module: output windows on stdin, input windows on stdout, the line on --port/--tcp.
+    Module(ModuleArgs),
+    /// Annotate a recorded window trace cycle by cycle.
+    Trace(TraceArgs),
+}
 
 impl Command {
     /// Run it.
-    pub async fn run(self, _conn: &Connection, _out: &Output) -> Result<(), CliError> {
-        match self {}
+    pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
+        match self {
+            Command::Host(a) => a.run(out),
+            Command::Module(a) => a.run(conn, out).await,
+            Command::Trace(a) => a.run(out),
+        }
     }
 }
 
+/// The window size of the module variant: 4, 8 or 32 bytes (§2.2).
+fn window_size(text: &str) -> Result<WindowSize, String> {
+    text.parse::<usize>()
+        .ok()
+        .and_then(WindowSize::from_len)
+        .ok_or_else(|| format!("{text:?} is not a window size: 4, 8 or 32"))
+}
+
+/// A signal state on the command line: 0 or 1.
+fn bit(text: &str) -> Result<bool, String> {
+    match text {
+        "0" => Ok(false),
+        "1" => Ok(true),
+        _ => Err(format!("{text:?}: 0 or 1")),
+    }
+}
+
+/// A byte given as hex (`11`, `0x11`).
+fn hex_byte(text: &str) -> Result<u8, String> {
+    u8::from_str_radix(text.trim_start_matches("0x"), 16)
+        .map_err(|_| format!("{text:?}: a byte in hex"))
+}
+
+/// `si dp-coord host`.
+#[derive(Debug, Args)]
+pub struct HostArgs {
+    /// Window size in bytes: 4, 8 or 32.
+    #[arg(long, default_value = "8", value_parser = window_size)]
+    window: WindowSize,
+    /// Give up on the job after this many seconds without its end (STATUS 0502H).
+    #[arg(long, default_value_t = 30)]
+    timeout_s: u64,
+    /// The job.
+    #[command(subcommand)]
+    job: JobArg,
+}
+
+/// The job for `si dp-coord host` (Table 2-22).
+#[derive(Debug, Subcommand)]
+pub enum JobArg {
+    /// Job 1: send a frame (hex) to the module's serial partner.
+    Send {
+        /// The frame, e.g. `61 62 63` or `616263`.
+        #[arg(required = true, num_args = 1..)]
+        hex: Vec<String>,
+    },
+    /// Job 2: fetch the oldest received frame.
+    Receive,
+    /// Job 3: read the V.24 signals.
+    ReadV24,
+    /// Job 4: set RTS and DTR.
+    WriteV24 {
+        /// RTS: 0 or 1.
+        #[arg(long, value_parser = bit, action = clap::ArgAction::Set)]
+        rts: bool,
+        /// DTR: 0 or 1.
+        #[arg(long, value_parser = bit, action = clap::ArgAction::Set)]
+        dtr: bool,
+    },
+    /// Job 5: transfer a flow-control parameter block.
+    #[command(subcommand)]
+    Params(ParamsArg),
+}
+
+/// The parameter block of job 5 (Table 2-27); times in ms, sent in units of 10 ms.
+#[derive(Debug, Subcommand)]
+pub enum ParamsArg {
+    /// Block 20H: XON, XOFF, wait for XON after XOFF.
+    XonXoff {
+        /// The XON character in hex.
+        #[arg(long, default_value = "11", value_parser = hex_byte)]
+        xon: u8,
+        /// The XOFF character in hex.
+        #[arg(long, default_value = "13", value_parser = hex_byte)]
+        xoff: u8,
+        /// Wait for XON after XOFF, 20 … 655 350 ms.
+        #[arg(long, default_value_t = 2_000)]
+        wait_ms: u32,
+    },
+    /// Block 21H: wait for CTS = ON.
+    RtsCts {
+        /// Wait for CTS = ON, 20 … 655 350 ms.
+        #[arg(long, default_value_t = 2_000)]
+        wait_ms: u32,
+    },
+    /// Block 22H: automatic V.24 control.
+    AutoV24 {
+        /// Time from the end of the transmission to RTS = OFF, 0 … 655 350 ms.
+        #[arg(long, default_value_t = 10)]
+        rts_off_ms: u32,
+        /// Wait for CTS = ON after RTS = ON, 0 … 655 350 ms.
+        #[arg(long, default_value_t = 10)]
+        data_wait_ms: u32,
+    },
+}
+
+/// Milliseconds to the window's 10 ms units (Table 2-27), rounded down, within `min` … 655 350.
+fn ten_ms(name: &str, value: u32, min: u32) -> Result<u16, CliError> {
+    if !(min..=655_350).contains(&value) {
+        return Err(CliError::new(format!(
+            "{name} = {value} ms is outside {min} … 655350 ms"
+        )));
+    }
+    u16::try_from(value / 10).map_err(|_| CliError::new(format!("{name} = {value} ms too large")))
+}
+
+impl JobArg {
+    fn job(&self) -> Result<Job, CliError> {
+        Ok(match self {
+            JobArg::Send { hex } => Job::Send(Bytes::from(parse_hex(&hex.join(" "))?)),
+            JobArg::Receive => Job::Receive,
+            JobArg::ReadV24 => Job::ReadV24,
+            JobArg::WriteV24 { rts, dtr } => Job::WriteV24 {
+                rts: *rts,
+                dtr: *dtr,
+            },
+            JobArg::Params(ParamsArg::XonXoff { xon, xoff, wait_ms }) => {
+                Job::Parameters(ParamBlock::XonXoff {
+                    xon: *xon,
+                    xoff: *xoff,
+                    xon_wait: ten_ms("--wait-ms", *wait_ms, 20)?,
+                })
+            }
+            JobArg::Params(ParamsArg::RtsCts { wait_ms }) => Job::Parameters(ParamBlock::RtsCts {
+                cts_wait: ten_ms("--wait-ms", *wait_ms, 20)?,
+            }),
+            JobArg::Params(ParamsArg::AutoV24 {
+                rts_off_ms,
+                data_wait_ms,
+            }) => Job::Parameters(ParamBlock::AutoV24 {
+                rts_off_delay: ten_ms("--rts-off-ms", *rts_off_ms, 0)?,
+                cts_wait: ten_ms("--data-wait-ms", *data_wait_ms, 0)?,
+            }),
+        })
+    }
+}
+
+/// Reads a window from one line of hex, checking its size.
+fn read_window(line: &str, size: WindowSize, n: usize) -> Result<Vec<u8>, CliError> {
+    let bytes = parse_hex(line)?;
+    if bytes.len() != size.bytes() {
+        return Err(CliError::new(format!(
+            "line {n}: {} bytes, but the window has {}",
+            bytes.len(),
+            size.bytes()
+        )));
+    }
+    Ok(bytes)
+}
+
+/// A line of stdin that carries no window.
+fn skip(line: &str) -> bool {
+    let t = line.trim();
+    t.is_empty() || t.starts_with('#')
+}
+
+/// Prints the end of a job: `frame` / `signals` first, then `done` or `error`.
+fn finish(result: Result<Outcome, Status>, out: &Output) -> Result<(), CliError> {
+    let status = match &result {
+        Ok(Outcome::Received(frame)) => {
+            let hex = si_core::hex::format(frame);
+            out.line(&format!("frame {hex}"), json!({"frame": hex}));
+            Status::OK
+        }
+        Ok(Outcome::Signals(s)) => {
+            let hex = si_core::hex::format(&V24Layout::default().encode(*s));
+            out.line(
+                &format!("signals {hex}"),
+                json!({"signals": hex, "dtr": s.dtr, "dsr": s.dsr, "rts": s.rts, "cts": s.cts, "dcd": s.dcd}),
+            );
+            Status::OK
+        }
+        Ok(Outcome::NoMessage) => si_dp_coord::status::NO_MESSAGE,
+        Ok(_) => Status::OK,
+        Err(s) => *s,
+    };
+    let code = format!("{:04X}", status.code());
+    match result {
+        Ok(_) => {
+            out.line(
+                &format!("done STATUS={code}"),
+                json!({"done": true, "status": code}),
+            );
+            Ok(())
+        }
+        Err(s) => {
+            out.line(
+                &format!("error STATUS={code}"),
+                json!({"done": false, "status": code}),
+            );
+            Err(CliError::new(format!("the job failed: {s}")))
+        }
+    }
+}
+
+impl HostArgs {
+    fn run(self, out: &Output) -> Result<(), CliError> {
+        let cfg = HostConfig {
+            job_timeout: Some(Duration::from_secs(self.timeout_s)),
+            ..HostConfig::new(self.window)
+        };
+        let mut host = Host::new(cfg)?;
+        let id = host
+            .submit(self.job.job()?)
+            .map_err(|e| CliError::new(e.to_string()))?;
+        let start = std::time::Instant::now();
+        let stdin = std::io::stdin().lock();
+        for (n, line) in stdin.lines().enumerate() {
+            let line = line?;
+            if skip(&line) {
+                continue;
+            }
+            let input = read_window(&line, self.window, n + 1)?;
+            let now = Instant::from_micros(
+                u64::try_from(start.elapsed().as_micros()).unwrap_or(u64::MAX),
+            );
+            let output = si_core::hex::format(host.cycle(now, &input));
+            out.line(&output, json!({"output": output}));
+            while let Some(event) = host.poll_event() {
+                match event {
+                    HostEvent::Completed {
+                        id: done, result, ..
+                    } if done == id => return finish(result, out),
+                    other => tracing::info!("{other:?}"),
+                }
+            }
+        }
+        Err(CliError::new("standard input ended before the job did"))
+    }
+}
+
+/// The line procedure of `si dp-coord module`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Protocol {
+    /// 3964(R) with the manual's defaults.
+    #[value(name = "3964r")]
+    R3964r,
+    /// The ASCII driver with the manual's defaults (end by character delay time).
+    Ascii,
+}
+
+/// Priority of the 3964(R) side in an initialization conflict.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Priority {
+    /// Yields to the partner (the default).
+    Low,
+    /// Keeps its job.
+    High,
+}
+
+/// `si dp-coord module`.
+#[derive(Debug, Args)]
+pub struct ModuleArgs {
+    /// Window size in bytes: 4, 8 or 32.
+    #[arg(long, default_value = "8", value_parser = window_size)]
+    window: WindowSize,
+    /// The procedure on the line.
+    #[arg(long, value_enum)]
+    protocol: Protocol,
+    /// 3964(R): priority in an initialization conflict (the partner must have the other one).
+    #[arg(long, value_enum, default_value = "low")]
+    priority: Priority,
+}
+
+impl ModuleArgs {
+    async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
+        let settings = conn.settings()?;
+        let transport = conn.open().await?;
+        match self.protocol {
+            Protocol::R3964r => {
+                let config = si_3964r::Config {
+                    priority: match self.priority {
+                        Priority::Low => si_3964r::config::Priority::Low,
+                        Priority::High => si_3964r::config::Priority::High,
+                    },
+                    ..si_3964r::Config::default()
+                };
+                let link = si_3964r::Link::new(config, settings)?;
+                let module = engines::r3964r_module(self.window, link);
+                serve(module, transport, settings, self.window, out).await
+            }
+            Protocol::Ascii => {
+                let config = si_ascii::Config {
+                    settings,
+                    ..si_ascii::Config::default()
+                };
+                let link = si_ascii::Link::new(config)?;
+                let module = engines::ascii_module(self.window, link);
+                serve(module, transport, settings, self.window, out).await
+            }
+        }
+    }
+}
+
+/// Runs the module over the transport; each stdin line is one DP cycle.
+async fn serve<E>(
+    module: Module<EngineSerial<E>>,
+    transport: Box<dyn Transport>,
+    settings: SerialSettings,
+    window: WindowSize,
+    out: &Output,
+) -> Result<(), CliError>
+where
+    E: Engine + Send + 'static,
+    E::Event: Send + std::fmt::Debug + 'static,
+{
+    let options = DriverOptions {
+        settings: Some(settings),
+        ..DriverOptions::default()
+    };
+    let (mut handle, task) = driver::spawn(module, transport, options);
+    let (tx, mut lines) = tokio::sync::mpsc::channel::<std::io::Result<String>>(16);
+    // Standard input blocks: read it on its own thread, so the driver keeps serving the line.
+    std::thread::spawn(move || {
+        for line in std::io::stdin().lock().lines() {
+            if tx.blocking_send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let mut n = 0;
+    loop {
+        tokio::select! {
+            line = lines.recv() => {
+                let Some(line) = line else { break };
+                let line = line?;
+                n += 1;
+                if skip(&line) {
+                    continue;
+                }
+                let output = read_window(&line, window, n)?;
+                let input = handle
+                    .call(move |m, now| m.cycle(now, &output).to_vec())
+                    .await
+                    .map_err(|_| CliError::new("the line driver stopped"))?;
+                let hex = si_core::hex::format(&input);
+                out.line(&hex, json!({"input": hex}));
+            }
+            event = handle.next_event() => match event {
+                Some(e) => tracing::info!("line: {e:?}"),
+                None => break,
+            },
+        }
+    }
+    drop(handle);
+    match task.await {
+        Ok(Err(e)) => Err(CliError::new(format!("line: {e}"))),
+        _ => Ok(()),
+    }
+}
+
+/// `si dp-coord trace`.
+#[derive(Debug, Args)]
+pub struct TraceArgs {
+    /// The trace file (see `si dp-coord --help`): one window per line, `<` input, `>` output.
+    file: std::path::PathBuf,
+}
+
+/// Prints one window of a trace with its reading.
+fn print_window(out: &Output, cycle: usize, window: &Window, dir: Direction) {
+    let arrow = match dir {
+        Direction::ModuleToHost => "<",
+        Direction::HostToModule => ">",
+    };
+    let hex = si_core::hex::format(window.as_bytes());
+    let text = describe(window, dir, V24Layout::default());
+    out.line(
+        &format!("{cycle:>4} {arrow} {hex:<24} {text}"),
+        json!({"cycle": cycle, "direction": arrow, "window": hex, "reading": text}),
+    );
+}
+
+impl TraceArgs {
+    fn run(self, out: &Output) -> Result<(), CliError> {
+        let text = std::fs::read_to_string(&self.file)
+            .map_err(|e| CliError::new(format!("{}: {e}", self.file.display())))?;
+        let mut cycle = 0;
+        let mut next_in = true;
+        let mut size = None;
+        for (n, raw) in text.lines().enumerate() {
+            let line = raw.trim();
+            if skip(line) {
+                continue;
+            }
+            let (dir, hex) = if let Some(rest) =
+                line.strip_prefix('<').or_else(|| strip_word(line, "in"))
+            {
+                (Direction::ModuleToHost, rest)
+            } else if let Some(rest) = line.strip_prefix('>').or_else(|| strip_word(line, "out")) {
+                (Direction::HostToModule, rest)
+            } else if ["frame", "signals", "done", "error"]
+                .iter()
+                .any(|w| line.starts_with(w))
+            {
+                out.line(&format!("       {line}"), json!({"result": line}));
+                continue;
+            } else if next_in {
+                (Direction::ModuleToHost, line)
+            } else {
+                (Direction::HostToModule, line)
+            };
+            let bytes = si_core::hex::parse(hex)
+                .map_err(|e| CliError::new(format!("line {}: bad hex: {e}", n + 1)))?;
+            let window = Window::from_bytes(&bytes).ok_or_else(|| {
+                CliError::new(format!(
+                    "line {}: {} bytes is not a window of 4, 8 or 32",
+                    n + 1,
+                    bytes.len()
+                ))
+            })?;
+            if *size.get_or_insert(window.size()) != window.size() {
+                return Err(CliError::new(format!(
+                    "line {}: {} bytes, but the trace started with {}-byte windows",
+                    n + 1,
+                    bytes.len(),
+                    size.map_or(0, WindowSize::bytes)
+                )));
+            }
+            if dir == Direction::ModuleToHost {
+                cycle += 1;
+            }
+            next_in = dir == Direction::HostToModule;
+            print_window(out, cycle.max(1), &window, dir);
+        }
+        Ok(())
+    }
+}
+
+/// `rest` after a leading word `word` followed by `:` or whitespace.
+fn strip_word<'a>(line: &'a str, word: &str) -> Option<&'a str> {
+    let rest = line.strip_prefix(word)?;
+    let rest = rest.strip_prefix(':').unwrap_or(rest);
+    (rest.starts_with(char::is_whitespace)
+        || rest.is_empty()
+        || line.len() > word.len() && line.as_bytes()[word.len()] == b':')
+        .then_some(rest)
+}
+
 /// Scenarios for `si sim`.
-pub const SCENARIOS: &[Scenario] = &[];
+pub const SCENARIOS: &[Scenario] = &[
+    Scenario {
+        name: "dp-coord-send",
+        about: "window protocol, Table 2-23: 22 characters sent through an 8-byte window, cycle by cycle",
+        run: scenario_send,
+    },
+    Scenario {
+        name: "dp-coord-e2e",
+        about: "S_SEND via module A's window, 3964(R) on the line, module B, S_RCV via its window",
+        run: scenario_e2e,
+    },
+];
+
+/// Table 2-23 (et200s-si-2005-window-protocol.md §2.7.1, reconstructed, H-1): 22 characters
+/// through an 8-byte window, the module one DP cycle behind the host as in the manual's table.
+fn scenario_send(_: &SimOptions, out: &Output) -> Result<(), CliError> {
+    let mut host = Host::new(HostConfig::new(WindowSize::Eight))?;
+    let mut serial = LoopbackSerial::new();
+    serial.loopback = false;
+    let mut module = Module::new(ModuleConfig::new(WindowSize::Eight), serial)?;
+    let id = host
+        .submit(Job::Send(Bytes::from_static(b"abcdefghijklmnopqrstuv")))
+        .map_err(|e| CliError::new(e.to_string()))?;
+    let mut input = module.input().to_vec();
+    let mut previous = host.output().to_vec();
+    for cycle in 1..=40 {
+        let now = Instant::from_micros(cycle as u64 * 10_000);
+        let output = host.cycle(now, &input).to_vec();
+        if let Some(w) = Window::from_bytes(&input) {
+            print_window(out, cycle, &w, Direction::ModuleToHost);
+        }
+        if let Some(w) = Window::from_bytes(&output) {
+            print_window(out, cycle, &w, Direction::HostToModule);
+        }
+        // DP cycle ≈ CPU cycle: the module works on the window the host wrote one cycle
+        // earlier, so each echo reaches the host two cycles after its segment (Table 2-23).
+        input = module.cycle(now, &previous).to_vec();
+        previous = output;
+        while let Some(event) = host.poll_event() {
+            if let HostEvent::Completed {
+                id: done, result, ..
+            } = event
+            {
+                if done == id {
+                    return finish(result, out);
+                }
+            }
+        }
+    }
+    Err(CliError::new("the send job did not end in 40 cycles"))
+}
+
+/// A user program's S_SEND on module A, 3964(R) between the modules, S_RCV on module B.
+fn scenario_e2e(o: &SimOptions, out: &Output) -> Result<(), CliError> {
+    let high = si_3964r::Config {
+        priority: si_3964r::config::Priority::High,
+        ..si_3964r::Config::default()
+    };
+    let mut sim = Simulator::new(o.seed);
+    let a = engines::r3964r_module(WindowSize::Eight, si_3964r::Link::new(high, o.settings)?);
+    let b = engines::r3964r_module(
+        WindowSize::Eight,
+        si_3964r::Link::new(si_3964r::Config::default(), o.settings)?,
+    );
+    let (mut in_a, mut in_b) = (a.input().to_vec(), b.input().to_vec());
+    let a = sim.add_station("A", o.settings, a);
+    let b = sim.add_station("B", o.settings, b);
+    sim.connect(a, b);
+    let mut host_a = Host::new(HostConfig::new(WindowSize::Eight))?;
+    let mut host_b = Host::new(HostConfig::new(WindowSize::Eight))?;
+    let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
+    let data = b"temperature=21.5";
+    let mut dest = [0u8; 224];
+    let (mut sent, mut got) = (None, None);
+    for _ in 0..5_000 {
+        let d = s_send.call(&mut host_a, sent.is_none(), false, data);
+        if d.done || d.error {
+            sent = Some((sim.now(), d));
+        }
+        let r = s_rcv.call(&mut host_b, true, false, &mut dest);
+        if r.ndr || r.error {
+            got = Some((sim.now(), r, dest[..r.len].to_vec()));
+        }
+        if sent.is_some() && got.is_some() {
+            break;
+        }
+        let out_a = host_a.cycle(sim.now(), &in_a).to_vec();
+        in_a = sim.with(a, |m, now| m.cycle(now, &out_a).to_vec());
+        let out_b = host_b.cycle(sim.now(), &in_b).to_vec();
+        in_b = sim.with(b, |m, now| m.cycle(now, &out_b).to_vec());
+        sim.run_for(Duration::from_millis(2));
+    }
+    print_trace(sim.trace(), out);
+    let Some((at, d)) = sent else {
+        return Err(CliError::new("S_SEND did not end"));
+    };
+    out.line(
+        &format!("{at} A S_SEND done={} error={} STATUS={:04X}", d.done, d.error, d.status.code()),
+        json!({"at_us": at.as_micros(), "fb": "S_SEND", "done": d.done, "error": d.error, "status": format!("{:04X}", d.status.code())}),
+    );
+    let Some((at, r, bytes)) = got else {
+        return Err(CliError::new("S_RCV got nothing"));
+    };
+    let hex = si_core::hex::format(&bytes);
+    out.line(
+        &format!("{at} B S_RCV ndr={} error={} STATUS={:04X} LEN={} {hex}", r.ndr, r.error, r.status.code(), r.len),
+        json!({"at_us": at.as_micros(), "fb": "S_RCV", "ndr": r.ndr, "error": r.error, "status": format!("{:04X}", r.status.code()), "frame": hex}),
+    );
+    if d.error || r.error {
+        return Err(CliError::new("the end-to-end job failed"));
+    }
+    Ok(())
+}
