@@ -73,7 +73,7 @@ impl fmt::Display for JobId {
 }
 
 /// What the station tells the application.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Clone, PartialEq, Eq)]
 pub enum Event {
     /// Our job finished without error: the partner accepted all SEND data (`data` empty), or
     /// all FETCH data arrived (`data`).
@@ -110,6 +110,42 @@ pub enum Event {
     ServeAborted(Status),
     /// The link reported a receive error (class 08H), or a telegram arrived that nobody expects.
     ReceiveError(Status),
+}
+
+impl fmt::Debug for Event {
+    /// As derived, except that long FETCH data show as their length (traces stay readable).
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Event::Done { job, data } if data.len() > 16 => f
+                .debug_struct("Done")
+                .field("job", job)
+                .field("data", &format_args!("{} bytes", data.len()))
+                .finish(),
+            Event::Done { job, data } => f
+                .debug_struct("Done")
+                .field("job", job)
+                .field("data", data)
+                .finish(),
+            Event::Failed { job, status } => f
+                .debug_struct("Failed")
+                .field("job", job)
+                .field("status", status)
+                .finish(),
+            Event::Served {
+                command,
+                address,
+                len,
+            } => f
+                .debug_struct("Served")
+                .field("command", command)
+                .field("address", address)
+                .field("len", len)
+                .finish(),
+            Event::Refused { error } => f.debug_struct("Refused").field("error", error).finish(),
+            Event::ServeAborted(s) => f.debug_tuple("ServeAborted").field(s).finish(),
+            Event::ReceiveError(s) => f.debug_tuple("ReceiveError").field(s).finish(),
+        }
+    }
 }
 
 /// Why a job was refused before it started.

@@ -1,35 +1,709 @@
-//! `si rk512`: placeholder until the protocol lands; its face is fixed by `cmd/mod.rs`.
+//! `si rk512 send|fetch|serve`, `si frame decode rk512`, and the RK 512 scenarios of `si sim`
+//! (cp341-3964r-rk512-ascii.md §4, public-facts.md §2).
 
-use crate::cmd::sim::Scenario;
+use crate::cmd::sim::{print_trace, Scenario, SimOptions};
 use crate::conn::Connection;
 use crate::{CliError, Output};
-use clap::{Args, Subcommand};
+use clap::{Args, Subcommand, ValueEnum};
+use serde::Deserialize;
+use serde_json::json;
+use si_3964r::Priority;
+use si_core::memory::{Area, MemorySizes};
+use si_core::sim::{Simulator, StationId};
+use si_core::{Duration, Status};
+use si_rk512::frame::{Address, Coordination, DataType, Telegram};
+use si_rk512::passive::ServerConfig;
+use si_rk512::status;
+use si_rk512::tokio::Rk512;
+use si_rk512::{Config, DwUnit, Event, Station};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
 
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]
-pub enum Command {}
+pub enum Command {
+    /// SEND data to the partner's DB (or DX) and wait for its reaction; exits non-zero with the
+    /// STATUS when the job fails.
+    Send(SendArgs),
+    /// FETCH data from the partner's memory and print them in hex.
+    Fetch(FetchArgs),
+    /// Be the passive partner: serve SEND and FETCH jobs from a simulated CPU memory.
+    Serve(ServeArgs),
+}
+
+/// Which memory area a job addresses (the header's data type letter).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum AreaArg {
+    /// Data block 'D' (--db, --dw; counts words).
+    Db,
+    /// Extended data block 'X' (--db, --dw; counts words).
+    Dx,
+    /// Input bytes 'E' (--start; counts bytes).
+    I,
+    /// Output bytes 'A' (--start; counts bytes).
+    Q,
+    /// Flag bytes 'M' (--start; counts bytes).
+    M,
+    /// Timer cells 'T' (--start; counts words).
+    T,
+    /// Counter cells 'Z' (--start; counts words).
+    C,
+}
+
+/// Where a job's data live at the partner, and its coordination flag.
+#[derive(Debug, Clone, Args)]
+pub struct Target {
+    /// Memory area.
+    #[arg(long, value_enum, default_value = "db")]
+    area: AreaArg,
+    /// DB (or DX) number, 0 … 255.
+    #[arg(long, default_value_t = 1)]
+    db: u8,
+    /// Start data word of the DB/DX, 0 … 255 (header byte 6).
+    #[arg(long, default_value_t = 0)]
+    dw: u8,
+    /// Start byte (I, Q, M) or cell number (T, C), 0 … 65535.
+    #[arg(long, default_value_t = 0)]
+    start: u16,
+    /// Coordination flag at the partner, as BYTE.BIT (e.g. 20.3); SEND is refused while it
+    /// is set and sets it (cp341 §4.8).
+    #[arg(long, value_name = "BYTE.BIT")]
+    flag: Option<String>,
+    /// CPU number 1 … 4 in header byte 10 (multi-CPU partners).
+    #[arg(long)]
+    cpu: Option<u8>,
+}
+
+impl Target {
+    fn address(&self) -> Address {
+        match self.area {
+            AreaArg::Db => Address::Db {
+                db: self.db,
+                dw: self.dw,
+            },
+            AreaArg::Dx => Address::Dx {
+                db: self.db,
+                dw: self.dw,
+            },
+            AreaArg::I => Address::Inputs(self.start),
+            AreaArg::Q => Address::Outputs(self.start),
+            AreaArg::M => Address::Flags(self.start),
+            AreaArg::T => Address::Timers(self.start),
+            AreaArg::C => Address::Counters(self.start),
+        }
+    }
+
+    fn coordination(&self) -> Result<Coordination, CliError> {
+        let mut c = match &self.flag {
+            None => Coordination::NONE,
+            Some(text) => {
+                let parsed = text.split_once('.').and_then(|(b, bit)| {
+                    Some((b.trim().parse::<u8>().ok()?, bit.trim().parse::<u8>().ok()?))
+                });
+                match parsed {
+                    Some((byte, bit)) if byte != 0xFF && bit <= 7 => Coordination::flag(byte, bit),
+                    _ => {
+                        return Err(CliError::new(format!(
+                            "--flag must be BYTE.BIT with BYTE 0 … 254 and BIT 0 … 7, got {text:?}"
+                        )))
+                    }
+                }
+            }
+        };
+        if let Some(cpu) = self.cpu {
+            if !(1..=4).contains(&cpu) {
+                return Err(CliError::new(format!("--cpu must be 1 … 4, got {cpu}")));
+            }
+            c.cpu = cpu;
+        }
+        Ok(c)
+    }
+}
+
+/// Priority in a 3964(R) initialization conflict.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum PriorityArg {
+    /// Yield to the partner's STX.
+    Low,
+    /// Keep waiting for the partner's DLE.
+    High,
+}
+
+/// The RK 512 and 3964(R) parameters; anything not given keeps the manual's default.
+#[derive(Debug, Clone, Args)]
+pub struct LinkArgs {
+    /// 3964(R) priority; the two partners must differ. Default: high for send/fetch, low for
+    /// serve.
+    #[arg(long, value_enum)]
+    priority: Option<PriorityArg>,
+    /// Plain 3964: no block check character.
+    #[arg(long)]
+    no_bcc: bool,
+    /// Response monitoring time TRES in ms (10 … 655350, default 10000).
+    #[arg(long, value_name = "MS")]
+    tres_ms: Option<u32>,
+    /// Acknowledgement delay time QVZ in ms (3964(R); default 2000, 550 with --no-bcc).
+    #[arg(long, value_name = "MS")]
+    qvz_ms: Option<u32>,
+    /// Header byte 6 is a byte offset rather than a data-word number (some non-Siemens
+    /// partners; public-facts.md §2).
+    #[arg(long)]
+    dw_bytes: bool,
+}
+
+impl LinkArgs {
+    fn config(&self, default_priority: Priority) -> Result<Config, CliError> {
+        let mut c = Config::default();
+        if self.no_bcc {
+            c.link = si_3964r::Config::without_block_check();
+        }
+        c.link.priority = match self.priority {
+            None => default_priority,
+            Some(PriorityArg::Low) => Priority::Low,
+            Some(PriorityArg::High) => Priority::High,
+        };
+        if let Some(q) = self.qvz_ms {
+            c.link.ack_delay_ms = q;
+        }
+        if let Some(t) = self.tres_ms {
+            c.response_timeout_ms = t;
+        }
+        if self.dw_bytes {
+            c.dw_unit = DwUnit::Bytes;
+        }
+        c.validate()?;
+        Ok(c)
+    }
+}
+
+/// `si rk512 send`.
+#[derive(Debug, Args)]
+pub struct SendArgs {
+    #[command(flatten)]
+    target: Target,
+    #[command(flatten)]
+    link: LinkArgs,
+    /// The data in hex (an even number of bytes: SEND counts data words).
+    hex: String,
+}
+
+/// `si rk512 fetch`.
+#[derive(Debug, Args)]
+pub struct FetchArgs {
+    #[command(flatten)]
+    target: Target,
+    #[command(flatten)]
+    link: LinkArgs,
+    /// How much to fetch, in the area's unit: data words for DB/DX/T/C, bytes for I/Q/M.
+    #[arg(long)]
+    count: usize,
+}
+
+/// `si rk512 serve`.
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// TOML file with memory sizes (see `ServeFile`); default: I, Q 128 bytes, M 2048, T and C
+    /// 256 cells, DB1 … DB16 of 512 bytes each.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Stop after serving this many jobs (default: run until interrupted).
+    #[arg(long)]
+    count: Option<u64>,
+    #[command(flatten)]
+    link: LinkArgs,
+}
+
+/// How long a command lets the line settle after opening it (the partner's startup NAK).
+const SETTLE: std::time::Duration = std::time::Duration::from_millis(100);
 
 impl Command {
     /// Run it on the line.
-    pub async fn run(self, _conn: &Connection, _out: &Output) -> Result<(), CliError> {
-        match self {}
+    pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
+        match self {
+            Command::Send(args) => args.run(conn, out).await,
+            Command::Fetch(args) => args.run(conn, out).await,
+            Command::Serve(args) => args.run(conn, out).await,
+        }
+    }
+}
+
+fn failed(what: &str, status: Status) -> CliError {
+    CliError::new(format!("{what} failed: {}", status::lookup(status.code())))
+}
+
+impl SendArgs {
+    async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
+        let data = crate::cmd::frame::parse_hex(&self.hex)?;
+        let address = self.target.address();
+        let coordination = self.target.coordination()?;
+        let config = self.link.config(Priority::High)?;
+        let settings = conn.settings()?;
+        let transport = conn.open().await?;
+        let station = Rk512::spawn(config, settings, None, transport)?;
+        tokio::time::sleep(SETTLE).await;
+        let len = data.len();
+        station
+            .send(address, coordination, data)
+            .await
+            .map_err(|s| failed("SEND", s))?;
+        out.line(
+            &format!("SEND {len} bytes to {address}: {}", Status::OK),
+            json!({"sent": len, "address": address.to_string(), "status": 0}),
+        );
+        // Our DLE for the reaction is written; let the port drain it.
+        tokio::time::sleep(SETTLE).await;
+        Ok(())
+    }
+}
+
+impl FetchArgs {
+    async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
+        let address = self.target.address();
+        let coordination = self.target.coordination()?;
+        let len = if address.data_type().counts_words() {
+            self.count.saturating_mul(2)
+        } else {
+            self.count
+        };
+        let config = self.link.config(Priority::High)?;
+        let settings = conn.settings()?;
+        let transport = conn.open().await?;
+        let station = Rk512::spawn(config, settings, None, transport)?;
+        tokio::time::sleep(SETTLE).await;
+        let data = station
+            .fetch(address, coordination, len)
+            .await
+            .map_err(|s| failed("FETCH", s))?;
+        let hex = si_core::hex::format(&data);
+        out.line(
+            &hex,
+            json!({"address": address.to_string(), "len": data.len(), "hex": hex}),
+        );
+        tokio::time::sleep(SETTLE).await;
+        Ok(())
+    }
+}
+
+/// The `si rk512 serve --config` file.
+///
+/// ```toml
+/// accept_send = true
+/// accept_fetch = true
+/// [memory]          # I, Q, M in bytes; T, C in cells
+/// flags = 2048
+/// [[db]]
+/// number = 10
+/// length = 512
+/// [[dx]]
+/// number = 3
+/// length = 64
+/// ```
+#[derive(Debug, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct ServeFile {
+    accept_send: bool,
+    accept_fetch: bool,
+    memory: AreaSizes,
+    db: Vec<BlockFile>,
+    dx: Vec<BlockFile>,
+}
+
+impl Default for ServeFile {
+    fn default() -> Self {
+        ServeFile {
+            accept_send: true,
+            accept_fetch: true,
+            memory: AreaSizes::default(),
+            db: (1..=16)
+                .map(|number| BlockFile {
+                    number,
+                    length: 512,
+                })
+                .collect(),
+            dx: Vec::new(),
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+struct AreaSizes {
+    inputs: u32,
+    outputs: u32,
+    flags: u32,
+    timers: u32,
+    counters: u32,
+}
+
+impl Default for AreaSizes {
+    fn default() -> Self {
+        let d = MemorySizes::default();
+        AreaSizes {
+            inputs: d.inputs,
+            outputs: d.outputs,
+            flags: d.flags,
+            timers: d.timers,
+            counters: d.counters,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BlockFile {
+    number: u16,
+    length: u32,
+}
+
+/// Largest area a config file may ask for, so a typo cannot exhaust memory.
+const MAX_AREA: u32 = 1 << 20;
+
+impl ServeFile {
+    fn server_config(&self) -> Result<ServerConfig, CliError> {
+        let m = &self.memory;
+        for (name, v) in [
+            ("memory.inputs", m.inputs),
+            ("memory.outputs", m.outputs),
+            ("memory.flags", m.flags),
+            ("memory.timers", m.timers),
+            ("memory.counters", m.counters),
+        ]
+        .into_iter()
+        .chain(self.db.iter().map(|b| ("db length", b.length)))
+        .chain(self.dx.iter().map(|b| ("dx length", b.length)))
+        {
+            if v > MAX_AREA {
+                return Err(CliError::new(format!(
+                    "{name} must be 0 … {MAX_AREA}, got {v}"
+                )));
+            }
+        }
+        let blocks = |v: &[BlockFile]| -> BTreeMap<u16, u32> {
+            v.iter().map(|b| (b.number, b.length)).collect()
+        };
+        Ok(ServerConfig {
+            memory: MemorySizes {
+                inputs: m.inputs,
+                outputs: m.outputs,
+                flags: m.flags,
+                timers: m.timers,
+                counters: m.counters,
+                dbs: blocks(&self.db),
+            },
+            dx: blocks(&self.dx),
+            accept_send: self.accept_send,
+            accept_fetch: self.accept_fetch,
+        })
+    }
+}
+
+impl ServeArgs {
+    async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
+        let file = match &self.config {
+            None => ServeFile::default(),
+            Some(path) => {
+                let text = std::fs::read_to_string(path)
+                    .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
+                toml::from_str(&text)
+                    .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?
+            }
+        };
+        let server = file.server_config()?;
+        let config = self.link.config(Priority::Low)?;
+        let settings = conn.settings()?;
+        let transport = conn.open().await?;
+        let mut station = Rk512::spawn(config, settings, Some(&server), transport)?;
+        let mut served = 0u64;
+        while self.count.is_none_or(|n| served < n) {
+            match station.next_event().await {
+                Some(Event::Served {
+                    command,
+                    address,
+                    len,
+                }) => {
+                    served += 1;
+                    let what = if command.is_send() { "SEND" } else { "FETCH" };
+                    out.line(
+                        &format!("served {what} {address}, {len} bytes"),
+                        json!({"served": what, "address": address.to_string(), "len": len}),
+                    );
+                }
+                Some(Event::Refused { error }) => {
+                    served += 1;
+                    let s = error.status();
+                    out.line(
+                        &format!("refused with error number {:02X}H: {s}", error.code()),
+                        json!({"refused": error.code(), "status": s.code()}),
+                    );
+                }
+                Some(Event::ServeAborted(s)) | Some(Event::ReceiveError(s)) => {
+                    eprintln!("si: {}", status::lookup(s.code()));
+                }
+                Some(Event::Done { .. } | Event::Failed { .. }) => {}
+                None => return Err(CliError::new("the line closed")),
+            }
+        }
+        // Our last reaction is queued; give it time to go out and be acknowledged.
+        tokio::time::sleep(SETTLE * 5).await;
+        Ok(())
     }
 }
 
 /// `si frame decode rk512`.
 #[derive(Debug, Args)]
 pub struct DecodeArgs {
-    /// Telegram in hex.
+    /// A command, continuation or reaction telegram in hex (the 3964(R) payload), with or
+    /// without its data.
     hex: String,
 }
 
-impl DecodeArgs {
-    /// Run it.
-    pub fn run(&self, _out: &Output) -> Result<(), CliError> {
-        crate::cmd::frame::parse_hex(&self.hex)?;
-        Err(CliError::new("not implemented yet"))
+fn type_name(t: DataType) -> &'static str {
+    match t {
+        DataType::Db => "data block",
+        DataType::Dx => "extended data block",
+        DataType::Inputs => "input bytes",
+        DataType::Outputs => "output bytes",
+        DataType::Flags => "flag bytes",
+        DataType::Timers => "timer cells",
+        DataType::Counters => "counter cells",
     }
 }
 
+fn command_name(c: si_rk512::Command) -> &'static str {
+    match c {
+        si_rk512::Command::Send => "SEND",
+        si_rk512::Command::SendDx => "SEND DX",
+        si_rk512::Command::Fetch => "FETCH",
+    }
+}
+
+impl DecodeArgs {
+    /// Print the header fields (and the data, if any); fail naming offset, expected and found.
+    pub fn run(&self, out: &Output) -> Result<(), CliError> {
+        let bytes = crate::cmd::frame::parse_hex(&self.hex)?;
+        let telegram = Telegram::decode(&bytes).map_err(|e| CliError::new(e.to_string()))?;
+        let (text, value, data) = match telegram {
+            Telegram::Command(h, data) => {
+                let letter = h.command.letter() as char;
+                let unit = if h.address.data_type().counts_words() {
+                    "words"
+                } else {
+                    "bytes"
+                };
+                let c = h.coordination;
+                let flag = match c.flag_address() {
+                    Some((b, bit)) => format!("flag M{b}.{bit}"),
+                    None => "no coordination flag".to_owned(),
+                };
+                let cpu = match c.cpu {
+                    1..=4 => format!("CPU {}", c.cpu),
+                    _ => "no CPU number".to_owned(),
+                };
+                (
+                    format!(
+                        "command telegram: {} ('{letter}') {} {} ('{}'), {} {unit} ({} bytes), {flag}, {cpu}",
+                        command_name(h.command),
+                        h.address,
+                        type_name(h.address.data_type()),
+                        h.address.data_type().letter() as char,
+                        h.length,
+                        h.data_len(),
+                    ),
+                    json!({
+                        "telegram": "command",
+                        "command": letter.to_string(),
+                        "data_type": (h.address.data_type().letter() as char).to_string(),
+                        "address": h.address.to_string(),
+                        "length": h.length,
+                        "bytes": h.data_len(),
+                        "flag_byte": c.flag_byte,
+                        "flag_bit": c.flag_bit,
+                        "cpu": c.cpu,
+                    }),
+                    data,
+                )
+            }
+            Telegram::Continuation(h, data) => (
+                format!(
+                    "continuation command telegram: {} ('{}') {} ('{}')",
+                    command_name(h.command),
+                    h.command.letter() as char,
+                    type_name(h.data_type),
+                    h.data_type.letter() as char,
+                ),
+                json!({
+                    "telegram": "continuation",
+                    "command": (h.command.letter() as char).to_string(),
+                    "data_type": (h.data_type.letter() as char).to_string(),
+                }),
+                data,
+            ),
+            Telegram::Reaction(h, data) => {
+                let kind = if h.continuation {
+                    "continuation reaction telegram"
+                } else {
+                    "reaction telegram"
+                };
+                let meaning = match status::for_error_byte(h.error) {
+                    None => "no error".to_owned(),
+                    Some(s) => status::lookup(s.code()).to_string(),
+                };
+                (
+                    format!("{kind}: error number {:02X}H ({meaning})", h.error),
+                    json!({
+                        "telegram": if h.continuation { "continuation_reaction" } else { "reaction" },
+                        "error": h.error,
+                        "status": status::for_error_byte(h.error).map(Status::code),
+                    }),
+                    data,
+                )
+            }
+        };
+        let mut value = value;
+        value["data"] = json!(si_core::hex::format(data));
+        value["data_len"] = json!(data.len());
+        let text = if data.is_empty() {
+            text
+        } else {
+            format!(
+                "{text}; {} data bytes: {}",
+                data.len(),
+                si_core::hex::format(data)
+            )
+        };
+        out.line(&text, value);
+        Ok(())
+    }
+}
+
+// --- simulator scenarios ---------------------------------------------------------------------
+
 /// Scenarios for `si sim`.
-pub const SCENARIOS: &[Scenario] = &[];
+pub const SCENARIOS: &[Scenario] = &[
+    Scenario {
+        name: "rk512",
+        about: "RK 512: a host SENDs 300 bytes to DB10 of a PLC, then FETCHes them back",
+        run: send_then_fetch,
+    },
+    Scenario {
+        name: "rk512-locked",
+        about: "RK 512: a SEND with coordination flag M20.3; the second SEND is refused (16#0909)",
+        run: locked,
+    },
+];
+
+type St = StationId<Station>;
+
+fn stations(o: &SimOptions) -> Result<(Simulator, St, St), CliError> {
+    let line = o.settings;
+    let mut host = Config::default();
+    host.link.priority = Priority::High;
+    let mut memory = ServerConfig::default();
+    memory.memory.dbs.insert(10, 512);
+    let mut sim = Simulator::new(o.seed);
+    let a = sim.add_station("host", line, Station::new(host, line)?);
+    let b = sim.add_station(
+        "PLC",
+        line,
+        Station::serving(Config::default(), line, &memory)?,
+    );
+    sim.connect(a, b);
+    Ok((sim, a, b))
+}
+
+/// Run until the host's job has ended and the line is idle (not until stale timers of ended
+/// jobs would fire, which only stretches the trace).
+fn settle(sim: &mut Simulator, host: St) {
+    for _ in 0..2400 {
+        if !sim.engine(host).is_busy() {
+            break;
+        }
+        sim.run_for(Duration::from_millis(50));
+    }
+    sim.run_for(Duration::from_millis(50));
+}
+
+fn report(out: &Output, name: &str, events: Vec<Event>) {
+    for e in events {
+        let (text, value) = match e {
+            Event::Done { job, data } if data.is_empty() => (
+                format!("{name}: {job} done: {}", Status::OK),
+                json!({"station": name, "job": job.0, "status": 0}),
+            ),
+            Event::Done { job, data } => (
+                format!(
+                    "{name}: {job} done: {} bytes {}",
+                    data.len(),
+                    si_core::hex::format(&data)
+                ),
+                json!({"station": name, "job": job.0, "status": 0, "data": si_core::hex::format(&data)}),
+            ),
+            Event::Failed { job, status: s } => (
+                format!("{name}: {job} failed: {}", status::lookup(s.code())),
+                json!({"station": name, "job": job.0, "status": s.code()}),
+            ),
+            Event::Served {
+                command,
+                address,
+                len,
+            } => (
+                format!(
+                    "{name}: served {} {address}, {len} bytes",
+                    command_name(command)
+                ),
+                json!({"station": name, "served": command_name(command), "address": address.to_string(), "len": len}),
+            ),
+            Event::Refused { error } => (
+                format!(
+                    "{name}: refused with error number {:02X}H ({})",
+                    error.code(),
+                    error.status()
+                ),
+                json!({"station": name, "refused": error.code()}),
+            ),
+            Event::ServeAborted(s) | Event::ReceiveError(s) => (
+                format!("{name}: {}", status::lookup(s.code())),
+                json!({"station": name, "error": s.code()}),
+            ),
+        };
+        out.line(&text, value);
+    }
+}
+
+fn send_then_fetch(o: &SimOptions, out: &Output) -> Result<(), CliError> {
+    let (mut sim, host, plc) = stations(o)?;
+    let data: Vec<u8> = (0..300u16).map(|i| (i % 251) as u8).collect();
+    let at = Address::Db { db: 10, dw: 0 };
+    sim.with(host, |s, now| s.send(now, at, Coordination::NONE, data))?;
+    settle(&mut sim, host);
+    sim.with(host, |s, now| s.fetch(now, at, Coordination::NONE, 300))?;
+    settle(&mut sim, host);
+    print_trace(sim.trace(), out);
+    report(out, "host", sim.take_events(host));
+    report(out, "PLC", sim.take_events(plc));
+    Ok(())
+}
+
+fn locked(o: &SimOptions, out: &Output) -> Result<(), CliError> {
+    let (mut sim, host, plc) = stations(o)?;
+    let at = Address::Db { db: 10, dw: 0 };
+    let km = Coordination::flag(20, 3);
+    sim.with(host, |s, now| s.send(now, at, km, vec![0x12, 0x34]))?;
+    settle(&mut sim, host);
+    sim.with(host, |s, now| s.send(now, at, km, vec![0x56, 0x78]))?;
+    settle(&mut sim, host);
+    print_trace(sim.trace(), out);
+    report(out, "host", sim.take_events(host));
+    report(out, "PLC", sim.take_events(plc));
+    let flag = sim
+        .engine(plc)
+        .server()
+        .memory()
+        .bit(Area::Flags, 20, 3)
+        .unwrap_or(false);
+    out.line(
+        &format!("PLC: M20.3 = {}", u8::from(flag)),
+        json!({"station": "PLC", "flag": "M20.3", "value": flag}),
+    );
+    Ok(())
+}
