@@ -3,6 +3,7 @@
 //! input windows back) and the serial partner (the other end of the pair). A send job puts the
 //! frame on the line and ends with 7xH only after that (et200s-si-2005-window-protocol.md §2.9);
 //! a frame from the partner is offered (0001H) and fetched with a receive job (Table 2-24).
+//! The 3964(R) module is checked against `si 3964r send|recv` as the partner.
 //! Skips with a message when socat is not installed (CI: `apt-get install socat`).
 
 use std::io::{BufRead, BufReader, Read, Write};
@@ -93,12 +94,10 @@ impl Drop for ModuleProcess {
     }
 }
 
-#[test]
-fn module_ascii_sends_through_the_window_and_offers_received_frames() {
-    let Some(pair) = pty_pair() else { return };
+fn start_module(args: &[&str]) -> ModuleProcess {
     let mut child = Command::new(env!("CARGO_BIN_EXE_si"))
-        .args(["dp-coord", "module", "--window", "4", "--protocol", "ascii"])
-        .args(["--port", &pair.a])
+        .args(["dp-coord", "module"])
+        .args(args)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())
@@ -106,11 +105,85 @@ fn module_ascii_sends_through_the_window_and_offers_received_frames() {
         .expect("start si dp-coord module");
     let stdin = child.stdin.take().expect("piped stdin");
     let stdout = BufReader::new(child.stdout.take().expect("piped stdout"));
-    let mut m = ModuleProcess {
+    ModuleProcess {
         child,
         stdin,
         stdout,
-    };
+    }
+}
+
+#[test]
+fn module_3964r_receives_from_si_3964r_send_and_sends_to_si_3964r_recv() {
+    let Some(pair) = pty_pair() else { return };
+    let mut m = start_module(&["--window", "8", "--protocol", "3964r", "--port", &pair.a]);
+    // Let the module open its port (and send its startup NAK) before the partner starts.
+    assert_eq!(
+        m.cycle("00 00 00 00 00 00 00 00"),
+        "00 00 00 00 00 00 00 00"
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let sent = Command::new(env!("CARGO_BIN_EXE_si"))
+        .args(["3964r", "send", "--port", &pair.b, "--priority", "high"])
+        .arg("41 42 10 43")
+        .output()
+        .expect("si 3964r send");
+    assert!(sent.status.success(), "{sent:?}");
+    // The block (with its DLE) is offered and fetched through the window.
+    assert_eq!(
+        m.cycle_until("00 00 00 00 00 00 00 00", "00 00 01"),
+        "00 00 01 00 00 00 00 00"
+    );
+    assert_eq!(
+        m.cycle("20 00 00 00 00 00 00 00"),
+        "21 00 04 41 42 10 43 00"
+    );
+    assert_eq!(
+        m.cycle("21 00 00 00 00 00 00 00"),
+        "00 00 00 00 00 00 00 00"
+    );
+
+    // The other way: si 3964r recv gets what the host sends through the window.
+    let recv = Command::new(env!("CARGO_BIN_EXE_si"))
+        .args([
+            "3964r",
+            "recv",
+            "--port",
+            &pair.b,
+            "--priority",
+            "high",
+            "--count",
+            "1",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("si 3964r recv");
+    std::thread::sleep(Duration::from_millis(500));
+    assert_eq!(
+        m.cycle("10 00 00 00 00 00 00 00"),
+        "10 00 00 00 00 00 00 00"
+    );
+    assert_eq!(
+        m.cycle("11 00 02 10 03 00 00 00"),
+        "11 00 00 00 00 00 00 00"
+    );
+    assert_eq!(
+        m.cycle_until("11 00 02 10 03 00 00 00", "71"),
+        "71 00 00 00 00 00 00 00"
+    );
+    assert_eq!(
+        m.cycle("00 00 00 00 00 00 00 00"),
+        "00 00 00 00 00 00 00 00"
+    );
+    let out = recv.wait_with_output().expect("si 3964r recv ends");
+    assert!(out.status.success(), "{out:?}");
+    assert_eq!(String::from_utf8_lossy(&out.stdout).trim(), "10 03");
+}
+
+#[test]
+fn module_ascii_sends_through_the_window_and_offers_received_frames() {
+    let Some(pair) = pty_pair() else { return };
+    let mut m = start_module(&["--window", "4", "--protocol", "ascii", "--port", &pair.a]);
     // The partner's end of the line, read on its own thread.
     let mut partner = std::fs::OpenOptions::new()
         .read(true)
