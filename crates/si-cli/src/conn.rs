@@ -3,7 +3,15 @@
 use crate::CliError;
 use clap::Args;
 use si_core::driver::Transport;
-use si_core::{Parity, SerialSettings};
+use si_core::sim::TraceKind;
+use si_core::tracefile::{Header, Recorder};
+use si_core::{ModemSignals, Parity, SerialSettings, SignalUpdate};
+use std::io;
+use std::path::PathBuf;
+use std::pin::Pin;
+use std::sync::{Arc, OnceLock};
+use std::task::{Context, Poll};
+use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 
 /// Options every command that talks to a line shares.
 #[derive(Debug, Clone, Args)]
@@ -26,6 +34,16 @@ pub struct Connection {
     /// Stop bits: 1 or 2.
     #[arg(long, global = true, default_value_t = 1)]
     pub stop_bits: u8,
+    /// Record every byte sent and received (with its time) into this trace file, JSON lines;
+    /// `si monitor --trace FILE` decodes it. With `si sim`, records the simulated line.
+    #[arg(long, global = true, value_name = "FILE")]
+    pub record: Option<PathBuf>,
+    /// The protocol the command speaks, written into the trace header (set by `main`).
+    #[arg(skip)]
+    pub protocol: Option<&'static str>,
+    /// The recorder, created on the first `open` so every port of the command shares one file.
+    #[arg(skip)]
+    recorder: Arc<OnceLock<Recorder>>,
 }
 
 impl Connection {
@@ -57,22 +75,121 @@ impl Connection {
         &self,
         settings: &SerialSettings,
     ) -> Result<Box<dyn Transport>, CliError> {
-        match (&self.port, &self.tcp) {
+        let transport: Box<dyn Transport> = match (&self.port, &self.tcp) {
             (Some(path), _) => {
                 let port = open_serial(path, settings)?;
-                Ok(Box::new(port))
+                Box::new(port)
             }
             (None, Some(addr)) => {
                 let stream = tokio::net::TcpStream::connect(addr)
                     .await
                     .map_err(|e| CliError::new(format!("cannot connect to {addr}: {e}")))?;
                 stream.set_nodelay(true).ok();
-                Ok(Box::new(stream))
+                Box::new(stream)
             }
-            (None, None) => Err(CliError::new(
-                "no line given: use --port PATH or --tcp HOST:PORT",
-            )),
+            (None, None) => {
+                return Err(CliError::new(
+                    "no line given: use --port PATH or --tcp HOST:PORT",
+                ))
+            }
+        };
+        match self.recorder(settings)? {
+            Some(recorder) => Ok(Box::new(Recording {
+                inner: transport,
+                recorder: recorder.for_station(STATION),
+            })),
+            None => Ok(transport),
         }
+    }
+
+    /// The shared recorder if `--record` was given, created with a header on first use.
+    pub fn recorder(&self, settings: &SerialSettings) -> Result<Option<Recorder>, CliError> {
+        let Some(path) = &self.record else {
+            return Ok(None);
+        };
+        if let Some(r) = self.recorder.get() {
+            return Ok(Some(r.clone()));
+        }
+        let mut header = Header::new("port").settings(*settings).stations(&[STATION]);
+        if let Some(p) = self.protocol {
+            header = header.protocol(p);
+        }
+        let r = Recorder::create(path, &header)
+            .map_err(|e| CliError::new(format!("cannot record to {}: {e}", path.display())))?;
+        Ok(Some(self.recorder.get_or_init(|| r).clone()))
+    }
+}
+
+/// The station name this program's side has in a recorded trace.
+pub const STATION: &str = "si";
+
+/// A transport that writes what passes through it into a trace: writes as `tx`, reads as
+/// `rx_chunk`, signal changes as `signals` (si_core::tracefile). Timestamps come from the
+/// recorder's clock when the read or write completes; a recording error is logged, never
+/// allowed to stop the line.
+struct Recording {
+    inner: Box<dyn Transport>,
+    recorder: Recorder,
+}
+
+impl Recording {
+    fn note(&self, kind: TraceKind) {
+        if let Err(e) = self.recorder.record(kind) {
+            tracing::warn!("trace recording failed: {e}");
+        }
+    }
+}
+
+impl AsyncRead for Recording {
+    fn poll_read(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &mut ReadBuf<'_>,
+    ) -> Poll<io::Result<()>> {
+        let before = buf.filled().len();
+        let poll = Pin::new(&mut self.inner).poll_read(cx, buf);
+        if let Poll::Ready(Ok(())) = &poll {
+            let new = &buf.filled()[before..];
+            if !new.is_empty() {
+                let bytes = new.to_vec();
+                self.note(TraceKind::RxChunk { bytes });
+            }
+        }
+        poll
+    }
+}
+
+impl AsyncWrite for Recording {
+    fn poll_write(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+    ) -> Poll<io::Result<usize>> {
+        let poll = Pin::new(&mut self.inner).poll_write(cx, buf);
+        if let Poll::Ready(Ok(n)) = &poll {
+            if *n > 0 {
+                self.note(TraceKind::Tx {
+                    bytes: buf[..*n].to_vec(),
+                });
+            }
+        }
+        poll
+    }
+    fn poll_flush(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.inner).poll_flush(cx)
+    }
+    fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.inner).poll_shutdown(cx)
+    }
+}
+
+impl Transport for Recording {
+    fn set_signals(&mut self, update: SignalUpdate) -> io::Result<()> {
+        self.note(TraceKind::Signals { update });
+        self.inner.set_signals(update)
+    }
+    fn read_signals(&mut self) -> io::Result<Option<ModemSignals>> {
+        self.inner.read_signals()
     }
 }
 

@@ -7,6 +7,7 @@
 
 mod cmd;
 mod conn;
+mod svg;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -103,7 +104,16 @@ impl Output {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let mut cli = Cli::parse();
+    cli.connection.protocol = match &cli.command {
+        Command::R3964(_) => Some("3964r"),
+        Command::Rk512(_) => Some("rk512"),
+        Command::Ascii(_) => Some("ascii"),
+        Command::Modbus(_) => Some("modbus"),
+        Command::Uss(_) => Some("uss"),
+        Command::DpCoord(_) => Some("dp-coord"),
+        _ => None,
+    };
     let level = match cli.verbose {
         0 => "warn",
         1 => "info",
@@ -125,7 +135,10 @@ fn main() -> ExitCode {
         Command::Diag(c) => c.run(&out),
         Command::Im(c) => c.run(&out),
         Command::Params(c) => c.run(&out),
-        Command::Sim(a) => cli.connection.settings().and_then(|s| a.run(s, &out)),
+        Command::Sim(a) => cli
+            .connection
+            .settings()
+            .and_then(|s| a.run(s, cli.connection.record.as_deref(), &out)),
         Command::R3964(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
         Command::Rk512(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
         Command::Ascii(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),

@@ -2,13 +2,20 @@
 //!
 //! Each protocol module lists its scenarios in `SCENARIOS`; this module adds the ones that show
 //! the simulator itself (character timing, an RS-485 collision) and prints the trace.
+//!
+//! `--record FILE` (the global option) writes the trace a scenario prints as a trace file
+//! (`si_core::tracefile`, with the protocol and settings in its header) for `si monitor
+//! --trace`; `--svg FILE` decodes it with the monitor and draws the sequence diagram. Both
+//! hook into [`print_trace`], which every scenario calls once with its trace.
 
 use crate::cmd::{ascii, dpcoord, modbus, r3964, rk512, uss};
 use crate::{CliError, Output};
 use clap::Args;
 use si_core::sim::{Simulator, Trace};
 use si_core::{Engine, Instant, LineError, Output as EngineOutput, SerialSettings};
+use std::cell::RefCell;
 use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
 
 /// A named simulation.
 pub struct Scenario {
@@ -37,6 +44,39 @@ pub struct SimArgs {
     /// Seed for the simulator's faults: the same seed gives the same run.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Draw the scenario as an SVG sequence diagram (decoded like `si monitor`).
+    #[arg(long, value_name = "FILE")]
+    svg: Option<PathBuf>,
+}
+
+/// Where the trace of the running scenario goes besides the screen.
+struct Sink {
+    protocol: Option<&'static str>,
+    settings: SerialSettings,
+    record: Option<PathBuf>,
+    svg: Option<PathBuf>,
+    written: Result<bool, String>,
+}
+
+thread_local! {
+    /// Set by [`SimArgs::run`] around one scenario; read by [`print_trace`].
+    static SINK: RefCell<Option<Sink>> = const { RefCell::new(None) };
+}
+
+/// The protocol a scenario's trace speaks, from the list it comes from.
+fn protocol_of(name: &str) -> Option<&'static str> {
+    let lists: [(&[Scenario], &'static str); 6] = [
+        (r3964::SCENARIOS, "3964r"),
+        (rk512::SCENARIOS, "rk512"),
+        (ascii::SCENARIOS, "ascii"),
+        (modbus::SCENARIOS, "modbus"),
+        (uss::SCENARIOS, "uss"),
+        (dpcoord::SCENARIOS, "dp-coord"),
+    ];
+    lists
+        .iter()
+        .find(|(list, _)| list.iter().any(|s| s.name == name))
+        .map(|(_, p)| *p)
 }
 
 /// The simulator's own scenarios.
@@ -64,8 +104,14 @@ fn all() -> impl Iterator<Item = &'static Scenario> {
 }
 
 impl SimArgs {
-    /// Run the named scenario, or list them.
-    pub fn run(&self, settings: SerialSettings, out: &Output) -> Result<(), CliError> {
+    /// Run the named scenario (recording its trace to `record` and drawing it to `--svg`), or
+    /// list them.
+    pub fn run(
+        &self,
+        settings: SerialSettings,
+        record: Option<&Path>,
+        out: &Output,
+    ) -> Result<(), CliError> {
         let Some(name) = &self.scenario else {
             for s in all() {
                 out.line(
@@ -86,12 +132,81 @@ impl SimArgs {
             seed: self.seed,
             settings,
         };
-        (scenario.run)(&options, out)
+        let wanted = record.is_some() || self.svg.is_some();
+        SINK.with(|s| {
+            *s.borrow_mut() = wanted.then(|| Sink {
+                protocol: protocol_of(name),
+                settings,
+                record: record.map(Path::to_path_buf),
+                svg: self.svg.clone(),
+                written: Ok(false),
+            })
+        });
+        let result = (scenario.run)(&options, out);
+        let sink = SINK.with(|s| s.borrow_mut().take());
+        result?;
+        match sink.map(|s| s.written) {
+            None | Some(Ok(true)) => Ok(()),
+            Some(Ok(false)) => Err(CliError::new(format!(
+                "scenario {name} printed no trace to record or draw"
+            ))),
+            Some(Err(e)) => Err(CliError::new(e)),
+        }
     }
 }
 
-/// Print a trace: the human table, or one JSON object per entry.
+/// Write the trace file and the diagram the running scenario asked for.
+fn save(sink: &Sink, trace: &Trace) -> Result<(), String> {
+    let stations: Vec<String> = {
+        let mut names: Vec<String> = Vec::new();
+        for e in &trace.entries {
+            if !names.contains(&e.station) {
+                names.push(e.station.clone());
+            }
+        }
+        names
+    };
+    let mut header = si_core::tracefile::Header::new("sim")
+        .settings(sink.settings)
+        .stations(&stations);
+    if let Some(p) = sink.protocol {
+        header = header.protocol(p);
+    }
+    if let Some(path) = &sink.record {
+        let file = std::fs::File::create(path)
+            .map_err(|e| format!("cannot record to {}: {e}", path.display()))?;
+        si_core::tracefile::write(std::io::BufWriter::new(file), &header, trace)
+            .map_err(|e| format!("cannot record to {}: {e}", path.display()))?;
+    }
+    if let Some(path) = &sink.svg {
+        let file = si_core::tracefile::TraceFile {
+            header: Some(header),
+            trace: trace.clone(),
+        };
+        let args = <crate::cmd::monitor::MonitorArgs as clap::FromArgMatches>::from_arg_matches(
+            &<crate::cmd::monitor::MonitorArgs as clap::Args>::augment_args(clap::Command::new(
+                "m",
+            ))
+            .get_matches_from(["m"]),
+        )
+        .map_err(|e| e.to_string())?;
+        let analysis = args
+            .analyse(&file, sink.settings)
+            .map_err(|e| format!("{e:?}"))?;
+        std::fs::write(path, crate::svg::render(&analysis))
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// Print a trace: the human table, or one JSON object per entry. When `si sim` was asked to
+/// `--record` or draw (`--svg`), the trace is saved here too.
 pub fn print_trace(trace: &Trace, out: &Output) {
+    SINK.with(|s| {
+        if let Some(sink) = s.borrow_mut().as_mut() {
+            sink.written = save(sink, trace).map(|()| true);
+        }
+    });
     if out.json {
         for entry in &trace.entries {
             println!("{}", serde_json::to_string(entry).unwrap_or_default());

@@ -1,0 +1,154 @@
+//! Passive ASCII-driver decoding (et200s-si-3964r-ascii.md §6.3, §6.4): frames end by the
+//! configured criterion — the character delay time (the default), end-of-text characters, or
+//! a fixed length (`si_ascii::frame::Cutter` decides the last two) — and XON/XOFF characters
+//! are shown as control characters when flow control is on.
+
+use super::framer::Framer;
+use super::model::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
+use si_ascii::config::EndCriterion;
+use si_ascii::frame::{Cut, Cutter};
+use si_core::{Duration, Instant};
+
+/// What the listener judges against.
+#[derive(Debug, Clone, Copy)]
+pub struct Params {
+    /// The end criterion.
+    pub end: EndCriterion,
+    /// Character delay time: ends frames under [`EndCriterion::CharDelay`], and is the longest
+    /// allowed gap inside a frame otherwise.
+    pub char_delay: Duration,
+    /// XON/XOFF characters, if flow control is on.
+    pub xon_xoff: Option<(u8, u8)>,
+}
+
+/// The ASCII listener.
+pub struct Ascii {
+    p: Params,
+    framer: Framer,
+    cutter: Cutter,
+    counters: Counters,
+}
+
+impl Ascii {
+    /// A listener with these parameters.
+    pub fn new(p: Params) -> Self {
+        let mut counters = Counters::default();
+        counters.declare(&["frames", "line errors", "frames too long", "XON", "XOFF"]);
+        Ascii {
+            p,
+            framer: Framer::new(p.char_delay),
+            cutter: Cutter::new(p.end),
+            counters,
+        }
+    }
+
+    fn frame(&mut self, f: super::framer::Frame, cut_by_gap: bool, out: &mut Vec<Record>) {
+        self.cutter.reset();
+        if f.bytes.is_empty() && f.line_errors.is_empty() {
+            return;
+        }
+        self.counters.bump("frames");
+        let mut r = Record::new(Kind::Frame, f.start, f.end, f.from)
+            .labelled(format!("frame {} B", f.bytes.len()), printable(&f.bytes));
+        r.to = f.to;
+        r.bytes = f.bytes;
+        for e in &f.line_errors {
+            self.counters.bump("line errors");
+            r.flags
+                .push(Flag::error(format!("{e:?} error in the frame")));
+        }
+        if cut_by_gap && self.p.end != EndCriterion::CharDelay {
+            r.flags.push(Flag::error(format!(
+                "character delay time {} exceeded before the end criterion (STATUS 16#0806)",
+                ms(self.p.char_delay)
+            )));
+        }
+        out.push(r);
+    }
+}
+
+/// Text with control characters in angle brackets: `Hello<CR><LF>`.
+fn printable(bytes: &[u8]) -> String {
+    let mut s = String::new();
+    for &b in bytes {
+        match b {
+            0x20..=0x7E => s.push(b as char),
+            0x02 => s.push_str("<STX>"),
+            0x03 => s.push_str("<ETX>"),
+            0x0A => s.push_str("<LF>"),
+            0x0D => s.push_str("<CR>"),
+            _ => s.push_str(&format!("<{b:02X}>")),
+        }
+    }
+    s
+}
+
+impl Decoder for Ascii {
+    fn push(&mut self, c: &LineChar, out: &mut Vec<Record>) {
+        if let Some(f) = self.framer.idle(c.at) {
+            self.frame(f, true, out);
+        }
+        if let (Some((xon, xoff)), Ok(b)) = (self.p.xon_xoff, c.item) {
+            if b == xon || b == xoff {
+                let name = if b == xon { "XON" } else { "XOFF" };
+                self.counters.bump(name);
+                let mut r = Record::new(Kind::Control, c.at, c.at, c.from).labelled(
+                    name,
+                    if b == xon {
+                        "resume sending"
+                    } else {
+                        "stop sending"
+                    },
+                );
+                r.to = c.to;
+                r.bytes.push(b);
+                out.push(r);
+                return;
+            }
+        }
+        if let Some(f) = self.framer.push(c) {
+            let by_gap = f.from == c.from;
+            self.frame(f, by_gap, out);
+        }
+        if let Ok(b) = c.item {
+            match self.cutter.push(b) {
+                Cut::Continue => {}
+                Cut::Complete => {
+                    if let Some(f) = self.framer.flush() {
+                        self.frame(f, false, out);
+                    }
+                }
+                Cut::TooLong => {
+                    self.counters.bump("frames too long");
+                    if let Some(f) = self.framer.flush() {
+                        let at = f.end;
+                        self.frame(f, false, out);
+                        if let Some(last) = out.last_mut() {
+                            last.flags.push(Flag::error(
+                                "frame longer than 200 characters (STATUS 16#0801)",
+                            ));
+                            let _ = at;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn idle(&mut self, now: Instant, out: &mut Vec<Record>) {
+        if let Some(f) = self.framer.idle(now) {
+            self.frame(f, true, out);
+        }
+    }
+
+    fn finish(&mut self, _now: Instant, out: &mut Vec<Record>) {
+        if let Some(f) = self.framer.flush() {
+            let by_delay = self.p.end == EndCriterion::CharDelay;
+            self.frame(f, !by_delay, out);
+        }
+    }
+
+    fn counters(&self) -> &Counters {
+        &self.counters
+    }
+}

@@ -1,0 +1,465 @@
+//! `si monitor`: watch a line without ever transmitting, or read a recorded trace, and decode
+//! the frames with their timing.
+//!
+//! The input is either a port (`--port`/`--tcp`; the monitor only reads) or a trace file
+//! (`--trace FILE`, see `si_core::tracefile`) written by `si sim --record`, by `si --record` on
+//! any command, or by the tokio driver. The characters go to one passive decoder per protocol
+//! ([`p3964`], [`modbus`], [`uss`], [`ascii`]), which cuts frames the way the module's receiver
+//! does, checks BCC/CRC, judges the manuals' timers (ZVZ, QVZ, Modbus end-of-frame gap and
+//! response timeout, USS start interval, residual run time and response delay) and keeps
+//! counters. Every record is printed as it is decoded; the counters at the end. `--svg` draws
+//! the sequence diagram ([`crate::svg`]).
+
+pub mod ascii;
+pub mod framer;
+pub mod line;
+pub mod modbus;
+pub mod model;
+pub mod p3964;
+pub mod uss;
+
+use crate::conn::Connection;
+use crate::{CliError, Output};
+use clap::{Args, ValueEnum};
+use model::{Counters, Decoder, LineChar, Record, Severity};
+use si_core::tracefile::{self, TraceFile};
+use si_core::{Duration, Instant, SerialSettings};
+use std::path::PathBuf;
+
+/// The protocols the monitor decodes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Protocol {
+    /// 3964(R) with block check (BCC).
+    #[value(name = "3964r")]
+    P3964r,
+    /// Plain 3964 (no block check, QVZ 550 ms).
+    #[value(name = "3964")]
+    P3964,
+    /// RK 512 telegrams in 3964(R) blocks.
+    Rk512,
+    /// ASCII driver frames.
+    Ascii,
+    /// Modbus RTU.
+    Modbus,
+    /// USS.
+    Uss,
+    /// The trace header's protocol, else the decoder that explains the line best.
+    Auto,
+}
+
+impl Protocol {
+    fn name(self) -> &'static str {
+        match self {
+            Protocol::P3964r => "3964r",
+            Protocol::P3964 => "3964",
+            Protocol::Rk512 => "rk512",
+            Protocol::Ascii => "ascii",
+            Protocol::Modbus => "modbus",
+            Protocol::Uss => "uss",
+            Protocol::Auto => "auto",
+        }
+    }
+
+    fn from_name(name: &str) -> Option<Protocol> {
+        Some(match name {
+            "3964r" | "3964R" => Protocol::P3964r,
+            "3964" => Protocol::P3964,
+            "rk512" => Protocol::Rk512,
+            "ascii" => Protocol::Ascii,
+            "modbus" => Protocol::Modbus,
+            "uss" => Protocol::Uss,
+            _ => return None,
+        })
+    }
+}
+
+/// `si monitor`.
+#[derive(Debug, Args)]
+pub struct MonitorArgs {
+    /// Protocol to decode.
+    #[arg(long, value_enum, default_value_t = Protocol::Auto)]
+    pub protocol: Protocol,
+    /// Read this recorded trace instead of a port.
+    #[arg(long, value_name = "FILE")]
+    pub trace: Option<PathBuf>,
+    /// Also draw the exchange as an SVG sequence diagram.
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
+    /// Stop watching a port after this many seconds (default: until Ctrl-C).
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+    /// 3964(R) character delay time ZVZ in ms (default 220).
+    #[arg(long, value_name = "MS")]
+    pub zvz: Option<u64>,
+    /// 3964(R) acknowledgement delay time QVZ in ms (default 2000, 550 for plain 3964).
+    #[arg(long, value_name = "MS")]
+    pub qvz: Option<u64>,
+    /// Modbus response timeout in ms (default 2000, the master's default).
+    #[arg(long, value_name = "MS")]
+    pub timeout: Option<u64>,
+    /// ASCII character delay time in ms (default: 4 ms or the baud rate's minimum, whichever is longer).
+    #[arg(long, value_name = "MS")]
+    pub char_delay: Option<u64>,
+    /// ASCII: frames end with these one or two end-of-text characters (hex, e.g. 03 or 0D0A)
+    /// instead of at the character delay time.
+    #[arg(long, value_name = "HEX", conflicts_with = "fixed_length")]
+    pub end_char: Option<String>,
+    /// ASCII: frames have this fixed length instead of ending at the delay.
+    #[arg(long, value_name = "N")]
+    pub fixed_length: Option<u16>,
+    /// ASCII: treat 11H and 13H as data, not as XON/XOFF flow-control characters.
+    #[arg(long)]
+    pub no_xon_xoff: bool,
+}
+
+/// Everything the monitor concluded.
+#[derive(Debug, Clone, Default)]
+pub struct Analysis {
+    /// The protocol decoded.
+    pub protocol: String,
+    /// Station names (records index into it).
+    pub stations: Vec<String>,
+    /// Records in time order.
+    pub records: Vec<Record>,
+    /// The decoder's counters.
+    pub counters: Counters,
+    /// First and last instant of the trace.
+    pub span: (Instant, Instant),
+}
+
+impl MonitorArgs {
+    /// Run it: decode a trace, or watch the port.
+    pub async fn run(&self, conn: &Connection, out: &Output) -> Result<(), CliError> {
+        match &self.trace {
+            Some(path) => self.run_trace(path, conn, out),
+            None => self.run_live(conn, out).await,
+        }
+    }
+
+    fn decoder(
+        &self,
+        protocol: Protocol,
+        settings: SerialSettings,
+        one_sided: bool,
+    ) -> Box<dyn Decoder> {
+        let ms = Duration::from_millis;
+        match protocol {
+            Protocol::P3964r | Protocol::P3964 | Protocol::Rk512 | Protocol::Auto => {
+                let mode = if protocol == Protocol::P3964 {
+                    si_3964r::frame::Mode::NoBlockCheck
+                } else {
+                    si_3964r::frame::Mode::BlockCheck
+                };
+                let default_qvz = if protocol == Protocol::P3964 {
+                    550
+                } else {
+                    2000
+                };
+                Box::new(p3964::P3964::new(p3964::Params {
+                    mode,
+                    zvz: ms(self.zvz.unwrap_or(220)),
+                    qvz: ms(self.qvz.unwrap_or(default_qvz)),
+                    rk512: protocol == Protocol::Rk512,
+                }))
+            }
+            Protocol::Modbus => Box::new(modbus::Modbus::new(
+                modbus::Params {
+                    settings,
+                    end_gap: si_modbus::config::gap_table(settings.baud()),
+                    timeout: ms(self.timeout.unwrap_or(2000)),
+                },
+                one_sided,
+            )),
+            Protocol::Uss => Box::new(uss::Uss::new(settings, one_sided)),
+            Protocol::Ascii => {
+                use si_ascii::config::EndCriterion;
+                let end = match (&self.end_char, self.fixed_length) {
+                    (Some(hex), _) => {
+                        let chars = si_core::hex::parse(hex).unwrap_or_default();
+                        EndCriterion::EndChars {
+                            first: chars.first().copied().unwrap_or(0x03),
+                            second: chars.get(1).copied().unwrap_or(0),
+                        }
+                    }
+                    (None, Some(len)) => EndCriterion::FixedLength { len },
+                    (None, None) => EndCriterion::CharDelay,
+                };
+                let min = u64::from(si_ascii::config::min_char_delay_ms(settings.baud()));
+                Box::new(ascii::Ascii::new(ascii::Params {
+                    end,
+                    char_delay: ms(self.char_delay.unwrap_or(min.max(4))),
+                    xon_xoff: (!self.no_xon_xoff).then_some((0x11, 0x13)),
+                }))
+            }
+        }
+    }
+
+    fn run_trace(
+        &self,
+        path: &std::path::Path,
+        conn: &Connection,
+        out: &Output,
+    ) -> Result<(), CliError> {
+        let file = std::fs::File::open(path)
+            .map_err(|e| CliError::new(format!("cannot open {}: {e}", path.display())))?;
+        let file = tracefile::read(std::io::BufReader::new(file))
+            .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
+        let settings = file
+            .header
+            .as_ref()
+            .and_then(|h| h.settings)
+            .and_then(|f| f.settings())
+            .map_or_else(|| conn.settings_for(&TRACE_RATES), Ok)?;
+        let analysis = self.analyse(&file, settings)?;
+        for r in &analysis.records {
+            print_record(r, &analysis.stations, out);
+        }
+        print_counters(&analysis, out);
+        if let Some(svg) = &self.svg {
+            write_svg(svg, &analysis)?;
+        }
+        Ok(())
+    }
+
+    /// Decode a trace file.
+    pub fn analyse(
+        &self,
+        file: &TraceFile,
+        settings: SerialSettings,
+    ) -> Result<Analysis, CliError> {
+        let line = line::from_trace(file, settings);
+        let one_sided = line.stations.len() < 2;
+        let end = file
+            .trace
+            .entries
+            .last()
+            .map(|e| e.at)
+            .unwrap_or_default()
+            .max(line.chars.last().map(|c| c.at).unwrap_or_default());
+        let named = file
+            .header
+            .as_ref()
+            .and_then(|h| h.protocol.as_deref())
+            .and_then(Protocol::from_name);
+        let protocol = match (self.protocol, named) {
+            (Protocol::Auto, Some(p)) => p,
+            (Protocol::Auto, None) => {
+                guess(&line.chars, |p| self.decoder(p, settings, one_sided), end)
+            }
+            (p, _) => p,
+        };
+        let mut decoder = self.decoder(protocol, settings, one_sided);
+        let records = decode_all(decoder.as_mut(), &line.chars, end);
+        Ok(Analysis {
+            protocol: protocol.name().to_owned(),
+            stations: line.stations,
+            records,
+            counters: decoder.counters().clone(),
+            span: (line.chars.first().map(|c| c.at).unwrap_or_default(), end),
+        })
+    }
+
+    async fn run_live(&self, conn: &Connection, out: &Output) -> Result<(), CliError> {
+        use tokio::io::AsyncReadExt;
+        let settings = conn.settings_for(&TRACE_RATES)?;
+        let protocol = if self.protocol == Protocol::Auto {
+            return Err(CliError::new(
+                "on a live port, name the protocol: --protocol 3964r|3964|rk512|ascii|modbus|uss",
+            ));
+        } else {
+            self.protocol
+        };
+        let mut port = conn.open_with(&settings).await?;
+        let stations = vec!["line".to_owned()];
+        let mut decoder = self.decoder(protocol, settings, true);
+        let origin = tokio::time::Instant::now();
+        let now = || Instant::from_micros(origin.elapsed().as_micros() as u64);
+        let stop = self
+            .duration
+            .map(|s| origin + std::time::Duration::from_secs_f64(s.max(0.0)));
+        let mut all = Vec::new();
+        let mut buf = [0u8; 512];
+        let mut tick = tokio::time::interval(std::time::Duration::from_millis(50));
+        let ctrl_c = tokio::signal::ctrl_c();
+        tokio::pin!(ctrl_c);
+        out.line(
+            &format!(
+                "monitoring {} at {settings} (receive only); Ctrl-C ends",
+                protocol.name()
+            ),
+            serde_json::json!({"monitor": protocol.name(), "settings": settings.to_string()}),
+        );
+        loop {
+            let mut records = Vec::new();
+            tokio::select! {
+                read = port.read(&mut buf) => {
+                    let n = read.map_err(|e| CliError::new(format!("reading the line: {e}")))?;
+                    if n == 0 {
+                        break;
+                    }
+                    let at = now();
+                    for (k, &b) in buf[..n].iter().enumerate() {
+                        let before = settings.chars_time((n - 1 - k) as u64);
+                        let c = LineChar {
+                            at: Instant::from_micros(at.as_micros().saturating_sub(before.as_micros())),
+                            from: Some(0),
+                            to: None,
+                            item: Ok(b),
+                            exact: k == 0,
+                        };
+                        decoder.push(&c, &mut records);
+                    }
+                }
+                _ = tick.tick() => decoder.idle(now(), &mut records),
+                _ = &mut ctrl_c => break,
+                _ = tokio::time::sleep_until(stop.unwrap_or(origin)), if stop.is_some() => break,
+            }
+            for r in &records {
+                print_record(r, &stations, out);
+            }
+            all.extend(records);
+        }
+        let mut records = Vec::new();
+        decoder.finish(now(), &mut records);
+        for r in &records {
+            print_record(r, &stations, out);
+        }
+        all.extend(records);
+        let analysis = Analysis {
+            protocol: protocol.name().to_owned(),
+            stations,
+            span: (all.first().map(|r| r.start).unwrap_or_default(), now()),
+            records: all,
+            counters: decoder.counters().clone(),
+        };
+        print_counters(&analysis, out);
+        if let Some(svg) = &self.svg {
+            write_svg(svg, &analysis)?;
+        }
+        Ok(())
+    }
+}
+
+/// Baud rates a trace or a monitored line may use: the manuals' twelve and USS's 187 500.
+pub static TRACE_RATES: [u32; 13] = [
+    110, 300, 600, 1_200, 2_400, 4_800, 9_600, 19_200, 38_400, 57_600, 76_800, 115_200, 187_500,
+];
+
+/// Feed every character, then finish at `end`.
+pub fn decode_all(decoder: &mut dyn Decoder, chars: &[LineChar], end: Instant) -> Vec<Record> {
+    let mut records = Vec::new();
+    for c in chars {
+        decoder.push(c, &mut records);
+    }
+    decoder.finish(end, &mut records);
+    records.sort_by_key(|r| r.start);
+    records
+}
+
+/// Pick the decoder that explains the characters best: most decoded frames without errors,
+/// fewest errors.
+fn guess(
+    chars: &[LineChar],
+    make: impl Fn(Protocol) -> Box<dyn Decoder>,
+    end: Instant,
+) -> Protocol {
+    let mut best = (Protocol::Ascii, i64::MIN);
+    for p in [
+        Protocol::P3964r,
+        Protocol::Modbus,
+        Protocol::Uss,
+        Protocol::Ascii,
+    ] {
+        let mut d = make(p);
+        let records = decode_all(d.as_mut(), chars, end);
+        let good = records
+            .iter()
+            .filter(|r| r.kind != model::Kind::Note && !r.has_error())
+            .count() as i64;
+        let bad = records.iter().filter(|r| r.has_error()).count() as i64;
+        // ASCII explains everything trivially: it only wins when nothing else does.
+        let score = if p == Protocol::Ascii {
+            0
+        } else {
+            good * 2 - bad * 3
+        };
+        if score > best.1 {
+            best = (p, score);
+        }
+    }
+    best.0
+}
+
+fn station(stations: &[String], i: Option<usize>) -> &str {
+    i.and_then(|i| stations.get(i)).map_or("?", String::as_str)
+}
+
+/// Print one record: time, direction, label, meaning, flags.
+pub fn print_record(r: &Record, stations: &[String], out: &Output) {
+    let from = station(stations, r.from);
+    let to = match r.to {
+        Some(_) => station(stations, r.to),
+        None => "*",
+    };
+    let flags: Vec<String> = r
+        .flags
+        .iter()
+        .map(|f| match f.severity {
+            Severity::Error => format!("  !! {}", f.text),
+            Severity::Note => format!("  -- {}", f.text),
+        })
+        .collect();
+    let dir = if r.kind == model::Kind::Note {
+        format!("{from:>8}   {:<8}", "")
+    } else {
+        format!("{from:>8} → {to:<8}")
+    };
+    let text = if r.text.is_empty() || r.text == r.label {
+        r.label.clone()
+    } else {
+        format!("{:<14} {}", r.label, r.text)
+    };
+    let (text, flags) = if r.kind == model::Kind::Note {
+        (format!("!! {}", r.label), Vec::new())
+    } else {
+        (text, flags)
+    };
+    out.line(
+        &format!(
+            "{:>14}  {dir} {text}{}",
+            r.start.to_string(),
+            flags.join("")
+        ),
+        serde_json::json!({
+            "at_us": r.start.as_micros(),
+            "end_us": r.end.as_micros(),
+            "from": r.from.map(|_| from),
+            "to": r.to.map(|_| to),
+            "kind": r.kind,
+            "label": r.label,
+            "text": r.text,
+            "bytes": si_core::hex::format(&r.bytes),
+            "flags": r.flags,
+        }),
+    );
+}
+
+/// Print the counters.
+pub fn print_counters(a: &Analysis, out: &Output) {
+    let text: Vec<String> = a
+        .counters
+        .0
+        .iter()
+        .map(|(k, v)| format!("  {k:<32} {v}"))
+        .collect();
+    out.line(
+        &format!("{} counters:\n{}", a.protocol, text.join("\n")),
+        serde_json::json!({"protocol": a.protocol, "counters": a.counters.0}),
+    );
+}
+
+fn write_svg(path: &std::path::Path, a: &Analysis) -> Result<(), CliError> {
+    let svg = crate::svg::render(a);
+    std::fs::write(path, svg)
+        .map_err(|e| CliError::new(format!("cannot write {}: {e}", path.display())))
+}

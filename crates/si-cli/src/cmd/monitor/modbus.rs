@@ -1,0 +1,236 @@
+//! Passive Modbus RTU decoding (et200s-si-modbus-uss.md §3.5–§3.6, §4): frames end at the
+//! end-of-frame gap tZVZ_TAB of Table 3-11 (`si_modbus::config::gap_table`), the CRC is
+//! checked, requests and responses are decoded with si-modbus' own decoders, exception
+//! responses are named, and a request without a response within the response timeout is
+//! flagged.
+//!
+//! Counters follow the Modbus serial-line diagnostic counters a master or a bus analyser keeps
+//! (bus messages, bus communication errors = CRC, exception responses, slave messages, no
+//! response, broadcasts); the ET 200S slave itself keeps none (§4, "no event counters").
+//!
+//! Reading chosen: a frame is a **request** if no request is waiting for its response, or if
+//! it comes from the station that sent the waiting request (that request then went unanswered);
+//! otherwise it is the **response**. This needs no knowledge of who is master, so it also works
+//! on a one-sided live capture of a bus.
+
+use super::framer::{Frame, Framer};
+use super::model::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
+use si_core::{Duration, Instant, SerialSettings};
+use si_modbus::frame::{crc_ok, decode_request, decode_response, Response};
+
+/// What the listener judges against.
+#[derive(Debug, Clone, Copy)]
+pub struct Params {
+    /// Character format (for the 1.5-character gap).
+    pub settings: SerialSettings,
+    /// End-of-frame gap.
+    pub end_gap: Duration,
+    /// Response timeout of the master.
+    pub timeout: Duration,
+}
+
+struct Pending {
+    from: Option<usize>,
+    unit: u8,
+    function: u8,
+    end: Instant,
+}
+
+/// The Modbus RTU listener.
+pub struct Modbus {
+    p: Params,
+    framer: Framer,
+    pending: Option<Pending>,
+    one_sided: bool,
+    counters: Counters,
+}
+
+impl Modbus {
+    /// A listener; `one_sided` when every character comes from the same (unknown) sender.
+    pub fn new(p: Params, one_sided: bool) -> Self {
+        let mut counters = Counters::default();
+        counters.declare(&[
+            "bus messages",
+            "bus communication errors (CRC)",
+            "exception responses",
+            "slave messages",
+            "no response",
+            "broadcasts",
+            "line errors",
+        ]);
+        Modbus {
+            p,
+            framer: Framer::new(p.end_gap),
+            pending: None,
+            one_sided,
+            counters,
+        }
+    }
+
+    fn overdue(&mut self, now: Instant, out: &mut Vec<Record>) {
+        if let Some(pd) = &self.pending {
+            if now.saturating_since(pd.end) >= self.p.timeout {
+                self.counters.bump("no response");
+                out.push(Record::note(
+                    pd.end + self.p.timeout,
+                    pd.from,
+                    Flag::error(format!(
+                        "no response from slave {} to FC{:02} within {} (STATUS 16#0E54)",
+                        pd.unit,
+                        pd.function,
+                        ms(self.p.timeout)
+                    )),
+                ));
+                self.pending = None;
+            }
+        }
+    }
+
+    fn frame(&mut self, f: Frame, out: &mut Vec<Record>) {
+        self.counters.bump("bus messages");
+        let mut r = Record::new(Kind::Frame, f.start, f.end, f.from);
+        r.to = f.to;
+        r.bytes = f.bytes.clone();
+        for e in &f.line_errors {
+            self.counters.bump("line errors");
+            r.flags
+                .push(Flag::error(format!("{e:?} error inside the frame")));
+        }
+        let t15 = Duration::from_micros(self.p.settings.char_time().as_micros() * 3 / 2);
+        if f.longest_gap > t15 {
+            r.flags.push(Flag::note(format!(
+                "gap of {} inside the frame (> 1.5 characters)",
+                ms(f.longest_gap)
+            )));
+        }
+        let is_response = match &self.pending {
+            Some(pd) => self.one_sided || pd.from != f.from,
+            None => false,
+        };
+        let adu = &f.bytes;
+        if !crc_ok(adu) {
+            self.counters.bump("bus communication errors (CRC)");
+            r.label = format!("CRC error {} B", adu.len());
+            r.text = si_core::hex::format(adu);
+            r.flags.push(Flag::error(if is_response {
+                "CRC error: the master discards the response (STATUS 16#0E57)"
+            } else {
+                "CRC error: the slave ignores the frame (STATUS 16#0836)"
+            }));
+            if is_response {
+                self.pending = None;
+            }
+            out.push(r);
+            return;
+        }
+        if is_response {
+            let pd = self.pending.take();
+            match decode_response(adu) {
+                Ok((unit, resp)) => {
+                    self.counters.bump("slave messages");
+                    r.label = format!("FC{:02} resp", resp.function() & 0x7F);
+                    r.text = format!("slave {unit}: {resp:?}");
+                    if let Response::Exception { function, code } = resp {
+                        self.counters.bump("exception responses");
+                        r.label = format!("FC{:02} exception {:02}", function, code as u8);
+                        r.flags.push(Flag::error(code.to_string()));
+                    }
+                    if let Some(pd) = pd {
+                        if unit != pd.unit {
+                            r.flags.push(Flag::error(format!(
+                                "answer from slave {unit} to a request for slave {}",
+                                pd.unit
+                            )));
+                        }
+                        let first_start = f
+                            .start
+                            .saturating_since(pd.end + self.p.settings.char_time());
+                        let wait = Duration::from_micros(first_start.as_micros());
+                        if wait > self.p.timeout {
+                            r.flags.push(Flag::error(format!(
+                                "response after {} > timeout {}",
+                                ms(wait),
+                                ms(self.p.timeout)
+                            )));
+                        }
+                    }
+                }
+                Err(e) => {
+                    r.label = "bad response".into();
+                    r.text = si_core::hex::format(adu);
+                    r.flags.push(Flag::error(e.to_string()));
+                }
+            }
+        } else {
+            self.overdue_unanswered(f.start, out);
+            match decode_request(adu) {
+                Ok((unit, req)) => {
+                    r.label = format!("FC{:02} req → {unit}", req.function());
+                    r.text = format!("to slave {unit}: {req:?}");
+                    if unit == si_modbus::frame::BROADCAST {
+                        self.counters.bump("broadcasts");
+                        r.label = format!("FC{:02} broadcast", req.function());
+                    } else {
+                        self.pending = Some(Pending {
+                            from: f.from,
+                            unit,
+                            function: req.function(),
+                            end: f.end,
+                        });
+                    }
+                }
+                Err(e) => {
+                    r.label = "bad request".into();
+                    r.text = si_core::hex::format(adu);
+                    r.flags.push(Flag::error(e.to_string()));
+                }
+            }
+        }
+        out.push(r);
+    }
+
+    /// A new request while one waits: the old one went unanswered.
+    fn overdue_unanswered(&mut self, at: Instant, out: &mut Vec<Record>) {
+        if let Some(pd) = self.pending.take() {
+            self.counters.bump("no response");
+            out.push(Record::note(
+                at,
+                pd.from,
+                Flag::error(format!(
+                    "slave {} did not answer FC{:02} before the next request",
+                    pd.unit, pd.function
+                )),
+            ));
+        }
+    }
+}
+
+impl Decoder for Modbus {
+    fn push(&mut self, c: &LineChar, out: &mut Vec<Record>) {
+        if let Some(f) = self.framer.idle(c.at) {
+            self.frame(f, out);
+        }
+        self.overdue(c.at, out);
+        if let Some(f) = self.framer.push(c) {
+            self.frame(f, out);
+        }
+    }
+
+    fn idle(&mut self, now: Instant, out: &mut Vec<Record>) {
+        if let Some(f) = self.framer.idle(now) {
+            self.frame(f, out);
+        }
+        self.overdue(now, out);
+    }
+
+    fn finish(&mut self, now: Instant, out: &mut Vec<Record>) {
+        if let Some(f) = self.framer.flush() {
+            self.frame(f, out);
+        }
+        self.overdue(now, out);
+    }
+
+    fn counters(&self) -> &Counters {
+        &self.counters
+    }
+}

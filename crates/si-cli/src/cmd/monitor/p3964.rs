@@ -1,0 +1,474 @@
+//! Passive 3964(R) decoding (et200s-si-3964r-ascii.md §5): connection setup (STX → DLE),
+//! the block with its DLE doubling, `DLE ETX` and BCC, the acknowledgement (DLE or NAK), and
+//! the timers a listener can judge: the character delay time ZVZ between block characters and
+//! the acknowledgement delay time QVZ after STX and after the block (§5.8, Table 2-11).
+//!
+//! RK 512 rides on 3964(R) blocks (cp341-3964r-rk512-ascii.md): with `rk512` the block payload
+//! is decoded as an RK 512 telegram too.
+//!
+//! Reading chosen: a listener cannot tell a repeated connection attempt (same transmission
+//! attempt) from a new transmission attempt, so every STX from the station whose last STX or
+//! block failed counts as one **retry**; a block NAKed or unacknowledged marks the next STX of
+//! its sender a retry as well (§5.9 counts both kinds against their own limits).
+
+use super::model::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
+use si_3964r::frame::{Decoder as BlockDecoder, FrameError, Mode, DLE, NAK, STX};
+use si_core::{Duration, Instant};
+
+/// The timers and mode the listener judges against.
+#[derive(Debug, Clone, Copy)]
+pub struct Params {
+    /// 3964(R) (BCC) or plain 3964.
+    pub mode: Mode,
+    /// Character delay time ZVZ.
+    pub zvz: Duration,
+    /// Acknowledgement delay time QVZ.
+    pub qvz: Duration,
+    /// Decode block payloads as RK 512 telegrams.
+    pub rk512: bool,
+}
+
+#[derive(Debug)]
+enum State {
+    Idle,
+    /// `by` sent STX at `at`; waiting for the partner's DLE.
+    Connecting {
+        by: Option<usize>,
+        at: Instant,
+    },
+    /// Both sent STX (initialization conflict): `a` first, then `b`; the one that answers
+    /// DLE yields and the other becomes the sender.
+    Conflict {
+        a: Option<usize>,
+        b: Option<usize>,
+        at: Instant,
+    },
+    /// `by` is sending its block.
+    Block {
+        by: Option<usize>,
+        to: Option<usize>,
+        start: Instant,
+        last: LineChar,
+        bytes: Vec<u8>,
+        flags: Vec<Flag>,
+    },
+    /// `by` finished its block at `at`; waiting for DLE or NAK.
+    Ack {
+        by: Option<usize>,
+        at: Instant,
+    },
+}
+
+/// The 3964(R) listener.
+pub struct P3964 {
+    p: Params,
+    state: State,
+    block: BlockDecoder,
+    /// The station whose last attempt failed: its next STX is a retry.
+    failed: Option<Option<usize>>,
+    counters: Counters,
+}
+
+impl P3964 {
+    /// A listener with these timers.
+    pub fn new(p: Params) -> Self {
+        let mut counters = Counters::default();
+        counters.declare(&[
+            "blocks ok",
+            "blocks failed",
+            "retries",
+            "NAKs",
+            "initialization conflicts",
+            "BCC errors",
+            "ZVZ exceeded",
+            "QVZ exceeded",
+            "line errors",
+        ]);
+        if p.rk512 {
+            counters.declare(&["RK 512 telegrams", "RK 512 errors"]);
+        }
+        P3964 {
+            p,
+            state: State::Idle,
+            block: BlockDecoder::new(p.mode, 1024),
+            failed: None,
+            counters,
+        }
+    }
+
+    fn control(&self, c: &LineChar, label: &str, text: &str) -> Record {
+        let mut r = Record::new(Kind::Control, c.at, c.at, c.from).labelled(label, text);
+        r.to = c.to;
+        if let Ok(b) = c.item {
+            r.bytes.push(b);
+        }
+        r
+    }
+
+    /// Timers that ran out before `now`.
+    fn overdue(&mut self, now: Instant, out: &mut Vec<Record>) {
+        match &self.state {
+            State::Connecting { by, at } | State::Conflict { a: by, at, .. }
+                if now.saturating_since(*at) >= self.p.qvz =>
+            {
+                let (by, at) = (*by, *at);
+                self.counters.bump("QVZ exceeded");
+                out.push(Record::note(
+                    at + self.p.qvz,
+                    by,
+                    Flag::error(format!(
+                        "no DLE within QVZ {} after STX (STATUS 16#0703)",
+                        ms(self.p.qvz)
+                    )),
+                ));
+                self.failed = Some(by);
+                self.state = State::Idle;
+            }
+            State::Block { last, .. } if now.saturating_since(last.at) > self.p.zvz => {
+                let at = last.at + self.p.zvz;
+                let State::Block {
+                    by,
+                    to,
+                    start,
+                    bytes,
+                    ..
+                } = std::mem::replace(&mut self.state, State::Idle)
+                else {
+                    return;
+                };
+                self.counters.bump("ZVZ exceeded");
+                self.counters.bump("blocks failed");
+                let mut r = Record::new(Kind::Frame, start, at, by).labelled(
+                    format!("block? {} B", bytes.len()),
+                    "incomplete block".to_string(),
+                );
+                r.bytes = bytes;
+                r.to = to;
+                r.flags.push(Flag::error(format!(
+                    "ZVZ {} exceeded: block incomplete (STATUS 16#0706)",
+                    ms(self.p.zvz)
+                )));
+                out.push(r);
+                self.failed = Some(by);
+            }
+            State::Ack { by, at } if now.saturating_since(*at) >= self.p.qvz => {
+                let (by, at) = (*by, *at);
+                self.counters.bump("QVZ exceeded");
+                self.counters.bump("blocks failed");
+                out.push(Record::note(
+                    at + self.p.qvz,
+                    by,
+                    Flag::error(format!(
+                        "no acknowledgement within QVZ {} after the block (STATUS 16#0704)",
+                        ms(self.p.qvz)
+                    )),
+                ));
+                self.failed = Some(by);
+                self.state = State::Idle;
+            }
+            _ => {}
+        }
+    }
+
+    fn stx(&mut self, c: &LineChar, out: &mut Vec<Record>) {
+        let mut r = self.control(c, "STX", "connection request");
+        if self.failed == Some(c.from) {
+            self.counters.bump("retries");
+            r.flags.push(Flag::note("retry"));
+            self.failed = None;
+        }
+        match self.state {
+            State::Connecting { by, .. } if by != c.from => {
+                self.counters.bump("initialization conflicts");
+                r.flags.push(Flag::note(
+                    "initialization conflict: both stations sent STX; the low-priority one yields",
+                ));
+                self.state = State::Conflict {
+                    a: by,
+                    b: c.from,
+                    at: c.at,
+                };
+            }
+            State::Connecting { by, at } if by == c.from => {
+                // A repeated STX before QVZ: the sender gave up early (or QVZ differs).
+                r.flags.push(Flag::note(format!(
+                    "STX repeated after {} (before QVZ)",
+                    ms(c.at.saturating_since(at))
+                )));
+                self.state = State::Connecting {
+                    by: c.from,
+                    at: c.at,
+                };
+            }
+            _ => {
+                self.state = State::Connecting {
+                    by: c.from,
+                    at: c.at,
+                }
+            }
+        }
+        out.push(r);
+    }
+
+    fn finish_block(
+        &mut self,
+        c: &LineChar,
+        result: Result<(), FrameError>,
+        out: &mut Vec<Record>,
+    ) {
+        let State::Block {
+            by,
+            start,
+            bytes,
+            mut flags,
+            ..
+        } = std::mem::replace(&mut self.state, State::Idle)
+        else {
+            return;
+        };
+        let payload = self.block.payload().to_vec();
+        let mut text = format!("block, {} B user data", payload.len());
+        let mut label = format!("block {} B {}", payload.len(), preview(&payload));
+        if let Err(e) = result {
+            if matches!(e, FrameError::Bcc { .. }) {
+                self.counters.bump("BCC errors");
+                flags.push(Flag::error(format!("{e} (STATUS 16#0708)")));
+            } else {
+                flags.push(Flag::error(e.to_string()));
+            }
+        } else if self.p.rk512 {
+            match si_rk512::frame::Telegram::decode(&payload) {
+                Ok(t) => {
+                    self.counters.bump("RK 512 telegrams");
+                    text = format!("RK 512 {}", describe_rk512(&t));
+                    label = short_rk512(&t);
+                }
+                Err(e) => {
+                    self.counters.bump("RK 512 errors");
+                    flags.push(Flag::error(format!("RK 512: {e}")));
+                }
+            }
+        } else {
+            text.push_str(&format!(": {}", si_core::hex::format(&payload)));
+        }
+        let mut r = Record::new(Kind::Frame, start, c.at, by).labelled(label, text);
+        r.to = c.to;
+        r.bytes = bytes;
+        r.flags = flags;
+        out.push(r);
+        self.state = State::Ack { by, at: c.at };
+    }
+}
+
+/// The first user-data characters, readable: `"temperatur…"` for text, hex otherwise.
+fn preview(payload: &[u8]) -> String {
+    let shown = &payload[..payload.len().min(10)];
+    let more = if payload.len() > shown.len() {
+        "…"
+    } else {
+        ""
+    };
+    if !shown.is_empty() && shown.iter().all(|b| (0x20..0x7F).contains(b)) {
+        format!("\"{}{more}\"", String::from_utf8_lossy(shown))
+    } else {
+        format!(
+            "{}{more}",
+            si_core::hex::format(&shown[..shown.len().min(4)])
+        )
+    }
+}
+
+/// A diagram label for an RK 512 telegram: `SEND DB10 DW0`, `reaction 00H`.
+fn short_rk512(t: &si_rk512::frame::Telegram<'_>) -> String {
+    use si_rk512::frame::Telegram;
+    match t {
+        Telegram::Command(h, data) => format!("{:?} {} ({} B)", h.command, h.address, data.len()),
+        Telegram::Continuation(h, data) => format!("cont. {:?} ({} B)", h.command, data.len()),
+        Telegram::Reaction(h, data) => format!("reaction {:02X}H ({} B)", h.error, data.len()),
+    }
+}
+
+fn describe_rk512(t: &si_rk512::frame::Telegram<'_>) -> String {
+    use si_rk512::frame::Telegram;
+    match t {
+        Telegram::Command(h, data) => format!("{h:?}, {} B data", data.len()),
+        Telegram::Continuation(h, data) => format!("continuation {h:?}, {} B data", data.len()),
+        Telegram::Reaction(h, data) => format!("reaction {h:?}, {} B data", data.len()),
+    }
+}
+
+impl Decoder for P3964 {
+    fn push(&mut self, c: &LineChar, out: &mut Vec<Record>) {
+        self.overdue(c.at, out);
+        let byte = match c.item {
+            Ok(b) => b,
+            Err(e) => {
+                self.counters.bump("line errors");
+                let mut r = self.control(c, "ERR", "line error");
+                r.flags.push(Flag::error(format!(
+                    "{e:?} error on the line (STATUS 16#0705)"
+                )));
+                out.push(r);
+                if let State::Block { flags, last, .. } = &mut self.state {
+                    flags.push(Flag::error(format!("{e:?} error inside the block")));
+                    *last = c.clone();
+                }
+                return;
+            }
+        };
+        match &mut self.state {
+            State::Block {
+                by,
+                start,
+                last,
+                bytes,
+                flags,
+                ..
+            } if *by == c.from => {
+                if bytes.is_empty() {
+                    *start = c.at;
+                }
+                if let Some(gap) = super::line::gap(Some(last), c) {
+                    if gap > self.p.zvz {
+                        flags.push(Flag::error(format!(
+                            "character delay {} > ZVZ {}",
+                            ms(gap),
+                            ms(self.p.zvz)
+                        )));
+                    }
+                }
+                *last = c.clone();
+                bytes.push(byte);
+                if let Some(result) = self.block.push(byte) {
+                    self.finish_block(c, result, out);
+                }
+                return;
+            }
+            State::Block { .. } if byte == NAK => {
+                // The receiver gave up mid-block (e.g. a line error): it sends NAK.
+                let State::Block { by, .. } = std::mem::replace(&mut self.state, State::Idle)
+                else {
+                    return;
+                };
+                self.counters.bump("NAKs");
+                self.counters.bump("blocks failed");
+                let mut r = self.control(c, "NAK", "receiver aborted the block");
+                r.flags.push(Flag::error("NAK during the block"));
+                out.push(r);
+                self.failed = Some(by);
+                return;
+            }
+            _ => {}
+        }
+        match (&self.state, byte) {
+            (_, STX) => self.stx(c, out),
+            (State::Connecting { by, at }, DLE) if *by != c.from => {
+                let (by, at) = (*by, *at);
+                let mut r = self.control(c, "DLE", "ready to receive");
+                let wait = c.at.saturating_since(at);
+                if wait > self.p.qvz {
+                    r.flags.push(Flag::error(format!(
+                        "DLE after {} > QVZ {}",
+                        ms(wait),
+                        ms(self.p.qvz)
+                    )));
+                }
+                out.push(r);
+                self.block.reset();
+                self.state = State::Block {
+                    by,
+                    to: c.from,
+                    start: c.at,
+                    last: c.clone(),
+                    bytes: Vec::new(),
+                    flags: Vec::new(),
+                };
+            }
+            (State::Conflict { a, b, .. }, DLE) => {
+                // The station answering DLE yields (low priority); the other one sends.
+                let sender = if c.from == *a { *b } else { *a };
+                let mut r = self.control(c, "DLE", "yields: ready to receive");
+                r.flags.push(Flag::note("conflict resolved by priority"));
+                out.push(r);
+                self.block.reset();
+                self.state = State::Block {
+                    by: sender,
+                    to: c.from,
+                    start: c.at,
+                    last: c.clone(),
+                    bytes: Vec::new(),
+                    flags: Vec::new(),
+                };
+            }
+            (State::Ack { by, at }, DLE) if *by != c.from => {
+                let (by, at) = (*by, *at);
+                let mut r = self.control(c, "DLE", "block acknowledged");
+                let wait = c.at.saturating_since(at);
+                if wait > self.p.qvz {
+                    r.flags.push(Flag::error(format!(
+                        "DLE after {} > QVZ {}",
+                        ms(wait),
+                        ms(self.p.qvz)
+                    )));
+                }
+                out.push(r);
+                let _ = by;
+                self.counters.bump("blocks ok");
+                self.state = State::Idle;
+            }
+            (State::Connecting { by, .. }, NAK) | (State::Ack { by, .. }, NAK) if *by != c.from => {
+                let by = *by;
+                let after_block = matches!(self.state, State::Ack { .. });
+                self.counters.bump("NAKs");
+                let mut r = self.control(
+                    c,
+                    "NAK",
+                    if after_block {
+                        "block rejected"
+                    } else {
+                        "connection refused"
+                    },
+                );
+                r.flags.push(Flag::error(if after_block {
+                    "NAK: block rejected (partner found an error), STATUS 16#0705"
+                } else {
+                    "NAK instead of DLE: connection refused, STATUS 16#0702"
+                }));
+                out.push(r);
+                if after_block {
+                    self.counters.bump("blocks failed");
+                }
+                self.failed = Some(by);
+                self.state = State::Idle;
+            }
+            (_, NAK) => {
+                self.counters.bump("NAKs");
+                let mut r = self.control(c, "NAK", "negative acknowledgement");
+                r.flags
+                    .push(Flag::error("NAK (the sender gave up or refuses)"));
+                out.push(r);
+                self.state = State::Idle;
+            }
+            (_, DLE) => {
+                let mut r = self.control(c, "DLE", "unexpected DLE");
+                r.flags.push(Flag::note("DLE outside a connection"));
+                out.push(r);
+            }
+            _ => {
+                let mut r = self.control(c, &format!("{byte:02X}"), "stray character");
+                r.flags.push(Flag::error(
+                    "character outside a block (the receiver answers NAK)",
+                ));
+                out.push(r);
+            }
+        }
+    }
+
+    fn idle(&mut self, now: Instant, out: &mut Vec<Record>) {
+        self.overdue(now, out);
+    }
+
+    fn counters(&self) -> &Counters {
+        &self.counters
+    }
+}

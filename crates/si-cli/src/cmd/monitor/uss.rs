@@ -1,0 +1,305 @@
+//! Passive USS decoding (public-facts.md §3, USS spec §4–§6; et200s-si-modbus-uss.md §7):
+//! a telegram starts with STX after a start interval of at least two character times and is
+//! `LGE + 2` characters long; the BCC is checked, the residual run time `1.5 × (n + 3)`
+//! character times from STX is judged, and the slave's response delay must stay within 20 ms.
+//!
+//! Counters are the USS specification's recommended diagnostic counters (USS spec §5.2.3):
+//! telegrams ok, telegrams rejected, framing, overrun and parity errors, start not identified,
+//! residual run time exceeded, BCC errors, length errors, monitoring time (no answer). A
+//! listener cannot see "overflow" of a receiver's buffer and counts overrun only when the UART
+//! reported it.
+//!
+//! Reading chosen: master telegrams and slave telegrams have the same shape, so, as for Modbus,
+//! a telegram is the **response** when a master telegram is waiting and it comes from another
+//! station (or the capture is one-sided); otherwise it is a master telegram.
+
+use super::model::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
+use si_core::{Duration, Instant, LineError, SerialSettings};
+use si_uss::frame::{decode, DecodeError, STX};
+
+/// The slave's longest response delay (USS spec §5.2.1.1).
+pub const RESPONSE_DELAY: Duration = Duration::from_millis(20);
+
+struct Telegram {
+    from: Option<usize>,
+    to: Option<usize>,
+    start: Instant,
+    end: Instant,
+    bytes: Vec<u8>,
+    errors: Vec<LineError>,
+}
+
+struct Pending {
+    from: Option<usize>,
+    adr: u8,
+    end: Instant,
+}
+
+/// The USS listener.
+pub struct Uss {
+    settings: SerialSettings,
+    cur: Option<Telegram>,
+    last: Option<LineChar>,
+    pending: Option<Pending>,
+    one_sided: bool,
+    counters: Counters,
+}
+
+impl Uss {
+    /// A listener for `settings`; `one_sided` when senders are unknown.
+    pub fn new(settings: SerialSettings, one_sided: bool) -> Self {
+        let mut counters = Counters::default();
+        counters.declare(&[
+            "telegrams ok",
+            "telegrams rejected",
+            "framing errors",
+            "overrun errors",
+            "parity errors",
+            "start not identified",
+            "residual run time exceeded",
+            "BCC errors",
+            "length errors",
+            "monitoring time (no answer)",
+        ]);
+        Uss {
+            settings,
+            cur: None,
+            last: None,
+            pending: None,
+            one_sided,
+            counters,
+        }
+    }
+
+    fn overdue(&mut self, now: Instant, out: &mut Vec<Record>) {
+        if let Some(pd) = &self.pending {
+            if now.saturating_since(pd.end) > RESPONSE_DELAY + self.settings.chars_time(3) {
+                self.counters.bump("monitoring time (no answer)");
+                out.push(Record::note(
+                    pd.end + RESPONSE_DELAY,
+                    pd.from,
+                    Flag::error(format!(
+                        "node {} does not answer within {} (response delay)",
+                        pd.adr & 0x1F,
+                        ms(RESPONSE_DELAY)
+                    )),
+                ));
+                self.pending = None;
+            }
+        }
+        // A telegram that stopped short: end it when its residual run time has passed.
+        if let Some(t) = &self.cur {
+            let n = t.bytes.get(1).map_or(si_uss::frame::MAX_NET, |&lge| {
+                usize::from(lge).saturating_sub(2)
+            });
+            let limit = self.residual(n);
+            if now.saturating_since(t.start) > limit + self.settings.char_time() {
+                let t = self.cur.take();
+                if let Some(t) = t {
+                    self.telegram(t, true, out);
+                }
+            }
+        }
+    }
+
+    /// Residual run time for `n` net bytes: 1.5 × (n + 3) character times, from the end of STX.
+    fn residual(&self, n: usize) -> Duration {
+        Duration::from_micros(self.settings.chars_time((n as u64 + 3) * 3).as_micros() / 2)
+    }
+
+    fn telegram(&mut self, t: Telegram, cut_short: bool, out: &mut Vec<Record>) {
+        let mut r = Record::new(Kind::Frame, t.start, t.end, t.from);
+        r.to = t.to;
+        r.bytes = t.bytes.clone();
+        let mut rejected = false;
+        for e in &t.errors {
+            rejected = true;
+            self.counters.bump(match e {
+                LineError::Framing | LineError::Break => "framing errors",
+                LineError::Overrun => "overrun errors",
+                LineError::Parity => "parity errors",
+            });
+            r.flags
+                .push(Flag::error(format!("{e:?} error in the telegram")));
+        }
+        let n = t.bytes.len().saturating_sub(4);
+        if t.end.saturating_since(t.start) > self.residual(n) {
+            rejected = true;
+            self.counters.bump("residual run time exceeded");
+            r.flags.push(Flag::error(format!(
+                "residual run time {} exceeded",
+                ms(self.residual(n))
+            )));
+        }
+        let is_response = match &self.pending {
+            Some(pd) => self.one_sided || pd.from != t.from,
+            None => false,
+        };
+        match decode(&t.bytes) {
+            Ok(tg) => {
+                let role = if is_response { "answer" } else { "to" };
+                r.label = format!("{role} {} ({} B)", tg.adr.address(), tg.net.len());
+                r.text = format!(
+                    "ADR {:02X}H, net {}",
+                    tg.adr.0,
+                    si_core::hex::format(tg.net)
+                );
+                if is_response {
+                    let pd = self.pending.take();
+                    if let Some(pd) = pd {
+                        if tg.adr.address() != pd.adr & 0x1F {
+                            r.flags.push(Flag::error(format!(
+                                "answer from node {} to a telegram for node {}",
+                                tg.adr.address(),
+                                pd.adr & 0x1F
+                            )));
+                        }
+                        let wait = t.start.saturating_since(pd.end + self.settings.char_time());
+                        if wait > RESPONSE_DELAY {
+                            r.flags.push(Flag::error(format!(
+                                "response delay {} > {}",
+                                ms(wait),
+                                ms(RESPONSE_DELAY)
+                            )));
+                        }
+                    }
+                } else {
+                    self.unanswered(t.start, out);
+                    if !tg.adr.is_broadcast() {
+                        self.pending = Some(Pending {
+                            from: t.from,
+                            adr: tg.adr.0,
+                            end: t.end,
+                        });
+                    }
+                }
+            }
+            Err(e) => {
+                rejected = true;
+                r.label = format!("bad telegram {} B", t.bytes.len());
+                r.text = si_core::hex::format(&t.bytes);
+                match e {
+                    DecodeError::Bcc { .. } => self.counters.bump("BCC errors"),
+                    DecodeError::LgeOutOfRange { .. }
+                    | DecodeError::WrongLength { .. }
+                    | DecodeError::TooShort { .. }
+                    | DecodeError::Oversize { .. } => self.counters.bump("length errors"),
+                    _ => {}
+                }
+                if cut_short {
+                    r.flags.push(Flag::error("telegram incomplete"));
+                }
+                r.flags.push(Flag::error(e.to_string()));
+                if is_response {
+                    self.pending = None;
+                }
+            }
+        }
+        self.counters.bump(if rejected {
+            "telegrams rejected"
+        } else {
+            "telegrams ok"
+        });
+        out.push(r);
+    }
+
+    fn unanswered(&mut self, at: Instant, out: &mut Vec<Record>) {
+        if let Some(pd) = self.pending.take() {
+            self.counters.bump("monitoring time (no answer)");
+            out.push(Record::note(
+                at,
+                pd.from,
+                Flag::error(format!(
+                    "node {} did not answer before the next telegram",
+                    pd.adr & 0x1F
+                )),
+            ));
+        }
+    }
+}
+
+impl Decoder for Uss {
+    fn push(&mut self, c: &LineChar, out: &mut Vec<Record>) {
+        self.overdue(c.at, out);
+        let silence = super::line::gap(self.last.as_ref(), c);
+        self.last = Some(c.clone());
+        if let Some(t) = &mut self.cur {
+            if t.from == c.from || self.one_sided {
+                t.end = c.at;
+                match c.item {
+                    Ok(b) => t.bytes.push(b),
+                    Err(e) => t.errors.push(e),
+                }
+                let complete = t.bytes.len() >= 2
+                    && (t.bytes.len() >= usize::from(t.bytes[1]) + 2
+                        || !(2..=254).contains(&t.bytes[1]));
+                if complete {
+                    if let Some(t) = self.cur.take() {
+                        self.telegram(t, false, out);
+                    }
+                }
+                return;
+            }
+            // Another station started talking: the telegram in progress ends short.
+            if let Some(t) = self.cur.take() {
+                self.telegram(t, true, out);
+            }
+        }
+        match c.item {
+            Ok(STX) => {
+                let start_interval = self.settings.chars_time(2);
+                let mut t = Telegram {
+                    from: c.from,
+                    to: c.to,
+                    start: c.at,
+                    end: c.at,
+                    bytes: vec![STX],
+                    errors: Vec::new(),
+                };
+                if silence.is_some_and(|g| g < start_interval + self.settings.char_time()) {
+                    self.counters.bump("start not identified");
+                    t.errors.clear();
+                    let mut r = Record::new(Kind::Control, c.at, c.at, c.from)
+                        .labelled("STX?", "STX without the start interval");
+                    r.flags.push(Flag::note(format!(
+                        "less than the start interval {} of silence before STX",
+                        ms(start_interval)
+                    )));
+                    out.push(r);
+                }
+                self.cur = Some(t);
+            }
+            item => {
+                self.counters.bump("start not identified");
+                let mut r = Record::new(Kind::Control, c.at, c.at, c.from);
+                r.to = c.to;
+                match item {
+                    Ok(b) => {
+                        r.label = format!("{b:02X}");
+                        r.bytes.push(b);
+                    }
+                    Err(e) => r.label = format!("{e:?}"),
+                }
+                r.text = "character outside a telegram".into();
+                r.flags
+                    .push(Flag::error("character outside a telegram (no STX)"));
+                out.push(r);
+            }
+        }
+    }
+
+    fn idle(&mut self, now: Instant, out: &mut Vec<Record>) {
+        self.overdue(now, out);
+    }
+
+    fn finish(&mut self, now: Instant, out: &mut Vec<Record>) {
+        if let Some(t) = self.cur.take() {
+            self.telegram(t, true, out);
+        }
+        self.overdue(now, out);
+    }
+
+    fn counters(&self) -> &Counters {
+        &self.counters
+    }
+}
