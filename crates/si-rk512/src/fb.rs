@@ -169,3 +169,83 @@ impl FetchFb {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::passive::ServerConfig;
+    use crate::Config;
+    use si_core::sim::Simulator;
+    use si_core::{Duration, SerialSettings};
+
+    fn setup() -> (
+        Simulator,
+        si_core::sim::StationId<Station>,
+        si_core::sim::StationId<Station>,
+    ) {
+        let line = SerialSettings::default();
+        let mut high = Config::default();
+        high.link.priority = si_3964r::Priority::High;
+        let mut memory = ServerConfig::default();
+        memory.memory.dbs.insert(5, 64);
+        let mut sim = Simulator::new(1);
+        let a = sim.add_station("A", line, Station::new(high, line).unwrap());
+        let b = sim.add_station(
+            "B",
+            line,
+            Station::serving(Config::default(), line, &memory).unwrap(),
+        );
+        sim.connect(a, b);
+        (sim, a, b)
+    }
+
+    #[test]
+    fn done_and_error_last_one_call_and_refusals_show_at_once() {
+        let (mut sim, a, _b) = setup();
+        let mut fetch = FetchFb::default();
+        let at = Address::Db { db: 5, dw: 0 };
+        // An odd length for a DB: ERROR with 1E41 on the same call.
+        let out = sim.with(a, |s, now| {
+            fetch.call(s, now, true, false, at, Coordination::NONE, 3)
+        });
+        assert!(out.error);
+        assert_eq!(out.status, common::INVALID_LEN);
+        let out = sim.with(a, |s, now| {
+            fetch.call(s, now, true, false, at, Coordination::NONE, 3)
+        });
+        assert!(
+            !out.error,
+            "ERROR lasts one call, and a held REQ starts nothing"
+        );
+        // A missing DB: ERROR with the partner's 0903, once.
+        let missing = Address::Db { db: 6, dw: 0 };
+        let mut seen = Vec::new();
+        for cycle in 0..300 {
+            let req = cycle > 0;
+            let out = sim.with(a, |s, now| {
+                fetch.call(s, now, req, false, missing, Coordination::NONE, 2)
+            });
+            if out.error || out.done {
+                seen.push(out.status);
+            }
+            sim.run_for(Duration::from_millis(10));
+        }
+        assert_eq!(seen, vec![crate::status::PARTNER_NO_SUCH_AREA]);
+    }
+
+    #[test]
+    fn reset_reports_1e0d_for_the_running_job() {
+        let (mut sim, a, _b) = setup();
+        let mut send = SendFb::default();
+        let at = Address::Db { db: 5, dw: 0 };
+        let out = sim.with(a, |s, now| {
+            send.call(s, now, true, false, at, Coordination::NONE, b"AB")
+        });
+        assert!(!out.done && !out.error);
+        let out = sim.with(a, |s, now| {
+            send.call(s, now, true, true, at, Coordination::NONE, b"AB")
+        });
+        assert!(out.error);
+        assert_eq!(out.status, common::ABORTED_BY_RESET);
+    }
+}

@@ -296,6 +296,11 @@ impl Station {
         self.job.is_some()
     }
 
+    /// Telegrams waiting for the link (at most one command and one reaction).
+    pub fn queued_telegrams(&self) -> usize {
+        self.queue.len()
+    }
+
     /// The outcome of job `id` if it was the last to finish (for the FB equivalents).
     pub fn job_outcome(&self, id: JobId) -> Option<Result<Bytes, Status>> {
         self.last_outcome
@@ -571,6 +576,10 @@ impl Station {
         );
         self.serve_deadline = None;
         self.reaction_in_flight_partial = served == Served::Partial;
+        // Nesting depth 1 (§4.6): a partner that sends a new command before our reaction to the
+        // last one went out has given that one up, so its stale reaction is replaced. The
+        // queue therefore never holds more than one command and one reaction.
+        self.queue.retain(|(k, _)| *k != Kind::Reaction);
         self.queue
             .push_back((Kind::Reaction, Bytes::copy_from_slice(&reaction)));
         self.buf = reaction;

@@ -103,6 +103,7 @@ proptest! {
                 n += 1;
                 prop_assert!(n < 10_000, "outputs never end");
             }
+            prop_assert!(st.queued_telegrams() <= 2);
         }
     }
 
