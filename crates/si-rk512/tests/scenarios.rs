@@ -4,7 +4,7 @@
 use bytes::Bytes;
 use si_3964r::{Link, Priority};
 use si_core::memory::Area;
-use si_core::sim::{Faults, Simulator, StationId};
+use si_core::sim::{Faults, Simulator, StationId, TraceKind};
 use si_core::{Duration, Instant, SerialSettings, Status};
 use si_rk512::frame::{Address, Coordination};
 use si_rk512::passive::ServerConfig;
@@ -160,6 +160,31 @@ fn s4_5_jobs_survive_line_faults() {
     assert!(done >= 8, "most jobs get through: {done}/12");
 }
 
+/// §4.5 with line faults, for every size: 1 word, 128, 130 and 1024 bytes each way.
+#[test]
+fn s4_5_every_size_with_line_faults() {
+    let faults = Faults {
+        bit_flip: 0.001,
+        drop: 0.0005,
+        ..Faults::default()
+    };
+    for (i, len) in [2usize, 128, 130, 1024].into_iter().enumerate() {
+        let mut p = pair(200 + i as u64);
+        p.sim.set_faults(p.a, faults);
+        p.sim.set_faults(p.b, faults);
+        let data = pattern(len, 3);
+        let at = Address::Db { db: 10, dw: 0 };
+        assert_eq!(p.send(at, Coordination::NONE, &data), Ok(()), "SEND {len}");
+        assert_eq!(p.fetch(at, len).unwrap(), &data[..], "FETCH {len}");
+        // The faults did happen and were repaired by 3964(R) repetitions.
+        let reps = p.sim.engine(p.a).link().counters().repetitions
+            + p.sim.engine(p.b).link().counters().repetitions;
+        if len == 1024 {
+            assert!(reps > 0, "no repetition in a 1024-byte job with faults");
+        }
+    }
+}
+
 /// Address mapping: DX through command 'O', timers and counters as words, inputs and outputs.
 #[test]
 fn s4_2_every_data_type_is_served() {
@@ -287,11 +312,15 @@ struct Scripted {
 
 /// A station (low priority, serving) and a bare 3964(R) link (high priority).
 fn scripted(seed: u64) -> Scripted {
+    scripted_with(seed, Config::default())
+}
+
+fn scripted_with(seed: u64, config: Config) -> Scripted {
     let mut sim = Simulator::new(seed);
     let station = sim.add_station(
         "station",
         line(),
-        Station::serving(Config::default(), line(), &memory()).unwrap(),
+        Station::serving(config, line(), &memory()).unwrap(),
     );
     let raw_config = si_3964r::Config {
         priority: Priority::High,
@@ -523,10 +552,59 @@ fn s4_7_no_reaction_within_tres_0814() {
         &[],
     );
     assert_eq!(got, status::RESPONSE_TIMEOUT);
-    // The reaction came neither early nor late: the job ended 10 s after the partner's DLE.
+    // TRES runs from the partner's DLE for our telegram to the failure: exactly 10 s.
     let received = sim.trace().received("station");
     let ack = received.iter().rev().find(|(_, b)| *b == 0x10).unwrap().0;
-    assert!(ack < Instant::from_micros(1_000_000));
+    let failed = sim
+        .trace()
+        .of("station")
+        .find(|e| matches!(&e.kind, TraceKind::Event { text } if text.starts_with("Failed")))
+        .unwrap()
+        .at;
+    assert_eq!(failed - ack, Duration::from_secs(10));
+}
+
+/// A.12 as a setting: TRES of 5 s (the flowcharts' shortest value).
+#[test]
+fn s4_7_tres_is_a_setting() {
+    let mut sim = Simulator::new(51);
+    let mut c = high();
+    c.response_timeout_ms = 5000;
+    let st = sim.add_station("station", line(), Station::new(c, line()).unwrap());
+    let raw = sim.add_station(
+        "raw",
+        line(),
+        Link::new(si_3964r::Config::default(), line()).unwrap(),
+    );
+    sim.connect(st, raw);
+    sim.with(st, |s, now| {
+        s.fetch(now, Address::Flags(0), Coordination::NONE, 1)
+    })
+    .unwrap();
+    sim.run_until(Instant::from_micros(5_500_000));
+    assert!(sim.take_events(st).contains(&Event::Failed {
+        job: si_rk512::JobId(1),
+        status: status::RESPONSE_TIMEOUT
+    }));
+}
+
+/// public-facts.md §2: a partner whose byte 6 is a byte offset ("DW 64 = 80H") is served with
+/// `DwUnit::Bytes`.
+#[test]
+fn s4_2_dw_number_as_byte_offset_setting() {
+    let bytes_config = Config {
+        dw_unit: si_rk512::DwUnit::Bytes,
+        ..Config::default()
+    };
+    let mut s = scripted_with(52, bytes_config);
+    // SEND 1 word to DB10 "DW 0x80": byte offset 128, not 256.
+    assert_eq!(
+        s.exchange(&[0, 0, b'A', b'D', 10, 0x80, 0, 1, 0xFF, 0xFF, 0xCA, 0xFE]),
+        [0, 0, 0, 0]
+    );
+    let m = s.sim.engine(s.station).server().memory();
+    assert_eq!(m.word(Area::Db(10), 128).unwrap(), 0xCAFE);
+    assert_eq!(m.word(Area::Db(10), 256).unwrap(), 0);
 }
 
 /// Fig. 2-18: a first reaction where the continuation reaction was due ends the job with
