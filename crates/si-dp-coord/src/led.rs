@@ -18,6 +18,8 @@
 //! | hardware fault during the update | flashing 2 Hz | flashing 2 Hz | flashing 2 Hz |
 //!
 //! [`leds`] gives each LED's pattern; [`Light::is_lit`] says whether it is lit at an instant.
+//! [`ModuleState::with_line`] fills in TX and RX from a line simulator's trace, so a simulated
+//! module's LEDs follow what its line really did, in virtual time.
 //!
 //! # Readings
 //!
@@ -32,7 +34,8 @@
 //! - **STOP** by itself does not light SF; its causes (wire break, invalid parameters) do.
 
 use serde::{Deserialize, Serialize};
-use si_core::Instant;
+use si_core::sim::{Trace, TraceKind};
+use si_core::{Instant, SerialSettings};
 
 /// Half a period of the 2 Hz flashing.
 pub const FLASH_HALF_PERIOD_US: u64 = 250_000;
@@ -140,6 +143,64 @@ pub struct ModuleState {
     pub transmitting: bool,
     /// A frame is being received.
     pub receiving: bool,
+}
+
+impl ModuleState {
+    /// This state with `transmitting` and `receiving` taken from a simulator trace: the
+    /// station's transmitter is busy at `now`, or a character is arriving at its receiver
+    /// (see [`line_activity`]).
+    pub fn with_line(
+        self,
+        trace: &Trace,
+        station: &str,
+        settings: &SerialSettings,
+        now: Instant,
+    ) -> ModuleState {
+        let (transmitting, receiving) = line_activity(trace, station, settings, now);
+        ModuleState {
+            transmitting,
+            receiving,
+            ..self
+        }
+    }
+}
+
+/// Whether `station` is sending and whether it is receiving at `now`, from a simulator trace.
+///
+/// Sending: from the moment a transmission starts (its trace time, or when the previous one has
+/// left the transmitter) for the characters' time on the line. Receiving: during each
+/// character's time on the line before it arrived (and the character time before a UART error).
+pub fn line_activity(
+    trace: &Trace,
+    station: &str,
+    settings: &SerialSettings,
+    now: Instant,
+) -> (bool, bool) {
+    let char_time = settings.char_time();
+    let mut tx_free = Instant::ZERO;
+    let (mut tx, mut rx) = (false, false);
+    for e in trace.of(station) {
+        match &e.kind {
+            TraceKind::Tx { bytes } => {
+                let start = if e.at > tx_free { e.at } else { tx_free };
+                tx_free = start + settings.chars_time(bytes.len() as u64);
+                tx |= start <= now && now < tx_free;
+            }
+            TraceKind::Rx { .. } | TraceKind::RxError { .. } => {
+                rx |= before(e.at, char_time.as_micros()) <= now && now < e.at;
+            }
+            TraceKind::RxChunk { bytes } => {
+                let span = settings.chars_time(bytes.len() as u64);
+                rx |= before(e.at, span.as_micros()) <= now && now < e.at;
+            }
+            _ => {}
+        }
+    }
+    (tx, rx)
+}
+
+fn before(at: Instant, micros: u64) -> Instant {
+    Instant::from_micros(at.as_micros().saturating_sub(micros))
 }
 
 /// The LED patterns for a module state.

@@ -65,12 +65,14 @@
 //! - **USS interface.** Table 3-78 offers RS-232C and RS-485 (default RS-485); Table 3-1 says
 //!   RS-485 only (H-49). We follow the parameter table. USS runs 8E1 (public-facts.md §3); the
 //!   tables have no data-bit, parity or stop-bit parameter, so the file has none.
-//! - **Maximum frame length of the simulated module**: 224 bytes for the chapter 2 drivers,
-//!   200 for the Modbus/USS module (H-14).
+//! - **Maximum frame length of the simulated module**: the line engines' limits (ASCII 200
+//!   bytes, 3964(R) its `max_block_len`, default 200), and 200 for the Modbus/USS module (H-14).
 
 use crate::config::{FlowControl as WindowFlowControl, ModuleConfig};
 use crate::diag::Variant;
 use crate::frame::WindowSize;
+use crate::line::EngineSerial;
+use crate::module::Module;
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 use si_ascii::config::{EndCriterion, FlowControl, Interface};
@@ -152,6 +154,34 @@ impl Default for AsciiParams {
             config: si_ascii::Config::default(),
         }
     }
+}
+
+impl AsciiParams {
+    /// A simulated module running the ASCII driver with these parameters
+    /// ([`crate::engines::ascii_module`]): the same values a host's ASCII link runs with.
+    pub fn simulated_module(
+        &self,
+        window: WindowSize,
+    ) -> Result<Module<EngineSerial<si_ascii::Link>>, ParamErrors> {
+        let link = si_ascii::Link::new(self.config).map_err(|e| one("config", e))?;
+        crate::engines::ascii_module(window, link).map_err(|e| one("module", e))
+    }
+}
+
+impl R3964Params {
+    /// A simulated module running 3964(R) with these parameters
+    /// ([`crate::engines::r3964r_module`]).
+    pub fn simulated_module(
+        &self,
+        window: WindowSize,
+    ) -> Result<Module<EngineSerial<si_3964r::Link>>, ParamErrors> {
+        let link = si_3964r::Link::new(self.config, self.settings).map_err(|e| one("config", e))?;
+        crate::engines::r3964r_module(window, link).map_err(|e| one("module", e))
+    }
+}
+
+fn one(parameter: &str, e: impl ToString) -> ParamErrors {
+    ParamErrors(vec![ParamError::new(parameter, e.to_string())])
 }
 
 /// 3964(R) driver (Table 2-9 / 2-11).
@@ -1035,29 +1065,34 @@ impl DriverParams {
         }
     }
 
-    /// The simulated module's window engine configuration for this driver and window size:
-    /// the maximum frame (224 bytes for chapter 2, 200 for the Modbus/USS module, H-14) and the
-    /// flow control whose parameter block the module accepts.
+    /// The simulated module's window engine configuration for this driver and window size.
+    ///
+    /// ASCII and 3964(R) take the configuration [`crate::engines`] gives their line engines
+    /// (frame limit, receive buffer, flow control); the Modbus/USS module has a 200-byte frame
+    /// limit (H-14) and accepts the automatic V.24 parameter block when that flow control is
+    /// configured.
     pub fn module_config(&self, window: WindowSize) -> ModuleConfig {
-        let flow = match self {
-            DriverParams::Ascii(p) => p.config.flow_control,
-            DriverParams::ModbusMaster(p) => p.module.flow_control,
-            DriverParams::ModbusSlave(p) => p.module.flow_control,
-            _ => FlowControl::None,
-        };
-        ModuleConfig {
-            window,
-            max_frame_len: match self.variant() {
-                Variant::R3964Ascii => crate::config::MAX_FRAME_LEN,
-                Variant::ModbusUss => 200,
+        match self {
+            DriverParams::Ascii(p) => crate::engines::ascii_module_config(window, &p.config),
+            DriverParams::R3964(p) => ModuleConfig {
+                flow_control: WindowFlowControl::None,
+                max_frame_len: usize::from(p.config.max_block_len),
+                ..ModuleConfig::new(window)
             },
-            flow_control: match flow {
-                FlowControl::None => WindowFlowControl::None,
-                FlowControl::XonXoff => WindowFlowControl::XonXoff,
-                FlowControl::RtsCts => WindowFlowControl::RtsCts,
-                FlowControl::AutoV24 => WindowFlowControl::AutoV24,
+            DriverParams::ModbusMaster(ModbusMasterParams { module, .. })
+            | DriverParams::ModbusSlave(ModbusSlaveParams { module, .. }) => ModuleConfig {
+                flow_control: match module.flow_control {
+                    FlowControl::AutoV24 => WindowFlowControl::AutoV24,
+                    _ => WindowFlowControl::None,
+                },
+                max_frame_len: 200,
+                ..ModuleConfig::new(window)
             },
-            ..ModuleConfig::new(window)
+            DriverParams::UssMaster(_) => ModuleConfig {
+                flow_control: WindowFlowControl::None,
+                max_frame_len: 200,
+                ..ModuleConfig::new(window)
+            },
         }
     }
 

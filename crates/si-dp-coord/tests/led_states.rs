@@ -135,3 +135,36 @@ proptest! {
         prop_assert_eq!(l.sf == Light::On, bits[..4].iter().any(|b| *b));
     }
 }
+
+#[test]
+fn tx_and_rx_follow_a_simulated_line_in_virtual_time() {
+    use si_core::sim::Simulator;
+    use si_core::Duration;
+    let config = si_ascii::Config::default();
+    let settings = config.settings;
+    let mut sim = Simulator::new(1);
+    let a = sim.add_station("A", settings, si_ascii::Link::new(config).unwrap());
+    let b = sim.add_station("B", settings, si_ascii::Link::new(config).unwrap());
+    sim.connect(a, b);
+    let start = sim.now();
+    sim.with(a, |l, now| l.send(now, "hello".into())).unwrap();
+    sim.run_until_quiet(start + Duration::from_secs(1));
+    let trace = sim.trace();
+    let led = |station: &str, at: Instant| {
+        leds(&ModuleState::default().with_line(trace, station, &settings, at)).lit(at)
+    };
+    // 5 characters of 11 bits at 9600 bit/s: 5.73 ms on the line.
+    let mid = Instant::from_micros(start.as_micros() + 3_000);
+    assert_eq!(led("A", mid), (false, true, false), "sender: TX");
+    assert_eq!(led("B", mid), (false, false, true), "receiver: RX");
+    let after = Instant::from_micros(start.as_micros() + 7_000);
+    assert_eq!(led("A", after), (false, false, false));
+    assert_eq!(led("B", after), (false, false, false));
+    // Both light with the first bit (the simulated line has no propagation delay).
+    assert_eq!(
+        led("A", start),
+        (false, true, false),
+        "TX lights with the first bit"
+    );
+    assert_eq!(led("B", start), (false, false, true));
+}

@@ -431,8 +431,21 @@ fn the_same_parameters_configure_the_simulated_module() {
     let m = p.module_config(WindowSize::Four);
     assert_eq!(m.window, WindowSize::Four);
     assert_eq!(m.flow_control, WindowFlow::RtsCts);
-    assert_eq!(m.max_frame_len, 224);
+    assert_eq!(m.max_frame_len, 200, "the ASCII engine's frame limit");
     m.validate().unwrap();
+    // The same parameters build the simulated module itself, with its line engine.
+    let DriverParams::Ascii(a) = &p else { panic!() };
+    let module = a.simulated_module(WindowSize::Four).unwrap();
+    assert_eq!(module.config(), &m);
+    assert_eq!(module.serial().engine().config(), &a.config);
+    let p =
+        DriverParams::from_toml_str("driver = \"3964r\"\nmax_block_len = 100\npriority = \"high\"")
+            .unwrap();
+    let DriverParams::R3964(r) = &p else { panic!() };
+    let module = r.simulated_module(WindowSize::Eight).unwrap();
+    assert_eq!(module.config().max_frame_len, 100);
+    assert_eq!(module.serial().engine().config(), &r.config);
+    assert_eq!(p.module_config(WindowSize::Eight), *module.config());
     let p = DriverParams::from_toml_str("driver = \"modbus-slave\"").unwrap();
     let m = p.module_config(WindowSize::ThirtyTwo);
     assert_eq!((m.max_frame_len, m.flow_control), (200, WindowFlow::None));
