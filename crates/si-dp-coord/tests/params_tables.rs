@@ -452,3 +452,89 @@ fn the_same_parameters_configure_the_simulated_module() {
     assert_eq!(p.settings().to_string(), "9600 8E1");
     assert!(p.clear_at_startup());
 }
+
+mod arbitrary_files {
+    use proptest::prelude::*;
+    use serde_json::{json, Map, Value};
+    use si_dp_coord::params::DriverParams;
+
+    const KEYS: &[&str] = &[
+        "baud",
+        "data_bits",
+        "stop_bits",
+        "parity",
+        "interface",
+        "receive_line",
+        "flow_control",
+        "end_criterion",
+        "char_delay_ms",
+        "end_char_1",
+        "end_char_2",
+        "frame_length",
+        "xon",
+        "xoff",
+        "wait_for_xon_ms",
+        "ack_delay_ms",
+        "connection_attempts",
+        "block_check",
+        "address",
+        "response_timeout_ms",
+        "char_delay_multiplier",
+        "mode",
+        "pkw_retries",
+        "polling_list",
+        "tx_chunk",
+    ];
+
+    fn any_value() -> impl Strategy<Value = Value> {
+        prop_oneof![
+            any::<i64>().prop_map(|n| json!(n)),
+            (0u64..70_000).prop_map(|n| json!(n)),
+            any::<bool>().prop_map(|b| json!(b)),
+            prop::sample::select(vec![
+                "none",
+                "even",
+                "any",
+                "rs232",
+                "rs422",
+                "rs485",
+                "xon-xoff",
+                "rts-cts",
+                "auto-v24",
+                "end-chars",
+                "fixed-length",
+                "inverted",
+                "ra0v-rb5v",
+                "high",
+            ])
+            .prop_map(|s| json!(s)),
+            Just(json!([{"address": 1, "pkw": 4, "pzd": 2}, {"address": 40}])),
+            Just(json!(1.5)),
+            Just(json!(null)),
+        ]
+    }
+
+    proptest! {
+        /// Whatever a file says, reading it ends in parameters that pass their own check and
+        /// survive a round trip, or in at least one error; it never panics.
+        #[test]
+        fn any_file_is_read_or_refused(
+            driver in prop::sample::select(vec!["ascii", "3964r", "modbus-master", "modbus-slave", "uss-master"]),
+            fields in prop::collection::vec((prop::sample::select(KEYS.to_vec()), any_value()), 0..8),
+        ) {
+            let mut map = Map::new();
+            map.insert("driver".into(), json!(driver));
+            for (k, v) in fields {
+                map.insert(k.into(), v);
+            }
+            match DriverParams::from_value(&Value::Object(map)) {
+                Ok(p) => {
+                    prop_assert!(p.check().is_empty());
+                    prop_assert_eq!(DriverParams::from_value(&p.to_value()), Ok(p.clone()));
+                    prop_assert_eq!(DriverParams::from_toml_str(&p.to_toml_string()), Ok(p));
+                }
+                Err(e) => prop_assert!(!e.is_empty()),
+            }
+        }
+    }
+}
