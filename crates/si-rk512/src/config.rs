@@ -25,6 +25,8 @@
 //! - **DW number (public-facts.md §2).** Fig. 2-13/2-15 give DW1 as `01` and DW100 as `64H`:
 //!   byte 6 counts data words, so DBn.DWm starts at byte 2·m ([`DwUnit::Words`]). A Bosch
 //!   document shows "DW 64 = 80H", a byte offset; [`DwUnit::Bytes`] serves such partners.
+//! - **Counter letter .** Our telegrams name counters `'Z'` (5AH); [`CounterLetter::C`]
+//!   sends `'C'` (43H) instead. Received telegrams may use either.
 //! - **Character frame.** RK 512 runs with 8 data bits (§4.9); this is the line's business
 //!   (`SerialSettings`), not checked here.
 
@@ -59,6 +61,27 @@ impl DwUnit {
     }
 }
 
+/// The letter our command telegrams use for counters.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CounterLetter {
+    /// `'Z'` (5AH), the German letter the table's hex value shows (the default).
+    #[default]
+    Z,
+    /// `'C'` (43H), for a partner that followed the translated table.
+    C,
+}
+
+impl CounterLetter {
+    /// The byte on the wire.
+    pub const fn byte(self) -> u8 {
+        match self {
+            CounterLetter::Z => b'Z',
+            CounterLetter::C => b'C',
+        }
+    }
+}
+
 /// The RK 512 parameters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default)]
@@ -72,6 +95,8 @@ pub struct Config {
     pub max_job_len: u32,
     /// How the passive side reads header byte 6 of D/X jobs.
     pub dw_unit: DwUnit,
+    /// The counter letter in our command telegrams (received telegrams may use either).
+    pub counter_letter: CounterLetter,
 }
 
 impl Default for Config {
@@ -82,6 +107,7 @@ impl Default for Config {
             response_timeout_ms: 10_000,
             max_job_len: 1024,
             dw_unit: DwUnit::Words,
+            counter_letter: CounterLetter::Z,
         }
     }
 }

@@ -25,7 +25,8 @@
 //! - **Counter letter .** The table writes "'C' (5AH)"; 5AH is `'Z'` (German *Zähler*),
 //!   and the German letters `'E'`/`'A'` for inputs/outputs show the table speaks German
 //!   letters. Counters are encoded as `'Z'` (5AH); the decoder also accepts `'C'` (43H) from a
-//!   partner that followed the translation.
+//!   partner that followed the translation, and a station sends `'C'` with
+//!   [`CounterLetter::C`](crate::config::CounterLetter::C).
 //! - **FETCH carries no data .** The examples (Fig. 2-15, 2-16) show a header only, so a
 //!   FETCH command is exactly 10 (or 4) bytes.
 //! - **Bytes 5–6.** For `'D'`/`'X'` they are DB number and DW number (Fig. 2-13: `0A 01` =

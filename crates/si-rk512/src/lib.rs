@@ -56,6 +56,6 @@ pub mod status;
 #[cfg(feature = "tokio")]
 pub mod tokio;
 
-pub use config::{Config, DwUnit};
+pub use config::{Config, CounterLetter, DwUnit};
 pub use frame::{Address, Command, Coordination, DataType};
 pub use station::{Event, JobId, RequestError, Station};

@@ -50,7 +50,7 @@
 
 use crate::config::Config;
 use crate::frame::{
-    Address, Command, CommandHeader, ContinuationHeader, Coordination, Telegram,
+    Address, Command, CommandHeader, ContinuationHeader, Coordination, DataType, Telegram,
     COMMAND_HEADER_LEN, MAX_DATA_PER_TELEGRAM,
 };
 use crate::passive::{Served, Server, ServerConfig};
@@ -405,6 +405,10 @@ impl Station {
                 }
                 .encode(),
             );
+        }
+        if job.header.address.data_type() == DataType::Counters {
+            // Byte 4, the data type: the configured counter letter.
+            self.buf[3] = self.config.counter_letter.byte();
         }
         if job.header.command.is_send() {
             let end = (job.done + MAX_DATA_PER_TELEGRAM).min(job.total);

@@ -588,6 +588,44 @@ fn s4_7_tres_is_a_setting() {
     }));
 }
 
+/// counters go out as 'Z' by default and as 'C' with `CounterLetter::C`; the passive
+/// side serves both.
+#[test]
+fn a10_counter_letter_z_by_default_c_as_a_setting() {
+    for (letter, byte) in [
+        (si_rk512::CounterLetter::Z, b'Z'),
+        (si_rk512::CounterLetter::C, b'C'),
+    ] {
+        let mut sim = Simulator::new(53);
+        let mut c = high();
+        c.counter_letter = letter;
+        let a = sim.add_station("A", line(), Station::new(c, line()).unwrap());
+        let b = sim.add_station(
+            "B",
+            line(),
+            Station::serving(Config::default(), line(), &memory()).unwrap(),
+        );
+        sim.connect(a, b);
+        sim.with(b, |s, _| {
+            s.server_mut()
+                .memory_mut()
+                .set_element(Area::Counters, 3, 0x0042)
+                .unwrap()
+        });
+        let mut p = Pair { sim, a, b };
+        assert_eq!(p.fetch(Address::Counters(3), 2).unwrap(), &[0, 0x42][..]);
+        let sent: Vec<u8> = p
+            .sim
+            .trace()
+            .received("B")
+            .iter()
+            .map(|(_, b)| *b)
+            .collect();
+        let header = [0u8, 0, b'E', byte, 0, 3, 0, 1];
+        assert!(sent.windows(8).any(|w| w == header), "{letter:?}");
+    }
+}
+
 /// public-facts.md §2: a partner whose byte 6 is a byte offset ("DW 64 = 80H") is served with
 /// `DwUnit::Bytes`.
 #[test]

@@ -15,7 +15,7 @@ use si_rk512::frame::{Address, Coordination, DataType, Telegram};
 use si_rk512::passive::ServerConfig;
 use si_rk512::status;
 use si_rk512::tokio::Rk512;
-use si_rk512::{Config, DwUnit, Event, Station};
+use si_rk512::{Config, CounterLetter, DwUnit, Event, Station};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
@@ -149,6 +149,18 @@ pub struct LinkArgs {
     /// partners; public-facts.md §2).
     #[arg(long)]
     dw_bytes: bool,
+    /// Letter for counters in our telegrams: z (5AH, default) or c (43H) (cp341 A-10).
+    #[arg(long, value_enum, default_value = "z")]
+    counter_letter: CounterArg,
+}
+
+/// The counter letter (cp341 A-10).
+#[derive(Debug, Clone, Copy, ValueEnum)]
+enum CounterArg {
+    /// 'Z' (5AH).
+    Z,
+    /// 'C' (43H).
+    C,
 }
 
 impl LinkArgs {
@@ -171,6 +183,10 @@ impl LinkArgs {
         if self.dw_bytes {
             c.dw_unit = DwUnit::Bytes;
         }
+        c.counter_letter = match self.counter_letter {
+            CounterArg::Z => CounterLetter::Z,
+            CounterArg::C => CounterLetter::C,
+        };
         c.validate()?;
         Ok(c)
     }
