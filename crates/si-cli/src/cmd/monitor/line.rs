@@ -11,10 +11,11 @@
 //!   listens at one member (the first station that received anything) and finds the sender
 //!   whose transmission was on the line when the character arrived.
 //! - **One-sided traces** (a real port: `si --record` sees only its own side, no per-character
-//!   receptions): the writes are placed on the line at the character time after the write
-//!   began, and the chunks read come from a station called `partner`. A simulator trace never
-//!   takes this path, so a silenced station's transmissions (which never reached the line) are
-//!   not shown.
+//!   receptions): the characters of a write are placed at the instant the write began, those
+//!   of a read chunk at the instant it was read (a microsecond apart, to keep their order),
+//!   and the chunks come from a station called `partner`. A simulator trace never takes this
+//!   path, so a silenced station's transmissions (which never reached the line) are not
+//!   shown. Gaps inside a write or a chunk are not judged.
 
 use super::model::LineChar;
 use si_core::sim::TraceKind;
@@ -154,15 +155,14 @@ pub fn from_trace(file: &TraceFile, settings: SerialSettings) -> Line {
                     stations.push(PARTNER.to_owned());
                     stations.len() - 1
                 });
-                // The last character arrived no later than `at`; spread the earlier ones back
-                // at the character time so the order and rough timing read right.
+                // The last character arrived no later than `at`; the OS does not say when the
+                // others did. Keep them in order, a microsecond apart, so they never overtake
+                // an earlier write (on a pseudo-terminal the answer comes back at once).
                 let n = bytes.len() as u64;
                 for (k, &b) in bytes.iter().enumerate() {
-                    let before = settings.chars_time(n - 1 - k as u64);
+                    let before = n - 1 - k as u64;
                     chars.push(LineChar {
-                        at: Instant::from_micros(
-                            e.at.as_micros().saturating_sub(before.as_micros()),
-                        ),
+                        at: Instant::from_micros(e.at.as_micros().saturating_sub(before)),
                         from: Some(p),
                         to: Some(s),
                         item: Ok(b),
@@ -175,9 +175,10 @@ pub fn from_trace(file: &TraceFile, settings: SerialSettings) -> Line {
                     stations.push(PARTNER.to_owned());
                     stations.len() - 1
                 });
+                // The write began at `at`; when each character left the UART is unknown.
                 for (k, &b) in bytes.iter().enumerate() {
                     chars.push(LineChar {
-                        at: e.at + settings.chars_time(k as u64 + 1),
+                        at: e.at + Duration::from_micros(k as u64),
                         from: Some(s),
                         to: Some(to),
                         item: Ok(b),

@@ -441,6 +441,16 @@ impl Decoder for P3964 {
                 self.failed = Some(by);
                 self.state = State::Idle;
             }
+            (State::Idle, NAK) => {
+                // A station sends NAK when it starts up or gives up a job (§5.9 "send NAK and
+                // fail"): worth seeing, not a fault of this exchange.
+                self.counters.bump("NAKs");
+                let mut r = self.control(c, "NAK", "negative acknowledgement");
+                r.flags.push(Flag::note(
+                    "NAK outside a connection (start-up, or a sender giving up)",
+                ));
+                out.push(r);
+            }
             (_, NAK) => {
                 self.counters.bump("NAKs");
                 let mut r = self.control(c, "NAK", "negative acknowledgement");
