@@ -531,7 +531,13 @@ impl Station {
     }
 
     fn on_reaction(&mut self, block: &[u8]) {
-        let Some(job) = &mut self.job else {
+        // Only a telegram on the line (or acknowledged) can be answered; a reaction while ours
+        // still waits in the queue is a stray one (a duplicate, or meant for an ended job).
+        let Some(job) = self
+            .job
+            .as_mut()
+            .filter(|j| j.phase != Phase::Sending(None))
+        else {
             self.event(Event::ReceiveError(status::RESPONSE_SEQUENCE));
             return;
         };

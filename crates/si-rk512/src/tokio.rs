@@ -206,3 +206,53 @@ fn finish(current: &mut Option<(JobId, Reply)>, job: JobId, outcome: Result<Byte
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use si_core::memory::Area;
+
+    #[tokio::test(start_paused = true)]
+    async fn jobs_memory_access_and_a_closed_port() {
+        let (left, right) = tokio::io::duplex(4096);
+        let line = SerialSettings::default();
+        let mut high = Config::default();
+        high.link.priority = si_3964r::Priority::High;
+        let mut memory = ServerConfig::default();
+        memory.memory.dbs.insert(2, 8);
+        let host = Rk512::spawn(high, line, None, left).unwrap();
+        let mut plc = Rk512::spawn(Config::default(), line, Some(&memory), right).unwrap();
+        let at = Address::Db { db: 2, dw: 1 };
+        host.send(at, Coordination::NONE, vec![0xAB, 0xCD])
+            .await
+            .unwrap();
+        let word = plc
+            .with_server(|s| s.memory().word(Area::Db(2), 2).unwrap())
+            .await
+            .unwrap();
+        assert_eq!(word, 0xABCD);
+        assert_eq!(
+            plc.next_event().await,
+            Some(Event::Served {
+                command: crate::Command::Send,
+                address: at,
+                len: 2
+            })
+        );
+        assert_eq!(
+            host.fetch(Address::Db { db: 3, dw: 0 }, Coordination::NONE, 2)
+                .await,
+            Err(crate::status::PARTNER_NO_SUCH_AREA)
+        );
+        assert_eq!(
+            host.fetch(at, Coordination::NONE, 3).await,
+            Err(common::INVALID_LEN)
+        );
+        // The partner's end of the pipe closes: the driver stops, jobs end with 0502.
+        drop(plc);
+        assert_eq!(
+            host.fetch(at, Coordination::NONE, 2).await,
+            Err(common::NOT_POSSIBLE_IN_MODE)
+        );
+    }
+}
