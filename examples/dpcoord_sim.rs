@@ -86,8 +86,8 @@ fn main() {
     println!("-- through the DP windows of two modules running 3964(R)");
     let mut sim = Simulator::new(1);
     let window = WindowSize::Eight;
-    let ma = engines::r3964r_module(window, link(Priority::High, line));
-    let mb = engines::r3964r_module(window, link(Priority::Low, line));
+    let ma = engines::r3964r_module(window, link(Priority::High, line)).expect("valid module");
+    let mb = engines::r3964r_module(window, link(Priority::Low, line)).expect("valid module");
     let mut a = Dp::new(&mut sim, "A", line, ma);
     let mut b = Dp::new(&mut sim, "B", line, mb);
     sim.connect(a.station, b.station);

@@ -32,7 +32,7 @@
 //!   ([`ascii_module_config`] does it): the module checks the block number first (0550H), the
 //!   engine then checks the values.
 
-use crate::config::{FlowControl, ModuleConfig};
+use crate::config::{ConfigError, FlowControl, ModuleConfig};
 use crate::frame::{ParamBlock, WindowSize};
 use crate::line::{EngineSerial, LineEvent, LineHooks};
 use crate::module::{Module, SerialEvent};
@@ -76,20 +76,19 @@ pub fn r3964r(link: si_3964r::Link) -> EngineSerial<si_3964r::Link> {
 
 /// A simulated module with 3964(R) on its line: the window of `window` bytes, the module
 /// defaults otherwise, flow control none (3964(R) has none, so every parameter job gets 0550H).
+///
+/// The module's frame limit is the link's `max_block_len`; an error names a module parameter out
+/// of range (none is with the engine's own ranges).
 pub fn r3964r_module(
     window: WindowSize,
     link: si_3964r::Link,
-) -> Module<EngineSerial<si_3964r::Link>> {
+) -> Result<Module<EngineSerial<si_3964r::Link>>, ConfigError> {
     let cfg = ModuleConfig {
         flow_control: FlowControl::None,
         max_frame_len: usize::from(link.config().max_block_len),
         ..ModuleConfig::new(window)
     };
-    // Both ranges are checked by the engines' own configs (1 … 1024 ≤ the module's limit).
-    match Module::new(cfg, r3964r(link)) {
-        Ok(m) => m,
-        Err(e) => unreachable!("3964(R) block length within the module's range: {e}"),
-    }
+    Module::new(cfg, r3964r(link))
 }
 
 /// The hooks for a [`si_ascii::Link`].
@@ -191,12 +190,9 @@ pub fn ascii_module_config(window: WindowSize, config: &si_ascii::Config) -> Mod
 pub fn ascii_module(
     window: WindowSize,
     link: si_ascii::Link,
-) -> Module<EngineSerial<si_ascii::Link>> {
+) -> Result<Module<EngineSerial<si_ascii::Link>>, ConfigError> {
     let cfg = ascii_module_config(window, link.config());
-    match Module::new(cfg, ascii(link)) {
-        Ok(m) => m,
-        Err(e) => unreachable!("ASCII limits within the module's ranges: {e}"),
-    }
+    Module::new(cfg, ascii(link))
 }
 
 #[cfg(test)]

@@ -109,11 +109,12 @@ fn r3964r_pair(window: WindowSize) -> (Simulator, Side<si_3964r::Link>, Side<si_
         ..si_3964r::Config::default()
     };
     let mut sim = Simulator::new(3);
-    let a = engines::r3964r_module(window, si_3964r::Link::new(high, settings).unwrap());
+    let a = engines::r3964r_module(window, si_3964r::Link::new(high, settings).unwrap()).unwrap();
     let b = engines::r3964r_module(
         window,
         si_3964r::Link::new(si_3964r::Config::default(), settings).unwrap(),
-    );
+    )
+    .unwrap();
     let a = Side::new(&mut sim, "A", settings, a);
     let b = Side::new(&mut sim, "B", settings, b);
     sim.connect(a.station, b.station);
@@ -127,8 +128,8 @@ fn ascii_pair(window: WindowSize) -> (Simulator, Side<si_ascii::Link>, Side<si_a
         ..si_ascii::Config::default()
     };
     let mut sim = Simulator::new(4);
-    let a = engines::ascii_module(window, si_ascii::Link::new(config).unwrap());
-    let b = engines::ascii_module(window, si_ascii::Link::new(config).unwrap());
+    let a = engines::ascii_module(window, si_ascii::Link::new(config).unwrap()).unwrap();
+    let b = engines::ascii_module(window, si_ascii::Link::new(config).unwrap()).unwrap();
     let a = Side::new(&mut sim, "A", config.settings, a);
     let b = Side::new(&mut sim, "B", config.settings, b);
     sim.connect(a.station, b.station);
@@ -209,11 +210,13 @@ fn section_2_8_partner_transmit_wire_cut_s_send_error_carries_the_3964r_status()
     let a = engines::r3964r_module(
         WindowSize::Four,
         si_3964r::Link::new(config, settings).unwrap(),
-    );
+    )
+    .unwrap();
     let b = engines::r3964r_module(
         WindowSize::Four,
         si_3964r::Link::new(config, settings).unwrap(),
-    );
+    )
+    .unwrap();
     let mut a = Side::new(&mut sim, "A", settings, a);
     let mut b = Side::new(&mut sim, "B", settings, b);
     sim.connect(a.station, b.station);
@@ -436,7 +439,7 @@ fn channel_same_user_program_on_3964r_directly_and_through_the_window() {
     };
     let (pa, pb, wa, wb) = direct_and_window(
         make,
-        |l| engines::r3964r_module(WindowSize::Eight, l),
+        |l| engines::r3964r_module(WindowSize::Eight, l).unwrap(),
         settings,
         R3964rFbs::default,
         WindowFbs::default,
@@ -460,7 +463,7 @@ fn channel_same_user_program_on_ascii_directly_and_through_the_window() {
     };
     let (pa, pb, wa, wb) = direct_and_window(
         |_| si_ascii::Link::new(config).unwrap(),
-        |l| engines::ascii_module(WindowSize::Four, l),
+        |l| engines::ascii_module(WindowSize::Four, l).unwrap(),
         config.settings,
         AsciiFbs::default,
         WindowFbs::default,

@@ -153,8 +153,8 @@ proptest! {
             ..si_3964r::Config::default()
         };
         let mut sim = Simulator::new(seed).without_trace();
-        let ma = engines::r3964r_module(window, si_3964r::Link::new(config(si_3964r::config::Priority::High), line).unwrap());
-        let mb = engines::r3964r_module(window, si_3964r::Link::new(config(si_3964r::config::Priority::Low), line).unwrap());
+        let ma = engines::r3964r_module(window, si_3964r::Link::new(config(si_3964r::config::Priority::High), line).unwrap()).unwrap();
+        let mb = engines::r3964r_module(window, si_3964r::Link::new(config(si_3964r::config::Priority::Low), line).unwrap()).unwrap();
         let a = Side::new(&mut sim, "A", line, ma);
         let b = Side::new(&mut sim, "B", line, mb);
         sim.connect(a.station, b.station);
@@ -174,8 +174,8 @@ proptest! {
             ..si_ascii::Config::default()
         };
         let mut sim = Simulator::new(seed).without_trace();
-        let a = Side::new(&mut sim, "A", config.settings, engines::ascii_module(window, si_ascii::Link::new(config).unwrap()));
-        let b = Side::new(&mut sim, "B", config.settings, engines::ascii_module(window, si_ascii::Link::new(config).unwrap()));
+        let a = Side::new(&mut sim, "A", config.settings, engines::ascii_module(window, si_ascii::Link::new(config).unwrap()).unwrap());
+        let b = Side::new(&mut sim, "B", config.settings, engines::ascii_module(window, si_ascii::Link::new(config).unwrap()).unwrap());
         sim.connect(a.station, b.station);
         sim.set_faults(a.station, fa);
         sim.set_faults(b.station, fb);

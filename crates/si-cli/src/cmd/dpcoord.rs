@@ -339,7 +339,7 @@ impl ModuleArgs {
                     ..si_3964r::Config::default()
                 };
                 let link = si_3964r::Link::new(config, settings)?;
-                let module = engines::r3964r_module(self.window, link);
+                let module = engines::r3964r_module(self.window, link)?;
                 serve(module, transport, settings, self.window, out).await
             }
             Protocol::Ascii => {
@@ -348,7 +348,7 @@ impl ModuleArgs {
                     ..si_ascii::Config::default()
                 };
                 let link = si_ascii::Link::new(config)?;
-                let module = engines::ascii_module(self.window, link);
+                let module = engines::ascii_module(self.window, link)?;
                 serve(module, transport, settings, self.window, out).await
             }
         }
@@ -559,11 +559,11 @@ fn scenario_e2e(o: &SimOptions, out: &Output) -> Result<(), CliError> {
         ..si_3964r::Config::default()
     };
     let mut sim = Simulator::new(o.seed);
-    let a = engines::r3964r_module(WindowSize::Eight, si_3964r::Link::new(high, o.settings)?);
+    let a = engines::r3964r_module(WindowSize::Eight, si_3964r::Link::new(high, o.settings)?)?;
     let b = engines::r3964r_module(
         WindowSize::Eight,
         si_3964r::Link::new(si_3964r::Config::default(), o.settings)?,
-    );
+    )?;
     let (mut in_a, mut in_b) = (a.input().to_vec(), b.input().to_vec());
     let a = sim.add_station("A", o.settings, a);
     let b = sim.add_station("B", o.settings, b);
