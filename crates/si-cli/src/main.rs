@@ -96,9 +96,21 @@ impl Output {
     /// Print one result: `text` for people, `json` as one line for scripts.
     pub fn line(&self, text: &str, json: serde_json::Value) {
         if self.json {
-            println!("{json}");
+            write_stdout(format_args!("{json}\n"));
         } else {
-            println!("{text}");
+            write_stdout(format_args!("{text}\n"));
+        }
+    }
+}
+
+/// Write to stdout. When the reader has gone (`si monitor … | head`), end quietly with success
+/// instead of panicking the way `println!` does on a closed pipe.
+pub fn write_stdout(args: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_fmt(args).and_then(|()| out.flush()) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
         }
     }
 }

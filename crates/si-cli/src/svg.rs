@@ -24,7 +24,7 @@ pub const GAP_MARK: Duration = Duration::from_millis(50);
 const ROW: u32 = 24;
 const LEFT: u32 = 120;
 const LANE: u32 = 230;
-const NOTES: u32 = 420;
+const NOTES: u32 = 470;
 const TOP: u32 = 76;
 
 enum Row<'a> {
@@ -53,8 +53,10 @@ fn rows(records: &[Record]) -> Vec<Row<'_>> {
                 break;
             }
             if !r.flags.is_empty() {
-                // The remark and the record before it (what it answers).
-                for k in &mut keep[i.saturating_sub(1)..=i] {
+                // The remark, the three records before it (the exchange it belongs to) and the
+                // one after (how the line recovered).
+                let last = (i + 1).min(records.len() - 1);
+                for k in &mut keep[i.saturating_sub(3)..=last] {
                     if !*k && budget > 0 {
                         *k = true;
                         budget -= 1;

@@ -355,3 +355,42 @@ fn a_broken_trace_is_one_clear_error() {
     assert!(err.contains("trace line 2"), "{err}");
     assert_eq!(err.lines().count(), 1);
 }
+
+#[test]
+fn a_closed_pipe_ends_the_output_quietly() {
+    use std::io::Read;
+    use std::process::Stdio;
+    // Far more output than a pipe buffers: 5000 stray NAKs, one line each.
+    let path = tmp("many-naks.jsonl");
+    let body: String = (1..=5000u64)
+        .map(|k| {
+            format!(
+                "{{\"at\":{},\"station\":\"B\",\"kind\":\"rx\",\"byte\":21}}\n",
+                k * 10_000
+            )
+        })
+        .collect();
+    std::fs::write(&path, format!("{{\"format\":\"si-trace\",\"version\":1,\"source\":\"sim\",\"protocol\":\"3964r\",\"stations\":[\"A\",\"B\"]}}\n{body}")).unwrap();
+    let mut child = si()
+        .args(["monitor", "--trace"])
+        .arg(&path)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Read one byte, then hang up, like `| head -c1`.
+    let mut stdout = child.stdout.take().unwrap();
+    let mut one = [0u8; 1];
+    stdout.read_exact(&mut one).unwrap();
+    drop(stdout);
+    let status = child.wait().unwrap();
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(status.success(), "{err}");
+}

@@ -209,10 +209,13 @@ pub fn print_trace(trace: &Trace, out: &Output) {
     });
     if out.json {
         for entry in &trace.entries {
-            println!("{}", serde_json::to_string(entry).unwrap_or_default());
+            crate::write_stdout(format_args!(
+                "{}\n",
+                serde_json::to_string(entry).unwrap_or_default()
+            ));
         }
     } else {
-        print!("{trace}");
+        crate::write_stdout(format_args!("{trace}"));
     }
 }
 
