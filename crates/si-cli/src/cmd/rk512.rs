@@ -222,7 +222,7 @@ pub struct ServeArgs {
     /// 256 cells, DB1 … DB16 of 512 bytes each.
     #[arg(long)]
     config: Option<PathBuf>,
-    /// Stop after serving this many jobs (default: run until interrupted).
+    /// Stop after this many jobs, served or refused (default: run until interrupted).
     #[arg(long)]
     count: Option<u64>,
     #[command(flatten)]
