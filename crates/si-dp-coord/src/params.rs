@@ -157,26 +157,28 @@ impl Default for AsciiParams {
 }
 
 impl AsciiParams {
-    /// A simulated module running the ASCII driver with these parameters
-    /// ([`crate::engines::ascii_module`]): the same values a host's ASCII link runs with.
+    /// A simulated module running the ASCII driver with these parameters (the configuration of
+    /// [`crate::engines::ascii_module_config`]): the same values a host's ASCII link runs with.
     pub fn simulated_module(
         &self,
         window: WindowSize,
     ) -> Result<Module<EngineSerial<si_ascii::Link>>, ParamErrors> {
         let link = si_ascii::Link::new(self.config).map_err(|e| one("config", e))?;
-        crate::engines::ascii_module(window, link).map_err(|e| one("module", e))
+        let cfg = crate::engines::ascii_module_config(window, &self.config);
+        Module::new(cfg, crate::engines::ascii(link)).map_err(|e| one("module", e))
     }
 }
 
 impl R3964Params {
-    /// A simulated module running 3964(R) with these parameters
-    /// ([`crate::engines::r3964r_module`]).
+    /// A simulated module running 3964(R) with these parameters: the link's `max_block_len` is
+    /// the module's frame limit, as in [`crate::engines::r3964r_module`].
     pub fn simulated_module(
         &self,
         window: WindowSize,
     ) -> Result<Module<EngineSerial<si_3964r::Link>>, ParamErrors> {
         let link = si_3964r::Link::new(self.config, self.settings).map_err(|e| one("config", e))?;
-        crate::engines::r3964r_module(window, link).map_err(|e| one("module", e))
+        let cfg = DriverParams::R3964(*self).module_config(window);
+        Module::new(cfg, crate::engines::r3964r(link)).map_err(|e| one("module", e))
     }
 }
 
