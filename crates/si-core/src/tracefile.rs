@@ -424,4 +424,30 @@ mod tests {
         assert_eq!(f.trace.entries[0].station, "local");
         assert_eq!(f.trace.entries[1].station, "si");
     }
+
+    proptest::proptest! {
+        #[test]
+        fn read_never_panics_on_arbitrary_text(text in "(\\PC|\n|\\{|\\}|\"|:|,|[0-9])*") {
+            let _ = read(text.as_bytes());
+        }
+
+        #[test]
+        fn any_entry_round_trips(
+            at in 0u64..u64::MAX / 2,
+            station in "[A-Za-z0-9 _-]{0,12}",
+            bytes in proptest::collection::vec(proptest::num::u8::ANY, 0..40),
+            kind in 0u8..4,
+        ) {
+            let kind = match kind {
+                0 => TraceKind::Tx { bytes },
+                1 => TraceKind::Rx { byte: bytes.first().copied().unwrap_or(0) },
+                2 => TraceKind::RxChunk { bytes },
+                _ => TraceKind::Event { text: String::from_utf8_lossy(&bytes).into_owned() },
+            };
+            let trace = Trace { entries: vec![TraceEntry { at: Instant::from_micros(at), station, kind }] };
+            let mut buf = Vec::new();
+            write(&mut buf, &Header::new("sim"), &trace).unwrap();
+            proptest::prop_assert_eq!(read(&buf[..]).unwrap().trace, trace);
+        }
+    }
 }

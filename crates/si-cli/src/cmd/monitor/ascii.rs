@@ -36,7 +36,7 @@ impl Ascii {
         counters.declare(&["frames", "line errors", "frames too long", "XON", "XOFF"]);
         Ascii {
             p,
-            framer: Framer::new(p.char_delay),
+            framer: Framer::new(p.char_delay, si_ascii::config::MAX_FRAME_LEN + 1),
             cutter: Cutter::new(p.end),
             counters,
         }

@@ -24,21 +24,24 @@ pub struct Frame {
 }
 
 /// Collects characters into frames; a frame ends when the sender changes, when the silence
-/// reaches `end_gap`, or when the caller says so.
+/// reaches `end_gap`, when it holds `max_len` characters (a line that never pauses cannot grow
+/// memory), or when the caller says so.
 #[derive(Debug, Default)]
 pub struct Framer {
     cur: Option<Frame>,
     last: Option<LineChar>,
     end_gap: Duration,
+    max_len: usize,
 }
 
 impl Framer {
-    /// A framer that ends frames at `end_gap` of silence.
-    pub fn new(end_gap: Duration) -> Self {
+    /// A framer that ends frames at `end_gap` of silence or at `max_len` characters.
+    pub fn new(end_gap: Duration, max_len: usize) -> Self {
         Framer {
             cur: None,
             last: None,
             end_gap,
+            max_len: max_len.max(1),
         }
     }
 
@@ -51,7 +54,11 @@ impl Framer {
             .unwrap_or(Duration::from_secs(3600));
         let judged = super::line::gap(self.last.as_ref(), c);
         let ended = match &self.cur {
-            Some(f) => f.from != c.from || gap >= self.end_gap,
+            Some(f) => {
+                f.from != c.from
+                    || gap >= self.end_gap
+                    || f.bytes.len() + f.line_errors.len() >= self.max_len
+            }
             None => false,
         };
         let done = if ended { self.cur.take() } else { None };

@@ -317,7 +317,11 @@ impl MonitorArgs {
             for r in &records {
                 print_record(r, &stations, out);
             }
-            all.extend(records);
+            // Keep the records only for the diagram: a monitor left running for days must
+            // not grow.
+            if self.svg.is_some() {
+                all.extend(records);
+            }
         }
         let mut records = Vec::new();
         decoder.finish(now(), &mut records);
@@ -462,4 +466,170 @@ fn write_svg(path: &std::path::Path, a: &Analysis) -> Result<(), CliError> {
     let svg = crate::svg::render(a);
     std::fs::write(path, svg)
         .map_err(|e| CliError::new(format!("cannot write {}: {e}", path.display())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::FromArgMatches;
+    use si_core::sim::{SplitMix64, Trace, TraceEntry, TraceKind};
+    use si_core::LineError;
+
+    fn args(extra: &[&str]) -> MonitorArgs {
+        let cmd = <MonitorArgs as clap::Args>::augment_args(clap::Command::new("m"));
+        let m = cmd.get_matches_from(std::iter::once("m").chain(extra.iter().copied()));
+        MonitorArgs::from_arg_matches(&m).unwrap()
+    }
+
+    /// Characters that matter to the decoders, and any others.
+    fn byte(rng: &mut SplitMix64) -> u8 {
+        const SPECIAL: [u8; 8] = [0x02, 0x03, 0x10, 0x15, 0x11, 0x13, 0x0D, 0x0A];
+        if rng.chance(0.5) {
+            SPECIAL[rng.below(SPECIAL.len() as u64) as usize]
+        } else {
+            rng.next_u64() as u8
+        }
+    }
+
+    fn chars(rng: &mut SplitMix64, n: usize, stations: usize) -> Vec<LineChar> {
+        let mut at = 0u64;
+        (0..n)
+            .map(|_| {
+                at += match rng.below(4) {
+                    0 => 0,
+                    1 => rng.below(2_000),
+                    2 => rng.below(50_000),
+                    _ => rng.below(3_000_000),
+                };
+                let who = |rng: &mut SplitMix64| {
+                    let k = rng.below(stations as u64 + 1) as usize;
+                    (k < stations).then_some(k)
+                };
+                LineChar {
+                    at: Instant::from_micros(at),
+                    from: who(rng),
+                    to: who(rng),
+                    item: if rng.chance(0.05) {
+                        Err(LineError::Framing)
+                    } else {
+                        Ok(byte(rng))
+                    },
+                    exact: rng.chance(0.8),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn every_decoder_survives_arbitrary_bytes_and_timing() {
+        let settings = SerialSettings::default();
+        let mut rng = SplitMix64::new(10);
+        for round in 0..120 {
+            let stations = 1 + round % 4;
+            let n = 1 + rng.below(400) as usize;
+            let input = chars(&mut rng, n, stations);
+            let end = input.last().map(|c| c.at).unwrap_or_default();
+            for protocol in [
+                Protocol::P3964r,
+                Protocol::P3964,
+                Protocol::Rk512,
+                Protocol::Ascii,
+                Protocol::Modbus,
+                Protocol::Uss,
+            ] {
+                let a = args(&[]);
+                let mut d = a.decoder(protocol, settings, stations == 1);
+                let records = decode_all(d.as_mut(), &input, end);
+                assert!(records.windows(2).all(|w| w[0].start <= w[1].start));
+                assert!(records.iter().all(|r| r.start <= r.end));
+                let analysis = Analysis {
+                    protocol: protocol.name().into(),
+                    stations: (0..stations).map(|i| format!("S{i}")).collect(),
+                    records,
+                    counters: d.counters().clone(),
+                    span: (Instant::ZERO, end),
+                };
+                let svg = crate::svg::render(&analysis);
+                assert!(svg.ends_with("</svg>\n"));
+            }
+        }
+    }
+
+    #[test]
+    fn arbitrary_trace_entries_give_a_line_in_time_order() {
+        let mut rng = SplitMix64::new(3);
+        for _ in 0..300 {
+            let names = ["A", "B", "C", "si"];
+            let mut at = 0;
+            let entries = (0..rng.below(200))
+                .map(|_| {
+                    at += rng.below(20_000);
+                    let station = names[rng.below(4) as usize].to_owned();
+                    let bytes: Vec<u8> = (0..rng.below(6)).map(|_| byte(&mut rng)).collect();
+                    let kind = match rng.below(5) {
+                        0 => TraceKind::Tx { bytes },
+                        1 => TraceKind::Rx {
+                            byte: byte(&mut rng),
+                        },
+                        2 => TraceKind::RxChunk { bytes },
+                        3 => TraceKind::RxError {
+                            error: LineError::Parity,
+                        },
+                        _ => TraceKind::Event { text: "x".into() },
+                    };
+                    TraceEntry {
+                        at: Instant::from_micros(at),
+                        station,
+                        kind,
+                    }
+                })
+                .collect();
+            let file = TraceFile {
+                header: None,
+                trace: Trace { entries },
+            };
+            let line = line::from_trace(&file, SerialSettings::default());
+            assert!(line.chars.windows(2).all(|w| w[0].at <= w[1].at));
+            let n = line.stations.len();
+            assert!(line
+                .chars
+                .iter()
+                .all(|c| c.from.is_none_or(|f| f < n) && c.to.is_none_or(|t| t < n)));
+            // And the whole analysis, with protocol guessing, never fails.
+            assert!(args(&[]).analyse(&file, SerialSettings::default()).is_ok());
+        }
+    }
+
+    #[test]
+    fn ascii_options_set_the_end_criterion() {
+        use si_ascii::config::EndCriterion;
+        let settings = SerialSettings::default();
+        let c = |b: u8, at: u64| LineChar {
+            at: Instant::from_micros(at),
+            from: Some(0),
+            to: Some(1),
+            item: Ok(b),
+            exact: true,
+        };
+        let input: Vec<LineChar> = b"AB\r\nCD\r\n"
+            .iter()
+            .enumerate()
+            .map(|(k, &b)| c(b, 1_146 * (k as u64 + 1)))
+            .collect();
+        let end = Instant::from_micros(100_000);
+        let a = args(&["--end-char", "0D0A"]);
+        let mut d = a.decoder(Protocol::Ascii, settings, false);
+        assert_eq!(decode_all(d.as_mut(), &input, end).len(), 2);
+        let a = args(&["--fixed-length", "2"]);
+        let mut d = a.decoder(Protocol::Ascii, settings, false);
+        assert_eq!(decode_all(d.as_mut(), &input, end).len(), 4);
+        let a = args(&[]);
+        let mut d = a.decoder(Protocol::Ascii, settings, false);
+        assert_eq!(
+            decode_all(d.as_mut(), &input, end).len(),
+            1,
+            "back to back, the character delay never expires: {:?}",
+            EndCriterion::CharDelay
+        );
+    }
 }

@@ -60,7 +60,8 @@ impl Modbus {
         ]);
         Modbus {
             p,
-            framer: Framer::new(p.end_gap),
+            // One byte over the longest ADU, so an endless stream shows as frames too long.
+            framer: Framer::new(p.end_gap, si_modbus::frame::MAX_ADU + 1),
             pending: None,
             one_sided,
             counters,

@@ -15,6 +15,10 @@ use super::model::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
 use si_3964r::frame::{Decoder as BlockDecoder, FrameError, Mode, DLE, NAK, STX};
 use si_core::{Duration, Instant};
 
+/// Raw block characters kept for display: twice the longest block (1024 bytes, every one a
+/// doubled DLE) plus the end sequence; the block decoder itself stops storing at its maximum.
+const MAX_RAW: usize = 2 * 1024 + 3;
+
 /// The timers and mode the listener judges against.
 #[derive(Debug, Clone, Copy)]
 pub struct Params {
@@ -338,7 +342,9 @@ impl Decoder for P3964 {
                     }
                 }
                 *last = c.clone();
-                bytes.push(byte);
+                if bytes.len() < MAX_RAW {
+                    bytes.push(byte);
+                }
                 if let Some(result) = self.block.push(byte) {
                     self.finish_block(c, result, out);
                 }
