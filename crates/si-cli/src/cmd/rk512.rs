@@ -470,7 +470,8 @@ impl ServeArgs {
 pub struct DecodeArgs {
     /// A command, continuation or reaction telegram in hex (the 3964(R) payload), with or
     /// without its data.
-    hex: String,
+    #[arg(required = true, num_args = 1.., value_name = "HEX")]
+    hex: Vec<String>,
 }
 
 fn type_name(t: DataType) -> &'static str {
@@ -496,7 +497,7 @@ fn command_name(c: si_rk512::Command) -> &'static str {
 impl DecodeArgs {
     /// Print the header fields (and the data, if any); fail naming offset, expected and found.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let bytes = crate::cmd::frame::parse_hex(&self.hex)?;
+        let bytes = crate::cmd::frame::parse_hex(&self.hex.join(" "))?;
         let telegram = Telegram::decode(&bytes).map_err(|e| CliError::new(e.to_string()))?;
         let (text, value, data) = match telegram {
             Telegram::Command(h, data) => {
