@@ -187,7 +187,30 @@ pub enum ChannelType {
     TwoWords,
 }
 
+impl IoType {
+    /// A short description.
+    pub const fn text(self) -> &'static str {
+        match self {
+            IoType::Input => "input",
+            IoType::Output => "output",
+            IoType::InputOutput => "input/output",
+        }
+    }
+}
+
 impl ChannelType {
+    /// A short description.
+    pub const fn text(self) -> &'static str {
+        match self {
+            ChannelType::Bit => "bit",
+            ChannelType::TwoBits => "2 bits",
+            ChannelType::FourBits => "4 bits",
+            ChannelType::Byte => "byte",
+            ChannelType::Word => "word",
+            ChannelType::TwoWords => "2 words",
+        }
+    }
+
     const fn code(self) -> u8 {
         match self {
             ChannelType::Bit => 1,
@@ -431,7 +454,7 @@ pub enum DiagError {
         min: usize,
     },
     /// A byte that is not a valid code for its field.
-    #[error("unknown {field} {value:02X}H at offset {offset}")]
+    #[error("unknown {field} at offset {offset}: byte {value:02X}H")]
     Unknown {
         /// Offset of the byte.
         offset: usize,
@@ -608,7 +631,7 @@ impl SlaveDiagnosis {
                         _ => {
                             return Err(DiagError::Unknown {
                                 offset: at + 1,
-                                field: "I/O type (bits 7-6 = 00 are reserved) in",
+                                field: "I/O type (bits 7-6; 00 is reserved)",
                                 value: entry[1],
                             })
                         }
@@ -616,13 +639,13 @@ impl SlaveDiagnosis {
                     let channel_type =
                         ChannelType::from_code(entry[2] >> 5).ok_or(DiagError::Unknown {
                             offset: at + 2,
-                            field: "channel type (bits 7-5 = 000 and 111 are reserved) in",
+                            field: "channel type (bits 7-5; 000 and 111 are reserved)",
                             value: entry[2],
                         })?;
                     let error =
                         ErrorType::from_code(entry[2] & 0x1F).ok_or(DiagError::Unknown {
                             offset: at + 2,
-                            field: "channel error type (SI module: 6, 7, 8, 9, 16, 22) in",
+                            field: "channel error type (bits 4-0; the SI module reports 6, 7, 8, 9, 16, 22)",
                             value: entry[2],
                         })?;
                     out.channels.push(ChannelDiagnosis {

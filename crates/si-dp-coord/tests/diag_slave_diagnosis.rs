@@ -181,7 +181,7 @@ fn bad_headers_and_order_name_the_offset() {
     d[9] = 0x81;
     assert_eq!(
         SlaveDiagnosis::decode(&d).unwrap_err().to_string(),
-        "unknown status type (the SI module sends 82H, module status) 81H at offset 9"
+        "unknown status type (the SI module sends 82H, module status) at offset 9: byte 81H"
     );
     let mut d = with_channel(0x86);
     d[6] = 0xC2;
