@@ -119,6 +119,10 @@ fn diag_decode_names_the_channel_error_and_its_action() {
     );
     assert!(text.contains("module 3: module error"), "{text}");
     assert!(
+        text.contains("slot 3 channel 0 (input/output, byte)"),
+        "{text}"
+    );
+    assert!(
         text.contains("error type 10110 (22) message error: frame error or parity error. Action: check the communication settings"),
         "{text}"
     );

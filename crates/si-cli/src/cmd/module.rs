@@ -121,11 +121,11 @@ impl DiagDecodeArgs {
             let e = c.error;
             out.line(
                 &format!(
-                    "channel: slot {} channel {} ({:?}, {:?}): error type {:05b} ({}) {}: {}. Action: {}",
+                    "channel: slot {} channel {} ({}, {}): error type {:05b} ({}) {}: {}. Action: {}",
                     c.slot,
                     c.channel,
-                    c.io,
-                    c.channel_type,
+                    c.io.text(),
+                    c.channel_type.text(),
                     e.code(),
                     e.code(),
                     e.name(),
