@@ -225,3 +225,69 @@ fn live_monitor_decodes_and_never_transmits() {
     let got = reader.recv_timeout(Duration::from_millis(300));
     assert!(got.is_err(), "the monitor transmitted {got:?}");
 }
+
+#[test]
+fn a_monitor_cable_with_two_ports_shows_both_directions() {
+    let (Some((_s1, a1, b1)), Some((_s2, a2, b2))) = (pty_pair(), pty_pair()) else {
+        eprintln!("SKIPPED: socat not found (apt-get install socat)");
+        return;
+    };
+    let mut monitor = Kill(
+        Command::new(env!("CARGO_BIN_EXE_si"))
+            .args(["--json", "--port", &b1, "monitor", "--protocol", "3964r"])
+            .args(["--tap", &b2, "--duration", "1.5"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let open = |p: &str| std::fs::OpenOptions::new().write(true).open(p).unwrap();
+    let (mut a, mut b) = (open(&a1), open(&a2));
+    // Station A sends "AB" with 3964(R) (BCC 10H); station B answers on its own wire.
+    for (to_a, bytes) in [
+        (true, &[0x02][..]),
+        (false, &[0x10][..]),
+        (true, &[0x41, 0x42, 0x10, 0x03, 0x10][..]),
+        (false, &[0x10][..]),
+    ] {
+        let port = if to_a { &mut a } else { &mut b };
+        port.write_all(bytes).unwrap();
+        std::thread::sleep(Duration::from_millis(30));
+    }
+    let mut out = String::new();
+    monitor
+        .0
+        .stdout
+        .take()
+        .unwrap()
+        .read_to_string(&mut out)
+        .unwrap();
+    assert!(monitor.0.wait().unwrap().success());
+    let lines: Vec<Value> = out
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let seen: Vec<(String, String)> = lines
+        .iter()
+        .filter(|l| l["label"].is_string())
+        .map(|l| {
+            (
+                l["label"].as_str().unwrap().to_owned(),
+                l["from"].as_str().unwrap().to_owned(),
+            )
+        })
+        .collect();
+    let name = |p: &str| p.rsplit('/').next().unwrap().to_owned();
+    assert_eq!(
+        seen,
+        vec![
+            ("STX".to_owned(), name(&b1)),
+            ("DLE".to_owned(), name(&b2)),
+            ("block 2 B \"AB\"".to_owned(), name(&b1)),
+            ("DLE".to_owned(), name(&b2)),
+        ],
+        "{out}"
+    );
+    assert_eq!(lines.last().unwrap()["counters"]["blocks ok"], 1);
+}

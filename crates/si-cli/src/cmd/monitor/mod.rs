@@ -85,6 +85,10 @@ pub struct MonitorArgs {
     /// Also draw the exchange as an SVG sequence diagram.
     #[arg(long, value_name = "FILE")]
     pub svg: Option<PathBuf>,
+    /// Second port of a monitor cable on a point-to-point line: it hears the other direction
+    /// (`--port` hears station A, `--tap` station B). Both are only read.
+    #[arg(long, value_name = "PATH")]
+    pub tap: Option<String>,
     /// Stop watching a port after this many seconds (default: until Ctrl-C).
     #[arg(long, value_name = "SECONDS")]
     pub duration: Option<f64>,
@@ -270,8 +274,31 @@ impl MonitorArgs {
             self.protocol
         };
         let mut port = conn.open_with(&settings).await?;
-        let stations = vec!["line".to_owned()];
-        let mut decoder = self.decoder(protocol, settings, true);
+        // A monitor cable for a point-to-point line has two receive wires: with --tap the
+        // second direction is read from a second port, and both stations get a lane.
+        let mut tap = match &self.tap {
+            Some(path) => {
+                let mut other = conn.clone();
+                other.port = Some(path.clone());
+                other.tcp = None;
+                Some(other.open_with(&settings).await?)
+            }
+            None => None,
+        };
+        let name = |p: Option<&String>, fallback: &str| {
+            p.and_then(|p| p.rsplit('/').next().map(str::to_owned))
+                .unwrap_or_else(|| fallback.to_owned())
+        };
+        let stations = match &self.tap {
+            Some(t) => vec![name(conn.port.as_ref(), "A"), name(Some(t), "B")],
+            None => vec!["line".to_owned()],
+        };
+        let (to_a, to_b) = if tap.is_some() {
+            (Some(1), Some(0))
+        } else {
+            (None, None)
+        };
+        let mut decoder = self.decoder(protocol, settings, tap.is_none());
         let origin = tokio::time::Instant::now();
         let now = || Instant::from_micros(origin.elapsed().as_micros() as u64);
         let stop = self
@@ -279,6 +306,8 @@ impl MonitorArgs {
             .map(|s| origin + std::time::Duration::from_secs_f64(s.max(0.0)));
         let mut all = Vec::new();
         let mut buf = [0u8; 512];
+        let mut buf2 = [0u8; 512];
+        let mut last = Instant::ZERO;
         let mut tick = tokio::time::interval(std::time::Duration::from_millis(50));
         let ctrl_c = tokio::signal::ctrl_c();
         tokio::pin!(ctrl_c);
@@ -289,26 +318,25 @@ impl MonitorArgs {
             ),
             serde_json::json!({"monitor": protocol.name(), "settings": settings.to_string()}),
         );
+        let read_error = |e: std::io::Error| CliError::new(format!("reading the line: {e}"));
         loop {
             let mut records = Vec::new();
             tokio::select! {
                 read = port.read(&mut buf) => {
-                    let n = read.map_err(|e| CliError::new(format!("reading the line: {e}")))?;
+                    let n = read.map_err(read_error)?;
                     if n == 0 {
                         break;
                     }
-                    let at = now();
-                    for (k, &b) in buf[..n].iter().enumerate() {
-                        let before = settings.chars_time((n - 1 - k) as u64);
-                        let c = LineChar {
-                            at: Instant::from_micros(at.as_micros().saturating_sub(before.as_micros())),
-                            from: Some(0),
-                            to: None,
-                            item: Ok(b),
-                            exact: k == 0,
-                        };
-                        decoder.push(&c, &mut records);
+                    let chunk = Chunk { bytes: &buf[..n], at: now(), from: Some(0), to: to_a };
+                    chunk.push(decoder.as_mut(), settings, &mut last, &mut records);
+                }
+                read = async { tap.as_mut().map(|t| t.read(&mut buf2)).expect("guarded").await }, if tap.is_some() => {
+                    let n = read.map_err(read_error)?;
+                    if n == 0 {
+                        break;
                     }
+                    let chunk = Chunk { bytes: &buf2[..n], at: now(), from: Some(1), to: to_b };
+                    chunk.push(decoder.as_mut(), settings, &mut last, &mut records);
                 }
                 _ = tick.tick() => decoder.idle(now(), &mut records),
                 _ = &mut ctrl_c => break,
@@ -341,6 +369,42 @@ impl MonitorArgs {
             write_svg(svg, &analysis)?;
         }
         Ok(())
+    }
+}
+
+/// Characters a port delivered at once.
+struct Chunk<'a> {
+    bytes: &'a [u8],
+    at: Instant,
+    from: Option<usize>,
+    to: Option<usize>,
+}
+
+impl Chunk<'_> {
+    /// Feed the chunk's characters: the last arrived at `at`, the ones before it one character
+    /// time apart (a UART delivers them at that pace), never before a character already fed.
+    fn push(
+        &self,
+        decoder: &mut dyn Decoder,
+        settings: SerialSettings,
+        last: &mut Instant,
+        out: &mut Vec<Record>,
+    ) {
+        let n = self.bytes.len();
+        for (k, &b) in self.bytes.iter().enumerate() {
+            let before = settings.chars_time((n - 1 - k) as u64);
+            let at = Instant::from_micros(self.at.as_micros().saturating_sub(before.as_micros()))
+                .max(*last);
+            *last = at;
+            let c = LineChar {
+                at,
+                from: self.from,
+                to: self.to,
+                item: Ok(b),
+                exact: k == 0,
+            };
+            decoder.push(&c, out);
+        }
     }
 }
 
