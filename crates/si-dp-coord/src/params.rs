@@ -30,6 +30,46 @@
 //! end_char_2 = 10
 //! ```
 //!
+//! The keys, with the manual's ranges and defaults (host-side extensions of the protocol crates
+//! are marked *host*):
+//!
+//! | Key | Drivers | Values | Default |
+//! |---|---|---|---|
+//! | `diagnostic_interrupt` | all | true/false | false |
+//! | `break_detection` | all but USS | true/false | false |
+//! | `interface` | all | `rs232`, `rs422`, `rs485` (3964(R): no RS-485; USS: no RS-422) | `rs232` (USS `rs485`) |
+//! | `receive_line` | all but USS | RS-422: `ra5v-rb0v`, `ra0v-rb5v`, `inverted`; RS-485: `none`, `ra0v-rb5v` | `ra5v-rb0v` (RS-485 `ra0v-rb5v`) |
+//! | `baud` | all | 110, 300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 76800, 115200 | 9600 |
+//! | `data_bits` | ASCII, 3964(R) | 7, 8 | 8 |
+//! | `stop_bits` | all but USS | 1, 2 | 1 |
+//! | `parity` | all but USS | `none`, `odd`, `even`, `any` (Modbus: no `any`) | `even` |
+//! | `clear_at_startup` | all but USS | true/false | true |
+//! | `flow_control` | ASCII; Modbus | `none`, `xon-xoff`, `rts-cts`, `auto-v24`; Modbus `none`, `auto-v24` | `none` |
+//! | `end_criterion` | ASCII | `char-delay`, `end-chars`, `fixed-length` | `char-delay` |
+//! | `char_delay_ms` | ASCII | 4 … 65 535, at least the Table 2-7 minimum for the baud rate | 4 |
+//! | `end_char_1`, `end_char_2` | ASCII, `end-chars` only | 1 … FFH / 0 … FFH (7FH with 7 data bits; 0 = unused) | 3, 0 |
+//! | `frame_length` | ASCII, `fixed-length` only | 1 … 200 | 100 |
+//! | `dynamic_frames`, `prevent_overwrite` | ASCII | true/false | true, true |
+//! | `xon`, `xoff`, `wait_for_xon_ms` | ASCII | characters; 20 … 655 350 ms in 10 ms steps | 11H, 13H, 2000 |
+//! | `wait_for_cts_ms` | ASCII | 20 … 655 350 ms in 10 ms steps | 2000 |
+//! | `time_rts_off_ms`, `data_wait_time_ms` | ASCII | 0 … 655 350 ms in 10 ms steps | 10, 10 |
+//! | `tx_chunk` | ASCII (*host*) | 1 … 200 | 16 |
+//! | `block_check` | 3964(R) | true (3964(R)) / false (3964) | true |
+//! | `priority` | 3964(R) | `low`, `high` | `low` |
+//! | `char_delay_ms` | 3964(R) | 20 … 655 350 | 220 |
+//! | `ack_delay_ms` | 3964(R) | 10 … 655 350 | 2000 (550 without block check) |
+//! | `connection_attempts`, `transmission_attempts` | 3964(R) | 1 … 255 | 6, 6 |
+//! | `max_block_len`, `receive_buffer_blocks` | 3964(R) (*host*) | 1 … 1024, 1 … 255 | 200, 5 |
+//! | `mode` | Modbus | `normal`, `interference-suppression` | `normal` |
+//! | `char_delay_multiplier` | Modbus | 1 … 10 | 1 |
+//! | `response_timeout_ms` | Modbus master | 50 … 655 000 | 2000 |
+//! | `retries`, `broadcast_turnaround_ms` | Modbus master (*host*) | 0 … 255, ms | 0, 100 |
+//! | `address` | Modbus slave | 1 … 255 | 222 (as printed, H-32) |
+//! | `local_echo` | Modbus, USS (*host*) | true/false | false |
+//! | `polling_list` | USS | 1 … 31 tables `{ address = 0…31, pkw = 0/3/4/127, pzd = 0…16 }` | node 1, PKW 4, PZD 2 |
+//! | `pkw_retries` | USS (WDH) | 0 … 32 767 | 20 |
+//! | `response_timeout_ms`, `cycle_pause_ms` | USS (*host*) | 1 … 10 000, 0 … 60 000 | 20, 0 |
+//!
 //! Reading checks the whole file before giving up: [`DriverParams::from_toml_str`] returns
 //! every wrong value at once ([`ParamErrors`]), each naming the parameter, its range and the
 //! value:
@@ -610,6 +650,20 @@ fn read_ascii(r: &mut Reader<'_>) -> AsciiParams {
         2 => EndCriterion::FixedLength { len },
         _ => EndCriterion::CharDelay,
     };
+    // Table 2-8: the end characters apply "in end-character mode only", the frame length "in
+    // fixed-length mode only"; a value for the other mode is a mistake worth naming.
+    for (key, mode, wanted) in [
+        ("end_char_1", "end-chars", 1),
+        ("end_char_2", "end-chars", 1),
+        ("frame_length", "fixed-length", 2),
+    ] {
+        if criterion != wanted && r.map.contains_key(key) {
+            r.error(
+                key,
+                format!("{key} applies only with end_criterion = \"{mode}\""),
+            );
+        }
+    }
     let step = "0 … 655350 ms in 10 ms steps";
     let config = si_ascii::Config {
         settings,

@@ -362,6 +362,11 @@ fn three_wrong_values_and_an_unknown_key_in_one_run() {
         lines[3],
         "character delay time 70000 ms out of range: 4 … 65535 ms at 9600 bit/s"
     );
+    let e = DriverParams::from_toml_str("driver = \"ascii\"\nend_char_1 = 13").unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "end_char_1 applies only with end_criterion = \"end-chars\""
+    );
     let e = DriverParams::from_toml_str("baud = 9600").unwrap_err();
     assert!(e.to_string().starts_with("driver is missing"));
     let e = DriverParams::from_toml_str("driver = \"profibus\"").unwrap_err();
