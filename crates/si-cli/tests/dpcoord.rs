@@ -293,3 +293,22 @@ fn sim_dp_coord_e2e_delivers_the_frame_through_both_windows() {
         "{lines:?}"
     );
 }
+
+#[test]
+fn json_lines_carry_the_same_windows_and_result() {
+    let out = host(
+        &["--json", "--window", "4", "read-v24"],
+        &["00 00 00 00", "31 00 1F 00", "00 00 00 00"],
+    );
+    assert!(out.status.success(), "{out:?}");
+    let lines: Vec<serde_json::Value> = stdout_lines(&out)
+        .iter()
+        .map(|l| serde_json::from_str(l).expect("one JSON value a line"))
+        .collect();
+    assert_eq!(lines.len(), 5);
+    assert_eq!(lines[0]["output"], "30 00 00 00");
+    assert_eq!(lines[3]["signals"], "00 1F");
+    assert_eq!(lines[3]["cts"], true);
+    assert_eq!(lines[4]["done"], true);
+    assert_eq!(lines[4]["status"], "0000");
+}

@@ -323,6 +323,26 @@ pub struct ModuleArgs {
     /// 3964(R): priority in an initialization conflict (the partner must have the other one).
     #[arg(long, value_enum, default_value = "low")]
     priority: Priority,
+    /// ASCII: the configured flow control, which decides the parameter block a params job may
+    /// carry (§2.6; any other block is refused with 0550H).
+    #[arg(long, value_enum, default_value = "none")]
+    flow_control: FlowControlArg,
+    /// ASCII: character delay time in ms (the end of a frame; 4 … 65 535).
+    #[arg(long, default_value_t = 4)]
+    char_delay_ms: u32,
+}
+
+/// The ASCII driver's flow control on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FlowControlArg {
+    /// None: every parameter job gets 0550H.
+    None,
+    /// XON/XOFF (block 20H).
+    XonXoff,
+    /// RTS/CTS (block 21H).
+    RtsCts,
+    /// Automatic V.24 control (block 22H).
+    AutoV24,
 }
 
 impl ModuleArgs {
@@ -345,6 +365,13 @@ impl ModuleArgs {
             Protocol::Ascii => {
                 let config = si_ascii::Config {
                     settings,
+                    flow_control: match self.flow_control {
+                        FlowControlArg::None => si_ascii::FlowControl::None,
+                        FlowControlArg::XonXoff => si_ascii::FlowControl::XonXoff,
+                        FlowControlArg::RtsCts => si_ascii::FlowControl::RtsCts,
+                        FlowControlArg::AutoV24 => si_ascii::FlowControl::AutoV24,
+                    },
+                    char_delay_ms: self.char_delay_ms,
                     ..si_ascii::Config::default()
                 };
                 let link = si_ascii::Link::new(config)?;
