@@ -291,6 +291,17 @@ fn draw_record(
     );
     let from = r.from.unwrap_or(0).min(lanes - 1);
     let fx = lane_x(from);
+    if r.kind == Kind::Event {
+        let _ = writeln!(
+            s,
+            r##"<rect x="{}" y="{}" width="8" height="8" fill="#7f8c8d"/><text x="{}" y="{y}" fill="#7f8c8d" font-style="italic" font-size="11">{}</text>"##,
+            fx - 4,
+            y - 8,
+            fx + 8,
+            escape(&clip(&r.label, 34))
+        );
+        return;
+    }
     if r.kind == Kind::Note {
         let _ = writeln!(
             s,

@@ -394,3 +394,35 @@ fn a_closed_pipe_ends_the_output_quietly() {
     assert!(!err.contains("panicked"), "{err}");
     assert!(status.success(), "{err}");
 }
+
+#[test]
+fn events_show_what_the_engines_concluded_beside_the_line() {
+    let path = record("3964r-bcc-error");
+    let (records, _) = monitor(&path, &["--events"]);
+    let events: Vec<&Value> = records.iter().filter(|r| r["kind"] == "event").collect();
+    assert!(!events.is_empty());
+    // B reports the block when its BCC arrives; A reports the job done when B's DLE arrives.
+    let good = records
+        .iter()
+        .filter(|r| r["kind"] == "frame" && errors(r).is_empty())
+        .last()
+        .unwrap();
+    let received = events
+        .iter()
+        .find(|e| e["from"] == "B" && e["label"].as_str().unwrap().starts_with("Received"))
+        .expect("B reports the block");
+    assert_eq!(received["at_us"], good["end_us"]);
+    let last_dle = records
+        .iter()
+        .filter(|r| r["label"] == "DLE")
+        .last()
+        .unwrap();
+    let sent = events
+        .iter()
+        .find(|e| e["from"] == "A" && e["label"].as_str().unwrap().starts_with("Sent"))
+        .expect("A reports the job done");
+    assert_eq!(sent["at_us"], last_dle["at_us"]);
+    // Without --events, only the line.
+    let (plain, _) = monitor(&path, &[]);
+    assert!(plain.iter().all(|r| r["kind"] != "event"));
+}

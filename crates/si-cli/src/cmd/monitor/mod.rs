@@ -111,6 +111,9 @@ pub struct MonitorArgs {
     /// ASCII: frames have this fixed length instead of ending at the delay.
     #[arg(long, value_name = "N")]
     pub fixed_length: Option<u16>,
+    /// Also show what the stations' own engines reported (the trace's `event` entries).
+    #[arg(long)]
+    pub events: bool,
     /// ASCII: treat 11H and 13H as data, not as XON/XOFF flow-control characters.
     #[arg(long)]
     pub no_xon_xoff: bool,
@@ -253,7 +256,19 @@ impl MonitorArgs {
             (p, _) => p,
         };
         let mut decoder = self.decoder(protocol, settings, one_sided);
-        let records = decode_all(decoder.as_mut(), &line.chars, end);
+        let mut records = decode_all(decoder.as_mut(), &line.chars, end);
+        if self.events {
+            for e in &file.trace.entries {
+                if let si_core::sim::TraceKind::Event { text } = &e.kind {
+                    let from = line.stations.iter().position(|s| s == &e.station);
+                    let mut r = Record::new(model::Kind::Event, e.at, e.at, from);
+                    r.label = text.clone();
+                    records.push(r);
+                }
+            }
+            // Stable: at equal times the line comes before what the engine made of it.
+            records.sort_by_key(|r| r.start);
+        }
         Ok(Analysis {
             protocol: protocol.name().to_owned(),
             stations: line.stations,
@@ -477,7 +492,7 @@ pub fn print_record(r: &Record, stations: &[String], out: &Output) {
             Severity::Note => format!("  -- {}", f.text),
         })
         .collect();
-    let dir = if r.kind == model::Kind::Note {
+    let dir = if matches!(r.kind, model::Kind::Note | model::Kind::Event) {
         format!("{from:>8}   {:<8}", "")
     } else {
         format!("{from:>8} → {to:<8}")
@@ -487,10 +502,10 @@ pub fn print_record(r: &Record, stations: &[String], out: &Output) {
     } else {
         format!("{:<14} {}", r.label, r.text)
     };
-    let (text, flags) = if r.kind == model::Kind::Note {
-        (format!("!! {}", r.label), Vec::new())
-    } else {
-        (text, flags)
+    let (text, flags) = match r.kind {
+        model::Kind::Note => (format!("!! {}", r.label), Vec::new()),
+        model::Kind::Event => (format!("event {}", r.label), Vec::new()),
+        _ => (text, flags),
     };
     out.line(
         &format!(

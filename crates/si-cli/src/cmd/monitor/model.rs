@@ -67,6 +67,8 @@ pub enum Kind {
     Frame,
     /// Something the monitor concluded without a character: a timer ran out, a gap.
     Note,
+    /// What a station's own engine reported (an `event` entry of the trace, `--events`).
+    Event,
 }
 
 /// One decoded happening on the line.
