@@ -478,3 +478,54 @@ fn channel_same_user_program_on_ascii_directly_and_through_the_window() {
     assert_eq!(pa.len(), 2, "{pa:?}");
     assert_eq!((&pa, &pb), (&wa, &wb));
 }
+
+/// §2.8 case 2 with a frame: frames and receive errors reach S_RCV in the order the line engine
+/// reported them (the frame is taken out of the engine at the module's next cycle, in turn).
+#[test]
+fn section_2_8_frames_and_receive_errors_keep_their_order() {
+    for break_first in [false, true] {
+        let (mut sim, mut a, mut b) = r3964r_pair(WindowSize::Eight);
+        sim.run_for(Duration::from_millis(20));
+        if break_first {
+            sim.schedule_break(b.station, sim.now() + Duration::from_millis(1));
+            sim.run_for(Duration::from_millis(10));
+        }
+        // A sends; B's user program does not read yet.
+        let mut s_send = SSend::default();
+        let mut done = false;
+        for _ in 0..200 {
+            let d = s_send.call(&mut a.host, true, false, b"first");
+            done |= d.done;
+            a.dp_cycle(&mut sim);
+            b.dp_cycle(&mut sim);
+            sim.run_for(CYCLE);
+        }
+        assert!(done);
+        if !break_first {
+            sim.schedule_break(b.station, sim.now() + Duration::from_millis(1));
+            sim.run_for(Duration::from_millis(10));
+        }
+        let mut s_rcv = SRcv::default();
+        let mut dest = [0u8; 16];
+        let mut seen = Vec::new();
+        for _ in 0..200 {
+            let r = s_rcv.call(&mut b.host, true, false, &mut dest);
+            if r.ndr {
+                seen.push(format!("NDR {:?}", &dest[..r.len]));
+            } else if r.error {
+                seen.push(format!("ERROR {:04X}", r.status.code()));
+            }
+            a.dp_cycle(&mut sim);
+            b.dp_cycle(&mut sim);
+            sim.run_for(CYCLE);
+        }
+        let frame = format!("NDR {:?}", b"first");
+        let error = "ERROR 080D".to_owned();
+        let expected = if break_first {
+            [error, frame]
+        } else {
+            [frame, error]
+        };
+        assert_eq!(seen, expected, "break first: {break_first}");
+    }
+}

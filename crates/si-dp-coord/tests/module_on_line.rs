@@ -6,8 +6,9 @@
 //! a receive job.
 //!
 //! The line engine here is a minimal framer written for this test (frames end after a 4 ms gap,
-//! like the ASCII driver's character delay time); the real 3964(R)/ASCII engines plug in the same
-//! way through their own [`LineHooks`].
+//! like the ASCII driver's character delay time): any engine plugs in through its [`LineHooks`].
+//! The real 3964(R) and ASCII engines do so in `si_dp_coord::engines`, and `end_to_end.rs` runs
+//! them between two modules.
 
 use bytes::{Bytes, BytesMut};
 use si_core::sim::Simulator;
