@@ -404,19 +404,14 @@ fn events_show_what_the_engines_concluded_beside_the_line() {
     // B reports the block when its BCC arrives; A reports the job done when B's DLE arrives.
     let good = records
         .iter()
-        .filter(|r| r["kind"] == "frame" && errors(r).is_empty())
-        .last()
+        .rfind(|r| r["kind"] == "frame" && errors(r).is_empty())
         .unwrap();
     let received = events
         .iter()
         .find(|e| e["from"] == "B" && e["label"].as_str().unwrap().starts_with("Received"))
         .expect("B reports the block");
     assert_eq!(received["at_us"], good["end_us"]);
-    let last_dle = records
-        .iter()
-        .filter(|r| r["label"] == "DLE")
-        .last()
-        .unwrap();
+    let last_dle = records.iter().rfind(|r| r["label"] == "DLE").unwrap();
     let sent = events
         .iter()
         .find(|e| e["from"] == "A" && e["label"].as_str().unwrap().starts_with("Sent"))
