@@ -172,3 +172,31 @@ fn im_encode_then_decode() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("64 bytes, got 4"), "{}", stderr(&o));
 }
+
+#[test]
+fn params_default_prints_a_valid_file_for_every_driver() {
+    for driver in [
+        "ascii",
+        "3964r",
+        "modbus-master",
+        "modbus-slave",
+        "uss-master",
+    ] {
+        let o = si(&["params", "default", driver]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = stdout(&o);
+        assert!(text.contains(&format!("driver = \"{driver}\"")), "{text}");
+        let path = temp_file(&format!("{driver}.toml"), &text);
+        let o = si(&["params", "check", path.to_str().unwrap()]);
+        assert!(o.status.success(), "{driver}: {}", stderr(&o));
+    }
+    let text = stdout(&si(&["params", "default", "3964r"]));
+    for line in [
+        "char_delay_ms = 220",
+        "ack_delay_ms = 2000",
+        "connection_attempts = 6",
+        "priority = \"low\"",
+    ] {
+        assert!(text.contains(line), "{line}: {text}");
+    }
+}

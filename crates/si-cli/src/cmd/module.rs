@@ -5,7 +5,8 @@
 //! - `si im decode HEX` / `si im encode --hid TEXT --location TEXT`: the 64-byte identification
 //!   records DS 231 / DS 232 (§9.1, [`si_dp_coord::ident`]);
 //! - `si params check FILE`: a TOML or JSON parameter file against the manual's tables; prints
-//!   the checked set, or every wrong value at once ([`si_dp_coord::params`]).
+//!   the checked set, or every wrong value at once ([`si_dp_coord::params`]); `si params default
+//!   DRIVER` prints a file with the manual's defaults to start from.
 
 use crate::cmd::frame::parse_hex;
 use crate::{CliError, Output};
@@ -222,6 +223,32 @@ pub enum ParamsCommand {
     /// Check a parameter file (TOML, or JSON if it ends in .json) against the manual's tables;
     /// print the checked set with every default filled in, or every wrong value at once.
     Check(ParamsCheckArgs),
+    /// Print a driver's parameter file with every key at the manual's default, to start from.
+    Default(ParamsDefaultArgs),
+}
+
+/// The drivers of the two modules.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum DriverArg {
+    /// ASCII driver (3964(R)/ASCII module).
+    Ascii,
+    /// 3964(R) driver (3964(R)/ASCII module).
+    #[value(name = "3964r")]
+    R3964,
+    /// Modbus master (Modbus/USS module).
+    ModbusMaster,
+    /// Modbus slave (Modbus/USS module).
+    ModbusSlave,
+    /// USS master (Modbus/USS module).
+    UssMaster,
+}
+
+/// `si params default`.
+#[derive(Debug, Args)]
+pub struct ParamsDefaultArgs {
+    /// The driver.
+    #[arg(value_enum)]
+    driver: DriverArg,
 }
 
 /// `si params check`.
@@ -236,6 +263,24 @@ impl ParamsCommand {
     pub fn run(self, out: &Output) -> Result<(), CliError> {
         match self {
             ParamsCommand::Check(a) => a.run(out),
+            ParamsCommand::Default(a) => {
+                use si_dp_coord::params::{
+                    AsciiParams, ModbusMasterParams, ModbusSlaveParams, R3964Params,
+                    UssMasterParams,
+                };
+                let p: DriverParams = match a.driver {
+                    DriverArg::Ascii => AsciiParams::default().into(),
+                    DriverArg::R3964 => R3964Params::default().into(),
+                    DriverArg::ModbusMaster => ModbusMasterParams::default().into(),
+                    DriverArg::ModbusSlave => ModbusSlaveParams::default().into(),
+                    DriverArg::UssMaster => UssMasterParams::default().into(),
+                };
+                out.line(
+                    p.to_toml_string().trim_end(),
+                    json!({"params": p.to_value()}),
+                );
+                Ok(())
+            }
         }
     }
 }
