@@ -251,3 +251,74 @@ fn module_ascii_sends_through_the_window_and_offers_received_frames() {
     assert_eq!(m.cycle_until("52 00 C8 00", "7"), "72 05 50 00");
     assert_eq!(m.cycle("00 00 00 00"), "00 00 00 00");
 }
+
+/// The whole chain from the command line: `si dp-coord host … send` as the DP master, the test
+/// as the DP exchange (each output window to the module, each input window back to the host),
+/// `si dp-coord module --protocol 3964r` on one end of the line and `si 3964r recv` on the other.
+#[test]
+fn host_and_module_processes_joined_by_the_test_deliver_a_block_to_si_3964r_recv() {
+    let Some(pair) = pty_pair() else { return };
+    let mut m = start_module(&["--window", "4", "--protocol", "3964r", "--port", &pair.a]);
+    let recv = Command::new(env!("CARGO_BIN_EXE_si"))
+        .args([
+            "3964r",
+            "recv",
+            "--port",
+            &pair.b,
+            "--priority",
+            "high",
+            "--count",
+            "1",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("si 3964r recv");
+    std::thread::sleep(Duration::from_millis(500));
+    let mut host = Command::new(env!("CARGO_BIN_EXE_si"))
+        .args([
+            "dp-coord",
+            "host",
+            "--window",
+            "4",
+            "send",
+            "48 65 6C 6C 6F 10",
+        ])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("si dp-coord host");
+    let mut host_in = host.stdin.take().unwrap();
+    // The host's lines, read on their own thread: one window per input window, then the result.
+    let host_out = BufReader::new(host.stdout.take().unwrap());
+    let (tx, lines) = mpsc::channel::<String>();
+    std::thread::spawn(move || {
+        for line in host_out.lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let mut input = m.cycle("00 00 00 00");
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let last = loop {
+        writeln!(host_in, "{input}").unwrap();
+        let output = lines
+            .recv_timeout(Duration::from_secs(5))
+            .expect("a window from the host");
+        if let Ok(result) = lines.recv_timeout(Duration::from_millis(100)) {
+            break result;
+        }
+        assert!(Instant::now() < deadline, "the job did not end");
+        input = m.cycle(&output);
+    };
+    assert_eq!(last, "done STATUS=0000");
+    assert!(host.wait().unwrap().success());
+    let out = recv.wait_with_output().expect("si 3964r recv ends");
+    assert!(out.status.success(), "{out:?}");
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout).trim(),
+        "48 65 6C 6C 6F 10"
+    );
+}
