@@ -21,7 +21,7 @@ async fn parameters_and_pzd_over_a_duplex_pipe() {
     let (_drive, _drive_task) = spawn(
         Drive::new(DriveConfig::new(settings, 4)).unwrap(),
         b,
-        options,
+        options.clone(),
     );
     let mut config = MasterConfig::new(vec![PollEntry::new(4, PkwWords::Four, 2)]);
     config.settings = settings;
