@@ -529,3 +529,33 @@ fn section_2_8_frames_and_receive_errors_keep_their_order() {
         assert_eq!(seen, expected, "break first: {break_first}");
     }
 }
+
+/// §6.7 of the ASCII driver through the window: under automatic V.24 control the driver owns RTS
+/// and DTR, so S_VSET ends with ERROR and 0502H (40H + 0502H in the window, Table 2-26).
+#[test]
+fn write_v24_refused_by_the_ascii_engine_under_automatic_v24_is_0502h() {
+    let config = si_ascii::Config {
+        flow_control: si_ascii::FlowControl::AutoV24,
+        tx_chunk: 1,
+        ..si_ascii::Config::default()
+    };
+    let mut sim = Simulator::new(6);
+    let a = engines::ascii_module(WindowSize::Four, si_ascii::Link::new(config).unwrap()).unwrap();
+    let mut a = Side::new(&mut sim, "A", config.settings, a);
+    let before = sim.engine(a.station).serial().engine().signals();
+    let mut s_vset = SVset::default();
+    let mut got = Vec::new();
+    for _ in 0..50 {
+        let d = s_vset.call(&mut a.host, true, false, !before.rts, !before.dtr);
+        if d.done || d.error {
+            got.push(d);
+        }
+        a.dp_cycle(&mut sim);
+        sim.run_for(CYCLE);
+    }
+    assert_eq!(got.len(), 1, "{got:?}");
+    assert!(got[0].error);
+    assert_eq!(got[0].status, si_ascii::status::NOT_POSSIBLE_IN_MODE);
+    let after = sim.engine(a.station).serial().engine().signals();
+    assert_eq!((after.rts, after.dtr), (before.rts, before.dtr));
+}
