@@ -519,11 +519,10 @@ impl TraceArgs {
 /// `rest` after a leading word `word` followed by `:` or whitespace.
 fn strip_word<'a>(line: &'a str, word: &str) -> Option<&'a str> {
     let rest = line.strip_prefix(word)?;
-    let rest = rest.strip_prefix(':').unwrap_or(rest);
-    (rest.starts_with(char::is_whitespace)
-        || rest.is_empty()
-        || line.len() > word.len() && line.as_bytes()[word.len()] == b':')
-        .then_some(rest)
+    match rest.strip_prefix(':') {
+        Some(after_colon) => Some(after_colon),
+        None => rest.starts_with(char::is_whitespace).then_some(rest),
+    }
 }
 
 /// Scenarios for `si sim`.
