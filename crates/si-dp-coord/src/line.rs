@@ -89,6 +89,8 @@ pub struct EngineSerial<E: Engine> {
     pending_signals: Option<SignalUpdate>,
     events: VecDeque<LineEvent>,
     dropped: u64,
+    /// Frames waiting in the engine whose [`LineEvent::FrameWaiting`] was dropped.
+    unannounced: u64,
 }
 
 impl<E: Engine> EngineSerial<E> {
@@ -101,6 +103,7 @@ impl<E: Engine> EngineSerial<E> {
             pending_signals: None,
             events: VecDeque::new(),
             dropped: 0,
+            unannounced: 0,
         }
     }
 
@@ -128,10 +131,16 @@ impl<E: Engine> EngineSerial<E> {
         match &out {
             Output::Event(e) => {
                 if let Some(se) = (self.hooks.classify)(e) {
-                    if self.events.len() < MAX_PENDING {
+                    let send_done = matches!(se, LineEvent::Serial(SerialEvent::SendDone(_)));
+                    if self.events.len() < MAX_PENDING || send_done {
+                        // The end of a send is never dropped (the module would wait for it
+                        // forever); the engine runs one send at a time, so this stays bounded.
                         self.events.push_back(se);
                     } else {
                         self.dropped += 1;
+                        if se == LineEvent::FrameWaiting {
+                            self.unannounced += 1;
+                        }
                     }
                 }
             }
@@ -164,6 +173,13 @@ impl<E: Engine> SerialSide for EngineSerial<E> {
                     }
                 }
             }
+        }
+        // Frames whose notice was dropped while the module did not cycle still wait in the
+        // engine: fetch them once the queue is empty, so none stays behind for good.
+        if self.unannounced > 0 {
+            self.unannounced -= 1;
+            let take = self.hooks.take_frame?;
+            return take(&mut self.engine, now).map(SerialEvent::Received);
         }
         None
     }
@@ -226,5 +242,67 @@ impl<E: Engine> Engine for Module<EngineSerial<E>> {
 
     fn poll_output(&mut self) -> Output<Self::Event> {
         self.serial_mut().poll_engine()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bytes::Bytes;
+
+    /// Buffers numbered one-byte frames and reports each with a length-only event.
+    #[derive(Default)]
+    struct Flood {
+        frames: VecDeque<Bytes>,
+        out: VecDeque<Output<u8>>,
+    }
+
+    impl Engine for Flood {
+        type Event = u8;
+        fn handle_rx(&mut self, _: Instant, bytes: &[u8]) {
+            for &b in bytes {
+                self.frames.push_back(Bytes::copy_from_slice(&[b]));
+                self.out.push_back(Output::Event(b));
+            }
+        }
+        fn handle_timeout(&mut self, _: Instant) {}
+        fn handle_tx_done(&mut self, _: Instant) {
+            self.out.push_back(Output::Event(0xFF));
+        }
+        fn poll_output(&mut self) -> Output<u8> {
+            self.out.pop_front().unwrap_or(Output::Wait(None))
+        }
+    }
+
+    const FLOOD: LineHooks<Flood> = LineHooks {
+        send: |_, _, _| Ok(()),
+        classify: |e| match e {
+            0xFF => Some(SerialEvent::SendDone(Ok(())).into()),
+            _ => Some(LineEvent::FrameWaiting),
+        },
+        take_frame: Some(|f, _| f.frames.pop_front()),
+        set_signals: None,
+        set_flow_control: None,
+    };
+
+    #[test]
+    fn overflow_drops_notices_but_no_frame_and_never_the_end_of_a_send() {
+        let mut side = EngineSerial::new(Flood::default(), FLOOD);
+        let now = Instant::ZERO;
+        let bytes: Vec<u8> = (0..300u16).map(|i| (i % 250) as u8).collect();
+        side.engine_mut().handle_rx(now, &bytes);
+        side.engine_mut().handle_tx_done(now);
+        while !matches!(side.poll_engine(), Output::Wait(_)) {}
+        assert_eq!(side.dropped(), 300 - MAX_PENDING as u64);
+        let events: Vec<SerialEvent> = std::iter::from_fn(|| side.poll(now)).collect();
+        let frames: Vec<u8> = events
+            .iter()
+            .filter_map(|e| match e {
+                SerialEvent::Received(f) => Some(f[0]),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(frames, bytes, "every frame, in order");
+        assert!(events.contains(&SerialEvent::SendDone(Ok(()))));
     }
 }
