@@ -1,0 +1,27 @@
+//! ASCII driver: splitting a stream by every end criterion never panics and loses no byte, and
+//! parameter blocks decode without panicking and re-encode to what they were.
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+use si_ascii::frame::{split, ParamBlock};
+use si_ascii::EndCriterion;
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&head, bytes)) = data.split_first() else {
+        return;
+    };
+    let end = match head % 3 {
+        0 => EndCriterion::CharDelay,
+        1 => EndCriterion::EndChars {
+            first: bytes.first().copied().unwrap_or(3),
+            second: head >> 2,
+        },
+        _ => EndCriterion::FixedLength {
+            len: u16::from(head >> 2) + 1,
+        },
+    };
+    let _ = split(end, bytes).count();
+    if let Ok(block) = ParamBlock::decode(bytes) {
+        let encoded = block.encode();
+        assert_eq!(ParamBlock::decode(&encoded[..block.len()]), Ok(block));
+    }
+});
