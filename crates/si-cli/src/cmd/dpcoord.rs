@@ -7,7 +7,10 @@
 //!   the job ends, a received frame is printed as `frame HEX` and read V.24 signals as
 //!   `signals HEX` (the signal word as the window carries it), then `done STATUS=XXXX` (exit 0)
 //!   or `error STATUS=XXXX` (exit 1). Standard output carries only these lines; logs go to
-//!   standard error.
+//!   standard error. A receive job that finds nothing buffered ends `done STATUS=0101` (the
+//!   manual's "not an error", H-6); the signal word is printed as bytes 1–2 of the window carry
+//!   it (H-9: byte 1 = 00H, byte 2 = `DCD CTS RTS DSR DTR` in bits 4…0). The host's clock is the
+//!   time since the start, for its job watchdog (`--timeout-s`, STATUS 0502H).
 //! * `si dp-coord module --window N --protocol ascii|3964r`: the mirror image — a simulated
 //!   ET 200S SI module whose line is the serial port (`--port`/`--tcp`): each line read is the
 //!   host's output window, each line written the module's input window.
