@@ -235,3 +235,59 @@ impl Decoder for Modbus {
         &self.counters
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frame(from: usize, at: u64, pace: u64, bytes: &[u8]) -> Vec<LineChar> {
+        bytes
+            .iter()
+            .enumerate()
+            .map(|(k, &b)| LineChar {
+                at: Instant::from_micros(at + k as u64 * pace),
+                from: Some(from),
+                to: Some(1 - from),
+                item: Ok(b),
+                exact: true,
+            })
+            .collect()
+    }
+
+    fn run(chars: &[LineChar]) -> (Vec<Record>, Counters) {
+        let settings = SerialSettings::default();
+        let mut d = Modbus::new(
+            Params {
+                settings,
+                end_gap: si_modbus::config::gap_table(settings.baud()),
+                timeout: Duration::from_millis(2000),
+            },
+            false,
+        );
+        let end = chars.last().map_or(Instant::ZERO, |c| c.at) + Duration::from_millis(10);
+        let records = super::super::decode_all(&mut d, chars, end);
+        (records, d.counters().clone())
+    }
+
+    /// FC03, slave 1, address 0, one register: the Modbus spec's example with CRC 84 0A.
+    const REQUEST: [u8; 8] = [0x01, 0x03, 0x00, 0x00, 0x00, 0x01, 0x84, 0x0A];
+
+    #[test]
+    fn et200s_modbus_3_5_a_gap_of_two_characters_inside_a_frame_is_noted_not_cut() {
+        // 2.3 ms between characters: over 1.5 characters, under the 4 ms end-of-frame gap.
+        let (records, counters) = run(&frame(0, 1_146, 2_300, &REQUEST));
+        assert_eq!(records.len(), 1, "{records:?}");
+        assert_eq!(records[0].label, "FC03 req → 1");
+        assert!(records[0].flags[0].text.contains("> 1.5 characters"));
+        assert_eq!(counters.0["bus communication errors (CRC)"], 0);
+    }
+
+    #[test]
+    fn et200s_modbus_3_5_a_gap_of_the_table_value_cuts_the_frame_in_two() {
+        let mut chars = frame(0, 1_146, 1_146, &REQUEST[..3]);
+        chars.extend(frame(0, 3 * 1_146 + 5_000, 1_146, &REQUEST[3..]));
+        let (records, counters) = run(&chars);
+        assert_eq!(records.len(), 2);
+        assert_eq!(counters.0["bus communication errors (CRC)"], 2);
+    }
+}

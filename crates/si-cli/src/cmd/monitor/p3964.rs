@@ -488,3 +488,101 @@ impl Decoder for P3964 {
         &self.counters
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const CT: u64 = 1_146; // 9600 8E1
+
+    /// Characters from `from` (0 = A, 1 = B) at the given instants.
+    fn line(items: &[(u64, usize, u8)]) -> Vec<LineChar> {
+        items
+            .iter()
+            .map(|&(at, from, b)| LineChar {
+                at: Instant::from_micros(at),
+                from: Some(from),
+                to: Some(1 - from),
+                item: Ok(b),
+                exact: true,
+            })
+            .collect()
+    }
+
+    fn run(chars: &[LineChar], end: u64) -> (Vec<Record>, Counters) {
+        let mut d = P3964::new(Params {
+            mode: Mode::BlockCheck,
+            zvz: Duration::from_millis(220),
+            qvz: Duration::from_millis(2000),
+            rk512: false,
+        });
+        let records = super::super::decode_all(&mut d, chars, Instant::from_micros(end));
+        (records, d.counters().clone())
+    }
+
+    #[test]
+    fn et200s_3964r_5_8_zvz_exceeded_inside_a_block_ends_it_220_ms_after_the_last_character() {
+        // STX, DLE, then two data characters and silence: the receiver's ZVZ runs out.
+        let chars = line(&[
+            (CT, 0, STX),
+            (2 * CT, 1, DLE),
+            (3 * CT, 0, 0x41),
+            (4 * CT, 0, 0x42),
+        ]);
+        let (records, counters) = run(&chars, 1_000_000);
+        let broken = records.last().unwrap();
+        assert_eq!(broken.end, Instant::from_micros(4 * CT + 220_000));
+        assert!(broken.flags[0].text.contains("ZVZ 220 ms exceeded"));
+        assert_eq!(counters.0["ZVZ exceeded"], 1);
+        assert_eq!(counters.0["blocks failed"], 1);
+    }
+
+    #[test]
+    fn et200s_3964r_5_8_a_late_character_inside_a_block_is_flagged_with_its_gap() {
+        // The block completes, but one gap is 230 ms: longer than ZVZ, shorter than the end.
+        let block = [0x41, DLE, 0x03, 0x41 ^ DLE ^ 0x03];
+        let mut items = vec![(CT, 0, STX), (2 * CT, 1, DLE), (3 * CT, 0, block[0])];
+        items.push((3 * CT + 230_000, 0, block[1]));
+        items.push((4 * CT + 230_000, 0, block[2]));
+        items.push((5 * CT + 230_000, 0, block[3]));
+        items.push((6 * CT + 230_000, 1, DLE));
+        let (records, _) = run(&line(&items), 1_000_000);
+        // The gap ran past ZVZ, so the listener already declared the block dead at 220 ms.
+        assert!(records
+            .iter()
+            .any(|r| r.flags.iter().any(|f| f.text.contains("ZVZ"))));
+    }
+
+    #[test]
+    fn et200s_3964r_5_8_late_dle_after_the_block_is_a_qvz_violation() {
+        let block = [0x41, DLE, 0x03, 0x41 ^ DLE ^ 0x03];
+        let mut items = vec![(CT, 0, STX), (2 * CT, 1, DLE)];
+        for (k, &b) in block.iter().enumerate() {
+            items.push(((3 + k as u64) * CT, 0, b));
+        }
+        let end = 6 * CT;
+        items.push((end + 2_500_000, 1, DLE));
+        let (records, counters) = run(&line(&items), 5_000_000);
+        let note = records.iter().find(|r| r.kind == Kind::Note).unwrap();
+        assert_eq!(note.start, Instant::from_micros(end + 2_000_000));
+        assert!(note.label.contains("16#0704"));
+        assert_eq!(counters.0["QVZ exceeded"], 1);
+        assert_eq!(counters.0["blocks ok"], 0);
+    }
+
+    #[test]
+    fn et200s_3964r_block_with_doubled_dle_decodes_its_user_data() {
+        let payload = [0x01, DLE, 0x02];
+        let wire = si_3964r::frame::encode(&payload, Mode::BlockCheck);
+        let mut items = vec![(CT, 0, STX), (2 * CT, 1, DLE)];
+        for (k, &b) in wire.iter().enumerate() {
+            items.push(((3 + k as u64) * CT, 0, b));
+        }
+        items.push(((3 + wire.len() as u64) * CT, 1, DLE));
+        let (records, counters) = run(&line(&items), 1_000_000);
+        let block = records.iter().find(|r| r.kind == Kind::Frame).unwrap();
+        assert_eq!(block.text, "block, 3 B user data: 01 10 02");
+        assert_eq!(block.bytes, wire);
+        assert_eq!(counters.0["blocks ok"], 1);
+    }
+}

@@ -41,6 +41,9 @@ pub struct Uss {
     cur: Option<Telegram>,
     last: Option<LineChar>,
     pending: Option<Pending>,
+    /// The master telegram whose answer did not come in time: a telegram from the addressed
+    /// node after that is a late answer, not a new master telegram.
+    late: Option<Pending>,
     one_sided: bool,
     counters: Counters,
 }
@@ -66,6 +69,7 @@ impl Uss {
             cur: None,
             last: None,
             pending: None,
+            late: None,
             one_sided,
             counters,
         }
@@ -84,7 +88,7 @@ impl Uss {
                         ms(RESPONSE_DELAY)
                     )),
                 ));
-                self.pending = None;
+                self.late = self.pending.take();
             }
         }
         // A telegram that stopped short: end it when its residual run time has passed.
@@ -135,6 +139,32 @@ impl Uss {
             Some(pd) => self.one_sided || pd.from != t.from,
             None => false,
         };
+        let late = match (&self.late, decode(&t.bytes)) {
+            (Some(pd), Ok(tg)) if !is_response => {
+                (self.one_sided || pd.from != t.from) && tg.adr.address() == pd.adr & 0x1F
+            }
+            _ => false,
+        };
+        if late {
+            // Already counted as "no answer" when the response delay ran out.
+            let pd = self.late.take();
+            let wait = pd.map_or(Duration::ZERO, |pd| {
+                t.start.saturating_since(pd.end + self.settings.char_time())
+            });
+            r.label = format!("late answer {} B", t.bytes.len());
+            r.text = si_core::hex::format(&t.bytes);
+            r.flags.push(Flag::error(format!(
+                "answer after {} (response delay {})",
+                ms(wait),
+                ms(RESPONSE_DELAY)
+            )));
+            self.counters.bump("telegrams rejected");
+            out.push(r);
+            return;
+        }
+        if !is_response {
+            self.late = None;
+        }
         match decode(&t.bytes) {
             Ok(tg) => {
                 let role = if is_response { "answer" } else { "to" };
@@ -301,5 +331,94 @@ impl Decoder for Uss {
 
     fn counters(&self) -> &Counters {
         &self.counters
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn telegram(adr: u8, net: &[u8]) -> Vec<u8> {
+        let mut out = [0u8; 256];
+        let n = si_uss::frame::encode(si_uss::frame::Adr(adr), net, &mut out).unwrap();
+        out[..n].to_vec()
+    }
+
+    /// `bytes` from `from`, starting at `at` µs, one character time apart (or `pace` apart).
+    fn push(chars: &mut Vec<LineChar>, from: usize, at: u64, pace: u64, bytes: &[u8]) {
+        for (k, &b) in bytes.iter().enumerate() {
+            chars.push(LineChar {
+                at: Instant::from_micros(at + k as u64 * pace),
+                from: Some(from),
+                to: None,
+                item: Ok(b),
+                exact: true,
+            });
+        }
+    }
+
+    fn run(chars: &[LineChar]) -> (Vec<Record>, Counters) {
+        let mut d = Uss::new(SerialSettings::default(), false);
+        let end = chars.last().map_or(Instant::ZERO, |c| c.at) + Duration::from_millis(100);
+        let records = super::super::decode_all(&mut d, chars, end);
+        (records, d.counters().clone())
+    }
+
+    #[test]
+    fn uss_5_2_1_answer_within_20_ms_is_ok_and_a_bcc_error_is_counted() {
+        let ct = 1_146;
+        let mut chars = Vec::new();
+        let req = telegram(1, &[0; 4]);
+        push(&mut chars, 0, 10_000, ct, &req);
+        let req_end = 10_000 + (req.len() as u64 - 1) * ct;
+        let mut ans = telegram(1, &[1; 4]);
+        push(&mut chars, 1, req_end + 5_000, ct, &ans);
+        // The next request comes back with its BCC flipped.
+        let next = 200_000;
+        push(&mut chars, 0, next, ct, &req);
+        *ans.last_mut().unwrap() ^= 0x01;
+        push(&mut chars, 1, next + 20_000, ct, &ans);
+        let (records, counters) = run(&chars);
+        assert_eq!(counters.0["telegrams ok"], 3);
+        assert_eq!(counters.0["BCC errors"], 1);
+        assert_eq!(counters.0["telegrams rejected"], 1);
+        assert!(records[1].flags.is_empty(), "{:?}", records[1]);
+    }
+
+    #[test]
+    fn uss_5_2_1_2_residual_run_time_is_judged_from_stx() {
+        // 8 characters at twice the character time: 1.5 × (4 + 3) character times exceeded.
+        let mut chars = Vec::new();
+        push(
+            &mut chars,
+            0,
+            10_000,
+            2 * 1_146 + 300,
+            &telegram(1, &[0; 4]),
+        );
+        let (records, counters) = run(&chars);
+        assert_eq!(counters.0["residual run time exceeded"], 1);
+        assert!(records[0].has_error());
+    }
+
+    #[test]
+    fn uss_5_2_1_1_a_late_answer_breaks_the_response_delay() {
+        let ct = 1_146;
+        let mut chars = Vec::new();
+        let req = telegram(2, &[0; 4]);
+        push(&mut chars, 0, 10_000, ct, &req);
+        let req_end = 10_000 + (req.len() as u64 - 1) * ct;
+        // The answer's first character ends 30 ms after the request.
+        push(&mut chars, 1, req_end + 30_000, ct, &telegram(2, &[0; 4]));
+        let (records, counters) = run(&chars);
+        assert_eq!(counters.0["monitoring time (no answer)"], 1);
+        let note = records.iter().find(|r| r.kind == Kind::Note).unwrap();
+        assert_eq!(note.start, Instant::from_micros(req_end) + RESPONSE_DELAY);
+        let late = records.last().unwrap();
+        assert_eq!(late.label, "late answer 8 B");
+        assert!(
+            late.flags[0].text.starts_with("answer after 28.854 ms"),
+            "{late:?}"
+        );
     }
 }
