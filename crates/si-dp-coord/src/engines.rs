@@ -117,9 +117,8 @@ fn ascii_classify(event: &si_ascii::Event) -> Option<LineEvent> {
 }
 
 fn ascii_take(link: &mut si_ascii::Link, now: Instant) -> Option<Bytes> {
-    let mut buf = [0u8; si_ascii::MAX_FRAME_LEN];
-    let n = link.read_frame(now, &mut buf)?;
-    Some(Bytes::copy_from_slice(&buf[..n]))
+    // Sized by the frame itself, so no frame can stay behind for want of room.
+    link.read_frame_vec(now).map(Bytes::from)
 }
 
 fn ascii_set_signals(
