@@ -182,3 +182,87 @@ proptest! {
         run(sim, a, b, &plan)?;
     }
 }
+
+/// One input to a module station: a DP cycle with any output window, line bytes, a line error,
+/// or the passing of time.
+#[derive(Debug, Clone)]
+enum Input {
+    Cycle(Vec<u8>),
+    Rx(Vec<u8>),
+    LineError,
+    Wait(u64),
+}
+
+fn inputs(window: WindowSize) -> impl Strategy<Value = Vec<Input>> {
+    let n = window.bytes();
+    proptest::collection::vec(
+        prop_oneof![
+            4 => proptest::collection::vec(any::<u8>(), n..=n).prop_map(Input::Cycle),
+            1 => proptest::collection::vec(any::<u8>(), 0..40).prop_map(Input::Cycle),
+            3 => proptest::collection::vec(any::<u8>(), 1..64).prop_map(Input::Rx),
+            1 => Just(Input::LineError),
+            2 => (0u64..3_000_000).prop_map(Input::Wait),
+        ],
+        0..200,
+    )
+}
+
+/// Drives a module station by hand the way a driver would: every input, then its outputs
+/// drained until `Wait`, its timer honoured.
+fn drive<E: Engine>(mut m: Module<EngineSerial<E>>, script: &[Input]) -> Result<(), TestCaseError> {
+    let mut now = si_core::Instant::ZERO;
+    let mut deadline = None;
+    for input in script {
+        match input {
+            Input::Cycle(w) => {
+                let _ = m.cycle(now, w);
+            }
+            Input::Rx(bytes) => m.handle_rx(now, bytes),
+            Input::LineError => m.handle_line_error(now, si_core::LineError::Framing),
+            Input::Wait(us) => {
+                now += Duration::from_micros(*us);
+                if deadline.is_some_and(|d| d <= now) {
+                    m.handle_timeout(now);
+                }
+            }
+        }
+        let mut outputs = 0;
+        loop {
+            match m.poll_output() {
+                si_core::Output::Wait(d) => {
+                    deadline = d;
+                    break;
+                }
+                si_core::Output::Transmit(_) => m.handle_tx_done(now),
+                _ => {}
+            }
+            outputs += 1;
+            prop_assert!(outputs < 10_000, "outputs never end");
+        }
+        prop_assert!(m.buffered() <= m.config().rx_buffer_frames + 1);
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(128))]
+
+    #[test]
+    fn module_with_3964r_never_panics_on_any_window_bytes_or_timing(
+        (window, script) in window_size().prop_flat_map(|w| (Just(w), inputs(w))),
+    ) {
+        let link = si_3964r::Link::new(si_3964r::Config::default(), SerialSettings::default()).unwrap();
+        drive(engines::r3964r_module(window, link).unwrap(), &script)?;
+    }
+
+    #[test]
+    fn module_with_ascii_never_panics_on_any_window_bytes_or_timing(
+        (window, script) in window_size().prop_flat_map(|w| (Just(w), inputs(w))), xon in any::<bool>(),
+    ) {
+        let config = si_ascii::Config {
+            flow_control: if xon { si_ascii::FlowControl::XonXoff } else { si_ascii::FlowControl::None },
+            ..si_ascii::Config::default()
+        };
+        drive(engines::ascii_module(window, si_ascii::Link::new(config).unwrap()).unwrap(), &script)?;
+    }
+}
