@@ -41,6 +41,9 @@ pub struct Modbus {
     p: Params,
     framer: Framer,
     pending: Option<Pending>,
+    /// The request whose response timeout ran out: a response to it from another station
+    /// after that is late, not a new request.
+    late: Option<Pending>,
     one_sided: bool,
     counters: Counters,
 }
@@ -63,6 +66,7 @@ impl Modbus {
             // One byte over the longest ADU, so an endless stream shows as frames too long.
             framer: Framer::new(p.end_gap, si_modbus::frame::MAX_ADU + 1),
             pending: None,
+            late: None,
             one_sided,
             counters,
         }
@@ -82,7 +86,7 @@ impl Modbus {
                         ms(self.p.timeout)
                     )),
                 ));
-                self.pending = None;
+                self.late = self.pending.take();
             }
         }
     }
@@ -123,6 +127,32 @@ impl Modbus {
             }
             out.push(r);
             return;
+        }
+        let late = match (&self.late, decode_response(adu)) {
+            (Some(pd), Ok((unit, _))) if !is_response => {
+                (self.one_sided || pd.from != f.from) && unit == pd.unit
+            }
+            _ => false,
+        };
+        if late {
+            // Already counted under "no response" when the timeout ran out.
+            let pd = self.late.take();
+            let wait = pd.map_or(Duration::ZERO, |pd| {
+                f.start
+                    .saturating_since(pd.end + self.p.settings.char_time())
+            });
+            r.label = format!("late response {} B", adu.len());
+            r.text = si_core::hex::format(adu);
+            r.flags.push(Flag::error(format!(
+                "response after {} > timeout {}",
+                ms(wait),
+                ms(self.p.timeout)
+            )));
+            out.push(r);
+            return;
+        }
+        if !is_response {
+            self.late = None;
         }
         if is_response {
             let pd = self.pending.take();
@@ -280,6 +310,25 @@ mod tests {
         assert_eq!(records[0].label, "FC03 req → 1");
         assert!(records[0].flags[0].text.contains("> 1.5 characters"));
         assert_eq!(counters.0["bus communication errors (CRC)"], 0);
+    }
+
+    #[test]
+    fn et200s_modbus_4_4_a_response_after_the_timeout_is_late_not_a_request() {
+        // FC03 response, slave 1, one register 0x002A (CRC computed by si-modbus).
+        let mut resp = vec![0x01, 0x03, 0x02, 0x00, 0x2A];
+        let crc = si_modbus::frame::crc16(&resp);
+        resp.extend_from_slice(&crc.to_le_bytes());
+        let mut chars = frame(0, 1_146, 1_146, &REQUEST);
+        let request_end = 8 * 1_146;
+        chars.extend(frame(1, request_end + 2_500_000, 1_146, &resp));
+        let (records, counters) = run(&chars);
+        assert_eq!(counters.0["no response"], 1);
+        let late = records.last().unwrap();
+        assert_eq!(late.label, "late response 7 B");
+        assert!(
+            late.flags[0].text.starts_with("response after 2498.854 ms"),
+            "{late:?}"
+        );
     }
 
     #[test]
