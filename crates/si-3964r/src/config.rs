@@ -25,12 +25,17 @@
 //! - **QVZ default without block check.** 550 ms (Table 2-11, cp341 Table 2-4), not the 500 ms of
 //!   the CP 341 flowchart (cp341 A-6). It is the default only when `ack_delay_ms` is not given
 //!   (A-28: a default, not a forced value).
-//! - **Baud-rate minimums.** The manuals require them but give no 3964(R) table (A-15, H-21); the
-//!   CP 341 table (300 bit/s: 60 ms …) is not applied.
+//! - **Baud-rate minimums.** The ET 200S manuals require a baud-rate-dependent minimum for ZVZ
+//!   and QVZ but give no 3964(R) table (A-15, H-21); Table 2-9 belongs to the ASCII driver. The
+//!   only 3964(R) table in the sources is the CP 341's (cp341 §3.8: 300 bit/s 60 ms, 600 bit/s
+//!   40 ms, 1200 bit/s 30 ms, 2400 … 76 800 bit/s 20 ms), so [`Link::new`](crate::Link::new)
+//!   applies it through [`Config::validate_for`] where it lies above the ET 200S range floors,
+//!   that is at 1200 bit/s and below. The CP 341 has no 110 bit/s; its 300 bit/s value scaled by
+//!   300/110 and rounded up to the 10 ms step gives 170 ms there (derived).
 
 use crate::frame::Mode;
 use serde::{Deserialize, Serialize};
-use si_core::Duration;
+use si_core::{Duration, SerialSettings};
 
 /// Which partner yields in an initialization conflict (et200s-si-3964r-ascii.md §5.6).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -62,6 +67,36 @@ pub const ATTEMPTS_RANGE: (u32, u32) = (1, 255);
 pub const MAX_BLOCK_RANGE: (u32, u32) = (1, 1024);
 /// Range of the receive buffer, in blocks.
 pub const RECEIVE_BUFFER_RANGE: (u32, u32) = (1, 255);
+
+/// The CP 341 minimum of ZVZ and QVZ per baud rate (cp341 §3.8), for the rates where it is
+/// above the ET 200S range floors; 110 bit/s is derived (see the module docs). Columns: baud,
+/// minimum in ms, and the two parameter names the error carries.
+const BAUD_MINIMUMS: [(u32, u32, &str, &str); 4] = [
+    (
+        110,
+        170,
+        "character delay time (ZVZ) at 110 bit/s",
+        "acknowledgement delay time (QVZ) at 110 bit/s",
+    ),
+    (
+        300,
+        60,
+        "character delay time (ZVZ) at 300 bit/s",
+        "acknowledgement delay time (QVZ) at 300 bit/s",
+    ),
+    (
+        600,
+        40,
+        "character delay time (ZVZ) at 600 bit/s",
+        "acknowledgement delay time (QVZ) at 600 bit/s",
+    ),
+    (
+        1200,
+        30,
+        "character delay time (ZVZ) at 1200 bit/s",
+        "acknowledgement delay time (QVZ) at 1200 bit/s",
+    ),
+];
 
 /// A parameter outside its range.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -166,6 +201,41 @@ impl Config {
             Some(e) => Err(e),
             None => Ok(()),
         }
+    }
+
+    /// [`validate`](Self::validate), then ZVZ and QVZ against the minimum for the line's baud
+    /// rate (cp341 §3.8, see the module docs).
+    ///
+    /// ```
+    /// use si_3964r::Config;
+    /// use si_core::{Parity, SerialSettings};
+    ///
+    /// let slow = SerialSettings::new(300, 8, Parity::Even, 1).unwrap();
+    /// let c = Config { char_delay_ms: 40, ..Config::default() };
+    /// assert_eq!(
+    ///     c.validate_for(&slow).unwrap_err().to_string(),
+    ///     "character delay time (ZVZ) at 300 bit/s must be 60 … 655350 ms, got 40"
+    /// );
+    /// assert!(c.validate_for(&SerialSettings::default()).is_ok());
+    /// ```
+    pub fn validate_for(&self, settings: &SerialSettings) -> Result<(), ConfigError> {
+        self.validate()?;
+        let Some(&(_, min, zvz, qvz)) = BAUD_MINIMUMS.iter().find(|m| m.0 == settings.baud())
+        else {
+            return Ok(());
+        };
+        for (parameter, value) in [(zvz, self.char_delay_ms), (qvz, self.ack_delay_ms)] {
+            if value < min {
+                return Err(ConfigError {
+                    parameter,
+                    min,
+                    max: CHAR_DELAY_RANGE.1,
+                    unit: " ms",
+                    value: value.into(),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Checks every parameter against its range and returns every error, in field order, so
@@ -298,6 +368,30 @@ impl TryFrom<RawConfig> for Config {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// cp341 §3.8: below 2400 bit/s ZVZ and QVZ have a per-baud minimum; at and above it the
+    /// ET 200S floors (ZVZ 20 ms, QVZ 10 ms) apply unchanged.
+    #[test]
+    fn baud_minimums_of_cp341_table_apply_below_2400() {
+        use si_core::Parity;
+        let at = |baud| SerialSettings::new(baud, 8, Parity::Even, 1).unwrap();
+        let c = |zvz, qvz| Config {
+            char_delay_ms: zvz,
+            ack_delay_ms: qvz,
+            ..Config::default()
+        };
+        assert!(c(170, 170).validate_for(&at(110)).is_ok());
+        let e = c(170, 160).validate_for(&at(110)).unwrap_err();
+        assert_eq!(
+            (e.parameter, e.min, e.value),
+            ("acknowledgement delay time (QVZ) at 110 bit/s", 170, 160)
+        );
+        assert!(c(59, 2000).validate_for(&at(300)).is_err());
+        assert!(c(40, 40).validate_for(&at(600)).is_ok());
+        assert!(c(30, 29).validate_for(&at(1200)).is_err());
+        assert!(c(20, 10).validate_for(&at(2400)).is_ok());
+        assert!(c(20, 10).validate_for(&at(115_200)).is_ok());
+    }
 
     #[test]
     fn defaults_are_table_2_11() {

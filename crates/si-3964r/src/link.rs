@@ -231,8 +231,10 @@ impl fmt::Debug for Link {
 impl Link {
     /// A link with `config` on a line with `settings` (used to know how long our own bytes take
     /// on the wire). Queues the startup NAK that puts the partner into idle (§5.4 point 6).
+    /// Refuses parameters out of range, ZVZ and QVZ also below their minimum for the line's baud
+    /// rate ([`Config::validate_for`]).
     pub fn new(config: Config, settings: SerialSettings) -> Result<Link, ConfigError> {
-        config.validate()?;
+        config.validate_for(&settings)?;
         let max = usize::from(config.max_block_len);
         let mut link = Link {
             config,
