@@ -1,62 +1,19 @@
 //! `si ascii` over a Linux pseudo-terminal pair made by socat: `si ascii recv --end chars 0D,0A`
 //! receives the lines `si ascii send` writes (et200s-si-3964r-ascii.md §6.3, two end-of-text
-//! characters). Skips with a message when socat is not installed (CI: `apt-get install socat`).
+//! characters). Skips with a message when socat is not installed (`apt-get install socat`); with
+//! the environment variable `CI` set it fails instead (`common::pty_pair`).
 
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-/// A socat process joining two pseudo-terminals; killed on drop.
-struct PtyPair {
-    socat: Child,
-    a: String,
-    b: String,
-}
+mod common;
 
-impl Drop for PtyPair {
-    fn drop(&mut self) {
-        let _ = self.socat.kill();
-        let _ = self.socat.wait();
-    }
-}
-
-fn pty_pair() -> Option<PtyPair> {
-    let mut socat = match Command::new("socat")
-        .args(["-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"])
-        .stderr(Stdio::piped())
-        .spawn()
-    {
-        Ok(c) => c,
-        Err(e) => {
-            eprintln!(
-                "SKIPPED: socat not available ({e}); install it with `apt-get install socat`"
-            );
-            return None;
-        }
-    };
-    let stderr = socat.stderr.take().expect("piped stderr");
-    let mut names = Vec::new();
-    for line in BufReader::new(stderr).lines() {
-        let line = line.ok()?;
-        if let Some(i) = line.find("PTY is ") {
-            names.push(line[i + 7..].trim().to_owned());
-            if names.len() == 2 {
-                break;
-            }
-        }
-    }
-    let [a, b] = <[String; 2]>::try_from(names).ok()?;
-    Some(PtyPair { socat, a, b })
-}
-
-fn si() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_si"))
-}
+use common::{pty_pair, si_command, PtyPair};
 
 #[test]
 fn recv_end_chars_cr_lf_receives_the_lines_send_writes() {
     let Some(pair) = pty_pair() else { return };
-    let recv = si()
+    let recv = si_command()
         .args([
             "ascii", "recv", "--port", &pair.a, "--end", "chars", "0D,0A",
         ])
@@ -68,7 +25,7 @@ fn recv_end_chars_cr_lf_receives_the_lines_send_writes() {
     // Let the receiver open its port before anything is written.
     std::thread::sleep(Duration::from_millis(700));
 
-    let first = si()
+    let first = si_command()
         .args([
             "ascii",
             "send",
@@ -88,7 +45,7 @@ fn recv_end_chars_cr_lf_receives_the_lines_send_writes() {
         String::from_utf8_lossy(&first.stdout).trim(),
         "sent 12 bytes: 66 69 72 73 74 20 6C 69 6E 65 0D 0A"
     );
-    let second = si()
+    let second = si_command()
         .args([
             "ascii",
             "send",
@@ -122,7 +79,7 @@ fn recv_end_chars_cr_lf_receives_the_lines_send_writes() {
 #[test]
 fn recv_json_and_timeout_without_a_partner() {
     let Some(pair) = pty_pair() else { return };
-    let out = si()
+    let out = si_command()
         .args(["ascii", "recv", "--port", &pair.a, "--end", "fixed", "4"])
         .args(["--timeout", "0.5"])
         .output()
@@ -136,7 +93,7 @@ fn recv_json_and_timeout_without_a_partner() {
 
 #[test]
 fn bad_end_criterion_is_one_clear_line() {
-    let out = si()
+    let out = si_command()
         .args([
             "ascii",
             "recv",
@@ -153,7 +110,7 @@ fn bad_end_criterion_is_one_clear_line() {
         String::from_utf8_lossy(&out.stderr).trim(),
         "si: error: end-of-text character 1 00H out of range: 01H … FFH with 8 data bits"
     );
-    let out = si()
+    let out = si_command()
         .args([
             "--baud", "1200", "ascii", "recv", "--port", "/x", "--cdt", "10",
         ])
@@ -167,7 +124,10 @@ fn bad_end_criterion_is_one_clear_line() {
 
 #[test]
 fn sim_scenarios_lose_nothing() {
-    let out = si().args(["sim", "ascii"]).output().expect("run si sim");
+    let out = si_command()
+        .args(["sim", "ascii"])
+        .output()
+        .expect("run si sim");
     assert!(out.status.success());
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
@@ -179,7 +139,7 @@ fn sim_scenarios_lose_nothing() {
         "{text}"
     );
 
-    let out = si()
+    let out = si_command()
         .args(["--json", "sim", "ascii-xon-xoff"])
         .output()
         .expect("run si sim");
@@ -199,7 +159,7 @@ fn monitor_prints_timestamped_frames_and_never_transmits() {
     use std::io::{Read, Write};
     let Some(pair) = pty_pair() else { return };
     // Even with XON/XOFF asked for, the monitor must not send its startup XON.
-    let monitor = si()
+    let monitor = si_command()
         .args(["--json", "ascii", "monitor", "--port", &pair.a])
         .args([
             "--end", "chars", "0D,0A", "--flow", "xon-xoff", "--count", "2",
@@ -257,7 +217,7 @@ fn monitor_prints_timestamped_frames_and_never_transmits() {
 /// Start `si ascii recv` on `port` with `args`, let it open the port, run `send` (each a full
 /// `si ascii send` argument list after the port), and return recv's stdout lines.
 fn recv_while_sending(pair: &PtyPair, recv_args: &[&str], sends: &[&[&str]]) -> Vec<String> {
-    let recv = si()
+    let recv = si_command()
         .args([
             "--json",
             "ascii",
@@ -278,7 +238,7 @@ fn recv_while_sending(pair: &PtyPair, recv_args: &[&str], sends: &[&[&str]]) -> 
             // Longer than the CDT of the character-delay test, so each send is its own frame.
             std::thread::sleep(Duration::from_millis(400));
         }
-        let out = si()
+        let out = si_command()
             .args(["ascii", "send", "--port", &pair.b])
             .args(*args)
             .output()

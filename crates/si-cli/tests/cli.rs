@@ -1,21 +1,8 @@
 //! The `si` binary as a user meets it: help, version, offline frames, one-line errors.
 
-use std::process::{Command, Output};
+mod common;
 
-fn si(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_si"))
-        .args(args)
-        .output()
-        .expect("run si")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use common::{si, stderr, stdout};
 
 #[test]
 fn help_lists_the_subcommands() {

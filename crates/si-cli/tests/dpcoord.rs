@@ -3,15 +3,15 @@
 //! manual's example tables give the input windows; `xx` bytes are written as 00).
 
 use std::io::Write;
-use std::process::{Command, Output, Stdio};
+use std::process::{Output, Stdio};
 
-fn si() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_si"))
-}
+mod common;
+
+use common::si_command;
 
 /// Runs `si dp-coord host ARGS` with `inputs` as the module's input windows, one per line.
 fn host(args: &[&str], inputs: &[&str]) -> Output {
-    let mut child = si()
+    let mut child = si_command()
         .args(["dp-coord", "host"])
         .args(args)
         .stdin(Stdio::piped())
@@ -241,7 +241,7 @@ fn trace_annotates_a_host_transcript_cycle_by_cycle() {
          < 31 00 1F 00\n> 31 00 00 00\n",
     )
     .unwrap();
-    let out = si()
+    let out = si_command()
         .args(["dp-coord", "trace"])
         .arg(&file)
         .output()
@@ -262,7 +262,10 @@ fn trace_annotates_a_host_transcript_cycle_by_cycle() {
 
 #[test]
 fn sim_dp_coord_send_prints_table_2_23_and_ends_done() {
-    let out = si().args(["sim", "dp-coord-send"]).output().unwrap();
+    let out = si_command()
+        .args(["sim", "dp-coord-send"])
+        .output()
+        .unwrap();
     assert!(out.status.success(), "{out:?}");
     let lines = stdout_lines(&out);
     assert!(
@@ -275,7 +278,7 @@ fn sim_dp_coord_send_prints_table_2_23_and_ends_done() {
 
 #[test]
 fn sim_dp_coord_e2e_delivers_the_frame_through_both_windows() {
-    let out = si().args(["sim", "dp-coord-e2e"]).output().unwrap();
+    let out = si_command().args(["sim", "dp-coord-e2e"]).output().unwrap();
     assert!(out.status.success(), "{out:?}");
     let lines = stdout_lines(&out);
     let n = lines.len();

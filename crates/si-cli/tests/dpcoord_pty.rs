@@ -4,55 +4,17 @@
 //! frame on the line and ends with 7xH only after that (et200s-si-2005-window-protocol.md §2.9);
 //! a frame from the partner is offered (0001H) and fetched with a receive job (Table 2-24).
 //! The 3964(R) module is checked against `si 3964r send|recv` as the partner.
-//! Skips with a message when socat is not installed (CI: `apt-get install socat`).
+//! Skips with a message when socat is not installed (`apt-get install socat`); with the
+//! environment variable `CI` set it fails instead (`common::pty_pair`).
 
 use std::io::{BufRead, BufReader, Read, Write};
-use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+use std::process::{Child, ChildStdin, ChildStdout, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-/// A socat process joining two pseudo-terminals; killed on drop.
-struct PtyPair {
-    socat: Child,
-    a: String,
-    b: String,
-}
+mod common;
 
-impl Drop for PtyPair {
-    fn drop(&mut self) {
-        let _ = self.socat.kill();
-        let _ = self.socat.wait();
-    }
-}
-
-fn pty_pair() -> Option<PtyPair> {
-    let mut socat = match Command::new("socat")
-        .args(["-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"])
-        .stderr(Stdio::piped())
-        .spawn()
-    {
-        Ok(c) => c,
-        Err(e) => {
-            eprintln!(
-                "SKIPPED: socat not available ({e}); install it with `apt-get install socat`"
-            );
-            return None;
-        }
-    };
-    let stderr = socat.stderr.take().expect("piped stderr");
-    let mut names = Vec::new();
-    for line in BufReader::new(stderr).lines() {
-        let line = line.ok()?;
-        if let Some(i) = line.find("PTY is ") {
-            names.push(line[i + 7..].trim().to_owned());
-            if names.len() == 2 {
-                break;
-            }
-        }
-    }
-    let [a, b] = <[String; 2]>::try_from(names).ok()?;
-    Some(PtyPair { socat, a, b })
-}
+use common::{pty_pair, si_command};
 
 /// The module process, cycled one window at a time.
 struct ModuleProcess {
@@ -95,7 +57,7 @@ impl Drop for ModuleProcess {
 }
 
 fn start_module(args: &[&str]) -> ModuleProcess {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_si"))
+    let mut child = si_command()
         .args(["dp-coord", "module"])
         .args(args)
         .stdin(Stdio::piped())
@@ -122,7 +84,7 @@ fn module_3964r_receives_from_si_3964r_send_and_sends_to_si_3964r_recv() {
         "00 00 00 00 00 00 00 00"
     );
     std::thread::sleep(Duration::from_millis(300));
-    let sent = Command::new(env!("CARGO_BIN_EXE_si"))
+    let sent = si_command()
         .args(["3964r", "send", "--port", &pair.b, "--priority", "high"])
         .arg("41 42 10 43")
         .output()
@@ -143,7 +105,7 @@ fn module_3964r_receives_from_si_3964r_send_and_sends_to_si_3964r_recv() {
     );
 
     // The other way: si 3964r recv gets what the host sends through the window.
-    let recv = Command::new(env!("CARGO_BIN_EXE_si"))
+    let recv = si_command()
         .args([
             "3964r",
             "recv",
@@ -259,7 +221,7 @@ fn module_ascii_sends_through_the_window_and_offers_received_frames() {
 fn host_and_module_processes_joined_by_the_test_deliver_a_block_to_si_3964r_recv() {
     let Some(pair) = pty_pair() else { return };
     let mut m = start_module(&["--window", "4", "--protocol", "3964r", "--port", &pair.a]);
-    let recv = Command::new(env!("CARGO_BIN_EXE_si"))
+    let recv = si_command()
         .args([
             "3964r",
             "recv",
@@ -275,7 +237,7 @@ fn host_and_module_processes_joined_by_the_test_deliver_a_block_to_si_3964r_recv
         .spawn()
         .expect("si 3964r recv");
     std::thread::sleep(Duration::from_millis(500));
-    let mut host = Command::new(env!("CARGO_BIN_EXE_si"))
+    let mut host = si_command()
         .args([
             "dp-coord",
             "host",

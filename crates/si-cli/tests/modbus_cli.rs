@@ -1,22 +1,9 @@
 //! `si frame encode|decode modbus` and the Modbus `si sim` scenarios, offline
 //! (et200s-si-modbus-uss.md §3.1, §3.4, §3.8, §4.4).
 
-use std::process::{Command, Output};
+mod common;
 
-fn si(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_si"))
-        .args(args)
-        .output()
-        .expect("run si")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use common::{si, stderr, stdout};
 
 #[test]
 fn frame_encode_appends_the_crc_low_byte_first() {

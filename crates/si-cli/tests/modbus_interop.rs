@@ -10,35 +10,14 @@
 //! parity "none" (§3.9), and Linux pseudo-terminals refuse pyserial's even-parity setting.
 
 use std::io::{BufRead, BufReader, Write};
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+mod common;
+
+use common::{have_socat, peer, pty_pair, si_command, stderr, stdout, test_dir, Kill};
+
 const LINE: &[&str] = &["--baud", "19200", "--parity", "none", "--stop-bits", "2"];
-
-/// Is `program` runnable? With `CI` set a missing peer is a failure, locally a skip.
-fn peer(name: &str, check: &mut Command, install: &str) -> bool {
-    let ok = check
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if ok {
-        return true;
-    }
-    if std::env::var_os("CI").is_some() {
-        panic!("interop peer {name} is missing and CI is set; install it with: {install}");
-    }
-    eprintln!("SKIPPED: interop peer {name} is not installed ({install})");
-    false
-}
-
-fn have_socat() -> bool {
-    peer(
-        "socat",
-        Command::new("socat").arg("-V"),
-        "apt-get install socat",
-    )
-}
 
 fn have_pymodbus() -> bool {
     peer(
@@ -56,49 +35,8 @@ fn have_mbpoll() -> bool {
     )
 }
 
-/// A killed-on-drop child process.
-struct Proc(Child);
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-/// Two connected pseudo-terminals from socat.
-struct PtyPair {
-    _socat: Proc,
-    a: String,
-    b: String,
-}
-
-fn pty_pair() -> PtyPair {
-    let mut child = Command::new("socat")
-        .args(["-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"])
-        .stderr(Stdio::piped())
-        .stdout(Stdio::null())
-        .spawn()
-        .expect("spawn socat");
-    let stderr = child.stderr.take().expect("socat stderr");
-    let mut names = Vec::new();
-    let mut lines = BufReader::new(stderr).lines();
-    while names.len() < 2 {
-        let line = lines.next().expect("socat output").expect("socat line");
-        if let Some(i) = line.find("/dev/pts/") {
-            names.push(line[i..].trim().to_string());
-        }
-    }
-    // Keep draining socat's log so it never blocks on a full pipe.
-    std::thread::spawn(move || for _ in lines {});
-    PtyPair {
-        _socat: Proc(child),
-        b: names.pop().expect("second pty"),
-        a: names.pop().expect("first pty"),
-    }
-}
-
 fn si(port: &str, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_si"))
+    si_command()
         .args(["--port", port])
         .args(LINE)
         .args(args)
@@ -106,17 +44,13 @@ fn si(port: &str, args: &[&str]) -> Output {
         .expect("run si")
 }
 
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
 /// `si modbus serve --unit 1` on `port`, with its stdout collected until it is killed.
-fn serve(port: &str) -> (Proc, std::sync::mpsc::Receiver<String>) {
+fn serve(port: &str) -> (Kill, std::sync::mpsc::Receiver<String>) {
     serve_with(port, &[])
 }
 
-fn serve_with(port: &str, extra: &[&str]) -> (Proc, std::sync::mpsc::Receiver<String>) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_si"))
+fn serve_with(port: &str, extra: &[&str]) -> (Kill, std::sync::mpsc::Receiver<String>) {
+    let mut child = si_command()
         .args(["--port", port])
         .args(LINE)
         .args(["modbus", "serve", "--unit", "1"])
@@ -136,7 +70,7 @@ fn serve_with(port: &str, extra: &[&str]) -> (Proc, std::sync::mpsc::Receiver<St
         .recv_timeout(Duration::from_secs(10))
         .expect("serve starts");
     assert!(first.starts_with("serving as slave 1"), "{first}");
-    (Proc(child), rx)
+    (Kill(child), rx)
 }
 
 fn served(rx: &std::sync::mpsc::Receiver<String>) -> Vec<String> {
@@ -174,17 +108,17 @@ fn pymodbus_client_against_si_modbus_serve() {
     if !(have_socat() && have_pymodbus()) {
         return;
     }
-    let pair = pty_pair();
+    let Some(pair) = pty_pair() else { return };
     let (_serve, log) = serve(&pair.a);
     let out = Command::new("python3")
         .args(["-c", PYMODBUS_CLIENT, &pair.b])
         .output()
         .expect("run python3");
     assert!(
-        out.status.success() && text(&out.stdout).contains("OK"),
+        out.status.success() && stdout(&out).contains("OK"),
         "pymodbus client failed:\n{}\n{}",
-        text(&out.stdout),
-        text(&out.stderr)
+        stdout(&out),
+        stderr(&out)
     );
     let log = served(&log).join("\n");
     for fc in [
@@ -223,7 +157,7 @@ fn pymodbus_server_against_si_modbus_read_and_write() {
     if !(have_socat() && have_pymodbus()) {
         return;
     }
-    let pair = pty_pair();
+    let Some(pair) = pty_pair() else { return };
     let mut child = Command::new("python3")
         .args(["-c", PYMODBUS_SERVER, &pair.b])
         .stdout(Stdio::piped())
@@ -234,18 +168,14 @@ fn pymodbus_server_against_si_modbus_read_and_write() {
     BufReader::new(child.stdout.take().expect("stdout"))
         .read_line(&mut ready)
         .expect("server says ready");
-    let _server = Proc(child);
+    let _server = Kill(child);
     assert_eq!(ready.trim(), "ready");
     // Give the server a moment to open the port after printing.
     let start = Instant::now();
     let run = |args: &[&str]| -> String {
         let o = si(&pair.a, args);
-        assert!(
-            o.status.success(),
-            "si {args:?} failed: {}",
-            text(&o.stderr)
-        );
-        text(&o.stdout).trim().to_string()
+        assert!(o.status.success(), "si {args:?} failed: {}", stderr(&o));
+        stdout(&o).trim().to_string()
     };
     loop {
         let o = si(
@@ -253,7 +183,7 @@ fn pymodbus_server_against_si_modbus_read_and_write() {
             &["modbus", "diag", "--unit", "1", "--timeout", "500"],
         );
         if o.status.success() {
-            assert_eq!(text(&o.stdout).trim(), "unit 1 diagnostics echo 0xA537"); // FC08
+            assert_eq!(stdout(&o).trim(), "unit 1 diagnostics echo 0xA537"); // FC08
             break;
         }
         assert!(
@@ -309,7 +239,7 @@ fn pymodbus_server_against_si_modbus_read_and_write() {
         "unit 1 FC01 0…9: 0 0 0 0 1 0 1 0 1 0"
     );
     // --poll repeats the read until interrupted.
-    let mut poll = Command::new(env!("CARGO_BIN_EXE_si"))
+    let mut poll = si_command()
         .args(["--port", &pair.a])
         .args(LINE)
         .args([
@@ -320,7 +250,7 @@ fn pymodbus_server_against_si_modbus_read_and_write() {
         .expect("spawn si --poll");
     std::thread::sleep(Duration::from_millis(800));
     let _ = poll.kill();
-    let polled = text(&poll.wait_with_output().expect("poll output").stdout);
+    let polled = stdout(&poll.wait_with_output().expect("poll output"));
     let lines: Vec<&str> = polled.lines().collect();
     assert!(lines.len() >= 3, "{polled}");
     assert!(
@@ -335,7 +265,7 @@ fn pymodbus_server_against_si_modbus_read_and_write() {
         ],
     );
     assert!(!o.status.success());
-    assert!(text(&o.stderr).contains("16#0E62"), "{}", text(&o.stderr));
+    assert!(stderr(&o).contains("16#0E62"), "{}", stderr(&o));
 }
 
 fn mbpoll(port: &str, args: &[&str]) -> Output {
@@ -364,7 +294,7 @@ fn mbpoll_write(port: &str, args: &[&str], values: &[&str]) -> Output {
 
 /// mbpoll prints `[ref]: \tvalue` lines.
 fn values(o: &Output) -> Vec<String> {
-    text(&o.stdout)
+    stdout(o)
         .lines()
         .filter(|l| l.starts_with('['))
         .filter_map(|l| l.split(':').nth(1))
@@ -377,21 +307,21 @@ fn mbpoll_against_si_modbus_serve() {
     if !(have_socat() && have_mbpoll()) {
         return;
     }
-    let pair = pty_pair();
+    let Some(pair) = pty_pair() else { return };
     let (_serve, log) = serve(&pair.a);
     let b = pair.b.as_str();
     let o = mbpoll_write(b, &["-t", "4", "-r", "0"], &["7", "8", "9"]); // FC16
-    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(o.status.success(), "{}", stderr(&o));
     let o = mbpoll_write(b, &["-t", "4", "-r", "3"], &["4660"]); // FC06
-    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(o.status.success(), "{}", stderr(&o));
     let o = mbpoll(b, &["-t", "4", "-r", "0", "-c", "4"]); // FC03
     assert_eq!(values(&o), ["7", "8", "9", "4660"]);
     let o = mbpoll(b, &["-t", "3", "-r", "0", "-c", "2"]); // FC04
     assert_eq!(values(&o), ["0", "0"]);
     let o = mbpoll_write(b, &["-t", "0", "-r", "3"], &["1"]); // FC05
-    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(o.status.success(), "{}", stderr(&o));
     let o = mbpoll_write(b, &["-t", "0", "-r", "8"], &["1", "0", "1"]); // FC15
-    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(o.status.success(), "{}", stderr(&o));
     let o = mbpoll(b, &["-t", "0", "-r", "0", "-c", "12"]); // FC01
     assert_eq!(
         values(&o),
@@ -402,11 +332,10 @@ fn mbpoll_against_si_modbus_serve() {
     // R = 512 → DB7, above DB_Max 6: exception 02.
     let o = mbpoll_write(b, &["-t", "4", "-r", "512"], &["1"]);
     assert!(
-        text(&o.stdout).contains("Illegal data address")
-            || text(&o.stderr).contains("Illegal data address"),
+        stdout(&o).contains("Illegal data address") || stderr(&o).contains("Illegal data address"),
         "{}{}",
-        text(&o.stdout),
-        text(&o.stderr)
+        stdout(&o),
+        stderr(&o)
     );
     let log = served(&log).join("\n");
     for fc in [
@@ -453,21 +382,20 @@ fn pymodbus_client_against_si_modbus_serve_with_a_config_file() {
     if !(have_socat() && have_pymodbus()) {
         return;
     }
-    let dir = std::env::temp_dir().join(format!("si-modbus-interop-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = test_dir("si-modbus-interop");
     let path = dir.join("serve.toml");
     std::fs::write(&path, CONFIG).expect("write config");
-    let pair = pty_pair();
+    let Some(pair) = pty_pair() else { return };
     let (_serve, log) = serve_with(&pair.a, &["--config", path.to_str().expect("utf-8 path")]);
     let out = Command::new("python3")
         .args(["-c", PYMODBUS_CONFIGURED, &pair.b])
         .output()
         .expect("run python3");
     assert!(
-        out.status.success() && text(&out.stdout).contains("OK"),
+        out.status.success() && stdout(&out).contains("OK"),
         "pymodbus client failed:\n{}\n{}",
-        text(&out.stdout),
-        text(&out.stderr)
+        stdout(&out),
+        stderr(&out)
     );
     let log = served(&log).join("\n");
     assert!(

@@ -1,28 +1,13 @@
 //! `si diag`, `si im`, `si params` as a user runs them (et200s-si-2005-window-protocol.md §6.4,
 //! §9.1; parameter tables §3.2, §4.6, §7.9).
 
-use std::process::{Command, Output};
+mod common;
 
-fn si(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_si"))
-        .args(args)
-        .output()
-        .expect("run si")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use common::{si, stderr, stdout, test_dir};
 
 /// A file in the test's own temporary directory.
 fn temp_file(name: &str, text: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("si-module-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
+    let path = test_dir("si-module-cli").join(name);
     std::fs::write(&path, text).unwrap();
     path
 }

@@ -3,23 +3,21 @@
 //! instants the trace shows them on the line.
 
 use serde_json::Value;
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-fn si() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_si"))
-}
+mod common;
+
+use common::{monitor_json, si_command, test_dir};
 
 fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("si-monitor-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    test_dir("si-monitor-test").join(name)
 }
 
 /// `si sim <scenario> --record FILE`; returns the file.
 fn record(scenario: &str) -> PathBuf {
     let path = tmp(&format!("{scenario}.jsonl"));
-    let o = si()
+    let o = si_command()
         .args(["sim", scenario, "--record"])
         .arg(&path)
         .output()
@@ -34,24 +32,9 @@ fn record(scenario: &str) -> PathBuf {
 
 /// `si --json monitor --trace FILE [args]`: the records and the counters.
 fn monitor(path: &Path, args: &[&str]) -> (Vec<Value>, Value) {
-    let o = si()
-        .args(["--json", "monitor", "--trace"])
-        .arg(path)
-        .args(args)
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&o.stdout).to_string();
-    assert!(
-        o.status.success(),
-        "monitor: {text}{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let mut lines: Vec<Value> = text
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("JSON line"))
-        .collect();
-    let counters = lines.pop().expect("counters line")["counters"].clone();
-    (lines, counters)
+    let mut all = vec![OsStr::new("--trace"), path.as_os_str()];
+    all.extend(args.iter().map(OsStr::new));
+    monitor_json(&all)
 }
 
 fn labels(records: &[Value]) -> Vec<String> {
@@ -323,7 +306,7 @@ fn auto_detects_the_protocol_of_a_headerless_trace() {
             .collect();
         let bare = tmp(&format!("{scenario}-bare.jsonl"));
         std::fs::write(&bare, body).unwrap();
-        let o = si()
+        let o = si_command()
             .args(["--json", "monitor", "--trace"])
             .arg(&bare)
             .output()
@@ -345,7 +328,7 @@ fn a_broken_trace_is_one_clear_error() {
         "{\"at\":0,\"station\":\"A\",\"kind\":\"tx\",\"bytes\":[2]}\nnot json\n",
     )
     .unwrap();
-    let o = si()
+    let o = si_command()
         .args(["monitor", "--trace"])
         .arg(&path)
         .output()
@@ -371,7 +354,7 @@ fn a_closed_pipe_ends_the_output_quietly() {
         })
         .collect();
     std::fs::write(&path, format!("{{\"format\":\"si-trace\",\"version\":1,\"source\":\"sim\",\"protocol\":\"3964r\",\"stations\":[\"A\",\"B\"]}}\n{body}")).unwrap();
-    let mut child = si()
+    let mut child = si_command()
         .args(["monitor", "--trace"])
         .arg(&path)
         .stdout(Stdio::piped())

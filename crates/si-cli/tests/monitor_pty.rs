@@ -1,87 +1,31 @@
 //! `--record` on real commands over a pseudo-terminal pair (socat; `apt-get install socat`),
 //! read back by `si monitor --trace`; and `si monitor` watching a live port without ever
-//! transmitting. Skips with a message when socat is missing.
+//! transmitting. Skips with a message when socat is missing; with `CI` set it fails instead.
 
 use serde_json::Value;
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{Read, Write};
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::Stdio;
 use std::time::Duration;
 
-struct Kill(Child);
-impl Drop for Kill {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
+mod common;
 
-/// Start socat and read the two pty names it prints.
-fn pty_pair() -> Option<(Kill, String, String)> {
-    let mut child = Command::new("socat")
-        .args([
-            "-d",
-            "-d",
-            "pty,raw,echo=0,ignoreeof",
-            "pty,raw,echo=0,ignoreeof",
-        ])
-        .stderr(Stdio::piped())
-        .spawn()
-        .ok()?;
-    let stderr = child.stderr.take()?;
-    let mut names = Vec::new();
-    for line in BufReader::new(stderr).lines() {
-        let line = line.ok()?;
-        if let Some(i) = line.find("PTY is ") {
-            names.push(line[i + 7..].trim().to_owned());
-            if names.len() == 2 {
-                break;
-            }
-        }
-    }
-    let b = names.pop()?;
-    let a = names.pop()?;
-    Some((Kill(child), a, b))
-}
+use common::{monitor_json, pty_pair_ignoreeof, si_command, test_dir, Kill};
 
 fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("si-monitor-pty-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
-
-fn monitor_json(args: &[&str]) -> (Vec<Value>, Value) {
-    let o = Command::new(env!("CARGO_BIN_EXE_si"))
-        .arg("--json")
-        .arg("monitor")
-        .args(args)
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&o.stdout).to_string();
-    assert!(
-        o.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let mut lines: Vec<Value> = text
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
-    let counters = lines.pop().unwrap()["counters"].clone();
-    (lines, counters)
+    test_dir("si-monitor-pty").join(name)
 }
 
 #[test]
 fn record_on_3964r_send_and_recv_reads_back_in_the_monitor() {
-    let Some((_socat, a, b)) = pty_pair() else {
-        eprintln!("SKIPPED: socat not found (apt-get install socat)");
+    let Some(pair) = pty_pair_ignoreeof() else {
         return;
     };
-    let si = env!("CARGO_BIN_EXE_si");
+    let (a, b) = (&pair.a, &pair.b);
     let recv_trace = tmp("recv.jsonl");
     let send_trace = tmp("send.jsonl");
-    let recv = Command::new(si)
-        .args(["--port", &b, "--record"])
+    let recv = si_command()
+        .args(["--port", b, "--record"])
         .arg(&recv_trace)
         .args(["3964r", "recv", "--count", "1", "--priority", "low"])
         .stdout(Stdio::piped())
@@ -90,8 +34,8 @@ fn record_on_3964r_send_and_recv_reads_back_in_the_monitor() {
         .expect("start recv");
     let recv = Kill(recv);
     std::thread::sleep(Duration::from_millis(300));
-    let o = Command::new(si)
-        .args(["--port", &a, "--record"])
+    let o = si_command()
+        .args(["--port", a, "--record"])
         .arg(&send_trace)
         .args(["3964r", "send", "--priority", "high", "--text", "pty"])
         .output()
@@ -168,13 +112,13 @@ fn record_on_3964r_send_and_recv_reads_back_in_the_monitor() {
 
 #[test]
 fn live_monitor_decodes_and_never_transmits() {
-    let Some((_socat, a, b)) = pty_pair() else {
-        eprintln!("SKIPPED: socat not found (apt-get install socat)");
+    let Some(pair) = pty_pair_ignoreeof() else {
         return;
     };
+    let (a, b) = (&pair.a, &pair.b);
     let mut monitor = Kill(
-        Command::new(env!("CARGO_BIN_EXE_si"))
-            .args(["--json", "--port", &b, "monitor", "--protocol", "modbus"])
+        si_command()
+            .args(["--json", "--port", b, "monitor", "--protocol", "modbus"])
             .args(["--duration", "1.5"])
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
@@ -185,7 +129,7 @@ fn live_monitor_decodes_and_never_transmits() {
     let mut port = std::fs::OpenOptions::new()
         .read(true)
         .write(true)
-        .open(&a)
+        .open(a)
         .unwrap();
     let mut back = port.try_clone().unwrap();
     let (tx, reader) = std::sync::mpsc::channel();
@@ -228,14 +172,14 @@ fn live_monitor_decodes_and_never_transmits() {
 
 #[test]
 fn a_monitor_cable_with_two_ports_shows_both_directions() {
-    let (Some((_s1, a1, b1)), Some((_s2, a2, b2))) = (pty_pair(), pty_pair()) else {
-        eprintln!("SKIPPED: socat not found (apt-get install socat)");
+    let (Some(p1), Some(p2)) = (pty_pair_ignoreeof(), pty_pair_ignoreeof()) else {
         return;
     };
+    let (a1, b1, a2, b2) = (&p1.a, &p1.b, &p2.a, &p2.b);
     let mut monitor = Kill(
-        Command::new(env!("CARGO_BIN_EXE_si"))
-            .args(["--json", "--port", &b1, "monitor", "--protocol", "3964r"])
-            .args(["--tap", &b2, "--duration", "1.5"])
+        si_command()
+            .args(["--json", "--port", b1, "monitor", "--protocol", "3964r"])
+            .args(["--tap", b2, "--duration", "1.5"])
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
@@ -243,7 +187,7 @@ fn a_monitor_cable_with_two_ports_shows_both_directions() {
     );
     std::thread::sleep(Duration::from_millis(300));
     let open = |p: &str| std::fs::OpenOptions::new().write(true).open(p).unwrap();
-    let (mut a, mut b) = (open(&a1), open(&a2));
+    let (mut a, mut b) = (open(a1), open(a2));
     // Station A sends "AB" with 3964(R) (BCC 10H); station B answers on its own wire.
     for (to_a, bytes) in [
         (true, &[0x02][..]),
@@ -282,10 +226,10 @@ fn a_monitor_cable_with_two_ports_shows_both_directions() {
     assert_eq!(
         seen,
         vec![
-            ("STX".to_owned(), name(&b1)),
-            ("DLE".to_owned(), name(&b2)),
-            ("block 2 B \"AB\"".to_owned(), name(&b1)),
-            ("DLE".to_owned(), name(&b2)),
+            ("STX".to_owned(), name(b1)),
+            ("DLE".to_owned(), name(b2)),
+            ("block 2 B \"AB\"".to_owned(), name(b1)),
+            ("DLE".to_owned(), name(b2)),
         ],
         "{out}"
     );

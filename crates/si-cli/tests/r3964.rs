@@ -1,21 +1,8 @@
 //! `si frame encode|decode 3964r` and the 3964(R) scenarios of `si sim`, as a user runs them.
 
-use std::process::{Command, Output};
+mod common;
 
-fn si(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_si"))
-        .args(args)
-        .output()
-        .expect("run si")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use common::{si, stderr, stdout};
 
 #[test]
 fn encode_prints_the_worked_example_of_5_2() {

@@ -1,56 +1,22 @@
 //! `si 3964r recv` in one process receives what `si 3964r send` sends in another, over a
 //! pseudo-terminal pair made by socat (`apt-get install socat`); skips with a message when socat
-//! is missing.
+//! is missing (fails with `CI` set).
 
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
+use std::process::Stdio;
 use std::time::Duration;
 
-struct Kill(Child);
-impl Drop for Kill {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
+mod common;
 
-/// Start socat and read the two pty names it prints.
-fn pty_pair() -> Option<(Kill, String, String)> {
-    let mut child = Command::new("socat")
-        .args([
-            "-d",
-            "-d",
-            "pty,raw,echo=0,ignoreeof",
-            "pty,raw,echo=0,ignoreeof",
-        ])
-        .stderr(Stdio::piped())
-        .spawn()
-        .ok()?;
-    let stderr = child.stderr.take()?;
-    let mut names = Vec::new();
-    for line in BufReader::new(stderr).lines() {
-        let line = line.ok()?;
-        if let Some(i) = line.find("PTY is ") {
-            names.push(line[i + 7..].trim().to_owned());
-            if names.len() == 2 {
-                break;
-            }
-        }
-    }
-    let b = names.pop()?;
-    let a = names.pop()?;
-    Some((Kill(child), a, b))
-}
+use common::{pty_pair_ignoreeof, si_command};
 
 #[test]
 fn recv_gets_what_send_sends_and_both_exit_0() {
-    let Some((_socat, a, b)) = pty_pair() else {
-        eprintln!("SKIPPED: socat not found (apt-get install socat)");
+    let Some(pair) = pty_pair_ignoreeof() else {
         return;
     };
-    let si = env!("CARGO_BIN_EXE_si");
-    let recv = Command::new(si)
-        .args(["--json", "--port", &b, "3964r", "recv", "--count", "2"])
+    let (a, b) = (&pair.a, &pair.b);
+    let recv = si_command()
+        .args(["--json", "--port", b, "3964r", "recv", "--count", "2"])
         .args(["--priority", "low"])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -61,8 +27,8 @@ fn recv_gets_what_send_sends_and_both_exit_0() {
 
     // A block with a DLE in it (doubled on the line) and one given as text.
     for args in [vec!["41 42 10 43"], vec!["--text", "hello over a pty"]] {
-        let o = Command::new(si)
-            .args(["--port", &a, "3964r", "send", "--priority", "high"])
+        let o = si_command()
+            .args(["--port", a, "3964r", "send", "--priority", "high"])
             .args(&args)
             .output()
             .expect("run send");
@@ -93,12 +59,12 @@ fn recv_gets_what_send_sends_and_both_exit_0() {
 
 #[test]
 fn send_without_a_partner_fails_with_0703() {
-    let Some((_socat, a, _b)) = pty_pair() else {
-        eprintln!("SKIPPED: socat not found (apt-get install socat)");
+    let Some(pair) = pty_pair_ignoreeof() else {
         return;
     };
-    let o = Command::new(env!("CARGO_BIN_EXE_si"))
-        .args(["--port", &a, "3964r", "send", "01", "--qvz-ms", "50"])
+    let a = &pair.a;
+    let o = si_command()
+        .args(["--port", a, "3964r", "send", "01", "--qvz-ms", "50"])
         .args(["--connection-attempts", "2"])
         .output()
         .expect("run send");

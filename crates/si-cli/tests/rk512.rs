@@ -1,17 +1,8 @@
 //! `si frame decode rk512` and `si sim rk512` without a line (cp341-3964r-rk512-ascii.md §4.2–§4.4).
 
-use std::process::{Command, Output};
+mod common;
 
-fn si(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_si"))
-        .args(args)
-        .output()
-        .expect("run si")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
+use common::{si, stdout};
 
 /// Fig. 2-13: the SEND header of 50 data words to DB10 from DW1, CPU 1.
 #[test]

@@ -1,71 +1,23 @@
 //! `si rk512 fetch` against `si rk512 serve` over a pseudo-terminal pair returns what
 //! `si rk512 send` wrote (cp341-3964r-rk512-ascii.md §4.5); socat makes the pair
-//! (`apt-get install socat`); the test skips with a message when socat is missing.
+//! (`apt-get install socat`); the test skips with a message when socat is missing (fails with
+//! `CI` set).
 
-use std::io::{BufRead, BufReader, Write};
-use std::process::{Child, Command, Output, Stdio};
+use std::io::Write;
+use std::process::{Command, Stdio};
 use std::time::Duration;
 
-struct Kill(Child);
-impl Drop for Kill {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
+mod common;
 
-/// Start socat and read the two pty names it prints.
-fn pty_pair() -> Option<(Kill, String, String)> {
-    let mut child = Command::new("socat")
-        .args([
-            "-d",
-            "-d",
-            "pty,raw,echo=0,ignoreeof",
-            "pty,raw,echo=0,ignoreeof",
-        ])
-        .stderr(Stdio::piped())
-        .spawn()
-        .ok()?;
-    let stderr = child.stderr.take()?;
-    let mut names = Vec::new();
-    for line in BufReader::new(stderr).lines() {
-        let line = line.ok()?;
-        if let Some(i) = line.find("PTY is ") {
-            names.push(line[i + 7..].trim().to_owned());
-            if names.len() == 2 {
-                break;
-            }
-        }
-    }
-    let b = names.pop()?;
-    let a = names.pop()?;
-    Some((Kill(child), a, b))
-}
-
-fn si(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_si"))
-        .args(args)
-        .output()
-        .expect("run si")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
+use common::{pty_pair_ignoreeof, si, si_command, test_dir, text, Kill};
 
 #[test]
 fn fetch_returns_what_send_wrote_to_serve() {
-    let Some((_socat, a, b)) = pty_pair() else {
-        eprintln!("SKIPPED: socat not found (apt-get install socat)");
+    let Some(pair) = pty_pair_ignoreeof() else {
         return;
     };
-    let dir = std::env::temp_dir().join(format!("si-rk512-pty-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let config = dir.join("serve.toml");
+    let (a, b) = (&pair.a, &pair.b);
+    let config = test_dir("si-rk512-pty").join("serve.toml");
     let mut f = std::fs::File::create(&config).unwrap();
     writeln!(
         f,
@@ -73,8 +25,8 @@ fn fetch_returns_what_send_wrote_to_serve() {
     )
     .unwrap();
     drop(f);
-    let serve = Command::new(env!("CARGO_BIN_EXE_si"))
-        .args(["--json", "--port", &b, "rk512", "serve", "--count", "3"])
+    let serve = si_command()
+        .args(["--json", "--port", b, "rk512", "serve", "--count", "3"])
         .args(["--config", config.to_str().unwrap()])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -89,13 +41,13 @@ fn fetch_returns_what_send_wrote_to_serve() {
         .collect();
     let hex = data.join(" ");
     let o = si(&[
-        "--port", &a, "rk512", "send", "--db", "10", "--dw", "4", &hex,
+        "--port", a, "rk512", "send", "--db", "10", "--dw", "4", &hex,
     ]);
     assert!(o.status.success(), "send: {}", text(&o));
     assert!(text(&o).contains("16#0000"), "{}", text(&o));
 
     let o = si(&[
-        "--json", "--port", &a, "rk512", "fetch", "--db", "10", "--dw", "4", "--count", "75",
+        "--json", "--port", a, "rk512", "fetch", "--db", "10", "--dw", "4", "--count", "75",
     ]);
     assert!(o.status.success(), "fetch: {}", text(&o));
     let line: serde_json::Value =
@@ -104,7 +56,7 @@ fn fetch_returns_what_send_wrote_to_serve() {
     assert_eq!(line["len"], 150);
 
     // A job the server refuses: DB 99 does not exist (error number 14H, STATUS 16#0903).
-    let o = si(&["--port", &a, "rk512", "fetch", "--db", "99", "--count", "1"]);
+    let o = si(&["--port", a, "rk512", "fetch", "--db", "99", "--count", "1"]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("16#0903"), "{err}");
@@ -128,12 +80,12 @@ fn fetch_returns_what_send_wrote_to_serve() {
 
 #[test]
 fn fetch_without_a_partner_fails_with_the_3964r_status() {
-    let Some((_socat, a, _b)) = pty_pair() else {
-        eprintln!("SKIPPED: socat not found (apt-get install socat)");
+    let Some(pair) = pty_pair_ignoreeof() else {
         return;
     };
+    let a = &pair.a;
     let o = si(&[
-        "--port", &a, "rk512", "fetch", "--area", "m", "--count", "1", "--qvz-ms", "50",
+        "--port", a, "rk512", "fetch", "--area", "m", "--count", "1", "--qvz-ms", "50",
     ]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);

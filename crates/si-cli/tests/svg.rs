@@ -3,21 +3,18 @@
 //! summarising it.
 
 use std::path::PathBuf;
-use std::process::Command;
 
-fn si() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_si"))
-}
+mod common;
+
+use common::{si_command, test_dir};
 
 fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("si-svg-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    test_dir("si-svg-test").join(name)
 }
 
 fn sim_svg(scenario: &str) -> Option<String> {
     let path = tmp(&format!("{scenario}.svg"));
-    let o = si()
+    let o = si_command()
         .args(["sim", scenario, "--svg"])
         .arg(&path)
         .output()
@@ -186,7 +183,8 @@ fn every_protocol_scenario_draws_well_formed_svg() {
 
 #[test]
 fn dp_coord_send_job_diagram_when_the_scenario_exists() {
-    let list = String::from_utf8_lossy(&si().args(["sim"]).output().unwrap().stdout).to_string();
+    let list =
+        String::from_utf8_lossy(&si_command().args(["sim"]).output().unwrap().stdout).to_string();
     if !list.contains("dp-coord-e2e") {
         eprintln!("SKIPPED: no dp-coord-e2e scenario yet");
         return;
@@ -202,13 +200,14 @@ fn dp_coord_send_job_diagram_when_the_scenario_exists() {
 
 #[test]
 fn dp_coord_window_only_scenario_says_it_has_no_line_to_draw() {
-    let list = String::from_utf8_lossy(&si().args(["sim"]).output().unwrap().stdout).to_string();
+    let list =
+        String::from_utf8_lossy(&si_command().args(["sim"]).output().unwrap().stdout).to_string();
     if !list.contains("dp-coord-send") {
         eprintln!("SKIPPED: no dp-coord-send scenario yet");
         return;
     }
     let path = tmp("dp-coord-send.svg");
-    let o = si()
+    let o = si_command()
         .args(["sim", "dp-coord-send", "--svg"])
         .arg(&path)
         .output()
@@ -257,7 +256,7 @@ fn ten_minutes() -> PathBuf {
 fn a_ten_minute_recording_is_summarised_and_keeps_its_error() {
     let trace = ten_minutes();
     let svg_path = tmp("ten-minutes.svg");
-    let o = si()
+    let o = si_command()
         .args(["--json", "monitor", "--trace"])
         .arg(&trace)
         .arg("--svg")

@@ -1,17 +1,8 @@
 //! `si frame encode|decode uss` and the USS `si sim` scenarios, run through the built binary.
 
-use std::process::{Command, Output};
+mod common;
 
-fn si(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_si"))
-        .args(args)
-        .output()
-        .expect("run si")
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
+use common::{si, stdout};
 
 #[test]
 fn encode_builds_the_whole_telegram_with_lge_and_bcc_including_stx() {

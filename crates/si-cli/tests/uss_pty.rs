@@ -1,58 +1,27 @@
 //! `si uss poll` against `si uss sim-slave` over a pseudo-terminal pair made by socat
-//! (`apt-get install socat`); skips with a message when socat is missing.
+//! (`apt-get install socat`); skips with a message when socat is missing (fails with `CI` set).
 
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-struct Kill(Child);
-impl Drop for Kill {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
+mod common;
 
-/// Start socat and read the two pty names it prints.
-fn pty_pair() -> Option<(Kill, String, String)> {
-    let mut child = Command::new("socat")
-        .args(["-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"])
-        .stderr(Stdio::piped())
-        .spawn()
-        .ok()?;
-    let stderr = child.stderr.take()?;
-    let mut names = Vec::new();
-    for line in BufReader::new(stderr).lines() {
-        let line = line.ok()?;
-        if let Some(i) = line.find("PTY is ") {
-            names.push(line[i + 7..].trim().to_owned());
-            if names.len() == 2 {
-                break;
-            }
-        }
-    }
-    let b = names.pop()?;
-    let a = names.pop()?;
-    Some((Kill(child), a, b))
-}
+use common::{pty_pair, si_command, Kill};
 
 #[test]
 fn poll_shows_changing_status_words_from_a_simulated_drive() {
-    let Some((_socat, a, b)) = pty_pair() else {
-        eprintln!("SKIPPED: socat not found (apt-get install socat)");
-        return;
-    };
-    let si = env!("CARGO_BIN_EXE_si");
+    let Some(pair) = pty_pair() else { return };
+    let (a, b) = (&pair.a, &pair.b);
     let _slave = Kill(
-        Command::new(si)
-            .args(["uss", "sim-slave", "--address", "3", "--port", &b])
+        si_command()
+            .args(["uss", "sim-slave", "--address", "3", "--port", b])
             .stdout(Stdio::null())
             .spawn()
             .expect("start sim-slave"),
     );
     std::thread::sleep(Duration::from_millis(300));
     let started = Instant::now();
-    let o = Command::new(si)
+    let o = si_command()
         .args([
             "--json",
             "uss",
@@ -68,7 +37,7 @@ fn poll_shows_changing_status_words_from_a_simulated_drive() {
             "--response-timeout",
             "500",
             "--port",
-            &a,
+            a,
         ])
         .output()
         .expect("run poll");
@@ -104,14 +73,11 @@ fn poll_shows_changing_status_words_from_a_simulated_drive() {
 
 #[test]
 fn read_and_write_param_against_a_simulated_drive_with_an_ak7_refusal() {
-    let Some((_socat, a, b)) = pty_pair() else {
-        eprintln!("SKIPPED: socat not found (apt-get install socat)");
-        return;
-    };
-    let si = env!("CARGO_BIN_EXE_si");
+    let Some(pair) = pty_pair() else { return };
+    let (a, b) = (&pair.a, &pair.b);
     let _slave = Kill(
-        Command::new(si)
-            .args(["uss", "sim-slave", "--address", "5", "--port", &b])
+        si_command()
+            .args(["uss", "sim-slave", "--address", "5", "--port", b])
             .stdout(Stdio::null())
             .spawn()
             .expect("start sim-slave"),
@@ -120,8 +86,8 @@ fn read_and_write_param_against_a_simulated_drive_with_an_ak7_refusal() {
     let run = |args: &[&str]| {
         let mut all = vec!["uss"];
         all.extend_from_slice(args);
-        all.extend_from_slice(&["--slave", "5", "--response-timeout", "500", "--port", &a]);
-        Command::new(si).args(&all).output().expect("run si")
+        all.extend_from_slice(&["--slave", "5", "--response-timeout", "500", "--port", a]);
+        si_command().args(&all).output().expect("run si")
     };
     let o = run(&["read-param", "700"]);
     let text = String::from_utf8_lossy(&o.stdout);

@@ -1,0 +1,161 @@
+//! Helpers shared by the integration tests of the `si` binary: running the built binary,
+//! turning its output into text, killing child processes on drop, and making a pseudo-terminal
+//! pair with socat. One copy here instead of one per test file, so a fix (a drained pipe, a
+//! clearer skip message) reaches every test.
+//!
+//! Each file under `tests/` is its own test crate and uses only some of these helpers.
+#![allow(dead_code)]
+
+use serde_json::Value;
+use std::ffi::OsStr;
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Output, Stdio};
+
+/// The built `si` binary as a command, for tests that add pipes, spawn it or set stdin.
+pub fn si_command() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_si"))
+}
+
+/// Runs `si ARGS` to the end and returns its status and output (panics only when the binary
+/// cannot be started at all: a failing `si` is for the test to judge).
+pub fn si(args: &[&str]) -> Output {
+    si_command().args(args).output().expect("run si")
+}
+
+/// The output's stdout as text (invalid UTF-8 shown as U+FFFD, so a test never panics on it).
+pub fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// The output's stderr as text (invalid UTF-8 shown as U+FFFD).
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Stdout followed by stderr: everything the process said, for assertion messages.
+pub fn text(o: &Output) -> String {
+    format!("{}{}", stdout(o), stderr(o))
+}
+
+/// `si --json monitor ARGS`: the JSON records it printed, one a line, and the counters of its
+/// last line. The monitor failing, or printing anything but JSON lines, fails the test.
+pub fn monitor_json<S: AsRef<OsStr>>(args: &[S]) -> (Vec<Value>, Value) {
+    let o = si_command()
+        .args(["--json", "monitor"])
+        .args(args)
+        .output()
+        .unwrap();
+    let text = stdout(&o);
+    assert!(o.status.success(), "monitor: {text}{}", stderr(&o));
+    let mut lines: Vec<Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON line"))
+        .collect();
+    let counters = lines.pop().expect("counters line")["counters"].clone();
+    (lines, counters)
+}
+
+/// A directory of its own for this test binary's files: `$TMPDIR/<name>-<pid>`, created if
+/// needed. The process id keeps parallel runs of the same tests apart.
+pub fn test_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A child process killed (and reaped) when dropped, so a failing assertion never leaves an
+/// `si`, socat or peer process behind holding a pseudo-terminal.
+pub struct Kill(pub Child);
+
+impl Drop for Kill {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// Is the external program `name` runnable (`check` exits 0)? A missing peer skips the test
+/// with a message saying how to install it; with the environment variable `CI` set it is a
+/// failure instead, so a CI image without the peer cannot pass by skipping.
+pub fn peer(name: &str, check: &mut Command, install: &str) -> bool {
+    let ok = check
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if ok {
+        return true;
+    }
+    if std::env::var_os("CI").is_some() {
+        panic!("test peer {name} is missing and CI is set; install it with: {install}");
+    }
+    eprintln!("SKIPPED: test peer {name} is not installed ({install})");
+    false
+}
+
+/// Is socat installed? A skip with a message if not, a failure with `CI` set (see [`peer`]).
+pub fn have_socat() -> bool {
+    peer(
+        "socat",
+        Command::new("socat").arg("-V"),
+        "apt-get install socat",
+    )
+}
+
+/// Two connected pseudo-terminals made by socat; socat is killed when the pair is dropped,
+/// which closes both ends.
+pub struct PtyPair {
+    socat: Kill,
+    /// The first pseudo-terminal socat opened (`/dev/pts/N`).
+    pub a: String,
+    /// The second one, joined to `a`.
+    pub b: String,
+}
+
+/// A pair of raw pseudo-terminals without echo (`pty,raw,echo=0` on both sides); socat ends
+/// the link when one side reaches end of file. `None` (after a SKIPPED message) when socat is
+/// not installed, except with `CI` set (see [`peer`]).
+pub fn pty_pair() -> Option<PtyPair> {
+    socat_pty_pair("pty,raw,echo=0")
+}
+
+/// Like [`pty_pair`], with `ignoreeof` on both sides: the link survives one process closing
+/// its end and another opening it (a sender run after a sender, a receiver started first).
+/// The tests that always used it keep it; the others keep plain [`pty_pair`].
+pub fn pty_pair_ignoreeof() -> Option<PtyPair> {
+    socat_pty_pair("pty,raw,echo=0,ignoreeof")
+}
+
+/// Starts `socat -d -d END END` and reads the two pty names from its log. socat missing is a
+/// skip (a failure with `CI` set); socat present but not making the pair is always a failure.
+fn socat_pty_pair(end: &str) -> Option<PtyPair> {
+    if !have_socat() {
+        return None;
+    }
+    let child = Command::new("socat")
+        .args(["-d", "-d", end, end])
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("spawn socat");
+    let mut socat = Kill(child);
+    let log = socat.0.stderr.take().expect("socat stderr");
+    let mut names = Vec::new();
+    let mut lines = BufReader::new(log).lines();
+    while names.len() < 2 {
+        let line = lines
+            .next()
+            .expect("socat ended before printing two pty names")
+            .expect("socat log line");
+        if let Some(i) = line.find("PTY is ") {
+            names.push(line[i + 7..].trim().to_owned());
+        }
+    }
+    // Keep draining socat's log so it never blocks on a full pipe nor dies of SIGPIPE when it
+    // logs an end of file later.
+    std::thread::spawn(move || for _ in lines {});
+    let b = names.pop().expect("second pty");
+    let a = names.pop().expect("first pty");
+    Some(PtyPair { socat, a, b })
+}
