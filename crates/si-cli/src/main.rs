@@ -123,7 +123,9 @@ fn main() -> ExitCode {
         Command::Ascii(_) => Some("ascii"),
         Command::Modbus(_) => Some("modbus"),
         Command::Uss(_) => Some("uss"),
-        Command::DpCoord(_) => Some("dp-coord"),
+        // The serial line under `dp-coord module` speaks 3964(R) or ASCII, not windows (the
+        // monitor's `dp-coord` decoder reads window traces): let the monitor recognise it.
+        Command::DpCoord(_) => None,
         _ => None,
     };
     let level = match cli.verbose {

@@ -268,6 +268,7 @@ fn is_fault_counter(name: &str) -> bool {
         "telegrams",
         "frames",
         "broadcasts",
+        "windows",
         "XON",
         "XOFF",
     ];

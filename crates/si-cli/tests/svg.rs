@@ -3,18 +3,21 @@
 //! summarising it.
 
 use std::path::PathBuf;
+use std::process::Command;
 
-mod common;
-
-use common::{si_command, test_dir};
+fn si() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_si"))
+}
 
 fn tmp(name: &str) -> PathBuf {
-    test_dir("si-svg-test").join(name)
+    let dir = std::env::temp_dir().join(format!("si-svg-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
 }
 
 fn sim_svg(scenario: &str) -> Option<String> {
     let path = tmp(&format!("{scenario}.svg"));
-    let o = si_command()
+    let o = si()
         .args(["sim", scenario, "--svg"])
         .arg(&path)
         .output()
@@ -183,44 +186,132 @@ fn every_protocol_scenario_draws_well_formed_svg() {
 
 #[test]
 fn dp_coord_send_job_diagram_when_the_scenario_exists() {
-    let list =
-        String::from_utf8_lossy(&si_command().args(["sim"]).output().unwrap().stdout).to_string();
+    let list = String::from_utf8_lossy(&si().args(["sim"]).output().unwrap().stdout).to_string();
+    if !list.contains("dp-coord-send") {
+        eprintln!("SKIPPED: no dp-coord-send scenario yet");
+        return;
+    }
+    // Table 2-23: 22 characters through an 8-byte window, one arrow per DP cycle and
+    // direction, labelled with the coordination byte's reading.
+    let svg = sim_svg("dp-coord-send").expect("si sim dp-coord-send --svg");
+    assert_eq!(well_formed(&svg), Ok(()));
+    assert!(
+        svg.contains("dp-coord — 24 records"),
+        "12 cycles, two windows each"
+    );
+    let host = svg.find(">host</text>").expect("host lane");
+    let module = svg.find(">module</text>").expect("module lane");
+    assert!(host < module, "the host lane is drawn first (left)");
+    for label in [
+        ">10H send req</text>",
+        ">10H accepted</text>",
+        ">11H seg 1, len 22: abcde</text>",
+        ">12H seg 2: fghijkl</text>",
+        ">13H seg 3: mnopqrs</text>",
+        ">14H seg 4: tuv</text>",
+        ">14H ack seg 4</text>",
+        ">74H done</text>",
+    ] {
+        assert!(svg.contains(label), "label {label}");
+    }
+    assert!(svg.contains("jobs ok: 1"));
+    assert_eq!(svg.matches("marker-end=\"url(#arrow-black)\"").count(), 24);
+    assert!(
+        !svg.contains("url(#arrow-red)"),
+        "a clean job has no red arrow"
+    );
+}
+
+#[test]
+fn dp_coord_send_records_a_window_trace_the_monitor_reads() {
+    let trace = tmp("dp-coord-send.trace");
+    let plain = si().args(["sim", "dp-coord-send"]).output().unwrap();
+    let o = si()
+        .args(["--record"])
+        .arg(&trace)
+        .args(["sim", "dp-coord-send"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        o.stdout, plain.stdout,
+        "recording leaves the output as it was"
+    );
+    let text = std::fs::read_to_string(&trace).unwrap();
+    assert!(text
+        .lines()
+        .next()
+        .unwrap()
+        .contains(r#""protocol":"dp-coord""#));
+    let o = si()
+        .args(["monitor", "--protocol", "dp-coord", "--trace"])
+        .arg(&trace)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("host → module   11H seg 1, len 22: abcde"),
+        "{out}"
+    );
+    assert!(out.contains("module → host     74H done"), "{out}");
+    assert!(out.contains("STATUS 16#0000 no error"), "{out}");
+}
+
+#[test]
+fn dp_coord_error_bit_and_status_are_drawn_in_red() {
+    // A host whose segment 3 the module saw out of order (error bit, last valid 2), and a
+    // job that ends with STATUS 0501H.
+    let header = r#"{"format":"si-trace","version":1,"source":"sim","protocol":"dp-coord","stations":["host","module"]}"#;
+    let windows: [(u64, &str, [u8; 8]); 4] = [
+        (10_000, "host", [0x13, 1, 2, 3, 4, 5, 6, 7]),
+        (20_000, "module", [0x1A, 0, 0, 0, 0, 0, 0, 0]),
+        (30_000, "module", [0x71, 0x05, 0x01, 0, 0, 0, 0, 0]),
+        (40_000, "host", [0, 0, 0, 0, 0, 0, 0, 0]),
+    ];
+    let mut text = format!("{header}\n");
+    for (at, station, bytes) in windows {
+        let bytes: Vec<String> = bytes.iter().map(u8::to_string).collect();
+        text.push_str(&format!(
+            r#"{{"at":{at},"station":"{station}","kind":"tx","bytes":[{}]}}"#,
+            bytes.join(",")
+        ));
+        text.push('\n');
+    }
+    let trace = tmp("dp-coord-errors.trace");
+    std::fs::write(&trace, text).unwrap();
+    let svg_path = tmp("dp-coord-errors.svg");
+    let o = si()
+        .args(["monitor", "--trace"])
+        .arg(&trace)
+        .arg("--svg")
+        .arg(&svg_path)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let svg = std::fs::read_to_string(&svg_path).unwrap();
+    assert_eq!(well_formed(&svg), Ok(()));
+    assert_eq!(svg.matches("marker-end=\"url(#arrow-red)\"").count(), 2);
+    assert!(svg.contains(">1AH error, last 2</text>"));
+    assert!(svg.contains("error bit: segment out of order, last valid 2"));
+    assert!(svg.contains(">71H STATUS 0501H</text>"));
+    assert!(svg.contains("STATUS errors: 1"));
+}
+
+#[test]
+fn dp_coord_e2e_diagram_decodes_the_3964r_line() {
+    let list = String::from_utf8_lossy(&si().args(["sim"]).output().unwrap().stdout).to_string();
     if !list.contains("dp-coord-e2e") {
         eprintln!("SKIPPED: no dp-coord-e2e scenario yet");
         return;
     }
     // S_SEND through module A's window, 3964(R) on the line between the modules, S_RCV at B:
-    // the line part is decoded (the header says dp-coord, the monitor recognises 3964(R)).
+    // the line part is decoded as 3964(R).
     let svg = sim_svg("dp-coord-e2e").expect("si sim dp-coord-e2e --svg");
     assert_eq!(well_formed(&svg), Ok(()));
     assert!(svg.contains(">STX</text>"));
     assert!(svg.contains("block 16 B"));
     assert!(svg.contains("blocks ok: 1"));
-}
-
-#[test]
-fn dp_coord_window_only_scenario_says_it_has_no_line_to_draw() {
-    let list =
-        String::from_utf8_lossy(&si_command().args(["sim"]).output().unwrap().stdout).to_string();
-    if !list.contains("dp-coord-send") {
-        eprintln!("SKIPPED: no dp-coord-send scenario yet");
-        return;
-    }
-    let path = tmp("dp-coord-send.svg");
-    let o = si_command()
-        .args(["sim", "dp-coord-send", "--svg"])
-        .arg(&path)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    if o.status.success() {
-        // The scenario hands a trace to print_trace now: it must draw.
-        let svg = std::fs::read_to_string(path).unwrap();
-        assert_eq!(well_formed(&svg), Ok(()));
-    } else {
-        assert!(err.contains("printed no trace"), "{err}");
-        assert_eq!(err.lines().count(), 1, "{err}");
-    }
 }
 
 /// Ten minutes of 3964(R) traffic (a block every 100 ms, one with a flipped BCC) as a trace
@@ -256,7 +347,7 @@ fn ten_minutes() -> PathBuf {
 fn a_ten_minute_recording_is_summarised_and_keeps_its_error() {
     let trace = ten_minutes();
     let svg_path = tmp("ten-minutes.svg");
-    let o = si_command()
+    let o = si()
         .args(["--json", "monitor", "--trace"])
         .arg(&trace)
         .arg("--svg")

@@ -23,14 +23,14 @@
 //! the `frame`, `signals`, `done` and `error` lines of a transcript are shown as they are.
 
 use crate::cmd::frame::parse_hex;
-use crate::cmd::sim::{print_trace, Scenario, SimOptions};
+use crate::cmd::sim::{print_trace, record_trace, Scenario, SimOptions};
 use crate::conn::Connection;
 use crate::{CliError, Output};
 use bytes::Bytes;
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 use si_core::driver::{self, DriverOptions, Transport};
-use si_core::sim::Simulator;
+use si_core::sim::{Simulator, Trace, TraceEntry, TraceKind};
 use si_core::{Duration, Engine, Instant, SerialSettings, Status};
 use si_dp_coord::engines;
 use si_dp_coord::fb::{SRcv, SSend};
@@ -544,6 +544,10 @@ pub const SCENARIOS: &[Scenario] = &[
 
 /// Table 2-23 (et200s-si-2005-window-protocol.md §2.7.1, reconstructed, H-1): 22 characters
 /// through an 8-byte window, the module one DP cycle behind the host as in the manual's table.
+///
+/// The windows are also a trace for `--record`/`--svg` ([`record_trace`], protocol `dp-coord`):
+/// per cycle the module's input window (station `module`) and, a millisecond later, the host's
+/// answer (station `host`), each a `tx` entry.
 fn scenario_send(_: &SimOptions, out: &Output) -> Result<(), CliError> {
     let mut host = Host::new(HostConfig::new(WindowSize::Eight))?;
     let mut serial = LoopbackSerial::new();
@@ -554,9 +558,21 @@ fn scenario_send(_: &SimOptions, out: &Output) -> Result<(), CliError> {
         .map_err(|e| CliError::new(e.to_string()))?;
     let mut input = module.input().to_vec();
     let mut previous = host.output().to_vec();
+    let mut trace = Trace::default();
+    let mut window = |at: Instant, station: &str, bytes: &[u8]| {
+        trace.entries.push(TraceEntry {
+            at,
+            station: station.to_owned(),
+            kind: TraceKind::Tx {
+                bytes: bytes.to_vec(),
+            },
+        });
+    };
     for cycle in 1..=40 {
         let now = Instant::from_micros(cycle as u64 * 10_000);
         let output = host.cycle(now, &input).to_vec();
+        window(now, "module", &input);
+        window(now + Duration::from_millis(1), "host", &output);
         if let Some(w) = Window::from_bytes(&input) {
             print_window(out, cycle, &w, Direction::ModuleToHost);
         }
@@ -573,11 +589,13 @@ fn scenario_send(_: &SimOptions, out: &Output) -> Result<(), CliError> {
             } = event
             {
                 if done == id {
+                    record_trace(&trace, "dp-coord");
                     return finish(result, out);
                 }
             }
         }
     }
+    record_trace(&trace, "dp-coord");
     Err(CliError::new("the send job did not end in 40 cycles"))
 }
 

@@ -6,7 +6,8 @@
 //! `--record FILE` (the global option) writes the trace a scenario prints as a trace file
 //! (`si_core::tracefile`, with the protocol and settings in its header) for `si monitor
 //! --trace`; `--svg FILE` decodes it with the monitor and draws the sequence diagram. Both
-//! hook into [`print_trace`], which every scenario calls once with its trace.
+//! hook into [`print_trace`], which every scenario calls once with its trace, or
+//! [`record_trace`] for a scenario that prints its own reading (`dp-coord-send`'s windows).
 
 use crate::cmd::{ascii, dpcoord, modbus, r3964, rk512, uss};
 use crate::{CliError, Output};
@@ -71,7 +72,9 @@ fn protocol_of(name: &str) -> Option<&'static str> {
         (ascii::SCENARIOS, "ascii"),
         (modbus::SCENARIOS, "modbus"),
         (uss::SCENARIOS, "uss"),
-        (dpcoord::SCENARIOS, "dp-coord"),
+        // The line of `dp-coord-e2e` is 3964(R); `dp-coord-send` has no line and records its
+        // windows as protocol `dp-coord` ([`record_trace`]).
+        (dpcoord::SCENARIOS, "3964r"),
     ];
     lists
         .iter()
@@ -197,6 +200,18 @@ fn save(sink: &Sink, trace: &Trace) -> Result<(), String> {
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }
     Ok(())
+}
+
+/// Save a trace the running scenario does not print (it prints its own reading) when `si sim`
+/// was asked to `--record` or draw (`--svg`) it; `protocol` goes into the trace header and
+/// picks the monitor's decoder (`dp-coord`: DP windows, [`crate::cmd::monitor::window`]).
+pub fn record_trace(trace: &Trace, protocol: &'static str) {
+    SINK.with(|s| {
+        if let Some(sink) = s.borrow_mut().as_mut() {
+            sink.protocol = Some(protocol);
+            sink.written = save(sink, trace).map(|()| true);
+        }
+    });
 }
 
 /// Print a trace: the human table, or one JSON object per entry. When `si sim` was asked to

@@ -7,7 +7,8 @@
 //! ([`p3964`], [`modbus`], [`uss`], [`ascii`]), which cuts frames the way the module's receiver
 //! does, checks BCC/CRC, judges the manuals' timers (ZVZ, QVZ, Modbus end-of-frame gap and
 //! response timeout, USS start interval, residual run time and response delay) and keeps
-//! counters. Every record is printed as it is decoded; the counters at the end. `--svg` draws
+//! counters. A trace of DP windows (`--protocol dp-coord`, [`window`]) is read window by window
+//! with its coordination bytes. Every record is printed as it is decoded; the counters at the end. `--svg` draws
 //! the sequence diagram ([`crate::svg`]).
 
 pub mod ascii;
@@ -17,6 +18,7 @@ pub mod modbus;
 pub mod model;
 pub mod p3964;
 pub mod uss;
+pub mod window;
 
 use crate::conn::Connection;
 use crate::{CliError, Output};
@@ -43,6 +45,9 @@ pub enum Protocol {
     Modbus,
     /// USS.
     Uss,
+    /// The window protocol's DP windows (a recorded window trace, not a serial line).
+    #[value(name = "dp-coord")]
+    DpCoord,
     /// The trace header's protocol, else the decoder that explains the line best.
     Auto,
 }
@@ -56,6 +61,7 @@ impl Protocol {
             Protocol::Ascii => "ascii",
             Protocol::Modbus => "modbus",
             Protocol::Uss => "uss",
+            Protocol::DpCoord => "dp-coord",
             Protocol::Auto => "auto",
         }
     }
@@ -68,6 +74,7 @@ impl Protocol {
             "ascii" => Protocol::Ascii,
             "modbus" => Protocol::Modbus,
             "uss" => Protocol::Uss,
+            "dp-coord" => Protocol::DpCoord,
             _ => return None,
         })
     }
@@ -178,6 +185,7 @@ impl MonitorArgs {
                 one_sided,
             )),
             Protocol::Uss => Box::new(uss::Uss::new(settings, one_sided)),
+            Protocol::DpCoord => Box::new(window::Windows::new(1)),
             Protocol::Ascii => {
                 use si_ascii::config::EndCriterion;
                 let end = match (&self.end_char, self.fixed_length) {
@@ -234,7 +242,20 @@ impl MonitorArgs {
         file: &TraceFile,
         settings: SerialSettings,
     ) -> Result<Analysis, CliError> {
-        let line = line::from_trace(file, settings);
+        let named = file
+            .header
+            .as_ref()
+            .and_then(|h| h.protocol.as_deref())
+            .and_then(Protocol::from_name);
+        let windows = match (self.protocol, named) {
+            (Protocol::Auto, named) => named == Some(Protocol::DpCoord),
+            (p, _) => p == Protocol::DpCoord,
+        };
+        let line = if windows {
+            window::line(file)
+        } else {
+            line::from_trace(file, settings)
+        };
         let one_sided = line.stations.len() < 2;
         let end = file
             .trace
@@ -243,11 +264,6 @@ impl MonitorArgs {
             .map(|e| e.at)
             .unwrap_or_default()
             .max(line.chars.last().map(|c| c.at).unwrap_or_default());
-        let named = file
-            .header
-            .as_ref()
-            .and_then(|h| h.protocol.as_deref())
-            .and_then(Protocol::from_name);
         let protocol = match (self.protocol, named) {
             (Protocol::Auto, Some(p)) => p,
             (Protocol::Auto, None) => {
@@ -255,7 +271,11 @@ impl MonitorArgs {
             }
             (p, _) => p,
         };
-        let mut decoder = self.decoder(protocol, settings, one_sided);
+        let mut decoder: Box<dyn Decoder> = if windows {
+            Box::new(window::Windows::new(window::module_index(&line.stations)))
+        } else {
+            self.decoder(protocol, settings, one_sided)
+        };
         let mut records = decode_all(decoder.as_mut(), &line.chars, end);
         if self.events {
             for e in &file.trace.entries {
@@ -284,6 +304,10 @@ impl MonitorArgs {
         let protocol = if self.protocol == Protocol::Auto {
             return Err(CliError::new(
                 "on a live port, name the protocol: --protocol 3964r|3964|rk512|ascii|modbus|uss",
+            ));
+        } else if self.protocol == Protocol::DpCoord {
+            return Err(CliError::new(
+                "DP windows are not on a serial port: record them (si sim dp-coord-send --record FILE) and read them with --trace FILE",
             ));
         } else {
             self.protocol
@@ -615,6 +639,7 @@ mod tests {
                 Protocol::Ascii,
                 Protocol::Modbus,
                 Protocol::Uss,
+                Protocol::DpCoord,
             ] {
                 let a = args(&[]);
                 let mut d = a.decoder(protocol, settings, stations == 1);
