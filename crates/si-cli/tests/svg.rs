@@ -3,21 +3,18 @@
 //! summarising it.
 
 use std::path::PathBuf;
-use std::process::Command;
 
-fn si() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_si"))
-}
+mod common;
+
+use common::{si_command, test_dir};
 
 fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("si-svg-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+    test_dir("si-svg-test").join(name)
 }
 
 fn sim_svg(scenario: &str) -> Option<String> {
     let path = tmp(&format!("{scenario}.svg"));
-    let o = si()
+    let o = si_command()
         .args(["sim", scenario, "--svg"])
         .arg(&path)
         .output()
@@ -186,7 +183,8 @@ fn every_protocol_scenario_draws_well_formed_svg() {
 
 #[test]
 fn dp_coord_send_job_diagram_when_the_scenario_exists() {
-    let list = String::from_utf8_lossy(&si().args(["sim"]).output().unwrap().stdout).to_string();
+    let list =
+        String::from_utf8_lossy(&si_command().args(["sim"]).output().unwrap().stdout).to_string();
     if !list.contains("dp-coord-send") {
         eprintln!("SKIPPED: no dp-coord-send scenario yet");
         return;
@@ -225,8 +223,11 @@ fn dp_coord_send_job_diagram_when_the_scenario_exists() {
 #[test]
 fn dp_coord_send_records_a_window_trace_the_monitor_reads() {
     let trace = tmp("dp-coord-send.trace");
-    let plain = si().args(["sim", "dp-coord-send"]).output().unwrap();
-    let o = si()
+    let plain = si_command()
+        .args(["sim", "dp-coord-send"])
+        .output()
+        .unwrap();
+    let o = si_command()
         .args(["--record"])
         .arg(&trace)
         .args(["sim", "dp-coord-send"])
@@ -243,7 +244,7 @@ fn dp_coord_send_records_a_window_trace_the_monitor_reads() {
         .next()
         .unwrap()
         .contains(r#""protocol":"dp-coord""#));
-    let o = si()
+    let o = si_command()
         .args(["monitor", "--protocol", "dp-coord", "--trace"])
         .arg(&trace)
         .output()
@@ -281,7 +282,7 @@ fn dp_coord_error_bit_and_status_are_drawn_in_red() {
     let trace = tmp("dp-coord-errors.trace");
     std::fs::write(&trace, text).unwrap();
     let svg_path = tmp("dp-coord-errors.svg");
-    let o = si()
+    let o = si_command()
         .args(["monitor", "--trace"])
         .arg(&trace)
         .arg("--svg")
@@ -300,7 +301,8 @@ fn dp_coord_error_bit_and_status_are_drawn_in_red() {
 
 #[test]
 fn dp_coord_e2e_diagram_decodes_the_3964r_line() {
-    let list = String::from_utf8_lossy(&si().args(["sim"]).output().unwrap().stdout).to_string();
+    let list =
+        String::from_utf8_lossy(&si_command().args(["sim"]).output().unwrap().stdout).to_string();
     if !list.contains("dp-coord-e2e") {
         eprintln!("SKIPPED: no dp-coord-e2e scenario yet");
         return;
@@ -347,7 +349,7 @@ fn ten_minutes() -> PathBuf {
 fn a_ten_minute_recording_is_summarised_and_keeps_its_error() {
     let trace = ten_minutes();
     let svg_path = tmp("ten-minutes.svg");
-    let o = si()
+    let o = si_command()
         .args(["--json", "monitor", "--trace"])
         .arg(&trace)
         .arg("--svg")
