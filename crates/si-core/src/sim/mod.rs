@@ -504,8 +504,11 @@ impl Simulator {
 
     /// Drain a station's outputs until it waits (the contract's rule), acting on each.
     fn drain(&mut self, station: usize) {
-        let mut pending = vec![station];
-        while let Some(s) = pending.pop() {
+        // Runs for every delivered character: the station itself needs no allocation, only
+        // partners woken by a modem-signal change go on the (then allocated) list.
+        let mut pending = Vec::new();
+        let mut next = Some(station);
+        while let Some(s) = next.take().or_else(|| pending.pop()) {
             loop {
                 match self.slots[s].engine.poll() {
                     Output::Transmit(bytes) => {
