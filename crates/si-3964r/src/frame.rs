@@ -110,7 +110,7 @@ pub fn encode_into(payload: &[u8], mode: Mode, out: &mut Vec<u8>) {
     let start = out.len();
     out.reserve(payload.len() + 4);
     let mut rest = payload;
-    while let Some(i) = rest.iter().position(|&b| b == DLE) {
+    while let Some(i) = find_dle(rest) {
         out.extend_from_slice(&rest[..=i]);
         out.push(DLE);
         rest = &rest[i + 1..];
@@ -121,6 +121,19 @@ pub fn encode_into(payload: &[u8], mode: Mode, out: &mut Vec<u8>) {
         let check = bcc(&out[start..]);
         out.push(check);
     }
+}
+
+/// Index of the first DLE in `bytes`. Tests 32 bytes at a time without an early exit, which
+/// the compiler turns into vector compares: the codec's hot loop (BENCHMARKS.md).
+fn find_dle(bytes: &[u8]) -> Option<usize> {
+    let mut base = 0;
+    for chunk in bytes.chunks(32) {
+        if chunk.iter().fold(false, |found, &b| found | (b == DLE)) {
+            return chunk.iter().position(|&b| b == DLE).map(|i| base + i);
+        }
+        base += chunk.len();
+    }
+    None
 }
 
 /// The block for `payload` (see [`encode_into`]).
@@ -257,7 +270,7 @@ impl Decoder {
         while i < bytes.len() {
             if self.state == DecodeState::Data {
                 let rest = &bytes[i..];
-                let run = rest.iter().position(|&b| b == DLE).unwrap_or(rest.len());
+                let run = find_dle(rest).unwrap_or(rest.len());
                 if run > 0 {
                     let chunk = &rest[..run];
                     self.bcc ^= bcc(chunk);
