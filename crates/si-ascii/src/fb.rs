@@ -31,46 +31,13 @@ use bytes::Bytes;
 use si_core::fb::RisingEdge;
 use si_core::{Instant, SignalUpdate, Status};
 
-/// DONE / ERROR / STATUS of the FBs without data outputs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Done {
-    /// The job completed without error (this call only).
-    pub done: bool,
-    /// The job completed with an error (this call only).
-    pub error: bool,
-    /// 0000H, or the error.
-    pub status: Status,
-}
+pub use si_core::fb::Done;
 
-impl Default for Done {
-    fn default() -> Self {
-        Done {
-            done: false,
-            error: false,
-            status: Status::OK,
-        }
-    }
-}
-
-impl Done {
-    fn ok() -> Self {
-        Done {
-            done: true,
-            ..Done::default()
-        }
-    }
-    fn failed(status: Status) -> Self {
-        Done {
-            error: true,
-            status,
-            ..Done::default()
-        }
-    }
-    fn from_result(r: Result<(), Refused>) -> Self {
-        match r {
-            Ok(()) => Done::ok(),
-            Err(e) => Done::failed(e.status),
-        }
+/// DONE or ERROR for a job the link applied (or refused) at once.
+fn done_from(r: Result<(), Refused>) -> Done {
+    match r {
+        Ok(()) => Done::ok(),
+        Err(e) => Done::failed(e.status),
     }
 }
 
@@ -259,7 +226,7 @@ impl SVset {
         if !self.req.update(req) {
             return Done::default();
         }
-        Done::from_result(link.set_signals(SignalUpdate {
+        done_from(link.set_signals(SignalUpdate {
             rts: Some(rts),
             dtr: Some(dtr),
         }))
@@ -284,7 +251,7 @@ macro_rules! param_fb {
                 if !self.req.update(req) {
                     return Done::default();
                 }
-                Done::from_result(link.$setter(params))
+                done_from(link.$setter(params))
             }
         }
     };

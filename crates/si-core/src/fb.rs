@@ -67,6 +67,48 @@ impl<T> Pulse<T> {
     }
 }
 
+/// DONE / ERROR / STATUS of an FB without data outputs (S_VSET, S_XON, S_RTS, S_V24, and
+/// S_SEND through the window), valid for the one call that returns it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Done {
+    /// The job completed without error (this call only).
+    pub done: bool,
+    /// The job completed with an error (this call only).
+    pub error: bool,
+    /// 0000H, or the error.
+    pub status: crate::Status,
+}
+
+impl Default for Done {
+    /// Nothing completed in this call: DONE and ERROR false, STATUS 0000H.
+    fn default() -> Self {
+        Done {
+            done: false,
+            error: false,
+            status: crate::Status::OK,
+        }
+    }
+}
+
+impl Done {
+    /// DONE for this call.
+    pub fn ok() -> Self {
+        Done {
+            done: true,
+            ..Done::default()
+        }
+    }
+
+    /// ERROR with `status` for this call.
+    pub fn failed(status: crate::Status) -> Self {
+        Done {
+            error: true,
+            status,
+            ..Done::default()
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

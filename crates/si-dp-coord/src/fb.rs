@@ -28,43 +28,7 @@ use bytes::Bytes;
 use si_core::fb::RisingEdge;
 use si_core::{Duration, Status};
 
-/// DONE / ERROR / STATUS of the FBs without data outputs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Done {
-    /// The job completed without error (this call only).
-    pub done: bool,
-    /// The job completed with an error (this call only).
-    pub error: bool,
-    /// 0000H, or the error.
-    pub status: Status,
-}
-
-impl Default for Done {
-    fn default() -> Self {
-        Done {
-            done: false,
-            error: false,
-            status: Status::OK,
-        }
-    }
-}
-
-impl Done {
-    fn ok() -> Self {
-        Done {
-            done: true,
-            ..Done::default()
-        }
-    }
-
-    fn failed(status: Status) -> Self {
-        Done {
-            error: true,
-            status,
-            ..Done::default()
-        }
-    }
-}
+pub use si_core::fb::Done;
 
 /// The job-tracking core every FB shares: REQ edge, the running job, R.
 #[derive(Debug, Default)]
