@@ -1,0 +1,537 @@
+//! Codec and engine speed, ours beside the peers on identical inputs in the same run (issue 9,
+//! BENCHMARKS.md). Groups are named `<operation>/<implementation>`:
+//!
+//! - Modbus: CRC of a 256-byte frame, FC03 request decode, 125-register FC03 response decode
+//!   (to the register values), 100-register FC16 request encode, each against rmodbus; a whole
+//!   FC03 round trip over `tokio::io::duplex`, our master against tokio-modbus's client, both
+//!   talking to the same slave (ours: tokio-modbus's RTU server only runs on a serial port).
+//! - 3964(R) block encode/decode of 256 bytes, USS telegram decode, the DP window send of a
+//!   224-byte frame, and for every engine its receive path fed the whole frame at once and one
+//!   byte at a time (`*_bytewise`).
+//!
+//! Run: `cargo bench --bench codecs` (add `-- <group>` to pick one).
+
+use bytes::Bytes;
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
+use si_core::{Engine, Instant, Output, SerialSettings};
+use std::hint::black_box;
+
+/// Deterministic bytes (xorshift), so every run and every implementation sees the same input.
+fn pseudo_random(n: usize, seed: u64) -> Vec<u8> {
+    let mut x = seed | 1;
+    (0..n)
+        .map(|_| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x as u8
+        })
+        .collect()
+}
+
+/// rmodbus 0.13's CRC, copied verbatim from its `src/lib.rs` (`calc_crc16` is private there);
+/// it is what rmodbus runs when it checks or appends a frame's CRC.
+fn rmodbus_calc_crc16(frame: &[u8], data_length: u8) -> u16 {
+    let mut crc: u16 = 0xffff;
+    for i in frame.iter().take(data_length as usize) {
+        crc ^= u16::from(*i);
+        for _ in (0..8).rev() {
+            if (crc & 0x0001) == 0 {
+                crc >>= 1;
+            } else {
+                crc >>= 1;
+                crc ^= 0xA001;
+            }
+        }
+    }
+    crc
+}
+
+fn drain<E: Engine>(engine: &mut E, mut on_transmit: impl FnMut(&[u8])) -> Option<Instant> {
+    loop {
+        match engine.poll_output() {
+            Output::Transmit(bytes) => on_transmit(&bytes),
+            Output::Wait(deadline) => return deadline,
+            _ => {}
+        }
+    }
+}
+
+fn modbus(c: &mut Criterion) {
+    use rmodbus::client::ModbusRequest;
+    use rmodbus::server::ModbusFrame;
+    use rmodbus::ModbusProto;
+    use si_modbus::frame::{crc16, decode_request, decode_response, Registers, Request, Response};
+
+    // CRC over a 256-byte frame. rmodbus's length is a u8, so it covers 255 bytes: the
+    // largest frame it can check.
+    let frame = pseudo_random(256, 1);
+    let mut g = c.benchmark_group("modbus_crc");
+    g.throughput(Throughput::Bytes(256));
+    g.bench_function("si", |b| b.iter(|| crc16(black_box(&frame))));
+    g.bench_function("rmodbus", |b| {
+        b.iter(|| rmodbus_calc_crc16(black_box(&frame), 255))
+    });
+    g.finish();
+
+    // FC03 request, 10 registers from 0: 01 03 00 00 00 0A C5 CD (the manual's frame).
+    let mut request_wire = Vec::new();
+    ModbusRequest::new(1, ModbusProto::Rtu)
+        .generate_get_holdings(0, 10, &mut request_wire)
+        .unwrap();
+    assert_eq!(
+        request_wire,
+        [0x01, 0x03, 0x00, 0x00, 0x00, 0x0A, 0xC5, 0xCD]
+    );
+    let mut g = c.benchmark_group("modbus_decode_fc03_request");
+    g.bench_function("si", |b| {
+        b.iter(|| match decode_request(black_box(&request_wire)) {
+            Ok((unit, Request::ReadHoldingRegisters { address, quantity })) => {
+                (unit, address, quantity)
+            }
+            other => panic!("{other:?}"),
+        })
+    });
+    let mut response = Vec::with_capacity(256);
+    g.bench_function("rmodbus", |b| {
+        b.iter(|| {
+            let mut frame =
+                ModbusFrame::new(1, black_box(&request_wire), ModbusProto::Rtu, &mut response);
+            frame.parse().unwrap();
+            assert!(frame.error.is_none());
+            (frame.func as u8, frame.reg, frame.count)
+        })
+    });
+    g.finish();
+
+    // FC03 response with 125 registers, decoded to the values in both cases.
+    let values: Vec<u16> = (0..125u16).map(|i| i.wrapping_mul(0x9E37)).collect();
+    let mut wire = vec![0x01, 0x03, 250];
+    for v in &values {
+        wire.extend_from_slice(&v.to_be_bytes());
+    }
+    let crc = crc16(&wire);
+    wire.extend_from_slice(&crc.to_le_bytes());
+    let mut g = c.benchmark_group("modbus_decode_fc03_response_125");
+    g.throughput(Throughput::Bytes(wire.len() as u64));
+    g.bench_function("si", |b| {
+        let mut out = [0u16; 125];
+        b.iter(|| {
+            let Ok((_, Response::ReadHoldingRegisters(regs))) = decode_response(black_box(&wire))
+            else {
+                panic!("not a register response")
+            };
+            for (slot, v) in out.iter_mut().zip(regs.iter()) {
+                *slot = v;
+            }
+            black_box(&out);
+        })
+    });
+    let mut mreq = ModbusRequest::new(1, ModbusProto::Rtu);
+    let mut scratch = Vec::new();
+    mreq.generate_get_holdings(0, 125, &mut scratch).unwrap();
+    let mut out: Vec<u16> = Vec::with_capacity(125);
+    mreq.parse_u16(&wire, &mut out).unwrap();
+    assert_eq!(out, values);
+    g.bench_function("rmodbus", |b| {
+        b.iter(|| {
+            out.clear();
+            mreq.parse_u16(black_box(&wire), &mut out).unwrap();
+            black_box(&out);
+        })
+    });
+    g.finish();
+
+    // FC16 request writing 100 registers.
+    let words: Vec<u16> = (0..100u16).map(|i| i.wrapping_mul(0x0101)).collect();
+    let mut g = c.benchmark_group("modbus_encode_fc16_request_100");
+    let mut buf = [0u8; si_modbus::frame::MAX_ADU];
+    let si_len = Request::WriteMultipleRegisters {
+        address: 0x10,
+        values: Registers::Words(&words),
+    }
+    .encode(1, &mut buf)
+    .unwrap();
+    let mut theirs = Vec::with_capacity(256);
+    ModbusRequest::new(1, ModbusProto::Rtu)
+        .generate_set_holdings_bulk(0x10, &words, &mut theirs)
+        .unwrap();
+    assert_eq!(&buf[..si_len], &theirs[..], "identical frames");
+    g.throughput(Throughput::Bytes(si_len as u64));
+    g.bench_function("si", |b| {
+        b.iter(|| {
+            Request::WriteMultipleRegisters {
+                address: 0x10,
+                values: Registers::Words(black_box(&words)),
+            }
+            .encode(1, &mut buf)
+            .unwrap()
+        })
+    });
+    let mut mreq = ModbusRequest::new(1, ModbusProto::Rtu);
+    g.bench_function("rmodbus", |b| {
+        b.iter(|| {
+            theirs.clear();
+            mreq.generate_set_holdings_bulk(0x10, black_box(&words), &mut theirs)
+                .unwrap();
+            theirs.len()
+        })
+    });
+    g.finish();
+
+    // The slave engine receiving an FC03 request: whole, and one byte per read.
+    modbus_slave_rx(c);
+    // FC03 of 10 registers over tokio::io::duplex.
+    modbus_roundtrip(c);
+}
+
+fn modbus_slave_rx(c: &mut Criterion) {
+    use si_core::Duration;
+    use si_modbus::{SimaticStore, Slave, SlaveConfig};
+    let request = [0x01, 0x03, 0x00, 0x00, 0x00, 0x0A, 0xC5, 0xCD];
+    let mut g = c.benchmark_group("modbus_slave_rx_fc03");
+    for bytewise in [false, true] {
+        let config = SlaveConfig {
+            address: 1,
+            ..SlaveConfig::default()
+        };
+        let mut slave = Slave::new(config, SimaticStore::example()).unwrap();
+        let mut t = 0u64;
+        let name = if bytewise { "si_bytewise" } else { "si" };
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                t += 100_000;
+                let now = Instant::from_micros(t);
+                if bytewise {
+                    for byte in request.chunks(1) {
+                        slave.handle_rx(now, byte);
+                        drain(&mut slave, |_| {});
+                    }
+                } else {
+                    slave.handle_rx(now, &request);
+                    drain(&mut slave, |_| {});
+                }
+                let later = now + Duration::from_millis(5);
+                slave.handle_timeout(later);
+                let mut sent = 0;
+                drain(&mut slave, |tx| sent += tx.len());
+                slave.handle_tx_done(later + Duration::from_millis(30));
+                drain(&mut slave, |_| {});
+                assert_eq!(sent, 25);
+            })
+        });
+    }
+    g.finish();
+}
+
+/// Take the slave's events as an application would: its driver stops reading the line when
+/// they pile up unread.
+fn take_events(mut server: si_modbus::tokio::SlaveServer<si_modbus::Tables>) {
+    tokio::spawn(async move { while server.next_event().await.is_some() {} });
+}
+
+fn modbus_roundtrip(c: &mut Criterion) {
+    use si_modbus::tokio::{MasterHandle, SlaveServer};
+    use si_modbus::{MasterConfig, Mode, SlaveConfig, Tables};
+    use tokio_modbus::client::Reader;
+
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    // A pipe moves bytes at once, a line does not: at 115200 baud the slave would still be
+    // sending its 25-byte answer (2.2 ms) when a client that got it at once sends the next
+    // request, and the slave rightly refuses that overlap (0837H; tokio-modbus's client then
+    // waits for ever, it has no timeout; it sends the next request some 10 µs after an
+    // answer). At a nominal 1 Gbaud the answer's time on the line is below 1 µs; the
+    // end-of-frame gap stays Table 3-11's shortest, 1 ms, as at 115200 baud.
+    static FAST: [u32; 1] = [1_000_000_000];
+    let settings =
+        SerialSettings::with_rates(1_000_000_000, 8, si_core::Parity::Even, 1, &FAST).unwrap();
+    let slave_config = SlaveConfig {
+        address: 1,
+        line: si_modbus::config::LineConfig {
+            settings,
+            mode: Mode::Normal,
+            ..SlaveConfig::default().line
+        },
+    };
+    let mut g = c.benchmark_group("modbus_roundtrip_duplex");
+    g.sample_size(30);
+    {
+        let _guard = rt.enter();
+        let (a, b) = tokio::io::duplex(1024);
+        let server = SlaveServer::spawn(slave_config, Tables::new(0, 0, 100, 0), b).unwrap();
+        take_events(server);
+        let mut config = MasterConfig::default();
+        config.line.settings = settings;
+        let mut master = MasterHandle::spawn(config, a).unwrap();
+        g.bench_function("si", |bench| {
+            bench.iter(|| {
+                rt.block_on(async {
+                    let regs = master.read_holding_registers(1, 0, 10).await.unwrap();
+                    assert_eq!(regs.len(), 10);
+                })
+            })
+        });
+    }
+    {
+        let _guard = rt.enter();
+        let (a, b) = tokio::io::duplex(1024);
+        let server = SlaveServer::spawn(slave_config, Tables::new(0, 0, 100, 0), b).unwrap();
+        take_events(server);
+        let mut ctx = tokio_modbus::client::rtu::attach_slave(a, tokio_modbus::Slave(1));
+        g.bench_function("tokio-modbus", |bench| {
+            bench.iter(|| {
+                rt.block_on(async {
+                    let regs = ctx.read_holding_registers(0, 10).await.unwrap().unwrap();
+                    assert_eq!(regs.len(), 10);
+                })
+            })
+        });
+    }
+    g.finish();
+}
+
+fn r3964(c: &mut Criterion) {
+    use si_3964r::frame::{encode_into, Decoder, Mode};
+    use si_3964r::{Config, Link};
+
+    // 256 bytes of payload with DLEs in it (about one in 256, as random data has).
+    let payload = pseudo_random(256, 7);
+    let mut g = c.benchmark_group("3964r_encode_256");
+    g.throughput(Throughput::Bytes(256));
+    let mut out = Vec::with_capacity(600);
+    g.bench_function("si", |b| {
+        b.iter(|| {
+            out.clear();
+            encode_into(black_box(&payload), Mode::BlockCheck, &mut out);
+            out.len()
+        })
+    });
+    g.finish();
+
+    out.clear();
+    encode_into(&payload, Mode::BlockCheck, &mut out);
+    let block = out.clone();
+    let mut g = c.benchmark_group("3964r_decode_256");
+    g.throughput(Throughput::Bytes(256));
+    let mut decoder = Decoder::new(Mode::BlockCheck, 1024);
+    g.bench_function("si", |b| {
+        b.iter(|| {
+            decoder.reset();
+            let (used, result) = decoder.push_slice(black_box(&block));
+            assert_eq!((used, result), (block.len(), Some(Ok(()))));
+            decoder.payload().len()
+        })
+    });
+    g.finish();
+    let mut g = c.benchmark_group("3964r_decode_256_bytewise");
+    g.throughput(Throughput::Bytes(256));
+    g.bench_function("si", |b| {
+        b.iter(|| {
+            decoder.reset();
+            let mut end = None;
+            for &byte in black_box(&block) {
+                end = decoder.push(byte);
+            }
+            assert_eq!(end, Some(Ok(())));
+            decoder.payload().len()
+        })
+    });
+    g.finish();
+
+    // The link engine receiving one block: STX, our DLE, the block, our DLE, take it.
+    let config = Config {
+        max_block_len: 1024,
+        ..Config::default()
+    };
+    for (group, bytewise) in [
+        ("3964r_link_rx_256", false),
+        ("3964r_link_rx_256_bytewise", true),
+    ] {
+        let mut g = c.benchmark_group(group);
+        g.throughput(Throughput::Bytes(256));
+        let mut link = Link::new(config, SerialSettings::default()).unwrap();
+        drain(&mut link, |_| {});
+        let mut t = 0u64;
+        g.bench_function("si", |b| {
+            b.iter(|| {
+                t += 1_000_000;
+                let now = Instant::from_micros(t);
+                link.handle_rx(now, &[0x02]);
+                drain(&mut link, |_| {});
+                if bytewise {
+                    for byte in block.chunks(1) {
+                        link.handle_rx(now, byte);
+                        drain(&mut link, |_| {});
+                    }
+                } else {
+                    link.handle_rx(now, &block);
+                    drain(&mut link, |_| {});
+                }
+                let got = link.take_block(now).expect("the block");
+                assert_eq!(got.len(), 256);
+            })
+        });
+        g.finish();
+    }
+}
+
+fn uss(c: &mut Criterion) {
+    use si_core::Duration;
+    use si_uss::config::{uss_settings, MasterConfig, PollEntry};
+    use si_uss::drive::{Drive, DriveConfig};
+    use si_uss::frame::{decode, encode, Adr, PkwWords, MAX_TELEGRAM};
+    use si_uss::{Master, NetData};
+
+    // A drive's answer with 4 PKW and 2 PZD words (the common PPO1 layout).
+    let net: Vec<u8> = pseudo_random(12, 3);
+    let mut telegram = [0u8; MAX_TELEGRAM];
+    let n = encode(Adr::slave(5).unwrap(), &net, &mut telegram).unwrap();
+    let telegram = telegram[..n].to_vec();
+    let mut g = c.benchmark_group("uss_decode");
+    g.throughput(Throughput::Bytes(n as u64));
+    g.bench_function("si", |b| {
+        b.iter(|| {
+            let t = decode(black_box(&telegram)).unwrap();
+            NetData::parse(t.net, PkwWords::Four, 2).unwrap()
+        })
+    });
+    g.finish();
+
+    // The master engine receiving a drive's answer to its poll: whole, and byte by byte.
+    let settings = uss_settings(19_200).unwrap();
+    for (group, bytewise) in [("uss_master_rx", false), ("uss_master_rx_bytewise", true)] {
+        let mut config = MasterConfig::new(vec![PollEntry::new(1, PkwWords::Four, 2)]);
+        config.settings = settings;
+        let mut master = Master::new(config).unwrap();
+        let mut drive = Drive::new(DriveConfig::new(settings, 1)).unwrap();
+        let mut now = Instant::ZERO;
+        master.start(now);
+        let mut g = c.benchmark_group(group);
+        g.bench_function("si", |b| {
+            let mut wire = Vec::with_capacity(64);
+            b.iter(|| {
+                // Run the master to its next poll; hand it to the drive; the drive answers.
+                let mut deadline = drain(&mut master, |tx| wire.extend_from_slice(tx));
+                while wire.is_empty() {
+                    now = deadline.unwrap_or(now + Duration::from_millis(1));
+                    master.handle_timeout(now);
+                    deadline = drain(&mut master, |tx| wire.extend_from_slice(tx));
+                }
+                master.handle_tx_done(now);
+                drain(&mut master, |_| {});
+                drive.handle_rx(now, &wire);
+                wire.clear();
+                let mut d = drain(&mut drive, |tx| wire.extend_from_slice(tx));
+                while wire.is_empty() {
+                    now = d.unwrap_or(now + Duration::from_millis(1));
+                    drive.handle_timeout(now);
+                    d = drain(&mut drive, |tx| wire.extend_from_slice(tx));
+                }
+                drive.handle_tx_done(now);
+                drain(&mut drive, |_| {});
+                if bytewise {
+                    for byte in wire.chunks(1) {
+                        master.handle_rx(now, byte);
+                        drain(&mut master, |_| {});
+                    }
+                } else {
+                    master.handle_rx(now, &wire);
+                    drain(&mut master, |_| {});
+                }
+                wire.clear();
+            })
+        });
+        g.finish();
+        assert!(master.counters().ok > 0);
+        assert_eq!(master.counters().rejected, 0);
+    }
+}
+
+fn ascii(c: &mut Criterion) {
+    use si_ascii::{Config, EndCriterion, Link};
+    let mut frame = pseudo_random(198, 9);
+    for b in &mut frame {
+        *b = b'0' + (*b % 64); // printable, no CR/LF
+    }
+    frame.extend_from_slice(b"\r\n");
+    let config = Config {
+        end: EndCriterion::EndChars {
+            first: b'\r',
+            second: b'\n',
+        },
+        ..Config::default()
+    };
+    for (group, bytewise) in [("ascii_rx_200", false), ("ascii_rx_200_bytewise", true)] {
+        let mut link = Link::new(config).unwrap();
+        let mut out = [0u8; 1024];
+        let mut t = 0u64;
+        let mut g = c.benchmark_group(group);
+        g.throughput(Throughput::Bytes(200));
+        g.bench_function("si", |b| {
+            b.iter(|| {
+                t += 1_000_000;
+                let now = Instant::from_micros(t);
+                if bytewise {
+                    for byte in frame.chunks(1) {
+                        link.handle_rx(now, byte);
+                        drain(&mut link, |_| {});
+                    }
+                } else {
+                    link.handle_rx(now, &frame);
+                    drain(&mut link, |_| {});
+                }
+                assert_eq!(link.read_frame(now, &mut out), Some(200));
+            })
+        });
+        g.finish();
+    }
+}
+
+fn dpcoord(c: &mut Criterion) {
+    use si_core::Duration;
+    use si_dp_coord::{
+        Host, HostConfig, HostEvent, Job, LoopbackSerial, Module, ModuleConfig, WindowSize,
+    };
+    let frame = Bytes::from(pseudo_random(224, 11));
+    let mut g = c.benchmark_group("dpcoord_send_224");
+    g.throughput(Throughput::Bytes(224));
+    g.bench_function("si", |b| {
+        b.iter_batched(
+            || {
+                let host = Host::new(HostConfig::new(WindowSize::ThirtyTwo)).unwrap();
+                let module = Module::new(
+                    ModuleConfig::new(WindowSize::ThirtyTwo),
+                    LoopbackSerial::new(),
+                )
+                .unwrap();
+                (host, module)
+            },
+            |(mut host, mut module)| {
+                host.submit(Job::Send(frame.clone())).unwrap();
+                let mut input = module.input().to_vec();
+                let mut output = Vec::with_capacity(32);
+                let mut now = Instant::ZERO;
+                for _ in 0..1_000 {
+                    now += Duration::from_millis(1);
+                    output.clear();
+                    output.extend_from_slice(host.cycle(now, &input));
+                    input.clear();
+                    input.extend_from_slice(module.cycle(now, &output));
+                    if let Some(HostEvent::Completed { result, .. }) = host.poll_event() {
+                        assert!(result.is_ok());
+                        return;
+                    }
+                }
+                panic!("the send did not complete");
+            },
+            BatchSize::SmallInput,
+        )
+    });
+    g.finish();
+}
+
+criterion_group!(benches, modbus, r3964, uss, ascii, dpcoord);
+criterion_main!(benches);
