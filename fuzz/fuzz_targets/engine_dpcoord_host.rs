@@ -57,9 +57,10 @@ fuzz_target!(|data: &[u8]| {
         assert_eq!(out.len(), size);
         drain(&mut host, &mut open);
     }
-    // A silent module (all-zero input): the watchdog ends every job.
+    // A silent module (all-zero input): the watchdog (30 s a job) ends every job, the queued
+    // ones (up to 16) one after the other.
     let idle = vec![0u8; size];
-    for _ in 0..100 {
+    for _ in 0..1_000 {
         now = now + Duration::from_secs(1);
         host.cycle(now, &idle);
         drain(&mut host, &mut open);
