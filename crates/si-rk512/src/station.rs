@@ -55,7 +55,7 @@ use crate::frame::{
 };
 use crate::passive::{Served, Server, ServerConfig};
 use crate::status::{self, ErrorNumber};
-use bytes::Bytes;
+use bytes::{Bytes, BytesMut};
 use core::fmt;
 use si_3964r::{ConfigError, Link};
 use si_core::status::common;
@@ -200,7 +200,8 @@ struct ActiveJob {
     total: usize,
     done: usize,
     send_data: Bytes,
-    fetched: Vec<u8>,
+    /// The fetch pool (index into `fetch_pools`) the FETCH data collect in.
+    pool: usize,
     phase: Phase,
 }
 
@@ -218,6 +219,17 @@ pub struct Station {
     reaction_in_flight_partial: bool,
     out: VecDeque<Output<Event>>,
     buf: Vec<u8>,
+    /// Command and reaction telegrams are cut from these buffers (`split().freeze()`), one
+    /// per kind since at most one telegram of each kind is alive; once the link drops the
+    /// previous telegram, `reserve` reclaims the same allocation, so a steady state allocates
+    /// nothing (the si-core contract, as in the 3964(R) link).
+    command_pool: BytesMut,
+    reaction_pool: BytesMut,
+    /// FETCH data collect in these, used by turns: `job_outcome` keeps the last
+    /// job's data, so the data of the job before it (dropped by the application by then) is
+    /// the allocation the next FETCH reclaims.
+    fetch_pools: [BytesMut; 2],
+    fetch_turn: usize,
     now: Instant,
     last_outcome: Option<(JobId, Result<Bytes, Status>)>,
 }
@@ -266,6 +278,13 @@ impl Station {
             reaction_in_flight_partial: false,
             out: VecDeque::with_capacity(8),
             buf: Vec::with_capacity(COMMAND_HEADER_LEN + MAX_DATA_PER_TELEGRAM),
+            command_pool: BytesMut::with_capacity(COMMAND_HEADER_LEN + MAX_DATA_PER_TELEGRAM),
+            reaction_pool: BytesMut::with_capacity(COMMAND_HEADER_LEN + MAX_DATA_PER_TELEGRAM),
+            fetch_pools: [
+                BytesMut::with_capacity(config.max_job_len as usize),
+                BytesMut::with_capacity(config.max_job_len as usize),
+            ],
+            fetch_turn: 0,
             now: Instant::ZERO,
             last_outcome: None,
         })
@@ -373,17 +392,20 @@ impl Station {
         };
         let id = JobId(self.next_job);
         self.next_job += 1;
+        let pool = self.fetch_turn;
+        if !command.is_send() {
+            self.fetch_turn ^= 1;
+            let fetched = &mut self.fetch_pools[pool];
+            fetched.clear();
+            fetched.reserve(len);
+        }
         self.job = Some(ActiveJob {
             id,
             header,
             total: len,
             done: 0,
             send_data,
-            fetched: if command.is_send() {
-                Vec::new()
-            } else {
-                Vec::with_capacity(len)
-            },
+            pool,
             phase: Phase::Sending(None),
         });
         self.queue_command();
@@ -417,8 +439,8 @@ impl Station {
             }
         }
         job.phase = Phase::Sending(None);
-        self.queue
-            .push_back((Kind::Command, Bytes::copy_from_slice(&self.buf)));
+        let telegram = cut(&mut self.command_pool, &self.buf);
+        self.queue.push_back((Kind::Command, telegram));
     }
 
     /// Hand the next queued telegram to the link when it is free.
@@ -459,7 +481,17 @@ impl Station {
         let Some(job) = self.job.take() else { return };
         // A telegram of this job still queued is dropped with it.
         self.queue.retain(|(k, _)| *k != Kind::Command);
-        let outcome = result.map(|()| Bytes::from(job.fetched));
+        let fetched = &mut self.fetch_pools[job.pool];
+        let outcome = match result {
+            Ok(()) if !job.header.command.is_send() => Ok(fetched.split().freeze()),
+            Ok(()) => Ok(Bytes::new()),
+            Err(status) => {
+                if !job.header.command.is_send() {
+                    fetched.clear();
+                }
+                Err(status)
+            }
+        };
         self.last_outcome = Some((job.id, outcome.clone()));
         self.event(match outcome {
             Ok(data) => Event::Done { job: job.id, data },
@@ -561,7 +593,7 @@ impl Station {
             if data.len() != chunk {
                 return self.finish(Err(status::RESPONSE_INVALID));
             }
-            job.fetched.extend_from_slice(data);
+            self.fetch_pools[job.pool].extend_from_slice(data);
         }
         job.done += chunk;
         if job.done >= job.total {
@@ -590,8 +622,8 @@ impl Station {
         // last one went out has given that one up, so its stale reaction is replaced. The
         // queue therefore never holds more than one command and one reaction.
         self.queue.retain(|(k, _)| *k != Kind::Reaction);
-        self.queue
-            .push_back((Kind::Reaction, Bytes::copy_from_slice(&reaction)));
+        let telegram = cut(&mut self.reaction_pool, &reaction);
+        self.queue.push_back((Kind::Reaction, telegram));
         self.buf = reaction;
         match served {
             Served::Partial => {}
@@ -635,6 +667,14 @@ impl Station {
             }
         }
     }
+}
+
+/// `bytes` as a telegram cut from `pool` (allocates only while an earlier telegram of the pool
+/// is still held).
+fn cut(pool: &mut BytesMut, bytes: &[u8]) -> Bytes {
+    pool.reserve(bytes.len());
+    pool.extend_from_slice(bytes);
+    pool.split().freeze()
 }
 
 impl Engine for Station {

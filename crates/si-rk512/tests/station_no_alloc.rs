@@ -1,0 +1,212 @@
+//! Zero heap allocations per job in steady state (the si-core contract, ARCHITECTURE.md): an
+//! active and a serving RK 512 station, back to back on an instant line, run SEND and FETCH
+//! jobs of 200 bytes (two telegrams each) under a counting global allocator. Telegrams and
+//! FETCH data are cut from buffers the stations keep, and come back to them once the link,
+//! the driver and the application drop them.
+//!
+//! Runs without libtest's harness, whose own threads would allocate while we count.
+
+use bytes::Bytes;
+use si_3964r::Priority;
+use si_core::memory::Area;
+use si_core::{Duration, Engine, Instant, Output, SerialSettings};
+use si_rk512::frame::{Address, Coordination};
+use si_rk512::passive::ServerConfig;
+use si_rk512::{Command, Config, Event, Station};
+use stats_alloc::{Region, StatsAlloc, INSTRUMENTED_SYSTEM};
+use std::alloc::System;
+
+#[global_allocator]
+static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
+
+fn main() {
+    steady_state_send_and_fetch_do_not_allocate();
+    println!("station_no_alloc: 1000 SEND and 1000 FETCH jobs allocate nothing: ok");
+}
+
+fn steady_state_send_and_fetch_do_not_allocate() {
+    let line = SerialSettings::default();
+    let mut active = Config::default();
+    active.link.priority = Priority::High;
+    let mut serve = ServerConfig::default();
+    serve.memory.dbs.insert(10, 512);
+    let a = Station::new(active, line).unwrap();
+    let b = Station::serving(Config::default(), line, &serve).unwrap();
+    let mut pair = Pair::new(a, b);
+    // 200 bytes with DLEs in them, so doubling is exercised; two telegrams per job.
+    let payload: Bytes = (0..200u8)
+        .map(|i| i.wrapping_mul(7))
+        .collect::<Vec<u8>>()
+        .into();
+    let address = Address::Db { db: 10, dw: 0 };
+    let cycle = |pair: &mut Pair<Station, Station>| {
+        let now = pair.now;
+        let job = pair
+            .a
+            .send(now, address, Coordination::NONE, payload.clone())
+            .unwrap();
+        pair.run_until(now + Duration::from_millis(2_000));
+        match pair.last.0.take() {
+            Some(Event::Done { job: done, data }) => {
+                assert_eq!(done, job);
+                assert!(data.is_empty());
+            }
+            other => panic!("SEND did not end with Done: {other:?}"),
+        }
+        match pair.last.1.take() {
+            Some(Event::Served { command, len, .. }) => {
+                assert_eq!((command, len), (Command::Send, 200));
+            }
+            other => panic!("B did not serve the SEND: {other:?}"),
+        }
+        let now = pair.now;
+        let job = pair.a.fetch(now, address, Coordination::NONE, 200).unwrap();
+        pair.run_until(now + Duration::from_millis(2_000));
+        match pair.last.0.take() {
+            Some(Event::Done { job: done, data }) => {
+                assert_eq!(done, job);
+                assert_eq!(data, payload);
+            }
+            other => panic!("FETCH did not end with Done: {other:?}"),
+        }
+        match pair.last.1.take() {
+            Some(Event::Served { command, len, .. }) => {
+                assert_eq!((command, len), (Command::Fetch, 200));
+            }
+            other => panic!("B did not serve the FETCH: {other:?}"),
+        }
+    };
+    for _ in 0..20 {
+        cycle(&mut pair); // warm up: queues reach their working size
+    }
+    let before = (
+        pair.events,
+        pair.a.link().counters(),
+        pair.b.link().counters(),
+    );
+    let region = Region::new(GLOBAL);
+    for _ in 0..1_000 {
+        cycle(&mut pair);
+    }
+    let stats = region.change();
+    assert_eq!(
+        (stats.allocations, stats.reallocations),
+        (0, 0),
+        "allocations in 1000 SEND and 1000 FETCH jobs: {stats:?}"
+    );
+    let after = (
+        pair.events,
+        pair.a.link().counters(),
+        pair.b.link().counters(),
+    );
+    // One Done per job on A, one Served per job on B.
+    assert_eq!(after.0 .0 - before.0 .0, 2_000);
+    assert_eq!(after.0 .1 - before.0 .1, 2_000);
+    // Two command telegrams per job from A, two reactions per job from B, none repeated.
+    assert_eq!(after.1.blocks_sent - before.1.blocks_sent, 4_000);
+    assert_eq!(after.2.blocks_sent - before.2.blocks_sent, 4_000);
+    assert_eq!(after.1.repetitions, before.1.repetitions);
+    assert_eq!(after.2.repetitions, before.2.repetitions);
+    assert_eq!(
+        pair.b.server().memory().word(Area::Db(10), 0).unwrap(),
+        u16::from_be_bytes([payload[0], payload[1]])
+    );
+}
+
+// The `Pair` harness is copied from si-3964r's tests/link_no_alloc.rs and kept local to this
+// test on purpose (no shared test crate); keep the copies alike.
+
+/// Two engines wired back to back with an instant line: everything one transmits is handed to
+/// the other at the same instant, and its tx-done follows at once. Allocates nothing itself.
+struct Pair<A: Engine, B: Engine> {
+    a: A,
+    b: B,
+    now: Instant,
+    /// Events reported by A and B.
+    events: (u64, u64),
+    /// The last event of A and of B.
+    last: (Option<A::Event>, Option<B::Event>),
+}
+
+impl<A: Engine, B: Engine> Pair<A, B> {
+    fn new(a: A, b: B) -> Self {
+        Pair {
+            a,
+            b,
+            now: Instant::ZERO,
+            events: (0, 0),
+            last: (None, None),
+        }
+    }
+
+    /// Drain both engines until neither transmits; the earliest deadline of the two.
+    fn settle(&mut self) -> Option<Instant> {
+        for _ in 0..10_000 {
+            let (moved_a, da) = drain_into(
+                &mut self.a,
+                &mut self.b,
+                self.now,
+                &mut self.events.0,
+                &mut self.last.0,
+            );
+            let (moved_b, db) = drain_into(
+                &mut self.b,
+                &mut self.a,
+                self.now,
+                &mut self.events.1,
+                &mut self.last.1,
+            );
+            if !moved_a && !moved_b {
+                return Instant::earliest(da, db);
+            }
+        }
+        panic!("the engines keep talking at one instant");
+    }
+
+    /// Run timers and traffic up to `until`.
+    fn run_until(&mut self, until: Instant) {
+        for _ in 0..100_000 {
+            match self.settle() {
+                Some(t) if t <= until => {
+                    self.now = self.now.max(t);
+                    self.a.handle_timeout(self.now);
+                    self.b.handle_timeout(self.now);
+                }
+                _ => {
+                    self.now = until;
+                    self.a.handle_timeout(self.now);
+                    self.b.handle_timeout(self.now);
+                    self.settle();
+                    return;
+                }
+            }
+        }
+        panic!("timers keep firing before {until:?}");
+    }
+}
+
+fn drain_into<F: Engine, T: Engine>(
+    from: &mut F,
+    to: &mut T,
+    now: Instant,
+    events: &mut u64,
+    last: &mut Option<F::Event>,
+) -> (bool, Option<Instant>) {
+    let mut moved = false;
+    loop {
+        match from.poll_output() {
+            Output::Transmit(bytes) => {
+                to.handle_rx(now, &bytes);
+                drop(bytes);
+                from.handle_tx_done(now);
+                moved = true;
+            }
+            Output::Event(event) => {
+                *events += 1;
+                *last = Some(event);
+            }
+            Output::SetSignals(_) => {}
+            Output::Wait(deadline) => return (moved, deadline),
+        }
+    }
+}
