@@ -46,7 +46,7 @@ use crate::status::{
     lookup, ABORTED_BY_RESET, INVALID_LEN, NOT_POSSIBLE_IN_MODE, RECEIVED_FRAME_TOO_LONG,
     TRANSFER_ERROR_TO_CPU,
 };
-use bytes::Bytes;
+use bytes::{Bytes, BytesMut};
 use serde::{Deserialize, Serialize};
 use si_core::{Instant, Status};
 use std::collections::VecDeque;
@@ -243,8 +243,10 @@ pub struct Host {
     /// Payload stream of the running send/parameter job (reused, no allocation per job once
     /// grown).
     stream: Vec<u8>,
-    /// Frame being received.
-    rx: Vec<u8>,
+    /// Frame being received. Received frames are cut from it (`split().freeze()`); once the
+    /// application drops the previous frame, `reserve` reclaims the same allocation, so a steady
+    /// state allocates nothing (the si-core contract, as in the 3964(R) link).
+    rx: BytesMut,
     stats: HostStats,
 }
 
@@ -257,11 +259,11 @@ impl Host {
             out: Window::new(cfg.window),
             queue: VecDeque::with_capacity(cfg.queue_capacity),
             active: None,
-            events: VecDeque::new(),
+            events: VecDeque::with_capacity(cfg.queue_capacity + EVENT_SLACK),
             next_id: 1,
             rx_status: None,
             stream: Vec::with_capacity(cfg.max_frame_len + 2),
-            rx: Vec::with_capacity(cfg.max_frame_len),
+            rx: BytesMut::with_capacity(cfg.max_frame_len),
             stats: HostStats::default(),
             cfg,
         })
@@ -635,6 +637,9 @@ impl Host {
                     got = 0;
                     data = &data[2..];
                     self.rx.clear();
+                    if len <= self.cfg.max_frame_len {
+                        self.rx.reserve(len);
+                    }
                 }
                 let take = data.len().min(len - got);
                 got += take;
@@ -667,7 +672,8 @@ impl Host {
                 // Idle before the end: the transfer was aborted.
                 Err(TRANSFER_ERROR_TO_CPU)
             } else if len <= self.cfg.max_frame_len {
-                Ok(Outcome::Received(Bytes::copy_from_slice(&self.rx[..len])))
+                self.rx.truncate(len);
+                Ok(Outcome::Received(self.rx.split().freeze()))
             } else {
                 Err(RECEIVED_FRAME_TOO_LONG)
             });

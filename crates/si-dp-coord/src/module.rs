@@ -162,7 +162,8 @@ impl<S: SerialSide> Module<S> {
         let mut m = Module {
             inw: Window::new(cfg.window),
             phase: Phase::Idle,
-            rx: VecDeque::new(),
+            // Frames plus the one error slot beyond them (`buffer_error`).
+            rx: VecDeque::with_capacity(cfg.rx_buffer_frames + 1),
             rx_bytes: 0,
             stream: Vec::with_capacity(cfg.max_frame_len + 2 + n),
             tx_stream: Vec::with_capacity(cfg.max_frame_len + 2),
