@@ -445,7 +445,7 @@ fn uss(c: &mut Criterion) {
             })
         });
         g.finish();
-        assert!(master.counters().ok > 0);
+        // Every answer the master saw was good (none at all when a filter skipped the group).
         assert_eq!(master.counters().rejected, 0);
     }
 }
