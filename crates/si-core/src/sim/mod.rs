@@ -43,9 +43,11 @@
 //! assert_eq!(sim.trace().received("B")[0].0, Instant::from_micros(1_146)); // 11 / 9600 s
 //! ```
 
+mod pair;
 mod rng;
 mod trace;
 
+pub use pair::Pair;
 pub use rng::SplitMix64;
 pub use trace::{Trace, TraceEntry, TraceKind};
 
