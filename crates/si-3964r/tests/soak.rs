@@ -1,7 +1,12 @@
-//! Two links on a faulty line (bit flips, lost characters, inserted garbage) for an hour of
-//! virtual time, both sending all the time: every job ends exactly once, no block is delivered
-//! corrupted (beyond the inserted 00H that no XOR check can see) or out of order, a block is delivered again only after a repetition by its sender
-//! (the partner's DLE was lost: 3964(R) cannot tell that from a lost block), and nothing panics.
+//! Soak: two 3964(R) links on a faulty line (bit flips, lost characters, inserted garbage),
+//! both sending all the time, for an hour of virtual time in every test run and for a day at a
+//! higher fault rate (issue 9, ignored: `cargo test --release -p si-3964r --test soak --
+//! --ignored`). Every job ends exactly once (a failure with a STATUS of the manual), no block is
+//! delivered out of order or corrupted in a way the block check can see, a block is delivered
+//! again only after a repetition by its sender (its DLE was lost: 3964(R) cannot tell that from
+//! a lost block), and nothing panics. Corruptions the XOR cannot see (the same bit flipped in
+//! two characters) and blocks acknowledged by a DLE the line made up must stay below one in
+//! 100,000 blocks, which for the hour's ~60,000 blocks means none at all.
 
 use si_3964r::{Config, Event, JobId, Link, Priority};
 use si_core::sim::{Faults, Simulator, StationId};
@@ -41,6 +46,7 @@ struct Side {
     failed: usize,
     delivered: Vec<u32>,
     zero_insertions: usize,
+    undetected: usize,
 }
 
 impl Side {
@@ -54,6 +60,7 @@ impl Side {
             failed: 0,
             delivered: Vec::new(),
             zero_insertions: 0,
+            undetected: 0,
         }
     }
 }
@@ -72,6 +79,12 @@ fn start_job(sim: &mut Simulator, side: &mut Side) {
 fn service(sim: &mut Simulator, me: &mut Side, partner_dir: u8) {
     for event in sim.take_events(me.id) {
         match event {
+            Event::SendFailed { status, .. } if status.info().is_none() => {
+                panic!("a failure without a STATUS of the manual: {status:?}")
+            }
+            Event::ReceiveError(status) if status.info().is_none() => {
+                panic!("a receive error without a STATUS of the manual: {status:?}")
+            }
             Event::Sent { job } | Event::SendFailed { job, .. } => {
                 let (expected, seq) = me.outstanding.take().expect("a completion without a job");
                 assert_eq!(job, expected, "a completion for another job");
@@ -91,11 +104,13 @@ fn service(sim: &mut Simulator, me: &mut Side, partner_dir: u8) {
                 // byte tells the application (which is why the manual advises one).
                 let clean: Vec<u8> = block.iter().copied().filter(|&b| b != 0).collect();
                 let seq = seq_of(&clean);
-                assert_eq!(
-                    clean,
-                    payload(partner_dir, seq),
-                    "corrupted block delivered"
-                );
+                if clean != payload(partner_dir, seq) {
+                    // Flips of the same bit in two characters cancel in the XOR. A real UART's
+                    // parity check catches each single flip; the simulator's flips keep the
+                    // parity right, a worst case. Counted, and they must stay rare.
+                    me.undetected += 1;
+                    continue;
+                }
                 if clean.len() != block.len() {
                     assert_ne!(usize::from(block[0]), block.len());
                     me.zero_insertions += 1;
@@ -115,8 +130,18 @@ fn service(sim: &mut Simulator, me: &mut Side, partner_dir: u8) {
 
 #[test]
 fn an_hour_of_faults_every_job_ends_once_no_block_corrupted_or_reordered() {
+    soak(Duration::from_secs(3600), 0x3964, 0.000_1);
+}
+
+#[test]
+#[ignore = "a day of virtual time: run in release (see the module docs)"]
+fn a_day_of_faults_every_job_ends_once_no_block_corrupted_or_reordered() {
+    soak(Duration::from_secs(24 * 3600), 0x0396_4DA7, 0.000_3);
+}
+
+fn soak(span: Duration, seed: u64, rate: f64) {
     let line = SerialSettings::default();
-    let mut sim = Simulator::new(0x3964).without_trace();
+    let mut sim = Simulator::new(seed).without_trace();
     let high = Config {
         priority: Priority::High,
         ..Config::default()
@@ -125,9 +150,9 @@ fn an_hour_of_faults_every_job_ends_once_no_block_corrupted_or_reordered() {
     let b = sim.add_station("B", line, Link::new(Config::default(), line).unwrap());
     sim.connect(a, b);
     let faults = Faults {
-        bit_flip: 0.000_1,
-        drop: 0.000_1,
-        insert: 0.000_1,
+        bit_flip: rate,
+        drop: rate,
+        insert: rate,
         extra_latency: Duration::ZERO,
     };
     sim.set_faults(a, faults);
@@ -137,8 +162,8 @@ fn an_hour_of_faults_every_job_ends_once_no_block_corrupted_or_reordered() {
     let mut sb = Side::new(b, 0xB1);
     start_job(&mut sim, &mut sa);
     start_job(&mut sim, &mut sb);
-    let hour = Instant::ZERO + Duration::from_secs(3600);
-    while sim.now() < hour {
+    let end = Instant::ZERO + span;
+    while sim.now() < end {
         sim.run_for(Duration::from_millis(50));
         service(&mut sim, &mut sa, 0xB1);
         service(&mut sim, &mut sb, 0xA1);
@@ -146,23 +171,32 @@ fn an_hour_of_faults_every_job_ends_once_no_block_corrupted_or_reordered() {
 
     for (me, partner) in [(&sa, &sb), (&sb, &sa)] {
         let delivered: HashSet<u32> = partner.delivered.iter().copied().collect();
-        // Every acknowledged block was delivered.
-        for seq in &me.done {
-            assert!(
-                delivered.contains(seq),
-                "block {seq} acknowledged but never delivered"
-            );
-        }
+        // Every acknowledged block was delivered, but for the ones delivered corrupted in a
+        // way the XOR could not see (their number is unknown) and the ones a noise character
+        // acknowledged: 3964(R) takes any DLE after the block as the partner's, so a DLE the
+        // line makes up ends a job whose block the partner rejected. Both must stay rare.
+        let missing = me
+            .done
+            .iter()
+            .filter(|seq| !delivered.contains(seq))
+            .count();
+        assert!(
+            missing * 100_000 < me.done.len(),
+            "{missing} of {} blocks acknowledged but never delivered ({} undetected corruptions)",
+            me.done.len(),
+            partner.undetected
+        );
         // A block delivered twice was repeated by its sender after its DLE was lost.
         let duplicates = (partner.delivered.len() - delivered.len()) as u64;
         let repetitions = sim.engine(me.id).counters().repetitions;
         eprintln!(
-            "{:X}: {} sent, {} failed, {} repetitions, {} duplicates, {:?} at the partner",
+            "{:X}: {} sent, {} failed, {} repetitions, {} duplicates, {} undetected, {:?} at the partner",
             me.dir,
             me.done.len(),
             me.failed,
             repetitions,
             duplicates,
+            partner.undetected,
             sim.engine(partner.id).counters()
         );
         assert!(
@@ -171,10 +205,17 @@ fn an_hour_of_faults_every_job_ends_once_no_block_corrupted_or_reordered() {
         );
         // Inserted 00H characters are rare: about one in 256 inserted characters.
         assert!(partner.zero_insertions * 1000 < partner.delivered.len());
-        // The line is faulty but usable: most jobs succeed.
         assert!(
-            me.done.len() > 10_000,
-            "only {} blocks in an hour",
+            partner.undetected * 100_000 < partner.delivered.len(),
+            "{} corruptions the XOR could not see in {} blocks",
+            partner.undetected,
+            partner.delivered.len()
+        );
+        // The line is faulty but usable: most jobs succeed.
+        let hours = span.as_micros() / 3_600_000_000;
+        assert!(
+            me.done.len() as u64 > 10_000 * hours,
+            "only {} blocks in {hours} hours",
             me.done.len()
         );
         assert!(me.failed * 100 < me.done.len(), "{} failed jobs", me.failed);
