@@ -19,6 +19,30 @@ pub enum Mode {
     InterferenceSuppression,
 }
 
+/// How a received frame ends (§3.5, and a host extension).
+///
+/// The module ends every frame by silence: "a message is complete when no character arrives for
+/// 3.5 × character time" (et200s-si-modbus-uss.md §3.5, Table 3-11). That is [`FrameEnd::Gap`],
+/// the default, and what this crate does unless told otherwise.
+///
+/// [`FrameEnd::Length`] is a **host extension, not the manual**: a PC cannot time gaps below a
+/// millisecond (its timers fire 0–2 ms late, and a USB adapter or a pseudo-terminal delivers
+/// bytes in chunks), so waiting for the 1 ms gap of 57 600–115 200 bit/s costs 2 ms or more per
+/// frame. libmodbus and pymodbus therefore end an RTU frame when the length its header predicts
+/// has arrived; with `Length` we do the same, but only when the CRC at that length checks, so
+/// anything unexpected (an unknown function code, a corrupt frame, garbage) still ends at the
+/// gap and is checked and reported exactly as with `Gap`. See [`crate::rx`] for the lengths.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FrameEnd {
+    /// The module's behaviour (§3.5): a frame ends when the line has been silent for the gap.
+    #[default]
+    Gap,
+    /// Host extension: a frame also ends as soon as it has the length its header predicts and
+    /// its CRC checks; otherwise at the gap as with [`FrameEnd::Gap`].
+    Length,
+}
+
 /// The end-of-frame gap tZVZ_TAB for a baud rate (§3.5, Table 3-11).
 ///
 /// Table 3-11 of the Modbus/USS manual gives 4 ms at 9600–38 400 bit/s and 3.5 character

@@ -4,7 +4,8 @@
 //!
 //! - [`frame`]: ADU encode/decode with CRC-16, request and response PDUs of FC 01–08, 11, 12,
 //!   15, 16 with the manual's limits, exceptions; zero-copy views, no allocation;
-//! - [`rx`]: frame detection by silence with the manual's gap table and operating modes;
+//! - [`rx`]: frame detection by silence with the manual's gap table and operating modes, and
+//!   (host extension [`config::FrameEnd::Length`]) by the length the header predicts;
 //! - [`master`]: the Sans-IO master engine, every outcome a STATUS of the manual;
 //! - [`slave`]: the Sans-IO slave engine served by a [`slave::Store`]: plain tables, or the
 //!   SIMATIC memory model reached through S_MODB's conversion DB ([`simatic`]);
@@ -27,6 +28,9 @@
 //! - the end-of-frame gap follows the Modbus/USS manual's Table 3-11 (4 ms floor at
 //!   9600–38 400 bit/s), 364 ms at 110 bit/s and 1 ms above 38 400 from the 2005 manual
 //!   ([`config::gap_table`]; §11.5); it is measured between received characters ([`rx`]);
+//! - ending a frame at its predicted length once its CRC checks is a host extension, off by
+//!   default; the master still leaves the gap's silence before its next request
+//!   ([`config::FrameEnd`]; §3.5);
 //! - a response that fails both a length check and the CRC reports the length (0E52H/0E53H),
 //!   one that fails only the CRC 0E57H ([`master::check_response`]);
 //! - retries (default 0) and the broadcast turnaround (default 100 ms) are extensions
@@ -52,7 +56,7 @@ pub mod status;
 #[cfg(feature = "tokio")]
 pub mod tokio;
 
-pub use config::{MasterConfig, Mode, SlaveConfig};
+pub use config::{FrameEnd, MasterConfig, Mode, SlaveConfig};
 pub use frame::{Adu, Bits, ExceptionCode, Registers, Request, Response};
 pub use master::{Master, MasterEvent};
 pub use simatic::{ConversionDb, SimaticStore};

@@ -8,10 +8,17 @@
 //! only, else 0E43H) completes after the turnaround delay without waiting for a reply.
 //!
 //! Every job ends in exactly one [`MasterEvent::Completed`] or [`MasterEvent::Failed`].
+//!
+//! With [`FrameEnd::Length`] (a host extension, see there) a response also ends as soon as it
+//! has the length its function code and byte count predict and its CRC checks
+//! ([`crate::rx::response_len`]). The job then completes at once, but the line has not yet
+//! been silent for the gap: the module's master never starts a request before it has (§3.5,
+//! frames are separated by silence), so the next request waits until the gap has passed since
+//! the last character received, and other stations on an RS-485 line still see two frames.
 
-use crate::config::{MasterConfig, Mode};
+use crate::config::{FrameEnd, MasterConfig, Mode};
 use crate::frame::{self, fc, Adu, Request, Response, BROADCAST};
-use crate::rx::{Counters, Fault, Received, Receiver};
+use crate::rx::{Counters, Expect, Fault, Received, Receiver};
 use crate::status;
 use bytes::BytesMut;
 use si_core::{Duration, Engine, Instant, LineError, Output, Status};
@@ -106,6 +113,11 @@ impl RequestError {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum State {
     Idle,
+    /// A job waits for the line to be silent for the gap since the last character received
+    /// ([`FrameEnd::Length`] only: a response ended by its length, §3.5).
+    Holding {
+        until: Instant,
+    },
     /// The request is on the line until `until` (or tx-done).
     Sending {
         until: Instant,
@@ -146,6 +158,21 @@ impl Master {
             out: VecDeque::new(),
             tx_pool: BytesMut::with_capacity(4 * crate::frame::MAX_ADU),
         })
+    }
+
+    /// End received frames this way (host extension [`FrameEnd::Length`]; the default is
+    /// the module's [`FrameEnd::Gap`]).
+    ///
+    /// An engine option rather than a [`LineConfig`](crate::config::LineConfig) field so that
+    /// code building `LineConfig` field by field keeps compiling.
+    pub fn with_frame_end(mut self, frame_end: FrameEnd) -> Self {
+        self.rx.set_frame_end(frame_end);
+        self
+    }
+
+    /// How received frames end.
+    pub fn frame_end(&self) -> FrameEnd {
+        self.rx.frame_end()
     }
 
     /// The parameters.
@@ -190,7 +217,12 @@ impl Master {
         Ok(())
     }
 
+    /// Send the job's request, or hold it while the line has not been silent for the gap.
     fn send(&mut self, now: Instant) {
+        if let Some(until) = self.rx.quiet_at().filter(|&q| now < q) {
+            self.state = State::Holding { until };
+            return;
+        }
         let Some((adu, attempts)) = self.job.as_mut() else {
             return;
         };
@@ -301,6 +333,7 @@ impl Master {
             self.on_frame(now, frame);
         }
         match self.state {
+            State::Holding { until } if now >= until => self.send(now),
             State::Sending { until } if now >= until => self.sent(now),
             State::Waiting { deadline } if now >= deadline && !self.rx.is_receiving() => {
                 self.fail_or_retry(now, status::RESPONSE_TIMEOUT)
@@ -320,10 +353,27 @@ impl Master {
     fn deadline(&self) -> Option<Instant> {
         let state = match self.state {
             State::Idle => None,
-            State::Sending { until } | State::Turnaround { until } => Some(until),
+            State::Holding { until } | State::Sending { until } | State::Turnaround { until } => {
+                Some(until)
+            }
             State::Waiting { deadline } => (!self.rx.is_receiving()).then_some(deadline),
         };
         Instant::earliest(state, self.rx.deadline())
+    }
+}
+
+impl Master {
+    /// What the receiver may predict the length of: the response to the running job's
+    /// request once it is being sent (a broadcast has none).
+    fn expect(&self) -> Expect {
+        match (self.job, self.state) {
+            (Some((request, _)), State::Sending { .. } | State::Waiting { .. })
+                if request.unit() != BROADCAST =>
+            {
+                Expect::ResponseTo(request.as_bytes()[1])
+            }
+            _ => Expect::Nothing,
+        }
     }
 }
 
@@ -427,15 +477,23 @@ fn check_structure(request: &[u8], response: &[u8]) -> Result<(), Status> {
 impl Engine for Master {
     type Event = MasterEvent;
 
-    fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+    fn handle_rx(&mut self, now: Instant, mut bytes: &[u8]) {
         self.tick(now);
-        let unit = self.job.map(|(a, _)| a.unit());
-        self.rx.push(now, bytes, |b| Some(b) == unit);
-        if matches!(self.state, State::Sending { .. }) && self.rx.is_receiving() {
-            // A reply while we think we are still sending: the transport has no wire time
-            // (a pseudo-terminal, a pipe) or our estimate was long. On a half-duplex line the
-            // request has left, so the response has started.
-            self.sent(now);
+        while !bytes.is_empty() {
+            let unit = self.job.map(|(a, _)| a.unit());
+            let taken = self.rx.push(now, bytes, |b| Some(b) == unit, self.expect());
+            bytes = &bytes[taken..];
+            if matches!(self.state, State::Sending { .. }) && self.rx.is_receiving() {
+                // A reply while we think we are still sending: the transport has no wire time
+                // (a pseudo-terminal, a pipe) or our estimate was long. On a half-duplex line
+                // the request has left, so the response has started.
+                self.sent(now);
+            }
+            // A frame complete by its length (FrameEnd::Length) is handed up at once; the
+            // rest of the bytes start the next frame.
+            if let Some(frame) = self.rx.poll(now) {
+                self.on_frame(now, frame);
+            }
         }
     }
 

@@ -1,10 +1,11 @@
-//! Frame detection by silence (et200s-si-modbus-uss.md §3.5, §3.7, Table 3-11).
+//! Frame detection by silence (et200s-si-modbus-uss.md §3.5, §3.7, Table 3-11), and by
+//! predicted length as a host extension ([`FrameEnd::Length`]).
 //!
-//! A Modbus RTU receiver does not predict frame lengths: a frame ends when the line has been
-//! silent for the gap tZVZ = tZVZ_TAB × fMUL ([`LineConfig::gap`]). The engines then check the
-//! frame (CRC, address, lengths). Garbage and short frames are discarded and counted, and the
-//! receiver is in step again at the next gap. A gap inside a frame ends it early: both pieces
-//! fail their checks and are counted.
+//! A Modbus RTU receiver of the module does not predict frame lengths: a frame ends when the
+//! line has been silent for the gap tZVZ = tZVZ_TAB × fMUL ([`LineConfig::gap`]). The engines
+//! then check the frame (CRC, address, lengths). Garbage and short frames are discarded and
+//! counted, and the receiver is in step again at the next gap. A gap inside a frame ends it
+//! early: both pieces fail their checks and are counted.
 //!
 //! The gap is measured the way a UART lets a receiver measure it: from the moment one
 //! character has been received to the moment the next one has (its end), as the module's
@@ -15,10 +16,102 @@
 //! up as faulty so the engine reports it. In **interference suppression** mode such frames are
 //! dropped silently, leading bytes before a correctly received slave address are skipped, and
 //! errors after a complete frame (valid CRC) are ignored.
+//!
+//! # Ending a frame at its predicted length (host extension)
+//!
+//! With [`FrameEnd::Length`] (not in the manual; see there for why a host wants it) a frame
+//! also ends the moment it holds as many bytes as its header predicts **and** the CRC over
+//! them checks ([`Expect`], [`request_len`], [`response_len`]). Bytes after that start a new
+//! frame. Everything else (a function code without a prediction, a wrong CRC at the predicted
+//! length, a UART error in the frame, garbage) ends at the gap exactly as with
+//! [`FrameEnd::Gap`], so the engines see the same frames and report the same STATUS. Echo
+//! bytes are dropped first and, in interference suppression mode, leading bytes before the
+//! address are skipped first; the prediction starts at the address byte.
 
-use crate::config::{LineConfig, Mode};
-use crate::frame::{crc_ok, Adu, MAX_ADU};
+use crate::config::{FrameEnd, LineConfig, Mode};
+use crate::frame::{crc_ok, fc, Adu, MAX_ADU};
 use si_core::{Duration, Instant, LineError};
+
+/// What kind of frame the engine expects next, for [`FrameEnd::Length`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Expect {
+    /// No prediction: the frame ends at the gap (an idle master).
+    Nothing,
+    /// A request (the slave): its length follows from its function code ([`request_len`]).
+    Request,
+    /// The response to a request with this function code (a master with a job):
+    /// [`response_len`].
+    ResponseTo(u8),
+}
+
+/// The length (CRC included) of the request that starts with `head`, as far as `head` tells.
+///
+/// The request layouts of et200s-si-modbus-uss.md §4.5/§5.7 (Modbus application protocol
+/// for FC07, FC11, FC12): FC01–06 and FC08 are 8 bytes (address, function, two 16-bit
+/// fields, CRC); FC07, 11, 12 are 4 (address, function, CRC); FC15 and FC16 are 9 + the byte
+/// count at offset 6. Any other function code has no prediction.
+pub fn request_len(head: &[u8]) -> Prediction {
+    let Some(&f) = head.get(1) else {
+        return Prediction::NeedMore(2);
+    };
+    match f {
+        fc::READ_COILS..=fc::WRITE_SINGLE_REGISTER | fc::DIAGNOSTICS => Prediction::Len(8),
+        fc::READ_EXCEPTION_STATUS | fc::GET_COMM_EVENT_COUNTER | fc::GET_COMM_EVENT_LOG => {
+            Prediction::Len(4)
+        }
+        fc::WRITE_MULTIPLE_COILS | fc::WRITE_MULTIPLE_REGISTERS => match head.get(6) {
+            Some(&count) => Prediction::Len(9 + count as usize),
+            None => Prediction::NeedMore(7),
+        },
+        _ => Prediction::Unknown,
+    }
+}
+
+/// The length (CRC included) of the response to a request with function code `request_fc`
+/// that starts with `head`, as far as `head` tells.
+///
+/// The response layouts of §4.5 (and the Modbus application protocol for FC07, 11, 12):
+/// FC01–04 are 5 + the byte count at offset 2; FC05, 06, 08, 15, 16 echo 4 bytes (8 in all);
+/// FC07 is 5; FC11 is 8; FC12 is 5 + its byte count; an exception (function | 80H, §3.6) is 5.
+/// A function code that is neither the request's nor its exception has no prediction: the
+/// frame ends at the gap and the master reports it (0E51H) as the module would.
+pub fn response_len(request_fc: u8, head: &[u8]) -> Prediction {
+    let Some(&f) = head.get(1) else {
+        return Prediction::NeedMore(2);
+    };
+    if f == request_fc | 0x80 {
+        return Prediction::Len(5);
+    }
+    if f != request_fc {
+        return Prediction::Unknown;
+    }
+    let counted = || match head.get(2) {
+        Some(&count) => Prediction::Len(5 + count as usize),
+        None => Prediction::NeedMore(3),
+    };
+    match f {
+        fc::READ_COILS..=fc::READ_INPUT_REGISTERS | fc::GET_COMM_EVENT_LOG => counted(),
+        fc::WRITE_SINGLE_COIL
+        | fc::WRITE_SINGLE_REGISTER
+        | fc::DIAGNOSTICS
+        | fc::WRITE_MULTIPLE_COILS
+        | fc::WRITE_MULTIPLE_REGISTERS
+        | fc::GET_COMM_EVENT_COUNTER => Prediction::Len(8),
+        fc::READ_EXCEPTION_STATUS => Prediction::Len(5),
+        _ => Prediction::Unknown,
+    }
+}
+
+/// What the header received so far says about a frame's length.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Prediction {
+    /// Look again when the frame holds this many bytes.
+    NeedMore(usize),
+    /// The whole frame, CRC included, is this many bytes.
+    Len(usize),
+    /// No prediction: the gap ends the frame.
+    Unknown,
+}
 
 /// Receive statistics, for diagnostics and tests.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -55,32 +148,55 @@ pub struct Received {
     pub fault: Option<Fault>,
 }
 
-/// The silence-based frame assembler the master and slave share.
+/// The frame assembler the master and slave share: silence ends a frame, and with
+/// [`FrameEnd::Length`] also a complete frame with a good CRC.
 #[derive(Debug, Clone)]
 pub struct Receiver {
     buf: [u8; MAX_ADU],
     len: usize,
+    /// Time of the last character or error of the frame being received.
     last: Option<Instant>,
+    /// Time of the last character or error received at all (frames ended early included).
+    last_activity: Option<Instant>,
     fault: Option<Fault>,
     gap: Duration,
     mode: Mode,
+    frame_end: FrameEnd,
+    /// The frame being received is complete by length: [`poll`](Self::poll) hands it up now.
+    complete: bool,
+    /// The frame reached its predicted length with a wrong CRC: only the gap ends it now.
+    unpredictable: bool,
     echo_pending: usize,
     counters: Counters,
 }
 
 impl Receiver {
-    /// A receiver for this line.
+    /// A receiver for this line, ending frames at the gap ([`FrameEnd::Gap`]).
     pub fn new(line: &LineConfig) -> Self {
         Receiver {
             buf: [0; MAX_ADU],
             len: 0,
             last: None,
+            last_activity: None,
             fault: None,
             gap: line.gap(),
             mode: line.mode,
+            frame_end: FrameEnd::Gap,
+            complete: false,
+            unpredictable: false,
             echo_pending: 0,
             counters: Counters::default(),
         }
+    }
+
+    /// End frames this way from now on.
+    pub fn set_frame_end(&mut self, frame_end: FrameEnd) {
+        self.frame_end = frame_end;
+    }
+
+    /// How frames end.
+    pub fn frame_end(&self) -> FrameEnd {
+        self.frame_end
     }
 
     /// The end-of-frame gap in use.
@@ -108,18 +224,44 @@ impl Receiver {
         self.last.is_some()
     }
 
-    /// When the current frame ends if nothing more arrives.
+    /// When the current frame ends if nothing more arrives (at once if it is complete by
+    /// length and not yet taken).
     pub fn deadline(&self) -> Option<Instant> {
-        self.last.map(|t| t + self.gap)
+        let last = self.last?;
+        Some(if self.complete { last } else { last + self.gap })
     }
 
-    /// The frame that ended by `now`, if the gap has passed since its last character.
+    /// With [`FrameEnd::Length`]: when the line will have been silent for the gap since the
+    /// last character received, the earliest a master may start its next request (§3.5:
+    /// frames are separated by silence). `None` with [`FrameEnd::Gap`], where every frame
+    /// already ends at that moment.
+    pub fn quiet_at(&self) -> Option<Instant> {
+        match self.frame_end {
+            FrameEnd::Gap => None,
+            FrameEnd::Length => self.last_activity.map(|t| t + self.gap),
+        }
+    }
+
+    /// The frame that ended by `now`: complete by length, or the gap has passed since its
+    /// last character.
     pub fn poll(&mut self, now: Instant) -> Option<Received> {
         let last = self.last?;
+        if core::mem::take(&mut self.complete) {
+            // Complete by length: no fault, at least 4 bytes, CRC checked in `push`.
+            self.last = None;
+            self.unpredictable = false;
+            let len = core::mem::take(&mut self.len);
+            self.counters.frames += 1;
+            return Some(Received {
+                adu: Adu::from_slice(&self.buf[..len]).unwrap_or_default(),
+                fault: None,
+            });
+        }
         if now < last + self.gap {
             return None;
         }
         self.last = None;
+        self.unpredictable = false;
         let bytes = &self.buf[..self.len];
         let fault = self.fault.take();
         let len = core::mem::take(&mut self.len);
@@ -155,16 +297,34 @@ impl Receiver {
         Some(Received { adu, fault: None })
     }
 
-    /// Bytes from the line at `now`. Call [`poll`](Self::poll) first: a gap before these bytes
-    /// ends the previous frame. In interference suppression mode, bytes before the first one
-    /// `is_start` accepts (the expected slave address) are skipped.
-    pub fn push(&mut self, now: Instant, bytes: &[u8], is_start: impl Fn(u8) -> bool) {
+    /// Bytes from the line at `now`; returns how many of them it took. Call
+    /// [`poll`](Self::poll) first: a gap before these bytes ends the previous frame. In
+    /// interference suppression mode, bytes before the first one `is_start` accepts (the
+    /// expected slave address) are skipped.
+    ///
+    /// With [`FrameEnd::Length`] and a prediction from `expect`, the bytes are taken only up
+    /// to the end of a frame that is complete by length; [`poll`](Self::poll) then hands it
+    /// up at once, and the engine pushes the rest (which starts a new frame). Otherwise every
+    /// byte is taken.
+    pub fn push(
+        &mut self,
+        now: Instant,
+        bytes: &[u8],
+        is_start: impl Fn(u8) -> bool,
+        expect: Expect,
+    ) -> usize {
+        if self.complete {
+            // The engine has not taken the finished frame yet: take nothing.
+            return 0;
+        }
+        let total = bytes.len();
         let skip = self.echo_pending.min(bytes.len());
         self.echo_pending -= skip;
         let mut bytes = &bytes[skip..];
         if bytes.is_empty() {
-            return;
+            return total;
         }
+        self.last_activity = Some(now);
         if self.len == 0 && self.fault.is_none() && self.mode == Mode::InterferenceSuppression {
             let start = bytes
                 .iter()
@@ -173,10 +333,55 @@ impl Receiver {
             self.counters.skipped_bytes += start as u64;
             bytes = &bytes[start..];
             if bytes.is_empty() {
-                return;
+                return total;
             }
         }
         self.last = Some(now);
+        let mut taken = total - bytes.len();
+        while !bytes.is_empty() {
+            let prediction = self.prediction(expect);
+            let n = match prediction {
+                Prediction::NeedMore(k) | Prediction::Len(k) if k > self.len => {
+                    (k - self.len).min(bytes.len())
+                }
+                _ => bytes.len(),
+            };
+            self.append(&bytes[..n]);
+            bytes = &bytes[n..];
+            taken += n;
+            if let Prediction::Len(k) = prediction {
+                if self.len == k {
+                    if crc_ok(&self.buf[..k]) {
+                        self.complete = true;
+                        return taken;
+                    }
+                    self.unpredictable = true;
+                }
+            }
+        }
+        taken
+    }
+
+    /// What the bytes so far predict, with [`FrameEnd::Length`].
+    fn prediction(&self, expect: Expect) -> Prediction {
+        if self.frame_end == FrameEnd::Gap || self.fault.is_some() || self.unpredictable {
+            return Prediction::Unknown;
+        }
+        let head = &self.buf[..self.len];
+        let p = match expect {
+            Expect::Nothing => Prediction::Unknown,
+            Expect::Request => request_len(head),
+            Expect::ResponseTo(f) => response_len(f, head),
+        };
+        match p {
+            // Past it already (a prediction that changed with the expectation), or beyond
+            // what the buffer holds: the gap decides.
+            Prediction::Len(k) if k < self.len || k > MAX_ADU => Prediction::Unknown,
+            p => p,
+        }
+    }
+
+    fn append(&mut self, bytes: &[u8]) {
         let room = MAX_ADU - self.len;
         let n = bytes.len().min(room);
         self.buf[self.len..self.len + n].copy_from_slice(&bytes[..n]);
@@ -190,11 +395,16 @@ impl Receiver {
     /// A UART error or BREAK at `now`.
     pub fn line_error(&mut self, now: Instant, error: LineError) {
         self.counters.line_errors += 1;
+        self.last_activity = Some(now);
         if self.mode == Mode::InterferenceSuppression
             && self.len >= 4
             && crc_ok(&self.buf[..self.len])
         {
             // §3.7: errors after the end of a message (after the CRC) are ignored.
+            return;
+        }
+        if self.complete {
+            // After a frame complete by length: the error belongs to what follows it.
             return;
         }
         self.last = Some(now);
@@ -215,7 +425,12 @@ mod tests {
     #[test]
     fn frame_ends_after_the_gap_not_before() {
         let mut rx = Receiver::new(&LineConfig::default());
-        rx.push(at(0), &[1, 3, 0, 0, 0, 0x0A, 0xC5, 0xCD], |_| true);
+        rx.push(
+            at(0),
+            &[1, 3, 0, 0, 0, 0x0A, 0xC5, 0xCD],
+            |_| true,
+            Expect::Nothing,
+        );
         assert_eq!(rx.poll(at(3_999)), None);
         assert_eq!(rx.deadline(), Some(at(4_000)));
         let f = rx.poll(at(4_000)).unwrap();
@@ -226,7 +441,7 @@ mod tests {
     #[test]
     fn short_frames_are_counted_and_dropped() {
         let mut rx = Receiver::new(&LineConfig::default());
-        rx.push(at(0), &[1, 2], |_| true);
+        rx.push(at(0), &[1, 2], |_| true, Expect::Nothing);
         assert_eq!(rx.poll(at(10_000)), None);
         assert_eq!(rx.counters().discarded, 1);
     }
@@ -238,14 +453,22 @@ mod tests {
             ..LineConfig::default()
         };
         let mut rx = Receiver::new(&line);
-        rx.push(at(0), &[0x55, 0xAA, 1, 3, 0, 0, 0, 0x0A, 0xC5, 0xCD], |b| {
-            b == 1
-        });
+        rx.push(
+            at(0),
+            &[0x55, 0xAA, 1, 3, 0, 0, 0, 0x0A, 0xC5, 0xCD],
+            |b| b == 1,
+            Expect::Nothing,
+        );
         let f = rx.poll(at(10_000)).unwrap();
         assert_eq!(f.adu.as_bytes()[0], 1);
         assert_eq!(rx.counters().skipped_bytes, 2);
         rx.line_error(at(20_000), LineError::Break);
-        rx.push(at(20_100), &[1, 3, 0, 0, 0, 0x0A, 0xC5, 0xCD], |b| b == 1);
+        rx.push(
+            at(20_100),
+            &[1, 3, 0, 0, 0, 0x0A, 0xC5, 0xCD],
+            |b| b == 1,
+            Expect::Nothing,
+        );
         assert_eq!(rx.poll(at(30_000)), None);
         assert_eq!(rx.counters().suppressed, 1);
     }
@@ -253,7 +476,103 @@ mod tests {
     #[test]
     fn overflow_is_a_fault() {
         let mut rx = Receiver::new(&LineConfig::default());
-        rx.push(at(0), &[0u8; 300], |_| true);
+        rx.push(at(0), &[0u8; 300], |_| true, Expect::Nothing);
         assert_eq!(rx.poll(at(10_000)).unwrap().fault, Some(Fault::Overflow));
+    }
+
+    fn length_rx() -> Receiver {
+        let mut rx = Receiver::new(&LineConfig::default());
+        rx.set_frame_end(FrameEnd::Length);
+        rx
+    }
+
+    /// Push `bytes` in chunks of `chunk` at `now`, polling after each push as the engines do;
+    /// the frames handed up at once.
+    fn feed(rx: &mut Receiver, now: Instant, bytes: &[u8], chunk: usize) -> Vec<Vec<u8>> {
+        let mut out = Vec::new();
+        for piece in bytes.chunks(chunk) {
+            let mut rest = piece;
+            while !rest.is_empty() {
+                let n = rx.push(now, rest, |_| true, Expect::Request);
+                rest = &rest[n..];
+                if let Some(f) = rx.poll(now) {
+                    out.push(f.adu.as_bytes().to_vec());
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn length_ends_a_request_at_its_predicted_length_however_it_is_chunked() {
+        // FC16 (9 + byte count) then FC03 (8), back to back, then two stray bytes.
+        let fc16 = [1, 0x10, 0, 1, 0, 2, 4, 0, 10, 1, 2, 0x92, 0x30];
+        assert!(crc_ok(&fc16));
+        let fc03 = [1, 3, 0, 0, 0, 0x0A, 0xC5, 0xCD];
+        let mut all = fc16.to_vec();
+        all.extend_from_slice(&fc03);
+        all.extend_from_slice(&[0x55, 0xAA]);
+        for chunk in 1..=all.len() {
+            let mut rx = length_rx();
+            let frames = feed(&mut rx, at(0), &all, chunk);
+            assert_eq!(frames, vec![fc16.to_vec(), fc03.to_vec()], "chunk {chunk}");
+            // The strays are a frame of their own, dropped at its gap.
+            assert!(rx.is_receiving());
+            assert_eq!(rx.poll(at(4_000)), None);
+            assert_eq!(rx.counters().discarded, 1);
+            assert_eq!(rx.quiet_at(), Some(at(4_000)));
+        }
+    }
+
+    #[test]
+    fn length_with_a_wrong_crc_waits_for_the_gap() {
+        let mut rx = length_rx();
+        let bad = [1, 3, 0, 0, 0, 0x0A, 0xC5, 0xCE];
+        assert!(feed(&mut rx, at(0), &bad, 3).is_empty());
+        // More bytes do not make it end by length later.
+        rx.push(at(100), &[0xC5, 0xCD], |_| true, Expect::Request);
+        assert_eq!(rx.poll(at(100)), None);
+        assert_eq!(rx.poll(at(4_100)).unwrap().adu.as_bytes().len(), 10);
+    }
+
+    #[test]
+    fn gap_mode_ignores_predictions() {
+        let mut rx = Receiver::new(&LineConfig::default());
+        let n = rx.push(
+            at(0),
+            &[1, 3, 0, 0, 0, 0x0A, 0xC5, 0xCD, 1],
+            |_| true,
+            Expect::Request,
+        );
+        assert_eq!(n, 9);
+        assert_eq!(rx.poll(at(0)), None);
+        assert_eq!(rx.quiet_at(), None);
+        assert_eq!(rx.poll(at(4_000)).unwrap().adu.as_bytes().len(), 9);
+    }
+
+    #[test]
+    fn predictions_follow_the_request_and_response_layouts() {
+        use Prediction::*;
+        assert_eq!(request_len(&[1]), NeedMore(2));
+        for f in [1, 2, 3, 4, 5, 6, 8] {
+            assert_eq!(request_len(&[1, f]), Len(8), "FC{f}");
+        }
+        for f in [7, 11, 12] {
+            assert_eq!(request_len(&[1, f]), Len(4), "FC{f}");
+        }
+        assert_eq!(request_len(&[1, 16, 0, 0, 0, 1]), NeedMore(7));
+        assert_eq!(request_len(&[1, 15, 0, 0, 0, 9, 2]), Len(11));
+        assert_eq!(request_len(&[1, 0x2B]), Unknown);
+        assert_eq!(response_len(3, &[1, 3]), NeedMore(3));
+        assert_eq!(response_len(3, &[1, 3, 20]), Len(25));
+        assert_eq!(response_len(1, &[1, 1, 2]), Len(7));
+        assert_eq!(response_len(12, &[1, 12, 8]), Len(13));
+        assert_eq!(response_len(3, &[1, 0x83]), Len(5));
+        assert_eq!(response_len(3, &[1, 4]), Unknown);
+        for f in [5, 6, 8, 11, 15, 16] {
+            assert_eq!(response_len(f, &[1, f]), Len(8), "FC{f}");
+        }
+        assert_eq!(response_len(7, &[1, 7]), Len(5));
+        assert_eq!(response_len(0x2B, &[1, 0x2B]), Unknown);
     }
 }

@@ -12,13 +12,18 @@
 //! - answers FC08 (sub-function 0000) itself, without touching the store (§5.7);
 //! - reports a request that arrives while its previous response is still on the line as
 //!   0837H (sequence error) and drops it.
+//!
+//! With [`FrameEnd::Length`] (a host extension, see there) a request also ends as soon as it
+//! has the length its function code predicts and its CRC checks ([`crate::rx::request_len`]),
+//! and the slave answers at once instead of after the gap. That is safe on a shared line: the
+//! master that sent the request is silent, waiting for the answer.
 
-use crate::config::SlaveConfig;
+use crate::config::{FrameEnd, SlaveConfig};
 use crate::frame::{
     self, fc, Adu, Bits, DecodeErrorKind, ExceptionCode, Registers, Request, Response, BROADCAST,
     MAX_ADU,
 };
-use crate::rx::{Counters, Fault, Received, Receiver};
+use crate::rx::{Counters, Expect, Fault, Received, Receiver};
 use crate::status::{self, slave as codes};
 use bytes::BytesMut;
 use si_core::{Engine, Instant, LineError, Output, Status};
@@ -268,6 +273,21 @@ impl<S: Store> Slave<S> {
             overlapped: false,
             tx_pool: BytesMut::with_capacity(4 * crate::frame::MAX_ADU),
         })
+    }
+
+    /// End received frames this way (host extension [`FrameEnd::Length`]; the default is
+    /// the module's [`FrameEnd::Gap`]).
+    ///
+    /// An engine option rather than a [`LineConfig`](crate::config::LineConfig) field so that
+    /// code building `LineConfig` field by field keeps compiling.
+    pub fn with_frame_end(mut self, frame_end: FrameEnd) -> Self {
+        self.rx.set_frame_end(frame_end);
+        self
+    }
+
+    /// How received frames end.
+    pub fn frame_end(&self) -> FrameEnd {
+        self.rx.frame_end()
     }
 
     /// The parameters.
@@ -521,8 +541,17 @@ impl<S: Store> Slave<S> {
         if self.busy_until.is_some_and(|t| now >= t) {
             self.busy_until = None;
         }
+        self.end_frame(now);
+    }
+
+    /// Hand up the frame that has ended, if any. A frame the receiver drops itself (too short,
+    /// suppressed) also ends an overlap: the next request is judged on its own.
+    fn end_frame(&mut self, now: Instant) {
         if let Some(frame) = self.rx.poll(now) {
             self.on_frame(now, frame);
+        }
+        if !self.rx.is_receiving() {
+            self.overlapped = false;
         }
     }
 }
@@ -540,13 +569,21 @@ fn fault_status(fault: Fault) -> Status {
 impl<S: Store> Engine for Slave<S> {
     type Event = SlaveEvent;
 
-    fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+    fn handle_rx(&mut self, now: Instant, mut bytes: &[u8]) {
         self.tick(now);
-        let was_receiving = self.rx.is_receiving();
         let own = self.config.address;
-        self.rx.push(now, bytes, |b| b == own || b == BROADCAST);
-        if !was_receiving && self.rx.is_receiving() && self.busy_until.is_some() {
-            self.overlapped = true;
+        while !bytes.is_empty() {
+            let was_receiving = self.rx.is_receiving();
+            let taken = self
+                .rx
+                .push(now, bytes, |b| b == own || b == BROADCAST, Expect::Request);
+            bytes = &bytes[taken..];
+            if !was_receiving && self.rx.is_receiving() && self.busy_until.is_some() {
+                self.overlapped = true;
+            }
+            // A request complete by its length (FrameEnd::Length) is answered at once; the
+            // rest of the bytes start the next frame.
+            self.end_frame(now);
         }
     }
 

@@ -1,10 +1,12 @@
 //! Async Modbus over any [`Transport`] (feature `tokio`): a master handle with one method per
 //! function code, and a slave server task.
 //!
-//! Both run the Sans-IO engines on the si-core driver, which feeds them tokio's clock. Tokio's
-//! timers are about 1 ms coarse, so the end-of-frame gap (4 ms at 9600–38 400 bit/s, Table
-//! 3-11) is detected 0–2 ms late; that delays responses slightly but never merges frames that
-//! the gap separates on the wire.
+//! Both run the Sans-IO engines on the si-core driver, which feeds them tokio's clock and fires
+//! short deadlines precisely (see its "Timing, honestly"), so the end-of-frame gap (4 ms at
+//! 9600–38 400 bit/s, 1 ms above, Table 3-11) is detected some 0.1 ms late on an idle machine;
+//! that delays responses slightly but never merges frames that the gap separates on the wire.
+//! To answer without waiting for the gap, build the engines with
+//! [`FrameEnd::Length`](crate::config::FrameEnd) and start them with `spawn_engine`.
 //!
 //! ```no_run
 //! # async fn demo(port: tokio::io::DuplexStream) -> Result<(), si_modbus::tokio::Error> {
@@ -83,18 +85,23 @@ pub const DIAGNOSTICS_KEPT: usize = 64;
 impl MasterHandle {
     /// Start the master on `transport`.
     pub fn spawn<T: Transport>(config: MasterConfig, transport: T) -> Result<Self, Error> {
-        let master = Master::new(config)?;
+        Ok(Self::spawn_engine(Master::new(config)?, transport))
+    }
+
+    /// Start an engine built by the caller (for options beyond [`MasterConfig`], such as
+    /// [`Master::with_frame_end`]) on `transport`.
+    pub fn spawn_engine<T: Transport>(master: Master, transport: T) -> Self {
         let options = DriverOptions {
-            settings: Some(config.line.settings),
+            settings: Some(master.config().line.settings),
             ..DriverOptions::default()
         };
         let (handle, task) = spawn(master, transport, options);
-        Ok(MasterHandle {
+        MasterHandle {
             handle,
             task,
             diagnostics: std::collections::VecDeque::new(),
             dropped: 0,
-        })
+        }
     }
 
     /// Send any request and wait for its completion (a broadcast completes after the
@@ -327,7 +334,12 @@ pub struct SlaveServer<S: Store + Send + 'static> {
 impl<S: Store + Send + 'static> SlaveServer<S> {
     /// Start serving `store` on `transport`.
     pub fn spawn<T: Transport>(config: SlaveConfig, store: S, transport: T) -> Result<Self, Error> {
-        let slave = Slave::new(config, store)?;
+        Ok(Self::spawn_engine(Slave::new(config, store)?, transport))
+    }
+
+    /// Serve with an engine built by the caller (for options beyond [`SlaveConfig`], such as
+    /// [`Slave::with_frame_end`]) on `transport`.
+    pub fn spawn_engine<T: Transport>(slave: Slave<S>, transport: T) -> Self {
         // Report tx-done when the write completes, not after the estimated wire time: on
         // transports without wire time (pseudo-terminals, TCP) a fast master's next request
         // would otherwise look like a sequence error (0837H).
@@ -336,7 +348,7 @@ impl<S: Store + Send + 'static> SlaveServer<S> {
             ..DriverOptions::default()
         };
         let (handle, task) = spawn(slave, transport, options);
-        Ok(SlaveServer { handle, task })
+        SlaveServer { handle, task }
     }
 
     /// The next thing the slave did; `None` once the line has closed.

@@ -8,7 +8,7 @@
 use si_core::sim::Pair;
 use si_core::Duration;
 use si_modbus::frame::{Registers, Request};
-use si_modbus::{Master, MasterConfig, MasterEvent, SimaticStore, Slave, SlaveConfig};
+use si_modbus::{FrameEnd, Master, MasterConfig, MasterEvent, SimaticStore, Slave, SlaveConfig};
 use stats_alloc::{Region, StatsAlloc, INSTRUMENTED_SYSTEM};
 use std::alloc::System;
 
@@ -16,17 +16,25 @@ use std::alloc::System;
 static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
 
 fn main() {
-    steady_state_polling_does_not_allocate();
-    println!("master_slave_no_alloc: 1000 request/response cycles allocate nothing: ok");
+    for frame_end in [FrameEnd::Gap, FrameEnd::Length] {
+        steady_state_polling_does_not_allocate(frame_end);
+        println!(
+            "master_slave_no_alloc: 1000 request/response cycles with {frame_end:?} allocate nothing: ok"
+        );
+    }
 }
 
-fn steady_state_polling_does_not_allocate() {
-    let master = Master::new(MasterConfig::default()).unwrap();
+fn steady_state_polling_does_not_allocate(frame_end: FrameEnd) {
+    let master = Master::new(MasterConfig::default())
+        .unwrap()
+        .with_frame_end(frame_end);
     let config = SlaveConfig {
         address: 1,
         ..SlaveConfig::default()
     };
-    let slave = Slave::new(config, SimaticStore::example()).unwrap();
+    let slave = Slave::new(config, SimaticStore::example())
+        .unwrap()
+        .with_frame_end(frame_end);
     let mut pair = Pair::new(master, slave);
     let read = Request::ReadHoldingRegisters {
         address: 0,
