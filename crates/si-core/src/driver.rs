@@ -8,12 +8,23 @@
 //!
 //! The driver feeds the engine `Instant`s from tokio's monotonic clock (microseconds since the
 //! driver started) and re-checks every deadline whenever it wakes, for whatever reason, so a
-//! timer is never missed. But tokio's timer wheel has **1 ms granularity** and the OS adds
-//! scheduling latency: a deadline fires between 0 and roughly 1–2 ms late on an idle machine,
-//! more under load; it never fires early. That is ample for 3964(R) (ZVZ 220 ms, QVZ 2 s), USS
-//! (20 ms response delay) and Modbus timeouts, but a 3.5-character gap below a millisecond
-//! (Modbus above 19 200 bit/s) cannot be *enforced* from user space: the driver reports the gap
-//! the kernel let it see. Use a converter with hardware framing where that matters.
+//! timer is never missed and never fires early.
+//!
+//! Tokio's timer wheel has **1 ms granularity**: alone, it fires a deadline between 0 and about
+//! 2 ms late, which turns Modbus's 1 ms end-of-frame gap at 57 600–115 200 bit/s into 2–3 ms.
+//! So the driver uses tokio's timer only to get within [`PRECISE_LEAD`] (3 ms) of a deadline;
+//! the last stretch is waited by a small helper thread per driver, started on first use, that
+//! blocks on a condition variable with a timeout (the kernel's high-resolution timers: some
+//! 50–100 µs late on an idle Linux machine, timer slack included) and wakes the driver task.
+//! It sleeps in the kernel, so it burns no CPU; tokio's timer stays armed as a backstop.
+//!
+//! What remains is the operating system: scheduling latency under load (milliseconds on a
+//! busy machine), and the port itself (a USB adapter delivers received bytes in 1 ms or 16 ms
+//! chunks; a pseudo-terminal or a pipe at once). A 3.5-character gap below a millisecond
+//! (Modbus above 19 200 bit/s) therefore still cannot be *enforced* from user space: the driver
+//! reports the gap the kernel let it see. Use a converter with hardware framing where that
+//! matters, or let the engine end frames by length where the protocol allows it (si-modbus's
+//! `FrameEnd::Length`).
 //!
 //! "Transmission done" ([`Engine::handle_tx_done`]) is reported when the write has completed
 //! *and*, if [`DriverOptions::settings`] is given, the bytes' character time has passed since the
@@ -25,9 +36,10 @@
 use crate::sansio::{Engine, ModemSignals, Output, SignalUpdate};
 use crate::serial::SerialSettings;
 use crate::sim::TraceKind;
-use crate::time::Instant;
+use crate::time::{Duration, Instant};
 use crate::tracefile::Recorder;
 use std::io;
+use std::sync::{Arc, Condvar, Mutex, PoisonError};
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::sync::{mpsc, oneshot};
 use tokio::task::JoinHandle;
@@ -182,6 +194,149 @@ impl Clock {
     }
 }
 
+/// How close to a deadline the driver hands over from tokio's 1 ms timer wheel to the precise
+/// helper thread ("Timing, honestly" in the module docs): more than the wheel's worst lateness
+/// on an idle machine, so the wheel wakes the driver before the deadline.
+pub const PRECISE_LEAD: Duration = Duration::from_millis(3);
+
+/// The helper thread's side of a [`PreciseTimer`].
+struct TimerShared {
+    state: Mutex<TimerState>,
+    /// Tells the thread that the deadline changed or the driver has gone.
+    changed: Condvar,
+    /// Tells the driver task that the deadline has passed.
+    fired: tokio::sync::Notify,
+}
+
+#[derive(Default)]
+struct TimerState {
+    deadline: Option<std::time::Instant>,
+    closed: bool,
+}
+
+/// Fires deadlines less than [`PRECISE_LEAD`] ahead with the kernel's high-resolution timers
+/// instead of tokio's 1 ms wheel, from a helper thread that sleeps in a condition variable.
+#[derive(Default)]
+struct PreciseTimer {
+    shared: Option<Arc<TimerShared>>,
+    /// The engine deadline the thread is armed for (to skip re-arming for the same one).
+    armed: Option<Instant>,
+    /// The thread could not be started: tokio's timer alone, as before.
+    unavailable: bool,
+}
+
+impl PreciseTimer {
+    /// Wake the driver `remaining` from now for the engine deadline `at`.
+    fn arm(&mut self, at: Instant, remaining: Duration) {
+        if self.armed == Some(at) || self.unavailable {
+            return;
+        }
+        let Some(shared) = self.shared() else {
+            return;
+        };
+        let when = std::time::Instant::now() + std::time::Duration::from(remaining);
+        let mut state = shared.state.lock().unwrap_or_else(PoisonError::into_inner);
+        state.deadline = Some(when);
+        drop(state);
+        shared.changed.notify_one();
+        self.armed = Some(at);
+    }
+
+    fn disarm(&mut self) {
+        if self.armed.take().is_some() {
+            if let Some(shared) = &self.shared {
+                shared
+                    .state
+                    .lock()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .deadline = None;
+            }
+        }
+    }
+
+    fn is_armed(&self) -> bool {
+        self.armed.is_some()
+    }
+
+    /// The thread has fired (it disarmed itself): arm it again for the next deadline, even if
+    /// that is the same one (a wake-up before it, such as a stale notification).
+    fn fired_seen(&mut self) {
+        self.armed = None;
+    }
+
+    /// Resolves when the armed deadline has passed (or spuriously: the driver checks the
+    /// clock, never the timer).
+    async fn fired(&self) {
+        if let Some(shared) = &self.shared {
+            shared.fired.notified().await;
+        }
+    }
+
+    /// The helper thread, started on first use.
+    fn shared(&mut self) -> Option<&Arc<TimerShared>> {
+        if self.shared.is_none() {
+            let shared = Arc::new(TimerShared {
+                state: Mutex::new(TimerState::default()),
+                changed: Condvar::new(),
+                fired: tokio::sync::Notify::new(),
+            });
+            let theirs = Arc::clone(&shared);
+            let started = std::thread::Builder::new()
+                .name("si-driver-timer".into())
+                .spawn(move || precise_timer_thread(&theirs));
+            if let Err(e) = started {
+                tracing::warn!("no precise timer thread ({e}): deadlines may fire 1–2 ms late");
+                self.unavailable = true;
+                return None;
+            }
+            self.shared = Some(shared);
+        }
+        self.shared.as_ref()
+    }
+}
+
+impl Drop for PreciseTimer {
+    fn drop(&mut self) {
+        if let Some(shared) = &self.shared {
+            shared
+                .state
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .closed = true;
+            shared.changed.notify_one();
+        }
+    }
+}
+
+fn precise_timer_thread(shared: &TimerShared) {
+    let mut state = shared.state.lock().unwrap_or_else(PoisonError::into_inner);
+    loop {
+        if state.closed {
+            return;
+        }
+        state = match state.deadline {
+            None => shared
+                .changed
+                .wait(state)
+                .unwrap_or_else(PoisonError::into_inner),
+            Some(deadline) => {
+                let now = std::time::Instant::now();
+                if now >= deadline {
+                    state.deadline = None;
+                    shared.fired.notify_one();
+                    state
+                } else {
+                    shared
+                        .changed
+                        .wait_timeout(state, deadline - now)
+                        .unwrap_or_else(PoisonError::into_inner)
+                        .0
+                }
+            }
+        };
+    }
+}
+
 async fn run<E, T>(
     mut engine: E,
     mut io: T,
@@ -206,6 +361,7 @@ where
     let mut signals = io.read_signals()?;
     let mut poll = tokio::time::interval(options.signal_poll);
     poll.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut precise = PreciseTimer::default();
 
     loop {
         // Drain until Wait, acting on every output.
@@ -242,6 +398,21 @@ where
             }
         };
 
+        // Tokio's wheel until PRECISE_LEAD before the next deadline, then the precise thread
+        // (with the wheel at the deadline itself as a backstop).
+        let next = Instant::earliest(deadline, tx_done_at);
+        let mut wheel_at = next;
+        match next.map(|at| (at, at - clock.now())) {
+            Some((at, remaining)) if remaining > PRECISE_LEAD => {
+                precise.disarm();
+                wheel_at = Some(Instant::from_micros(
+                    at.as_micros() - PRECISE_LEAD.as_micros(),
+                ));
+            }
+            Some((at, remaining)) if remaining > Duration::ZERO => precise.arm(at, remaining),
+            _ => precise.disarm(),
+        }
+
         tokio::select! {
             command = commands.recv() => match command {
                 Some(command) => command(&mut engine, clock.now()),
@@ -255,8 +426,8 @@ where
                 record(TraceKind::RxChunk { bytes: buf[..n].to_vec() });
                 engine.handle_rx(clock.now(), &buf[..n]);
             }
-            _ = tokio::time::sleep_until(clock.to_tokio(deadline.unwrap_or_default())), if deadline.is_some() => {}
-            _ = tokio::time::sleep_until(clock.to_tokio(tx_done_at.unwrap_or_default())), if tx_done_at.is_some() => {}
+            _ = tokio::time::sleep_until(clock.to_tokio(wheel_at.unwrap_or_default())), if wheel_at.is_some() => {}
+            _ = precise.fired(), if precise.is_armed() => precise.fired_seen(),
             _ = poll.tick(), if signals.is_some() => {
                 let now_signals = io.read_signals()?;
                 if now_signals != signals {
