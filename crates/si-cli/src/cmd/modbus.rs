@@ -14,7 +14,7 @@ use si_modbus::frame::{self, Request, Response};
 use si_modbus::master::{Completion, Master, MasterEvent};
 use si_modbus::slave::{Slave, SlaveEvent};
 use si_modbus::tokio::{Error as ModbusError, MasterHandle, SlaveServer};
-use si_modbus::{ConversionDb, MasterConfig, Mode, SimaticStore, SlaveConfig};
+use si_modbus::{ConversionDb, FrameEnd, MasterConfig, Mode, SimaticStore, SlaveConfig};
 
 /// Master parameters every job shares (Table 3-17).
 #[derive(Debug, Clone, Args)]
@@ -34,6 +34,29 @@ pub struct MasterOptions {
     /// Character delay multiplier 1–10 (end-of-frame gap = table value × this).
     #[arg(long, default_value_t = 1)]
     char_delay_multiplier: u8,
+    /// How a response ends: at the end-of-frame gap as the module does, or (host extension)
+    /// also as soon as it has its predicted length and a good CRC.
+    #[arg(long, value_enum, default_value_t = FrameEndArg::Gap)]
+    frame_end: FrameEndArg,
+}
+
+/// `--frame-end`.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum FrameEndArg {
+    /// The module's behaviour (§3.5): a frame ends after the line has been silent for the gap.
+    Gap,
+    /// Host extension: a frame also ends at the length its header predicts once its CRC
+    /// checks (no wait for the gap; the master still leaves it before its next request).
+    Length,
+}
+
+impl From<FrameEndArg> for FrameEnd {
+    fn from(f: FrameEndArg) -> FrameEnd {
+        match f {
+            FrameEndArg::Gap => FrameEnd::Gap,
+            FrameEndArg::Length => FrameEnd::Length,
+        }
+    }
 }
 
 /// `--mode`.
@@ -142,14 +165,21 @@ pub enum Command {
         /// Slave address 1–255.
         #[arg(long, short = 'u')]
         unit: u8,
-        /// TOML file with `mode`, `char_delay_multiplier`, `[conversion]` (the 26 fields of
-        /// Table 3-19) and `[memory]` (inputs, outputs, flags, timers, counters, dbs); without
-        /// it, the manual's example conversion DB of Table 3-20.
+        /// TOML file with `mode`, `char_delay_multiplier`, `frame_end` ("gap" or "length"),
+        /// `[conversion]` (the 26 fields of Table 3-19) and `[memory]` (inputs, outputs,
+        /// flags, timers, counters, dbs); without it, the manual's example conversion DB of
+        /// Table 3-20.
         #[arg(long)]
         config: Option<std::path::PathBuf>,
         /// Operating mode (overridden by the config file's `mode`).
         #[arg(long, value_enum, default_value_t = ModeArg::Normal)]
         mode: ModeArg,
+        /// How a request ends: at the end-of-frame gap as the module does, or (host
+        /// extension) also as soon as it has its predicted length and a good CRC, so the
+        /// answer goes out without waiting for the gap (overridden by the config file's
+        /// `frame_end`).
+        #[arg(long, value_enum, default_value_t = FrameEndArg::Gap)]
+        frame_end: FrameEndArg,
     },
 }
 
@@ -216,7 +246,12 @@ impl Command {
     /// Run it on the line.
     pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         match self {
-            Command::Serve { unit, config, mode } => serve(conn, out, unit, config, mode).await,
+            Command::Serve {
+                unit,
+                config,
+                mode,
+                frame_end,
+            } => serve(conn, out, unit, config, mode, frame_end.into()).await,
             Command::Read {
                 kind,
                 master,
@@ -330,8 +365,11 @@ impl Command {
 
 async fn open_master(conn: &Connection, o: &MasterOptions) -> Result<MasterHandle, CliError> {
     let config = master_config(conn, o)?;
+    let master = Master::new(config)
+        .map_err(|e| failure(e.into()))?
+        .with_frame_end(o.frame_end.into());
     let port = conn.open().await?;
-    MasterHandle::spawn(config, port).map_err(failure)
+    Ok(MasterHandle::spawn_engine(master, port))
 }
 
 async fn job(
@@ -447,6 +485,7 @@ fn print_completion(c: &Completion, out: &Output) {
 struct ServeFile {
     mode: Option<Mode>,
     char_delay_multiplier: Option<u8>,
+    frame_end: Option<FrameEnd>,
     conversion: Option<ConversionDb>,
     memory: Option<MemoryFile>,
 }
@@ -493,6 +532,7 @@ async fn serve(
     unit: u8,
     path: Option<std::path::PathBuf>,
     mode: ModeArg,
+    frame_end: FrameEnd,
 ) -> Result<(), CliError> {
     let file: ServeFile = match &path {
         Some(p) => {
@@ -525,16 +565,25 @@ async fn serve(
         address: unit,
     };
     config.validate()?;
+    let frame_end = file.frame_end.unwrap_or(frame_end);
+    let slave = Slave::new(config, store)
+        .map_err(|e| failure(e.into()))?
+        .with_frame_end(frame_end);
     let port = conn.open().await?;
-    let mut server = SlaveServer::spawn(config, store, port).map_err(failure)?;
+    let mut server = SlaveServer::spawn_engine(slave, port);
+    let ends = match frame_end {
+        FrameEnd::Gap => "",
+        FrameEnd::Length => ", or at the predicted length (host extension)",
+    };
     out.line(
         &format!(
-            "serving as slave {unit} ({}), end-of-frame gap {}",
+            "serving as slave {unit} ({}), end-of-frame gap {}{ends}",
             config.line.settings,
             config.line.gap()
         ),
         json!({"serving": unit, "settings": config.line.settings.to_string(),
-               "gap_us": config.line.gap().as_micros()}),
+               "gap_us": config.line.gap().as_micros(),
+               "frame_end": match frame_end { FrameEnd::Gap => "gap", FrameEnd::Length => "length" }}),
     );
     loop {
         tokio::select! {
