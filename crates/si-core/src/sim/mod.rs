@@ -43,6 +43,7 @@
 //! assert_eq!(sim.trace().received("B")[0].0, Instant::from_micros(1_146)); // 11 / 9600 s
 //! ```
 
+mod burst;
 mod pair;
 mod rng;
 mod trace;
@@ -54,10 +55,12 @@ pub use trace::{Trace, TraceEntry, TraceKind};
 use crate::sansio::{Engine, LineError, ModemSignals, Output, SignalUpdate};
 use crate::serial::SerialSettings;
 use crate::time::{Duration, Instant};
+use burst::{Burst, Key, Mod};
 use core::any::Any;
 use core::marker::PhantomData;
 use std::cmp::Ordering;
-use std::collections::{BinaryHeap, HashMap, VecDeque};
+use std::collections::binary_heap::PeekMut;
+use std::collections::{BinaryHeap, VecDeque};
 
 /// Seeded faults on the characters a station receives from others (its own bus echo is clean).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -171,8 +174,15 @@ struct Slot {
     burst_chars: u64,
     tx_free_at: Instant,
     tx_generation: u64,
+    /// The deadline the engine last asked for.
     deadline: Option<Instant>,
-    timer_generation: u64,
+    /// That deadline as a queue key: when it fires and its place among happenings at the same
+    /// instant (a fresh seq at every re-arm, as if each re-arm were queued).
+    timer: Option<Key>,
+    /// The key of the one queue entry standing for this station's timer: never later than
+    /// `timer`. Re-arming later queues nothing; when this entry pops before `timer` it is
+    /// queued again at `timer` (lazy timers: one entry per station however often it re-arms).
+    timer_queued: Option<Key>,
     silent_from: Option<Instant>,
     /// A scripted corruption: the character with this index (counting from 0 at the time of
     /// the call) among those received from others gets its bits XORed with the mask.
@@ -180,30 +190,24 @@ struct Slot {
     signals: ModemSignals,
 }
 
-/// A character on an RS-485 bus, kept until its last delivery so later overlapping
-/// transmissions can garble it.
-struct BusChar {
-    start: Instant,
-    end: Instant,
-    sender: usize,
-    garbled: bool,
-    pending: usize,
-}
-
-#[derive(Debug)]
+#[derive(Debug, Clone, Copy)]
 enum What {
-    Deliver {
+    /// The next character of a burst for one of its receivers (see [`burst`]).
+    Char {
+        burst: u32,
+        cursor: u32,
+    },
+    /// A BREAK at a station's receiver.
+    Break {
         to: usize,
-        item: Result<u8, LineError>,
-        bus_char: Option<u64>,
     },
     TxDone {
         station: usize,
         generation: u64,
     },
+    /// A station's timer: live only if its key is the station's `timer_queued`.
     Timeout {
         station: usize,
-        generation: u64,
     },
 }
 
@@ -238,8 +242,12 @@ pub struct Simulator {
     queue: BinaryHeap<Scheduled>,
     slots: Vec<Slot>,
     buses: Vec<Vec<usize>>,
-    bus_chars: HashMap<u64, BusChar>,
-    next_bus_char: u64,
+    /// Per bus, the bursts still in flight on it (ids in `bursts`), for collisions.
+    bus_live: Vec<Vec<u32>>,
+    /// Bursts in flight and spare ones, whose buffers are reused.
+    bursts: Vec<Burst>,
+    /// Ids of the spare bursts.
+    free_bursts: Vec<u32>,
     rng: SplitMix64,
     trace: Option<Trace>,
 }
@@ -254,8 +262,9 @@ impl Simulator {
             queue: BinaryHeap::new(),
             slots: Vec::new(),
             buses: Vec::new(),
-            bus_chars: HashMap::new(),
-            next_bus_char: 0,
+            bus_live: Vec::new(),
+            bursts: Vec::new(),
+            free_bursts: Vec::new(),
             rng: SplitMix64::new(seed),
             trace: Some(Trace::default()),
         }
@@ -290,7 +299,8 @@ impl Simulator {
             tx_free_at: Instant::ZERO,
             tx_generation: 0,
             deadline: None,
-            timer_generation: 0,
+            timer: None,
+            timer_queued: None,
             silent_from: None,
             corrupt: None,
             signals: ModemSignals::default(),
@@ -316,6 +326,7 @@ impl Simulator {
             self.slots[m].wiring = Wiring::Bus(bus);
         }
         self.buses.push(members.to_vec());
+        self.bus_live.push(Vec::new());
     }
 
     /// Faults on what `station` receives from others.
@@ -338,14 +349,7 @@ impl Simulator {
 
     /// A BREAK reaches `station`'s receiver at `at`.
     pub fn schedule_break<E>(&mut self, station: StationId<E>, at: Instant) {
-        self.schedule(
-            at.max(self.now),
-            What::Deliver {
-                to: station.index,
-                item: Err(LineError::Break),
-                bus_char: None,
-            },
-        );
+        self.schedule(at.max(self.now), What::Break { to: station.index });
     }
 
     /// Current virtual time.
@@ -414,11 +418,32 @@ impl Simulator {
 
     /// Process the next scheduled happening; false if there is none.
     pub fn step(&mut self) -> bool {
-        let Some(next) = self.queue.pop() else {
+        let Some(mut top) = self.queue.peek_mut() else {
             return false;
         };
-        self.now = self.now.max(next.at);
-        self.dispatch(next.what);
+        let (at, seq, what) = (top.at, top.seq, top.what);
+        if let What::Char { burst, cursor } = what {
+            // The burst's cursor stays queued, moved on to its next character (a sift in place
+            // instead of a pop and a push); it leaves the queue after its last.
+            let (to, item, next) = self.bursts[burst as usize].advance(cursor as usize);
+            match next {
+                Some((at, seq)) => {
+                    top.at = at;
+                    top.seq = seq;
+                    drop(top);
+                }
+                None => {
+                    PeekMut::pop(top);
+                    self.cursor_done(burst);
+                }
+            }
+            self.now = self.now.max(at);
+            self.receive(to, item);
+        } else {
+            PeekMut::pop(top);
+            self.now = self.now.max(at);
+            self.dispatch(what, (at, seq));
+        }
         true
     }
 
@@ -452,6 +477,10 @@ impl Simulator {
         });
     }
 
+    fn schedule_key(&mut self, (at, seq): Key, what: What) {
+        self.queue.push(Scheduled { at, seq, what });
+    }
+
     fn record(&mut self, station: usize, kind: TraceKind) {
         if let Some(trace) = &mut self.trace {
             trace.entries.push(TraceEntry {
@@ -462,26 +491,28 @@ impl Simulator {
         }
     }
 
-    fn dispatch(&mut self, what: What) {
+    /// A character (or a line error) arrives at `to` now.
+    fn receive(&mut self, to: usize, item: Result<u8, LineError>) {
+        let now = self.now;
+        match item {
+            Ok(byte) => {
+                self.record(to, TraceKind::Rx { byte });
+                self.slots[to].engine.rx(now, &[byte]);
+            }
+            Err(error) => {
+                self.record(to, TraceKind::RxError { error });
+                self.slots[to].engine.line_error(now, error);
+            }
+        }
+        self.drain(to);
+    }
+
+    /// Everything but a burst's characters (those are [`step`](Self::step)'s).
+    fn dispatch(&mut self, what: What, key: Key) {
         let now = self.now;
         match what {
-            What::Deliver { to, item, bus_char } => {
-                let item = match bus_char.and_then(|id| self.release_bus_char(id)) {
-                    Some(true) => Err(LineError::Framing),
-                    _ => item,
-                };
-                match item {
-                    Ok(byte) => {
-                        self.record(to, TraceKind::Rx { byte });
-                        self.slots[to].engine.rx(now, &[byte]);
-                    }
-                    Err(error) => {
-                        self.record(to, TraceKind::RxError { error });
-                        self.slots[to].engine.line_error(now, error);
-                    }
-                }
-                self.drain(to);
-            }
+            What::Char { .. } => {}
+            What::Break { to } => self.receive(to, Err(LineError::Break)),
             What::TxDone {
                 station,
                 generation,
@@ -491,14 +522,24 @@ impl Simulator {
                     self.drain(station);
                 }
             }
-            What::Timeout {
-                station,
-                generation,
-            } => {
-                if self.slots[station].timer_generation == generation {
-                    self.slots[station].deadline = None;
-                    self.slots[station].engine.timeout(now);
-                    self.drain(station);
+            What::Timeout { station } => {
+                let slot = &mut self.slots[station];
+                if slot.timer_queued != Some(key) {
+                    return; // superseded by an earlier deadline
+                }
+                slot.timer_queued = None;
+                match slot.timer {
+                    Some(armed) if armed == key => {
+                        slot.timer = None;
+                        slot.deadline = None;
+                        slot.engine.timeout(now);
+                        self.drain(station);
+                    }
+                    Some(later) => {
+                        slot.timer_queued = Some(later);
+                        self.schedule_key(later, What::Timeout { station });
+                    }
+                    None => {} // cancelled
                 }
             }
         }
@@ -544,22 +585,24 @@ impl Simulator {
         }
     }
 
+    /// Arm (or cancel) a station's timer. Each change takes a fresh seq, so the timer keeps
+    /// the place among same-instant happenings it would have if it were queued at once; only a
+    /// deadline earlier than the queued entry is queued now.
     fn set_timer(&mut self, s: usize, deadline: Option<Instant>) {
         let slot = &mut self.slots[s];
         if slot.deadline == deadline {
             return;
         }
         slot.deadline = deadline;
-        slot.timer_generation += 1;
-        let generation = slot.timer_generation;
-        if let Some(at) = deadline {
-            self.schedule(
-                at.max(self.now),
-                What::Timeout {
-                    station: s,
-                    generation,
-                },
-            );
+        slot.timer = deadline.map(|at| {
+            self.seq += 1;
+            (at.max(self.now), self.seq)
+        });
+        if let Some(key) = slot.timer {
+            if slot.timer_queued.is_none_or(|queued| key < queued) {
+                slot.timer_queued = Some(key);
+                self.schedule_key(key, What::Timeout { station: s });
+            }
         }
     }
 
@@ -596,18 +639,13 @@ impl Simulator {
             slot.burst_start = now;
             slot.burst_chars = 0;
         }
-        let settings = slot.settings;
-        for &byte in bytes {
-            let slot = &mut self.slots[s];
-            let start = slot.burst_start + settings.chars_time(slot.burst_chars);
-            slot.burst_chars += 1;
-            let end = slot.burst_start + settings.chars_time(slot.burst_chars);
-            if !silenced {
-                self.put_on_wire(s, byte, start, end);
-            }
+        let (t0, first) = (slot.burst_start, slot.burst_chars);
+        slot.burst_chars += bytes.len() as u64;
+        if !silenced {
+            self.put_on_wire(s, bytes, t0, first);
         }
         let slot = &mut self.slots[s];
-        slot.tx_free_at = slot.burst_start + settings.chars_time(slot.burst_chars);
+        slot.tx_free_at = slot.burst_start + slot.settings.chars_time(slot.burst_chars);
         slot.tx_generation += 1;
         let (at, generation) = (slot.tx_free_at, slot.tx_generation);
         self.schedule(
@@ -619,97 +657,175 @@ impl Simulator {
         );
     }
 
-    fn put_on_wire(&mut self, s: usize, byte: u8, start: Instant, end: Instant) {
-        match self.slots[s].wiring {
-            Wiring::Unconnected => {}
-            Wiring::PointToPoint(p) => self.deliver(s, p, byte, end, None),
-            Wiring::Bus(bus) => {
-                let id = self.next_bus_char;
-                self.next_bus_char += 1;
-                let mut garbled = false;
-                for other in self.bus_chars.values_mut() {
-                    if other.sender != s && other.start < end && start < other.end {
-                        other.garbled = true;
-                        garbled = true;
+    /// Put a burst on the sender's wire: one cursor per receiver, queued at its first
+    /// character. Reserves the seqs the characters would have taken one by one, draws the
+    /// receivers' faults in the order they always were drawn (character by character,
+    /// receiver by receiver), and on a bus marks the characters colliding with other senders'.
+    fn put_on_wire(&mut self, s: usize, bytes: &[u8], t0: Instant, first: u64) {
+        let (bus, receivers) = match self.slots[s].wiring {
+            Wiring::Unconnected => return,
+            Wiring::PointToPoint(_) => (None, 1),
+            Wiring::Bus(bus) => (Some(bus), self.buses[bus].len()),
+        };
+        if receivers == 0 {
+            return;
+        }
+        let id = match self.free_bursts.pop() {
+            Some(id) => id,
+            None => {
+                self.bursts.push(Burst::default());
+                (self.bursts.len() - 1) as u32
+            }
+        };
+        let stride = 2 * receivers as u64;
+        let seq_base = self.seq + 1;
+        self.seq += stride * bytes.len() as u64;
+        let settings = self.slots[s].settings;
+        let b = &mut self.bursts[id as usize];
+        b.sender = s;
+        b.bus = bus;
+        b.t0 = t0;
+        b.first = first;
+        b.settings = settings;
+        b.bytes.clear();
+        b.bytes.extend_from_slice(bytes);
+        b.seq_base = seq_base;
+        b.stride = stride;
+        b.receivers = receivers;
+        b.garbled.clear();
+        let mut faulty = false;
+        for i in 0..receivers {
+            let to = match (self.slots[s].wiring, bus) {
+                (Wiring::PointToPoint(p), _) => p,
+                (_, Some(bus)) => self.buses[bus][i],
+                _ => unreachable!("wired"),
+            };
+            let rx = &self.slots[to];
+            let mismatch = rx.settings != settings;
+            let latency = if to == s {
+                Duration::ZERO
+            } else {
+                faulty |= rx.corrupt.is_some()
+                    || rx.faults.drop > 0.0
+                    || rx.faults.bit_flip > 0.0
+                    || rx.faults.insert > 0.0;
+                rx.faults.extra_latency
+            };
+            b.reset_cursor(i, to, latency, mismatch);
+        }
+        if faulty {
+            self.draw_faults(id);
+        }
+        if let Some(bus) = bus {
+            self.collide(bus, id);
+        }
+        let b = &mut self.bursts[id as usize];
+        b.live = 0;
+        for i in 0..receivers {
+            if let Some(key) = b.settle(i) {
+                b.live += 1;
+                self.queue.push(Scheduled {
+                    at: key.0,
+                    seq: key.1,
+                    what: What::Char {
+                        burst: id,
+                        cursor: i as u32,
+                    },
+                });
+            }
+        }
+        match (b.live, bus) {
+            (0, _) => self.free_bursts.push(id),
+            (_, Some(bus)) => self.bus_live[bus].push(id),
+            (_, None) => {}
+        }
+    }
+
+    /// Draw the seeded faults of a new burst's receivers (not the sender's own echo), exactly
+    /// as they were drawn when every character was scheduled on its own: per character, per
+    /// receiver: drop; else bit flip (and which bit), the scripted corruption, insertion (and
+    /// the noise). Characters sent with another format still take their draws.
+    fn draw_faults(&mut self, id: u32) {
+        let b = &mut self.bursts[id as usize];
+        let (len, receivers, sender) = (b.len(), b.receivers, b.sender);
+        for k in 0..len {
+            for c in &mut b.cursors[..receivers] {
+                if c.to == sender {
+                    continue;
+                }
+                let rx = &mut self.slots[c.to];
+                let f = rx.faults;
+                if self.rng.chance(f.drop) {
+                    c.mods.push(Mod {
+                        k,
+                        drop: true,
+                        xor: 0,
+                        noise: None,
+                    });
+                    continue;
+                }
+                let mut xor = 0;
+                if self.rng.chance(f.bit_flip) {
+                    let bit = self.rng.below(u64::from(rx.settings.data_bits()));
+                    xor ^= 1 << bit;
+                }
+                if let Some((nth, mask)) = rx.corrupt {
+                    rx.corrupt = nth.checked_sub(1).map(|n| (n, mask));
+                    if nth == 0 {
+                        xor ^= mask;
                     }
                 }
-                let members = self.buses[bus].clone();
-                self.bus_chars.insert(
-                    id,
-                    BusChar {
-                        start,
-                        end,
-                        sender: s,
-                        garbled,
-                        pending: members.len(),
-                    },
-                );
-                for m in members {
-                    self.deliver(s, m, byte, end, Some(id));
-                }
-            }
-        }
-    }
-
-    /// Schedule one character's arrival at `to`, applying `to`'s faults unless it is the
-    /// sender's own echo. Characters sent with a different format arrive as framing errors.
-    fn deliver(&mut self, from: usize, to: usize, byte: u8, end: Instant, bus_char: Option<u64>) {
-        let mismatch = self.slots[from].settings != self.slots[to].settings;
-        let mut item = if mismatch {
-            Err(LineError::Framing)
-        } else {
-            Ok(byte)
-        };
-        let mut at = end;
-        let mut extra = None;
-        if from != to {
-            let f = self.slots[to].faults;
-            at += f.extra_latency;
-            if self.rng.chance(f.drop) {
-                // Still scheduled so a bus character is released, but as nothing.
-                if let Some(id) = bus_char {
-                    self.release_bus_char(id);
-                }
-                return;
-            }
-            if self.rng.chance(f.bit_flip) {
-                let bit = self
+                let noise = self
                     .rng
-                    .below(u64::from(self.slots[to].settings.data_bits()));
-                item = item.map(|b| b ^ (1 << bit));
-            }
-            if let Some((nth, mask)) = self.slots[to].corrupt {
-                self.slots[to].corrupt = nth.checked_sub(1).map(|n| (n, mask));
-                if nth == 0 {
-                    item = item.map(|b| b ^ mask);
+                    .chance(f.insert)
+                    .then(|| self.rng.next_u64() as u8 & rx.settings.data_mask());
+                if xor != 0 || noise.is_some() {
+                    c.mods.push(Mod {
+                        k,
+                        drop: false,
+                        xor,
+                        noise,
+                    });
                 }
             }
-            if self.rng.chance(f.insert) {
-                extra = Some(self.rng.next_u64() as u8 & self.slots[to].settings.data_mask());
-            }
-        }
-        self.schedule(at, What::Deliver { to, item, bus_char });
-        if let Some(noise) = extra {
-            self.schedule(
-                at,
-                What::Deliver {
-                    to,
-                    item: Ok(noise),
-                    bus_char: None,
-                },
-            );
         }
     }
 
-    /// One delivery of a bus character done; returns whether it was garbled.
-    fn release_bus_char(&mut self, id: u64) -> Option<bool> {
-        let c = self.bus_chars.get_mut(&id)?;
-        let garbled = c.garbled;
-        c.pending -= 1;
-        if c.pending == 0 {
-            self.bus_chars.remove(&id);
+    /// RS-485: characters of a new burst that overlap in time with characters of another
+    /// sender's burst still in flight on the bus garble each other, for every receiver.
+    /// (Bursts that have left the line entirely cannot overlap: a new one starts no earlier
+    /// than now, and a burst leaves at its last delivery, no earlier than its end.)
+    fn collide(&mut self, bus: usize, id: u32) {
+        let (start, end) = self.bursts[id as usize].span();
+        for j in 0..self.bus_live[bus].len() {
+            let other_id = self.bus_live[bus][j] as usize;
+            let (new, other) = (&self.bursts[id as usize], &self.bursts[other_id]);
+            let (o_start, o_end) = other.span();
+            if other.sender == new.sender || !(o_start < end && start < o_end) {
+                continue;
+            }
+            let theirs = other.overlapping(start, end);
+            let ours = new.overlapping(o_start, o_end);
+            self.bursts[other_id].garbled.push(theirs);
+            self.bursts[id as usize].garbled.push(ours);
         }
-        Some(garbled)
+    }
+
+    /// A cursor of `burst` has delivered its last character; the burst leaves the line (and
+    /// goes back to the pool) with its last cursor.
+    fn cursor_done(&mut self, id: u32) {
+        let b = &mut self.bursts[id as usize];
+        b.live -= 1;
+        if b.live > 0 {
+            return;
+        }
+        if let Some(bus) = b.bus {
+            let live = &mut self.bus_live[bus];
+            if let Some(pos) = live.iter().position(|&x| x == id) {
+                live.swap_remove(pos);
+            }
+        }
+        self.free_bursts.push(id);
     }
 }
 
