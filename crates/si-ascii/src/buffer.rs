@@ -9,10 +9,15 @@
 use crate::config::RECEIVE_BUFFER_SIZE;
 use std::collections::VecDeque;
 
+// Positions wrap by `% RECEIVE_BUFFER_SIZE`, which is a mask only for a power of two.
+const _: () = assert!(RECEIVE_BUFFER_SIZE.is_power_of_two());
+
 /// The ring buffer of received frames.
 #[derive(Debug, Clone)]
 pub struct FrameBuffer {
-    data: Box<[u8]>,
+    /// A fixed power-of-two size, so positions wrap with a mask rather than a division (every
+    /// received character passes through [`FrameBuffer::push`]).
+    data: Box<[u8; RECEIVE_BUFFER_SIZE]>,
     /// Index of the first byte of the oldest stored frame.
     head: usize,
     /// Bytes of stored (committed) frames.
@@ -33,7 +38,7 @@ impl FrameBuffer {
     /// An empty 1024-byte buffer.
     pub fn new() -> Self {
         FrameBuffer {
-            data: vec![0; RECEIVE_BUFFER_SIZE].into_boxed_slice(),
+            data: Box::new([0; RECEIVE_BUFFER_SIZE]),
             head: 0,
             stored: 0,
             pending: 0,
@@ -42,21 +47,25 @@ impl FrameBuffer {
     }
 
     /// Total capacity in bytes.
+    #[inline]
     pub fn capacity(&self) -> usize {
-        self.data.len()
+        RECEIVE_BUFFER_SIZE
     }
 
     /// Bytes in use: stored frames plus the frame being received.
+    #[inline]
     pub fn fill(&self) -> usize {
         self.stored + self.pending
     }
 
     /// Bytes still free.
+    #[inline]
     pub fn free(&self) -> usize {
         self.capacity() - self.fill()
     }
 
     /// Number of stored (complete) frames.
+    #[inline]
     pub fn frames(&self) -> usize {
         self.lens.len()
     }
@@ -77,11 +86,12 @@ impl FrameBuffer {
     }
 
     /// Append one byte to the pending frame; false when the buffer is full.
+    #[inline]
     pub fn push(&mut self, byte: u8) -> bool {
         if self.free() == 0 {
             return false;
         }
-        let at = (self.head + self.stored + self.pending) % self.capacity();
+        let at = (self.head + self.stored + self.pending) % RECEIVE_BUFFER_SIZE;
         self.data[at] = byte;
         self.pending += 1;
         true

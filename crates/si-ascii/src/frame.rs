@@ -59,6 +59,7 @@ impl Cutter {
 
     /// Track the end-of-text sequence only (no length): true when `byte` ends it. Used while a
     /// broken frame is being skipped, to find where the next one starts.
+    #[inline]
     pub fn ends_text(&mut self, byte: u8) -> bool {
         let EndCriterion::EndChars { first, second } = self.end else {
             return false;
@@ -72,6 +73,7 @@ impl Cutter {
     }
 
     /// Account for one more byte of the frame.
+    #[inline]
     pub fn push(&mut self, byte: u8) -> Cut {
         self.len += 1;
         if self.len > MAX_FRAME_LEN {

@@ -222,8 +222,16 @@ fn single(byte: u8) -> Bytes {
 pub struct Link {
     cfg: Config,
     cdt: Duration,
-    char_time: Duration,
+    /// CDT + one character time + 1 µs: a received character's monitoring deadline is this
+    /// after it completes ([`Link::gap_deadline`]).
+    gap: Duration,
     mask: u8,
+    /// Every received character is part of a frame: no XON/XOFF characters to pick out, no
+    /// RS-485 echo to ignore, no DSR to watch (the flow control and interface never change
+    /// after [`Link::new`]).
+    plain_rx: bool,
+    /// XON/XOFF or RTS/CTS: the buffer's fill level can hold the partner ([`Link::check_stop`]).
+    holds_partner: bool,
     buffer: FrameBuffer,
     cutter: Cutter,
     rx: Rx,
@@ -253,8 +261,14 @@ impl Link {
         let mut link = Link {
             cfg: config,
             cdt: config.char_delay(),
-            char_time: config.settings.char_time(),
+            gap: config.char_delay() + config.settings.char_time() + Duration::from_micros(1),
             mask: config.settings.data_mask(),
+            plain_rx: matches!(config.flow_control, FlowControl::None | FlowControl::RtsCts)
+                && config.interface != Interface::Rs485,
+            holds_partner: matches!(
+                config.flow_control,
+                FlowControl::XonXoff | FlowControl::RtsCts
+            ),
             buffer: FrameBuffer::new(),
             cutter: Cutter::new(config.end),
             rx: Rx::Idle,
@@ -499,9 +513,15 @@ impl Link {
     /// `now` matters with flow control: a read that makes room sends XON / sets RTS = ON.
     pub fn read_frame(&mut self, now: Instant, out: &mut [u8]) -> Option<usize> {
         let n = self.buffer.pop_into(out)?;
+        self.frame_taken(now);
+        Some(n)
+    }
+
+    /// A frame has left the buffer: the partner may go on (XON / RTS = ON), and a half-duplex
+    /// send may start.
+    fn frame_taken(&mut self, now: Instant) {
         self.check_resume(now);
         self.pump(now);
-        Some(n)
     }
 
     /// [`read_frame`](Self::read_frame) into a new vector.
@@ -556,12 +576,21 @@ impl Link {
         }
     }
 
+    /// XOFF / RTS = OFF once the buffer reaches the threshold. Runs after every
+    /// stored character, so the common "nothing to do" answer is a few comparisons inline.
+    #[inline]
     fn check_stop(&mut self) {
-        let full = self.buffer.free() <= XOFF_MARGIN
-            || (!self.cfg.dynamic_frames && self.buffer.frames() >= 1);
-        if self.stop_sent || !full {
+        if !self.holds_partner || self.stop_sent {
             return;
         }
+        let full = self.buffer.free() <= XOFF_MARGIN
+            || (!self.cfg.dynamic_frames && self.buffer.frames() >= 1);
+        if full {
+            self.stop_partner();
+        }
+    }
+
+    fn stop_partner(&mut self) {
         match self.cfg.flow_control {
             FlowControl::XonXoff => self.transmit_flow_char(self.cfg.xon_xoff.xoff),
             FlowControl::RtsCts => self.set_rts(false),
@@ -589,8 +618,52 @@ impl Link {
         }
     }
 
-    fn on_byte(&mut self, now: Instant, byte: u8) {
+    /// One received character. The common case, a character inside a frame that neither ends
+    /// it, nor is a flow-control character, nor fills the buffer, is kept short and inline, so
+    /// a host fed one byte per [`Engine::handle_rx`] pays little more than one fed whole
+    /// frames (issue 9); everything else goes through [`Link::on_byte_general`], which handles
+    /// every case. `gap` is [`Link::gap_deadline`] of `now`, computed once per call.
+    #[inline(always)]
+    fn on_byte(&mut self, now: Instant, gap: Instant, byte: u8) {
         let byte = byte & self.mask;
+        if self.rx != Rx::Receiving || (!self.plain_rx && self.rx_intercepts(byte)) {
+            self.on_byte_general(now, gap, byte);
+            return;
+        }
+        self.rx_deadline = Some(gap);
+        match self.cutter.push(byte) {
+            Cut::Continue => {
+                if self.buffer.push(byte) || self.store_when_full(now, byte) {
+                    self.check_stop();
+                }
+            }
+            cut => self.frame_byte(now, byte, cut),
+        }
+    }
+
+    /// True when `byte` is not a character of the frame in progress: an XON / XOFF character,
+    /// our own RS-485 echo, or anything while DSR = OFF under automatic V.24 operation.
+    #[inline]
+    fn rx_intercepts(&self, byte: u8) -> bool {
+        match self.cfg.flow_control {
+            FlowControl::None | FlowControl::RtsCts => {}
+            FlowControl::XonXoff => {
+                if byte == self.cfg.xon_xoff.xoff || byte == self.cfg.xon_xoff.xon {
+                    return true;
+                }
+            }
+            FlowControl::AutoV24 => {
+                if !self.inputs.dsr {
+                    return true;
+                }
+            }
+        }
+        self.cfg.interface == Interface::Rs485 && self.in_flight
+    }
+
+    /// Every received character, whatever the state; `byte` is already masked.
+    #[inline(never)]
+    fn on_byte_general(&mut self, now: Instant, gap: Instant, byte: u8) {
         if self.cfg.flow_control == FlowControl::XonXoff {
             if byte == self.cfg.xon_xoff.xoff {
                 self.partner_stopped = true;
@@ -609,7 +682,7 @@ impl Link {
         if self.cfg.flow_control == FlowControl::AutoV24 && !self.inputs.dsr {
             return; // §6.8: nothing is received while DSR = OFF
         }
-        self.rx_deadline = Some(self.gap_deadline(now));
+        self.rx_deadline = Some(gap);
         match self.rx {
             Rx::Skipping => {
                 if self.cutter.ends_text(byte) {
@@ -626,6 +699,11 @@ impl Link {
             Rx::Receiving => {}
         }
         let cut = self.cutter.push(byte);
+        self.frame_byte(now, byte, cut);
+    }
+
+    /// A character of the frame in progress, already counted by the cutter as `cut`.
+    fn frame_byte(&mut self, now: Instant, byte: u8, cut: Cut) {
         if cut == Cut::TooLong {
             self.skip_rest(Some(byte));
             self.rx_fail(now, status::FRAME_TOO_LONG);
@@ -642,24 +720,33 @@ impl Link {
 
     /// Put a received byte into the buffer, making room or losing the frame when full.
     fn store(&mut self, now: Instant, byte: u8) -> bool {
-        if !self.buffer.push(byte) {
-            if self.cfg.dynamic_frames && !self.cfg.prevent_overwrite {
-                while self.buffer.free() == 0 && self.buffer.drop_oldest().is_some() {
-                    self.rx_fail(now, status::NO_FREE_RECEIVE_BUFFER);
-                }
-            }
-            if !self.buffer.push(byte) {
-                let code = if self.stop_sent {
-                    status::RECEIVED_AFTER_XOFF
-                } else {
-                    status::NO_FREE_RECEIVE_BUFFER
-                };
-                self.skip_rest(Some(byte));
-                self.rx_fail(now, code);
-                return false;
+        if self.buffer.push(byte) || self.store_when_full(now, byte) {
+            self.check_stop();
+            return true;
+        }
+        false
+    }
+
+    /// [`Link::store`] when the buffer has no room for `byte`: drop the oldest frames if
+    /// overwriting is allowed, else lose the frame in progress. True when `byte` was stored
+    /// after all.
+    #[cold]
+    fn store_when_full(&mut self, now: Instant, byte: u8) -> bool {
+        if self.cfg.dynamic_frames && !self.cfg.prevent_overwrite {
+            while self.buffer.free() == 0 && self.buffer.drop_oldest().is_some() {
+                self.rx_fail(now, status::NO_FREE_RECEIVE_BUFFER);
             }
         }
-        self.check_stop();
+        if !self.buffer.push(byte) {
+            let code = if self.stop_sent {
+                status::RECEIVED_AFTER_XOFF
+            } else {
+                status::NO_FREE_RECEIVE_BUFFER
+            };
+            self.skip_rest(Some(byte));
+            self.rx_fail(now, code);
+            return false;
+        }
         true
     }
 
@@ -756,17 +843,41 @@ impl Link {
     /// When the gap after a character completing at `now` exceeds the CDT: the next character
     /// must complete within CDT + one character time; one microsecond (the clock's resolution)
     /// later the gap is longer than the CDT.
+    #[inline]
     fn gap_deadline(&self, now: Instant) -> Instant {
-        now + self.cdt + self.char_time + Duration::from_micros(1)
+        now + self.gap
     }
 
     /// The receive deadline in force: none while we hold the partner in the middle of a frame
     /// (XOFF sent / RTS = OFF), since it is then *supposed* to pause.
+    #[inline]
     fn rx_monitoring(&self) -> Option<Instant> {
         if self.stop_sent && self.rx == Rx::Receiving {
             None
         } else {
             self.rx_deadline
+        }
+    }
+
+    fn pop_output(&mut self) -> Output<Event> {
+        match self.out.pop_front() {
+            Some(output) => output,
+            None => Output::Wait(self.next_deadline()),
+        }
+    }
+
+    /// The earliest deadline in force, receive or transmit.
+    #[inline]
+    fn next_deadline(&self) -> Option<Instant> {
+        let rx = self.rx_monitoring();
+        if matches!(self.tx, Tx::Idle) {
+            return rx;
+        }
+        // `Instant::earliest`, spelled out so it inlines into the caller's crate.
+        match (rx, self.tx_deadline()) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, None) => a,
+            (None, b) => b,
         }
     }
 
@@ -786,9 +897,12 @@ impl Link {
 impl Engine for Link {
     type Event = Event;
 
+    /// Inline, so a driver feeding single bytes pays no call for the common case (issue 9).
+    #[inline(always)]
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+        let gap = self.gap_deadline(now);
         for &b in bytes {
-            self.on_byte(now, b);
+            self.on_byte(now, gap, b);
         }
     }
 
@@ -919,9 +1033,170 @@ impl Engine for Link {
         }
     }
 
+    /// Inline: polled after every input, mostly to hear `Wait` again.
+    #[inline]
     fn poll_output(&mut self) -> Output<Event> {
-        self.out.pop_front().unwrap_or_else(|| {
-            Output::Wait(Instant::earliest(self.rx_monitoring(), self.tx_deadline()))
-        })
+        if self.out.is_empty() {
+            return Output::Wait(self.next_deadline());
+        }
+        self.pop_output()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The inline receive path ([`Link::on_byte`]) is a shortcut of the general one
+    //! ([`Link::on_byte_general`]) and must never behave differently: two links, one fed
+    //! through each, see the same inputs and must give the same outputs and state.
+
+    use super::*;
+    use proptest::prelude::*;
+    use si_core::{Parity, SerialSettings};
+
+    /// Received characters go through the general path only.
+    fn rx_general(link: &mut Link, now: Instant, bytes: &[u8]) {
+        let gap = link.gap_deadline(now);
+        for &b in bytes {
+            let b = b & link.mask;
+            link.on_byte_general(now, gap, b);
+        }
+    }
+
+    #[derive(Debug, Clone)]
+    enum Op {
+        Rx(Vec<u8>),
+        Timeout,
+        TxDone,
+        LineError(u8),
+        Signals(u8),
+        Send(Vec<u8>),
+        Read,
+        Restart,
+    }
+
+    /// Characters that mean something to some configuration (XON, XOFF, end characters),
+    /// often, and any other.
+    fn byte() -> impl Strategy<Value = u8> {
+        prop_oneof![
+            3 => prop::sample::select(vec![0x11u8, 0x13, b'\r', b'\n', 0x03, 0x93]),
+            5 => any::<u8>(),
+        ]
+    }
+
+    fn op() -> impl Strategy<Value = (u64, Op)> {
+        let op = prop_oneof![
+            8 => prop::collection::vec(byte(), 1..64).prop_map(Op::Rx),
+            4 => prop::collection::vec(byte(), 1..3).prop_map(Op::Rx),
+            2 => Just(Op::Timeout),
+            2 => Just(Op::TxDone),
+            1 => any::<u8>().prop_map(Op::LineError),
+            1 => any::<u8>().prop_map(Op::Signals),
+            1 => prop::collection::vec(b'a'..=b'z', 1..40).prop_map(Op::Send),
+            2 => Just(Op::Read),
+            1 => Just(Op::Restart),
+        ];
+        // Same instant, within the character delay time, or well past it.
+        (prop_oneof![Just(0u64), 0u64..5_000, 0u64..100_000], op)
+    }
+
+    fn config() -> impl Strategy<Value = Config> {
+        (
+            0usize..4,
+            0usize..3,
+            0usize..4,
+            any::<(bool, bool, bool)>(),
+            1u16..=200,
+            prop::bool::ANY,
+        )
+            .prop_map(|(flow, iface, end, (dynamic, prevent, clear), n, seven)| {
+                let settings = if seven {
+                    SerialSettings::new(9600, 7, Parity::Even, 1).unwrap()
+                } else {
+                    SerialSettings::default()
+                };
+                Config {
+                    settings,
+                    flow_control: [
+                        FlowControl::None,
+                        FlowControl::XonXoff,
+                        FlowControl::RtsCts,
+                        FlowControl::AutoV24,
+                    ][flow],
+                    interface: [Interface::Rs232, Interface::Rs422, Interface::Rs485][iface],
+                    end: [
+                        EndCriterion::CharDelay,
+                        EndCriterion::EndChars {
+                            first: b'\r',
+                            second: b'\n',
+                        },
+                        EndCriterion::DEFAULT_END_CHARS,
+                        EndCriterion::FixedLength { len: n },
+                    ][end],
+                    dynamic_frames: dynamic,
+                    prevent_overwrite: prevent,
+                    clear_at_startup: clear,
+                    tx_chunk: 1,
+                    ..Config::default()
+                }
+            })
+    }
+
+    fn drain(link: &mut Link) -> Vec<Output<Event>> {
+        let mut outputs = Vec::new();
+        loop {
+            let output = link.poll_output();
+            let done = matches!(output, Output::Wait(_));
+            outputs.push(output);
+            if done {
+                return outputs;
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(400))]
+
+        #[test]
+        fn the_inline_receive_path_behaves_as_the_general_one(
+            config in config(),
+            ops in prop::collection::vec(op(), 1..150),
+        ) {
+            let Ok(mut fast) = Link::new(config) else { return Ok(()) };
+            let mut general = Link::new(config).unwrap();
+            let mut now = Instant::ZERO;
+            prop_assert_eq!(drain(&mut fast), drain(&mut general));
+            for (dt, op) in ops {
+                now += Duration::from_micros(dt);
+                for (link, inline) in [(&mut fast, true), (&mut general, false)] {
+                    match &op {
+                        Op::Rx(bytes) if inline => link.handle_rx(now, bytes),
+                        Op::Rx(bytes) => rx_general(link, now, bytes),
+                        Op::Timeout => link.handle_timeout(now),
+                        Op::TxDone => link.handle_tx_done(now),
+                        Op::LineError(k) => link.handle_line_error(now, [
+                            LineError::Parity, LineError::Framing, LineError::Overrun,
+                            LineError::Break,
+                        ][usize::from(k % 4)]),
+                        Op::Signals(s) => link.handle_signals(now, ModemSignals {
+                            dsr: s & 1 != 0,
+                            cts: s & 2 != 0,
+                            ..ModemSignals::default()
+                        }),
+                        Op::Send(frame) => {
+                            let _ = link.send(now, Bytes::copy_from_slice(frame));
+                        }
+                        Op::Read => {
+                            let _ = link.read_frame_vec(now);
+                        }
+                        Op::Restart => link.restart(now),
+                    }
+                }
+                prop_assert_eq!(drain(&mut fast), drain(&mut general), "after {:?}", op);
+                prop_assert_eq!(fast.buffer().fill(), general.buffer().fill());
+                prop_assert_eq!(fast.frames_waiting(), general.frames_waiting());
+                prop_assert_eq!(fast.signals(), general.signals());
+                prop_assert_eq!(fast.take_receive_error(), general.take_receive_error());
+            }
+        }
     }
 }
