@@ -365,7 +365,7 @@ where
 
     loop {
         // Drain until Wait, acting on every output.
-        let deadline = loop {
+        let mut deadline = loop {
             match engine.poll_output() {
                 Output::Transmit(bytes) => {
                     record(TraceKind::Tx {
@@ -398,9 +398,19 @@ where
             }
         };
 
+        // A deadline already due (tx-done right after a write to a port without wire time) is
+        // handled at once: tokio's wheel would round it up to its next millisecond tick. The
+        // budget makes an engine that keeps asking for a past deadline yield to other tasks.
+        let next = Instant::earliest(deadline, tx_done_at);
+        if next.is_some_and(|at| at <= clock.now()) {
+            precise.disarm();
+            tokio::task::consume_budget().await;
+            fire_due(&mut engine, &mut tx_done_at, deadline, clock.now());
+            continue;
+        }
+
         // Tokio's wheel until PRECISE_LEAD before the next deadline, then the precise thread
         // (with the wheel at the deadline itself as a backstop).
-        let next = Instant::earliest(deadline, tx_done_at);
         let mut wheel_at = next;
         match next.map(|at| (at, at - clock.now())) {
             Some((at, remaining)) if remaining > PRECISE_LEAD => {
@@ -409,13 +419,19 @@ where
                     at.as_micros() - PRECISE_LEAD.as_micros(),
                 ));
             }
-            Some((at, remaining)) if remaining > Duration::ZERO => precise.arm(at, remaining),
-            _ => precise.disarm(),
+            Some((at, remaining)) => precise.arm(at, remaining),
+            None => precise.disarm(),
         }
 
         tokio::select! {
             command = commands.recv() => match command {
-                Some(command) => command(&mut engine, clock.now()),
+                Some(command) => {
+                    // What fell due while we slept goes first: the command sees the state
+                    // the line has reached.
+                    let now = clock.now();
+                    fire_due(&mut engine, &mut tx_done_at, deadline.take(), now);
+                    command(&mut engine, now)
+                }
                 None => return Ok(()),
             },
             read = io.read(&mut buf) => {
@@ -424,7 +440,11 @@ where
                     return Ok(());
                 }
                 record(TraceKind::RxChunk { bytes: buf[..n].to_vec() });
-                engine.handle_rx(clock.now(), &buf[..n]);
+                // A tx-done or timeout that fell due before these bytes came goes first (a
+                // slave must know its answer has left before it judges the next request).
+                let now = clock.now();
+                fire_due(&mut engine, &mut tx_done_at, deadline.take(), now);
+                engine.handle_rx(now, &buf[..n]);
             }
             _ = tokio::time::sleep_until(clock.to_tokio(wheel_at.unwrap_or_default())), if wheel_at.is_some() => {}
             _ = precise.fired(), if precise.is_armed() => precise.fired_seen(),
@@ -440,14 +460,23 @@ where
         }
 
         // Whatever woke us, look at the clock: timers are checked, not trusted.
-        let now = clock.now();
-        if tx_done_at.is_some_and(|t| now >= t) {
-            tx_done_at = None;
-            engine.handle_tx_done(now);
-        }
-        if deadline.is_some_and(|d| now >= d) {
-            engine.handle_timeout(now);
-        }
+        fire_due(&mut engine, &mut tx_done_at, deadline, clock.now());
+    }
+}
+
+/// Tell the engine that its transmission is done and its deadline has passed, if they have.
+fn fire_due<E: Engine>(
+    engine: &mut E,
+    tx_done_at: &mut Option<Instant>,
+    deadline: Option<Instant>,
+    now: Instant,
+) {
+    if tx_done_at.is_some_and(|t| now >= t) {
+        *tx_done_at = None;
+        engine.handle_tx_done(now);
+    }
+    if deadline.is_some_and(|d| now >= d) {
+        engine.handle_timeout(now);
     }
 }
 

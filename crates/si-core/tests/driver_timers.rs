@@ -98,3 +98,48 @@ async fn a_deadline_moved_later_by_every_byte_fires_once_at_its_last_value() {
         tokio::time::timeout(std::time::Duration::from_millis(50), handle.next_event()).await;
     assert!(more.is_err(), "a second event: {more:?}");
 }
+
+/// Records the order of tx-done and received bytes; transmits on command.
+#[derive(Default)]
+struct Order {
+    out: VecDeque<Output<&'static str>>,
+}
+
+impl Engine for Order {
+    type Event = &'static str;
+    fn handle_rx(&mut self, _: Instant, _: &[u8]) {
+        self.out.push_back(Output::Event("rx"));
+    }
+    fn handle_timeout(&mut self, _: Instant) {}
+    fn handle_tx_done(&mut self, _: Instant) {
+        self.out.push_back(Output::Event("tx-done"));
+    }
+    fn poll_output(&mut self) -> Output<&'static str> {
+        self.out.pop_front().unwrap_or(Output::Wait(None))
+    }
+}
+
+/// Without wire time (no `settings`), tx-done is due the moment the write returns: it reaches
+/// the engine before any answer to the bytes written, even one already waiting (a slave must
+/// know its response has left before it judges the next request, or it reports a sequence
+/// error). Tokio's wheel alone would round that deadline up to its next millisecond.
+#[tokio::test]
+async fn tx_done_without_wire_time_comes_before_the_answer() {
+    use tokio::io::AsyncReadExt;
+    let (ours, mut theirs) = tokio::io::duplex(64);
+    let (mut handle, _task) = spawn(Order::default(), ours, DriverOptions::default());
+    for _ in 0..20 {
+        handle
+            .call(|o, _| {
+                o.out
+                    .push_back(Output::Transmit(bytes::Bytes::from_static(b"\x01\x03")))
+            })
+            .await
+            .unwrap();
+        let mut got = [0u8; 2];
+        theirs.read_exact(&mut got).await.unwrap();
+        theirs.write_all(&[0x01]).await.unwrap();
+        assert_eq!(handle.next_event().await, Some("tx-done"));
+        assert_eq!(handle.next_event().await, Some("rx"));
+    }
+}
