@@ -62,7 +62,7 @@ use crate::config::{
 };
 use crate::frame::{Cut, Cutter};
 use crate::status;
-use bytes::Bytes;
+use bytes::{Bytes, BytesMut};
 use serde::{Deserialize, Serialize};
 use si_core::{Duration, Engine, Instant, LineError, ModemSignals, Output, SignalUpdate, Status};
 use std::collections::VecDeque;
@@ -251,7 +251,14 @@ pub struct Link {
     rts: bool,
     dtr: bool,
     out: VecDeque<Output<Event>>,
+    /// [`Link::read_frame_bytes`] cuts frames from this buffer (`split().freeze()`); once the
+    /// caller has dropped the frames it took, `reserve` reclaims the allocation, so a steady
+    /// state allocates nothing per frame. Empty until first used.
+    rx_pool: BytesMut,
 }
+
+/// Bytes [`Link::read_frame_bytes`] allocates at a time: four of the longest frames.
+const RX_POOL_BYTES: usize = 4 * MAX_FRAME_LEN;
 
 impl Link {
     /// A link with validated parameters, entering its flow-control mode as the module does at
@@ -285,6 +292,7 @@ impl Link {
             rts: false,
             dtr: false,
             out: VecDeque::with_capacity(16),
+            rx_pool: BytesMut::new(),
         };
         link.enter_mode();
         Ok(link)
@@ -515,6 +523,23 @@ impl Link {
         let n = self.buffer.pop_into(out)?;
         self.frame_taken(now);
         Some(n)
+    }
+
+    /// [`read_frame`](Self::read_frame) as [`Bytes`] cut from a buffer the link keeps: no
+    /// allocation per frame in steady state, once the frames taken before have been dropped
+    /// (the si-core contract; a module forwarding frames through the DP window reads them so).
+    pub fn read_frame_bytes(&mut self, now: Instant) -> Option<Bytes> {
+        let len = self.buffer.oldest_len()?;
+        if self.rx_pool.capacity() < len {
+            self.rx_pool.reserve(RX_POOL_BYTES.max(len));
+        }
+        self.rx_pool.resize(len, 0);
+        if self.buffer.pop_into(&mut self.rx_pool).is_none() {
+            self.rx_pool.clear();
+            return None;
+        }
+        self.frame_taken(now);
+        Some(self.rx_pool.split().freeze())
     }
 
     /// A frame has left the buffer: the partner may go on (XON / RTS = ON), and a half-duplex
@@ -1047,7 +1072,8 @@ impl Engine for Link {
 mod tests {
     //! The inline receive path ([`Link::on_byte`]) is a shortcut of the general one
     //! ([`Link::on_byte_general`]) and must never behave differently: two links, one fed
-    //! through each, see the same inputs and must give the same outputs and state.
+    //! through each, see the same inputs and must give the same outputs and state. The first
+    //! also reads with [`Link::read_frame_bytes`], the second with [`Link::read_frame_vec`].
 
     use super::*;
     use proptest::prelude::*;
@@ -1167,6 +1193,7 @@ mod tests {
             prop_assert_eq!(drain(&mut fast), drain(&mut general));
             for (dt, op) in ops {
                 now += Duration::from_micros(dt);
+                let mut read = [None, None];
                 for (link, inline) in [(&mut fast, true), (&mut general, false)] {
                     match &op {
                         Op::Rx(bytes) if inline => link.handle_rx(now, bytes),
@@ -1185,12 +1212,15 @@ mod tests {
                         Op::Send(frame) => {
                             let _ = link.send(now, Bytes::copy_from_slice(frame));
                         }
-                        Op::Read => {
-                            let _ = link.read_frame_vec(now);
+                        // The pooled read gives the same frames as the plain one.
+                        Op::Read if inline => {
+                            read[0] = link.read_frame_bytes(now).map(|f| f.to_vec());
                         }
+                        Op::Read => read[1] = link.read_frame_vec(now),
                         Op::Restart => link.restart(now),
                     }
                 }
+                prop_assert_eq!(&read[0], &read[1]);
                 prop_assert_eq!(drain(&mut fast), drain(&mut general), "after {:?}", op);
                 prop_assert_eq!(fast.buffer().fill(), general.buffer().fill());
                 prop_assert_eq!(fast.frames_waiting(), general.frames_waiting());

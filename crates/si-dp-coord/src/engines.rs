@@ -10,7 +10,7 @@
 //! | Module needs | 3964(R) | ASCII |
 //! |---|---|---|
 //! | send a frame | `Link::send` (refusal → its STATUS) | `Link::send` (refusal → its STATUS) |
-//! | frame received | `Received { len }` → `take_block` at the next module cycle | `Received` → `read_frame` at the next module cycle |
+//! | frame received | `Received { len }` → `take_block` at the next module cycle | `Received` → `read_frame_bytes` at the next module cycle |
 //! | receive error | `ReceiveError(s)`, except 0807H | `ReceiveError { status }` |
 //! | send ended | `Sent` / `SendFailed` | `Sent` / `SendFailed` |
 //! | write V.24 | RTS/DTR set on the line directly | `Link::set_signals` (0502H on RS-422/485, under automatic V.24, RTS under RTS/CTS) |
@@ -28,6 +28,12 @@
 //! * **Parameter blocks** carry times in 10 ms units (Table 2-27); the ASCII engine takes
 //!   milliseconds, so each value is multiplied by 10. Its range check (20 … 655 350 ms) is the
 //!   engine's; a refusal carries the engine's STATUS.
+//! * **No allocation per frame** in steady state (the si-core contract): [`r3964r`] and
+//!   [`ascii`] hand frames to send over as `Bytes` cut from a buffer the adapter keeps
+//!   ([`EngineSerial::with_pooled_send`]); received frames come from the engines' own kept
+//!   buffers (`take_block`, `read_frame_bytes`). The `send` entries of [`R3964R_HOOKS`] and
+//!   [`ASCII_HOOKS`], for an [`EngineSerial::new`] without the pool, copy each frame into a
+//!   new `Bytes`. `tests/engines_no_alloc.rs` proves it for both engines.
 //! * The window module must be configured for the same flow control as the ASCII engine
 //!   ([`ascii_module_config`] does it): the module checks the block number first (0550H), the
 //!   engine then checks the values.
@@ -49,7 +55,12 @@ pub const R3964R_HOOKS: LineHooks<si_3964r::Link> = LineHooks {
 };
 
 fn r3964r_send(link: &mut si_3964r::Link, now: Instant, frame: &[u8]) -> Result<(), Status> {
-    link.send(now, Bytes::copy_from_slice(frame))
+    r3964r_send_bytes(link, now, Bytes::copy_from_slice(frame))
+}
+
+/// The link keeps the frame for its repetitions (§5.3) until the job ends.
+fn r3964r_send_bytes(link: &mut si_3964r::Link, now: Instant, frame: Bytes) -> Result<(), Status> {
+    link.send(now, frame)
         .map(|_| ())
         .map_err(si_3964r::SendError::status)
 }
@@ -69,9 +80,9 @@ fn r3964r_take(link: &mut si_3964r::Link, now: Instant) -> Option<Bytes> {
     link.take_block(now)
 }
 
-/// A 3964(R) engine as the module's serial side.
+/// A 3964(R) engine as the module's serial side, sending from the adapter's frame pool.
 pub fn r3964r(link: si_3964r::Link) -> EngineSerial<si_3964r::Link> {
-    EngineSerial::new(link, R3964R_HOOKS)
+    EngineSerial::new(link, R3964R_HOOKS).with_pooled_send(r3964r_send_bytes)
 }
 
 /// A simulated module with 3964(R) on its line: the window of `window` bytes, the module
@@ -101,9 +112,12 @@ pub const ASCII_HOOKS: LineHooks<si_ascii::Link> = LineHooks {
 };
 
 fn ascii_send(link: &mut si_ascii::Link, now: Instant, frame: &[u8]) -> Result<(), Status> {
-    link.send(now, Bytes::copy_from_slice(frame))
-        .map(|_| ())
-        .map_err(|e| e.status())
+    ascii_send_bytes(link, now, Bytes::copy_from_slice(frame))
+}
+
+/// The link hands the frame out in slices while it sends.
+fn ascii_send_bytes(link: &mut si_ascii::Link, now: Instant, frame: Bytes) -> Result<(), Status> {
+    link.send(now, frame).map(|_| ()).map_err(|e| e.status())
 }
 
 fn ascii_classify(event: &si_ascii::Event) -> Option<LineEvent> {
@@ -117,8 +131,9 @@ fn ascii_classify(event: &si_ascii::Event) -> Option<LineEvent> {
 }
 
 fn ascii_take(link: &mut si_ascii::Link, now: Instant) -> Option<Bytes> {
-    // Sized by the frame itself, so no frame can stay behind for want of room.
-    link.read_frame_vec(now).map(Bytes::from)
+    // Sized by the frame itself, so no frame can stay behind for want of room; cut from the
+    // link's kept buffer, so nothing is allocated per frame.
+    link.read_frame_bytes(now)
 }
 
 fn ascii_set_signals(
@@ -164,9 +179,9 @@ fn ascii_flow_control(
     link.apply_param_block(block).map_err(|r| r.status)
 }
 
-/// An ASCII engine as the module's serial side.
+/// An ASCII engine as the module's serial side, sending from the adapter's frame pool.
 pub fn ascii(link: si_ascii::Link) -> EngineSerial<si_ascii::Link> {
-    EngineSerial::new(link, ASCII_HOOKS)
+    EngineSerial::new(link, ASCII_HOOKS).with_pooled_send(ascii_send_bytes)
 }
 
 /// The window module configuration matching an ASCII configuration: its flow control (so the

@@ -16,7 +16,7 @@
 use crate::frame::{ParamBlock, V24Signals};
 use crate::module::{Module, SerialEvent, SerialSide};
 use crate::status::FLOW_CONTROL_MISMATCH;
-use bytes::Bytes;
+use bytes::{Bytes, BytesMut};
 use si_core::{Engine, Instant, LineError, ModemSignals, Output, SignalUpdate, Status};
 use std::collections::VecDeque;
 
@@ -28,6 +28,27 @@ pub type TakeFrameHook<E> = fn(&mut E, Instant) -> Option<Bytes>;
 
 /// Sets RTS and DTR through the engine (which may refuse, e.g. under automatic V.24 control).
 pub type SetSignalsHook<E> = fn(&mut E, Instant, SignalUpdate) -> Result<(), Status>;
+
+/// Starts sending a frame the adapter hands over as [`Bytes`] cut from a buffer it keeps (see
+/// [`EngineSerial::with_pooled_send`]), for engines whose send command takes `Bytes`.
+pub type SendBytesHook<E> = fn(&mut E, Instant, Bytes) -> Result<(), Status>;
+
+/// Bytes a frame pool allocates at a time: four of the longest frames of chapter 2
+/// ([`crate::config::MAX_FRAME_LEN`]), so a frame still held elsewhere while the next one is
+/// cut (a frame in the module's receive buffer, say) rarely makes the pool move to a new
+/// allocation.
+pub(crate) const POOL_BYTES: usize = 4 * crate::config::MAX_FRAME_LEN;
+
+/// `frame` as [`Bytes`] cut from `pool` (`split().freeze()`). When the pool has run out,
+/// `reserve` reclaims its allocation if every frame cut from it has been dropped, so a steady
+/// state, where each frame is gone before the next, allocates nothing per frame.
+pub(crate) fn cut_from_pool(pool: &mut BytesMut, frame: &[u8]) -> Bytes {
+    if pool.capacity() < frame.len() {
+        pool.reserve(POOL_BYTES.max(frame.len()));
+    }
+    pool.extend_from_slice(frame);
+    pool.split().freeze()
+}
 
 /// What one engine event means for the module.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -91,6 +112,11 @@ pub struct EngineSerial<E: Engine> {
     dropped: u64,
     /// Frames waiting in the engine whose [`LineEvent::FrameWaiting`] was dropped.
     unannounced: u64,
+    /// Set by [`EngineSerial::with_pooled_send`]: frames to send go to the engine as `Bytes`
+    /// cut from `tx_pool`, instead of through [`LineHooks::send`].
+    send_bytes: Option<SendBytesHook<E>>,
+    /// Frames to send are cut from this buffer ([`cut_from_pool`]).
+    tx_pool: BytesMut,
 }
 
 impl<E: Engine> EngineSerial<E> {
@@ -104,7 +130,19 @@ impl<E: Engine> EngineSerial<E> {
             events: VecDeque::new(),
             dropped: 0,
             unannounced: 0,
+            send_bytes: None,
+            tx_pool: BytesMut::new(),
         }
+    }
+
+    /// Sends through `send` instead of [`LineHooks::send`]: each frame is copied into a buffer
+    /// the adapter keeps and handed over as [`Bytes`] cut from it. Once the engine has dropped
+    /// the previous frame (its job ended) the buffer's allocation is reused, so sending
+    /// allocates nothing per frame in steady state (the si-core contract), where a `send` hook
+    /// taking `&[u8]` would have to copy each frame into a new `Bytes` for an engine that keeps it.
+    pub fn with_pooled_send(mut self, send: SendBytesHook<E>) -> Self {
+        self.send_bytes = Some(send);
+        self
     }
 
     /// The engine.
@@ -156,7 +194,13 @@ impl<E: Engine> EngineSerial<E> {
 
 impl<E: Engine> SerialSide for EngineSerial<E> {
     fn send(&mut self, now: Instant, frame: &[u8]) -> Result<(), Status> {
-        (self.hooks.send)(&mut self.engine, now, frame)
+        match self.send_bytes {
+            Some(send) => {
+                let frame = cut_from_pool(&mut self.tx_pool, frame);
+                send(&mut self.engine, now, frame)
+            }
+            None => (self.hooks.send)(&mut self.engine, now, frame),
+        }
     }
 
     fn poll(&mut self, now: Instant) -> Option<SerialEvent> {
