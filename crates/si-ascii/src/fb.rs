@@ -27,7 +27,7 @@
 use crate::config::{AutoV24, RtsCts, XonXoff, MAX_FRAME_LEN};
 use crate::link::{JobId, Link, Refused, SendError};
 use crate::status;
-use bytes::Bytes;
+use bytes::{Bytes, BytesMut};
 use si_core::fb::RisingEdge;
 use si_core::{Instant, SignalUpdate, Status};
 
@@ -48,6 +48,10 @@ pub struct SSend {
     /// A frame waiting for the link to finish the previous job.
     queued: Option<Bytes>,
     job: Option<JobId>,
+    /// Frames are cut from this buffer (`split().freeze()`); once the link has dropped the
+    /// previous frame, `reserve` reclaims the allocation, so a steady state of send jobs
+    /// allocates nothing per frame (the si-core contract). Empty until the first job.
+    pool: BytesMut,
 }
 
 impl SSend {
@@ -66,7 +70,11 @@ impl SSend {
             if data.is_empty() || data.len() > MAX_FRAME_LEN {
                 return Done::failed(status::INVALID_LEN);
             }
-            self.queued = Some(Bytes::copy_from_slice(data));
+            if self.pool.capacity() < data.len() {
+                self.pool.reserve(2 * MAX_FRAME_LEN);
+            }
+            self.pool.extend_from_slice(data);
+            self.queued = Some(self.pool.split().freeze());
         }
         if let Some(frame) = self.queued.take() {
             match link.send(now, frame.clone()) {

@@ -1,8 +1,11 @@
 //! The engine allocates nothing per frame in steady state (the si-core contract): received
 //! frames go into the preallocated 1024-byte ring and out into the caller's buffer; sent
-//! frames go out as slices of the caller's `Bytes`; XON/XOFF come from a static table.
+//! frames go out as slices of the caller's `Bytes`; XON/XOFF come from a static table. The
+//! S_SEND FB cuts its frames from a buffer it keeps, and `read_frame_bytes` from one the link
+//! keeps.
 
 use bytes::Bytes;
+use si_ascii::fb::{SRcv, SSend};
 use si_ascii::{Config, EndCriterion, FlowControl, Link};
 use si_core::{Duration, Engine, Instant, Output};
 use stats_alloc::{Region, StatsAlloc, INSTRUMENTED_SYSTEM};
@@ -22,6 +25,8 @@ fn drain(link: &mut Link) -> usize {
 fn main() {
     steady_state_receive_and_send_do_not_allocate();
     println!("no_alloc: steady-state receive and send allocate nothing: ok");
+    steady_state_fb_jobs_and_pooled_reads_do_not_allocate();
+    println!("no_alloc: S_SEND / S_RCV jobs and read_frame_bytes allocate nothing: ok");
 }
 
 fn steady_state_receive_and_send_do_not_allocate() {
@@ -68,5 +73,60 @@ fn steady_state_receive_and_send_do_not_allocate() {
         (stats.allocations, stats.reallocations),
         (0, 0),
         "allocations in 3000 frames each way"
+    );
+}
+
+/// §8.2 / §8.3 with the FBs: an S_SEND job per frame (REQ edge, then calls until DONE), the
+/// received frame read by S_RCV or by `read_frame_bytes`, every 1 ms.
+fn steady_state_fb_jobs_and_pooled_reads_do_not_allocate() {
+    let config = Config {
+        end: EndCriterion::DEFAULT_END_CHARS,
+        ..Config::default()
+    };
+    let mut link = Link::new(config).unwrap();
+    let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
+    let data: Vec<u8> = (0..199u8).map(|i| b'A' + i % 26).chain([0x03]).collect();
+    let mut db = [0u8; 200];
+    let mut now = Instant::ZERO;
+    let step = Duration::from_millis(1);
+    let mut cycle = |link: &mut Link, now: &mut Instant, n: usize| {
+        // S_SEND: the REQ edge, then calls with REQ low until DONE; the line confirms at once.
+        let mut req = true;
+        loop {
+            let out = s_send.call(link, *now, req, false, &data);
+            assert!(!out.error, "{out:?}");
+            if out.done {
+                break;
+            }
+            req = false;
+            drain(link);
+            *now += step;
+            link.handle_tx_done(*now);
+        }
+        // The partner's frame, read one way or the other.
+        link.handle_rx(*now, &data);
+        drain(link);
+        if n.is_multiple_of(2) {
+            let out = s_rcv.call(link, *now, true, false, &mut db);
+            assert!(out.ndr && out.len == data.len(), "{out:?}");
+        } else {
+            let frame = link.read_frame_bytes(*now).expect("a frame");
+            assert_eq!(frame.len(), data.len());
+        }
+        drain(link);
+        *now += step;
+    };
+    for n in 0..10 {
+        cycle(&mut link, &mut now, n); // warm up
+    }
+    let region = Region::new(GLOBAL);
+    for n in 0..2_000 {
+        cycle(&mut link, &mut now, n);
+    }
+    let stats = region.change();
+    assert_eq!(
+        (stats.allocations, stats.reallocations),
+        (0, 0),
+        "allocations in 2000 S_SEND jobs and 2000 reads"
     );
 }
