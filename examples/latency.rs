@@ -5,8 +5,12 @@
 //! `01 03 00 00 00 0A C5 CD` and times until the 25-byte response is complete, a few thousand
 //! times; it prints the median and the 99th percentile. The line is 115200 baud, 8N2 (Linux
 //! pseudo-terminals refuse pyserial's even parity): a pseudo-terminal moves bytes at once, so
-//! what is measured is the server's own turnaround, including the end-of-frame gap it waits
-//! for (et200s-si-modbus-uss.md §3.5, Table 3-11: 1 ms at 115200 baud for the module).
+//! what is measured is the server's own turnaround.
+//!
+//! `si modbus serve` is measured twice: with `--frame-end gap`, the module's behaviour, it
+//! waits for the end-of-frame gap after the request (et200s-si-modbus-uss.md §3.5, Table 3-11:
+//! 1 ms at 115200 baud); with `--frame-end length` (host extension) it answers as soon as the
+//! request has its predicted length and a good CRC, as pymodbus and libmodbus do.
 //!
 //! Needs socat (`apt-get install socat`) and the `si` binary (`cargo build --release -p
 //! si-cli`; set `SI_BIN` if it is not under `target/release`); pymodbus is measured when
@@ -15,6 +19,8 @@
 //! ```text
 //! cargo build --release -p si-cli && cargo run --release --example latency [requests]
 //! ```
+//!
+//! With your own target directory, point `SI_BIN` at its `release/si`.
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufRead, BufReader, Read, Write};
@@ -82,7 +88,7 @@ fn exchange(port: &mut File, limit: Duration) -> Option<Duration> {
 }
 
 /// Median and p99 of `requests` turnarounds against the server on the client pty.
-fn measure(name: &str, client: &str, requests: usize) -> Option<(Duration, Duration)> {
+fn measure(name: &str, client: &str, requests: usize) -> Option<Row> {
     let mut port = OpenOptions::new()
         .read(true)
         .write(true)
@@ -107,16 +113,58 @@ fn measure(name: &str, client: &str, requests: usize) -> Option<(Duration, Durat
         // Keep to the protocol: leave an end-of-frame gap before the next request.
         std::thread::sleep(Duration::from_millis(2));
     }
+    if times.is_empty() {
+        eprintln!("{name}: no answers");
+        return None;
+    }
     times.sort();
     let pick = |q: f64| times[((times.len() - 1) as f64 * q) as usize];
-    let (median, p99) = (pick(0.5), pick(0.99));
-    println!(
-        "{name}: FC03 turnaround median {:.3} ms, p99 {:.3} ms ({} of {requests} answered)",
-        median.as_secs_f64() * 1e3,
-        p99.as_secs_f64() * 1e3,
-        times.len()
+    let row = Row {
+        name: name.to_string(),
+        median: pick(0.5),
+        p99: pick(0.99),
+        answered: times.len(),
+        requests,
+    };
+    eprintln!(
+        "{name}: median {:.3} ms, p99 {:.3} ms",
+        ms(row.median),
+        ms(row.p99)
     );
-    Some((median, p99))
+    Some(row)
+}
+
+/// One implementation's result.
+struct Row {
+    name: String,
+    median: Duration,
+    p99: Duration,
+    answered: usize,
+    requests: usize,
+}
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+/// `si modbus serve` with this `--frame-end`, measured on a fresh pty pair.
+fn measure_si(si: &std::path::Path, frame_end: &str, requests: usize) -> Option<Row> {
+    let (_socat, server, client) = pty_pair();
+    let _si = Proc(
+        Command::new(si)
+            .args(["--port", &server, "--baud", "115200", "--parity", "none"])
+            .args(["--stop-bits", "2", "modbus", "serve", "--unit", "1"])
+            .args(["--frame-end", frame_end])
+            .stdout(Stdio::null())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("spawn si modbus serve"),
+    );
+    measure(
+        &format!("si modbus serve --frame-end {frame_end}"),
+        &client,
+        requests,
+    )
 }
 
 /// Throw away whatever is waiting on the port (a late answer after a timeout).
@@ -156,41 +204,52 @@ fn main() {
         si.display()
     );
 
-    let (_socat, server, client) = pty_pair();
-    let _si = Proc(
-        Command::new(&si)
-            .args(["--port", &server, "--baud", "115200", "--parity", "none"])
-            .args(["--stop-bits", "2", "modbus", "serve", "--unit", "1"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("spawn si modbus serve"),
-    );
-    let ours = measure("si modbus serve", &client, requests);
-    drop(_si);
+    let mut rows: Vec<Row> = ["gap", "length"]
+        .iter()
+        .filter_map(|end| measure_si(&si, end, requests))
+        .collect();
 
     let have_pymodbus = Command::new("python3")
         .args(["-c", "import pymodbus, serial"])
         .status()
         .is_ok_and(|s| s.success());
-    if !have_pymodbus {
-        println!("pymodbus: not installed (pip install pymodbus pyserial), not measured");
-        return;
-    }
-    let (_socat2, server, client) = pty_pair();
-    let _py = Proc(
-        Command::new("python3")
-            .args(["-c", PYMODBUS_SERVER, &server])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("spawn the pymodbus server"),
-    );
-    let theirs = measure("pymodbus StartSerialServer", &client, requests);
-    if let (Some((a, _)), Some((b, _))) = (ours, theirs) {
-        println!(
-            "median ratio pymodbus / si: {:.2}",
-            b.as_secs_f64() / a.as_secs_f64()
+    if have_pymodbus {
+        let (_socat, server, client) = pty_pair();
+        let _py = Proc(
+            Command::new("python3")
+                .args(["-c", PYMODBUS_SERVER, &server])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .expect("spawn the pymodbus server"),
         );
+        rows.extend(measure("pymodbus StartSerialServer", &client, requests));
+    } else {
+        println!("pymodbus: not installed (pip install pymodbus pyserial), not measured");
+    }
+
+    println!("FC03 turnaround over a pseudo-terminal pair, 115200 baud 8N2");
+    println!(
+        "{:<36} {:>11} {:>11} {:>10}",
+        "server", "median ms", "p99 ms", "answered"
+    );
+    for r in &rows {
+        println!(
+            "{:<36} {:>11.3} {:>11.3} {:>5}/{}",
+            r.name,
+            ms(r.median),
+            ms(r.p99),
+            r.answered,
+            r.requests
+        );
+    }
+    if let Some(py) = rows.iter().find(|r| r.name.starts_with("pymodbus")) {
+        for r in rows.iter().filter(|r| r.name.starts_with("si")) {
+            println!(
+                "median pymodbus / {}: {:.2}",
+                r.name,
+                py.median.as_secs_f64() / r.median.as_secs_f64()
+            );
+        }
     }
 }

@@ -16,7 +16,10 @@
 //! the last stretch is waited by a small helper thread per driver, started on first use, that
 //! blocks on a condition variable with a timeout (the kernel's high-resolution timers: some
 //! 50–100 µs late on an idle Linux machine, timer slack included) and wakes the driver task.
-//! It sleeps in the kernel, so it burns no CPU; tokio's timer stays armed as a backstop.
+//! It sleeps in the kernel, so it burns no CPU; tokio's timer stays armed as a backstop. A
+//! deadline already due when the engine names it (tx-done right after a write on a transport
+//! without wire time) is handled at once, and whatever fell due while the driver slept reaches
+//! the engine before the bytes or the command that woke it.
 //!
 //! What remains is the operating system: scheduling latency under load (milliseconds on a
 //! busy machine), and the port itself (a USB adapter delivers received bytes in 1 ms or 16 ms
