@@ -59,7 +59,6 @@ use burst::{Burst, Key, Mod};
 use core::any::Any;
 use core::marker::PhantomData;
 use std::cmp::Ordering;
-use std::collections::binary_heap::PeekMut;
 use std::collections::{BinaryHeap, VecDeque};
 
 /// Seeded faults on the characters a station receives from others (its own bus echo is clean).
@@ -97,15 +96,14 @@ impl<E> StationId<E> {
 }
 
 /// The object-safe face of an [`Engine`], so stations of different engine types share one line.
-trait Station {
+/// `Any` as a supertrait: the engine is reached again by upcasting, without a virtual call.
+trait Station: Any {
     fn rx(&mut self, now: Instant, bytes: &[u8]);
     fn timeout(&mut self, now: Instant);
     fn tx_done(&mut self, now: Instant);
     fn line_error(&mut self, now: Instant, e: LineError);
     fn signals(&mut self, now: Instant, s: ModemSignals);
     fn poll(&mut self) -> Output<Box<dyn Any>>;
-    fn as_any_mut(&mut self) -> &mut dyn Any;
-    fn as_any(&self) -> &dyn Any;
     fn describe(&self, event: &dyn Any) -> String;
 }
 
@@ -136,12 +134,6 @@ where
             Output::Event(e) => Output::Event(Box::new(e)),
             Output::Wait(d) => Output::Wait(d),
         }
-    }
-    fn as_any_mut(&mut self) -> &mut dyn Any {
-        self
-    }
-    fn as_any(&self) -> &dyn Any {
-        self
     }
     fn describe(&self, event: &dyn Any) -> String {
         event
@@ -192,10 +184,10 @@ struct Slot {
 
 #[derive(Debug, Clone, Copy)]
 enum What {
-    /// The next character of a burst for one of its receivers (see [`burst`]).
+    /// The next character of a burst for the receivers of one latency (see [`burst`]).
     Char {
         burst: u32,
-        cursor: u32,
+        lane: u32,
     },
     /// A BREAK at a station's receiver.
     Break {
@@ -240,6 +232,8 @@ pub struct Simulator {
     now: Instant,
     seq: u64,
     queue: BinaryHeap<Scheduled>,
+    /// The lane delivering characters right now, out of the queue (see [`step`](Self::step)).
+    hot: Option<Scheduled>,
     slots: Vec<Slot>,
     buses: Vec<Vec<usize>>,
     /// Per bus, the bursts still in flight on it (ids in `bursts`), for collisions.
@@ -260,6 +254,7 @@ impl Simulator {
             now: Instant::ZERO,
             seq: 0,
             queue: BinaryHeap::new(),
+            hot: None,
             slots: Vec::new(),
             buses: Vec::new(),
             bus_live: Vec::new(),
@@ -367,9 +362,8 @@ impl Simulator {
 
     /// The station's engine, to inspect.
     pub fn engine<E: 'static>(&self, station: StationId<E>) -> &E {
-        self.slots[station.index]
-            .engine
-            .as_any()
+        let engine: &dyn Any = &*self.slots[station.index].engine;
+        engine
             .downcast_ref()
             .expect("StationId type matches the engine added")
     }
@@ -382,9 +376,8 @@ impl Simulator {
         f: impl FnOnce(&mut E, Instant) -> R,
     ) -> R {
         let now = self.now;
-        let engine = self.slots[station.index]
-            .engine
-            .as_any_mut()
+        let engine: &mut dyn Any = &mut *self.slots[station.index].engine;
+        let engine = engine
             .downcast_mut()
             .expect("StationId type matches the engine added");
         let r = f(engine, now);
@@ -413,43 +406,63 @@ impl Simulator {
 
     /// True when nothing is scheduled: no character in flight, no timer running.
     pub fn is_quiet(&self) -> bool {
-        self.queue.is_empty()
+        self.queue.is_empty() && self.hot.is_none()
+    }
+
+    /// When the next happening is due, if any.
+    fn next_at(&self) -> Option<Instant> {
+        match (&self.hot, self.queue.peek()) {
+            (Some(hot), Some(top)) => Some(hot.at.min(top.at)),
+            (Some(hot), None) => Some(hot.at),
+            (None, top) => top.map(|t| t.at),
+        }
     }
 
     /// Process the next scheduled happening; false if there is none.
     pub fn step(&mut self) -> bool {
-        let Some(mut top) = self.queue.peek_mut() else {
-            return false;
+        // The lane delivering characters is kept out of the queue (`hot`) while it stays ahead
+        // of everything queued: an undisturbed burst costs no queue work at all.
+        let from_queue = match (&self.hot, self.queue.peek()) {
+            (None, None) => return false,
+            (Some(hot), Some(top)) => (top.at, top.seq) < (hot.at, hot.seq),
+            (hot, _) => hot.is_none(),
         };
-        let (at, seq, what) = (top.at, top.seq, top.what);
-        if let What::Char { burst, cursor } = what {
-            // The burst's cursor stays queued, moved on to its next character (a sift in place
-            // instead of a pop and a push); it leaves the queue after its last.
-            let (to, item, next) = self.bursts[burst as usize].advance(cursor as usize);
-            match next {
-                Some((at, seq)) => {
-                    top.at = at;
-                    top.seq = seq;
-                    drop(top);
+        if from_queue {
+            let next = self.queue.pop().expect("peeked");
+            if let What::Char { .. } = next.what {
+                if let Some(previous) = self.hot.replace(next) {
+                    self.queue.push(previous);
                 }
-                None => {
-                    PeekMut::pop(top);
-                    self.cursor_done(burst);
-                }
+            } else {
+                self.now = self.now.max(next.at);
+                self.dispatch(next.what, (next.at, next.seq));
+                return true;
             }
-            self.now = self.now.max(at);
-            self.receive(to, item);
-        } else {
-            PeekMut::pop(top);
-            self.now = self.now.max(at);
-            self.dispatch(what, (at, seq));
         }
+        let hot = self.hot.as_mut().expect("a hot lane");
+        let (at, what) = (hot.at, hot.what);
+        let What::Char { burst, lane } = what else {
+            unreachable!("only lanes are hot")
+        };
+        let (to, item, next) = self.bursts[burst as usize].advance(lane as usize);
+        match next {
+            Some((at, seq)) => {
+                hot.at = at;
+                hot.seq = seq;
+            }
+            None => {
+                self.hot = None;
+                self.lane_done(burst);
+            }
+        }
+        self.now = self.now.max(at);
+        self.receive(to, item);
         true
     }
 
     /// Process everything scheduled up to and including `until`, then set the clock to `until`.
     pub fn run_until(&mut self, until: Instant) {
-        while self.queue.peek().is_some_and(|n| n.at <= until) {
+        while self.next_at().is_some_and(|at| at <= until) {
             self.step();
         }
         self.now = self.now.max(until);
@@ -462,7 +475,7 @@ impl Simulator {
 
     /// Run until nothing is scheduled or the clock would pass `limit`; true if quiet.
     pub fn run_until_quiet(&mut self, limit: Instant) -> bool {
-        while self.queue.peek().is_some_and(|n| n.at <= limit) {
+        while self.next_at().is_some_and(|at| at <= limit) {
             self.step();
         }
         self.is_quiet()
@@ -481,7 +494,15 @@ impl Simulator {
         self.queue.push(Scheduled { at, seq, what });
     }
 
+    #[inline]
     fn record(&mut self, station: usize, kind: TraceKind) {
+        if self.trace.is_some() {
+            self.record_entry(station, kind);
+        }
+    }
+
+    #[cold]
+    fn record_entry(&mut self, station: usize, kind: TraceKind) {
         if let Some(trace) = &mut self.trace {
             trace.entries.push(TraceEntry {
                 at: self.now,
@@ -508,6 +529,7 @@ impl Simulator {
     }
 
     /// Everything but a burst's characters (those are [`step`](Self::step)'s).
+    #[inline(never)]
     fn dispatch(&mut self, what: What, key: Key) {
         let now = self.now;
         match what {
@@ -550,39 +572,53 @@ impl Simulator {
         // Runs for every delivered character: the station itself needs no allocation, only
         // partners woken by a modem-signal change go on the (then allocated) list.
         let mut pending = Vec::new();
-        let mut next = Some(station);
-        while let Some(s) = next.take().or_else(|| pending.pop()) {
-            loop {
-                match self.slots[s].engine.poll() {
-                    Output::Transmit(bytes) => {
-                        self.record(
-                            s,
-                            TraceKind::Tx {
-                                bytes: bytes.to_vec(),
-                            },
-                        );
-                        self.start_transmit(s, &bytes);
-                    }
-                    Output::SetSignals(update) => {
-                        self.record(s, TraceKind::Signals { update });
-                        if let Some(partner) = self.apply_signals(s, update) {
-                            pending.push(partner);
-                        }
-                    }
-                    Output::Event(event) => {
-                        if self.trace.is_some() {
-                            let text = self.slots[s].engine.describe(event.as_ref());
-                            self.record(s, TraceKind::Event { text });
-                        }
-                        self.slots[s].events.push_back(event);
-                    }
-                    Output::Wait(deadline) => {
-                        self.set_timer(s, deadline);
-                        break;
-                    }
+        self.drain_one(station, &mut pending);
+        while let Some(s) = pending.pop() {
+            self.drain_one(s, &mut pending);
+        }
+    }
+
+    /// Drain one station until it waits; partners whose modem inputs it changed go on
+    /// `pending`.
+    fn drain_one(&mut self, s: usize, pending: &mut Vec<usize>) {
+        loop {
+            // The common case, a wait, stays here; the others are out of line.
+            match self.slots[s].engine.poll() {
+                Output::Wait(deadline) => {
+                    self.set_timer(s, deadline);
+                    break;
                 }
+                Output::Transmit(bytes) => self.on_transmit(s, bytes),
+                Output::SetSignals(update) => self.on_signals(s, update, pending),
+                Output::Event(event) => self.on_event(s, event),
             }
         }
+    }
+
+    #[inline(never)]
+    fn on_transmit(&mut self, s: usize, bytes: bytes::Bytes) {
+        if self.trace.is_some() {
+            let bytes = bytes.to_vec();
+            self.record(s, TraceKind::Tx { bytes });
+        }
+        self.start_transmit(s, &bytes);
+    }
+
+    #[inline(never)]
+    fn on_signals(&mut self, s: usize, update: SignalUpdate, pending: &mut Vec<usize>) {
+        self.record(s, TraceKind::Signals { update });
+        if let Some(partner) = self.apply_signals(s, update) {
+            pending.push(partner);
+        }
+    }
+
+    #[inline(never)]
+    fn on_event(&mut self, s: usize, event: Box<dyn Any>) {
+        if self.trace.is_some() {
+            let text = self.slots[s].engine.describe(event.as_ref());
+            self.record(s, TraceKind::Event { text });
+        }
+        self.slots[s].events.push_back(event);
     }
 
     /// Arm (or cancel) a station's timer. Each change takes a fresh seq, so the timer keeps
@@ -657,8 +693,9 @@ impl Simulator {
         );
     }
 
-    /// Put a burst on the sender's wire: one cursor per receiver, queued at its first
-    /// character. Reserves the seqs the characters would have taken one by one, draws the
+    /// Put a burst on the sender's wire: one cursor per receiver, one lane per latency queued
+    /// at its first delivery (see [`burst`]). Reserves the seqs the characters would have
+    /// taken one by one, draws the
     /// receivers' faults in the order they always were drawn (character by character,
     /// receiver by receiver), and on a bus marks the characters colliding with other senders'.
     fn put_on_wire(&mut self, s: usize, bytes: &[u8], t0: Instant, first: u64) {
@@ -677,22 +714,11 @@ impl Simulator {
                 (self.bursts.len() - 1) as u32
             }
         };
-        let stride = 2 * receivers as u64;
         let seq_base = self.seq + 1;
-        self.seq += stride * bytes.len() as u64;
+        self.seq += 2 * receivers as u64 * bytes.len() as u64;
         let settings = self.slots[s].settings;
         let b = &mut self.bursts[id as usize];
-        b.sender = s;
-        b.bus = bus;
-        b.t0 = t0;
-        b.first = first;
-        b.settings = settings;
-        b.bytes.clear();
-        b.bytes.extend_from_slice(bytes);
-        b.seq_base = seq_base;
-        b.stride = stride;
-        b.receivers = receivers;
-        b.garbled.clear();
+        b.begin(s, bus, t0, first, settings, bytes, seq_base, receivers);
         let mut faulty = false;
         for i in 0..receivers {
             let to = match (self.slots[s].wiring, bus) {
@@ -711,7 +737,7 @@ impl Simulator {
                     || rx.faults.insert > 0.0;
                 rx.faults.extra_latency
             };
-            b.reset_cursor(i, to, latency, mismatch);
+            b.add_receiver(to, latency, mismatch);
         }
         if faulty {
             self.draw_faults(id);
@@ -720,16 +746,15 @@ impl Simulator {
             self.collide(bus, id);
         }
         let b = &mut self.bursts[id as usize];
-        b.live = 0;
-        for i in 0..receivers {
-            if let Some(key) = b.settle(i) {
-                b.live += 1;
+        b.start_lanes();
+        for lane in 0..b.lanes() {
+            if let Some((at, seq)) = b.key_if_live(lane) {
                 self.queue.push(Scheduled {
-                    at: key.0,
-                    seq: key.1,
+                    at,
+                    seq,
                     what: What::Char {
                         burst: id,
-                        cursor: i as u32,
+                        lane: lane as u32,
                     },
                 });
             }
@@ -811,9 +836,10 @@ impl Simulator {
         }
     }
 
-    /// A cursor of `burst` has delivered its last character; the burst leaves the line (and
-    /// goes back to the pool) with its last cursor.
-    fn cursor_done(&mut self, id: u32) {
+    /// A lane of `burst` has delivered its last character; the burst leaves the line (and
+    /// goes back to the pool) with its last lane.
+    #[inline(never)]
+    fn lane_done(&mut self, id: u32) {
         let b = &mut self.bursts[id as usize];
         b.live -= 1;
         if b.live > 0 {
