@@ -161,8 +161,8 @@ fn modbus_10_slaves(span: Duration) -> u64 {
 
 /// 1,000 3964(R) links in one simulator: live heap bytes per link (two engines, their station
 /// slots, the wiring), idle after start-up and after all 1,000 have sent a 200-byte block at
-/// the same instant (the simulator schedules every character of a burst when it is sent, so
-/// its event queue keeps the capacity of 200,000 characters in flight).
+/// the same instant (what that leaves behind: the simulator's pool of burst records, one per
+/// block that was in flight, and its event queue, one entry per burst and timer).
 fn memory_per_link() -> (f64, f64) {
     use si_3964r::{Config, Link, Priority};
     const LINKS: usize = 1_000;

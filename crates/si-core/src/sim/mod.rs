@@ -11,6 +11,15 @@
 //! no drift however long the burst. Time is virtual: an hour of traffic runs in well under a
 //! second of real time.
 //!
+//! Happenings are processed in (time, seq) order, seq being the order they were scheduled in,
+//! so same-instant ties resolve the same way on every run. The queue stays small however busy
+//! the line: a transmission is one record walked character by character (`sim/burst.rs`: one
+//! queue entry per burst and receive latency, not per character and receiver), and a station's
+//! timer is one entry however often the engine re-arms it (each re-arm still takes its own seq;
+//! only a deadline earlier than the queued entry is queued at once, a later one when the old
+//! entry comes up). A timer cancelled after it was queued leaves that entry to pass as a no-op
+//! step, which keeps [`Simulator::is_quiet`] false until then.
+//!
 //! Faults are drawn from a seeded generator, so a failing run is reproduced by its seed:
 //! bit flips, dropped and inserted characters and extra latency per wire ([`Faults`]), BREAK at a
 //! given instant ([`Simulator::schedule_break`]) and a partner that stops transmitting
@@ -404,7 +413,8 @@ impl Simulator {
             .collect()
     }
 
-    /// True when nothing is scheduled: no character in flight, no timer running.
+    /// True when nothing is scheduled: no character in flight, no timer running (nor the
+    /// queue entry of a timer cancelled before its deadline, which passes as a no-op step).
     pub fn is_quiet(&self) -> bool {
         self.queue.is_empty() && self.hot.is_none()
     }
