@@ -232,6 +232,13 @@ pub struct Link {
     plain_rx: bool,
     /// XON/XOFF or RTS/CTS: the buffer's fill level can hold the partner ([`Link::check_stop`]).
     holds_partner: bool,
+    /// No XOFF / RTS = OFF sent and no send job: the next deadline is the receive one alone, so
+    /// [`Engine::poll_output`] answers from `rx_deadline` directly (issue 9: it is polled after
+    /// every byte). Recomputed by [`Link::settle_wait`] at the end of every input except the
+    /// inline receive path, which changes neither (it only calls out to paths that settle).
+    /// Only a send ([`Link::send`]) and XOFF / RTS = OFF ([`Link::stop_partner`]) can make it
+    /// false; debug builds check every answer against the full computation.
+    rx_deadline_only: bool,
     buffer: FrameBuffer,
     cutter: Cutter,
     rx: Rx,
@@ -293,8 +300,10 @@ impl Link {
             dtr: false,
             out: VecDeque::with_capacity(16),
             rx_pool: BytesMut::new(),
+            rx_deadline_only: true,
         };
         link.enter_mode();
+        link.settle_wait();
         Ok(link)
     }
 
@@ -317,6 +326,7 @@ impl Link {
         // Frames kept over the restart may still call for XOFF / RTS = OFF.
         self.check_stop();
         self.pump(now);
+        self.settle_wait();
     }
 
     fn enter_mode(&mut self) {
@@ -369,6 +379,7 @@ impl Link {
             not_before,
         };
         self.pump(now);
+        self.settle_wait();
         Ok(job)
     }
 
@@ -547,6 +558,7 @@ impl Link {
     fn frame_taken(&mut self, now: Instant) {
         self.check_resume(now);
         self.pump(now);
+        self.settle_wait();
     }
 
     /// [`read_frame`](Self::read_frame) into a new vector.
@@ -622,6 +634,7 @@ impl Link {
             _ => return,
         }
         self.stop_sent = true;
+        self.settle_wait();
     }
 
     fn check_resume(&mut self, now: Instant) {
@@ -689,6 +702,11 @@ impl Link {
     /// Every received character, whatever the state; `byte` is already masked.
     #[inline(never)]
     fn on_byte_general(&mut self, now: Instant, gap: Instant, byte: u8) {
+        self.byte_general(now, gap, byte);
+        self.settle_wait();
+    }
+
+    fn byte_general(&mut self, now: Instant, gap: Instant, byte: u8) {
         if self.cfg.flow_control == FlowControl::XonXoff {
             if byte == self.cfg.xon_xoff.xoff {
                 self.partner_stopped = true;
@@ -724,11 +742,16 @@ impl Link {
             Rx::Receiving => {}
         }
         let cut = self.cutter.push(byte);
-        self.frame_byte(now, byte, cut);
+        self.frame_byte_inner(now, byte, cut);
     }
 
     /// A character of the frame in progress, already counted by the cutter as `cut`.
     fn frame_byte(&mut self, now: Instant, byte: u8, cut: Cut) {
+        self.frame_byte_inner(now, byte, cut);
+        self.settle_wait();
+    }
+
+    fn frame_byte_inner(&mut self, now: Instant, byte: u8, cut: Cut) {
         if cut == Cut::TooLong {
             self.skip_rest(Some(byte));
             self.rx_fail(now, status::FRAME_TOO_LONG);
@@ -757,6 +780,12 @@ impl Link {
     /// after all.
     #[cold]
     fn store_when_full(&mut self, now: Instant, byte: u8) -> bool {
+        let stored = self.make_room(now, byte);
+        self.settle_wait();
+        stored
+    }
+
+    fn make_room(&mut self, now: Instant, byte: u8) -> bool {
         if self.cfg.dynamic_frames && !self.cfg.prevent_overwrite {
             while self.buffer.free() == 0 && self.buffer.drop_oldest().is_some() {
                 self.rx_fail(now, status::NO_FREE_RECEIVE_BUFFER);
@@ -891,9 +920,23 @@ impl Link {
         }
     }
 
+    /// See `rx_deadline_only`.
+    #[inline]
+    fn settle_wait(&mut self) {
+        self.rx_deadline_only = !self.stop_sent && matches!(self.tx, Tx::Idle);
+    }
+
     /// The earliest deadline in force, receive or transmit.
     #[inline]
     fn next_deadline(&self) -> Option<Instant> {
+        if self.rx_deadline_only {
+            debug_assert_eq!(self.rx_deadline, self.any_deadline());
+            return self.rx_deadline;
+        }
+        self.any_deadline()
+    }
+
+    fn any_deadline(&self) -> Option<Instant> {
         let rx = self.rx_monitoring();
         if matches!(self.tx, Tx::Idle) {
             return rx;
@@ -932,6 +975,39 @@ impl Engine for Link {
     }
 
     fn handle_timeout(&mut self, now: Instant) {
+        self.on_timeout(now);
+        self.settle_wait();
+    }
+
+    fn handle_tx_done(&mut self, now: Instant) {
+        self.on_tx_done(now);
+        self.settle_wait();
+    }
+
+    fn handle_line_error(&mut self, now: Instant, error: LineError) {
+        self.on_line_error(now, error);
+        self.settle_wait();
+    }
+
+    fn handle_signals(&mut self, now: Instant, signals: ModemSignals) {
+        self.on_signals(now, signals);
+        self.settle_wait();
+    }
+
+    /// Inline: polled after every input, mostly to hear `Wait` again.
+    #[inline]
+    fn poll_output(&mut self) -> Output<Event> {
+        if self.out.is_empty() {
+            return Output::Wait(self.next_deadline());
+        }
+        self.pop_output()
+    }
+}
+
+/// The inputs other than received characters; each [`Engine`] method runs one, then
+/// [`Link::settle_wait`].
+impl Link {
+    fn on_timeout(&mut self, now: Instant) {
         if self.rx_monitoring().is_some_and(|d| now >= d) {
             self.rx_deadline = None;
             match self.rx {
@@ -965,7 +1041,7 @@ impl Engine for Link {
         self.pump(now);
     }
 
-    fn handle_tx_done(&mut self, now: Instant) {
+    fn on_tx_done(&mut self, now: Instant) {
         if !self.in_flight {
             return;
         }
@@ -981,7 +1057,7 @@ impl Engine for Link {
                     let off = Duration::from_millis(u64::from(self.cfg.auto_v24.time_rts_off_ms));
                     self.tx = Tx::RtsOff { job, at: now + off };
                     if off == Duration::ZERO {
-                        self.handle_timeout(now);
+                        self.on_timeout(now);
                     }
                 } else {
                     self.finish_send(now, job);
@@ -991,7 +1067,7 @@ impl Engine for Link {
         self.pump(now);
     }
 
-    fn handle_line_error(&mut self, now: Instant, error: LineError) {
+    fn on_line_error(&mut self, now: Instant, error: LineError) {
         if self.cfg.interface == Interface::Rs485 && self.in_flight {
             return; // our own transmission
         }
@@ -1006,7 +1082,7 @@ impl Engine for Link {
         self.rx_fail(now, code);
     }
 
-    fn handle_signals(&mut self, now: Instant, signals: ModemSignals) {
+    fn on_signals(&mut self, now: Instant, signals: ModemSignals) {
         let before = self.inputs;
         self.inputs = ModemSignals {
             dtr: self.dtr,
@@ -1056,15 +1132,6 @@ impl Engine for Link {
             }
             _ => {}
         }
-    }
-
-    /// Inline: polled after every input, mostly to hear `Wait` again.
-    #[inline]
-    fn poll_output(&mut self) -> Output<Event> {
-        if self.out.is_empty() {
-            return Output::Wait(self.next_deadline());
-        }
-        self.pop_output()
     }
 }
 
