@@ -15,8 +15,9 @@
 //! So the driver uses tokio's timer only to get within [`PRECISE_LEAD`] (3 ms) of a deadline;
 //! the last stretch is waited by a small helper thread per driver, started on first use, that
 //! blocks on a condition variable with a timeout (the kernel's high-resolution timers: some
-//! 50–100 µs late on an idle Linux machine, timer slack included) and wakes the driver task.
-//! It sleeps in the kernel, so it burns no CPU; tokio's timer stays armed as a backstop. A
+//! 50–100 µs late on an idle Linux machine, timer slack included) and wakes the driver task
+//! [`SPIN_BELOW`] (50 µs) early; the driver yields to the runtime for the rest. The thread
+//! sleeps in the kernel, so it burns no CPU; tokio's timer stays armed as a backstop. A
 //! deadline already due when the engine names it (tx-done right after a write on a transport
 //! without wire time) is handled at once, and whatever fell due while the driver slept reaches
 //! the engine before the bytes or the command that woke it.
@@ -154,6 +155,15 @@ impl<E: Engine> Handle<E> {
         rx.await.map_err(|_| DriverStopped)
     }
 
+    /// Run `f` on the engine inside the driver and drain the outputs it causes, without
+    /// waiting for it: one channel send, no reply (a command whose outcome arrives as an event).
+    pub fn send(
+        &self,
+        f: impl FnOnce(&mut E, Instant) + Send + 'static,
+    ) -> Result<(), DriverStopped> {
+        self.commands.send(Box::new(f)).map_err(|_| DriverStopped)
+    }
+
     /// The next event the engine reported; `None` once the driver has stopped and every event
     /// has been taken.
     pub async fn next_event(&mut self) -> Option<E::Event> {
@@ -201,6 +211,18 @@ impl Clock {
 /// helper thread ("Timing, honestly" in the module docs): more than the wheel's worst lateness
 /// on an idle machine, so the wheel wakes the driver before the deadline.
 pub const PRECISE_LEAD: Duration = Duration::from_millis(3);
+
+/// How close to a deadline the driver stops sleeping and yields to the runtime until the
+/// deadline has passed: about the kernel's timer slack, below which a sleeping thread cannot
+/// be woken more precisely, and far cheaper than a thread's wake-up for the microsecond waits
+/// of a fast line (tx-done of a short frame at a high baud rate). At most this long per
+/// deadline the driver task polls instead of sleeping; other tasks run in between.
+pub const SPIN_BELOW: Duration = Duration::from_micros(50);
+
+/// Yields in a row for one deadline before the driver leaves it to the wheel: never reached
+/// in real time (a yield costs a system call), only when the clock stands still (tokio's
+/// paused test clock).
+const MAX_SPINS: u32 = 1_000;
 
 /// The helper thread's side of a [`PreciseTimer`].
 struct TimerShared {
@@ -365,6 +387,12 @@ where
     let mut poll = tokio::time::interval(options.signal_poll);
     poll.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut precise = PreciseTimer::default();
+    // One wheel timer for the driver's life, moved only when its target changes (a new
+    // `sleep_until` per wake-up would register and deregister a wheel entry every time).
+    let wheel = tokio::time::sleep_until(clock.0);
+    tokio::pin!(wheel);
+    let mut wheel_set: Option<Instant> = None;
+    let mut spins = 0u32;
 
     loop {
         // Drain until Wait, acting on every output.
@@ -413,8 +441,10 @@ where
         }
 
         // Tokio's wheel until PRECISE_LEAD before the next deadline, then the precise thread
-        // (with the wheel at the deadline itself as a backstop).
+        // until SPIN_BELOW before it, then yielding to the runtime until it has passed (with
+        // the wheel at the deadline itself as a backstop).
         let mut wheel_at = next;
+        let mut spin = false;
         match next.map(|at| (at, at - clock.now())) {
             Some((at, remaining)) if remaining > PRECISE_LEAD => {
                 precise.disarm();
@@ -422,8 +452,24 @@ where
                     at.as_micros() - PRECISE_LEAD.as_micros(),
                 ));
             }
-            Some((at, remaining)) => precise.arm(at, remaining),
+            Some((at, remaining)) if remaining > SPIN_BELOW => {
+                precise.arm(at, remaining.saturating_sub(SPIN_BELOW))
+            }
+            Some(_) => {
+                precise.disarm();
+                // Bounded: under tokio's paused test clock time only moves when the runtime
+                // idles, which yielding prevents; then the wheel (backstop) takes over.
+                spin = spins < MAX_SPINS;
+                spins += 1;
+            }
             None => precise.disarm(),
+        }
+        if !spin {
+            spins = 0;
+        }
+        if let Some(at) = wheel_at.filter(|&at| wheel_set != Some(at)) {
+            wheel.as_mut().reset(clock.to_tokio(at));
+            wheel_set = Some(at);
         }
 
         tokio::select! {
@@ -449,8 +495,9 @@ where
                 fire_due(&mut engine, &mut tx_done_at, deadline.take(), now);
                 engine.handle_rx(now, &buf[..n]);
             }
-            _ = tokio::time::sleep_until(clock.to_tokio(wheel_at.unwrap_or_default())), if wheel_at.is_some() => {}
+            _ = &mut wheel, if wheel_at.is_some() => wheel_set = None,
             _ = precise.fired(), if precise.is_armed() => precise.fired_seen(),
+            _ = tokio::task::yield_now(), if spin => {}
             _ = poll.tick(), if signals.is_some() => {
                 let now_signals = io.read_signals()?;
                 if now_signals != signals {

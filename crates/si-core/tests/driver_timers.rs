@@ -143,3 +143,19 @@ async fn tx_done_without_wire_time_comes_before_the_answer() {
         assert_eq!(handle.next_event().await, Some("rx"));
     }
 }
+
+/// Under tokio's paused test clock (time moves only when the runtime idles) a deadline between
+/// two millisecond ticks still fires: the driver's short yield loop gives way to the wheel.
+#[tokio::test(start_paused = true)]
+async fn deadlines_between_ticks_fire_under_the_paused_clock() {
+    let (ours, _theirs) = tokio::io::duplex(64);
+    let (mut handle, _task) = spawn(Timer::default(), ours, DriverOptions::default());
+    for us in [20, 1_020, 2_999, 3_001, 10_010] {
+        handle
+            .call(move |t, now| t.deadline = Some(now + Duration::from_micros(us)))
+            .await
+            .unwrap();
+        let fired = handle.next_event().await.unwrap();
+        assert!(fired.at >= fired.deadline, "{us} µs: {fired:?}");
+    }
+}

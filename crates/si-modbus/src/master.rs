@@ -201,20 +201,38 @@ impl Master {
         if self.job.is_some() {
             return Err(RequestError::Busy);
         }
+        let adu = Self::check_job(unit, request)?;
+        self.job = Some((adu, 1 + self.config.retries));
+        self.send(now);
+        Ok(())
+    }
+
+    /// The checks of §4.3 a job must pass before it is started (0E43H broadcast not allowed
+    /// for this function, 0E44H–0E46H counts), with the request as it would be sent. Pure, so
+    /// a caller can check a job without the engine at hand.
+    pub fn check_job(unit: u8, request: &Request<'_>) -> Result<Adu, RequestError> {
         let f = request.function();
         if unit == BROADCAST && !fc::broadcast_allowed(f) {
             return Err(RequestError::Invalid(status::BROADCAST_NOT_ALLOWED_FOR_FC));
         }
-        let adu = Adu::request(unit, request).map_err(|_| {
+        Adu::request(unit, request).map_err(|_| {
             RequestError::Invalid(match f {
                 fc::READ_COILS | fc::READ_DISCRETE_INPUTS => status::BIT_COUNT,
                 fc::READ_HOLDING_REGISTERS | fc::READ_INPUT_REGISTERS => status::REGISTER_COUNT,
                 _ => status::WRITE_COUNT,
             })
-        })?;
-        self.job = Some((adu, 1 + self.config.retries));
-        self.send(now);
-        Ok(())
+        })
+    }
+
+    /// Report a job the caller could not start (refused by [`request`](Self::request)) as
+    /// failed, so a caller that waits for the job's event gets exactly one.
+    #[cfg(feature = "tokio")]
+    pub(crate) fn refuse(&mut self, request: &Adu, status: Status) {
+        self.out.push_back(Output::Event(MasterEvent::Failed {
+            unit: request.unit(),
+            function: request.as_bytes().get(1).copied().unwrap_or(0),
+            status,
+        }));
     }
 
     /// Send the job's request, or hold it while the line has not been silent for the gap.

@@ -76,6 +76,9 @@ pub struct MasterHandle {
     task: JoinHandle<std::io::Result<()>>,
     diagnostics: std::collections::VecDeque<Status>,
     dropped: u64,
+    /// A job was started whose end event has not been taken (its `request` future was
+    /// dropped): the next request waits for that event first.
+    in_flight: bool,
 }
 
 /// How many line diagnostics (0E50H, line errors between jobs) a handle keeps; older ones are
@@ -101,23 +104,50 @@ impl MasterHandle {
             task,
             diagnostics: std::collections::VecDeque::new(),
             dropped: 0,
+            in_flight: false,
         }
     }
 
     /// Send any request and wait for its completion (a broadcast completes after the
     /// turnaround delay with no response).
+    ///
+    /// The job is checked here ([`Master::check_job`]) and handed to the driver without
+    /// waiting for a reply; its one completion or failure event is the answer. If an earlier
+    /// `request` future was dropped before its job ended, that job's event is awaited (and
+    /// dropped) first, so every call gets its own job's outcome.
     pub async fn request(&mut self, unit: u8, request: &Request<'_>) -> Result<Completion, Error> {
         let adu = Adu::request(unit, request)?;
-        self.handle
-            .call(move |m, now| match adu.decode_request() {
+        Master::check_job(unit, request)?;
+        if self.in_flight {
+            let _ = self.job_end().await;
+        }
+        self.in_flight = true;
+        self.handle.send(move |m, now| {
+            let started = match adu.decode_request() {
                 Ok((_, r)) => m.request(now, unit, &r),
                 Err(_) => Err(RequestError::Invalid(crate::status::INVALID_FUNCTION)),
-            })
-            .await??;
+            };
+            if let Err(e) = started {
+                // Not expected after the checks above; reported so the caller is not left
+                // waiting.
+                m.refuse(&adu, e.status());
+            }
+        })?;
+        self.job_end().await
+    }
+
+    /// The end of the running job: its completion or failure; diagnostics on the way are kept.
+    async fn job_end(&mut self) -> Result<Completion, Error> {
         loop {
             match self.handle.next_event().await {
-                Some(MasterEvent::Completed(c)) => return Ok(c),
-                Some(MasterEvent::Failed { status, .. }) => return Err(Error::Failed(status)),
+                Some(MasterEvent::Completed(c)) => {
+                    self.in_flight = false;
+                    return Ok(c);
+                }
+                Some(MasterEvent::Failed { status, .. }) => {
+                    self.in_flight = false;
+                    return Err(Error::Failed(status));
+                }
                 Some(MasterEvent::Diagnostic(s)) => {
                     if self.diagnostics.len() == DIAGNOSTICS_KEPT {
                         self.diagnostics.pop_front();
@@ -410,5 +440,32 @@ mod tests {
         ));
         let regs = server.with_store(|s| s.holding_registers[2]).await.unwrap();
         assert_eq!(regs, 0xAAAA);
+    }
+
+    /// A `request` future dropped before its job ended (here: no answer from unit 9, which
+    /// does not exist) does not leave its outcome to the next call: the next request waits
+    /// for that job to time out (0830H) and then gets its own answer.
+    #[tokio::test(start_paused = true)]
+    async fn a_dropped_request_does_not_hand_its_outcome_to_the_next() {
+        let (a, b) = tokio::io::duplex(1024);
+        let config = SlaveConfig {
+            address: 7,
+            ..SlaveConfig::default()
+        };
+        let mut tables = Tables::new(0, 0, 4, 0);
+        tables.holding_registers[1] = 0x1234;
+        let _server = SlaveServer::spawn(config, tables, b).unwrap();
+        let master_config = MasterConfig {
+            response_timeout_ms: 100,
+            ..MasterConfig::default()
+        };
+        let mut m = MasterHandle::spawn(master_config, a).unwrap();
+        let dropped = tokio::time::timeout(
+            std::time::Duration::from_millis(20),
+            m.read_holding_registers(9, 0, 1),
+        )
+        .await;
+        assert!(dropped.is_err(), "unit 9 never answers");
+        assert_eq!(m.read_holding_registers(7, 1, 1).await.unwrap(), [0x1234]);
     }
 }
