@@ -230,9 +230,19 @@ fn take_events(mut server: si_modbus::tokio::SlaveServer<si_modbus::Tables>) {
     tokio::spawn(async move { while server.next_event().await.is_some() {} });
 }
 
+/// FC03 of 10 registers over `tokio::io::duplex`: our master and tokio-modbus's RTU client,
+/// each against our slave, all on one current-thread runtime.
+///
+/// Both clients and the slave end frames by their predicted length (our
+/// `FrameEnd::Length`; tokio-modbus's RTU codec does so too), so no end-of-frame gap is waited
+/// for. Our master keeps to §3.5 and holds a request until the line has been silent for the gap
+/// (1 ms) since the last response, which back-to-back `iter` would measure; so each iteration
+/// first leaves the line idle for longer than the gap (untimed) and then times one request
+/// until its response is decoded, the same loop for both implementations.
 fn modbus_roundtrip(c: &mut Criterion) {
     use si_modbus::tokio::{MasterHandle, SlaveServer};
-    use si_modbus::{MasterConfig, Mode, SlaveConfig, Tables};
+    use si_modbus::{FrameEnd, Master, MasterConfig, Mode, Slave, SlaveConfig, Tables};
+    use std::time::Duration as StdDuration;
     use tokio_modbus::client::Reader;
 
     let rt = tokio::runtime::Builder::new_current_thread()
@@ -241,10 +251,9 @@ fn modbus_roundtrip(c: &mut Criterion) {
         .unwrap();
     // A pipe moves bytes at once, a line does not: at 115200 baud the slave would still be
     // sending its 25-byte answer (2.2 ms) when a client that got it at once sends the next
-    // request, and the slave rightly refuses that overlap (0837H; tokio-modbus's client then
-    // waits for ever, it has no timeout; it sends the next request some 10 µs after an
-    // answer). At a nominal 1 Gbaud the answer's time on the line is below 1 µs; the
-    // end-of-frame gap stays Table 3-11's shortest, 1 ms, as at 115200 baud.
+    // request, and the slave rightly refuses that overlap (0837H). At a nominal 1 Gbaud the
+    // answer's time on the line is below 1 µs; the end-of-frame gap stays Table 3-11's
+    // shortest, 1 ms, as at 115200 baud.
     static FAST: [u32; 1] = [1_000_000_000];
     let settings =
         SerialSettings::with_rates(1_000_000_000, 8, si_core::Parity::Even, 1, &FAST).unwrap();
@@ -256,37 +265,67 @@ fn modbus_roundtrip(c: &mut Criterion) {
             ..SlaveConfig::default().line
         },
     };
+    let slave = || {
+        Slave::new(slave_config, Tables::new(0, 0, 100, 0))
+            .unwrap()
+            .with_frame_end(FrameEnd::Length)
+    };
+    // Longer than the 1 ms gap, so our master's hold never delays the timed request.
+    const IDLE: StdDuration = StdDuration::from_micros(1_300);
+    // Waited by spinning, not sleeping: a thread woken from sleep runs its first microseconds
+    // on a cold, down-clocked core, which would be measured instead of the code.
+    fn idle(span: StdDuration) {
+        let start = std::time::Instant::now();
+        while start.elapsed() < span {
+            std::hint::spin_loop();
+        }
+    }
     let mut g = c.benchmark_group("modbus_roundtrip_duplex");
     g.sample_size(30);
     {
         let _guard = rt.enter();
         let (a, b) = tokio::io::duplex(1024);
-        let server = SlaveServer::spawn(slave_config, Tables::new(0, 0, 100, 0), b).unwrap();
-        take_events(server);
+        take_events(SlaveServer::spawn_engine(slave(), b));
         let mut config = MasterConfig::default();
         config.line.settings = settings;
-        let mut master = MasterHandle::spawn(config, a).unwrap();
+        let master = Master::new(config)
+            .unwrap()
+            .with_frame_end(FrameEnd::Length);
+        let mut master = MasterHandle::spawn_engine(master, a);
         g.bench_function("si", |bench| {
-            bench.iter(|| {
-                rt.block_on(async {
-                    let regs = master.read_holding_registers(1, 0, 10).await.unwrap();
-                    assert_eq!(regs.len(), 10);
-                })
+            bench.iter_custom(|iters| {
+                let mut timed = StdDuration::ZERO;
+                for _ in 0..iters {
+                    idle(IDLE);
+                    let start = std::time::Instant::now();
+                    rt.block_on(async {
+                        let regs = master.read_holding_registers(1, 0, 10).await.unwrap();
+                        assert_eq!(regs.len(), 10);
+                    });
+                    timed += start.elapsed();
+                }
+                timed
             })
         });
     }
     {
         let _guard = rt.enter();
         let (a, b) = tokio::io::duplex(1024);
-        let server = SlaveServer::spawn(slave_config, Tables::new(0, 0, 100, 0), b).unwrap();
-        take_events(server);
+        take_events(SlaveServer::spawn_engine(slave(), b));
         let mut ctx = tokio_modbus::client::rtu::attach_slave(a, tokio_modbus::Slave(1));
         g.bench_function("tokio-modbus", |bench| {
-            bench.iter(|| {
-                rt.block_on(async {
-                    let regs = ctx.read_holding_registers(0, 10).await.unwrap().unwrap();
-                    assert_eq!(regs.len(), 10);
-                })
+            bench.iter_custom(|iters| {
+                let mut timed = StdDuration::ZERO;
+                for _ in 0..iters {
+                    idle(IDLE);
+                    let start = std::time::Instant::now();
+                    rt.block_on(async {
+                        let regs = ctx.read_holding_registers(0, 10).await.unwrap().unwrap();
+                        assert_eq!(regs.len(), 10);
+                    });
+                    timed += start.elapsed();
+                }
+                timed
             })
         });
     }
