@@ -741,10 +741,8 @@ impl Simulator {
             let latency = if to == s {
                 Duration::ZERO
             } else {
-                faulty |= rx.corrupt.is_some()
-                    || rx.faults.drop > 0.0
-                    || rx.faults.bit_flip > 0.0
-                    || rx.faults.insert > 0.0;
+                let f = rx.faults;
+                faulty |= rx.corrupt.is_some() || [f.drop, f.bit_flip, f.insert].iter().any(draws);
                 rx.faults.extra_latency
             };
             b.add_receiver(to, latency, mismatch);
@@ -863,6 +861,12 @@ impl Simulator {
         }
         self.free_bursts.push(id);
     }
+}
+
+/// Whether [`SplitMix64::chance`] draws a number for this probability (it skips `p <= 0`
+/// only, so a NaN draws too).
+fn draws(p: &f64) -> bool {
+    !matches!(p.partial_cmp(&0.0), Some(Ordering::Less | Ordering::Equal))
 }
 
 #[cfg(test)]
