@@ -278,8 +278,9 @@ impl<S: Store> Slave<S> {
     /// End received frames this way (host extension [`FrameEnd::Length`]; the default is
     /// the module's [`FrameEnd::Gap`]).
     ///
-    /// An engine option rather than a [`LineConfig`](crate::config::LineConfig) field so that
-    /// code building `LineConfig` field by field keeps compiling.
+    /// An engine option rather than a [`LineConfig`](crate::config::LineConfig) field:
+    /// `LineConfig` is the module's own parameter set (§3.5–§3.9, what si-dp-coord reads from
+    /// a parameter record), and this is not one of the module's parameters.
     pub fn with_frame_end(mut self, frame_end: FrameEnd) -> Self {
         self.rx.set_frame_end(frame_end);
         self
