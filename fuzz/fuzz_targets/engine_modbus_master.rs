@@ -1,18 +1,25 @@
 //! The Modbus master under arbitrary responses, timing and line errors, with requests built
 //! from fuzzer bytes: no panic, frames within the ADU maximum, every accepted request ends in
-//! exactly one Completed or Failed event.
+//! exactly one Completed or Failed event; frames ended by the gap or (host extension) by their
+//! predicted length, as the first byte picks.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use si_core::Instant;
 use si_fuzz::{Harness, Input};
 use si_modbus::frame::{decode_request, Request, MAX_ADU};
-use si_modbus::{Master, MasterConfig, MasterEvent};
+use si_modbus::{FrameEnd, Master, MasterConfig, MasterEvent};
 
 fuzz_target!(|data: &[u8]| {
     let mut input = Input(data);
+    let frame_end = if input.u8() & 1 == 1 {
+        FrameEnd::Length
+    } else {
+        FrameEnd::Gap
+    };
     let Ok(master) = Master::new(MasterConfig::default()) else {
         return;
     };
+    let master = master.with_frame_end(frame_end);
     let mut h = Harness::new(master, MAX_ADU);
     let mut jobs = 0u64;
     let mut on_event = |h: &mut Harness<Master>, e: MasterEvent| match e {

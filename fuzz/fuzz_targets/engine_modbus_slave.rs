@@ -1,14 +1,21 @@
 //! The Modbus slave (S_MODB's SIMATIC mapping) under arbitrary requests, timing and line
-//! errors: no panic, responses within the ADU maximum, output queue bounded.
+//! errors: no panic, responses within the ADU maximum, output queue bounded; frames ended by the
+//! gap or (host extension) by their predicted length, as the first byte's top bit picks.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use si_fuzz::{Harness, Input};
 use si_modbus::frame::MAX_ADU;
-use si_modbus::{SimaticStore, Slave, SlaveConfig};
+use si_modbus::{FrameEnd, SimaticStore, Slave, SlaveConfig};
 
 fuzz_target!(|data: &[u8]| {
     let mut input = Input(data);
-    let address = input.u8() % 4 + 1;
+    let first = input.u8();
+    let address = first % 4 + 1;
+    let frame_end = if first & 0x80 != 0 {
+        FrameEnd::Length
+    } else {
+        FrameEnd::Gap
+    };
     let config = SlaveConfig {
         address,
         ..SlaveConfig::default()
@@ -16,6 +23,7 @@ fuzz_target!(|data: &[u8]| {
     let Ok(slave) = Slave::new(config, SimaticStore::example()) else {
         return;
     };
+    let slave = slave.with_frame_end(frame_end);
     let mut h = Harness::new(slave, MAX_ADU);
     let mut on_event = |_: &mut Harness<Slave<SimaticStore>>, _| {};
     let mut command = |h: &mut Harness<Slave<SimaticStore>>, _: u8, args: &[u8]| {
