@@ -14,63 +14,18 @@ use std::time::{Duration, Instant};
 
 mod common;
 
-use common::{have_socat, peer, pty_pair, si_command, stderr, stdout, test_dir, Kill};
+use common::modbus::{self, have_mbpoll, have_pymodbus, served};
+use common::{have_socat, pty_pair, si_command, stderr, stdout, test_dir, Kill};
+use std::sync::mpsc::Receiver;
 
 const LINE: &[&str] = &["--baud", "115200", "--parity", "none", "--stop-bits", "2"];
 
-fn have_pymodbus() -> bool {
-    peer(
-        "pymodbus",
-        Command::new("python3").args(["-c", "import pymodbus, serial"]),
-        "pip install pymodbus pyserial",
-    )
-}
-
-fn have_mbpoll() -> bool {
-    peer(
-        "mbpoll",
-        Command::new("mbpoll").arg("-V"),
-        "apt-get install mbpoll",
-    )
-}
-
 fn si(port: &str, args: &[&str]) -> Output {
-    si_command()
-        .args(["--port", port])
-        .args(LINE)
-        .args(args)
-        .output()
-        .expect("run si")
+    modbus::si_on(port, LINE, args)
 }
 
-/// `si modbus serve --unit 1 <extra>` on `port`: its first line, and its stdout until killed.
-fn serve(port: &str, extra: &[&str]) -> (Kill, String, std::sync::mpsc::Receiver<String>) {
-    let mut child = si_command()
-        .args(["--port", port])
-        .args(LINE)
-        .args(["modbus", "serve", "--unit", "1"])
-        .args(extra)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .expect("spawn si modbus serve");
-    let stdout = child.stdout.take().expect("stdout");
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-            let _ = tx.send(line);
-        }
-    });
-    let first = rx
-        .recv_timeout(Duration::from_secs(10))
-        .expect("serve starts");
-    assert!(first.starts_with("serving as slave 1"), "{first}");
-    (Kill(child), first, rx)
-}
-
-fn served(rx: &std::sync::mpsc::Receiver<String>) -> String {
-    std::thread::sleep(Duration::from_millis(200));
-    rx.try_iter().collect::<Vec<_>>().join("\n")
+fn serve(port: &str, extra: &[&str]) -> (Kill, String, Receiver<String>) {
+    modbus::serve(port, LINE, extra)
 }
 
 const PYMODBUS_CLIENT: &str = r#"

@@ -15,67 +15,20 @@ use std::time::{Duration, Instant};
 
 mod common;
 
-use common::{have_socat, peer, pty_pair, si_command, stderr, stdout, test_dir, Kill};
+use common::modbus::{self, have_mbpoll, have_pymodbus, served};
+use common::{have_socat, pty_pair, si_command, stderr, stdout, test_dir, Kill};
+use std::sync::mpsc::Receiver;
 
 const LINE: &[&str] = &["--baud", "19200", "--parity", "none", "--stop-bits", "2"];
 
-fn have_pymodbus() -> bool {
-    peer(
-        "pymodbus",
-        Command::new("python3").args(["-c", "import pymodbus, serial"]),
-        "pip install pymodbus pyserial",
-    )
-}
-
-fn have_mbpoll() -> bool {
-    peer(
-        "mbpoll",
-        Command::new("mbpoll").arg("-V"),
-        "apt-get install mbpoll",
-    )
-}
-
 fn si(port: &str, args: &[&str]) -> Output {
-    si_command()
-        .args(["--port", port])
-        .args(LINE)
-        .args(args)
-        .output()
-        .expect("run si")
+    modbus::si_on(port, LINE, args)
 }
 
-/// `si modbus serve --unit 1` on `port`, with its stdout collected until it is killed.
-fn serve(port: &str) -> (Kill, std::sync::mpsc::Receiver<String>) {
-    serve_with(port, &[])
-}
-
-fn serve_with(port: &str, extra: &[&str]) -> (Kill, std::sync::mpsc::Receiver<String>) {
-    let mut child = si_command()
-        .args(["--port", port])
-        .args(LINE)
-        .args(["modbus", "serve", "--unit", "1"])
-        .args(extra)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .expect("spawn si modbus serve");
-    let stdout = child.stdout.take().expect("stdout");
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-            let _ = tx.send(line);
-        }
-    });
-    let first = rx
-        .recv_timeout(Duration::from_secs(10))
-        .expect("serve starts");
-    assert!(first.starts_with("serving as slave 1"), "{first}");
-    (Kill(child), rx)
-}
-
-fn served(rx: &std::sync::mpsc::Receiver<String>) -> Vec<String> {
-    std::thread::sleep(Duration::from_millis(200));
-    rx.try_iter().collect()
+/// `si modbus serve --unit 1 <extra>` on `port`, with its stdout collected until it is killed.
+fn serve(port: &str, extra: &[&str]) -> (Kill, Receiver<String>) {
+    let (kill, _, log) = modbus::serve(port, LINE, extra);
+    (kill, log)
 }
 
 const PYMODBUS_CLIENT: &str = r#"
@@ -109,7 +62,7 @@ fn pymodbus_client_against_si_modbus_serve() {
         return;
     }
     let Some(pair) = pty_pair() else { return };
-    let (_serve, log) = serve(&pair.a);
+    let (_serve, log) = serve(&pair.a, &[]);
     let out = Command::new("python3")
         .args(["-c", PYMODBUS_CLIENT, &pair.b])
         .output()
@@ -120,7 +73,7 @@ fn pymodbus_client_against_si_modbus_serve() {
         stdout(&out),
         stderr(&out)
     );
-    let log = served(&log).join("\n");
+    let log = served(&log);
     for fc in [
         "FC16", "FC03", "FC06", "FC04", "FC05", "FC15", "FC01", "FC02",
     ] {
@@ -308,7 +261,7 @@ fn mbpoll_against_si_modbus_serve() {
         return;
     }
     let Some(pair) = pty_pair() else { return };
-    let (_serve, log) = serve(&pair.a);
+    let (_serve, log) = serve(&pair.a, &[]);
     let b = pair.b.as_str();
     let o = mbpoll_write(b, &["-t", "4", "-r", "0"], &["7", "8", "9"]); // FC16
     assert!(o.status.success(), "{}", stderr(&o));
@@ -337,7 +290,7 @@ fn mbpoll_against_si_modbus_serve() {
         stdout(&o),
         stderr(&o)
     );
-    let log = served(&log).join("\n");
+    let log = served(&log);
     for fc in [
         "FC16", "FC06", "FC03", "FC04", "FC05", "FC15", "FC01", "FC02",
     ] {
@@ -386,7 +339,7 @@ fn pymodbus_client_against_si_modbus_serve_with_a_config_file() {
     let path = dir.join("serve.toml");
     std::fs::write(&path, CONFIG).expect("write config");
     let Some(pair) = pty_pair() else { return };
-    let (_serve, log) = serve_with(&pair.a, &["--config", path.to_str().expect("utf-8 path")]);
+    let (_serve, log) = serve(&pair.a, &["--config", path.to_str().expect("utf-8 path")]);
     let out = Command::new("python3")
         .args(["-c", PYMODBUS_CONFIGURED, &pair.b])
         .output()
@@ -397,7 +350,7 @@ fn pymodbus_client_against_si_modbus_serve_with_a_config_file() {
         stdout(&out),
         stderr(&out)
     );
-    let log = served(&log).join("\n");
+    let log = served(&log);
     assert!(
         log.contains("answered FC03 with exception 04 slave device failure: S_MODB ERROR_NR 21"),
         "{log}"

@@ -6,6 +6,8 @@
 //! Each file under `tests/` is its own test crate and uses only some of these helpers.
 #![allow(dead_code)]
 
+pub mod modbus;
+
 use serde_json::Value;
 use std::ffi::OsStr;
 use std::io::{BufRead, BufReader};

@@ -1,0 +1,69 @@
+//! The Modbus peers and `si modbus serve` as the interop tests use them (modbus_interop.rs at
+//! 19 200 bit/s, modbus_frame_end.rs at 115 200 bit/s): one copy, the line passed in.
+
+use super::{peer, si_command, Kill};
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Output, Stdio};
+use std::sync::mpsc::Receiver;
+use std::time::Duration;
+
+/// pymodbus and pyserial are importable (else a skip message, or a failure under CI).
+pub fn have_pymodbus() -> bool {
+    peer(
+        "pymodbus",
+        Command::new("python3").args(["-c", "import pymodbus, serial"]),
+        "pip install pymodbus pyserial",
+    )
+}
+
+/// mbpoll (libmodbus) is installed (else a skip message, or a failure under CI).
+pub fn have_mbpoll() -> bool {
+    peer(
+        "mbpoll",
+        Command::new("mbpoll").arg("-V"),
+        "apt-get install mbpoll",
+    )
+}
+
+/// `si --port <port> <line> <args>`, run to its end.
+pub fn si_on(port: &str, line: &[&str], args: &[&str]) -> Output {
+    si_command()
+        .args(["--port", port])
+        .args(line)
+        .args(args)
+        .output()
+        .expect("run si")
+}
+
+/// `si --port <port> <line> modbus serve --unit 1 <extra>`: the process (killed when dropped),
+/// its first line (the banner, checked), and the lines it prints later.
+pub fn serve(port: &str, line: &[&str], extra: &[&str]) -> (Kill, String, Receiver<String>) {
+    let mut child = si_command()
+        .args(["--port", port])
+        .args(line)
+        .args(["modbus", "serve", "--unit", "1"])
+        .args(extra)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("spawn si modbus serve");
+    let stdout = child.stdout.take().expect("stdout");
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let first = rx
+        .recv_timeout(Duration::from_secs(10))
+        .expect("serve starts");
+    assert!(first.starts_with("serving as slave 1"), "{first}");
+    (Kill(child), first, rx)
+}
+
+/// What `serve` printed so far, one line per served request, after giving it 200 ms to log
+/// its last answers.
+pub fn served(rx: &Receiver<String>) -> String {
+    std::thread::sleep(Duration::from_millis(200));
+    rx.try_iter().collect::<Vec<_>>().join("\n")
+}
