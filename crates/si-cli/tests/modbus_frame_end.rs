@@ -8,13 +8,12 @@
 //! the test with a message; with the environment variable `CI` set it fails instead. The line
 //! is 115 200 bit/s 8N2, where the end-of-frame gap is 1 ms (Table 3-11).
 
-use std::io::{BufRead, BufReader};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
 mod common;
 
-use common::modbus::{self, have_mbpoll, have_pymodbus, served};
+use common::modbus::{self, have_mbpoll, have_pymodbus, pymodbus_server, served};
 use common::{have_socat, pty_pair, si_command, stderr, stdout, test_dir, Kill};
 use std::sync::mpsc::Receiver;
 
@@ -134,18 +133,7 @@ fn si_modbus_read_and_write_frame_end_length_against_pymodbus_server() {
         return;
     }
     let Some(pair) = pty_pair() else { return };
-    let mut child = Command::new("python3")
-        .args(["-c", PYMODBUS_SERVER, &pair.b])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("spawn pymodbus server");
-    let mut ready = String::new();
-    BufReader::new(child.stdout.take().expect("stdout"))
-        .read_line(&mut ready)
-        .expect("server says ready");
-    let _server = Kill(child);
-    assert_eq!(ready.trim(), "ready");
+    let _server = pymodbus_server(PYMODBUS_SERVER, &pair.b);
     let fe = ["--frame-end", "length"];
     let start = Instant::now();
     loop {

@@ -9,13 +9,13 @@
 //! The line is 19200 baud, 8 data bits, no parity, 2 stop bits: the manual's 11-bit frame with
 //! parity "none" (§3.9), and Linux pseudo-terminals refuse pyserial's even-parity setting.
 
-use std::io::{BufRead, BufReader, Write};
+use std::io::Write;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 mod common;
 
-use common::modbus::{self, have_mbpoll, have_pymodbus, served};
+use common::modbus::{self, have_mbpoll, have_pymodbus, pymodbus_server, served};
 use common::{have_socat, pty_pair, si_command, stderr, stdout, test_dir, Kill};
 use std::sync::mpsc::Receiver;
 
@@ -111,18 +111,7 @@ fn pymodbus_server_against_si_modbus_read_and_write() {
         return;
     }
     let Some(pair) = pty_pair() else { return };
-    let mut child = Command::new("python3")
-        .args(["-c", PYMODBUS_SERVER, &pair.b])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("spawn pymodbus server");
-    let mut ready = String::new();
-    BufReader::new(child.stdout.take().expect("stdout"))
-        .read_line(&mut ready)
-        .expect("server says ready");
-    let _server = Kill(child);
-    assert_eq!(ready.trim(), "ready");
+    let _server = pymodbus_server(PYMODBUS_SERVER, &pair.b);
     // Give the server a moment to open the port after printing.
     let start = Instant::now();
     let run = |args: &[&str]| -> String {

@@ -67,3 +67,21 @@ pub fn served(rx: &Receiver<String>) -> String {
     std::thread::sleep(Duration::from_millis(200));
     rx.try_iter().collect::<Vec<_>>().join("\n")
 }
+
+/// A pymodbus serial server running `script` (which prints "ready" once its data is set up)
+/// on `port`, killed when dropped.
+pub fn pymodbus_server(script: &str, port: &str) -> Kill {
+    let mut child = Command::new("python3")
+        .args(["-c", script, port])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawn pymodbus server");
+    let mut ready = String::new();
+    BufReader::new(child.stdout.take().expect("stdout"))
+        .read_line(&mut ready)
+        .expect("server says ready");
+    let server = Kill(child);
+    assert_eq!(ready.trim(), "ready");
+    server
+}
