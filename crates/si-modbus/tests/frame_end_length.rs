@@ -90,6 +90,19 @@ fn slave_rig(frame_end: FrameEnd) -> (Simulator, StationId<Partner>, StationId<S
 }
 
 /// When a station's engine queued bytes, and which.
+/// A master with [`FrameEnd::Length`] whose FC03 request for 2 registers has gone out to a
+/// scripted partner, 1 ms before the partner answers (at `CHARS_8 + 1_000`).
+fn master_waiting_for_read2() -> (Simulator, StationId<Master>, StationId<Partner>) {
+    let mut sim = Simulator::new(5);
+    let s = SerialSettings::default();
+    let m = sim.add_station("master", s, master(FrameEnd::Length));
+    let p = sim.add_station("slave", s, Partner);
+    sim.connect(m, p);
+    sim.with(m, |e, now| e.request(now, 1, &READ2)).unwrap();
+    sim.run_until(at(CHARS_8 + 1_000));
+    (sim, m, p)
+}
+
 fn transmissions(sim: &Simulator, station: &str) -> Vec<(Instant, Vec<u8>)> {
     sim.trace()
         .of(station)
@@ -325,13 +338,8 @@ fn s3_5_extension_master_completes_at_the_response_end_and_holds_the_next_reques
 
 #[test]
 fn s3_5_extension_bytes_during_the_hold_extend_it() {
-    let mut sim = Simulator::new(5);
+    let (mut sim, m, p) = master_waiting_for_read2();
     let s = SerialSettings::default();
-    let m = sim.add_station("master", s, master(FrameEnd::Length));
-    let p = sim.add_station("slave", s, Partner);
-    sim.connect(m, p);
-    sim.with(m, |e, now| e.request(now, 1, &READ2)).unwrap();
-    sim.run_until(at(CHARS_8 + 1_000));
     // An answer, then a stray character 2 ms after its end (within the gap).
     let answer = with_crc(vec![1, 3, 4, 0, 1, 0, 2]);
     sim.transmit(p, &answer);
@@ -350,13 +358,8 @@ fn s3_5_extension_bytes_during_the_hold_extend_it() {
 
 #[test]
 fn s4_4_extension_length_response_with_a_bad_crc_ends_at_the_gap_with_0e57h() {
-    let mut sim = Simulator::new(5);
+    let (mut sim, m, p) = master_waiting_for_read2();
     let s = SerialSettings::default();
-    let m = sim.add_station("master", s, master(FrameEnd::Length));
-    let p = sim.add_station("slave", s, Partner);
-    sim.connect(m, p);
-    sim.with(m, |e, now| e.request(now, 1, &READ2)).unwrap();
-    sim.run_until(at(CHARS_8 + 1_000));
     let mut answer = with_crc(vec![1, 3, 4, 0, 1, 0, 2]);
     answer[8] ^= 0x80;
     sim.transmit(p, &answer);
@@ -379,13 +382,8 @@ fn s4_4_extension_length_response_with_a_bad_crc_ends_at_the_gap_with_0e57h() {
 
 #[test]
 fn s4_4_extension_length_response_with_another_function_code_ends_at_the_gap_with_0e51h() {
-    let mut sim = Simulator::new(5);
+    let (mut sim, m, p) = master_waiting_for_read2();
     let s = SerialSettings::default();
-    let m = sim.add_station("master", s, master(FrameEnd::Length));
-    let p = sim.add_station("slave", s, Partner);
-    sim.connect(m, p);
-    sim.with(m, |e, now| e.request(now, 1, &READ2)).unwrap();
-    sim.run_until(at(CHARS_8 + 1_000));
     let answer = with_crc(vec![1, 4, 4, 0, 1, 0, 2]);
     sim.transmit(p, &answer);
     sim.run_until_quiet(LIMIT);
@@ -547,13 +545,8 @@ fn s4_1_extension_length_on_an_rs485_bus_with_local_echo_polls_two_slaves() {
 
 #[test]
 fn s3_7_extension_length_master_in_normal_mode_reports_a_line_error_after_the_response_once() {
-    let mut sim = Simulator::new(5);
+    let (mut sim, m, p) = master_waiting_for_read2();
     let s = SerialSettings::default();
-    let m = sim.add_station("master", s, master(FrameEnd::Length));
-    let p = sim.add_station("slave", s, Partner);
-    sim.connect(m, p);
-    sim.with(m, |e, now| e.request(now, 1, &READ2)).unwrap();
-    sim.run_until(at(CHARS_8 + 1_000));
     sim.transmit(p, &with_crc(vec![1, 3, 4, 0, 1, 0, 2]));
     sim.schedule_break(m, at(CHARS_8 + 1_000 + s.chars_time(9).as_micros() + 500));
     sim.run_until_quiet(LIMIT);
