@@ -9,7 +9,6 @@
 //! is 115 200 bit/s 8N2, where the end-of-frame gap is 1 ms (Table 3-11).
 
 use std::process::{Command, Output};
-use std::time::{Duration, Instant};
 
 mod common;
 
@@ -135,30 +134,7 @@ fn si_modbus_read_and_write_frame_end_length_against_pymodbus_server() {
     let Some(pair) = pty_pair() else { return };
     let _server = pymodbus_server(PYMODBUS_SERVER, &pair.b);
     let fe = ["--frame-end", "length"];
-    let start = Instant::now();
-    loop {
-        let o = si(
-            &pair.a,
-            &[
-                "modbus",
-                "diag",
-                "--unit",
-                "1",
-                "--timeout",
-                "500",
-                fe[0],
-                fe[1],
-            ],
-        );
-        if o.status.success() {
-            assert_eq!(stdout(&o).trim(), "unit 1 diagnostics echo 0xA537"); // FC08
-            break;
-        }
-        assert!(
-            start.elapsed() < Duration::from_secs(15),
-            "pymodbus server never answered"
-        );
-    }
+    modbus::wait_for_echo(&pair.a, LINE, &fe);
     let run = |args: &[&str]| -> String {
         let o = si(&pair.a, &[args, &fe].concat());
         assert!(o.status.success(), "si {args:?} failed: {}", stderr(&o));

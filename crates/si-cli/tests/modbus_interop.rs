@@ -11,7 +11,7 @@
 
 use std::io::Write;
 use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 mod common;
 
@@ -112,27 +112,12 @@ fn pymodbus_server_against_si_modbus_read_and_write() {
     }
     let Some(pair) = pty_pair() else { return };
     let _server = pymodbus_server(PYMODBUS_SERVER, &pair.b);
-    // Give the server a moment to open the port after printing.
-    let start = Instant::now();
+    modbus::wait_for_echo(&pair.a, LINE, &[]);
     let run = |args: &[&str]| -> String {
         let o = si(&pair.a, args);
         assert!(o.status.success(), "si {args:?} failed: {}", stderr(&o));
         stdout(&o).trim().to_string()
     };
-    loop {
-        let o = si(
-            &pair.a,
-            &["modbus", "diag", "--unit", "1", "--timeout", "500"],
-        );
-        if o.status.success() {
-            assert_eq!(stdout(&o).trim(), "unit 1 diagnostics echo 0xA537"); // FC08
-            break;
-        }
-        assert!(
-            start.elapsed() < Duration::from_secs(15),
-            "pymodbus server never answered"
-        );
-    }
     let a = "--addr";
     assert_eq!(
         run(&["modbus", "read", "holding", "--unit", "1", a, "0", "--count", "5"]),

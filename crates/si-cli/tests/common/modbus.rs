@@ -85,3 +85,27 @@ pub fn pymodbus_server(script: &str, port: &str) -> Kill {
     assert_eq!(ready.trim(), "ready");
     server
 }
+
+/// Ask the slave on `port` for an FC08 echo until it answers (a server just started may not
+/// have opened its port yet), at most 15 s; `extra` goes after the command (e.g.
+/// `--frame-end length`).
+pub fn wait_for_echo(port: &str, line: &[&str], extra: &[&str]) {
+    let start = std::time::Instant::now();
+    loop {
+        let args = [
+            &["modbus", "diag", "--unit", "1", "--timeout", "500"][..],
+            extra,
+        ]
+        .concat();
+        let o = si_on(port, line, &args);
+        if o.status.success() {
+            let out = String::from_utf8_lossy(&o.stdout);
+            assert_eq!(out.trim(), "unit 1 diagnostics echo 0xA537"); // FC08
+            return;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(15),
+            "the slave never answered"
+        );
+    }
+}
