@@ -57,6 +57,16 @@ fn drain<E: Engine>(engine: &mut E, mut on_transmit: impl FnMut(&[u8])) -> Optio
     }
 }
 
+/// Hand `bytes` to the engine at `now` in one `handle_rx`, or one byte per call when
+/// `bytewise`, draining its outputs after each call as a driver does (the `*_bytewise` groups).
+fn feed<E: Engine>(engine: &mut E, now: Instant, bytes: &[u8], bytewise: bool) {
+    let chunk = if bytewise { 1 } else { bytes.len().max(1) };
+    for piece in bytes.chunks(chunk) {
+        engine.handle_rx(now, piece);
+        drain(engine, |_| {});
+    }
+}
+
 fn modbus(c: &mut Criterion) {
     use rmodbus::client::ModbusRequest;
     use rmodbus::server::ModbusFrame;
@@ -202,15 +212,7 @@ fn modbus_slave_rx(c: &mut Criterion) {
             b.iter(|| {
                 t += 100_000;
                 let now = Instant::from_micros(t);
-                if bytewise {
-                    for byte in request.chunks(1) {
-                        slave.handle_rx(now, byte);
-                        drain(&mut slave, |_| {});
-                    }
-                } else {
-                    slave.handle_rx(now, &request);
-                    drain(&mut slave, |_| {});
-                }
+                feed(&mut slave, now, &request, bytewise);
                 let later = now + Duration::from_millis(5);
                 slave.handle_timeout(later);
                 let mut sent = 0;
@@ -400,15 +402,7 @@ fn r3964(c: &mut Criterion) {
                 let now = Instant::from_micros(t);
                 link.handle_rx(now, &[0x02]);
                 drain(&mut link, |_| {});
-                if bytewise {
-                    for byte in block.chunks(1) {
-                        link.handle_rx(now, byte);
-                        drain(&mut link, |_| {});
-                    }
-                } else {
-                    link.handle_rx(now, &block);
-                    drain(&mut link, |_| {});
-                }
+                feed(&mut link, now, &block, bytewise);
                 let got = link.take_block(now).expect("the block");
                 assert_eq!(got.len(), 256);
             })
@@ -471,15 +465,7 @@ fn uss(c: &mut Criterion) {
                 }
                 drive.handle_tx_done(now);
                 drain(&mut drive, |_| {});
-                if bytewise {
-                    for byte in wire.chunks(1) {
-                        master.handle_rx(now, byte);
-                        drain(&mut master, |_| {});
-                    }
-                } else {
-                    master.handle_rx(now, &wire);
-                    drain(&mut master, |_| {});
-                }
+                feed(&mut master, now, &wire, bytewise);
                 wire.clear();
             })
         });
@@ -513,15 +499,7 @@ fn ascii(c: &mut Criterion) {
             b.iter(|| {
                 t += 1_000_000;
                 let now = Instant::from_micros(t);
-                if bytewise {
-                    for byte in frame.chunks(1) {
-                        link.handle_rx(now, byte);
-                        drain(&mut link, |_| {});
-                    }
-                } else {
-                    link.handle_rx(now, &frame);
-                    drain(&mut link, |_| {});
-                }
+                feed(&mut link, now, &frame, bytewise);
                 assert_eq!(link.read_frame(now, &mut out), Some(200));
             })
         });
