@@ -129,6 +129,18 @@ pub trait Engine {
         let _ = (now, signals);
     }
 
+    /// The port hands received bytes over up to `latency` after they left the wire, in packets:
+    /// a USB-serial adapter's latency timer (16 ms by default on FTDI chips), a serial device
+    /// server's packing delay. A driver that knows it (the tokio driver reads the adapter's
+    /// latency timer on Linux; the simulator's adapter model knows its own) says so before the
+    /// first byte. Engines whose timers judge silence (an end-of-frame gap, a character delay
+    /// time, a response start) allow for it so that a hole between two packets is not taken for
+    /// silence; on a port that delivers bytes one by one the manual's timing is kept exactly.
+    /// The default ignores it.
+    fn set_rx_latency(&mut self, latency: crate::time::Duration) {
+        let _ = latency;
+    }
+
     /// The next output; [`Output::Wait`] when there is nothing more to do.
     fn poll_output(&mut self) -> Output<Self::Event>;
 }
