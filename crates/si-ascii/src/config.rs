@@ -136,24 +136,9 @@ impl Default for RtsCts {
     }
 }
 
-/// Automatic V.24 parameters (S_V24, Table 2-26 block 22H).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(default)]
-pub struct AutoV24 {
-    /// Time from the last byte sent until RTS = OFF, 0 … 655 350 ms in 10 ms steps, default 10 ms.
-    pub time_rts_off_ms: u32,
-    /// Time to wait for CTS = ON after RTS = ON, 0 … 655 350 ms in 10 ms steps, default 10 ms.
-    pub data_wait_time_ms: u32,
-}
-
-impl Default for AutoV24 {
-    fn default() -> Self {
-        AutoV24 {
-            time_rts_off_ms: 10,
-            data_wait_time_ms: 10,
-        }
-    }
-}
+/// Automatic V.24 parameters (S_V24, Table 2-26 block 22H): the sequence is shared with
+/// Modbus and lives in si-core ([`si_core::v24`]).
+pub use si_core::v24::AutoV24Times as AutoV24;
 
 /// Every parameter of the ASCII driver (Table 2-10 plus the run-time blocks of Table 2-26).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -328,22 +313,15 @@ impl RtsCts {
     }
 }
 
-impl AutoV24 {
-    /// Check both times against their range (0 … 655 350 ms, 10 ms steps).
-    pub fn validate(&self) -> Result<(), ConfigError> {
-        first(self.validate_all())
-    }
-
-    /// Like [`validate`](Self::validate), but every error.
-    pub fn validate_all(&self) -> Vec<ConfigError> {
-        [
-            check_step_time("time to RTS off", self.time_rts_off_ms, 0),
-            check_step_time("data output wait time", self.data_wait_time_ms, 0),
-        ]
-        .into_iter()
-        .filter_map(Result::err)
-        .collect()
-    }
+/// Both automatic V.24 times against their range (0 … 655 350 ms, 10 ms steps).
+fn auto_v24_errors(times: &AutoV24) -> impl Iterator<Item = ConfigError> {
+    times.validate_all().into_iter().map(|e| {
+        out_of_range(
+            e.parameter,
+            format!("{} ms", e.value),
+            "0 … 655350 ms in 10 ms steps".to_owned(),
+        )
+    })
 }
 
 fn first(errors: Vec<ConfigError>) -> Result<(), ConfigError> {
@@ -436,7 +414,7 @@ impl Config {
         }
         errors.extend(self.xon_xoff.validate_all(s));
         errors.extend(self.rts_cts.validate().err());
-        errors.extend(self.auto_v24.validate_all());
+        errors.extend(auto_v24_errors(&self.auto_v24));
         if self.flow_control == FlowControl::XonXoff {
             if let EndCriterion::EndChars { first, second } = self.end {
                 let flow = [self.xon_xoff.xon, self.xon_xoff.xoff];

@@ -64,6 +64,7 @@ use crate::frame::{Cut, Cutter};
 use crate::status;
 use bytes::{Bytes, BytesMut};
 use serde::{Deserialize, Serialize};
+use si_core::v24::{AutoV24 as AutoV24Sequence, Step};
 use si_core::{Duration, Engine, Instant, LineError, ModemSignals, Output, SignalUpdate, Status};
 use std::collections::VecDeque;
 
@@ -179,12 +180,8 @@ enum Tx {
         frame: Bytes,
         not_before: Instant,
     },
-    /// Automatic V.24: RTS is on, waiting for CTS until `until`.
-    WaitCts {
-        job: JobId,
-        frame: Bytes,
-        until: Instant,
-    },
+    /// Automatic V.24: RTS is on, waiting for CTS (until [`AutoV24::deadline`]).
+    WaitCts { job: JobId, frame: Bytes },
     /// Handing out bytes; `hold_until` while XOFF / CTS = OFF holds us.
     Sending {
         job: JobId,
@@ -192,11 +189,8 @@ enum Tx {
         pos: usize,
         hold_until: Option<Instant>,
     },
-    /// Automatic V.24: all sent, RTS goes off at `at`.
-    RtsOff {
-        job: JobId,
-        at: Instant,
-    },
+    /// Automatic V.24: all sent, RTS goes off at [`AutoV24::deadline`].
+    RtsOff { job: JobId },
 }
 
 const fn all_bytes() -> [u8; 256] {
@@ -257,6 +251,8 @@ pub struct Link {
     inputs: ModemSignals,
     rts: bool,
     dtr: bool,
+    /// The automatic V.24 sequence (si-core, shared with Modbus), with that flow control only.
+    v24: Option<AutoV24Sequence>,
     out: VecDeque<Output<Event>>,
     /// [`Link::read_frame_bytes`] cuts frames from this buffer (`split().freeze()`); once the
     /// caller has dropped the frames it took, `reserve` reclaims the allocation, so a steady
@@ -298,6 +294,8 @@ impl Link {
             inputs: ModemSignals::default(),
             rts: false,
             dtr: false,
+            v24: (config.flow_control == FlowControl::AutoV24)
+                .then(|| AutoV24Sequence::new(config.auto_v24)),
             out: VecDeque::with_capacity(16),
             rx_pool: BytesMut::new(),
             rx_deadline_only: true,
@@ -334,15 +332,12 @@ impl Link {
             FlowControl::None => {}
             FlowControl::XonXoff => self.transmit_flow_char(self.cfg.xon_xoff.xon),
             FlowControl::RtsCts => self.set_rts(true),
+            // RTS = OFF, unless a send job (which is completed, §10) holds it on.
             FlowControl::AutoV24 => {
-                // RTS = OFF, unless a send job (which is completed, §10) holds it on.
-                let idle = self.tx == Tx::Idle;
-                self.dtr = true;
-                self.rts &= !idle;
-                self.out.push_back(Output::SetSignals(SignalUpdate {
-                    dtr: Some(true),
-                    rts: idle.then_some(false),
-                }));
+                self.v24_step(|v, out| {
+                    v.enter(out);
+                    Step::Nothing
+                });
             }
         }
     }
@@ -447,21 +442,16 @@ impl Link {
     }
 
     fn start(&mut self, now: Instant, job: JobId, frame: Bytes) {
-        if self.cfg.flow_control == FlowControl::AutoV24 {
-            if !self.inputs.dsr {
-                // §6.8: while the partner is not ready a send job is aborted.
-                self.fail_send(now, job, status::DSR_CTS_OFF);
-                return;
-            }
-            self.set_rts(true);
-            if !self.inputs.cts {
-                let wait = Duration::from_millis(u64::from(self.cfg.auto_v24.data_wait_time_ms));
-                self.tx = Tx::WaitCts {
-                    job,
-                    frame,
-                    until: now + wait,
-                };
-                return;
+        if self.v24.is_some() {
+            // §6.8: RTS = ON, then the data go out at CTS = ON; while the partner is not
+            // ready (DSR = OFF) a send job is aborted.
+            match self.v24_step(|v, out| v.begin(now, out)) {
+                Step::Abort => return self.fail_send(now, job, status::DSR_CTS_OFF),
+                Step::Send => {}
+                Step::Nothing | Step::Done => {
+                    self.tx = Tx::WaitCts { job, frame };
+                    return;
+                }
             }
         }
         let hold_until = self.held().then(|| now + self.hold_time());
@@ -477,9 +467,10 @@ impl Link {
     fn fail_send(&mut self, now: Instant, job: JobId, status: Status) {
         self.tx = Tx::Idle;
         self.last_tx_end = Some(now);
-        if self.cfg.flow_control == FlowControl::AutoV24 && self.rts {
-            self.set_rts(false);
-        }
+        self.v24_step(|v, out| {
+            v.cancel(out);
+            Step::Nothing
+        });
         self.send_result = Some((job, Err(status)));
         self.out.push_back(Output::Event(Event::SendFailed {
             job,
@@ -493,6 +484,20 @@ impl Link {
         self.send_result = Some((job, Ok(())));
         self.out
             .push_back(Output::Event(Event::Sent { job, at: now }));
+    }
+
+    /// Run one input of the automatic V.24 sequence and take over the outputs it set;
+    /// [`Step::Nothing`] without that flow control.
+    fn v24_step(
+        &mut self,
+        f: impl FnOnce(&mut AutoV24Sequence, &mut VecDeque<Output<Event>>) -> Step,
+    ) -> Step {
+        let Some(v24) = self.v24.as_mut() else {
+            return Step::Nothing;
+        };
+        let step = f(v24, &mut self.out);
+        (self.rts, self.dtr) = (v24.rts(), v24.dtr());
+        step
     }
 
     fn set_rts(&mut self, on: bool) {
@@ -869,7 +874,11 @@ impl Link {
 
     /// New automatic V.24 parameters (S_V24, block 22H).
     pub fn set_auto_v24(&mut self, params: AutoV24) -> Result<(), Refused> {
-        self.update(FlowControl::AutoV24, |c| c.auto_v24 = params)
+        self.update(FlowControl::AutoV24, |c| c.auto_v24 = params)?;
+        if let Some(v24) = self.v24.as_mut() {
+            v24.set_times(params);
+        }
+        Ok(())
     }
 
     /// Apply a Table 2-26 parameter block as job code 5 carries it (§9.8): 0550H when it does
@@ -955,9 +964,8 @@ impl Link {
             Tx::Waiting { not_before, .. } => {
                 (!self.rx_busy() || self.cfg.interface != Interface::Rs485).then_some(*not_before)
             }
-            Tx::WaitCts { until, .. } => Some(*until),
+            Tx::WaitCts { .. } | Tx::RtsOff { .. } => self.v24.as_ref().and_then(|v| v.deadline()),
             Tx::Sending { hold_until, .. } => *hold_until,
-            Tx::RtsOff { at, .. } => Some(*at),
         }
     }
 }
@@ -1024,18 +1032,18 @@ impl Link {
             }
         }
         match self.tx {
-            Tx::WaitCts { job, until, .. } if now >= until => {
-                self.fail_send(now, job, status::DSR_CTS_OFF)
+            Tx::WaitCts { job, .. } | Tx::RtsOff { job } => {
+                match self.v24_step(|v, out| v.on_timeout(now, out)) {
+                    Step::Abort => self.fail_send(now, job, status::DSR_CTS_OFF),
+                    Step::Done => self.finish_send(now, job),
+                    Step::Send | Step::Nothing => {}
+                }
             }
             Tx::Sending {
                 job,
                 hold_until: Some(until),
                 ..
             } if now >= until => self.fail_send(now, job, status::XON_CTS_TIMEOUT),
-            Tx::RtsOff { job, at } if now >= at => {
-                self.set_rts(false);
-                self.finish_send(now, job);
-            }
             _ => {}
         }
         self.pump(now);
@@ -1053,11 +1061,11 @@ impl Link {
             if *pos >= frame.len() {
                 let job = *job;
                 self.last_tx_end = Some(now);
-                if self.cfg.flow_control == FlowControl::AutoV24 {
-                    let off = Duration::from_millis(u64::from(self.cfg.auto_v24.time_rts_off_ms));
-                    self.tx = Tx::RtsOff { job, at: now + off };
-                    if off == Duration::ZERO {
-                        self.on_timeout(now);
+                if self.v24.is_some() {
+                    // §6.8: RTS = OFF after the RTS-off time, and only then is the job done.
+                    self.tx = Tx::RtsOff { job };
+                    if self.v24_step(|v, out| v.sent(now, out)) == Step::Done {
+                        self.finish_send(now, job);
                     }
                 } else {
                     self.finish_send(now, job);
@@ -1083,7 +1091,6 @@ impl Link {
     }
 
     fn on_signals(&mut self, now: Instant, signals: ModemSignals) {
-        let before = self.inputs;
         self.inputs = ModemSignals {
             dtr: self.dtr,
             rts: self.rts,
@@ -1098,21 +1105,18 @@ impl Link {
                 }
             }
             FlowControl::AutoV24 => {
-                if before.dsr && !signals.dsr {
-                    // §6.8: DSR ON → OFF aborts a send and a reception.
-                    if let Tx::WaitCts { job, .. } | Tx::Sending { job, .. } = self.tx {
-                        self.fail_send(now, job, status::DSR_CTS_OFF);
+                let mut dsr_dropped = false;
+                let step = self.v24_step(|v, out| {
+                    let (step, dropped) = v.on_signals(signals, out);
+                    dsr_dropped = dropped;
+                    step
+                });
+                match (step, &self.tx) {
+                    (Step::Abort, Tx::WaitCts { job, .. } | Tx::Sending { job, .. }) => {
+                        self.fail_send(now, *job, status::DSR_CTS_OFF)
                     }
-                    if self.rx == Rx::Receiving {
-                        self.skip_rest(None);
-                        self.rx = Rx::Idle;
-                        self.rx_deadline = None;
-                        self.rx_fail(now, status::DSR_CTS_OFF);
-                    }
-                }
-                match self.tx {
-                    Tx::WaitCts { job, .. } if signals.cts => {
-                        let Tx::WaitCts { frame, .. } = std::mem::replace(&mut self.tx, Tx::Idle)
+                    (Step::Send, Tx::WaitCts { .. }) => {
+                        let Tx::WaitCts { job, frame } = std::mem::replace(&mut self.tx, Tx::Idle)
                         else {
                             return;
                         };
@@ -1124,10 +1128,14 @@ impl Link {
                         };
                         self.pump(now);
                     }
-                    Tx::Sending { job, .. } if !signals.cts => {
-                        self.fail_send(now, job, status::DSR_CTS_OFF)
-                    }
                     _ => {}
+                }
+                if dsr_dropped && self.rx == Rx::Receiving {
+                    // §6.8: DSR ON → OFF aborts a reception too.
+                    self.skip_rest(None);
+                    self.rx = Rx::Idle;
+                    self.rx_deadline = None;
+                    self.rx_fail(now, status::DSR_CTS_OFF);
                 }
             }
             _ => {}

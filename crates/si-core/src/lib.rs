@@ -21,6 +21,7 @@ pub mod sim;
 pub mod status;
 pub mod time;
 pub mod tracefile;
+pub mod v24;
 
 #[cfg(feature = "tokio")]
 pub mod driver;
