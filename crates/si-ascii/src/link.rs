@@ -181,7 +181,10 @@ enum Tx {
         not_before: Instant,
     },
     /// Automatic V.24: RTS is on, waiting for CTS (until [`AutoV24::deadline`]).
-    WaitCts { job: JobId, frame: Bytes },
+    WaitCts {
+        job: JobId,
+        frame: Bytes,
+    },
     /// Handing out bytes; `hold_until` while XOFF / CTS = OFF holds us.
     Sending {
         job: JobId,
@@ -190,7 +193,9 @@ enum Tx {
         hold_until: Option<Instant>,
     },
     /// Automatic V.24: all sent, RTS goes off at [`AutoV24::deadline`].
-    RtsOff { job: JobId },
+    RtsOff {
+        job: JobId,
+    },
 }
 
 const fn all_bytes() -> [u8; 256] {

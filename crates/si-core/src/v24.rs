@@ -321,7 +321,13 @@ mod tests {
     fn rts_on_send_at_cts_then_rts_off_after_the_rts_off_time() {
         let mut v = AutoV24::new(AutoV24Times::default());
         let mut out = Out::new();
-        v.on_signals(ModemSignals { dsr: true, ..ModemSignals::default() }, &mut out);
+        v.on_signals(
+            ModemSignals {
+                dsr: true,
+                ..ModemSignals::default()
+            },
+            &mut out,
+        );
         assert_eq!(v.begin(at(0), &mut out), Step::Nothing);
         assert_eq!(v.deadline(), Some(at(10)));
         assert_eq!(v.on_signals(ready(), &mut out), (Step::Send, false));
@@ -336,7 +342,13 @@ mod tests {
     fn cts_not_on_within_the_data_wait_time_aborts_and_drops_rts() {
         let mut v = AutoV24::new(AutoV24Times::default());
         let mut out = Out::new();
-        v.on_signals(ModemSignals { dsr: true, ..ModemSignals::default() }, &mut out);
+        v.on_signals(
+            ModemSignals {
+                dsr: true,
+                ..ModemSignals::default()
+            },
+            &mut out,
+        );
         v.begin(at(0), &mut out);
         assert_eq!(v.on_timeout(at(10), &mut out), Step::Abort);
         assert_eq!(rts_changes(&mut out), vec![true, false]);
@@ -363,7 +375,10 @@ mod tests {
         v.on_signals(ready(), &mut out);
         v.begin(at(0), &mut out);
         let (step, dropped) = v.on_signals(
-            ModemSignals { dsr: true, ..ModemSignals::default() },
+            ModemSignals {
+                dsr: true,
+                ..ModemSignals::default()
+            },
             &mut out,
         );
         assert_eq!((step, dropped), (Step::Abort, false));
@@ -371,7 +386,10 @@ mod tests {
 
     #[test]
     fn a_zero_rts_off_time_ends_the_job_with_the_last_byte() {
-        let times = AutoV24Times { time_rts_off_ms: 0, data_wait_time_ms: 0 };
+        let times = AutoV24Times {
+            time_rts_off_ms: 0,
+            data_wait_time_ms: 0,
+        };
         let mut v = AutoV24::new(times);
         let mut out = Out::new();
         v.on_signals(ready(), &mut out);
@@ -381,7 +399,10 @@ mod tests {
 
     #[test]
     fn times_outside_the_range_or_grid_are_named() {
-        let times = AutoV24Times { time_rts_off_ms: 655_360, data_wait_time_ms: 5 };
+        let times = AutoV24Times {
+            time_rts_off_ms: 655_360,
+            data_wait_time_ms: 5,
+        };
         let errors = times.validate_all();
         assert_eq!(errors.len(), 2);
         assert_eq!(

@@ -52,7 +52,7 @@
 //! | `dynamic_frames`, `prevent_overwrite` | ASCII | true/false | true, true |
 //! | `xon`, `xoff`, `wait_for_xon_ms` | ASCII | characters; 20 … 655 350 ms in 10 ms steps | 11H, 13H, 2000 |
 //! | `wait_for_cts_ms` | ASCII | 20 … 655 350 ms in 10 ms steps | 2000 |
-//! | `time_rts_off_ms`, `data_wait_time_ms` | ASCII | 0 … 655 350 ms in 10 ms steps | 10, 10 |
+//! | `time_rts_off_ms`, `data_wait_time_ms` | ASCII; Modbus with `flow_control = "auto-v24"` | 0 … 655 350 ms in 10 ms steps | 10, 10 |
 //! | `tx_chunk` | ASCII (*host*) | 1 … 200 | 16 |
 //! | `block_check` | 3964(R) | true (3964(R)) / false (3964) | true |
 //! | `priority` | 3964(R) | `low`, `high` | `low` |
@@ -814,6 +814,25 @@ fn read_modbus_line(r: &mut Reader<'_>) -> (ModbusModule, LineConfig) {
         ),
         char_delay_multiplier: r.uint("char_delay_multiplier", 1, 0xFF, "1…10") as u8,
         local_echo: r.bool("local_echo", false),
+        // §2.2: the flow control's two times, with the ASCII driver's ranges (§11.3).
+        auto_v24: (flow_control == FlowControl::AutoV24).then(|| {
+            let d = si_core::v24::AutoV24Times::default();
+            let step = "0 … 655350 ms in 10 ms steps";
+            si_core::v24::AutoV24Times {
+                time_rts_off_ms: r.uint(
+                    "time_rts_off_ms",
+                    d.time_rts_off_ms.into(),
+                    u32::MAX.into(),
+                    step,
+                ) as u32,
+                data_wait_time_ms: r.uint(
+                    "data_wait_time_ms",
+                    d.data_wait_time_ms.into(),
+                    u32::MAX.into(),
+                    step,
+                ) as u32,
+            }
+        }),
     };
     let module = ModbusModule {
         diagnostic_interrupt,
@@ -1254,6 +1273,10 @@ impl DriverParams {
                 );
                 put("char_delay_multiplier", line.char_delay_multiplier.into());
                 put("local_echo", line.local_echo.into());
+                if let Some(t) = line.auto_v24 {
+                    put("time_rts_off_ms", t.time_rts_off_ms.into());
+                    put("data_wait_time_ms", t.data_wait_time_ms.into());
+                }
                 match self {
                     DriverParams::ModbusMaster(p) => {
                         put("response_timeout_ms", p.config.response_timeout_ms.into());

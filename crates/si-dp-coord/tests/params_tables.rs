@@ -543,3 +543,25 @@ mod arbitrary_files {
         }
     }
 }
+
+#[test]
+fn modbus_auto_v24_carries_its_two_times_to_the_engine_config() {
+    let p = DriverParams::from_toml_str(
+        "driver = \"modbus-master\"\ninterface = \"rs232\"\nflow_control = \"auto-v24\"\n\
+         time_rts_off_ms = 30\ndata_wait_time_ms = 120",
+    )
+    .unwrap();
+    let DriverParams::ModbusMaster(m) = &p else {
+        panic!("{p:?}")
+    };
+    let times = m.config.line.auto_v24.expect("auto V.24 times");
+    assert_eq!((times.time_rts_off_ms, times.data_wait_time_ms), (30, 120));
+    let p = DriverParams::from_toml_str("driver = \"modbus-master\"").unwrap();
+    let DriverParams::ModbusMaster(m) = &p else {
+        panic!("{p:?}")
+    };
+    assert_eq!(m.config.line.auto_v24, None, "no flow control by default");
+    let e = DriverParams::from_toml_str("driver = \"modbus-slave\"\ntime_rts_off_ms = 30")
+        .unwrap_err();
+    assert!(e.to_string().contains("time_rts_off_ms"), "{e}");
+}

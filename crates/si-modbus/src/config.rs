@@ -3,6 +3,7 @@
 
 use crate::status;
 use serde::{Deserialize, Serialize};
+use si_core::v24::AutoV24Times;
 use si_core::{Duration, SerialSettings, Status};
 
 /// "Operating mode" (§3.7).
@@ -93,6 +94,10 @@ pub struct LineConfig {
     /// Extension for RS-485 transceivers that hear their own transmission (and for the
     /// simulator's bus): drop as many received bytes as were sent. Off by default.
     pub local_echo: bool,
+    /// Automatic use of the V.24 signals (§2.2; RS-232C, half duplex): `None` (the default) is
+    /// "no data flow control". The sequence is si-core's ([`si_core::v24`]), shared with the
+    /// ASCII driver; the manual gives no ranges (§11.3), so the ASCII driver's apply.
+    pub auto_v24: Option<AutoV24Times>,
 }
 
 impl Default for LineConfig {
@@ -102,6 +107,7 @@ impl Default for LineConfig {
             mode: Mode::Normal,
             char_delay_multiplier: 1,
             local_echo: false,
+            auto_v24: None,
         }
     }
 }
@@ -140,6 +146,16 @@ impl LineConfig {
                 range: "1…10",
                 value: self.char_delay_multiplier.to_string(),
                 status: status::CHAR_DELAY_MULTIPLIER,
+            });
+        }
+        for e in self.auto_v24.iter().flat_map(AutoV24Times::validate_all) {
+            errors.push(ConfigError {
+                parameter: e.parameter,
+                range: "0…655350 ms in 10 ms steps",
+                value: format!("{} ms", e.value),
+                // No parameter-assignment code for these times (§11.3): the FB's
+                // "parameter out of range".
+                status: si_core::status::common::PARAMETER_OUT_OF_RANGE,
             });
         }
         errors

@@ -52,6 +52,7 @@ pub mod rx;
 pub mod simatic;
 pub mod slave;
 pub mod status;
+mod v24;
 
 #[cfg(feature = "tokio")]
 pub mod tokio;

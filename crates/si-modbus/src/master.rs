@@ -20,8 +20,9 @@ use crate::config::{FrameEnd, MasterConfig, Mode};
 use crate::frame::{self, fc, Adu, Request, Response, BROADCAST};
 use crate::rx::{Counters, Expect, Fault, Received, Receiver};
 use crate::status;
+use crate::v24::{Gate, V24Gate};
 use bytes::BytesMut;
-use si_core::{Duration, Engine, Instant, LineError, Output, Status};
+use si_core::{Duration, Engine, Instant, LineError, ModemSignals, Output, Status};
 use std::collections::VecDeque;
 
 /// A finished job: the request and, unless it was a broadcast, the checked response.
@@ -126,6 +127,8 @@ enum State {
     Waiting {
         deadline: Instant,
     },
+    /// Automatic V.24 (§2.2): RTS is on, the request waits for CTS = ON.
+    WaitCts,
     /// After a broadcast, until the turnaround delay is over.
     Turnaround {
         until: Instant,
@@ -140,6 +143,8 @@ pub struct Master {
     state: State,
     job: Option<(Adu, u8)>,
     out: VecDeque<Output<MasterEvent>>,
+    /// Automatic V.24 operation (§2.2) around each request, if configured.
+    v24: V24Gate,
     /// Transmit frames are cut from this buffer (`split().freeze()`); once the driver drops
     /// the previous frame, `reserve` reclaims the same allocation, so a steady state allocates
     /// nothing per frame (the si-core contract).
@@ -150,12 +155,14 @@ impl Master {
     /// A master with checked parameters.
     pub fn new(config: MasterConfig) -> Result<Self, crate::config::ConfigError> {
         config.validate()?;
+        let mut out = VecDeque::new();
         Ok(Master {
             rx: Receiver::new(&config.line),
+            v24: V24Gate::new(config.line.auto_v24, &mut out),
             config,
             state: State::Idle,
             job: None,
-            out: VecDeque::new(),
+            out,
             tx_pool: BytesMut::with_capacity(4 * crate::frame::MAX_ADU),
         })
     }
@@ -247,19 +254,32 @@ impl Master {
         };
         *attempts = attempts.saturating_sub(1);
         let bytes = adu.as_bytes();
-        if self.config.line.local_echo {
-            self.rx.expect_echo(bytes.len());
-        }
-        let until = now + self.config.line.settings.chars_time(bytes.len() as u64);
         self.tx_pool.reserve(bytes.len());
         self.tx_pool.extend_from_slice(bytes);
         let frame = self.tx_pool.split().freeze();
-        self.out.push_back(Output::Transmit(frame));
-        self.state = State::Sending { until };
+        let gate = self.v24.transmit(now, frame, &mut self.out);
+        self.on_gate(now, gate);
+    }
+
+    /// What became of the request at the automatic V.24 gate (§2.2; without it, always sent).
+    fn on_gate(&mut self, now: Instant, gate: Gate) {
+        match gate {
+            Gate::Sent(len) => {
+                if self.config.line.local_echo {
+                    self.rx.expect_echo(len);
+                }
+                let until = now + self.config.line.settings.chars_time(len as u64);
+                self.state = State::Sending { until };
+            }
+            Gate::Held => self.state = State::WaitCts,
+            Gate::Aborted if self.job.is_some() => self.fail(status::DSR_CTS_OFF),
+            Gate::Aborted | Gate::Nothing => {}
+        }
     }
 
     fn sent(&mut self, now: Instant) {
         if let State::Sending { .. } = self.state {
+            self.v24.sent(now, &mut self.out);
             let broadcast = self.job.is_some_and(|(a, _)| a.unit() == BROADCAST);
             self.state = if broadcast {
                 State::Turnaround {
@@ -351,6 +371,8 @@ impl Master {
         if let Some(frame) = self.rx.poll(now) {
             self.on_frame(now, frame);
         }
+        let gate = self.v24.on_timeout(now, &mut self.out);
+        self.on_gate(now, gate);
         match self.state {
             State::Holding { until } if now >= until => self.send(now),
             State::Sending { until } if now >= until => self.sent(now),
@@ -371,13 +393,16 @@ impl Master {
 
     fn deadline(&self) -> Option<Instant> {
         let state = match self.state {
-            State::Idle => None,
+            State::Idle | State::WaitCts => None,
             State::Holding { until } | State::Sending { until } | State::Turnaround { until } => {
                 Some(until)
             }
             State::Waiting { deadline } => (!self.rx.is_receiving()).then_some(deadline),
         };
-        Instant::earliest(state, self.rx.deadline())
+        Instant::earliest(
+            Instant::earliest(state, self.rx.deadline()),
+            self.v24.deadline(),
+        )
     }
 }
 
@@ -498,6 +523,9 @@ impl Engine for Master {
 
     fn handle_rx(&mut self, now: Instant, mut bytes: &[u8]) {
         self.tick(now);
+        if !self.v24.may_receive() {
+            return; // §2.2 item 6: nothing is received while DSR = OFF
+        }
         while !bytes.is_empty() {
             let unit = self.job.map(|(a, _)| a.unit());
             let taken = self.rx.push(now, bytes, |b| Some(b) == unit, self.expect());
@@ -528,6 +556,19 @@ impl Engine for Master {
     fn handle_line_error(&mut self, now: Instant, error: LineError) {
         self.tick(now);
         self.rx.line_error(now, error);
+    }
+
+    fn handle_signals(&mut self, now: Instant, signals: ModemSignals) {
+        self.tick(now);
+        let (gate, dsr_dropped) = self.v24.on_signals(signals, &mut self.out);
+        self.on_gate(now, gate);
+        if dsr_dropped && self.rx.is_receiving() {
+            // §2.2 item 7: DSR ON → OFF aborts a reception (and with it the job).
+            self.rx.discard();
+            if matches!(self.state, State::Waiting { .. }) {
+                self.fail(status::DSR_CTS_OFF);
+            }
+        }
     }
 
     fn poll_output(&mut self) -> Output<MasterEvent> {

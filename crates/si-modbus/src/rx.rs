@@ -392,6 +392,18 @@ impl Receiver {
         }
     }
 
+    /// Throw away the frame being received (DSR dropped under automatic V.24, §2.2 item 7):
+    /// it never becomes a frame, and counts as discarded.
+    pub fn discard(&mut self) {
+        if self.last.take().is_some() {
+            self.len = 0;
+            self.fault = None;
+            self.complete = false;
+            self.unpredictable = false;
+            self.counters.discarded += 1;
+        }
+    }
+
     /// A UART error or BREAK at `now`.
     pub fn line_error(&mut self, now: Instant, error: LineError) {
         self.counters.line_errors += 1;

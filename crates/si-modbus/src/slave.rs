@@ -25,8 +25,9 @@ use crate::frame::{
 };
 use crate::rx::{Counters, Expect, Fault, Received, Receiver};
 use crate::status::{self, slave as codes};
+use crate::v24::{Gate, V24Gate};
 use bytes::BytesMut;
-use si_core::{Engine, Instant, LineError, Output, Status};
+use si_core::{Engine, Instant, LineError, ModemSignals, Output, Status};
 use std::collections::VecDeque;
 
 /// Why a [`Store`] refused an access: the exception the master gets, and S_MODB's view of it.
@@ -250,6 +251,8 @@ pub struct Slave<S> {
     rx: Receiver,
     store: S,
     out: VecDeque<Output<SlaveEvent>>,
+    /// Automatic V.24 operation (§2.2) around each response, if configured.
+    v24: V24Gate,
     /// Our response is on the line until then.
     busy_until: Option<Instant>,
     /// A request started while we were still transmitting.
@@ -264,11 +267,13 @@ impl<S: Store> Slave<S> {
     /// A slave with checked parameters.
     pub fn new(config: SlaveConfig, store: S) -> Result<Self, crate::config::ConfigError> {
         config.validate()?;
+        let mut out = VecDeque::new();
         Ok(Slave {
             rx: Receiver::new(&config.line),
+            v24: V24Gate::new(config.line.auto_v24, &mut out),
             config,
             store,
-            out: VecDeque::new(),
+            out,
             busy_until: None,
             overlapped: false,
             tx_pool: BytesMut::with_capacity(4 * crate::frame::MAX_ADU),
@@ -317,14 +322,25 @@ impl<S: Store> Slave<S> {
 
     fn transmit(&mut self, now: Instant, adu: &Adu) {
         let bytes = adu.as_bytes();
-        if self.config.line.local_echo {
-            self.rx.expect_echo(bytes.len());
-        }
-        self.busy_until = Some(now + self.config.line.settings.chars_time(bytes.len() as u64));
         self.tx_pool.reserve(bytes.len());
         self.tx_pool.extend_from_slice(bytes);
         let frame = self.tx_pool.split().freeze();
-        self.out.push_back(Output::Transmit(frame));
+        let gate = self.v24.transmit(now, frame, &mut self.out);
+        self.on_gate(now, gate);
+    }
+
+    /// What became of the response at the automatic V.24 gate (§2.2; without it, always sent).
+    fn on_gate(&mut self, now: Instant, gate: Gate) {
+        match gate {
+            Gate::Sent(len) => {
+                if self.config.line.local_echo {
+                    self.rx.expect_echo(len);
+                }
+                self.busy_until = Some(now + self.config.line.settings.chars_time(len as u64));
+            }
+            Gate::Aborted => self.event(SlaveEvent::Error(status::DSR_CTS_OFF)),
+            Gate::Held | Gate::Nothing => {}
+        }
     }
 
     fn exception(
@@ -541,7 +557,10 @@ impl<S: Store> Slave<S> {
         // Busy until tx-done or the estimated end of our transmission, whichever comes first.
         if self.busy_until.is_some_and(|t| now >= t) {
             self.busy_until = None;
+            self.v24.sent(now, &mut self.out);
         }
+        let gate = self.v24.on_timeout(now, &mut self.out);
+        self.on_gate(now, gate);
         self.end_frame(now);
     }
 
@@ -572,6 +591,9 @@ impl<S: Store> Engine for Slave<S> {
 
     fn handle_rx(&mut self, now: Instant, mut bytes: &[u8]) {
         self.tick(now);
+        if !self.v24.may_receive() {
+            return; // §2.2 item 6: nothing is received while DSR = OFF
+        }
         let own = self.config.address;
         while !bytes.is_empty() {
             let was_receiving = self.rx.is_receiving();
@@ -594,7 +616,9 @@ impl<S: Store> Engine for Slave<S> {
 
     fn handle_tx_done(&mut self, now: Instant) {
         self.tick(now);
-        self.busy_until = None;
+        if self.busy_until.take().is_some() {
+            self.v24.sent(now, &mut self.out);
+        }
     }
 
     fn handle_line_error(&mut self, now: Instant, error: LineError) {
@@ -602,10 +626,22 @@ impl<S: Store> Engine for Slave<S> {
         self.rx.line_error(now, error);
     }
 
+    fn handle_signals(&mut self, now: Instant, signals: ModemSignals) {
+        self.tick(now);
+        let (gate, dsr_dropped) = self.v24.on_signals(signals, &mut self.out);
+        self.on_gate(now, gate);
+        if dsr_dropped && self.rx.is_receiving() {
+            // §2.2 item 7: DSR ON → OFF aborts a reception.
+            self.rx.discard();
+            self.event(SlaveEvent::Error(status::DSR_CTS_OFF));
+        }
+    }
+
     fn poll_output(&mut self) -> Output<SlaveEvent> {
-        self.out
-            .pop_front()
-            .unwrap_or_else(|| Output::Wait(Instant::earliest(self.rx.deadline(), self.busy_until)))
+        self.out.pop_front().unwrap_or_else(|| {
+            let own = Instant::earliest(self.rx.deadline(), self.busy_until);
+            Output::Wait(Instant::earliest(own, self.v24.deadline()))
+        })
     }
 }
 

@@ -41,6 +41,11 @@ si_core::status_codes! {
         remedy: "check cable and settings",
         source: "et200s-si-modbus-uss.md §7.3",
     }
+    pub const DSR_CTS_OFF = 0x0818 {
+        meaning: "DSR = OFF or CTS = OFF: the partner dropped DSR, or CTS did not come on in time, under automatic V.24 operation",
+        remedy: "check the partner's handling of the RS-232C secondary signals and the data output wait time",
+        source: "et200s-si-modbus-uss.md §2.2 (\"aborted with an error\", no code given); derived: the ASCII driver's code for the same abort, et200s-si-3964r-ascii.md §6.8",
+    }
     pub const RESPONSE_TIMEOUT = 0x0830 {
         meaning: "response timeout: no start of a response within the response time",
         remedy: "check the line, the parameters, the response time and that the slave exists",

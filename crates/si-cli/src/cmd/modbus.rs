@@ -193,6 +193,7 @@ fn line_config(
         mode,
         char_delay_multiplier: mul,
         local_echo: false,
+        auto_v24: None,
     })
 }
 

@@ -1,0 +1,129 @@
+//! Automatic use of the V.24 signals around the Modbus master's and slave's transmissions
+//! (et200s-si-modbus-uss.md §2.2): the sequence is si-core's ([`si_core::v24`], shared with the
+//! ASCII driver); this holds the one frame that waits for CTS, so both engines send through it.
+//!
+//! Without the option every call passes straight through: a frame goes out at once, every byte
+//! is received.
+
+use bytes::Bytes;
+use si_core::v24::{AutoV24, AutoV24Times, Step};
+use si_core::{Instant, ModemSignals, Output};
+use std::collections::VecDeque;
+
+/// What became of a frame handed to [`V24Gate::transmit`] or of the held one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Gate {
+    /// Nothing changed.
+    Nothing,
+    /// The frame is on its way (queued as `Transmit` now), this many bytes long.
+    Sent(usize),
+    /// The frame waits for CTS = ON.
+    Held,
+    /// The transmission is aborted (DSR = OFF, no CTS in time, CTS or DSR dropped): 0818H.
+    Aborted,
+}
+
+/// The V.24 sequence of a Modbus engine, if configured, and the frame waiting for CTS.
+#[derive(Debug)]
+pub(crate) struct V24Gate {
+    sequence: Option<AutoV24>,
+    held: Option<Bytes>,
+}
+
+impl V24Gate {
+    /// Enters the mode at once (DTR = ON, RTS = OFF, §2.2 item 1) when configured.
+    pub(crate) fn new<E>(times: Option<AutoV24Times>, out: &mut VecDeque<Output<E>>) -> Self {
+        let sequence = times.map(|t| {
+            let mut s = AutoV24::new(t);
+            s.enter(out);
+            s
+        });
+        V24Gate {
+            sequence,
+            held: None,
+        }
+    }
+
+    /// Transmit `frame` now, or once CTS = ON (§2.2 item 3).
+    pub(crate) fn transmit<E>(
+        &mut self,
+        now: Instant,
+        frame: Bytes,
+        out: &mut VecDeque<Output<E>>,
+    ) -> Gate {
+        let step = match self.sequence.as_mut() {
+            None => Step::Send,
+            Some(s) => s.begin(now, out),
+        };
+        match step {
+            Step::Send => Self::send(frame, out),
+            Step::Abort => Gate::Aborted,
+            Step::Nothing | Step::Done => {
+                self.held = Some(frame);
+                Gate::Held
+            }
+        }
+    }
+
+    /// The transmission has left the line: RTS goes OFF after the RTS-off time (item 5).
+    pub(crate) fn sent<E>(&mut self, now: Instant, out: &mut VecDeque<Output<E>>) {
+        if let Some(s) = self.sequence.as_mut() {
+            s.sent(now, out);
+        }
+    }
+
+    /// The clock reached [`deadline`](Self::deadline): RTS = OFF, or no CTS in time (item 4).
+    pub(crate) fn on_timeout<E>(&mut self, now: Instant, out: &mut VecDeque<Output<E>>) -> Gate {
+        let Some(s) = self.sequence.as_mut() else {
+            return Gate::Nothing;
+        };
+        match s.on_timeout(now, out) {
+            Step::Abort => {
+                self.held = None;
+                Gate::Aborted
+            }
+            _ => Gate::Nothing,
+        }
+    }
+
+    /// The modem inputs changed: the held frame goes out at CTS = ON; CTS or DSR dropping
+    /// aborts (items 4 and 7). The flag says DSR went OFF, which also aborts a reception.
+    pub(crate) fn on_signals<E>(
+        &mut self,
+        signals: ModemSignals,
+        out: &mut VecDeque<Output<E>>,
+    ) -> (Gate, bool) {
+        let Some(s) = self.sequence.as_mut() else {
+            return (Gate::Nothing, false);
+        };
+        let (step, dsr_dropped) = s.on_signals(signals, out);
+        let gate = match step {
+            Step::Send => match self.held.take() {
+                Some(frame) => Self::send(frame, out),
+                None => Gate::Nothing,
+            },
+            Step::Abort => {
+                self.held = None;
+                Gate::Aborted
+            }
+            Step::Nothing | Step::Done => Gate::Nothing,
+        };
+        (gate, dsr_dropped)
+    }
+
+    /// Received characters count only while DSR = ON (item 6).
+    pub(crate) fn may_receive(&self) -> bool {
+        self.sequence.as_ref().is_none_or(AutoV24::may_receive)
+    }
+
+    /// When [`on_timeout`](Self::on_timeout) has something to do.
+    pub(crate) fn deadline(&self) -> Option<Instant> {
+        self.sequence.as_ref().and_then(AutoV24::deadline)
+    }
+
+    fn send<E>(frame: Bytes, out: &mut VecDeque<Output<E>>) -> Gate {
+        let len = frame.len();
+        out.push_back(Output::Transmit(frame));
+        Gate::Sent(len)
+    }
+}
