@@ -561,7 +561,7 @@ fn modbus_auto_v24_carries_its_two_times_to_the_engine_config() {
         panic!("{p:?}")
     };
     assert_eq!(m.config.line.auto_v24, None, "no flow control by default");
-    let e = DriverParams::from_toml_str("driver = \"modbus-slave\"\ntime_rts_off_ms = 30")
-        .unwrap_err();
+    let e =
+        DriverParams::from_toml_str("driver = \"modbus-slave\"\ntime_rts_off_ms = 30").unwrap_err();
     assert!(e.to_string().contains("time_rts_off_ms"), "{e}");
 }

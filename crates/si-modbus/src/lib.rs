@@ -52,7 +52,7 @@ pub mod rx;
 pub mod simatic;
 pub mod slave;
 pub mod status;
-mod v24;
+mod transmitter;
 
 #[cfg(feature = "tokio")]
 pub mod tokio;

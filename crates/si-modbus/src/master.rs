@@ -20,8 +20,7 @@ use crate::config::{FrameEnd, MasterConfig, Mode};
 use crate::frame::{self, fc, Adu, Request, Response, BROADCAST};
 use crate::rx::{Counters, Expect, Fault, Received, Receiver};
 use crate::status;
-use crate::v24::{Gate, V24Gate};
-use bytes::BytesMut;
+use crate::transmitter::{Gate, Transmitter};
 use si_core::{Duration, Engine, Instant, LineError, ModemSignals, Output, Status};
 use std::collections::VecDeque;
 
@@ -143,12 +142,8 @@ pub struct Master {
     state: State,
     job: Option<(Adu, u8)>,
     out: VecDeque<Output<MasterEvent>>,
-    /// Automatic V.24 operation (§2.2) around each request, if configured.
-    v24: V24Gate,
-    /// Transmit frames are cut from this buffer (`split().freeze()`); once the driver drops
-    /// the previous frame, `reserve` reclaims the same allocation, so a steady state allocates
-    /// nothing per frame (the si-core contract).
-    tx_pool: BytesMut,
+    /// Frames out, with automatic V.24 operation (§2.2) around each if configured.
+    tx: Transmitter,
 }
 
 impl Master {
@@ -158,12 +153,11 @@ impl Master {
         let mut out = VecDeque::new();
         Ok(Master {
             rx: Receiver::new(&config.line),
-            v24: V24Gate::new(config.line.auto_v24, &mut out),
+            tx: Transmitter::new(config.line.auto_v24, &mut out),
             config,
             state: State::Idle,
             job: None,
             out,
-            tx_pool: BytesMut::with_capacity(4 * crate::frame::MAX_ADU),
         })
     }
 
@@ -253,11 +247,7 @@ impl Master {
             return;
         };
         *attempts = attempts.saturating_sub(1);
-        let bytes = adu.as_bytes();
-        self.tx_pool.reserve(bytes.len());
-        self.tx_pool.extend_from_slice(bytes);
-        let frame = self.tx_pool.split().freeze();
-        let gate = self.v24.transmit(now, frame, &mut self.out);
+        let gate = self.tx.transmit(now, adu.as_bytes(), &mut self.out);
         self.on_gate(now, gate);
     }
 
@@ -265,10 +255,7 @@ impl Master {
     fn on_gate(&mut self, now: Instant, gate: Gate) {
         match gate {
             Gate::Sent(len) => {
-                if self.config.line.local_echo {
-                    self.rx.expect_echo(len);
-                }
-                let until = now + self.config.line.settings.chars_time(len as u64);
+                let until = Transmitter::on_air(&self.config.line, &mut self.rx, now, len);
                 self.state = State::Sending { until };
             }
             Gate::Held => self.state = State::WaitCts,
@@ -279,7 +266,7 @@ impl Master {
 
     fn sent(&mut self, now: Instant) {
         if let State::Sending { .. } = self.state {
-            self.v24.sent(now, &mut self.out);
+            self.tx.sent(now, &mut self.out);
             let broadcast = self.job.is_some_and(|(a, _)| a.unit() == BROADCAST);
             self.state = if broadcast {
                 State::Turnaround {
@@ -371,7 +358,7 @@ impl Master {
         if let Some(frame) = self.rx.poll(now) {
             self.on_frame(now, frame);
         }
-        let gate = self.v24.on_timeout(now, &mut self.out);
+        let gate = self.tx.on_timeout(now, &mut self.out);
         self.on_gate(now, gate);
         match self.state {
             State::Holding { until } if now >= until => self.send(now),
@@ -401,7 +388,7 @@ impl Master {
         };
         Instant::earliest(
             Instant::earliest(state, self.rx.deadline()),
-            self.v24.deadline(),
+            self.tx.deadline(),
         )
     }
 }
@@ -523,7 +510,7 @@ impl Engine for Master {
 
     fn handle_rx(&mut self, now: Instant, mut bytes: &[u8]) {
         self.tick(now);
-        if !self.v24.may_receive() {
+        if !self.tx.may_receive() {
             return; // §2.2 item 6: nothing is received while DSR = OFF
         }
         while !bytes.is_empty() {
@@ -560,7 +547,7 @@ impl Engine for Master {
 
     fn handle_signals(&mut self, now: Instant, signals: ModemSignals) {
         self.tick(now);
-        let (gate, dsr_dropped) = self.v24.on_signals(signals, &mut self.out);
+        let (gate, dsr_dropped) = self.tx.on_signals(signals, &mut self.out);
         self.on_gate(now, gate);
         if dsr_dropped && self.rx.is_receiving() {
             // §2.2 item 7: DSR ON → OFF aborts a reception (and with it the job).

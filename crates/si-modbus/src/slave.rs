@@ -25,8 +25,7 @@ use crate::frame::{
 };
 use crate::rx::{Counters, Expect, Fault, Received, Receiver};
 use crate::status::{self, slave as codes};
-use crate::v24::{Gate, V24Gate};
-use bytes::BytesMut;
+use crate::transmitter::{Gate, Transmitter};
 use si_core::{Engine, Instant, LineError, ModemSignals, Output, Status};
 use std::collections::VecDeque;
 
@@ -251,16 +250,12 @@ pub struct Slave<S> {
     rx: Receiver,
     store: S,
     out: VecDeque<Output<SlaveEvent>>,
-    /// Automatic V.24 operation (§2.2) around each response, if configured.
-    v24: V24Gate,
+    /// Frames out, with automatic V.24 operation (§2.2) around each if configured.
+    tx: Transmitter,
     /// Our response is on the line until then.
     busy_until: Option<Instant>,
     /// A request started while we were still transmitting.
     overlapped: bool,
-    /// Transmit frames are cut from this buffer (`split().freeze()`); once the driver drops
-    /// the previous frame, `reserve` reclaims the same allocation, so a steady state allocates
-    /// nothing per frame (the si-core contract).
-    tx_pool: BytesMut,
 }
 
 impl<S: Store> Slave<S> {
@@ -270,13 +265,12 @@ impl<S: Store> Slave<S> {
         let mut out = VecDeque::new();
         Ok(Slave {
             rx: Receiver::new(&config.line),
-            v24: V24Gate::new(config.line.auto_v24, &mut out),
+            tx: Transmitter::new(config.line.auto_v24, &mut out),
             config,
             store,
             out,
             busy_until: None,
             overlapped: false,
-            tx_pool: BytesMut::with_capacity(4 * crate::frame::MAX_ADU),
         })
     }
 
@@ -321,11 +315,7 @@ impl<S: Store> Slave<S> {
     }
 
     fn transmit(&mut self, now: Instant, adu: &Adu) {
-        let bytes = adu.as_bytes();
-        self.tx_pool.reserve(bytes.len());
-        self.tx_pool.extend_from_slice(bytes);
-        let frame = self.tx_pool.split().freeze();
-        let gate = self.v24.transmit(now, frame, &mut self.out);
+        let gate = self.tx.transmit(now, adu.as_bytes(), &mut self.out);
         self.on_gate(now, gate);
     }
 
@@ -333,10 +323,12 @@ impl<S: Store> Slave<S> {
     fn on_gate(&mut self, now: Instant, gate: Gate) {
         match gate {
             Gate::Sent(len) => {
-                if self.config.line.local_echo {
-                    self.rx.expect_echo(len);
-                }
-                self.busy_until = Some(now + self.config.line.settings.chars_time(len as u64));
+                self.busy_until = Some(Transmitter::on_air(
+                    &self.config.line,
+                    &mut self.rx,
+                    now,
+                    len,
+                ));
             }
             Gate::Aborted => self.event(SlaveEvent::Error(status::DSR_CTS_OFF)),
             Gate::Held | Gate::Nothing => {}
@@ -557,9 +549,9 @@ impl<S: Store> Slave<S> {
         // Busy until tx-done or the estimated end of our transmission, whichever comes first.
         if self.busy_until.is_some_and(|t| now >= t) {
             self.busy_until = None;
-            self.v24.sent(now, &mut self.out);
+            self.tx.sent(now, &mut self.out);
         }
-        let gate = self.v24.on_timeout(now, &mut self.out);
+        let gate = self.tx.on_timeout(now, &mut self.out);
         self.on_gate(now, gate);
         self.end_frame(now);
     }
@@ -591,7 +583,7 @@ impl<S: Store> Engine for Slave<S> {
 
     fn handle_rx(&mut self, now: Instant, mut bytes: &[u8]) {
         self.tick(now);
-        if !self.v24.may_receive() {
+        if !self.tx.may_receive() {
             return; // §2.2 item 6: nothing is received while DSR = OFF
         }
         let own = self.config.address;
@@ -617,7 +609,7 @@ impl<S: Store> Engine for Slave<S> {
     fn handle_tx_done(&mut self, now: Instant) {
         self.tick(now);
         if self.busy_until.take().is_some() {
-            self.v24.sent(now, &mut self.out);
+            self.tx.sent(now, &mut self.out);
         }
     }
 
@@ -628,7 +620,7 @@ impl<S: Store> Engine for Slave<S> {
 
     fn handle_signals(&mut self, now: Instant, signals: ModemSignals) {
         self.tick(now);
-        let (gate, dsr_dropped) = self.v24.on_signals(signals, &mut self.out);
+        let (gate, dsr_dropped) = self.tx.on_signals(signals, &mut self.out);
         self.on_gate(now, gate);
         if dsr_dropped && self.rx.is_receiving() {
             // §2.2 item 7: DSR ON → OFF aborts a reception.
@@ -640,7 +632,7 @@ impl<S: Store> Engine for Slave<S> {
     fn poll_output(&mut self) -> Output<SlaveEvent> {
         self.out.pop_front().unwrap_or_else(|| {
             let own = Instant::earliest(self.rx.deadline(), self.busy_until);
-            Output::Wait(Instant::earliest(own, self.v24.deadline()))
+            Output::Wait(Instant::earliest(own, self.tx.deadline()))
         })
     }
 }

@@ -1,11 +1,14 @@
-//! Automatic use of the V.24 signals around the Modbus master's and slave's transmissions
-//! (et200s-si-modbus-uss.md §2.2): the sequence is si-core's ([`si_core::v24`], shared with the
-//! ASCII driver); this holds the one frame that waits for CTS, so both engines send through it.
+//! The transmit side the Modbus master and slave share: frames cut from one kept buffer (no
+//! allocation per frame in steady state), and automatic use of the V.24 signals around each
+//! transmission (et200s-si-modbus-uss.md §2.2). The sequence is si-core's ([`si_core::v24`],
+//! shared with the ASCII driver); this holds the one frame that waits for CTS.
 //!
 //! Without the option every call passes straight through: a frame goes out at once, every byte
 //! is received.
 
-use bytes::Bytes;
+use crate::config::LineConfig;
+use crate::rx::Receiver;
+use bytes::{Bytes, BytesMut};
 use si_core::v24::{AutoV24, AutoV24Times, Step};
 use si_core::{Instant, ModemSignals, Output};
 use std::collections::VecDeque;
@@ -23,34 +26,42 @@ pub(crate) enum Gate {
     Aborted,
 }
 
-/// The V.24 sequence of a Modbus engine, if configured, and the frame waiting for CTS.
+/// A Modbus engine's transmit side: the kept buffer, the V.24 sequence if configured, and the
+/// frame waiting for CTS.
 #[derive(Debug)]
-pub(crate) struct V24Gate {
+pub(crate) struct Transmitter {
+    /// Frames are cut from this buffer (`split().freeze()`); once the driver drops the previous
+    /// frame, `reserve` reclaims the same allocation (the si-core contract).
+    pool: BytesMut,
     sequence: Option<AutoV24>,
     held: Option<Bytes>,
 }
 
-impl V24Gate {
-    /// Enters the mode at once (DTR = ON, RTS = OFF, §2.2 item 1) when configured.
+impl Transmitter {
+    /// Enters the V.24 mode at once (DTR = ON, RTS = OFF, §2.2 item 1) when configured.
     pub(crate) fn new<E>(times: Option<AutoV24Times>, out: &mut VecDeque<Output<E>>) -> Self {
         let sequence = times.map(|t| {
             let mut s = AutoV24::new(t);
             s.enter(out);
             s
         });
-        V24Gate {
+        Transmitter {
+            pool: BytesMut::with_capacity(4 * crate::frame::MAX_ADU),
             sequence,
             held: None,
         }
     }
 
-    /// Transmit `frame` now, or once CTS = ON (§2.2 item 3).
+    /// Transmit `bytes` now, or once CTS = ON (§2.2 item 3).
     pub(crate) fn transmit<E>(
         &mut self,
         now: Instant,
-        frame: Bytes,
+        bytes: &[u8],
         out: &mut VecDeque<Output<E>>,
     ) -> Gate {
+        self.pool.reserve(bytes.len());
+        self.pool.extend_from_slice(bytes);
+        let frame = self.pool.split().freeze();
         let step = match self.sequence.as_mut() {
             None => Step::Send,
             Some(s) => s.begin(now, out),
@@ -119,6 +130,20 @@ impl V24Gate {
     /// When [`on_timeout`](Self::on_timeout) has something to do.
     pub(crate) fn deadline(&self) -> Option<Instant> {
         self.sequence.as_ref().and_then(AutoV24::deadline)
+    }
+
+    /// A frame of `len` bytes went out at `now`: a line that echoes it drops as many received
+    /// bytes; returns when the last one has left at the line's character time.
+    pub(crate) fn on_air(
+        line: &LineConfig,
+        rx: &mut Receiver,
+        now: Instant,
+        len: usize,
+    ) -> Instant {
+        if line.local_echo {
+            rx.expect_echo(len);
+        }
+        now + line.settings.chars_time(len as u64)
     }
 
     fn send<E>(frame: Bytes, out: &mut VecDeque<Output<E>>) -> Gate {
