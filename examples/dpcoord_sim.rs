@@ -1,41 +1,41 @@
-//! One user program, two transports: S_SEND and S_RCV written once against
-//! `dp_coord::channel::Channel`, run first directly on two 3964(R) links (a host with its own
+//! One user program, two transports: S_SEND and S_RCV (si-core's `job::Channel`) over any
+//! `JobPort`, run first directly on two 3964(R) links (a host with its own
 //! serial port), then through the DP windows of two simulated ET 200S SI modules that run
 //! 3964(R) on their line (et200s-si-2005-window-protocol.md §2, §5).
 //!
 //! `cargo run --example dpcoord_sim`
 
+use si_serial::core::job::{Channel, FramePort};
 use si_serial::core::sim::{Simulator, StationId};
 use si_serial::core::{Duration, Instant, SerialSettings};
-use si_serial::dp_coord::channel::{Channel, R3964rFbs, WindowFbs};
 use si_serial::dp_coord::line::EngineSerial;
 use si_serial::dp_coord::module::Module;
 use si_serial::dp_coord::{engines, Host, HostConfig, WindowSize};
 use si_serial::r3964::{config::Priority, Config, Link};
 
 /// The user program: sends its message once, prints what arrives. Unchanged for both transports.
-struct Program<C> {
+struct Program {
     name: &'static str,
-    fbs: C,
+    channel: Channel,
     message: &'static [u8],
     sent: bool,
     db: [u8; 200],
 }
 
-impl<C: Channel> Program<C> {
-    fn new(name: &'static str, fbs: C, message: &'static [u8]) -> Self {
+impl Program {
+    fn new(name: &'static str, message: &'static [u8]) -> Self {
         Program {
             name,
-            fbs,
+            channel: Channel::default(),
             message,
             sent: false,
             db: [0; 200],
         }
     }
 
-    fn cycle(&mut self, engine: &mut C::Engine, now: Instant) {
+    fn cycle<P: FramePort>(&mut self, port: &mut P, now: Instant) {
         if !self.sent {
-            let d = self.fbs.send(engine, now, true, false, self.message);
+            let d = self.channel.send(port, now, true, false, self.message);
             if d.done || d.error {
                 self.sent = true;
                 println!(
@@ -44,7 +44,7 @@ impl<C: Channel> Program<C> {
                 );
             }
         }
-        let r = self.fbs.receive(engine, now, true, false, &mut self.db);
+        let r = self.channel.receive(port, now, true, false, &mut self.db);
         if r.ndr {
             let text = String::from_utf8_lossy(&self.db[..r.len]);
             println!("{now} {}: S_RCV NDR LEN={} {text:?}", self.name, r.len);
@@ -75,8 +75,8 @@ fn main() {
     let a = sim.add_station("A", line, link(Priority::High, line));
     let b = sim.add_station("B", line, link(Priority::Low, line));
     sim.connect(a, b);
-    let mut pa = Program::new("A", R3964rFbs::default(), b"ping");
-    let mut pb = Program::new("B", R3964rFbs::default(), b"pong");
+    let mut pa = Program::new("A", b"ping");
+    let mut pb = Program::new("B", b"pong");
     for _ in 0..500 {
         sim.with(a, |l, now| pa.cycle(l, now));
         sim.with(b, |l, now| pb.cycle(l, now));
@@ -91,8 +91,8 @@ fn main() {
     let mut a = Dp::new(&mut sim, "A", line, ma);
     let mut b = Dp::new(&mut sim, "B", line, mb);
     sim.connect(a.station, b.station);
-    let mut pa = Program::new("A", WindowFbs::default(), b"ping");
-    let mut pb = Program::new("B", WindowFbs::default(), b"pong");
+    let mut pa = Program::new("A", b"ping");
+    let mut pb = Program::new("B", b"pong");
     for _ in 0..500 {
         pa.cycle(&mut a.host, sim.now());
         pb.cycle(&mut b.host, sim.now());

@@ -47,13 +47,19 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
         tick.tick().await;
         // User program.
         if !sent {
-            let d = s_send.call(&mut host, true, false, b"hello from the PLC side");
+            let d = s_send.call(
+                &mut host,
+                now(start),
+                true,
+                false,
+                b"hello from the PLC side",
+            );
             if d.done || d.error {
                 println!("S_SEND done={} STATUS={}", d.done, d.status);
                 sent = true;
             }
         }
-        let r = s_rcv.call(&mut host, true, false, &mut db);
+        let r = s_rcv.call(&mut host, now(start), true, false, &mut db);
         if r.ndr {
             println!("S_RCV NDR {:?}", String::from_utf8_lossy(&db[..r.len]));
             got_reply = true;

@@ -68,18 +68,10 @@ use crate::status;
 use bytes::{Bytes, BytesMut};
 use core::fmt;
 use serde::{Deserialize, Serialize};
+/// The one job id of si-core, here because the async handle and users name it from this module.
+pub use si_core::JobId;
 use si_core::{Engine, Instant, LineError, Output, SerialSettings, Status};
 use std::collections::VecDeque;
-
-/// Identifies one send job, so its completion can be matched to it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-pub struct JobId(pub u64);
-
-impl fmt::Display for JobId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "job {}", self.0)
-    }
-}
 
 /// What the engine tells the application.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]

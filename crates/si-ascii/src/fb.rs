@@ -1,7 +1,8 @@
 //! The ASCII driver's function blocks with S7 call semantics (et200s-si-3964r-ascii.md §8):
-//! S_SEND, S_RCV, S_VSTAT, S_VSET, S_XON, S_RTS and S_V24, called once per PLC-style cycle on a
-//! [`Link`]. REQ is edge-triggered, R resets, EN_R is a level, and DONE / NDR / ERROR / STATUS /
-//! LEN are valid for exactly the call that reports them (§8.9).
+//! S_SEND and S_RCV are si-core's, run on the [`Link`] as a [`JobPort`]; S_VSTAT, S_VSET, S_XON,
+//! S_RTS and S_V24 are this driver's own, called once per PLC-style cycle. REQ is
+//! edge-triggered, R resets, EN_R is a level, and DONE / NDR / ERROR / STATUS / LEN are valid
+//! for exactly the call that reports them (§8.9).
 //!
 //! ```
 //! use si_ascii::fb::{SRcv, SSend};
@@ -21,17 +22,21 @@
 //!
 //! Readings: R on S_SEND with a job in progress ends it with ERROR and 1E0DH ("job aborted by …
 //! reset"), which is how §8.2's "DONE and ERROR/STATUS are also updated when the FB is reset" is
-//! read; data already handed to the link are still sent (§8.2). S_VSET and the parameter FBs
-//! complete in the call that sees the REQ edge, since the link applies them at once.
+//! read; data already handed to the link are still sent (§8.2). S_SEND waits while the link
+//! runs another caller's job and hands its frame over once the link is free. A frame longer
+//! than S_RCV's destination area gives ERROR with 1E20H and stays in the buffer. S_VSET and the
+//! parameter FBs complete in the call that sees the REQ edge, since the link applies them at
+//! once.
 
 use crate::config::{AutoV24, RtsCts, XonXoff, MAX_FRAME_LEN};
-use crate::link::{JobId, Link, Refused, SendError};
+use crate::link::{Link, Refused, SendError};
 use crate::status;
-use bytes::{Bytes, BytesMut};
+use bytes::Bytes;
 use si_core::fb::RisingEdge;
+use si_core::job::{JobId, JobPort, NotStarted, Reception};
 use si_core::{Instant, SignalUpdate, Status};
 
-pub use si_core::fb::Done;
+pub use si_core::fb::{Done, Received, SRcv, SSend};
 
 /// DONE or ERROR for a job the link applied (or refused) at once.
 fn done_from(r: Result<(), Refused>) -> Done {
@@ -41,133 +46,49 @@ fn done_from(r: Result<(), Refused>) -> Done {
     }
 }
 
-/// FB3 S_SEND: send LEN bytes of a data block to the partner (§8.2, Table 2-13).
-#[derive(Debug, Default)]
-pub struct SSend {
-    req: RisingEdge,
-    /// A frame waiting for the link to finish the previous job.
-    queued: Option<Bytes>,
-    job: Option<JobId>,
-    /// Frames are cut from this buffer (`split().freeze()`); once the link has dropped the
-    /// previous frame, `reserve` reclaims the allocation, so a steady state of send jobs
-    /// allocates nothing per frame (the si-core contract). Empty until the first job.
-    pool: BytesMut,
-}
+impl JobPort for Link {
+    type Job = Bytes;
+    type Output = ();
 
-impl SSend {
-    /// One call. `data` is the source area: DB_NO/DBB_NO/LEN become a slice, LEN must be
-    /// 1 … 200 (else ERROR with 1E41H).
-    pub fn call(&mut self, link: &mut Link, now: Instant, req: bool, r: bool, data: &[u8]) -> Done {
-        if r {
-            self.req.reset();
-            self.queued = None;
-            if self.job.take().is_some() {
-                return Done::failed(status::ABORTED_BY_RESET);
-            }
-            return Done::default();
+    /// [`Link::send`]. A bad LEN (1 … 200, 1E41H) is refused even while the link is busy; a
+    /// busy link takes the frame later.
+    fn start_job(&mut self, now: Instant, frame: Bytes) -> Result<JobId, NotStarted> {
+        if frame.is_empty() || frame.len() > MAX_FRAME_LEN {
+            return Err(NotStarted::Refused(status::INVALID_LEN));
         }
-        if self.req.update(req) && self.job.is_none() && self.queued.is_none() {
-            if data.is_empty() || data.len() > MAX_FRAME_LEN {
-                return Done::failed(status::INVALID_LEN);
-            }
-            if self.pool.capacity() < data.len() {
-                self.pool.reserve(2 * MAX_FRAME_LEN);
-            }
-            self.pool.extend_from_slice(data);
-            self.queued = Some(self.pool.split().freeze());
-        }
-        if let Some(frame) = self.queued.take() {
-            match link.send(now, frame.clone()) {
-                Ok(job) => self.job = Some(job),
-                Err(SendError::Busy) => self.queued = Some(frame),
-                Err(e) => return Done::failed(e.status()),
-            }
-        }
-        if let Some(job) = self.job {
-            if let Some(result) = link.send_result(job) {
-                self.job = None;
-                return match result {
-                    Ok(()) => Done::ok(),
-                    Err(s) => Done::failed(s),
-                };
-            }
-        }
-        Done::default()
+        self.send(now, frame).map_err(|e| match e {
+            SendError::Busy => NotStarted::Busy,
+            e => NotStarted::Refused(e.status()),
+        })
     }
 
-    /// True while a job is queued or running (the FB's internal busy state).
-    pub fn busy(&self) -> bool {
-        self.job.is_some() || self.queued.is_some()
+    fn job_outcome(&mut self, id: JobId) -> Option<Result<(), Status>> {
+        self.send_result(id)
     }
-}
 
-/// The outputs of S_RCV.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Received {
-    /// New data received (this call only).
-    pub ndr: bool,
-    /// Receive error (this call only).
-    pub error: bool,
-    /// Length of the frame copied into the destination (with NDR), else 0.
-    pub len: usize,
-    /// The error, or 0B01H while the buffer is more than 2/3 full, or 0000H.
-    pub status: Status,
-}
+    /// The frame is still sent (§8.2); nothing to do.
+    fn cancel_job(&mut self, _id: JobId) {}
 
-/// FB2 S_RCV: copy a received frame into a data block (§8.3, Table 2-14).
-#[derive(Debug, Default)]
-pub struct SRcv {
-    _private: (),
-}
+    /// A receive error first (taken once), else the oldest frame if it fits `dest` (1E20H and
+    /// the frame stays if not). The 0B01H warning with NDR is the buffer's state after the
+    /// read (§6.6: the warning shows while the buffer stays above 2/3).
+    fn take_received(&mut self, now: Instant, dest: &mut [u8]) -> Option<Reception> {
+        if let Some(status) = self.take_receive_error() {
+            return Some(Reception::Error(status));
+        }
+        let len = self.buffer().oldest_len()?;
+        if len > dest.len() {
+            return Some(Reception::Error(status::PARAMETER_OUT_OF_RANGE));
+        }
+        let len = self.read_frame(now, dest).unwrap_or(0);
+        Some(Reception::Frame {
+            len,
+            status: self.receive_status(),
+        })
+    }
 
-impl SRcv {
-    /// One call. EN_R must be statically 1 to receive; R = 1 resets and blocks receiving.
-    /// `dest` is the destination area; one shorter than the waiting frame gives ERROR with
-    /// 1E20H and leaves the frame in the buffer.
-    pub fn call(
-        &mut self,
-        link: &mut Link,
-        now: Instant,
-        en_r: bool,
-        r: bool,
-        dest: &mut [u8],
-    ) -> Received {
-        let idle = Received {
-            ndr: false,
-            error: false,
-            len: 0,
-            status: link.receive_status(),
-        };
-        if r || !en_r {
-            return Received {
-                status: Status::OK,
-                ..idle
-            };
-        }
-        if let Some(status) = link.take_receive_error() {
-            return Received {
-                error: true,
-                status,
-                ..idle
-            };
-        }
-        match link.buffer().oldest_len() {
-            None => idle,
-            Some(len) if len > dest.len() => Received {
-                error: true,
-                status: status::PARAMETER_OUT_OF_RANGE,
-                ..idle
-            },
-            Some(_) => {
-                let len = link.read_frame(now, dest).unwrap_or(0);
-                Received {
-                    ndr: true,
-                    len,
-                    status: link.receive_status(),
-                    ..idle
-                }
-            }
-        }
+    fn receive_warning(&self) -> Status {
+        self.receive_status()
     }
 }
 

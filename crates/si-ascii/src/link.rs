@@ -63,14 +63,12 @@ use crate::config::{
 use crate::frame::{Cut, Cutter};
 use crate::status;
 use bytes::{Bytes, BytesMut};
-use serde::{Deserialize, Serialize};
 use si_core::v24::{AutoV24 as AutoV24Sequence, Step};
 use si_core::{Duration, Engine, Instant, LineError, ModemSignals, Output, SignalUpdate, Status};
 use std::collections::VecDeque;
 
-/// Identifies one send job, so its completion can be matched.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-pub struct JobId(pub u32);
+/// The one job id of si-core, here because users name it from this module.
+pub use si_core::JobId;
 
 /// What the link reports.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -251,7 +249,7 @@ pub struct Link {
     last_tx_end: Option<Instant>,
     /// The partner sent XOFF.
     partner_stopped: bool,
-    next_job: u32,
+    next_job: u64,
     send_result: Option<(JobId, Result<(), Status>)>,
     inputs: ModemSignals,
     rts: bool,

@@ -16,6 +16,14 @@
 //! assert_eq!(done.take(), Some(0x0000)); // the call that sees it
 //! assert_eq!(done.take(), None);         // the next call does not
 //! ```
+//!
+//! [`SSend`] and [`SRcv`] are written here once, generic over [`JobPort`]; [`JobRequest`] is the
+//! REQ/R/job core of every other job-starting FB.
+
+use crate::job::{FramePort, JobId, JobPort, NotStarted, Reception};
+use crate::status::common;
+use crate::{Instant, Status};
+use bytes::{Bytes, BytesMut};
 
 /// R_TRIG: true on the call where the input goes from FALSE to TRUE.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -105,6 +113,234 @@ impl Done {
             error: true,
             status,
             ..Done::default()
+        }
+    }
+}
+
+/// The REQ / R / job machinery every job-starting FB shares (S_SEND, the window's S_VSET,
+/// S_VSTAT and parameter FBs, RK 512's request FBs): REQ is edge-triggered and starts at most
+/// one job at a time, R cancels the running job (1E0DH), and the job's outcome is taken from
+/// the port once.
+#[derive(Debug, Default)]
+pub struct JobRequest {
+    req: RisingEdge,
+    job: Option<JobId>,
+}
+
+impl JobRequest {
+    /// This call's REQ: true on a rising edge while no job of this FB runs, i.e. when the FB
+    /// starts a job (an edge while a job runs is ignored, as on the PLC).
+    pub fn wants_start(&mut self, req: bool) -> bool {
+        self.req.update(req) && self.job.is_none()
+    }
+
+    /// The job the FB started on this call's edge.
+    pub fn started(&mut self, id: JobId) {
+        self.job = Some(id);
+    }
+
+    /// R: forgets the running job and cancels it on the port; 1E0DH ("aborted by reset") if a
+    /// job ran, for the DONE/ERROR/STATUS of this call (§8.2: "also updated when the FB is
+    /// reset"). The next TRUE on REQ counts as an edge.
+    pub fn reset<P: JobPort>(&mut self, port: &mut P) -> Option<Status> {
+        self.req.reset();
+        let id = self.job.take()?;
+        port.cancel_job(id);
+        Some(common::ABORTED_BY_RESET)
+    }
+
+    /// The outcome of the running job once it ended (then the FB is idle again).
+    pub fn poll<P: JobPort>(&mut self, port: &mut P) -> Option<Result<P::Output, Status>> {
+        let id = self.job?;
+        let outcome = port.job_outcome(id)?;
+        self.job = None;
+        Some(outcome)
+    }
+
+    /// The whole call of an FB whose job is built from its inputs: R, then a start on the REQ
+    /// edge (`job` builds it; a build error or a refusal ends at once with ERROR), then the
+    /// outcome. `None` when nothing ended in this call.
+    pub fn call<P: JobPort>(
+        &mut self,
+        port: &mut P,
+        now: Instant,
+        req: bool,
+        r: bool,
+        job: impl FnOnce() -> Result<P::Job, Status>,
+    ) -> Option<Result<P::Output, Status>> {
+        if r {
+            return self.reset(port).map(Err);
+        }
+        if self.wants_start(req) {
+            match job().and_then(|j| {
+                port.start_job(now, j).map_err(|e| match e {
+                    NotStarted::Refused(status) => status,
+                    NotStarted::Busy => common::NOT_POSSIBLE_IN_MODE,
+                })
+            }) {
+                Ok(id) => self.started(id),
+                Err(status) => return Some(Err(status)),
+            }
+        }
+        self.poll(port)
+    }
+
+    /// True while a job started by this FB runs.
+    pub fn busy(&self) -> bool {
+        self.job.is_some()
+    }
+}
+
+impl<T> From<Option<Result<T, Status>>> for Done {
+    /// DONE or ERROR/STATUS for an outcome taken in this call, nothing for `None`.
+    fn from(outcome: Option<Result<T, Status>>) -> Self {
+        match outcome {
+            Some(Ok(_)) => Done::ok(),
+            Some(Err(status)) => Done::failed(status),
+            None => Done::default(),
+        }
+    }
+}
+
+/// Transmit frames of S_SEND are cut from a pool at least this large (twice the ASCII
+/// driver's 200-byte maximum, room for a frame in flight and the next).
+const SEND_POOL: usize = 400;
+
+/// FB3 S_SEND over any [`JobPort`] (et200s-si-3964r-ascii.md §8.2, Table 2-13;
+/// et200s-si-2005-window-protocol.md §5.3; et200s-si-modbus-uss.md §4.2–§4.3 for the Modbus
+/// master, whose source area is the job).
+///
+/// A rising edge on REQ sends `data` (DB_NO/DBB_NO/LEN as a slice) as one job; DONE, or ERROR
+/// with STATUS, follows for exactly one call when the job ends. R ends a running job with
+/// ERROR and 1E0DH in that call ([`JobPort::cancel_job`] says what the engine does with it);
+/// while R is TRUE no job starts. A refusal (1E41H for a bad LEN, 0502H, 0E4xH) shows at once
+/// in the call with the edge. A port that is busy with another caller's job
+/// ([`NotStarted::Busy`]) gets the frame again on each later call until it takes it.
+#[derive(Debug, Default)]
+pub struct SSend {
+    run: JobRequest,
+    /// A frame waiting for the port to finish another caller's job.
+    queued: Option<Bytes>,
+    /// Frames are cut from this buffer (`split().freeze()`); once the engine has dropped the
+    /// previous frame, `reserve` reclaims the allocation, so a steady state of send jobs
+    /// allocates nothing per frame (the si-core contract). Empty until the first job.
+    pool: BytesMut,
+}
+
+impl SSend {
+    /// One call of the FB (one PLC cycle); see the [type docs](SSend).
+    pub fn call<P: FramePort>(
+        &mut self,
+        port: &mut P,
+        now: Instant,
+        req: bool,
+        r: bool,
+        data: &[u8],
+    ) -> Done {
+        if r {
+            self.queued = None;
+            return self.run.reset(port).map_or(Done::default(), Done::failed);
+        }
+        if self.run.wants_start(req) && self.queued.is_none() {
+            if self.pool.capacity() < data.len() {
+                self.pool.reserve(SEND_POOL.max(2 * data.len()));
+            }
+            self.pool.extend_from_slice(data);
+            self.queued = Some(self.pool.split().freeze());
+        }
+        if let Some(frame) = self.queued.take() {
+            match port.start_job(now, P::Job::from(frame.clone())) {
+                Ok(id) => self.run.started(id),
+                Err(NotStarted::Busy) => self.queued = Some(frame),
+                Err(NotStarted::Refused(status)) => return Done::failed(status),
+            }
+        }
+        self.run.poll(port).into()
+    }
+
+    /// True while a job is queued or runs (the FB's internal busy state).
+    pub fn busy(&self) -> bool {
+        self.run.busy() || self.queued.is_some()
+    }
+}
+
+/// The outputs of S_RCV for one call: the one shape for every engine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Received {
+    /// New data received (this call only); the frame is in the destination area.
+    pub ndr: bool,
+    /// Receive error (this call only); STATUS says which.
+    pub error: bool,
+    /// Length of the frame copied into the destination (with NDR), else 0.
+    pub len: usize,
+    /// The error with ERROR; otherwise 0B01H while the receive buffer is more than 2/3 full
+    /// (a warning with ERROR = 0, §8.3, A-41), else 0000H.
+    pub status: Status,
+}
+
+impl Default for Received {
+    /// Nothing received in this call: NDR and ERROR false, LEN 0, STATUS 0000H.
+    fn default() -> Self {
+        Received {
+            ndr: false,
+            error: false,
+            len: 0,
+            status: Status::OK,
+        }
+    }
+}
+
+/// FB2 S_RCV over any [`JobPort`] (et200s-si-3964r-ascii.md §8.3, Table 2-14;
+/// et200s-si-2005-window-protocol.md §5.4; et200s-si-modbus-uss.md §4.4 for the Modbus
+/// master, whose "received frame" is the response of the job S_SEND started).
+///
+/// With EN_R statically TRUE each call copies at most one received frame into `dest` (NDR,
+/// LEN) or reports one receive error (ERROR, STATUS). EN_R = 0 or R = 1 takes nothing and
+/// shows NDR/ERROR/LEN 0 (A-24), except that a transfer in flight (the window's) is aborted
+/// with ERROR and 1E0DH.
+#[derive(Debug, Default)]
+pub struct SRcv {
+    _private: (),
+}
+
+impl SRcv {
+    /// One call of the FB (one PLC cycle); see the [type docs](SRcv).
+    pub fn call<P: JobPort>(
+        &mut self,
+        port: &mut P,
+        now: Instant,
+        en_r: bool,
+        r: bool,
+        dest: &mut [u8],
+    ) -> Received {
+        if r || !en_r {
+            return if port.stop_receiving(r) {
+                Received {
+                    error: true,
+                    status: common::ABORTED_BY_RESET,
+                    ..Received::default()
+                }
+            } else {
+                Received::default()
+            };
+        }
+        let warning = port.receive_warning();
+        match port.take_received(now, dest) {
+            Some(Reception::Frame { len, status }) => Received {
+                ndr: true,
+                len,
+                status,
+                ..Received::default()
+            },
+            Some(Reception::Error(status)) => Received {
+                error: true,
+                status,
+                ..Received::default()
+            },
+            None => Received {
+                status: warning,
+                ..Received::default()
+            },
         }
     }
 }

@@ -6,7 +6,9 @@
 //! - [`SerialSettings`]: the manuals' character formats and the character time derived from them;
 //! - [`Status`]: the 16-bit STATUS word of the S7 function blocks, with the manual's text;
 //! - [`Engine`] and [`Output`]: the Sans-IO contract (see [`sansio`] for the drain rule);
-//! - [`fb`]: edge detection and one-call pulses for the FB equivalents;
+//! - [`job`]: the job layer: [`JobId`], the [`JobPort`] trait every engine with jobs implements,
+//!   and [`job::Channel`] (one S_SEND and one S_RCV);
+//! - [`fb`]: edge detection, one-call pulses, and S_SEND / S_RCV written once over [`JobPort`];
 //! - [`sim`]: a deterministic discrete-event line simulator with seeded faults;
 //! - [`tracefile`]: the JSON-lines trace file the simulator, the driver and `si monitor` share;
 //! - `driver` (feature `tokio`): runs any engine over `AsyncRead + AsyncWrite`.
@@ -14,6 +16,7 @@
 
 pub mod fb;
 pub mod hex;
+pub mod job;
 pub mod memory;
 pub mod sansio;
 pub mod serial;
@@ -26,6 +29,7 @@ pub mod v24;
 #[cfg(feature = "tokio")]
 pub mod driver;
 
+pub use job::{JobId, JobPort};
 pub use sansio::{Engine, LineError, ModemSignals, Output, SignalUpdate};
 pub use serial::{Parity, SerialSettings, SettingsError, BAUD_RATES};
 pub use status::{Status, StatusInfo};

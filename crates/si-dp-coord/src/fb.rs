@@ -1,6 +1,7 @@
-//! The FB equivalents over the window protocol: S_SEND, S_RCV, S_VSTAT, S_VSET, S_XON, S_RTS and
-//! S_V24 as a non-S7 host runs them against a [`Host`] (et200s-si-2005-window-protocol.md §5,
-//! et200s-si-3964r-ascii.md §8).
+//! The FB equivalents over the window protocol (et200s-si-2005-window-protocol.md §5,
+//! et200s-si-3964r-ascii.md §8): the [`Host`] is a [`JobPort`], so si-core's S_SEND and S_RCV run
+//! on it exactly as on a line engine; S_VSTAT, S_VSET, S_XON, S_RTS and S_V24 are the window's
+//! own, built on si-core's [`JobRequest`].
 //!
 //! Each FB is called once per user cycle, the host engine once per DP cycle; the FB submits its
 //! job to the host's arbiter and collects its own completion with [`Host::take_completion`], so
@@ -12,7 +13,8 @@
 //! Readings:
 //! * R with a job in progress ends it with ERROR and 1E0DH in that call ("DONE and ERROR/STATUS
 //!   are also output on RESET", §5.3); the host writes idle, which aborts the module's side. For
-//!   S_RCV the module keeps the aborted frame and offers it again (§5.4).
+//!   S_RCV, EN_R = 0 or R aborts a running transfer the same way; the module keeps the aborted
+//!   frame and offers it again (§5.4).
 //! * S_RCV fetches a frame only while the idle status shows one (0001H/0B01H) and EN_R = 1; a frame
 //!   longer than the destination area is fetched and reported with ERROR and 1E20H (the window
 //!   protocol cannot leave it in the module once read).
@@ -23,196 +25,97 @@
 
 use crate::frame::{ParamBlock, RxStatus, V24Signals};
 use crate::host::{Host, Job, JobId, Outcome};
-use crate::status::{ABORTED_BY_RESET, BUFFER_TWO_THIRDS_FULL, PARAMETER_OUT_OF_RANGE};
-use bytes::Bytes;
-use si_core::fb::RisingEdge;
-use si_core::{Duration, Status};
+use crate::status::{BUFFER_TWO_THIRDS_FULL, PARAMETER_OUT_OF_RANGE};
+use si_core::fb::JobRequest;
+use si_core::job::{JobPort, NotStarted, Reception};
+use si_core::{Duration, Instant, Status};
 
-pub use si_core::fb::Done;
+pub use si_core::fb::{Done, Received, SRcv, SSend};
 
-/// The job-tracking core every FB shares: REQ edge, the running job, R.
-#[derive(Debug, Default)]
-struct Tracker {
-    req: RisingEdge,
-    job: Option<JobId>,
-}
+/// The window host's jobs take no start time: the host runs them in its DP cycles
+/// ([`Host::cycle`] carries the time).
+const NO_START_TIME: Instant = Instant::ZERO;
 
-impl Tracker {
-    /// R: aborts the running job; true if there was one.
-    fn reset(&mut self, host: &mut Host) -> bool {
-        self.req.reset();
-        match self.job.take() {
-            Some(id) => {
-                host.abort(id);
-                host.take_completion(id);
-                true
+impl JobPort for Host {
+    type Job = Job;
+    type Output = Outcome;
+
+    /// [`Host::submit`]: 1E41H for a bad LEN, 0502H when the job queue is full.
+    fn start_job(&mut self, _now: Instant, job: Job) -> Result<JobId, NotStarted> {
+        self.submit(job)
+            .map_err(|e| NotStarted::Refused(e.status()))
+    }
+
+    /// [`Host::take_completion`]: several FBs share one host, each takes its own completion.
+    fn job_outcome(&mut self, id: JobId) -> Option<Result<Outcome, Status>> {
+        self.take_completion(id)
+    }
+
+    /// [`Host::abort`]: writing idle aborts the module's side (§2.8); the 1E0DH completion is
+    /// taken here, the FB reports it itself.
+    fn cancel_job(&mut self, id: JobId) {
+        self.abort(id);
+        self.take_completion(id);
+    }
+
+    /// A frame is fetched with a receive job only while the idle status shows one
+    /// (0001H/0B01H); the job runs over several DP cycles and this call hands its frame over
+    /// once it ended. A frame longer than `dest` is reported with 1E20H: the window protocol
+    /// cannot leave it in the module once read.
+    fn take_received(&mut self, _now: Instant, dest: &mut [u8]) -> Option<Reception> {
+        let warning = JobPort::receive_warning(self);
+        if let Some(id) = self.fb_receive {
+            let result = self.take_completion(id)?;
+            self.fb_receive = None;
+            match result {
+                Ok(Outcome::Received(frame)) => {
+                    let Some(slot) = dest.get_mut(..frame.len()) else {
+                        return Some(Reception::Error(PARAMETER_OUT_OF_RANGE));
+                    };
+                    slot.copy_from_slice(&frame);
+                    return Some(Reception::Frame {
+                        len: frame.len(),
+                        status: warning,
+                    });
+                }
+                Ok(_) => {}
+                Err(status) => return Some(Reception::Error(status)),
             }
-            None => false,
         }
+        if self.receive_status().is_some_and(RxStatus::frame_waiting) {
+            self.fb_receive = self.submit(Job::Receive).ok();
+        }
+        None
     }
 
-    /// Submits `job()` on a REQ edge when idle; a refusal is reported at once.
-    fn start(
-        &mut self,
-        host: &mut Host,
-        req: bool,
-        job: impl FnOnce() -> Result<Job, Status>,
-    ) -> Option<Done> {
-        if !self.req.update(req) || self.job.is_some() {
-            return None;
-        }
-        match job().and_then(|j| host.submit(j).map_err(|e| e.status())) {
-            Ok(id) => {
-                self.job = Some(id);
-                None
-            }
-            Err(status) => Some(Done::failed(status)),
-        }
-    }
-
-    /// The job's result if it completed.
-    fn poll(&mut self, host: &mut Host) -> Option<Result<Outcome, Status>> {
-        let id = self.job?;
-        let result = host.take_completion(id)?;
-        self.job = None;
-        Some(result)
-    }
-
-    /// The common call of the FBs whose result is DONE/ERROR only.
-    fn call(
-        &mut self,
-        host: &mut Host,
-        req: bool,
-        r: bool,
-        job: impl FnOnce() -> Result<Job, Status>,
-    ) -> Done {
-        if r {
-            return if self.reset(host) {
-                Done::failed(ABORTED_BY_RESET)
-            } else {
-                Done::default()
-            };
-        }
-        if let Some(refused) = self.start(host, req, job) {
-            return refused;
-        }
-        match self.poll(host) {
-            Some(Ok(_)) => Done::ok(),
-            Some(Err(status)) => Done::failed(status),
-            None => Done::default(),
-        }
-    }
-}
-
-/// FB3 S_SEND: sends LEN bytes to the partner (§5.3).
-#[derive(Debug, Default)]
-pub struct SSend {
-    t: Tracker,
-}
-
-impl SSend {
-    /// One call; `data` is the source area (LEN = its length, 1 … the host's maximum, else
-    /// ERROR with 1E41H).
-    pub fn call(&mut self, host: &mut Host, req: bool, r: bool, data: &[u8]) -> Done {
-        self.t
-            .call(host, req, r, || Ok(Job::Send(Bytes::copy_from_slice(data))))
-    }
-
-    /// True while the FB's job is queued or running.
-    pub fn busy(&self) -> bool {
-        self.t.job.is_some()
-    }
-}
-
-/// The outputs of S_RCV.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Received {
-    /// New data received (this call only).
-    pub ndr: bool,
-    /// Receive error (this call only).
-    pub error: bool,
-    /// Length of the frame copied into the destination (with NDR), else 0.
-    pub len: usize,
-    /// The error, or 0B01H while the module's buffer is more than 2/3 full, or 0000H.
-    pub status: Status,
-}
-
-/// FB2 S_RCV: copies a received frame into the destination area (§5.4).
-#[derive(Debug, Default)]
-pub struct SRcv {
-    job: Option<JobId>,
-}
-
-impl SRcv {
-    /// One call. EN_R = 1 enables receiving (0 aborts a running transfer with ERROR and 1E0DH);
-    /// R = 1 aborts and blocks.
-    pub fn call(&mut self, host: &mut Host, en_r: bool, r: bool, dest: &mut [u8]) -> Received {
-        let warning = if host.receive_status() == Some(RxStatus::TwoThirdsFull) {
+    fn receive_warning(&self) -> Status {
+        if self.receive_status() == Some(RxStatus::TwoThirdsFull) {
             BUFFER_TWO_THIRDS_FULL
         } else {
             Status::OK
-        };
-        let quiet = Received {
-            ndr: false,
-            error: false,
-            len: 0,
-            status: warning,
-        };
-        if r || !en_r {
-            return match self.job.take() {
-                Some(id) => {
-                    host.abort(id);
-                    host.take_completion(id);
-                    Received {
-                        error: true,
-                        status: ABORTED_BY_RESET,
-                        ..quiet
-                    }
-                }
-                None => Received {
-                    status: Status::OK,
-                    ..quiet
-                },
-            };
         }
-        if let Some(id) = self.job {
-            match host.take_completion(id) {
-                None => return quiet,
-                Some(result) => {
-                    self.job = None;
-                    match result {
-                        Ok(Outcome::Received(frame)) if frame.len() <= dest.len() => {
-                            dest[..frame.len()].copy_from_slice(&frame);
-                            return Received {
-                                ndr: true,
-                                len: frame.len(),
-                                ..quiet
-                            };
-                        }
-                        Ok(Outcome::Received(_)) => {
-                            return Received {
-                                error: true,
-                                status: PARAMETER_OUT_OF_RANGE,
-                                ..quiet
-                            }
-                        }
-                        Ok(_) => {}
-                        Err(status) => {
-                            return Received {
-                                error: true,
-                                status,
-                                ..quiet
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        if host.receive_status().is_some_and(RxStatus::frame_waiting) {
-            self.job = host.submit(Job::Receive).ok();
-        }
-        quiet
     }
+
+    /// EN_R = 0 and R both abort a running receive job (§5.4: the module keeps the frame and
+    /// offers it again).
+    fn stop_receiving(&mut self, _reset: bool) -> bool {
+        let Some(id) = self.fb_receive.take() else {
+            return false;
+        };
+        self.cancel_job(id);
+        true
+    }
+}
+
+/// The common call of the FBs whose result is DONE/ERROR only.
+fn done_only(
+    t: &mut JobRequest,
+    host: &mut Host,
+    req: bool,
+    r: bool,
+    job: impl FnOnce() -> Result<Job, Status>,
+) -> Done {
+    t.call(host, NO_START_TIME, req, r, job).into()
 }
 
 /// The outputs of S_VSTAT.
@@ -227,34 +130,21 @@ pub struct V24State {
 /// FB4 S_VSTAT: reads the V.24 signals with a read V.24 job (§5.8).
 #[derive(Debug, Default)]
 pub struct SVstat {
-    t: Tracker,
+    t: JobRequest,
     signals: V24Signals,
 }
 
 impl SVstat {
     /// One call; a REQ edge starts a read.
     pub fn call(&mut self, host: &mut Host, req: bool, r: bool) -> V24State {
-        let result = if r {
-            if self.t.reset(host) {
-                Done::failed(ABORTED_BY_RESET)
-            } else {
-                Done::default()
-            }
-        } else if let Some(refused) = self.t.start(host, req, || Ok(Job::ReadV24)) {
-            refused
-        } else {
-            match self.t.poll(host) {
-                Some(Ok(Outcome::Signals(s))) => {
-                    self.signals = s;
-                    Done::ok()
-                }
-                Some(Ok(_)) => Done::ok(),
-                Some(Err(status)) => Done::failed(status),
-                None => Done::default(),
-            }
-        };
+        let outcome = self
+            .t
+            .call(host, NO_START_TIME, req, r, || Ok(Job::ReadV24));
+        if let Some(Ok(Outcome::Signals(s))) = outcome {
+            self.signals = s;
+        }
         V24State {
-            result,
+            result: outcome.into(),
             signals: self.signals,
         }
     }
@@ -263,13 +153,13 @@ impl SVstat {
 /// FB5 S_VSET: sets RTS and DTR with a write V.24 job (§5.9).
 #[derive(Debug, Default)]
 pub struct SVset {
-    t: Tracker,
+    t: JobRequest,
 }
 
 impl SVset {
     /// One call; a REQ edge writes `rts` and `dtr`.
     pub fn call(&mut self, host: &mut Host, req: bool, r: bool, rts: bool, dtr: bool) -> Done {
-        self.t.call(host, req, r, || Ok(Job::WriteV24 { rts, dtr }))
+        done_only(&mut self.t, host, req, r, || Ok(Job::WriteV24 { rts, dtr }))
     }
 }
 
@@ -285,7 +175,7 @@ fn ten_ms(time: Duration, min_ms: u64) -> Result<u16, Status> {
 /// FB6 S_XON: XON/XOFF parameters, block 20H (§5.5).
 #[derive(Debug, Default)]
 pub struct SXon {
-    t: Tracker,
+    t: JobRequest,
 }
 
 impl SXon {
@@ -299,7 +189,7 @@ impl SXon {
         xoff: u8,
         wait_for_xon: Duration,
     ) -> Done {
-        self.t.call(host, req, r, || {
+        done_only(&mut self.t, host, req, r, || {
             Ok(Job::Parameters(ParamBlock::XonXoff {
                 xon,
                 xoff,
@@ -312,13 +202,13 @@ impl SXon {
 /// FB7 S_RTS: RTS/CTS parameters, block 21H (§5.6).
 #[derive(Debug, Default)]
 pub struct SRts {
-    t: Tracker,
+    t: JobRequest,
 }
 
 impl SRts {
     /// One call; a REQ edge sends WAIT_FOR_CTS (20 ms … 655 350 ms, default 2 s).
     pub fn call(&mut self, host: &mut Host, req: bool, r: bool, wait_for_cts: Duration) -> Done {
-        self.t.call(host, req, r, || {
+        done_only(&mut self.t, host, req, r, || {
             Ok(Job::Parameters(ParamBlock::RtsCts {
                 cts_wait: ten_ms(wait_for_cts, 20)?,
             }))
@@ -329,7 +219,7 @@ impl SRts {
 /// FB8 S_V24: automatic V.24 control parameters, block 22H (§5.7).
 #[derive(Debug, Default)]
 pub struct SV24 {
-    t: Tracker,
+    t: JobRequest,
 }
 
 impl SV24 {
@@ -343,7 +233,7 @@ impl SV24 {
         time_rts_off: Duration,
         data_wait_time: Duration,
     ) -> Done {
-        self.t.call(host, req, r, || {
+        done_only(&mut self.t, host, req, r, || {
             Ok(Job::Parameters(ParamBlock::AutoV24 {
                 rts_off_delay: ten_ms(time_rts_off, 0)?,
                 cts_wait: ten_ms(data_wait_time, 0)?,

@@ -51,9 +51,8 @@ use serde::{Deserialize, Serialize};
 use si_core::{Instant, Status};
 use std::collections::VecDeque;
 
-/// Identifies a submitted job in its completion event.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-pub struct JobId(pub u32);
+/// The one job id of si-core; it identifies a submitted job in its completion event.
+pub use si_core::JobId;
 
 /// A job for the module (Table 2-22).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -73,6 +72,13 @@ pub enum Job {
     },
     /// Job 5: transfer a flow-control parameter block.
     Parameters(ParamBlock),
+}
+
+impl From<Bytes> for Job {
+    /// S_SEND's frame: a send job.
+    fn from(frame: Bytes) -> Self {
+        Job::Send(frame)
+    }
 }
 
 impl Job {
@@ -238,7 +244,7 @@ pub struct Host {
     queue: VecDeque<(JobId, Job)>,
     active: Option<Active>,
     events: VecDeque<HostEvent>,
-    next_id: u32,
+    next_id: u64,
     rx_status: Option<RxStatus>,
     /// Payload stream of the running send/parameter job (reused, no allocation per job once
     /// grown).
@@ -248,6 +254,9 @@ pub struct Host {
     /// state allocates nothing (the si-core contract, as in the 3964(R) link).
     rx: BytesMut,
     stats: HostStats,
+    /// The receive job S_RCV (si-core's, through the [`JobPort`](si_core::JobPort) impl in
+    /// [`crate::fb`]) has running: a frame's transfer to the caller spans DP cycles.
+    pub(crate) fb_receive: Option<JobId>,
 }
 
 impl Host {
@@ -265,6 +274,7 @@ impl Host {
             stream: Vec::with_capacity(cfg.max_frame_len + 2),
             rx: BytesMut::with_capacity(cfg.max_frame_len),
             stats: HostStats::default(),
+            fb_receive: None,
             cfg,
         })
     }

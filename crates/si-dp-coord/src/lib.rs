@@ -14,10 +14,9 @@
 //! * [`host`]: the master's engine — one arbiter owning byte 0, jobs send, receive, read/write
 //!   V.24, parameters, with segmenting, go-back on the error bit, back-off on foreign job codes and
 //!   a job watchdog. Every job ends in exactly one completion.
-//! * [`fb`]: S_SEND, S_RCV, S_VSTAT, S_VSET, S_XON, S_RTS, S_V24 with S7 call semantics over the
-//!   host.
-//! * [`channel`]: the [`channel::Channel`] trait, so one user program calls S_SEND / S_RCV on a
-//!   3964(R) or ASCII link directly or through the window.
+//! * [`fb`]: the host as a [`si_core::JobPort`], so si-core's S_SEND and S_RCV (and its
+//!   [`si_core::job::Channel`]) run through the window as on a line engine; S_VSTAT, S_VSET,
+//!   S_XON, S_RTS, S_V24 with S7 call semantics over the host.
 //! * [`module`]: the module's engine, with its serial line behind the [`module::SerialSide`]
 //!   trait, for simulations and tests (and gateways that play the module).
 //! * [`mod@line`]: [`line::EngineSerial`] makes any Sans-IO line engine the module's serial side, and
@@ -74,7 +73,6 @@
 //! assert_eq!(module.serial().sent().next().map(|f| &f[..]), Some(&b"hello"[..]));
 //! ```
 
-pub mod channel;
 pub mod config;
 pub mod coord;
 pub mod diag;

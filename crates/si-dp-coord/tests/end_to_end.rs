@@ -8,9 +8,9 @@
 //! runs one cycle and its module one cycle; then the line simulator runs for the rest of the
 //! cycle. Every test counts the FB completions: each job ends exactly once.
 
+use si_core::job::{Channel, FramePort};
 use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Engine, Instant, SerialSettings, Status};
-use si_dp_coord::channel::{AsciiFbs, Channel, R3964rFbs, WindowFbs};
 use si_dp_coord::engines;
 use si_dp_coord::fb::{Done, Received, SRcv, SSend, SVset, SXon};
 use si_dp_coord::line::EngineSerial;
@@ -82,11 +82,11 @@ where
     let mut dest = [0u8; 256];
     let mut seen = Seen::default();
     for _ in 0..cycles {
-        let d = s_send.call(&mut a.host, true, false, data);
+        let d = s_send.call(&mut a.host, sim.now(), true, false, data);
         if d.done || d.error {
             seen.sends.push((sim.now(), d));
         }
-        let r = s_rcv.call(&mut b.host, true, false, &mut dest);
+        let r = s_rcv.call(&mut b.host, sim.now(), true, false, &mut dest);
         if r.ndr || r.error {
             seen.receives.push((sim.now(), r, dest[..r.len].to_vec()));
         }
@@ -246,7 +246,7 @@ fn section_2_8_case_2_break_at_module_b_reaches_s_rcv_as_080d() {
     let mut dest = [0u8; 16];
     let mut seen = Vec::new();
     for _ in 0..200 {
-        let r = s_rcv.call(&mut b.host, true, false, &mut dest);
+        let r = s_rcv.call(&mut b.host, sim.now(), true, false, &mut dest);
         if r.ndr || r.error {
             seen.push(r);
         }
@@ -331,29 +331,30 @@ fn section_2_6_wrong_parameter_block_is_refused_with_0550h() {
     }
 }
 
-/// One user program, written once against [`Channel`]: S_SEND with REQ held until DONE/ERROR,
-/// S_RCV with EN_R = 1; it logs every output with DONE, ERROR or NDR set.
+/// One user program, written once against si-core's [`Channel`] and any [`FramePort`]: S_SEND
+/// with REQ held until DONE/ERROR, S_RCV with EN_R = 1; it logs every output with DONE, ERROR
+/// or NDR set.
 #[derive(Debug, Default)]
-struct UserProgram<C> {
-    fbs: C,
+struct UserProgram {
+    channel: Channel,
     dest: Vec<u8>,
     log: Vec<String>,
     sent: bool,
 }
 
-impl<C: Channel> UserProgram<C> {
-    fn new(fbs: C) -> Self {
+impl UserProgram {
+    fn new() -> Self {
         UserProgram {
-            fbs,
+            channel: Channel::default(),
             dest: vec![0; 256],
             log: Vec::new(),
             sent: false,
         }
     }
 
-    fn cycle(&mut self, engine: &mut C::Engine, now: Instant, data: Option<&[u8]>) {
+    fn cycle<P: FramePort>(&mut self, port: &mut P, now: Instant, data: Option<&[u8]>) {
         if let Some(data) = data.filter(|_| !self.sent) {
-            let d = self.fbs.send(engine, now, true, false, data);
+            let d = self.channel.send(port, now, true, false, data);
             if d.done || d.error {
                 self.sent = true;
                 self.log.push(format!(
@@ -364,7 +365,7 @@ impl<C: Channel> UserProgram<C> {
                 ));
             }
         }
-        let r = self.fbs.receive(engine, now, true, false, &mut self.dest);
+        let r = self.channel.receive(port, now, true, false, &mut self.dest);
         if r.ndr || r.error {
             self.log.push(format!(
                 "rcv ndr={} error={} {:04X} {:02X?}",
@@ -379,17 +380,14 @@ impl<C: Channel> UserProgram<C> {
 
 /// The same two user programs, first on two engines connected directly, then each behind a
 /// window module: the same outputs.
-fn direct_and_window<E, C>(
+fn direct_and_window<E>(
     make: impl Fn(bool) -> E,
     module: impl Fn(E) -> Module<EngineSerial<E>>,
     settings: SerialSettings,
-    fbs: impl Fn() -> C,
-    window_fbs: impl Fn() -> WindowFbs,
 ) -> (Vec<String>, Vec<String>, Vec<String>, Vec<String>)
 where
-    E: Engine + 'static,
+    E: Engine + FramePort + 'static,
     E::Event: 'static,
-    C: Channel<Engine = E>,
 {
     let (ping, pong) = (&b"ping 0123456789"[..], &b"pong"[..]);
     // Direct: each user program owns a line engine.
@@ -397,7 +395,7 @@ where
     let a = sim.add_station("A", settings, make(true));
     let b = sim.add_station("B", settings, make(false));
     sim.connect(a, b);
-    let (mut pa, mut pb) = (UserProgram::new(fbs()), UserProgram::new(fbs()));
+    let (mut pa, mut pb) = (UserProgram::new(), UserProgram::new());
     for i in 0..1_000 {
         sim.with(a, |e, now| pa.cycle(e, now, Some(ping)));
         sim.with(b, |e, now| pb.cycle(e, now, (i > 300).then_some(pong)));
@@ -408,10 +406,7 @@ where
     let mut a = Side::new(&mut sim, "A", settings, module(make(true)));
     let mut b = Side::new(&mut sim, "B", settings, module(make(false)));
     sim.connect(a.station, b.station);
-    let (mut wa, mut wb) = (
-        UserProgram::new(window_fbs()),
-        UserProgram::new(window_fbs()),
-    );
+    let (mut wa, mut wb) = (UserProgram::new(), UserProgram::new());
     for i in 0..1_000 {
         wa.cycle(&mut a.host, sim.now(), Some(ping));
         wb.cycle(&mut b.host, sim.now(), (i > 300).then_some(pong));
@@ -441,8 +436,6 @@ fn channel_same_user_program_on_3964r_directly_and_through_the_window() {
         make,
         |l| engines::r3964r_module(WindowSize::Eight, l).unwrap(),
         settings,
-        R3964rFbs::default,
-        WindowFbs::default,
     );
     assert_eq!(
         pa,
@@ -465,8 +458,6 @@ fn channel_same_user_program_on_ascii_directly_and_through_the_window() {
         |_| si_ascii::Link::new(config).unwrap(),
         |l| engines::ascii_module(WindowSize::Four, l).unwrap(),
         config.settings,
-        AsciiFbs::default,
-        WindowFbs::default,
     );
     assert_eq!(
         pb,
@@ -494,7 +485,7 @@ fn section_2_8_frames_and_receive_errors_keep_their_order() {
         let mut s_send = SSend::default();
         let mut done = false;
         for _ in 0..200 {
-            let d = s_send.call(&mut a.host, true, false, b"first");
+            let d = s_send.call(&mut a.host, sim.now(), true, false, b"first");
             done |= d.done;
             a.dp_cycle(&mut sim);
             b.dp_cycle(&mut sim);
@@ -509,7 +500,7 @@ fn section_2_8_frames_and_receive_errors_keep_their_order() {
         let mut dest = [0u8; 16];
         let mut seen = Vec::new();
         for _ in 0..200 {
-            let r = s_rcv.call(&mut b.host, true, false, &mut dest);
+            let r = s_rcv.call(&mut b.host, sim.now(), true, false, &mut dest);
             if r.ndr {
                 seen.push(format!("NDR {:?}", &dest[..r.len]));
             } else if r.error {

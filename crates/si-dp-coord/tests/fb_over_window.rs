@@ -5,12 +5,16 @@
 mod common;
 
 use common::Link;
-use si_core::{Duration, Status};
+use si_core::{Duration, Instant, Status};
 use si_dp_coord::fb::{SRcv, SRts, SSend, SVset, SVstat, SXon, SV24};
 use si_dp_coord::status::{
     ABORTED_BY_RESET, FLOW_CONTROL_MISMATCH, INVALID_LEN, PARAMETER_OUT_OF_RANGE,
 };
 use si_dp_coord::{HostConfig, ModuleConfig, WindowSize};
+
+/// S_SEND / S_RCV take the time of the call; the window host runs its jobs in its DP cycles
+/// and does not use it.
+const NOW: Instant = Instant::ZERO;
 
 fn link(window: WindowSize) -> Link {
     common::link(HostConfig::new(window), ModuleConfig::new(window), 17).without_event_collection()
@@ -30,7 +34,7 @@ fn s_send_done_is_valid_for_one_call() {
     let data = b"hello, partner";
     let mut dones = 0;
     for _ in 0..500 {
-        let out = fb.call(&mut l.host, true, false, data);
+        let out = fb.call(&mut l.host, NOW, true, false, data);
         assert!(!out.error, "{:?}", out.status);
         dones += usize::from(out.done);
         run(&mut l);
@@ -51,18 +55,18 @@ fn s_send_done_is_valid_for_one_call() {
 fn s_send_refuses_len_0_and_r_aborts_with_1e0d() {
     let mut l = link(WindowSize::Four);
     let mut fb = SSend::default();
-    let out = fb.call(&mut l.host, true, false, &[]);
+    let out = fb.call(&mut l.host, NOW, true, false, &[]);
     assert!(out.error && out.status == INVALID_LEN);
-    fb.call(&mut l.host, false, false, &[]);
+    fb.call(&mut l.host, NOW, false, false, &[]);
     // A long send, reset half-way.
     let big = [0x55u8; 224];
-    fb.call(&mut l.host, true, false, &big);
+    fb.call(&mut l.host, NOW, true, false, &big);
     for _ in 0..30 {
         run(&mut l);
-        assert!(!fb.call(&mut l.host, true, false, &big).done);
+        assert!(!fb.call(&mut l.host, NOW, true, false, &big).done);
     }
     assert!(fb.busy());
-    let out = fb.call(&mut l.host, false, true, &big);
+    let out = fb.call(&mut l.host, NOW, false, true, &big);
     assert!(out.error && out.status == ABORTED_BY_RESET);
     assert!(!fb.busy());
     // The module's side is aborted (idle written); nothing reached the line.
@@ -71,7 +75,7 @@ fn s_send_refuses_len_0_and_r_aborts_with_1e0d() {
     // A new edge sends again.
     let mut done = false;
     for _ in 0..1_000 {
-        done |= fb.call(&mut l.host, true, false, b"again").done;
+        done |= fb.call(&mut l.host, NOW, true, false, b"again").done;
         run(&mut l);
     }
     assert!(done);
@@ -86,7 +90,7 @@ fn s_rcv_ndr_len_and_data_for_one_call() {
     l.module.serial_mut().inject_frame(&b"two"[..]);
     let mut got = Vec::new();
     for _ in 0..1_000 {
-        let out = fb.call(&mut l.host, true, false, &mut db);
+        let out = fb.call(&mut l.host, NOW, true, false, &mut db);
         assert!(!out.error, "{:?}", out.status);
         if out.ndr {
             got.push(db[..out.len].to_vec());
@@ -104,13 +108,13 @@ fn s_rcv_reports_a_too_small_destination_and_en_r_0_blocks() {
     // EN_R = 0: nothing is fetched.
     l.module.serial_mut().inject_frame(&b"longer than four"[..]);
     for _ in 0..200 {
-        fb.call(&mut l.host, false, false, &mut small);
+        fb.call(&mut l.host, NOW, false, false, &mut small);
         run(&mut l);
     }
     assert_eq!(l.module.buffered(), 1);
     let mut errors = Vec::new();
     for _ in 0..500 {
-        let out = fb.call(&mut l.host, true, false, &mut small);
+        let out = fb.call(&mut l.host, NOW, true, false, &mut small);
         if out.error {
             errors.push(out.status);
         }
@@ -192,8 +196,8 @@ fn fbs_share_one_host() {
         for i in 0..3_000 {
             // Loopback: every frame sent comes back and S_RCV picks it up.
             let req = i % 600 < 300;
-            sent += usize::from(send.call(&mut l.host, req, false, &frame).done);
-            let r = rcv.call(&mut l.host, true, false, &mut db);
+            sent += usize::from(send.call(&mut l.host, NOW, req, false, &frame).done);
+            let r = rcv.call(&mut l.host, NOW, true, false, &mut db);
             if r.ndr {
                 received.push(db[..r.len].to_vec());
             }

@@ -1,7 +1,8 @@
 //! FB equivalents for RK 512 jobs in the style of the CP 341's P_SND_RK (SEND and FETCH
 //! requests; cp341-3964r-rk512-ascii.md §6), with the S7 call semantics of
 //! [`si_core::fb`]: REQ is edge-triggered, R resets, DONE / ERROR / STATUS are valid for
-//! exactly one call.
+//! exactly one call. The [`Station`] is a [`JobPort`] whose jobs are [`Rk512Job`]s; both FBs
+//! run on si-core's [`JobRequest`], the core every job-starting FB shares.
 //!
 //! The seed has no parameter list for P_SND_RK (§6); the inputs here are the job's header
 //! fields (address, coordination flag, length) and the outputs the usual DONE, ERROR, STATUS.
@@ -30,11 +31,11 @@
 //! for _cycle in 0..1000 {
 //!     // One PLC cycle every 10 ms: REQ held TRUE; the FETCH starts once the SEND is DONE.
 //!     let s = sim.with(a, |st, now| send.call(st, now, true, false, to, Coordination::NONE, b"ABCD"));
-//!     assert!(!s.error);
-//!     sent |= s.done;
+//!     assert!(!s.result.error);
+//!     sent |= s.result.done;
 //!     if sent {
 //!         let f = sim.with(a, |st, now| fetch.call(st, now, true, false, to, Coordination::NONE, 4));
-//!         if f.done { fetched = f.data; break; }
+//!         if f.result.done { fetched = f.data; break; }
 //!     }
 //!     sim.run_for(Duration::from_millis(10));
 //! }
@@ -44,74 +45,79 @@
 use crate::frame::{Address, Coordination};
 use crate::station::{JobId, Station};
 use bytes::Bytes;
-use si_core::fb::{Pulse, RisingEdge};
-use si_core::status::common;
+use si_core::fb::JobRequest;
+use si_core::job::{JobPort, NotStarted};
 use si_core::{Instant, Status};
 
-/// What a request FB shows after one call.
+/// One RK 512 job as an FB starts it.
 #[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Rk512Job {
+    /// SEND `data` to `address` ([`Station::send`]).
+    Send {
+        /// Where the data go in the partner (DB or DX).
+        address: Address,
+        /// The coordination flag.
+        coordination: Coordination,
+        /// The data.
+        data: Bytes,
+    },
+    /// FETCH `len` bytes from `address` ([`Station::fetch`]).
+    Fetch {
+        /// Where the data come from in the partner.
+        address: Address,
+        /// The coordination flag.
+        coordination: Coordination,
+        /// Bytes to fetch.
+        len: usize,
+    },
+}
+
+impl JobPort for Station {
+    type Job = Rk512Job;
+    /// The FETCH data (empty for a SEND).
+    type Output = Bytes;
+
+    /// A refusal shows at once: busy 0502H, length 1E41H, not a DB/DX 1E20H.
+    fn start_job(&mut self, now: Instant, job: Rk512Job) -> Result<JobId, NotStarted> {
+        match job {
+            Rk512Job::Send {
+                address,
+                coordination,
+                data,
+            } => self.send(now, address, coordination, data),
+            Rk512Job::Fetch {
+                address,
+                coordination,
+                len,
+            } => self.fetch(now, address, coordination, len),
+        }
+        .map_err(|e| NotStarted::Refused(e.status()))
+    }
+
+    fn job_outcome(&mut self, id: JobId) -> Option<Result<Bytes, Status>> {
+        Station::job_outcome(self, id)
+    }
+
+    /// The FB forgets the job; the station finishes it (telegrams already handed to the
+    /// 3964(R) link are still sent, et200s-si-3964r-ascii.md §8.2).
+    fn cancel_job(&mut self, _id: JobId) {}
+}
+
+/// What a request FB shows after one call: DONE / ERROR / STATUS, and FETCH's data with DONE.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct FbOutput {
-    /// The job finished without error (this call only).
-    pub done: bool,
-    /// The job finished with an error (this call only).
-    pub error: bool,
-    /// 0000, or the error with ERROR.
-    pub status: Status,
+    /// DONE / ERROR / STATUS for this call.
+    pub result: si_core::fb::Done,
     /// FETCH only: the data, with DONE.
     pub data: Option<Bytes>,
 }
 
-/// The REQ / R / DONE / ERROR / STATUS machinery both FBs share.
-#[derive(Debug, Default)]
-struct Request {
-    req: RisingEdge,
-    job: Option<JobId>,
-    result: Pulse<Result<Bytes, Status>>,
-}
-
-impl Request {
-    fn call(
-        &mut self,
-        station: &mut Station,
-        req: bool,
-        r: bool,
-        start: impl FnOnce(&mut Station) -> Result<JobId, crate::RequestError>,
-    ) -> FbOutput {
-        let edge = self.req.update(req);
-        if r {
-            if self.job.take().is_some() {
-                self.result.fire(Err(common::ABORTED_BY_RESET));
-            }
-        } else if let Some(job) = self.job {
-            if let Some(outcome) = station.job_outcome(job) {
-                self.job = None;
-                self.result.fire(outcome);
-            }
-        } else if edge {
-            match start(station) {
-                Ok(job) => self.job = Some(job),
-                Err(e) => self.result.fire(Err(e.status())),
-            }
-        }
-        match self.result.take() {
-            Some(Ok(data)) => FbOutput {
-                done: true,
-                error: false,
-                status: Status::OK,
-                data: Some(data),
-            },
-            Some(Err(status)) => FbOutput {
-                done: false,
-                error: true,
-                status,
-                data: None,
-            },
-            None => FbOutput {
-                done: false,
-                error: false,
-                status: Status::OK,
-                data: None,
-            },
+impl From<Option<Result<Bytes, Status>>> for FbOutput {
+    fn from(outcome: Option<Result<Bytes, Status>>) -> Self {
+        let data = outcome.clone().and_then(Result::ok);
+        FbOutput {
+            result: outcome.into(),
+            data,
         }
     }
 }
@@ -119,7 +125,7 @@ impl Request {
 /// SEND request (P_SND_RK with a SEND job): a rising edge on REQ sends `data` to `address`.
 #[derive(Debug, Default)]
 pub struct SendFb {
-    inner: Request,
+    inner: JobRequest,
 }
 
 impl SendFb {
@@ -137,18 +143,24 @@ impl SendFb {
         coordination: Coordination,
         data: &[u8],
     ) -> FbOutput {
-        let mut out = self.inner.call(station, req, r, |s| {
-            s.send(now, address, coordination, Bytes::copy_from_slice(data))
+        let outcome = self.inner.call(station, now, req, r, || {
+            Ok(Rk512Job::Send {
+                address,
+                coordination,
+                data: Bytes::copy_from_slice(data),
+            })
         });
-        out.data = None;
-        out
+        FbOutput {
+            data: None,
+            ..outcome.into()
+        }
     }
 }
 
 /// FETCH request (P_SND_RK with a FETCH job): a rising edge on REQ fetches `len` bytes.
 #[derive(Debug, Default)]
 pub struct FetchFb {
-    inner: Request,
+    inner: JobRequest,
 }
 
 impl FetchFb {
@@ -164,9 +176,15 @@ impl FetchFb {
         coordination: Coordination,
         len: usize,
     ) -> FbOutput {
-        self.inner.call(station, req, r, |s| {
-            s.fetch(now, address, coordination, len)
-        })
+        self.inner
+            .call(station, now, req, r, || {
+                Ok(Rk512Job::Fetch {
+                    address,
+                    coordination,
+                    len,
+                })
+            })
+            .into()
     }
 }
 
@@ -176,6 +194,7 @@ mod tests {
     use crate::passive::ServerConfig;
     use crate::Config;
     use si_core::sim::Simulator;
+    use si_core::status::common;
     use si_core::{Duration, SerialSettings};
 
     fn setup() -> (
@@ -208,13 +227,13 @@ mod tests {
         let out = sim.with(a, |s, now| {
             fetch.call(s, now, true, false, at, Coordination::NONE, 3)
         });
-        assert!(out.error);
-        assert_eq!(out.status, common::INVALID_LEN);
+        assert!(out.result.error);
+        assert_eq!(out.result.status, common::INVALID_LEN);
         let out = sim.with(a, |s, now| {
             fetch.call(s, now, true, false, at, Coordination::NONE, 3)
         });
         assert!(
-            !out.error,
+            !out.result.error,
             "ERROR lasts one call, and a held REQ starts nothing"
         );
         // A missing DB: ERROR with the partner's 0903, once.
@@ -225,8 +244,8 @@ mod tests {
             let out = sim.with(a, |s, now| {
                 fetch.call(s, now, req, false, missing, Coordination::NONE, 2)
             });
-            if out.error || out.done {
-                seen.push(out.status);
+            if out.result.error || out.result.done {
+                seen.push(out.result.status);
             }
             sim.run_for(Duration::from_millis(10));
         }
@@ -241,11 +260,11 @@ mod tests {
         let out = sim.with(a, |s, now| {
             send.call(s, now, true, false, at, Coordination::NONE, b"AB")
         });
-        assert!(!out.done && !out.error);
+        assert!(!out.result.done && !out.result.error);
         let out = sim.with(a, |s, now| {
             send.call(s, now, true, true, at, Coordination::NONE, b"AB")
         });
-        assert!(out.error);
-        assert_eq!(out.status, common::ABORTED_BY_RESET);
+        assert!(out.result.error);
+        assert_eq!(out.result.status, common::ABORTED_BY_RESET);
     }
 }

@@ -62,15 +62,8 @@ use si_core::status::common;
 use si_core::{Engine, Instant, LineError, ModemSignals, Output, SerialSettings, Status};
 use std::collections::VecDeque;
 
-/// Identifies one SEND or FETCH job.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct JobId(pub u64);
-
-impl fmt::Display for JobId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "job {}", self.0)
-    }
-}
+/// The one job id of si-core, here because the async handle and users name it from this module.
+pub use si_core::JobId;
 
 /// What the station tells the application.
 #[derive(Clone, PartialEq, Eq)]

@@ -622,11 +622,11 @@ fn scenario_e2e(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     let mut dest = [0u8; 224];
     let (mut sent, mut got) = (None, None);
     for _ in 0..5_000 {
-        let d = s_send.call(&mut host_a, sent.is_none(), false, data);
+        let d = s_send.call(&mut host_a, sim.now(), sent.is_none(), false, data);
         if d.done || d.error {
             sent = Some((sim.now(), d));
         }
-        let r = s_rcv.call(&mut host_b, true, false, &mut dest);
+        let r = s_rcv.call(&mut host_b, sim.now(), true, false, &mut dest);
         if r.ndr || r.error {
             got = Some((sim.now(), r, dest[..r.len].to_vec()));
         }
