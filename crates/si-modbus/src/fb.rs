@@ -4,8 +4,9 @@
 //!
 //! The FBs are plain structs called once per PLC cycle with S7 semantics: REQ is
 //! edge-triggered, R resets, EN_R is a level, DONE / NDR / ERROR / STATUS / LEN are valid for
-//! exactly one call. They drive the engines directly (a host with its own port); the
-//! application hands the engine's events to [`MasterFbs::on_event`] / [`SModb::on_event`].
+//! exactly one call. They drive the engines directly (a host with its own port). S_SEND and
+//! S_RCV are si-core's, over the [`Master`] as a [`JobPort`]; S_MODB is this crate's own, and
+//! the application hands the slave's events to [`SModb::on_event`].
 //!
 //! # Readings chosen (§11.8, §11.9, §11.10, §11.11)
 //!
@@ -26,14 +27,18 @@
 //!   (2040 bits, 127 registers) are checked as well, so the practical maxima of §4.5 apply.
 
 use crate::frame::{fc, Bits, Registers, Request, Response};
-use crate::master::{Completion, Master, MasterEvent};
+use crate::master::{Completion, Master, MasterEvent, RequestError};
 use crate::simatic::{ConversionDb, SimaticStore};
 use crate::slave::{Slave, SlaveEvent};
 use crate::status;
+use bytes::Bytes;
 use si_core::fb::{Pulse, RisingEdge};
+use si_core::job::{JobId, JobPort, JobSlot, NotStarted, Reception};
 use si_core::memory::Area;
 use si_core::status::common;
 use si_core::{Instant, Status};
+
+pub use si_core::fb::{Done, Received, SRcv, SSend};
 
 /// The most bytes S_SEND and S_RCV move (LEN 1…200, §4.2).
 pub const MAX_LEN: usize = 200;
@@ -273,150 +278,85 @@ pub fn store_response(completion: &Completion, dest: &mut [u8]) -> usize {
     }
 }
 
-/// Outputs of one S_SEND call.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SendOutputs {
-    /// Job done without error (one call).
-    pub done: bool,
-    /// Job done with error (one call).
-    pub error: bool,
-    /// STATUS.
-    pub status: Status,
-}
-
-/// Outputs of one S_RCV call.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct RcvOutputs {
-    /// Data received (one call).
-    pub ndr: bool,
-    /// Error (one call).
-    pub error: bool,
-    /// Bytes written to the destination.
-    pub len: usize,
-    /// STATUS.
-    pub status: Status,
-}
-
-impl Default for SendOutputs {
-    fn default() -> Self {
-        SendOutputs {
-            done: false,
-            error: false,
-            status: Status::OK,
-        }
-    }
-}
-
-impl Default for RcvOutputs {
-    fn default() -> Self {
-        RcvOutputs {
-            ndr: false,
-            error: false,
-            len: 0,
-            status: Status::OK,
-        }
-    }
-}
-
-/// FB3 S_SEND and FB2 S_RCV for Modbus master jobs (§4.2, Figure 3-7), over a [`Master`].
+/// What the master keeps for the FBs: the job S_SEND started, its outcome, and the response
+/// (or failure) S_RCV has not taken yet. Only jobs started through [`JobPort::start_job`] are
+/// tracked; jobs the application starts with [`Master::request`] never reach the FBs.
 #[derive(Debug, Default)]
-pub struct MasterFbs {
-    req: RisingEdge,
-    send_result: Pulse<Status>,
-    rcv_result: Pulse<Result<Completion, Status>>,
-    running: bool,
+pub(crate) struct FbJobs {
+    slot: JobSlot<()>,
+    reception: Option<Result<Completion, Status>>,
 }
 
-impl MasterFbs {
-    /// A fresh pair of FBs.
-    pub fn new() -> Self {
-        MasterFbs::default()
-    }
-
-    /// S_SEND: on a rising edge of `req` parse `source` (the DB area of LEN bytes) and start
-    /// the job; `r` aborts and resets. Errors in the job are reported at once (0E4xH).
-    pub fn s_send(
-        &mut self,
-        master: &mut Master,
-        now: Instant,
-        req: bool,
-        r: bool,
-        source: &[u8],
-    ) -> SendOutputs {
-        if r {
-            self.req.reset();
-            self.running = false;
-            self.send_result = Pulse::default();
-            return SendOutputs::default();
-        }
-        if self.req.update(req) && !self.running {
-            match parse_job(source).and_then(|(unit, request)| {
-                master.request(now, unit, &request).map_err(|e| e.status())
-            }) {
-                Ok(()) => self.running = true,
-                Err(s) => self.send_result.fire(s),
+impl FbJobs {
+    /// The master's job ended with `event`: the outcome for S_SEND, the response or the failure
+    /// for S_RCV (a broadcast has no response, so S_RCV shows nothing for it).
+    pub(crate) fn finished(&mut self, event: &MasterEvent) {
+        let (outcome, reception) = match event {
+            MasterEvent::Completed(c) => (Ok(()), c.response().is_some().then_some(Ok(*c))),
+            MasterEvent::Failed { status, .. } => (Err(*status), Some(Err(*status))),
+            MasterEvent::Diagnostic(_) => return,
+        };
+        if self.slot.finish(outcome).is_some() {
+            if let Some(r) = reception {
+                self.reception = Some(r);
             }
         }
-        match self.send_result.take() {
-            Some(s) if s.is_ok() => SendOutputs {
-                done: true,
-                error: false,
-                status: s,
-            },
-            Some(s) => SendOutputs {
-                done: false,
-                error: true,
-                status: s,
-            },
-            None => SendOutputs::default(),
+    }
+}
+
+/// FB3 S_SEND and FB2 S_RCV for Modbus master jobs (§4.2, Figure 3-7) are si-core's, over the
+/// [`Master`] as a [`JobPort`]: the job is the S_SEND source area (§4.3), the "received frame"
+/// the response of the job in the S_RCV destination layout (§4.4).
+impl JobPort for Master {
+    type Job = Bytes;
+    type Output = ();
+
+    /// Parses the source area ([`parse_job`], 0E40H–0E4AH, 1E41H) and starts the job (0502H
+    /// while one runs).
+    fn start_job(&mut self, now: Instant, source: Bytes) -> Result<JobId, NotStarted> {
+        let (unit, request) = parse_job(&source)?;
+        if self.is_busy() {
+            return Err(RequestError::Busy.status().into());
+        }
+        // Tracked before it starts: the automatic V.24 gate can end it within `request`.
+        let id = self.fb.slot.start();
+        match self.request(now, unit, &request) {
+            Ok(()) => Ok(id),
+            Err(e) => {
+                self.fb.slot.forget(id);
+                Err(e.status().into())
+            }
         }
     }
 
-    /// Hand the master's events to the FBs.
-    pub fn on_event(&mut self, event: &MasterEvent) {
-        if !self.running {
-            return;
-        }
-        match event {
-            MasterEvent::Completed(c) => {
-                self.running = false;
-                self.send_result.fire(Status::OK);
-                if c.response().is_some() {
-                    self.rcv_result.fire(Ok(*c));
-                }
-            }
-            MasterEvent::Failed { status, .. } => {
-                self.running = false;
-                self.send_result.fire(*status);
-                self.rcv_result.fire(Err(*status));
-            }
-            MasterEvent::Diagnostic(_) => {}
-        }
+    fn job_outcome(&mut self, id: JobId) -> Option<Result<(), Status>> {
+        self.fb.slot.outcome(id)
     }
 
-    /// S_RCV: with `en_r` set, store the response of a completed job into `dest`.
-    pub fn s_rcv(&mut self, en_r: bool, r: bool, dest: &mut [u8]) -> RcvOutputs {
-        if r || !en_r {
-            if r {
-                self.rcv_result = Pulse::default();
-            }
-            return RcvOutputs::default();
-        }
-        match self.rcv_result.take() {
-            Some(Ok(c)) => RcvOutputs {
-                ndr: true,
-                error: false,
+    /// R on S_SEND: the request already on the line runs to its end, but neither S_SEND nor
+    /// S_RCV reports it.
+    fn cancel_job(&mut self, id: JobId) {
+        self.fb.slot.forget(id);
+    }
+
+    /// The response of the last job, stored as §4.4 lays it out, or its failure: a failed job
+    /// is reported by both blocks with the same STATUS (Figure 3-7).
+    fn take_received(&mut self, _now: Instant, dest: &mut [u8]) -> Option<Reception> {
+        Some(match self.fb.reception.take()? {
+            Ok(c) => Reception::Frame {
                 len: store_response(&c, dest),
                 status: Status::OK,
             },
-            Some(Err(s)) => RcvOutputs {
-                ndr: false,
-                error: true,
-                len: 0,
-                status: s,
-            },
-            None => RcvOutputs::default(),
+            Err(status) => Reception::Error(status),
+        })
+    }
+
+    /// R on S_RCV drops a response not yet taken; EN_R = 0 keeps it.
+    fn stop_receiving(&mut self, reset: bool) -> bool {
+        if reset {
+            self.fb.reception = None;
         }
+        false
     }
 }
 
@@ -722,37 +662,43 @@ mod tests {
         assert_eq!(dest[..6], hex("05 06 01 80 3E 7F")[..]);
     }
 
+    /// Drain the master's outputs (the application's job; the FBs do not need its events).
+    fn drain(m: &mut Master) {
+        while !matches!(m.poll_output(), Output::Wait(_)) {}
+    }
+
     #[test]
     fn s_send_and_s_rcv_pulse_once_per_job() {
         let mut m = Master::new(MasterConfig::default()).unwrap();
-        let mut fbs = MasterFbs::new();
+        let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
         let job = hex("01 03 00 00 00 01");
         assert_eq!(
-            fbs.s_send(&mut m, Instant::ZERO, true, false, &job),
-            SendOutputs::default()
+            s_send.call(&mut m, Instant::ZERO, true, false, &job),
+            Done::default()
         );
-        while !matches!(m.poll_output(), Output::Wait(_)) {}
+        drain(&mut m);
         // The request leaves the line, then the 2 s response time runs out.
         m.handle_timeout(Instant::from_micros(10_000));
-        while !matches!(m.poll_output(), Output::Wait(_)) {}
+        drain(&mut m);
         m.handle_timeout(Instant::from_micros(2_010_000));
-        while let Output::Event(e) = m.poll_output() {
-            fbs.on_event(&e);
-        }
-        let out = fbs.s_send(&mut m, Instant::ZERO, true, false, &job);
+        drain(&mut m);
+        let out = s_send.call(&mut m, Instant::ZERO, true, false, &job);
         assert!(out.error && !out.done);
         assert_eq!(out.status, status::RESPONSE_TIMEOUT);
         assert_eq!(
-            fbs.s_send(&mut m, Instant::ZERO, true, false, &job),
-            SendOutputs::default()
+            s_send.call(&mut m, Instant::ZERO, true, false, &job),
+            Done::default()
         );
         let mut dest = [0u8; 10];
-        let r = fbs.s_rcv(true, false, &mut dest);
+        let r = s_rcv.call(&mut m, Instant::ZERO, true, false, &mut dest);
         assert!(r.error && r.status == status::RESPONSE_TIMEOUT);
-        assert_eq!(fbs.s_rcv(true, false, &mut dest), RcvOutputs::default());
+        assert_eq!(
+            s_rcv.call(&mut m, Instant::ZERO, true, false, &mut dest),
+            Received::default()
+        );
         // A bad job is refused at once on the edge.
-        fbs.s_send(&mut m, Instant::ZERO, false, false, &job);
-        let out = fbs.s_send(
+        s_send.call(&mut m, Instant::ZERO, false, false, &job);
+        let out = s_send.call(
             &mut m,
             Instant::ZERO,
             true,
@@ -760,6 +706,61 @@ mod tests {
             &hex("00 03 00 00 00 01"),
         );
         assert_eq!(out.status.code(), 0x0E43);
+    }
+
+    #[test]
+    fn s_rcv_gets_the_response_in_the_4_4_layout_with_done() {
+        let mut m = Master::new(MasterConfig::default()).unwrap();
+        let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
+        let job = hex("05 03 00 40 00 02");
+        s_send.call(&mut m, Instant::ZERO, true, false, &job);
+        drain(&mut m);
+        m.handle_tx_done(Instant::from_micros(10_000));
+        drain(&mut m);
+        let mut resp = hex("05 03 04 21 23 25 27");
+        let crc = crate::frame::crc16(&resp).to_le_bytes();
+        resp.extend_from_slice(&crc);
+        m.handle_rx(Instant::from_micros(20_000), &resp);
+        m.handle_timeout(Instant::from_micros(30_000));
+        drain(&mut m);
+        let mut dest = [0u8; 8];
+        // EN_R = 0 keeps the response for later.
+        let r = s_rcv.call(&mut m, Instant::ZERO, false, false, &mut dest);
+        assert!(!r.ndr && !r.error);
+        let d = s_send.call(&mut m, Instant::ZERO, true, false, &job);
+        assert!(d.done && !d.error);
+        let r = s_rcv.call(&mut m, Instant::ZERO, true, false, &mut dest);
+        assert_eq!(
+            (r.ndr, r.error, r.len, r.status),
+            (true, false, 4, Status::OK)
+        );
+        assert_eq!(dest[..4], [0x21, 0x23, 0x25, 0x27]);
+        assert!(
+            !s_rcv
+                .call(&mut m, Instant::ZERO, true, false, &mut dest)
+                .ndr
+        );
+    }
+
+    #[test]
+    fn r_on_s_send_reports_1e0d_and_the_response_is_nobodys() {
+        let mut m = Master::new(MasterConfig::default()).unwrap();
+        let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
+        let job = hex("01 03 00 00 00 01");
+        s_send.call(&mut m, Instant::ZERO, true, false, &job);
+        let d = s_send.call(&mut m, Instant::ZERO, true, true, &job);
+        assert_eq!((d.error, d.status), (true, common::ABORTED_BY_RESET));
+        drain(&mut m);
+        m.handle_timeout(Instant::from_micros(10_000));
+        drain(&mut m);
+        m.handle_timeout(Instant::from_micros(2_010_000));
+        drain(&mut m);
+        let mut dest = [0u8; 10];
+        assert_eq!(
+            s_rcv.call(&mut m, Instant::ZERO, true, false, &mut dest),
+            Received::default()
+        );
+        assert!(!m.is_busy());
     }
 
     #[test]

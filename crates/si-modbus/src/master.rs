@@ -17,6 +17,7 @@
 //! the last character received, and other stations on an RS-485 line still see two frames.
 
 use crate::config::{FrameEnd, MasterConfig, Mode};
+use crate::fb::FbJobs;
 use crate::frame::{self, fc, Adu, Request, Response, BROADCAST};
 use crate::rx::{Counters, Expect, Fault, Received, Receiver};
 use crate::status;
@@ -144,6 +145,9 @@ pub struct Master {
     out: VecDeque<Output<MasterEvent>>,
     /// Frames out, with automatic V.24 operation (§2.2) around each if configured.
     tx: Transmitter,
+    /// The jobs S_SEND started and the response S_RCV takes (the [`JobPort`](si_core::JobPort)
+    /// impl in [`crate::fb`]).
+    pub(crate) fb: FbJobs,
 }
 
 impl Master {
@@ -158,6 +162,7 @@ impl Master {
             state: State::Idle,
             job: None,
             out,
+            fb: FbJobs::default(),
         })
     }
 
@@ -283,6 +288,7 @@ impl Master {
     fn finish(&mut self, event: MasterEvent) {
         self.job = None;
         self.state = State::Idle;
+        self.fb.finished(&event);
         self.out.push_back(Output::Event(event));
     }
 

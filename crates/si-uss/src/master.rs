@@ -50,9 +50,9 @@ use serde::{Deserialize, Serialize};
 use si_core::{Duration, Engine, Instant, LineError, Output, Status};
 use std::collections::VecDeque;
 
-/// Identifies a job (parameter, broadcast, mirror) in its completion event.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-pub struct JobId(pub u64);
+/// The one job id of si-core; it identifies a job (parameter, broadcast, mirror) in its
+/// completion event.
+pub use si_core::JobId;
 
 /// Comm status word bits (et200s-si-modbus-uss.md §6.7).
 pub mod comm_status {
