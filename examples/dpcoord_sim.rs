@@ -35,7 +35,10 @@ impl Program {
 
     fn cycle<P: FramePort>(&mut self, port: &mut P, now: Instant) {
         if !self.sent {
-            let d = self.channel.send(port, now, true, false, self.message);
+            let d = self
+                .channel
+                .s_send
+                .call(port, now, true, false, self.message);
             if d.done || d.error {
                 self.sent = true;
                 println!(
@@ -44,7 +47,10 @@ impl Program {
                 );
             }
         }
-        let r = self.channel.receive(port, now, true, false, &mut self.db);
+        let r = self
+            .channel
+            .s_rcv
+            .call(port, now, true, false, &mut self.db);
         if r.ndr {
             let text = String::from_utf8_lossy(&self.db[..r.len]);
             println!("{now} {}: S_RCV NDR LEN={} {text:?}", self.name, r.len);

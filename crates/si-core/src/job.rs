@@ -8,7 +8,7 @@
 //! written once, in [`crate::fb`], generic over it, so one user program drives an engine on the
 //! host's own port or a module through the DP window (see [`Channel`]).
 
-use crate::fb::{Received, SRcv, SSend};
+use crate::fb::{SRcv, SSend};
 use crate::{Instant, Status};
 use bytes::Bytes;
 use core::fmt;
@@ -129,12 +129,12 @@ impl<P: JobPort<Job: From<Bytes>>> FramePort for P {}
 ///
 /// /// Forwards every received frame back to the partner.
 /// fn echo<P: FramePort>(ch: &mut Channel, port: &mut P, now: Instant, buf: &mut [u8; 256], pending: &mut Option<usize>) {
-///     let r = ch.receive(port, now, true, false, buf);
+///     let r = ch.s_rcv.call(port, now, true, false, buf);
 ///     if r.ndr {
 ///         *pending = Some(r.len);
 ///     }
 ///     if let Some(len) = *pending {
-///         let d = ch.send(port, now, true, false, &buf[..len]);
+///         let d = ch.s_send.call(port, now, true, false, &buf[..len]);
 ///         if d.done || d.error {
 ///             *pending = None;
 ///         }
@@ -147,32 +147,6 @@ pub struct Channel {
     pub s_send: SSend,
     /// The S_RCV instance.
     pub s_rcv: SRcv,
-}
-
-impl Channel {
-    /// One call of S_SEND ([`SSend::call`]).
-    pub fn send<P: FramePort>(
-        &mut self,
-        port: &mut P,
-        now: Instant,
-        req: bool,
-        r: bool,
-        data: &[u8],
-    ) -> crate::fb::Done {
-        self.s_send.call(port, now, req, r, data)
-    }
-
-    /// One call of S_RCV ([`SRcv::call`]).
-    pub fn receive<P: JobPort>(
-        &mut self,
-        port: &mut P,
-        now: Instant,
-        en_r: bool,
-        r: bool,
-        dest: &mut [u8],
-    ) -> Received {
-        self.s_rcv.call(port, now, en_r, r, dest)
-    }
 }
 
 /// The job bookkeeping of an engine that runs one job at a time: it hands out the ids and keeps

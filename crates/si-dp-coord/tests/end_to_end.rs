@@ -354,7 +354,7 @@ impl UserProgram {
 
     fn cycle<P: FramePort>(&mut self, port: &mut P, now: Instant, data: Option<&[u8]>) {
         if let Some(data) = data.filter(|_| !self.sent) {
-            let d = self.channel.send(port, now, true, false, data);
+            let d = self.channel.s_send.call(port, now, true, false, data);
             if d.done || d.error {
                 self.sent = true;
                 self.log.push(format!(
@@ -365,7 +365,10 @@ impl UserProgram {
                 ));
             }
         }
-        let r = self.channel.receive(port, now, true, false, &mut self.dest);
+        let r = self
+            .channel
+            .s_rcv
+            .call(port, now, true, false, &mut self.dest);
         if r.ndr || r.error {
             self.log.push(format!(
                 "rcv ndr={} error={} {:04X} {:02X?}",

@@ -667,21 +667,29 @@ mod tests {
         while !matches!(m.poll_output(), Output::Wait(_)) {}
     }
 
+    /// The request leaves the line, then the 2 s response time runs out (no slave answers).
+    fn time_out(m: &mut Master) {
+        m.handle_timeout(Instant::from_micros(10_000));
+        drain(m);
+        m.handle_timeout(Instant::from_micros(2_010_000));
+        drain(m);
+    }
+
+    /// A master, S_SEND and S_RCV, with S_SEND's first call (REQ edge) for `job` made.
+    fn started(job: &[u8]) -> (Master, SSend, SRcv) {
+        let mut m = Master::new(MasterConfig::default()).unwrap();
+        let (mut s_send, s_rcv) = (SSend::default(), SRcv::default());
+        let d = s_send.call(&mut m, Instant::ZERO, true, false, job);
+        assert_eq!(d, Done::default());
+        drain(&mut m);
+        (m, s_send, s_rcv)
+    }
+
     #[test]
     fn s_send_and_s_rcv_pulse_once_per_job() {
-        let mut m = Master::new(MasterConfig::default()).unwrap();
-        let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
         let job = hex("01 03 00 00 00 01");
-        assert_eq!(
-            s_send.call(&mut m, Instant::ZERO, true, false, &job),
-            Done::default()
-        );
-        drain(&mut m);
-        // The request leaves the line, then the 2 s response time runs out.
-        m.handle_timeout(Instant::from_micros(10_000));
-        drain(&mut m);
-        m.handle_timeout(Instant::from_micros(2_010_000));
-        drain(&mut m);
+        let (mut m, mut s_send, mut s_rcv) = started(&job);
+        time_out(&mut m);
         let out = s_send.call(&mut m, Instant::ZERO, true, false, &job);
         assert!(out.error && !out.done);
         assert_eq!(out.status, status::RESPONSE_TIMEOUT);
@@ -710,11 +718,8 @@ mod tests {
 
     #[test]
     fn s_rcv_gets_the_response_in_the_4_4_layout_with_done() {
-        let mut m = Master::new(MasterConfig::default()).unwrap();
-        let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
         let job = hex("05 03 00 40 00 02");
-        s_send.call(&mut m, Instant::ZERO, true, false, &job);
-        drain(&mut m);
+        let (mut m, mut s_send, mut s_rcv) = started(&job);
         m.handle_tx_done(Instant::from_micros(10_000));
         drain(&mut m);
         let mut resp = hex("05 03 04 21 23 25 27");
@@ -748,13 +753,11 @@ mod tests {
         let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
         let job = hex("01 03 00 00 00 01");
         s_send.call(&mut m, Instant::ZERO, true, false, &job);
+        // R before the outputs were drained: the request is already queued on the line.
         let d = s_send.call(&mut m, Instant::ZERO, true, true, &job);
         assert_eq!((d.error, d.status), (true, common::ABORTED_BY_RESET));
         drain(&mut m);
-        m.handle_timeout(Instant::from_micros(10_000));
-        drain(&mut m);
-        m.handle_timeout(Instant::from_micros(2_010_000));
-        drain(&mut m);
+        time_out(&mut m);
         let mut dest = [0u8; 10];
         assert_eq!(
             s_rcv.call(&mut m, Instant::ZERO, true, false, &mut dest),
