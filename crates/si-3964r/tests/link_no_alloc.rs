@@ -6,6 +6,7 @@
 //! Runs without libtest's harness, whose own threads would allocate while we count.
 
 use bytes::Bytes;
+use si_3964r::fb::{SRcv, SSend};
 use si_3964r::{Config, Link, Priority};
 use si_core::sim::Pair;
 use si_core::{Duration, SerialSettings};
@@ -18,6 +19,8 @@ static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
 fn main() {
     steady_state_block_exchange_does_not_allocate();
     println!("link_no_alloc: 1000 blocks each way allocate nothing: ok");
+    s_send_and_s_rcv_jobs_do_not_allocate();
+    println!("link_no_alloc: 1000 S_SEND / S_RCV jobs allocate nothing: ok");
 }
 
 fn steady_state_block_exchange_does_not_allocate() {
@@ -65,4 +68,44 @@ fn steady_state_block_exchange_does_not_allocate() {
     assert_eq!(after.0.blocks_received - before.0.blocks_received, 1_000);
     assert_eq!(after.0.repetitions, before.0.repetitions);
     assert_eq!(after.1.repetitions, before.1.repetitions);
+}
+
+/// si-core's S_SEND copies the source area into a buffer it keeps and S_RCV copies the block
+/// into the destination area, so a job cycle through the FBs allocates nothing either.
+fn s_send_and_s_rcv_jobs_do_not_allocate() {
+    let settings = SerialSettings::default();
+    let high = Config {
+        priority: Priority::High,
+        ..Config::default()
+    };
+    let a = Link::new(high, settings).unwrap();
+    let b = Link::new(Config::default(), settings).unwrap();
+    let mut pair = Pair::new(a, b);
+    let payload: Vec<u8> = (0..200u8).map(|i| i.wrapping_mul(7)).collect();
+    let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
+    let mut db = [0u8; 256];
+    let mut job = |pair: &mut Pair<Link, Link>| {
+        let now = pair.now;
+        let started = s_send.call(&mut pair.a, now, true, false, &payload);
+        assert!(!started.done && !started.error, "{started:?}");
+        pair.run_until(now + Duration::from_millis(500));
+        let now = pair.now;
+        let done = s_send.call(&mut pair.a, now, false, false, &payload);
+        assert!(done.done, "{done:?}");
+        let r = s_rcv.call(&mut pair.b, now, true, false, &mut db);
+        assert_eq!((r.ndr, r.len), (true, 200));
+    };
+    for _ in 0..20 {
+        job(&mut pair); // warm up: the send buffer reaches its working size
+    }
+    let region = Region::new(GLOBAL);
+    for _ in 0..1_000 {
+        job(&mut pair);
+    }
+    let stats = region.change();
+    assert_eq!(
+        (stats.allocations, stats.reallocations),
+        (0, 0),
+        "allocations in 1000 S_SEND / S_RCV jobs: {stats:?}"
+    );
 }
