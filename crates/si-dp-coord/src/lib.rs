@@ -27,8 +27,10 @@
 //! * [`sim`]: a host and a module joined by a seeded, lagging, fault-injecting DP exchange.
 //! * [`timing`]: the manual's processing-time estimate and the PPI token rotation formula.
 //! * [`status`]: the STATUS words the window carries.
-//! * [`diag`], [`ident`], [`params`], [`led`]: the module's PROFIBUS slave diagnosis, its
-//!   identification records I&M0/I&M1, its parameter sets per driver, and its LEDs.
+//!
+//! What describes the module itself rather than the window (its parameter sets per driver, its
+//! PROFIBUS slave diagnosis, its identification records I&M0/I&M1 and its LEDs) lives in the
+//! `si-module` crate, which builds on this one.
 //!
 //! # Readings chosen where the manual is unclear
 //!
@@ -77,16 +79,12 @@
 pub mod channel;
 pub mod config;
 pub mod coord;
-pub mod diag;
 pub mod engines;
 pub mod fb;
 pub mod frame;
 pub mod host;
-pub mod ident;
-pub mod led;
 pub mod line;
 pub mod module;
-pub mod params;
 pub mod sim;
 pub mod status;
 pub mod timing;

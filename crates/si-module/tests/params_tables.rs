@@ -6,7 +6,7 @@
 
 use si_dp_coord::config::FlowControl as WindowFlow;
 use si_dp_coord::frame::WindowSize;
-use si_dp_coord::params::{DriverParams, ReceiveLine};
+use si_module::params::{DriverParams, ReceiveLine};
 
 /// `(driver, extra lines, key, at low end, at high end, below, above)`.
 type Limit = (
@@ -461,7 +461,7 @@ fn the_same_parameters_configure_the_simulated_module() {
 mod arbitrary_files {
     use proptest::prelude::*;
     use serde_json::{json, Map, Value};
-    use si_dp_coord::params::DriverParams;
+    use si_module::params::DriverParams;
 
     const KEYS: &[&str] = &[
         "baud",
