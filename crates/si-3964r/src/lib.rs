@@ -44,6 +44,7 @@ pub mod config;
 pub mod fb;
 pub mod frame;
 pub mod link;
+pub mod monitor;
 pub mod status;
 #[cfg(feature = "tokio")]
 pub mod tokio;

@@ -8,6 +8,7 @@
 //! - [`Engine`] and [`Output`]: the Sans-IO contract (see [`sansio`] for the drain rule);
 //! - [`fb`]: edge detection and one-call pulses for the FB equivalents;
 //! - [`sim`]: a deterministic discrete-event line simulator with seeded faults;
+//! - [`monitor`]: what a passive listener sees and reports, shared by the protocols' monitors;
 //! - [`tracefile`]: the JSON-lines trace file the simulator, the driver and `si monitor` share;
 //! - `driver` (feature `tokio`): runs any engine over `AsyncRead + AsyncWrite`.
 #![cfg_attr(docsrs, feature(doc_cfg))]
@@ -15,6 +16,7 @@
 pub mod fb;
 pub mod hex;
 pub mod memory;
+pub mod monitor;
 pub mod sansio;
 pub mod serial;
 pub mod sim;

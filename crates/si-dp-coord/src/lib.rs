@@ -85,6 +85,7 @@ pub mod frame;
 pub mod host;
 pub mod line;
 pub mod module;
+pub mod monitor;
 pub mod sim;
 pub mod status;
 pub mod timing;

@@ -48,6 +48,7 @@ pub mod config;
 pub mod fb;
 pub mod frame;
 pub mod master;
+pub mod monitor;
 pub mod rx;
 pub mod simatic;
 pub mod slave;

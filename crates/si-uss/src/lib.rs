@@ -40,6 +40,7 @@ pub mod drive;
 pub mod fb;
 pub mod frame;
 pub mod master;
+pub mod monitor;
 mod rx;
 pub mod status;
 #[cfg(feature = "tokio")]

@@ -204,7 +204,7 @@ fn save(sink: &Sink, trace: &Trace) -> Result<(), String> {
 
 /// Save a trace the running scenario does not print (it prints its own reading) when `si sim`
 /// was asked to `--record` or draw (`--svg`) it; `protocol` goes into the trace header and
-/// picks the monitor's decoder (`dp-coord`: DP windows, [`crate::cmd::monitor::window`]).
+/// picks the monitor's decoder (`dp-coord`: DP windows, `si_dp_coord::monitor`).
 pub fn record_trace(trace: &Trace, protocol: &'static str) {
     SINK.with(|s| {
         if let Some(sink) = s.borrow_mut().as_mut() {

@@ -1,5 +1,5 @@
 //! Passive Modbus RTU decoding (et200s-si-modbus-uss.md §3.5–§3.6, §4): frames end at the
-//! end-of-frame gap tZVZ_TAB of Table 3-11 (`si_modbus::config::gap_table`), the CRC is
+//! end-of-frame gap tZVZ_TAB of Table 3-11 (`crate::config::gap_table`), the CRC is
 //! checked, requests and responses are decoded with si-modbus' own decoders, exception
 //! responses are named, and a request without a response within the response timeout is
 //! flagged.
@@ -12,11 +12,34 @@
 //! it comes from the station that sent the waiting request (that request then went unanswered);
 //! otherwise it is the **response**. This needs no knowledge of who is master, so it also works
 //! on a one-sided live capture of a bus.
+//!
+//! The timers are the master's own ([`Params::from_config`]): the end-of-frame gap
+//! [`crate::config::LineConfig::gap`] (tZVZ_TAB × fMUL) and the response timeout
+//! [`crate::config::MasterConfig::response_timeout`].
+//!
+//! ```
+//! use si_modbus::config::MasterConfig;
+//! use si_modbus::monitor::{Monitor, Params};
+//! use si_core::monitor::{decode_all, Decoder, LineChar};
+//! use si_core::Instant;
+//!
+//! // FC03 to slave 1, address 0, one register; nobody answers within the 2 s response time.
+//! let request = [0x01, 0x03, 0x00, 0x00, 0x00, 0x01, 0x84, 0x0A];
+//! let chars: Vec<LineChar> = request
+//!     .iter()
+//!     .enumerate()
+//!     .map(|(k, &b)| LineChar { at: Instant::from_micros(1_146 * (k as u64 + 1)), from: Some(0), to: Some(1), item: Ok(b), exact: true })
+//!     .collect();
+//! let mut monitor = Monitor::new(Params::from_config(&MasterConfig::default()), false);
+//! let records = decode_all(&mut monitor, &chars, Instant::from_micros(3_000_000));
+//! assert_eq!(records[0].label, "FC03 req → 1");
+//! assert_eq!(monitor.counters().0["no response"], 1);
+//! ```
 
-use super::framer::{Frame, Framer};
-use super::model::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
+use crate::frame::{crc_ok, decode_request, decode_response, Response};
+use si_core::monitor::framer::{Frame, Framer};
+use si_core::monitor::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
 use si_core::{Duration, Instant, SerialSettings};
-use si_modbus::frame::{crc_ok, decode_request, decode_response, Response};
 
 /// What the listener judges against.
 #[derive(Debug, Clone, Copy)]
@@ -29,6 +52,18 @@ pub struct Params {
     pub timeout: Duration,
 }
 
+impl Params {
+    /// The character format, end-of-frame gap and response timeout a master with `config`
+    /// runs with (§3.5 Table 3-11, §4.6 Table 3-17).
+    pub fn from_config(config: &crate::config::MasterConfig) -> Params {
+        Params {
+            settings: config.line.settings,
+            end_gap: config.line.gap(),
+            timeout: config.response_timeout(),
+        }
+    }
+}
+
 struct Pending {
     from: Option<usize>,
     unit: u8,
@@ -37,7 +72,7 @@ struct Pending {
 }
 
 /// The Modbus RTU listener.
-pub struct Modbus {
+pub struct Monitor {
     p: Params,
     framer: Framer,
     pending: Option<Pending>,
@@ -48,7 +83,7 @@ pub struct Modbus {
     counters: Counters,
 }
 
-impl Modbus {
+impl Monitor {
     /// A listener; `one_sided` when every character comes from the same (unknown) sender.
     pub fn new(p: Params, one_sided: bool) -> Self {
         let mut counters = Counters::default();
@@ -61,10 +96,10 @@ impl Modbus {
             "broadcasts",
             "line errors",
         ]);
-        Modbus {
+        Monitor {
             p,
             // One byte over the longest ADU, so an endless stream shows as frames too long.
-            framer: Framer::new(p.end_gap, si_modbus::frame::MAX_ADU + 1),
+            framer: Framer::new(p.end_gap, crate::frame::MAX_ADU + 1),
             pending: None,
             late: None,
             one_sided,
@@ -198,7 +233,7 @@ impl Modbus {
                 Ok((unit, req)) => {
                     r.label = format!("FC{:02} req → {unit}", req.function());
                     r.text = format!("to slave {unit}: {req:?}");
-                    if unit == si_modbus::frame::BROADCAST {
+                    if unit == crate::frame::BROADCAST {
                         self.counters.bump("broadcasts");
                         r.label = format!("FC{:02} broadcast", req.function());
                     } else {
@@ -236,7 +271,7 @@ impl Modbus {
     }
 }
 
-impl Decoder for Modbus {
+impl Decoder for Monitor {
     fn push(&mut self, c: &LineChar, out: &mut Vec<Record>) {
         if let Some(f) = self.framer.idle(c.at) {
             self.frame(f, out);
@@ -285,17 +320,12 @@ mod tests {
     }
 
     fn run(chars: &[LineChar]) -> (Vec<Record>, Counters) {
-        let settings = SerialSettings::default();
-        let mut d = Modbus::new(
-            Params {
-                settings,
-                end_gap: si_modbus::config::gap_table(settings.baud()),
-                timeout: Duration::from_millis(2000),
-            },
+        let mut d = Monitor::new(
+            Params::from_config(&crate::config::MasterConfig::default()),
             false,
         );
         let end = chars.last().map_or(Instant::ZERO, |c| c.at) + Duration::from_millis(10);
-        let records = super::super::decode_all(&mut d, chars, end);
+        let records = si_core::monitor::decode_all(&mut d, chars, end);
         (records, d.counters().clone())
     }
 
@@ -316,7 +346,7 @@ mod tests {
     fn et200s_modbus_4_4_a_response_after_the_timeout_is_late_not_a_request() {
         // FC03 response, slave 1, one register 0x002A (CRC computed by si-modbus).
         let mut resp = vec![0x01, 0x03, 0x02, 0x00, 0x2A];
-        let crc = si_modbus::frame::crc16(&resp);
+        let crc = crate::frame::crc16(&resp);
         resp.extend_from_slice(&crc.to_le_bytes());
         let mut chars = frame(0, 1_146, 1_146, &REQUEST);
         let request_end = 8 * 1_146;
