@@ -25,6 +25,8 @@
 //! * [`engines`]: si-3964r's and si-ascii's links as that serial side, so a simulated module runs
 //!   3964(R) or ASCII on its line.
 //! * [`sim`]: a host and a module joined by a seeded, lagging, fault-injecting DP exchange.
+//! * [`monitor`]: reads a recorded trace of DP windows window by window, coordination bytes
+//!   and what the data bytes mean for them.
 //! * [`timing`]: the manual's processing-time estimate and the PPI token rotation formula.
 //! * [`status`]: the STATUS words the window carries.
 //!

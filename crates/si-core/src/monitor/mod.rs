@@ -9,7 +9,7 @@
 //! monitor implements [`Decoder`]; each judges the line with its crate's own timing functions,
 //! so a monitor and the engine it watches apply one rule.
 //!
-//! * [`line`]: from a recorded trace ([`crate::tracefile`]) to the characters on the line, and
+//! * [`mod@line`]: from a recorded trace ([`crate::tracefile`]) to the characters on the line, and
 //!   [`line::pace`] for characters a real port delivered in chunks;
 //! * [`framer`]: cutting characters into frames by sender, silence and length.
 //!
