@@ -8,8 +8,9 @@
 //!   the checked set, or every wrong value at once ([`si_module::params`]); `si params default
 //!   DRIVER` prints a file with the manual's defaults to start from.
 
-use crate::cmd::frame::parse_hex;
-use crate::{CliError, Output};
+use crate::error::CliError;
+use crate::hex::parse_hex;
+use crate::output::Output;
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 use si_core::hex;

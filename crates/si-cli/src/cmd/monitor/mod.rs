@@ -14,7 +14,8 @@
 //! at the end; `--svg` draws the sequence diagram ([`crate::svg`]).
 
 use crate::conn::Connection;
-use crate::{CliError, Output};
+use crate::error::CliError;
+use crate::output::Output;
 use clap::{Args, ValueEnum};
 use si_core::monitor::{decode_all, line, Analysis, Decoder, Kind, LineChar, Record, Severity};
 use si_core::tracefile::{self, TraceFile};
