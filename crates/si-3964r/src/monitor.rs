@@ -162,6 +162,31 @@ impl Monitor {
         }
     }
 
+    /// Flag the DLE record `r` if it came later than QVZ after `since` (§5.8).
+    fn judge_qvz(&self, r: &mut Record, since: Instant) {
+        let wait = r.start.saturating_since(since);
+        if wait > self.p.qvz {
+            r.flags.push(Flag::error(format!(
+                "DLE after {} > QVZ {}",
+                ms(wait),
+                ms(self.p.qvz)
+            )));
+        }
+    }
+
+    /// `by` starts its block, released by the partner's DLE `c`.
+    fn begin_block(&mut self, by: Option<usize>, c: &LineChar) {
+        self.block.reset();
+        self.state = State::Block {
+            by,
+            to: c.from,
+            start: c.at,
+            last: c.clone(),
+            bytes: Vec::new(),
+            flags: Vec::new(),
+        };
+    }
+
     fn control(&self, c: &LineChar, label: &str, text: &str) -> Record {
         let mut r = Record::new(Kind::Control, c.at, c.at, c.from).labelled(label, text);
         r.to = c.to;
@@ -414,24 +439,9 @@ impl Decoder for Monitor {
             (State::Connecting { by, at }, DLE) if *by != c.from => {
                 let (by, at) = (*by, *at);
                 let mut r = self.control(c, "DLE", "ready to receive");
-                let wait = c.at.saturating_since(at);
-                if wait > self.p.qvz {
-                    r.flags.push(Flag::error(format!(
-                        "DLE after {} > QVZ {}",
-                        ms(wait),
-                        ms(self.p.qvz)
-                    )));
-                }
+                self.judge_qvz(&mut r, at);
                 out.push(r);
-                self.block.reset();
-                self.state = State::Block {
-                    by,
-                    to: c.from,
-                    start: c.at,
-                    last: c.clone(),
-                    bytes: Vec::new(),
-                    flags: Vec::new(),
-                };
+                self.begin_block(by, c);
             }
             (State::Conflict { a, b, .. }, DLE) => {
                 // The station answering DLE yields (low priority); the other one sends.
@@ -439,27 +449,12 @@ impl Decoder for Monitor {
                 let mut r = self.control(c, "DLE", "yields: ready to receive");
                 r.flags.push(Flag::note("conflict resolved by priority"));
                 out.push(r);
-                self.block.reset();
-                self.state = State::Block {
-                    by: sender,
-                    to: c.from,
-                    start: c.at,
-                    last: c.clone(),
-                    bytes: Vec::new(),
-                    flags: Vec::new(),
-                };
+                self.begin_block(sender, c);
             }
             (State::Ack { by, at }, DLE) if *by != c.from => {
                 let (by, at) = (*by, *at);
                 let mut r = self.control(c, "DLE", "block acknowledged");
-                let wait = c.at.saturating_since(at);
-                if wait > self.p.qvz {
-                    r.flags.push(Flag::error(format!(
-                        "DLE after {} > QVZ {}",
-                        ms(wait),
-                        ms(self.p.qvz)
-                    )));
-                }
+                self.judge_qvz(&mut r, at);
                 out.push(r);
                 let _ = by;
                 self.counters.bump("blocks ok");

@@ -186,16 +186,8 @@ impl Monitor {
         let c = window.coord();
         let byte = window.as_bytes()[0];
         let word = window.word();
-        let job = match c.job {
-            JobCode::Idle => "idle",
-            JobCode::Send => "send",
-            JobCode::Receive => "receive",
-            JobCode::ReadV24 => "read V.24",
-            JobCode::WriteV24 => "write V.24",
-            JobCode::Parameters => "parameters",
-            JobCode::Reserved => "reserved",
-            JobCode::EndOfJob => "end of job",
-        };
+        // The job's name as coord.rs writes it (Table 2-19).
+        let job = c.job;
         if c.error {
             return format!("{byte:02X}H error, last {}", c.exec);
         }
