@@ -17,6 +17,7 @@ pub mod fb;
 pub mod hex;
 pub mod memory;
 pub mod monitor;
+pub mod range;
 pub mod sansio;
 pub mod serial;
 pub mod sim;
@@ -27,6 +28,7 @@ pub mod tracefile;
 #[cfg(feature = "tokio")]
 pub mod driver;
 
+pub use range::RangeError;
 pub use sansio::{Engine, LineError, ModemSignals, Output, SignalUpdate};
 pub use serial::{Parity, SerialSettings, SettingsError, BAUD_RATES};
 pub use status::{Status, StatusInfo};

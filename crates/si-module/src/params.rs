@@ -83,8 +83,8 @@
 //! let lines: Vec<String> = e.iter().map(|e| e.to_string()).collect();
 //! assert_eq!(lines, [
 //!     "baud = 9601 is not one of: 110, 300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 76800, 115200",
-//!     "character delay time (ZVZ) must be 20 … 655350 ms, got 5",
-//!     "connection attempts must be 1 … 255, got 0",
+//!     "character delay time (ZVZ) = 5 ms is out of range: 20 … 655350 ms",
+//!     "connection attempts = 0 is out of range: 1 … 255",
 //! ]);
 //! ```
 //!

@@ -425,7 +425,7 @@ wait_for_xon_ms = 500
         "{e}"
     );
     assert!(
-        e.contains("connection attempts must be 1 … 255, got 0"),
+        e.contains("connection attempts = 0 is out of range: 1 … 255"),
         "{e}"
     );
 }
