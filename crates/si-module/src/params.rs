@@ -607,9 +607,8 @@ fn ascii_errors(errors: Vec<si_ascii::config::ConfigError>) -> Vec<ParamError> {
     use si_ascii::config::ConfigError as E;
     crate_errors(
         |e: &E| match e {
-            E::OutOfRange { parameter, .. } | E::NotAllowed { parameter, .. } => {
-                (*parameter).into()
-            }
+            E::OutOfRange(range) => range.parameter.into(),
+            E::NotAllowed { parameter, .. } => (*parameter).into(),
             E::Settings(_) => "character format".into(),
         },
         errors,

@@ -360,7 +360,7 @@ fn three_wrong_values_and_an_unknown_key_in_one_run() {
     assert_eq!(lines[2], "colour is not a parameter of the ascii driver");
     assert_eq!(
         lines[3],
-        "character delay time 70000 ms out of range: 4 … 65535 ms at 9600 bit/s"
+        "character delay time = 70000 ms is out of range: 4 … 65535 ms at 9600 bit/s"
     );
     let e = DriverParams::from_toml_str("driver = \"ascii\"\nend_char_1 = 13").unwrap_err();
     assert_eq!(
