@@ -621,9 +621,15 @@ mod tests {
         let all: Vec<String> = c.validate_all().iter().map(|e| e.to_string()).collect();
         assert_eq!(all.len(), 4, "{all:?}");
         assert!(all[0].starts_with("character delay time = 3 ms"), "{all:?}");
-        assert!(all[1].starts_with("length of received frame = 0"), "{all:?}");
+        assert!(
+            all[1].starts_with("length of received frame = 0"),
+            "{all:?}"
+        );
         assert!(all[2].contains("not possible on RS-485"), "{all:?}");
-        assert!(all[3].starts_with("data output wait time = 5 ms"), "{all:?}");
+        assert!(
+            all[3].starts_with("data output wait time = 5 ms"),
+            "{all:?}"
+        );
         assert_eq!(c.validate().unwrap_err().to_string(), all[0]);
     }
 

@@ -619,7 +619,7 @@ fn uss_errors(errors: Vec<si_uss::config::ConfigError>) -> Vec<ParamError> {
     use si_uss::config::ConfigError as E;
     crate_errors(
         |e: &E| match e {
-            E::OutOfRange { name, .. } => (*name).into(),
+            E::OutOfRange(range) => range.parameter.into(),
             E::ConflictingStructure { .. } => "polling_list".into(),
         },
         errors,
