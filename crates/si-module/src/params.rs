@@ -1062,7 +1062,7 @@ impl DriverParams {
                     ));
                 }
                 errors.extend(crate_errors(
-                    |e: &si_modbus::config::ConfigError| e.parameter.into(),
+                    |e: &si_modbus::config::ConfigError| e.range.parameter.into(),
                     param_errors,
                 ));
             }
