@@ -6,6 +6,7 @@
 //! - [`SerialSettings`]: the manuals' character formats and the character time derived from them;
 //! - [`Status`]: the 16-bit STATUS word of the S7 function blocks, with the manual's text;
 //! - [`Engine`] and [`Output`]: the Sans-IO contract (see [`sansio`] for the drain rule);
+//! - [`RangeError`]: a configuration value outside the manual's range, the same for every crate;
 //! - [`fb`]: edge detection and one-call pulses for the FB equivalents;
 //! - [`sim`]: a deterministic discrete-event line simulator with seeded faults;
 //! - [`monitor`]: what a passive listener sees and reports, shared by the protocols' monitors;
