@@ -46,9 +46,12 @@ fn every_config_names_parameter_range_unit_and_value_the_same_way() {
     };
     reads_alike(&e, "transmit chunk", "0");
 
-    let mut master = modbus::config::MasterConfig::default();
-    master.response_timeout_ms = 49;
-    let e = master.validate().unwrap_err();
+    let e = modbus::config::MasterConfig {
+        response_timeout_ms: 49,
+        ..Default::default()
+    }
+    .validate()
+    .unwrap_err();
     reads_alike(&e.range, "response time", "49");
     assert_eq!(e.status.code(), 0x0E23, "and the module's STATUS beside it");
 
