@@ -37,6 +37,7 @@
 //! ```
 
 use crate::frame::{crc_ok, decode_request, decode_response, Response};
+use si_core::monitor::exchange::{Exchange, Request};
 use si_core::monitor::framer::{Frame, Framer};
 use si_core::monitor::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
 use si_core::{Duration, Instant, SerialSettings};
@@ -64,22 +65,19 @@ impl Params {
     }
 }
 
-struct Pending {
-    from: Option<usize>,
+/// What a request asked: the slave and the function code.
+#[derive(Debug, Clone, Copy)]
+struct Asked {
     unit: u8,
     function: u8,
-    end: Instant,
 }
 
 /// The Modbus RTU listener.
 pub struct Monitor {
     p: Params,
     framer: Framer,
-    pending: Option<Pending>,
-    /// The request whose response timeout ran out: a response to it from another station
-    /// after that is late, not a new request.
-    late: Option<Pending>,
-    one_sided: bool,
+    /// Requests and responses (`si_core::monitor::exchange`'s reading, the one above).
+    exchange: Exchange<Asked>,
     counters: Counters,
 }
 
@@ -100,29 +98,28 @@ impl Monitor {
             p,
             // One byte over the longest ADU, so an endless stream shows as frames too long.
             framer: Framer::new(p.end_gap, crate::frame::MAX_ADU + 1),
-            pending: None,
-            late: None,
-            one_sided,
+            exchange: Exchange::new(one_sided),
             counters,
         }
     }
 
     fn overdue(&mut self, now: Instant, out: &mut Vec<Record>) {
-        if let Some(pd) = &self.pending {
-            if now.saturating_since(pd.end) >= self.p.timeout {
-                self.counters.bump("no response");
-                out.push(Record::note(
-                    pd.end + self.p.timeout,
-                    pd.from,
-                    Flag::error(format!(
-                        "no response from slave {} to FC{:02} within {} (STATUS 16#0E54)",
-                        pd.unit,
-                        pd.function,
-                        ms(self.p.timeout)
-                    )),
-                ));
-                self.late = self.pending.take();
-            }
+        let timeout = self.p.timeout;
+        if let Some(pd) = self
+            .exchange
+            .expire(|pd| now.saturating_since(pd.end) >= timeout)
+        {
+            self.counters.bump("no response");
+            out.push(Record::note(
+                pd.end + timeout,
+                pd.from,
+                Flag::error(format!(
+                    "no response from slave {} to FC{:02} within {} (STATUS 16#0E54)",
+                    pd.what.unit,
+                    pd.what.function,
+                    ms(timeout)
+                )),
+            ));
         }
     }
 
@@ -143,10 +140,7 @@ impl Monitor {
                 ms(f.longest_gap)
             )));
         }
-        let is_response = match &self.pending {
-            Some(pd) => self.one_sided || pd.from != f.from,
-            None => false,
-        };
+        let is_response = self.exchange.is_answer(f.from);
         let adu = &f.bytes;
         if !crc_ok(adu) {
             self.counters.bump("bus communication errors (CRC)");
@@ -158,24 +152,23 @@ impl Monitor {
                 "CRC error: the slave ignores the frame (STATUS 16#0836)"
             }));
             if is_response {
-                self.pending = None;
+                self.exchange.take();
             }
             out.push(r);
             return;
         }
-        let late = match (&self.late, decode_response(adu)) {
-            (Some(pd), Ok((unit, _))) if !is_response => {
-                (self.one_sided || pd.from != f.from) && unit == pd.unit
-            }
-            _ => false,
+        let late = if is_response {
+            None
+        } else {
+            let unit = decode_response(adu).ok().map(|(unit, _)| unit);
+            self.exchange
+                .late_answer(f.from, |asked| Some(asked.unit) == unit)
         };
-        if late {
+        if let Some(pd) = late {
             // Already counted under "no response" when the timeout ran out.
-            let pd = self.late.take();
-            let wait = pd.map_or(Duration::ZERO, |pd| {
-                f.start
-                    .saturating_since(pd.end + self.p.settings.char_time())
-            });
+            let wait = f
+                .start
+                .saturating_since(pd.end + self.p.settings.char_time());
             r.label = format!("late response {} B", adu.len());
             r.text = si_core::hex::format(adu);
             r.flags.push(Flag::error(format!(
@@ -186,11 +179,8 @@ impl Monitor {
             out.push(r);
             return;
         }
-        if !is_response {
-            self.late = None;
-        }
         if is_response {
-            let pd = self.pending.take();
+            let pd = self.exchange.take();
             match decode_response(adu) {
                 Ok((unit, resp)) => {
                     self.counters.bump("slave messages");
@@ -202,10 +192,10 @@ impl Monitor {
                         r.flags.push(Flag::error(code.to_string()));
                     }
                     if let Some(pd) = pd {
-                        if unit != pd.unit {
+                        if unit != pd.what.unit {
                             r.flags.push(Flag::error(format!(
                                 "answer from slave {unit} to a request for slave {}",
-                                pd.unit
+                                pd.what.unit
                             )));
                         }
                         let first_start = f
@@ -237,11 +227,13 @@ impl Monitor {
                         self.counters.bump("broadcasts");
                         r.label = format!("FC{:02} broadcast", req.function());
                     } else {
-                        self.pending = Some(Pending {
+                        self.exchange.wait_for(Request {
                             from: f.from,
-                            unit,
-                            function: req.function(),
                             end: f.end,
+                            what: Asked {
+                                unit,
+                                function: req.function(),
+                            },
                         });
                     }
                 }
@@ -257,14 +249,14 @@ impl Monitor {
 
     /// A new request while one waits: the old one went unanswered.
     fn overdue_unanswered(&mut self, at: Instant, out: &mut Vec<Record>) {
-        if let Some(pd) = self.pending.take() {
+        if let Some(pd) = self.exchange.take() {
             self.counters.bump("no response");
             out.push(Record::note(
                 at,
                 pd.from,
                 Flag::error(format!(
                     "slave {} did not answer FC{:02} before the next request",
-                    pd.unit, pd.function
+                    pd.what.unit, pd.what.function
                 )),
             ));
         }

@@ -46,6 +46,7 @@
 
 use crate::config::{residual_run_time, start_interval, RESPONSE_DELAY_MAX};
 use crate::frame::{decode, DecodeError, STX};
+use si_core::monitor::exchange::{Exchange, Request};
 use si_core::monitor::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
 use si_core::{Duration, Instant, LineError, SerialSettings};
 
@@ -61,21 +62,13 @@ struct Telegram {
     errors: Vec<LineError>,
 }
 
-struct Pending {
-    from: Option<usize>,
-    adr: u8,
-    end: Instant,
-}
-
 /// The USS listener.
 pub struct Monitor {
     settings: SerialSettings,
     cur: Option<Telegram>,
     last: Option<LineChar>,
-    pending: Option<Pending>,
-    /// The master telegram whose answer did not come in time: a telegram from the addressed
-    /// node after that is a late answer, not a new master telegram.
-    late: Option<Pending>,
+    /// Master telegrams (their ADR byte) and answers, `si_core::monitor::exchange`'s reading.
+    exchange: Exchange<u8>,
     one_sided: bool,
     counters: Counters,
 }
@@ -100,28 +93,28 @@ impl Monitor {
             settings,
             cur: None,
             last: None,
-            pending: None,
-            late: None,
+            exchange: Exchange::new(one_sided),
             one_sided,
             counters,
         }
     }
 
     fn overdue(&mut self, now: Instant, out: &mut Vec<Record>) {
-        if let Some(pd) = &self.pending {
-            if now.saturating_since(pd.end) > RESPONSE_DELAY + self.settings.chars_time(3) {
-                self.counters.bump("monitoring time (no answer)");
-                out.push(Record::note(
-                    pd.end + RESPONSE_DELAY,
-                    pd.from,
-                    Flag::error(format!(
-                        "node {} does not answer within {} (response delay)",
-                        pd.adr & 0x1F,
-                        ms(RESPONSE_DELAY)
-                    )),
-                ));
-                self.late = self.pending.take();
-            }
+        let limit = RESPONSE_DELAY + self.settings.chars_time(3);
+        if let Some(pd) = self
+            .exchange
+            .expire(|pd| now.saturating_since(pd.end) > limit)
+        {
+            self.counters.bump("monitoring time (no answer)");
+            out.push(Record::note(
+                pd.end + RESPONSE_DELAY,
+                pd.from,
+                Flag::error(format!(
+                    "node {} does not answer within {} (response delay)",
+                    pd.what & 0x1F,
+                    ms(RESPONSE_DELAY)
+                )),
+            ));
         }
         // A telegram that stopped short: end it when its residual run time has passed.
         if let Some(t) = &self.cur {
@@ -167,22 +160,17 @@ impl Monitor {
                 ms(self.residual(n))
             )));
         }
-        let is_response = match &self.pending {
-            Some(pd) => self.one_sided || pd.from != t.from,
-            None => false,
+        let is_response = self.exchange.is_answer(t.from);
+        let late = if is_response {
+            None
+        } else {
+            let node = decode(&t.bytes).ok().map(|tg| tg.adr.address());
+            self.exchange
+                .late_answer(t.from, |&adr| Some(adr & 0x1F) == node)
         };
-        let late = match (&self.late, decode(&t.bytes)) {
-            (Some(pd), Ok(tg)) if !is_response => {
-                (self.one_sided || pd.from != t.from) && tg.adr.address() == pd.adr & 0x1F
-            }
-            _ => false,
-        };
-        if late {
+        if let Some(pd) = late {
             // Already counted as "no answer" when the response delay ran out.
-            let pd = self.late.take();
-            let wait = pd.map_or(Duration::ZERO, |pd| {
-                t.start.saturating_since(pd.end + self.settings.char_time())
-            });
+            let wait = t.start.saturating_since(pd.end + self.settings.char_time());
             r.label = format!("late answer {} B", t.bytes.len());
             r.text = si_core::hex::format(&t.bytes);
             r.flags.push(Flag::error(format!(
@@ -194,9 +182,6 @@ impl Monitor {
             out.push(r);
             return;
         }
-        if !is_response {
-            self.late = None;
-        }
         match decode(&t.bytes) {
             Ok(tg) => {
                 let role = if is_response { "answer" } else { "to" };
@@ -207,13 +192,12 @@ impl Monitor {
                     si_core::hex::format(tg.net)
                 );
                 if is_response {
-                    let pd = self.pending.take();
-                    if let Some(pd) = pd {
-                        if tg.adr.address() != pd.adr & 0x1F {
+                    if let Some(pd) = self.exchange.take() {
+                        if tg.adr.address() != pd.what & 0x1F {
                             r.flags.push(Flag::error(format!(
                                 "answer from node {} to a telegram for node {}",
                                 tg.adr.address(),
-                                pd.adr & 0x1F
+                                pd.what & 0x1F
                             )));
                         }
                         let wait = t.start.saturating_since(pd.end + self.settings.char_time());
@@ -228,10 +212,10 @@ impl Monitor {
                 } else {
                     self.unanswered(t.start, out);
                     if !tg.adr.is_broadcast() {
-                        self.pending = Some(Pending {
+                        self.exchange.wait_for(Request {
                             from: t.from,
-                            adr: tg.adr.0,
                             end: t.end,
+                            what: tg.adr.0,
                         });
                     }
                 }
@@ -253,7 +237,7 @@ impl Monitor {
                 }
                 r.flags.push(Flag::error(e.to_string()));
                 if is_response {
-                    self.pending = None;
+                    self.exchange.take();
                 }
             }
         }
@@ -266,14 +250,14 @@ impl Monitor {
     }
 
     fn unanswered(&mut self, at: Instant, out: &mut Vec<Record>) {
-        if let Some(pd) = self.pending.take() {
+        if let Some(pd) = self.exchange.take() {
             self.counters.bump("monitoring time (no answer)");
             out.push(Record::note(
                 at,
                 pd.from,
                 Flag::error(format!(
                     "node {} did not answer before the next telegram",
-                    pd.adr & 0x1F
+                    pd.what & 0x1F
                 )),
             ));
         }

@@ -11,7 +11,8 @@
 //!
 //! * [`mod@line`]: from a recorded trace ([`crate::tracefile`]) to the characters on the line, and
 //!   [`line::pace`] for characters a real port delivered in chunks;
-//! * [`framer`]: cutting characters into frames by sender, silence and length.
+//! * [`framer`]: cutting characters into frames by sender, silence and length;
+//! * [`exchange`]: which frame answers which request on a master–slave line.
 //!
 //! Like the engines a monitor reads no clock and does no I/O; unlike them it builds owned
 //! records for a human or a SCADA tool to keep, so it allocates per record (each record is
@@ -43,6 +44,7 @@
 //! assert_eq!(d.counters().0["characters"], 3);
 //! ```
 
+pub mod exchange;
 pub mod framer;
 pub mod line;
 
