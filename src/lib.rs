@@ -15,6 +15,7 @@
 //! | `modbus` (default) | [`modbus`] (`si-modbus`) | Modbus RTU master and slave, S_MODB |
 //! | `uss` (default) | [`uss`] (`si-uss`) | the USS master and its FC equivalents |
 //! | `dp-coord` (default) | [`dp_coord`] (`si-dp-coord`) | the coordination-byte DP window protocol, host and module |
+//! | `module` (default) | [`module`] (`si-module`) | the ET 200S SI module itself: parameters per driver, diagnosis, I&M, LEDs |
 //! | `tokio` | | the async driver and handles |
 //!
 //! Every engine is Sans-IO: it is fed bytes and time and says what to transmit and when to wake
@@ -39,3 +40,6 @@ pub use si_uss as uss;
 
 #[cfg(feature = "dp-coord")]
 pub use si_dp_coord as dp_coord;
+
+#[cfg(feature = "module")]
+pub use si_module as module;

@@ -12,7 +12,7 @@
 //! let c: Config = serde_json::from_str(r#"{"block_check": false}"#).unwrap();
 //! assert_eq!(c.ack_delay_ms, 550); // the manual's QVZ default without block check
 //! let e = serde_json::from_str::<Config>(r#"{"char_delay_ms": 5}"#).unwrap_err();
-//! assert!(e.to_string().contains("character delay time (ZVZ) must be 20 … 655350 ms, got 5"));
+//! assert!(e.to_string().contains("character delay time (ZVZ) = 5 ms is out of range: 20 … 655350 ms"));
 //! ```
 //!
 //! # Readings
@@ -35,7 +35,7 @@
 
 use crate::frame::Mode;
 use serde::{Deserialize, Serialize};
-use si_core::{Duration, SerialSettings};
+use si_core::{Duration, RangeError, SerialSettings};
 
 /// Which partner yields in an initialization conflict (et200s-si-3964r-ascii.md §5.6).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -98,21 +98,9 @@ const BAUD_MINIMUMS: [(u32, u32, &str, &str); 4] = [
     ),
 ];
 
-/// A parameter outside its range.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{parameter} must be {min} … {max}{unit}, got {value}")]
-pub struct ConfigError {
-    /// The parameter's name as the manual gives it.
-    pub parameter: &'static str,
-    /// Smallest allowed value.
-    pub min: u32,
-    /// Largest allowed value.
-    pub max: u32,
-    /// Unit of the range, with its leading space (empty for counts).
-    pub unit: &'static str,
-    /// The value given.
-    pub value: u64,
-}
+/// A parameter outside its range: every 3964(R) parameter error is a range error, si-core's
+/// one [`RangeError`] (issue 17).
+pub type ConfigError = RangeError;
 
 /// The 3964(R) parameters (Table 2-11), plus the two bounds a host needs: the longest block and
 /// the receive buffer size.
@@ -214,7 +202,7 @@ impl Config {
     /// let c = Config { char_delay_ms: 40, ..Config::default() };
     /// assert_eq!(
     ///     c.validate_for(&slow).unwrap_err().to_string(),
-    ///     "character delay time (ZVZ) at 300 bit/s must be 60 … 655350 ms, got 40"
+    ///     "character delay time (ZVZ) at 300 bit/s = 40 ms is out of range: 60 … 655350 ms"
     /// );
     /// assert!(c.validate_for(&SerialSettings::default()).is_ok());
     /// ```
@@ -226,13 +214,13 @@ impl Config {
         };
         for (parameter, value) in [(zvz, self.char_delay_ms), (qvz, self.ack_delay_ms)] {
             if value < min {
-                return Err(ConfigError {
+                return Err(RangeError::between(
                     parameter,
                     min,
-                    max: CHAR_DELAY_RANGE.1,
-                    unit: " ms",
-                    value: value.into(),
-                });
+                    CHAR_DELAY_RANGE.1,
+                    " ms",
+                    value,
+                ));
             }
         }
         Ok(())
@@ -291,16 +279,7 @@ fn check(
     unit: &'static str,
     value: u64,
 ) -> Result<(), ConfigError> {
-    if value < u64::from(min) || value > u64::from(max) {
-        return Err(ConfigError {
-            parameter,
-            min,
-            max,
-            unit,
-            value,
-        });
-    }
-    Ok(())
+    RangeError::check(parameter, (min.into(), max.into()), unit, value)
 }
 
 /// The serialized form: every field optional, QVZ defaulting by mode, numbers wide so an
@@ -383,8 +362,12 @@ mod tests {
         assert!(c(170, 170).validate_for(&at(110)).is_ok());
         let e = c(170, 160).validate_for(&at(110)).unwrap_err();
         assert_eq!(
-            (e.parameter, e.min, e.value),
-            ("acknowledgement delay time (QVZ) at 110 bit/s", 170, 160)
+            (e.parameter, &*e.range, e.value.as_str()),
+            (
+                "acknowledgement delay time (QVZ) at 110 bit/s",
+                "170 … 655350 ms",
+                "160"
+            )
         );
         assert!(c(59, 2000).validate_for(&at(300)).is_err());
         assert!(c(40, 40).validate_for(&at(600)).is_ok());
@@ -417,7 +400,7 @@ mod tests {
         };
         assert_eq!(
             c.validate().unwrap_err().to_string(),
-            "character delay time (ZVZ) must be 20 … 655350 ms, got 19"
+            "character delay time (ZVZ) = 19 ms is out of range: 20 … 655350 ms"
         );
         let c = Config {
             ack_delay_ms: 655_351,
@@ -430,7 +413,7 @@ mod tests {
         };
         assert_eq!(
             c.validate().unwrap_err().to_string(),
-            "connection attempts must be 1 … 255, got 0"
+            "connection attempts = 0 is out of range: 1 … 255"
         );
     }
 
@@ -447,9 +430,9 @@ mod tests {
         assert_eq!(
             all,
             [
-                "character delay time (ZVZ) must be 20 … 655350 ms, got 19",
-                "connection attempts must be 1 … 255, got 0",
-                "maximum block length must be 1 … 1024 bytes, got 0",
+                "character delay time (ZVZ) = 19 ms is out of range: 20 … 655350 ms",
+                "connection attempts = 0 is out of range: 1 … 255",
+                "maximum block length = 0 bytes is out of range: 1 … 1024 bytes",
             ]
         );
         assert_eq!(c.validate().unwrap_err().to_string(), all[0]);
@@ -462,7 +445,7 @@ mod tests {
         let e = serde_json::from_str::<Config>(r#"{"transmission_attempts": 256}"#).unwrap_err();
         assert!(e
             .to_string()
-            .contains("transmission attempts must be 1 … 255, got 256"));
+            .contains("transmission attempts = 256 is out of range: 1 … 255"));
         let c: Config =
             serde_json::from_str(r#"{"priority": "high", "ack_delay_ms": 10}"#).unwrap();
         assert_eq!((c.priority, c.ack_delay_ms), (Priority::High, 10));

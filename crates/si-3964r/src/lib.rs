@@ -10,6 +10,8 @@
 //! - [`link`]: one Sans-IO engine that is sender and receiver, with both timers, both attempt
 //!   counters, the initialization conflict, the 4 s block wait and the 400 ms buffer wait;
 //! - [`status`]: the STATUS codes of classes 07H and 08H with the manual's texts;
+//! - [`monitor`]: the passive listener of a 3964(R) line, judging ZVZ and QVZ with the link's
+//!   own timers (and reading a layer's user data, RK 512 in `si_rk512::monitor`);
 //! - [`fb`]: S_SEND and S_RCV with the S7 call semantics;
 //! - `tokio` (feature `tokio`): an async handle, `send(bytes).await` and `recv().await`.
 //!
@@ -44,6 +46,7 @@ pub mod config;
 pub mod fb;
 pub mod frame;
 pub mod link;
+pub mod monitor;
 pub mod status;
 #[cfg(feature = "tokio")]
 pub mod tokio;

@@ -19,7 +19,7 @@
 
 use crate::status;
 use serde::{Deserialize, Serialize};
-use si_core::{Duration, SerialSettings, SettingsError, Status, BAUD_RATES};
+use si_core::{Duration, RangeError, SerialSettings, SettingsError, Status, BAUD_RATES};
 
 /// Longest frame the driver sends or receives (et200s-si-3964r-ascii.md §12: 200 bytes).
 pub const MAX_FRAME_LEN: usize = 200;
@@ -202,16 +202,9 @@ impl Default for Config {
 /// A parameter the manual does not allow.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ConfigError {
-    /// A value outside its range.
-    #[error("{parameter} {value} out of range: {range}")]
-    OutOfRange {
-        /// The parameter's name as the manual gives it.
-        parameter: &'static str,
-        /// The rejected value, with its unit.
-        value: String,
-        /// The allowed range, with its unit.
-        range: String,
-    },
+    /// A value outside its range (si-core's one [`RangeError`]).
+    #[error(transparent)]
+    OutOfRange(#[from] RangeError),
     /// Two parameters that the manual does not allow together.
     #[error("{parameter} {value} not allowed: {reason}")]
     NotAllowed {
@@ -255,12 +248,13 @@ pub const fn min_char_delay_ms(baud: u32) -> u32 {
     }
 }
 
-fn out_of_range(parameter: &'static str, value: impl ToString, range: String) -> ConfigError {
-    ConfigError::OutOfRange {
-        parameter,
-        value: value.to_string(),
-        range,
-    }
+fn out_of_range(
+    parameter: &'static str,
+    value: impl std::fmt::Display,
+    unit: &'static str,
+    range: String,
+) -> ConfigError {
+    RangeError::new(parameter, range, unit, value).into()
 }
 
 /// A time in whole 10 ms steps within `min ..= 655 350` ms (Table 2-26, A-11).
@@ -268,7 +262,8 @@ fn check_step_time(parameter: &'static str, ms: u32, min: u32) -> Result<(), Con
     if ms < min || ms > 655_350 || (ms / 10) * 10 != ms {
         return Err(out_of_range(
             parameter,
-            format!("{ms} ms"),
+            ms,
+            " ms",
             format!("{min} … 655350 ms in 10 ms steps"),
         ));
     }
@@ -290,6 +285,7 @@ impl XonXoff {
                 errors.push(out_of_range(
                     parameter,
                     format!("{c:02X}H"),
+                    "",
                     format!("00H … {mask:02X}H with {} data bits", settings.data_bits()),
                 ));
             }
@@ -315,13 +311,10 @@ impl RtsCts {
 
 /// Both automatic V.24 times against their range (0 … 655 350 ms, 10 ms steps).
 fn auto_v24_errors(times: &AutoV24) -> impl Iterator<Item = ConfigError> {
-    times.validate_all().into_iter().map(|e| {
-        out_of_range(
-            e.parameter,
-            format!("{} ms", e.value),
-            "0 … 655350 ms in 10 ms steps".to_owned(),
-        )
-    })
+    times
+        .validate_all()
+        .into_iter()
+        .map(ConfigError::OutOfRange)
 }
 
 fn first(errors: Vec<ConfigError>) -> Result<(), ConfigError> {
@@ -356,7 +349,8 @@ impl Config {
         if self.char_delay_ms < min || self.char_delay_ms > 65_535 {
             errors.push(out_of_range(
                 "character delay time",
-                format!("{} ms", self.char_delay_ms),
+                self.char_delay_ms,
+                " ms",
                 format!("{min} … 65535 ms at {} bit/s", s.baud()),
             ));
         }
@@ -368,6 +362,7 @@ impl Config {
                     errors.push(out_of_range(
                         "end-of-text character 1",
                         format!("{first:02X}H"),
+                        "",
                         format!("01H … {mask:02X}H with {} data bits", s.data_bits()),
                     ));
                 }
@@ -375,6 +370,7 @@ impl Config {
                     errors.push(out_of_range(
                         "end-of-text character 2",
                         format!("{second:02X}H"),
+                        "",
                         format!("00H … {mask:02X}H with {} data bits", s.data_bits()),
                     ));
                 }
@@ -384,6 +380,7 @@ impl Config {
                     errors.push(out_of_range(
                         "length of received frame",
                         len,
+                        " bytes",
                         format!("1 … {MAX_FRAME_LEN} bytes"),
                     ));
                 }
@@ -409,6 +406,7 @@ impl Config {
             errors.push(out_of_range(
                 "transmit chunk",
                 self.tx_chunk,
+                " characters",
                 format!("1 … {MAX_FRAME_LEN} characters"),
             ));
         }
@@ -487,7 +485,7 @@ mod tests {
             assert_eq!(
                 e.to_string(),
                 format!(
-                    "character delay time {} ms out of range: {min} … 65535 ms at {baud} bit/s",
+                    "character delay time = {} ms is out of range: {min} … 65535 ms at {baud} bit/s",
                     min - 1
                 )
             );
@@ -505,7 +503,7 @@ mod tests {
         };
         assert_eq!(
             c.validate().unwrap_err().to_string(),
-            "end-of-text character 1 00H out of range: 01H … FFH with 8 data bits"
+            "end-of-text character 1 = 00H is out of range: 01H … FFH with 8 data bits"
         );
         let c = Config {
             settings: SerialSettings::new(9_600, 7, Parity::Even, 1).unwrap(),
@@ -517,7 +515,7 @@ mod tests {
         };
         assert_eq!(
             c.validate().unwrap_err().to_string(),
-            "end-of-text character 2 80H out of range: 00H … 7FH with 7 data bits"
+            "end-of-text character 2 = 80H is out of range: 00H … 7FH with 7 data bits"
         );
         let c = Config {
             end: EndCriterion::FixedLength { len: 201 },
@@ -525,13 +523,13 @@ mod tests {
         };
         assert_eq!(
             c.validate().unwrap_err().to_string(),
-            "length of received frame 201 out of range: 1 … 200 bytes"
+            "length of received frame = 201 bytes is out of range: 1 … 200 bytes"
         );
         let mut c = Config::default();
         c.xon_xoff.wait_for_xon_ms = 15;
         assert_eq!(
             c.validate().unwrap_err().to_string(),
-            "wait time for XON 15 ms out of range: 20 … 655350 ms in 10 ms steps"
+            "wait time for XON = 15 ms is out of range: 20 … 655350 ms in 10 ms steps"
         );
         c.xon_xoff.wait_for_xon_ms = 2_005;
         assert!(c.validate().is_err());
@@ -551,7 +549,7 @@ mod tests {
         };
         assert_eq!(
             c.validate().unwrap_err().to_string(),
-            "transmit chunk 0 out of range: 1 … 200 characters"
+            "transmit chunk = 0 characters is out of range: 1 … 200 characters"
         );
         let c = Config {
             tx_chunk: 201,
@@ -597,10 +595,16 @@ mod tests {
         c.auto_v24.data_wait_time_ms = 5;
         let all: Vec<String> = c.validate_all().iter().map(|e| e.to_string()).collect();
         assert_eq!(all.len(), 4, "{all:?}");
-        assert!(all[0].starts_with("character delay time 3 ms"), "{all:?}");
-        assert!(all[1].starts_with("length of received frame 0"), "{all:?}");
+        assert!(all[0].starts_with("character delay time = 3 ms"), "{all:?}");
+        assert!(
+            all[1].starts_with("length of received frame = 0"),
+            "{all:?}"
+        );
         assert!(all[2].contains("not possible on RS-485"), "{all:?}");
-        assert!(all[3].starts_with("data output wait time 5 ms"), "{all:?}");
+        assert!(
+            all[3].starts_with("data output wait time = 5 ms"),
+            "{all:?}"
+        );
         assert_eq!(c.validate().unwrap_err().to_string(), all[0]);
     }
 

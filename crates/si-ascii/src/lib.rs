@@ -12,6 +12,7 @@
 //! - [`buffer`]: the receive ring buffer;
 //! - [`link`]: the engine;
 //! - [`status`]: the STATUS codes;
+//! - [`monitor`]: the passive listener, cutting frames by the link's own criterion and delay;
 //! - [`fb`]: S_SEND, S_RCV, S_VSTAT, S_VSET, S_XON, S_RTS, S_V24;
 //! - `tokio` (feature `tokio`): an async handle.
 //!
@@ -37,6 +38,7 @@ pub mod config;
 pub mod fb;
 pub mod frame;
 pub mod link;
+pub mod monitor;
 pub mod status;
 
 #[cfg(feature = "tokio")]

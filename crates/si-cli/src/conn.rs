@@ -1,6 +1,6 @@
 //! Where the bytes go: `--port PATH` or `--tcp HOST:PORT`, with the serial settings.
 
-use crate::CliError;
+use crate::error::CliError;
 use clap::Args;
 use si_core::driver::Transport;
 use si_core::sim::TraceKind;

@@ -7,9 +7,15 @@
 
 mod cmd;
 mod conn;
+mod error;
+mod hex;
+mod output;
+mod scenario;
 mod svg;
 
 use clap::{Parser, Subcommand};
+use error::CliError;
+use output::Output;
 use std::process::ExitCode;
 
 /// Speak the SIMATIC ET 200S serial interface module protocols: 3964(R), RK 512, ASCII, Modbus RTU, USS.
@@ -66,53 +72,6 @@ enum Command {
     /// USS master: poll drives, read and write parameters; a simulated drive.
     #[command(subcommand)]
     Uss(cmd::uss::Command),
-}
-
-/// An error for the user: one line, exit code 1.
-#[derive(Debug)]
-pub struct CliError(String);
-
-impl CliError {
-    /// An error with this text.
-    pub fn new(text: impl Into<String>) -> Self {
-        CliError(text.into())
-    }
-}
-
-impl<E: std::error::Error> From<E> for CliError {
-    fn from(e: E) -> Self {
-        CliError(e.to_string())
-    }
-}
-
-/// How results are printed.
-#[derive(Debug, Clone, Copy)]
-pub struct Output {
-    /// JSON lines instead of text.
-    pub json: bool,
-}
-
-impl Output {
-    /// Print one result: `text` for people, `json` as one line for scripts.
-    pub fn line(&self, text: &str, json: serde_json::Value) {
-        if self.json {
-            write_stdout(format_args!("{json}\n"));
-        } else {
-            write_stdout(format_args!("{text}\n"));
-        }
-    }
-}
-
-/// Write to stdout. When the reader has gone (`si monitor … | head`), end quietly with success
-/// instead of panicking the way `println!` does on a closed pipe.
-pub fn write_stdout(args: std::fmt::Arguments<'_>) {
-    use std::io::Write;
-    let mut out = std::io::stdout().lock();
-    if let Err(e) = out.write_fmt(args).and_then(|()| out.flush()) {
-        if e.kind() == std::io::ErrorKind::BrokenPipe {
-            std::process::exit(0);
-        }
-    }
 }
 
 fn main() -> ExitCode {

@@ -10,8 +10,7 @@
 //! a little context, and each run of uneventful records between them becomes one row that says
 //! how many frames passed and over what time; the counters close the figure.
 
-use crate::cmd::monitor::model::{Kind, Record, Severity};
-use crate::cmd::monitor::Analysis;
+use si_core::monitor::{Analysis, Kind, Record, Severity};
 use si_core::{Duration, Instant};
 use std::fmt::Write;
 

@@ -108,7 +108,7 @@ fn bad_end_criterion_is_one_clear_line() {
     assert!(!out.status.success());
     assert_eq!(
         String::from_utf8_lossy(&out.stderr).trim(),
-        "si: error: end-of-text character 1 00H out of range: 01H … FFH with 8 data bits"
+        "si: error: end-of-text character 1 = 00H is out of range: 01H … FFH with 8 data bits"
     );
     let out = si_command()
         .args([
@@ -118,7 +118,7 @@ fn bad_end_criterion_is_one_clear_line() {
         .expect("run si");
     assert_eq!(
         String::from_utf8_lossy(&out.stderr).trim(),
-        "si: error: character delay time 10 ms out of range: 34 … 65535 ms at 1200 bit/s"
+        "si: error: character delay time = 10 ms is out of range: 34 … 65535 ms at 1200 bit/s"
     );
 }
 

@@ -25,11 +25,11 @@ fn params_check_reports_three_wrong_values_in_one_run() {
     assert_eq!(lines.len(), 3, "{text}");
     assert!(lines[0].ends_with("baud = 9601 is not one of: 110, 300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 76800, 115200"), "{text}");
     assert!(
-        lines[1].ends_with("character delay time (ZVZ) must be 20 … 655350 ms, got 5"),
+        lines[1].ends_with("character delay time (ZVZ) = 5 ms is out of range: 20 … 655350 ms"),
         "{text}"
     );
     assert!(
-        lines[2].ends_with("connection attempts must be 1 … 255, got 0"),
+        lines[2].ends_with("connection attempts = 0 is out of range: 1 … 255"),
         "{text}"
     );
     assert!(stderr(&o).contains("3 wrong parameters"), "{}", stderr(&o));

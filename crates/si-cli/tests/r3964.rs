@@ -63,7 +63,7 @@ fn out_of_range_timer_names_parameter_range_and_value() {
     assert!(!o.status.success());
     assert_eq!(
         stderr(&o).trim(),
-        "si: error: character delay time (ZVZ) must be 20 … 655350 ms, got 5"
+        "si: error: character delay time (ZVZ) = 5 ms is out of range: 20 … 655350 ms"
     );
 }
 

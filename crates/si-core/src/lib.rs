@@ -9,7 +9,9 @@
 //! - [`job`]: the job layer: [`JobId`], the [`JobPort`] trait every engine with jobs implements,
 //!   and [`job::Channel`] (one S_SEND and one S_RCV);
 //! - [`fb`]: edge detection, one-call pulses, and S_SEND / S_RCV written once over [`JobPort`];
+//! - [`RangeError`]: a configuration value outside the manual's range, the same for every crate;
 //! - [`sim`]: a deterministic discrete-event line simulator with seeded faults;
+//! - [`monitor`]: what a passive listener sees and reports, shared by the protocols' monitors;
 //! - [`tracefile`]: the JSON-lines trace file the simulator, the driver and `si monitor` share;
 //! - `driver` (feature `tokio`): runs any engine over `AsyncRead + AsyncWrite`.
 #![cfg_attr(docsrs, feature(doc_cfg))]
@@ -18,6 +20,8 @@ pub mod fb;
 pub mod hex;
 pub mod job;
 pub mod memory;
+pub mod monitor;
+pub mod range;
 pub mod sansio;
 pub mod serial;
 pub mod sim;
@@ -30,6 +34,7 @@ pub mod v24;
 pub mod driver;
 
 pub use job::{JobId, JobPort};
+pub use range::RangeError;
 pub use sansio::{Engine, LineError, ModemSignals, Output, SignalUpdate};
 pub use serial::{Parity, SerialSettings, SettingsError, BAUD_RATES};
 pub use status::{Status, StatusInfo};

@@ -28,6 +28,7 @@
 //! transmission with [`AutoV24::sent`], and passes timeouts and modem-signal changes through.
 //! Every answer is a [`Step`] the engine acts on.
 
+use crate::range::RangeError;
 use crate::sansio::{ModemSignals, Output, SignalUpdate};
 use crate::time::{Duration, Instant};
 use serde::{Deserialize, Serialize};
@@ -55,26 +56,18 @@ impl Default for AutoV24Times {
 /// The largest value of either time: 65 535 steps of 10 ms.
 pub const MAX_TIME_MS: u32 = 655_350;
 
-/// A time outside its range, or not a whole number of 10 ms steps.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{parameter} must be 0 … 655 350 ms in steps of 10 ms, not {value} ms")]
-pub struct AutoV24TimeError {
-    /// Which time.
-    pub parameter: &'static str,
-    /// The rejected value in milliseconds.
-    pub value: u32,
-}
-
 impl AutoV24Times {
     /// Every time outside 0 … 655 350 ms or off the 10 ms grid.
-    pub fn validate_all(&self) -> Vec<AutoV24TimeError> {
+    pub fn validate_all(&self) -> Vec<RangeError> {
         [
             ("time to RTS off", self.time_rts_off_ms),
             ("data output wait time", self.data_wait_time_ms),
         ]
         .into_iter()
         .filter(|&(_, ms)| ms > MAX_TIME_MS || ms % 10 != 0)
-        .map(|(parameter, value)| AutoV24TimeError { parameter, value })
+        .map(|(parameter, ms)| {
+            RangeError::new(parameter, "0 … 655350 ms in 10 ms steps", " ms", ms)
+        })
         .collect()
     }
 
@@ -407,7 +400,7 @@ mod tests {
         assert_eq!(errors.len(), 2);
         assert_eq!(
             errors[0].to_string(),
-            "time to RTS off must be 0 … 655 350 ms in steps of 10 ms, not 655360 ms"
+            "time to RTS off = 655360 ms is out of range: 0 … 655350 ms in 10 ms steps"
         );
         assert!(AutoV24Times::default().validate_all().is_empty());
     }

@@ -4,7 +4,7 @@
 use crate::frame::{V24Layout, WindowSize};
 use crate::status::NOT_POSSIBLE_IN_MODE;
 use serde::{Deserialize, Serialize};
-use si_core::{Duration, Status};
+use si_core::{Duration, RangeError, Status};
 
 /// The largest frame of chapter 2 (S_SEND/S_RCV LEN, 050EH, 0850H): 224 bytes. The 1E41H text
 /// says 1…200 and the Modbus/USS module uses 200 (H-14); set `max_frame_len` to 200 there.
@@ -22,34 +22,12 @@ pub const MAX_FRAME_LEN_LIMIT: usize = 4096;
 /// 30 s covers that; slower lines or longer retry chains need a longer watchdog.
 pub const DEFAULT_JOB_TIMEOUT: Duration = Duration::from_secs(30);
 
-/// A configuration value outside its range.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum ConfigError {
-    /// A parameter outside its allowed range.
-    #[error("{name} = {value} is outside {min} … {max}")]
-    OutOfRange {
-        /// Parameter name.
-        name: &'static str,
-        /// The value given.
-        value: u64,
-        /// Smallest allowed value.
-        min: u64,
-        /// Largest allowed value.
-        max: u64,
-    },
-}
+/// A configuration value outside its range: every window parameter error is a range error,
+/// si-core's one [`RangeError`] (issue 17).
+pub type ConfigError = RangeError;
 
 fn check(name: &'static str, value: usize, min: usize, max: usize) -> Result<(), ConfigError> {
-    if (min..=max).contains(&value) {
-        Ok(())
-    } else {
-        Err(ConfigError::OutOfRange {
-            name,
-            value: value as u64,
-            min: min as u64,
-            max: max as u64,
-        })
-    }
+    RangeError::check(name, (min, max), "", value)
 }
 
 /// Host (DP master) engine parameters.
@@ -217,7 +195,7 @@ mod tests {
         };
         assert_eq!(
             bad.validate().unwrap_err().to_string(),
-            "max_frame_len = 0 is outside 1 … 4096"
+            "max_frame_len = 0 is out of range: 1 … 4096"
         );
         let bad = ModuleConfig {
             rx_buffer_frames: 0,

@@ -24,10 +24,14 @@
 //! * [`engines`]: si-3964r's and si-ascii's links as that serial side, so a simulated module runs
 //!   3964(R) or ASCII on its line.
 //! * [`sim`]: a host and a module joined by a seeded, lagging, fault-injecting DP exchange.
+//! * [`monitor`]: reads a recorded trace of DP windows window by window, coordination bytes
+//!   and what the data bytes mean for them.
 //! * [`timing`]: the manual's processing-time estimate and the PPI token rotation formula.
 //! * [`status`]: the STATUS words the window carries.
-//! * [`diag`], [`ident`], [`params`], [`led`]: the module's PROFIBUS slave diagnosis, its
-//!   identification records I&M0/I&M1, its parameter sets per driver, and its LEDs.
+//!
+//! What describes the module itself rather than the window (its parameter sets per driver, its
+//! PROFIBUS slave diagnosis, its identification records I&M0/I&M1 and its LEDs) lives in the
+//! `si-module` crate, which builds on this one.
 //!
 //! # Readings chosen where the manual is unclear
 //!
@@ -75,16 +79,13 @@
 
 pub mod config;
 pub mod coord;
-pub mod diag;
 pub mod engines;
 pub mod fb;
 pub mod frame;
 pub mod host;
-pub mod ident;
-pub mod led;
 pub mod line;
 pub mod module;
-pub mod params;
+pub mod monitor;
 pub mod sim;
 pub mod status;
 pub mod timing;

@@ -4,7 +4,7 @@
 use crate::status;
 use serde::{Deserialize, Serialize};
 use si_core::v24::AutoV24Times;
-use si_core::{Duration, SerialSettings, Status};
+use si_core::{Duration, RangeError, SerialSettings, Status};
 
 /// "Operating mode" (§3.7).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -66,19 +66,31 @@ pub const fn gap_table(baud: u32) -> Duration {
     })
 }
 
-/// A parameter outside the manual's range: names the parameter, the range and the value, and
-/// carries the STATUS the module would report.
+/// A parameter outside the manual's range: si-core's one [`RangeError`] (parameter, range,
+/// unit, value), and the STATUS the module would report.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{parameter} = {value} is out of range {range} ({status})")]
+#[error("{range} ({status})")]
 pub struct ConfigError {
-    /// The manual's parameter name.
-    pub parameter: &'static str,
-    /// The allowed range.
-    pub range: &'static str,
-    /// The value given.
-    pub value: String,
+    /// Which parameter, its range and the value given.
+    pub range: RangeError,
     /// The module's parameter-assignment STATUS (0E20H–0E23H).
     pub status: Status,
+}
+
+impl ConfigError {
+    /// `parameter` = `value` (in `unit`) outside `range`, reported with `status`.
+    fn new(
+        parameter: &'static str,
+        range: &'static str,
+        unit: &'static str,
+        value: impl std::fmt::Display,
+        status: Status,
+    ) -> ConfigError {
+        ConfigError {
+            range: RangeError::new(parameter, range, unit, value),
+            status,
+        }
+    }
 }
 
 /// The line parameters master and slave share.
@@ -133,31 +145,34 @@ impl LineConfig {
     pub fn validate_all(&self) -> Vec<ConfigError> {
         let mut errors = Vec::new();
         if self.settings.data_bits() != 8 {
-            errors.push(ConfigError {
-                parameter: "data bits",
-                range: "8",
-                value: self.settings.data_bits().to_string(),
-                status: status::DATA_BITS_NOT_8,
-            });
+            errors.push(ConfigError::new(
+                "data bits",
+                "8",
+                "",
+                self.settings.data_bits(),
+                status::DATA_BITS_NOT_8,
+            ));
         }
         if !(1..=10).contains(&self.char_delay_multiplier) {
-            errors.push(ConfigError {
-                parameter: "character delay multiple",
-                range: "1…10",
-                value: self.char_delay_multiplier.to_string(),
-                status: status::CHAR_DELAY_MULTIPLIER,
-            });
+            errors.push(ConfigError::new(
+                "character delay multiple",
+                "1 … 10",
+                "",
+                self.char_delay_multiplier,
+                status::CHAR_DELAY_MULTIPLIER,
+            ));
         }
-        for e in self.auto_v24.iter().flat_map(AutoV24Times::validate_all) {
-            errors.push(ConfigError {
-                parameter: e.parameter,
-                range: "0…655350 ms in 10 ms steps",
-                value: format!("{} ms", e.value),
-                // No parameter-assignment code for these times (§11.3): the FB's
-                // "parameter out of range".
-                status: si_core::status::common::PARAMETER_OUT_OF_RANGE,
-            });
-        }
+        // No parameter-assignment code for these times (§11.3): the FB's "parameter out of
+        // range".
+        errors.extend(
+            self.auto_v24
+                .iter()
+                .flat_map(AutoV24Times::validate_all)
+                .map(|range| ConfigError {
+                    range,
+                    status: si_core::status::common::PARAMETER_OUT_OF_RANGE,
+                }),
+        );
         errors
     }
 }
@@ -209,12 +224,13 @@ impl MasterConfig {
     pub fn validate_all(&self) -> Vec<ConfigError> {
         let mut errors = self.line.validate_all();
         if !(50..=655_000).contains(&self.response_timeout_ms) {
-            errors.push(ConfigError {
-                parameter: "response time (ms)",
-                range: "50…655000",
-                value: self.response_timeout_ms.to_string(),
-                status: status::INVALID_TIMEOUT_OR_ADDRESS,
-            });
+            errors.push(ConfigError::new(
+                "response time",
+                "50 … 655000 ms",
+                " ms",
+                self.response_timeout_ms,
+                status::INVALID_TIMEOUT_OR_ADDRESS,
+            ));
         }
         errors
     }
@@ -259,12 +275,13 @@ impl SlaveConfig {
     pub fn validate_all(&self) -> Vec<ConfigError> {
         let mut errors = self.line.validate_all();
         if self.address == 0 {
-            errors.push(ConfigError {
-                parameter: "slave address",
-                range: "1…255",
-                value: "0".into(),
-                status: status::INVALID_TIMEOUT_OR_ADDRESS,
-            });
+            errors.push(ConfigError::new(
+                "slave address",
+                "1 … 255",
+                "",
+                0,
+                status::INVALID_TIMEOUT_OR_ADDRESS,
+            ));
         }
         errors
     }
@@ -309,7 +326,7 @@ mod tests {
         assert_eq!(e.status.code(), 0x0E23);
         assert!(e
             .to_string()
-            .starts_with("response time (ms) = 49 is out of range 50…655000"));
+            .starts_with("response time = 49 ms is out of range: 50 … 655000 ms"));
         let s = SlaveConfig {
             address: 0,
             ..SlaveConfig::default()

@@ -9,6 +9,8 @@
 //! - [`master`]: the Sans-IO master engine, every outcome a STATUS of the manual;
 //! - [`slave`]: the Sans-IO slave engine served by a [`slave::Store`]: plain tables, or the
 //!   SIMATIC memory model reached through S_MODB's conversion DB ([`simatic`]);
+//! - [`monitor`]: the passive listener of an RTU line, with the master's gap and response
+//!   timeout;
 //! - [`fb`]: S_SEND/S_RCV master jobs and S_MODB as the PLC programmer sees them;
 //! - `tokio` (feature `tokio`): an async master handle and a slave server task.
 //!
@@ -48,6 +50,7 @@ pub mod config;
 pub mod fb;
 pub mod frame;
 pub mod master;
+pub mod monitor;
 pub mod rx;
 pub mod simatic;
 pub mod slave;

@@ -241,8 +241,8 @@ fn s2_2_times_off_the_10_ms_grid_are_refused_naming_the_parameter() {
         data_wait_time_ms: 10,
     });
     let err = Master::new(config).unwrap_err();
-    assert_eq!(err.parameter, "time to RTS off");
-    assert_eq!(err.value, "15 ms");
+    assert_eq!(err.range.parameter, "time to RTS off");
+    assert_eq!((err.range.value.as_str(), err.range.unit), ("15", " ms"));
 }
 
 #[test]

@@ -149,17 +149,7 @@ fn check(
     unit: &'static str,
     value: u32,
 ) -> Result<(), ConfigError> {
-    if (range.0..=range.1).contains(&value) {
-        Ok(())
-    } else {
-        Err(ConfigError {
-            parameter,
-            min: range.0,
-            max: range.1,
-            unit,
-            value: value.into(),
-        })
-    }
+    si_core::RangeError::check(parameter, range, unit, value)
 }
 
 #[cfg(test)]
@@ -173,7 +163,7 @@ mod tests {
         c.link.max_block_len = 100;
         assert_eq!(
             c.validate().unwrap_err().to_string(),
-            "maximum block length of the 3964(R) link under RK 512 must be 138 … 1024 bytes, got 100"
+            "maximum block length of the 3964(R) link under RK 512 = 100 bytes is out of range: 138 … 1024 bytes"
         );
         c = Config {
             max_job_len: 1,

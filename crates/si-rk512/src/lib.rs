@@ -14,6 +14,7 @@
 //! - [`passive`]: the partner's jobs served from the SIMATIC memory model
 //!   ([`si_core::memory`]), with coordination flags and the reaction error numbers;
 //! - [`status`]: the STATUS codes (class 09H for the partner's error numbers);
+//! - [`monitor`]: the passive listener, the 3964(R) monitor reading RK 512 telegrams;
 //! - [`fb`]: send and fetch FB equivalents with REQ / DONE / ERROR / STATUS;
 //! - `tokio` (feature `tokio`): an async handle, `send(..).await` and `fetch(..).await`.
 //!
@@ -50,6 +51,7 @@
 pub mod config;
 pub mod fb;
 pub mod frame;
+pub mod monitor;
 pub mod passive;
 pub mod station;
 pub mod status;

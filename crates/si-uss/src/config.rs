@@ -12,7 +12,7 @@
 
 use crate::frame::{PkwWords, MAX_ADDRESS, MAX_NET, MAX_PZD_WORDS};
 use serde::{Deserialize, Serialize};
-use si_core::{Duration, Parity, SerialSettings, SettingsError};
+use si_core::{Duration, Parity, RangeError, SerialSettings, SettingsError};
 
 /// Baud rates a USS line may use: the ET 200S table plus 187 500 bit/s.
 pub const USS_BAUD_RATES: [u32; 13] = [
@@ -60,16 +60,9 @@ impl PollEntry {
 /// A parameter outside its range, naming the parameter, the range and the value.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ConfigError {
-    /// A value outside the manual's range.
-    #[error("{name} = {value} is out of range: {range}")]
-    OutOfRange {
-        /// The parameter's name as the manual spells it.
-        name: &'static str,
-        /// The rejected value.
-        value: String,
-        /// The allowed range.
-        range: &'static str,
-    },
+    /// A value outside the manual's range (si-core's one [`RangeError`]).
+    #[error(transparent)]
+    OutOfRange(#[from] RangeError),
     /// The same node listed twice with different structures.
     #[error("node {address} is listed with two different PKW/PZD structures")]
     ConflictingStructure {
@@ -78,20 +71,17 @@ pub enum ConfigError {
     },
 }
 
-fn check(
+/// `Ok` if `ok`, else the range error for `name` = `value` outside `range`.
+pub(crate) fn check(
     ok: bool,
     name: &'static str,
-    value: impl ToString,
+    value: impl std::fmt::Display,
     range: &'static str,
 ) -> Result<(), ConfigError> {
     if ok {
         Ok(())
     } else {
-        Err(ConfigError::OutOfRange {
-            name,
-            value: value.to_string(),
-            range,
-        })
+        Err(RangeError::new(name, range, "", value).into())
     }
 }
 

@@ -17,7 +17,7 @@
 //! - the status word follows the control word and the actual value ramps to the setpoint
 //!   ([`zsw`] bits).
 
-use crate::config::{start_interval, ConfigError, RESPONSE_DELAY_MAX};
+use crate::config::{check, start_interval, ConfigError, RESPONSE_DELAY_MAX};
 use crate::frame::{
     self, response, task, Adr, NetData, ParamAddress, Pke, Pkw, PkwWords, Pzd, MAX_ADDRESS,
     MAX_TELEGRAM,
@@ -236,29 +236,22 @@ pub struct Drive {
 impl Drive {
     /// A drive; the address must be 0…31, PZD 0…16 words, the response delay at most 20 ms.
     pub fn new(config: DriveConfig) -> Result<Self, ConfigError> {
-        let range = |ok: bool, name, value: String, range| {
-            if ok {
-                Ok(())
-            } else {
-                Err(ConfigError::OutOfRange { name, value, range })
-            }
-        };
-        range(
+        check(
             config.address <= MAX_ADDRESS,
             "address",
-            config.address.to_string(),
+            config.address,
             "0…31",
         )?;
-        range(
+        check(
             config.pzd_words <= 16,
             "PZD words",
-            config.pzd_words.to_string(),
+            config.pzd_words,
             "0…16",
         )?;
-        range(
+        check(
             config.response_delay <= RESPONSE_DELAY_MAX,
             "response delay",
-            config.response_delay.to_string(),
+            config.response_delay,
             "start interval … 20 ms",
         )?;
         Ok(Drive {

@@ -10,6 +10,8 @@
 //! - [`drive`]: a simulated USS slave (a drive with parameters, a status word that follows the
 //!   control word and an actual value that ramps to the setpoint) for tests, examples and `si sim`;
 //! - [`status`]: the STATUS codes every job ends with;
+//! - [`monitor`]: the passive listener, judging start interval, residual run time and response
+//!   delay with [`config`]'s functions, as the master does;
 //! - [`fb`]: the net-data DB and the FC equivalents S_USST, S_USSR and S_USSI;
 //! - `tokio` (feature `tokio`): an async handle over the si-core driver.
 //!
@@ -40,6 +42,7 @@ pub mod drive;
 pub mod fb;
 pub mod frame;
 pub mod master;
+pub mod monitor;
 mod rx;
 pub mod status;
 #[cfg(feature = "tokio")]

@@ -4,10 +4,11 @@
 //! The ASCII driver has no frame encoding of its own (the user data are the frame, §6.1), so
 //! there is no `si frame encode|decode ascii`.
 
-use crate::cmd::frame::parse_hex;
-use crate::cmd::sim::{print_trace, Scenario, SimOptions};
 use crate::conn::Connection;
-use crate::{CliError, Output};
+use crate::error::CliError;
+use crate::hex::parse_hex;
+use crate::output::Output;
+use crate::scenario::{print_trace, Scenario, SimOptions};
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 use si_ascii::config::min_char_delay_ms;

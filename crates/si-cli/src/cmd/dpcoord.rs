@@ -22,10 +22,11 @@
 //! `host` command reads and writes them, so its transcript is a trace. `#` starts a comment;
 //! the `frame`, `signals`, `done` and `error` lines of a transcript are shown as they are.
 
-use crate::cmd::frame::parse_hex;
-use crate::cmd::sim::{print_trace, record_trace, Scenario, SimOptions};
 use crate::conn::Connection;
-use crate::{CliError, Output};
+use crate::error::CliError;
+use crate::hex::parse_hex;
+use crate::output::Output;
+use crate::scenario::{print_trace, record_trace, Scenario, SimOptions};
 use bytes::Bytes;
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;

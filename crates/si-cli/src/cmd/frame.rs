@@ -1,7 +1,8 @@
 //! `si frame encode|decode <protocol> HEX`: frames offline, no line needed.
 
 use crate::cmd::{modbus, r3964, rk512, uss};
-use crate::{CliError, Output};
+use crate::error::CliError;
+use crate::output::Output;
 use clap::Subcommand;
 
 /// Encode or decode one frame of a protocol.
@@ -54,10 +55,4 @@ impl FrameCommand {
             FrameCommand::Decode(Decode::Uss(a)) => a.run(out),
         }
     }
-}
-
-/// Parse the user's hex argument, turning a mistake into a one-line error. Frame commands take
-/// the bytes as one quoted argument or as several words (`01 03 00 00`), joined with spaces.
-pub fn parse_hex(text: &str) -> Result<Vec<u8>, CliError> {
-    si_core::hex::parse(text).map_err(|e| CliError::new(format!("bad hex {text:?}: {e}")))
 }

@@ -7,6 +7,11 @@
 //! - `EncodeArgs` / `DecodeArgs`: `si frame encode|decode <protocol> …`, run with `.run(&Output)`
 //!   (not for `ascii`, whose frames are the bytes themselves; `rk512` decodes only);
 //! - `SCENARIOS`: the named simulator scenarios `si sim` offers.
+//!
+//! Imports point one way (tests/import_graph.rs proves it): `frame` and `sim` list the protocol
+//! modules, and the protocol modules import only the leaves below all commands: hex parsing
+//! (`crate::hex`), scenarios and trace output (`crate::scenario`), printing (`crate::output`)
+//! and errors (`crate::error`).
 
 pub mod ascii;
 pub mod dpcoord;

@@ -1,9 +1,10 @@
 //! `si modbus`: Modbus RTU master jobs, a slave serving simulated SIMATIC memory, offline
 //! frames, and simulator scenarios (et200s-si-modbus-uss.md §3–§5).
 
-use crate::cmd::sim::{print_trace, Scenario, SimOptions};
 use crate::conn::Connection;
-use crate::{CliError, Output};
+use crate::error::CliError;
+use crate::output::Output;
+use crate::scenario::{print_trace, Scenario, SimOptions};
 use clap::{Args, Subcommand, ValueEnum};
 use serde::Deserialize;
 use serde_json::json;
@@ -651,7 +652,7 @@ pub struct EncodeArgs {
 impl EncodeArgs {
     /// Append the CRC (low byte first) and say how the frame reads.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let body = crate::cmd::frame::parse_hex(&self.hex.join(" "))?;
+        let body = crate::hex::parse_hex(&self.hex.join(" "))?;
         if body.len() < 2 {
             return Err(CliError::new(
                 "give at least the slave address and the function code",
@@ -703,7 +704,7 @@ pub struct DecodeArgs {
 impl DecodeArgs {
     /// Check the CRC, then read the frame as a request, else as a response.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let adu = crate::cmd::frame::parse_hex(&self.hex.join(" "))?;
+        let adu = crate::hex::parse_hex(&self.hex.join(" "))?;
         let as_request = frame::decode_request(&adu);
         let as_response = frame::decode_response(&adu);
         match (&as_request, &as_response) {

@@ -1,21 +1,22 @@
 //! `si diag`, `si im`, `si params`: the SI module's own data, offline.
 //!
 //! - `si diag decode HEX`: a PROFIBUS slave diagnosis with the channel errors' meaning and action
-//!   (et200s-si-2005-window-protocol.md §6.4, [`si_dp_coord::diag`]);
+//!   (et200s-si-2005-window-protocol.md §6.4, [`si_module::diag`]);
 //! - `si im decode HEX` / `si im encode --hid TEXT --location TEXT`: the 64-byte identification
-//!   records DS 231 / DS 232 (§9.1, [`si_dp_coord::ident`]);
+//!   records DS 231 / DS 232 (§9.1, [`si_module::ident`]);
 //! - `si params check FILE`: a TOML or JSON parameter file against the manual's tables; prints
-//!   the checked set, or every wrong value at once ([`si_dp_coord::params`]); `si params default
+//!   the checked set, or every wrong value at once ([`si_module::params`]); `si params default
 //!   DRIVER` prints a file with the manual's defaults to start from.
 
-use crate::cmd::frame::parse_hex;
-use crate::{CliError, Output};
+use crate::error::CliError;
+use crate::hex::parse_hex;
+use crate::output::Output;
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 use si_core::hex;
-use si_dp_coord::diag::{SlaveDiagnosis, Variant};
-use si_dp_coord::ident::{Im1, Record};
-use si_dp_coord::params::DriverParams;
+use si_module::diag::{SlaveDiagnosis, Variant};
+use si_module::ident::{Im1, Record};
+use si_module::params::DriverParams;
 use std::path::PathBuf;
 
 /// `si diag`.
@@ -102,7 +103,7 @@ impl DiagDecodeArgs {
             let states: Vec<_> = m.states().collect();
             let faulty: Vec<String> = states
                 .iter()
-                .filter(|(_, st)| *st != si_dp_coord::diag::ModuleState::Ok)
+                .filter(|(_, st)| *st != si_module::diag::ModuleState::Ok)
                 .map(|(n, st)| format!("module {n}: {}", st.text()))
                 .collect();
             out.line(
@@ -264,7 +265,7 @@ impl ParamsCommand {
         match self {
             ParamsCommand::Check(a) => a.run(out),
             ParamsCommand::Default(a) => {
-                use si_dp_coord::params::{
+                use si_module::params::{
                     AsciiParams, ModbusMasterParams, ModbusSlaveParams, R3964Params,
                     UssMasterParams,
                 };

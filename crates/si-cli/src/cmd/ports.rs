@@ -1,6 +1,7 @@
 //! `si ports`: the serial ports the OS knows.
 
-use crate::{CliError, Output};
+use crate::error::CliError;
+use crate::output::Output;
 
 /// List serial ports, one per line (or JSON objects with `--json`).
 pub fn run(out: &Output) -> Result<(), CliError> {

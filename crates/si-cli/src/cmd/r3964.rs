@@ -1,9 +1,10 @@
 //! `si 3964r send|recv`, `si frame encode|decode 3964r`, and the 3964(R) scenarios of `si sim`
 //! (et200s-si-3964r-ascii.md §5, cp341-3964r-rk512-ascii.md §3).
 
-use crate::cmd::sim::{print_trace, Scenario, SimOptions};
 use crate::conn::Connection;
-use crate::{CliError, Output};
+use crate::error::CliError;
+use crate::output::Output;
+use crate::scenario::{print_trace, Scenario, SimOptions};
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 use si_3964r::frame::{self, FrameError, Mode};
@@ -119,7 +120,7 @@ impl SendArgs {
     async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         let data = match (&self.hex, &self.text) {
             (_, Some(text)) => text.as_bytes().to_vec(),
-            (Some(hex), None) => crate::cmd::frame::parse_hex(hex)?,
+            (Some(hex), None) => crate::hex::parse_hex(hex)?,
             (None, None) => return Err(CliError::new("give the block as HEX or --text")),
         };
         let config = self.link.config()?;
@@ -196,7 +197,7 @@ pub struct EncodeArgs {
 impl EncodeArgs {
     /// Print the block that follows the partner's DLE: stuffed data, DLE ETX, BCC.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let payload = crate::cmd::frame::parse_hex(&self.hex.join(" "))?;
+        let payload = crate::hex::parse_hex(&self.hex.join(" "))?;
         let mode = mode(self.no_bcc);
         let block = frame::encode(&payload, mode);
         let text = si_core::hex::format(&block);
@@ -226,7 +227,7 @@ pub struct DecodeArgs {
 impl DecodeArgs {
     /// Print the payload, or fail naming what is wrong (and its STATUS).
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let block = crate::cmd::frame::parse_hex(&self.hex.join(" "))?;
+        let block = crate::hex::parse_hex(&self.hex.join(" "))?;
         match frame::decode(&block, mode(self.no_bcc), self.max_len) {
             Ok(payload) => {
                 let text = si_core::hex::format(&payload);

@@ -1,9 +1,10 @@
 //! `si rk512 send|fetch|serve`, `si frame decode rk512`, and the RK 512 scenarios of `si sim`
 //! (cp341-3964r-rk512-ascii.md §4, public-facts.md §2).
 
-use crate::cmd::sim::{print_trace, Scenario, SimOptions};
 use crate::conn::Connection;
-use crate::{CliError, Output};
+use crate::error::CliError;
+use crate::output::Output;
+use crate::scenario::{print_trace, Scenario, SimOptions};
 use clap::{Args, Subcommand, ValueEnum};
 use serde::Deserialize;
 use serde_json::json;
@@ -249,7 +250,7 @@ fn failed(what: &str, status: Status) -> CliError {
 
 impl SendArgs {
     async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
-        let data = crate::cmd::frame::parse_hex(&self.hex)?;
+        let data = crate::hex::parse_hex(&self.hex)?;
         let address = self.target.address();
         let coordination = self.target.coordination()?;
         let config = self.link.config(Priority::High)?;
@@ -497,7 +498,7 @@ fn command_name(c: si_rk512::Command) -> &'static str {
 impl DecodeArgs {
     /// Print the header fields (and the data, if any); fail naming offset, expected and found.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let bytes = crate::cmd::frame::parse_hex(&self.hex.join(" "))?;
+        let bytes = crate::hex::parse_hex(&self.hex.join(" "))?;
         let telegram = Telegram::decode(&bytes).map_err(|e| CliError::new(e.to_string()))?;
         let (text, value, data) = match telegram {
             Telegram::Command(h, data) => {

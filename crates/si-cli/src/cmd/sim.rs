@@ -6,36 +6,18 @@
 //! `--record FILE` (the global option) writes the trace a scenario prints as a trace file
 //! (`si_core::tracefile`, with the protocol and settings in its header) for `si monitor
 //! --trace`; `--svg FILE` decodes it with the monitor and draws the sequence diagram. Both
-//! hook into [`print_trace`], which every scenario calls once with its trace, or
-//! [`record_trace`] for a scenario that prints its own reading (`dp-coord-send`'s windows).
+//! hook into `crate::scenario::print_trace`, which every scenario calls once with its trace, or
+//! `record_trace` for a scenario that prints its own reading (`dp-coord-send`'s windows).
 
 use crate::cmd::{ascii, dpcoord, modbus, r3964, rk512, uss};
-use crate::{CliError, Output};
+use crate::error::CliError;
+use crate::output::Output;
+use crate::scenario::{self, print_trace, Scenario, SimOptions, Sink};
 use clap::Args;
-use si_core::sim::{Simulator, Trace};
+use si_core::sim::Simulator;
 use si_core::{Engine, Instant, LineError, Output as EngineOutput, SerialSettings};
-use std::cell::RefCell;
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
-
-/// A named simulation.
-pub struct Scenario {
-    /// What the user types: `si sim <name>`.
-    pub name: &'static str,
-    /// One line for the list.
-    pub about: &'static str,
-    /// Run it and print its trace and result.
-    pub run: fn(&SimOptions, &Output) -> Result<(), CliError>,
-}
-
-/// What every scenario gets from the command line.
-#[derive(Debug, Clone, Copy)]
-pub struct SimOptions {
-    /// Seed of the fault generator.
-    pub seed: u64,
-    /// Character format of the simulated line.
-    pub settings: SerialSettings,
-}
 
 /// `si sim`.
 #[derive(Debug, Args)]
@@ -48,20 +30,6 @@ pub struct SimArgs {
     /// Draw the scenario as an SVG sequence diagram (decoded like `si monitor`).
     #[arg(long, value_name = "FILE")]
     svg: Option<PathBuf>,
-}
-
-/// Where the trace of the running scenario goes besides the screen.
-struct Sink {
-    protocol: Option<&'static str>,
-    settings: SerialSettings,
-    record: Option<PathBuf>,
-    svg: Option<PathBuf>,
-    written: Result<bool, String>,
-}
-
-thread_local! {
-    /// Set by [`SimArgs::run`] around one scenario; read by [`print_trace`].
-    static SINK: RefCell<Option<Sink>> = const { RefCell::new(None) };
 }
 
 /// The protocol a scenario's trace speaks, from the list it comes from.
@@ -135,102 +103,13 @@ impl SimArgs {
             seed: self.seed,
             settings,
         };
-        let wanted = record.is_some() || self.svg.is_some();
-        SINK.with(|s| {
-            *s.borrow_mut() = wanted.then(|| Sink {
-                protocol: protocol_of(name),
-                settings,
-                record: record.map(Path::to_path_buf),
-                svg: self.svg.clone(),
-                written: Ok(false),
-            })
+        let sink = (record.is_some() || self.svg.is_some()).then(|| Sink {
+            protocol: protocol_of(name),
+            settings,
+            record: record.map(Path::to_path_buf),
+            svg: self.svg.clone(),
         });
-        let result = (scenario.run)(&options, out);
-        let sink = SINK.with(|s| s.borrow_mut().take());
-        result?;
-        match sink.map(|s| s.written) {
-            None | Some(Ok(true)) => Ok(()),
-            Some(Ok(false)) => Err(CliError::new(format!(
-                "scenario {name} printed no trace to record or draw"
-            ))),
-            Some(Err(e)) => Err(CliError::new(e)),
-        }
-    }
-}
-
-/// Write the trace file and the diagram the running scenario asked for.
-fn save(sink: &Sink, trace: &Trace) -> Result<(), String> {
-    let stations: Vec<String> = {
-        let mut names: Vec<String> = Vec::new();
-        for e in &trace.entries {
-            if !names.contains(&e.station) {
-                names.push(e.station.clone());
-            }
-        }
-        names
-    };
-    let mut header = si_core::tracefile::Header::new("sim")
-        .settings(sink.settings)
-        .stations(&stations);
-    if let Some(p) = sink.protocol {
-        header = header.protocol(p);
-    }
-    if let Some(path) = &sink.record {
-        let file = std::fs::File::create(path)
-            .map_err(|e| format!("cannot record to {}: {e}", path.display()))?;
-        si_core::tracefile::write(std::io::BufWriter::new(file), &header, trace)
-            .map_err(|e| format!("cannot record to {}: {e}", path.display()))?;
-    }
-    if let Some(path) = &sink.svg {
-        let file = si_core::tracefile::TraceFile {
-            header: Some(header),
-            trace: trace.clone(),
-        };
-        let args = <crate::cmd::monitor::MonitorArgs as clap::FromArgMatches>::from_arg_matches(
-            &<crate::cmd::monitor::MonitorArgs as clap::Args>::augment_args(clap::Command::new(
-                "m",
-            ))
-            .get_matches_from(["m"]),
-        )
-        .map_err(|e| e.to_string())?;
-        let analysis = args
-            .analyse(&file, sink.settings)
-            .map_err(|e| format!("{e:?}"))?;
-        std::fs::write(path, crate::svg::render(&analysis))
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-    }
-    Ok(())
-}
-
-/// Save a trace the running scenario does not print (it prints its own reading) when `si sim`
-/// was asked to `--record` or draw (`--svg`) it; `protocol` goes into the trace header and
-/// picks the monitor's decoder (`dp-coord`: DP windows, [`crate::cmd::monitor::window`]).
-pub fn record_trace(trace: &Trace, protocol: &'static str) {
-    SINK.with(|s| {
-        if let Some(sink) = s.borrow_mut().as_mut() {
-            sink.protocol = Some(protocol);
-            sink.written = save(sink, trace).map(|()| true);
-        }
-    });
-}
-
-/// Print a trace: the human table, or one JSON object per entry. When `si sim` was asked to
-/// `--record` or draw (`--svg`), the trace is saved here too.
-pub fn print_trace(trace: &Trace, out: &Output) {
-    SINK.with(|s| {
-        if let Some(sink) = s.borrow_mut().as_mut() {
-            sink.written = save(sink, trace).map(|()| true);
-        }
-    });
-    if out.json {
-        for entry in &trace.entries {
-            crate::write_stdout(format_args!(
-                "{}\n",
-                serde_json::to_string(entry).unwrap_or_default()
-            ));
-        }
-    } else {
-        crate::write_stdout(format_args!("{trace}"));
+        scenario::run(scenario, name, &options, sink, out)
     }
 }
 

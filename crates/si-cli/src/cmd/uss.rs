@@ -1,9 +1,10 @@
 //! `si uss`: the USS master on a line (poll drives, read and write parameters), a simulated drive,
 //! offline telegrams and the USS simulator scenarios (et200s-si-modbus-uss.md §6, public-facts.md §3).
 
-use crate::cmd::sim::{print_trace, Scenario, SimOptions};
 use crate::conn::Connection;
-use crate::{CliError, Output};
+use crate::error::CliError;
+use crate::output::Output;
+use crate::scenario::{print_trace, Scenario, SimOptions};
 use clap::{Args, Subcommand};
 use serde_json::json;
 use si_core::driver::{spawn, DriverOptions};
@@ -419,7 +420,7 @@ pub struct EncodeArgs {
 impl EncodeArgs {
     /// Run it.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let bytes = crate::cmd::frame::parse_hex(&self.hex.join(" "))?;
+        let bytes = crate::hex::parse_hex(&self.hex.join(" "))?;
         let (&adr, net) = bytes
             .split_first()
             .ok_or_else(|| CliError::new("give at least the ADR byte"))?;
@@ -451,7 +452,7 @@ pub struct DecodeArgs {
 impl DecodeArgs {
     /// Run it.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let bytes = crate::cmd::frame::parse_hex(&self.hex.join(" "))?;
+        let bytes = crate::hex::parse_hex(&self.hex.join(" "))?;
         let t = frame::decode(&bytes)?;
         let mut text = format!(
             "ADR {:02X}H (slave {}{}), LGE {}, {} net bytes: {}",

@@ -3,27 +3,21 @@
 //!
 //! The input is either a port (`--port`/`--tcp`; the monitor only reads) or a trace file
 //! (`--trace FILE`, see `si_core::tracefile`) written by `si sim --record`, by `si --record` on
-//! any command, or by the tokio driver. The characters go to one passive decoder per protocol
-//! ([`p3964`], [`modbus`], [`uss`], [`ascii`]), which cuts frames the way the module's receiver
-//! does, checks BCC/CRC, judges the manuals' timers (ZVZ, QVZ, Modbus end-of-frame gap and
-//! response timeout, USS start interval, residual run time and response delay) and keeps
-//! counters. A trace of DP windows (`--protocol dp-coord`, [`window`]) is read window by window
-//! with its coordination bytes. Every record is printed as it is decoded; the counters at the end. `--svg` draws
-//! the sequence diagram ([`crate::svg`]).
-
-pub mod ascii;
-pub mod framer;
-pub mod line;
-pub mod modbus;
-pub mod model;
-pub mod p3964;
-pub mod uss;
-pub mod window;
+//! any command, or by the tokio driver. The characters go to the protocol crate's passive
+//! monitor (`si_3964r::monitor`, `si_rk512::monitor`, `si_modbus::monitor`, `si_uss::monitor`,
+//! `si_ascii::monitor`), which cuts frames the way the module's receiver does, checks BCC/CRC,
+//! judges the manuals' timers with the engine's own timing functions (ZVZ, QVZ, Modbus
+//! end-of-frame gap and response timeout, USS start interval, residual run time and response
+//! delay) and keeps counters. A trace of DP windows (`--protocol dp-coord`,
+//! `si_dp_coord::monitor`) is read window by window with its coordination bytes. This command
+//! only chooses the monitor, feeds it and prints: every record as it is decoded, the counters
+//! at the end; `--svg` draws the sequence diagram ([`crate::svg`]).
 
 use crate::conn::Connection;
-use crate::{CliError, Output};
+use crate::error::CliError;
+use crate::output::Output;
 use clap::{Args, ValueEnum};
-use model::{Counters, Decoder, LineChar, Record, Severity};
+use si_core::monitor::{decode_all, line, Analysis, Decoder, Kind, LineChar, Record, Severity};
 use si_core::tracefile::{self, TraceFile};
 use si_core::{Duration, Instant, SerialSettings};
 use std::path::PathBuf;
@@ -126,21 +120,6 @@ pub struct MonitorArgs {
     pub no_xon_xoff: bool,
 }
 
-/// Everything the monitor concluded.
-#[derive(Debug, Clone, Default)]
-pub struct Analysis {
-    /// The protocol decoded.
-    pub protocol: String,
-    /// Station names (records index into it).
-    pub stations: Vec<String>,
-    /// Records in time order.
-    pub records: Vec<Record>,
-    /// The decoder's counters.
-    pub counters: Counters,
-    /// First and last instant of the trace.
-    pub span: (Instant, Instant),
-}
-
 impl MonitorArgs {
     /// Run it: decode a trace, or watch the port.
     pub async fn run(&self, conn: &Connection, out: &Output) -> Result<(), CliError> {
@@ -150,6 +129,8 @@ impl MonitorArgs {
         }
     }
 
+    /// The protocol crate's monitor for `protocol`, with the engine's own timers unless the
+    /// command line overrides them.
     fn decoder(
         &self,
         protocol: Protocol,
@@ -159,35 +140,31 @@ impl MonitorArgs {
         let ms = Duration::from_millis;
         match protocol {
             Protocol::P3964r | Protocol::P3964 | Protocol::Rk512 | Protocol::Auto => {
-                let mode = if protocol == Protocol::P3964 {
-                    si_3964r::frame::Mode::NoBlockCheck
+                let link = if protocol == Protocol::P3964 {
+                    si_3964r::Config::without_block_check()
                 } else {
-                    si_3964r::frame::Mode::BlockCheck
+                    si_3964r::Config::default()
                 };
-                let default_qvz = if protocol == Protocol::P3964 {
-                    550
+                let mut p = if protocol == Protocol::Rk512 {
+                    si_rk512::monitor::params(&link)
                 } else {
-                    2000
+                    si_3964r::monitor::Params::from_config(&link)
                 };
-                Box::new(p3964::P3964::new(p3964::Params {
-                    mode,
-                    zvz: ms(self.zvz.unwrap_or(220)),
-                    qvz: ms(self.qvz.unwrap_or(default_qvz)),
-                    rk512: protocol == Protocol::Rk512,
-                }))
+                p.zvz = self.zvz.map_or(p.zvz, ms);
+                p.qvz = self.qvz.map_or(p.qvz, ms);
+                Box::new(si_3964r::monitor::Monitor::new(p))
             }
-            Protocol::Modbus => Box::new(modbus::Modbus::new(
-                modbus::Params {
-                    settings,
-                    end_gap: si_modbus::config::gap_table(settings.baud()),
-                    timeout: ms(self.timeout.unwrap_or(2000)),
-                },
-                one_sided,
-            )),
-            Protocol::Uss => Box::new(uss::Uss::new(settings, one_sided)),
-            Protocol::DpCoord => Box::new(window::Windows::new(1)),
+            Protocol::Modbus => {
+                let mut master = si_modbus::config::MasterConfig::default();
+                master.line.settings = settings;
+                let mut p = si_modbus::monitor::Params::from_config(&master);
+                p.timeout = self.timeout.map_or(p.timeout, ms);
+                Box::new(si_modbus::monitor::Monitor::new(p, one_sided))
+            }
+            Protocol::Uss => Box::new(si_uss::monitor::Monitor::new(settings, one_sided)),
+            Protocol::DpCoord => Box::new(si_dp_coord::monitor::Monitor::new(1)),
             Protocol::Ascii => {
-                use si_ascii::config::EndCriterion;
+                use si_ascii::config::{EndCriterion, FlowControl};
                 let end = match (&self.end_char, self.fixed_length) {
                     (Some(hex), _) => {
                         let chars = si_core::hex::parse(hex).unwrap_or_default();
@@ -199,12 +176,21 @@ impl MonitorArgs {
                     (None, Some(len)) => EndCriterion::FixedLength { len },
                     (None, None) => EndCriterion::CharDelay,
                 };
-                let min = u64::from(si_ascii::config::min_char_delay_ms(settings.baud()));
-                Box::new(ascii::Ascii::new(ascii::Params {
+                let link = si_ascii::Config {
+                    settings,
                     end,
-                    char_delay: ms(self.char_delay.unwrap_or(min.max(4))),
-                    xon_xoff: (!self.no_xon_xoff).then_some((0x11, 0x13)),
-                }))
+                    // The smallest delay the link accepts at this rate (Table 2-9, 4 ms floor).
+                    char_delay_ms: si_ascii::config::min_char_delay_ms(settings.baud()),
+                    flow_control: if self.no_xon_xoff {
+                        FlowControl::None
+                    } else {
+                        FlowControl::XonXoff
+                    },
+                    ..si_ascii::Config::default()
+                };
+                let mut p = si_ascii::monitor::Params::from_config(&link);
+                p.char_delay = self.char_delay.map_or(p.char_delay, ms);
+                Box::new(si_ascii::monitor::Monitor::new(p))
             }
         }
     }
@@ -252,7 +238,7 @@ impl MonitorArgs {
             (p, _) => p == Protocol::DpCoord,
         };
         let line = if windows {
-            window::line(file)
+            si_dp_coord::monitor::line(file)
         } else {
             line::from_trace(file, settings)
         };
@@ -272,7 +258,9 @@ impl MonitorArgs {
             (p, _) => p,
         };
         let mut decoder: Box<dyn Decoder> = if windows {
-            Box::new(window::Windows::new(window::module_index(&line.stations)))
+            Box::new(si_dp_coord::monitor::Monitor::new(
+                si_dp_coord::monitor::module_index(&line.stations),
+            ))
         } else {
             self.decoder(protocol, settings, one_sided)
         };
@@ -281,7 +269,7 @@ impl MonitorArgs {
             for e in &file.trace.entries {
                 if let si_core::sim::TraceKind::Event { text } = &e.kind {
                     let from = line.stations.iter().position(|s| s == &e.station);
-                    let mut r = Record::new(model::Kind::Event, e.at, e.at, from);
+                    let mut r = Record::new(Kind::Event, e.at, e.at, from);
                     r.label = text.clone();
                     records.push(r);
                 }
@@ -366,16 +354,18 @@ impl MonitorArgs {
                     if n == 0 {
                         break;
                     }
-                    let chunk = Chunk { bytes: &buf[..n], at: now(), from: Some(0), to: to_a };
-                    chunk.push(decoder.as_mut(), settings, &mut last, &mut records);
+                    for c in line::pace(&buf[..n], now(), (Some(0), to_a), settings, &mut last) {
+                        decoder.push(&c, &mut records);
+                    }
                 }
                 read = async { tap.as_mut().map(|t| t.read(&mut buf2)).expect("guarded").await }, if tap.is_some() => {
                     let n = read.map_err(read_error)?;
                     if n == 0 {
                         break;
                     }
-                    let chunk = Chunk { bytes: &buf2[..n], at: now(), from: Some(1), to: to_b };
-                    chunk.push(decoder.as_mut(), settings, &mut last, &mut records);
+                    for c in line::pace(&buf2[..n], now(), (Some(1), to_b), settings, &mut last) {
+                        decoder.push(&c, &mut records);
+                    }
                 }
                 _ = tick.tick() => decoder.idle(now(), &mut records),
                 _ = &mut ctrl_c => break,
@@ -411,57 +401,10 @@ impl MonitorArgs {
     }
 }
 
-/// Characters a port delivered at once.
-struct Chunk<'a> {
-    bytes: &'a [u8],
-    at: Instant,
-    from: Option<usize>,
-    to: Option<usize>,
-}
-
-impl Chunk<'_> {
-    /// Feed the chunk's characters: the last arrived at `at`, the ones before it one character
-    /// time apart (a UART delivers them at that pace), never before a character already fed.
-    fn push(
-        &self,
-        decoder: &mut dyn Decoder,
-        settings: SerialSettings,
-        last: &mut Instant,
-        out: &mut Vec<Record>,
-    ) {
-        let n = self.bytes.len();
-        for (k, &b) in self.bytes.iter().enumerate() {
-            let before = settings.chars_time((n - 1 - k) as u64);
-            let at = Instant::from_micros(self.at.as_micros().saturating_sub(before.as_micros()))
-                .max(*last);
-            *last = at;
-            let c = LineChar {
-                at,
-                from: self.from,
-                to: self.to,
-                item: Ok(b),
-                exact: k == 0,
-            };
-            decoder.push(&c, out);
-        }
-    }
-}
-
 /// Baud rates a trace or a monitored line may use: the manuals' twelve and USS's 187 500.
 pub static TRACE_RATES: [u32; 13] = [
     110, 300, 600, 1_200, 2_400, 4_800, 9_600, 19_200, 38_400, 57_600, 76_800, 115_200, 187_500,
 ];
-
-/// Feed every character, then finish at `end`.
-pub fn decode_all(decoder: &mut dyn Decoder, chars: &[LineChar], end: Instant) -> Vec<Record> {
-    let mut records = Vec::new();
-    for c in chars {
-        decoder.push(c, &mut records);
-    }
-    decoder.finish(end, &mut records);
-    records.sort_by_key(|r| r.start);
-    records
-}
 
 /// Pick the decoder that explains the characters best: most decoded frames without errors,
 /// fewest errors.
@@ -481,7 +424,7 @@ fn guess(
         let records = decode_all(d.as_mut(), chars, end);
         let good = records
             .iter()
-            .filter(|r| r.kind != model::Kind::Note && !r.has_error())
+            .filter(|r| r.kind != Kind::Note && !r.has_error())
             .count() as i64;
         let bad = records.iter().filter(|r| r.has_error()).count() as i64;
         // ASCII explains everything trivially: it only wins when nothing else does.
@@ -516,7 +459,7 @@ pub fn print_record(r: &Record, stations: &[String], out: &Output) {
             Severity::Note => format!("  -- {}", f.text),
         })
         .collect();
-    let dir = if matches!(r.kind, model::Kind::Note | model::Kind::Event) {
+    let dir = if matches!(r.kind, Kind::Note | Kind::Event) {
         format!("{from:>8}   {:<8}", "")
     } else {
         format!("{from:>8} → {to:<8}")
@@ -527,8 +470,8 @@ pub fn print_record(r: &Record, stations: &[String], out: &Output) {
         format!("{:<14} {}", r.label, r.text)
     };
     let (text, flags) = match r.kind {
-        model::Kind::Note => (format!("!! {}", r.label), Vec::new()),
-        model::Kind::Event => (format!("event {}", r.label), Vec::new()),
+        Kind::Note => (format!("!! {}", r.label), Vec::new()),
+        Kind::Event => (format!("event {}", r.label), Vec::new()),
         _ => (text, flags),
     };
     out.line(

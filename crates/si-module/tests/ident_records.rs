@@ -2,8 +2,8 @@
 //! (Tables 2-10 and 2-11).
 
 use proptest::prelude::*;
-use si_dp_coord::diag::Variant;
-use si_dp_coord::ident::{
+use si_module::diag::Variant;
+use si_module::ident::{
     Im0, Im1, ImError, Index, Record, SoftwareRevision, DATA_LEN, HID_LEN, LOCATION_LEN, RECORD_LEN,
 };
 

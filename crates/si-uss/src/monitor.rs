@@ -3,6 +3,12 @@
 //! `LGE + 2` characters long; the BCC is checked, the residual run time `1.5 × (n + 3)`
 //! character times from STX is judged, and the slave's response delay must stay within 20 ms.
 //!
+//! The timers are the engine's: [`crate::config::start_interval`],
+//! [`crate::config::residual_run_time`] (rounded up to a microsecond, as the master's receiver
+//! sets its deadline) and [`crate::config::RESPONSE_DELAY_MAX`]. A telegram the master accepts
+//! is never flagged here (before issue 17 the monitor rounded the residual run time down and
+//! flagged telegrams that ended in the last microsecond).
+//!
 //! Counters are the USS specification's recommended diagnostic counters (USS spec §5.2.3):
 //! telegrams ok, telegrams rejected, framing, overrun and parity errors, start not identified,
 //! residual run time exceeded, BCC errors, length errors, monitoring time (no answer). A
@@ -12,13 +18,40 @@
 //! Reading chosen: master telegrams and slave telegrams have the same shape, so, as for Modbus,
 //! a telegram is the **response** when a master telegram is waiting and it comes from another
 //! station (or the capture is one-sided); otherwise it is a master telegram.
+//!
+//! ```
+//! use si_uss::frame::{encode, Adr};
+//! use si_uss::monitor::Monitor;
+//! use si_core::monitor::{decode_all, Decoder, LineChar};
+//! use si_core::{Instant, SerialSettings};
+//!
+//! // The master (station 0) polls node 1, the drive (station 1) answers 5 ms later; 9600 8E1.
+//! let ct = 1_146;
+//! let mut buf = [0u8; 256];
+//! let mut chars = Vec::new();
+//! let mut at = 10_000;
+//! for (from, net) in [(0, [0u8; 4]), (1, [1u8; 4])] {
+//!     let n = encode(Adr(1), &net, &mut buf).unwrap();
+//!     for &b in &buf[..n] {
+//!         chars.push(LineChar { at: Instant::from_micros(at), from: Some(from), to: Some(1 - from), item: Ok(b), exact: true });
+//!         at += ct;
+//!     }
+//!     at += 5_000;
+//! }
+//! let mut monitor = Monitor::new(SerialSettings::default(), false);
+//! let records = decode_all(&mut monitor, &chars, Instant::from_micros(at + 100_000));
+//! assert_eq!(records[1].label, "answer 1 (4 B)");
+//! assert_eq!(monitor.counters().0["telegrams ok"], 2);
+//! ```
 
-use super::model::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
+use crate::config::{residual_run_time, start_interval, RESPONSE_DELAY_MAX};
+use crate::frame::{decode, DecodeError, STX};
+use si_core::monitor::exchange::{Exchange, Request};
+use si_core::monitor::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
 use si_core::{Duration, Instant, LineError, SerialSettings};
-use si_uss::frame::{decode, DecodeError, STX};
 
-/// The slave's longest response delay (USS spec §5.2.1.1).
-pub const RESPONSE_DELAY: Duration = Duration::from_millis(20);
+/// The slave's longest response delay (USS spec §5.2.1.1), the engine's own constant.
+pub const RESPONSE_DELAY: Duration = RESPONSE_DELAY_MAX;
 
 struct Telegram {
     from: Option<usize>,
@@ -29,26 +62,18 @@ struct Telegram {
     errors: Vec<LineError>,
 }
 
-struct Pending {
-    from: Option<usize>,
-    adr: u8,
-    end: Instant,
-}
-
 /// The USS listener.
-pub struct Uss {
+pub struct Monitor {
     settings: SerialSettings,
     cur: Option<Telegram>,
     last: Option<LineChar>,
-    pending: Option<Pending>,
-    /// The master telegram whose answer did not come in time: a telegram from the addressed
-    /// node after that is a late answer, not a new master telegram.
-    late: Option<Pending>,
+    /// Master telegrams (their ADR byte) and answers, `si_core::monitor::exchange`'s reading.
+    exchange: Exchange<u8>,
     one_sided: bool,
     counters: Counters,
 }
 
-impl Uss {
+impl Monitor {
     /// A listener for `settings`; `one_sided` when senders are unknown.
     pub fn new(settings: SerialSettings, one_sided: bool) -> Self {
         let mut counters = Counters::default();
@@ -64,36 +89,36 @@ impl Uss {
             "length errors",
             "monitoring time (no answer)",
         ]);
-        Uss {
+        Monitor {
             settings,
             cur: None,
             last: None,
-            pending: None,
-            late: None,
+            exchange: Exchange::new(one_sided),
             one_sided,
             counters,
         }
     }
 
     fn overdue(&mut self, now: Instant, out: &mut Vec<Record>) {
-        if let Some(pd) = &self.pending {
-            if now.saturating_since(pd.end) > RESPONSE_DELAY + self.settings.chars_time(3) {
-                self.counters.bump("monitoring time (no answer)");
-                out.push(Record::note(
-                    pd.end + RESPONSE_DELAY,
-                    pd.from,
-                    Flag::error(format!(
-                        "node {} does not answer within {} (response delay)",
-                        pd.adr & 0x1F,
-                        ms(RESPONSE_DELAY)
-                    )),
-                ));
-                self.late = self.pending.take();
-            }
+        let limit = RESPONSE_DELAY + self.settings.chars_time(3);
+        if let Some(pd) = self
+            .exchange
+            .expire(|pd| now.saturating_since(pd.end) > limit)
+        {
+            self.counters.bump("monitoring time (no answer)");
+            out.push(Record::note(
+                pd.end + RESPONSE_DELAY,
+                pd.from,
+                Flag::error(format!(
+                    "node {} does not answer within {} (response delay)",
+                    pd.what & 0x1F,
+                    ms(RESPONSE_DELAY)
+                )),
+            ));
         }
         // A telegram that stopped short: end it when its residual run time has passed.
         if let Some(t) = &self.cur {
-            let n = t.bytes.get(1).map_or(si_uss::frame::MAX_NET, |&lge| {
+            let n = t.bytes.get(1).map_or(crate::frame::MAX_NET, |&lge| {
                 usize::from(lge).saturating_sub(2)
             });
             let limit = self.residual(n);
@@ -106,9 +131,9 @@ impl Uss {
         }
     }
 
-    /// Residual run time for `n` net bytes: 1.5 × (n + 3) character times, from the end of STX.
+    /// Residual run time for `n` net bytes, from the end of STX: the engine's rule.
     fn residual(&self, n: usize) -> Duration {
-        Duration::from_micros(self.settings.chars_time((n as u64 + 3) * 3).as_micros() / 2)
+        residual_run_time(&self.settings, n)
     }
 
     fn telegram(&mut self, t: Telegram, cut_short: bool, out: &mut Vec<Record>) {
@@ -135,22 +160,17 @@ impl Uss {
                 ms(self.residual(n))
             )));
         }
-        let is_response = match &self.pending {
-            Some(pd) => self.one_sided || pd.from != t.from,
-            None => false,
+        let is_response = self.exchange.is_answer(t.from);
+        let late = if is_response {
+            None
+        } else {
+            let node = decode(&t.bytes).ok().map(|tg| tg.adr.address());
+            self.exchange
+                .late_answer(t.from, |&adr| Some(adr & 0x1F) == node)
         };
-        let late = match (&self.late, decode(&t.bytes)) {
-            (Some(pd), Ok(tg)) if !is_response => {
-                (self.one_sided || pd.from != t.from) && tg.adr.address() == pd.adr & 0x1F
-            }
-            _ => false,
-        };
-        if late {
+        if let Some(pd) = late {
             // Already counted as "no answer" when the response delay ran out.
-            let pd = self.late.take();
-            let wait = pd.map_or(Duration::ZERO, |pd| {
-                t.start.saturating_since(pd.end + self.settings.char_time())
-            });
+            let wait = t.start.saturating_since(pd.end + self.settings.char_time());
             r.label = format!("late answer {} B", t.bytes.len());
             r.text = si_core::hex::format(&t.bytes);
             r.flags.push(Flag::error(format!(
@@ -162,9 +182,6 @@ impl Uss {
             out.push(r);
             return;
         }
-        if !is_response {
-            self.late = None;
-        }
         match decode(&t.bytes) {
             Ok(tg) => {
                 let role = if is_response { "answer" } else { "to" };
@@ -175,13 +192,12 @@ impl Uss {
                     si_core::hex::format(tg.net)
                 );
                 if is_response {
-                    let pd = self.pending.take();
-                    if let Some(pd) = pd {
-                        if tg.adr.address() != pd.adr & 0x1F {
+                    if let Some(pd) = self.exchange.take() {
+                        if tg.adr.address() != pd.what & 0x1F {
                             r.flags.push(Flag::error(format!(
                                 "answer from node {} to a telegram for node {}",
                                 tg.adr.address(),
-                                pd.adr & 0x1F
+                                pd.what & 0x1F
                             )));
                         }
                         let wait = t.start.saturating_since(pd.end + self.settings.char_time());
@@ -196,10 +212,10 @@ impl Uss {
                 } else {
                     self.unanswered(t.start, out);
                     if !tg.adr.is_broadcast() {
-                        self.pending = Some(Pending {
+                        self.exchange.wait_for(Request {
                             from: t.from,
-                            adr: tg.adr.0,
                             end: t.end,
+                            what: tg.adr.0,
                         });
                     }
                 }
@@ -221,7 +237,7 @@ impl Uss {
                 }
                 r.flags.push(Flag::error(e.to_string()));
                 if is_response {
-                    self.pending = None;
+                    self.exchange.take();
                 }
             }
         }
@@ -234,24 +250,24 @@ impl Uss {
     }
 
     fn unanswered(&mut self, at: Instant, out: &mut Vec<Record>) {
-        if let Some(pd) = self.pending.take() {
+        if let Some(pd) = self.exchange.take() {
             self.counters.bump("monitoring time (no answer)");
             out.push(Record::note(
                 at,
                 pd.from,
                 Flag::error(format!(
                     "node {} did not answer before the next telegram",
-                    pd.adr & 0x1F
+                    pd.what & 0x1F
                 )),
             ));
         }
     }
 }
 
-impl Decoder for Uss {
+impl Decoder for Monitor {
     fn push(&mut self, c: &LineChar, out: &mut Vec<Record>) {
         self.overdue(c.at, out);
-        let silence = super::line::gap(self.last.as_ref(), c);
+        let silence = si_core::monitor::line::gap(self.last.as_ref(), c);
         self.last = Some(c.clone());
         if let Some(t) = &mut self.cur {
             if t.from == c.from || self.one_sided {
@@ -277,7 +293,7 @@ impl Decoder for Uss {
         }
         match c.item {
             Ok(STX) => {
-                let start_interval = self.settings.chars_time(2);
+                let start_interval = start_interval(&self.settings);
                 let mut t = Telegram {
                     from: c.from,
                     to: c.to,
@@ -337,10 +353,12 @@ impl Decoder for Uss {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::{uss_settings, USS_BAUD_RATES};
+    use crate::rx::{Receiver, RxOutcome};
 
     fn telegram(adr: u8, net: &[u8]) -> Vec<u8> {
         let mut out = [0u8; 256];
-        let n = si_uss::frame::encode(si_uss::frame::Adr(adr), net, &mut out).unwrap();
+        let n = crate::frame::encode(crate::frame::Adr(adr), net, &mut out).unwrap();
         out[..n].to_vec()
     }
 
@@ -358,9 +376,9 @@ mod tests {
     }
 
     fn run(chars: &[LineChar]) -> (Vec<Record>, Counters) {
-        let mut d = Uss::new(SerialSettings::default(), false);
+        let mut d = Monitor::new(SerialSettings::default(), false);
         let end = chars.last().map_or(Instant::ZERO, |c| c.at) + Duration::from_millis(100);
-        let records = super::super::decode_all(&mut d, chars, end);
+        let records = si_core::monitor::decode_all(&mut d, chars, end);
         (records, d.counters().clone())
     }
 
@@ -420,5 +438,101 @@ mod tests {
             late.flags[0].text.starts_with("answer after 28.854 ms"),
             "{late:?}"
         );
+    }
+
+    /// The residual-run-time deadline the master's receiver sets for a telegram with `n` net
+    /// bytes whose STX ended at `t0`.
+    fn engine_deadline(settings: SerialSettings, t0: Instant, n: usize) -> Instant {
+        let mut rx = Receiver::new(settings);
+        assert_eq!(rx.push(t0, STX), RxOutcome::Pending);
+        assert_eq!(
+            rx.push(t0 + settings.char_time(), n as u8 + 2),
+            RxOutcome::Pending
+        );
+        rx.deadline().expect("receiving")
+    }
+
+    /// One telegram with `n` net bytes: STX at `t0`, the last character at `last`.
+    fn stretched(t0: Instant, last: Instant, n: usize) -> Vec<LineChar> {
+        let bytes = telegram(1, &vec![0x5A; n]);
+        let span = last.saturating_since(t0).as_micros();
+        let k = bytes.len() as u64 - 1;
+        bytes
+            .iter()
+            .enumerate()
+            .map(|(i, &b)| LineChar {
+                at: t0 + Duration::from_micros(span * i as u64 / k),
+                from: Some(0),
+                to: None,
+                item: Ok(b),
+                exact: true,
+            })
+            .collect()
+    }
+
+    fn exceeded(settings: SerialSettings, chars: &[LineChar]) -> bool {
+        let mut d = Monitor::new(settings, false);
+        let end = chars.last().map_or(Instant::ZERO, |c| c.at) + Duration::from_secs(1);
+        si_core::monitor::decode_all(&mut d, chars, end);
+        d.counters().0["residual run time exceeded"] > 0
+    }
+
+    #[test]
+    fn uss_5_2_1_2_monitor_and_master_agree_on_the_residual_run_time() {
+        // Issue 17: the monitor rounded 1.5 × (n + 3) character times down while the engine
+        // rounds up, so a telegram ending in the engine's last microsecond was flagged. Now a
+        // telegram ending exactly at the master receiver's deadline passes, one a microsecond
+        // later is flagged, at every USS baud rate and telegram length.
+        let mut odd = 0;
+        for baud in USS_BAUD_RATES {
+            let settings = uss_settings(baud).unwrap();
+            for n in [0, 1, 2, 3, 4, 7, 12, 20, 35, 100, 252] {
+                let t0 = Instant::from_micros(1_000_000);
+                let deadline = engine_deadline(settings, t0, n);
+                odd += usize::from(settings.chars_time(3 * (n as u64 + 3)).as_micros() % 2 == 1);
+                assert!(
+                    !exceeded(settings, &stretched(t0, deadline, n)),
+                    "{baud} bit/s, {n} net bytes: ends at the engine's deadline"
+                );
+                assert!(
+                    exceeded(
+                        settings,
+                        &stretched(t0, deadline + Duration::from_micros(1), n)
+                    ),
+                    "{baud} bit/s, {n} net bytes: ends after the engine's deadline"
+                );
+            }
+        }
+        assert!(odd > 0, "some case must be one the old rounding got wrong");
+    }
+
+    #[test]
+    fn uss_5_1_2_monitor_and_master_agree_on_the_start_interval() {
+        // The master's receiver takes an STX after at least the start interval of silence
+        // (arrival − one character − last end ≥ 2 character times); the monitor notes
+        // "STX without the start interval" exactly when the receiver would not identify it.
+        let settings = SerialSettings::default();
+        let ct = settings.char_time();
+        let need = start_interval(&settings) + ct;
+        for silence in [Duration::from_micros(need.as_micros() - 1), need] {
+            let mut rx = Receiver::new(settings);
+            rx.resync();
+            let t0 = Instant::from_micros(1_000_000);
+            rx.push(t0, 0x00);
+            let engine_ok = rx.push(t0 + silence, STX) == RxOutcome::Pending;
+            let mut chars = Vec::new();
+            push(&mut chars, 0, t0.as_micros(), 0, &[0x00]);
+            push(
+                &mut chars,
+                0,
+                (t0 + silence).as_micros(),
+                ct.as_micros(),
+                &telegram(1, &[0; 4]),
+            );
+            let mut d = Monitor::new(settings, false);
+            si_core::monitor::decode_all(&mut d, &chars, t0 + Duration::from_secs(1));
+            let monitor_ok = d.counters().0["start not identified"] == 1; // the 00H only
+            assert_eq!(monitor_ok, engine_ok, "silence {silence}");
+        }
     }
 }

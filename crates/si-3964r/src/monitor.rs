@@ -3,21 +3,70 @@
 //! the timers a listener can judge: the character delay time ZVZ between block characters and
 //! the acknowledgement delay time QVZ after STX and after the block (§5.8, Table 2-11).
 //!
-//! RK 512 rides on 3964(R) blocks (cp341-3964r-rk512-ascii.md): with `rk512` the block payload
-//! is decoded as an RK 512 telegram too.
+//! The timers are the link's own ([`Params::from_config`] takes them from a
+//! [`crate::Config`]: [`crate::Config::char_delay`] and [`crate::Config::ack_delay`]), so the
+//! monitor judges a line by the values the engine runs with.
+//!
+//! A layer that rides on 3964(R) blocks names a [`Payload`] decoder for the block's user data
+//! (`si_rk512::monitor` does so for RK 512 telegrams, cp341-3964r-rk512-ascii.md).
+//!
+//! ```
+//! use si_3964r::monitor::{Monitor, Params};
+//! use si_3964r::frame::{encode, Mode, DLE, STX};
+//! use si_core::monitor::{decode_all, Kind, LineChar};
+//! use si_core::Instant;
+//!
+//! // A sends STX, B answers DLE, A sends the block, B acknowledges with DLE; 9600 8E1.
+//! let ct = 1_146;
+//! let mut wire = vec![(0, STX), (1, DLE)];
+//! wire.extend(encode(b"hi", Mode::BlockCheck).into_iter().map(|b| (0, b)));
+//! wire.push((1, DLE));
+//! let chars: Vec<LineChar> = wire
+//!     .iter()
+//!     .enumerate()
+//!     .map(|(k, &(from, b))| LineChar {
+//!         at: Instant::from_micros(ct * (k as u64 + 1)),
+//!         from: Some(from),
+//!         to: Some(1 - from),
+//!         item: Ok(b),
+//!         exact: true,
+//!     })
+//!     .collect();
+//! let mut monitor = Monitor::new(Params::from_config(&si_3964r::Config::default()));
+//! let records = decode_all(&mut monitor, &chars, Instant::from_micros(1_000_000));
+//! let block = records.iter().find(|r| r.kind == Kind::Frame).unwrap();
+//! assert_eq!(block.text, "block, 2 B user data: 68 69");
+//! assert_eq!(monitor.counters().0["blocks ok"], 1);
+//! # use si_core::monitor::Decoder;
+//! ```
 //!
 //! Reading chosen: a listener cannot tell a repeated connection attempt (same transmission
 //! attempt) from a new transmission attempt, so every STX from the station whose last STX or
 //! block failed counts as one **retry**; a block NAKed or unacknowledged marks the next STX of
 //! its sender a retry as well (§5.9 counts both kinds against their own limits).
 
-use super::model::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
-use si_3964r::frame::{Decoder as BlockDecoder, FrameError, Mode, DLE, NAK, STX};
+use crate::frame::{Decoder as BlockDecoder, FrameError, Mode, DLE, NAK, STX};
+use si_core::monitor::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
 use si_core::{Duration, Instant};
 
 /// Raw block characters kept for display: twice the longest block (1024 bytes, every one a
 /// doubled DLE) plus the end sequence; the block decoder itself stops storing at its maximum.
 const MAX_RAW: usize = 2 * 1024 + 3;
+
+/// A block's user data read by a [`Payload`]: `(label, text)` for its record, or why the data
+/// are not that layer's.
+pub type Described = Result<(String, String), String>;
+
+/// A decoder for the user data of a layer that rides on 3964(R) blocks (RK 512).
+#[derive(Debug, Clone, Copy)]
+pub struct Payload {
+    /// The counter of blocks it decoded.
+    pub ok_counter: &'static str,
+    /// The counter of blocks it refused.
+    pub error_counter: &'static str,
+    /// The block's user data as `(label, text)` for a record, or why it is not this layer's.
+    pub describe: fn(&[u8]) -> Described,
+}
 
 /// The timers and mode the listener judges against.
 #[derive(Debug, Clone, Copy)]
@@ -28,8 +77,21 @@ pub struct Params {
     pub zvz: Duration,
     /// Acknowledgement delay time QVZ.
     pub qvz: Duration,
-    /// Decode block payloads as RK 512 telegrams.
-    pub rk512: bool,
+    /// How to read the blocks' user data; `None`: shown as hex.
+    pub payload: Option<Payload>,
+}
+
+impl Params {
+    /// The mode and timers a link with `config` runs with (et200s-si-3964r-ascii.md §7.2,
+    /// Table 2-11): ZVZ [`crate::Config::char_delay`], QVZ [`crate::Config::ack_delay`].
+    pub fn from_config(config: &crate::Config) -> Params {
+        Params {
+            mode: config.mode(),
+            zvz: config.char_delay(),
+            qvz: config.ack_delay(),
+            payload: None,
+        }
+    }
 }
 
 #[derive(Debug)]
@@ -64,7 +126,7 @@ enum State {
 }
 
 /// The 3964(R) listener.
-pub struct P3964 {
+pub struct Monitor {
     p: Params,
     state: State,
     block: BlockDecoder,
@@ -73,7 +135,7 @@ pub struct P3964 {
     counters: Counters,
 }
 
-impl P3964 {
+impl Monitor {
     /// A listener with these timers.
     pub fn new(p: Params) -> Self {
         let mut counters = Counters::default();
@@ -88,16 +150,41 @@ impl P3964 {
             "QVZ exceeded",
             "line errors",
         ]);
-        if p.rk512 {
-            counters.declare(&["RK 512 telegrams", "RK 512 errors"]);
+        if let Some(layer) = p.payload {
+            counters.declare(&[layer.ok_counter, layer.error_counter]);
         }
-        P3964 {
+        Monitor {
             p,
             state: State::Idle,
             block: BlockDecoder::new(p.mode, 1024),
             failed: None,
             counters,
         }
+    }
+
+    /// Flag the DLE record `r` if it came later than QVZ after `since` (§5.8).
+    fn judge_qvz(&self, r: &mut Record, since: Instant) {
+        let wait = r.start.saturating_since(since);
+        if wait > self.p.qvz {
+            r.flags.push(Flag::error(format!(
+                "DLE after {} > QVZ {}",
+                ms(wait),
+                ms(self.p.qvz)
+            )));
+        }
+    }
+
+    /// `by` starts its block, released by the partner's DLE `c`.
+    fn begin_block(&mut self, by: Option<usize>, c: &LineChar) {
+        self.block.reset();
+        self.state = State::Block {
+            by,
+            to: c.from,
+            start: c.at,
+            last: c.clone(),
+            bytes: Vec::new(),
+            flags: Vec::new(),
+        };
     }
 
     fn control(&self, c: &LineChar, label: &str, text: &str) -> Record {
@@ -240,16 +327,16 @@ impl P3964 {
             } else {
                 flags.push(Flag::error(e.to_string()));
             }
-        } else if self.p.rk512 {
-            match si_rk512::frame::Telegram::decode(&payload) {
-                Ok(t) => {
-                    self.counters.bump("RK 512 telegrams");
-                    text = format!("RK 512 {}", describe_rk512(&t));
-                    label = short_rk512(&t);
+        } else if let Some(layer) = self.p.payload {
+            match (layer.describe)(&payload) {
+                Ok((l, t)) => {
+                    self.counters.bump(layer.ok_counter);
+                    label = l;
+                    text = t;
                 }
                 Err(e) => {
-                    self.counters.bump("RK 512 errors");
-                    flags.push(Flag::error(format!("RK 512: {e}")));
+                    self.counters.bump(layer.error_counter);
+                    flags.push(Flag::error(e));
                 }
             }
         } else {
@@ -282,26 +369,7 @@ fn preview(payload: &[u8]) -> String {
     }
 }
 
-/// A diagram label for an RK 512 telegram: `SEND DB10 DW0`, `reaction 00H`.
-fn short_rk512(t: &si_rk512::frame::Telegram<'_>) -> String {
-    use si_rk512::frame::Telegram;
-    match t {
-        Telegram::Command(h, data) => format!("{:?} {} ({} B)", h.command, h.address, data.len()),
-        Telegram::Continuation(h, data) => format!("cont. {:?} ({} B)", h.command, data.len()),
-        Telegram::Reaction(h, data) => format!("reaction {:02X}H ({} B)", h.error, data.len()),
-    }
-}
-
-fn describe_rk512(t: &si_rk512::frame::Telegram<'_>) -> String {
-    use si_rk512::frame::Telegram;
-    match t {
-        Telegram::Command(h, data) => format!("{h:?}, {} B data", data.len()),
-        Telegram::Continuation(h, data) => format!("continuation {h:?}, {} B data", data.len()),
-        Telegram::Reaction(h, data) => format!("reaction {h:?}, {} B data", data.len()),
-    }
-}
-
-impl Decoder for P3964 {
+impl Decoder for Monitor {
     fn push(&mut self, c: &LineChar, out: &mut Vec<Record>) {
         self.overdue(c.at, out);
         let byte = match c.item {
@@ -332,7 +400,7 @@ impl Decoder for P3964 {
                 if bytes.is_empty() {
                     *start = c.at;
                 }
-                if let Some(gap) = super::line::gap(Some(last), c) {
+                if let Some(gap) = si_core::monitor::line::gap(Some(last), c) {
                     if gap > self.p.zvz {
                         flags.push(Flag::error(format!(
                             "character delay {} > ZVZ {}",
@@ -371,24 +439,9 @@ impl Decoder for P3964 {
             (State::Connecting { by, at }, DLE) if *by != c.from => {
                 let (by, at) = (*by, *at);
                 let mut r = self.control(c, "DLE", "ready to receive");
-                let wait = c.at.saturating_since(at);
-                if wait > self.p.qvz {
-                    r.flags.push(Flag::error(format!(
-                        "DLE after {} > QVZ {}",
-                        ms(wait),
-                        ms(self.p.qvz)
-                    )));
-                }
+                self.judge_qvz(&mut r, at);
                 out.push(r);
-                self.block.reset();
-                self.state = State::Block {
-                    by,
-                    to: c.from,
-                    start: c.at,
-                    last: c.clone(),
-                    bytes: Vec::new(),
-                    flags: Vec::new(),
-                };
+                self.begin_block(by, c);
             }
             (State::Conflict { a, b, .. }, DLE) => {
                 // The station answering DLE yields (low priority); the other one sends.
@@ -396,27 +449,12 @@ impl Decoder for P3964 {
                 let mut r = self.control(c, "DLE", "yields: ready to receive");
                 r.flags.push(Flag::note("conflict resolved by priority"));
                 out.push(r);
-                self.block.reset();
-                self.state = State::Block {
-                    by: sender,
-                    to: c.from,
-                    start: c.at,
-                    last: c.clone(),
-                    bytes: Vec::new(),
-                    flags: Vec::new(),
-                };
+                self.begin_block(sender, c);
             }
             (State::Ack { by, at }, DLE) if *by != c.from => {
                 let (by, at) = (*by, *at);
                 let mut r = self.control(c, "DLE", "block acknowledged");
-                let wait = c.at.saturating_since(at);
-                if wait > self.p.qvz {
-                    r.flags.push(Flag::error(format!(
-                        "DLE after {} > QVZ {}",
-                        ms(wait),
-                        ms(self.p.qvz)
-                    )));
-                }
+                self.judge_qvz(&mut r, at);
                 out.push(r);
                 let _ = by;
                 self.counters.bump("blocks ok");
@@ -510,13 +548,8 @@ mod tests {
     }
 
     fn run(chars: &[LineChar], end: u64) -> (Vec<Record>, Counters) {
-        let mut d = P3964::new(Params {
-            mode: Mode::BlockCheck,
-            zvz: Duration::from_millis(220),
-            qvz: Duration::from_millis(2000),
-            rk512: false,
-        });
-        let records = super::super::decode_all(&mut d, chars, Instant::from_micros(end));
+        let mut d = Monitor::new(Params::from_config(&crate::Config::default()));
+        let records = si_core::monitor::decode_all(&mut d, chars, Instant::from_micros(end));
         (records, d.counters().clone())
     }
 
@@ -573,7 +606,7 @@ mod tests {
     #[test]
     fn et200s_3964r_block_with_doubled_dle_decodes_its_user_data() {
         let payload = [0x01, DLE, 0x02];
-        let wire = si_3964r::frame::encode(&payload, Mode::BlockCheck);
+        let wire = crate::frame::encode(&payload, Mode::BlockCheck);
         let mut items = vec![(CT, 0, STX), (2 * CT, 1, DLE)];
         for (k, &b) in wire.iter().enumerate() {
             items.push(((3 + k as u64) * CT, 0, b));

@@ -1,12 +1,33 @@
 //! Passive ASCII-driver decoding (et200s-si-3964r-ascii.md §6.3, §6.4): frames end by the
 //! configured criterion — the character delay time (the default), end-of-text characters, or
-//! a fixed length (`si_ascii::frame::Cutter` decides the last two) — and XON/XOFF characters
+//! a fixed length (`crate::frame::Cutter` decides the last two) — and XON/XOFF characters
 //! are shown as control characters when flow control is on.
+//!
+//! [`Params::from_config`] takes the criterion, the character delay time and the XON/XOFF
+//! characters from the link's own [`crate::Config`], so the monitor cuts frames as the link does.
+//!
+//! ```
+//! use si_ascii::config::EndCriterion;
+//! use si_ascii::monitor::{Monitor, Params};
+//! use si_core::monitor::{decode_all, LineChar};
+//! use si_core::Instant;
+//!
+//! let config = si_ascii::Config { end: EndCriterion::EndChars { first: b'\r', second: b'\n' }, ..Default::default() };
+//! let chars: Vec<LineChar> = b"AB\r\nCD\r\n"
+//!     .iter()
+//!     .enumerate()
+//!     .map(|(k, &b)| LineChar { at: Instant::from_micros(1_146 * (k as u64 + 1)), from: Some(0), to: Some(1), item: Ok(b), exact: true })
+//!     .collect();
+//! let mut monitor = Monitor::new(Params::from_config(&config));
+//! let records = decode_all(&mut monitor, &chars, Instant::from_micros(100_000));
+//! assert_eq!(records.len(), 2);
+//! assert_eq!(records[0].bytes, b"AB\r\n");
+//! ```
 
-use super::framer::Framer;
-use super::model::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
-use si_ascii::config::EndCriterion;
-use si_ascii::frame::{Cut, Cutter};
+use crate::config::{EndCriterion, FlowControl};
+use crate::frame::{Cut, Cutter};
+use si_core::monitor::framer::Framer;
+use si_core::monitor::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
 use si_core::{Duration, Instant};
 
 /// What the listener judges against.
@@ -21,28 +42,46 @@ pub struct Params {
     pub xon_xoff: Option<(u8, u8)>,
 }
 
+impl Params {
+    /// The criterion, character delay time and flow-control characters a link with `config`
+    /// runs with (et200s-si-3964r-ascii.md §7.1, Table 2-10).
+    pub fn from_config(config: &crate::Config) -> Params {
+        Params {
+            end: config.end,
+            char_delay: config.char_delay(),
+            xon_xoff: (config.flow_control == FlowControl::XonXoff)
+                .then_some((config.xon_xoff.xon, config.xon_xoff.xoff)),
+        }
+    }
+}
+
 /// The ASCII listener.
-pub struct Ascii {
+pub struct Monitor {
     p: Params,
     framer: Framer,
     cutter: Cutter,
     counters: Counters,
 }
 
-impl Ascii {
+impl Monitor {
     /// A listener with these parameters.
     pub fn new(p: Params) -> Self {
         let mut counters = Counters::default();
         counters.declare(&["frames", "line errors", "frames too long", "XON", "XOFF"]);
-        Ascii {
+        Monitor {
             p,
-            framer: Framer::new(p.char_delay, si_ascii::config::MAX_FRAME_LEN + 1),
+            framer: Framer::new(p.char_delay, crate::config::MAX_FRAME_LEN + 1),
             cutter: Cutter::new(p.end),
             counters,
         }
     }
 
-    fn frame(&mut self, f: super::framer::Frame, cut_by_gap: bool, out: &mut Vec<Record>) {
+    fn frame(
+        &mut self,
+        f: si_core::monitor::framer::Frame,
+        cut_by_gap: bool,
+        out: &mut Vec<Record>,
+    ) {
         self.cutter.reset();
         if f.bytes.is_empty() && f.line_errors.is_empty() {
             return;
@@ -83,7 +122,7 @@ fn printable(bytes: &[u8]) -> String {
     s
 }
 
-impl Decoder for Ascii {
+impl Decoder for Monitor {
     fn push(&mut self, c: &LineChar, out: &mut Vec<Record>) {
         if let Some(f) = self.framer.idle(c.at) {
             self.frame(f, true, out);

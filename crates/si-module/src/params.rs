@@ -75,7 +75,7 @@
 //! value:
 //!
 //! ```
-//! use si_dp_coord::params::DriverParams;
+//! use si_module::params::DriverParams;
 //! let e = DriverParams::from_toml_str(
 //!     "driver = \"3964r\"\nbaud = 9601\nchar_delay_ms = 5\nconnection_attempts = 0\n",
 //! )
@@ -83,8 +83,8 @@
 //! let lines: Vec<String> = e.iter().map(|e| e.to_string()).collect();
 //! assert_eq!(lines, [
 //!     "baud = 9601 is not one of: 110, 300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 76800, 115200",
-//!     "character delay time (ZVZ) must be 20 … 655350 ms, got 5",
-//!     "connection attempts must be 1 … 255, got 0",
+//!     "character delay time (ZVZ) = 5 ms is out of range: 20 … 655350 ms",
+//!     "connection attempts = 0 is out of range: 1 … 255",
 //! ]);
 //! ```
 //!
@@ -108,15 +108,15 @@
 //! - **Maximum frame length of the simulated module**: the line engines' limits (ASCII 200
 //!   bytes, 3964(R) its `max_block_len`, default 200), and 200 for the Modbus/USS module (H-14).
 
-use crate::config::{FlowControl as WindowFlowControl, ModuleConfig};
 use crate::diag::Variant;
-use crate::frame::WindowSize;
-use crate::line::EngineSerial;
-use crate::module::Module;
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 use si_ascii::config::{EndCriterion, FlowControl, Interface};
 use si_core::{Duration, Parity, SerialSettings, BAUD_RATES};
+use si_dp_coord::config::{FlowControl as WindowFlowControl, ModuleConfig};
+use si_dp_coord::frame::WindowSize;
+use si_dp_coord::line::EngineSerial;
+use si_dp_coord::module::Module;
 use si_modbus::config::{LineConfig, MasterConfig as ModbusMaster, Mode, SlaveConfig};
 use si_uss::config::{MasterConfig as UssMaster, PollEntry};
 use si_uss::frame::PkwWords;
@@ -198,27 +198,27 @@ impl Default for AsciiParams {
 
 impl AsciiParams {
     /// A simulated module running the ASCII driver with these parameters (the configuration of
-    /// [`crate::engines::ascii_module_config`]): the same values a host's ASCII link runs with.
+    /// [`si_dp_coord::engines::ascii_module_config`]): the same values a host's ASCII link runs with.
     pub fn simulated_module(
         &self,
         window: WindowSize,
     ) -> Result<Module<EngineSerial<si_ascii::Link>>, ParamErrors> {
         let link = si_ascii::Link::new(self.config).map_err(|e| one("config", e))?;
-        let cfg = crate::engines::ascii_module_config(window, &self.config);
-        Module::new(cfg, crate::engines::ascii(link)).map_err(|e| one("module", e))
+        let cfg = si_dp_coord::engines::ascii_module_config(window, &self.config);
+        Module::new(cfg, si_dp_coord::engines::ascii(link)).map_err(|e| one("module", e))
     }
 }
 
 impl R3964Params {
     /// A simulated module running 3964(R) with these parameters: the link's `max_block_len` is
-    /// the module's frame limit, as in [`crate::engines::r3964r_module`].
+    /// the module's frame limit, as in [`si_dp_coord::engines::r3964r_module`].
     pub fn simulated_module(
         &self,
         window: WindowSize,
     ) -> Result<Module<EngineSerial<si_3964r::Link>>, ParamErrors> {
         let link = si_3964r::Link::new(self.config, self.settings).map_err(|e| one("config", e))?;
         let cfg = DriverParams::R3964(*self).module_config(window);
-        Module::new(cfg, crate::engines::r3964r(link)).map_err(|e| one("module", e))
+        Module::new(cfg, si_dp_coord::engines::r3964r(link)).map_err(|e| one("module", e))
     }
 }
 
@@ -607,9 +607,8 @@ fn ascii_errors(errors: Vec<si_ascii::config::ConfigError>) -> Vec<ParamError> {
     use si_ascii::config::ConfigError as E;
     crate_errors(
         |e: &E| match e {
-            E::OutOfRange { parameter, .. } | E::NotAllowed { parameter, .. } => {
-                (*parameter).into()
-            }
+            E::OutOfRange(range) => range.parameter.into(),
+            E::NotAllowed { parameter, .. } => (*parameter).into(),
             E::Settings(_) => "character format".into(),
         },
         errors,
@@ -620,7 +619,7 @@ fn uss_errors(errors: Vec<si_uss::config::ConfigError>) -> Vec<ParamError> {
     use si_uss::config::ConfigError as E;
     crate_errors(
         |e: &E| match e {
-            E::OutOfRange { name, .. } => (*name).into(),
+            E::OutOfRange(range) => range.parameter.into(),
             E::ConflictingStructure { .. } => "polling_list".into(),
         },
         errors,
@@ -1082,7 +1081,7 @@ impl DriverParams {
                     ));
                 }
                 errors.extend(crate_errors(
-                    |e: &si_modbus::config::ConfigError| e.parameter.into(),
+                    |e: &si_modbus::config::ConfigError| e.range.parameter.into(),
                     param_errors,
                 ));
             }
@@ -1129,7 +1128,7 @@ impl DriverParams {
         }
     }
 
-    /// Whether the receive buffer is cleared at CPU startup ([`crate::Module::restart`]).
+    /// Whether the receive buffer is cleared at CPU startup ([`si_dp_coord::Module::restart`]).
     pub fn clear_at_startup(&self) -> bool {
         match self {
             DriverParams::Ascii(p) => p.config.clear_at_startup,
@@ -1142,13 +1141,13 @@ impl DriverParams {
 
     /// The simulated module's window engine configuration for this driver and window size.
     ///
-    /// ASCII and 3964(R) take the configuration [`crate::engines`] gives their line engines
+    /// ASCII and 3964(R) take the configuration [`si_dp_coord::engines`] gives their line engines
     /// (frame limit, receive buffer, flow control); the Modbus/USS module has a 200-byte frame
     /// limit (H-14) and accepts the automatic V.24 parameter block when that flow control is
     /// configured.
     pub fn module_config(&self, window: WindowSize) -> ModuleConfig {
         match self {
-            DriverParams::Ascii(p) => crate::engines::ascii_module_config(window, &p.config),
+            DriverParams::Ascii(p) => si_dp_coord::engines::ascii_module_config(window, &p.config),
             DriverParams::R3964(p) => ModuleConfig {
                 flow_control: WindowFlowControl::None,
                 max_frame_len: usize::from(p.config.max_block_len),

@@ -508,7 +508,7 @@ impl SlaveDiagnosis {
     /// Decodes a complete slave diagnosis, from station status 1 on.
     ///
     /// ```
-    /// use si_dp_coord::diag::{ErrorType, SlaveDiagnosis};
+    /// use si_module::diag::{ErrorType, SlaveDiagnosis};
     /// // Standard part, module diagnosis (module 2), module status (module 2: error),
     /// // one channel entry: slot 2, channel 0, input/output, byte, wire break.
     /// let bytes = [0x08, 0x0C, 0x00, 0x02, 0x80, 0xE0,

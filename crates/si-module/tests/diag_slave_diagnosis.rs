@@ -2,7 +2,7 @@
 //! 3-73; et200s-si-3964r-ascii.md §11.4; et200s-si-modbus-uss.md §7.6).
 
 use proptest::prelude::*;
-use si_dp_coord::diag::{
+use si_module::diag::{
     ChannelDiagnosis, ChannelType, DiagError, ErrorType, IoType, ModuleDiagnosis, ModuleState,
     ModuleStatus, SlaveDiagnosis, StationStatus, Variant,
 };

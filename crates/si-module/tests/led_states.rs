@@ -2,7 +2,7 @@
 
 use proptest::prelude::*;
 use si_core::Instant;
-use si_dp_coord::led::{leds, Firmware, Leds, Light, ModuleState, OperatingMode};
+use si_module::led::{leds, Firmware, Leds, Light, ModuleState, OperatingMode};
 
 fn at(ms: u64) -> Instant {
     Instant::from_micros(ms * 1_000)

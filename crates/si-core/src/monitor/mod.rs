@@ -1,7 +1,54 @@
-//! What the monitor sees and what it reports: characters on the line, decoded records with
-//! their flags, and counters.
+//! Passive monitors: what a listener on a serial line sees and reports, shared by the protocol
+//! crates' monitors (`si_3964r::monitor`, `si_rk512::monitor`, `si_ascii::monitor`,
+//! `si_modbus::monitor`, `si_uss::monitor`, `si_dp_coord::monitor`).
+//!
+//! A monitor never transmits. It is fed the characters of a line in time order
+//! ([`LineChar`]: the character or the UART's error, its sender and receiver when known, and
+//! when its stop bit ended) and emits [`Record`]s: control characters, frames and notes about
+//! timers that ran out, each with [`Flag`]s, while it keeps [`Counters`]. Every protocol's
+//! monitor implements [`Decoder`]; each judges the line with its crate's own timing functions,
+//! so a monitor and the engine it watches apply one rule.
+//!
+//! * [`mod@line`]: from a recorded trace ([`crate::tracefile`]) to the characters on the line, and
+//!   [`line::pace`] for characters a real port delivered in chunks;
+//! * [`framer`]: cutting characters into frames by sender, silence and length;
+//! * [`exchange`]: which frame answers which request on a master–slave line.
+//!
+//! Like the engines a monitor reads no clock and does no I/O; unlike them it builds owned
+//! records for a human or a SCADA tool to keep, so it allocates per record (each record is
+//! bounded by its protocol's longest frame).
+//!
+//! ```
+//! use si_core::monitor::{decode_all, Counters, Decoder, LineChar, Record};
+//! use si_core::Instant;
+//!
+//! /// A toy decoder: every character is a record.
+//! #[derive(Default)]
+//! struct Each(Counters);
+//! impl Decoder for Each {
+//!     fn push(&mut self, c: &LineChar, out: &mut Vec<Record>) {
+//!         self.0.bump("characters");
+//!         out.push(Record::new(si_core::monitor::Kind::Control, c.at, c.at, c.from));
+//!     }
+//!     fn idle(&mut self, _now: Instant, _out: &mut Vec<Record>) {}
+//!     fn counters(&self) -> &Counters {
+//!         &self.0
+//!     }
+//! }
+//!
+//! let chars: Vec<LineChar> = (0..3u64)
+//!     .map(|k| LineChar { at: Instant::from_micros(1_000 * k), from: Some(0), to: None, item: Ok(0x41), exact: true })
+//!     .collect();
+//! let mut d = Each::default();
+//! assert_eq!(decode_all(&mut d, &chars, Instant::from_micros(10_000)).len(), 3);
+//! assert_eq!(d.counters().0["characters"], 3);
+//! ```
 
-use si_core::{Duration, Instant, LineError};
+pub mod exchange;
+pub mod framer;
+pub mod line;
+
+use crate::{Duration, Instant, LineError};
 use std::collections::BTreeMap;
 
 /// One character (or line error) on the line, as the monitor sees it.
@@ -172,4 +219,30 @@ pub fn ms(d: Duration) -> String {
     } else {
         format!("{:.3} ms", us as f64 / 1000.0)
     }
+}
+
+/// Everything a monitor concluded about a line: what a printer or a diagram draws.
+#[derive(Debug, Clone, Default)]
+pub struct Analysis {
+    /// The protocol decoded.
+    pub protocol: String,
+    /// Station names (records index into it).
+    pub stations: Vec<String>,
+    /// Records in time order.
+    pub records: Vec<Record>,
+    /// The decoder's counters.
+    pub counters: Counters,
+    /// First and last instant of the trace.
+    pub span: (Instant, Instant),
+}
+
+/// Feed every character, then finish at `end`; the records in time order.
+pub fn decode_all(decoder: &mut dyn Decoder, chars: &[LineChar], end: Instant) -> Vec<Record> {
+    let mut records = Vec::new();
+    for c in chars {
+        decoder.push(c, &mut records);
+    }
+    decoder.finish(end, &mut records);
+    records.sort_by_key(|r| r.start);
+    records
 }

@@ -17,10 +17,10 @@
 //!   path, so a silenced station's transmissions (which never reached the line) are not
 //!   shown. Gaps inside a write or a chunk are not judged.
 
-use super::model::LineChar;
-use si_core::sim::TraceKind;
-use si_core::tracefile::TraceFile;
-use si_core::{Duration, Instant, SerialSettings};
+use super::LineChar;
+use crate::sim::TraceKind;
+use crate::tracefile::TraceFile;
+use crate::{Duration, Instant, SerialSettings};
 use std::collections::HashMap;
 
 /// Name of the station that stands for "the other end" in a one-sided (real port) trace.
@@ -69,7 +69,7 @@ pub fn from_trace(file: &TraceFile, settings: SerialSettings) -> Line {
     }
 
     // Who received exactly (per character), and is it a bus?
-    let mut exact_rx: Vec<(Instant, usize, Result<u8, si_core::LineError>)> = Vec::new();
+    let mut exact_rx: Vec<(Instant, usize, Result<u8, crate::LineError>)> = Vec::new();
     for e in entries {
         let Some(s) = index(&stations, &e.station) else {
             continue;
@@ -88,7 +88,7 @@ pub fn from_trace(file: &TraceFile, settings: SerialSettings) -> Line {
     };
     let mut twins = 0usize;
     {
-        let mut seen: HashMap<(Instant, Result<u8, si_core::LineError>), usize> = HashMap::new();
+        let mut seen: HashMap<(Instant, Result<u8, crate::LineError>), usize> = HashMap::new();
         for &(at, s, item) in &exact_rx {
             if let Some(&other) = seen.get(&(at, item)) {
                 if other != s {
@@ -201,11 +201,37 @@ pub fn gap(prev: Option<&LineChar>, c: &LineChar) -> Option<Duration> {
     c.exact.then(|| c.at.saturating_since(p.at))
 }
 
+/// The characters of a chunk a real port delivered at once, `at` the instant it was read: the
+/// last character arrived at `at`, the ones before it one character time apart (a UART delivers
+/// them at that pace), never before a character already fed (`last`, which this advances).
+/// Only the first is `exact`: the gaps inside a chunk are estimates and are not judged.
+pub fn pace<'a>(
+    bytes: &'a [u8],
+    at: Instant,
+    (from, to): (Option<usize>, Option<usize>),
+    settings: SerialSettings,
+    last: &'a mut Instant,
+) -> impl Iterator<Item = LineChar> + 'a {
+    let n = bytes.len();
+    bytes.iter().enumerate().map(move |(k, &b)| {
+        let before = settings.chars_time((n - 1 - k) as u64);
+        let t = Instant::from_micros(at.as_micros().saturating_sub(before.as_micros())).max(*last);
+        *last = t;
+        LineChar {
+            at: t,
+            from,
+            to,
+            item: Ok(b),
+            exact: k == 0,
+        }
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use si_core::sim::{Trace, TraceEntry};
-    use si_core::tracefile::Header;
+    use crate::sim::{Trace, TraceEntry};
+    use crate::tracefile::Header;
 
     fn entry(at: u64, station: &str, kind: TraceKind) -> TraceEntry {
         TraceEntry {
@@ -213,6 +239,29 @@ mod tests {
             station: station.into(),
             kind,
         }
+    }
+
+    #[test]
+    fn a_chunk_is_paced_back_from_its_read_instant_and_never_overtakes() {
+        let settings = SerialSettings::default();
+        let ct = settings.char_time().as_micros();
+        let mut last = Instant::ZERO;
+        let at = Instant::from_micros(10 * ct);
+        let chars: Vec<LineChar> = pace(b"abc", at, (Some(0), None), settings, &mut last).collect();
+        let times: Vec<u64> = chars.iter().map(|c| c.at.as_micros()).collect();
+        assert_eq!(times, [8 * ct, 9 * ct, 10 * ct]);
+        assert_eq!(chars.iter().filter(|c| c.exact).count(), 1);
+        // A second chunk read a moment later cannot start before the first one ended.
+        let chars: Vec<LineChar> = pace(
+            b"de",
+            at + Duration::from_micros(1),
+            (Some(0), None),
+            settings,
+            &mut last,
+        )
+        .collect();
+        assert!(chars.iter().all(|c| c.at >= at));
+        assert_eq!(last, at + Duration::from_micros(1));
     }
 
     #[test]

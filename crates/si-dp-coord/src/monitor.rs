@@ -4,20 +4,38 @@
 //! A window trace (`si sim dp-coord-send --record`, header protocol `dp-coord`) holds one `tx`
 //! entry per station and cycle: the host's output window (station `host`) and the module's
 //! input window (station `module`). [`line()`] turns each window into characters from its writer
-//! to the other station (the first one exact, the rest a microsecond apart), and [`Windows`]
+//! to the other station (the first one exact, the rest a microsecond apart), and [`Monitor`]
 //! cuts them back into windows and reads each one: the coordination byte with what the data
 //! bytes mean for it (`10H send req, len 22`, `11H seg 1: abcde`, `71H done`). The error bit
 //! (a segment out of order, §2.8) and a STATUS other than 0000H (and 0101H, "not an error")
 //! are errors.
+//!
+//! ```
+//! use si_dp_coord::monitor::Monitor;
+//! use si_core::monitor::{decode_all, LineChar};
+//! use si_core::Instant;
+//!
+//! // The host (station 0) asks to send 22 bytes; the module (station 1) echoes the job code.
+//! let mut chars = Vec::new();
+//! for (k, (from, window)) in [(0, [0x10u8, 0, 0x16, 0, 0, 0, 0, 0]), (1, [0x10, 0, 0, 0, 0, 0, 0, 0])].iter().enumerate() {
+//!     for (i, &b) in window.iter().enumerate() {
+//!         let at = Instant::from_micros(k as u64 * 10_000 + i as u64);
+//!         chars.push(LineChar { at, from: Some(*from), to: Some(1 - from), item: Ok(b), exact: i == 0 });
+//!     }
+//! }
+//! let records = decode_all(&mut Monitor::new(1), &chars, Instant::from_micros(100_000));
+//! assert_eq!(records[0].label, "10H send req");
+//! assert_eq!(records[1].label, "10H accepted");
+//! ```
 
-use super::line::Line;
-use super::model::{Counters, Decoder, Flag, Kind, LineChar, Record};
+use crate::coord::JobCode;
+use crate::frame::{describe, Direction, V24Layout};
+use crate::Window;
+use si_core::monitor::line::Line;
+use si_core::monitor::{Counters, Decoder, Flag, Kind, LineChar, Record};
 use si_core::sim::TraceKind;
 use si_core::tracefile::TraceFile;
 use si_core::{Duration, Instant};
-use si_dp_coord::coord::JobCode;
-use si_dp_coord::frame::{describe, Direction, V24Layout};
-use si_dp_coord::Window;
 use std::collections::BTreeMap;
 
 /// Index of the module's station: the one called `module`, else the second.
@@ -82,16 +100,16 @@ struct Transfer {
 
 /// Passive decoder of window traces: a window is a writer's exact character and the
 /// estimated ones that follow it.
-pub struct Windows {
+pub struct Monitor {
     module: usize,
     pending: BTreeMap<usize, Pending>,
     transfer: Option<Transfer>,
     counters: Counters,
 }
 
-impl Windows {
+impl Monitor {
     /// A decoder for which station `module` writes the input windows (all others the output).
-    pub fn new(module: usize) -> Windows {
+    pub fn new(module: usize) -> Monitor {
         let mut counters = Counters::default();
         counters.declare(&[
             "output windows",
@@ -101,7 +119,7 @@ impl Windows {
             "STATUS errors",
             "not a window",
         ]);
-        Windows {
+        Monitor {
             module,
             pending: BTreeMap::new(),
             transfer: None,
@@ -148,13 +166,13 @@ impl Windows {
                 0 => {}
                 0x0101 => r.flags.push(Flag::note(format!(
                     "STATUS {}",
-                    si_dp_coord::status::lookup(word)
+                    crate::status::lookup(word)
                 ))),
                 _ => {
                     self.counters.bump("STATUS errors");
                     r.flags.push(Flag::error(format!(
                         "STATUS {}",
-                        si_dp_coord::status::lookup(word)
+                        crate::status::lookup(word)
                     )));
                 }
             }
@@ -168,16 +186,8 @@ impl Windows {
         let c = window.coord();
         let byte = window.as_bytes()[0];
         let word = window.word();
-        let job = match c.job {
-            JobCode::Idle => "idle",
-            JobCode::Send => "send",
-            JobCode::Receive => "receive",
-            JobCode::ReadV24 => "read V.24",
-            JobCode::WriteV24 => "write V.24",
-            JobCode::Parameters => "parameters",
-            JobCode::Reserved => "reserved",
-            JobCode::EndOfJob => "end of job",
-        };
+        // The job's name as coord.rs writes it (Table 2-19).
+        let job = c.job;
         if c.error {
             return format!("{byte:02X}H error, last {}", c.exec);
         }
@@ -265,7 +275,7 @@ fn readable(data: &[u8]) -> String {
     }
 }
 
-impl Decoder for Windows {
+impl Decoder for Monitor {
     fn push(&mut self, c: &LineChar, out: &mut Vec<Record>) {
         let Some(from) = c.from else {
             return;
@@ -325,8 +335,8 @@ mod tests {
             .flat_map(|(k, (from, bytes))| window(*from, k as u64 * 10_000, bytes))
             .collect();
         chars.sort_by_key(|c| c.at);
-        let mut d = Windows::new(1);
-        super::super::decode_all(&mut d, &chars, Instant::from_micros(1_000_000))
+        let mut d = Monitor::new(1);
+        si_core::monitor::decode_all(&mut d, &chars, Instant::from_micros(1_000_000))
     }
 
     #[test]

@@ -1,8 +1,8 @@
 //! Cutting a character stream into frames by sender and silence, for the protocols whose frames
 //! end at a gap (Modbus RTU, ASCII with the character delay criterion) or at a length (USS).
 
-use super::model::LineChar;
-use si_core::{Duration, Instant, LineError};
+use super::LineChar;
+use crate::{Duration, Instant, LineError};
 
 /// A frame being collected, or a finished one.
 #[derive(Debug, Clone, Default)]

@@ -1,5 +1,5 @@
 //! Passive Modbus RTU decoding (et200s-si-modbus-uss.md §3.5–§3.6, §4): frames end at the
-//! end-of-frame gap tZVZ_TAB of Table 3-11 (`si_modbus::config::gap_table`), the CRC is
+//! end-of-frame gap tZVZ_TAB of Table 3-11 (`crate::config::gap_table`), the CRC is
 //! checked, requests and responses are decoded with si-modbus' own decoders, exception
 //! responses are named, and a request without a response within the response timeout is
 //! flagged.
@@ -12,11 +12,35 @@
 //! it comes from the station that sent the waiting request (that request then went unanswered);
 //! otherwise it is the **response**. This needs no knowledge of who is master, so it also works
 //! on a one-sided live capture of a bus.
+//!
+//! The timers are the master's own ([`Params::from_config`]): the end-of-frame gap
+//! [`crate::config::LineConfig::gap`] (tZVZ_TAB × fMUL) and the response timeout
+//! [`crate::config::MasterConfig::response_timeout`].
+//!
+//! ```
+//! use si_modbus::config::MasterConfig;
+//! use si_modbus::monitor::{Monitor, Params};
+//! use si_core::monitor::{decode_all, Decoder, LineChar};
+//! use si_core::Instant;
+//!
+//! // FC03 to slave 1, address 0, one register; nobody answers within the 2 s response time.
+//! let request = [0x01, 0x03, 0x00, 0x00, 0x00, 0x01, 0x84, 0x0A];
+//! let chars: Vec<LineChar> = request
+//!     .iter()
+//!     .enumerate()
+//!     .map(|(k, &b)| LineChar { at: Instant::from_micros(1_146 * (k as u64 + 1)), from: Some(0), to: Some(1), item: Ok(b), exact: true })
+//!     .collect();
+//! let mut monitor = Monitor::new(Params::from_config(&MasterConfig::default()), false);
+//! let records = decode_all(&mut monitor, &chars, Instant::from_micros(3_000_000));
+//! assert_eq!(records[0].label, "FC03 req → 1");
+//! assert_eq!(monitor.counters().0["no response"], 1);
+//! ```
 
-use super::framer::{Frame, Framer};
-use super::model::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
+use crate::frame::{crc_ok, decode_request, decode_response, Response};
+use si_core::monitor::exchange::{Exchange, Request};
+use si_core::monitor::framer::{Frame, Framer};
+use si_core::monitor::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
 use si_core::{Duration, Instant, SerialSettings};
-use si_modbus::frame::{crc_ok, decode_request, decode_response, Response};
 
 /// What the listener judges against.
 #[derive(Debug, Clone, Copy)]
@@ -29,26 +53,35 @@ pub struct Params {
     pub timeout: Duration,
 }
 
-struct Pending {
-    from: Option<usize>,
+impl Params {
+    /// The character format, end-of-frame gap and response timeout a master with `config`
+    /// runs with (§3.5 Table 3-11, §4.6 Table 3-17).
+    pub fn from_config(config: &crate::config::MasterConfig) -> Params {
+        Params {
+            settings: config.line.settings,
+            end_gap: config.line.gap(),
+            timeout: config.response_timeout(),
+        }
+    }
+}
+
+/// What a request asked: the slave and the function code.
+#[derive(Debug, Clone, Copy)]
+struct Asked {
     unit: u8,
     function: u8,
-    end: Instant,
 }
 
 /// The Modbus RTU listener.
-pub struct Modbus {
+pub struct Monitor {
     p: Params,
     framer: Framer,
-    pending: Option<Pending>,
-    /// The request whose response timeout ran out: a response to it from another station
-    /// after that is late, not a new request.
-    late: Option<Pending>,
-    one_sided: bool,
+    /// Requests and responses (`si_core::monitor::exchange`'s reading, the one above).
+    exchange: Exchange<Asked>,
     counters: Counters,
 }
 
-impl Modbus {
+impl Monitor {
     /// A listener; `one_sided` when every character comes from the same (unknown) sender.
     pub fn new(p: Params, one_sided: bool) -> Self {
         let mut counters = Counters::default();
@@ -61,33 +94,32 @@ impl Modbus {
             "broadcasts",
             "line errors",
         ]);
-        Modbus {
+        Monitor {
             p,
             // One byte over the longest ADU, so an endless stream shows as frames too long.
-            framer: Framer::new(p.end_gap, si_modbus::frame::MAX_ADU + 1),
-            pending: None,
-            late: None,
-            one_sided,
+            framer: Framer::new(p.end_gap, crate::frame::MAX_ADU + 1),
+            exchange: Exchange::new(one_sided),
             counters,
         }
     }
 
     fn overdue(&mut self, now: Instant, out: &mut Vec<Record>) {
-        if let Some(pd) = &self.pending {
-            if now.saturating_since(pd.end) >= self.p.timeout {
-                self.counters.bump("no response");
-                out.push(Record::note(
-                    pd.end + self.p.timeout,
-                    pd.from,
-                    Flag::error(format!(
-                        "no response from slave {} to FC{:02} within {} (STATUS 16#0E54)",
-                        pd.unit,
-                        pd.function,
-                        ms(self.p.timeout)
-                    )),
-                ));
-                self.late = self.pending.take();
-            }
+        let timeout = self.p.timeout;
+        if let Some(pd) = self
+            .exchange
+            .expire(|pd| now.saturating_since(pd.end) >= timeout)
+        {
+            self.counters.bump("no response");
+            out.push(Record::note(
+                pd.end + timeout,
+                pd.from,
+                Flag::error(format!(
+                    "no response from slave {} to FC{:02} within {} (STATUS 16#0E54)",
+                    pd.what.unit,
+                    pd.what.function,
+                    ms(timeout)
+                )),
+            ));
         }
     }
 
@@ -108,10 +140,7 @@ impl Modbus {
                 ms(f.longest_gap)
             )));
         }
-        let is_response = match &self.pending {
-            Some(pd) => self.one_sided || pd.from != f.from,
-            None => false,
-        };
+        let is_response = self.exchange.is_answer(f.from);
         let adu = &f.bytes;
         if !crc_ok(adu) {
             self.counters.bump("bus communication errors (CRC)");
@@ -123,24 +152,23 @@ impl Modbus {
                 "CRC error: the slave ignores the frame (STATUS 16#0836)"
             }));
             if is_response {
-                self.pending = None;
+                self.exchange.take();
             }
             out.push(r);
             return;
         }
-        let late = match (&self.late, decode_response(adu)) {
-            (Some(pd), Ok((unit, _))) if !is_response => {
-                (self.one_sided || pd.from != f.from) && unit == pd.unit
-            }
-            _ => false,
+        let late = if is_response {
+            None
+        } else {
+            let unit = decode_response(adu).ok().map(|(unit, _)| unit);
+            self.exchange
+                .late_answer(f.from, |asked| Some(asked.unit) == unit)
         };
-        if late {
+        if let Some(pd) = late {
             // Already counted under "no response" when the timeout ran out.
-            let pd = self.late.take();
-            let wait = pd.map_or(Duration::ZERO, |pd| {
-                f.start
-                    .saturating_since(pd.end + self.p.settings.char_time())
-            });
+            let wait = f
+                .start
+                .saturating_since(pd.end + self.p.settings.char_time());
             r.label = format!("late response {} B", adu.len());
             r.text = si_core::hex::format(adu);
             r.flags.push(Flag::error(format!(
@@ -151,11 +179,8 @@ impl Modbus {
             out.push(r);
             return;
         }
-        if !is_response {
-            self.late = None;
-        }
         if is_response {
-            let pd = self.pending.take();
+            let pd = self.exchange.take();
             match decode_response(adu) {
                 Ok((unit, resp)) => {
                     self.counters.bump("slave messages");
@@ -167,10 +192,10 @@ impl Modbus {
                         r.flags.push(Flag::error(code.to_string()));
                     }
                     if let Some(pd) = pd {
-                        if unit != pd.unit {
+                        if unit != pd.what.unit {
                             r.flags.push(Flag::error(format!(
                                 "answer from slave {unit} to a request for slave {}",
-                                pd.unit
+                                pd.what.unit
                             )));
                         }
                         let first_start = f
@@ -198,15 +223,17 @@ impl Modbus {
                 Ok((unit, req)) => {
                     r.label = format!("FC{:02} req → {unit}", req.function());
                     r.text = format!("to slave {unit}: {req:?}");
-                    if unit == si_modbus::frame::BROADCAST {
+                    if unit == crate::frame::BROADCAST {
                         self.counters.bump("broadcasts");
                         r.label = format!("FC{:02} broadcast", req.function());
                     } else {
-                        self.pending = Some(Pending {
+                        self.exchange.wait_for(Request {
                             from: f.from,
-                            unit,
-                            function: req.function(),
                             end: f.end,
+                            what: Asked {
+                                unit,
+                                function: req.function(),
+                            },
                         });
                     }
                 }
@@ -222,21 +249,21 @@ impl Modbus {
 
     /// A new request while one waits: the old one went unanswered.
     fn overdue_unanswered(&mut self, at: Instant, out: &mut Vec<Record>) {
-        if let Some(pd) = self.pending.take() {
+        if let Some(pd) = self.exchange.take() {
             self.counters.bump("no response");
             out.push(Record::note(
                 at,
                 pd.from,
                 Flag::error(format!(
                     "slave {} did not answer FC{:02} before the next request",
-                    pd.unit, pd.function
+                    pd.what.unit, pd.what.function
                 )),
             ));
         }
     }
 }
 
-impl Decoder for Modbus {
+impl Decoder for Monitor {
     fn push(&mut self, c: &LineChar, out: &mut Vec<Record>) {
         if let Some(f) = self.framer.idle(c.at) {
             self.frame(f, out);
@@ -285,17 +312,12 @@ mod tests {
     }
 
     fn run(chars: &[LineChar]) -> (Vec<Record>, Counters) {
-        let settings = SerialSettings::default();
-        let mut d = Modbus::new(
-            Params {
-                settings,
-                end_gap: si_modbus::config::gap_table(settings.baud()),
-                timeout: Duration::from_millis(2000),
-            },
+        let mut d = Monitor::new(
+            Params::from_config(&crate::config::MasterConfig::default()),
             false,
         );
         let end = chars.last().map_or(Instant::ZERO, |c| c.at) + Duration::from_millis(10);
-        let records = super::super::decode_all(&mut d, chars, end);
+        let records = si_core::monitor::decode_all(&mut d, chars, end);
         (records, d.counters().clone())
     }
 
@@ -316,7 +338,7 @@ mod tests {
     fn et200s_modbus_4_4_a_response_after_the_timeout_is_late_not_a_request() {
         // FC03 response, slave 1, one register 0x002A (CRC computed by si-modbus).
         let mut resp = vec![0x01, 0x03, 0x02, 0x00, 0x2A];
-        let crc = si_modbus::frame::crc16(&resp);
+        let crc = crate::frame::crc16(&resp);
         resp.extend_from_slice(&crc.to_le_bytes());
         let mut chars = frame(0, 1_146, 1_146, &REQUEST);
         let request_end = 8 * 1_146;

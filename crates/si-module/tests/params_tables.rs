@@ -6,7 +6,7 @@
 
 use si_dp_coord::config::FlowControl as WindowFlow;
 use si_dp_coord::frame::WindowSize;
-use si_dp_coord::params::{DriverParams, ReceiveLine};
+use si_module::params::{DriverParams, ReceiveLine};
 
 /// `(driver, extra lines, key, at low end, at high end, below, above)`.
 type Limit = (
@@ -360,7 +360,7 @@ fn three_wrong_values_and_an_unknown_key_in_one_run() {
     assert_eq!(lines[2], "colour is not a parameter of the ascii driver");
     assert_eq!(
         lines[3],
-        "character delay time 70000 ms out of range: 4 … 65535 ms at 9600 bit/s"
+        "character delay time = 70000 ms is out of range: 4 … 65535 ms at 9600 bit/s"
     );
     let e = DriverParams::from_toml_str("driver = \"ascii\"\nend_char_1 = 13").unwrap_err();
     assert_eq!(
@@ -425,7 +425,7 @@ wait_for_xon_ms = 500
         "{e}"
     );
     assert!(
-        e.contains("connection attempts must be 1 … 255, got 0"),
+        e.contains("connection attempts = 0 is out of range: 1 … 255"),
         "{e}"
     );
 }
@@ -461,7 +461,7 @@ fn the_same_parameters_configure_the_simulated_module() {
 mod arbitrary_files {
     use proptest::prelude::*;
     use serde_json::{json, Map, Value};
-    use si_dp_coord::params::DriverParams;
+    use si_module::params::DriverParams;
 
     const KEYS: &[&str] = &[
         "baud",

@@ -206,7 +206,7 @@ fn before(at: Instant, micros: u64) -> Instant {
 /// The LED patterns for a module state.
 ///
 /// ```
-/// use si_dp_coord::led::{leds, Firmware, Light, ModuleState};
+/// use si_module::led::{leds, Firmware, Light, ModuleState};
 /// use si_core::Instant;
 /// let sending = ModuleState { transmitting: true, ..ModuleState::default() };
 /// assert_eq!(leds(&sending).tx, Light::On);
