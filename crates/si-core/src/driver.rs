@@ -37,6 +37,8 @@
 //! Line errors (parity, framing, BREAK) are not reported per character by the portable serial
 //! API, so engines run by this driver do not see [`LineError`](crate::LineError)s from a real port.
 
+pub use crate::port_facts::{PortFacts, RtsToggle};
+use crate::rx_path::RxPath;
 use crate::sansio::{Engine, ModemSignals, Output, SignalUpdate};
 use crate::serial::SerialSettings;
 use crate::sim::TraceKind;
@@ -61,6 +63,13 @@ pub trait Transport: AsyncRead + AsyncWrite + Unpin + Send + 'static {
     /// Read CTS/DSR/DCD (and the current RTS/DTR); `None` if the transport has no signals.
     fn read_signals(&mut self) -> io::Result<Option<ModemSignals>> {
         Ok(None)
+    }
+
+    /// What the driver must know about the port behind this transport ([`PortFacts`]): its
+    /// delivery latency, marked line errors, RS-485 direction control, local echo. The default
+    /// is a plain byte stream.
+    fn facts(&self) -> PortFacts {
+        PortFacts::default()
     }
 }
 
@@ -114,6 +123,9 @@ pub struct DriverOptions {
     /// `tx`, every read as `rx_chunk`, signal changes and the engine's events (their `Debug`
     /// form), under the recorder's station name. `si monitor --trace` reads it back.
     pub recorder: Option<Recorder>,
+    /// What the port needs from the driver; `None` asks the transport
+    /// ([`Transport::facts`]), which is right for ports from `si_core::port::open`.
+    pub port: Option<PortFacts>,
 }
 
 impl Default for DriverOptions {
@@ -123,6 +135,7 @@ impl Default for DriverOptions {
             signal_poll: std::time::Duration::from_millis(10),
             event_capacity: 1024,
             recorder: None,
+            port: None,
         }
     }
 }
@@ -381,6 +394,15 @@ where
             }
         }
     };
+    let facts = options.port.unwrap_or_else(|| io.facts());
+    if let Some(latency) = facts.rx_latency {
+        engine.set_rx_latency(latency);
+    }
+    let mut rx_path = RxPath::new(&facts);
+    let mut direction = Direction::new(facts.rts_toggle);
+    // How long after tx-done our own echo may still arrive: the port's delivery latency, or
+    // a USB adapter's default latency timer when the port did not say.
+    let echo_grace = facts.rx_latency.unwrap_or(ECHO_GRACE);
     let mut buf = [0u8; 512];
     let mut tx_done_at: Option<Instant> = None;
     let mut signals = io.read_signals()?;
@@ -402,6 +424,12 @@ where
                     record(TraceKind::Tx {
                         bytes: bytes.to_vec(),
                     });
+                    if let Some(update) = direction.before_write(&mut io)? {
+                        record(TraceKind::Signals { update });
+                        if direction.lead() > Duration::ZERO {
+                            tokio::time::sleep(direction.lead().into()).await;
+                        }
+                    }
                     let started = clock.now();
                     io.write_all(&bytes).await?;
                     io.flush().await?;
@@ -409,7 +437,10 @@ where
                         .settings
                         .map_or(started, |s| started + s.chars_time(bytes.len() as u64));
                     let at = wire_end.max(clock.now());
-                    tx_done_at = Some(tx_done_at.map_or(at, |t| t.max(at)));
+                    let done = tx_done_at.map_or(at, |t| t.max(at));
+                    tx_done_at = Some(done);
+                    direction.written(done);
+                    rx_path.sent(&bytes, done + echo_grace);
                 }
                 Output::SetSignals(update) => {
                     record(TraceKind::Signals { update });
@@ -432,11 +463,12 @@ where
         // A deadline already due (tx-done right after a write to a port without wire time) is
         // handled at once: tokio's wheel would round it up to its next millisecond tick. The
         // budget makes an engine that keeps asking for a past deadline yield to other tasks.
-        let next = Instant::earliest(deadline, tx_done_at);
+        let next = Instant::earliest(deadline, Instant::earliest(tx_done_at, direction.off_at));
         if next.is_some_and(|at| at <= clock.now()) {
             precise.disarm();
             tokio::task::consume_budget().await;
             fire_due(&mut engine, &mut tx_done_at, deadline, clock.now());
+            direction.due(clock.now(), &mut io, &record)?;
             continue;
         }
 
@@ -479,6 +511,7 @@ where
                     // the line has reached.
                     let now = clock.now();
                     fire_due(&mut engine, &mut tx_done_at, deadline.take(), now);
+                    direction.due(now, &mut io, &record)?;
                     command(&mut engine, now)
                 }
                 None => return Ok(()),
@@ -493,7 +526,8 @@ where
                 // slave must know its answer has left before it judges the next request).
                 let now = clock.now();
                 fire_due(&mut engine, &mut tx_done_at, deadline.take(), now);
-                engine.handle_rx(now, &buf[..n]);
+                direction.due(now, &mut io, &record)?;
+                rx_path.deliver(&mut engine, now, &buf[..n]);
             }
             _ = &mut wheel, if wheel_at.is_some() => wheel_set = None,
             _ = precise.fired(), if precise.is_armed() => precise.fired_seen(),
@@ -511,6 +545,74 @@ where
 
         // Whatever woke us, look at the clock: timers are checked, not trusted.
         fire_due(&mut engine, &mut tx_done_at, deadline, clock.now());
+        direction.due(clock.now(), &mut io, &record)?;
+    }
+}
+
+/// How long our echo may still arrive after tx-done on a port that did not give its latency:
+/// a little more than the 16 ms default latency timer of FTDI-type USB adapters.
+pub const ECHO_GRACE: Duration = Duration::from_millis(20);
+
+/// RS-485 direction control by the driver ([`RtsToggle`]): RTS on before the first byte of a
+/// transmission, off `after` past its tx-done. Transmissions that follow each other before RTS
+/// went off keep it on.
+struct Direction {
+    toggle: Option<RtsToggle>,
+    /// When RTS goes off; `Some` while it is on.
+    off_at: Option<Instant>,
+}
+
+impl Direction {
+    fn new(toggle: Option<RtsToggle>) -> Self {
+        Direction {
+            toggle,
+            off_at: None,
+        }
+    }
+
+    /// Raise RTS if it is not up; the update made, if any (the caller then waits
+    /// [`lead`](Self::lead)).
+    fn before_write<T: Transport>(&mut self, io: &mut T) -> io::Result<Option<SignalUpdate>> {
+        if self.toggle.is_none() || self.off_at.is_some() {
+            return Ok(None);
+        }
+        let update = SignalUpdate {
+            rts: Some(true),
+            ..SignalUpdate::default()
+        };
+        io.set_signals(update)?;
+        Ok(Some(update))
+    }
+
+    /// The transceiver's enable time to wait after raising RTS.
+    fn lead(&self) -> Duration {
+        self.toggle.map_or(Duration::ZERO, |t| t.before)
+    }
+
+    /// The write is out; its last byte leaves the transmitter at `tx_done`.
+    fn written(&mut self, tx_done: Instant) {
+        if let Some(t) = self.toggle {
+            self.off_at = Some(tx_done + t.after);
+        }
+    }
+
+    /// Drop RTS if its time has come.
+    fn due<T: Transport>(
+        &mut self,
+        now: Instant,
+        io: &mut T,
+        record: &impl Fn(TraceKind),
+    ) -> io::Result<()> {
+        if self.off_at.is_some_and(|at| now >= at) {
+            self.off_at = None;
+            let update = SignalUpdate {
+                rts: Some(false),
+                ..SignalUpdate::default()
+            };
+            record(TraceKind::Signals { update });
+            io.set_signals(update)?;
+        }
+        Ok(())
     }
 }
 
@@ -537,6 +639,9 @@ impl Transport for Box<dyn Transport> {
     }
     fn read_signals(&mut self) -> io::Result<Option<ModemSignals>> {
         (**self).read_signals()
+    }
+    fn facts(&self) -> PortFacts {
+        (**self).facts()
     }
 }
 

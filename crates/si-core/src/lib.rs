@@ -9,12 +9,20 @@
 //! - [`fb`]: edge detection and one-call pulses for the FB equivalents;
 //! - [`sim`]: a deterministic discrete-event line simulator with seeded faults;
 //! - [`tracefile`]: the JSON-lines trace file the simulator, the driver and `si monitor` share;
-//! - `driver` (feature `tokio`): runs any engine over `AsyncRead + AsyncWrite`.
+//! - [`linemark`], [`echo`], [`rx_path`], [`port_facts`]: what a real port needs between the
+//!   line and an engine (marked line errors, local echo, RS-485 direction), Sans-IO;
+//! - `driver` (feature `tokio`): runs any engine over `AsyncRead + AsyncWrite`;
+//! - `port` (feature `serial`): opens a serial port from the engine's [`SerialSettings`], with
+//!   line errors, RS-485 and the USB adapter's latency timer.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
+pub mod echo;
 pub mod fb;
 pub mod hex;
+pub mod linemark;
 pub mod memory;
+pub mod port_facts;
+pub mod rx_path;
 pub mod sansio;
 pub mod serial;
 pub mod sim;
@@ -24,6 +32,9 @@ pub mod tracefile;
 
 #[cfg(feature = "tokio")]
 pub mod driver;
+
+#[cfg(feature = "serial")]
+pub mod port;
 
 pub use sansio::{Engine, LineError, ModemSignals, Output, SignalUpdate};
 pub use serial::{Parity, SerialSettings, SettingsError, BAUD_RATES};
