@@ -175,7 +175,9 @@ mod tests {
     #[test]
     fn marks_become_errors_and_doubled_ff_one_data_byte() {
         let mut d = MarkDecoder::new(LineError::Parity);
-        let stream = [0x02, 0xFF, 0xFF, 0x41, 0xFF, 0x00, 0x37, 0x42, 0xFF, 0x00, 0x00, 0x03];
+        let stream = [
+            0x02, 0xFF, 0xFF, 0x41, 0xFF, 0x00, 0x37, 0x42, 0xFF, 0x00, 0x00, 0x03,
+        ];
         assert_eq!(
             decode_all(&mut d, &[&stream]),
             vec![
@@ -193,7 +195,10 @@ mod tests {
     #[test]
     fn a_mark_split_across_reads_is_completed_by_the_next() {
         let mut d = MarkDecoder::new(LineError::Framing);
-        let got = decode_all(&mut d, &[&[0x10, 0xFF], &[0x00], &[0x55, 0xFF], &[0xFF, 0x03]]);
+        let got = decode_all(
+            &mut d,
+            &[&[0x10, 0xFF], &[0x00], &[0x55, 0xFF], &[0xFF, 0x03]],
+        );
         assert_eq!(
             got,
             vec![Ok(0x10), Err(LineError::Framing), Ok(0xFF), Ok(0x03)]

@@ -1,0 +1,80 @@
+//! `si_core::port::open` on a Linux pseudo-terminal: the line-error marking flags are set in
+//! the kernel, and a data byte FFH (which the kernel then doubles) reaches the engine once.
+
+#![cfg(target_os = "linux")]
+
+use si_core::driver::{spawn, DriverOptions};
+use si_core::port::{self, PortOptions};
+use si_core::{Engine, Instant, LineError, Output, SerialSettings};
+use std::time::Duration as StdDuration;
+use tokio::io::AsyncWriteExt;
+use tokio_serial::{SerialPort, SerialStream};
+
+/// Reports every received run.
+#[derive(Default)]
+struct Rx(std::collections::VecDeque<Vec<u8>>);
+impl Engine for Rx {
+    type Event = Vec<u8>;
+    fn handle_rx(&mut self, _: Instant, bytes: &[u8]) {
+        self.0.push_back(bytes.to_vec());
+    }
+    fn handle_timeout(&mut self, _: Instant) {}
+    fn poll_output(&mut self) -> Output<Vec<u8>> {
+        match self.0.pop_front() {
+            Some(run) => Output::Event(run),
+            None => Output::Wait(None),
+        }
+    }
+}
+
+/// A pty pair: the master side we drive, and the path of the slave for `port::open`.
+fn pty() -> (SerialStream, String) {
+    let (master, slave) = SerialStream::pair().expect("open a pseudo-terminal pair");
+    let path = slave.name().expect("the slave has a path");
+    drop(slave);
+    (master, path)
+}
+
+#[tokio::test]
+async fn an_opened_port_marks_line_errors_in_the_kernel() {
+    let (_master, path) = pty();
+    let port = port::open(&path, &SerialSettings::default(), &PortOptions::default()).unwrap();
+    let mode = port.input_mode().unwrap();
+    assert!(mode.parmrk && mode.inpck, "{mode:?}");
+    assert!(
+        !mode.ignpar && !mode.brkint && !mode.ignbrk && !mode.istrip,
+        "{mode:?}"
+    );
+    let facts = port.port_facts();
+    assert_eq!(facts.marked_errors, Some(LineError::Parity));
+    assert_eq!(facts.rx_latency, None, "a pty has no latency timer");
+}
+
+#[tokio::test]
+async fn without_line_errors_the_port_is_left_unmarked() {
+    let (_master, path) = pty();
+    let options = PortOptions {
+        no_line_errors: true,
+        ..PortOptions::default()
+    };
+    let port = port::open(&path, &SerialSettings::default(), &options).unwrap();
+    assert!(!port.input_mode().unwrap().parmrk);
+    assert_eq!(port.port_facts().marked_errors, None);
+}
+
+#[tokio::test]
+async fn a_data_ff_is_doubled_by_the_kernel_and_decoded_once() {
+    let (mut master, path) = pty();
+    let port = port::open(&path, &SerialSettings::default(), &PortOptions::default()).unwrap();
+    let (mut handle, _task) = spawn(Rx::default(), port, DriverOptions::default());
+    master.write_all(&[0x41, 0xFF, 0x42, 0xFF]).await.unwrap();
+    let mut got = Vec::new();
+    while got.len() < 4 {
+        let run = tokio::time::timeout(StdDuration::from_secs(10), handle.next_event())
+            .await
+            .expect("the bytes arrive")
+            .expect("the driver runs");
+        got.extend(run);
+    }
+    assert_eq!(got, vec![0x41, 0xFF, 0x42, 0xFF]);
+}
