@@ -37,6 +37,7 @@
 //! Line errors (parity, framing, BREAK) are not reported per character by the portable serial
 //! API, so engines run by this driver do not see [`LineError`](crate::LineError)s from a real port.
 
+use crate::linemark::Marked;
 pub use crate::port_facts::{PortFacts, RtsToggle};
 use crate::rx_path::RxPath;
 use crate::sansio::{Engine, ModemSignals, Output, SignalUpdate};
@@ -65,10 +66,12 @@ pub trait Transport: AsyncRead + AsyncWrite + Unpin + Send + 'static {
         Ok(None)
     }
 
-    /// What the driver must know about the port behind this transport ([`PortFacts`]): its
-    /// delivery latency, marked line errors, RS-485 direction control, local echo. The default
-    /// is a plain byte stream.
-    fn facts(&self) -> PortFacts {
+    /// A driver takes this transport over: what must it know about the port behind it
+    /// ([`PortFacts`]): its delivery latency, RS-485 direction control, local echo, and whether
+    /// reads from now on return a `PARMRK`-marked stream for the driver to decode (a port that
+    /// marks line errors hands plain readers clean bytes and switches to the marked stream
+    /// here). Called once, before the first read. The default is a plain byte stream.
+    fn attach(&mut self) -> PortFacts {
         PortFacts::default()
     }
 }
@@ -123,8 +126,10 @@ pub struct DriverOptions {
     /// `tx`, every read as `rx_chunk`, signal changes and the engine's events (their `Debug`
     /// form), under the recorder's station name. `si monitor --trace` reads it back.
     pub recorder: Option<Recorder>,
-    /// What the port needs from the driver; `None` asks the transport
-    /// ([`Transport::facts`]), which is right for ports from `si_core::port::open`.
+    /// What the port needs from the driver beyond what the transport says
+    /// ([`Transport::attach`], right for ports from `si_core::port::open`): a latency, RTS
+    /// toggling or a marked stream given here is used where the transport gives none, local
+    /// echo where either asks for it.
     pub port: Option<PortFacts>,
 }
 
@@ -394,7 +399,7 @@ where
             }
         }
     };
-    let facts = options.port.unwrap_or_else(|| io.facts());
+    let facts = options.port.unwrap_or_default().or(io.attach());
     if let Some(latency) = facts.rx_latency {
         engine.set_rx_latency(latency);
     }
@@ -521,13 +526,15 @@ where
                 if n == 0 {
                     return Ok(());
                 }
-                record(TraceKind::RxChunk { bytes: buf[..n].to_vec() });
                 // A tx-done or timeout that fell due before these bytes came goes first (a
                 // slave must know its answer has left before it judges the next request).
                 let now = clock.now();
                 fire_due(&mut engine, &mut tx_done_at, deadline.take(), now);
                 direction.due(now, &mut io, &record)?;
-                rx_path.deliver(&mut engine, now, &buf[..n]);
+                rx_path.deliver(&mut engine, now, &buf[..n], |piece| match piece {
+                    Marked::Data(bytes) => record(TraceKind::RxChunk { bytes: bytes.to_vec() }),
+                    Marked::Error(error) => record(TraceKind::RxError { error }),
+                });
             }
             _ = &mut wheel, if wheel_at.is_some() => wheel_set = None,
             _ = precise.fired(), if precise.is_armed() => precise.fired_seen(),
@@ -640,8 +647,8 @@ impl Transport for Box<dyn Transport> {
     fn read_signals(&mut self) -> io::Result<Option<ModemSignals>> {
         (**self).read_signals()
     }
-    fn facts(&self) -> PortFacts {
-        (**self).facts()
+    fn attach(&mut self) -> PortFacts {
+        (**self).attach()
     }
 }
 

@@ -37,3 +37,15 @@ pub struct RtsToggle {
     /// UART FIFO report).
     pub after: Duration,
 }
+
+impl PortFacts {
+    /// These facts, with `other`'s where these have none (local echo where either asks).
+    pub fn or(self, other: PortFacts) -> PortFacts {
+        PortFacts {
+            rx_latency: self.rx_latency.or(other.rx_latency),
+            marked_errors: self.marked_errors.or(other.marked_errors),
+            rts_toggle: self.rts_toggle.or(other.rts_toggle),
+            local_echo: self.local_echo || other.local_echo,
+        }
+    }
+}

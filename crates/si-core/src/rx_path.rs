@@ -38,13 +38,28 @@ impl RxPath {
 
     /// Hand what one read returned at `now` to `engine`: data runs to
     /// [`Engine::handle_rx`], marked errors to [`Engine::handle_line_error`], in order.
-    pub fn deliver<E: Engine + ?Sized>(&mut self, engine: &mut E, now: Instant, bytes: &[u8]) {
+    /// `seen` gets each decoded piece first, echo included: what the line carried (for a
+    /// trace).
+    pub fn deliver<E: Engine + ?Sized>(
+        &mut self,
+        engine: &mut E,
+        now: Instant,
+        bytes: &[u8],
+        mut seen: impl FnMut(Marked<'_>),
+    ) {
         let echo = &mut self.echo;
         match &mut self.marks {
-            None => data(echo, engine, now, bytes),
+            None => {
+                seen(Marked::Data(bytes));
+                data(echo, engine, now, bytes)
+            }
             Some(marks) => marks.feed(bytes, |piece| match piece {
-                Marked::Data(run) => data(echo, engine, now, run),
+                Marked::Data(run) => {
+                    seen(piece);
+                    data(echo, engine, now, run)
+                }
                 Marked::Error(error) => {
+                    seen(piece);
                     // Our own echo does not come back garbled: what did is the line's news.
                     if let Some(echo) = echo {
                         echo.stop();
@@ -106,8 +121,8 @@ mod tests {
         let t = Instant::from_micros(100);
         path.sent(&[0x02, 0xFF], Instant::from_micros(1_000));
         // Our echo (FF doubled by the kernel), then the partner's DLE and a bad character.
-        path.deliver(&mut seen, t, &[0x02, 0xFF]);
-        path.deliver(&mut seen, t, &[0xFF, 0x10, 0xFF, 0x00, 0x41]);
+        path.deliver(&mut seen, t, &[0x02, 0xFF], |_| {});
+        path.deliver(&mut seen, t, &[0xFF, 0x10, 0xFF, 0x00, 0x41], |_| {});
         assert_eq!(seen.0, vec![Ok(0x10), Err(LineError::Parity)]);
     }
 
@@ -116,7 +131,7 @@ mod tests {
         let mut path = RxPath::new(&PortFacts::default());
         let mut seen = Seen::default();
         path.sent(&[1, 2], Instant::from_micros(1_000));
-        path.deliver(&mut seen, Instant::from_micros(1), &[1, 2, 0xFF, 0]);
+        path.deliver(&mut seen, Instant::from_micros(1), &[1, 2, 0xFF, 0], |_| {});
         assert_eq!(seen.0, vec![Ok(1), Ok(2), Ok(0xFF), Ok(0)]);
     }
 }

@@ -78,3 +78,17 @@ async fn a_data_ff_is_doubled_by_the_kernel_and_decoded_once() {
     }
     assert_eq!(got, vec![0x41, 0xFF, 0x42, 0xFF]);
 }
+
+#[tokio::test]
+async fn a_plain_reader_gets_clean_bytes_from_a_marking_port() {
+    use tokio::io::AsyncReadExt;
+    let (mut master, path) = pty();
+    let mut port = port::open(&path, &SerialSettings::default(), &PortOptions::default()).unwrap();
+    master.write_all(&[0xFF, 0x00, 0xFF, 0x7E]).await.unwrap();
+    let mut got = [0u8; 4];
+    tokio::time::timeout(StdDuration::from_secs(10), port.read_exact(&mut got))
+        .await
+        .expect("the bytes arrive")
+        .unwrap();
+    assert_eq!(got, [0xFF, 0x00, 0xFF, 0x7E]);
+}

@@ -211,7 +211,7 @@ impl Transport for SerialPort {
         self.stream_mut().read_signals()
     }
 
-    fn facts(&self) -> PortFacts {
-        *self.port_facts()
+    fn attach(&mut self) -> PortFacts {
+        SerialPort::attach(self)
     }
 }

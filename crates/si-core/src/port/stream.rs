@@ -1,6 +1,7 @@
 //! [`SerialPort`]: the opened port, a `tokio-serial` stream plus what the driver must know.
 
 use crate::driver::PortFacts;
+use crate::linemark::{MarkDecoder, Marked};
 use std::io;
 use std::pin::Pin;
 use std::task::{Context, Poll};
@@ -11,6 +12,10 @@ use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 pub struct SerialPort {
     stream: tokio_serial::SerialStream,
     facts: PortFacts,
+    /// Plain readers get clean bytes: a marked stream is decoded here and its line errors
+    /// dropped (as every portable serial API drops them) until a driver attaches and takes
+    /// the marked stream itself.
+    clean: Option<MarkDecoder>,
     /// A second handle on the same tty for what `tokio-serial` does not offer (termios
     /// flags, RS-485 mode).
     #[cfg(target_os = "linux")]
@@ -34,6 +39,7 @@ impl SerialPort {
     ) -> Self {
         SerialPort {
             stream,
+            clean: facts.marked_errors.map(MarkDecoder::new),
             facts,
             control,
         }
@@ -41,13 +47,23 @@ impl SerialPort {
 
     #[cfg(not(target_os = "linux"))]
     pub(super) fn new(stream: tokio_serial::SerialStream, facts: PortFacts) -> Self {
-        SerialPort { stream, facts }
+        SerialPort {
+            stream,
+            clean: facts.marked_errors.map(MarkDecoder::new),
+            facts,
+        }
     }
 
     /// What the driver does for this port: the adapter latency it passes to the engine,
     /// whether line errors are decoded, RS-485 RTS toggling, echo suppression.
     pub fn port_facts(&self) -> &PortFacts {
         &self.facts
+    }
+
+    /// A driver takes over (`Transport::attach`): reads return the marked stream from now on.
+    pub(super) fn attach(&mut self) -> PortFacts {
+        self.clean = None;
+        self.facts
     }
 
     /// The underlying `tokio-serial` stream (modem lines, buffers, exclusivity).
@@ -89,11 +105,34 @@ pub struct InputMode {
 
 impl AsyncRead for SerialPort {
     fn poll_read(
-        mut self: Pin<&mut Self>,
+        self: Pin<&mut Self>,
         cx: &mut Context<'_>,
         buf: &mut ReadBuf<'_>,
     ) -> Poll<io::Result<()>> {
-        Pin::new(&mut self.stream).poll_read(cx, buf)
+        let this = self.get_mut();
+        loop {
+            let before = buf.filled().len();
+            std::task::ready!(Pin::new(&mut this.stream).poll_read(cx, buf))?;
+            let Some(decoder) = &mut this.clean else {
+                return Poll::Ready(Ok(()));
+            };
+            if buf.filled().len() == before {
+                return Poll::Ready(Ok(())); // end of file
+            }
+            // Decoding never lengthens the stream, so the decoded bytes fit where the marked
+            // ones were.
+            let marked = buf.filled()[before..].to_vec();
+            buf.set_filled(before);
+            decoder.feed(&marked, |piece| {
+                if let Marked::Data(run) = piece {
+                    buf.put_slice(run);
+                }
+            });
+            if buf.filled().len() > before {
+                return Poll::Ready(Ok(()));
+            }
+            // Only marks: read on (the port registers the waker when nothing more is there).
+        }
     }
 }
 
