@@ -639,6 +639,60 @@ fn fire_due<E: Engine>(
     }
 }
 
+/// A transport with facts added to what it says itself ([`PortFacts::or`]): local echo on a
+/// TCP stream to a serial device server on a two-wire bus, a latency the program knows.
+#[derive(Debug)]
+pub struct WithFacts<T> {
+    /// The transport.
+    pub inner: T,
+    /// Facts used where the transport gives none.
+    pub facts: PortFacts,
+}
+
+impl<T: Transport> AsyncRead for WithFacts<T> {
+    fn poll_read(
+        mut self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+        buf: &mut tokio::io::ReadBuf<'_>,
+    ) -> std::task::Poll<io::Result<()>> {
+        std::pin::Pin::new(&mut self.inner).poll_read(cx, buf)
+    }
+}
+
+impl<T: Transport> AsyncWrite for WithFacts<T> {
+    fn poll_write(
+        mut self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+        buf: &[u8],
+    ) -> std::task::Poll<io::Result<usize>> {
+        std::pin::Pin::new(&mut self.inner).poll_write(cx, buf)
+    }
+    fn poll_flush(
+        mut self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<io::Result<()>> {
+        std::pin::Pin::new(&mut self.inner).poll_flush(cx)
+    }
+    fn poll_shutdown(
+        mut self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<io::Result<()>> {
+        std::pin::Pin::new(&mut self.inner).poll_shutdown(cx)
+    }
+}
+
+impl<T: Transport> Transport for WithFacts<T> {
+    fn set_signals(&mut self, update: SignalUpdate) -> io::Result<()> {
+        self.inner.set_signals(update)
+    }
+    fn read_signals(&mut self) -> io::Result<Option<ModemSignals>> {
+        self.inner.read_signals()
+    }
+    fn attach(&mut self) -> PortFacts {
+        self.inner.attach().or(self.facts)
+    }
+}
+
 /// A boxed transport, so a program can choose serial or TCP at run time.
 impl Transport for Box<dyn Transport> {
     fn set_signals(&mut self, update: SignalUpdate) -> io::Result<()> {

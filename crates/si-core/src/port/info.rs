@@ -96,7 +96,7 @@ pub const LATENCY_TIMER_MS: std::ops::RangeInclusive<u64> = 1..=255;
 /// says otherwise), out of range, or not Linux.
 pub fn set_latency_timer(path: &str, latency: Duration) -> io::Result<()> {
     let ms = latency.as_millis();
-    if !LATENCY_TIMER_MS.contains(&ms) || latency.as_micros() % 1_000 != 0 {
+    if !LATENCY_TIMER_MS.contains(&ms) || !latency.as_micros().is_multiple_of(1_000) {
         return Err(io::Error::new(
             io::ErrorKind::InvalidInput,
             format!("latency timer {latency} out of range: whole milliseconds, 1 … 255"),

@@ -51,7 +51,15 @@ impl Control {
         let mut config = serial2::rs4xx::Rs485Config::new();
         config.set_delay_before_send(before.into());
         config.set_delay_after_send(after.into());
-        self.0.set_rs4xx_mode(config)
+        self.0.set_rs4xx_mode(config).map_err(|e| {
+            io::Error::new(
+                e.kind(),
+                format!(
+                    "cannot switch to the kernel's RS-485 mode ({e}): the port's driver has none; \
+                     let this program toggle RTS instead"
+                ),
+            )
+        })
     }
 
     pub(super) fn input_mode(&self) -> io::Result<InputMode> {

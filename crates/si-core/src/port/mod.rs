@@ -118,11 +118,22 @@ pub fn open(
             ),
         ));
     }
-    let stream = open_stream(
+    let mut stream = open_stream(
         path,
         settings,
         portable_parity.unwrap_or(tokio_serial::Parity::None),
     )?;
+    if matches!(options.rs485, Some(Rs485::Rts(_))) {
+        // RTS toggling starts with RTS off (receiving); a port without modem lines says so
+        // here rather than stopping the driver at the first transmission.
+        use tokio_serial::SerialPort as _;
+        stream.write_request_to_send(false).map_err(|e| {
+            context(io::Error::new(
+                io::Error::from(e.clone()).kind(),
+                format!("cannot drive RTS for RS-485 ({e}): the port has no modem lines"),
+            ))
+        })?;
+    }
     let mut facts = PortFacts {
         rx_latency: latency_timer(path),
         rts_toggle: match options.rs485 {
@@ -151,7 +162,6 @@ pub fn open(
                 .map_err(context)?;
         }
         // Our second handle is open: from now on no other program may open the port.
-        let mut stream = stream;
         stream
             .set_exclusive(true)
             .map_err(|e| context(io::Error::from(e)))?;
