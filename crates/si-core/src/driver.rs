@@ -1,8 +1,9 @@
 //! The tokio driver: runs any [`Engine`] over a byte stream.
 //!
-//! [`spawn`] moves an engine and a [`Transport`] (a `tokio-serial` port with feature `serial`, a
-//! TCP stream to a serial device server, a `tokio::io::duplex` pipe) into a task and gives back a
-//! [`Handle`]: commands go in with [`Handle::call`], events come out of [`Handle::next_event`].
+//! [`spawn`] moves an engine and a [`Transport`] (a serial port from `si_core::port::open` or a
+//! `tokio-serial` stream with feature `serial`, a TCP stream to a serial device server, a
+//! `tokio::io::duplex` pipe) into a task and gives back a [`Handle`]: commands go in with
+//! [`Handle::call`], events come out of [`Handle::next_event`].
 //!
 //! # Timing, honestly
 //!
@@ -23,19 +24,46 @@
 //! the engine before the bytes or the command that woke it.
 //!
 //! What remains is the operating system: scheduling latency under load (milliseconds on a
-//! busy machine), and the port itself (a USB adapter delivers received bytes in 1 ms or 16 ms
-//! chunks; a pseudo-terminal or a pipe at once). A 3.5-character gap below a millisecond
-//! (Modbus above 19 200 bit/s) therefore still cannot be *enforced* from user space: the driver
-//! reports the gap the kernel let it see. Use a converter with hardware framing where that
-//! matters, or let the engine end frames by length where the protocol allows it (si-modbus's
-//! `FrameEnd::Length`).
+//! busy machine), and the port itself. A pseudo-terminal or a pipe delivers bytes at once; a
+//! USB adapter delivers them in packets, when 62 bytes are waiting or its latency timer runs
+//! out (16 ms by default on FTDI chips, 1–255 ms). A port opened with
+//! `port::open` (feature `serial`) reads that timer on Linux
+//! (`/sys/bus/usb-serial/devices/<tty>/latency_timer`) and the driver passes it to the engine
+//! with [`Engine::set_rx_latency`] before the first byte, so engines can tell a hole between
+//! two packets from silence; [`DriverOptions::port`] gives it for other transports (a serial
+//! device server's packing delay). `si --latency-timer 1` (or
+//! `PortOptions::latency_timer`) sets the timer to
+//! 1 ms where the user may write it. A 3.5-character gap below a millisecond (Modbus above
+//! 19 200 bit/s) still cannot be *enforced* from user space: the driver reports the gap the
+//! kernel let it see. Use a converter with hardware framing where that matters, or let the
+//! engine end frames by length where the protocol allows it (si-modbus's `FrameEnd::Length`).
 //!
 //! "Transmission done" ([`Engine::handle_tx_done`]) is reported when the write has completed
 //! *and*, if [`DriverOptions::settings`] is given, the bytes' character time has passed since the
 //! write began: a serial driver's write returns while the UART still shifts bytes out.
 //!
-//! Line errors (parity, framing, BREAK) are not reported per character by the portable serial
-//! API, so engines run by this driver do not see [`LineError`](crate::LineError)s from a real port.
+//! # Line errors
+//!
+//! A port from `port::open` (feature `serial`) on Linux marks parity and framing errors and
+//! BREAKs in the received stream (`PARMRK`); when the driver takes the port over
+//! ([`Transport::attach`]) it decodes the marks ([`crate::linemark`]) and hands the engine data
+//! runs and [`LineError`](crate::LineError)s in the order they arrived
+//! ([`crate::rx_path`]), so the manuals' 080C/0810/0811/080D codes are reachable on real
+//! hardware. A marked bad character is reported as a parity error on a line with a checked
+//! parity bit and as a framing error on one without (the kernel cannot tell them apart);
+//! overruns are counted by the kernel, not marked. On other platforms, and with
+//! `PortOptions::no_line_errors`, a bad character arrives as a plain byte and no line error
+//! reaches the engine. Traces record the decoded bytes and the errors (`rx_chunk`,
+//! `rx_error`).
+//!
+//! # RS-485
+//!
+//! For adapters that do not switch their transceiver themselves, the driver raises RTS before a
+//! transmission and drops it [`RtsToggle::after`] past tx-done ([`PortFacts::rts_toggle`]); the
+//! kernel's own RS-485 mode (`port::Rs485::Kernel`, Linux) is more exact where the port's
+//! driver has it. On a port that hears its own transmission ([`PortFacts::local_echo`]), the
+//! received bytes that repeat what was sent, within the transmit window plus the port's
+//! latency, are dropped before the engine sees them ([`crate::echo`]).
 
 use crate::linemark::Marked;
 pub use crate::port_facts::{PortFacts, RtsToggle};

@@ -15,7 +15,7 @@
 //! # Ok(()) }
 //! ```
 //!
-//! What the port tells the driver ([`Transport::facts`]) is then acted on without further
+//! What the port tells the driver ([`Transport::attach`]) is then acted on without further
 //! settings: the adapter's latency timer reaches the engine (`Engine::set_rx_latency`), line
 //! errors arrive as [`LineError`](crate::LineError)s, RTS is toggled for RS-485 and our own
 //! echo is dropped when [`PortOptions`] asks for it.
