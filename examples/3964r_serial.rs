@@ -1,13 +1,17 @@
-//! Send a block with 3964(R) over a serial port and print what the partner sends back. The
-//! port is opened from the line settings the link uses (`si_core::port::open`): no `stty`.
+//! Send a block with 3964(R) over a serial port (or a serial device server, raw TCP) and print
+//! what the partner sends back. The port is opened from the line settings the link uses
+//! (`si_core::port::open`): no `stty`.
 //!
 //! ```text
-//! cargo run --example 3964r_serial --features serial -- /dev/ttyUSB0 "hello PLC"   # or COM3
+//! cargo run --example 3964r_serial --features serial -- /dev/ttyUSB0 "hello PLC"      # or COM3
+//! cargo run --example 3964r_serial --features serial -- 192.0.2.10:4001 "hello PLC"   # device server
 //! ```
 //!
 //! Without hardware: `si --port /dev/pts/4 3964r recv --count 1` on one end of a pty pair.
 
-use si_serial::core::port::{self, PortOptions};
+mod common;
+
+use si_serial::core::port::PortOptions;
 use si_serial::core::SerialSettings;
 use si_serial::r3964::tokio::Link3964r;
 use si_serial::r3964::{Config, Priority};
@@ -16,15 +20,15 @@ use si_serial::r3964::{Config, Priority};
 async fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let (Some(path), Some(text)) = (args.next(), args.next()) else {
-        return Err("usage: 3964r_serial PORT TEXT".into());
+        return Err("usage: 3964r_serial PORT|HOST:PORT TEXT".into());
     };
     let line = SerialSettings::default(); // 9600 8E1: set once, for the port and the link
-    let serial = port::open(&path, &line, &PortOptions::default())?;
+    let serial = common::open(&path, &line, &PortOptions::default()).await?;
     let config = Config {
         priority: Priority::High,
         ..Config::default()
     };
-    let mut link = Link3964r::spawn(config, line, serial)?;
+    let mut link = Link3964r::spawn(config, line, serial.transport)?;
     match link.send(text.into_bytes()).await {
         Ok(()) => println!("sent, the partner acknowledged with DLE"),
         Err(status) => return Err(format!("send failed: {status}").into()),

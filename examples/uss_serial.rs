@@ -1,8 +1,10 @@
-//! Poll USS drives on a serial port (RS-485) with the async master and read a parameter:
+//! Poll USS drives on a serial port (RS-485) or a serial device server (raw TCP) with the
+//! async master and read a parameter:
 //!
 //! ```text
 //! cargo run --example uss_serial --features serial -- /dev/ttyUSB0 1,2          # or COM3
 //! cargo run --example uss_serial --features serial -- /dev/ttyUSB0 1 rts        # RTS-switched adapter
+//! cargo run --example uss_serial --features serial -- 192.0.2.10:4001 1,2       # device server
 //! ```
 //!
 //! The third argument picks RS-485 direction control: `kernel` (the UART driver's RS-485 mode,
@@ -10,8 +12,10 @@
 //! that switch by themselves. Without hardware: `si uss sim-slave --address 1 --port
 //! /dev/pts/4` on one end of a pty pair.
 
+mod common;
+
 use si_serial::core::driver::{DriverOptions, RtsToggle};
-use si_serial::core::port::{self, PortOptions, Rs485};
+use si_serial::core::port::{PortOptions, Rs485};
 use si_serial::core::Duration;
 use si_serial::uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_serial::uss::frame::PkwWords;
@@ -23,7 +27,7 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let path = args
         .next()
-        .ok_or("usage: uss_serial PORT [SLAVES] [kernel|rts]")?;
+        .ok_or("usage: uss_serial PORT|HOST:PORT [SLAVES] [kernel|rts]")?;
     let slaves: Vec<u8> = args
         .next()
         .unwrap_or_else(|| "1".into())
@@ -52,12 +56,17 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
         rs485,
         ..PortOptions::default()
     };
-    let serial = port::open(&path, &settings, &options)?;
+    let line = common::open(&path, &settings, &options).await?;
+    if line.network {
+        // A device server adds network latency on top of the drive's 20 ms.
+        config.response_timeout = Duration::from_millis(100);
+    }
     let driver = DriverOptions {
         settings: Some(settings),
         ..DriverOptions::default()
     };
-    let (mut master, _task) = UssMaster::spawn(Master::new(config)?, serial, driver).await?;
+    let (mut master, _task) =
+        UssMaster::spawn(Master::new(config)?, line.transport, driver).await?;
 
     let p = master
         .parameter(slaves[0], ParamRequest::read(700, 0))

@@ -111,28 +111,41 @@ async fn steps(log: &Log, n: usize) -> Vec<(std::time::Instant, Step)> {
     log.lock().unwrap().clone()
 }
 
+/// A [`Talker`] on a 9600 8E1 line over a recording pipe, the driver toggling RTS.
+fn start_toggling(
+    toggle: RtsToggle,
+    pipe: DuplexStream,
+    log: &Log,
+) -> (
+    si_core::driver::Handle<Talker>,
+    tokio::task::JoinHandle<io::Result<()>>,
+) {
+    let options = DriverOptions {
+        settings: Some(SerialSettings::default()),
+        port: Some(PortFacts {
+            rts_toggle: Some(toggle),
+            ..PortFacts::default()
+        }),
+        ..DriverOptions::default()
+    };
+    let transport = Recorder {
+        inner: pipe,
+        log: log.clone(),
+    };
+    spawn(talker(log), transport, options)
+}
+
 #[tokio::test]
 async fn rts_goes_on_before_the_write_and_off_after_tx_done_plus_the_delay() {
     let log = Log::default();
     let (ours, mut theirs) = tokio::io::duplex(256);
     let line = SerialSettings::default(); // 9600 8E1: 10 bytes take 11.46 ms on the wire
     let after = Duration::from_millis(5);
-    let options = DriverOptions {
-        settings: Some(line),
-        port: Some(PortFacts {
-            rts_toggle: Some(RtsToggle {
-                before: Duration::ZERO,
-                after,
-            }),
-            ..PortFacts::default()
-        }),
-        ..DriverOptions::default()
+    let toggle = RtsToggle {
+        before: Duration::ZERO,
+        after,
     };
-    let transport = Recorder {
-        inner: ours,
-        log: log.clone(),
-    };
-    let (handle, _task) = spawn(talker(&log), transport, options);
+    let (handle, _task) = start_toggling(toggle, ours, &log);
     let frame = [0x5Au8; 10];
     handle
         .call(move |t, _| {
@@ -168,19 +181,7 @@ async fn rts_goes_on_before_the_write_and_off_after_tx_done_plus_the_delay() {
 async fn back_to_back_transmissions_keep_rts_on() {
     let log = Log::default();
     let (ours, mut theirs) = tokio::io::duplex(256);
-    let options = DriverOptions {
-        settings: Some(SerialSettings::default()),
-        port: Some(PortFacts {
-            rts_toggle: Some(RtsToggle::default()),
-            ..PortFacts::default()
-        }),
-        ..DriverOptions::default()
-    };
-    let transport = Recorder {
-        inner: ours,
-        log: log.clone(),
-    };
-    let (handle, _task) = spawn(talker(&log), transport, options);
+    let (handle, _task) = start_toggling(RtsToggle::default(), ours, &log);
     handle
         .call(|t, _| {
             t.out
