@@ -134,24 +134,23 @@ pub fn open(
             ))
         })?;
     }
-    let mut facts = PortFacts {
+    let facts = PortFacts {
         rx_latency: latency_timer(path),
         rts_toggle: match options.rs485 {
             Some(Rs485::Rts(toggle)) => Some(toggle),
             _ => None,
         },
         local_echo: options.local_echo,
-        marked_errors: None,
+        // Marking is set up below, on Linux only (module docs, "Platforms").
+        marked_errors: (cfg!(target_os = "linux") && !options.no_line_errors)
+            .then(|| bad_char_error(settings)),
     };
     #[cfg(target_os = "linux")]
     let port = {
         let mut control = linux::Control::open(path).map_err(context)?;
         control
-            .set_line(settings, !options.no_line_errors)
+            .set_line(settings, facts.marked_errors.is_some())
             .map_err(context)?;
-        if !options.no_line_errors {
-            facts.marked_errors = Some(bad_char_error(settings));
-        }
         if let Some(Rs485::Kernel {
             delay_before,
             delay_after,
@@ -169,7 +168,6 @@ pub fn open(
     };
     #[cfg(not(target_os = "linux"))]
     let port = {
-        let _ = bad_char_error;
         if matches!(options.rs485, Some(Rs485::Kernel { .. })) {
             return Err(context(io::Error::new(
                 io::ErrorKind::Unsupported,
@@ -181,8 +179,8 @@ pub fn open(
     Ok(port)
 }
 
-/// The portable part: `tokio-serial` with the character format. Shared (not exclusive) while
-/// the Linux part opens a second handle for termios; exclusive again afterwards.
+/// The portable part: `tokio-serial` with the character format. On Linux shared (not
+/// exclusive) while the second handle for termios is opened; exclusive again afterwards.
 fn open_stream(
     path: &str,
     s: &SerialSettings,
@@ -202,7 +200,7 @@ fn open_stream(
             StopBits::One
         })
         .flow_control(FlowControl::None);
-    #[cfg(unix)]
+    #[cfg(target_os = "linux")]
     let builder = builder.exclusive(false);
     builder.open_native_async().map_err(|e| {
         io::Error::new(
