@@ -37,7 +37,7 @@ pub struct Connection {
     #[arg(long, global = true, default_value_t = 1)]
     pub stop_bits: u8,
     /// Set the USB adapter's latency timer to MS milliseconds (1–255) before use (Linux,
-    /// /sys/bus/usb-serial/devices/<tty>/latency_timer; needs write permission there). 1 makes
+    /// /sys/bus/usb-serial/devices/TTY/latency_timer; needs write permission there). 1 makes
     /// an FTDI-type adapter deliver received bytes at once instead of every 16 ms.
     #[arg(long, global = true, value_name = "MS")]
     pub latency_timer: Option<u64>,
