@@ -275,12 +275,18 @@ mod tests {
             prop_assert_eq!(decode_all(&mut d, &reads), expected);
         }
 
-        /// Any bytes at all: no panic, and never more data out than bytes in.
+        /// Any bytes at all, cut into reads anywhere: no panic, never more data out than bytes
+        /// in, and the same pieces as one read of the whole.
         #[test]
-        fn any_input_decodes_without_growing(bytes in proptest::collection::vec(any::<u8>(), 0..256)) {
-            let mut d = MarkDecoder::new(LineError::Framing);
-            let out = decode_all(&mut d, &[&bytes]);
-            prop_assert!(out.len() <= bytes.len());
+        fn any_input_decodes_the_same_however_it_is_cut(
+            bytes in proptest::collection::vec(prop_oneof![any::<u8>(), Just(0xFF), Just(0)], 0..256),
+            cut in any::<prop::sample::Index>(),
+        ) {
+            let whole = decode_all(&mut MarkDecoder::new(LineError::Framing), &[&bytes]);
+            prop_assert!(whole.len() <= bytes.len());
+            let (a, b) = bytes.split_at(cut.index(bytes.len() + 1));
+            let cut = decode_all(&mut MarkDecoder::new(LineError::Framing), &[a, b]);
+            prop_assert_eq!(whole, cut);
         }
     }
 }
