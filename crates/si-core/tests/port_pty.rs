@@ -39,7 +39,7 @@ fn pty() -> (SerialStream, String) {
 async fn an_opened_port_marks_line_errors_in_the_kernel() {
     let (_master, path) = pty();
     let port = port::open(&path, &SerialSettings::default(), &PortOptions::default()).unwrap();
-    let mode = port.input_mode().unwrap();
+    let mode = port.termios_mode().unwrap();
     assert!(mode.parmrk && mode.inpck, "{mode:?}");
     assert!(
         !mode.ignpar && !mode.brkint && !mode.ignbrk && !mode.istrip,
@@ -58,7 +58,7 @@ async fn without_line_errors_the_port_is_left_unmarked() {
         ..PortOptions::default()
     };
     let port = port::open(&path, &SerialSettings::default(), &options).unwrap();
-    assert!(!port.input_mode().unwrap().parmrk);
+    assert!(!port.termios_mode().unwrap().parmrk);
     assert_eq!(port.port_facts().marked_errors, None);
 }
 
@@ -91,4 +91,30 @@ async fn a_plain_reader_gets_clean_bytes_from_a_marking_port() {
         .expect("the bytes arrive")
         .unwrap();
     assert_eq!(got, [0xFF, 0x00, 0xFF, 0x7E]);
+}
+
+/// Mark and space parity need `CMSPAR`, which a UART driver honours and a pseudo-terminal
+/// drops: on a pty the open fails and says why; where it succeeds, the flags are as set.
+#[tokio::test]
+async fn mark_and_space_parity_are_set_with_cmspar_or_refused_with_the_reason() {
+    use si_core::Parity;
+    let (_master, path) = pty();
+    for parity in [Parity::Mark, Parity::Space] {
+        let line = SerialSettings::new(9_600, 8, parity, 1).unwrap();
+        match port::open(&path, &line, &PortOptions::default()) {
+            Ok(port) => {
+                let m = port.termios_mode().unwrap();
+                assert!(
+                    m.parenb && m.cmspar && m.parodd == (parity == Parity::Mark),
+                    "{m:?}"
+                );
+                // Space is the manuals' "any": not checked on receive.
+                assert_eq!(m.inpck, parity == Parity::Mark, "{m:?}");
+            }
+            Err(e) => assert!(
+                e.to_string().contains("does not take") && e.to_string().contains("CMSPAR"),
+                "{e}"
+            ),
+        }
+    }
 }

@@ -3,7 +3,7 @@
 //! second handle of the same tty (termios and RS-485 mode belong to the device, not the
 //! handle).
 
-use super::stream::InputMode;
+use super::stream::TermiosMode;
 use crate::serial::{Parity, SerialSettings};
 use crate::time::Duration;
 use std::io;
@@ -43,7 +43,18 @@ impl Control {
                 termios.c_iflag |= libc::INPCK;
             }
         }
-        self.0.set_configuration(&settings)
+        self.0.set_configuration(&settings).map_err(|e| {
+            if matches!(s.parity(), Parity::Mark | Parity::Space) {
+                // serial2 reads the settings back: a port whose driver drops CMSPAR (a
+                // pseudo-terminal) fails here.
+                io::Error::new(
+                    e.kind(),
+                    format!("the port does not take {} parity (CMSPAR): {e}", s.parity()),
+                )
+            } else {
+                e
+            }
+        })
     }
 
     /// The kernel's RS-485 mode with RTS on while sending.
@@ -62,17 +73,21 @@ impl Control {
         })
     }
 
-    pub(super) fn input_mode(&self) -> io::Result<InputMode> {
+    pub(super) fn termios_mode(&self) -> io::Result<TermiosMode> {
         let settings = self.0.get_configuration()?;
-        let iflag = settings.as_termios().c_iflag;
-        let on = |flag| iflag & flag != 0;
-        Ok(InputMode {
+        let termios = settings.as_termios();
+        let on = |flag| termios.c_iflag & flag != 0;
+        let control = |flag| termios.c_cflag & flag != 0;
+        Ok(TermiosMode {
             parmrk: on(libc::PARMRK),
             inpck: on(libc::INPCK),
             ignpar: on(libc::IGNPAR),
             brkint: on(libc::BRKINT),
             ignbrk: on(libc::IGNBRK),
             istrip: on(libc::ISTRIP),
+            parenb: control(libc::PARENB),
+            parodd: control(libc::PARODD),
+            cmspar: control(libc::CMSPAR),
         })
     }
 }

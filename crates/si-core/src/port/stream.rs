@@ -71,12 +71,12 @@ impl SerialPort {
         &mut self.stream
     }
 
-    /// The input flags the kernel holds for this port now, read back with `TCGETS2` (Linux):
-    /// how a test or a doubtful user sees that line-error marking is on.
+    /// The flags the kernel holds for this port now, read back with `TCGETS2` (Linux): how a
+    /// test or a doubtful user sees that line-error marking and the parity are set.
     #[cfg(target_os = "linux")]
-    pub fn input_mode(&self) -> io::Result<InputMode> {
+    pub fn termios_mode(&self) -> io::Result<TermiosMode> {
         match &self.control {
-            Some(control) => control.input_mode(),
+            Some(control) => control.termios_mode(),
             None => Err(io::Error::new(
                 io::ErrorKind::Unsupported,
                 "no control handle",
@@ -85,10 +85,11 @@ impl SerialPort {
     }
 }
 
-/// The termios input flags that decide how line errors reach a reader (termios(3)).
+/// The termios flags that decide how line errors reach a reader and which parity the line
+/// has (termios(3)).
 #[cfg(target_os = "linux")]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct InputMode {
+pub struct TermiosMode {
     /// `PARMRK`: bad characters and BREAKs are marked in the stream.
     pub parmrk: bool,
     /// `INPCK`: received parity is checked.
@@ -101,6 +102,12 @@ pub struct InputMode {
     pub ignbrk: bool,
     /// `ISTRIP`: the eighth bit is cleared.
     pub istrip: bool,
+    /// `PARENB`: a parity bit is sent and received.
+    pub parenb: bool,
+    /// `PARODD`: odd parity (with `CMSPAR`: mark).
+    pub parodd: bool,
+    /// `CMSPAR`: the parity bit is fixed, mark or space.
+    pub cmspar: bool,
 }
 
 impl AsyncRead for SerialPort {
