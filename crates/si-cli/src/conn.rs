@@ -52,7 +52,9 @@ pub struct Connection {
     #[arg(long, global = true, default_value_t = 0, value_name = "MS")]
     pub rs485_delay_after: u64,
     /// The port hears its own transmission (two-wire RS-485 adapter with its receiver always
-    /// on, a bus tap): drop that echo instead of taking it for the partner's answer.
+    /// on, a bus tap): drop that echo instead of taking it for the partner's answer. Not
+    /// together with a Modbus/USS config's own `local_echo`, which would then discard the
+    /// answer.
     #[arg(long, global = true)]
     pub local_echo: bool,
     /// Do not put the port in line-error mode (Linux PARMRK): parity, framing and BREAK are

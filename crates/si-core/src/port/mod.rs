@@ -64,7 +64,10 @@ pub struct PortOptions {
     /// itself.
     pub rs485: Option<Rs485>,
     /// The port hears its own transmission (two-wire RS-485 with the receiver always on):
-    /// drop the echo before the engine sees it.
+    /// drop the echo before the engine sees it, comparing byte by byte. Use it *instead of*
+    /// the Modbus and USS configs' own `local_echo` (the module's parameter, which discards
+    /// as many characters as were sent, matching or not), not together with it: the engine
+    /// would then discard the partner's answer.
     pub local_echo: bool,
     /// Do not put the port in line-error marking mode (Linux): bad characters then arrive
     /// as plain bytes, as on other platforms.
