@@ -818,4 +818,76 @@ mod tests {
         );
         assert!(f.trace.entries.iter().all(|e| e.station == "host"));
     }
+
+    /// Reports what reaches it: data runs and line errors, in order.
+    #[derive(Default)]
+    struct Lines(std::collections::VecDeque<Result<Vec<u8>, crate::LineError>>);
+    impl Engine for Lines {
+        type Event = Result<Vec<u8>, crate::LineError>;
+        fn handle_rx(&mut self, _: Instant, bytes: &[u8]) {
+            self.0.push_back(Ok(bytes.to_vec()));
+        }
+        fn handle_line_error(&mut self, _: Instant, error: crate::LineError) {
+            self.0.push_back(Err(error));
+        }
+        fn handle_timeout(&mut self, _: Instant) {}
+        fn poll_output(&mut self) -> Output<Self::Event> {
+            self.0.pop_front().map_or(Output::Wait(None), Output::Event)
+        }
+    }
+
+    #[test]
+    fn a_marked_stream_reaches_the_engine_and_the_trace_as_data_and_line_errors_in_order() {
+        use crate::LineError::{Break, Parity};
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        let file = Shared::default();
+        let seen = rt.block_on(async {
+            let recorder = tracefile::Recorder::new(Box::new(file.clone()), &Header::new("driver"))
+                .unwrap()
+                .for_station("host");
+            let (ours, mut theirs) = tokio::io::duplex(64);
+            let options = DriverOptions {
+                recorder: Some(recorder),
+                port: Some(PortFacts {
+                    marked_errors: Some(Parity),
+                    ..PortFacts::default()
+                }),
+                ..DriverOptions::default()
+            };
+            let (mut handle, _task) = spawn(Lines::default(), ours, options);
+            // 41, a bad character (37), a data FF, a BREAK.
+            let marked = [0x41, 0xFF, 0x00, 0x37, 0xFF, 0xFF, 0xFF, 0x00, 0x00];
+            theirs.write_all(&marked).await.unwrap();
+            let mut seen = Vec::new();
+            while seen.len() < 4 {
+                seen.push(handle.next_event().await.unwrap());
+            }
+            seen
+        });
+        assert_eq!(
+            seen,
+            vec![Ok(vec![0x41]), Err(Parity), Ok(vec![0xFF]), Err(Break)]
+        );
+        let bytes = file.0.lock().unwrap().clone();
+        let f = tracefile::read(&bytes[..]).unwrap();
+        let line: Vec<_> = f
+            .trace
+            .entries
+            .iter()
+            .map(|e| e.kind.clone())
+            .filter(|k| !matches!(k, TraceKind::Event { .. }))
+            .collect();
+        assert_eq!(
+            line,
+            vec![
+                TraceKind::RxChunk { bytes: vec![0x41] },
+                TraceKind::RxError { error: Parity },
+                TraceKind::RxChunk { bytes: vec![0xFF] },
+                TraceKind::RxError { error: Break },
+            ]
+        );
+    }
 }
