@@ -48,6 +48,8 @@ async fn an_opened_port_marks_line_errors_in_the_kernel() {
     let facts = port.port_facts();
     assert_eq!(facts.marked_errors, Some(LineError::Parity));
     assert_eq!(facts.rx_latency, None, "a pty has no latency timer");
+    let info = port.info();
+    assert_eq!((info.path.as_str(), &info.usb), (path.as_str(), &None));
 }
 
 #[tokio::test]

@@ -66,6 +66,27 @@ pub fn list() -> io::Result<Vec<PortInfo>> {
         .collect())
 }
 
+/// What the machine knows about the port at `path`: its entry in [`list`] (matched after
+/// following links such as `/dev/serial/by-id/…`), or just its path and latency timer when
+/// the OS does not list it (a pseudo-terminal).
+pub fn describe(path: &str) -> PortInfo {
+    let real = |p: &str| std::fs::canonicalize(p).unwrap_or_else(|_| PathBuf::from(p));
+    let wanted = real(path);
+    list()
+        .ok()
+        .and_then(|ports| ports.into_iter().find(|p| real(&p.path) == wanted))
+        .map(|listed| PortInfo {
+            path: path.to_owned(),
+            ..listed
+        })
+        .unwrap_or_else(|| PortInfo {
+            path: path.to_owned(),
+            usb: None,
+            latency_timer: latency_timer(path),
+            kind: "unknown",
+        })
+}
+
 /// The sysfs file of a USB serial adapter's latency timer (Linux): the tty's name after
 /// following links such as `/dev/serial/by-id/…`.
 fn latency_file(path: &str) -> Option<PathBuf> {
@@ -142,6 +163,13 @@ pub fn set_latency_timer(path: &str, latency: Duration) -> io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_unlisted_port_is_described_by_its_path() {
+        let info = describe("/dev/null");
+        assert_eq!(info.path, "/dev/null");
+        assert_eq!((info.usb, info.latency_timer), (None, None));
+    }
 
     #[test]
     fn a_port_without_sysfs_entry_has_no_latency_timer_and_says_so() {

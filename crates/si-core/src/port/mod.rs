@@ -11,7 +11,7 @@
 //!
 //! let line = SerialSettings::default(); // 9600 8E1, the modules' default
 //! let port = port::open("/dev/ttyUSB0", &line, &PortOptions::default())?; // or "COM3"
-//! println!("{:?}", port.info());
+//! println!("{:?}", port.info()); // USB vendor/product, the adapter's latency timer
 //! # Ok(()) }
 //! ```
 //!
@@ -44,7 +44,7 @@ mod info;
 mod linux;
 mod stream;
 
-pub use info::{latency_timer, list, set_latency_timer, PortInfo, UsbIds};
+pub use info::{describe, latency_timer, list, set_latency_timer, PortInfo, UsbIds};
 pub use stream::SerialPort;
 
 use crate::driver::{PortFacts, RtsToggle, Transport};
@@ -137,8 +137,9 @@ pub fn open(
             ))
         })?;
     }
+    let info = describe(path);
     let facts = PortFacts {
-        rx_latency: latency_timer(path),
+        rx_latency: info.latency_timer,
         rts_toggle: match options.rs485 {
             Some(Rs485::Rts(toggle)) => Some(toggle),
             _ => None,
@@ -167,7 +168,7 @@ pub fn open(
         stream
             .set_exclusive(true)
             .map_err(|e| context(io::Error::from(e)))?;
-        SerialPort::new(stream, facts, Some(control))
+        SerialPort::new(stream, info, facts, Some(control))
     };
     #[cfg(not(target_os = "linux"))]
     let port = {
@@ -177,7 +178,7 @@ pub fn open(
                 "the kernel's RS-485 mode needs Linux; use driver-side RTS toggling",
             )));
         }
-        SerialPort::new(stream, facts)
+        SerialPort::new(stream, info, facts)
     };
     Ok(port)
 }

@@ -1,5 +1,6 @@
 //! [`SerialPort`]: the opened port, a `tokio-serial` stream plus what the driver must know.
 
+use super::PortInfo;
 use crate::driver::PortFacts;
 use crate::linemark::{MarkDecoder, Marked};
 use std::io;
@@ -11,6 +12,7 @@ use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 /// protocol's async handle (it is a [`Transport`](crate::driver::Transport)).
 pub struct SerialPort {
     stream: tokio_serial::SerialStream,
+    info: PortInfo,
     facts: PortFacts,
     /// Plain readers get clean bytes: a marked stream is decoded here and its line errors
     /// dropped (as every portable serial API drops them) until a driver attaches and takes
@@ -25,6 +27,7 @@ pub struct SerialPort {
 impl std::fmt::Debug for SerialPort {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("SerialPort")
+            .field("info", &self.info)
             .field("facts", &self.facts)
             .finish_non_exhaustive()
     }
@@ -34,11 +37,13 @@ impl SerialPort {
     #[cfg(target_os = "linux")]
     pub(super) fn new(
         stream: tokio_serial::SerialStream,
+        info: PortInfo,
         facts: PortFacts,
         control: Option<super::linux::Control>,
     ) -> Self {
         SerialPort {
             stream,
+            info,
             clean: facts.marked_errors.map(MarkDecoder::new),
             facts,
             control,
@@ -46,12 +51,22 @@ impl SerialPort {
     }
 
     #[cfg(not(target_os = "linux"))]
-    pub(super) fn new(stream: tokio_serial::SerialStream, facts: PortFacts) -> Self {
+    pub(super) fn new(
+        stream: tokio_serial::SerialStream,
+        info: PortInfo,
+        facts: PortFacts,
+    ) -> Self {
         SerialPort {
             stream,
+            info,
             clean: facts.marked_errors.map(MarkDecoder::new),
             facts,
         }
+    }
+
+    /// The port's path, USB identity and the adapter's latency timer when it was opened.
+    pub fn info(&self) -> &PortInfo {
+        &self.info
     }
 
     /// What the driver does for this port: the adapter latency it passes to the engine,
