@@ -17,6 +17,7 @@
 //! | `dp-coord` (default) | [`dp_coord`] (`si-dp-coord`) | the coordination-byte DP window protocol, host and module |
 //! | `module` (default) | [`module`] (`si-module`) | the ET 200S SI module itself: parameters per driver, diagnosis, I&M, LEDs |
 //! | `tokio` | | the async driver and handles |
+//! | `serial` | | serial ports: `core::port::open` from the engine's `SerialSettings` (implies `tokio`) |
 //!
 //! Every engine is Sans-IO: it is fed bytes and time and says what to transmit and when to wake
 //! it, so the same code runs under tokio, in the deterministic simulator, and in tests.
@@ -43,3 +44,9 @@ pub use si_dp_coord as dp_coord;
 
 #[cfg(feature = "module")]
 pub use si_module as module;
+/// The README, compiled as doc-tests: a snippet there that stops compiling fails
+/// `cargo test --doc`. Its Rust blocks use 3964(R), Modbus and a serial port, so they are
+/// tested with those features (`--all-features` in CI); shell blocks are tagged `sh`.
+#[cfg(all(doctest, feature = "serial", feature = "3964r", feature = "modbus"))]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

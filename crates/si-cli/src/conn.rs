@@ -2,10 +2,12 @@
 
 use crate::error::CliError;
 use clap::Args;
-use si_core::driver::Transport;
+use si_core::driver::{PortFacts, RtsToggle, Transport, WithFacts};
+use si_core::linemark::{MarkDecoder, Marked};
+use si_core::port::{self, PortOptions, Rs485};
 use si_core::sim::TraceKind;
 use si_core::tracefile::{Header, Recorder};
-use si_core::{ModemSignals, Parity, SerialSettings, SignalUpdate};
+use si_core::{Duration, ModemSignals, Parity, SerialSettings, SignalUpdate};
 use std::io;
 use std::path::PathBuf;
 use std::pin::Pin;
@@ -34,6 +36,31 @@ pub struct Connection {
     /// Stop bits: 1 or 2.
     #[arg(long, global = true, default_value_t = 1)]
     pub stop_bits: u8,
+    /// Set the USB adapter's latency timer to MS milliseconds (1–255) before use (Linux,
+    /// /sys/bus/usb-serial/devices/TTY/latency_timer; needs write permission there). 1 makes
+    /// an FTDI-type adapter deliver received bytes at once instead of every 16 ms.
+    #[arg(long, global = true, value_name = "MS")]
+    pub latency_timer: Option<u64>,
+    /// RS-485 direction control: `kernel` (the UART driver's RS-485 mode, Linux TIOCSRS485)
+    /// or `rts` (this program raises RTS around each transmission).
+    #[arg(long, global = true, value_enum, value_name = "HOW")]
+    pub rs485: Option<Rs485Mode>,
+    /// With --rs485: RTS on this long before the first bit (ms).
+    #[arg(long, global = true, default_value_t = 0, value_name = "MS")]
+    pub rs485_delay_before: u64,
+    /// With --rs485: RTS kept on this long after the last bit (ms).
+    #[arg(long, global = true, default_value_t = 0, value_name = "MS")]
+    pub rs485_delay_after: u64,
+    /// The port hears its own transmission (two-wire RS-485 adapter with its receiver always
+    /// on, a bus tap): drop that echo instead of taking it for the partner's answer. Not
+    /// together with a Modbus/USS config's own `local_echo`, which would then discard the
+    /// answer.
+    #[arg(long, global = true)]
+    pub local_echo: bool,
+    /// Do not put the port in line-error mode (Linux PARMRK): parity, framing and BREAK are
+    /// then not reported, as on other platforms.
+    #[arg(long, global = true)]
+    pub no_line_errors: bool,
     /// Record every byte sent and received (with its time) into this trace file, JSON lines;
     /// `si monitor --trace FILE` decodes it. With `si sim`, records the simulated line.
     #[arg(long, global = true, value_name = "FILE")]
@@ -76,16 +103,24 @@ impl Connection {
         settings: &SerialSettings,
     ) -> Result<Box<dyn Transport>, CliError> {
         let transport: Box<dyn Transport> = match (&self.port, &self.tcp) {
-            (Some(path), _) => {
-                let port = open_serial(path, settings)?;
-                Box::new(port)
-            }
+            (Some(path), _) => Box::new(port::open(path, settings, &self.port_options())?),
             (None, Some(addr)) => {
+                if self.rs485.is_some() || self.latency_timer.is_some() {
+                    return Err(CliError::new(
+                        "--rs485 and --latency-timer need a serial port (--port); the device server switches its own line",
+                    ));
+                }
                 let stream = tokio::net::TcpStream::connect(addr)
                     .await
                     .map_err(|e| CliError::new(format!("cannot connect to {addr}: {e}")))?;
                 stream.set_nodelay(true).ok();
-                Box::new(stream)
+                Box::new(WithFacts {
+                    inner: stream,
+                    facts: PortFacts {
+                        local_echo: self.local_echo,
+                        ..PortFacts::default()
+                    },
+                })
             }
             (None, None) => {
                 return Err(CliError::new(
@@ -97,8 +132,32 @@ impl Connection {
             Some(recorder) => Ok(Box::new(Recording {
                 inner: transport,
                 recorder: recorder.for_station(STATION),
+                marks: None,
             })),
             None => Ok(transport),
+        }
+    }
+
+    /// The port options the global flags ask for.
+    pub fn port_options(&self) -> PortOptions {
+        let delays = (
+            Duration::from_millis(self.rs485_delay_before),
+            Duration::from_millis(self.rs485_delay_after),
+        );
+        PortOptions {
+            latency_timer: self.latency_timer.map(Duration::from_millis),
+            rs485: self.rs485.map(|mode| match mode {
+                Rs485Mode::Kernel => Rs485::Kernel {
+                    delay_before: delays.0,
+                    delay_after: delays.1,
+                },
+                Rs485Mode::Rts => Rs485::Rts(RtsToggle {
+                    before: delays.0,
+                    after: delays.1,
+                }),
+            }),
+            local_echo: self.local_echo,
+            no_line_errors: self.no_line_errors,
         }
     }
 
@@ -130,13 +189,21 @@ pub const STATION: &str = "si";
 struct Recording {
     inner: Box<dyn Transport>,
     recorder: Recorder,
+    /// Once a driver attached to a port that marks line errors: the reads are marked, and the
+    /// trace gets the decoded bytes and errors.
+    marks: Option<MarkDecoder>,
 }
 
 impl Recording {
     fn note(&self, kind: TraceKind) {
-        if let Err(e) = self.recorder.record(kind) {
-            tracing::warn!("trace recording failed: {e}");
-        }
+        note(&self.recorder, kind);
+    }
+}
+
+/// Record one entry; a recording error is logged, never allowed to stop the line.
+fn note(recorder: &Recorder, kind: TraceKind) {
+    if let Err(e) = recorder.record(kind) {
+        tracing::warn!("trace recording failed: {e}");
     }
 }
 
@@ -149,10 +216,25 @@ impl AsyncRead for Recording {
         let before = buf.filled().len();
         let poll = Pin::new(&mut self.inner).poll_read(cx, buf);
         if let Poll::Ready(Ok(())) = &poll {
+            let this = &mut *self;
             let new = &buf.filled()[before..];
-            if !new.is_empty() {
-                let bytes = new.to_vec();
-                self.note(TraceKind::RxChunk { bytes });
+            match &mut this.marks {
+                Some(marks) => marks.feed(new, |piece| match piece {
+                    Marked::Data(run) => note(
+                        &this.recorder,
+                        TraceKind::RxChunk {
+                            bytes: run.to_vec(),
+                        },
+                    ),
+                    Marked::Error(error) => note(&this.recorder, TraceKind::RxError { error }),
+                }),
+                None if !new.is_empty() => note(
+                    &this.recorder,
+                    TraceKind::RxChunk {
+                        bytes: new.to_vec(),
+                    },
+                ),
+                None => {}
             }
         }
         poll
@@ -191,34 +273,18 @@ impl Transport for Recording {
     fn read_signals(&mut self) -> io::Result<Option<ModemSignals>> {
         self.inner.read_signals()
     }
+    fn attach(&mut self) -> PortFacts {
+        let facts = self.inner.attach();
+        self.marks = facts.marked_errors.map(MarkDecoder::new);
+        facts
+    }
 }
 
-fn open_serial(path: &str, s: &SerialSettings) -> Result<tokio_serial::SerialStream, CliError> {
-    use tokio_serial::{DataBits, FlowControl, SerialPortBuilderExt, StopBits};
-    let parity = match s.parity() {
-        Parity::None => tokio_serial::Parity::None,
-        Parity::Even => tokio_serial::Parity::Even,
-        Parity::Odd => tokio_serial::Parity::Odd,
-        Parity::Mark | Parity::Space => {
-            return Err(CliError::new(format!(
-                "parity {} is not supported by the portable serial API; use none, even or odd",
-                s.parity()
-            )))
-        }
-    };
-    tokio_serial::new(path, s.baud())
-        .data_bits(if s.data_bits() == 7 {
-            DataBits::Seven
-        } else {
-            DataBits::Eight
-        })
-        .parity(parity)
-        .stop_bits(if s.stop_bits() == 2 {
-            StopBits::Two
-        } else {
-            StopBits::One
-        })
-        .flow_control(FlowControl::None)
-        .open_native_async()
-        .map_err(|e| CliError::new(format!("cannot open {path}: {e}")))
+/// `--rs485`: who switches the transceiver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Rs485Mode {
+    /// The kernel's RS-485 mode (Linux TIOCSRS485, where the port's driver has it).
+    Kernel,
+    /// This program raises RTS before each transmission and drops it after.
+    Rts,
 }

@@ -102,7 +102,7 @@ fn main() -> ExitCode {
         .init();
     let out = Output { json: cli.json };
     let result = match cli.command {
-        Command::Ports => cmd::ports::run(&out),
+        Command::Ports => cmd::ports::run(&cli.connection, &out),
         Command::Frame(c) => c.run(&out),
         Command::Monitor(a) => runtime().and_then(|rt| rt.block_on(a.run(&cli.connection, &out))),
         Command::Diag(c) => c.run(&out),

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{pty_pair, si, text};
+use common::{pty_pair, si, stdout, text};
 
 #[test]
 fn a_latency_timer_on_a_port_without_one_is_a_clear_error() {
@@ -76,7 +76,7 @@ fn a_pty_refuses_rs485_and_the_latency_timer_with_reasons() {
 fn ports_lists_in_json_with_usb_and_latency_fields() {
     let o = si(&["--json", "ports"]);
     assert!(o.status.success(), "{}", text(&o));
-    for line in common::stdout(&o).lines() {
+    for line in stdout(&o).lines() {
         let v: serde_json::Value = serde_json::from_str(line).expect("a JSON line");
         assert!(v["port"].is_string(), "{v}");
         assert!(
@@ -84,4 +84,63 @@ fn ports_lists_in_json_with_usb_and_latency_fields() {
             "{v}"
         );
     }
+}
+
+/// A data byte FFH, which the kernel doubles on a port in line-error mode, reaches the
+/// receiving station once and is recorded once in its trace (the recorder decodes the marked
+/// stream the driver reads).
+#[test]
+fn a_data_ff_is_received_and_recorded_once_on_a_marking_port() {
+    use std::process::Stdio;
+    let Some(pair) = common::pty_pair_ignoreeof() else {
+        return;
+    };
+    let trace = common::test_dir("si-port-flags").join("ff.jsonl");
+    let recv = common::si_command()
+        .args(["--json", "--port", &pair.b, "--record"])
+        .arg(&trace)
+        .args(["3964r", "recv", "--count", "1", "--priority", "low"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start recv");
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let o = si(&[
+        "--port",
+        &pair.a,
+        "3964r",
+        "send",
+        "--priority",
+        "high",
+        "41 FF 42",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let o = recv.wait_with_output().expect("recv ends");
+    assert!(o.status.success(), "{}", text(&o));
+    let line: serde_json::Value = serde_json::from_str(stdout(&o).trim()).expect("JSON line");
+    assert_eq!(line["hex"], "41 FF 42");
+    let recorded: Vec<u8> = std::fs::read_to_string(&trace)
+        .unwrap()
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|e| e["kind"] == "rx_chunk")
+        .flat_map(|e| {
+            e["bytes"]
+                .as_array()
+                .map(|b| {
+                    b.iter()
+                        .filter_map(|x| x.as_u64())
+                        .map(|x| x as u8)
+                        .collect()
+                })
+                .unwrap_or_else(Vec::new)
+        })
+        .collect();
+    // STX, the block 41 FF 42, DLE ETX, BCC: one FF in the data.
+    let ffs = recorded.iter().filter(|&&b| b == 0xFF).count();
+    assert!(
+        recorded.windows(3).any(|w| w == [0x41, 0xFF, 0x42]),
+        "{recorded:02X?}"
+    );
+    assert_eq!(ffs, 1, "{recorded:02X?}");
 }

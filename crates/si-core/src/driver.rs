@@ -1,8 +1,9 @@
 //! The tokio driver: runs any [`Engine`] over a byte stream.
 //!
-//! [`spawn`] moves an engine and a [`Transport`] (a `tokio-serial` port with feature `serial`, a
-//! TCP stream to a serial device server, a `tokio::io::duplex` pipe) into a task and gives back a
-//! [`Handle`]: commands go in with [`Handle::call`], events come out of [`Handle::next_event`].
+//! [`spawn`] moves an engine and a [`Transport`] (a serial port from `si_core::port::open` or a
+//! `tokio-serial` stream with feature `serial`, a TCP stream to a serial device server, a
+//! `tokio::io::duplex` pipe) into a task and gives back a [`Handle`]: commands go in with
+//! [`Handle::call`], events come out of [`Handle::next_event`].
 //!
 //! # Timing, honestly
 //!
@@ -23,20 +24,50 @@
 //! the engine before the bytes or the command that woke it.
 //!
 //! What remains is the operating system: scheduling latency under load (milliseconds on a
-//! busy machine), and the port itself (a USB adapter delivers received bytes in 1 ms or 16 ms
-//! chunks; a pseudo-terminal or a pipe at once). A 3.5-character gap below a millisecond
-//! (Modbus above 19 200 bit/s) therefore still cannot be *enforced* from user space: the driver
-//! reports the gap the kernel let it see. Use a converter with hardware framing where that
-//! matters, or let the engine end frames by length where the protocol allows it (si-modbus's
-//! `FrameEnd::Length`).
+//! busy machine), and the port itself. A pseudo-terminal or a pipe delivers bytes at once; a
+//! USB adapter delivers them in packets, when 62 bytes are waiting or its latency timer runs
+//! out (16 ms by default on FTDI chips, 1–255 ms). A port opened with
+//! `port::open` (feature `serial`) reads that timer on Linux
+//! (`/sys/bus/usb-serial/devices/<tty>/latency_timer`) and the driver passes it to the engine
+//! with [`Engine::set_rx_latency`] before the first byte, so engines can tell a hole between
+//! two packets from silence; [`DriverOptions::port`] gives it for other transports (a serial
+//! device server's packing delay). `si --latency-timer 1` (or
+//! `PortOptions::latency_timer`) sets the timer to
+//! 1 ms where the user may write it. A 3.5-character gap below a millisecond (Modbus above
+//! 19 200 bit/s) still cannot be *enforced* from user space: the driver reports the gap the
+//! kernel let it see. Use a converter with hardware framing where that matters, or let the
+//! engine end frames by length where the protocol allows it (si-modbus's `FrameEnd::Length`).
 //!
 //! "Transmission done" ([`Engine::handle_tx_done`]) is reported when the write has completed
 //! *and*, if [`DriverOptions::settings`] is given, the bytes' character time has passed since the
 //! write began: a serial driver's write returns while the UART still shifts bytes out.
 //!
-//! Line errors (parity, framing, BREAK) are not reported per character by the portable serial
-//! API, so engines run by this driver do not see [`LineError`](crate::LineError)s from a real port.
+//! # Line errors
+//!
+//! A port from `port::open` (feature `serial`) on Linux marks parity and framing errors and
+//! BREAKs in the received stream (`PARMRK`); when the driver takes the port over
+//! ([`Transport::attach`]) it decodes the marks ([`crate::linemark`]) and hands the engine data
+//! runs and [`LineError`](crate::LineError)s in the order they arrived
+//! ([`crate::rx_path`]), so the manuals' 080C/0810/0811/080D codes are reachable on real
+//! hardware. A marked bad character is reported as a parity error on a line with a checked
+//! parity bit and as a framing error on one without (the kernel cannot tell them apart);
+//! overruns are counted by the kernel, not marked. On other platforms, and with
+//! `PortOptions::no_line_errors`, a bad character arrives as a plain byte and no line error
+//! reaches the engine. Traces record the decoded bytes and the errors (`rx_chunk`,
+//! `rx_error`).
+//!
+//! # RS-485
+//!
+//! For adapters that do not switch their transceiver themselves, the driver raises RTS before a
+//! transmission and drops it [`RtsToggle::after`] past tx-done ([`PortFacts::rts_toggle`]); the
+//! kernel's own RS-485 mode (`port::Rs485::Kernel`, Linux) is more exact where the port's
+//! driver has it. On a port that hears its own transmission ([`PortFacts::local_echo`]), the
+//! received bytes that repeat what was sent, within the transmit window plus the port's
+//! latency, are dropped before the engine sees them ([`crate::echo`]).
 
+use crate::linemark::Marked;
+pub use crate::port_facts::{PortFacts, RtsToggle};
+use crate::rx_path::RxPath;
 use crate::sansio::{Engine, ModemSignals, Output, SignalUpdate};
 use crate::serial::SerialSettings;
 use crate::sim::TraceKind;
@@ -61,6 +92,15 @@ pub trait Transport: AsyncRead + AsyncWrite + Unpin + Send + 'static {
     /// Read CTS/DSR/DCD (and the current RTS/DTR); `None` if the transport has no signals.
     fn read_signals(&mut self) -> io::Result<Option<ModemSignals>> {
         Ok(None)
+    }
+
+    /// A driver takes this transport over: what must it know about the port behind it
+    /// ([`PortFacts`]): its delivery latency, RS-485 direction control, local echo, and whether
+    /// reads from now on return a `PARMRK`-marked stream for the driver to decode (a port that
+    /// marks line errors hands plain readers clean bytes and switches to the marked stream
+    /// here). Called once, before the first read. The default is a plain byte stream.
+    fn attach(&mut self) -> PortFacts {
+        PortFacts::default()
     }
 }
 
@@ -114,6 +154,11 @@ pub struct DriverOptions {
     /// `tx`, every read as `rx_chunk`, signal changes and the engine's events (their `Debug`
     /// form), under the recorder's station name. `si monitor --trace` reads it back.
     pub recorder: Option<Recorder>,
+    /// What the port needs from the driver beyond what the transport says
+    /// ([`Transport::attach`], right for ports from `si_core::port::open`): a latency, RTS
+    /// toggling or a marked stream given here is used where the transport gives none, local
+    /// echo where either asks for it.
+    pub port: Option<PortFacts>,
 }
 
 impl Default for DriverOptions {
@@ -123,6 +168,7 @@ impl Default for DriverOptions {
             signal_poll: std::time::Duration::from_millis(10),
             event_capacity: 1024,
             recorder: None,
+            port: None,
         }
     }
 }
@@ -381,6 +427,15 @@ where
             }
         }
     };
+    let facts = options.port.unwrap_or_default().or(io.attach());
+    if let Some(latency) = facts.rx_latency {
+        engine.set_rx_latency(latency);
+    }
+    let mut rx_path = RxPath::new(&facts);
+    let mut direction = Direction::new(facts.rts_toggle);
+    // How long after tx-done our own echo may still arrive: the port's delivery latency, or
+    // a USB adapter's default latency timer when the port did not say.
+    let echo_grace = facts.rx_latency.unwrap_or(ECHO_GRACE);
     let mut buf = [0u8; 512];
     let mut tx_done_at: Option<Instant> = None;
     let mut signals = io.read_signals()?;
@@ -402,6 +457,12 @@ where
                     record(TraceKind::Tx {
                         bytes: bytes.to_vec(),
                     });
+                    if let Some(update) = direction.before_write(&mut io)? {
+                        record(TraceKind::Signals { update });
+                        if direction.lead() > Duration::ZERO {
+                            tokio::time::sleep(direction.lead().into()).await;
+                        }
+                    }
                     let started = clock.now();
                     io.write_all(&bytes).await?;
                     io.flush().await?;
@@ -409,7 +470,10 @@ where
                         .settings
                         .map_or(started, |s| started + s.chars_time(bytes.len() as u64));
                     let at = wire_end.max(clock.now());
-                    tx_done_at = Some(tx_done_at.map_or(at, |t| t.max(at)));
+                    let done = tx_done_at.map_or(at, |t| t.max(at));
+                    tx_done_at = Some(done);
+                    direction.written(done);
+                    rx_path.sent(&bytes, done + echo_grace);
                 }
                 Output::SetSignals(update) => {
                     record(TraceKind::Signals { update });
@@ -432,11 +496,12 @@ where
         // A deadline already due (tx-done right after a write to a port without wire time) is
         // handled at once: tokio's wheel would round it up to its next millisecond tick. The
         // budget makes an engine that keeps asking for a past deadline yield to other tasks.
-        let next = Instant::earliest(deadline, tx_done_at);
+        let next = Instant::earliest(deadline, Instant::earliest(tx_done_at, direction.off_at));
         if next.is_some_and(|at| at <= clock.now()) {
             precise.disarm();
             tokio::task::consume_budget().await;
             fire_due(&mut engine, &mut tx_done_at, deadline, clock.now());
+            direction.due(clock.now(), &mut io, &record)?;
             continue;
         }
 
@@ -479,6 +544,7 @@ where
                     // the line has reached.
                     let now = clock.now();
                     fire_due(&mut engine, &mut tx_done_at, deadline.take(), now);
+                    direction.due(now, &mut io, &record)?;
                     command(&mut engine, now)
                 }
                 None => return Ok(()),
@@ -488,12 +554,15 @@ where
                 if n == 0 {
                     return Ok(());
                 }
-                record(TraceKind::RxChunk { bytes: buf[..n].to_vec() });
                 // A tx-done or timeout that fell due before these bytes came goes first (a
                 // slave must know its answer has left before it judges the next request).
                 let now = clock.now();
                 fire_due(&mut engine, &mut tx_done_at, deadline.take(), now);
-                engine.handle_rx(now, &buf[..n]);
+                direction.due(now, &mut io, &record)?;
+                rx_path.deliver(&mut engine, now, &buf[..n], |piece| match piece {
+                    Marked::Data(bytes) => record(TraceKind::RxChunk { bytes: bytes.to_vec() }),
+                    Marked::Error(error) => record(TraceKind::RxError { error }),
+                });
             }
             _ = &mut wheel, if wheel_at.is_some() => wheel_set = None,
             _ = precise.fired(), if precise.is_armed() => precise.fired_seen(),
@@ -511,6 +580,74 @@ where
 
         // Whatever woke us, look at the clock: timers are checked, not trusted.
         fire_due(&mut engine, &mut tx_done_at, deadline, clock.now());
+        direction.due(clock.now(), &mut io, &record)?;
+    }
+}
+
+/// How long our echo may still arrive after tx-done on a port that did not give its latency:
+/// a little more than the 16 ms default latency timer of FTDI-type USB adapters.
+pub const ECHO_GRACE: Duration = Duration::from_millis(20);
+
+/// RS-485 direction control by the driver ([`RtsToggle`]): RTS on before the first byte of a
+/// transmission, off `after` past its tx-done. Transmissions that follow each other before RTS
+/// went off keep it on.
+struct Direction {
+    toggle: Option<RtsToggle>,
+    /// When RTS goes off; `Some` while it is on.
+    off_at: Option<Instant>,
+}
+
+impl Direction {
+    fn new(toggle: Option<RtsToggle>) -> Self {
+        Direction {
+            toggle,
+            off_at: None,
+        }
+    }
+
+    /// Raise RTS if it is not up; the update made, if any (the caller then waits
+    /// [`lead`](Self::lead)).
+    fn before_write<T: Transport>(&mut self, io: &mut T) -> io::Result<Option<SignalUpdate>> {
+        if self.toggle.is_none() || self.off_at.is_some() {
+            return Ok(None);
+        }
+        let update = SignalUpdate {
+            rts: Some(true),
+            ..SignalUpdate::default()
+        };
+        io.set_signals(update)?;
+        Ok(Some(update))
+    }
+
+    /// The transceiver's enable time to wait after raising RTS.
+    fn lead(&self) -> Duration {
+        self.toggle.map_or(Duration::ZERO, |t| t.before)
+    }
+
+    /// The write is out; its last byte leaves the transmitter at `tx_done`.
+    fn written(&mut self, tx_done: Instant) {
+        if let Some(t) = self.toggle {
+            self.off_at = Some(tx_done + t.after);
+        }
+    }
+
+    /// Drop RTS if its time has come.
+    fn due<T: Transport>(
+        &mut self,
+        now: Instant,
+        io: &mut T,
+        record: &impl Fn(TraceKind),
+    ) -> io::Result<()> {
+        if self.off_at.is_some_and(|at| now >= at) {
+            self.off_at = None;
+            let update = SignalUpdate {
+                rts: Some(false),
+                ..SignalUpdate::default()
+            };
+            record(TraceKind::Signals { update });
+            io.set_signals(update)?;
+        }
+        Ok(())
     }
 }
 
@@ -530,6 +667,60 @@ fn fire_due<E: Engine>(
     }
 }
 
+/// A transport with facts added to what it says itself ([`PortFacts::or`]): local echo on a
+/// TCP stream to a serial device server on a two-wire bus, a latency the program knows.
+#[derive(Debug)]
+pub struct WithFacts<T> {
+    /// The transport.
+    pub inner: T,
+    /// Facts used where the transport gives none.
+    pub facts: PortFacts,
+}
+
+impl<T: Transport> AsyncRead for WithFacts<T> {
+    fn poll_read(
+        mut self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+        buf: &mut tokio::io::ReadBuf<'_>,
+    ) -> std::task::Poll<io::Result<()>> {
+        std::pin::Pin::new(&mut self.inner).poll_read(cx, buf)
+    }
+}
+
+impl<T: Transport> AsyncWrite for WithFacts<T> {
+    fn poll_write(
+        mut self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+        buf: &[u8],
+    ) -> std::task::Poll<io::Result<usize>> {
+        std::pin::Pin::new(&mut self.inner).poll_write(cx, buf)
+    }
+    fn poll_flush(
+        mut self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<io::Result<()>> {
+        std::pin::Pin::new(&mut self.inner).poll_flush(cx)
+    }
+    fn poll_shutdown(
+        mut self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<io::Result<()>> {
+        std::pin::Pin::new(&mut self.inner).poll_shutdown(cx)
+    }
+}
+
+impl<T: Transport> Transport for WithFacts<T> {
+    fn set_signals(&mut self, update: SignalUpdate) -> io::Result<()> {
+        self.inner.set_signals(update)
+    }
+    fn read_signals(&mut self) -> io::Result<Option<ModemSignals>> {
+        self.inner.read_signals()
+    }
+    fn attach(&mut self) -> PortFacts {
+        self.inner.attach().or(self.facts)
+    }
+}
+
 /// A boxed transport, so a program can choose serial or TCP at run time.
 impl Transport for Box<dyn Transport> {
     fn set_signals(&mut self, update: SignalUpdate) -> io::Result<()> {
@@ -537,6 +728,9 @@ impl Transport for Box<dyn Transport> {
     }
     fn read_signals(&mut self) -> io::Result<Option<ModemSignals>> {
         (**self).read_signals()
+    }
+    fn attach(&mut self) -> PortFacts {
+        (**self).attach()
     }
 }
 
@@ -623,5 +817,77 @@ mod tests {
             ]
         );
         assert!(f.trace.entries.iter().all(|e| e.station == "host"));
+    }
+
+    /// Reports what reaches it: data runs and line errors, in order.
+    #[derive(Default)]
+    struct Lines(std::collections::VecDeque<Result<Vec<u8>, crate::LineError>>);
+    impl Engine for Lines {
+        type Event = Result<Vec<u8>, crate::LineError>;
+        fn handle_rx(&mut self, _: Instant, bytes: &[u8]) {
+            self.0.push_back(Ok(bytes.to_vec()));
+        }
+        fn handle_line_error(&mut self, _: Instant, error: crate::LineError) {
+            self.0.push_back(Err(error));
+        }
+        fn handle_timeout(&mut self, _: Instant) {}
+        fn poll_output(&mut self) -> Output<Self::Event> {
+            self.0.pop_front().map_or(Output::Wait(None), Output::Event)
+        }
+    }
+
+    #[test]
+    fn a_marked_stream_reaches_the_engine_and_the_trace_as_data_and_line_errors_in_order() {
+        use crate::LineError::{Break, Parity};
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        let file = Shared::default();
+        let seen = rt.block_on(async {
+            let recorder = tracefile::Recorder::new(Box::new(file.clone()), &Header::new("driver"))
+                .unwrap()
+                .for_station("host");
+            let (ours, mut theirs) = tokio::io::duplex(64);
+            let options = DriverOptions {
+                recorder: Some(recorder),
+                port: Some(PortFacts {
+                    marked_errors: Some(Parity),
+                    ..PortFacts::default()
+                }),
+                ..DriverOptions::default()
+            };
+            let (mut handle, _task) = spawn(Lines::default(), ours, options);
+            // 41, a bad character (37), a data FF, a BREAK.
+            let marked = [0x41, 0xFF, 0x00, 0x37, 0xFF, 0xFF, 0xFF, 0x00, 0x00];
+            theirs.write_all(&marked).await.unwrap();
+            let mut seen = Vec::new();
+            while seen.len() < 4 {
+                seen.push(handle.next_event().await.unwrap());
+            }
+            seen
+        });
+        assert_eq!(
+            seen,
+            vec![Ok(vec![0x41]), Err(Parity), Ok(vec![0xFF]), Err(Break)]
+        );
+        let bytes = file.0.lock().unwrap().clone();
+        let f = tracefile::read(&bytes[..]).unwrap();
+        let line: Vec<_> = f
+            .trace
+            .entries
+            .iter()
+            .map(|e| e.kind.clone())
+            .filter(|k| !matches!(k, TraceKind::Event { .. }))
+            .collect();
+        assert_eq!(
+            line,
+            vec![
+                TraceKind::RxChunk { bytes: vec![0x41] },
+                TraceKind::RxError { error: Parity },
+                TraceKind::RxChunk { bytes: vec![0xFF] },
+                TraceKind::RxError { error: Break },
+            ]
+        );
     }
 }

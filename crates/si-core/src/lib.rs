@@ -13,15 +13,23 @@
 //! - [`sim`]: a deterministic discrete-event line simulator with seeded faults;
 //! - [`monitor`]: what a passive listener sees and reports, shared by the protocols' monitors;
 //! - [`tracefile`]: the JSON-lines trace file the simulator, the driver and `si monitor` share;
-//! - `driver` (feature `tokio`): runs any engine over `AsyncRead + AsyncWrite`.
+//! - [`linemark`], [`echo`], [`rx_path`], [`port_facts`]: what a real port needs between the
+//!   line and an engine (marked line errors, local echo, RS-485 direction), Sans-IO;
+//! - `driver` (feature `tokio`): runs any engine over `AsyncRead + AsyncWrite`;
+//! - `port` (feature `serial`): opens a serial port from the engine's [`SerialSettings`], with
+//!   line errors, RS-485 and the USB adapter's latency timer.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
+pub mod echo;
 pub mod fb;
 pub mod hex;
 pub mod job;
 pub mod memory;
 pub mod monitor;
 pub mod range;
+pub mod linemark;
+pub mod port_facts;
+pub mod rx_path;
 pub mod sansio;
 pub mod serial;
 pub mod sim;
@@ -35,6 +43,9 @@ pub mod driver;
 
 pub use job::{JobId, JobPort};
 pub use range::RangeError;
+#[cfg(feature = "serial")]
+pub mod port;
+
 pub use sansio::{Engine, LineError, ModemSignals, Output, SignalUpdate};
 pub use serial::{Parity, SerialSettings, SettingsError, BAUD_RATES};
 pub use status::{Status, StatusInfo};

@@ -1,0 +1,229 @@
+//! Serial ports from the library, one call (feature `serial`).
+//!
+//! [`open`] takes the [`SerialSettings`] the engine's config already holds, so the line's
+//! format is written once, and returns a [`SerialPort`]: a [`Transport`] that every protocol's
+//! async handle accepts (`si_modbus::tokio::MasterHandle::spawn`, `Link3964r::spawn`, …).
+//!
+//! ```no_run
+//! # async fn demo() -> std::io::Result<()> {
+//! use si_core::port::{self, PortOptions};
+//! use si_core::SerialSettings;
+//!
+//! let line = SerialSettings::default(); // 9600 8E1, the modules' default
+//! let port = port::open("/dev/ttyUSB0", &line, &PortOptions::default())?; // or "COM3"
+//! println!("{:?}", port.info()); // USB vendor/product, the adapter's latency timer
+//! # Ok(()) }
+//! ```
+//!
+//! What the port tells the driver ([`Transport::attach`]) is then acted on without further
+//! settings: the adapter's latency timer reaches the engine (`Engine::set_rx_latency`), line
+//! errors arrive as [`LineError`](crate::LineError)s, RTS is toggled for RS-485 and our own
+//! echo is dropped when [`PortOptions`] asks for it.
+//!
+//! # Platforms
+//!
+//! Opening, the character format, modem signals, driver-side RTS toggling and echo
+//! suppression work wherever `tokio-serial` does (Linux, macOS, the BSDs, Windows `COMn`
+//! names). **Linux only**, through the sysfs and termios of the Linux kernel:
+//!
+//! - line errors: the port is put in `PARMRK` mode ([`crate::linemark`] says what is marked
+//!   and how). Elsewhere the port is opened as `tokio-serial` leaves it: a bad character
+//!   arrives as a plain byte and no line error is reported. (macOS and the BSDs offer the same
+//!   termios flags, untested here; Windows reports errors only per read through
+//!   `ClearCommError`, not per character.)
+//! - mark and space parity (`CMSPAR`); elsewhere [`open`] refuses them.
+//! - the kernel's RS-485 mode ([`Rs485::Kernel`], `TIOCSRS485`), where the port's driver
+//!   supports it;
+//! - the USB adapter's latency timer (`/sys/bus/usb-serial/devices/<tty>/latency_timer`):
+//!   read on open, set with [`PortOptions::latency_timer`] or [`set_latency_timer`]. Elsewhere
+//!   the latency is unknown to the driver (Windows sets it in the FTDI driver's port
+//!   properties).
+
+mod info;
+#[cfg(target_os = "linux")]
+mod linux;
+mod stream;
+
+pub use info::{describe, latency_timer, list, set_latency_timer, PortInfo, UsbIds};
+pub use stream::SerialPort;
+
+use crate::driver::{PortFacts, RtsToggle, Transport};
+use crate::linemark::bad_char_error;
+use crate::serial::{Parity, SerialSettings};
+use crate::time::Duration;
+use std::io;
+
+/// How to open a port beyond its character format.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct PortOptions {
+    /// Set the USB adapter's latency timer to this before use (Linux; 1–255 ms). 1 ms makes an
+    /// FTDI-type adapter hand over received bytes almost at once, at the cost of more USB
+    /// traffic. `None` leaves it as it is (and the driver allows for it).
+    pub latency_timer: Option<Duration>,
+    /// RS-485 direction control; `None` for RS-232/RS-422 or an adapter that switches by
+    /// itself.
+    pub rs485: Option<Rs485>,
+    /// The port hears its own transmission (two-wire RS-485 with the receiver always on):
+    /// drop the echo before the engine sees it, comparing byte by byte. Use it *instead of*
+    /// the Modbus and USS configs' own `local_echo` (the module's parameter, which discards
+    /// as many characters as were sent, matching or not), not together with it: the engine
+    /// would then discard the partner's answer.
+    pub local_echo: bool,
+    /// Do not put the port in line-error marking mode (Linux): bad characters then arrive
+    /// as plain bytes, as on other platforms.
+    pub no_line_errors: bool,
+}
+
+/// Who switches an RS-485 transceiver between sending and receiving.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Rs485 {
+    /// The kernel's RS-485 mode (Linux `TIOCSRS485`): the UART driver raises RTS for each
+    /// transmission, with these delays in whole milliseconds (the kernel's unit).
+    Kernel {
+        /// RTS on this long before the first bit.
+        delay_before: Duration,
+        /// RTS kept on this long after the last bit.
+        delay_after: Duration,
+    },
+    /// The driver toggles RTS itself around each write ([`RtsToggle`]): for adapters and
+    /// kernels without RS-485 mode. Less exact (user-space timing, "Timing, honestly" in the
+    /// driver docs).
+    Rts(RtsToggle),
+}
+
+/// Open `path` (`/dev/ttyUSB0`, `/dev/serial/by-id/…`, `COM3`) with the line format `settings`
+/// and `options`. Call it inside a tokio runtime (the port registers with its reactor).
+///
+/// Errors: the port cannot be opened or configured, a parity this platform cannot set (mark
+/// or space outside Linux), an option this platform or port does not support (kernel RS-485
+/// mode, the latency timer), each with the path in the message.
+pub fn open(
+    path: &str,
+    settings: &SerialSettings,
+    options: &PortOptions,
+) -> io::Result<SerialPort> {
+    let context = |e: io::Error| io::Error::new(e.kind(), format!("{path}: {e}"));
+    if let Some(ms) = options.latency_timer {
+        set_latency_timer(path, ms)?;
+    }
+    let portable_parity = match settings.parity() {
+        Parity::None => Some(tokio_serial::Parity::None),
+        Parity::Even => Some(tokio_serial::Parity::Even),
+        Parity::Odd => Some(tokio_serial::Parity::Odd),
+        Parity::Mark | Parity::Space => None,
+    };
+    if portable_parity.is_none() && !cfg!(target_os = "linux") {
+        return Err(io::Error::new(
+            io::ErrorKind::Unsupported,
+            format!(
+                "{path}: parity {} needs Linux (CMSPAR); use none, even or odd",
+                settings.parity()
+            ),
+        ));
+    }
+    let mut stream = open_stream(
+        path,
+        settings,
+        portable_parity.unwrap_or(tokio_serial::Parity::None),
+    )?;
+    if matches!(options.rs485, Some(Rs485::Rts(_))) {
+        // RTS toggling starts with RTS off (receiving); a port without modem lines says so
+        // here rather than stopping the driver at the first transmission.
+        use tokio_serial::SerialPort as _;
+        stream.write_request_to_send(false).map_err(|e| {
+            context(io::Error::new(
+                io::Error::from(e.clone()).kind(),
+                format!("cannot drive RTS for RS-485 ({e}): the port has no modem lines"),
+            ))
+        })?;
+    }
+    let info = describe(path);
+    let facts = PortFacts {
+        rx_latency: info.latency_timer,
+        rts_toggle: match options.rs485 {
+            Some(Rs485::Rts(toggle)) => Some(toggle),
+            _ => None,
+        },
+        local_echo: options.local_echo,
+        // Marking is set up below, on Linux only (module docs, "Platforms").
+        marked_errors: (cfg!(target_os = "linux") && !options.no_line_errors)
+            .then(|| bad_char_error(settings)),
+    };
+    #[cfg(target_os = "linux")]
+    let port = {
+        let mut control = linux::Control::open(path).map_err(context)?;
+        control
+            .set_line(settings, facts.marked_errors.is_some())
+            .map_err(context)?;
+        if let Some(Rs485::Kernel {
+            delay_before,
+            delay_after,
+        }) = options.rs485
+        {
+            control
+                .set_rs485(delay_before, delay_after)
+                .map_err(context)?;
+        }
+        // Our second handle is open: from now on no other program may open the port.
+        stream
+            .set_exclusive(true)
+            .map_err(|e| context(io::Error::from(e)))?;
+        SerialPort::new(stream, info, facts, Some(control))
+    };
+    #[cfg(not(target_os = "linux"))]
+    let port = {
+        if matches!(options.rs485, Some(Rs485::Kernel { .. })) {
+            return Err(context(io::Error::new(
+                io::ErrorKind::Unsupported,
+                "the kernel's RS-485 mode needs Linux; use driver-side RTS toggling",
+            )));
+        }
+        SerialPort::new(stream, info, facts)
+    };
+    Ok(port)
+}
+
+/// The portable part: `tokio-serial` with the character format. On Linux shared (not
+/// exclusive) while the second handle for termios is opened; exclusive again afterwards.
+fn open_stream(
+    path: &str,
+    s: &SerialSettings,
+    parity: tokio_serial::Parity,
+) -> io::Result<tokio_serial::SerialStream> {
+    use tokio_serial::{DataBits, FlowControl, SerialPortBuilderExt, StopBits};
+    let builder = tokio_serial::new(path, s.baud())
+        .data_bits(if s.data_bits() == 7 {
+            DataBits::Seven
+        } else {
+            DataBits::Eight
+        })
+        .parity(parity)
+        .stop_bits(if s.stop_bits() == 2 {
+            StopBits::Two
+        } else {
+            StopBits::One
+        })
+        .flow_control(FlowControl::None);
+    #[cfg(target_os = "linux")]
+    let builder = builder.exclusive(false);
+    builder.open_native_async().map_err(|e| {
+        io::Error::new(
+            io::Error::from(e.clone()).kind(),
+            format!("cannot open {path}: {e}"),
+        )
+    })
+}
+
+impl Transport for SerialPort {
+    fn set_signals(&mut self, update: crate::SignalUpdate) -> io::Result<()> {
+        self.stream_mut().set_signals(update)
+    }
+
+    fn read_signals(&mut self) -> io::Result<Option<crate::ModemSignals>> {
+        self.stream_mut().read_signals()
+    }
+
+    fn attach(&mut self) -> PortFacts {
+        SerialPort::attach(self)
+    }
+}

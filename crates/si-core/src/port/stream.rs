@@ -1,0 +1,175 @@
+//! [`SerialPort`]: the opened port, a `tokio-serial` stream plus what the driver must know.
+
+use super::PortInfo;
+use crate::driver::PortFacts;
+use crate::linemark::{MarkDecoder, Marked};
+use std::io;
+use std::pin::Pin;
+use std::task::{Context, Poll};
+use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
+
+/// A serial port opened by [`open`](super::open): read and write it, or hand it to a
+/// protocol's async handle (it is a [`Transport`](crate::driver::Transport)).
+pub struct SerialPort {
+    stream: tokio_serial::SerialStream,
+    info: PortInfo,
+    facts: PortFacts,
+    /// Plain readers get clean bytes: a marked stream is decoded here and its line errors
+    /// dropped (as every portable serial API drops them) until a driver attaches and takes
+    /// the marked stream itself.
+    clean: Option<MarkDecoder>,
+    /// A second handle on the same tty for what `tokio-serial` does not offer (termios
+    /// flags, RS-485 mode).
+    #[cfg(target_os = "linux")]
+    control: Option<super::linux::Control>,
+}
+
+impl std::fmt::Debug for SerialPort {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SerialPort")
+            .field("info", &self.info)
+            .field("facts", &self.facts)
+            .finish_non_exhaustive()
+    }
+}
+
+impl SerialPort {
+    #[cfg(target_os = "linux")]
+    pub(super) fn new(
+        stream: tokio_serial::SerialStream,
+        info: PortInfo,
+        facts: PortFacts,
+        control: Option<super::linux::Control>,
+    ) -> Self {
+        SerialPort {
+            stream,
+            info,
+            clean: facts.marked_errors.map(MarkDecoder::new),
+            facts,
+            control,
+        }
+    }
+
+    #[cfg(not(target_os = "linux"))]
+    pub(super) fn new(
+        stream: tokio_serial::SerialStream,
+        info: PortInfo,
+        facts: PortFacts,
+    ) -> Self {
+        SerialPort {
+            stream,
+            info,
+            clean: facts.marked_errors.map(MarkDecoder::new),
+            facts,
+        }
+    }
+
+    /// The port's path, USB identity and the adapter's latency timer when it was opened.
+    pub fn info(&self) -> &PortInfo {
+        &self.info
+    }
+
+    /// What the driver does for this port: the adapter latency it passes to the engine,
+    /// whether line errors are decoded, RS-485 RTS toggling, echo suppression.
+    pub fn port_facts(&self) -> &PortFacts {
+        &self.facts
+    }
+
+    /// A driver takes over (`Transport::attach`): reads return the marked stream from now on.
+    pub(super) fn attach(&mut self) -> PortFacts {
+        self.clean = None;
+        self.facts
+    }
+
+    /// The underlying `tokio-serial` stream (modem lines, buffers, exclusivity).
+    pub fn stream_mut(&mut self) -> &mut tokio_serial::SerialStream {
+        &mut self.stream
+    }
+
+    /// The flags the kernel holds for this port now, read back with `TCGETS2` (Linux): how a
+    /// test or a doubtful user sees that line-error marking and the parity are set.
+    #[cfg(target_os = "linux")]
+    pub fn termios_mode(&self) -> io::Result<TermiosMode> {
+        match &self.control {
+            Some(control) => control.termios_mode(),
+            None => Err(io::Error::new(
+                io::ErrorKind::Unsupported,
+                "no control handle",
+            )),
+        }
+    }
+}
+
+/// The termios flags that decide how line errors reach a reader and which parity the line
+/// has (termios(3)).
+#[cfg(target_os = "linux")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TermiosMode {
+    /// `PARMRK`: bad characters and BREAKs are marked in the stream.
+    pub parmrk: bool,
+    /// `INPCK`: received parity is checked.
+    pub inpck: bool,
+    /// `IGNPAR`: bad characters are dropped silently.
+    pub ignpar: bool,
+    /// `BRKINT`: a BREAK flushes the queues and signals the process.
+    pub brkint: bool,
+    /// `IGNBRK`: BREAKs are dropped silently.
+    pub ignbrk: bool,
+    /// `ISTRIP`: the eighth bit is cleared.
+    pub istrip: bool,
+    /// `PARENB`: a parity bit is sent and received.
+    pub parenb: bool,
+    /// `PARODD`: odd parity (with `CMSPAR`: mark).
+    pub parodd: bool,
+    /// `CMSPAR`: the parity bit is fixed, mark or space.
+    pub cmspar: bool,
+}
+
+impl AsyncRead for SerialPort {
+    fn poll_read(
+        self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &mut ReadBuf<'_>,
+    ) -> Poll<io::Result<()>> {
+        let this = self.get_mut();
+        loop {
+            let before = buf.filled().len();
+            std::task::ready!(Pin::new(&mut this.stream).poll_read(cx, buf))?;
+            let Some(decoder) = &mut this.clean else {
+                return Poll::Ready(Ok(()));
+            };
+            if buf.filled().len() == before {
+                return Poll::Ready(Ok(())); // end of file
+            }
+            // Decoding never lengthens the stream, so the decoded bytes fit where the marked
+            // ones were.
+            let marked = buf.filled()[before..].to_vec();
+            buf.set_filled(before);
+            decoder.feed(&marked, |piece| {
+                if let Marked::Data(run) = piece {
+                    buf.put_slice(run);
+                }
+            });
+            if buf.filled().len() > before {
+                return Poll::Ready(Ok(()));
+            }
+            // Only marks: read on (the port registers the waker when nothing more is there).
+        }
+    }
+}
+
+impl AsyncWrite for SerialPort {
+    fn poll_write(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+    ) -> Poll<io::Result<usize>> {
+        Pin::new(&mut self.stream).poll_write(cx, buf)
+    }
+    fn poll_flush(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.stream).poll_flush(cx)
+    }
+    fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.stream).poll_shutdown(cx)
+    }
+}

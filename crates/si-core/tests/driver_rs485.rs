@@ -1,0 +1,251 @@
+//! The driver's RS-485 help (si_core::driver, si_core::port_facts): RTS toggled around a
+//! transmission in the order RTS on → write → tx-done → (delay) → RTS off, and the echo of our
+//! own transmission dropped on a port that hears itself.
+#![cfg(feature = "tokio")]
+
+use bytes::Bytes;
+use si_core::driver::{spawn, DriverOptions, PortFacts, RtsToggle, Transport};
+use si_core::{Duration, Engine, Instant, Output, SerialSettings, SignalUpdate};
+use std::collections::VecDeque;
+use std::io;
+use std::pin::Pin;
+use std::sync::{Arc, Mutex};
+use std::task::{Context, Poll};
+use std::time::Duration as StdDuration;
+use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt, DuplexStream, ReadBuf};
+
+/// What happened, in order, with the wall-clock time it happened.
+#[derive(Debug, Clone, PartialEq)]
+enum Step {
+    Rts(bool),
+    Write(Vec<u8>),
+    TxDone,
+}
+
+type Log = Arc<Mutex<Vec<(std::time::Instant, Step)>>>;
+
+fn note(log: &Log, step: Step) {
+    log.lock().unwrap().push((std::time::Instant::now(), step));
+}
+
+/// A duplex pipe that records signal changes and writes.
+struct Recorder {
+    inner: DuplexStream,
+    log: Log,
+}
+
+impl AsyncRead for Recorder {
+    fn poll_read(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &mut ReadBuf<'_>,
+    ) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.inner).poll_read(cx, buf)
+    }
+}
+
+impl AsyncWrite for Recorder {
+    fn poll_write(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+    ) -> Poll<io::Result<usize>> {
+        let poll = Pin::new(&mut self.inner).poll_write(cx, buf);
+        if let Poll::Ready(Ok(n)) = &poll {
+            note(&self.log, Step::Write(buf[..*n].to_vec()));
+        }
+        poll
+    }
+    fn poll_flush(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.inner).poll_flush(cx)
+    }
+    fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
+        Pin::new(&mut self.inner).poll_shutdown(cx)
+    }
+}
+
+impl Transport for Recorder {
+    fn set_signals(&mut self, update: SignalUpdate) -> io::Result<()> {
+        if let Some(rts) = update.rts {
+            note(&self.log, Step::Rts(rts));
+        }
+        Ok(())
+    }
+}
+
+/// Transmits on command, notes tx-done, reports what it receives.
+struct Talker {
+    out: VecDeque<Output<Vec<u8>>>,
+    log: Log,
+}
+
+impl Engine for Talker {
+    type Event = Vec<u8>;
+    fn handle_rx(&mut self, _: Instant, bytes: &[u8]) {
+        self.out.push_back(Output::Event(bytes.to_vec()));
+    }
+    fn handle_timeout(&mut self, _: Instant) {}
+    fn handle_tx_done(&mut self, _: Instant) {
+        note(&self.log, Step::TxDone);
+    }
+    fn poll_output(&mut self) -> Output<Vec<u8>> {
+        self.out.pop_front().unwrap_or(Output::Wait(None))
+    }
+}
+
+fn talker(log: &Log) -> Talker {
+    Talker {
+        out: VecDeque::new(),
+        log: log.clone(),
+    }
+}
+
+/// Wait (bounded) until the log has `n` steps.
+async fn steps(log: &Log, n: usize) -> Vec<(std::time::Instant, Step)> {
+    for _ in 0..1_000 {
+        if log.lock().unwrap().len() >= n {
+            break;
+        }
+        tokio::time::sleep(StdDuration::from_millis(5)).await;
+    }
+    log.lock().unwrap().clone()
+}
+
+/// A [`Talker`] on a 9600 8E1 line over a recording pipe, the driver toggling RTS.
+fn start_toggling(
+    toggle: RtsToggle,
+    pipe: DuplexStream,
+    log: &Log,
+) -> (
+    si_core::driver::Handle<Talker>,
+    tokio::task::JoinHandle<io::Result<()>>,
+) {
+    let options = DriverOptions {
+        settings: Some(SerialSettings::default()),
+        port: Some(PortFacts {
+            rts_toggle: Some(toggle),
+            ..PortFacts::default()
+        }),
+        ..DriverOptions::default()
+    };
+    let transport = Recorder {
+        inner: pipe,
+        log: log.clone(),
+    };
+    spawn(talker(log), transport, options)
+}
+
+#[tokio::test]
+async fn rts_goes_on_before_the_write_and_off_after_tx_done_plus_the_delay() {
+    let log = Log::default();
+    let (ours, mut theirs) = tokio::io::duplex(256);
+    let line = SerialSettings::default(); // 9600 8E1: 10 bytes take 11.46 ms on the wire
+    let after = Duration::from_millis(5);
+    let toggle = RtsToggle {
+        before: Duration::ZERO,
+        after,
+    };
+    let (handle, _task) = start_toggling(toggle, ours, &log);
+    let frame = [0x5Au8; 10];
+    handle
+        .call(move |t, _| {
+            t.out
+                .push_back(Output::Transmit(Bytes::copy_from_slice(&frame)))
+        })
+        .await
+        .unwrap();
+    let mut sent = [0u8; 10];
+    theirs.read_exact(&mut sent).await.unwrap();
+
+    let got = steps(&log, 4).await;
+    let order: Vec<Step> = got.iter().map(|(_, s)| s.clone()).collect();
+    assert_eq!(
+        order,
+        vec![
+            Step::Rts(true),
+            Step::Write(frame.to_vec()),
+            Step::TxDone,
+            Step::Rts(false)
+        ]
+    );
+    // Never early: RTS stays on for the bytes' wire time plus the delay after the write.
+    let on_for = got[3].0 - got[1].0;
+    let least = StdDuration::from(line.chars_time(10) + after);
+    assert!(
+        on_for >= least,
+        "RTS off {on_for:?} after the write, before {least:?}"
+    );
+}
+
+#[tokio::test]
+async fn back_to_back_transmissions_keep_rts_on() {
+    let log = Log::default();
+    let (ours, mut theirs) = tokio::io::duplex(256);
+    let (handle, _task) = start_toggling(RtsToggle::default(), ours, &log);
+    handle
+        .call(|t, _| {
+            t.out
+                .push_back(Output::Transmit(Bytes::from_static(&[1, 2])));
+            t.out
+                .push_back(Output::Transmit(Bytes::from_static(&[3, 4])));
+        })
+        .await
+        .unwrap();
+    let mut sent = [0u8; 4];
+    theirs.read_exact(&mut sent).await.unwrap();
+    let order: Vec<Step> = steps(&log, 5).await.into_iter().map(|(_, s)| s).collect();
+    assert_eq!(
+        order,
+        vec![
+            Step::Rts(true),
+            Step::Write(vec![1, 2]),
+            Step::Write(vec![3, 4]),
+            Step::TxDone,
+            Step::Rts(false)
+        ]
+    );
+}
+
+/// Sends `ours`, lets the far end answer with `heard`, and returns what the engine received.
+async fn echo_run(sent: &'static [u8], heard: &'static [u8], answer_len: usize) -> Vec<u8> {
+    let log = Log::default();
+    let (ours, mut theirs) = tokio::io::duplex(256);
+    let options = DriverOptions {
+        port: Some(PortFacts {
+            local_echo: true,
+            ..PortFacts::default()
+        }),
+        ..DriverOptions::default()
+    };
+    let (mut handle, _task) = spawn(talker(&log), ours, options);
+    handle
+        .call(move |t, _| t.out.push_back(Output::Transmit(Bytes::from_static(sent))))
+        .await
+        .unwrap();
+    let mut wire = vec![0u8; sent.len()];
+    theirs.read_exact(&mut wire).await.unwrap();
+    theirs.write_all(heard).await.unwrap();
+    let mut got = Vec::new();
+    while got.len() < answer_len {
+        let run = tokio::time::timeout(StdDuration::from_secs(10), handle.next_event())
+            .await
+            .expect("the answer arrives")
+            .expect("the driver runs");
+        got.extend(run);
+    }
+    got
+}
+
+#[tokio::test]
+async fn our_echo_is_dropped_and_the_answer_passed_on_over_a_duplex_pipe() {
+    // The port hears our request, then the partner's answer.
+    let got = echo_run(&[1, 3, 0, 0], &[1, 3, 0, 0, 1, 3, 2], 3).await;
+    assert_eq!(got, vec![1, 3, 2]);
+}
+
+#[tokio::test]
+async fn an_echo_that_does_not_match_ends_suppression() {
+    // The second byte came back different (a collision): it and the rest reach the engine.
+    let got = echo_run(&[1, 3, 0, 0], &[1, 7, 0, 0], 3).await;
+    assert_eq!(got, vec![7, 0, 0]);
+}
