@@ -6,12 +6,15 @@
 //! - [`SerialSettings`]: the manuals' character formats and the character time derived from them;
 //! - [`Status`]: the 16-bit STATUS word of the S7 function blocks, with the manual's text;
 //! - [`Engine`] and [`Output`]: the Sans-IO contract (see [`sansio`] for the drain rule);
+//! - [`delivery`]: how late the port hands bytes over (USB adapters), and the slack silence
+//!   timers need for it;
 //! - [`fb`]: edge detection and one-call pulses for the FB equivalents;
 //! - [`sim`]: a deterministic discrete-event line simulator with seeded faults;
 //! - [`tracefile`]: the JSON-lines trace file the simulator, the driver and `si monitor` share;
 //! - `driver` (feature `tokio`): runs any engine over `AsyncRead + AsyncWrite`.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
+pub mod delivery;
 pub mod fb;
 pub mod hex;
 pub mod memory;
