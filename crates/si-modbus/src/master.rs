@@ -266,8 +266,9 @@ impl Master {
                     until: now + Duration::from_millis(self.config.broadcast_turnaround_ms as u64),
                 }
             } else {
+                // The response's first byte may reach us up to the port's latency late.
                 State::Waiting {
-                    deadline: now + self.config.response_timeout(),
+                    deadline: now + self.config.response_timeout() + self.rx.delivery().allowance(),
                 }
             };
         }
@@ -497,6 +498,7 @@ impl Engine for Master {
     type Event = MasterEvent;
 
     fn handle_rx(&mut self, now: Instant, mut bytes: &[u8]) {
+        self.rx.observe_read(bytes.len());
         self.tick(now);
         while !bytes.is_empty() {
             let unit = self.job.map(|(a, _)| a.unit());
@@ -523,6 +525,10 @@ impl Engine for Master {
     fn handle_tx_done(&mut self, now: Instant) {
         self.tick(now);
         self.sent(now);
+    }
+
+    fn set_rx_latency(&mut self, latency: Duration) {
+        self.rx.set_rx_latency(latency);
     }
 
     fn handle_line_error(&mut self, now: Instant, error: LineError) {

@@ -17,6 +17,19 @@
 //! dropped silently, leading bytes before a correctly received slave address are skipped, and
 //! errors after a complete frame (valid CRC) are ignored.
 //!
+//! # Behind a port that delivers in packets (a USB adapter)
+//!
+//! A USB-serial adapter hands bytes over in packets up to its latency timer late (16 ms by
+//! default), so the holes between packets of one frame are far longer than the gap. The
+//! receiver keeps a [`Delivery`]: the engines tell it each read's size and the latency the
+//! driver declared ([`Engine::set_rx_latency`](si_core::Engine::set_rx_latency)). Once the port
+//! is known to packetise, the gap gets the port's allowance added (the gap measured on the
+//! host is the wire's gap plus the adapter's hold), and frames also end by their predicted
+//! length as with [`FrameEnd::Length`], as pymodbus and libmodbus do on such ports: without it
+//! every response would wait gap + latency before the master saw it. On a port that delivers
+//! byte by byte the allowance is zero and the configured [`FrameEnd`] holds: the manual's timing
+//! exactly.
+//!
 //! # Ending a frame at its predicted length (host extension)
 //!
 //! With [`FrameEnd::Length`] (not in the manual; see there for why a host wants it) a frame
@@ -30,6 +43,7 @@
 
 use crate::config::{FrameEnd, LineConfig, Mode};
 use crate::frame::{crc_ok, fc, Adu, MAX_ADU};
+use si_core::delivery::Delivery;
 use si_core::{Duration, Instant, LineError};
 
 /// What kind of frame the engine expects next, for [`FrameEnd::Length`].
@@ -168,6 +182,8 @@ pub struct Receiver {
     unpredictable: bool,
     echo_pending: usize,
     counters: Counters,
+    /// How late the port hands bytes over; its allowance lengthens the gap.
+    delivery: Delivery,
 }
 
 impl Receiver {
@@ -186,7 +202,34 @@ impl Receiver {
             unpredictable: false,
             echo_pending: 0,
             counters: Counters::default(),
+            delivery: Delivery::new(&line.settings),
         }
+    }
+
+    /// The driver declared the port's delivery latency ([`si_core::Engine::set_rx_latency`]).
+    pub fn set_rx_latency(&mut self, latency: Duration) {
+        self.delivery.declare(latency);
+    }
+
+    /// The engine got `n` bytes in one read: two or more prove a packetising port.
+    pub fn observe_read(&mut self, n: usize) {
+        self.delivery.observe(n);
+    }
+
+    /// What the receiver knows about the port's delivery.
+    pub fn delivery(&self) -> &Delivery {
+        &self.delivery
+    }
+
+    /// The silence that ends a frame as measured on this port: the gap plus the port's
+    /// allowance (zero on a byte-by-byte port).
+    pub fn effective_gap(&self) -> Duration {
+        self.gap + self.delivery.allowance()
+    }
+
+    /// Frames end by length too: [`FrameEnd::Length`] was chosen, or the port packetises.
+    fn ends_by_length(&self) -> bool {
+        self.frame_end == FrameEnd::Length || self.delivery.packetises()
     }
 
     /// End frames this way from now on.
@@ -228,7 +271,11 @@ impl Receiver {
     /// length and not yet taken).
     pub fn deadline(&self) -> Option<Instant> {
         let last = self.last?;
-        Some(if self.complete { last } else { last + self.gap })
+        Some(if self.complete {
+            last
+        } else {
+            last + self.effective_gap()
+        })
     }
 
     /// With [`FrameEnd::Length`]: when the line will have been silent for the gap since the
@@ -236,10 +283,10 @@ impl Receiver {
     /// frames are separated by silence). `None` with [`FrameEnd::Gap`], where every frame
     /// already ends at that moment.
     pub fn quiet_at(&self) -> Option<Instant> {
-        match self.frame_end {
-            FrameEnd::Gap => None,
-            FrameEnd::Length => self.last_activity.map(|t| t + self.gap),
+        if !self.ends_by_length() {
+            return None;
         }
+        self.last_activity.map(|t| t + self.gap)
     }
 
     /// The frame that ended by `now`: complete by length, or the gap has passed since its
@@ -257,7 +304,7 @@ impl Receiver {
                 fault: None,
             });
         }
-        if now < last + self.gap {
+        if now < last + self.effective_gap() {
             return None;
         }
         self.last = None;
@@ -364,7 +411,7 @@ impl Receiver {
 
     /// What the bytes so far predict, with [`FrameEnd::Length`].
     fn prediction(&self, expect: Expect) -> Prediction {
-        if self.frame_end == FrameEnd::Gap || self.fault.is_some() || self.unpredictable {
+        if !self.ends_by_length() || self.fault.is_some() || self.unpredictable {
             return Prediction::Unknown;
         }
         let head = &self.buf[..self.len];

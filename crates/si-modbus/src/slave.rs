@@ -26,7 +26,7 @@ use crate::frame::{
 use crate::rx::{Counters, Expect, Fault, Received, Receiver};
 use crate::status::{self, slave as codes};
 use bytes::BytesMut;
-use si_core::{Engine, Instant, LineError, Output, Status};
+use si_core::{Duration, Engine, Instant, LineError, Output, Status};
 use std::collections::VecDeque;
 
 /// Why a [`Store`] refused an access: the exception the master gets, and S_MODB's view of it.
@@ -571,6 +571,7 @@ impl<S: Store> Engine for Slave<S> {
     type Event = SlaveEvent;
 
     fn handle_rx(&mut self, now: Instant, mut bytes: &[u8]) {
+        self.rx.observe_read(bytes.len());
         self.tick(now);
         let own = self.config.address;
         while !bytes.is_empty() {
@@ -595,6 +596,10 @@ impl<S: Store> Engine for Slave<S> {
     fn handle_tx_done(&mut self, now: Instant) {
         self.tick(now);
         self.busy_until = None;
+    }
+
+    fn set_rx_latency(&mut self, latency: Duration) {
+        self.rx.set_rx_latency(latency);
     }
 
     fn handle_line_error(&mut self, now: Instant, error: LineError) {

@@ -69,7 +69,7 @@ impl UsbAdapter {
             });
         }
         let us = self.latency.as_micros();
-        if us % 1000 != 0 || !Self::LATENCY_MS.contains(&(us / 1000)) {
+        if !us.is_multiple_of(1000) || !Self::LATENCY_MS.contains(&(us / 1000)) {
             return Err(AdapterError {
                 parameter: "latency",
                 range: "1..=255 ms (whole milliseconds)",
