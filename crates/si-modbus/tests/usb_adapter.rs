@@ -11,8 +11,6 @@ use si_modbus::master::{Master, MasterEvent};
 use si_modbus::slave::{Slave, SlaveEvent, Tables};
 use si_modbus::{MasterConfig, SlaveConfig};
 
-const LIMIT: Instant = Instant::from_micros(60_000_000);
-
 fn line(baud: u32) -> LineConfig {
     LineConfig {
         settings: SerialSettings::new(baud, 8, Parity::Even, 1).unwrap(),
@@ -38,7 +36,6 @@ fn rig(baud: u32, adapter: Option<UsbAdapter>) -> Rig {
     let slave_config = SlaveConfig {
         address: 1,
         line: l,
-        ..SlaveConfig::default()
     };
     let m = sim.add_station("master", l.settings, master);
     let sl = sim.add_station(
