@@ -62,7 +62,7 @@ impl Rig {
 
 fn send_and_fetch_1024(baud: u32, adapter: UsbAdapter) {
     let mut r = rig(baud, Some(adapter));
-    let data: Vec<u8> = (0..1024u32).map(|i| (i * 7 ^ 0x55) as u8).collect();
+    let data: Vec<u8> = (0..1024u32).map(|i| ((i * 7) ^ 0x55) as u8).collect();
     let at = Address::Db { db: 10, dw: 0 };
     let what = format!("{baud} bit/s, {adapter:?}");
     let payload = Bytes::from(data.clone());
