@@ -91,7 +91,7 @@ fn without_an_adapter_the_next_request_follows_the_response_by_the_start_interva
             .collect();
         let second = requests[1];
         let received = sim.trace().received("master");
-        let response_end = received.iter().filter(|r| r.0 <= second).last().unwrap().0;
+        let response_end = received.iter().rfind(|r| r.0 <= second).unwrap().0;
         let expected = response_end + start_interval(&config.settings) + config.cycle_pause;
         assert_eq!(second, expected, "{baud} bit/s");
     }
