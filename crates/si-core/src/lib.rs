@@ -17,6 +17,7 @@
 pub mod delivery;
 pub mod fb;
 pub mod hex;
+pub mod interface;
 pub mod memory;
 pub mod sansio;
 pub mod serial;
@@ -28,6 +29,7 @@ pub mod tracefile;
 #[cfg(feature = "tokio")]
 pub mod driver;
 
+pub use interface::Interface;
 pub use sansio::{Engine, LineError, ModemSignals, Output, SignalUpdate};
 pub use serial::{Parity, SerialSettings, SettingsError, BAUD_RATES};
 pub use status::{Status, StatusInfo};

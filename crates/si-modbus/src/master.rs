@@ -21,7 +21,7 @@ use crate::frame::{self, fc, Adu, Request, Response, BROADCAST};
 use crate::rx::{Counters, Expect, Fault, Received, Receiver};
 use crate::status;
 use bytes::BytesMut;
-use si_core::{Duration, Engine, Instant, LineError, Output, Status};
+use si_core::{Duration, Engine, Instant, Interface, LineError, Output, Status};
 use std::collections::VecDeque;
 
 /// A finished job: the request and, unless it was a broadcast, the checked response.
@@ -168,6 +168,18 @@ impl Master {
     /// a parameter record), and this is not one of the module's parameters.
     pub fn with_frame_end(mut self, frame_end: FrameEnd) -> Self {
         self.rx.set_frame_end(frame_end);
+        self
+    }
+
+    /// The physical interface (§2.5; RS-232C by default). On RS-485 the start of a response
+    /// is recognised by a correctly received slave address in Normal mode too: a turnaround
+    /// glitch before it is skipped instead of failing the job with 0831H. An engine option
+    /// like [`with_frame_end`](Self::with_frame_end), because [`LineConfig`] carries the
+    /// protocol's parameters and the interface is the module's (si-dp-coord holds it).
+    ///
+    /// [`LineConfig`]: crate::config::LineConfig
+    pub fn with_interface(mut self, interface: Interface) -> Self {
+        self.rx.set_interface(interface);
         self
     }
 

@@ -17,6 +17,14 @@
 //! dropped silently, leading bytes before a correctly received slave address are skipped, and
 //! errors after a complete frame (valid CRC) are ignored.
 //!
+//! Interface (§2.5): on **RS-485** the start of a message is recognised by a correctly received
+//! slave address in either mode, so leading bytes before it (a turnaround glitch as the bus
+//! changes direction) are skipped, and a UART error or BREAK before the message starts is
+//! ignored, as interference suppression does. On RS-232C and RS-422 Normal mode hands them up,
+//! and the master reports 0831H. (Reading chosen: §2.5 also says RS-485 ignores "all detected
+//! transmission errors"; we apply that to errors before a message only, so a character error
+//! inside a response is still reported in Normal mode as §3.7 describes.)
+//!
 //! # Behind a port that delivers in packets (a USB adapter)
 //!
 //! A USB-serial adapter hands bytes over in packets up to its latency timer late (16 ms by
@@ -44,7 +52,7 @@
 use crate::config::{FrameEnd, LineConfig, Mode};
 use crate::frame::{crc_ok, fc, Adu, MAX_ADU};
 use si_core::delivery::Delivery;
-use si_core::{Duration, Instant, LineError};
+use si_core::{Duration, Instant, Interface, LineError};
 
 /// What kind of frame the engine expects next, for [`FrameEnd::Length`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -184,6 +192,8 @@ pub struct Receiver {
     counters: Counters,
     /// How late the port hands bytes over; its allowance lengthens the gap.
     delivery: Delivery,
+    /// RS-485 recognises a message by its address (§2.5).
+    interface: Interface,
 }
 
 impl Receiver {
@@ -203,6 +213,7 @@ impl Receiver {
             echo_pending: 0,
             counters: Counters::default(),
             delivery: Delivery::new(&line.settings),
+            interface: Interface::Rs232,
         }
     }
 
@@ -230,6 +241,22 @@ impl Receiver {
     /// Frames end by length too: [`FrameEnd::Length`] was chosen, or the port packetises.
     fn ends_by_length(&self) -> bool {
         self.frame_end == FrameEnd::Length || self.delivery.packetises()
+    }
+
+    /// The physical interface (§2.5): on RS-485 leading garbage is skipped in every mode.
+    pub fn set_interface(&mut self, interface: Interface) {
+        self.interface = interface;
+    }
+
+    /// The physical interface.
+    pub fn interface(&self) -> Interface {
+        self.interface
+    }
+
+    /// A message starts at a correctly received address: interference suppression (§3.7), or
+    /// any mode on RS-485 (§2.5).
+    fn starts_at_address(&self) -> bool {
+        self.mode == Mode::InterferenceSuppression || self.interface == Interface::Rs485
     }
 
     /// End frames this way from now on.
@@ -372,7 +399,7 @@ impl Receiver {
             return total;
         }
         self.last_activity = Some(now);
-        if self.len == 0 && self.fault.is_none() && self.mode == Mode::InterferenceSuppression {
+        if self.len == 0 && self.fault.is_none() && self.starts_at_address() {
             let start = bytes
                 .iter()
                 .position(|&b| is_start(b))
@@ -452,6 +479,10 @@ impl Receiver {
         }
         if self.complete {
             // After a frame complete by length: the error belongs to what follows it.
+            return;
+        }
+        if self.interface == Interface::Rs485 && self.last.is_none() {
+            // §2.5: before a message starts (a turnaround glitch, BREAK between messages).
             return;
         }
         self.last = Some(now);
