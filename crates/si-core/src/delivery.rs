@@ -35,7 +35,16 @@
 //! Declaring the latency (or setting the adapter's latency timer to 1 ms) removes that case.
 
 use crate::serial::SerialSettings;
+use crate::status::Status;
 use crate::time::Duration;
+
+/// The remedy a framing error gets when bytes reached the host faster than the wire can carry
+/// them ([`Delivery::annotate`]), instead of the manual's "check the partner".
+pub const ADAPTER_REMEDY: &str = "bytes reached this host faster than the line can carry them, \
+so a USB-serial adapter or device server hands them over in packets, late: lower the adapter's \
+latency timer (`si --latency-timer 1`, or write 1 to \
+/sys/bus/usb-serial/devices/<tty>/latency_timer), or tell the engine the port's latency \
+(Engine::set_rx_latency)";
 
 /// The largest latency timer of a USB-serial adapter (FTDI: 1–255 ms). Declared latencies are
 /// clamped to it, learnt ones never exceed it.
@@ -107,6 +116,18 @@ impl Delivery {
         min(max(self.declared, learnt), MAX_LATENCY)
     }
 
+    /// `status` as the engine reports a framing failure (a frame cut short, a CRC or length
+    /// error, a character delay exceeded): with [`ADAPTER_REMEDY`] once reads have shown bytes
+    /// arriving faster than the wire could carry them, unchanged otherwise. The STATUS code
+    /// stays the manual's.
+    pub fn annotate(&self, status: Status) -> Status {
+        if self.held > Duration::ZERO {
+            status.with_remedy(ADAPTER_REMEDY)
+        } else {
+            status
+        }
+    }
+
     /// What a timer that judges silence on the line adds to the manual's time: zero on a port
     /// that delivers byte by byte, else [`latency`](Self::latency) plus one character time (a
     /// byte can reach the adapter just after a hand-over and wait a whole latency after that).
@@ -172,6 +193,19 @@ mod tests {
         assert_eq!(d.learnt(), ct().saturating_mul(13));
         assert_eq!(d.allowance(), ct().saturating_mul(15));
         assert!(d.allowance() >= Duration::from_millis(16) + Duration::from_micros(1));
+    }
+
+    #[test]
+    fn framing_errors_name_the_adapter_once_bytes_came_too_fast() {
+        let status = crate::status::common::INVALID_LEN;
+        let mut d = Delivery::new(&SerialSettings::default());
+        assert_eq!(d.annotate(status).remedy(), status.remedy());
+        d.observe(2);
+        let annotated = d.annotate(status);
+        assert_eq!(annotated, status);
+        let remedy = annotated.remedy().unwrap();
+        assert!(remedy.contains("latency timer") && remedy.contains("--latency-timer 1"));
+        assert!(remedy.contains("set_rx_latency"));
     }
 
     proptest! {

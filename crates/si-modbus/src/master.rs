@@ -342,7 +342,8 @@ impl Master {
                 self.rx.count_discarded();
                 return;
             }
-            self.fail(status::WRONG_SLAVE_ADDRESS);
+            // A response cut by a late packet starts mid-frame: name the adapter if it may be one.
+            self.fail(self.rx.delivery().annotate(status::WRONG_SLAVE_ADDRESS));
             return;
         }
         match check_response(request.as_bytes(), response) {
@@ -355,7 +356,8 @@ impl Master {
             }
             Err(s) => {
                 self.rx.count_discarded();
-                self.fail_or_retry(now, s);
+                // CRC, length and structure errors: a frame cut by a late packet.
+                self.fail_or_retry(now, self.rx.delivery().annotate(s));
             }
         }
     }

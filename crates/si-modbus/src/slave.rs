@@ -376,7 +376,9 @@ impl<S: Store> Slave<S> {
                 self.rx.count_discarded();
                 let (code, status) = match e.kind {
                     DecodeErrorKind::Crc => {
-                        self.event(SlaveEvent::Error(codes::CRC));
+                        // A request cut in two by a late packet fails its CRC: name the adapter.
+                        let status = self.rx.delivery().annotate(codes::CRC);
+                        self.event(SlaveEvent::Error(status));
                         return;
                     }
                     DecodeErrorKind::Function => (

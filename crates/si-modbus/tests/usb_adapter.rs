@@ -174,3 +174,79 @@ fn without_an_adapter_frames_end_at_the_manuals_gap() {
         assert_eq!(done, answered + s.chars_time(25) + gap);
     }
 }
+
+/// Drives a default master by hand: the request goes out at 0, tx-done at 10 ms, then the
+/// response arrives as `reads` (instant in ms, bytes); the job's failure status.
+fn failure_after(reads: &[(u64, &[u8])]) -> si_core::Status {
+    use si_core::{Engine, Output};
+    let mut m = Master::new(MasterConfig::default()).unwrap();
+    let request = Request::ReadHoldingRegisters {
+        address: 0,
+        quantity: 10,
+    };
+    m.request(Instant::ZERO, 1, &request).unwrap();
+    m.handle_tx_done(Instant::ZERO + Duration::from_millis(10));
+    let mut events = Vec::new();
+    let mut run_until = |m: &mut Master, until: Instant, events: &mut Vec<MasterEvent>| loop {
+        match m.poll_output() {
+            Output::Event(e) => events.push(e),
+            Output::Wait(Some(d)) if d <= until => m.handle_timeout(d),
+            Output::Wait(_) => break,
+            _ => {}
+        }
+    };
+    for &(ms, bytes) in reads {
+        let at = Instant::ZERO + Duration::from_millis(ms);
+        run_until(&mut m, at, &mut events);
+        m.handle_rx(at, bytes);
+    }
+    run_until(&mut m, Instant::from_micros(10_000_000), &mut events);
+    match events.as_slice() {
+        [MasterEvent::Failed { status, .. }] => *status,
+        other => panic!("{other:?}"),
+    }
+}
+
+fn response10() -> Vec<u8> {
+    let mut v = vec![1, 3, 20];
+    v.extend((0..20).map(|i| i as u8));
+    let crc = si_modbus::frame::crc16(&v).to_le_bytes();
+    v.extend_from_slice(&crc);
+    v
+}
+
+#[test]
+fn a_response_cut_by_a_late_packet_names_the_adapter_latency_in_its_remedy() {
+    // Three bytes at once (faster than the wire: a packetising port whose latency the master
+    // could not learn in time), then the rest 100 ms later: the first piece ends at the gap
+    // plus the small learnt allowance, the rest starts with no address: 0831H, whose remedy
+    // now names the adapter's latency timer instead of the slave.
+    let r = response10();
+    let status = failure_after(&[(20, &r[..3]), (120, &r[3..])]);
+    assert_eq!(status, si_modbus::status::WRONG_SLAVE_ADDRESS);
+    let remedy = status.remedy().unwrap();
+    assert_eq!(remedy, si_core::delivery::ADAPTER_REMEDY);
+    assert!(remedy.contains("--latency-timer 1") && remedy.contains("latency_timer"));
+}
+
+#[test]
+fn a_response_cut_on_a_byte_by_byte_line_keeps_the_manuals_remedy() {
+    let r = response10();
+    // The same cut, the bytes one by one (2 ms apart, within the gap).
+    let at = |i: usize| {
+        if i < 3 {
+            20 + 2 * i as u64
+        } else {
+            120 + 2 * i as u64
+        }
+    };
+    let reads: Vec<(u64, &[u8])> = (0..r.len()).map(|i| (at(i), &r[i..=i])).collect();
+    let status = failure_after(&reads);
+    assert_eq!(status, si_modbus::status::WRONG_SLAVE_ADDRESS);
+    assert_eq!(
+        status.remedy(),
+        si_modbus::status::WRONG_SLAVE_ADDRESS
+            .info()
+            .map(|i| i.remedy)
+    );
+}

@@ -1144,7 +1144,9 @@ impl Engine for Master {
             bump(&mut self.counters.residual_time);
             bump(&mut self.counters.rejected);
             if let Phase::Awaiting { current, .. } = self.phase {
-                self.fail_current(now, current, status::RESIDUAL_TIME);
+                // A telegram cut by a late packet: name the adapter if reads showed one.
+                let residual = self.rx.annotate(status::RESIDUAL_TIME);
+                self.fail_current(now, current, residual);
             }
         }
         if let Phase::Awaiting { current, deadline } = self.phase {

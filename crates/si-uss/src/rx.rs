@@ -93,6 +93,12 @@ impl Receiver {
         self.delivery.allowance()
     }
 
+    /// `status` with the adapter remedy once reads showed a packetising port
+    /// ([`Delivery::annotate`]).
+    pub(crate) fn annotate(&self, status: si_core::Status) -> si_core::Status {
+        self.delivery.annotate(status)
+    }
+
     /// The residual run time for `n` net bytes on this port: the manual's, plus the allowance.
     fn residual(&self, n: usize) -> Duration {
         residual_run_time(&self.settings, n) + self.allowance()

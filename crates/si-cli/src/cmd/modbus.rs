@@ -214,10 +214,21 @@ fn failure(e: ModbusError) -> CliError {
     }
 }
 
+/// The STATUS with its text and remedy: the remedy the engine gave this occurrence (a USB
+/// adapter's latency, [`si_core::delivery::ADAPTER_REMEDY`]) or else the manual's.
 fn status_text(s: Status) -> String {
-    let s = si_modbus::status::lookup(s.code());
-    match s.info() {
-        Some(info) => format!("{s} (remedy: {})", info.remedy),
+    let s = match s.info() {
+        Some(_) => s,
+        None => {
+            let looked_up = si_modbus::status::lookup(s.code());
+            match s.remedy() {
+                Some(r) => looked_up.with_remedy(r),
+                None => looked_up,
+            }
+        }
+    };
+    match s.remedy() {
+        Some(remedy) => format!("{s} (remedy: {remedy})"),
         None => s.to_string(),
     }
 }
