@@ -187,7 +187,7 @@ fn failure_after(reads: &[(u64, &[u8])]) -> si_core::Status {
     m.request(Instant::ZERO, 1, &request).unwrap();
     m.handle_tx_done(Instant::ZERO + Duration::from_millis(10));
     let mut events = Vec::new();
-    let mut run_until = |m: &mut Master, until: Instant, events: &mut Vec<MasterEvent>| loop {
+    let run_until = |m: &mut Master, until: Instant, events: &mut Vec<MasterEvent>| loop {
         match m.poll_output() {
             Output::Event(e) => events.push(e),
             Output::Wait(Some(d)) if d <= until => m.handle_timeout(d),
