@@ -28,14 +28,25 @@ pub struct MasterOptions {
     /// Extension: send again this many times after a timeout or CRC error.
     #[arg(long, default_value_t = 0)]
     retries: u8,
-    /// Operating mode.
+    #[command(flatten)]
+    framing: FramingOptions,
+}
+
+/// How received frames are recognised (§3.5, §3.7): the same flags on the master's jobs and on
+/// `serve`, so whatever framing `si modbus read` can use, the slave side can too.
+#[derive(Debug, Clone, Args)]
+pub struct FramingOptions {
+    /// Operating mode (`serve`: overridden by the config file's `mode`).
     #[arg(long, value_enum, default_value_t = ModeArg::Normal)]
     mode: ModeArg,
-    /// Character delay multiplier 1–10 (end-of-frame gap = table value × this).
+    /// Character delay multiplier 1–10: end-of-frame gap = table value × this (`serve`:
+    /// overridden by the config file's `char_delay_multiplier`).
     #[arg(long, default_value_t = 1)]
     char_delay_multiplier: u8,
-    /// How a response ends: at the end-of-frame gap as the module does, or (host extension)
-    /// also as soon as it has its predicted length and a good CRC.
+    /// How a received frame ends: at the end-of-frame gap as the module does, or (host
+    /// extension) also as soon as it has its predicted length and a good CRC, so the master
+    /// completes (and the slave answers) without waiting for the gap (`serve`: overridden by
+    /// the config file's `frame_end`).
     #[arg(long, value_enum, default_value_t = FrameEndArg::Gap)]
     frame_end: FrameEndArg,
 }
@@ -171,15 +182,8 @@ pub enum Command {
         /// Table 3-20.
         #[arg(long)]
         config: Option<std::path::PathBuf>,
-        /// Operating mode (overridden by the config file's `mode`).
-        #[arg(long, value_enum, default_value_t = ModeArg::Normal)]
-        mode: ModeArg,
-        /// How a request ends: at the end-of-frame gap as the module does, or (host
-        /// extension) also as soon as it has its predicted length and a good CRC, so the
-        /// answer goes out without waiting for the gap (overridden by the config file's
-        /// `frame_end`).
-        #[arg(long, value_enum, default_value_t = FrameEndArg::Gap)]
-        frame_end: FrameEndArg,
+        #[command(flatten)]
+        framing: FramingOptions,
     },
 }
 
@@ -198,7 +202,7 @@ fn line_config(
 
 fn master_config(conn: &Connection, o: &MasterOptions) -> Result<MasterConfig, CliError> {
     let config = MasterConfig {
-        line: line_config(conn, o.mode.into(), o.char_delay_multiplier)?,
+        line: line_config(conn, o.framing.mode.into(), o.framing.char_delay_multiplier)?,
         response_timeout_ms: o.timeout,
         retries: o.retries,
         ..MasterConfig::default()
@@ -260,9 +264,8 @@ impl Command {
             Command::Serve {
                 unit,
                 config,
-                mode,
-                frame_end,
-            } => serve(conn, out, unit, config, mode, frame_end.into()).await,
+                framing,
+            } => serve(conn, out, unit, config, &framing).await,
             Command::Read {
                 kind,
                 master,
@@ -378,7 +381,7 @@ async fn open_master(conn: &Connection, o: &MasterOptions) -> Result<MasterHandl
     let config = master_config(conn, o)?;
     let master = Master::new(config)
         .map_err(|e| failure(e.into()))?
-        .with_frame_end(o.frame_end.into());
+        .with_frame_end(o.framing.frame_end.into());
     let port = conn.open().await?;
     Ok(MasterHandle::spawn_engine(master, port))
 }
@@ -542,8 +545,7 @@ async fn serve(
     out: &Output,
     unit: u8,
     path: Option<std::path::PathBuf>,
-    mode: ModeArg,
-    frame_end: FrameEnd,
+    framing: &FramingOptions,
 ) -> Result<(), CliError> {
     let file: ServeFile = match &path {
         Some(p) => {
@@ -570,13 +572,14 @@ async fn serve(
     let config = SlaveConfig {
         line: line_config(
             conn,
-            file.mode.unwrap_or(mode.into()),
-            file.char_delay_multiplier.unwrap_or(1),
+            file.mode.unwrap_or(framing.mode.into()),
+            file.char_delay_multiplier
+                .unwrap_or(framing.char_delay_multiplier),
         )?,
         address: unit,
     };
     config.validate()?;
-    let frame_end = file.frame_end.unwrap_or(frame_end);
+    let frame_end = file.frame_end.unwrap_or(framing.frame_end.into());
     let slave = Slave::new(config, store)
         .map_err(|e| failure(e.into()))?
         .with_frame_end(frame_end);
