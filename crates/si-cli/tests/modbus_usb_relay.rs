@@ -47,12 +47,27 @@ fn bounded(cmd: &mut Command, limit: Duration) -> Output {
         if let Some(status) = child.0.try_wait().expect("wait") {
             break status;
         }
-        assert!(start.elapsed() < limit, "{cmd:?} took longer than {limit:?}");
+        assert!(
+            start.elapsed() < limit,
+            "{cmd:?} took longer than {limit:?}"
+        );
         std::thread::sleep(Duration::from_millis(20));
     };
     let (mut out, mut err) = (Vec::new(), Vec::new());
-    child.0.stdout.take().unwrap().read_to_end(&mut out).unwrap();
-    child.0.stderr.take().unwrap().read_to_end(&mut err).unwrap();
+    child
+        .0
+        .stdout
+        .take()
+        .unwrap()
+        .read_to_end(&mut out)
+        .unwrap();
+    child
+        .0
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_end(&mut err)
+        .unwrap();
     Output {
         status,
         stdout: out,
@@ -80,9 +95,10 @@ fn si_modbus_read_gets_a_long_response_through_a_16ms_adapter_with_default_setti
     modbus::wait_for_echo(&near.a, LINE, &[]);
     for _ in 0..3 {
         let o = bounded(
-            common::si_command().args(["--port", &near.a]).args(LINE).args([
-                "modbus", "read", "holding", "--unit", "1", "--count", "100",
-            ]),
+            common::si_command()
+                .args(["--port", &near.a])
+                .args(LINE)
+                .args(["modbus", "read", "holding", "--unit", "1", "--count", "100"]),
             Duration::from_secs(20),
         );
         assert!(o.status.success(), "si modbus read failed: {}", stderr(&o));

@@ -904,3 +904,22 @@ fn scenario_crc(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     report(&e, at, out);
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use si_core::delivery::ADAPTER_REMEDY;
+
+    #[test]
+    fn a_failure_prints_the_occurrences_remedy_else_the_manuals() {
+        let crc = si_modbus::status::RESPONSE_CRC;
+        let manual = crc.info().unwrap().remedy;
+        assert!(status_text(crc).ends_with(&format!("(remedy: {manual})")));
+        let adapter = status_text(crc.with_remedy(ADAPTER_REMEDY));
+        assert!(adapter.starts_with("16#0E57 "), "{adapter}");
+        assert!(adapter.ends_with(&format!("(remedy: {ADAPTER_REMEDY})")));
+        // A bare code (as deserialised) gets the manual's text and keeps the given remedy.
+        let bare = status_text(Status::from_code(0x0E57).with_remedy(ADAPTER_REMEDY));
+        assert_eq!(bare, adapter);
+    }
+}

@@ -48,10 +48,7 @@ pub fn usb_relay(a: &str, b: &str, adapter: Adapter) {
             .unwrap_or_else(|e| panic!("relay cannot open {p}: {e}"))
     };
     let (fa, fb) = (open(a), open(b));
-    for (from, to) in [
-        (fa.try_clone().unwrap(), fb.try_clone().unwrap()),
-        (fb, fa),
-    ] {
+    for (from, to) in [(fa.try_clone().unwrap(), fb.try_clone().unwrap()), (fb, fa)] {
         let (tx, rx) = channel();
         std::thread::spawn(move || read_into(from, tx));
         std::thread::spawn(move || shape(rx, to, adapter));
