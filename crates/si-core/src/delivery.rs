@@ -116,6 +116,19 @@ impl Delivery {
         min(max(self.declared, learnt), MAX_LATENCY)
     }
 
+    /// The allowance while a frame's own length says more bytes are coming (a Modbus frame
+    /// whose header predicts its length, a USS telegram after LGE): on a packetising port the
+    /// longest hold any port has, [`MAX_LATENCY`] plus one character time, because a learnt
+    /// latency is only a lower bound and the host's scheduling adds to it; zero on a port that
+    /// delivers byte by byte. Costs nothing on a good frame, which ends by its length.
+    pub fn patience(&self) -> Duration {
+        if self.packetises() {
+            MAX_LATENCY + self.char_time
+        } else {
+            Duration::ZERO
+        }
+    }
+
     /// `status` as the engine reports a framing failure (a frame cut short, a CRC or length
     /// error, a character delay exceeded): with [`ADAPTER_REMEDY`] once reads have shown bytes
     /// arriving faster than the wire could carry them, unchanged otherwise. The STATUS code
@@ -227,6 +240,8 @@ mod tests {
                 prop_assert!(now.0 >= before.0);
                 prop_assert!(now.1 >= before.1);
                 prop_assert!(now.1 <= MAX_LATENCY + settings.char_time());
+                prop_assert!(d.patience() <= MAX_LATENCY + settings.char_time());
+                prop_assert!(d.patience() >= d.allowance());
                 before = now;
             }
         }

@@ -194,6 +194,9 @@ pub struct Receiver {
     delivery: Delivery,
     /// RS-485 recognises a message by its address (§2.5).
     interface: Interface,
+    /// The frame's header predicts more bytes than it holds: on a packetising port a hole is
+    /// then waited out up to the longest latency a port can have.
+    more_predicted: bool,
 }
 
 impl Receiver {
@@ -214,6 +217,7 @@ impl Receiver {
             counters: Counters::default(),
             delivery: Delivery::new(&line.settings),
             interface: Interface::Rs232,
+            more_predicted: false,
         }
     }
 
@@ -233,9 +237,18 @@ impl Receiver {
     }
 
     /// The silence that ends a frame as measured on this port: the gap plus the port's
-    /// allowance (zero on a byte-by-byte port).
+    /// allowance (zero on a byte-by-byte port). While the frame's header predicts more bytes
+    /// on a packetising port, the allowance is the longest a port can hold bytes
+    /// ([`Delivery::patience`]): the learnt latency is only a lower bound, and the host's own
+    /// scheduling adds to it, so only a frame that cannot end by its length is judged by the
+    /// tighter allowance.
     pub fn effective_gap(&self) -> Duration {
-        self.gap + self.delivery.allowance()
+        let allowance = if self.more_predicted {
+            self.delivery.patience()
+        } else {
+            self.delivery.allowance()
+        };
+        self.gap + allowance
     }
 
     /// Frames end by length too: [`FrameEnd::Length`] was chosen, or the port packetises.
@@ -335,6 +348,7 @@ impl Receiver {
             return None;
         }
         self.last = None;
+        self.more_predicted = false;
         self.unpredictable = false;
         let bytes = &self.buf[..self.len];
         let fault = self.fault.take();
@@ -427,12 +441,16 @@ impl Receiver {
                 if self.len == k {
                     if crc_ok(&self.buf[..k]) {
                         self.complete = true;
+                        self.more_predicted = false;
                         return taken;
                     }
                     self.unpredictable = true;
                 }
             }
         }
+        self.more_predicted = self.delivery.packetises()
+            && matches!(self.prediction(expect),
+                Prediction::NeedMore(k) | Prediction::Len(k) if k > self.len);
         taken
     }
 
@@ -486,6 +504,7 @@ impl Receiver {
             return;
         }
         self.last = Some(now);
+        self.more_predicted = false;
         if self.fault.is_none() {
             self.fault = Some(Fault::Line(error));
         }

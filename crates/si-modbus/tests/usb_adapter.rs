@@ -217,16 +217,41 @@ fn response10() -> Vec<u8> {
 
 #[test]
 fn a_response_cut_by_a_late_packet_names_the_adapter_latency_in_its_remedy() {
-    // Three bytes at once (faster than the wire: a packetising port whose latency the master
-    // could not learn in time), then the rest 100 ms later: the first piece ends at the gap
-    // plus the small learnt allowance, the rest starts with no address: 0831H, whose remedy
-    // now names the adapter's latency timer instead of the slave.
+    // Three bytes at once (faster than the wire: a packetising port), then the rest 400 ms
+    // later, longer than any adapter holds bytes (255 ms): the first piece ends, the rest
+    // starts with no address: 0831H, whose remedy now names the adapter's latency timer
+    // instead of the slave.
     let r = response10();
-    let status = failure_after(&[(20, &r[..3]), (120, &r[3..])]);
+    let status = failure_after(&[(20, &r[..3]), (420, &r[3..])]);
     assert_eq!(status, si_modbus::status::WRONG_SLAVE_ADDRESS);
     let remedy = status.remedy().unwrap();
     assert_eq!(remedy, si_core::delivery::ADAPTER_REMEDY);
     assert!(remedy.contains("--latency-timer 1") && remedy.contains("latency_timer"));
+}
+
+#[test]
+fn a_hole_shorter_than_the_longest_latency_inside_a_predicted_frame_is_waited_out() {
+    // The learnt latency (3 bytes at once: 2 character times) is a lower bound; while the
+    // header says more bytes are coming, a hole of 200 ms is not the end of the frame.
+    use si_core::{Engine, Output};
+    let r = response10();
+    let mut m = Master::new(MasterConfig::default()).unwrap();
+    let request = Request::ReadHoldingRegisters {
+        address: 0,
+        quantity: 10,
+    };
+    m.request(Instant::ZERO, 1, &request).unwrap();
+    m.handle_tx_done(Instant::ZERO + Duration::from_millis(10));
+    let at = |ms| Instant::ZERO + Duration::from_millis(ms);
+    m.handle_rx(at(20), &r[..3]);
+    while let Output::Wait(Some(d)) = m.poll_output() {
+        if d > at(220) {
+            break;
+        }
+        m.handle_timeout(d);
+    }
+    m.handle_rx(at(220), &r[3..]);
+    assert!(matches!(m.poll_output(), Output::Event(MasterEvent::Completed(_))));
 }
 
 #[test]
