@@ -175,10 +175,10 @@ fn without_an_adapter_frames_end_at_the_manuals_gap() {
     }
 }
 
-/// Drives a default master by hand: the request goes out at 0, tx-done at 10 ms, then the
-/// response arrives as `reads` (instant in ms, bytes); the job's failure status.
-fn failure_after(reads: &[(u64, &[u8])]) -> si_core::Status {
-    use si_core::{Engine, Output};
+/// A default master driven by hand: its request for 10 registers went out at 0, tx-done at
+/// 10 ms; now it waits for the response.
+fn waiting_master() -> Master {
+    use si_core::Engine;
     let mut m = Master::new(MasterConfig::default()).unwrap();
     let request = Request::ReadHoldingRegisters {
         address: 0,
@@ -186,6 +186,14 @@ fn failure_after(reads: &[(u64, &[u8])]) -> si_core::Status {
     };
     m.request(Instant::ZERO, 1, &request).unwrap();
     m.handle_tx_done(Instant::ZERO + Duration::from_millis(10));
+    m
+}
+
+/// Drives a default master by hand: the request goes out at 0, tx-done at 10 ms, then the
+/// response arrives as `reads` (instant in ms, bytes); the job's failure status.
+fn failure_after(reads: &[(u64, &[u8])]) -> si_core::Status {
+    use si_core::{Engine, Output};
+    let mut m = waiting_master();
     let mut events = Vec::new();
     let run_until = |m: &mut Master, until: Instant, events: &mut Vec<MasterEvent>| loop {
         match m.poll_output() {
@@ -235,13 +243,7 @@ fn a_hole_shorter_than_the_longest_latency_inside_a_predicted_frame_is_waited_ou
     // header says more bytes are coming, a hole of 200 ms is not the end of the frame.
     use si_core::{Engine, Output};
     let r = response10();
-    let mut m = Master::new(MasterConfig::default()).unwrap();
-    let request = Request::ReadHoldingRegisters {
-        address: 0,
-        quantity: 10,
-    };
-    m.request(Instant::ZERO, 1, &request).unwrap();
-    m.handle_tx_done(Instant::ZERO + Duration::from_millis(10));
+    let mut m = waiting_master();
     let at = |ms| Instant::ZERO + Duration::from_millis(ms);
     m.handle_rx(at(20), &r[..3]);
     while let Output::Wait(Some(d)) = m.poll_output() {
@@ -251,7 +253,10 @@ fn a_hole_shorter_than_the_longest_latency_inside_a_predicted_frame_is_waited_ou
         m.handle_timeout(d);
     }
     m.handle_rx(at(220), &r[3..]);
-    assert!(matches!(m.poll_output(), Output::Event(MasterEvent::Completed(_))));
+    assert!(matches!(
+        m.poll_output(),
+        Output::Event(MasterEvent::Completed(_))
+    ));
 }
 
 #[test]
