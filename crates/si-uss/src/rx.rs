@@ -11,9 +11,12 @@
 //! - parity, framing and overrun errors and BREAK discard the telegram.
 //!
 //! Behind a port that hands bytes over in packets (a USB adapter, [`si_core::delivery`]) the
-//! residual run time gets the port's allowance: the telegram's last packet may reach the host
+//! residual run time gets the port's patience: the telegram's last packet may reach the host
 //! up to the port's latency after its last character left the wire, while its STX may have
-//! come at once. On a port that delivers byte by byte the allowance is zero.
+//! come at once, and since the telegram's length is known (LGE, or the expected structure
+//! before it) a telegram that is whole ends at once anyway, so waiting out the longest latency
+//! an adapter can have ([`Delivery::patience`]) costs only a broken telegram's detection
+//! time. On a port that delivers byte by byte it is zero.
 //!
 //! The receiver keeps at most one telegram (256 bytes) in a fixed buffer: no allocation.
 
@@ -99,9 +102,10 @@ impl Receiver {
         self.delivery.annotate(status)
     }
 
-    /// The residual run time for `n` net bytes on this port: the manual's, plus the allowance.
+    /// The residual run time for `n` net bytes on this port: the manual's, plus the port's
+    /// patience (zero byte by byte).
     fn residual(&self, n: usize) -> Duration {
-        residual_run_time(&self.settings, n) + self.allowance()
+        residual_run_time(&self.settings, n) + self.delivery.patience()
     }
 
     /// Net bytes to assume for the residual run time until LGE is in.
