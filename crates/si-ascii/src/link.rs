@@ -53,7 +53,9 @@
 //! - **Behind a USB adapter** (issue 16, not in the manual): a port that hands received bytes
 //!   over in packets (declared with [`Engine::set_rx_latency`], or shown by a read of two or
 //!   more bytes, [`si_core::delivery`]) gets the port's allowance added to the character delay
-//!   time, so a hole between two packets of one frame does not end it. Frames the partner
+//!   time, so a hole between two packets of one frame does not end it (with end characters or
+//!   a fixed length, which end a frame by its content, the longest latency an adapter can
+//!   have, [`Delivery::patience`](si_core::delivery::Delivery::patience)). Frames the partner
 //!   separates by less than the adapter's latency cannot be told apart on such a port (the
 //!   adapter packs them together); end characters and fixed length still cut them. On a port
 //!   that delivers byte by byte the allowance is zero and the timing above holds exactly.
@@ -922,13 +924,21 @@ impl Link {
         }
     }
 
-    /// The port's delivery changed: the character delay monitoring gets its allowance.
+    /// The port's delivery changed: the character delay monitoring gets its allowance. With
+    /// end characters or a fixed length the frame's own content ends it, and the character
+    /// delay time only catches a partner that stopped: there it waits out the longest latency
+    /// an adapter can have ([`Delivery::patience`]), so host scheduling on top of the adapter's
+    /// holes never cuts a frame. In character-delay mode the silence *is* the frame end, so it
+    /// gets only the port's [`Delivery::allowance`], to stay responsive.
     #[cold]
     fn delivery_changed(&mut self) {
-        self.gap = self.cdt
-            + self.cfg.settings.char_time()
-            + Duration::from_micros(1)
-            + self.delivery.allowance();
+        let allowance = match self.cfg.end {
+            EndCriterion::CharDelay => self.delivery.allowance(),
+            EndCriterion::EndChars { .. } | EndCriterion::FixedLength { .. } => {
+                self.delivery.patience()
+            }
+        };
+        self.gap = self.cdt + self.cfg.settings.char_time() + Duration::from_micros(1) + allowance;
     }
 
     /// The receive deadline in force: none while we hold the partner in the middle of a frame

@@ -85,3 +85,57 @@ fn without_an_adapter_the_char_delay_time_ends_the_frame_at_the_manuals_instant(
         assert_eq!(received(&b.events()), vec![(100, end)], "{baud} bit/s");
     }
 }
+
+/// Feeds `first` at 0 and `second` `hole_ms` later to a link behind a port that declared a
+/// 16 ms latency, running its timers in between; the frames it cut and its error events.
+fn split_by_hole(
+    end: EndCriterion,
+    first: &[u8],
+    second: &[u8],
+    hole_ms: u64,
+) -> (Vec<Vec<u8>>, usize) {
+    use si_ascii::{Event, Link};
+    use si_core::{Engine, Instant, Output};
+    let mut link = Link::new(Config {
+        end,
+        ..Config::default()
+    })
+    .unwrap();
+    link.set_rx_latency(Duration::from_millis(16));
+    let mut errors = 0;
+    let mut run_until = |link: &mut Link, until: Instant| loop {
+        match link.poll_output() {
+            Output::Event(Event::ReceiveError { .. }) => errors += 1,
+            Output::Wait(Some(d)) if d <= until => link.handle_timeout(d),
+            Output::Wait(_) => break,
+            _ => {}
+        }
+    };
+    let second_at = Instant::ZERO + Duration::from_millis(hole_ms);
+    link.handle_rx(Instant::ZERO, first);
+    run_until(&mut link, second_at);
+    link.handle_rx(second_at, second);
+    run_until(&mut link, second_at + Duration::from_secs(2));
+    let mut frames = Vec::new();
+    while let Some(f) = link.read_frame_vec(second_at) {
+        frames.push(f);
+    }
+    (frames, errors)
+}
+
+#[test]
+fn behind_an_adapter_a_frame_ended_by_its_content_survives_a_100ms_hole() {
+    // Host scheduling on top of the adapter's 16 ms: the end character still decides.
+    let (frames, errors) = split_by_hole(EndCriterion::DEFAULT_END_CHARS, b"abc", b"def\x03", 100);
+    assert_eq!((frames, errors), (vec![b"abcdef\x03".to_vec()], 0));
+    let fixed = EndCriterion::FixedLength { len: 6 };
+    let (frames, errors) = split_by_hole(fixed, b"abc", b"def", 100);
+    assert_eq!((frames, errors), (vec![b"abcdef".to_vec()], 0));
+}
+
+#[test]
+fn behind_an_adapter_the_char_delay_time_still_ends_a_frame_at_a_100ms_hole() {
+    // In character-delay mode the silence is the frame end: CDT 4 ms + 16 ms + a character.
+    let (frames, _) = split_by_hole(EndCriterion::CharDelay, b"abc", b"def", 100);
+    assert_eq!(frames, vec![b"abc".to_vec(), b"def".to_vec()]);
+}
