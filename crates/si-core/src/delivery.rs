@@ -20,7 +20,9 @@
 //!   own);
 //! - what it **learns** from reads ([`observe`](Delivery::observe)): a read of `n` bytes at once
 //!   proves the port held its first byte for at least `n − 1` character times, because the wire
-//!   cannot carry them faster. The lower bound only grows (monotonic learning).
+//!   cannot carry them faster (counted up to one adapter packet, [`PACKET_BYTES`]: a longer
+//!   read is several packets, or a port with no wire at all). The lower bound only grows
+//!   (monotonic learning).
 //!
 //! From these it gives each silence-judging timer its [`allowance`](Delivery::allowance): zero
 //! on a port that has delivered every byte on its own and declared no latency, so the manual's
@@ -45,6 +47,11 @@ so a USB-serial adapter or device server hands them over in packets, late: lower
 latency timer (`si --latency-timer 1`, or write 1 to \
 /sys/bus/usb-serial/devices/<tty>/latency_timer), or tell the engine the port's latency \
 (Engine::set_rx_latency)";
+
+/// The most data bytes one USB packet of an FTDI-type adapter carries (64 bytes less 2 of modem
+/// status). A read of more bytes holds several packets (or comes from a port with no wire at
+/// all, a pseudo-terminal or a pipe) and proves no longer a hold than one full packet does.
+pub const PACKET_BYTES: usize = 62;
 
 /// The largest latency timer of a USB-serial adapter (FTDI: 1–255 ms). Declared latencies are
 /// clamped to it, learnt ones never exceed it.
@@ -86,10 +93,12 @@ impl Delivery {
         self.declared
     }
 
-    /// One read of `n` bytes handed over at once. Two or more prove the port packetises.
+    /// One read of `n` bytes handed over at once. Two or more prove the port packetises; the
+    /// hold learnt counts at most one packet ([`PACKET_BYTES`]).
     pub fn observe(&mut self, n: usize) {
         if n >= 2 {
-            let held = min(self.char_time.saturating_mul(n as u64 - 1), MAX_LATENCY);
+            let n = n.min(PACKET_BYTES) as u64;
+            let held = min(self.char_time.saturating_mul(n - 1), MAX_LATENCY);
             self.held = max(self.held, held);
         }
     }
@@ -186,6 +195,13 @@ mod tests {
         }
         assert!(!d.packetises());
         assert_eq!(d.allowance(), Duration::ZERO);
+    }
+
+    #[test]
+    fn a_read_longer_than_a_packet_teaches_one_packets_hold() {
+        let mut d = Delivery::new(&SerialSettings::default());
+        d.observe(200);
+        assert_eq!(d.learnt(), ct().saturating_mul(61));
     }
 
     #[test]
