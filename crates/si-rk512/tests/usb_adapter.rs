@@ -122,3 +122,43 @@ fn without_an_adapter_each_telegram_is_acknowledged_as_its_bcc_arrives() {
         assert_eq!(acks[1], bcc_at, "{baud} bit/s");
     }
 }
+
+/// A host with the shortest QVZ (10 ms, et200s-si-3964r-ascii.md §5.8) behind `adapter`, the
+/// serving PLC on the line directly: the outcome of one SEND.
+fn send_with_short_qvz(adapter: UsbAdapter) -> Result<Bytes, Status> {
+    let s = SerialSettings::default();
+    let mut host = Config::default();
+    host.link.priority = Priority::High;
+    host.link.ack_delay_ms = 10;
+    let mut memory = ServerConfig::default();
+    memory.memory.dbs.insert(10, 64);
+    let mut sim = Simulator::new(512);
+    let a = sim.add_station("A", s, Station::new(host, s).unwrap());
+    let b = sim.add_station(
+        "B",
+        s,
+        Station::serving(Config::default(), s, &memory).unwrap(),
+    );
+    sim.connect(a, b);
+    sim.set_adapter(a, adapter).unwrap();
+    let mut r = Rig { sim, a, b };
+    let at = Address::Db { db: 10, dw: 0 };
+    r.sim
+        .with(r.a, |s, now| {
+            s.send(now, at, Coordination::NONE, Bytes::from_static(&[1, 2]))
+        })
+        .unwrap();
+    r.outcome()
+}
+
+#[test]
+fn the_station_hands_the_announced_latency_to_its_link_so_a_10ms_qvz_survives_the_adapter() {
+    // The partner's DLE is one byte: nothing to learn from, so only the announced latency
+    // (forwarded by the RK 512 station to its 3964(R) link) keeps QVZ from running out while
+    // the adapter holds the DLE 16 ms.
+    assert_eq!(
+        send_with_short_qvz(UsbAdapter::FTDI_DEFAULT),
+        Ok(Bytes::new())
+    );
+    assert!(send_with_short_qvz(UsbAdapter::FTDI_DEFAULT.unannounced()).is_err());
+}
