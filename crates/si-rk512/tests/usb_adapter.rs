@@ -22,8 +22,20 @@ struct Rig {
 
 fn rig(baud: u32, adapter: Option<UsbAdapter>) -> Rig {
     let s = SerialSettings::new(baud, 8, Parity::Even, 1).unwrap();
+    rig_with(s, |_| {}, adapter, adapter)
+}
+
+/// Host "A" (high priority, `tune`d) and serving PLC "B" (DB 10 of 2048 bytes), each behind
+/// its adapter if given.
+fn rig_with(
+    s: SerialSettings,
+    tune: impl FnOnce(&mut Config),
+    on_a: Option<UsbAdapter>,
+    on_b: Option<UsbAdapter>,
+) -> Rig {
     let mut high = Config::default();
     high.link.priority = Priority::High;
+    tune(&mut high);
     let mut memory = ServerConfig::default();
     memory.memory.dbs.insert(10, 2048);
     let mut sim = Simulator::new(512);
@@ -34,9 +46,10 @@ fn rig(baud: u32, adapter: Option<UsbAdapter>) -> Rig {
         Station::serving(Config::default(), s, &memory).unwrap(),
     );
     sim.connect(a, b);
-    if let Some(adapter) = adapter {
-        sim.set_adapter(a, adapter).unwrap();
-        sim.set_adapter(b, adapter).unwrap();
+    for (station, adapter) in [(a, on_a), (b, on_b)] {
+        if let Some(adapter) = adapter {
+            sim.set_adapter(station, adapter).unwrap();
+        }
     }
     Rig { sim, a, b }
 }
@@ -126,22 +139,12 @@ fn without_an_adapter_each_telegram_is_acknowledged_as_its_bcc_arrives() {
 /// A host with the shortest QVZ (10 ms, et200s-si-3964r-ascii.md §5.8) behind `adapter`, the
 /// serving PLC on the line directly: the outcome of one SEND.
 fn send_with_short_qvz(adapter: UsbAdapter) -> Result<Bytes, Status> {
-    let s = SerialSettings::default();
-    let mut host = Config::default();
-    host.link.priority = Priority::High;
-    host.link.ack_delay_ms = 10;
-    let mut memory = ServerConfig::default();
-    memory.memory.dbs.insert(10, 64);
-    let mut sim = Simulator::new(512);
-    let a = sim.add_station("A", s, Station::new(host, s).unwrap());
-    let b = sim.add_station(
-        "B",
-        s,
-        Station::serving(Config::default(), s, &memory).unwrap(),
+    let mut r = rig_with(
+        SerialSettings::default(),
+        |c| c.link.ack_delay_ms = 10,
+        Some(adapter),
+        None,
     );
-    sim.connect(a, b);
-    sim.set_adapter(a, adapter).unwrap();
-    let mut r = Rig { sim, a, b };
     let at = Address::Db { db: 10, dw: 0 };
     r.sim
         .with(r.a, |s, now| {
