@@ -29,7 +29,13 @@ fuzz_target!(|data: &[u8]| {
         dynamic_frames: flags & 0x20 != 0,
         ..Config::default()
     };
-    let Ok(link) = Link::new(config) else { return };
+    let Ok(mut link) = Link::new(config) else {
+        return;
+    };
+    if flags & 0x40 != 0 {
+        // Behind a port that declared its latency (a USB adapter).
+        si_core::Engine::set_rx_latency(&mut link, si_core::Duration::from_millis(16));
+    }
     let mut h = Harness::new(link, 1024);
     let mut frame = [0u8; 1024];
     let mut on_event = |h: &mut Harness<Link>, e: Event| match e {

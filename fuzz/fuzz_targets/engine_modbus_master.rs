@@ -1,25 +1,35 @@
 //! The Modbus master under arbitrary responses, timing and line errors, with requests built
 //! from fuzzer bytes: no panic, frames within the ADU maximum, every accepted request ends in
 //! exactly one Completed or Failed event; frames ended by the gap or (host extension) by their
-//! predicted length, as the first byte picks.
+//! predicted length, as the first byte picks; on the interface it picks (RS-485 skips leading
+//! garbage), and behind a port whose latency it may declare (a USB adapter).
 #![no_main]
 use libfuzzer_sys::fuzz_target;
-use si_core::Instant;
+use si_core::{Duration, Engine, Instant, Interface};
 use si_fuzz::{Harness, Input};
 use si_modbus::frame::{decode_request, Request, MAX_ADU};
 use si_modbus::{FrameEnd, Master, MasterConfig, MasterEvent};
 
 fuzz_target!(|data: &[u8]| {
     let mut input = Input(data);
-    let frame_end = if input.u8() & 1 == 1 {
+    let flags = input.u8();
+    let frame_end = if flags & 1 == 1 {
         FrameEnd::Length
     } else {
         FrameEnd::Gap
     };
+    let interface = match (flags >> 1) & 3 {
+        0 => Interface::Rs232,
+        1 => Interface::Rs422,
+        _ => Interface::Rs485,
+    };
     let Ok(master) = Master::new(MasterConfig::default()) else {
         return;
     };
-    let master = master.with_frame_end(frame_end);
+    let mut master = master.with_frame_end(frame_end).with_interface(interface);
+    if flags & 0x08 != 0 {
+        master.set_rx_latency(Duration::from_millis(u64::from(input.u8())));
+    }
     let mut h = Harness::new(master, MAX_ADU);
     let mut jobs = 0u64;
     let mut on_event = |h: &mut Harness<Master>, e: MasterEvent| match e {

@@ -23,7 +23,11 @@ fuzz_target!(|data: &[u8]| {
     let Ok(slave) = Slave::new(config, SimaticStore::example()) else {
         return;
     };
-    let slave = slave.with_frame_end(frame_end);
+    let mut slave = slave.with_frame_end(frame_end);
+    if first & 0x40 != 0 {
+        // Behind a port that declared its latency (a USB adapter).
+        si_core::Engine::set_rx_latency(&mut slave, si_core::Duration::from_millis(16));
+    }
     let mut h = Harness::new(slave, MAX_ADU);
     let mut on_event = |_: &mut Harness<Slave<SimaticStore>>, _| {};
     let mut command = |h: &mut Harness<Slave<SimaticStore>>, _: u8, args: &[u8]| {

@@ -68,9 +68,10 @@ use crate::status;
 use bytes::{Bytes, BytesMut};
 use core::fmt;
 use serde::{Deserialize, Serialize};
+use si_core::delivery::Delivery;
 /// The one job id of si-core, here because the async handle and users name it from this module.
 pub use si_core::JobId;
-use si_core::{Engine, Instant, LineError, Output, SerialSettings, Status};
+use si_core::{Duration, Engine, Instant, LineError, Output, SerialSettings, Status};
 use std::collections::VecDeque;
 
 /// What the engine tells the application.
@@ -208,6 +209,8 @@ pub struct Link {
     last_outcome: Option<(JobId, Result<(), Status>)>,
     last_receive_error: Option<Status>,
     counters: Counters,
+    /// How late the port hands bytes over: ZVZ and QVZ get its allowance.
+    delivery: Delivery,
 }
 
 impl fmt::Debug for Link {
@@ -246,6 +249,7 @@ impl Link {
             last_outcome: None,
             last_receive_error: None,
             counters: Counters::default(),
+            delivery: Delivery::new(&settings),
         };
         link.transmit_static(&[NAK]);
         Ok(link)
@@ -336,7 +340,7 @@ impl Link {
     fn connect(&mut self, now: Instant) {
         self.transmit_static(&[STX]);
         self.state = State::WaitConnAck {
-            deadline: now + self.settings.char_time() + self.config.ack_delay(),
+            deadline: now + self.settings.char_time() + self.ack_delay(),
         };
     }
 
@@ -357,7 +361,7 @@ impl Link {
         let block = self.tx_pool.split().freeze();
         self.out.push_back(Output::Transmit(block));
         self.state = State::Sending {
-            deadline: now + on_wire + self.config.ack_delay(),
+            deadline: now + on_wire + self.ack_delay(),
         };
     }
 
@@ -435,7 +439,7 @@ impl Link {
         self.decoder.reset();
         self.rx_line_error = false;
         self.state = State::Receiving {
-            deadline: now + self.settings.char_time() + self.config.char_delay(),
+            deadline: now + self.settings.char_time() + self.char_delay(),
             conflict,
         };
     }
@@ -513,6 +517,18 @@ impl Link {
             .push_back(Output::Transmit(Bytes::from_static(bytes)));
     }
 
+    /// The character delay time ZVZ, plus the port's allowance (zero on a port that delivers
+    /// byte by byte; see [`si_core::delivery`]): a partner's next character may reach us up to
+    /// the port's latency late.
+    fn char_delay(&self) -> Duration {
+        self.config.char_delay() + self.delivery.allowance()
+    }
+
+    /// The acknowledgement delay time QVZ, plus the port's allowance (as [`Self::char_delay`]).
+    fn ack_delay(&self) -> Duration {
+        self.config.ack_delay() + self.delivery.allowance()
+    }
+
     // --- input dispatch ------------------------------------------------------------------
 
     fn on_byte(&mut self, now: Instant, byte: u8) {
@@ -526,7 +542,7 @@ impl Link {
                 NAK => {}
                 _ => {
                     self.state = State::IdleQuiet {
-                        until: now + self.config.char_delay(),
+                        until: now + self.char_delay(),
                     }
                 }
             },
@@ -538,7 +554,7 @@ impl Link {
                     self.accept_stx(now, false);
                 } else {
                     self.state = State::IdleQuiet {
-                        until: now + self.config.char_delay(),
+                        until: now + self.char_delay(),
                     };
                 }
             }
@@ -574,7 +590,7 @@ impl Link {
             },
             State::SendQuiet { .. } => {
                 self.state = State::SendQuiet {
-                    until: now + self.config.char_delay(),
+                    until: now + self.char_delay(),
                 };
             }
             State::WaitEndAck { .. } => {
@@ -588,7 +604,7 @@ impl Link {
             State::WaitBuffer { .. } => {}
             State::Receiving { conflict, .. } => {
                 self.state = State::Receiving {
-                    deadline: now + self.config.char_delay(),
+                    deadline: now + self.char_delay(),
                     conflict,
                 };
                 if let Some(result) = self.decoder.push(byte) {
@@ -610,7 +626,7 @@ impl Link {
             job.first_err.get_or_insert(error);
         }
         self.state = State::SendQuiet {
-            until: now + self.config.char_delay(),
+            until: now + self.char_delay(),
         };
     }
 
@@ -633,7 +649,7 @@ impl Link {
                     self.end_of_block(now, Ok(()));
                 } else {
                     self.state = State::Receiving {
-                        deadline: now + self.config.char_delay(),
+                        deadline: now + self.char_delay(),
                         conflict,
                     };
                 }
@@ -713,6 +729,7 @@ impl Engine for Link {
     type Event = Event;
 
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+        self.delivery.observe(bytes.len());
         for &b in bytes {
             self.on_byte(now, b);
         }
@@ -727,13 +744,17 @@ impl Engine for Link {
     fn handle_tx_done(&mut self, now: Instant) {
         if let State::Sending { .. } = self.state {
             self.state = State::WaitEndAck {
-                deadline: now + self.config.ack_delay(),
+                deadline: now + self.ack_delay(),
             };
         }
     }
 
     fn handle_line_error(&mut self, now: Instant, error: LineError) {
         self.on_line_error(now, error);
+    }
+
+    fn set_rx_latency(&mut self, latency: Duration) {
+        self.delivery.declare(latency);
     }
 
     fn poll_output(&mut self) -> Output<Event> {

@@ -31,18 +31,8 @@ pub const RECEIVE_BUFFER_SIZE: usize = 1024;
 /// (et200s-si-3964r-ascii.md §6.9: "50 characters before the receive buffer is full").
 pub const XOFF_MARGIN: usize = 50;
 
-/// The physical interface (Table 2-10 "Interface type").
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Interface {
-    /// RS-232C: the only interface with secondary signals (§6.7).
-    #[default]
-    Rs232,
-    /// RS-422, full duplex.
-    Rs422,
-    /// RS-485, two-wire half duplex: no flow control (§6.9), turnaround after each frame.
-    Rs485,
-}
+/// The physical interface (Table 2-10 "Interface type"), shared with the other drivers.
+pub use si_core::Interface;
 
 /// Data flow control (Table 2-10 "Data flow control", §6.8, §6.9).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]

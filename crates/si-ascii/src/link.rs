@@ -50,6 +50,15 @@
 //!   until XON / RTS = ON; then it starts again.
 //! - **Flow-control wait** (§6.9): the XON / CTS wait time runs from the moment sending is held
 //!   (XOFF or CTS = OFF while sending, or at the start of a send that finds it held).
+//! - **Behind a USB adapter** (issue 16, not in the manual): a port that hands received bytes
+//!   over in packets (declared with [`Engine::set_rx_latency`], or shown by a read of two or
+//!   more bytes, [`si_core::delivery`]) gets the port's allowance added to the character delay
+//!   time, so a hole between two packets of one frame does not end it (with end characters or
+//!   a fixed length, which end a frame by its content, the longest latency an adapter can
+//!   have, [`Delivery::patience`](si_core::delivery::Delivery::patience)). Frames the partner
+//!   separates by less than the adapter's latency cannot be told apart on such a port (the
+//!   adapter packs them together); end characters and fixed length still cut them. On a port
+//!   that delivers byte by byte the allowance is zero and the timing above holds exactly.
 //! - Transmission goes out in chunks of [`Config::tx_chunk`] characters whenever a flow control
 //!   is configured, so XOFF or CTS = OFF stops the sender after the chunk on the line; with a
 //!   chunk of 1 (for simulation) that is the character on the line, as the module does. Without
@@ -63,6 +72,7 @@ use crate::config::{
 use crate::frame::{Cut, Cutter};
 use crate::status;
 use bytes::{Bytes, BytesMut};
+use si_core::delivery::Delivery;
 use si_core::v24::{AutoV24 as AutoV24Sequence, Step};
 use si_core::{Duration, Engine, Instant, LineError, ModemSignals, Output, SignalUpdate, Status};
 use std::collections::VecDeque;
@@ -219,9 +229,11 @@ fn single(byte: u8) -> Bytes {
 pub struct Link {
     cfg: Config,
     cdt: Duration,
-    /// CDT + one character time + 1 µs: a received character's monitoring deadline is this
-    /// after it completes ([`Link::gap_deadline`]).
+    /// CDT + one character time + 1 µs + the port's allowance: a received character's
+    /// monitoring deadline is this after it completes ([`Link::gap_deadline`]).
     gap: Duration,
+    /// How late the port hands bytes over ([`si_core::delivery`]).
+    delivery: Delivery,
     mask: u8,
     /// Every received character is part of a frame: no XON/XOFF characters to pick out, no
     /// RS-485 echo to ignore, no DSR to watch (the flow control and interface never change
@@ -275,6 +287,7 @@ impl Link {
             cfg: config,
             cdt: config.char_delay(),
             gap: config.char_delay() + config.settings.char_time() + Duration::from_micros(1),
+            delivery: Delivery::new(&config.settings),
             mask: config.settings.data_mask(),
             plain_rx: matches!(config.flow_control, FlowControl::None | FlowControl::RtsCts)
                 && config.interface != Interface::Rs485,
@@ -914,6 +927,32 @@ impl Link {
         now + self.gap
     }
 
+    /// A read of `n` bytes at once: two or more teach the port's hold ([`Delivery::observe`]).
+    #[inline]
+    fn observe_read(&mut self, n: usize) {
+        if n > 1 {
+            self.delivery.observe(n);
+            self.delivery_changed();
+        }
+    }
+
+    /// The port's delivery changed: the character delay monitoring gets its allowance. With
+    /// end characters or a fixed length the frame's own content ends it, and the character
+    /// delay time only catches a partner that stopped: there it waits out the longest latency
+    /// an adapter can have ([`Delivery::patience`]), so host scheduling on top of the adapter's
+    /// holes never cuts a frame. In character-delay mode the silence *is* the frame end, so it
+    /// gets only the port's [`Delivery::allowance`], to stay responsive.
+    #[cold]
+    fn delivery_changed(&mut self) {
+        let allowance = match self.cfg.end {
+            EndCriterion::CharDelay => self.delivery.allowance(),
+            EndCriterion::EndChars { .. } | EndCriterion::FixedLength { .. } => {
+                self.delivery.patience()
+            }
+        };
+        self.gap = self.cdt + self.cfg.settings.char_time() + Duration::from_micros(1) + allowance;
+    }
+
     /// The receive deadline in force: none while we hold the partner in the middle of a frame
     /// (XOFF sent / RTS = OFF), since it is then *supposed* to pause.
     #[inline]
@@ -979,10 +1018,16 @@ impl Engine for Link {
     /// Inline, so a driver feeding single bytes pays no call for the common case (issue 9).
     #[inline(always)]
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+        self.observe_read(bytes.len());
         let gap = self.gap_deadline(now);
         for &b in bytes {
             self.on_byte(now, gap, b);
         }
+    }
+
+    fn set_rx_latency(&mut self, latency: Duration) {
+        self.delivery.declare(latency);
+        self.delivery_changed();
     }
 
     fn handle_timeout(&mut self, now: Instant) {
@@ -1159,6 +1204,7 @@ mod tests {
 
     /// Received characters go through the general path only.
     fn rx_general(link: &mut Link, now: Instant, bytes: &[u8]) {
+        link.observe_read(bytes.len());
         let gap = link.gap_deadline(now);
         for &b in bytes {
             let b = b & link.mask;

@@ -85,20 +85,83 @@ fn write_single_with_two_values_is_refused_before_opening_the_line() {
     );
 }
 
+/// `si --port /dev/null <line> modbus serve --unit 1 <extra>`: refused before the port is
+/// opened when a parameter is out of range.
+fn serve_on_null(line: &[&str], extra: &[&str]) -> std::process::Output {
+    let args = [
+        &["--port", "/dev/null"][..],
+        line,
+        &["modbus", "serve", "--unit", "1"],
+        extra,
+    ];
+    si(&args.concat())
+}
+
 #[test]
 fn serve_rejects_seven_data_bits_with_0e20h() {
-    let o = si(&[
-        "--port",
-        "/dev/null",
-        "--data-bits",
-        "7",
-        "modbus",
-        "serve",
-        "--unit",
-        "1",
-    ]);
+    let o = serve_on_null(&["--data-bits", "7"], &[]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("16#0E20"), "{}", stderr(&o));
+}
+
+/// The `--long` flags a subcommand's help lists.
+fn flags(sub: &str) -> Vec<String> {
+    let o = si(&["modbus", sub, "--help"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut v: Vec<String> = stdout(&o)
+        .split_whitespace()
+        .filter(|w| w.starts_with("--"))
+        .map(|w| {
+            w.trim_end_matches(|c: char| !c.is_ascii_alphanumeric())
+                .to_owned()
+        })
+        .collect();
+    v.sort();
+    v.dedup();
+    v
+}
+
+/// Issue 16: every framing option `si modbus read` takes is also a flag on `serve`.
+#[test]
+fn serve_takes_every_framing_flag_read_takes() {
+    let (read, serve) = (flags("read"), flags("serve"));
+    // Master-only job options: which slave, how long to wait, how often to retry or poll, and
+    // what to read.
+    let master_only = [
+        "--unit",
+        "--timeout",
+        "--retries",
+        "--poll",
+        "--addr",
+        "--count",
+        "--help",
+    ];
+    for f in read.iter().filter(|f| !master_only.contains(&f.as_str())) {
+        assert!(serve.contains(f), "serve lacks {f}: {serve:?}");
+    }
+    for f in ["--mode", "--char-delay-multiplier", "--frame-end"] {
+        assert!(serve.contains(&f.to_owned()), "serve lacks {f}");
+    }
+}
+
+/// §3.5: fMUL is 1–10; 11 is refused with 0E21H before the port is opened.
+#[test]
+fn serve_refuses_a_char_delay_multiplier_out_of_range_with_0e21h() {
+    let o = serve_on_null(&[], &["--char-delay-multiplier", "11"]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(err.contains("16#0E21") && err.contains("11"), "{err}");
+}
+
+/// §3.5: tZVZ = tZVZ_TAB × fMUL; at 9600 bit/s 4 ms × 3 = 12 ms.
+#[test]
+fn serve_char_delay_multiplier_sets_the_gap() {
+    let Some(pair) = common::pty_pair() else {
+        return;
+    };
+    let (_serve, banner, _) =
+        common::modbus::serve(&pair.a, &[], &["--char-delay-multiplier", "3"]);
+    assert!(banner.contains("end-of-frame gap 12 ms"), "{banner}");
 }
 
 #[test]
@@ -107,16 +170,7 @@ fn serve_config_errors_name_the_file_and_field() {
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("bad.toml");
     std::fs::write(&path, "[conversion]\nm_fromm = 1\n").unwrap();
-    let o = si(&[
-        "--port",
-        "/dev/null",
-        "modbus",
-        "serve",
-        "--unit",
-        "1",
-        "--config",
-        path.to_str().unwrap(),
-    ]);
+    let o = serve_on_null(&[], &["--config", path.to_str().unwrap()]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("m_fromm"), "{}", stderr(&o));
     let _ = std::fs::remove_dir_all(&dir);

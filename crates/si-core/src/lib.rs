@@ -10,6 +10,8 @@
 //!   and [`job::Channel`] (one S_SEND and one S_RCV);
 //! - [`fb`]: edge detection, one-call pulses, and S_SEND / S_RCV written once over [`JobPort`];
 //! - [`RangeError`]: a configuration value outside the manual's range, the same for every crate;
+//! - [`delivery`]: how late the port hands bytes over (USB adapters), and the slack silence
+//!   timers need for it;
 //! - [`sim`]: a deterministic discrete-event line simulator with seeded faults;
 //! - [`monitor`]: what a passive listener sees and reports, shared by the protocols' monitors;
 //! - [`tracefile`]: the JSON-lines trace file the simulator, the driver and `si monitor` share;
@@ -20,15 +22,17 @@
 //!   line errors, RS-485 and the USB adapter's latency timer.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
+pub mod delivery;
 pub mod echo;
 pub mod fb;
 pub mod hex;
+pub mod interface;
 pub mod job;
+pub mod linemark;
 pub mod memory;
 pub mod monitor;
-pub mod range;
-pub mod linemark;
 pub mod port_facts;
+pub mod range;
 pub mod rx_path;
 pub mod sansio;
 pub mod serial;
@@ -41,6 +45,7 @@ pub mod v24;
 #[cfg(feature = "tokio")]
 pub mod driver;
 
+pub use interface::Interface;
 pub use job::{JobId, JobPort};
 pub use range::RangeError;
 #[cfg(feature = "serial")]

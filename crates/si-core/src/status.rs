@@ -32,6 +32,9 @@ pub struct StatusInfo {
 pub struct Status {
     code: u16,
     info: Option<&'static StatusInfo>,
+    /// A remedy that fits this occurrence better than the manual's (see
+    /// [`Status::with_remedy`]).
+    remedy: Option<&'static str>,
 }
 
 impl Status {
@@ -43,12 +46,17 @@ impl Status {
         Status {
             code: info.code,
             info: Some(info),
+            remedy: None,
         }
     }
 
     /// A status from its bare code, without text (look it up with [`Status::lookup`]).
     pub const fn from_code(code: u16) -> Status {
-        Status { code, info: None }
+        Status {
+            code,
+            info: None,
+            remedy: None,
+        }
     }
 
     /// The code from `catalogs`, with its text if one of them describes it.
@@ -84,6 +92,22 @@ impl Status {
     /// The manual's description, if this status carries one.
     pub const fn info(self) -> Option<&'static StatusInfo> {
         self.info
+    }
+
+    /// The same STATUS (code, class, number and meaning unchanged) with a remedy that fits
+    /// this occurrence better than the manual's: an engine that knows why the error happened
+    /// here says so (for example [`crate::delivery::Delivery::annotate`]: a USB adapter's
+    /// latency rather than "check the slave").
+    pub const fn with_remedy(self, remedy: &'static str) -> Status {
+        Status {
+            remedy: Some(remedy),
+            ..self
+        }
+    }
+
+    /// What the user should do: the remedy given for this occurrence, else the manual's.
+    pub fn remedy(self) -> Option<&'static str> {
+        self.remedy.or(self.info.map(|i| i.remedy))
     }
 }
 
@@ -234,6 +258,15 @@ mod tests {
         );
         assert_eq!(Status::from_code(0x0708).to_string(), "16#0708");
         assert_eq!(Status::OK.to_string(), "16#0000 no error");
+    }
+
+    #[test]
+    fn an_occurrence_remedy_replaces_the_manuals_and_changes_nothing_else() {
+        let s = common::INVALID_LEN.with_remedy("send less");
+        assert_eq!(s, common::INVALID_LEN);
+        assert_eq!(s.to_string(), common::INVALID_LEN.to_string());
+        assert_eq!(s.remedy(), Some("send less"));
+        assert_eq!(common::INVALID_LEN.remedy(), Some("use 1 … 200"));
     }
 
     #[test]

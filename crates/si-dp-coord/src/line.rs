@@ -284,6 +284,10 @@ impl<E: Engine> Engine for Module<EngineSerial<E>> {
         s.engine.handle_signals(now, signals);
     }
 
+    fn set_rx_latency(&mut self, latency: si_core::Duration) {
+        self.serial_mut().engine.set_rx_latency(latency);
+    }
+
     fn poll_output(&mut self) -> Output<Self::Event> {
         self.serial_mut().poll_engine()
     }

@@ -32,6 +32,8 @@ struct GapFramer {
     deadline: Option<Instant>,
     out: VecDeque<Output<FramerEvent>>,
     sending: bool,
+    /// What the driver declared with `set_rx_latency`.
+    latency: Option<Duration>,
 }
 
 const GAP: Duration = Duration::from_millis(4);
@@ -53,6 +55,9 @@ impl Engine for GapFramer {
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
         self.rx.extend_from_slice(bytes);
         self.deadline = Some(now + GAP);
+    }
+    fn set_rx_latency(&mut self, latency: Duration) {
+        self.latency = Some(latency);
     }
     fn handle_timeout(&mut self, now: Instant) {
         if self.deadline.is_some_and(|d| now >= d) {
@@ -186,4 +191,24 @@ fn write_v24_reaches_the_line_as_signal_change() {
     // Null-modem wiring: the module's RTS is the partner's CTS, its DTR the partner's DSR/DCD,
     // and the partner's outputs (off) are the module's inputs.
     assert!(!s.cts && !s.dsr);
+}
+
+/// Issue 16: the module as a line station hands the port's latency (here a USB adapter's,
+/// announced by the simulator) to its line engine, whose timers judge the line's silences.
+#[test]
+fn the_module_forwards_the_ports_latency_to_its_line_engine() {
+    let mut sim = Simulator::new(16);
+    let module = Module::new(
+        ModuleConfig::new(WindowSize::Eight),
+        EngineSerial::new(GapFramer::default(), HOOKS),
+    )
+    .unwrap();
+    let m = sim.add_station("module", SerialSettings::default(), module);
+    assert_eq!(sim.engine(m).serial().engine().latency, None);
+    sim.set_adapter(m, si_core::sim::UsbAdapter::FTDI_DEFAULT)
+        .unwrap();
+    assert_eq!(
+        sim.engine(m).serial().engine().latency,
+        Some(Duration::from_millis(16))
+    );
 }

@@ -33,6 +33,13 @@
 //! - ending a frame at its predicted length once its CRC checks is a host extension, off by
 //!   default; the master still leaves the gap's silence before its next request
 //!   ([`config::FrameEnd`]; §3.5);
+//! - behind a port that hands bytes over in packets (a USB adapter: declared with
+//!   `Engine::set_rx_latency`, or shown by a read of two or more bytes) frames also end by
+//!   their length, the gap gets the port's allowance, and a framing failure's remedy names the
+//!   adapter's latency timer; on a byte-by-byte port the manual's timing holds exactly
+//!   ([`rx`], [`si_core::delivery`]; issue 16);
+//! - on RS-485 the master recognises a response by a correctly received slave address in
+//!   Normal mode too, skipping a turnaround glitch ([`master::Master::with_interface`]; §2.5);
 //! - a response that fails both a length check and the CRC reports the length (0E52H/0E53H),
 //!   one that fails only the CRC 0E57H ([`master::check_response`]);
 //! - retries (default 0) and the broadcast turnaround (default 100 ms) are extensions

@@ -22,7 +22,7 @@ use crate::frame::{self, fc, Adu, Request, Response, BROADCAST};
 use crate::rx::{Counters, Expect, Fault, Received, Receiver};
 use crate::status;
 use crate::transmitter::{Gate, Transmitter};
-use si_core::{Duration, Engine, Instant, LineError, ModemSignals, Output, Status};
+use si_core::{Duration, Engine, Instant, Interface, LineError, ModemSignals, Output, Status};
 use std::collections::VecDeque;
 
 /// A finished job: the request and, unless it was a broadcast, the checked response.
@@ -177,6 +177,18 @@ impl Master {
         self
     }
 
+    /// The physical interface (§2.5; RS-232C by default). On RS-485 the start of a response
+    /// is recognised by a correctly received slave address in Normal mode too: a turnaround
+    /// glitch before it is skipped instead of failing the job with 0831H. An engine option
+    /// like [`with_frame_end`](Self::with_frame_end), because [`LineConfig`] carries the
+    /// protocol's parameters and the interface is the module's (si-dp-coord holds it).
+    ///
+    /// [`LineConfig`]: crate::config::LineConfig
+    pub fn with_interface(mut self, interface: Interface) -> Self {
+        self.rx.set_interface(interface);
+        self
+    }
+
     /// How received frames end.
     pub fn frame_end(&self) -> FrameEnd {
         self.rx.frame_end()
@@ -278,8 +290,9 @@ impl Master {
                     until: now + Duration::from_millis(self.config.broadcast_turnaround_ms as u64),
                 }
             } else {
+                // The response's first byte may reach us up to the port's latency late.
                 State::Waiting {
-                    deadline: now + self.config.response_timeout(),
+                    deadline: now + self.config.response_timeout() + self.rx.delivery().allowance(),
                 }
             };
         }
@@ -342,7 +355,8 @@ impl Master {
                 self.rx.count_discarded();
                 return;
             }
-            self.fail(status::WRONG_SLAVE_ADDRESS);
+            // A response cut by a late packet starts mid-frame: name the adapter if it may be one.
+            self.fail(self.rx.delivery().annotate(status::WRONG_SLAVE_ADDRESS));
             return;
         }
         match check_response(request.as_bytes(), response) {
@@ -355,7 +369,8 @@ impl Master {
             }
             Err(s) => {
                 self.rx.count_discarded();
-                self.fail_or_retry(now, s);
+                // CRC, length and structure errors: a frame cut by a late packet.
+                self.fail_or_retry(now, self.rx.delivery().annotate(s));
             }
         }
     }
@@ -515,6 +530,7 @@ impl Engine for Master {
     type Event = MasterEvent;
 
     fn handle_rx(&mut self, now: Instant, mut bytes: &[u8]) {
+        self.rx.observe_read(bytes.len());
         self.tick(now);
         if !self.tx.may_receive() {
             return; // §2.2 item 6: nothing is received while DSR = OFF
@@ -544,6 +560,10 @@ impl Engine for Master {
     fn handle_tx_done(&mut self, now: Instant) {
         self.tick(now);
         self.sent(now);
+    }
+
+    fn set_rx_latency(&mut self, latency: Duration) {
+        self.rx.set_rx_latency(latency);
     }
 
     fn handle_line_error(&mut self, now: Instant, error: LineError) {

@@ -17,6 +17,27 @@
 //! dropped silently, leading bytes before a correctly received slave address are skipped, and
 //! errors after a complete frame (valid CRC) are ignored.
 //!
+//! Interface (§2.5): on **RS-485** the start of a message is recognised by a correctly received
+//! slave address in either mode, so leading bytes before it (a turnaround glitch as the bus
+//! changes direction) are skipped, and a UART error or BREAK before the message starts is
+//! ignored, as interference suppression does. On RS-232C and RS-422 Normal mode hands them up,
+//! and the master reports 0831H. (Reading chosen: §2.5 also says RS-485 ignores "all detected
+//! transmission errors"; we apply that to errors before a message only, so a character error
+//! inside a response is still reported in Normal mode as §3.7 describes.)
+//!
+//! # Behind a port that delivers in packets (a USB adapter)
+//!
+//! A USB-serial adapter hands bytes over in packets up to its latency timer late (16 ms by
+//! default), so the holes between packets of one frame are far longer than the gap. The
+//! receiver keeps a [`Delivery`]: the engines tell it each read's size and the latency the
+//! driver declared ([`Engine::set_rx_latency`](si_core::Engine::set_rx_latency)). Once the port
+//! is known to packetise, the gap gets the port's allowance added (the gap measured on the
+//! host is the wire's gap plus the adapter's hold), and frames also end by their predicted
+//! length as with [`FrameEnd::Length`], as pymodbus and libmodbus do on such ports: without it
+//! every response would wait gap + latency before the master saw it. On a port that delivers
+//! byte by byte the allowance is zero and the configured [`FrameEnd`] holds: the manual's timing
+//! exactly.
+//!
 //! # Ending a frame at its predicted length (host extension)
 //!
 //! With [`FrameEnd::Length`] (not in the manual; see there for why a host wants it) a frame
@@ -30,7 +51,8 @@
 
 use crate::config::{FrameEnd, LineConfig, Mode};
 use crate::frame::{crc_ok, fc, Adu, MAX_ADU};
-use si_core::{Duration, Instant, LineError};
+use si_core::delivery::Delivery;
+use si_core::{Duration, Instant, Interface, LineError};
 
 /// What kind of frame the engine expects next, for [`FrameEnd::Length`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -168,6 +190,13 @@ pub struct Receiver {
     unpredictable: bool,
     echo_pending: usize,
     counters: Counters,
+    /// How late the port hands bytes over; its allowance lengthens the gap.
+    delivery: Delivery,
+    /// RS-485 recognises a message by its address (§2.5).
+    interface: Interface,
+    /// The frame's header predicts more bytes than it holds: on a packetising port a hole is
+    /// then waited out up to the longest latency a port can have.
+    more_predicted: bool,
 }
 
 impl Receiver {
@@ -186,7 +215,61 @@ impl Receiver {
             unpredictable: false,
             echo_pending: 0,
             counters: Counters::default(),
+            delivery: Delivery::new(&line.settings),
+            interface: Interface::Rs232,
+            more_predicted: false,
         }
+    }
+
+    /// The driver declared the port's delivery latency ([`si_core::Engine::set_rx_latency`]).
+    pub fn set_rx_latency(&mut self, latency: Duration) {
+        self.delivery.declare(latency);
+    }
+
+    /// The engine got `n` bytes in one read: two or more prove a packetising port.
+    pub fn observe_read(&mut self, n: usize) {
+        self.delivery.observe(n);
+    }
+
+    /// What the receiver knows about the port's delivery.
+    pub fn delivery(&self) -> &Delivery {
+        &self.delivery
+    }
+
+    /// The silence that ends a frame as measured on this port: the gap plus the port's
+    /// allowance (zero on a byte-by-byte port). While the frame's header predicts more bytes
+    /// on a packetising port, the allowance is the longest a port can hold bytes
+    /// ([`Delivery::patience`]): the learnt latency is only a lower bound, and the host's own
+    /// scheduling adds to it, so only a frame that cannot end by its length is judged by the
+    /// tighter allowance.
+    pub fn effective_gap(&self) -> Duration {
+        let allowance = if self.more_predicted {
+            self.delivery.patience()
+        } else {
+            self.delivery.allowance()
+        };
+        self.gap + allowance
+    }
+
+    /// Frames end by length too: [`FrameEnd::Length`] was chosen, or the port packetises.
+    fn ends_by_length(&self) -> bool {
+        self.frame_end == FrameEnd::Length || self.delivery.packetises()
+    }
+
+    /// The physical interface (§2.5): on RS-485 leading garbage is skipped in every mode.
+    pub fn set_interface(&mut self, interface: Interface) {
+        self.interface = interface;
+    }
+
+    /// The physical interface.
+    pub fn interface(&self) -> Interface {
+        self.interface
+    }
+
+    /// A message starts at a correctly received address: interference suppression (§3.7), or
+    /// any mode on RS-485 (§2.5).
+    fn starts_at_address(&self) -> bool {
+        self.mode == Mode::InterferenceSuppression || self.interface == Interface::Rs485
     }
 
     /// End frames this way from now on.
@@ -228,7 +311,11 @@ impl Receiver {
     /// length and not yet taken).
     pub fn deadline(&self) -> Option<Instant> {
         let last = self.last?;
-        Some(if self.complete { last } else { last + self.gap })
+        Some(if self.complete {
+            last
+        } else {
+            last + self.effective_gap()
+        })
     }
 
     /// With [`FrameEnd::Length`]: when the line will have been silent for the gap since the
@@ -236,10 +323,10 @@ impl Receiver {
     /// frames are separated by silence). `None` with [`FrameEnd::Gap`], where every frame
     /// already ends at that moment.
     pub fn quiet_at(&self) -> Option<Instant> {
-        match self.frame_end {
-            FrameEnd::Gap => None,
-            FrameEnd::Length => self.last_activity.map(|t| t + self.gap),
+        if !self.ends_by_length() {
+            return None;
         }
+        self.last_activity.map(|t| t + self.gap)
     }
 
     /// The frame that ended by `now`: complete by length, or the gap has passed since its
@@ -257,10 +344,11 @@ impl Receiver {
                 fault: None,
             });
         }
-        if now < last + self.gap {
+        if now < last + self.effective_gap() {
             return None;
         }
         self.last = None;
+        self.more_predicted = false;
         self.unpredictable = false;
         let bytes = &self.buf[..self.len];
         let fault = self.fault.take();
@@ -325,7 +413,7 @@ impl Receiver {
             return total;
         }
         self.last_activity = Some(now);
-        if self.len == 0 && self.fault.is_none() && self.mode == Mode::InterferenceSuppression {
+        if self.len == 0 && self.fault.is_none() && self.starts_at_address() {
             let start = bytes
                 .iter()
                 .position(|&b| is_start(b))
@@ -353,18 +441,22 @@ impl Receiver {
                 if self.len == k {
                     if crc_ok(&self.buf[..k]) {
                         self.complete = true;
+                        self.more_predicted = false;
                         return taken;
                     }
                     self.unpredictable = true;
                 }
             }
         }
+        self.more_predicted = self.delivery.packetises()
+            && matches!(self.prediction(expect),
+                Prediction::NeedMore(k) | Prediction::Len(k) if k > self.len);
         taken
     }
 
     /// What the bytes so far predict, with [`FrameEnd::Length`].
     fn prediction(&self, expect: Expect) -> Prediction {
-        if self.frame_end == FrameEnd::Gap || self.fault.is_some() || self.unpredictable {
+        if !self.ends_by_length() || self.fault.is_some() || self.unpredictable {
             return Prediction::Unknown;
         }
         let head = &self.buf[..self.len];
@@ -419,7 +511,12 @@ impl Receiver {
             // After a frame complete by length: the error belongs to what follows it.
             return;
         }
+        if self.interface == Interface::Rs485 && self.last.is_none() {
+            // §2.5: before a message starts (a turnaround glitch, BREAK between messages).
+            return;
+        }
         self.last = Some(now);
+        self.more_predicted = false;
         if self.fault.is_none() {
             self.fault = Some(Fault::Line(error));
         }

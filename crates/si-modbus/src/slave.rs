@@ -26,7 +26,7 @@ use crate::frame::{
 use crate::rx::{Counters, Expect, Fault, Received, Receiver};
 use crate::status::{self, slave as codes};
 use crate::transmitter::{Gate, Transmitter};
-use si_core::{Engine, Instant, LineError, ModemSignals, Output, Status};
+use si_core::{Duration, Engine, Instant, LineError, ModemSignals, Output, Status};
 use std::collections::VecDeque;
 
 /// Why a [`Store`] refused an access: the exception the master gets, and S_MODB's view of it.
@@ -384,7 +384,9 @@ impl<S: Store> Slave<S> {
                 self.rx.count_discarded();
                 let (code, status) = match e.kind {
                     DecodeErrorKind::Crc => {
-                        self.event(SlaveEvent::Error(codes::CRC));
+                        // A request cut in two by a late packet fails its CRC: name the adapter.
+                        let status = self.rx.delivery().annotate(codes::CRC);
+                        self.event(SlaveEvent::Error(status));
                         return;
                     }
                     DecodeErrorKind::Function => (
@@ -582,6 +584,7 @@ impl<S: Store> Engine for Slave<S> {
     type Event = SlaveEvent;
 
     fn handle_rx(&mut self, now: Instant, mut bytes: &[u8]) {
+        self.rx.observe_read(bytes.len());
         self.tick(now);
         if !self.tx.may_receive() {
             return; // §2.2 item 6: nothing is received while DSR = OFF
@@ -611,6 +614,10 @@ impl<S: Store> Engine for Slave<S> {
         if self.busy_until.take().is_some() {
             self.tx.sent(now, &mut self.out);
         }
+    }
+
+    fn set_rx_latency(&mut self, latency: Duration) {
+        self.rx.set_rx_latency(latency);
     }
 
     fn handle_line_error(&mut self, now: Instant, error: LineError) {

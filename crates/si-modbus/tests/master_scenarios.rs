@@ -2,7 +2,7 @@
 //! §3.5–§3.8 and §4.4, each asserting the manual's STATUS in virtual time.
 
 use si_core::sim::Simulator;
-use si_core::{Duration, Engine, Instant, LineError, Output, SerialSettings};
+use si_core::{Duration, Engine, Instant, Interface, LineError, Output, SerialSettings};
 use si_modbus::frame::{crc16, Registers, Request, Response};
 use si_modbus::master::{Master, MasterEvent};
 use si_modbus::slave::{Slave, SlaveEvent, Tables};
@@ -130,18 +130,24 @@ fn s3_8_extension_retries_resend_before_failing() {
     );
 }
 
-fn master_with_partner(
-    mode: Mode,
-) -> (
+type PartnerRig = (
     Simulator,
     si_core::sim::StationId<Master>,
     si_core::sim::StationId<Partner>,
-) {
+);
+
+fn master_with_partner(mode: Mode) -> PartnerRig {
+    master_with_partner_on(mode, Interface::Rs232)
+}
+
+/// A master in `mode` on `interface` facing a scripted partner.
+fn master_with_partner_on(mode: Mode, interface: Interface) -> PartnerRig {
     let mut sim = Simulator::new(3);
     let s = SerialSettings::default();
     let mut config = MasterConfig::default();
     config.line.mode = mode;
-    let m = sim.add_station("master", s, Master::new(config).unwrap());
+    let master = Master::new(config).unwrap().with_interface(interface);
+    let m = sim.add_station("master", s, master);
     let p = sim.add_station("partner", s, Partner::default());
     sim.connect(m, p);
     (sim, m, p)
@@ -426,4 +432,58 @@ fn s4_3_job_checks_refuse_with_0e44h_0e45h_0e46h() {
         m.request(Instant::ZERO, 1, &READ10),
         Err(si_modbus::master::RequestError::Busy)
     );
+}
+
+// --- §2.5 against §3.7: a turnaround glitch on RS-485 ------------------------------------------
+
+/// A Normal-mode master on `interface`: READ10 sent, then the partner answers with `glitch`
+/// (a byte, or a framing error) before a correct response.
+fn glitch_then_response(interface: Interface, glitch: Option<u8>) -> (Vec<MasterEvent>, u64) {
+    let (mut sim, m, p) = master_with_partner_on(Mode::Normal, interface);
+    sim.with(m, |e, now| e.request(now, 1, &READ10)).unwrap();
+    sim.run_for(Duration::from_millis(20));
+    let mut pdu = vec![1, 3, 20];
+    pdu.extend([0u8; 20]);
+    let response = with_crc(pdu);
+    match glitch {
+        Some(byte) => {
+            let mut bytes = vec![byte];
+            bytes.extend_from_slice(&response);
+            sim.transmit(p, &bytes);
+        }
+        None => {
+            sim.with(m, |e, now| e.handle_line_error(now, LineError::Framing));
+            sim.transmit(p, &response);
+        }
+    }
+    sim.run_until_quiet(LIMIT);
+    let skipped = sim.engine(m).counters().skipped_bytes;
+    (sim.take_events(m), skipped)
+}
+
+#[test]
+fn s2_5_rs485_normal_mode_skips_a_glitch_byte_before_the_address() {
+    let (events, skipped) = glitch_then_response(Interface::Rs485, Some(0xFF));
+    assert!(
+        matches!(events[..], [MasterEvent::Completed(_)]),
+        "{events:?}"
+    );
+    assert_eq!(skipped, 1);
+}
+
+#[test]
+fn s2_5_rs485_normal_mode_ignores_a_framing_error_before_the_address() {
+    let (events, _) = glitch_then_response(Interface::Rs485, None);
+    assert!(
+        matches!(events[..], [MasterEvent::Completed(_)]),
+        "{events:?}"
+    );
+}
+
+#[test]
+fn s3_7_rs422_normal_mode_keeps_0831h_for_a_glitch_byte() {
+    for interface in [Interface::Rs422, Interface::Rs232] {
+        let (events, _) = glitch_then_response(interface, Some(0xFF));
+        assert_eq!(events, failed(status::WRONG_SLAVE_ADDRESS), "{interface:?}");
+    }
 }

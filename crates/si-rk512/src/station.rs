@@ -699,6 +699,11 @@ impl Engine for Station {
         self.link.handle_signals(now, signals);
     }
 
+    /// The 3964(R) link judges the line's silences (ZVZ, QVZ): it gets the port's latency.
+    fn set_rx_latency(&mut self, latency: si_core::Duration) {
+        self.link.set_rx_latency(latency);
+    }
+
     fn poll_output(&mut self) -> Output<Event> {
         loop {
             if let Some(output) = self.out.pop_front() {

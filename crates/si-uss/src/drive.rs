@@ -649,6 +649,7 @@ impl Engine for Drive {
     type Event = DriveEvent;
 
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+        self.rx.observe_read(bytes.len());
         for &b in bytes {
             if self.echo_left > 0 {
                 self.echo_left -= 1;
@@ -660,6 +661,10 @@ impl Engine for Drive {
                 RxOutcome::Pending | RxOutcome::StartNotIdentified => {}
             }
         }
+    }
+
+    fn set_rx_latency(&mut self, latency: Duration) {
+        self.rx.set_rx_latency(latency);
     }
 
     fn handle_timeout(&mut self, now: Instant) {

@@ -760,7 +760,8 @@ impl Master {
         self.rx.accept_next_stx();
         self.phase = Phase::Awaiting {
             current,
-            deadline: self.line_free + self.config.response_timeout,
+            // The response's STX may reach us up to the port's latency late.
+            deadline: self.line_free + self.config.response_timeout + self.rx.allowance(),
         };
     }
 
@@ -1107,6 +1108,7 @@ impl Engine for Master {
     type Event = Event;
 
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+        self.rx.observe_read(bytes.len());
         for &b in bytes {
             if self.echo_left > 0 {
                 self.echo_left -= 1;
@@ -1142,7 +1144,9 @@ impl Engine for Master {
             bump(&mut self.counters.residual_time);
             bump(&mut self.counters.rejected);
             if let Phase::Awaiting { current, .. } = self.phase {
-                self.fail_current(now, current, status::RESIDUAL_TIME);
+                // A telegram cut by a late packet: name the adapter if reads showed one.
+                let residual = self.rx.annotate(status::RESIDUAL_TIME);
+                self.fail_current(now, current, residual);
             }
         }
         if let Phase::Awaiting { current, deadline } = self.phase {
@@ -1154,6 +1158,10 @@ impl Engine for Master {
             }
         }
         self.tick(now);
+    }
+
+    fn set_rx_latency(&mut self, latency: Duration) {
+        self.rx.set_rx_latency(latency);
     }
 
     fn handle_line_error(&mut self, now: Instant, error: LineError) {

@@ -10,10 +10,19 @@
 //! - the character delay need not be monitored (it is, implicitly, by the residual run time);
 //! - parity, framing and overrun errors and BREAK discard the telegram.
 //!
+//! Behind a port that hands bytes over in packets (a USB adapter, [`si_core::delivery`]) the
+//! residual run time gets the port's patience: the telegram's last packet may reach the host
+//! up to the port's latency after its last character left the wire, while its STX may have
+//! come at once, and since the telegram's length is known (LGE, or the expected structure
+//! before it) a telegram that is whole ends at once anyway, so waiting out the longest latency
+//! an adapter can have ([`Delivery::patience`]) costs only a broken telegram's detection
+//! time. On a port that delivers byte by byte it is zero.
+//!
 //! The receiver keeps at most one telegram (256 bytes) in a fixed buffer: no allocation.
 
 use crate::config::{residual_run_time, start_interval};
 use crate::frame::{MAX_NET, MAX_TELEGRAM, STX};
+use si_core::delivery::Delivery;
 use si_core::{Duration, Instant, LineError, SerialSettings};
 
 /// What a received character did.
@@ -54,6 +63,8 @@ pub(crate) struct Receiver {
     last_char: Option<Instant>,
     /// Net bytes expected before LGE arrives (the master knows its slave's structure).
     expected_net: usize,
+    /// How late the port hands bytes over.
+    delivery: Delivery,
 }
 
 impl Receiver {
@@ -66,7 +77,35 @@ impl Receiver {
             state: State::Hunting { need_gap: false },
             last_char: None,
             expected_net: MAX_NET,
+            delivery: Delivery::new(&settings),
         }
+    }
+
+    /// The engine got `n` bytes in one read ([`Delivery::observe`]).
+    pub(crate) fn observe_read(&mut self, n: usize) {
+        self.delivery.observe(n);
+    }
+
+    /// The driver declared the port's latency ([`si_core::Engine::set_rx_latency`]).
+    pub(crate) fn set_rx_latency(&mut self, latency: Duration) {
+        self.delivery.declare(latency);
+    }
+
+    /// What the silence-judging timers add on this port (zero byte by byte).
+    pub(crate) fn allowance(&self) -> Duration {
+        self.delivery.allowance()
+    }
+
+    /// `status` with the adapter remedy once reads showed a packetising port
+    /// ([`Delivery::annotate`]).
+    pub(crate) fn annotate(&self, status: si_core::Status) -> si_core::Status {
+        self.delivery.annotate(status)
+    }
+
+    /// The residual run time for `n` net bytes on this port: the manual's, plus the port's
+    /// patience (zero byte by byte).
+    fn residual(&self, n: usize) -> Duration {
+        residual_run_time(&self.settings, n) + self.delivery.patience()
     }
 
     /// Net bytes to assume for the residual run time until LGE is in.
@@ -128,7 +167,7 @@ impl Receiver {
                     self.buf[0] = STX;
                     self.len = 1;
                     self.state = State::Receiving {
-                        deadline: now + residual_run_time(&self.settings, self.expected_net),
+                        deadline: now + self.residual(self.expected_net),
                     };
                     RxOutcome::Pending
                 } else {
@@ -148,12 +187,11 @@ impl Receiver {
                     }
                     let n = usize::from(byte) - 2;
                     // From STX's end: deadline − residual(assumed) + residual(n).
-                    let stx_end = deadline.as_micros().saturating_sub(
-                        residual_run_time(&self.settings, self.expected_net).as_micros(),
-                    );
+                    let stx_end = deadline
+                        .as_micros()
+                        .saturating_sub(self.residual(self.expected_net).as_micros());
                     self.state = State::Receiving {
-                        deadline: Instant::from_micros(stx_end)
-                            + residual_run_time(&self.settings, n),
+                        deadline: Instant::from_micros(stx_end) + self.residual(n),
                     };
                 }
                 if self.len >= 2 && self.len == usize::from(self.buf[1]) + 2 {

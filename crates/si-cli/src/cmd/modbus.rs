@@ -29,14 +29,25 @@ pub struct MasterOptions {
     /// Extension: send again this many times after a timeout or CRC error.
     #[arg(long, default_value_t = 0)]
     retries: u8,
-    /// Operating mode.
+    #[command(flatten)]
+    framing: FramingOptions,
+}
+
+/// How received frames are recognised (§3.5, §3.7): the same flags on the master's jobs and on
+/// `serve`, so whatever framing `si modbus read` can use, the slave side can too.
+#[derive(Debug, Clone, Args)]
+pub struct FramingOptions {
+    /// Operating mode (`serve`: overridden by the config file's `mode`).
     #[arg(long, value_enum, default_value_t = ModeArg::Normal)]
     mode: ModeArg,
-    /// Character delay multiplier 1–10 (end-of-frame gap = table value × this).
+    /// Character delay multiplier 1–10: end-of-frame gap = table value × this (`serve`:
+    /// overridden by the config file's `char_delay_multiplier`).
     #[arg(long, default_value_t = 1)]
     char_delay_multiplier: u8,
-    /// How a response ends: at the end-of-frame gap as the module does, or (host extension)
-    /// also as soon as it has its predicted length and a good CRC.
+    /// How a received frame ends: at the end-of-frame gap as the module does, or (host
+    /// extension) also as soon as it has its predicted length and a good CRC, so the master
+    /// completes (and the slave answers) without waiting for the gap (`serve`: overridden by
+    /// the config file's `frame_end`).
     #[arg(long, value_enum, default_value_t = FrameEndArg::Gap)]
     frame_end: FrameEndArg,
 }
@@ -172,15 +183,8 @@ pub enum Command {
         /// Table 3-20.
         #[arg(long)]
         config: Option<std::path::PathBuf>,
-        /// Operating mode (overridden by the config file's `mode`).
-        #[arg(long, value_enum, default_value_t = ModeArg::Normal)]
-        mode: ModeArg,
-        /// How a request ends: at the end-of-frame gap as the module does, or (host
-        /// extension) also as soon as it has its predicted length and a good CRC, so the
-        /// answer goes out without waiting for the gap (overridden by the config file's
-        /// `frame_end`).
-        #[arg(long, value_enum, default_value_t = FrameEndArg::Gap)]
-        frame_end: FrameEndArg,
+        #[command(flatten)]
+        framing: FramingOptions,
     },
 }
 
@@ -200,7 +204,7 @@ fn line_config(
 
 fn master_config(conn: &Connection, o: &MasterOptions) -> Result<MasterConfig, CliError> {
     let config = MasterConfig {
-        line: line_config(conn, o.mode.into(), o.char_delay_multiplier)?,
+        line: line_config(conn, o.framing.mode.into(), o.framing.char_delay_multiplier)?,
         response_timeout_ms: o.timeout,
         retries: o.retries,
         ..MasterConfig::default()
@@ -216,10 +220,21 @@ fn failure(e: ModbusError) -> CliError {
     }
 }
 
+/// The STATUS with its text and remedy: the remedy the engine gave this occurrence (a USB
+/// adapter's latency, [`si_core::delivery::ADAPTER_REMEDY`]) or else the manual's.
 fn status_text(s: Status) -> String {
-    let s = si_modbus::status::lookup(s.code());
-    match s.info() {
-        Some(info) => format!("{s} (remedy: {})", info.remedy),
+    let s = match s.info() {
+        Some(_) => s,
+        None => {
+            let looked_up = si_modbus::status::lookup(s.code());
+            match s.remedy() {
+                Some(r) => looked_up.with_remedy(r),
+                None => looked_up,
+            }
+        }
+    };
+    match s.remedy() {
+        Some(remedy) => format!("{s} (remedy: {remedy})"),
         None => s.to_string(),
     }
 }
@@ -251,9 +266,8 @@ impl Command {
             Command::Serve {
                 unit,
                 config,
-                mode,
-                frame_end,
-            } => serve(conn, out, unit, config, mode, frame_end.into()).await,
+                framing,
+            } => serve(conn, out, unit, config, &framing).await,
             Command::Read {
                 kind,
                 master,
@@ -367,9 +381,16 @@ impl Command {
 
 async fn open_master(conn: &Connection, o: &MasterOptions) -> Result<MasterHandle, CliError> {
     let config = master_config(conn, o)?;
+    // On RS-485 a response is recognised by its address, skipping a turnaround glitch (§2.5).
+    let interface = if conn.rs485.is_some() {
+        si_core::Interface::Rs485
+    } else {
+        si_core::Interface::Rs232
+    };
     let master = Master::new(config)
         .map_err(|e| failure(e.into()))?
-        .with_frame_end(o.frame_end.into());
+        .with_frame_end(o.framing.frame_end.into())
+        .with_interface(interface);
     let port = conn.open().await?;
     Ok(MasterHandle::spawn_engine(master, port))
 }
@@ -533,8 +554,7 @@ async fn serve(
     out: &Output,
     unit: u8,
     path: Option<std::path::PathBuf>,
-    mode: ModeArg,
-    frame_end: FrameEnd,
+    framing: &FramingOptions,
 ) -> Result<(), CliError> {
     let file: ServeFile = match &path {
         Some(p) => {
@@ -561,13 +581,14 @@ async fn serve(
     let config = SlaveConfig {
         line: line_config(
             conn,
-            file.mode.unwrap_or(mode.into()),
-            file.char_delay_multiplier.unwrap_or(1),
+            file.mode.unwrap_or(framing.mode.into()),
+            file.char_delay_multiplier
+                .unwrap_or(framing.char_delay_multiplier),
         )?,
         address: unit,
     };
     config.validate()?;
-    let frame_end = file.frame_end.unwrap_or(frame_end);
+    let frame_end = file.frame_end.unwrap_or(framing.frame_end.into());
     let slave = Slave::new(config, store)
         .map_err(|e| failure(e.into()))?
         .with_frame_end(frame_end);
@@ -891,4 +912,23 @@ fn scenario_crc(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     print_trace(sim.trace(), out);
     report(&e, at, out);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use si_core::delivery::ADAPTER_REMEDY;
+
+    #[test]
+    fn a_failure_prints_the_occurrences_remedy_else_the_manuals() {
+        let crc = si_modbus::status::RESPONSE_CRC;
+        let manual = crc.info().unwrap().remedy;
+        assert!(status_text(crc).ends_with(&format!("(remedy: {manual})")));
+        let adapter = status_text(crc.with_remedy(ADAPTER_REMEDY));
+        assert!(adapter.starts_with("16#0E57 "), "{adapter}");
+        assert!(adapter.ends_with(&format!("(remedy: {ADAPTER_REMEDY})")));
+        // A bare code (as deserialised) gets the manual's text and keeps the given remedy.
+        let bare = status_text(Status::from_code(0x0E57).with_remedy(ADAPTER_REMEDY));
+        assert_eq!(bare, adapter);
+    }
 }

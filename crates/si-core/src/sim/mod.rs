@@ -25,6 +25,12 @@
 //! given instant ([`Simulator::schedule_break`]) and a partner that stops transmitting
 //! ([`Simulator::silence`]).
 //!
+//! Any station can sit behind a USB-serial adapter ([`Simulator::set_adapter`], [`UsbAdapter`]):
+//! its received characters then reach its engine in packets of up to 62 bytes, handed over when
+//! full or when the adapter's latency timer (1–255 ms) runs out, as most hosts meet a real line.
+//! Such a station's trace records each hand-over as one [`TraceKind::RxChunk`] (what its engine
+//! saw), not one `Rx` per character. Stations without an adapter are unchanged.
+//!
 //! ```
 //! use si_core::sim::Simulator;
 //! use si_core::{Engine, Instant, Output, SerialSettings};
@@ -52,11 +58,13 @@
 //! assert_eq!(sim.trace().received("B")[0].0, Instant::from_micros(1_146)); // 11 / 9600 s
 //! ```
 
+mod adapter;
 mod burst;
 mod pair;
 mod rng;
 mod trace;
 
+pub use adapter::{AdapterError, UsbAdapter};
 pub use pair::Pair;
 pub use rng::SplitMix64;
 pub use trace::{Trace, TraceEntry, TraceKind};
@@ -64,6 +72,7 @@ pub use trace::{Trace, TraceEntry, TraceKind};
 use crate::sansio::{Engine, LineError, ModemSignals, Output, SignalUpdate};
 use crate::serial::SerialSettings;
 use crate::time::{Duration, Instant};
+use adapter::Held;
 use burst::{Burst, Key, Mod};
 use core::any::Any;
 use core::marker::PhantomData;
@@ -112,6 +121,7 @@ trait Station: Any {
     fn tx_done(&mut self, now: Instant);
     fn line_error(&mut self, now: Instant, e: LineError);
     fn signals(&mut self, now: Instant, s: ModemSignals);
+    fn rx_latency(&mut self, latency: Duration);
     fn poll(&mut self) -> Output<Box<dyn Any>>;
     fn describe(&self, event: &dyn Any) -> String;
 }
@@ -135,6 +145,9 @@ where
     }
     fn signals(&mut self, now: Instant, s: ModemSignals) {
         self.handle_signals(now, s)
+    }
+    fn rx_latency(&mut self, latency: Duration) {
+        self.set_rx_latency(latency)
     }
     fn poll(&mut self) -> Output<Box<dyn Any>> {
         match self.poll_output() {
@@ -189,6 +202,8 @@ struct Slot {
     /// the call) among those received from others gets its bits XORed with the mask.
     corrupt: Option<(u64, u8)>,
     signals: ModemSignals,
+    /// A USB-serial adapter between the receiver and the engine ([`Simulator::set_adapter`]).
+    adapter: Option<Held>,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -209,6 +224,11 @@ enum What {
     /// A station's timer: live only if its key is the station's `timer_queued`.
     Timeout {
         station: usize,
+    },
+    /// A station's USB adapter's latency timer ran out: live only if no hand-over came first.
+    AdapterFlush {
+        station: usize,
+        generation: u64,
     },
 }
 
@@ -308,6 +328,7 @@ impl Simulator {
             silent_from: None,
             corrupt: None,
             signals: ModemSignals::default(),
+            adapter: None,
         });
         let index = self.slots.len() - 1;
         self.drain(index);
@@ -349,6 +370,26 @@ impl Simulator {
     /// wrong address), where seeded random faults would be too blunt.
     pub fn corrupt_received<E>(&mut self, station: StationId<E>, nth: u64, mask: u8) {
         self.slots[station.index].corrupt = Some((nth, mask));
+    }
+
+    /// Put a USB-serial adapter in front of `station`'s receiver (see [`UsbAdapter`] for the
+    /// model): from now on what it receives reaches its engine in packets of up to
+    /// `packet_bytes`, handed over when full or `latency` after the first pending byte. With
+    /// `announce_latency` the engine is told the latency ([`Engine::set_rx_latency`]) at once.
+    /// The station's transmitter and its modem signals are unchanged.
+    pub fn set_adapter<E>(
+        &mut self,
+        station: StationId<E>,
+        adapter: UsbAdapter,
+    ) -> Result<(), AdapterError> {
+        adapter.validate()?;
+        let slot = &mut self.slots[station.index];
+        slot.adapter = Some(Held::new(adapter));
+        if adapter.announce_latency {
+            slot.engine.rx_latency(adapter.latency);
+            self.drain(station.index);
+        }
+        Ok(())
     }
 
     /// A BREAK reaches `station`'s receiver at `at`.
@@ -522,8 +563,26 @@ impl Simulator {
         }
     }
 
-    /// A character (or a line error) arrives at `to` now.
+    /// A character (or a line error) arrives at `to` now: at its engine, or at its adapter.
     fn receive(&mut self, to: usize, item: Result<u8, LineError>) {
+        if let Some(held) = &mut self.slots[to].adapter {
+            held.pending.push(item);
+            let (n, full) = (held.pending.len(), held.config.packet_bytes);
+            let (latency, generation) = (held.config.latency, held.generation);
+            if n >= full {
+                self.hand_over(to);
+            } else if n == 1 {
+                let at = self.now + latency;
+                self.schedule(
+                    at,
+                    What::AdapterFlush {
+                        station: to,
+                        generation,
+                    },
+                );
+            }
+            return;
+        }
         let now = self.now;
         match item {
             Ok(byte) => {
@@ -536,6 +595,44 @@ impl Simulator {
             }
         }
         self.drain(to);
+    }
+
+    /// The adapter in front of `to` hands what it holds to the engine: each run of bytes in one
+    /// `handle_rx` (recorded as one chunk), each line error on its own, in order, draining after
+    /// each as the contract asks.
+    fn hand_over(&mut self, to: usize) {
+        let Some(held) = &mut self.slots[to].adapter else {
+            return;
+        };
+        held.generation += 1;
+        let mut packet = core::mem::take(&mut held.pending);
+        let mut scratch = core::mem::take(&mut held.scratch);
+        adapter::runs(
+            &packet,
+            |item| {
+                let now = self.now;
+                match item {
+                    Ok(bytes) => {
+                        if self.trace.is_some() {
+                            let bytes = bytes.to_vec();
+                            self.record(to, TraceKind::RxChunk { bytes });
+                        }
+                        self.slots[to].engine.rx(now, bytes);
+                    }
+                    Err(error) => {
+                        self.record(to, TraceKind::RxError { error });
+                        self.slots[to].engine.line_error(now, error);
+                    }
+                }
+                self.drain(to);
+            },
+            &mut scratch,
+        );
+        packet.clear();
+        if let Some(held) = &mut self.slots[to].adapter {
+            held.pending = packet;
+            held.scratch = scratch;
+        }
     }
 
     /// Everything but a burst's characters (those are [`step`](Self::step)'s).
@@ -572,6 +669,18 @@ impl Simulator {
                         self.schedule_key(later, What::Timeout { station });
                     }
                     None => {} // cancelled
+                }
+            }
+            What::AdapterFlush {
+                station,
+                generation,
+            } => {
+                let live = self.slots[station]
+                    .adapter
+                    .as_ref()
+                    .is_some_and(|h| h.generation == generation && !h.pending.is_empty());
+                if live {
+                    self.hand_over(station);
                 }
             }
         }
@@ -869,5 +978,7 @@ fn draws(p: &f64) -> bool {
     !matches!(p.partial_cmp(&0.0), Some(Ordering::Less | Ordering::Equal))
 }
 
+#[cfg(test)]
+mod adapter_tests;
 #[cfg(test)]
 mod tests;
