@@ -55,16 +55,24 @@ fn the_helper_thread_starts_on_first_use_and_ends_with_the_driver() {
     rt.block_on(async {
         let (ours, _theirs) = tokio::io::duplex(64);
         let (mut handle, task) = spawn(Timer::default(), ours, DriverOptions::default());
-        let deadline = handle
-            .call(|t, now| {
-                let d = now + Duration::from_micros(500);
-                t.deadline = Some(d);
-                d
-            })
-            .await
-            .unwrap();
-        let fired = handle.next_event().await.unwrap();
-        assert!(fired >= deadline, "fired early");
+        // A deadline 2 ms ahead goes to the helper thread (below PRECISE_LEAD, above
+        // SPIN_BELOW) unless the driver only gets to it once it is already due (a loaded
+        // machine): then it fires at once, and the next attempt tries again.
+        for _attempt in 0..50 {
+            let deadline = handle
+                .call(|t, now| {
+                    let d = now + Duration::from_millis(2);
+                    t.deadline = Some(d);
+                    d
+                })
+                .await
+                .unwrap();
+            let fired = handle.next_event().await.unwrap();
+            assert!(fired >= deadline, "fired early");
+            if threads_named("si-driver-timer") > before {
+                break;
+            }
+        }
         assert_eq!(threads_named("si-driver-timer"), before + 1);
         drop(handle);
         task.await.unwrap().unwrap();
