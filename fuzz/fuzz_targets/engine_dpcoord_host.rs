@@ -21,7 +21,7 @@ fuzz_target!(|data: &[u8]| {
     };
     let mut open = BTreeSet::new();
     let mut now = Instant::ZERO;
-    let drain = |host: &mut Host, open: &mut BTreeSet<u32>| {
+    let drain = |host: &mut Host, open: &mut BTreeSet<u64>| {
         while let Some(e) = host.poll_event() {
             if let HostEvent::Completed { id, .. } = e {
                 assert!(
