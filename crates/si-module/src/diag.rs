@@ -35,10 +35,6 @@
 //!   sent"); chapter 3 gives the same text without the restriction. [`ErrorType::meaning`] gives
 //!   each variant its own wording.
 
-use nom::bytes::complete::take;
-use nom::combinator::{all_consuming, rest as remaining};
-use nom::number::complete::{be_u16, u8};
-use nom::Parser;
 use serde::{Deserialize, Serialize};
 
 /// The longest slave diagnosis EN 50170 allows (244 bytes).
@@ -508,26 +504,6 @@ fn truncated(bytes: &[u8], offset: usize, part: &'static str, needed: usize) -> 
     }
 }
 
-/// Parses one part of `len` bytes at the start of `rest` (the diagnosis from some offset on) with
-/// `parser`, naming the part and its offset in `bytes` when fewer than `len` bytes remain.
-fn part<'a, O>(
-    bytes: &[u8],
-    rest: &'a [u8],
-    name: &'static str,
-    len: usize,
-    parser: impl Parser<&'a [u8], Output = O, Error = ()>,
-) -> Result<(&'a [u8], O), DiagError> {
-    let at = bytes.len() - rest.len();
-    let (block, rest) = take(len)
-        .parse(rest)
-        .map(|(rest, block)| (block, rest))
-        .map_err(|_: nom::Err<()>| truncated(bytes, at, name, len))?;
-    let (_, out) = all_consuming(parser)
-        .parse(block)
-        .map_err(|_| truncated(bytes, at, name, len))?;
-    Ok((rest, out))
-}
-
 impl SlaveDiagnosis {
     /// Decodes a complete slave diagnosis, from station status 1 on.
     ///
@@ -551,20 +527,21 @@ impl SlaveDiagnosis {
         if bytes.len() > MAX_DIAG_LEN {
             return Err(DiagError::TooLong { len: bytes.len() });
         }
-        let standard = (u8, u8, u8, u8, be_u16).map(|(s1, s2, s3, master, ident)| StationStatus {
-            status1: s1,
-            status2: s2,
-            status3: s3,
-            master_address: master,
-            ident_number: ident,
-        });
-        let (mut rest, station) = part(bytes, bytes, PART_STANDARD, STANDARD_LEN, standard)?;
+        let Some(std) = bytes.get(..STANDARD_LEN) else {
+            return Err(truncated(bytes, 0, PART_STANDARD, STANDARD_LEN));
+        };
         let mut out = SlaveDiagnosis {
-            station,
+            station: StationStatus {
+                status1: std[0],
+                status2: std[1],
+                status3: std[2],
+                master_address: std[3],
+                ident_number: u16::from_be_bytes([std[4], std[5]]),
+            },
             ..SlaveDiagnosis::default()
         };
-        while let Some(&header) = rest.first() {
-            let at = bytes.len() - rest.len();
+        let mut at = STANDARD_LEN;
+        while let Some(&header) = bytes.get(at) {
             let len = usize::from(header & 0x3F);
             match header >> 6 {
                 0b01 => {
@@ -590,11 +567,13 @@ impl SlaveDiagnosis {
                             min: 1,
                         });
                     }
-                    let bits;
-                    (rest, bits) = part(bytes, rest, PART_MODULE_DIAG, len, (u8, remaining))?;
+                    let block = bytes
+                        .get(at..at + len)
+                        .ok_or_else(|| truncated(bytes, at, PART_MODULE_DIAG, len))?;
                     out.module_diagnosis = Some(ModuleDiagnosis {
-                        bits: bits.1.to_vec(),
+                        bits: block[1..].to_vec(),
                     });
+                    at += len;
                 }
                 0b00 => {
                     if out.module_status.is_some() {
@@ -619,8 +598,9 @@ impl SlaveDiagnosis {
                             min: 4,
                         });
                     }
-                    let block;
-                    (rest, block) = part(bytes, rest, PART_MODULE_STATUS, len, remaining)?;
+                    let block = bytes
+                        .get(at..at + len)
+                        .ok_or_else(|| truncated(bytes, at, PART_MODULE_STATUS, len))?;
                     if block[1] != MODULE_STATUS_TYPE {
                         return Err(DiagError::Unknown {
                             offset: at + 1,
@@ -638,12 +618,13 @@ impl SlaveDiagnosis {
                     out.module_status = Some(ModuleStatus {
                         bits: block[4..].to_vec(),
                     });
+                    at += len;
                 }
                 0b10 => {
-                    let entry;
-                    (rest, entry) = part(bytes, rest, PART_CHANNEL, 3, (u8, u8, u8))?;
-                    let (slot, channel, kind) = entry;
-                    let io = match channel >> 6 {
+                    let entry = bytes
+                        .get(at..at + 3)
+                        .ok_or_else(|| truncated(bytes, at, PART_CHANNEL, 3))?;
+                    let io = match entry[1] >> 6 {
                         1 => IoType::Input,
                         2 => IoType::Output,
                         3 => IoType::InputOutput,
@@ -651,29 +632,30 @@ impl SlaveDiagnosis {
                             return Err(DiagError::Unknown {
                                 offset: at + 1,
                                 field: "I/O type (bits 7-6; 00 is reserved)",
-                                value: channel,
+                                value: entry[1],
                             })
                         }
                     };
                     let channel_type =
-                        ChannelType::from_code(kind >> 5).ok_or(DiagError::Unknown {
+                        ChannelType::from_code(entry[2] >> 5).ok_or(DiagError::Unknown {
                             offset: at + 2,
                             field: "channel type (bits 7-5; 000 and 111 are reserved)",
-                            value: kind,
+                            value: entry[2],
                         })?;
                     let error =
-                        ErrorType::from_code(kind & 0x1F).ok_or(DiagError::Unknown {
+                        ErrorType::from_code(entry[2] & 0x1F).ok_or(DiagError::Unknown {
                             offset: at + 2,
                             field: "channel error type (bits 4-0; the SI module reports 6, 7, 8, 9, 16, 22)",
-                            value: kind,
+                            value: entry[2],
                         })?;
                     out.channels.push(ChannelDiagnosis {
-                        slot: slot & 0x3F,
-                        channel: channel & 0x3F,
+                        slot: entry[0] & 0x3F,
+                        channel: entry[1] & 0x3F,
                         io,
                         channel_type,
                         error,
                     });
+                    at += 3;
                 }
                 _ => {
                     return Err(DiagError::Unknown {

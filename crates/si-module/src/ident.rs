@@ -26,9 +26,6 @@
 //! - **I&M version** is 00 00H as printed (a PROFIBUS I&M device would say 01 01H).
 
 use crate::diag::Variant;
-use nom::bytes::complete::take;
-use nom::number::complete::{be_u16, u8};
-use nom::Parser;
 use serde::{Deserialize, Serialize};
 
 /// Length of every record.
@@ -188,32 +185,24 @@ impl Im0 {
 
     /// Decodes a DS 231 record.
     pub fn decode(bytes: &[u8]) -> Result<Im0, ImError> {
-        let data = check_header(bytes, Index::Im0)?;
-        let mut fields = (
-            (be_u16, take(ORDER_NUMBER_LEN), take(SERIAL_LEN), be_u16),
-            (u8, u8, u8, u8),
-            (be_u16, be_u16, be_u16, (u8, u8), be_u16),
-        );
-        let (_, ((manufacturer, order, serial, hardware_revision), sw, rest)) = fields
-            .parse(data)
-            .map_err(|_: nom::Err<()>| ImError::Length { len: bytes.len() })?;
-        let (revision_counter, profile_id, profile_specific_type, im_version, im_supported) = rest;
+        let d = check_header(bytes, Index::Im0)?;
+        let word = |at: usize| u16::from_be_bytes([d[at], d[at + 1]]);
         Ok(Im0 {
-            manufacturer,
-            order_number: get_text(order, HEADER_LEN + 2, "device name (order number)")?,
-            serial_number: get_text(serial, HEADER_LEN + 22, "serial number")?,
-            hardware_revision,
+            manufacturer: word(0),
+            order_number: get_text(d, 2, 20, "device name (order number)")?,
+            serial_number: get_text(d, 22, 16, "serial number")?,
+            hardware_revision: word(38),
             software_revision: SoftwareRevision {
-                prefix: sw.0,
-                functional: sw.1,
-                bug_fix: sw.2,
-                internal: sw.3,
+                prefix: d[40],
+                functional: d[41],
+                bug_fix: d[42],
+                internal: d[43],
             },
-            revision_counter,
-            profile_id,
-            profile_specific_type,
-            im_version: [im_version.0, im_version.1],
-            im_supported,
+            revision_counter: word(44),
+            profile_id: word(46),
+            profile_specific_type: word(48),
+            im_version: [d[50], d[51]],
+            im_supported: word(52),
         })
     }
 }
@@ -256,13 +245,10 @@ impl Im1 {
 
     /// Decodes a DS 232 record.
     pub fn decode(bytes: &[u8]) -> Result<Im1, ImError> {
-        let data = check_header(bytes, Index::Im1)?;
-        let (_, (hid, location)) = (take(HID_LEN), take(LOCATION_LEN))
-            .parse(data)
-            .map_err(|_: nom::Err<()>| ImError::Length { len: bytes.len() })?;
+        let d = check_header(bytes, Index::Im1)?;
         Ok(Im1 {
-            hid: get_text(hid, HEADER_LEN, "plant designation (HID)")?,
-            location: get_text(location, HEADER_LEN + HID_LEN, "location designation (OKZ)")?,
+            hid: get_text(d, 0, HID_LEN, "plant designation (HID)")?,
+            location: get_text(d, HID_LEN, LOCATION_LEN, "location designation (OKZ)")?,
         })
     }
 }
@@ -398,8 +384,8 @@ fn put_text(field_bytes: &mut [u8], field: &'static str, text: &str) -> Result<(
     Ok(())
 }
 
-/// The text of a field whose bytes start at `offset` in the record.
-fn get_text(raw: &[u8], offset: usize, field: &'static str) -> Result<String, ImError> {
+fn get_text(data: &[u8], at: usize, len: usize, field: &'static str) -> Result<String, ImError> {
+    let raw = &data[at..at + len];
     let end = raw
         .iter()
         .rposition(|&b| b != b' ' && b != 0)
@@ -410,7 +396,7 @@ fn get_text(raw: &[u8], offset: usize, field: &'static str) -> Result<String, Im
             return Err(ImError::Character {
                 field,
                 found: char::from(b),
-                position: offset + i,
+                position: HEADER_LEN + at + i,
             });
         }
         s.push(char::from(b));

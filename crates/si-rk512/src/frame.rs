@@ -41,10 +41,6 @@
 //!   number without a flag.
 
 use core::fmt;
-use nom::combinator::{map_opt, verify};
-use nom::error::{context, ContextError, ErrorKind, ParseError};
-use nom::number::complete::{be_u16, u8};
-use nom::{IResult, Parser};
 
 /// First-telegram marker in byte 1 (command and reaction).
 pub const FIRST: u8 = 0x00;
@@ -350,25 +346,18 @@ impl CommandHeader {
 
     /// Decode the first 10 bytes of a first command telegram (any data after them is ignored).
     pub fn decode(bytes: &[u8]) -> Result<CommandHeader, DecodeError> {
-        let (command, data_type, a, length, c) = parse(
-            bytes,
-            COMMAND_HEADER_LEN,
-            (
-                byte(FIRST, "00H (first command telegram)"),
-                byte(0x00, "00H"),
-                command,
-                data_type,
-                (u8, u8),
-                be_u16,
-                (u8, u8),
-            )
-                .map(|(_, _, command, data_type, a, length, c)| (command, data_type, a, length, c)),
-        )?;
+        // The identifying bytes first, so a wrong one is named even in a short telegram.
+        need(bytes, SHORT_HEADER_LEN)?;
+        expect(bytes, 0, FIRST, "00H (first command telegram)")?;
+        expect(bytes, 1, 0x00, "00H")?;
+        let command = command_at(bytes)?;
+        let data_type = data_type_at(bytes)?;
+        need(bytes, COMMAND_HEADER_LEN)?;
         Ok(CommandHeader {
             command,
-            address: Address::from_bytes(data_type, [a.0, a.1]),
-            length,
-            coordination: Coordination::from_bytes([c.0, c.1]),
+            address: Address::from_bytes(data_type, [bytes[4], bytes[5]]),
+            length: u16::from_be_bytes([bytes[6], bytes[7]]),
+            coordination: Coordination::from_bytes([bytes[8], bytes[9]]),
         })
     }
 
@@ -400,18 +389,18 @@ impl ContinuationHeader {
 
     /// Decode the first 4 bytes of a continuation command telegram.
     pub fn decode(bytes: &[u8]) -> Result<ContinuationHeader, DecodeError> {
-        let (command, data_type) = parse(
+        need(bytes, SHORT_HEADER_LEN)?;
+        expect(
             bytes,
-            SHORT_HEADER_LEN,
-            (
-                byte(CONTINUATION, "FFH (continuation command telegram)"),
-                byte(0x00, "00H"),
-                command,
-                data_type,
-            )
-                .map(|(_, _, command, data_type)| (command, data_type)),
+            0,
+            CONTINUATION,
+            "FFH (continuation command telegram)",
         )?;
-        Ok(ContinuationHeader { command, data_type })
+        expect(bytes, 1, 0x00, "00H")?;
+        Ok(ContinuationHeader {
+            command: command_at(bytes)?,
+            data_type: data_type_at(bytes)?,
+        })
     }
 }
 
@@ -441,25 +430,23 @@ impl ReactionHeader {
 
     /// Decode the first 4 bytes of a reaction telegram.
     pub fn decode(bytes: &[u8]) -> Result<ReactionHeader, DecodeError> {
-        let first_or_continuation = map_opt(u8, |b| match b {
-            FIRST => Some(false),
-            CONTINUATION => Some(true),
-            _ => None,
-        });
-        let (continuation, error) = parse(
-            bytes,
-            SHORT_HEADER_LEN,
-            (
-                context("00H or FFH (reaction telegram)", first_or_continuation),
-                byte(0x00, "00H"),
-                byte(0x00, "00H (reaction telegram)"),
-                u8,
-            )
-                .map(|(continuation, _, _, error)| (continuation, error)),
-        )?;
+        need(bytes, SHORT_HEADER_LEN)?;
+        let continuation = match bytes[0] {
+            FIRST => false,
+            CONTINUATION => true,
+            found => {
+                return Err(DecodeError::Unexpected {
+                    offset: 0,
+                    expected: "00H or FFH (reaction telegram)",
+                    found,
+                })
+            }
+        };
+        expect(bytes, 1, 0x00, "00H")?;
+        expect(bytes, 2, 0x00, "00H (reaction telegram)")?;
         Ok(ReactionHeader {
             continuation,
-            error,
+            error: bytes[3],
         })
     }
 }
@@ -479,12 +466,7 @@ impl<'a> Telegram<'a> {
     /// Decode a whole telegram (the payload of one 3964(R) block). Byte 3 tells reactions
     /// (`00H`) from commands; byte 1 tells first from continuation telegrams.
     pub fn decode(bytes: &'a [u8]) -> Result<Telegram<'a>, DecodeError> {
-        if bytes.len() < SHORT_HEADER_LEN {
-            return Err(DecodeError::TooShort {
-                expected: SHORT_HEADER_LEN,
-                found: bytes.len(),
-            });
-        }
+        need(bytes, SHORT_HEADER_LEN)?;
         if bytes[2] == 0x00 {
             let h = ReactionHeader::decode(bytes)?;
             return Ok(Telegram::Reaction(h, &bytes[SHORT_HEADER_LEN..]));
@@ -517,85 +499,48 @@ fn check_data_len(len: usize, header: usize) -> Result<(), DecodeError> {
     }
 }
 
-/// Where a header parser stopped (as the bytes left after that point) and, for a wrong byte,
-/// what the manual allows there (the nom `context`).
-struct Stop {
-    left: usize,
-    expected: Option<&'static str>,
-}
-
-impl ParseError<&[u8]> for Stop {
-    fn from_error_kind(input: &[u8], _: ErrorKind) -> Stop {
-        Stop {
-            left: input.len(),
-            expected: None,
-        }
-    }
-
-    fn append(_: &[u8], _: ErrorKind, other: Stop) -> Stop {
-        other
+fn need(bytes: &[u8], len: usize) -> Result<(), DecodeError> {
+    if bytes.len() < len {
+        Err(DecodeError::TooShort {
+            expected: len,
+            found: bytes.len(),
+        })
+    } else {
+        Ok(())
     }
 }
 
-impl ContextError<&[u8]> for Stop {
-    fn add_context(_: &[u8], expected: &'static str, other: Stop) -> Stop {
-        Stop {
-            expected: other.expected.or(Some(expected)),
-            ..other
-        }
+fn expect(
+    bytes: &[u8],
+    offset: usize,
+    value: u8,
+    expected: &'static str,
+) -> Result<(), DecodeError> {
+    if bytes[offset] == value {
+        Ok(())
+    } else {
+        Err(DecodeError::Unexpected {
+            offset,
+            expected,
+            found: bytes[offset],
+        })
     }
 }
 
-/// Run a header parser over `bytes`, which must hold at least the 4 identifying bytes (so a
-/// wrong one is named even in a short telegram) and then `header_len` bytes.
-fn parse<'a, O>(
-    bytes: &'a [u8],
-    header_len: usize,
-    mut header: impl Parser<&'a [u8], Output = O, Error = Stop>,
-) -> Result<O, DecodeError> {
-    let too_short = |expected| DecodeError::TooShort {
-        expected,
-        found: bytes.len(),
-    };
-    if bytes.len() < SHORT_HEADER_LEN {
-        return Err(too_short(SHORT_HEADER_LEN));
-    }
-    match header.parse(bytes) {
-        Ok((_, out)) => Ok(out),
-        Err(nom::Err::Error(stop) | nom::Err::Failure(stop)) => {
-            let offset = bytes.len() - stop.left;
-            Err(match (stop.expected, bytes.get(offset)) {
-                (Some(expected), Some(&found)) => DecodeError::Unexpected {
-                    offset,
-                    expected,
-                    found,
-                },
-                _ => too_short(header_len),
-            })
-        }
-        Err(nom::Err::Incomplete(_)) => Err(too_short(header_len)),
-    }
+fn command_at(bytes: &[u8]) -> Result<Command, DecodeError> {
+    Command::from_letter(bytes[2]).ok_or(DecodeError::Unexpected {
+        offset: 2,
+        expected: "command 'A' (41H), 'O' (4FH) or 'E' (45H)",
+        found: bytes[2],
+    })
 }
 
-/// One byte that must be `value`.
-fn byte<'a>(value: u8, expected: &'static str) -> impl Parser<&'a [u8], Output = u8, Error = Stop> {
-    context(expected, verify(u8, move |&b| b == value))
-}
-
-fn command(bytes: &[u8]) -> IResult<&[u8], Command, Stop> {
-    context(
-        "command 'A' (41H), 'O' (4FH) or 'E' (45H)",
-        map_opt(u8, Command::from_letter),
-    )
-    .parse(bytes)
-}
-
-fn data_type(bytes: &[u8]) -> IResult<&[u8], DataType, Stop> {
-    context(
-        "data type 'D', 'X', 'E', 'A', 'M', 'T' or 'Z'",
-        map_opt(u8, DataType::from_letter),
-    )
-    .parse(bytes)
+fn data_type_at(bytes: &[u8]) -> Result<DataType, DecodeError> {
+    DataType::from_letter(bytes[3]).ok_or(DecodeError::Unexpected {
+        offset: 3,
+        expected: "data type 'D', 'X', 'E', 'A', 'M', 'T' or 'Z'",
+        found: bytes[3],
+    })
 }
 
 /// What is wrong with a telegram: the offset, what was expected and what was found.

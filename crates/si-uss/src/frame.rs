@@ -28,12 +28,6 @@
 //! ```
 
 use core::fmt;
-use nom::bytes::complete::take;
-use nom::combinator::{cond, consumed};
-use nom::error::{ErrorKind, FromExternalError, ParseError};
-use nom::multi::fill;
-use nom::number::complete::{be_u16, u8};
-use nom::Parser;
 use serde::{Deserialize, Serialize};
 
 /// Start of text, the first byte of every telegram.
@@ -244,71 +238,42 @@ pub struct Telegram<'a> {
     pub net: &'a [u8],
 }
 
-/// nom's error for [`decode`]: the [`DecodeError`] a check raised (`None` only where the
-/// length checks before the parser make a failure impossible).
-struct Bad(Option<DecodeError>);
-
-impl ParseError<&[u8]> for Bad {
-    fn from_error_kind(_: &[u8], _: ErrorKind) -> Bad {
-        Bad(None)
-    }
-
-    fn append(_: &[u8], _: ErrorKind, other: Bad) -> Bad {
-        other
-    }
-}
-
-impl FromExternalError<&[u8], DecodeError> for Bad {
-    fn from_external_error(_: &[u8], _: ErrorKind, e: DecodeError) -> Bad {
-        Bad(Some(e))
-    }
-}
-
 /// Check STX, LGE and BCC of one whole telegram and take it apart.
 pub fn decode(bytes: &[u8]) -> Result<Telegram<'_>, DecodeError> {
-    let len = bytes.len();
-    if len > MAX_TELEGRAM {
-        return Err(DecodeError::Oversize { len });
+    if bytes.len() > MAX_TELEGRAM {
+        return Err(DecodeError::Oversize { len: bytes.len() });
     }
-    if len < 4 {
-        return Err(DecodeError::TooShort { len });
+    if bytes.len() < 4 {
+        return Err(DecodeError::TooShort { len: bytes.len() });
     }
-    let stx = u8.map_res(|found| match found {
-        STX => Ok(found),
-        _ => Err(DecodeError::NoStx { found }),
-    });
-    let lge = u8.map_res(|lge| {
-        let expected = usize::from(lge) + 2;
-        if !(2..=254).contains(&lge) {
-            Err(DecodeError::LgeOutOfRange { lge })
-        } else if expected != len {
-            Err(DecodeError::WrongLength {
-                lge,
-                expected,
-                found: len,
-            })
-        } else {
-            Ok(lge)
-        }
-    });
-    let mut telegram = (consumed((stx, lge, u8, take(len - 4))), u8).map_res(
-        |((checked, (_, _, adr, net)), found)| {
-            let expected = bcc(checked);
-            if expected != found {
-                return Err(DecodeError::Bcc {
-                    offset: len - 1,
-                    expected,
-                    found,
-                });
-            }
-            Ok(Telegram { adr: Adr(adr), net })
-        },
-    );
-    match telegram.parse(bytes) {
-        Ok((_, t)) => Ok(t),
-        Err(nom::Err::Error(Bad(Some(e))) | nom::Err::Failure(Bad(Some(e)))) => Err(e),
-        Err(_) => Err(DecodeError::TooShort { len }),
+    if bytes[0] != STX {
+        return Err(DecodeError::NoStx { found: bytes[0] });
     }
+    let lge = bytes[1];
+    if !(2..=254).contains(&lge) {
+        return Err(DecodeError::LgeOutOfRange { lge });
+    }
+    let expected = usize::from(lge) + 2;
+    if expected != bytes.len() {
+        return Err(DecodeError::WrongLength {
+            lge,
+            expected,
+            found: bytes.len(),
+        });
+    }
+    let offset = bytes.len() - 1;
+    let want = bcc(&bytes[..offset]);
+    if want != bytes[offset] {
+        return Err(DecodeError::Bcc {
+            offset,
+            expected: want,
+            found: bytes[offset],
+        });
+    }
+    Ok(Telegram {
+        adr: Adr(bytes[2]),
+        net: &bytes[3..offset],
+    })
 }
 
 /// [`decode`], then check that ADR is `expected` (a master checks the answering slave).
@@ -605,23 +570,20 @@ impl NetData {
                 found: net.len(),
             });
         }
-        let (mut pwe, mut pzd) = ([0u16; MAX_PWE_WORDS], [0u16; MAX_PZD_WORDS]);
-        let pwe_words = pkw_words.saturating_sub(2);
-        let ids = (
-            cond(
-                pkw_words > 0,
-                (be_u16, be_u16, fill(be_u16, &mut pwe[..pwe_words])),
-            ),
-            fill(be_u16, &mut pzd[..pzd_words]),
-        )
-            .parse(net)
-            .map(|(_, (ids, ()))| ids)
-            .map_err(|_: nom::Err<()>| DecodeError::WrongStructure {
-                expected,
-                found: net.len(),
-            })?;
+        let word = |i: usize| u16::from_be_bytes([net[2 * i], net[2 * i + 1]]);
+        let pkw = (pkw_words > 0).then(|| {
+            let mut pwe = [0u16; MAX_PWE_WORDS];
+            for (k, w) in pwe.iter_mut().enumerate().take(pkw_words - 2) {
+                *w = word(2 + k);
+            }
+            Pkw::new(Pke(word(0)), word(1), &pwe[..pkw_words - 2])
+        });
+        let mut pzd = [0u16; MAX_PZD_WORDS];
+        for (k, w) in pzd.iter_mut().enumerate().take(pzd_words) {
+            *w = word(pkw_words + k);
+        }
         Ok(NetData {
-            pkw: ids.map(|(pke, ind, ())| Pkw::new(Pke(pke), ind, &pwe[..pwe_words])),
+            pkw,
             pzd: Pzd::new(&pzd[..pzd_words]),
         })
     }
