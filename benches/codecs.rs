@@ -6,7 +6,8 @@
 //!   FC03 round trip over `tokio::io::duplex`, our master against tokio-modbus's client, both
 //!   talking to the same slave (ours: tokio-modbus's RTU server only runs on a serial port).
 //! - 3964(R) block encode/decode of 256 bytes, USS telegram decode, the DP window send of a
-//!   224-byte frame, and for every engine its receive path fed the whole frame at once and one
+//!   224-byte frame, the decoders of complete records (RK 512 telegram, slave diagnosis, I&M0;
+//!   issue 17 compares them hand-written and with nom), and for every engine its receive path fed the whole frame at once and one
 //!   byte at a time (`*_bytewise`).
 //!
 //! Run: `cargo bench --bench codecs` (add `-- <group>` to pick one).
@@ -550,5 +551,64 @@ fn dpcoord(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, modbus, r3964, uss, ascii, dpcoord);
+/// A group timing `decode` (which must succeed) on `bytes`, in bytes per second; the decoded
+/// value is returned to criterion, so none of the decoding is optimised away.
+fn decode_group<'a, T, E: std::fmt::Debug>(
+    c: &mut Criterion,
+    name: &str,
+    bytes: &'a [u8],
+    decode: impl Fn(&'a [u8]) -> Result<T, E>,
+) {
+    let mut g = c.benchmark_group(name);
+    g.throughput(Throughput::Bytes(bytes.len() as u64));
+    g.bench_function("si", |b| b.iter(|| decode(black_box(bytes)).unwrap()));
+    g.finish();
+}
+
+/// Decoders of complete records: an RK 512 SEND telegram with 128 data bytes, a slave
+/// diagnosis with every part, an I&M0 record (issue 17: nom where it helps).
+fn records(c: &mut Criterion) {
+    use si_module::diag::{
+        ChannelDiagnosis, ErrorType, ModuleDiagnosis, ModuleStatus, SlaveDiagnosis, StationStatus,
+    };
+    use si_module::ident::Im0;
+    use si_rk512::frame::{Address, Command, CommandHeader, Coordination, Telegram};
+
+    let mut telegram = CommandHeader {
+        command: Command::Send,
+        address: Address::Db { db: 10, dw: 1 },
+        length: 64,
+        coordination: Coordination::cpu_only(1),
+    }
+    .encode()
+    .to_vec();
+    telegram.extend(pseudo_random(128, 5));
+    decode_group(c, "rk512_decode_telegram", &telegram, Telegram::decode);
+
+    let diag = SlaveDiagnosis {
+        station: StationStatus {
+            status1: 0x08,
+            status2: 0x0C,
+            master_address: 2,
+            ident_number: 0x80E0,
+            ..StationStatus::default()
+        },
+        module_diagnosis: Some(ModuleDiagnosis { bits: vec![0x02] }),
+        module_status: Some(ModuleStatus { bits: vec![0x04] }),
+        channels: vec![
+            ChannelDiagnosis::si(2, ErrorType::WireBreak),
+            ChannelDiagnosis::si(3, ErrorType::MessageError),
+        ],
+    }
+    .encode()
+    .unwrap();
+    decode_group(c, "module_diag_decode", &diag, SlaveDiagnosis::decode);
+
+    let record = Im0::for_variant(si_module::diag::Variant::ModbusUss, "S C-X4U12345")
+        .encode()
+        .unwrap();
+    decode_group(c, "module_im0_decode", &record, Im0::decode);
+}
+
+criterion_group!(benches, modbus, r3964, uss, ascii, dpcoord, records);
 criterion_main!(benches);

@@ -34,6 +34,14 @@
 //! - **Type 8 wording.** Chapter 2 limits "underflow" to 3964(R) ("a message of length 0 was
 //!   sent"); chapter 3 gives the same text without the restriction. [`ErrorType::meaning`] gives
 //!   each variant its own wording.
+//!
+//! # Hand-written, not nom
+//!
+//! Hand-written because a nom version (issue 17; commit 303f045 in the history) was longer and
+//! slower: the parts are ordered and may each be absent, every error names its part and offset,
+//! so the loop and its checks stay as they are and nom only replaced the slicing, through a
+//! 17-line helper mapping its errors to [`DiagError::Truncated`] (521 → 536 code lines;
+//! `module_diag_decode` 64.8 → 87.8 ns).
 
 use serde::{Deserialize, Serialize};
 

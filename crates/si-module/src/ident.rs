@@ -24,6 +24,14 @@
 //! - **Software revision** (4 bytes, "firmware version"): coded as in PROFIBUS I&M, a prefix
 //!   character ('V' released) and three numbers (functional, bug fix, internal).
 //! - **I&M version** is 00 00H as printed (a PROFIBUS I&M device would say 01 01H).
+//!
+//! # Hand-written, not nom
+//!
+//! Hand-written because a nom version (issue 17; commit 261d487 in the history) was longer and
+//! no faster: a record is checked to be 64 bytes first, so the fields are read at the offsets
+//! the table gives and no read can fail; nom's field tuples hid those offsets, which the text
+//! errors report, and needed an error mapping that cannot happen (293 → 306 code lines;
+//! `module_im0_decode` 73.5 → 77.2 ns, within noise).
 
 use crate::diag::Variant;
 use serde::{Deserialize, Serialize};

@@ -39,6 +39,14 @@
 //! - **Byte 10 .** Both nibbles are kept as sent: high nibble CPU number (1–4, `0` with a
 //!   flag but no CPU, `F` none), low nibble flag bit (`F` none). Fig. 2-13's `1F` shows a CPU
 //!   number without a flag.
+//!
+//! # Hand-written, not nom
+//!
+//! Hand-written because a nom version (issue 17; commit 5bedae2 in the history) was longer and
+//! slower: the errors name the offset and what the manual allows there, and the 4 identifying
+//! bytes are checked before the 10-byte length, so nom needed its own error type, a context per
+//! byte and a mapping back to [`DecodeError`] (403 → 450 code lines), and the
+//! `rk512_decode_telegram` bench went from 7.4 to 16.2 ns.
 
 use core::fmt;
 

@@ -26,6 +26,14 @@
 //! let t = frame::decode(&buf[..len]).unwrap();
 //! assert_eq!(t.adr.address(), 1);
 //! ```
+//!
+//! # Hand-written, not nom
+//!
+//! Hand-written because a nom version (issue 17; commit ff29b82 in the history) was longer and
+//! slower: [`decode`] checks the whole telegram's length against LGE and XORs it for the BCC,
+//! which nom can only express through an error type carrying [`DecodeError`] and `consumed`
+//! (36 → 59 lines), and [`NetData::parse`] reads words whose count it has already checked
+//! (31 → 34 lines with `fill`); the `uss_decode` bench went from 57.5 to 70.8 ns.
 
 use core::fmt;
 use serde::{Deserialize, Serialize};
