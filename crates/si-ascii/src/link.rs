@@ -71,10 +71,12 @@ use crate::config::{
 };
 use crate::frame::{Cut, Cutter};
 use crate::status;
-use bytes::{Bytes, BytesMut};
+use bytes::Bytes;
 use si_core::delivery::Delivery;
 use si_core::v24::{AutoV24 as AutoV24Sequence, Step};
-use si_core::{Duration, Engine, Instant, LineError, ModemSignals, Output, SignalUpdate, Status};
+use si_core::{
+    Duration, Engine, FramePool, Instant, LineError, ModemSignals, Output, SignalUpdate, Status,
+};
 use std::collections::VecDeque;
 
 /// The one job id of si-core, here because users name it from this module.
@@ -269,10 +271,9 @@ pub struct Link {
     /// The automatic V.24 sequence (si-core, shared with Modbus), with that flow control only.
     v24: Option<AutoV24Sequence>,
     out: VecDeque<Output<Event>>,
-    /// [`Link::read_frame_bytes`] cuts frames from this buffer (`split().freeze()`); once the
-    /// caller has dropped the frames it took, `reserve` reclaims the allocation, so a steady
-    /// state allocates nothing per frame. Empty until first used.
-    rx_pool: BytesMut,
+    /// [`Link::read_frame_bytes`] cuts frames from this pool: once the caller has dropped the
+    /// frames it took, a steady state allocates nothing per frame. Empty until first used.
+    rx_pool: FramePool,
 }
 
 /// Bytes [`Link::read_frame_bytes`] allocates at a time: four of the longest frames.
@@ -313,7 +314,7 @@ impl Link {
             v24: (config.flow_control == FlowControl::AutoV24)
                 .then(|| AutoV24Sequence::new(config.auto_v24)),
             out: VecDeque::with_capacity(16),
-            rx_pool: BytesMut::new(),
+            rx_pool: FramePool::new(RX_POOL_BYTES),
             rx_deadline_only: true,
         };
         link.enter_mode();
@@ -562,16 +563,12 @@ impl Link {
     /// (the si-core contract; a module forwarding frames through the DP window reads them so).
     pub fn read_frame_bytes(&mut self, now: Instant) -> Option<Bytes> {
         let len = self.buffer.oldest_len()?;
-        if self.rx_pool.capacity() < len {
-            self.rx_pool.reserve(RX_POOL_BYTES.max(len));
-        }
-        self.rx_pool.resize(len, 0);
-        if self.buffer.pop_into(&mut self.rx_pool).is_none() {
-            self.rx_pool.clear();
-            return None;
-        }
+        let buffer = &mut self.buffer;
+        let frame = self
+            .rx_pool
+            .cut_filled(len, |dst| buffer.pop_into(dst).is_some())?;
         self.frame_taken(now);
-        Some(self.rx_pool.split().freeze())
+        Some(frame)
     }
 
     /// A frame has left the buffer: the partner may go on (XON / RTS = ON), and a half-duplex

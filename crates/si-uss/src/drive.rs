@@ -23,9 +23,8 @@ use crate::frame::{
     MAX_TELEGRAM,
 };
 use crate::rx::{Receiver, RxOutcome};
-use bytes::BytesMut;
 use serde::{Deserialize, Serialize};
-use si_core::{Duration, Engine, Instant, LineError, Output, SerialSettings};
+use si_core::{Duration, Engine, FramePool, Instant, LineError, Output, SerialSettings};
 use std::collections::VecDeque;
 
 /// Control word STW bits the drive reacts to (PROFIdrive/MICROMASTER meaning).
@@ -227,10 +226,9 @@ pub struct Drive {
     /// A parameter changed locally, reported until the master acknowledges the toggle bit.
     pending_report: Option<(ParamAddress, u32, bool)>,
     report_toggle: bool,
-    /// Transmit frames are cut from this buffer (`split().freeze()`); once the driver drops
-    /// the previous frame, `reserve` reclaims the same allocation, so a steady state allocates
-    /// nothing per frame (the si-core contract).
-    tx_pool: BytesMut,
+    /// Transmit frames are cut from this pool: a steady state allocates nothing per frame (the
+    /// si-core contract).
+    tx_pool: FramePool,
 }
 
 impl Drive {
@@ -259,7 +257,7 @@ impl Drive {
             out: VecDeque::with_capacity(8),
             tx: [0; MAX_TELEGRAM],
             tx_len: 0,
-            tx_pool: BytesMut::with_capacity(4 * MAX_TELEGRAM),
+            tx_pool: FramePool::preallocated(4 * MAX_TELEGRAM),
             reply_at: None,
             echo_left: 0,
             stw: 0,
@@ -674,9 +672,7 @@ impl Engine for Drive {
         if self.reply_at.is_some_and(|t| now >= t) {
             self.reply_at = None;
             let len = self.tx_len;
-            self.tx_pool.reserve(len);
-            self.tx_pool.extend_from_slice(&self.tx[..len]);
-            let telegram = self.tx_pool.split().freeze();
+            let telegram = self.tx_pool.cut(&self.tx[..len]);
             self.out.push_back(Output::Transmit(telegram));
             if self.config.local_echo {
                 self.echo_left = len;

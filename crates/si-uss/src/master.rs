@@ -45,9 +45,8 @@ use crate::frame::{
 };
 use crate::rx::{Receiver, RxOutcome};
 use crate::status;
-use bytes::BytesMut;
 use serde::{Deserialize, Serialize};
-use si_core::{Duration, Engine, Instant, LineError, Output, Status};
+use si_core::{Duration, Engine, FramePool, Instant, LineError, Output, Status};
 use std::collections::VecDeque;
 
 /// The one job id of si-core; it identifies a job (parameter, broadcast, mirror) in its
@@ -417,10 +416,9 @@ pub struct Master {
     mirror: Option<(u8, PendingSpecial)>,
     next_job: u64,
     counters: Counters,
-    /// Transmit frames are cut from this buffer (`split().freeze()`); once the driver drops
-    /// the previous frame, `reserve` reclaims the same allocation, so a steady state allocates
-    /// nothing per frame (the si-core contract).
-    tx_pool: BytesMut,
+    /// Transmit frames are cut from this pool: a steady state allocates nothing per frame (the
+    /// si-core contract).
+    tx_pool: FramePool,
 }
 
 impl Master {
@@ -463,7 +461,7 @@ impl Master {
             mirror: None,
             next_job: 0,
             counters: Counters::default(),
-            tx_pool: BytesMut::with_capacity(4 * MAX_TELEGRAM),
+            tx_pool: FramePool::preallocated(4 * MAX_TELEGRAM),
             config,
         })
     }
@@ -745,9 +743,7 @@ impl Master {
     fn transmit(&mut self, now: Instant, adr: Adr, net: &[u8]) {
         self.tx_len = frame::encode(adr, net, &mut self.tx).unwrap_or(0);
         let len = self.tx_len;
-        self.tx_pool.reserve(len);
-        self.tx_pool.extend_from_slice(&self.tx[..len]);
-        let telegram = self.tx_pool.split().freeze();
+        let telegram = self.tx_pool.cut(&self.tx[..len]);
         self.out.push_back(Output::Transmit(telegram));
         bump(&mut self.counters.sent);
         self.line_free = now + self.config.settings.chars_time(len as u64);
