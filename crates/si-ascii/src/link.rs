@@ -73,6 +73,7 @@ use crate::frame::{Cut, Cutter};
 use crate::status;
 use bytes::Bytes;
 use si_core::delivery::Delivery;
+use si_core::echo::EchoFilter;
 use si_core::v24::{AutoV24 as AutoV24Sequence, Step};
 use si_core::{
     Duration, Engine, FramePool, Instant, LineError, ModemSignals, Output, SignalUpdate, Status,
@@ -260,6 +261,10 @@ pub struct Link {
     tx: Tx,
     /// Bytes handed out whose tx-done has not come yet.
     in_flight: bool,
+    /// RS-485 is half duplex (cp341-3964r-rk512-ascii.md §5.5): what is received while our
+    /// bytes are in flight is our own (si-core's one echo filter, while-sending mode). `None`
+    /// on RS-232 and RS-422.
+    echo: Option<EchoFilter>,
     last_tx_end: Option<Instant>,
     /// The partner sent XOFF.
     partner_stopped: bool,
@@ -304,6 +309,7 @@ impl Link {
             stop_sent: false,
             tx: Tx::Idle,
             in_flight: false,
+            echo: (config.interface == Interface::Rs485).then(EchoFilter::while_sending),
             last_tx_end: None,
             partner_stopped: false,
             next_job: 0,
@@ -452,8 +458,7 @@ impl Link {
                 };
                 let chunk = frame.slice(*pos..*pos + n);
                 *pos += n;
-                self.in_flight = true;
-                self.out.push_back(Output::Transmit(chunk));
+                self.put_on_air(chunk);
             }
         }
     }
@@ -526,8 +531,16 @@ impl Link {
     }
 
     fn transmit_flow_char(&mut self, c: u8) {
+        self.put_on_air(single(c));
+    }
+
+    /// Hands `bytes` to the driver: in flight until tx-done, and heard back as echo on RS-485.
+    fn put_on_air(&mut self, bytes: Bytes) {
         self.in_flight = true;
-        self.out.push_back(Output::Transmit(single(c)));
+        if let Some(echo) = self.echo.as_mut() {
+            echo.sent_len(bytes.len());
+        }
+        self.out.push_back(Output::Transmit(bytes));
     }
 
     /// XOFF received or CTS = OFF: hold sending and start the wait time.
@@ -737,7 +750,7 @@ impl Link {
                 return;
             }
         }
-        if self.cfg.interface == Interface::Rs485 && self.in_flight {
+        if self.echo.as_mut().is_some_and(|e| e.drops(now, byte)) {
             return; // half duplex: our own echo
         }
         if self.cfg.flow_control == FlowControl::AutoV24 && !self.inputs.dsr {
@@ -1099,6 +1112,9 @@ impl Link {
             return;
         }
         self.in_flight = false;
+        if let Some(echo) = self.echo.as_mut() {
+            echo.transmitted();
+        }
         if let Tx::Sending {
             job, frame, pos, ..
         } = &self.tx
@@ -1121,7 +1137,7 @@ impl Link {
     }
 
     fn on_line_error(&mut self, now: Instant, error: LineError) {
-        if self.cfg.interface == Interface::Rs485 && self.in_flight {
+        if self.echo.as_mut().is_some_and(EchoFilter::drops_line_error) {
             return; // our own transmission
         }
         let code = match error {

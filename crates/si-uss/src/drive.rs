@@ -24,6 +24,7 @@ use crate::frame::{
 };
 use crate::rx::{Receiver, RxOutcome};
 use serde::{Deserialize, Serialize};
+use si_core::echo::EchoFilter;
 use si_core::{Duration, Engine, FramePool, Instant, LineError, Output, SerialSettings};
 use std::collections::VecDeque;
 
@@ -213,7 +214,9 @@ pub struct Drive {
     tx: [u8; MAX_TELEGRAM],
     tx_len: usize,
     reply_at: Option<Instant>,
-    echo_left: usize,
+    /// A line that echoes our replies: as many received characters (or line errors) as we
+    /// sent are dropped (si-core's one echo filter, count mode).
+    echo: EchoFilter,
     stw: u16,
     setpoint: u16,
     actual: u16,
@@ -259,7 +262,7 @@ impl Drive {
             tx_len: 0,
             tx_pool: FramePool::preallocated(4 * MAX_TELEGRAM),
             reply_at: None,
-            echo_left: 0,
+            echo: EchoFilter::counting(),
             stw: 0,
             setpoint: 0,
             actual: 0,
@@ -649,8 +652,7 @@ impl Engine for Drive {
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
         self.rx.observe_read(bytes.len());
         for &b in bytes {
-            if self.echo_left > 0 {
-                self.echo_left -= 1;
+            if self.echo.drops(now, b) {
                 continue;
             }
             match self.rx.push(now, b) {
@@ -675,14 +677,15 @@ impl Engine for Drive {
             let telegram = self.tx_pool.cut(&self.tx[..len]);
             self.out.push_back(Output::Transmit(telegram));
             if self.config.local_echo {
-                self.echo_left = len;
+                // A new reply: an echo of the previous one not heard back is forgotten.
+                self.echo.stop();
+                self.echo.sent_len(len);
             }
         }
     }
 
     fn handle_line_error(&mut self, now: Instant, error: LineError) {
-        if self.echo_left > 0 {
-            self.echo_left -= 1;
+        if self.echo.drops_line_error() {
             return;
         }
         if self.rx.is_receiving() {

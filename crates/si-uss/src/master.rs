@@ -46,6 +46,7 @@ use crate::frame::{
 use crate::rx::{Receiver, RxOutcome};
 use crate::status;
 use serde::{Deserialize, Serialize};
+use si_core::echo::EchoFilter;
 use si_core::{Duration, Engine, FramePool, Instant, LineError, Output, Status};
 use std::collections::VecDeque;
 
@@ -407,7 +408,9 @@ pub struct Master {
     entry: usize,
     cycle: u64,
     phase: Phase,
-    echo_left: usize,
+    /// A line that echoes our telegrams: as many received characters (or line errors) as we
+    /// sent are dropped (si-core's one echo filter, count mode).
+    echo: EchoFilter,
     line_free: Instant,
     tx: [u8; MAX_TELEGRAM],
     tx_len: usize,
@@ -452,7 +455,7 @@ impl Master {
             entry: 0,
             cycle: 0,
             phase: Phase::Stopped,
-            echo_left: 0,
+            echo: EchoFilter::counting(),
             line_free: Instant::ZERO,
             tx: [0; MAX_TELEGRAM],
             tx_len: 0,
@@ -748,7 +751,9 @@ impl Master {
         bump(&mut self.counters.sent);
         self.line_free = now + self.config.settings.chars_time(len as u64);
         if self.config.local_echo {
-            self.echo_left = len;
+            // A new telegram: an echo of the previous one not heard back is forgotten.
+            self.echo.stop();
+            self.echo.sent_len(len);
         }
     }
 
@@ -1106,8 +1111,7 @@ impl Engine for Master {
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
         self.rx.observe_read(bytes.len());
         for &b in bytes {
-            if self.echo_left > 0 {
-                self.echo_left -= 1;
+            if self.echo.drops(now, b) {
                 continue;
             }
             let outcome = self.rx.push(now, b);
@@ -1148,7 +1152,7 @@ impl Engine for Master {
         if let Phase::Awaiting { current, deadline } = self.phase {
             if now >= deadline && !self.rx.is_receiving() {
                 bump(&mut self.counters.no_answer);
-                self.echo_left = 0;
+                self.echo.stop();
                 self.rx.resync();
                 self.fail_current(now, current, status::NO_ANSWER);
             }
@@ -1161,8 +1165,7 @@ impl Engine for Master {
     }
 
     fn handle_line_error(&mut self, now: Instant, error: LineError) {
-        if self.echo_left > 0 {
-            self.echo_left -= 1;
+        if self.echo.drops_line_error() {
             return;
         }
         match error {
