@@ -7,8 +7,6 @@
 //! [`LoopbackSerial`](si_dp_coord::LoopbackSerial) copies every frame it is handed into a new
 //! `Bytes` (a test fake), so the module runs here over [`PoolLoopback`], a minimal serial side
 //! that cuts its frames from a buffer it keeps.
-//!
-//! Runs without libtest's harness, whose own threads would allocate while we count.
 
 use bytes::{Bytes, BytesMut};
 use si_core::{Duration, Instant, Status};
@@ -17,15 +15,11 @@ use si_dp_coord::{
     Host, HostConfig, Job, Module, ModuleConfig, Outcome, ParamBlock, SerialEvent, SerialSide,
     V24Signals, WindowSize,
 };
-use stats_alloc::{Region, StatsAlloc, INSTRUMENTED_SYSTEM};
-use std::alloc::System;
+use si_testkit::alloc::assert_no_alloc;
 
-#[global_allocator]
-static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
-
-fn main() {
+pub(crate) fn run() {
     steady_state_window_jobs_do_not_allocate();
-    println!("window_no_alloc: 1000 send and 1000 receive jobs allocate nothing: ok");
+    println!("no_alloc: window: 1000 send and 1000 receive jobs allocate nothing: ok");
 }
 
 const WINDOW: usize = 8;
@@ -60,16 +54,11 @@ fn steady_state_window_jobs_do_not_allocate() {
         cycle(&mut bus); // warm up: queues reach their working size
     }
     let before = (bus.host.stats(), bus.module.stats());
-    let region = Region::new(GLOBAL);
-    for _ in 0..1_000 {
-        cycle(&mut bus);
-    }
-    let stats = region.change();
-    assert_eq!(
-        (stats.allocations, stats.reallocations),
-        (0, 0),
-        "allocations in 1000 send and 1000 receive jobs: {stats:?}"
-    );
+    assert_no_alloc("1000 send and 1000 receive jobs", || {
+        for _ in 0..1_000 {
+            cycle(&mut bus);
+        }
+    });
     let after = (bus.host.stats(), bus.module.stats());
     assert_eq!(after.1.jobs - before.1.jobs, 2_000);
     assert_eq!(after.1.frames_delivered - before.1.frames_delivered, 1_000);

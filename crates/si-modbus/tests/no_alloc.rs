@@ -9,18 +9,12 @@ use si_core::sim::Pair;
 use si_core::Duration;
 use si_modbus::frame::{Registers, Request};
 use si_modbus::{FrameEnd, Master, MasterConfig, MasterEvent, SimaticStore, Slave, SlaveConfig};
-use stats_alloc::{Region, StatsAlloc, INSTRUMENTED_SYSTEM};
-use std::alloc::System;
-
-#[global_allocator]
-static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
+use si_testkit::alloc::assert_no_alloc;
 
 fn main() {
     for frame_end in [FrameEnd::Gap, FrameEnd::Length] {
         steady_state_polling_does_not_allocate(frame_end);
-        println!(
-            "master_slave_no_alloc: 1000 request/response cycles with {frame_end:?} allocate nothing: ok"
-        );
+        println!("no_alloc: 1000 request/response cycles with {frame_end:?} allocate nothing: ok");
     }
 }
 
@@ -62,16 +56,11 @@ fn steady_state_polling_does_not_allocate(frame_end: FrameEnd) {
         cycle(&mut pair); // warm up: queues reach their working size
     }
     let events = pair.events;
-    let region = Region::new(GLOBAL);
-    for _ in 0..1_000 {
-        cycle(&mut pair);
-    }
-    let stats = region.change();
-    assert_eq!(
-        (stats.allocations, stats.reallocations),
-        (0, 0),
-        "allocations in 1000 cycles: {stats:?}"
-    );
+    assert_no_alloc("1000 cycles", || {
+        for _ in 0..1_000 {
+            cycle(&mut pair);
+        }
+    });
     // Every request ended in a master event (done), so the frames really went both ways.
     assert!(pair.events.0 - events.0 >= 2_000, "{:?}", pair.events);
 }

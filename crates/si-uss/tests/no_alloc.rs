@@ -6,19 +6,15 @@
 
 use si_core::sim::Pair;
 use si_core::{Duration, Instant};
+use si_testkit::alloc::assert_no_alloc;
 use si_uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_uss::drive::{Drive, DriveConfig};
 use si_uss::frame::PkwWords;
 use si_uss::Master;
-use stats_alloc::{Region, StatsAlloc, INSTRUMENTED_SYSTEM};
-use std::alloc::System;
-
-#[global_allocator]
-static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
 
 fn main() {
     steady_state_polling_does_not_allocate();
-    println!("master_no_alloc: 10 s of polling allocates nothing: ok");
+    println!("no_alloc: 10 s of polling allocates nothing: ok");
 }
 
 fn steady_state_polling_does_not_allocate() {
@@ -32,18 +28,13 @@ fn steady_state_polling_does_not_allocate() {
     pair.a.start(now);
     pair.run_until(Instant::from_micros(1_000_000)); // warm up
     let before = *pair.a.counters();
-    let region = Region::new(GLOBAL);
-    for _ in 0..10 {
-        let now = pair.now;
-        pair.a.set_control(1, &[0x047F, 0x2000]).unwrap();
-        pair.run_until(now + Duration::from_secs(1));
-    }
-    let stats = region.change();
-    assert_eq!(
-        (stats.allocations, stats.reallocations),
-        (0, 0),
-        "allocations in 10 s of polling: {stats:?}"
-    );
+    assert_no_alloc("10 s of polling", || {
+        for _ in 0..10 {
+            let now = pair.now;
+            pair.a.set_control(1, &[0x047F, 0x2000]).unwrap();
+            pair.run_until(now + Duration::from_secs(1));
+        }
+    });
     let after = *pair.a.counters();
     let answered = after.ok - before.ok;
     assert!(answered > 500, "only {answered} telegrams answered");

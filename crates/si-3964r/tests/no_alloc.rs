@@ -10,17 +10,13 @@ use si_3964r::fb::{SRcv, SSend};
 use si_3964r::{Config, Link, Priority};
 use si_core::sim::Pair;
 use si_core::{Duration, SerialSettings};
-use stats_alloc::{Region, StatsAlloc, INSTRUMENTED_SYSTEM};
-use std::alloc::System;
-
-#[global_allocator]
-static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
+use si_testkit::alloc::assert_no_alloc;
 
 fn main() {
     steady_state_block_exchange_does_not_allocate();
-    println!("link_no_alloc: 1000 blocks each way allocate nothing: ok");
+    println!("no_alloc: 1000 blocks each way allocate nothing: ok");
     s_send_and_s_rcv_jobs_do_not_allocate();
-    println!("link_no_alloc: 1000 S_SEND / S_RCV jobs allocate nothing: ok");
+    println!("no_alloc: 1000 S_SEND / S_RCV jobs allocate nothing: ok");
 }
 
 fn steady_state_block_exchange_does_not_allocate() {
@@ -53,16 +49,11 @@ fn steady_state_block_exchange_does_not_allocate() {
         cycle(&mut pair); // warm up: queues reach their working size
     }
     let before = (pair.a.counters(), pair.b.counters());
-    let region = Region::new(GLOBAL);
-    for _ in 0..1_000 {
-        cycle(&mut pair);
-    }
-    let stats = region.change();
-    assert_eq!(
-        (stats.allocations, stats.reallocations),
-        (0, 0),
-        "allocations in 1000 blocks each way: {stats:?}"
-    );
+    assert_no_alloc("1000 blocks each way", || {
+        for _ in 0..1_000 {
+            cycle(&mut pair);
+        }
+    });
     let after = (pair.a.counters(), pair.b.counters());
     assert_eq!(after.1.blocks_received - before.1.blocks_received, 1_000);
     assert_eq!(after.0.blocks_received - before.0.blocks_received, 1_000);
@@ -98,14 +89,9 @@ fn s_send_and_s_rcv_jobs_do_not_allocate() {
     for _ in 0..20 {
         job(&mut pair); // warm up: the send buffer reaches its working size
     }
-    let region = Region::new(GLOBAL);
-    for _ in 0..1_000 {
-        job(&mut pair);
-    }
-    let stats = region.change();
-    assert_eq!(
-        (stats.allocations, stats.reallocations),
-        (0, 0),
-        "allocations in 1000 S_SEND / S_RCV jobs: {stats:?}"
-    );
+    assert_no_alloc("1000 S_SEND / S_RCV jobs", || {
+        for _ in 0..1_000 {
+            job(&mut pair);
+        }
+    });
 }

@@ -14,15 +14,11 @@ use si_core::{Duration, SerialSettings};
 use si_rk512::frame::{Address, Coordination};
 use si_rk512::passive::ServerConfig;
 use si_rk512::{Command, Config, Event, Station};
-use stats_alloc::{Region, StatsAlloc, INSTRUMENTED_SYSTEM};
-use std::alloc::System;
-
-#[global_allocator]
-static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
+use si_testkit::alloc::assert_no_alloc;
 
 fn main() {
     steady_state_send_and_fetch_do_not_allocate();
-    println!("station_no_alloc: 1000 SEND and 1000 FETCH jobs allocate nothing: ok");
+    println!("no_alloc: 1000 SEND and 1000 FETCH jobs allocate nothing: ok");
 }
 
 fn steady_state_send_and_fetch_do_not_allocate() {
@@ -85,16 +81,11 @@ fn steady_state_send_and_fetch_do_not_allocate() {
         pair.a.link().counters(),
         pair.b.link().counters(),
     );
-    let region = Region::new(GLOBAL);
-    for _ in 0..1_000 {
-        cycle(&mut pair);
-    }
-    let stats = region.change();
-    assert_eq!(
-        (stats.allocations, stats.reallocations),
-        (0, 0),
-        "allocations in 1000 SEND and 1000 FETCH jobs: {stats:?}"
-    );
+    assert_no_alloc("1000 SEND and 1000 FETCH jobs", || {
+        for _ in 0..1_000 {
+            cycle(&mut pair);
+        }
+    });
     let after = (
         pair.events,
         pair.a.link().counters(),

@@ -8,8 +8,6 @@
 //!
 //! The adapters hand frames to send over as `Bytes` cut from a buffer they keep, and take
 //! received frames from the engines' kept buffers, so nothing is allocated per frame.
-//!
-//! Runs without libtest's harness, whose own threads would allocate while we count.
 
 use bytes::Bytes;
 use si_core::sim::Pair;
@@ -18,17 +16,13 @@ use si_dp_coord::engines;
 use si_dp_coord::host::HostEvent;
 use si_dp_coord::line::EngineSerial;
 use si_dp_coord::{Host, HostConfig, Job, Module, Outcome, WindowSize};
-use stats_alloc::{Region, StatsAlloc, INSTRUMENTED_SYSTEM};
-use std::alloc::System;
+use si_testkit::alloc::assert_no_alloc;
 
-#[global_allocator]
-static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
-
-fn main() {
+pub(crate) fn run() {
     r3964r_exchanges_through_the_window_do_not_allocate();
-    println!("engines_no_alloc: 3964(R), 500 frames each way through the windows: ok");
+    println!("no_alloc: engines: 3964(R), 500 frames each way through the windows: ok");
     ascii_exchanges_through_the_window_do_not_allocate();
-    println!("engines_no_alloc: ASCII, 500 frames each way through the windows: ok");
+    println!("no_alloc: engines: ASCII, 500 frames each way through the windows: ok");
 }
 
 const WINDOW: WindowSize = WindowSize::ThirtyTwo;
@@ -74,16 +68,11 @@ fn steady_state_does_not_allocate<E: Engine>(mut bridge: Bridge<E>, name: &str) 
         exchange(&mut bridge);
     }
     let before = (bridge.pair.a.stats(), bridge.pair.b.stats());
-    let region = Region::new(GLOBAL);
-    for _ in 0..COUNTED {
-        exchange(&mut bridge);
-    }
-    let stats = region.change();
-    assert_eq!(
-        (stats.allocations, stats.reallocations),
-        (0, 0),
-        "{name}: allocations in {COUNTED} frames each way: {stats:?}"
-    );
+    assert_no_alloc(&format!("{name}: {COUNTED} frames each way"), || {
+        for _ in 0..COUNTED {
+            exchange(&mut bridge);
+        }
+    });
     // Every frame went over the line and through both windows exactly once.
     let after = (bridge.pair.a.stats(), bridge.pair.b.stats());
     let counted = COUNTED as u64;
