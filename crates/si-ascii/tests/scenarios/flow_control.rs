@@ -2,7 +2,7 @@
 //! simulator: a fast sender is stopped and resumed without losing a byte, and the wait-time
 //! expiries end the send job with the manual's STATUS.
 
-mod common;
+use crate::common;
 
 use common::{errors, settings, Bench, Partner};
 use si_ascii::fb::{SRts, SVset, SVstat, SXon};

@@ -4,7 +4,7 @@
 //! announced or learnt; and without the adapter the character delay time still ends a frame at
 //! the manual's instant.
 
-mod common;
+use crate::common;
 
 use common::{errors, received, settings, Bench};
 use si_ascii::{Config, EndCriterion};

@@ -1,7 +1,7 @@
 //! et200s-si-3964r-ascii.md §6.3 / §6.5: the three receive end criteria on the simulator, at
 //! several baud rates, with frames cut at exactly the right byte and the right time.
 
-mod common;
+use crate::common;
 
 use common::{errors, received, settings, Bench};
 use si_ascii::config::min_char_delay_ms;

@@ -1,7 +1,7 @@
 //! Host and module never panic on arbitrary input windows (any bytes, any length, any timing),
 //! stay bounded, and every host job still ends in exactly one completion.
 
-mod common;
+use crate::common;
 
 use bytes::Bytes;
 

@@ -2,7 +2,7 @@
 //! against a simulated module: S7 call semantics (REQ edge, R, EN_R, outputs valid one call),
 //! several FBs sharing one host.
 
-mod common;
+use crate::common;
 
 use common::Link;
 use si_core::{Duration, Instant, Status};

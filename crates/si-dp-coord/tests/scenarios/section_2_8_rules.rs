@@ -2,7 +2,7 @@
 //! byte, one side at a time: error bit and go-back, aborts on 000/111, foreign codes, back-off,
 //! the watchdog, reset and restart.
 
-mod common;
+use crate::common;
 
 use bytes::Bytes;
 use common::{assert_window, bytes, ms};

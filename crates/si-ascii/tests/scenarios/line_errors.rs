@@ -2,7 +2,7 @@
 //! (0810H parity, 0811H character frame, 080CH overrun, 080DH BREAK), the broken frame is
 //! discarded and the next one is clean; RS-485 half duplex on the simulator's bus.
 
-mod common;
+use crate::common;
 
 use common::{errors, received, settings, Bench, Partner};
 use si_ascii::{status, Config, EndCriterion, Event, Interface, Link};

@@ -9,7 +9,7 @@
 //! and never twice (the driver never repeats); and every frame the line did not touch arrives
 //! exactly (each frame carries its own check, which the application verifies). The short test
 //! runs in every `cargo test`; the day runs with
-//! `cargo test --release -p si-ascii --test link_soak -- --ignored`.
+//! `cargo test --release -p si-ascii --test soak -- --ignored`.
 
 use bytes::Bytes;
 use si_ascii::{Config, EndCriterion, Event, FlowControl, JobId, Link};

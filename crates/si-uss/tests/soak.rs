@@ -10,7 +10,7 @@
 //! inserted character, pass it. The simulator's flips keep the parity bit right (a worst case:
 //! a real UART's parity check catches every single flip), so a value outside the window is
 //! counted as an undetectable corruption, and those must stay rare. The short test runs in every `cargo test`; the day runs with
-//! `cargo test --release -p si-uss --test master_soak -- --ignored`.
+//! `cargo test --release -p si-uss --test soak -- --ignored`.
 
 use si_core::sim::{Faults, Simulator};
 use si_core::{Duration, Instant};

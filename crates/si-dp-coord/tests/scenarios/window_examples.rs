@@ -9,7 +9,7 @@
 //! and the module against the table's OUT column (checking its IN column). `xx`/`nn` are bytes the
 //! table leaves open.
 
-mod common;
+use crate::common;
 
 use bytes::Bytes;
 use common::{assert_window, bytes, ms};

@@ -1,7 +1,7 @@
 //! et200s-si-3964r-ascii.md §8: S_SEND and S_RCV called cycle by cycle on the simulator, with the
 //! S7 semantics: REQ edge, DONE / ERROR / STATUS valid for one call, R resets.
 
-mod common;
+use crate::common;
 
 use common::{settings, Bench, Partner};
 use si_ascii::fb::{SRcv, SSend};

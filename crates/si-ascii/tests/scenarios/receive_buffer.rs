@@ -1,7 +1,7 @@
 //! et200s-si-3964r-ascii.md §6.6: the 1024-byte receive frame buffer and its options
 //! (dynamic frames, prevent overwrite, clear at startup, the 2/3-full warning, overflow).
 
-mod common;
+use crate::common;
 
 use common::{errors, received, settings, Bench};
 use si_ascii::fb::SRcv;

@@ -4,7 +4,7 @@
 //! far above 16 ms, and get the port's allowance on top; without the adapter the receiver
 //! still acknowledges the block the moment its BCC arrives (§5.4).
 
-mod common;
+use crate::common;
 
 use common::*;
 use si_3964r::frame::{DLE, ETX};

@@ -8,7 +8,7 @@
 //! the last acknowledged write or a later attempted one: a write whose response was lost may
 //! still have been executed, which the protocol cannot tell the master); and the line stays
 //! usable. The short test runs in every `cargo test`; the day runs with
-//! `cargo test --release -p si-modbus --test master_slave_soak -- --ignored`.
+//! `cargo test --release -p si-modbus --test soak -- --ignored`.
 
 use si_core::sim::{Faults, Simulator};
 use si_core::{Duration, Instant, SerialSettings};

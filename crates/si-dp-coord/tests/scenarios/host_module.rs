@@ -2,7 +2,7 @@
 //! windows (et200s-si-2005-window-protocol.md §2.9, §2.8, §2.10: the DP cycle and the host cycle
 //! are asynchronous, so each side sees the other late by a random number of cycles).
 
-mod common;
+use crate::common;
 
 use bytes::Bytes;
 use common::{Faults, Link, RunJob};

@@ -10,7 +10,7 @@
 //! parity wrong: with one data bit flipped by the simulator (`corrupt_received`), or with only
 //! the parity bit flipped (data intact, which nothing but the UART can see).
 
-mod common;
+use crate::common;
 
 use common::*;
 use si_3964r::status::TRANSMISSION_ERROR;
