@@ -1,7 +1,7 @@
 //! The port flags of issue 16 without hardware: `--latency-timer`, `--rs485`, `--local-echo`
 //! parse, and a port that cannot do what they ask is refused with a message that says why.
 
-mod common;
+use crate::common;
 
 use common::{pty_pair, si, stdout, text};
 

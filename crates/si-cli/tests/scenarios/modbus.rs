@@ -1,7 +1,7 @@
 //! `si frame encode|decode modbus` and the Modbus `si sim` scenarios, offline
 //! (et200s-si-modbus-uss.md §3.1, §3.4, §3.8, §4.4).
 
-mod common;
+use crate::common;
 
 use common::{si, stderr, stdout};
 

@@ -9,7 +9,7 @@
 //! missing peer skips the test with a message, with `CI` set it fails. Each peer run is bounded
 //! in time.
 
-mod common;
+use crate::common;
 
 use common::modbus::{self, have_pymodbus, pymodbus_server, served};
 use common::relay::{usb_relay, Adapter};

@@ -7,7 +7,7 @@ use std::io::Write;
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-mod common;
+use crate::common;
 
 use common::{pty_pair_ignoreeof, si, si_command, test_dir, text, Kill};
 

@@ -1,6 +1,6 @@
 //! `si frame decode rk512` and `si sim rk512` without a line (cp341-3964r-rk512-ascii.md §4.2–§4.4).
 
-mod common;
+use crate::common;
 
 use common::{si, stdout};
 

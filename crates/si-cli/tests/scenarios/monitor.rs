@@ -6,7 +6,7 @@ use serde_json::Value;
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 
-mod common;
+use crate::common;
 
 use common::{monitor_json, si_command, test_dir};
 

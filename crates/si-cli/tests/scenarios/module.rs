@@ -1,7 +1,7 @@
 //! `si diag`, `si im`, `si params` as a user runs them (et200s-si-2005-window-protocol.md §6.4,
 //! §9.1; parameter tables §3.2, §4.6, §7.9).
 
-mod common;
+use crate::common;
 
 use common::{si, stderr, stdout, test_dir};
 

@@ -1,6 +1,6 @@
 //! `si frame encode|decode 3964r` and the 3964(R) scenarios of `si sim`, as a user runs them.
 
-mod common;
+use crate::common;
 
 use common::{si, stderr, stdout};
 

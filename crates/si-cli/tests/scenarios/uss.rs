@@ -1,6 +1,6 @@
 //! `si frame encode|decode uss` and the USS `si sim` scenarios, run through the built binary.
 
-mod common;
+use crate::common;
 
 use common::{si, stdout};
 

@@ -1,6 +1,6 @@
 //! The `si` binary as a user meets it: help, version, offline frames, one-line errors.
 
-mod common;
+use crate::common;
 
 use common::{si, stderr, stdout};
 

@@ -5,7 +5,7 @@
 use std::process::Stdio;
 use std::time::Duration;
 
-mod common;
+use crate::common;
 
 use common::{pty_pair_ignoreeof, si_command};
 

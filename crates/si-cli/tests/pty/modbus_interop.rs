@@ -13,7 +13,7 @@ use std::io::Write;
 use std::process::{Command, Output, Stdio};
 use std::time::Duration;
 
-mod common;
+use crate::common;
 
 use common::modbus::{self, have_mbpoll, have_pymodbus, pymodbus_server, served};
 use common::{have_socat, pty_pair, si_command, stderr, stdout, test_dir, Kill};

@@ -5,7 +5,7 @@
 use std::io::Write;
 use std::process::{Output, Stdio};
 
-mod common;
+use crate::common;
 
 use common::si_command;
 

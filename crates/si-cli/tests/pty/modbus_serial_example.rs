@@ -6,7 +6,7 @@
 //! the tests); alone, build it with `cargo build --example modbus_serial --features serial`.
 //! Missing, it is a skip with that message, a failure with `CI` set.
 
-mod common;
+use crate::common;
 
 use common::modbus::serve;
 use common::{pty_pair, stderr, stdout};

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use std::process::Stdio;
 use std::time::Duration;
 
-mod common;
+use crate::common;
 
 use common::{monitor_json, pty_pair_ignoreeof, si_command, test_dir, Kill};
 
