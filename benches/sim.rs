@@ -16,12 +16,8 @@ use bytes::Bytes;
 use criterion::Criterion;
 use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Instant, SerialSettings};
-use stats_alloc::{Region, StatsAlloc, INSTRUMENTED_SYSTEM};
-use std::alloc::System;
+use si_testkit::alloc::Stats;
 use std::time::Instant as Wall;
-
-#[global_allocator]
-static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
 
 /// Two 3964(R) links, A sending 200-byte blocks to B for `span` of virtual time; returns the
 /// blocks B received.
@@ -167,7 +163,7 @@ fn memory_per_link() -> (f64, f64) {
     use si_3964r::{Config, Link, Priority};
     const LINKS: usize = 1_000;
     let settings = SerialSettings::default();
-    let region = Region::new(GLOBAL);
+    let region = si_testkit::alloc::region();
     let mut sim = Simulator::new(4).without_trace();
     let high = Config {
         priority: Priority::High,
@@ -203,7 +199,7 @@ fn memory_per_link() -> (f64, f64) {
     (idle / LINKS as f64, busy / LINKS as f64)
 }
 
-fn live(stats: &stats_alloc::Stats) -> f64 {
+fn live(stats: &Stats) -> f64 {
     stats.bytes_allocated as f64 - stats.bytes_deallocated as f64 + stats.bytes_reallocated as f64
 }
 

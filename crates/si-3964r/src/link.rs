@@ -65,13 +65,13 @@
 use crate::config::{Config, ConfigError, Priority, BLOCK_WAIT, BUFFER_WAIT};
 use crate::frame::{self, Decoder, FrameError, DLE, NAK, STX};
 use crate::status;
-use bytes::{Bytes, BytesMut};
+use bytes::Bytes;
 use core::fmt;
 use serde::{Deserialize, Serialize};
 use si_core::delivery::Delivery;
 /// The one job id of si-core, here because the async handle and users name it from this module.
 pub use si_core::JobId;
-use si_core::{Duration, Engine, Instant, LineError, Output, SerialSettings, Status};
+use si_core::{Duration, Engine, FramePool, Instant, LineError, Output, SerialSettings, Status};
 use std::collections::VecDeque;
 
 /// What the engine tells the application.
@@ -199,13 +199,12 @@ pub struct Link {
     received: VecDeque<Bytes>,
     out: VecDeque<Output<Event>>,
     tx_buf: Vec<u8>,
-    /// Transmit frames are cut from this buffer (`split().freeze()`); once the driver drops
-    /// the previous frame, `reserve` reclaims the same allocation, so a steady state allocates
-    /// nothing per frame (the si-core contract).
-    tx_pool: BytesMut,
-    /// Received blocks are cut from this buffer the same way: once the application drops the
+    /// Transmit frames are cut from this pool: a steady state allocates nothing per frame (the
+    /// si-core contract).
+    tx_pool: FramePool,
+    /// Received blocks are cut from a pool the same way: once the application drops the
     /// blocks it took, the allocation is reused.
-    rx_pool: BytesMut,
+    rx_pool: FramePool,
     last_outcome: Option<(JobId, Result<(), Status>)>,
     last_receive_error: Option<Status>,
     counters: Counters,
@@ -244,8 +243,8 @@ impl Link {
             received: VecDeque::with_capacity(config.receive_buffer_blocks.into()),
             out: VecDeque::with_capacity(8),
             tx_buf: Vec::with_capacity(2 * max + 3),
-            tx_pool: BytesMut::with_capacity(2 * (2 * max + 3)),
-            rx_pool: BytesMut::with_capacity(2 * max),
+            tx_pool: FramePool::preallocated(2 * (2 * max + 3)),
+            rx_pool: FramePool::preallocated(2 * max),
             last_outcome: None,
             last_receive_error: None,
             counters: Counters::default(),
@@ -356,9 +355,7 @@ impl Link {
         self.tx_buf.clear();
         frame::encode_into(&job.data, self.config.mode(), &mut self.tx_buf);
         let on_wire = self.settings.chars_time(self.tx_buf.len() as u64);
-        self.tx_pool.reserve(self.tx_buf.len());
-        self.tx_pool.extend_from_slice(&self.tx_buf);
-        let block = self.tx_pool.split().freeze();
+        let block = self.tx_pool.cut(&self.tx_buf);
         self.out.push_back(Output::Transmit(block));
         self.state = State::Sending {
             deadline: now + on_wire + self.ack_delay(),
@@ -467,9 +464,7 @@ impl Link {
                 } else {
                     let len = payload.len();
                     self.counters.blocks_received += 1;
-                    self.rx_pool.reserve(len);
-                    self.rx_pool.extend_from_slice(payload);
-                    self.received.push_back(self.rx_pool.split().freeze());
+                    self.received.push_back(self.rx_pool.cut(payload));
                     self.out.push_back(Output::Event(Event::Received { len }));
                 }
                 self.enter_idle(now);

@@ -2,6 +2,10 @@
 //! asserting the STATUS (et200s-si-3964r-ascii.md §5, cp341-3964r-rk512-ascii.md §3).
 
 mod common;
+#[path = "scenarios/line_errors.rs"]
+mod line_errors;
+#[path = "scenarios/usb_adapter.rs"]
+mod usb_adapter;
 
 use common::*;
 use si_3964r::frame::{encode, Mode, DLE, ETX, NAK, STX};

@@ -71,10 +71,13 @@ use crate::config::{
 };
 use crate::frame::{Cut, Cutter};
 use crate::status;
-use bytes::{Bytes, BytesMut};
+use bytes::Bytes;
 use si_core::delivery::Delivery;
+use si_core::echo::EchoFilter;
 use si_core::v24::{AutoV24 as AutoV24Sequence, Step};
-use si_core::{Duration, Engine, Instant, LineError, ModemSignals, Output, SignalUpdate, Status};
+use si_core::{
+    Duration, Engine, FramePool, Instant, LineError, ModemSignals, Output, SignalUpdate, Status,
+};
 use std::collections::VecDeque;
 
 /// The one job id of si-core, here because users name it from this module.
@@ -258,6 +261,10 @@ pub struct Link {
     tx: Tx,
     /// Bytes handed out whose tx-done has not come yet.
     in_flight: bool,
+    /// RS-485 is half duplex (cp341-3964r-rk512-ascii.md §5.5): what is received while our
+    /// bytes are in flight is our own (si-core's one echo filter, while-sending mode). `None`
+    /// on RS-232 and RS-422.
+    echo: Option<EchoFilter>,
     last_tx_end: Option<Instant>,
     /// The partner sent XOFF.
     partner_stopped: bool,
@@ -269,10 +276,9 @@ pub struct Link {
     /// The automatic V.24 sequence (si-core, shared with Modbus), with that flow control only.
     v24: Option<AutoV24Sequence>,
     out: VecDeque<Output<Event>>,
-    /// [`Link::read_frame_bytes`] cuts frames from this buffer (`split().freeze()`); once the
-    /// caller has dropped the frames it took, `reserve` reclaims the allocation, so a steady
-    /// state allocates nothing per frame. Empty until first used.
-    rx_pool: BytesMut,
+    /// [`Link::read_frame_bytes`] cuts frames from this pool: once the caller has dropped the
+    /// frames it took, a steady state allocates nothing per frame. Empty until first used.
+    rx_pool: FramePool,
 }
 
 /// Bytes [`Link::read_frame_bytes`] allocates at a time: four of the longest frames.
@@ -303,6 +309,7 @@ impl Link {
             stop_sent: false,
             tx: Tx::Idle,
             in_flight: false,
+            echo: (config.interface == Interface::Rs485).then(EchoFilter::while_sending),
             last_tx_end: None,
             partner_stopped: false,
             next_job: 0,
@@ -313,7 +320,7 @@ impl Link {
             v24: (config.flow_control == FlowControl::AutoV24)
                 .then(|| AutoV24Sequence::new(config.auto_v24)),
             out: VecDeque::with_capacity(16),
-            rx_pool: BytesMut::new(),
+            rx_pool: FramePool::new(RX_POOL_BYTES),
             rx_deadline_only: true,
         };
         link.enter_mode();
@@ -451,8 +458,7 @@ impl Link {
                 };
                 let chunk = frame.slice(*pos..*pos + n);
                 *pos += n;
-                self.in_flight = true;
-                self.out.push_back(Output::Transmit(chunk));
+                self.put_on_air(chunk);
             }
         }
     }
@@ -525,8 +531,16 @@ impl Link {
     }
 
     fn transmit_flow_char(&mut self, c: u8) {
+        self.put_on_air(single(c));
+    }
+
+    /// Hands `bytes` to the driver: in flight until tx-done, and heard back as echo on RS-485.
+    fn put_on_air(&mut self, bytes: Bytes) {
         self.in_flight = true;
-        self.out.push_back(Output::Transmit(single(c)));
+        if let Some(echo) = self.echo.as_mut() {
+            echo.sent_len(bytes.len());
+        }
+        self.out.push_back(Output::Transmit(bytes));
     }
 
     /// XOFF received or CTS = OFF: hold sending and start the wait time.
@@ -562,16 +576,12 @@ impl Link {
     /// (the si-core contract; a module forwarding frames through the DP window reads them so).
     pub fn read_frame_bytes(&mut self, now: Instant) -> Option<Bytes> {
         let len = self.buffer.oldest_len()?;
-        if self.rx_pool.capacity() < len {
-            self.rx_pool.reserve(RX_POOL_BYTES.max(len));
-        }
-        self.rx_pool.resize(len, 0);
-        if self.buffer.pop_into(&mut self.rx_pool).is_none() {
-            self.rx_pool.clear();
-            return None;
-        }
+        let buffer = &mut self.buffer;
+        let frame = self
+            .rx_pool
+            .cut_filled(len, |dst| buffer.pop_into(dst).is_some())?;
         self.frame_taken(now);
-        Some(self.rx_pool.split().freeze())
+        Some(frame)
     }
 
     /// A frame has left the buffer: the partner may go on (XON / RTS = ON), and a half-duplex
@@ -740,7 +750,7 @@ impl Link {
                 return;
             }
         }
-        if self.cfg.interface == Interface::Rs485 && self.in_flight {
+        if self.echo.as_mut().is_some_and(|e| e.drops(now, byte)) {
             return; // half duplex: our own echo
         }
         if self.cfg.flow_control == FlowControl::AutoV24 && !self.inputs.dsr {
@@ -1102,6 +1112,9 @@ impl Link {
             return;
         }
         self.in_flight = false;
+        if let Some(echo) = self.echo.as_mut() {
+            echo.transmitted();
+        }
         if let Tx::Sending {
             job, frame, pos, ..
         } = &self.tx
@@ -1124,7 +1137,7 @@ impl Link {
     }
 
     fn on_line_error(&mut self, now: Instant, error: LineError) {
-        if self.cfg.interface == Interface::Rs485 && self.in_flight {
+        if self.echo.as_mut().is_some_and(EchoFilter::drops_line_error) {
             return; // our own transmission
         }
         let code = match error {

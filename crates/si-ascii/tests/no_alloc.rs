@@ -8,11 +8,7 @@ use bytes::Bytes;
 use si_ascii::fb::{SRcv, SSend};
 use si_ascii::{Config, EndCriterion, FlowControl, Link};
 use si_core::{Duration, Engine, Instant, Output};
-use stats_alloc::{Region, StatsAlloc, INSTRUMENTED_SYSTEM};
-use std::alloc::System;
-
-#[global_allocator]
-static GLOBAL: &StatsAlloc<System> = &INSTRUMENTED_SYSTEM;
+use si_testkit::alloc::assert_no_alloc;
 
 fn drain(link: &mut Link) -> usize {
     let mut outputs = 0;
@@ -64,16 +60,11 @@ fn steady_state_receive_and_send_do_not_allocate() {
     for _ in 0..10 {
         cycle(&mut link, &mut now); // warm up
     }
-    let region = Region::new(GLOBAL);
-    for _ in 0..3_000 {
-        cycle(&mut link, &mut now);
-    }
-    let stats = region.change();
-    assert_eq!(
-        (stats.allocations, stats.reallocations),
-        (0, 0),
-        "allocations in 3000 frames each way"
-    );
+    assert_no_alloc("3000 frames each way", || {
+        for _ in 0..3_000 {
+            cycle(&mut link, &mut now);
+        }
+    });
 }
 
 /// §8.2 / §8.3 with the FBs: an S_SEND job per frame (REQ edge, then calls until DONE), the
@@ -119,14 +110,9 @@ fn steady_state_fb_jobs_and_pooled_reads_do_not_allocate() {
     for n in 0..10 {
         cycle(&mut link, &mut now, n); // warm up
     }
-    let region = Region::new(GLOBAL);
-    for n in 0..2_000 {
-        cycle(&mut link, &mut now, n);
-    }
-    let stats = region.change();
-    assert_eq!(
-        (stats.allocations, stats.reallocations),
-        (0, 0),
-        "allocations in 2000 S_SEND jobs and 2000 reads"
-    );
+    assert_no_alloc("2000 S_SEND jobs and 2000 reads", || {
+        for n in 0..2_000 {
+            cycle(&mut link, &mut now, n);
+        }
+    });
 }

@@ -22,8 +22,8 @@
 
 use crate::job::{FramePort, JobId, JobPort, NotStarted, Reception};
 use crate::status::common;
-use crate::{Instant, Status};
-use bytes::{Bytes, BytesMut};
+use crate::{FramePool, Instant, Status};
+use bytes::Bytes;
 
 /// R_TRIG: true on the call where the input goes from FALSE to TRUE.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -216,15 +216,24 @@ const SEND_POOL: usize = 400;
 /// while R is TRUE no job starts. A refusal (1E41H for a bad LEN, 0502H, 0E4xH) shows at once
 /// in the call with the edge. A port that is busy with another caller's job
 /// ([`NotStarted::Busy`]) gets the frame again on each later call until it takes it.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct SSend {
     run: JobRequest,
     /// A frame waiting for the port to finish another caller's job.
     queued: Option<Bytes>,
-    /// Frames are cut from this buffer (`split().freeze()`); once the engine has dropped the
-    /// previous frame, `reserve` reclaims the allocation, so a steady state of send jobs
-    /// allocates nothing per frame (the si-core contract). Empty until the first job.
-    pool: BytesMut,
+    /// Frames are cut from this pool, so a steady state of send jobs allocates nothing per
+    /// frame (the si-core contract). Empty until the first job.
+    pool: FramePool,
+}
+
+impl Default for SSend {
+    fn default() -> Self {
+        SSend {
+            run: JobRequest::default(),
+            queued: None,
+            pool: FramePool::new(SEND_POOL),
+        }
+    }
 }
 
 impl SSend {
@@ -242,11 +251,7 @@ impl SSend {
             return self.run.reset(port).map_or(Done::default(), Done::failed);
         }
         if self.run.wants_start(req) && self.queued.is_none() {
-            if self.pool.capacity() < data.len() {
-                self.pool.reserve(SEND_POOL.max(2 * data.len()));
-            }
-            self.pool.extend_from_slice(data);
-            self.queued = Some(self.pool.split().freeze());
+            self.queued = Some(self.pool.cut(data));
         }
         if let Some(frame) = self.queued.take() {
             match port.start_job(now, P::Job::from(frame.clone())) {

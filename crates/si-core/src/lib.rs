@@ -10,6 +10,8 @@
 //!   and [`job::Channel`] (one S_SEND and one S_RCV);
 //! - [`fb`]: edge detection, one-call pulses, and S_SEND / S_RCV written once over [`JobPort`];
 //! - [`RangeError`]: a configuration value outside the manual's range, the same for every crate;
+//! - [`FramePool`]: the pool engines cut the frames they hand out from (no allocation per
+//!   frame in steady state);
 //! - [`delivery`]: how late the port hands bytes over (USB adapters), and the slack silence
 //!   timers need for it;
 //! - [`sim`]: a deterministic discrete-event line simulator with seeded faults;
@@ -25,6 +27,7 @@
 pub mod delivery;
 pub mod echo;
 pub mod fb;
+pub mod frame_pool;
 pub mod hex;
 pub mod interface;
 pub mod job;
@@ -51,6 +54,7 @@ pub use range::RangeError;
 #[cfg(feature = "serial")]
 pub mod port;
 
+pub use frame_pool::FramePool;
 pub use sansio::{Engine, LineError, ModemSignals, Output, SignalUpdate};
 pub use serial::{Parity, SerialSettings, SettingsError, BAUD_RATES};
 pub use status::{Status, StatusInfo};

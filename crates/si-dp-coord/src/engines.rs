@@ -33,7 +33,7 @@
 //!   ([`EngineSerial::with_pooled_send`]); received frames come from the engines' own kept
 //!   buffers (`take_block`, `read_frame_bytes`). The `send` entries of [`R3964R_HOOKS`] and
 //!   [`ASCII_HOOKS`], for an [`EngineSerial::new`] without the pool, copy each frame into a
-//!   new `Bytes`. `tests/engines_no_alloc.rs` proves it for both engines.
+//!   new `Bytes`. `tests/no_alloc.rs` proves it for both engines.
 //! * The window module must be configured for the same flow control as the ASCII engine
 //!   ([`ascii_module_config`] does it): the module checks the block number first (0550H), the
 //!   engine then checks the values.

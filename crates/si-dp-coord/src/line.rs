@@ -16,8 +16,8 @@
 use crate::frame::{ParamBlock, V24Signals};
 use crate::module::{Module, SerialEvent, SerialSide};
 use crate::status::FLOW_CONTROL_MISMATCH;
-use bytes::{Bytes, BytesMut};
-use si_core::{Engine, Instant, LineError, ModemSignals, Output, SignalUpdate, Status};
+use bytes::Bytes;
+use si_core::{Engine, FramePool, Instant, LineError, ModemSignals, Output, SignalUpdate, Status};
 use std::collections::VecDeque;
 
 /// Applies a flow-control block to an engine.
@@ -37,18 +37,7 @@ pub type SendBytesHook<E> = fn(&mut E, Instant, Bytes) -> Result<(), Status>;
 /// ([`crate::config::MAX_FRAME_LEN`]), so a frame still held elsewhere while the next one is
 /// cut (a frame in the module's receive buffer, say) rarely makes the pool move to a new
 /// allocation.
-pub(crate) const POOL_BYTES: usize = 4 * crate::config::MAX_FRAME_LEN;
-
-/// `frame` as [`Bytes`] cut from `pool` (`split().freeze()`). When the pool has run out,
-/// `reserve` reclaims its allocation if every frame cut from it has been dropped, so a steady
-/// state, where each frame is gone before the next, allocates nothing per frame.
-pub(crate) fn cut_from_pool(pool: &mut BytesMut, frame: &[u8]) -> Bytes {
-    if pool.capacity() < frame.len() {
-        pool.reserve(POOL_BYTES.max(frame.len()));
-    }
-    pool.extend_from_slice(frame);
-    pool.split().freeze()
-}
+const POOL_BYTES: usize = 4 * crate::config::MAX_FRAME_LEN;
 
 /// What one engine event means for the module.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -115,8 +104,8 @@ pub struct EngineSerial<E: Engine> {
     /// Set by [`EngineSerial::with_pooled_send`]: frames to send go to the engine as `Bytes`
     /// cut from `tx_pool`, instead of through [`LineHooks::send`].
     send_bytes: Option<SendBytesHook<E>>,
-    /// Frames to send are cut from this buffer ([`cut_from_pool`]).
-    tx_pool: BytesMut,
+    /// Frames to send are cut from this pool (no allocation per frame in steady state).
+    tx_pool: FramePool,
 }
 
 impl<E: Engine> EngineSerial<E> {
@@ -131,7 +120,7 @@ impl<E: Engine> EngineSerial<E> {
             dropped: 0,
             unannounced: 0,
             send_bytes: None,
-            tx_pool: BytesMut::new(),
+            tx_pool: FramePool::new(POOL_BYTES),
         }
     }
 
@@ -196,7 +185,7 @@ impl<E: Engine> SerialSide for EngineSerial<E> {
     fn send(&mut self, now: Instant, frame: &[u8]) -> Result<(), Status> {
         match self.send_bytes {
             Some(send) => {
-                let frame = cut_from_pool(&mut self.tx_pool, frame);
+                let frame = self.tx_pool.cut(frame);
                 send(&mut self.engine, now, frame)
             }
             None => (self.hooks.send)(&mut self.engine, now, frame),

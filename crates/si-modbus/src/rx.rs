@@ -52,6 +52,7 @@
 use crate::config::{FrameEnd, LineConfig, Mode};
 use crate::frame::{crc_ok, fc, Adu, MAX_ADU};
 use si_core::delivery::Delivery;
+use si_core::echo::EchoFilter;
 use si_core::{Duration, Instant, Interface, LineError};
 
 /// What kind of frame the engine expects next, for [`FrameEnd::Length`].
@@ -188,7 +189,9 @@ pub struct Receiver {
     complete: bool,
     /// The frame reached its predicted length with a wrong CRC: only the gap ends it now.
     unpredictable: bool,
-    echo_pending: usize,
+    /// A line that echoes our transmission: as many received bytes as we sent are dropped
+    /// (si-core's one echo filter, count mode).
+    echo: EchoFilter,
     counters: Counters,
     /// How late the port hands bytes over; its allowance lengthens the gap.
     delivery: Delivery,
@@ -213,7 +216,7 @@ impl Receiver {
             frame_end: FrameEnd::Gap,
             complete: false,
             unpredictable: false,
-            echo_pending: 0,
+            echo: EchoFilter::counting(),
             counters: Counters::default(),
             delivery: Delivery::new(&line.settings),
             interface: Interface::Rs232,
@@ -299,7 +302,7 @@ impl Receiver {
 
     /// We transmitted `n` bytes on a line that echoes them: drop the next `n` received bytes.
     pub fn expect_echo(&mut self, n: usize) {
-        self.echo_pending = self.echo_pending.saturating_add(n);
+        self.echo.sent_len(n);
     }
 
     /// True while a frame is being received (bytes or an error since the last gap).
@@ -406,9 +409,7 @@ impl Receiver {
             return 0;
         }
         let total = bytes.len();
-        let skip = self.echo_pending.min(bytes.len());
-        self.echo_pending -= skip;
-        let mut bytes = &bytes[skip..];
+        let mut bytes = self.echo.filter(now, bytes);
         if bytes.is_empty() {
             return total;
         }

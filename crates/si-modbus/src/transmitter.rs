@@ -8,9 +8,9 @@
 
 use crate::config::LineConfig;
 use crate::rx::Receiver;
-use bytes::{Bytes, BytesMut};
+use bytes::Bytes;
 use si_core::v24::{AutoV24, AutoV24Times, Step};
-use si_core::{Instant, ModemSignals, Output};
+use si_core::{FramePool, Instant, ModemSignals, Output};
 use std::collections::VecDeque;
 
 /// What became of a frame handed to [`V24Gate::transmit`] or of the held one.
@@ -30,9 +30,9 @@ pub(crate) enum Gate {
 /// frame waiting for CTS.
 #[derive(Debug)]
 pub(crate) struct Transmitter {
-    /// Frames are cut from this buffer (`split().freeze()`); once the driver drops the previous
-    /// frame, `reserve` reclaims the same allocation (the si-core contract).
-    pool: BytesMut,
+    /// Frames are cut from this pool: no allocation per frame in steady state (the si-core
+    /// contract).
+    pool: FramePool,
     sequence: Option<AutoV24>,
     held: Option<Bytes>,
 }
@@ -46,7 +46,7 @@ impl Transmitter {
             s
         });
         Transmitter {
-            pool: BytesMut::with_capacity(4 * crate::frame::MAX_ADU),
+            pool: FramePool::preallocated(4 * crate::frame::MAX_ADU),
             sequence,
             held: None,
         }
@@ -59,9 +59,7 @@ impl Transmitter {
         bytes: &[u8],
         out: &mut VecDeque<Output<E>>,
     ) -> Gate {
-        self.pool.reserve(bytes.len());
-        self.pool.extend_from_slice(bytes);
-        let frame = self.pool.split().freeze();
+        let frame = self.pool.cut(bytes);
         let step = match self.sequence.as_mut() {
             None => Step::Send,
             Some(s) => s.begin(now, out),

@@ -59,7 +59,9 @@ use bytes::{Bytes, BytesMut};
 use core::fmt;
 use si_3964r::{ConfigError, Link};
 use si_core::status::common;
-use si_core::{Engine, Instant, LineError, ModemSignals, Output, SerialSettings, Status};
+use si_core::{
+    Engine, FramePool, Instant, LineError, ModemSignals, Output, SerialSettings, Status,
+};
 use std::collections::VecDeque;
 
 /// The one job id of si-core, here because the async handle and users name it from this module.
@@ -212,12 +214,11 @@ pub struct Station {
     reaction_in_flight_partial: bool,
     out: VecDeque<Output<Event>>,
     buf: Vec<u8>,
-    /// Command and reaction telegrams are cut from these buffers (`split().freeze()`), one
-    /// per kind since at most one telegram of each kind is alive; once the link drops the
-    /// previous telegram, `reserve` reclaims the same allocation, so a steady state allocates
-    /// nothing (the si-core contract, as in the 3964(R) link).
-    command_pool: BytesMut,
-    reaction_pool: BytesMut,
+    /// Command and reaction telegrams are cut from these pools, one per kind since at most one
+    /// telegram of each kind is alive: a steady state allocates nothing (the si-core contract,
+    /// as in the 3964(R) link).
+    command_pool: FramePool,
+    reaction_pool: FramePool,
     /// FETCH data collect in these, used by turns: `job_outcome` keeps the last
     /// job's data, so the data of the job before it (dropped by the application by then) is
     /// the allocation the next FETCH reclaims.
@@ -271,8 +272,8 @@ impl Station {
             reaction_in_flight_partial: false,
             out: VecDeque::with_capacity(8),
             buf: Vec::with_capacity(COMMAND_HEADER_LEN + MAX_DATA_PER_TELEGRAM),
-            command_pool: BytesMut::with_capacity(COMMAND_HEADER_LEN + MAX_DATA_PER_TELEGRAM),
-            reaction_pool: BytesMut::with_capacity(COMMAND_HEADER_LEN + MAX_DATA_PER_TELEGRAM),
+            command_pool: FramePool::preallocated(COMMAND_HEADER_LEN + MAX_DATA_PER_TELEGRAM),
+            reaction_pool: FramePool::preallocated(COMMAND_HEADER_LEN + MAX_DATA_PER_TELEGRAM),
             fetch_pools: [
                 BytesMut::with_capacity(config.max_job_len as usize),
                 BytesMut::with_capacity(config.max_job_len as usize),
@@ -432,7 +433,7 @@ impl Station {
             }
         }
         job.phase = Phase::Sending(None);
-        let telegram = cut(&mut self.command_pool, &self.buf);
+        let telegram = self.command_pool.cut(&self.buf);
         self.queue.push_back((Kind::Command, telegram));
     }
 
@@ -615,7 +616,7 @@ impl Station {
         // last one went out has given that one up, so its stale reaction is replaced. The
         // queue therefore never holds more than one command and one reaction.
         self.queue.retain(|(k, _)| *k != Kind::Reaction);
-        let telegram = cut(&mut self.reaction_pool, &reaction);
+        let telegram = self.reaction_pool.cut(&reaction);
         self.queue.push_back((Kind::Reaction, telegram));
         self.buf = reaction;
         match served {
@@ -660,14 +661,6 @@ impl Station {
             }
         }
     }
-}
-
-/// `bytes` as a telegram cut from `pool` (allocates only while an earlier telegram of the pool
-/// is still held).
-fn cut(pool: &mut BytesMut, bytes: &[u8]) -> Bytes {
-    pool.reserve(bytes.len());
-    pool.extend_from_slice(bytes);
-    pool.split().freeze()
 }
 
 impl Engine for Station {

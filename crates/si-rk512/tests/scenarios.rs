@@ -1,6 +1,9 @@
 //! RK 512 scenarios on the line simulator, named after the sections of
 //! cp341-3964r-rk512-ascii.md §4 they show, each asserting the STATUS the job ends with.
 
+#[path = "scenarios/usb_adapter.rs"]
+mod usb_adapter;
+
 use bytes::Bytes;
 use si_3964r::{Link, Priority};
 use si_core::memory::Area;

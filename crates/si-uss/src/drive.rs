@@ -23,9 +23,9 @@ use crate::frame::{
     MAX_TELEGRAM,
 };
 use crate::rx::{Receiver, RxOutcome};
-use bytes::BytesMut;
 use serde::{Deserialize, Serialize};
-use si_core::{Duration, Engine, Instant, LineError, Output, SerialSettings};
+use si_core::echo::EchoFilter;
+use si_core::{Duration, Engine, FramePool, Instant, LineError, Output, SerialSettings};
 use std::collections::VecDeque;
 
 /// Control word STW bits the drive reacts to (PROFIdrive/MICROMASTER meaning).
@@ -214,7 +214,9 @@ pub struct Drive {
     tx: [u8; MAX_TELEGRAM],
     tx_len: usize,
     reply_at: Option<Instant>,
-    echo_left: usize,
+    /// A line that echoes our replies: as many received characters (or line errors) as we
+    /// sent are dropped (si-core's one echo filter, count mode).
+    echo: EchoFilter,
     stw: u16,
     setpoint: u16,
     actual: u16,
@@ -227,10 +229,9 @@ pub struct Drive {
     /// A parameter changed locally, reported until the master acknowledges the toggle bit.
     pending_report: Option<(ParamAddress, u32, bool)>,
     report_toggle: bool,
-    /// Transmit frames are cut from this buffer (`split().freeze()`); once the driver drops
-    /// the previous frame, `reserve` reclaims the same allocation, so a steady state allocates
-    /// nothing per frame (the si-core contract).
-    tx_pool: BytesMut,
+    /// Transmit frames are cut from this pool: a steady state allocates nothing per frame (the
+    /// si-core contract).
+    tx_pool: FramePool,
 }
 
 impl Drive {
@@ -259,9 +260,9 @@ impl Drive {
             out: VecDeque::with_capacity(8),
             tx: [0; MAX_TELEGRAM],
             tx_len: 0,
-            tx_pool: BytesMut::with_capacity(4 * MAX_TELEGRAM),
+            tx_pool: FramePool::preallocated(4 * MAX_TELEGRAM),
             reply_at: None,
-            echo_left: 0,
+            echo: EchoFilter::counting(),
             stw: 0,
             setpoint: 0,
             actual: 0,
@@ -651,8 +652,7 @@ impl Engine for Drive {
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
         self.rx.observe_read(bytes.len());
         for &b in bytes {
-            if self.echo_left > 0 {
-                self.echo_left -= 1;
+            if self.echo.drops(now, b) {
                 continue;
             }
             match self.rx.push(now, b) {
@@ -674,19 +674,18 @@ impl Engine for Drive {
         if self.reply_at.is_some_and(|t| now >= t) {
             self.reply_at = None;
             let len = self.tx_len;
-            self.tx_pool.reserve(len);
-            self.tx_pool.extend_from_slice(&self.tx[..len]);
-            let telegram = self.tx_pool.split().freeze();
+            let telegram = self.tx_pool.cut(&self.tx[..len]);
             self.out.push_back(Output::Transmit(telegram));
             if self.config.local_echo {
-                self.echo_left = len;
+                // A new reply: an echo of the previous one not heard back is forgotten.
+                self.echo.stop();
+                self.echo.sent_len(len);
             }
         }
     }
 
     fn handle_line_error(&mut self, now: Instant, error: LineError) {
-        if self.echo_left > 0 {
-            self.echo_left -= 1;
+        if self.echo.drops_line_error() {
             return;
         }
         if self.rx.is_receiving() {

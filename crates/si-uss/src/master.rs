@@ -45,9 +45,9 @@ use crate::frame::{
 };
 use crate::rx::{Receiver, RxOutcome};
 use crate::status;
-use bytes::BytesMut;
 use serde::{Deserialize, Serialize};
-use si_core::{Duration, Engine, Instant, LineError, Output, Status};
+use si_core::echo::EchoFilter;
+use si_core::{Duration, Engine, FramePool, Instant, LineError, Output, Status};
 use std::collections::VecDeque;
 
 /// The one job id of si-core; it identifies a job (parameter, broadcast, mirror) in its
@@ -408,7 +408,9 @@ pub struct Master {
     entry: usize,
     cycle: u64,
     phase: Phase,
-    echo_left: usize,
+    /// A line that echoes our telegrams: as many received characters (or line errors) as we
+    /// sent are dropped (si-core's one echo filter, count mode).
+    echo: EchoFilter,
     line_free: Instant,
     tx: [u8; MAX_TELEGRAM],
     tx_len: usize,
@@ -417,10 +419,9 @@ pub struct Master {
     mirror: Option<(u8, PendingSpecial)>,
     next_job: u64,
     counters: Counters,
-    /// Transmit frames are cut from this buffer (`split().freeze()`); once the driver drops
-    /// the previous frame, `reserve` reclaims the same allocation, so a steady state allocates
-    /// nothing per frame (the si-core contract).
-    tx_pool: BytesMut,
+    /// Transmit frames are cut from this pool: a steady state allocates nothing per frame (the
+    /// si-core contract).
+    tx_pool: FramePool,
 }
 
 impl Master {
@@ -454,7 +455,7 @@ impl Master {
             entry: 0,
             cycle: 0,
             phase: Phase::Stopped,
-            echo_left: 0,
+            echo: EchoFilter::counting(),
             line_free: Instant::ZERO,
             tx: [0; MAX_TELEGRAM],
             tx_len: 0,
@@ -463,7 +464,7 @@ impl Master {
             mirror: None,
             next_job: 0,
             counters: Counters::default(),
-            tx_pool: BytesMut::with_capacity(4 * MAX_TELEGRAM),
+            tx_pool: FramePool::preallocated(4 * MAX_TELEGRAM),
             config,
         })
     }
@@ -745,14 +746,14 @@ impl Master {
     fn transmit(&mut self, now: Instant, adr: Adr, net: &[u8]) {
         self.tx_len = frame::encode(adr, net, &mut self.tx).unwrap_or(0);
         let len = self.tx_len;
-        self.tx_pool.reserve(len);
-        self.tx_pool.extend_from_slice(&self.tx[..len]);
-        let telegram = self.tx_pool.split().freeze();
+        let telegram = self.tx_pool.cut(&self.tx[..len]);
         self.out.push_back(Output::Transmit(telegram));
         bump(&mut self.counters.sent);
         self.line_free = now + self.config.settings.chars_time(len as u64);
         if self.config.local_echo {
-            self.echo_left = len;
+            // A new telegram: an echo of the previous one not heard back is forgotten.
+            self.echo.stop();
+            self.echo.sent_len(len);
         }
     }
 
@@ -1110,8 +1111,7 @@ impl Engine for Master {
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
         self.rx.observe_read(bytes.len());
         for &b in bytes {
-            if self.echo_left > 0 {
-                self.echo_left -= 1;
+            if self.echo.drops(now, b) {
                 continue;
             }
             let outcome = self.rx.push(now, b);
@@ -1152,7 +1152,7 @@ impl Engine for Master {
         if let Phase::Awaiting { current, deadline } = self.phase {
             if now >= deadline && !self.rx.is_receiving() {
                 bump(&mut self.counters.no_answer);
-                self.echo_left = 0;
+                self.echo.stop();
                 self.rx.resync();
                 self.fail_current(now, current, status::NO_ANSWER);
             }
@@ -1165,8 +1165,7 @@ impl Engine for Master {
     }
 
     fn handle_line_error(&mut self, now: Instant, error: LineError) {
-        if self.echo_left > 0 {
-            self.echo_left -= 1;
+        if self.echo.drops_line_error() {
             return;
         }
         match error {

@@ -1,6 +1,15 @@
 //! Scenario tests on the line simulator, named after the manual section they prove
 //! (et200s-si-modbus-uss.md §6, public-facts.md §3).
 
+#[path = "scenarios/fb.rs"]
+mod fb;
+#[path = "scenarios/frame_golden.rs"]
+mod frame_golden;
+#[path = "scenarios/tokio_duplex.rs"]
+mod tokio_duplex;
+#[path = "scenarios/usb_adapter.rs"]
+mod usb_adapter;
+
 use si_core::sim::{Simulator, StationId, TraceKind};
 use si_core::{Duration, Engine, Instant, LineError, Output, SerialSettings};
 use si_uss::config::{residual_run_time, start_interval, uss_settings, MasterConfig, PollEntry};

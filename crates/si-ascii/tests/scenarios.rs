@@ -1,0 +1,19 @@
+//! The ASCII driver's scenarios, one module per topic of the manual (et200s-si-3964r-ascii.md
+//! §6–§8, cp341-3964r-rk512-ascii.md §5): end criteria, flow control, the function blocks, line
+//! errors, the receive buffer, the tokio handle and USB adapters.
+
+mod common;
+#[path = "scenarios/end_criteria.rs"]
+mod end_criteria;
+#[path = "scenarios/flow_control.rs"]
+mod flow_control;
+#[path = "scenarios/function_blocks.rs"]
+mod function_blocks;
+#[path = "scenarios/line_errors.rs"]
+mod line_errors;
+#[path = "scenarios/receive_buffer.rs"]
+mod receive_buffer;
+#[path = "scenarios/tokio_duplex.rs"]
+mod tokio_duplex;
+#[path = "scenarios/usb_adapter.rs"]
+mod usb_adapter;

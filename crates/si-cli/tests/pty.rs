@@ -1,0 +1,27 @@
+//! The `si` binary on pseudo-terminals, one module per protocol or topic: each talks to a peer
+//! (another `si`, socat, pymodbus, mbpoll) over a pty pair. A missing peer is a skip with a
+//! message, a failure with `CI` set (common/mod.rs).
+
+#[path = "pty/ascii.rs"]
+mod ascii;
+mod common;
+#[path = "pty/dpcoord.rs"]
+mod dpcoord;
+#[path = "pty/modbus_frame_end.rs"]
+mod modbus_frame_end;
+#[path = "pty/modbus_interop.rs"]
+mod modbus_interop;
+#[path = "pty/modbus_serial_example.rs"]
+mod modbus_serial_example;
+#[path = "pty/modbus_usb_relay.rs"]
+mod modbus_usb_relay;
+#[path = "pty/monitor.rs"]
+mod monitor;
+#[path = "pty/port_flags.rs"]
+mod port_flags;
+#[path = "pty/r3964.rs"]
+mod r3964;
+#[path = "pty/rk512.rs"]
+mod rk512;
+#[path = "pty/uss.rs"]
+mod uss;

@@ -1,0 +1,22 @@
+//! The `si` binary offline, one module per command: help and errors, frames, simulations,
+//! monitors and their SVG, the module's tables.
+
+#[path = "scenarios/cli.rs"]
+mod cli;
+mod common;
+#[path = "scenarios/dpcoord.rs"]
+mod dpcoord;
+#[path = "scenarios/modbus.rs"]
+mod modbus;
+#[path = "scenarios/module.rs"]
+mod module;
+#[path = "scenarios/monitor.rs"]
+mod monitor;
+#[path = "scenarios/r3964.rs"]
+mod r3964;
+#[path = "scenarios/rk512.rs"]
+mod rk512;
+#[path = "scenarios/svg.rs"]
+mod svg;
+#[path = "scenarios/uss.rs"]
+mod uss;

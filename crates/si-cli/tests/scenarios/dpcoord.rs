@@ -1,0 +1,317 @@
+//! `si dp-coord host|trace` and the dp-coord scenarios of `si sim`, run as the built binary with
+//! the test playing the module through a pipe (et200s-si-2005-window-protocol.md §2.7: the
+//! manual's example tables give the input windows; `xx` bytes are written as 00).
+
+use std::io::Write;
+use std::process::{Output, Stdio};
+
+use crate::common;
+
+use common::si_command;
+
+/// Runs `si dp-coord host ARGS` with `inputs` as the module's input windows, one per line.
+fn host(args: &[&str], inputs: &[&str]) -> Output {
+    let mut child = si_command()
+        .args(["dp-coord", "host"])
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start si");
+    let mut stdin = child.stdin.take().expect("piped stdin");
+    for line in inputs {
+        // The host may stop reading once its job has ended.
+        if writeln!(stdin, "{line}").is_err() {
+            break;
+        }
+    }
+    drop(stdin);
+    child.wait_with_output().expect("si runs")
+}
+
+fn stdout_lines(out: &Output) -> Vec<String> {
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(str::to_owned)
+        .collect()
+}
+
+/// Table 2-23 (reconstructed, H-1): the IN column.
+const TABLE_2_23_IN: &[&str] = &[
+    "00 00 00 00 00 00 00 00",
+    "00 00 00 00 00 00 00 00",
+    "10 00 00 00 00 00 00 00",
+    "10 00 00 00 00 00 00 00",
+    "11 00 00 00 00 00 00 00",
+    "12 00 00 00 00 00 00 00",
+    "13 00 00 00 00 00 00 00",
+    "13 00 00 00 00 00 00 00",
+    "14 00 00 00 00 00 00 00",
+    "14 00 00 00 00 00 00 00",
+    "74 00 00 00 00 00 00 00",
+    // Never read: the job has ended.
+    "00 00 00 00 00 00 00 00",
+];
+
+#[test]
+fn table_2_23_host_send_prints_the_out_column_then_done() {
+    let out = host(
+        &[
+            "--window",
+            "8",
+            "send",
+            "6162636465666768696A6B6C6D6E6F707172737475 76",
+        ],
+        TABLE_2_23_IN,
+    );
+    assert!(out.status.success(), "{out:?}");
+    assert_eq!(
+        stdout_lines(&out),
+        [
+            "10 00 00 00 00 00 00 00",
+            "10 00 00 00 00 00 00 00",
+            "11 00 16 61 62 63 64 65",
+            "11 00 16 61 62 63 64 65",
+            "12 66 67 68 69 6A 6B 6C",
+            "13 6D 6E 6F 70 71 72 73",
+            "14 74 75 76 00 00 00 00",
+            "14 74 75 76 00 00 00 00",
+            "14 74 75 76 00 00 00 00",
+            "14 74 75 76 00 00 00 00",
+            "00 00 00 00 00 00 00 00",
+            "done STATUS=0000",
+        ]
+    );
+}
+
+#[test]
+fn section_2_8_send_ended_with_a_status_prints_error_and_exits_1() {
+    // 4-byte window, "abc" = length word + 3 bytes = 2 segments; the module reports 0703H.
+    let out = host(
+        &["--window", "4", "send", "61 62 63"],
+        &[
+            "00 00 00 00",
+            "10 00 00 00",
+            "11 00 00 00",
+            "12 00 00 00",
+            "72 07 03 00",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(1), "{out:?}");
+    assert_eq!(
+        stdout_lines(&out),
+        [
+            "10 00 00 00",
+            "11 00 03 61",
+            "12 62 63 00",
+            "12 62 63 00",
+            "00 00 00 00",
+            "error STATUS=0703",
+        ]
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("16#0703"), "{stderr}");
+}
+
+#[test]
+fn table_2_24_receive_prints_the_frame_before_done() {
+    // H-2: the receive request is 20H. 6 bytes in a 4-byte window: 21H carries the length word.
+    let out = host(
+        &["--window", "4", "receive"],
+        &[
+            "00 00 01 00",
+            "21 00 06 61",
+            "22 62 63 64",
+            "23 65 66 00",
+            "00 00 00 00",
+        ],
+    );
+    assert!(out.status.success(), "{out:?}");
+    assert_eq!(
+        stdout_lines(&out),
+        [
+            "20 00 00 00",
+            "21 00 00 00",
+            "22 00 00 00",
+            "23 00 00 00",
+            "00 00 00 00",
+            "frame 61 62 63 64 65 66",
+            "done STATUS=0000",
+        ]
+    );
+}
+
+#[test]
+fn receive_with_nothing_buffered_is_done_with_0101() {
+    let out = host(
+        &["--window", "4", "receive"],
+        &["00 00 00 00", "20 01 01 00", "00 00 00 00"],
+    );
+    assert!(out.status.success(), "{out:?}");
+    assert_eq!(
+        stdout_lines(&out).last().map(String::as_str),
+        Some("done STATUS=0101")
+    );
+}
+
+#[test]
+fn table_2_25_read_v24_prints_the_signal_word() {
+    let out = host(
+        &["--window", "4", "read-v24"],
+        &["00 00 00 00", "31 00 1F 00", "00 00 00 00"],
+    );
+    assert!(out.status.success(), "{out:?}");
+    assert_eq!(
+        stdout_lines(&out),
+        [
+            "30 00 00 00",
+            "31 00 00 00",
+            "00 00 00 00",
+            "signals 00 1F",
+            "done STATUS=0000"
+        ]
+    );
+}
+
+#[test]
+fn table_2_26_write_v24_carries_rts_and_dtr_in_the_request() {
+    let out = host(
+        &["--window", "4", "write-v24", "--rts", "1", "--dtr", "1"],
+        &["00 00 00 00", "40 00 00 00"],
+    );
+    assert!(out.status.success(), "{out:?}");
+    // H-9: DCD CTS RTS DSR DTR in bits 4…0 of byte 2: RTS + DTR = 05H.
+    assert_eq!(
+        stdout_lines(&out),
+        ["40 00 05 00", "00 00 00 00", "done STATUS=0000"]
+    );
+}
+
+#[test]
+fn table_2_28_params_xon_xoff_sends_block_20h() {
+    let out = host(
+        &["--window", "4", "params", "xon-xoff", "--wait-ms", "2000"],
+        &[
+            "00 00 00 00",
+            "50 00 00 00",
+            "51 00 00 00",
+            "52 00 00 00",
+            "53 00 00 00",
+            "73 00 00 00",
+        ],
+    );
+    assert!(out.status.success(), "{out:?}");
+    assert_eq!(
+        stdout_lines(&out),
+        [
+            "50 00 00 00",
+            "51 20 00 04",
+            "52 11 13 00",
+            "53 C8 00 00",
+            "53 C8 00 00",
+            "00 00 00 00",
+            "done STATUS=0000",
+        ]
+    );
+}
+
+#[test]
+fn wrong_window_length_and_early_eof_are_errors_with_nothing_but_windows_on_stdout() {
+    let out = host(&["--window", "4", "receive"], &["00 00 00"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(out.stdout.is_empty());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("the window has 4"));
+
+    let out = host(&["--window", "4", "receive"], &["00 00 01 00"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(stdout_lines(&out), ["20 00 00 00"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("ended before the job"));
+}
+
+#[test]
+fn trace_annotates_a_host_transcript_cycle_by_cycle() {
+    let dir = std::env::temp_dir().join(format!("si-dpcoord-trace-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("trace.txt");
+    std::fs::write(
+        &file,
+        "# a transcript: input, output, input, output …\n\
+         00 00 00 00\n40 00 05 00\n40 00 00 00\n00 00 00 00\ndone STATUS=0000\n\
+         < 31 00 1F 00\n> 31 00 00 00\n",
+    )
+    .unwrap();
+    let out = si_command()
+        .args(["dp-coord", "trace"])
+        .arg(&file)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let lines = stdout_lines(&out);
+    assert_eq!(lines.len(), 7, "{lines:?}");
+    assert!(lines[0].starts_with("   1 < 00 00 00 00"), "{lines:?}");
+    assert!(lines[1].starts_with("   1 > 40 00 05 00") && lines[1].contains("set RTS=1 DTR=1"));
+    assert!(lines[2].starts_with("   2 < 40 00 00 00") && lines[2].contains("STATUS 16#0000"));
+    assert_eq!(lines[4].trim(), "done STATUS=0000");
+    assert!(
+        lines[5].contains("DCD=1 CTS=1 RTS=1 DSR=1 DTR=1"),
+        "{lines:?}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn sim_dp_coord_send_prints_table_2_23_and_ends_done() {
+    let out = si_command()
+        .args(["sim", "dp-coord-send"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let lines = stdout_lines(&out);
+    assert!(
+        lines[5].starts_with("   3 > 11 00 16 61 62 63 64 65"),
+        "{lines:?}"
+    );
+    assert!(lines.iter().any(|l| l.contains("< 74 00 00")), "{lines:?}");
+    assert_eq!(lines.last().map(String::as_str), Some("done STATUS=0000"));
+}
+
+#[test]
+fn sim_dp_coord_e2e_delivers_the_frame_through_both_windows() {
+    let out = si_command().args(["sim", "dp-coord-e2e"]).output().unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let lines = stdout_lines(&out);
+    let n = lines.len();
+    assert!(
+        lines[n - 2].ends_with("A S_SEND done=true error=false STATUS=0000"),
+        "{lines:?}"
+    );
+    // "temperature=21.5"
+    assert!(lines[n - 1].ends_with(
+        "B S_RCV ndr=true error=false STATUS=0000 LEN=16 74 65 6D 70 65 72 61 74 75 72 65 3D 32 31 2E 35"
+    ));
+    // The 3964(R) block crossed the line: STX from A.
+    assert!(
+        lines.iter().any(|l| l.contains("B") && l.contains("rx 02")),
+        "{lines:?}"
+    );
+}
+
+#[test]
+fn json_lines_carry_the_same_windows_and_result() {
+    let out = host(
+        &["--json", "--window", "4", "read-v24"],
+        &["00 00 00 00", "31 00 1F 00", "00 00 00 00"],
+    );
+    assert!(out.status.success(), "{out:?}");
+    let lines: Vec<serde_json::Value> = stdout_lines(&out)
+        .iter()
+        .map(|l| serde_json::from_str(l).expect("one JSON value a line"))
+        .collect();
+    assert_eq!(lines.len(), 5);
+    assert_eq!(lines[0]["output"], "30 00 00 00");
+    assert_eq!(lines[3]["signals"], "00 1F");
+    assert_eq!(lines[3]["cts"], true);
+    assert_eq!(lines[4]["done"], true);
+    assert_eq!(lines[4]["status"], "0000");
+}

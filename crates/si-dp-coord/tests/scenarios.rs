@@ -1,0 +1,19 @@
+//! The DP coordination window's scenarios, one module per topic
+//! (et200s-si-2005-window-protocol.md): the manual's window examples and §2.8 rules, host and
+//! module together, the FBs over the window, modules on a line, end to end, the timing tables.
+
+mod common;
+#[path = "scenarios/end_to_end.rs"]
+mod end_to_end;
+#[path = "scenarios/fb_over_window.rs"]
+mod fb_over_window;
+#[path = "scenarios/host_module.rs"]
+mod host_module;
+#[path = "scenarios/module_on_line.rs"]
+mod module_on_line;
+#[path = "scenarios/section_2_8_rules.rs"]
+mod section_2_8_rules;
+#[path = "scenarios/timing_tables.rs"]
+mod timing_tables;
+#[path = "scenarios/window_examples.rs"]
+mod window_examples;

@@ -1,0 +1,13 @@
+//! Modbus RTU scenarios, one module per topic (et200s-si-modbus-uss.md §2–§5): the master, the
+//! slave, the automatic V.24 signals, frames ended by length, and USB adapters.
+
+#[path = "scenarios/auto_v24.rs"]
+mod auto_v24;
+#[path = "scenarios/frame_end_length.rs"]
+mod frame_end_length;
+#[path = "scenarios/master.rs"]
+mod master;
+#[path = "scenarios/slave.rs"]
+mod slave;
+#[path = "scenarios/usb_adapter.rs"]
+mod usb_adapter;
