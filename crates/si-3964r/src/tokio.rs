@@ -209,15 +209,20 @@ mod tests {
     async fn a_send_nobody_answers_fails_with_0703_and_bad_lengths_with_1e41() {
         let (left, _right) = tokio::io::duplex(4096);
         let link = Handle::spawn(Config::default(), SerialSettings::default(), left).unwrap();
-        assert_eq!(link.send(Vec::new()).await, Err(Error::Status(common::INVALID_LEN)));
-        assert_eq!(link.send(vec![1]).await, Err(Error::Status(status::SETUP_TIMEOUT)));
+        assert_eq!(
+            link.send(Vec::new()).await,
+            Err(Error::Status(common::INVALID_LEN))
+        );
+        assert_eq!(
+            link.send(vec![1]).await,
+            Err(Error::Status(status::SETUP_TIMEOUT))
+        );
     }
 
     #[tokio::test(start_paused = true)]
     async fn a_closed_port_ends_the_link() {
         let (left, right) = tokio::io::duplex(4096);
-        let mut link =
-            Handle::spawn(Config::default(), SerialSettings::default(), left).unwrap();
+        let mut link = Handle::spawn(Config::default(), SerialSettings::default(), left).unwrap();
         drop(right);
         assert_eq!(link.next().await, None);
         assert_eq!(link.send(vec![1]).await, Err(Error::Stopped(DriverStopped)));

@@ -156,7 +156,10 @@ impl Handle {
 
     /// Set RTS/DTR by job (S_VSET).
     pub async fn set_signals(&self, update: SignalUpdate) -> Result<(), Error> {
-        Ok(self.driver.call(move |l, _| l.set_signals(update)).await??)
+        Ok(self
+            .driver
+            .call(move |l, _| l.set_signals(update))
+            .await??)
     }
 
     /// Run any command on the link inside the driver.

@@ -210,7 +210,8 @@ pub enum Start<K, R> {
 type Waiter<Ev> = Box<dyn FnMut(Ev) -> Option<Ev> + Send>;
 
 /// One attempt to start a job: `None` if the engine was busy, else the waiter (if the job runs).
-type Attempt<E> = Box<dyn FnMut(&mut E, Instant) -> Option<Option<Waiter<<E as Engine>::Event>>> + Send>;
+type Attempt<E> =
+    Box<dyn FnMut(&mut E, Instant) -> Option<Option<Waiter<<E as Engine>::Event>>> + Send>;
 
 enum Command<E: Engine> {
     /// Run a closure on the engine.
@@ -669,8 +670,7 @@ where
                         continue;
                     };
                     if options.drop_unread_events {
-                        if let Err(mpsc::error::TrySendError::Closed(_)) = events.try_send(event)
-                        {
+                        if let Err(mpsc::error::TrySendError::Closed(_)) = events.try_send(event) {
                             return Ok(()); // the application is gone
                         }
                     } else if events.send(event).await.is_err() {

@@ -369,7 +369,10 @@ pub type SlaveServer<S> = Slave<S>;
 impl<S: Store + Send + 'static> Slave<S> {
     /// Start serving `store` on `transport`.
     pub fn spawn<T: Transport>(config: SlaveConfig, store: S, transport: T) -> Result<Self, Error> {
-        Ok(Self::spawn_engine(slave::Slave::new(config, store)?, transport))
+        Ok(Self::spawn_engine(
+            slave::Slave::new(config, store)?,
+            transport,
+        ))
     }
 
     /// Serve with an engine built by the caller (for options beyond [`SlaveConfig`], such as

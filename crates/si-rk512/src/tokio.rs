@@ -83,7 +83,10 @@ impl Handle {
         settings: SerialSettings,
         transport: T,
     ) -> Result<Handle, Error> {
-        Ok(Self::spawn_engine(Station::new(config, settings)?, transport))
+        Ok(Self::spawn_engine(
+            Station::new(config, settings)?,
+            transport,
+        ))
     }
 
     /// Start a station built by the caller on `transport`.
@@ -99,9 +102,7 @@ impl Handle {
 
     async fn job(
         &self,
-        mut start: impl FnMut(&mut Station, Instant) -> Result<JobId, RequestError>
-            + Send
-            + 'static,
+        mut start: impl FnMut(&mut Station, Instant) -> Result<JobId, RequestError> + Send + 'static,
     ) -> Result<Bytes, Error> {
         let start = move |s: &mut Station, now| match start(s, now) {
             Ok(job) => Start::Running(job),
