@@ -32,6 +32,7 @@ use crate::link::{Event, Link, SendError};
 use bytes::Bytes;
 use si_core::driver::{self, Caller, DriverOptions, DriverStopped, Start, Transport};
 use si_core::{Instant, SerialSettings, Status};
+use std::ops::ControlFlow::{Break, Continue};
 
 /// Why a call on a [`Handle`] failed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -85,9 +86,9 @@ impl Sender {
             Err(e) => Start::Ended(Err(e.status())),
         };
         let done = |job: &_, event| match event {
-            Event::Sent { job: j } if j == *job => Ok(Ok(())),
-            Event::SendFailed { job: j, status } if j == *job => Ok(Err(status)),
-            other => Err(other),
+            Event::Sent { job: j } if j == *job => Break(Ok(())),
+            Event::SendFailed { job: j, status } if j == *job => Break(Err(status)),
+            other => Continue(other),
         };
         self.caller.job(start, done).await?.map_err(Error::Status)
     }

@@ -24,6 +24,7 @@ use crate::link::{Event, Link, Refused, SendError};
 use bytes::Bytes;
 use si_core::driver::{self, DriverOptions, DriverStopped, Start, Transport};
 use si_core::{Instant, ModemSignals, SignalUpdate, Status};
+use std::ops::ControlFlow::{Break, Continue};
 
 /// Why a call on a [`Handle`] failed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -118,9 +119,11 @@ impl Handle {
             Err(e) => Start::Ended(Err(Error::Send(e))),
         };
         let done = |job: &_, event| match event {
-            Event::Sent { job: j, .. } if j == *job => Ok(Ok(())),
-            Event::SendFailed { job: j, status, .. } if j == *job => Ok(Err(Error::Status(status))),
-            other => Err(other),
+            Event::Sent { job: j, .. } if j == *job => Break(Ok(())),
+            Event::SendFailed { job: j, status, .. } if j == *job => {
+                Break(Err(Error::Status(status)))
+            }
+            other => Continue(other),
         };
         self.driver.job(start, done).await?
     }

@@ -3,8 +3,9 @@
 //! [`spawn`] moves an engine and a [`Transport`] (a serial port from `si_core::port::open` or a
 //! `tokio-serial` stream with feature `serial`, a TCP stream to a serial device server, a
 //! `tokio::io::duplex` pipe) into a task and gives back a [`Handle`]: commands go in with
-//! [`Handle::call`], events come out of [`Handle::next_event`], and a job that ends with an event
-//! is awaited with [`Handle::job`] (see "Job routing").
+//! [`Caller::call`] (a [`Handle`] is a [`Caller`]), events come out of
+//! [`Handle::next_event`], and a job that ends with an event is awaited with [`Caller::job`]
+//! (see "Job routing").
 //!
 //! # Job routing
 //!
@@ -87,6 +88,7 @@ use crate::sim::TraceKind;
 use crate::time::{Duration, Instant};
 use crate::tracefile::Recorder;
 use std::io;
+use std::ops::ControlFlow;
 use std::sync::{Arc, Condvar, Mutex, PoisonError};
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::sync::{mpsc, oneshot};
@@ -213,9 +215,12 @@ type Waiter<Ev> = Box<dyn FnMut(Ev) -> Option<Ev> + Send>;
 type Attempt<E> =
     Box<dyn FnMut(&mut E, Instant) -> Option<Option<Waiter<<E as Engine>::Event>>> + Send>;
 
+/// A closure run on the engine ([`Caller::send`]).
+type Run<E> = Box<dyn FnOnce(&mut E, Instant) + Send>;
+
 enum Command<E: Engine> {
     /// Run a closure on the engine.
-    Run(Box<dyn FnOnce(&mut E, Instant) + Send>),
+    Run(Run<E>),
     /// Start a job and route its outcome ([`Caller::job`]).
     Job(Attempt<E>),
 }
@@ -329,15 +334,16 @@ impl<E: Engine> Caller<E> {
     /// Start a job inside the driver and wait for its outcome ("Job routing" in the module
     /// docs). `start` runs on the engine (again, later, for as long as it says
     /// [`Start::Busy`]); for a running job, `done` is offered the engine's events, keyed by
-    /// what `start` returned, and returns the outcome for the event that ends the job or gives
-    /// the event back. Events no job takes reach [`Handle::next_event`].
+    /// what `start` returned, and returns `Break(outcome)` for the event that ends the job or
+    /// `Continue(event)` to pass the event on. Events no job takes reach
+    /// [`Handle::next_event`].
     ///
     /// Dropping the future does not cancel the job: the engine runs it to its end and the
     /// driver drops the outcome.
     pub async fn job<K, R>(
         &self,
         mut start: impl FnMut(&mut E, Instant) -> Start<K, R> + Send + 'static,
-        done: impl FnMut(&K, E::Event) -> Result<R, E::Event> + Send + 'static,
+        done: impl FnMut(&K, E::Event) -> ControlFlow<R, E::Event> + Send + 'static,
     ) -> Result<R, DriverStopped>
     where
         K: Send + 'static,
@@ -359,13 +365,13 @@ impl<E: Engine> Caller<E> {
                 let mut reply = reply.take();
                 let mut done = done.take()?;
                 let waiter: Waiter<E::Event> = Box::new(move |event| match done(&key, event) {
-                    Ok(outcome) => {
+                    ControlFlow::Break(outcome) => {
                         if let Some(reply) = reply.take() {
                             let _ = reply.send(outcome);
                         }
                         None
                     }
-                    Err(other) => Some(other),
+                    ControlFlow::Continue(other) => Some(other),
                 });
                 Some(Some(waiter))
             }

@@ -24,6 +24,7 @@ use crate::slave::{SlaveEvent, Store};
 use crate::{master, slave};
 use si_core::driver::{self, DriverOptions, DriverStopped, Start, Transport};
 use si_core::{Instant, Status};
+use std::ops::ControlFlow::{Break, Continue};
 use tokio::task::JoinHandle;
 
 /// Why an async job failed.
@@ -132,9 +133,9 @@ impl Master {
             }
         };
         let done = |_: &(), event| match event {
-            MasterEvent::Completed(c) => Ok(Ok(c)),
-            MasterEvent::Failed { status, .. } => Ok(Err(Error::Failed(status))),
-            other @ MasterEvent::Diagnostic(_) => Err(other),
+            MasterEvent::Completed(c) => Break(Ok(c)),
+            MasterEvent::Failed { status, .. } => Break(Err(Error::Failed(status))),
+            other @ MasterEvent::Diagnostic(_) => Continue(other),
         };
         self.driver.job(start, done).await?
     }

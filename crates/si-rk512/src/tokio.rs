@@ -40,6 +40,7 @@ use bytes::Bytes;
 use si_3964r::ConfigError;
 use si_core::driver::{self, DriverOptions, DriverStopped, Start, Transport};
 use si_core::{Instant, SerialSettings, Status};
+use std::ops::ControlFlow::{Break, Continue};
 
 /// Why a call on a [`Handle`] failed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -110,9 +111,9 @@ impl Handle {
             Err(e) => Start::Ended(Err(e.status())),
         };
         let done = |job: &_, event| match event {
-            Event::Done { job: j, data } if j == *job => Ok(Ok(data)),
-            Event::Failed { job: j, status } if j == *job => Ok(Err(status)),
-            other => Err(other),
+            Event::Done { job: j, data } if j == *job => Break(Ok(data)),
+            Event::Failed { job: j, status } if j == *job => Break(Err(status)),
+            other => Continue(other),
         };
         self.driver.job(start, done).await?.map_err(Error::Status)
     }

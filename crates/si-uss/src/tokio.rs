@@ -12,6 +12,7 @@ use crate::frame::Pkw;
 use crate::master::{Event, Master, ParamRequest, RequestError};
 use si_core::driver::{self, DriverOptions, DriverStopped, Start, Transport};
 use si_core::{Instant, Status};
+use std::ops::ControlFlow::{Break, Continue};
 
 /// Why a call on a [`Handle`] failed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -110,17 +111,17 @@ impl Handle {
         let done = |job: &_, event| match event {
             Event::ParameterDone {
                 job: j, response, ..
-            } if j == *job => Ok(Ok(response)),
+            } if j == *job => Break(Ok(response)),
             Event::ParameterFailed {
                 job: j,
                 status,
                 error_number,
                 ..
-            } if j == *job => Ok(Err(Error::Failed {
+            } if j == *job => Break(Err(Error::Failed {
                 status,
                 error_number,
             })),
-            other => Err(other),
+            other => Continue(other),
         };
         self.driver.job(start, done).await?
     }
