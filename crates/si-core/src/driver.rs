@@ -1024,6 +1024,65 @@ mod tests {
         assert!(f.trace.entries.iter().all(|e| e.station == "host"));
     }
 
+    /// Runs one job at a time: a received byte ends the running job with that byte as its
+    /// outcome, and is an event for the application when no job runs.
+    #[derive(Default)]
+    struct OneJob {
+        running: Option<u64>,
+        started: u64,
+        events: std::collections::VecDeque<(Option<u64>, u8)>,
+    }
+    impl Engine for OneJob {
+        type Event = (Option<u64>, u8);
+        fn handle_rx(&mut self, _: Instant, bytes: &[u8]) {
+            for &b in bytes {
+                self.events.push_back((self.running.take(), b));
+            }
+        }
+        fn handle_timeout(&mut self, _: Instant) {}
+        fn poll_output(&mut self) -> Output<Self::Event> {
+            self.events
+                .pop_front()
+                .map_or(Output::Wait(None), Output::Event)
+        }
+    }
+
+    async fn one_job(caller: Caller<OneJob>) -> Result<u8, DriverStopped> {
+        let start = |e: &mut OneJob, _| {
+            if e.running.is_some() {
+                return Start::Busy;
+            }
+            e.started += 1;
+            e.running = Some(e.started);
+            Start::Running(e.started)
+        };
+        let done = |job: &u64, event: (Option<u64>, u8)| match event {
+            (Some(j), byte) if j == *job => ControlFlow::Break(byte),
+            other => ControlFlow::Continue(other),
+        };
+        caller.job(start, done).await
+    }
+
+    #[tokio::test]
+    async fn jobs_get_their_own_outcomes_in_call_order_and_other_events_reach_the_application() {
+        let (ours, mut theirs) = tokio::io::duplex(64);
+        let (mut handle, _task) = spawn(OneJob::default(), ours, DriverOptions::default());
+        // The second start finds the engine busy and waits in the driver.
+        let first = tokio::spawn(one_job(handle.caller()));
+        let second = tokio::spawn(one_job(handle.caller()));
+        tokio::task::yield_now().await;
+        theirs.write_all(&[7]).await.unwrap();
+        assert_eq!(first.await.unwrap(), Ok(7));
+        theirs.write_all(&[8]).await.unwrap();
+        assert_eq!(second.await.unwrap(), Ok(8));
+        // No job runs: the byte is the application's event.
+        theirs.write_all(&[9]).await.unwrap();
+        assert_eq!(handle.next_event().await, Some((None, 9)));
+        assert_eq!(handle.call(|e, _| e.started).await, Ok(2));
+        drop(theirs);
+        assert_eq!(one_job(handle.caller()).await, Err(DriverStopped));
+    }
+
     /// Reports what reaches it: data runs and line errors, in order.
     #[derive(Default)]
     struct Lines(std::collections::VecDeque<Result<Vec<u8>, crate::LineError>>);
