@@ -400,7 +400,15 @@ impl<S: Store + Send + 'static> Slave<S> {
         &self,
         f: impl FnOnce(&mut S) -> R + Send + 'static,
     ) -> Result<R, Error> {
-        Ok(self.driver.call(move |s, _| f(s.store_mut())).await?)
+        self.call(move |s, _| f(s.store_mut())).await
+    }
+
+    /// Run `f` on the slave engine inside the driver (counters, state).
+    pub async fn call<R: Send + 'static>(
+        &self,
+        f: impl FnOnce(&mut slave::Slave<S>, Instant) -> R + Send + 'static,
+    ) -> Result<R, Error> {
+        Ok(self.driver.call(f).await?)
     }
 
     /// Wait for the driver task to end (the port closed) and return its I/O result.
