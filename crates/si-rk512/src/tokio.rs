@@ -37,34 +37,14 @@ use crate::frame::{Address, Coordination};
 use crate::passive::Server;
 use crate::station::{Event, JobId, RequestError, Station};
 use bytes::Bytes;
-use si_3964r::ConfigError;
-use si_core::driver::{self, DriverOptions, DriverStopped, Start, Transport};
-use si_core::{Instant, SerialSettings, Status};
+use si_core::driver::{self, DriverOptions, Start, Transport};
+use si_core::{Instant, SerialSettings};
 use std::ops::ControlFlow::{Break, Continue};
 
-/// Why a call on a [`Handle`] failed.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum Error {
-    /// The job was refused (1E41H, 1E20H) or failed (class 07H–09H): the manual's STATUS.
-    #[error("{0}")]
-    Status(Status),
-    /// The parameters are out of range.
-    #[error(transparent)]
-    Config(#[from] ConfigError),
-    /// The driver has stopped (the port closed or failed).
-    #[error(transparent)]
-    Stopped(#[from] DriverStopped),
-}
-
-impl Error {
-    /// The STATUS for this error, if it has one.
-    pub fn status(&self) -> Option<Status> {
-        match self {
-            Error::Status(s) => Some(*s),
-            Error::Config(_) | Error::Stopped(_) => None,
-        }
-    }
-}
+/// Why a call on a [`Handle`] failed: the 3964(R) handle's error, as RK 512 runs on that
+/// procedure and fails the same ways (a STATUS: refused with 1E41H or 1E20H, failed with class
+/// 07H–09H; a configuration out of range; the driver stopped).
+pub use si_3964r::tokio::Error;
 
 /// A running RK 512 station.
 pub struct Handle {
@@ -214,7 +194,7 @@ mod tests {
         drop(plc);
         assert_eq!(
             host.fetch(at, Coordination::NONE, 2).await,
-            Err(Error::Stopped(DriverStopped))
+            Err(Error::Stopped(si_core::driver::DriverStopped))
         );
     }
 }
