@@ -76,15 +76,6 @@ impl Handle {
             drop_unread_events: true,
             ..DriverOptions::default()
         };
-        Self::spawn_with(master, transport, options)
-    }
-
-    /// Start a master on `transport` with the caller's driver options.
-    pub fn spawn_with<T: Transport>(
-        master: Master,
-        transport: T,
-        options: DriverOptions,
-    ) -> Handle {
         let (driver, _task) = driver::spawn(master, transport, options);
         // Queued before any other command, so the first job sees a started master.
         let _ = driver.send(|m, now| m.start(now));
