@@ -229,7 +229,7 @@ fn modbus_slave_rx(c: &mut Criterion) {
 
 /// Take the slave's events as an application would: its driver stops reading the line when
 /// they pile up unread.
-fn take_events(mut server: si_modbus::tokio::SlaveServer<si_modbus::Tables>) {
+fn take_events(mut server: si_modbus::tokio::Slave<si_modbus::Tables>) {
     tokio::spawn(async move { while server.next_event().await.is_some() {} });
 }
 
@@ -243,7 +243,7 @@ fn take_events(mut server: si_modbus::tokio::SlaveServer<si_modbus::Tables>) {
 /// first leaves the line idle for longer than the gap (untimed) and then times one request
 /// until its response is decoded, the same loop for both implementations.
 fn modbus_roundtrip(c: &mut Criterion) {
-    use si_modbus::tokio::{MasterHandle, SlaveServer};
+    use si_modbus::tokio as handle;
     use si_modbus::{FrameEnd, Master, MasterConfig, Mode, Slave, SlaveConfig, Tables};
     use std::time::Duration as StdDuration;
     use tokio_modbus::client::Reader;
@@ -288,13 +288,13 @@ fn modbus_roundtrip(c: &mut Criterion) {
     {
         let _guard = rt.enter();
         let (a, b) = tokio::io::duplex(1024);
-        take_events(SlaveServer::spawn_engine(slave(), b));
+        take_events(handle::Slave::spawn_engine(slave(), b));
         let mut config = MasterConfig::default();
         config.line.settings = settings;
         let master = Master::new(config)
             .unwrap()
             .with_frame_end(FrameEnd::Length);
-        let mut master = MasterHandle::spawn_engine(master, a);
+        let mut master = handle::Master::spawn_engine(master, a);
         g.bench_function("si", |bench| {
             bench.iter_custom(|iters| {
                 let mut timed = StdDuration::ZERO;
@@ -314,7 +314,7 @@ fn modbus_roundtrip(c: &mut Criterion) {
     {
         let _guard = rt.enter();
         let (a, b) = tokio::io::duplex(1024);
-        take_events(SlaveServer::spawn_engine(slave(), b));
+        take_events(handle::Slave::spawn_engine(slave(), b));
         let mut ctx = tokio_modbus::client::rtu::attach_slave(a, tokio_modbus::Slave(1));
         g.bench_function("tokio-modbus", |bench| {
             bench.iter_custom(|iters| {

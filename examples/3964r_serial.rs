@@ -13,7 +13,7 @@ mod common;
 
 use si_serial::core::port::PortOptions;
 use si_serial::core::SerialSettings;
-use si_serial::r3964::tokio::Link3964r;
+use si_serial::r3964::tokio::Handle;
 use si_serial::r3964::{Config, Priority};
 
 #[tokio::main(flavor = "current_thread")]
@@ -28,14 +28,11 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
         priority: Priority::High,
         ..Config::default()
     };
-    let mut link = Link3964r::spawn(config, line, serial.transport)?;
-    match link.send(text.into_bytes()).await {
-        Ok(()) => println!("sent, the partner acknowledged with DLE"),
-        Err(status) => return Err(format!("send failed: {status}").into()),
-    }
+    let mut link = Handle::spawn(config, line, serial.transport)?;
+    link.send(text.into_bytes()).await?;
+    println!("sent, the partner acknowledged with DLE");
     println!("waiting for a block from the partner (Ctrl-C to stop)…");
-    if let Some(block) = link.recv().await {
-        println!("received {:?}", String::from_utf8_lossy(&block));
-    }
+    let block = link.recv().await?;
+    println!("received {:?}", String::from_utf8_lossy(&block));
     Ok(())
 }

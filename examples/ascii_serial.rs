@@ -10,7 +10,7 @@
 
 mod common;
 
-use si_serial::ascii::tokio::{AsciiHandle, Incoming};
+use si_serial::ascii::tokio::{Handle, Incoming};
 use si_serial::ascii::{Config, EndCriterion};
 use si_serial::core::port::PortOptions;
 
@@ -31,7 +31,7 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
         // A device server adds latency between characters: be generous.
         config.char_delay_ms = 200;
     }
-    let mut port = AsciiHandle::spawn(config, line.transport)?;
+    let mut port = Handle::spawn(config, line.transport)?;
     loop {
         match port.next().await? {
             Incoming::Frame { data, at } => {

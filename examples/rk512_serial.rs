@@ -14,7 +14,7 @@ use si_serial::core::port::PortOptions;
 use si_serial::core::SerialSettings;
 use si_serial::r3964::Priority;
 use si_serial::rk512::frame::{Address, Coordination};
-use si_serial::rk512::tokio::Rk512;
+use si_serial::rk512::tokio::Handle;
 use si_serial::rk512::Config;
 
 #[tokio::main]
@@ -26,7 +26,7 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut config = Config::default();
     config.link.priority = Priority::High; // the PLC side usually keeps the default, low
     let line = common::open(&target, &settings, &PortOptions::default()).await?;
-    let station = Rk512::spawn(config, settings, None, line.transport)?;
+    let station = Handle::spawn(config, settings, line.transport)?;
 
     let db10 = Address::Db { db: 10, dw: 0 };
     match station

@@ -14,13 +14,13 @@
 
 mod common;
 
-use si_serial::core::driver::{DriverOptions, RtsToggle};
+use si_serial::core::driver::RtsToggle;
 use si_serial::core::port::{PortOptions, Rs485};
 use si_serial::core::Duration;
 use si_serial::uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_serial::uss::frame::PkwWords;
-use si_serial::uss::master::{Event, Master, ParamRequest};
-use si_serial::uss::tokio::UssMaster;
+use si_serial::uss::master::Event;
+use si_serial::uss::tokio::Handle;
 
 #[tokio::main]
 async fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -61,17 +61,10 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
         // A device server adds network latency on top of the drive's 20 ms.
         config.response_timeout = Duration::from_millis(100);
     }
-    let driver = DriverOptions {
-        settings: Some(settings),
-        ..DriverOptions::default()
-    };
-    let (mut master, _task) =
-        UssMaster::spawn(Master::new(config)?, line.transport, driver).await?;
+    let mut master = Handle::spawn(config, line.transport)?;
 
-    let p = master
-        .parameter(slaves[0], ParamRequest::read(700, 0))
-        .await?;
-    println!("drive {}: P700 = {}", slaves[0], p.value());
+    let p700 = master.read_parameter(slaves[0], 700, 0).await?;
+    println!("drive {}: P700 = {p700}", slaves[0]);
     master.set_control(slaves[0], vec![0x047E, 0]).await?;
     for _ in 0..(10 * slaves.len()) {
         match master.next_event().await {

@@ -3,7 +3,21 @@
 //! [`spawn`] moves an engine and a [`Transport`] (a serial port from `si_core::port::open` or a
 //! `tokio-serial` stream with feature `serial`, a TCP stream to a serial device server, a
 //! `tokio::io::duplex` pipe) into a task and gives back a [`Handle`]: commands go in with
-//! [`Handle::call`], events come out of [`Handle::next_event`].
+//! [`Caller::call`] (a [`Handle`] is a [`Caller`]), events come out of
+//! [`Handle::next_event`], and a job that ends with an event is awaited with [`Caller::job`]
+//! (see "Job routing").
+//!
+//! # Job routing
+//!
+//! Every protocol handle waits for its jobs the same way, written once here: [`Caller::job`]
+//! starts a job inside the driver and registers what ends it (a matcher on the engine's events,
+//! keyed by the engine's [`JobId`](crate::job::JobId) or, for one-job engines, by "the running
+//! job"). The driver offers each event to the waiting jobs before the application's event
+//! queue, so a job's outcome reaches exactly the caller that started it, even when an earlier
+//! caller has stopped waiting (its outcome is then dropped, not handed to the next). A start
+//! the engine refuses as busy ([`Start::Busy`]) waits in the driver, in call order, and is
+//! offered again whenever the engine reports an event: one-job protocols queue there, not in
+//! each handle.
 //!
 //! # Timing, honestly
 //!
@@ -74,6 +88,7 @@ use crate::sim::TraceKind;
 use crate::time::{Duration, Instant};
 use crate::tracefile::Recorder;
 use std::io;
+use std::ops::ControlFlow;
 use std::sync::{Arc, Condvar, Mutex, PoisonError};
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::sync::{mpsc, oneshot};
@@ -148,8 +163,14 @@ pub struct DriverOptions {
     /// How often modem inputs are polled on transports that have them.
     pub signal_poll: std::time::Duration,
     /// Events buffered for the application before the driver stops reading the line (nothing
-    /// is dropped: the OS buffers the line meanwhile).
+    /// is dropped: the OS buffers the line meanwhile), or drops them
+    /// ([`drop_unread_events`](Self::drop_unread_events)).
     pub event_capacity: usize,
+    /// When `event_capacity` events wait unread, drop further ones instead of pausing the
+    /// line. For handles whose users need not read events (job outcomes are routed to their
+    /// callers, received data stays in the engine until asked for): a program that only sends
+    /// must not stall the line it sends on.
+    pub drop_unread_events: bool,
     /// Record what the driver sees into a trace file ([`crate::tracefile`]): every write as
     /// `tx`, every read as `rx_chunk`, signal changes and the engine's events (their `Debug`
     /// form), under the recorder's station name. `si monitor --trace` reads it back.
@@ -167,18 +188,117 @@ impl Default for DriverOptions {
             settings: None,
             signal_poll: std::time::Duration::from_millis(10),
             event_capacity: 1024,
+            drop_unread_events: false,
             recorder: None,
             port: None,
         }
     }
 }
 
-type Command<E> = Box<dyn FnOnce(&mut E, Instant) + Send>;
+/// What a job's start did ([`Caller::job`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Start<K, R> {
+    /// The job runs; the event that ends it is recognised with this key (a `JobId`, or `()`
+    /// for an engine that runs one job at a time).
+    Running(K),
+    /// The job has its outcome at once (a refusal, or nothing to wait for).
+    Ended(R),
+    /// The engine runs another job: the start is offered again after the engine's next event.
+    Busy,
+}
 
-/// The application's side of a running driver.
-pub struct Handle<E: Engine> {
+/// A job waiting in the driver for the event that ends it: takes an event and gives it back
+/// if it is not its own.
+type Waiter<Ev> = Box<dyn FnMut(Ev) -> Option<Ev> + Send>;
+
+/// One attempt to start a job: `None` if the engine was busy, else the waiter (if the job runs).
+type Attempt<E> =
+    Box<dyn FnMut(&mut E, Instant) -> Option<Option<Waiter<<E as Engine>::Event>>> + Send>;
+
+/// A closure run on the engine ([`Caller::send`]).
+type Run<E> = Box<dyn FnOnce(&mut E, Instant) + Send>;
+
+enum Command<E: Engine> {
+    /// Run a closure on the engine.
+    Run(Run<E>),
+    /// Start a job and route its outcome ([`Caller::job`]).
+    Job(Attempt<E>),
+}
+
+/// The jobs the driver routes: those waiting for their end, those waiting to start.
+struct Jobs<E: Engine> {
+    waiting: Vec<Waiter<E::Event>>,
+    deferred: std::collections::VecDeque<Attempt<E>>,
+}
+
+impl<E: Engine> Jobs<E> {
+    fn new() -> Self {
+        Jobs {
+            waiting: Vec::new(),
+            deferred: std::collections::VecDeque::new(),
+        }
+    }
+
+    /// A new job: started now unless earlier ones wait to start (call order is kept).
+    fn start(&mut self, engine: &mut E, now: Instant, attempt: Attempt<E>) {
+        self.deferred.push_back(attempt);
+        self.retry(engine, now);
+    }
+
+    /// Start the jobs waiting to start, in order, until the engine is busy.
+    fn retry(&mut self, engine: &mut E, now: Instant) {
+        while let Some(attempt) = self.deferred.front_mut() {
+            match attempt(engine, now) {
+                None => return,
+                Some(waiter) => {
+                    self.deferred.pop_front();
+                    self.waiting.extend(waiter);
+                }
+            }
+        }
+    }
+
+    /// Hand `event` to the job it ends, if any; otherwise give it back for the application.
+    fn route(&mut self, mut event: E::Event) -> Option<E::Event> {
+        for i in 0..self.waiting.len() {
+            match (self.waiting[i])(event) {
+                None => {
+                    drop(self.waiting.remove(i));
+                    return None;
+                }
+                Some(other) => event = other,
+            }
+        }
+        Some(event)
+    }
+}
+
+/// The commanding side of a running driver: clonable, so several tasks can run jobs while one
+/// takes the events from the [`Handle`].
+pub struct Caller<E: Engine> {
     commands: mpsc::UnboundedSender<Command<E>>,
+}
+
+impl<E: Engine> Clone for Caller<E> {
+    fn clone(&self) -> Self {
+        Caller {
+            commands: self.commands.clone(),
+        }
+    }
+}
+
+/// The application's side of a running driver: a [`Caller`] (which it dereferences to) and the
+/// engine's events.
+pub struct Handle<E: Engine> {
+    caller: Caller<E>,
     events: mpsc::Receiver<E::Event>,
+}
+
+impl<E: Engine> std::ops::Deref for Handle<E> {
+    type Target = Caller<E>;
+    fn deref(&self) -> &Caller<E> {
+        &self.caller
+    }
 }
 
 /// The driver task has ended (the transport closed or failed); its `JoinHandle` says why.
@@ -186,7 +306,7 @@ pub struct Handle<E: Engine> {
 #[error("the driver has stopped: the port was closed or failed")]
 pub struct DriverStopped;
 
-impl<E: Engine> Handle<E> {
+impl<E: Engine> Caller<E> {
     /// Run `f` on the engine inside the driver at the current time (a command such as `send`),
     /// drain the outputs it causes, and return its result.
     pub async fn call<R: Send + 'static>(
@@ -194,26 +314,90 @@ impl<E: Engine> Handle<E> {
         f: impl FnOnce(&mut E, Instant) -> R + Send + 'static,
     ) -> Result<R, DriverStopped> {
         let (tx, rx) = oneshot::channel();
-        let command: Command<E> = Box::new(move |engine, now| {
+        self.send(move |engine, now| {
             let _ = tx.send(f(engine, now));
-        });
-        self.commands.send(command).map_err(|_| DriverStopped)?;
+        })?;
         rx.await.map_err(|_| DriverStopped)
     }
 
     /// Run `f` on the engine inside the driver and drain the outputs it causes, without
-    /// waiting for it: one channel send, no reply (a command whose outcome arrives as an event).
+    /// waiting for it: one channel send, no reply.
     pub fn send(
         &self,
         f: impl FnOnce(&mut E, Instant) + Send + 'static,
     ) -> Result<(), DriverStopped> {
-        self.commands.send(Box::new(f)).map_err(|_| DriverStopped)
+        self.commands
+            .send(Command::Run(Box::new(f)))
+            .map_err(|_| DriverStopped)
     }
 
-    /// The next event the engine reported; `None` once the driver has stopped and every event
-    /// has been taken.
+    /// Start a job inside the driver and wait for its outcome ("Job routing" in the module
+    /// docs). `start` runs on the engine (again, later, for as long as it says
+    /// [`Start::Busy`]); for a running job, `done` is offered the engine's events, keyed by
+    /// what `start` returned, and returns `Break(outcome)` for the event that ends the job or
+    /// `Continue(event)` to pass the event on. Events no job takes reach
+    /// [`Handle::next_event`].
+    ///
+    /// Dropping the future does not cancel the job: the engine runs it to its end and the
+    /// driver drops the outcome.
+    pub async fn job<K, R>(
+        &self,
+        mut start: impl FnMut(&mut E, Instant) -> Start<K, R> + Send + 'static,
+        done: impl FnMut(&K, E::Event) -> ControlFlow<R, E::Event> + Send + 'static,
+    ) -> Result<R, DriverStopped>
+    where
+        K: Send + 'static,
+        R: Send + 'static,
+        E::Event: 'static,
+    {
+        let (tx, rx) = oneshot::channel();
+        let mut reply = Some(tx);
+        let mut done = Some(done);
+        let attempt: Attempt<E> = Box::new(move |engine, now| match start(engine, now) {
+            Start::Busy => None,
+            Start::Ended(outcome) => {
+                if let Some(reply) = reply.take() {
+                    let _ = reply.send(outcome);
+                }
+                Some(None)
+            }
+            Start::Running(key) => {
+                let mut reply = reply.take();
+                let mut done = done.take()?;
+                let waiter: Waiter<E::Event> = Box::new(move |event| match done(&key, event) {
+                    ControlFlow::Break(outcome) => {
+                        if let Some(reply) = reply.take() {
+                            let _ = reply.send(outcome);
+                        }
+                        None
+                    }
+                    ControlFlow::Continue(other) => Some(other),
+                });
+                Some(Some(waiter))
+            }
+        });
+        self.commands
+            .send(Command::Job(attempt))
+            .map_err(|_| DriverStopped)?;
+        rx.await.map_err(|_| DriverStopped)
+    }
+}
+
+impl<E: Engine> Handle<E> {
+    /// A clonable commanding side.
+    pub fn caller(&self) -> Caller<E> {
+        self.caller.clone()
+    }
+
+    /// The next event the engine reported that no job took; `None` once the driver has
+    /// stopped and every event has been taken.
     pub async fn next_event(&mut self) -> Option<E::Event> {
         self.events.recv().await
+    }
+
+    /// An event already waiting, without waiting for one.
+    pub fn try_next_event(&mut self) -> Option<E::Event> {
+        self.events.try_recv().ok()
     }
 }
 
@@ -234,7 +418,9 @@ where
     let task = tokio::spawn(run(engine, transport, options, command_rx, event_tx));
     (
         Handle {
-            commands: command_tx,
+            caller: Caller {
+                commands: command_tx,
+            },
             events: event_rx,
         },
         task,
@@ -448,6 +634,7 @@ where
     tokio::pin!(wheel);
     let mut wheel_set: Option<Instant> = None;
     let mut spins = 0u32;
+    let mut jobs = Jobs::<E>::new();
 
     loop {
         // Drain until Wait, acting on every output.
@@ -485,13 +672,28 @@ where
                             text: format!("{event:?}"),
                         });
                     }
-                    if events.send(event).await.is_err() {
+                    let Some(event) = jobs.route(event) else {
+                        continue;
+                    };
+                    if options.drop_unread_events {
+                        if let Err(mpsc::error::TrySendError::Closed(_)) = events.try_send(event) {
+                            return Ok(()); // the application is gone
+                        }
+                    } else if events.send(event).await.is_err() {
                         return Ok(()); // the application is gone
                     }
                 }
                 Output::Wait(deadline) => break deadline,
             }
         };
+        // A start the engine refused as busy may go now; it may cause outputs.
+        if !jobs.deferred.is_empty() {
+            let before = jobs.deferred.len();
+            jobs.retry(&mut engine, clock.now());
+            if jobs.deferred.len() != before {
+                continue;
+            }
+        }
 
         // A deadline already due (tx-done right after a write to a port without wire time) is
         // handled at once: tokio's wheel would round it up to its next millisecond tick. The
@@ -545,7 +747,10 @@ where
                     let now = clock.now();
                     fire_due(&mut engine, &mut tx_done_at, deadline.take(), now);
                     direction.due(now, &mut io, &record)?;
-                    command(&mut engine, now)
+                    match command {
+                        Command::Run(f) => f(&mut engine, now),
+                        Command::Job(attempt) => jobs.start(&mut engine, now, attempt),
+                    }
                 }
                 None => return Ok(()),
             },
@@ -817,6 +1022,65 @@ mod tests {
             ]
         );
         assert!(f.trace.entries.iter().all(|e| e.station == "host"));
+    }
+
+    /// Runs one job at a time: a received byte ends the running job with that byte as its
+    /// outcome, and is an event for the application when no job runs.
+    #[derive(Default)]
+    struct OneJob {
+        running: Option<u64>,
+        started: u64,
+        events: std::collections::VecDeque<(Option<u64>, u8)>,
+    }
+    impl Engine for OneJob {
+        type Event = (Option<u64>, u8);
+        fn handle_rx(&mut self, _: Instant, bytes: &[u8]) {
+            for &b in bytes {
+                self.events.push_back((self.running.take(), b));
+            }
+        }
+        fn handle_timeout(&mut self, _: Instant) {}
+        fn poll_output(&mut self) -> Output<Self::Event> {
+            self.events
+                .pop_front()
+                .map_or(Output::Wait(None), Output::Event)
+        }
+    }
+
+    async fn one_job(caller: Caller<OneJob>) -> Result<u8, DriverStopped> {
+        let start = |e: &mut OneJob, _| {
+            if e.running.is_some() {
+                return Start::Busy;
+            }
+            e.started += 1;
+            e.running = Some(e.started);
+            Start::Running(e.started)
+        };
+        let done = |job: &u64, event: (Option<u64>, u8)| match event {
+            (Some(j), byte) if j == *job => ControlFlow::Break(byte),
+            other => ControlFlow::Continue(other),
+        };
+        caller.job(start, done).await
+    }
+
+    #[tokio::test]
+    async fn jobs_get_their_own_outcomes_in_call_order_and_other_events_reach_the_application() {
+        let (ours, mut theirs) = tokio::io::duplex(64);
+        let (mut handle, _task) = spawn(OneJob::default(), ours, DriverOptions::default());
+        // The second start finds the engine busy and waits in the driver.
+        let first = tokio::spawn(one_job(handle.caller()));
+        let second = tokio::spawn(one_job(handle.caller()));
+        tokio::task::yield_now().await;
+        theirs.write_all(&[7]).await.unwrap();
+        assert_eq!(first.await.unwrap(), Ok(7));
+        theirs.write_all(&[8]).await.unwrap();
+        assert_eq!(second.await.unwrap(), Ok(8));
+        // No job runs: the byte is the application's event.
+        theirs.write_all(&[9]).await.unwrap();
+        assert_eq!(handle.next_event().await, Some((None, 9)));
+        assert_eq!(handle.call(|e, _| e.started).await, Ok(2));
+        drop(theirs);
+        assert_eq!(one_job(handle.caller()).await, Err(DriverStopped));
     }
 
     /// Reports what reaches it: data runs and line errors, in order.

@@ -142,6 +142,10 @@ impl fmt::Display for Status {
     }
 }
 
+/// A STATUS is an error a user program can propagate with `?` into `Box<dyn Error>`: every
+/// handle's error carries one (`Error::status()`), and its `Display` names code and meaning.
+impl std::error::Error for Status {}
+
 impl fmt::Debug for Status {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "Status(16#{:04X})", self.code)

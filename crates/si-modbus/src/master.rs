@@ -243,17 +243,6 @@ impl Master {
         })
     }
 
-    /// Report a job the caller could not start (refused by [`request`](Self::request)) as
-    /// failed, so a caller that waits for the job's event gets exactly one.
-    #[cfg(feature = "tokio")]
-    pub(crate) fn refuse(&mut self, request: &Adu, status: Status) {
-        self.out.push_back(Output::Event(MasterEvent::Failed {
-            unit: request.unit(),
-            function: request.as_bytes().get(1).copied().unwrap_or(0),
-            status,
-        }));
-    }
-
     /// Send the job's request, or hold it while the line has not been silent for the gap.
     fn send(&mut self, now: Instant) {
         if let Some(until) = self.rx.quiet_at().filter(|&q| now < q) {

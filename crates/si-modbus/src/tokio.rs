@@ -1,5 +1,5 @@
-//! Async Modbus over any [`Transport`] (feature `tokio`): a master handle with one method per
-//! function code, and a slave server task.
+//! Async Modbus over any [`Transport`] (feature `tokio`): a [`Master`] handle with one method
+//! per function code, and a [`Slave`] handle serving a store.
 //!
 //! Both run the Sans-IO engines on the si-core driver, which feeds them tokio's clock and fires
 //! short deadlines precisely (see its "Timing, honestly"), so the end-of-frame gap (4 ms at
@@ -10,25 +10,28 @@
 //!
 //! ```no_run
 //! # async fn demo(port: tokio::io::DuplexStream) -> Result<(), si_modbus::tokio::Error> {
-//! use si_modbus::{tokio::MasterHandle, MasterConfig};
-//! let mut master = MasterHandle::spawn(MasterConfig::default(), port)?;
+//! use si_modbus::{tokio::Master, MasterConfig};
+//! let mut master = Master::spawn(MasterConfig::default(), port)?;
 //! let regs = master.read_holding_registers(1, 0, 10).await?;
 //! master.write_single_register(1, 4, 0x1234).await?;
 //! # Ok(()) }
 //! ```
 
 use crate::config::{ConfigError, MasterConfig, SlaveConfig};
-use crate::frame::{Adu, Bits, Registers, Request, Response};
-use crate::master::{Completion, Master, MasterEvent, RequestError};
-use crate::slave::{Slave, SlaveEvent, Store};
-use si_core::driver::{spawn, DriverOptions, DriverStopped, Handle, Transport};
-use si_core::Status;
+use crate::frame::{Bits, Registers, Request, Response};
+use crate::master::{Completion, MasterEvent, RequestError};
+use crate::slave::{SlaveEvent, Store};
+use crate::{master, slave};
+use si_core::driver::{self, DriverOptions, DriverStopped, Start, Transport};
+use si_core::{Instant, Status};
+use std::ops::ControlFlow::{Break, Continue};
 use tokio::task::JoinHandle;
 
 /// Why an async job failed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum Error {
-    /// The master refused the job (0E4xH, or busy).
+    /// The master refused the job (0E4xH: a quantity out of range, a function not allowed as
+    /// broadcast).
     #[error("{0}")]
     Refused(#[from] RequestError),
     /// The job failed on the line with the manual's STATUS (0830H, 0E57H, 0E61H …).
@@ -40,9 +43,6 @@ pub enum Error {
     /// The parameters are out of range.
     #[error("{0}")]
     Config(#[from] ConfigError),
-    /// The request could not be encoded (quantity out of range).
-    #[error("{0}")]
-    Encode(#[from] crate::frame::EncodeError),
 }
 
 impl Error {
@@ -71,91 +71,84 @@ pub struct CommEventLog {
 }
 
 /// An async Modbus master over one line: one job at a time (§4.2), each `await` is one job.
-pub struct MasterHandle {
-    handle: Handle<Master>,
+pub struct Master {
+    driver: driver::Handle<master::Master>,
     task: JoinHandle<std::io::Result<()>>,
     diagnostics: std::collections::VecDeque<Status>,
     dropped: u64,
-    /// A job was started whose end event has not been taken (its `request` future was
-    /// dropped): the next request waits for that event first.
-    in_flight: bool,
 }
 
+/// The old name of [`Master`].
+#[deprecated(note = "renamed to si_modbus::tokio::Master")]
+pub type MasterHandle = Master;
+
 /// How many line diagnostics (0E50H, line errors between jobs) a handle keeps; older ones are
-/// counted in [`MasterHandle::diagnostics_dropped`].
+/// counted in [`Master::diagnostics_dropped`].
 pub const DIAGNOSTICS_KEPT: usize = 64;
 
-impl MasterHandle {
+impl Master {
     /// Start the master on `transport`.
     pub fn spawn<T: Transport>(config: MasterConfig, transport: T) -> Result<Self, Error> {
-        Ok(Self::spawn_engine(Master::new(config)?, transport))
+        Ok(Self::spawn_engine(master::Master::new(config)?, transport))
     }
 
     /// Start an engine built by the caller (for options beyond [`MasterConfig`], such as
-    /// [`Master::with_frame_end`]) on `transport`.
-    pub fn spawn_engine<T: Transport>(master: Master, transport: T) -> Self {
+    /// [`master::Master::with_frame_end`]) on `transport`.
+    pub fn spawn_engine<T: Transport>(master: master::Master, transport: T) -> Self {
         let options = DriverOptions {
             settings: Some(master.config().line.settings),
+            // Diagnostics are taken only when the program asks or starts a job: beyond the
+            // driver's event capacity they are dropped rather than stalling the line.
+            drop_unread_events: true,
             ..DriverOptions::default()
         };
-        let (handle, task) = spawn(master, transport, options);
-        MasterHandle {
-            handle,
+        let (driver, task) = driver::spawn(master, transport, options);
+        Master {
+            driver,
             task,
             diagnostics: std::collections::VecDeque::new(),
             dropped: 0,
-            in_flight: false,
         }
     }
 
     /// Send any request and wait for its completion (a broadcast completes after the
     /// turnaround delay with no response).
     ///
-    /// The job is checked here ([`Master::check_job`]) and handed to the driver without
-    /// waiting for a reply; its one completion or failure event is the answer. If an earlier
-    /// `request` future was dropped before its job ended, that job's event is awaited (and
-    /// dropped) first, so every call gets its own job's outcome.
+    /// The job is checked here ([`master::Master::check_job`]) and started in the driver, which
+    /// routes its one completion or failure event back here. If an earlier `request` future
+    /// was dropped before its job ended, this job waits in the driver until that one has ended
+    /// (its outcome is dropped), so every call gets its own job's outcome.
     pub async fn request(&mut self, unit: u8, request: &Request<'_>) -> Result<Completion, Error> {
-        let adu = Adu::request(unit, request)?;
-        Master::check_job(unit, request)?;
-        if self.in_flight {
-            let _ = self.job_end().await;
-        }
-        self.in_flight = true;
-        self.handle.send(move |m, now| {
+        let adu = master::Master::check_job(unit, request)?;
+        self.keep_diagnostics();
+        let start = move |m: &mut master::Master, now| {
             let started = match adu.decode_request() {
                 Ok((_, r)) => m.request(now, unit, &r),
                 Err(_) => Err(RequestError::Invalid(crate::status::INVALID_FUNCTION)),
             };
-            if let Err(e) = started {
-                // Not expected after the checks above; reported so the caller is not left
-                // waiting.
-                m.refuse(&adu, e.status());
+            match started {
+                Ok(()) => Start::Running(()),
+                Err(RequestError::Busy) => Start::Busy,
+                Err(e) => Start::Ended(Err(Error::Refused(e))),
             }
-        })?;
-        self.job_end().await
+        };
+        let done = |_: &(), event| match event {
+            MasterEvent::Completed(c) => Break(Ok(c)),
+            MasterEvent::Failed { status, .. } => Break(Err(Error::Failed(status))),
+            other @ MasterEvent::Diagnostic(_) => Continue(other),
+        };
+        self.driver.job(start, done).await?
     }
 
-    /// The end of the running job: its completion or failure; diagnostics on the way are kept.
-    async fn job_end(&mut self) -> Result<Completion, Error> {
-        loop {
-            match self.handle.next_event().await {
-                Some(MasterEvent::Completed(c)) => {
-                    self.in_flight = false;
-                    return Ok(c);
+    /// Move the diagnostics the driver has reported into the kept list.
+    fn keep_diagnostics(&mut self) {
+        while let Some(event) = self.driver.try_next_event() {
+            if let MasterEvent::Diagnostic(s) = event {
+                if self.diagnostics.len() == DIAGNOSTICS_KEPT {
+                    self.diagnostics.pop_front();
+                    self.dropped += 1;
                 }
-                Some(MasterEvent::Failed { status, .. }) => {
-                    self.in_flight = false;
-                    return Err(Error::Failed(status));
-                }
-                Some(MasterEvent::Diagnostic(s)) => {
-                    if self.diagnostics.len() == DIAGNOSTICS_KEPT {
-                        self.diagnostics.pop_front();
-                        self.dropped += 1;
-                    }
-                    self.diagnostics.push_back(s);
-                }
-                None => return Err(Error::Stopped(DriverStopped)),
+                self.diagnostics.push_back(s);
             }
         }
     }
@@ -341,12 +334,21 @@ impl MasterHandle {
     /// Line diagnostics seen while waiting for jobs (unsolicited frames 0E50H, line errors in
     /// Normal mode), oldest first; taking them empties the list.
     pub fn take_diagnostics(&mut self) -> Vec<Status> {
+        self.keep_diagnostics();
         self.diagnostics.drain(..).collect()
     }
 
     /// Diagnostics discarded because more than [`DIAGNOSTICS_KEPT`] piled up.
     pub fn diagnostics_dropped(&self) -> u64 {
         self.dropped
+    }
+
+    /// Run `f` on the engine inside the driver (counters, state).
+    pub async fn call<R: Send + 'static>(
+        &self,
+        f: impl FnOnce(&mut master::Master, Instant) -> R + Send + 'static,
+    ) -> Result<R, Error> {
+        Ok(self.driver.call(f).await?)
     }
 
     /// Stop the driver.
@@ -356,20 +358,27 @@ impl MasterHandle {
 }
 
 /// A Modbus slave serving a [`Store`] on one line, as a tokio task.
-pub struct SlaveServer<S: Store + Send + 'static> {
-    handle: Handle<Slave<S>>,
+pub struct Slave<S: Store + Send + 'static> {
+    driver: driver::Handle<slave::Slave<S>>,
     task: JoinHandle<std::io::Result<()>>,
 }
 
-impl<S: Store + Send + 'static> SlaveServer<S> {
+/// The old name of [`Slave`].
+#[deprecated(note = "renamed to si_modbus::tokio::Slave")]
+pub type SlaveServer<S> = Slave<S>;
+
+impl<S: Store + Send + 'static> Slave<S> {
     /// Start serving `store` on `transport`.
     pub fn spawn<T: Transport>(config: SlaveConfig, store: S, transport: T) -> Result<Self, Error> {
-        Ok(Self::spawn_engine(Slave::new(config, store)?, transport))
+        Ok(Self::spawn_engine(
+            slave::Slave::new(config, store)?,
+            transport,
+        ))
     }
 
     /// Serve with an engine built by the caller (for options beyond [`SlaveConfig`], such as
-    /// [`Slave::with_frame_end`]) on `transport`.
-    pub fn spawn_engine<T: Transport>(slave: Slave<S>, transport: T) -> Self {
+    /// [`slave::Slave::with_frame_end`]) on `transport`.
+    pub fn spawn_engine<T: Transport>(slave: slave::Slave<S>, transport: T) -> Self {
         // Report tx-done when the write completes, not after the estimated wire time: on
         // transports without wire time (pseudo-terminals, TCP) a fast master's next request
         // would otherwise look like a sequence error (0837H).
@@ -377,13 +386,13 @@ impl<S: Store + Send + 'static> SlaveServer<S> {
             settings: None,
             ..DriverOptions::default()
         };
-        let (handle, task) = spawn(slave, transport, options);
-        SlaveServer { handle, task }
+        let (driver, task) = driver::spawn(slave, transport, options);
+        Slave { driver, task }
     }
 
     /// The next thing the slave did; `None` once the line has closed.
     pub async fn next_event(&mut self) -> Option<SlaveEvent> {
-        self.handle.next_event().await
+        self.driver.next_event().await
     }
 
     /// Look at or change the store (a simulated process) inside the driver.
@@ -391,12 +400,20 @@ impl<S: Store + Send + 'static> SlaveServer<S> {
         &self,
         f: impl FnOnce(&mut S) -> R + Send + 'static,
     ) -> Result<R, Error> {
-        Ok(self.handle.call(move |s, _| f(s.store_mut())).await?)
+        self.call(move |s, _| f(s.store_mut())).await
+    }
+
+    /// Run `f` on the slave engine inside the driver (counters, state).
+    pub async fn call<R: Send + 'static>(
+        &self,
+        f: impl FnOnce(&mut slave::Slave<S>, Instant) -> R + Send + 'static,
+    ) -> Result<R, Error> {
+        Ok(self.driver.call(f).await?)
     }
 
     /// Wait for the driver task to end (the port closed) and return its I/O result.
     pub async fn join(self) -> std::io::Result<()> {
-        drop(self.handle);
+        drop(self.driver);
         self.task.await.unwrap_or(Ok(()))
     }
 }
@@ -413,8 +430,8 @@ mod tests {
             address: 7,
             ..SlaveConfig::default()
         };
-        let mut server = SlaveServer::spawn(config, Tables::new(16, 16, 16, 16), b).unwrap();
-        let mut m = MasterHandle::spawn(MasterConfig::default(), a).unwrap();
+        let mut server = Slave::spawn(config, Tables::new(16, 16, 16, 16), b).unwrap();
+        let mut m = Master::spawn(MasterConfig::default(), a).unwrap();
         m.write_multiple_registers(7, 2, &[0xAAAA, 0x5555])
             .await
             .unwrap();
@@ -454,12 +471,12 @@ mod tests {
         };
         let mut tables = Tables::new(0, 0, 4, 0);
         tables.holding_registers[1] = 0x1234;
-        let _server = SlaveServer::spawn(config, tables, b).unwrap();
+        let _server = Slave::spawn(config, tables, b).unwrap();
         let master_config = MasterConfig {
             response_timeout_ms: 100,
             ..MasterConfig::default()
         };
-        let mut m = MasterHandle::spawn(master_config, a).unwrap();
+        let mut m = Master::spawn(master_config, a).unwrap();
         let dropped = tokio::time::timeout(
             std::time::Duration::from_millis(20),
             m.read_holding_registers(9, 0, 1),

@@ -6,7 +6,8 @@
 //! # async fn main() {
 //! use si_rk512::frame::{Address, Coordination};
 //! use si_rk512::passive::ServerConfig;
-//! use si_rk512::tokio::Rk512;
+//! use si_rk512::station::Station;
+//! use si_rk512::tokio::Handle;
 //! use si_rk512::Config;
 //! use si_core::SerialSettings;
 //!
@@ -16,91 +17,97 @@
 //! high.link.priority = si_3964r::Priority::High;
 //! let mut memory = ServerConfig::default();
 //! memory.memory.dbs.insert(1, 16);
-//! let host = Rk512::spawn(high, line, None, left).unwrap();
-//! let _plc = Rk512::spawn(Config::default(), line, Some(&memory), right).unwrap();
+//! let host = Handle::spawn(high, line, left).unwrap();
+//! let plc = Station::serving(Config::default(), line, &memory).unwrap();
+//! let _plc = Handle::spawn_engine(plc, right);
 //! let at = Address::Db { db: 1, dw: 0 };
 //! host.send(at, Coordination::NONE, vec![1, 2, 3, 4]).await.unwrap();
 //! assert_eq!(host.fetch(at, Coordination::NONE, 4).await.unwrap(), &[1, 2, 3, 4][..]);
 //! # }
 //! ```
 //!
-//! Jobs are queued and run one after the other (one job outstanding at a time, §4.6); each
-//! call resolves with its own job's outcome. What the passive side did comes out of
-//! [`Rk512::next_event`].
+//! Jobs are queued in the driver and run one after the other (one job outstanding at a time,
+//! §4.6); each call resolves with its own job's outcome (the driver's job routing,
+//! `si_core::driver`). What the passive side did comes out of [`Handle::next_event`]; a
+//! station that nobody asks drops such news beyond the driver's event capacity rather than
+//! stalling the line.
 
 use crate::config::Config;
 use crate::frame::{Address, Coordination};
-use crate::passive::{Server, ServerConfig};
-use crate::station::{Event, JobId, Station};
+use crate::passive::Server;
+use crate::station::{Event, JobId, RequestError, Station};
 use bytes::Bytes;
-use si_3964r::ConfigError;
-use si_core::driver::{spawn, DriverOptions, Handle, Transport};
-use si_core::status::common;
-use si_core::{SerialSettings, Status};
-use std::collections::VecDeque;
-use tokio::sync::{mpsc, oneshot};
+use si_core::driver::{self, DriverOptions, Start, Transport};
+use si_core::{Instant, SerialSettings};
+use std::ops::ControlFlow::{Break, Continue};
 
-type Reply = oneshot::Sender<Result<Bytes, Status>>;
-type ServerFn = Box<dyn FnOnce(&mut Server) + Send>;
-
-enum Request {
-    Send(Address, Coordination, Bytes, Reply),
-    Fetch(Address, Coordination, usize, Reply),
-    Server(ServerFn),
-}
-
-/// Passive-side events kept for the application before the oldest is dropped.
-const EVENT_BACKLOG: usize = 256;
+/// Why a call on a [`Handle`] failed: the 3964(R) handle's error, as RK 512 runs on that
+/// procedure and fails the same ways (a STATUS: refused with 1E41H or 1E20H, failed with class
+/// 07H–09H; a configuration out of range; the driver stopped).
+pub use si_3964r::tokio::Error;
 
 /// A running RK 512 station.
-pub struct Rk512 {
-    requests: mpsc::Sender<Request>,
-    events: mpsc::Receiver<Event>,
+pub struct Handle {
+    driver: driver::Handle<Station>,
 }
 
-impl Rk512 {
-    /// Start a station over `transport`; with `server`, it also serves the partner's jobs from
-    /// memory of those sizes. Call it inside a tokio runtime.
+/// The old name of [`Handle`].
+#[deprecated(note = "renamed to si_rk512::tokio::Handle")]
+pub type Rk512 = Handle;
+
+impl Handle {
+    /// Start an active-only station over `transport` (whose line runs at `settings`); for one
+    /// that also serves the partner's jobs, build it with [`Station::serving`] and start it with
+    /// [`spawn_engine`](Self::spawn_engine). Call it inside a tokio runtime.
     pub fn spawn<T: Transport>(
         config: Config,
         settings: SerialSettings,
-        server: Option<&ServerConfig>,
         transport: T,
-    ) -> Result<Rk512, ConfigError> {
-        let station = match server {
-            Some(s) => Station::serving(config, settings, s)?,
-            None => Station::new(config, settings)?,
-        };
-        let options = DriverOptions {
-            settings: None,
-            ..DriverOptions::default()
-        };
-        let (handle, _driver) = spawn(station, transport, options);
-        let (requests, requests_rx) = mpsc::channel(16);
-        let (events_tx, events) = mpsc::channel(EVENT_BACKLOG);
-        tokio::spawn(route(handle, requests_rx, events_tx));
-        Ok(Rk512 { requests, events })
+    ) -> Result<Handle, Error> {
+        Ok(Self::spawn_engine(
+            Station::new(config, settings)?,
+            transport,
+        ))
     }
 
-    async fn job(&self, make: impl FnOnce(Reply) -> Request) -> Result<Bytes, Status> {
-        let (reply, outcome) = oneshot::channel();
-        self.requests
-            .send(make(reply))
-            .await
-            .map_err(|_| common::NOT_POSSIBLE_IN_MODE)?;
-        outcome.await.unwrap_or(Err(common::NOT_POSSIBLE_IN_MODE))
+    /// Start a station built by the caller on `transport`.
+    pub fn spawn_engine<T: Transport>(station: Station, transport: T) -> Handle {
+        let options = DriverOptions {
+            settings: None,
+            drop_unread_events: true,
+            ..DriverOptions::default()
+        };
+        let (driver, _task) = driver::spawn(station, transport, options);
+        Handle { driver }
+    }
+
+    async fn job(
+        &self,
+        mut start: impl FnMut(&mut Station, Instant) -> Result<JobId, RequestError> + Send + 'static,
+    ) -> Result<Bytes, Error> {
+        let start = move |s: &mut Station, now| match start(s, now) {
+            Ok(job) => Start::Running(job),
+            Err(RequestError::Busy) => Start::Busy,
+            Err(e) => Start::Ended(Err(e.status())),
+        };
+        let done = |job: &_, event| match event {
+            Event::Done { job: j, data } if j == *job => Break(Ok(data)),
+            Event::Failed { job: j, status } if j == *job => Break(Err(status)),
+            other => Continue(other),
+        };
+        self.driver.job(start, done).await?.map_err(Error::Status)
     }
 
     /// SEND `data` to `address` and wait until the partner's reactions accepted all of it, or
-    /// for the STATUS (0502 once the port has closed).
+    /// for the STATUS.
     pub async fn send(
         &self,
         address: Address,
         coordination: Coordination,
         data: impl Into<Bytes>,
-    ) -> Result<(), Status> {
+    ) -> Result<(), Error> {
         let data = data.into();
-        self.job(|r| Request::Send(address, coordination, data, r))
+        self.job(move |s, now| s.send(now, address, coordination, data.clone()))
             .await
             .map(|_| ())
     }
@@ -111,105 +118,39 @@ impl Rk512 {
         address: Address,
         coordination: Coordination,
         len: usize,
-    ) -> Result<Bytes, Status> {
-        self.job(|r| Request::Fetch(address, coordination, len, r))
+    ) -> Result<Bytes, Error> {
+        self.job(move |s, now| s.fetch(now, address, coordination, len))
             .await
     }
 
     /// Run `f` on the passive side's memory (as the CPU program would), e.g. to reset a
-    /// coordination flag or read what a partner sent.
+    /// coordination flag or read what a partner sent. It does not wait behind a running job.
     pub async fn with_server<R: Send + 'static>(
         &self,
         f: impl FnOnce(&mut Server) -> R + Send + 'static,
-    ) -> Result<R, Status> {
-        let (tx, rx) = oneshot::channel();
-        let call: ServerFn = Box::new(move |s| {
-            let _ = tx.send(f(s));
-        });
-        self.requests
-            .send(Request::Server(call))
-            .await
-            .map_err(|_| common::NOT_POSSIBLE_IN_MODE)?;
-        rx.await.map_err(|_| common::NOT_POSSIBLE_IN_MODE)
+    ) -> Result<R, Error> {
+        self.call(move |s, _| f(s.server_mut())).await
     }
 
     /// The next passive-side or receive event (`Served`, `Refused`, `ServeAborted`,
     /// `ReceiveError`); `None` once the station has stopped.
     pub async fn next_event(&mut self) -> Option<Event> {
-        self.events.recv().await
+        self.driver.next_event().await
     }
-}
 
-async fn route(
-    mut handle: Handle<Station>,
-    mut requests: mpsc::Receiver<Request>,
-    events: mpsc::Sender<Event>,
-) {
-    let mut queue: VecDeque<Request> = VecDeque::new();
-    let mut current: Option<(JobId, Reply)> = None;
-    loop {
-        while current.is_none() {
-            let Some(request) = queue.pop_front() else {
-                break;
-            };
-            let (started, reply) = match request {
-                Request::Send(a, c, d, reply) => {
-                    (handle.call(move |s, now| s.send(now, a, c, d)).await, reply)
-                }
-                Request::Fetch(a, c, n, reply) => (
-                    handle.call(move |s, now| s.fetch(now, a, c, n)).await,
-                    reply,
-                ),
-                Request::Server(f) => {
-                    if handle.call(move |s, _| f(s.server_mut())).await.is_err() {
-                        return;
-                    }
-                    continue;
-                }
-            };
-            match started {
-                Ok(Ok(job)) => current = Some((job, reply)),
-                Ok(Err(e)) => {
-                    let _ = reply.send(Err(e.status()));
-                }
-                Err(_) => return,
-            }
-        }
-        tokio::select! {
-            request = requests.recv() => match request {
-                // Memory access does not wait behind a running job.
-                Some(Request::Server(f)) => {
-                    if handle.call(move |s, _| f(s.server_mut())).await.is_err() {
-                        return;
-                    }
-                }
-                Some(request) => queue.push_back(request),
-                None => return,
-            },
-            event = handle.next_event() => match event {
-                None => return,
-                Some(Event::Done { job, data }) => finish(&mut current, job, Ok(data)),
-                Some(Event::Failed { job, status }) => finish(&mut current, job, Err(status)),
-                Some(other) => {
-                    // Beyond the backlog, news is dropped rather than stalling the line.
-                    let _ = events.try_send(other);
-                }
-            },
-        }
-    }
-}
-
-fn finish(current: &mut Option<(JobId, Reply)>, job: JobId, outcome: Result<Bytes, Status>) {
-    if current.as_ref().is_some_and(|(j, _)| *j == job) {
-        if let Some((_, reply)) = current.take() {
-            let _ = reply.send(outcome);
-        }
+    /// Run `f` on the station inside the driver.
+    pub async fn call<R: Send + 'static>(
+        &self,
+        f: impl FnOnce(&mut Station, Instant) -> R + Send + 'static,
+    ) -> Result<R, Error> {
+        Ok(self.driver.call(f).await?)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::passive::ServerConfig;
     use si_core::memory::Area;
 
     #[tokio::test(start_paused = true)]
@@ -220,8 +161,9 @@ mod tests {
         high.link.priority = si_3964r::Priority::High;
         let mut memory = ServerConfig::default();
         memory.memory.dbs.insert(2, 8);
-        let host = Rk512::spawn(high, line, None, left).unwrap();
-        let mut plc = Rk512::spawn(Config::default(), line, Some(&memory), right).unwrap();
+        let host = Handle::spawn(high, line, left).unwrap();
+        let station = Station::serving(Config::default(), line, &memory).unwrap();
+        let mut plc = Handle::spawn_engine(station, right);
         let at = Address::Db { db: 2, dw: 1 };
         host.send(at, Coordination::NONE, vec![0xAB, 0xCD])
             .await
@@ -242,17 +184,17 @@ mod tests {
         assert_eq!(
             host.fetch(Address::Db { db: 3, dw: 0 }, Coordination::NONE, 2)
                 .await,
-            Err(crate::status::PARTNER_NO_SUCH_AREA)
+            Err(Error::Status(crate::status::PARTNER_NO_SUCH_AREA))
         );
         assert_eq!(
             host.fetch(at, Coordination::NONE, 3).await,
-            Err(common::INVALID_LEN)
+            Err(Error::Status(si_core::status::common::INVALID_LEN))
         );
-        // The partner's end of the pipe closes: the driver stops, jobs end with 0502.
+        // The partner's end of the pipe closes: the driver stops, jobs end with Stopped.
         drop(plc);
         assert_eq!(
             host.fetch(at, Coordination::NONE, 2).await,
-            Err(common::NOT_POSSIBLE_IN_MODE)
+            Err(Error::Stopped(si_core::driver::DriverStopped))
         );
     }
 }

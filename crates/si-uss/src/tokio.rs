@@ -1,20 +1,22 @@
-//! The USS master over tokio (feature `tokio`): [`UssMaster`] runs a [`Master`] on any
-//! [`Transport`] with the si-core driver and offers `async` parameter jobs.
+//! The USS master over tokio (feature `tokio`): [`Handle`] runs a [`Master`] on any
+//! [`Transport`] with the si-core driver and offers `async` parameter jobs
+//! ([`Handle::read_parameter`], [`Handle::write_parameter`], [`Handle::parameter`]), routed to
+//! their callers by the driver (`si_core::driver`, "Job routing").
 //!
 //! Timing caveat (si-core `driver` docs): tokio timers are about 1 ms coarse, fine for the 20 ms
 //! response timeout; the start interval at high baud rates is kept by the converter's UART, not
 //! by us.
 
+use crate::config::{ConfigError, MasterConfig};
 use crate::frame::Pkw;
-use crate::master::{Event, JobId, Master, ParamRequest, RequestError};
-use si_core::driver::{spawn, DriverOptions, DriverStopped, Handle, Transport};
-use si_core::Status;
-use std::collections::VecDeque;
-use tokio::task::JoinHandle;
+use crate::master::{Event, Master, ParamRequest, RequestError};
+use si_core::driver::{self, DriverOptions, DriverStopped, Start, Transport};
+use si_core::{Instant, Status};
+use std::ops::ControlFlow::{Break, Continue};
 
-/// Why an async call failed.
+/// Why a call on a [`Handle`] failed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum UssError {
+pub enum Error {
     /// The master refused the command.
     #[error(transparent)]
     Refused(#[from] RequestError),
@@ -26,84 +28,128 @@ pub enum UssError {
         /// The AK 7 error number.
         error_number: Option<u16>,
     },
+    /// The parameters are out of range.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
     /// The driver has stopped (port closed).
     #[error(transparent)]
     Stopped(#[from] DriverStopped),
 }
 
-/// An async USS master: polls cyclically in the background; parameter jobs are awaited.
-pub struct UssMaster {
-    handle: Handle<Master>,
-    backlog: VecDeque<Event>,
+impl Error {
+    /// The STATUS for this error, if it has one (a failed job's).
+    pub fn status(&self) -> Option<Status> {
+        match self {
+            Error::Failed { status, .. } => Some(*status),
+            Error::Refused(_) | Error::Config(_) | Error::Stopped(_) => None,
+        }
+    }
 }
 
-impl UssMaster {
-    /// Start a driver task for `master` over `transport` and begin polling.
-    pub async fn spawn<T: Transport>(
-        master: Master,
-        transport: T,
-        options: DriverOptions,
-    ) -> Result<(Self, JoinHandle<std::io::Result<()>>), DriverStopped> {
-        let (handle, task) = spawn(master, transport, options);
-        handle.call(|m, now| m.start(now)).await?;
-        Ok((
-            UssMaster {
-                handle,
-                backlog: VecDeque::new(),
-            },
-            task,
-        ))
+/// The old name of [`Error`].
+#[deprecated(note = "renamed to si_uss::tokio::Error")]
+pub type UssError = Error;
+
+/// The old name of [`Handle`].
+#[deprecated(note = "renamed to si_uss::tokio::Handle")]
+pub type UssMaster = Handle;
+
+/// An async USS master: polls cyclically in the background; parameter jobs are awaited.
+pub struct Handle {
+    driver: driver::Handle<Master>,
+}
+
+impl Handle {
+    /// Start a master with `config` over `transport` and begin polling. Call it inside a tokio
+    /// runtime.
+    pub fn spawn<T: Transport>(config: MasterConfig, transport: T) -> Result<Handle, Error> {
+        Ok(Self::spawn_engine(Master::new(config)?, transport))
+    }
+
+    /// Start a master built by the caller on `transport` and begin polling. The driver reports
+    /// tx-done after the telegram's character time at the master's line settings.
+    pub fn spawn_engine<T: Transport>(master: Master, transport: T) -> Handle {
+        let options = DriverOptions {
+            settings: Some(master.config().settings),
+            // The polling cycle reports every response: a program that only runs parameter
+            // jobs must not stall the bus by not reading them.
+            drop_unread_events: true,
+            ..DriverOptions::default()
+        };
+        let (driver, _task) = driver::spawn(master, transport, options);
+        // Queued before any other command, so the first job sees a started master.
+        let _ = driver.send(|m, now| m.start(now));
+        Handle { driver }
     }
 
     /// Set the PZD words sent to `address` (PZD1 = STW, PZD2 = HSW, …).
-    pub async fn set_control(&self, address: u8, words: Vec<u16>) -> Result<(), UssError> {
-        self.handle
+    pub async fn set_control(&self, address: u8, words: Vec<u16>) -> Result<(), Error> {
+        self.driver
             .call(move |m, _| m.set_control(address, &words))
             .await??;
         Ok(())
     }
 
-    /// Run a parameter job to its end; other events meanwhile stay for [`next_event`](Self::next_event).
-    pub async fn parameter(&mut self, address: u8, request: ParamRequest) -> Result<Pkw, UssError> {
-        let job: JobId = self
-            .handle
-            .call(move |m, now| m.request_parameter(now, address, request))
-            .await??;
-        loop {
-            let event = self.handle.next_event().await.ok_or(DriverStopped)?;
-            match event {
-                Event::ParameterDone {
-                    job: j, response, ..
-                } if j == job => return Ok(response),
-                Event::ParameterFailed {
-                    job: j,
-                    status,
-                    error_number,
-                    ..
-                } if j == job => {
-                    return Err(UssError::Failed {
-                        status,
-                        error_number,
-                    })
-                }
-                other => self.backlog.push_back(other),
-            }
-        }
+    /// Run a parameter job to its end and return the response's PKW area. Jobs for a node whose
+    /// previous job still runs wait in the driver; other events stay for
+    /// [`next_event`](Self::next_event).
+    pub async fn parameter(&self, address: u8, request: ParamRequest) -> Result<Pkw, Error> {
+        let start = move |m: &mut Master, now| match m.request_parameter(now, address, request) {
+            Ok(job) => Start::Running(job),
+            Err(RequestError::Busy(_)) => Start::Busy,
+            Err(e) => Start::Ended(Err(Error::Refused(e))),
+        };
+        let done = |job: &_, event| match event {
+            Event::ParameterDone {
+                job: j, response, ..
+            } if j == *job => Break(Ok(response)),
+            Event::ParameterFailed {
+                job: j,
+                status,
+                error_number,
+                ..
+            } if j == *job => Break(Err(Error::Failed {
+                status,
+                error_number,
+            })),
+            other => Continue(other),
+        };
+        self.driver.job(start, done).await?
     }
 
-    /// The next event of the polling cycle; `None` once the driver has stopped.
+    /// Read parameter `number` (sub-index `index`) of node `address` (AK 1): its value.
+    pub async fn read_parameter(&self, address: u8, number: u16, index: u8) -> Result<u32, Error> {
+        let response = self
+            .parameter(address, ParamRequest::read(number, index))
+            .await?;
+        Ok(response.value())
+    }
+
+    /// Write `value` to parameter `number` (sub-index `index`) of node `address` as a word
+    /// (AK 2) or, with `dword`, a double word (AK 3): the value the drive reports back.
+    pub async fn write_parameter(
+        &self,
+        address: u8,
+        number: u16,
+        index: u8,
+        value: u32,
+        dword: bool,
+    ) -> Result<u32, Error> {
+        let request = ParamRequest::write(number, index, value, dword);
+        Ok(self.parameter(address, request).await?.value())
+    }
+
+    /// The next event of the polling cycle that no job took; `None` once the driver has
+    /// stopped. Beyond the driver's event capacity, unread events are dropped.
     pub async fn next_event(&mut self) -> Option<Event> {
-        match self.backlog.pop_front() {
-            Some(e) => Some(e),
-            None => self.handle.next_event().await,
-        }
+        self.driver.next_event().await
     }
 
     /// Run `f` on the master inside the driver (counters, slave state, special telegrams).
     pub async fn call<R: Send + 'static>(
         &self,
-        f: impl FnOnce(&mut Master, si_core::Instant) -> R + Send + 'static,
-    ) -> Result<R, DriverStopped> {
-        self.handle.call(f).await
+        f: impl FnOnce(&mut Master, Instant) -> R + Send + 'static,
+    ) -> Result<R, Error> {
+        Ok(self.driver.call(f).await?)
     }
 }

@@ -2,7 +2,7 @@
 //! cut by CR LF, and a refused frame comes back as a typed error.
 #![cfg(feature = "tokio")]
 
-use si_ascii::tokio::{AsciiError, AsciiHandle, Incoming};
+use si_ascii::tokio::{Error, Handle, Incoming};
 use si_ascii::{Config, EndCriterion, SendError};
 
 fn config() -> Config {
@@ -18,8 +18,8 @@ fn config() -> Config {
 #[tokio::test]
 async fn two_handles_exchange_lines_over_a_duplex_pipe() {
     let (left, right) = tokio::io::duplex(1024);
-    let mut a = AsciiHandle::spawn(config(), left).unwrap();
-    let mut b = AsciiHandle::spawn(config(), right).unwrap();
+    let mut a = Handle::spawn(config(), left).unwrap();
+    let mut b = Handle::spawn(config(), right).unwrap();
     a.send(&b"first\r\n"[..]).await.unwrap();
     a.send(&b"second\r\n"[..]).await.unwrap();
     assert_eq!(b.recv().await.unwrap(), b"first\r\n");
@@ -33,6 +33,6 @@ async fn two_handles_exchange_lines_over_a_duplex_pipe() {
     // A frame over 200 bytes is refused before anything is sent.
     assert_eq!(
         a.send(vec![0u8; 201]).await,
-        Err(AsciiError::Send(SendError::Length(201)))
+        Err(Error::Send(SendError::Length(201)))
     );
 }

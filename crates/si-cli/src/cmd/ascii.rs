@@ -12,7 +12,7 @@ use crate::scenario::{print_trace, Scenario, SimOptions};
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 use si_ascii::config::min_char_delay_ms;
-use si_ascii::tokio::{AsciiError, AsciiHandle, Incoming};
+use si_ascii::tokio::{Error as AsciiError, Handle, Incoming};
 use si_ascii::{Config, EndCriterion, Event, FlowControl, Interface, Link};
 use si_core::sim::{Simulator, StationId, Trace, TraceKind};
 use si_core::{Duration, Instant, SerialSettings, Status};
@@ -235,7 +235,7 @@ async fn send(a: SendArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
         (None, None) => return Err(CliError::new("give the frame as HEX or --text")),
     };
     let config = a.driver.config(conn.settings()?)?;
-    let mut port = AsciiHandle::spawn(config, conn.open().await?)?;
+    let port = Handle::spawn(config, conn.open().await?)?;
     port.send(frame.clone()).await.map_err(ascii_error)?;
     out.line(
         &format!(
@@ -279,7 +279,7 @@ fn print_incoming(out: &Output, incoming: &Incoming, with_time: bool) {
 
 async fn recv(a: RecvArgs, conn: &Connection, out: &Output) -> Result<(), CliError> {
     let config = a.driver.config(conn.settings()?)?;
-    let mut port = AsciiHandle::spawn(config, conn.open().await?)?;
+    let mut port = Handle::spawn(config, conn.open().await?)?;
     let frames = async {
         let mut got = 0;
         while got < a.count {
@@ -307,7 +307,7 @@ async fn monitor(a: MonitorArgs, conn: &Connection, out: &Output) -> Result<(), 
     let mut config = a.driver.config(conn.settings()?)?;
     // A monitor only listens: no XON at startup, no RTS/DTR changes.
     config.flow_control = FlowControl::None;
-    let mut port = AsciiHandle::spawn(config, conn.open().await?)?;
+    let mut port = Handle::spawn(config, conn.open().await?)?;
     let mut got = 0;
     let limit = a.count.unwrap_or(u64::MAX);
     while got < limit {

@@ -14,7 +14,7 @@ use si_core::{Duration, Instant, SerialSettings, Status};
 use si_modbus::frame::{self, Request, Response};
 use si_modbus::master::{Completion, Master, MasterEvent};
 use si_modbus::slave::{Slave, SlaveEvent};
-use si_modbus::tokio::{Error as ModbusError, MasterHandle, SlaveServer};
+use si_modbus::tokio::{self as handle, Error as ModbusError};
 use si_modbus::{ConversionDb, FrameEnd, MasterConfig, Mode, SimaticStore, SlaveConfig};
 
 /// Master parameters every job shares (Table 3-17).
@@ -379,7 +379,7 @@ impl Command {
     }
 }
 
-async fn open_master(conn: &Connection, o: &MasterOptions) -> Result<MasterHandle, CliError> {
+async fn open_master(conn: &Connection, o: &MasterOptions) -> Result<handle::Master, CliError> {
     let config = master_config(conn, o)?;
     // On RS-485 a response is recognised by its address, skipping a turnaround glitch (§2.5).
     let interface = if conn.rs485.is_some() {
@@ -392,7 +392,7 @@ async fn open_master(conn: &Connection, o: &MasterOptions) -> Result<MasterHandl
         .with_frame_end(o.framing.frame_end.into())
         .with_interface(interface);
     let port = conn.open().await?;
-    Ok(MasterHandle::spawn_engine(master, port))
+    Ok(handle::Master::spawn_engine(master, port))
 }
 
 async fn job(
@@ -593,7 +593,7 @@ async fn serve(
         .map_err(|e| failure(e.into()))?
         .with_frame_end(frame_end);
     let port = conn.open().await?;
-    let mut server = SlaveServer::spawn_engine(slave, port);
+    let mut server = handle::Slave::spawn_engine(slave, port);
     let ends = match frame_end {
         FrameEnd::Gap => "",
         FrameEnd::Length => ", or at the predicted length (host extension)",

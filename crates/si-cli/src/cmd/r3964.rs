@@ -8,7 +8,7 @@ use crate::scenario::{print_trace, Scenario, SimOptions};
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 use si_3964r::frame::{self, FrameError, Mode};
-use si_3964r::tokio::Link3964r;
+use si_3964r::tokio::{Error as LinkError, Handle};
 use si_3964r::{status, Config, Event, Link, Priority};
 use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Instant, Status};
@@ -126,7 +126,7 @@ impl SendArgs {
         let config = self.link.config()?;
         let settings = conn.settings()?;
         let transport = conn.open().await?;
-        let link = Link3964r::spawn(config, settings, transport)?;
+        let link = Handle::spawn(config, settings, transport)?;
         tokio::time::sleep(SETTLE).await;
         let len = data.len();
         match link.send(data).await {
@@ -137,7 +137,10 @@ impl SendArgs {
                 );
                 Ok(())
             }
-            Err(status) => Err(CliError::new(format!("send failed: {}", described(status)))),
+            Err(LinkError::Status(status)) => {
+                Err(CliError::new(format!("send failed: {}", described(status))))
+            }
+            Err(e) => Err(e.into()),
         }
     }
 }
@@ -147,7 +150,7 @@ impl RecvArgs {
         let config = self.link.config()?;
         let settings = conn.settings()?;
         let transport = conn.open().await?;
-        let mut link = Link3964r::spawn(config, settings, transport)?;
+        let mut link = Handle::spawn(config, settings, transport)?;
         let mut received = 0u64;
         while self.count.is_none_or(|n| received < n) {
             match link.next().await {

@@ -15,7 +15,7 @@ use si_core::{Duration, Status};
 use si_rk512::frame::{Address, Coordination, DataType, Telegram};
 use si_rk512::passive::ServerConfig;
 use si_rk512::status;
-use si_rk512::tokio::Rk512;
+use si_rk512::tokio::{Error as StationError, Handle};
 use si_rk512::{Config, CounterLetter, DwUnit, Event, Station};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -244,8 +244,11 @@ impl Command {
     }
 }
 
-fn failed(what: &str, status: Status) -> CliError {
-    CliError::new(format!("{what} failed: {}", status::lookup(status.code())))
+fn failed(what: &str, e: StationError) -> CliError {
+    match e.status() {
+        Some(status) => CliError::new(format!("{what} failed: {}", status::lookup(status.code()))),
+        None => CliError::new(format!("{what} failed: {e}")),
+    }
 }
 
 impl SendArgs {
@@ -256,7 +259,7 @@ impl SendArgs {
         let config = self.link.config(Priority::High)?;
         let settings = conn.settings()?;
         let transport = conn.open().await?;
-        let station = Rk512::spawn(config, settings, None, transport)?;
+        let station = Handle::spawn(config, settings, transport)?;
         tokio::time::sleep(SETTLE).await;
         let len = data.len();
         station
@@ -285,7 +288,7 @@ impl FetchArgs {
         let config = self.link.config(Priority::High)?;
         let settings = conn.settings()?;
         let transport = conn.open().await?;
-        let station = Rk512::spawn(config, settings, None, transport)?;
+        let station = Handle::spawn(config, settings, transport)?;
         tokio::time::sleep(SETTLE).await;
         let data = station
             .fetch(address, coordination, len)
@@ -429,7 +432,8 @@ impl ServeArgs {
         let config = self.link.config(Priority::Low)?;
         let settings = conn.settings()?;
         let transport = conn.open().await?;
-        let mut station = Rk512::spawn(config, settings, Some(&server), transport)?;
+        let station = Station::serving(config, settings, &server)?;
+        let mut station = Handle::spawn_engine(station, transport);
         let mut served = 0u64;
         while self.count.is_none_or(|n| served < n) {
             match station.next_event().await {

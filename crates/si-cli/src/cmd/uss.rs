@@ -14,7 +14,7 @@ use si_uss::config::{MasterConfig, PollEntry};
 use si_uss::drive::{stw, Drive, DriveConfig, DriveEvent};
 use si_uss::frame::{self, pkw_error_text, Adr, NetData, ParamAddress, PkwWords, MAX_TELEGRAM};
 use si_uss::master::{Event, Master, ParamRequest};
-use si_uss::tokio::{UssError, UssMaster};
+use si_uss::tokio::{Error as UssError, Handle};
 
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]
@@ -188,18 +188,9 @@ fn uss_error(e: UssError) -> CliError {
     }
 }
 
-async fn open_master(conn: &Connection, config: MasterConfig) -> Result<UssMaster, CliError> {
-    let settings = config.settings;
-    let master = Master::new(config)?;
-    let transport = conn.open_with(&settings).await?;
-    let options = DriverOptions {
-        settings: Some(settings),
-        ..DriverOptions::default()
-    };
-    let (m, _task) = UssMaster::spawn(master, transport, options)
-        .await
-        .map_err(|e| CliError::new(e.to_string()))?;
-    Ok(m)
+async fn open_master(conn: &Connection, config: MasterConfig) -> Result<Handle, CliError> {
+    let transport = conn.open_with(&config.settings).await?;
+    Ok(Handle::spawn(config, transport)?)
 }
 
 impl Command {
@@ -213,7 +204,7 @@ impl Command {
                     conn.settings_for(&si_uss::config::USS_BAUD_RATES)?,
                     &[a.slave],
                 )?;
-                let mut m = open_master(conn, config).await?;
+                let m = open_master(conn, config).await?;
                 let request = if a.array {
                     ParamRequest::read_array(param.number, param.index)
                 } else {
@@ -244,7 +235,7 @@ impl Command {
                     conn.settings_for(&si_uss::config::USS_BAUD_RATES)?,
                     &[a.slave],
                 )?;
-                let mut m = open_master(conn, config).await?;
+                let m = open_master(conn, config).await?;
                 let request = ParamRequest::write(param.number, param.index, value, a.dword);
                 let r = m.parameter(a.slave, request).await.map_err(uss_error)?;
                 out.line(

@@ -162,3 +162,21 @@ fn socat_pty_pair(end: &str) -> Option<PtyPair> {
     let a = names.pop().expect("first pty");
     Some(PtyPair { socat, a, b })
 }
+
+/// The root package's example `name`, built beside the `si` binary
+/// (`target/<profile>/examples/<name>`; `cargo test --workspace --all-features` builds the
+/// examples with the tests). Not built, it is a skip with the command that builds it, a
+/// failure with `CI` set.
+pub fn example(name: &str) -> Option<PathBuf> {
+    let si = PathBuf::from(env!("CARGO_BIN_EXE_si"));
+    let path = si.parent()?.join("examples").join(name);
+    if path.exists() {
+        return Some(path);
+    }
+    let build = format!("cargo build --example {name} --features serial");
+    if std::env::var_os("CI").is_some() {
+        panic!("the {name} example is not built and CI is set: {build}");
+    }
+    eprintln!("SKIPPED: the {name} example is not built ({build})");
+    None
+}

@@ -9,28 +9,14 @@
 use crate::common;
 
 use common::modbus::serve;
-use common::{pty_pair, stderr, stdout};
-use std::path::PathBuf;
+use common::{example, pty_pair, stderr, stdout};
 use std::process::Command;
-
-/// The built example beside the `si` binary (`target/<profile>/examples/modbus_serial`).
-fn example() -> Option<PathBuf> {
-    let si = PathBuf::from(env!("CARGO_BIN_EXE_si"));
-    let path = si.parent()?.join("examples").join("modbus_serial");
-    if path.exists() {
-        return Some(path);
-    }
-    let build = "cargo build --example modbus_serial --features serial";
-    if std::env::var_os("CI").is_some() {
-        panic!("the modbus_serial example is not built and CI is set: {build}");
-    }
-    eprintln!("SKIPPED: the modbus_serial example is not built ({build})");
-    None
-}
 
 #[test]
 fn modbus_serial_example_reads_what_it_wrote_from_si_modbus_serve() {
-    let Some(example) = example() else { return };
+    let Some(example) = example("modbus_serial") else {
+        return;
+    };
     let Some(pair) = pty_pair() else { return };
     let (_serve, _banner, served) = serve(&pair.b, &[], &[]);
     let o = Command::new(example)

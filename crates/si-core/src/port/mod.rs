@@ -2,7 +2,7 @@
 //!
 //! [`open`] takes the [`SerialSettings`] the engine's config already holds, so the line's
 //! format is written once, and returns a [`SerialPort`]: a [`Transport`] that every protocol's
-//! async handle accepts (`si_modbus::tokio::MasterHandle::spawn`, `Link3964r::spawn`, …).
+//! async handle accepts (`si_modbus::tokio::Master::spawn`, `si_3964r::tokio::Handle::spawn`, …).
 //!
 //! ```no_run
 //! # async fn demo() -> std::io::Result<()> {

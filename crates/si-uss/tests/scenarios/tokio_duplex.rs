@@ -6,9 +6,9 @@ use si_core::driver::{spawn, DriverOptions};
 use si_uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_uss::drive::{Drive, DriveConfig};
 use si_uss::frame::PkwWords;
-use si_uss::master::{Event, Master, ParamRequest};
+use si_uss::master::{Event, ParamRequest};
 use si_uss::status;
-use si_uss::tokio::{UssError, UssMaster};
+use si_uss::tokio::{Error, Handle};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn parameters_and_pzd_over_a_duplex_pipe() {
@@ -27,24 +27,17 @@ async fn parameters_and_pzd_over_a_duplex_pipe() {
     config.settings = settings;
     // Real time on a loaded CI machine: generous, unlike the 20 ms of the USS spec.
     config.response_timeout = si_core::Duration::from_millis(500);
-    let (mut m, _task) = UssMaster::spawn(Master::new(config).unwrap(), a, options)
-        .await
-        .unwrap();
+    let mut m = Handle::spawn(config, a).unwrap();
 
-    let r = m.parameter(4, ParamRequest::read(700, 0)).await.unwrap();
-    assert_eq!(r.value(), 5);
-    let r = m
-        .parameter(4, ParamRequest::write(1082, 0, 77, false))
-        .await
-        .unwrap();
-    assert_eq!(r.value(), 77);
+    assert_eq!(m.read_parameter(4, 700, 0).await.unwrap(), 5);
+    assert_eq!(m.write_parameter(4, 1082, 0, 77, false).await.unwrap(), 77);
     let e = m
         .parameter(4, ParamRequest::write(964, 0, 1, false))
         .await
         .unwrap_err();
     assert_eq!(
         e,
-        UssError::Failed {
+        Error::Failed {
             status: status::PKW_ERROR,
             error_number: Some(1)
         }
@@ -52,7 +45,7 @@ async fn parameters_and_pzd_over_a_duplex_pipe() {
     assert!(e.to_string().contains("error number 1"), "{e}");
     assert!(matches!(
         m.parameter(9, ParamRequest::read(700, 0)).await,
-        Err(UssError::Refused(_))
+        Err(Error::Refused(_))
     ));
 
     m.set_control(4, vec![0x047F, 100]).await.unwrap();

@@ -1,0 +1,38 @@
+//! Three protocols, three handles that look alike (issue 17's user program): send one block
+//! over 3964(R), read one Modbus holding register from unit 1, read parameter P700 of USS
+//! drive 3, all at 9600 bit/s 8E1 (every config's default), every error propagated with `?`.
+//!
+//! ```text
+//! cargo run --example three_protocols --features serial -- /dev/ttyS0 /dev/ttyS1 /dev/ttyS2
+//! ```
+//!
+//! Each handle is spawned from a config and a port, and its verbs return
+//! `Result<_, si_xxx::tokio::Error>`, which converts into `Box<dyn Error>` (a failed job's
+//! error shows the manual's STATUS with its text). 3964(R)'s config has no line settings of
+//! its own, so its `spawn` takes them beside the config. `crates/si-cli/tests/
+//! three_protocols_example.rs` runs this program against `si` serving the three partners.
+
+use si_serial::core::port::{open, PortOptions};
+use si_serial::core::SerialSettings;
+use si_serial::uss::config::{MasterConfig as UssConfig, PollEntry};
+use si_serial::{modbus, r3964, uss};
+use std::error::Error;
+
+const USAGE: &str = "usage: three_protocols PORT_3964R PORT_MODBUS PORT_USS";
+
+#[tokio::main(flavor = "current_thread")]
+async fn main() -> Result<(), Box<dyn Error>> {
+    let port = |i: usize| std::env::args().nth(i).ok_or(USAGE);
+    let (line, o) = (SerialSettings::default(), PortOptions::default());
+    let uss = UssConfig::new(vec![PollEntry::new(3, uss::frame::PkwWords::Four, 2)]);
+    let link = r3964::tokio::Handle::spawn(Default::default(), line, open(&port(1)?, &line, &o)?)?;
+    let mut plc = modbus::tokio::Master::spawn(Default::default(), open(&port(2)?, &line, &o)?)?;
+    let drives = uss::tokio::Handle::spawn(uss, open(&port(3)?, &line, &o)?)?;
+    link.send(&b"hello"[..]).await?;
+    println!("3964(R): sent 5 bytes");
+    let register = plc.read_holding_registers(1, 0, 1).await?[0];
+    println!("Modbus: unit 1 register 0 = {register:04X}");
+    let p700 = drives.read_parameter(3, 700, 0).await?;
+    println!("USS: drive 3 P700 = {p700}");
+    Ok(())
+}
