@@ -23,5 +23,7 @@ mod port_flags;
 mod r3964;
 #[path = "pty/rk512.rs"]
 mod rk512;
+#[path = "pty/three_protocols_example.rs"]
+mod three_protocols_example;
 #[path = "pty/uss.rs"]
 mod uss;

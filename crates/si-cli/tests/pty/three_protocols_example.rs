@@ -6,7 +6,7 @@
 //!
 //! socat or the built example missing is a skip with a message, a failure with `CI` set.
 
-mod common;
+use crate::common;
 
 use common::modbus::{serve, served};
 use common::{example, pty_pair, si_command, stderr, stdout, Kill};
