@@ -9,7 +9,7 @@
 //! Each handle is spawned from a config and a port, and its verbs return
 //! `Result<_, si_xxx::tokio::Error>`, which converts into `Box<dyn Error>` (a failed job's
 //! error shows the manual's STATUS with its text). 3964(R)'s config has no line settings of
-//! its own, so its `spawn` takes them beside the config. `crates/si-cli/tests/
+//! its own, so its `spawn` takes them beside the config. `crates/si-cli/tests/pty/
 //! three_protocols_example.rs` runs this program against `si` serving the three partners.
 
 use si_serial::core::port::{open, PortOptions};
