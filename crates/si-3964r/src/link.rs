@@ -259,6 +259,11 @@ impl Link {
         self.counters
     }
 
+    /// The line's character format.
+    pub fn settings(&self) -> SerialSettings {
+        self.settings
+    }
+
     /// The parameters.
     pub fn config(&self) -> &Config {
         &self.config

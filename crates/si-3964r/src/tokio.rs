@@ -23,9 +23,10 @@
 //! [`Handle::recv`] asks for them, so a slow reader makes the link use the manual's
 //! buffer-wait-then-NAK path instead of growing a queue.
 //!
-//! The driver reports "transmission done" when the write completes (no character-time
-//! estimate), so a partner's prompt DLE is never mistaken for one that came too early (0706);
-//! see the readings in [`crate::link`].
+//! The driver reports "transmission done" once the block's character time has passed since the
+//! write began, so the acknowledgement delay time (QVZ) runs from the block's end on the wire
+//! even at low baud rates; a partner's prompt DLE that arrives before that is taken as the
+//! acknowledgement, not as "too early" (0706); see the readings in [`crate::link`].
 
 use crate::config::{Config, ConfigError};
 use crate::link::{Event, Link, SendError};
@@ -108,9 +109,11 @@ impl Handle {
 
     /// Start a link built by the caller on `transport`.
     pub fn spawn_engine<T: Transport>(link: Link, transport: T) -> Handle {
-        // tx-done when the write completes: see the module docs.
+        // tx-done at the bytes' end on the wire, so QVZ starts when the block has left (a
+        // 200-byte block takes 1.8 s at 1200 bit/s); a prompt partner's DLE that arrives
+        // before that is still the acknowledgement (see the readings in `crate::link`).
         let options = DriverOptions {
-            settings: None,
+            settings: Some(link.settings()),
             drop_unread_events: true,
             ..DriverOptions::default()
         };

@@ -641,9 +641,11 @@ where
         let mut deadline = loop {
             match engine.poll_output() {
                 Output::Transmit(bytes) => {
-                    record(TraceKind::Tx {
-                        bytes: bytes.to_vec(),
-                    });
+                    if options.recorder.is_some() {
+                        record(TraceKind::Tx {
+                            bytes: bytes.to_vec(),
+                        });
+                    }
                     if let Some(update) = direction.before_write(&mut io)? {
                         record(TraceKind::Signals { update });
                         if direction.lead() > Duration::ZERO {
@@ -653,14 +655,18 @@ where
                     let started = clock.now();
                     io.write_all(&bytes).await?;
                     io.flush().await?;
-                    let wire_end = options
-                        .settings
-                        .map_or(started, |s| started + s.chars_time(bytes.len() as u64));
-                    let at = wire_end.max(clock.now());
+                    let ends = |settings: Option<SerialSettings>| {
+                        let on_wire = settings
+                            .map_or(started, |s| started + s.chars_time(bytes.len() as u64));
+                        on_wire.max(clock.now())
+                    };
+                    let at = ends(options.settings);
                     let done = tx_done_at.map_or(at, |t| t.max(at));
                     tx_done_at = Some(done);
-                    direction.written(done);
-                    rx_path.sent(&bytes, done + echo_grace);
+                    // RTS off and the echo window follow the wire, whatever the engine is told.
+                    let on_wire = done.max(ends(options.settings.or(facts.wire)));
+                    direction.written(on_wire);
+                    rx_path.sent(&bytes, on_wire + echo_grace);
                 }
                 Output::SetSignals(update) => {
                     record(TraceKind::Signals { update });
@@ -765,7 +771,10 @@ where
                 fire_due(&mut engine, &mut tx_done_at, deadline.take(), now);
                 direction.due(now, &mut io, &record)?;
                 rx_path.deliver(&mut engine, now, &buf[..n], |piece| match piece {
-                    Marked::Data(bytes) => record(TraceKind::RxChunk { bytes: bytes.to_vec() }),
+                    Marked::Data(bytes) if options.recorder.is_some() => {
+                        record(TraceKind::RxChunk { bytes: bytes.to_vec() })
+                    }
+                    Marked::Data(_) => {}
                     Marked::Error(error) => record(TraceKind::RxError { error }),
                 });
             }

@@ -8,6 +8,7 @@
 //! ([`crate::echo`]). These are plain data, so a test or another driver can use them too.
 
 use crate::sansio::LineError;
+use crate::serial::SerialSettings;
 use crate::time::Duration;
 
 /// Facts about a port that change how a driver must treat it (module docs).
@@ -24,6 +25,11 @@ pub struct PortFacts {
     pub rts_toggle: Option<RtsToggle>,
     /// The port hears its own transmission: drop the echo ([`crate::echo::EchoFilter`]).
     pub local_echo: bool,
+    /// The line's character format, as the port was opened with it. The driver times RS-485
+    /// direction control and the echo window to the last byte's end on the wire from it, even
+    /// for an engine whose tx-done is reported when the write returns (a write to a serial port
+    /// returns once the kernel holds the bytes, long before they have left at low baud rates).
+    pub wire: Option<SerialSettings>,
 }
 
 /// RS-485 direction control by the driver: RTS on, wait `before`, write, and RTS off `after`
@@ -46,6 +52,7 @@ impl PortFacts {
             marked_errors: self.marked_errors.or(other.marked_errors),
             rts_toggle: self.rts_toggle.or(other.rts_toggle),
             local_echo: self.local_echo || other.local_echo,
+            wire: self.wire.or(other.wire),
         }
     }
 }

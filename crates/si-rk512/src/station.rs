@@ -284,6 +284,11 @@ impl Station {
         })
     }
 
+    /// The line's character format.
+    pub fn settings(&self) -> si_core::SerialSettings {
+        self.link.settings()
+    }
+
     /// The parameters.
     pub fn config(&self) -> &Config {
         &self.config

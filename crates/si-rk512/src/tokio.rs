@@ -72,8 +72,11 @@ impl Handle {
 
     /// Start a station built by the caller on `transport`.
     pub fn spawn_engine<T: Transport>(station: Station, transport: T) -> Handle {
+        // tx-done at the bytes' end on the wire, so QVZ starts when the block has left (a
+        // 200-byte block takes 1.8 s at 1200 bit/s); a prompt partner's DLE that arrives
+        // before that is still the acknowledgement (see the readings in `crate::link`).
         let options = DriverOptions {
-            settings: None,
+            settings: Some(station.settings()),
             drop_unread_events: true,
             ..DriverOptions::default()
         };

@@ -145,6 +145,7 @@ pub fn open(
             _ => None,
         },
         local_echo: options.local_echo,
+        wire: Some(*settings),
         // Marking is set up below, on Linux only (module docs, "Platforms").
         marked_errors: (cfg!(target_os = "linux") && !options.no_line_errors)
             .then(|| bad_char_error(settings)),

@@ -120,10 +120,26 @@ fn start_toggling(
     si_core::driver::Handle<Talker>,
     tokio::task::JoinHandle<io::Result<()>>,
 ) {
+    start_toggling_with(toggle, pipe, log, Some(SerialSettings::default()), None)
+}
+
+/// [`start_toggling`] with the engine's tx-done timing (`settings`, `None`: when the write
+/// returns) and the port's own line format (`wire`, as `si_core::port::open` reports it).
+fn start_toggling_with(
+    toggle: RtsToggle,
+    pipe: DuplexStream,
+    log: &Log,
+    settings: Option<SerialSettings>,
+    wire: Option<SerialSettings>,
+) -> (
+    si_core::driver::Handle<Talker>,
+    tokio::task::JoinHandle<io::Result<()>>,
+) {
     let options = DriverOptions {
-        settings: Some(SerialSettings::default()),
+        settings,
         port: Some(PortFacts {
             rts_toggle: Some(toggle),
+            wire,
             ..PortFacts::default()
         }),
         ..DriverOptions::default()
@@ -174,6 +190,45 @@ async fn rts_goes_on_before_the_write_and_off_after_tx_done_plus_the_delay() {
     assert!(
         on_for >= least,
         "RTS off {on_for:?} after the write, before {least:?}"
+    );
+}
+
+/// An engine told "done" when the write returns (the 3964(R) handle, whose link judges a DLE
+/// arriving before tx-done itself) still keeps RTS on until the bytes have left the wire: the
+/// port's line format, not the engine's tx-done, times the direction switch.
+#[tokio::test]
+async fn rts_follows_the_wire_even_when_the_engine_hears_done_at_the_write() {
+    let log = Log::default();
+    let (ours, mut theirs) = tokio::io::duplex(256);
+    let line = SerialSettings::default();
+    let toggle = RtsToggle::default();
+    let (handle, _task) = start_toggling_with(toggle, ours, &log, None, Some(line));
+    let frame = [0xA5u8; 20];
+    handle
+        .call(move |t, _| {
+            t.out
+                .push_back(Output::Transmit(Bytes::copy_from_slice(&frame)))
+        })
+        .await
+        .unwrap();
+    let mut sent = [0u8; 20];
+    theirs.read_exact(&mut sent).await.unwrap();
+    let got = steps(&log, 4).await;
+    let order: Vec<Step> = got.iter().map(|(_, s)| s.clone()).collect();
+    assert_eq!(
+        order,
+        vec![
+            Step::Rts(true),
+            Step::Write(frame.to_vec()),
+            Step::TxDone,
+            Step::Rts(false)
+        ]
+    );
+    let on_for = got[3].0 - got[1].0;
+    let least = StdDuration::from(line.chars_time(20));
+    assert!(
+        on_for >= least,
+        "RTS off {on_for:?} after the write, before the 20 bytes' {least:?} on the wire"
     );
 }
 
