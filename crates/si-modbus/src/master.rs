@@ -272,7 +272,6 @@ impl Master {
 
     fn sent(&mut self, now: Instant) {
         if let State::Sending { .. } = self.state {
-            self.tx.sent(now, &mut self.out);
             let broadcast = self.job.is_some_and(|(a, _)| a.unit() == BROADCAST);
             self.state = if broadcast {
                 State::Turnaround {
@@ -549,6 +548,9 @@ impl Engine for Master {
     fn handle_tx_done(&mut self, now: Instant) {
         self.tick(now);
         self.sent(now);
+        // The RTS-off time of automatic V.24 (§2.2 item 5) runs from the last byte actually
+        // leaving, which only the driver knows: not from the engine's estimate.
+        self.tx.sent(now, &mut self.out);
     }
 
     fn set_rx_latency(&mut self, latency: Duration) {

@@ -302,6 +302,9 @@ impl Receiver {
 
     /// We transmitted `n` bytes on a line that echoes them: drop the next `n` received bytes.
     pub fn expect_echo(&mut self, n: usize) {
+        // A lost echo must not eat the start of every later frame: each transmission's echo
+        // replaces what was still expected of the one before (as the USS engines do).
+        self.echo.stop();
         self.echo.sent_len(n);
     }
 
@@ -493,6 +496,7 @@ impl Receiver {
             self.fault = None;
             self.complete = false;
             self.unpredictable = false;
+            self.more_predicted = false;
             self.counters.discarded += 1;
         }
     }

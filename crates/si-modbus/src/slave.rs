@@ -551,7 +551,6 @@ impl<S: Store> Slave<S> {
         // Busy until tx-done or the estimated end of our transmission, whichever comes first.
         if self.busy_until.is_some_and(|t| now >= t) {
             self.busy_until = None;
-            self.tx.sent(now, &mut self.out);
         }
         let gate = self.tx.on_timeout(now, &mut self.out);
         self.on_gate(now, gate);
@@ -611,9 +610,10 @@ impl<S: Store> Engine for Slave<S> {
 
     fn handle_tx_done(&mut self, now: Instant) {
         self.tick(now);
-        if self.busy_until.take().is_some() {
-            self.tx.sent(now, &mut self.out);
-        }
+        self.busy_until = None;
+        // The RTS-off time of automatic V.24 (§2.2 item 5) runs from the last byte actually
+        // leaving, which only the driver knows: not from the engine's estimate.
+        self.tx.sent(now, &mut self.out);
     }
 
     fn set_rx_latency(&mut self, latency: Duration) {

@@ -57,6 +57,13 @@ impl Error {
     }
 }
 
+/// A completed job whose response is not the one its request calls for (a broadcast has none):
+/// the engine's checks (§4.4) make this unreachable for a unicast job, so it is reported as
+/// the manual's "wrong function code in the response" rather than as an invented value.
+fn unexpected() -> Error {
+    Error::Failed(crate::status::WRONG_FUNCTION)
+}
+
 /// The FC12 answer.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct CommEventLog {
@@ -159,7 +166,7 @@ impl Master {
             Some(Response::ReadCoils(b) | Response::ReadDiscreteInputs(b)) => {
                 Ok(b.iter().collect())
             }
-            _ => Ok(Vec::new()),
+            _ => Err(unexpected()),
         }
     }
 
@@ -169,7 +176,7 @@ impl Master {
             Some(Response::ReadHoldingRegisters(r) | Response::ReadInputRegisters(r)) => {
                 Ok(r.iter().collect())
             }
-            _ => Ok(Vec::new()),
+            _ => Err(unexpected()),
         }
     }
 
@@ -246,7 +253,7 @@ impl Master {
         let c = self.request(unit, &Request::ReadExceptionStatus).await?;
         match c.response() {
             Some(Response::ReadExceptionStatus(s)) => Ok(s),
-            _ => Ok(0),
+            _ => Err(unexpected()),
         }
     }
 
@@ -255,7 +262,7 @@ impl Master {
         let c = self.request(unit, &Request::Diagnostics { data }).await?;
         match c.response() {
             Some(Response::Diagnostics { data }) => Ok(data),
-            _ => Ok(0),
+            _ => Err(unexpected()),
         }
     }
 
@@ -267,7 +274,7 @@ impl Master {
                 status,
                 event_count,
             }) => Ok((status, event_count)),
-            _ => Ok((0, 0)),
+            _ => Err(unexpected()),
         }
     }
 
@@ -286,12 +293,7 @@ impl Master {
                 message_count,
                 events: events.to_vec(),
             }),
-            _ => Ok(CommEventLog {
-                status: 0,
-                event_count: 0,
-                message_count: 0,
-                events: Vec::new(),
-            }),
+            _ => Err(unexpected()),
         }
     }
 
