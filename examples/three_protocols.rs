@@ -24,10 +24,11 @@ const USAGE: &str = "usage: three_protocols PORT_3964R PORT_MODBUS PORT_USS";
 async fn main() -> Result<(), Box<dyn Error>> {
     let port = |i: usize| std::env::args().nth(i).ok_or(USAGE);
     let (line, o) = (SerialSettings::default(), PortOptions::default());
+    let mb = modbus::MasterConfig::default();
     let uss = UssConfig::new(vec![PollEntry::new(3, uss::frame::PkwWords::Four, 2)]);
     let link = r3964::tokio::Handle::spawn(Default::default(), line, open(&port(1)?, &line, &o)?)?;
-    let mut plc = modbus::tokio::Master::spawn(Default::default(), open(&port(2)?, &line, &o)?)?;
-    let drives = uss::tokio::Handle::spawn(uss, open(&port(3)?, &line, &o)?)?;
+    let mut plc = modbus::tokio::Master::spawn(mb, open(&port(2)?, &mb.line.settings, &o)?)?;
+    let drives = uss::tokio::Handle::spawn(uss.clone(), open(&port(3)?, &uss.settings, &o)?)?;
     link.send(&b"hello"[..]).await?;
     println!("3964(R): sent 5 bytes");
     let register = plc.read_holding_registers(1, 0, 1).await?[0];
