@@ -7,6 +7,15 @@
 //! The seed has no parameter list for P_SND_RK (§6); the inputs here are the job's header
 //! fields (address, coordination flag, length) and the outputs the usual DONE, ERROR, STATUS.
 //!
+//! - **R** cancels the running job at once ([`Station::cancel`]): the FB shows ERROR with
+//!   1E0DH in that call, as every si-core FB does, the station forgets the job, and a REQ
+//!   edge in a later call starts a new one (no 0502H while the old telegram's TRES runs).
+//! - **Chained STATUS** (cp341-event-classes.md §2): a job whose command telegram the 3964(R)
+//!   link could not send shows ERROR with the link's 07xxH in one call and ERROR with 051AH in
+//!   the next, "the procedure-level error placed in STATUS just before".
+//! - **S_RCV** over the station ([`si_core::fb::SRcv`]) shows the passive side's 06xxH (and
+//!   the 07xxH before 0612H, and 08xxH receive errors) with ERROR, one per call.
+//!
 //! ```
 //! use si_rk512::fb::{FetchFb, SendFb};
 //! use si_rk512::frame::{Address, Coordination};
@@ -45,8 +54,8 @@
 use crate::frame::{Address, Coordination};
 use crate::station::{JobId, Station};
 use bytes::Bytes;
-use si_core::fb::JobRequest;
-use si_core::job::{JobPort, NotStarted};
+use si_core::fb::{JobRequest, Pulse};
+use si_core::job::{JobPort, NotStarted, Reception};
 use si_core::{Instant, Status};
 
 /// One RK 512 job as an FB starts it.
@@ -77,7 +86,8 @@ impl JobPort for Station {
     /// The FETCH data (empty for a SEND).
     type Output = Bytes;
 
-    /// A refusal shows at once: busy 0502H, length 1E41H, not a DB/DX 1E20H.
+    /// A refusal shows at once: busy 0502H, length 1E41H, not a DB/DX 1E20H, flag bit 0515H,
+    /// CPU number 0516H.
     fn start_job(&mut self, now: Instant, job: Rk512Job) -> Result<JobId, NotStarted> {
         match job {
             Rk512Job::Send {
@@ -98,9 +108,59 @@ impl JobPort for Station {
         Station::job_outcome(self, id)
     }
 
-    /// The FB forgets the job; the station finishes it (telegrams already handed to the
-    /// 3964(R) link are still sent, et200s-si-3964r-ascii.md §8.2).
-    fn cancel_job(&mut self, _id: JobId) {}
+    /// [`Station::cancel`]: the station forgets the job too (a telegram already handed to the
+    /// 3964(R) link is still sent, et200s-si-3964r-ascii.md §8.2, and its late reaction is
+    /// reported as 0A01H).
+    fn cancel_job(&mut self, id: JobId) {
+        self.cancel(id);
+    }
+
+    /// The passive side's next STATUS (06xxH, 07xxH before 0612H, 08xxH) as ERROR; never a
+    /// frame, since the partner's SEND data land in memory.
+    fn take_received(&mut self, _now: Instant, _dest: &mut [u8]) -> Option<Reception> {
+        self.take_reception_error().map(Reception::Error)
+    }
+
+    /// R on S_RCV drops the STATUS codes not yet taken.
+    fn stop_receiving(&mut self, reset: bool) -> bool {
+        if reset {
+            self.clear_reception_errors();
+        }
+        false
+    }
+}
+
+/// The REQ / R core of both request FBs, with the second code of a chained STATUS: after an
+/// outcome of 051AH the FB first shows the 3964(R) error and then 051AH in the next call.
+#[derive(Debug, Default)]
+struct Request {
+    run: JobRequest,
+    then: Pulse<Status>,
+}
+
+impl Request {
+    fn call(
+        &mut self,
+        station: &mut Station,
+        now: Instant,
+        req: bool,
+        r: bool,
+        job: impl FnOnce() -> Rk512Job,
+    ) -> Option<Result<Bytes, Status>> {
+        if r {
+            self.then.take();
+        } else if let Some(status) = self.then.take() {
+            return Some(Err(status));
+        }
+        let outcome = self.run.call(station, now, req, r, || Ok(job()));
+        match (&outcome, station.last_cause()) {
+            (Some(Err(status)), Some(cause)) if *status == crate::status::COMMAND_NOT_SENT => {
+                self.then.fire(*status);
+                Some(Err(cause))
+            }
+            _ => outcome,
+        }
+    }
 }
 
 /// What a request FB shows after one call: DONE / ERROR / STATUS, and FETCH's data with DONE.
@@ -125,13 +185,13 @@ impl From<Option<Result<Bytes, Status>>> for FbOutput {
 /// SEND request (P_SND_RK with a SEND job): a rising edge on REQ sends `data` to `address`.
 #[derive(Debug, Default)]
 pub struct SendFb {
-    inner: JobRequest,
+    inner: Request,
 }
 
 impl SendFb {
-    /// One call of the FB (one PLC cycle). An edge while a job runs is ignored; R forgets the
-    /// job and reports ERROR with 1E0D; refusals (busy 0502, length 1E41, not a DB/DX 1E20)
-    /// show at once.
+    /// One call of the FB (one PLC cycle). An edge while a job runs is ignored; R cancels the
+    /// job and reports ERROR with 1E0D; refusals (busy 0502, length 1E41, not a DB/DX 1E20,
+    /// flag bit 0515, CPU number 0516) show at once.
     #[allow(clippy::too_many_arguments)]
     pub fn call(
         &mut self,
@@ -143,12 +203,10 @@ impl SendFb {
         coordination: Coordination,
         data: &[u8],
     ) -> FbOutput {
-        let outcome = self.inner.call(station, now, req, r, || {
-            Ok(Rk512Job::Send {
-                address,
-                coordination,
-                data: Bytes::copy_from_slice(data),
-            })
+        let outcome = self.inner.call(station, now, req, r, || Rk512Job::Send {
+            address,
+            coordination,
+            data: Bytes::copy_from_slice(data),
         });
         FbOutput {
             data: None,
@@ -160,7 +218,7 @@ impl SendFb {
 /// FETCH request (P_SND_RK with a FETCH job): a rising edge on REQ fetches `len` bytes.
 #[derive(Debug, Default)]
 pub struct FetchFb {
-    inner: JobRequest,
+    inner: Request,
 }
 
 impl FetchFb {
@@ -177,12 +235,10 @@ impl FetchFb {
         len: usize,
     ) -> FbOutput {
         self.inner
-            .call(station, now, req, r, || {
-                Ok(Rk512Job::Fetch {
-                    address,
-                    coordination,
-                    len,
-                })
+            .call(station, now, req, r, || Rk512Job::Fetch {
+                address,
+                coordination,
+                len,
             })
             .into()
     }
@@ -249,7 +305,7 @@ mod tests {
             }
             sim.run_for(Duration::from_millis(10));
         }
-        assert_eq!(seen, vec![crate::status::PARTNER_NO_SUCH_AREA]);
+        assert_eq!(seen, vec![crate::status::PARTNER_NO_SUCH_DB]);
     }
 
     #[test]

@@ -12,8 +12,19 @@
 //! - [`station`]: one Sans-IO engine wrapping a [`si_3964r::Link`]: our jobs (active side) and
 //!   the partner's jobs (passive side) over one line;
 //! - [`passive`]: the partner's jobs served from the SIMATIC memory model
-//!   ([`si_core::memory`]), with coordination flags and the reaction error numbers;
-//! - [`status`]: the STATUS codes (class 09H for the partner's error numbers);
+//!   ([`si_core::memory`]), with coordination flags and the CPU number;
+//! - [`refusal`]: why the passive side refused a partner's telegram (class 06H) and the error
+//!   number its reaction carries;
+//! - [`status`]: the STATUS codes as the CP 341 reports them (cp341-event-classes.md), by the
+//!   side that raises them:
+//!   - **05H** (requester, our job): 0515/0516 for our own flag bit and CPU number, refused
+//!     at once; 051A when our command telegram could not be sent, after the 3964(R) 07xx;
+//!   - **06H** (responder, the partner's job): the partner's telegram is faulty or cannot be
+//!     served (0601 … 0611), or our reaction could not be sent (0612, after the 07xx);
+//!   - **07H/08H** (either side): the 3964(R) link's procedure errors, [`si_3964r::status`];
+//!   - **09H** (requester): the partner's reaction carries an error number (byte 4 → 09xx,
+//!     [inferred], unknown bytes 090E);
+//!   - **0AH** (requester): the partner's reaction is faulty (0A01 … 0A04) or missing (0A05).
 //! - [`monitor`]: the passive listener, the 3964(R) monitor reading RK 512 telegrams;
 //! - [`fb`]: send and fetch FB equivalents with REQ / DONE / ERROR / STATUS;
 //! - `tokio` (feature `tokio`): an async handle, `send(..).await` and `fetch(..).await`.
@@ -53,6 +64,7 @@ pub mod fb;
 pub mod frame;
 pub mod monitor;
 pub mod passive;
+pub mod refusal;
 pub mod station;
 pub mod status;
 #[cfg(feature = "tokio")]

@@ -11,28 +11,42 @@
 //!   Z → counters of [`si_core::memory::Memory`]; X (the S5 extended data blocks, which an S7
 //!   memory lacks) → the data blocks of a second `Memory` ([`Server::dx`]).
 //! - **SEND only to D and X** (Table 2-1 footnote "when sending, only 'D' is possible" and
-//!   A-26: 'O' sends to X): `'A'` must name `'D'`, `'O'` must name `'X'`, else error 0CH.
+//!   A-26: 'O' sends to X): `'A'` must name `'D'`, `'O'` must name `'X'`, else 0604.
 //!   FETCH reads every type.
-//! - **Checks, in order**: telegram id (0CH), command (16H), CPU in STOP (2AH), data type for
-//!   the command (0CH), command not open (0AH), length 0, over the job limit or not matching
-//!   the data in the telegram (34H), area missing or too short (14H), coordination flag set
-//!   (32H). The whole job's range is checked on the first telegram, so a long job is refused
-//!   before any byte is written.
-//! - **Coordination flag (§4.8).** For a SEND naming a flag: refused with 32H while the flag
-//!   is set; the data are written and the flag is set after the *last* telegram. The partner
-//!   program resets it when it has consumed the data. A FETCH is not affected: the sources
-//!   describe the flag only as an interlock on new data. The CPU number (byte 10, high nibble)
-//!   is not evaluated: a host is one CPU.
+//! - **Refusals** are the CP 341's class 06H rows ([`ServeError`], cp341-event-classes.md §1),
+//!   checked in this order: the header's structure (0610, 0611, 0601, 0602, 0604), CPU in STOP
+//!   or command not served (060D), command/type pair (0604), CPU number (060A), coordination
+//!   flag (0609), length against the job limit (0608), data in the telegram (060B, 060C), the
+//!   area (0606 DB missing, 0607 start beyond the area, 0608 end beyond it), flag set (060F).
+//!   The whole job's range is checked on the first telegram, so a long job is refused before
+//!   any byte is written. The reaction carries the error number of
+//!   [`ServeError::error_number`] ([inferred], see [`crate::refusal`]).
+//! - **CPU number (§4.2, byte 10 high nibble; A-13).** 1 … 4 name a CPU, 0 "a flag but no CPU
+//!   number", FH "neither"; 5H … EH are refused with 060A. Every allowed number is served: a
+//!   host is one CPU, so it does not tell CPUs of a multi-CPU S5 rack apart.
+//! - **Coordination flag (§4.8).** A flag is named when byte 9 ≠ FFH; its bit (byte 10 low
+//!   nibble) must then be 0 … 7 and its byte inside the flag area, else 0609. A job naming a
+//!   flag that is set is refused with 060F (32H); the flag is set once the job's *last*
+//!   telegram is served, and the CPU program resets it when it has dealt with the data.
+//!   **FETCH too:** §4.8 explains only the encoding and [M] names only "target DB locked"; the
+//!   reading chosen is the one public RK 512 partner manual that states it (VIPA CPU 21x
+//!   manual HB103E, "Coordination flags": "The coordination flag is set in the partner PLC …
+//!   when a message is being received. This occurs for input as well as for output commands.
+//!   When the coordination flag has been set and a message with this flag is received, then
+//!   the respective data is not accepted (or transferred) and a reject message is sent (error
+//!   code 32h)"). So a FETCH naming a set flag gets 060F/32H, and a served FETCH sets it: the
+//!   CPU program resets it when fresh data are ready to be fetched.
 //! - **A first telegram while a continuation is due** (Fig. 2-19 "or a first command frame
-//!   received"): the running job is aborted (reported), and the new telegram is served.
-//! - **A continuation without a job** is answered with 36H (synchronisation error).
+//!   received"): the running job is aborted (060E, reported by the station), and the new
+//!   telegram is served.
+//! - **A continuation without a job** is answered with 060E (36H).
 
 use crate::config::DwUnit;
 use crate::frame::{
-    Address, Command, CommandHeader, ContinuationHeader, DataType, DecodeError, ReactionHeader,
-    Telegram, MAX_DATA_PER_TELEGRAM,
+    Address, Command, CommandHeader, ContinuationHeader, Coordination, DataType, DecodeError,
+    ReactionHeader, Telegram, MAX_DATA_PER_TELEGRAM,
 };
-use crate::status::ErrorNumber;
+use crate::refusal::ServeError;
 use serde::{Deserialize, Serialize};
 use si_core::memory::{Area, Memory, MemorySizes};
 use std::collections::BTreeMap;
@@ -45,9 +59,9 @@ pub struct ServerConfig {
     pub memory: MemorySizes,
     /// Extended data blocks DX: number → length in bytes.
     pub dx: BTreeMap<u16, u32>,
-    /// Accept SEND jobs (else error 0AH).
+    /// Accept SEND jobs (else 060D with error number 0AH).
     pub accept_send: bool,
-    /// Accept FETCH jobs (else error 0AH).
+    /// Accept FETCH jobs (else 060D with error number 0AH).
     pub accept_fetch: bool,
 }
 
@@ -94,8 +108,8 @@ pub enum Served {
         /// Bytes of the whole job.
         len: usize,
     },
-    /// Answered with this error number; the job (if any) is over.
-    Refused(ErrorNumber),
+    /// Refused: the reaction carries this refusal's error number; the job (if any) is over.
+    Refused(ServeError),
 }
 
 /// The passive side's memory and its one running job.
@@ -130,7 +144,7 @@ impl Server {
         }
     }
 
-    /// A station that does not serve: every command is answered with 0AH.
+    /// A station that does not serve: every command is refused with 060D (error number 0AH).
     pub fn refusing() -> Server {
         Server::new(&ServerConfig {
             memory: MemorySizes {
@@ -167,7 +181,7 @@ impl Server {
         &mut self.dx
     }
 
-    /// Put the CPU into RUN (`true`) or STOP; in STOP every command is answered with 2AH.
+    /// Put the CPU into RUN (`true`) or STOP; in STOP every command is refused with 060D (2AH).
     pub fn set_running(&mut self, running: bool) {
         self.running = running;
     }
@@ -198,13 +212,14 @@ impl Server {
                 self.first(h, data, dw_unit, max_job_len, reaction)
             }
             Ok(Telegram::Continuation(h, data)) => self.continuation(h, data, reaction),
-            Ok(Telegram::Reaction(..)) => Err(ErrorNumber::BadCommand),
+            // Byte 3 = 00H is a reaction's; the station never hands one here.
+            Ok(Telegram::Reaction(..)) => Err(ServeError::Command),
             Err(e) => Err(match e {
-                DecodeError::TooShort { .. } | DecodeError::TooMuchData { .. } => {
-                    ErrorNumber::BadLength
-                }
-                DecodeError::Unexpected { offset: 2, .. } => ErrorNumber::BadCommand,
-                DecodeError::Unexpected { .. } => ErrorNumber::BadHeader,
+                DecodeError::TooShort { .. } => ServeError::TooShort,
+                DecodeError::TooMuchData { .. } => ServeError::FrameLength,
+                DecodeError::Unexpected { offset: 2, .. } => ServeError::Command,
+                DecodeError::Unexpected { offset: 3, .. } => ServeError::DataType,
+                DecodeError::Unexpected { .. } => ServeError::HeaderId,
             }),
         };
         match result {
@@ -215,7 +230,7 @@ impl Server {
                 reaction.extend_from_slice(
                     &ReactionHeader {
                         continuation,
-                        error: error.code(),
+                        error: error.error_number().code(),
                     }
                     .encode(),
                 );
@@ -231,9 +246,17 @@ impl Server {
         dw_unit: DwUnit,
         max_job_len: usize,
         reaction: &mut Vec<u8>,
-    ) -> Result<Served, ErrorNumber> {
+    ) -> Result<Served, ServeError> {
         if !self.running {
-            return Err(ErrorNumber::NotRunning);
+            return Err(ServeError::Stopped);
+        }
+        let open = if h.command.is_send() {
+            self.accept_send
+        } else {
+            self.accept_fetch
+        };
+        if !open {
+            return Err(ServeError::NotServed);
         }
         let data_type = h.address.data_type();
         let type_ok = match h.command {
@@ -242,38 +265,28 @@ impl Server {
             Command::Fetch => true,
         };
         if !type_ok {
-            return Err(ErrorNumber::BadHeader);
+            return Err(ServeError::DataType);
         }
-        let open = if h.command.is_send() {
-            self.accept_send
-        } else {
-            self.accept_fetch
-        };
-        if !open {
-            return Err(ErrorNumber::AccessDenied);
+        if !matches!(h.coordination.cpu, 0..=4 | 0xF) {
+            return Err(ServeError::CpuNumber);
         }
+        let flag = self.flag(h.coordination)?;
         let total = h.data_len();
         if total == 0 || total > max_job_len {
-            return Err(ErrorNumber::BadLength);
+            return Err(ServeError::Length);
         }
-        let expected = if h.command.is_send() {
-            total.min(MAX_DATA_PER_TELEGRAM)
-        } else {
-            0
-        };
-        if data.len() != expected {
-            return Err(ErrorNumber::BadLength);
+        if h.command.is_send() {
+            if data.len() != total.min(MAX_DATA_PER_TELEGRAM) {
+                return Err(ServeError::DataAmount);
+            }
+        } else if !data.is_empty() {
+            return Err(ServeError::FetchWithData);
         }
         let place = place(h.address, dw_unit);
         self.check_range(place, total)?;
-        let flag = h.coordination.flag_address();
-        if h.command.is_send() {
-            if let Some((byte, bit)) = flag {
-                match self.memory.bit(Area::Flags, byte.into(), bit) {
-                    Ok(true) => return Err(ErrorNumber::Locked),
-                    Ok(false) => {}
-                    Err(_) => return Err(ErrorNumber::NoSuchArea),
-                }
+        if let Some((byte, bit)) = flag {
+            if self.memory.bit(Area::Flags, byte.into(), bit) == Ok(true) {
+                return Err(ServeError::Locked);
             }
         }
         let mut job = Job {
@@ -293,31 +306,42 @@ impl Server {
         Ok(self.after(job))
     }
 
+    /// The flag bytes 9/10 name (§4.2): none for byte FFH; else bit 0 … 7 of a flag byte that
+    /// exists (0609 otherwise).
+    fn flag(&self, c: Coordination) -> Result<Option<(u8, u8)>, ServeError> {
+        if c.flag_byte == 0xFF {
+            return Ok(None);
+        }
+        if c.flag_bit > 7 || self.memory.bit(Area::Flags, c.flag_byte.into(), 0).is_err() {
+            return Err(ServeError::CoordinationFlag);
+        }
+        Ok(Some((c.flag_byte, c.flag_bit)))
+    }
+
     fn continuation(
         &mut self,
         h: ContinuationHeader,
         data: &[u8],
         reaction: &mut Vec<u8>,
-    ) -> Result<Served, ErrorNumber> {
+    ) -> Result<Served, ServeError> {
         let Some(mut job) = self.job.take() else {
-            return Err(ErrorNumber::Sequence);
+            return Err(ServeError::Sequence);
         };
         if !self.running {
-            return Err(ErrorNumber::NotRunning);
+            return Err(ServeError::Stopped);
         }
         if h.command != job.header.command {
-            return Err(ErrorNumber::BadCommand);
+            return Err(ServeError::ContinuationCommand);
         }
         if h.data_type != job.header.address.data_type() {
-            return Err(ErrorNumber::BadHeader);
+            return Err(ServeError::ContinuationDataType);
         }
-        let expected = if h.command.is_send() {
-            (job.total - job.done).min(MAX_DATA_PER_TELEGRAM)
-        } else {
-            0
-        };
-        if data.len() != expected {
-            return Err(ErrorNumber::BadLength);
+        if h.command.is_send() {
+            if data.len() != (job.total - job.done).min(MAX_DATA_PER_TELEGRAM) {
+                return Err(ServeError::DataAmount);
+            }
+        } else if !data.is_empty() {
+            return Err(ServeError::FetchWithData);
         }
         reaction.extend_from_slice(
             &ReactionHeader {
@@ -336,20 +360,22 @@ impl Server {
         job: &mut Job,
         data: &[u8],
         reaction: &mut Vec<u8>,
-    ) -> Result<(), ErrorNumber> {
+    ) -> Result<(), ServeError> {
+        // The range was checked on the first telegram (0606–0608); a failure here would mean
+        // the memory shrank under a running job.
         let n = (job.total - job.done).min(MAX_DATA_PER_TELEGRAM);
         let p = job.place;
         let memory = if p.dx { &mut self.dx } else { &mut self.memory };
-        let offset = u32::try_from(job.done).map_err(|_| ErrorNumber::BadLength)?;
+        let offset = u32::try_from(job.done).map_err(|_| ServeError::Length)?;
         if job.header.command.is_send() {
             memory
                 .write(p.area, p.start + offset, data)
-                .map_err(|_| ErrorNumber::NoSuchArea)?;
+                .map_err(|_| ServeError::Length)?;
         } else if matches!(p.area, Area::Timers | Area::Counters) {
             for i in 0..n as u32 / 2 {
                 let word = memory
                     .element(p.area, p.start + offset / 2 + i)
-                    .map_err(|_| ErrorNumber::NoSuchArea)?;
+                    .map_err(|_| ServeError::Length)?;
                 reaction.extend_from_slice(&word.to_be_bytes());
             }
         } else {
@@ -357,7 +383,7 @@ impl Server {
             reaction.resize(at + n, 0);
             memory
                 .read(p.area, p.start + offset, &mut reaction[at..])
-                .map_err(|_| ErrorNumber::NoSuchArea)?;
+                .map_err(|_| ServeError::Length)?;
         }
         job.done += n;
         Ok(())
@@ -368,11 +394,10 @@ impl Server {
             self.job = Some(job);
             return Served::Partial;
         }
-        if job.header.command.is_send() {
-            if let Some((byte, bit)) = job.header.coordination.flag_address() {
-                // Checked on the first telegram; the flag is set once all data are in (§4.8).
-                let _ = self.memory.set_bit(Area::Flags, byte.into(), bit, true);
-            }
+        if let Some((byte, bit)) = job.header.coordination.flag_address() {
+            // Checked on the first telegram; the flag is set once the whole job is served
+            // (§4.8, SEND and FETCH alike: see the module docs).
+            let _ = self.memory.set_bit(Area::Flags, byte.into(), bit, true);
         }
         Served::Complete {
             command: job.header.command,
@@ -381,20 +406,31 @@ impl Server {
         }
     }
 
-    fn check_range(&self, p: Place, total: usize) -> Result<(), ErrorNumber> {
+    /// The whole job's area (§4.2 bytes 5–8): 0606 for a DB/DX that does not exist, 0607 for
+    /// a start beyond the area, 0608 for an end beyond it.
+    fn check_range(&self, p: Place, total: usize) -> Result<(), ServeError> {
         let memory = if p.dx { &self.dx } else { &self.memory };
-        let ok = match p.area {
-            Area::Timers | Area::Counters => memory
-                .check_elements(p.area, p.start, (total / 2) as u32)
-                .is_ok(),
-            area => memory
-                .bytes(area)
-                .is_ok_and(|b| p.start as usize + total <= b.len()),
-        };
-        if ok {
-            Ok(())
-        } else {
-            Err(ErrorNumber::NoSuchArea)
+        match p.area {
+            Area::Timers | Area::Counters => {
+                if memory.check_elements(p.area, p.start, 1).is_err() {
+                    return Err(ServeError::StartAddress);
+                }
+                let count = u32::try_from(total / 2).map_err(|_| ServeError::Length)?;
+                memory
+                    .check_elements(p.area, p.start, count)
+                    .map_err(|_| ServeError::Length)
+            }
+            area => {
+                let len = memory.bytes(area).map_err(|_| ServeError::DbNumber)?.len();
+                let start = p.start as usize;
+                if start >= len {
+                    Err(ServeError::StartAddress)
+                } else if start + total > len {
+                    Err(ServeError::Length)
+                } else {
+                    Ok(())
+                }
+            }
         }
     }
 }

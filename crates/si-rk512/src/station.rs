@@ -40,13 +40,29 @@
 //!   reaction may wait until our own command has gone out, as the figure shows.
 //! - **TRES** starts when the partner acknowledged our command telegram (its `DLE`), for every
 //!   first and continuation telegram, and on the passive side when our reaction that asks for a
-//!   continuation was acknowledged. Expiry ends the job with 0814 (A-12, §4.7).
-//! - **A first reaction where a continuation reaction was due** (Fig. 2-18) ends the job with
-//!   0813; a reaction nobody waits for is reported as a receive error 0813 and dropped.
-//! - **A reaction with an error number** ends the job with that number's class 09H STATUS; a
-//!   FETCH reaction with the wrong amount of data, or a SEND reaction with data, with 0810.
-//! - **3964(R) failures** of our command telegram end the job with the link's STATUS (class
-//!   07H); the link's receive errors are passed on as [`Event::ReceiveError`].
+//!   continuation was acknowledged. Expiry ends our job with 0A05; on the passive side it
+//!   aborts the partner's job with 060E ([derived]: the tables have no row for it, and 060E is
+//!   what the partner's late continuation then meets) (A-12, §4.7).
+//! - **The STATUS classes** (cp341-event-classes.md §2; [`crate::status`] has the table): our
+//!   own request is checked first (0515 flag bit, 0516 CPU number); a reaction with an error
+//!   number ends our job with its 09xx; a faulty reaction with 0A01 (out of sequence), 0A02
+//!   (header), 0A03 (FETCH data amount) or 0A04 (SEND reaction with data). A partner's
+//!   telegram the passive side refuses is [`Event::Refused`] with its 06xx.
+//! - **Chained codes.** When the 3964(R) link gives up on our command telegram, the station
+//!   emits [`Event::ProcedureError`] with the link's 07xx and then [`Event::Failed`] with 051A;
+//!   when it gives up on our reaction, [`Event::ProcedureError`] and then
+//!   [`Event::ServeAborted`] with 0612 (cp341-event-classes.md §2 "Chained reports").
+//! - **S_RCV** ([`JobPort::take_received`](si_core::job::JobPort::take_received)) reports the
+//!   passive side's STATUS as the CP's P_RCV_RK does: every 06xx, the 07xx before a 0612, and
+//!   the link's receive errors (08xx), one per call, oldest first, at most
+//!   [`RECEIVE_REPORTS`] kept (the oldest is dropped). The partner's SEND data land in memory,
+//!   so S_RCV has no NDR here; [`Event::Served`] tells of them.
+//! - **Cancel** ([`Station::cancel`], the FBs' R input): the station forgets the job at once,
+//!   and the next job can start in the same call. A command telegram still queued is dropped;
+//!   one already on the line cannot be called back (3964(R) sends what it has), so the next
+//!   reaction within its TRES is taken as that telegram's (§4.6: the partner answers in order)
+//!   and reported as [`Event::ReceiveError`] with 0A01 instead of being read as the new
+//!   job's.
 
 use crate::config::Config;
 use crate::frame::{
@@ -54,7 +70,8 @@ use crate::frame::{
     COMMAND_HEADER_LEN, MAX_DATA_PER_TELEGRAM,
 };
 use crate::passive::{Served, Server, ServerConfig};
-use crate::status::{self, ErrorNumber};
+use crate::refusal::ServeError;
+use crate::status;
 use bytes::{Bytes, BytesMut};
 use core::fmt;
 use si_3964r::{ConfigError, Link};
@@ -78,8 +95,9 @@ pub enum Event {
         /// The fetched bytes; empty for SEND.
         data: Bytes,
     },
-    /// Our job ended with an error (class 07H/08H from the link or the reaction checks, class
-    /// 09H from the partner's error number).
+    /// Our job ended with an error: 0515/0516 never get here (the request is refused), 051A
+    /// after [`Event::ProcedureError`], 09xx from the partner's error number, 0Axx for a
+    /// faulty or missing reaction.
     Failed {
         /// The job.
         job: JobId,
@@ -95,15 +113,21 @@ pub enum Event {
         /// Bytes of the whole job.
         len: usize,
     },
-    /// The passive side answered a partner's telegram with an error number.
+    /// The passive side refused a partner's telegram (class 06H); the reaction carried
+    /// `error.error_number()`.
     Refused {
-        /// The number sent in the reaction.
-        error: ErrorNumber,
+        /// The 06xx row and the error number sent.
+        error: ServeError,
     },
-    /// A partner's job broke off: no continuation within TRES (0814), a new first telegram
-    /// instead (0813), or our reaction could not be delivered (the link's STATUS).
+    /// A partner's job broke off: no continuation within TRES or a first telegram instead
+    /// (060E), or our reaction could not be delivered (0612, after [`Event::ProcedureError`]).
     ServeAborted(Status),
-    /// The link reported a receive error (class 08H), or a telegram arrived that nobody expects.
+    /// The 3964(R) link gave up on one of our telegrams (class 07H, the *first* error seen,
+    /// §2 of cp341-event-classes.md). The next event says what it cost: [`Event::Failed`] with
+    /// 051A for a command telegram, [`Event::ServeAborted`] with 0612 for a reaction.
+    ProcedureError(Status),
+    /// The link reported a receive error (class 08H), or a reaction arrived that no job waits
+    /// for (0A01).
     ReceiveError(Status),
 }
 
@@ -138,6 +162,7 @@ impl fmt::Debug for Event {
                 .finish(),
             Event::Refused { error } => f.debug_struct("Refused").field("error", error).finish(),
             Event::ServeAborted(s) => f.debug_tuple("ServeAborted").field(s).finish(),
+            Event::ProcedureError(s) => f.debug_tuple("ProcedureError").field(s).finish(),
             Event::ReceiveError(s) => f.debug_tuple("ReceiveError").field(s).finish(),
         }
     }
@@ -160,19 +185,31 @@ pub enum RequestError {
     /// SEND goes only to D (command 'A') or X (command 'O') (Table 2-1 footnote).
     #[error("SEND goes only to a DB or DX, not to {0}")]
     NotSendable(Address),
+    /// A coordination flag byte (≠ FFH) with a bit number above 7.
+    #[error("coordination flag bit {0} is out of range 0 … 7")]
+    FlagBit(u8),
+    /// A CPU number other than 0 … 4 or FH (none).
+    #[error("partner CPU number {0} is out of range: 0 … 4, or none")]
+    CpuNumber(u8),
 }
 
 impl RequestError {
     /// The STATUS an FB would show for this refusal: 0502 when busy, 1E41 for the length,
-    /// 1E20 (parameter out of range) for a data type SEND cannot use.
+    /// 1E20 (parameter out of range) for a data type SEND cannot use, 0515 for the flag bit,
+    /// 0516 for the CPU number (cp341-event-classes.md §1 class 05H).
     pub fn status(self) -> Status {
         match self {
             RequestError::Busy => common::NOT_POSSIBLE_IN_MODE,
             RequestError::Length { .. } => common::INVALID_LEN,
             RequestError::NotSendable(_) => common::PARAMETER_OUT_OF_RANGE,
+            RequestError::FlagBit(_) => status::FLAG_BIT_OUT_OF_RANGE,
+            RequestError::CpuNumber(_) => status::CPU_NUMBER_OUT_OF_RANGE,
         }
     }
 }
+
+/// How many passive-side STATUS codes wait for S_RCV (the oldest is dropped beyond).
+pub const RECEIVE_REPORTS: usize = 4;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Kind {
@@ -226,6 +263,13 @@ pub struct Station {
     fetch_turn: usize,
     now: Instant,
     last_outcome: Option<(JobId, Result<Bytes, Status>)>,
+    /// The 07xx that caused the last outcome's 051A.
+    last_cause: Option<Status>,
+    /// A cancelled job's command telegram that was already on the line: its reaction is still
+    /// due ([`Station::cancel`]).
+    orphan: Option<Phase>,
+    /// The passive side's STATUS codes for S_RCV, oldest first.
+    receptions: VecDeque<Status>,
 }
 
 impl fmt::Debug for Station {
@@ -281,6 +325,9 @@ impl Station {
             fetch_turn: 0,
             now: Instant::ZERO,
             last_outcome: None,
+            last_cause: None,
+            orphan: None,
+            receptions: VecDeque::with_capacity(RECEIVE_REPORTS),
         })
     }
 
@@ -325,6 +372,44 @@ impl Station {
             .as_ref()
             .filter(|(j, _)| *j == id)
             .map(|(_, r)| r.clone())
+    }
+
+    /// The 3964(R) error (07xx) reported just before the last job's 051A, if it ended so.
+    pub fn last_cause(&self) -> Option<Status> {
+        self.last_cause
+    }
+
+    /// Forget job `id` at once (the FBs' R input): no outcome will come for it, and a new job
+    /// may start right away. See the module docs for a telegram already on the line.
+    pub fn cancel(&mut self, id: JobId) {
+        let Some(job) = self.job.take_if(|j| j.id == id) else {
+            return;
+        };
+        self.queue.retain(|(k, _)| *k != Kind::Command);
+        self.orphan = match job.phase {
+            Phase::Sending(None) => None,
+            on_the_line => Some(on_the_line),
+        };
+        if !job.header.command.is_send() {
+            self.fetch_pools[job.pool].clear();
+        }
+    }
+
+    /// The next passive-side STATUS for S_RCV (06xx, 07xx before 0612, 08xx).
+    pub fn take_reception_error(&mut self) -> Option<Status> {
+        self.receptions.pop_front()
+    }
+
+    /// Drop every STATUS waiting for S_RCV (its R input).
+    pub fn clear_reception_errors(&mut self) {
+        self.receptions.clear();
+    }
+
+    fn report_reception(&mut self, status: Status) {
+        if self.receptions.len() == RECEIVE_REPORTS {
+            self.receptions.pop_front();
+        }
+        self.receptions.push_back(status);
     }
 
     /// Start a SEND job: `data` to `address` (a DB with command `'A'`, or a DX with `'O'`),
@@ -376,6 +461,12 @@ impl Station {
         self.now = now;
         if self.job.is_some() {
             return Err(RequestError::Busy);
+        }
+        if coordination.flag_byte != 0xFF && coordination.flag_bit > 7 {
+            return Err(RequestError::FlagBit(coordination.flag_bit));
+        }
+        if !matches!(coordination.cpu, 0..=4 | 0xF) {
+            return Err(RequestError::CpuNumber(coordination.cpu));
         }
         let max = self.config.max_job_len as usize;
         let words = address.data_type().counts_words();
@@ -459,25 +550,48 @@ impl Station {
                 }
                 // Cannot happen with a validated config (telegrams are 4 … 138 bytes and the
                 // link is idle); fail the telegram's owner rather than lose it.
-                Err(e) => self.telegram_failed(kind, e.status()),
+                Err(e) => self.telegram_failed(kind, None, e.status()),
             }
         }
     }
 
-    fn telegram_failed(&mut self, kind: Kind, status: Status) {
+    /// The link gave up on a telegram (`id` on the link, `None` if it never got there): the
+    /// 3964(R) error first, then what it cost (051A or 0612).
+    fn telegram_failed(&mut self, kind: Kind, id: Option<si_3964r::JobId>, status: Status) {
         match kind {
-            Kind::Command => self.finish(Err(status)),
+            Kind::Command => {
+                let ours = self
+                    .job
+                    .as_ref()
+                    .is_some_and(|j| id.is_none() || j.phase == Phase::Sending(id));
+                if ours {
+                    self.event(Event::ProcedureError(status));
+                    self.finish(Err(status::COMMAND_NOT_SENT));
+                    self.last_cause = Some(status);
+                } else if self.orphan == Some(Phase::Sending(id)) {
+                    // A cancelled job's telegram: no reaction will come for it.
+                    self.orphan = None;
+                }
+            }
             Kind::Reaction => {
                 if self.server.abort() {
                     self.serve_deadline = None;
                 }
-                self.event(Event::ServeAborted(status));
+                self.event(Event::ProcedureError(status));
+                self.report_reception(status);
+                self.serve_aborted(status::REACTION_NOT_SENT);
             }
         }
     }
 
+    fn serve_aborted(&mut self, status: Status) {
+        self.report_reception(status);
+        self.event(Event::ServeAborted(status));
+    }
+
     fn finish(&mut self, result: Result<(), Status>) {
         let Some(job) = self.job.take() else { return };
+        self.last_cause = None;
         // A telegram of this job still queued is dropped with it.
         self.queue.retain(|(k, _)| *k != Kind::Command);
         let fetched = &mut self.fetch_pools[job.pool];
@@ -521,7 +635,7 @@ impl Station {
                 if let Some((id, kind)) = self.in_flight {
                     if id == job {
                         self.in_flight = None;
-                        self.telegram_failed(kind, status);
+                        self.telegram_failed(kind, Some(id), status);
                     }
                 }
             }
@@ -530,7 +644,10 @@ impl Station {
                     self.on_telegram(&block);
                 }
             }
-            si_3964r::Event::ReceiveError(status) => self.event(Event::ReceiveError(status)),
+            si_3964r::Event::ReceiveError(status) => {
+                self.report_reception(status);
+                self.event(Event::ReceiveError(status));
+            }
         }
         self.pump();
     }
@@ -538,13 +655,15 @@ impl Station {
     fn telegram_sent(&mut self, kind: Kind, id: si_3964r::JobId) {
         let tres = self.now + self.config.response_timeout();
         match kind {
-            Kind::Command => {
-                if let Some(job) = &mut self.job {
-                    if job.phase == Phase::Sending(Some(id)) {
-                        job.phase = Phase::Waiting(tres);
-                    }
+            Kind::Command => match &mut self.job {
+                Some(job) if job.phase == Phase::Sending(Some(id)) => {
+                    job.phase = Phase::Waiting(tres);
                 }
-            }
+                _ if self.orphan == Some(Phase::Sending(Some(id))) => {
+                    self.orphan = Some(Phase::Waiting(tres));
+                }
+                _ => {}
+            },
             Kind::Reaction => {
                 if self.reaction_in_flight_partial && self.server.expects_continuation() {
                     self.serve_deadline = Some(tres);
@@ -562,6 +681,11 @@ impl Station {
     }
 
     fn on_reaction(&mut self, block: &[u8]) {
+        if self.orphan.take().is_some() {
+            // The answer to a cancelled job's telegram (§4.6: answers come in order).
+            self.event(Event::ReceiveError(status::REACTION_SEQUENCE));
+            return;
+        }
         // Only a telegram on the line (or acknowledged) can be answered; a reaction while ours
         // still waits in the queue is a stray one (a duplicate, or meant for an ended job).
         let Some(job) = self
@@ -569,16 +693,16 @@ impl Station {
             .as_mut()
             .filter(|j| j.phase != Phase::Sending(None))
         else {
-            self.event(Event::ReceiveError(status::RESPONSE_SEQUENCE));
+            self.event(Event::ReceiveError(status::REACTION_SEQUENCE));
             return;
         };
         let (header, data) = match Telegram::decode(block) {
             Ok(Telegram::Reaction(h, d)) => (h, d),
-            _ => return self.finish(Err(status::RESPONSE_INVALID)),
+            _ => return self.finish(Err(status::REACTION_HEADER)),
         };
         let expected_continuation = job.done > 0;
         if header.continuation != expected_continuation {
-            return self.finish(Err(status::RESPONSE_SEQUENCE));
+            return self.finish(Err(status::REACTION_SEQUENCE));
         }
         if let Some(status) = status::for_error_byte(header.error) {
             return self.finish(Err(status));
@@ -586,11 +710,11 @@ impl Station {
         let chunk = (job.total - job.done).min(MAX_DATA_PER_TELEGRAM);
         if job.header.command.is_send() {
             if !data.is_empty() {
-                return self.finish(Err(status::RESPONSE_INVALID));
+                return self.finish(Err(status::SEND_REACTION_WITH_DATA));
             }
         } else {
             if data.len() != chunk {
-                return self.finish(Err(status::RESPONSE_INVALID));
+                return self.finish(Err(status::REACTION_DATA_AMOUNT));
             }
             self.fetch_pools[job.pool].extend_from_slice(data);
         }
@@ -606,7 +730,7 @@ impl Station {
         let first = block.first() != Some(&crate::frame::CONTINUATION);
         if first && self.server.abort() {
             self.serve_deadline = None;
-            self.event(Event::ServeAborted(status::RESPONSE_SEQUENCE));
+            self.serve_aborted(status::SEQUENCE);
         }
         let mut reaction = std::mem::take(&mut self.buf);
         let served = self.server.serve(
@@ -635,34 +759,44 @@ impl Station {
                 address,
                 len,
             }),
-            Served::Refused(error) => self.event(Event::Refused { error }),
+            Served::Refused(error) => {
+                self.report_reception(error.status());
+                self.event(Event::Refused { error });
+            }
         }
     }
 
     // --- timers --------------------------------------------------------------------------
 
     fn own_deadline(&self) -> Option<Instant> {
-        let job = match self.job.as_ref().map(|j| j.phase) {
+        let waiting = |phase: Option<Phase>| match phase {
             Some(Phase::Waiting(d)) => Some(d),
             _ => None,
         };
-        match (job, self.serve_deadline) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        }
+        [
+            waiting(self.job.as_ref().map(|j| j.phase)),
+            waiting(self.orphan),
+            self.serve_deadline,
+        ]
+        .into_iter()
+        .flatten()
+        .min()
     }
 
     fn check_timers(&mut self) {
         let now = self.now;
         if let Some(Phase::Waiting(d)) = self.job.as_ref().map(|j| j.phase) {
             if now >= d {
-                self.finish(Err(status::RESPONSE_TIMEOUT));
+                self.finish(Err(status::NO_REACTION));
             }
+        }
+        if matches!(self.orphan, Some(Phase::Waiting(d)) if now >= d) {
+            self.orphan = None;
         }
         if self.serve_deadline.is_some_and(|d| now >= d) {
             self.serve_deadline = None;
             if self.server.abort() {
-                self.event(Event::ServeAborted(status::RESPONSE_TIMEOUT));
+                self.serve_aborted(status::SEQUENCE);
             }
         }
     }

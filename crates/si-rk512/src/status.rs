@@ -1,88 +1,219 @@
-//! RK 512 STATUS codes and the error numbers of reaction telegrams
-//! (cp341-3964r-rk512-ascii.md §4.3, §7.2, §7.3).
+//! RK 512 STATUS codes as the CP 341 reports them (cp341-event-classes.md §1, §2), and the
+//! error numbers of byte 4 of a reaction telegram (cp341-3964r-rk512-ascii.md §4.3).
 //!
-//! The seed names the RK 512 errors but gives neither the error numbers of byte 4 of a reaction
-//! telegram (its §8.4 is missing) nor their event numbers (§8.3 missing). What is used here:
+//! # Which side raises which class
 //!
-//! - **Class 09H "reaction telegram with error"**: the numbers (09)08H … (09)0DH of the CP 341
-//!   09/2008 manual (§7.3, marked external).
-//! - **Error numbers in byte 4** ([`ErrorNumber`]): the Siemens numbering as public RK 512
-//!   drivers document it (WinCC OA RK 512 driver: 0AH access, 0CH data type, 14H DB/address,
-//!   16H third byte, 2AH CPU stopped, 32H coordination flag, 34H length, 36H synchronisation);
-//!   the matches with the §7.3 texts (coordination flag ↔ 0909, third byte ↔ 090A, length ↔
-//!   090C, synchronisation ↔ 0908, not restarted ↔ 090D, data type = 4th byte ↔ 090B) fix the
-//!   mapping. WAGO's different numbers (10H, 12H, public-facts.md §2) are not used.
-//! - **Derived:** 0902 and 0903 (access refused; DB or address missing) and 0901 (an error
-//!   number this table does not know) are not in the sources: they fill the gaps of class 09H.
-//! - **Derived:** The active side's own errors (no reaction within TRES, a bad or
-//!   out-of-sequence reaction) are named in §7.2 without numbers; they are given 0810, 0813
-//!   and 0814 here, in the receive-error class because they concern what was received.
+//! | Class | Raised by | When |
+//! |---|---|---|
+//! | 05H | the requester (our job), before or after the line | 0515/0516: our own coordination-flag bit or CPU number is out of range, the job is refused at once; 051A: our command telegram could not be sent, after the 3964(R) error (07xxH) that caused it |
+//! | 06H | the responder (the partner's job, our passive side) | the partner's command telegram is faulty or cannot be served; our reaction carries an error number ([`crate::refusal`]); 0612 after a 3964(R) error sending our reaction |
+//! | 07H/08H | the 3964(R) link underneath | procedure errors ([`si_3964r::status`]) |
+//! | 09H | the requester | the partner's reaction carries an error number ≠ 00H ([`for_error_byte`]) |
+//! | 0AH | the requester | the partner's reaction is itself faulty, or none came within TRES |
+//!
+//! Every code below cites its row: `[M]` = the CP 341 manual 09/2008, `[T]` = the TIA Portal
+//! help, as cp341-event-classes.md §0 names them. A code marked `[derived]` is one where the
+//! table is silent and the number was chosen here.
+//!
+//! # Chained codes (cp341-event-classes.md §2 "Chained reports")
+//!
+//! 051A and 0612 follow the procedure error that caused them, which "was placed in STATUS just
+//! before". The station emits the 3964(R) code as [`Event::ProcedureError`](crate::Event)
+//! and then ends the job with 051A ([`Event::Failed`](crate::Event)) or the partner's job with
+//! 0612 ([`Event::ServeAborted`](crate::Event)); the request FBs show the two codes in two
+//! successive calls ([`crate::fb`]), and S_RCV hands over both, in that order.
+//!
+//! # Codes of the tables this crate never raises
+//!
+//! 0904 ("request type not allowed": no reaction byte of §2.1 leads to it), 0514 and 0517
+//! (the request's own address and length are refused with the FB codes 1E20/1E41 before a
+//! telegram exists) are left out of the catalog rather than listed unused.
 
 use si_core::status::common;
 use si_core::Status;
 
 si_core::status_codes! {
-    /// Every RK 512 code of this crate.
+    /// Every RK 512 code of this crate, in table order.
     pub static CATALOG;
-    pub const PARTNER_ERROR_UNKNOWN = 0x0901 {
-        meaning: "reaction telegram with an error number this table does not list",
-        remedy: "look the error number up in the partner's documentation",
-        source: "cp341-3964r-rk512-ascii.md §4.3 [derived]",
+    pub const FLAG_BIT_OUT_OF_RANGE = 0x0515 {
+        meaning: "coordination-flag bit number of the job out of 0 … 7",
+        remedy: "give a flag bit 0 … 7, or no flag (byte FFH, bit FH)",
+        source: "cp341-event-classes.md §1 class 05H, row 0515 [T]",
     }
-    pub const PARTNER_ACCESS_DENIED = 0x0902 {
-        meaning: "the partner refused the access (error number 0AH)",
-        remedy: "check that the partner allows SEND or FETCH for this area",
-        source: "cp341-3964r-rk512-ascii.md §4.3 [derived]",
+    pub const CPU_NUMBER_OUT_OF_RANGE = 0x0516 {
+        meaning: "partner CPU number of the job too high (allowed: none, 0 … 4)",
+        remedy: "give CPU 1 … 4, 0 (flag without CPU) or none (FH)",
+        source: "cp341-event-classes.md §1 class 05H, row 0516 [T]",
     }
-    pub const PARTNER_NO_SUCH_AREA = 0x0903 {
-        meaning: "at the partner the DB/DX does not exist or is too short, or the address is outside the area (error number 14H)",
+    pub const COMMAND_NOT_SENT = 0x051A {
+        meaning: "sending the command telegram failed; the 3964(R) error was reported just before",
+        remedy: "look at the 07xxH code reported before this one; check line and partner",
+        source: "cp341-event-classes.md §1 class 05H, row 051A [T]; §2 chained reports",
+    }
+    pub const HEADER_ID = 0x0601 {
+        meaning: "partner's telegram: header byte 1 is neither 00H nor FFH",
+        remedy: "check the partner's telegram framing",
+        source: "cp341-event-classes.md §1 class 06H, row 0601 [M,T]",
+    }
+    pub const BAD_COMMAND = 0x0602 {
+        meaning: "partner's telegram: header byte 3 (command) is not 'A', 'O' or 'E'",
+        remedy: "the partner may only SEND ('A', 'O') or FETCH ('E')",
+        source: "cp341-event-classes.md §1 class 06H, row 0602 [M,T] (the [M] reading)",
+    }
+    pub const CONTINUATION_COMMAND = 0x0603 {
+        meaning: "partner's continuation telegram: byte 3 differs from its first telegram",
+        remedy: "check the partner's continuation telegrams",
+        source: "cp341-event-classes.md §1 class 06H, row 0603 [M,T]",
+    }
+    pub const BAD_DATA_TYPE = 0x0604 {
+        meaning: "partner's telegram: byte 4 (data type) wrong, or a command/type combination that is not supported",
+        remedy: "SEND 'A' only to 'D', SEND 'O' only to 'X'; FETCH from D, X, E, A, M, T, Z",
+        source: "cp341-event-classes.md §1 class 06H, row 0604 [M,T]",
+    }
+    pub const CONTINUATION_DATA_TYPE = 0x0605 {
+        meaning: "partner's continuation telegram: byte 4 differs from its first telegram",
+        remedy: "check the partner's continuation telegrams",
+        source: "cp341-event-classes.md §1 class 06H, row 0605 [M,T]",
+    }
+    pub const BAD_DB_NUMBER = 0x0606 {
+        meaning: "partner's telegram: byte 5, the DB/DX number, names a block that does not exist here",
+        remedy: "create the block, or correct the partner's DB number",
+        source: "cp341-event-classes.md §1 class 06H, row 0606 [M,T]",
+    }
+    pub const START_TOO_HIGH = 0x0607 {
+        meaning: "partner's telegram: bytes 5/6, the start address, lie beyond the area",
+        remedy: "correct the partner's start address or enlarge the area",
+        source: "cp341-event-classes.md §1 class 06H, row 0607 [M,T]",
+    }
+    pub const BAD_LENGTH = 0x0608 {
+        meaning: "partner's telegram: bytes 7/8, the length, are 0, over the job limit, or run past the end of the area",
+        remedy: "correct the partner's length or enlarge the area",
+        source: "cp341-event-classes.md §1 class 06H, row 0608 [M,T]",
+    }
+    pub const BAD_FLAG = 0x0609 {
+        meaning: "partner's telegram: bytes 9/10, the coordination flag, name a bit above 7 or a flag byte that does not exist",
+        remedy: "give a flag M byte.bit with bit 0 … 7 inside the flag area, or FF FF for none",
+        source: "cp341-event-classes.md §1 class 06H, row 0609 [T]",
+    }
+    pub const BAD_CPU_NUMBER = 0x060A {
+        meaning: "partner's telegram: byte 10 high nibble, the CPU number, is not 0 … 4 or FH",
+        remedy: "the partner must give CPU 1 … 4, 0 (flag without CPU) or FH (none)",
+        source: "cp341-event-classes.md §1 class 06H, row 060A [T]; cp341-3964r-rk512-ascii.md §4.2",
+    }
+    pub const DATA_AMOUNT = 0x060B {
+        meaning: "partner's SEND telegram carried more or less data than its header announced",
+        remedy: "check the partner's length field and data",
+        source: "cp341-event-classes.md §1 class 06H, row 060B [T]",
+    }
+    pub const FETCH_WITH_DATA = 0x060C {
+        meaning: "partner's FETCH command telegram carried user data",
+        remedy: "a FETCH command is the header only (cp341-3964r-rk512-ascii.md A-9)",
+        source: "cp341-event-classes.md §1 class 06H, row 060C [T]",
+    }
+    pub const NOT_READY = 0x060D {
+        meaning: "partner's telegram arrived while this side could not take it: CPU in STOP, or the command is not served here",
+        remedy: "put the CPU into RUN, or open SEND/FETCH on this side",
+        source: "cp341-event-classes.md §1 class 06H, row 060D [T]",
+    }
+    pub const SEQUENCE = 0x060E {
+        meaning: "partner's telegram out of sequence: a continuation without a running job, a first telegram while a continuation was due, or the continuation did not come within TRES",
+        remedy: "none needed after a restart; else repeat the job",
+        source: "cp341-event-classes.md §1 class 06H, row 060E [M,T]; the TRES case [derived]",
+    }
+    pub const DB_LOCKED = 0x060F {
+        meaning: "the partner's job names a coordination flag that is still set: the area is locked",
+        remedy: "the CPU program resets the flag once it has processed the data; the partner repeats",
+        source: "cp341-event-classes.md §1 class 06H, row 060F [M,T]",
+    }
+    pub const TOO_SHORT = 0x0610 {
+        meaning: "partner's telegram too short (< 4 bytes, or < 10 bytes for a command telegram)",
+        remedy: "check the partner's telegram framing",
+        source: "cp341-event-classes.md §1 class 06H, row 0610 [M,T]",
+    }
+    pub const FRAME_LENGTH = 0x0611 {
+        meaning: "partner's telegram longer than any RK 512 telegram may be (more than 128 data bytes)",
+        remedy: "the partner must split jobs into telegrams of 128 data bytes",
+        source: "cp341-event-classes.md §1 class 06H, row 0611 [M,T]",
+    }
+    pub const REACTION_NOT_SENT = 0x0612 {
+        meaning: "sending our reaction telegram failed; the 3964(R) error was reported just before",
+        remedy: "look at the 07xxH code reported before this one; the partner repeats its job",
+        source: "cp341-event-classes.md §1 class 06H, row 0612 [M,T]; §2 chained reports",
+    }
+    pub const PARTNER_NO_AREA = 0x0902 {
+        meaning: "the partner reports that the memory area does not exist or may not be accessed",
+        remedy: "check the area and the partner's access rights",
+        source: "cp341-event-classes.md §1 class 09H, row 0902 [T]",
+    }
+    pub const PARTNER_NO_SUCH_DB = 0x0903 {
+        meaning: "the partner reports the DB/DX missing or too short, or a number not allowed",
         remedy: "check DB number, start address and length against the partner's memory",
-        source: "cp341-3964r-rk512-ascii.md §4.3 [derived]",
+        source: "cp341-event-classes.md §1 class 09H, row 0903 [T]",
+    }
+    pub const PARTNER_CANNOT_SERVE = 0x0905 {
+        meaning: "the partner cannot serve the job: data type not allowed, memory fault or internal fault",
+        remedy: "check the data type the partner accepts",
+        source: "cp341-event-classes.md §1 class 09H, row 0905 [T]",
     }
     pub const PARTNER_SEQUENCE = 0x0908 {
-        meaning: "synchronisation error at the partner: continuation telegram without a first telegram (error number 36H); normal after a restart",
+        meaning: "the partner found a sequence (synchronisation) error; normal after a restart",
         remedy: "repeat the job",
-        source: "cp341-3964r-rk512-ascii.md §7.3",
+        source: "cp341-event-classes.md §1 class 09H, row 0908 [M,T]",
     }
     pub const PARTNER_LOCKED = 0x0909 {
-        meaning: "DB/DX locked at the partner by a coordination flag (error number 32H)",
+        meaning: "target DB/DX locked at the partner by a coordination flag",
         remedy: "the partner program must reset the flag after processing the data; then repeat the job",
-        source: "cp341-3964r-rk512-ascii.md §7.3, §4.8",
+        source: "cp341-event-classes.md §1 class 09H, row 0909 [M,T]",
     }
     pub const PARTNER_BAD_COMMAND = 0x090A {
-        meaning: "3rd command byte wrong at the partner (error number 16H)",
+        meaning: "the partner found header byte 3 (command) wrong",
         remedy: "use SEND 'A', SEND DX 'O' or FETCH 'E'",
-        source: "cp341-3964r-rk512-ascii.md §7.3",
+        source: "cp341-event-classes.md §1 class 09H, row 090A [M,T]",
     }
     pub const PARTNER_BAD_HEADER = 0x090B {
-        meaning: "1st or 4th command byte wrong at the partner: telegram id or data type (error number 0CH)",
+        meaning: "the partner found header byte 1 or 4 (telegram id or data type) wrong",
         remedy: "check the data type: SEND only to D (or X with 'O')",
-        source: "cp341-3964r-rk512-ascii.md §7.3",
+        source: "cp341-event-classes.md §1 class 09H, row 090B [M,T]",
     }
     pub const PARTNER_BAD_LENGTH = 0x090C {
-        meaning: "wrong total telegram length at the partner (error number 34H)",
+        meaning: "the partner found the total telegram length wrong",
         remedy: "check the job length and the partner's telegram limits",
-        source: "cp341-3964r-rk512-ascii.md §7.3",
+        source: "cp341-event-classes.md §1 class 09H, row 090C [M,T]",
     }
     pub const PARTNER_NOT_RUNNING = 0x090D {
-        meaning: "partner not yet restarted: its CPU is in STOP (error number 2AH)",
-        remedy: "start the partner CPU, then repeat the job",
-        source: "cp341-3964r-rk512-ascii.md §7.3",
+        meaning: "the partner has not restarted yet (its CPU or CP is not in RUN)",
+        remedy: "start the partner, then repeat the job",
+        source: "cp341-event-classes.md §1 class 09H, row 090D [M,T]",
     }
-    pub const RESPONSE_INVALID = 0x0810 {
-        meaning: "reaction telegram malformed: wrong header bytes or wrong amount of data",
+    pub const PARTNER_ERROR_UNKNOWN = 0x090E {
+        meaning: "the reaction carried an error number this side does not know",
+        remedy: "look the error number up in the partner's documentation",
+        source: "cp341-event-classes.md §1 class 09H, row 090E [M,T]",
+    }
+    pub const REACTION_SEQUENCE = 0x0A01 {
+        meaning: "reaction out of sequence: a reaction without a request, a first reaction where a continuation reaction was due, or the reverse",
+        remedy: "none needed after a restart or a reset job; else repeat the job",
+        source: "cp341-event-classes.md §1 class 0AH, row 0A01 [M,T]",
+    }
+    pub const REACTION_HEADER = 0x0A02 {
+        meaning: "reaction header faulty: byte 1 neither 00H nor FFH (also byte 2 not 00H, or under 4 bytes)",
         remedy: "check the partner; compare its telegrams with `si frame decode rk512`",
-        source: "cp341-3964r-rk512-ascii.md §4.3, §7.2 [derived number]",
+        source: "cp341-event-classes.md §1 class 0AH, row 0A02 [M,T]; byte 2 and short reactions [derived]",
     }
-    pub const RESPONSE_SEQUENCE = 0x0813 {
-        meaning: "telegram out of sequence: a first telegram where a continuation was expected, or a reaction nobody waits for",
-        remedy: "repeat the job; check that only one job runs per direction",
-        source: "cp341-3964r-rk512-ascii.md §4.7, §7.2 [derived number]",
+    pub const REACTION_DATA_AMOUNT = 0x0A03 {
+        meaning: "FETCH reaction with too much or too little data",
+        remedy: "check the partner's length handling",
+        source: "cp341-event-classes.md §1 class 0AH, row 0A03 [M,T]",
     }
-    pub const RESPONSE_TIMEOUT = 0x0814 {
-        meaning: "no reaction (or continuation) telegram within the response monitoring time TRES",
-        remedy: "check that the partner runs RK 512 and its CPU is in RUN; raise TRES for slow partners",
-        source: "cp341-3964r-rk512-ascii.md §4.7, §7.2 [derived number]",
+    pub const SEND_REACTION_WITH_DATA = 0x0A04 {
+        meaning: "the reaction to a SEND carried data",
+        remedy: "check the partner",
+        source: "cp341-event-classes.md §1 class 0AH, row 0A04 [M,T]",
+    }
+    pub const NO_REACTION = 0x0A05 {
+        meaning: "no reaction (or continuation reaction) within the response monitoring time TRES",
+        remedy: "look for receive errors (08xxH) before it; check that the partner runs RK 512 and is in RUN; raise TRES for slow partners",
+        source: "cp341-event-classes.md §1 class 0AH, row 0A05 [M,T]",
     }
 }
 
@@ -94,30 +225,64 @@ pub fn lookup(code: u16) -> Status {
     Status::lookup(code, CATALOGS)
 }
 
-/// The error numbers of byte 4 of a reaction telegram (§4.3) that this crate sends and
-/// understands, each with the STATUS the requesting side reports for it.
+/// Reaction byte 4 → class 09H, **[inferred]**: no source gives this table
+/// (cp341-event-classes.md §2.1 "mapping NOT FOUND"); these are the candidates of its §2.1
+/// table, from the WinCC OA RK 512 driver and the Elster gas-lab Q1 manual. Where §2.1 offers
+/// two: 0CH → 0905 (WinCC OA's "invalid data type", the driver whose numbering every other row
+/// follows; Elster reads it as 0903), 2AH → 090D ("PLC stopped" = "not restarted yet", an [M]
+/// row; 0905 also names STOP). Any other non-zero byte → 090E, which [M] p.197 states.
+pub const REACTION_ERRORS: [(u8, Status); 10] = [
+    (0x0A, PARTNER_NO_AREA),
+    (0x0C, PARTNER_CANNOT_SERVE),
+    (0x10, PARTNER_BAD_HEADER),
+    (0x11, PARTNER_NO_AREA),
+    (0x14, PARTNER_NO_SUCH_DB),
+    (0x16, PARTNER_BAD_COMMAND),
+    (0x2A, PARTNER_NOT_RUNNING),
+    (0x32, PARTNER_LOCKED),
+    (0x34, PARTNER_BAD_LENGTH),
+    (0x36, PARTNER_SEQUENCE),
+];
+
+/// The STATUS for the error byte of a reaction (`None` for 00H, no error; 090E for a byte
+/// [`REACTION_ERRORS`] does not list).
+pub fn for_error_byte(code: u8) -> Option<Status> {
+    match code {
+        0 => None,
+        c => Some(
+            REACTION_ERRORS
+                .iter()
+                .find(|(byte, _)| *byte == c)
+                .map_or(PARTNER_ERROR_UNKNOWN, |(_, status)| *status),
+        ),
+    }
+}
+
+/// The error numbers of byte 4 this crate's passive side sends (§4.3; which 06xx sends which is
+/// [`crate::refusal::ServeError::error_number`]). Each is a row of [`REACTION_ERRORS`], so a
+/// partner built like this crate reads them back as the 09xx code of that row.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ErrorNumber {
-    /// 0AH: access refused (the area is not open for this command).
+    /// 0AH: access refused (the command is not served here).
     AccessDenied,
-    /// 0CH: 1st or 4th byte wrong (telegram id, or a data type not allowed here).
+    /// 10H: header byte 1 or 4 wrong (telegram id, or a data type not allowed here).
     BadHeader,
-    /// 14H: DB/DX missing or too short, address outside the area.
+    /// 14H: DB/DX missing or too short, address or flag outside the area.
     NoSuchArea,
-    /// 16H: 3rd byte (command) wrong.
+    /// 16H: byte 3 (command) wrong.
     BadCommand,
-    /// 2AH: CPU not restarted (STOP).
+    /// 2AH: CPU not in RUN.
     NotRunning,
-    /// 32H: destination locked by a coordination flag.
+    /// 32H: locked by a coordination flag.
     Locked,
-    /// 34H: wrong telegram length.
+    /// 34H: telegram length or data amount wrong.
     BadLength,
-    /// 36H: synchronisation (continuation without first telegram).
+    /// 36H: synchronisation (sequence) error.
     Sequence,
 }
 
 impl ErrorNumber {
-    /// Every number, in table order.
+    /// Every number, in byte order.
     pub const ALL: [ErrorNumber; 8] = [
         ErrorNumber::AccessDenied,
         ErrorNumber::BadHeader,
@@ -133,7 +298,7 @@ impl ErrorNumber {
     pub const fn code(self) -> u8 {
         match self {
             ErrorNumber::AccessDenied => 0x0A,
-            ErrorNumber::BadHeader => 0x0C,
+            ErrorNumber::BadHeader => 0x10,
             ErrorNumber::NoSuchArea => 0x14,
             ErrorNumber::BadCommand => 0x16,
             ErrorNumber::NotRunning => 0x2A,
@@ -143,31 +308,9 @@ impl ErrorNumber {
         }
     }
 
-    /// The number for a byte, if this table knows it.
-    pub fn from_code(code: u8) -> Option<ErrorNumber> {
-        ErrorNumber::ALL.into_iter().find(|e| e.code() == code)
-    }
-
-    /// The STATUS the requesting side reports.
-    pub const fn status(self) -> Status {
-        match self {
-            ErrorNumber::AccessDenied => PARTNER_ACCESS_DENIED,
-            ErrorNumber::BadHeader => PARTNER_BAD_HEADER,
-            ErrorNumber::NoSuchArea => PARTNER_NO_SUCH_AREA,
-            ErrorNumber::BadCommand => PARTNER_BAD_COMMAND,
-            ErrorNumber::NotRunning => PARTNER_NOT_RUNNING,
-            ErrorNumber::Locked => PARTNER_LOCKED,
-            ErrorNumber::BadLength => PARTNER_BAD_LENGTH,
-            ErrorNumber::Sequence => PARTNER_SEQUENCE,
-        }
-    }
-}
-
-/// The STATUS for the error byte of a reaction (`None` for 00H, no error).
-pub fn for_error_byte(code: u8) -> Option<Status> {
-    match code {
-        0 => None,
-        c => Some(ErrorNumber::from_code(c).map_or(PARTNER_ERROR_UNKNOWN, ErrorNumber::status)),
+    /// The STATUS a requester reports when it reads this number ([`for_error_byte`]).
+    pub fn status(self) -> Status {
+        for_error_byte(self.code()).unwrap_or(PARTNER_ERROR_UNKNOWN)
     }
 }
 
@@ -176,20 +319,38 @@ mod tests {
     use super::*;
 
     #[test]
-    fn every_error_number_has_its_own_class_09_status() {
-        let mut seen = std::collections::HashSet::new();
-        for e in ErrorNumber::ALL {
-            assert_eq!(ErrorNumber::from_code(e.code()), Some(e));
-            assert_eq!(e.status().class(), 0x09);
-            assert!(seen.insert(e.status().code()));
-            assert_eq!(for_error_byte(e.code()), Some(e.status()));
+    fn reaction_bytes_map_to_class_09_with_090e_for_the_rest() {
+        for (byte, status) in REACTION_ERRORS {
+            assert_eq!(for_error_byte(byte), Some(status));
+            assert_eq!(status.class(), 0x09);
         }
         assert_eq!(for_error_byte(0), None);
-        assert_eq!(for_error_byte(0x77), Some(PARTNER_ERROR_UNKNOWN));
+        for unknown in [0x01, 0x0B, 0x12, 0x77, 0xFF] {
+            assert_eq!(for_error_byte(unknown), Some(PARTNER_ERROR_UNKNOWN));
+        }
+        for e in ErrorNumber::ALL {
+            assert_ne!(e.status(), PARTNER_ERROR_UNKNOWN, "{e:?} is a table row");
+        }
         assert_eq!(
             lookup(0x0909).to_string(),
-            "16#0909 DB/DX locked at the partner by a coordination flag (error number 32H)"
+            "16#0909 target DB/DX locked at the partner by a coordination flag"
         );
         assert_eq!(lookup(0x0703), si_3964r::status::SETUP_TIMEOUT);
+    }
+
+    #[test]
+    fn no_invented_codes_remain() {
+        for code in [0x0810, 0x0813, 0x0814, 0x0901] {
+            assert!(
+                CATALOG.iter().all(|s| s.code() != code),
+                "{code:04X} is not a CP 341 RK 512 code"
+            );
+        }
+        for s in CATALOG {
+            assert!(
+                matches!(s.class(), 0x05 | 0x06 | 0x09 | 0x0A),
+                "{s}: RK 512 raises classes 05H, 06H, 09H and 0AH"
+            );
+        }
     }
 }

@@ -187,7 +187,7 @@ mod tests {
         assert_eq!(
             host.fetch(Address::Db { db: 3, dw: 0 }, Coordination::NONE, 2)
                 .await,
-            Err(Error::Status(crate::status::PARTNER_NO_SUCH_AREA))
+            Err(Error::Status(crate::status::PARTNER_NO_SUCH_DB))
         );
         assert_eq!(
             host.fetch(at, Coordination::NONE, 3).await,

@@ -4,6 +4,9 @@
 #[path = "scenarios/usb_adapter.rs"]
 mod usb_adapter;
 
+#[path = "scenarios/cp341_status.rs"]
+mod cp341_status;
+
 use bytes::Bytes;
 use si_3964r::{Link, Priority};
 use si_core::memory::Area;
@@ -11,7 +14,8 @@ use si_core::sim::{Faults, Simulator, StationId, TraceKind};
 use si_core::{Duration, Instant, SerialSettings, Status};
 use si_rk512::frame::{Address, Coordination};
 use si_rk512::passive::ServerConfig;
-use si_rk512::status::{self, ErrorNumber};
+use si_rk512::refusal::ServeError;
+use si_rk512::status;
 use si_rk512::{Command, Config, Event, Station};
 
 /// 9600 8E1, the manual's default.
@@ -262,14 +266,16 @@ fn s4_8_coordination_flag_interlock_0909() {
     );
 }
 
-/// §4.3, §7.3: errors the passive side finds, reported by the active side with class 09H.
+/// §4.3, cp341-event-classes.md §1: errors the passive side finds (06xx), read back by the
+/// active side as class 09H: 0606/0608 → 14H → 0903, 060D in STOP → 2AH → 090D, 060D not
+/// served → 0AH → 0902.
 #[test]
 fn s4_3_partner_errors_reach_the_requester_as_class_09() {
     let mut p = pair(4);
     // 14H: DB missing, and a DB too short for the job.
     assert_eq!(
         p.fetch(Address::Db { db: 99, dw: 0 }, 2),
-        Err(status::PARTNER_NO_SUCH_AREA)
+        Err(status::PARTNER_NO_SUCH_DB)
     );
     assert_eq!(
         p.send(
@@ -277,7 +283,7 @@ fn s4_3_partner_errors_reach_the_requester_as_class_09() {
             Coordination::NONE,
             &[0; 16][..]
         ),
-        Err(status::PARTNER_NO_SUCH_AREA)
+        Err(status::PARTNER_NO_SUCH_DB)
     );
     // 2AH: the partner CPU is in STOP.
     p.sim.with(p.b, |s, _| s.server_mut().set_running(false));
@@ -286,6 +292,16 @@ fn s4_3_partner_errors_reach_the_requester_as_class_09() {
         Err(status::PARTNER_NOT_RUNNING)
     );
     p.sim.with(p.b, |s, _| s.server_mut().set_running(true));
+    let refused: Vec<_> = p
+        .sim
+        .take_events(p.b)
+        .into_iter()
+        .filter_map(|e| match e {
+            Event::Refused { error } => Some(error.status().code()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(refused, [0x0606, 0x0608, 0x060D]);
     // 0AH: an active-only station refuses every command.
     let mut sim = Simulator::new(5);
     let a = sim.add_station("A", line(), Station::new(high(), line()).unwrap());
@@ -296,12 +312,9 @@ fn s4_3_partner_errors_reach_the_requester_as_class_09() {
     );
     sim.connect(a, b);
     let q = &mut Pair { sim, a, b };
-    assert_eq!(
-        q.fetch(Address::Flags(0), 1),
-        Err(status::PARTNER_ACCESS_DENIED)
-    );
+    assert_eq!(q.fetch(Address::Flags(0), 1), Err(status::PARTNER_NO_AREA));
     assert!(q.sim.take_events(q.b).contains(&Event::Refused {
-        error: ErrorNumber::AccessDenied
+        error: ServeError::NotServed
     }));
 }
 
@@ -349,7 +362,8 @@ impl Scripted {
 }
 
 /// §4.3 and Fig. 2-19: every error number the passive side sends, from a telegram that
-/// provokes it.
+/// provokes it, with the 06xx it reports (cp341-event-classes.md §1 class 06H; the byte per
+/// 06xx is the [inferred] reverse mapping of §2.1).
 #[test]
 fn s4_3_every_reaction_error_number_is_reachable() {
     let mut s = scripted(6);
@@ -358,32 +372,34 @@ fn s4_3_every_reaction_error_number_is_reachable() {
         t.extend(std::iter::repeat_n(0x11, data));
         t
     };
-    // 0CH: 'A' with data type 'X' (SEND DB must name D), and a first byte neither 00 nor FF.
+    // 0604 → 10H: 'A' with data type 'X' (SEND DB must name D). 0601 → 10H: first byte
+    // neither 00 nor FF.
     assert_eq!(
         s.exchange(&[0, 0, b'A', b'X', 3, 0, 0, 1, 0xFF, 0xFF, 1, 2]),
-        [0, 0, 0, 0x0C]
+        [0, 0, 0, 0x10]
     );
-    assert_eq!(s.exchange(&[0x12, 0, b'E', b'D']), [0, 0, 0, 0x0C]);
-    // 16H: unknown command letter.
+    assert_eq!(s.exchange(&[0x12, 0, b'E', b'D']), [0, 0, 0, 0x10]);
+    // 0602 → 16H: unknown command letter.
     assert_eq!(
         s.exchange(&[0, 0, b'Q', b'D', 10, 0, 0, 1, 0xFF, 0xFF]),
         [0, 0, 0, 0x16]
     );
-    // 34H: length 2 words but 3 data bytes; a header cut short; FETCH with data.
+    // 34H: 060B length 2 words but 3 data bytes; 0610 a header cut short; 060C FETCH with
+    // data.
     assert_eq!(s.exchange(&send_db10(2, 3)), [0, 0, 0, 0x34]);
     assert_eq!(s.exchange(&[0, 0, b'E', b'D', 10]), [0, 0, 0, 0x34]);
     assert_eq!(
         s.exchange(&[0, 0, b'E', b'D', 10, 0, 0, 1, 0xFF, 0xFF, 9]),
         [0, 0, 0, 0x34]
     );
-    // 36H: a continuation with no job running.
+    // 060E → 36H: a continuation with no job running.
     assert_eq!(s.exchange(&[0xFF, 0, b'A', b'D', 1, 2]), [0xFF, 0, 0, 0x36]);
-    // 14H: DB missing.
+    // 0606 → 14H: DB missing.
     assert_eq!(
         s.exchange(&[0, 0, b'E', b'D', 77, 0, 0, 1, 0xFF, 0xFF]),
         [0, 0, 0, 0x14]
     );
-    // 32H: flag M20.3 set.
+    // 060F → 32H: flag M20.3 set.
     s.sim.with(s.station, |st, _| {
         st.server_mut()
             .memory_mut()
@@ -394,13 +410,13 @@ fn s4_3_every_reaction_error_number_is_reachable() {
         s.exchange(&[0, 0, b'A', b'D', 10, 0, 0, 1, 20, 0x03, 1, 2]),
         [0, 0, 0, 0x32]
     );
-    // 2AH: CPU in STOP.
+    // 060D → 2AH: CPU in STOP.
     s.sim
         .with(s.station, |st, _| st.server_mut().set_running(false));
     assert_eq!(s.exchange(&send_db10(1, 2)), [0, 0, 0, 0x2A]);
     s.sim
         .with(s.station, |st, _| st.server_mut().set_running(true));
-    // 0AH: SEND not accepted.
+    // 060D → 0AH: SEND not accepted.
     let mut closed = memory();
     closed.accept_send = false;
     let mut t = scripted(7);
@@ -415,20 +431,31 @@ fn s4_3_every_reaction_error_number_is_reachable() {
         .take_events(s.station)
         .into_iter()
         .filter_map(|e| match e {
-            Event::Refused { error } => Some(error.code()),
+            Event::Refused { error } => Some((error.status().code(), error.error_number().code())),
             _ => None,
         })
         .collect();
     assert_eq!(
         refused,
-        [0x0C, 0x0C, 0x16, 0x34, 0x34, 0x34, 0x36, 0x14, 0x32, 0x2A]
+        [
+            (0x0604, 0x10),
+            (0x0601, 0x10),
+            (0x0602, 0x16),
+            (0x060B, 0x34),
+            (0x0610, 0x34),
+            (0x060C, 0x34),
+            (0x060E, 0x36),
+            (0x0606, 0x14),
+            (0x060F, 0x32),
+            (0x060D, 0x2A),
+        ]
     );
 }
 
 /// Fig. 2-19: the passive side waits TRES for the continuation; when none comes the job is
-/// aborted (0814) and a late continuation is answered with 36H.
+/// aborted (060E, [derived]) and a late continuation is answered with 36H (060E).
 #[test]
-fn s4_7_passive_side_gives_up_after_tres_0814() {
+fn s4_7_passive_side_gives_up_after_tres_060e() {
     let mut s = scripted(8);
     let mut first = vec![0, 0, b'A', b'D', 10, 0, 0, 100, 0xFF, 0xFF];
     first.extend([7u8; 128]);
@@ -437,16 +464,16 @@ fn s4_7_passive_side_gives_up_after_tres_0814() {
     assert!(s
         .sim
         .take_events(s.station)
-        .contains(&Event::ServeAborted(status::RESPONSE_TIMEOUT)));
+        .contains(&Event::ServeAborted(status::SEQUENCE)));
     let mut cont = vec![0xFF, 0, b'A', b'D'];
     cont.extend([7u8; 72]);
     assert_eq!(s.exchange(&cont), [0xFF, 0, 0, 0x36]);
 }
 
 /// Fig. 2-19: a first command telegram where a continuation was due aborts the running job
-/// (0813) and is served itself.
+/// (060E) and is served itself.
 #[test]
-fn s4_7_first_telegram_instead_of_continuation_0813() {
+fn s4_7_first_telegram_instead_of_continuation_060e() {
     let mut s = scripted(9);
     let mut first = vec![0, 0, b'A', b'D', 10, 0, 0, 100, 0xFF, 0xFF];
     first.extend([7u8; 128]);
@@ -458,7 +485,7 @@ fn s4_7_first_telegram_instead_of_continuation_0813() {
     assert!(s
         .sim
         .take_events(s.station)
-        .contains(&Event::ServeAborted(status::RESPONSE_SEQUENCE)));
+        .contains(&Event::ServeAborted(status::SEQUENCE)));
 }
 
 /// A station whose partner is a bare link that answers with scripted reactions.
@@ -504,12 +531,27 @@ fn run_job(
     outcomes[0]
 }
 
-/// §4.3: each error number in a reaction ends the job with its class 09H STATUS; an unknown
-/// number with 0901.
+/// §4.3, cp341-event-classes.md §2.1: each error number in a reaction ends the job with its
+/// class 09H STATUS, one job per row of the [inferred] table; unknown numbers with 090E.
 #[test]
 fn s4_3_reaction_error_numbers_map_to_their_status() {
     let at = Address::Db { db: 1, dw: 0 };
-    for (i, e) in ErrorNumber::ALL.into_iter().enumerate() {
+    let rows: [(u8, u16); 13] = [
+        (0x0A, 0x0902),
+        (0x0C, 0x0905),
+        (0x10, 0x090B),
+        (0x11, 0x0902),
+        (0x14, 0x0903),
+        (0x16, 0x090A),
+        (0x2A, 0x090D),
+        (0x32, 0x0909),
+        (0x34, 0x090C),
+        (0x36, 0x0908),
+        (0x01, 0x090E),
+        (0x12, 0x090E),
+        (0xFF, 0x090E),
+    ];
+    for (i, (byte, code)) in rows.into_iter().enumerate() {
         let (mut sim, st, raw) = active_against_script(20 + i as u64);
         let got = run_job(
             &mut sim,
@@ -518,26 +560,16 @@ fn s4_3_reaction_error_numbers_map_to_their_status() {
             |s, now| {
                 s.fetch(now, at, Coordination::NONE, 2).unwrap();
             },
-            &[&[0, 0, 0, e.code()]],
+            &[&[0, 0, 0, byte]],
         );
-        assert_eq!(got, e.status(), "{e:?}");
+        assert_eq!(got.code(), code, "error number {byte:02X}H");
+        assert_eq!(got, status::lookup(code), "{code:04X} is in the catalog");
     }
-    let (mut sim, st, raw) = active_against_script(40);
-    let got = run_job(
-        &mut sim,
-        st,
-        raw,
-        |s, now| {
-            s.fetch(now, at, Coordination::NONE, 2).unwrap();
-        },
-        &[&[0, 0, 0, 0x77]],
-    );
-    assert_eq!(got, status::PARTNER_ERROR_UNKNOWN);
 }
 
-/// §4.7, Fig. 2-18: no reaction within TRES (10 s) ends the job with 0814.
+/// §4.7, Fig. 2-18: no reaction within TRES (10 s) ends the job with 0A05.
 #[test]
-fn s4_7_no_reaction_within_tres_0814() {
+fn s4_7_no_reaction_within_tres_0a05() {
     let (mut sim, st, raw) = active_against_script(50);
     let got = run_job(
         &mut sim,
@@ -554,7 +586,7 @@ fn s4_7_no_reaction_within_tres_0814() {
         },
         &[],
     );
-    assert_eq!(got, status::RESPONSE_TIMEOUT);
+    assert_eq!(got, status::NO_REACTION);
     // TRES runs from the partner's DLE for our telegram to the failure: exactly 10 s.
     let received = sim.trace().received("station");
     let ack = received.iter().rev().find(|(_, b)| *b == 0x10).unwrap().0;
@@ -587,7 +619,7 @@ fn s4_7_tres_is_a_setting() {
     sim.run_until(Instant::from_micros(5_500_000));
     assert!(sim.take_events(st).contains(&Event::Failed {
         job: si_rk512::JobId(1),
-        status: status::RESPONSE_TIMEOUT
+        status: status::NO_REACTION
     }));
 }
 
@@ -648,10 +680,11 @@ fn s4_2_dw_number_as_byte_offset_setting() {
     assert_eq!(m.word(Area::Db(10), 256).unwrap(), 0);
 }
 
-/// Fig. 2-18: a first reaction where the continuation reaction was due ends the job with
-/// 0813; a reaction with missing FETCH data, or SEND reaction with data, with 0810.
+/// Fig. 2-18, cp341-event-classes.md §1 class 0AH: a first reaction where the continuation
+/// reaction was due ends the job with 0A01; byte 1 neither 00H nor FFH with 0A02; a FETCH
+/// reaction with missing data with 0A03; a SEND reaction with data with 0A04.
 #[test]
-fn s4_7_reaction_out_of_sequence_0813_and_malformed_0810() {
+fn s4_7_faulty_reactions_0a01_to_0a04() {
     let data = vec![0u8; 200];
     let (mut sim, st, raw) = active_against_script(60);
     let got = run_job(
@@ -664,7 +697,7 @@ fn s4_7_reaction_out_of_sequence_0813_and_malformed_0810() {
         },
         &[&[0, 0, 0, 0], &[0, 0, 0, 0]],
     );
-    assert_eq!(got, status::RESPONSE_SEQUENCE);
+    assert_eq!(got, status::REACTION_SEQUENCE);
     let (mut sim, st, raw) = active_against_script(61);
     let got = run_job(
         &mut sim,
@@ -676,7 +709,7 @@ fn s4_7_reaction_out_of_sequence_0813_and_malformed_0810() {
         },
         &[&[0, 0, 0, 0, 1, 2]],
     );
-    assert_eq!(got, status::RESPONSE_INVALID);
+    assert_eq!(got, status::REACTION_DATA_AMOUNT);
     let (mut sim, st, raw) = active_against_script(62);
     let got = run_job(
         &mut sim,
@@ -693,7 +726,19 @@ fn s4_7_reaction_out_of_sequence_0813_and_malformed_0810() {
         },
         &[&[0, 0, 0, 0, 9]],
     );
-    assert_eq!(got, status::RESPONSE_INVALID);
+    assert_eq!(got, status::SEND_REACTION_WITH_DATA);
+    let (mut sim, st, raw) = active_against_script(63);
+    let got = run_job(
+        &mut sim,
+        st,
+        raw,
+        |s, now| {
+            s.fetch(now, Address::Flags(0), Coordination::NONE, 1)
+                .unwrap();
+        },
+        &[&[0x12, 0, 0, 0, 7]],
+    );
+    assert_eq!(got, status::REACTION_HEADER);
 }
 
 /// Fig. 2-13 on the wire: the SEND telegram of 50 data words to DB10 from DW1 goes out as one
@@ -811,13 +856,31 @@ fn s4_6_one_job_at_a_time_and_request_checks() {
     );
 }
 
-/// §3 under §4: when the partner never acknowledges, the job ends with the 3964(R) STATUS.
+/// §3 under §4, cp341-event-classes.md §2 "chained reports": when the partner never
+/// acknowledges, the link's 0703 is reported first and the job ends with 051A.
 #[test]
-fn s4_1_link_failure_ends_the_job_with_0703() {
+fn s4_1_link_failure_0703_then_051a() {
     let mut p = pair(100);
     p.sim.silence(p.b, Instant::ZERO);
+    let job = p
+        .sim
+        .with(p.a, |s, now| {
+            s.fetch(now, Address::Flags(0), Coordination::NONE, 1)
+        })
+        .unwrap();
+    p.settle();
     assert_eq!(
-        p.fetch(Address::Flags(0), 1),
-        Err(si_3964r::status::SETUP_TIMEOUT)
+        p.sim.take_events(p.a),
+        [
+            Event::ProcedureError(si_3964r::status::SETUP_TIMEOUT),
+            Event::Failed {
+                job,
+                status: status::COMMAND_NOT_SENT
+            }
+        ]
+    );
+    assert_eq!(
+        p.sim.engine(p.a).last_cause(),
+        Some(si_3964r::status::SETUP_TIMEOUT)
     );
 }

@@ -66,8 +66,8 @@ pub struct Target {
     /// Start byte (I, Q, M) or cell number (T, C), 0 … 65535.
     #[arg(long, default_value_t = 0)]
     start: u16,
-    /// Coordination flag at the partner, as BYTE.BIT (e.g. 20.3); SEND is refused while it
-    /// is set and sets it (cp341 §4.8).
+    /// Coordination flag at the partner, as BYTE.BIT (e.g. 20.3); a SEND or FETCH is refused
+    /// while it is set (16#0909) and sets it when served (cp341 §4.8).
     #[arg(long, value_name = "BYTE.BIT")]
     flag: Option<String>,
     /// CPU number 1 … 4 in header byte 10 (multi-CPU partners).
@@ -244,10 +244,24 @@ impl Command {
     }
 }
 
-fn failed(what: &str, e: StationError) -> CliError {
-    match e.status() {
-        Some(status) => CliError::new(format!("{what} failed: {}", status::lookup(status.code()))),
-        None => CliError::new(format!("{what} failed: {e}")),
+/// The job's STATUS; a 051A names the 3964(R) error reported just before it
+/// (cp341-event-classes.md §2 "chained reports"), on the same line.
+async fn failed(station: &Handle, what: &str, e: StationError) -> CliError {
+    let Some(s) = e.status() else {
+        return CliError::new(format!("{what} failed: {e}"));
+    };
+    let s = status::lookup(s.code());
+    let cause = if s == status::COMMAND_NOT_SENT {
+        station.call(|st, _| st.last_cause()).await.ok().flatten()
+    } else {
+        None
+    };
+    match cause {
+        Some(c) => CliError::new(format!(
+            "{what} failed: {}, then {s}",
+            status::lookup(c.code())
+        )),
+        None => CliError::new(format!("{what} failed: {s}")),
     }
 }
 
@@ -262,10 +276,9 @@ impl SendArgs {
         let station = Handle::spawn(config, settings, transport)?;
         tokio::time::sleep(SETTLE).await;
         let len = data.len();
-        station
-            .send(address, coordination, data)
-            .await
-            .map_err(|s| failed("SEND", s))?;
+        if let Err(e) = station.send(address, coordination, data).await {
+            return Err(failed(&station, "SEND", e).await);
+        }
         out.line(
             &format!("SEND {len} bytes to {address}: {}", Status::OK),
             json!({"sent": len, "address": address.to_string(), "status": 0}),
@@ -290,10 +303,10 @@ impl FetchArgs {
         let transport = conn.open().await?;
         let station = Handle::spawn(config, settings, transport)?;
         tokio::time::sleep(SETTLE).await;
-        let data = station
-            .fetch(address, coordination, len)
-            .await
-            .map_err(|s| failed("FETCH", s))?;
+        let data = match station.fetch(address, coordination, len).await {
+            Ok(data) => data,
+            Err(e) => return Err(failed(&station, "FETCH", e).await),
+        };
         let hex = si_core::hex::format(&data);
         out.line(
             &hex,
@@ -452,12 +465,15 @@ impl ServeArgs {
                 Some(Event::Refused { error }) => {
                     served += 1;
                     let s = error.status();
+                    let number = error.error_number().code();
                     out.line(
-                        &format!("refused with error number {:02X}H: {s}", error.code()),
-                        json!({"refused": error.code(), "status": s.code()}),
+                        &format!("refused with error number {number:02X}H: {s}"),
+                        json!({"refused": number, "status": s.code()}),
                     );
                 }
-                Some(Event::ServeAborted(s)) | Some(Event::ReceiveError(s)) => {
+                Some(
+                    Event::ServeAborted(s) | Event::ReceiveError(s) | Event::ProcedureError(s),
+                ) => {
                     eprintln!("si: {}", status::lookup(s.code()));
                 }
                 Some(Event::Done { .. } | Event::Failed { .. }) => {}
@@ -678,12 +694,12 @@ fn report(out: &Output, name: &str, events: Vec<Event>) {
             Event::Refused { error } => (
                 format!(
                     "{name}: refused with error number {:02X}H ({})",
-                    error.code(),
+                    error.error_number().code(),
                     error.status()
                 ),
-                json!({"station": name, "refused": error.code()}),
+                json!({"station": name, "refused": error.error_number().code(), "status": error.status().code()}),
             ),
-            Event::ServeAborted(s) | Event::ReceiveError(s) => (
+            Event::ServeAborted(s) | Event::ReceiveError(s) | Event::ProcedureError(s) => (
                 format!("{name}: {}", status::lookup(s.code())),
                 json!({"station": name, "error": s.code()}),
             ),

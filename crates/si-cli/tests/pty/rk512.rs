@@ -76,6 +76,8 @@ fn fetch_returns_what_send_wrote_to_serve() {
     assert_eq!(lines[0]["address"], "DB10.DW4");
     assert_eq!(lines[1]["served"], "FETCH");
     assert_eq!(lines[2]["refused"], 0x14);
+    // The server reports its own side's code: DB 99 missing is 0606 (the requester's 0903).
+    assert_eq!(lines[2]["status"], 0x0606);
 }
 
 #[test]
@@ -89,5 +91,8 @@ fn fetch_without_a_partner_fails_with_the_3964r_status() {
     ]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("16#0703"), "{err}");
+    // cp341-event-classes.md §2: the link's 0703, then the job's 051A, on one line.
+    let at = |code: &str| err.find(code).unwrap_or_else(|| panic!("{code} in {err}"));
+    assert!(at("16#0703") < at("16#051A"), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
 }
