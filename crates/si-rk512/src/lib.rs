@@ -23,7 +23,7 @@
 //!     served (0601 … 0611), or our reaction could not be sent (0612, after the 07xx);
 //!   - **07H/08H** (either side): the 3964(R) link's procedure errors, [`si_3964r::status`];
 //!   - **09H** (requester): the partner's reaction carries an error number (byte 4 → 09xx,
-//!     [inferred], unknown bytes 090E);
+//!     `[inferred]`, unknown bytes 090E);
 //!   - **0AH** (requester): the partner's reaction is faulty (0A01 … 0A04) or missing (0A05).
 //! - [`monitor`]: the passive listener, the 3964(R) monitor reading RK 512 telegrams;
 //! - [`fb`]: send and fetch FB equivalents with REQ / DONE / ERROR / STATUS;

@@ -20,7 +20,7 @@
 //!   area (0606 DB missing, 0607 start beyond the area, 0608 end beyond it), flag set (060F).
 //!   The whole job's range is checked on the first telegram, so a long job is refused before
 //!   any byte is written. The reaction carries the error number of
-//!   [`ServeError::error_number`] ([inferred], see [`crate::refusal`]).
+//!   [`ServeError::error_number`] (`[inferred]`, see [`crate::refusal`]).
 //! - **CPU number (§4.2, byte 10 high nibble; A-13).** 1 … 4 name a CPU, 0 "a flag but no CPU
 //!   number", FH "neither"; 5H … EH are refused with 060A. Every allowed number is served: a
 //!   host is one CPU, so it does not tell CPUs of a multi-CPU S5 rack apart.
@@ -28,7 +28,7 @@
 //!   nibble) must then be 0 … 7 and its byte inside the flag area, else 0609. A job naming a
 //!   flag that is set is refused with 060F (32H); the flag is set once the job's *last*
 //!   telegram is served, and the CPU program resets it when it has dealt with the data.
-//!   **FETCH too:** §4.8 explains only the encoding and [M] names only "target DB locked"; the
+//!   **FETCH too:** §4.8 explains only the encoding and `[M]` names only "target DB locked"; the
 //!   reading chosen is the one public RK 512 partner manual that states it (VIPA CPU 21x
 //!   manual HB103E, "Coordination flags": "The coordination flag is set in the partner PLC …
 //!   when a message is being received. This occurs for input as well as for output commands.

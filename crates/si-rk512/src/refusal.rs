@@ -1,7 +1,7 @@
 //! Why the passive side refused a partner's telegram: one class 06H STATUS each
 //! (cp341-event-classes.md §1 class 06H), and the error number its reaction carries.
 //!
-//! # The error number sent for each 06xx: **[inferred]**
+//! # The error number sent for each 06xx: **`[inferred]`**
 //!
 //! No source says which byte 4 the CP 341 sends when it finds a 06xx error as responder
 //! (cp341-event-classes.md §2.1, last paragraph). The numbers here are the symmetric choice that
@@ -11,10 +11,10 @@
 //! |---|---|---|
 //! | 0601, 0604, 0605 | 10H | 090B byte 1 or 4 wrong |
 //! | 0602, 0603 | 16H | 090A byte 3 wrong |
-//! | 0606, 0607, 0608, 0609, 060A | 14H | 0903 area missing or number not allowed (§2.1 offers 14H or 0CH for 0606–0608; 14H, "configuration error, e.g. illegal DB number", is the closer text; 0609/060A [derived] alike) |
-//! | 060B, 060C, 0610, 0611 | 34H | 090C length wrong (060C [derived]: a FETCH with data has the wrong length) |
+//! | 0606, 0607, 0608, 0609, 060A | 14H | 0903 area missing or number not allowed (§2.1 offers 14H or 0CH for 0606–0608; 14H, "configuration error, e.g. illegal DB number", is the closer text; 0609/060A `[derived]` alike) |
+//! | 060B, 060C, 0610, 0611 | 34H | 090C length wrong (060C `[derived]`: a FETCH with data has the wrong length) |
 //! | 060D CPU in STOP | 2AH | 090D not restarted |
-//! | 060D command not served here | 0AH | 0902 access refused ([derived]: 060D names "receive path not set up") |
+//! | 060D command not served here | 0AH | 0902 access refused (`[derived]`: 060D names "receive path not set up") |
 //! | 060E | 36H | 0908 sequence |
 //! | 060F | 32H | 0909 locked by a coordination flag |
 //!
@@ -26,7 +26,7 @@ use si_core::Status;
 /// A partner's telegram the passive side refused, by the 06xx row that names the fault.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ServeError {
-    /// 0601: byte 1 neither 00H nor FFH (also byte 2 not 00H, [derived]).
+    /// 0601: byte 1 neither 00H nor FFH (also byte 2 not 00H, `[derived]`).
     HeaderId,
     /// 0602: byte 3 not a command letter.
     Command,
@@ -90,7 +90,7 @@ impl ServeError {
         }
     }
 
-    /// The error number the reaction carries ([inferred], see the module docs).
+    /// The error number the reaction carries (`[inferred]`, see the module docs).
     pub const fn error_number(self) -> ErrorNumber {
         match self {
             ServeError::HeaderId | ServeError::DataType | ServeError::ContinuationDataType => {

@@ -41,7 +41,7 @@
 //! - **TRES** starts when the partner acknowledged our command telegram (its `DLE`), for every
 //!   first and continuation telegram, and on the passive side when our reaction that asks for a
 //!   continuation was acknowledged. Expiry ends our job with 0A05; on the passive side it
-//!   aborts the partner's job with 060E ([derived]: the tables have no row for it, and 060E is
+//!   aborts the partner's job with 060E (`[derived]`: the tables have no row for it, and 060E is
 //!   what the partner's late continuation then meets) (A-12, §4.7).
 //! - **The STATUS classes** (cp341-event-classes.md §2; [`crate::status`] has the table): our
 //!   own request is checked first (0515 flag bit, 0516 CPU number); a reaction with an error

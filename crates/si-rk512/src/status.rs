@@ -225,12 +225,12 @@ pub fn lookup(code: u16) -> Status {
     Status::lookup(code, CATALOGS)
 }
 
-/// Reaction byte 4 → class 09H, **[inferred]**: no source gives this table
+/// Reaction byte 4 → class 09H, **`[inferred]`**: no source gives this table
 /// (cp341-event-classes.md §2.1 "mapping NOT FOUND"); these are the candidates of its §2.1
 /// table, from the WinCC OA RK 512 driver and the Elster gas-lab Q1 manual. Where §2.1 offers
 /// two: 0CH → 0905 (WinCC OA's "invalid data type", the driver whose numbering every other row
-/// follows; Elster reads it as 0903), 2AH → 090D ("PLC stopped" = "not restarted yet", an [M]
-/// row; 0905 also names STOP). Any other non-zero byte → 090E, which [M] p.197 states.
+/// follows; Elster reads it as 0903), 2AH → 090D ("PLC stopped" = "not restarted yet", an `[M]`
+/// row; 0905 also names STOP). Any other non-zero byte → 090E, which `[M]` p.197 states.
 pub const REACTION_ERRORS: [(u8, Status); 10] = [
     (0x0A, PARTNER_NO_AREA),
     (0x0C, PARTNER_CANNOT_SERVE),
