@@ -67,6 +67,28 @@ pub enum ServeError {
 }
 
 impl ServeError {
+    /// Every refusal, in 06xx order.
+    pub const ALL: [ServeError; 18] = [
+        ServeError::HeaderId,
+        ServeError::Command,
+        ServeError::ContinuationCommand,
+        ServeError::DataType,
+        ServeError::ContinuationDataType,
+        ServeError::DbNumber,
+        ServeError::StartAddress,
+        ServeError::Length,
+        ServeError::CoordinationFlag,
+        ServeError::CpuNumber,
+        ServeError::DataAmount,
+        ServeError::FetchWithData,
+        ServeError::Stopped,
+        ServeError::NotServed,
+        ServeError::Sequence,
+        ServeError::Locked,
+        ServeError::TooShort,
+        ServeError::FrameLength,
+    ];
+
     /// The class 06H STATUS.
     pub const fn status(self) -> Status {
         match self {
@@ -120,33 +142,21 @@ mod tests {
 
     #[test]
     fn every_refusal_is_class_06_and_reads_back_as_a_known_09xx() {
-        use ServeError::*;
-        let all = [
-            HeaderId,
-            Command,
-            ContinuationCommand,
-            DataType,
-            ContinuationDataType,
-            DbNumber,
-            StartAddress,
-            Length,
-            CoordinationFlag,
-            CpuNumber,
-            DataAmount,
-            FetchWithData,
-            Stopped,
-            NotServed,
-            Sequence,
-            Locked,
-            TooShort,
-            FrameLength,
-        ];
-        for e in all {
+        for e in ServeError::ALL {
             assert_eq!(e.status().class(), 0x06, "{e:?}");
             let back = status::for_error_byte(e.error_number().code()).unwrap();
             assert_ne!(back, status::PARTNER_ERROR_UNKNOWN, "{e:?}");
         }
-        assert_eq!(Locked.error_number().status(), status::PARTNER_LOCKED);
-        assert_eq!(Sequence.error_number().status(), status::PARTNER_SEQUENCE);
+        assert_eq!(
+            ServeError::Locked.error_number().status(),
+            status::PARTNER_LOCKED
+        );
+        assert_eq!(
+            ServeError::Sequence.error_number().status(),
+            status::PARTNER_SEQUENCE
+        );
+        // 06xx codes are in the catalog, in 06xx order.
+        let codes: Vec<u16> = ServeError::ALL.iter().map(|e| e.status().code()).collect();
+        assert!(codes.is_sorted(), "{codes:04X?}");
     }
 }

@@ -685,60 +685,43 @@ fn s4_2_dw_number_as_byte_offset_setting() {
 /// reaction with missing data with 0A03; a SEND reaction with data with 0A04.
 #[test]
 fn s4_7_faulty_reactions_0a01_to_0a04() {
-    let data = vec![0u8; 200];
-    let (mut sim, st, raw) = active_against_script(60);
-    let got = run_job(
-        &mut sim,
-        st,
-        raw,
-        move |s, now| {
-            s.send(now, Address::Db { db: 1, dw: 0 }, Coordination::NONE, data)
+    let send = |len: usize| (Some(Address::Db { db: 1, dw: 0 }), len);
+    let fetch = |len: usize| (None, len);
+    let cases: [((Option<Address>, usize), &[&[u8]], Status); 4] = [
+        (
+            send(200),
+            &[&[0, 0, 0, 0], &[0, 0, 0, 0]],
+            status::REACTION_SEQUENCE,
+        ),
+        (
+            fetch(3),
+            &[&[0, 0, 0, 0, 1, 2]],
+            status::REACTION_DATA_AMOUNT,
+        ),
+        (
+            send(2),
+            &[&[0, 0, 0, 0, 9]],
+            status::SEND_REACTION_WITH_DATA,
+        ),
+        (fetch(1), &[&[0x12, 0, 0, 0, 7]], status::REACTION_HEADER),
+    ];
+    for (i, ((to, len), reactions, expected)) in cases.into_iter().enumerate() {
+        let (mut sim, st, raw) = active_against_script(60 + i as u64);
+        let got = run_job(
+            &mut sim,
+            st,
+            raw,
+            move |s, now| {
+                match to {
+                    Some(to) => s.send(now, to, Coordination::NONE, vec![0; len]),
+                    None => s.fetch(now, Address::Flags(0), Coordination::NONE, len),
+                }
                 .unwrap();
-        },
-        &[&[0, 0, 0, 0], &[0, 0, 0, 0]],
-    );
-    assert_eq!(got, status::REACTION_SEQUENCE);
-    let (mut sim, st, raw) = active_against_script(61);
-    let got = run_job(
-        &mut sim,
-        st,
-        raw,
-        |s, now| {
-            s.fetch(now, Address::Flags(0), Coordination::NONE, 3)
-                .unwrap();
-        },
-        &[&[0, 0, 0, 0, 1, 2]],
-    );
-    assert_eq!(got, status::REACTION_DATA_AMOUNT);
-    let (mut sim, st, raw) = active_against_script(62);
-    let got = run_job(
-        &mut sim,
-        st,
-        raw,
-        |s, now| {
-            s.send(
-                now,
-                Address::Db { db: 1, dw: 0 },
-                Coordination::NONE,
-                vec![1, 2],
-            )
-            .unwrap();
-        },
-        &[&[0, 0, 0, 0, 9]],
-    );
-    assert_eq!(got, status::SEND_REACTION_WITH_DATA);
-    let (mut sim, st, raw) = active_against_script(63);
-    let got = run_job(
-        &mut sim,
-        st,
-        raw,
-        |s, now| {
-            s.fetch(now, Address::Flags(0), Coordination::NONE, 1)
-                .unwrap();
-        },
-        &[&[0x12, 0, 0, 0, 7]],
-    );
-    assert_eq!(got, status::REACTION_HEADER);
+            },
+            reactions,
+        );
+        assert_eq!(got, expected, "case {i}");
+    }
 }
 
 /// Fig. 2-13 on the wire: the SEND telegram of 50 data words to DB10 from DW1 goes out as one
