@@ -685,9 +685,11 @@ fn s4_2_dw_number_as_byte_offset_setting() {
 /// reaction with missing data with 0A03; a SEND reaction with data with 0A04.
 #[test]
 fn s4_7_faulty_reactions_0a01_to_0a04() {
+    /// SEND to this DB (`Some`) or FETCH of flag bytes (`None`), and the length.
+    type Job = (Option<Address>, usize);
     let send = |len: usize| (Some(Address::Db { db: 1, dw: 0 }), len);
     let fetch = |len: usize| (None, len);
-    let cases: [((Option<Address>, usize), &[&[u8]], Status); 4] = [
+    let cases: [(Job, &[&[u8]], Status); 4] = [
         (
             send(200),
             &[&[0, 0, 0, 0], &[0, 0, 0, 0]],
