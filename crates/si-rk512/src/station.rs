@@ -283,8 +283,8 @@ impl fmt::Debug for Station {
 }
 
 impl Station {
-    /// An active-only station: it runs our jobs and answers every partner command with error
-    /// 0AH (access refused).
+    /// An active-only station: it runs our jobs and refuses every partner command with 060D
+    /// (error number 0AH, access refused).
     pub fn new(config: Config, settings: SerialSettings) -> Result<Station, ConfigError> {
         Station::with_server(config, settings, Server::refusing())
     }

@@ -42,8 +42,9 @@ use si_core::{Instant, SerialSettings};
 use std::ops::ControlFlow::{Break, Continue};
 
 /// Why a call on a [`Handle`] failed: the 3964(R) handle's error, as RK 512 runs on that
-/// procedure and fails the same ways (a STATUS: refused with 1E41H or 1E20H, failed with class
-/// 07H–09H; a configuration out of range; the driver stopped).
+/// procedure and fails the same ways (a STATUS: refused with 1E41H, 1E20H, 0515H or 0516H,
+/// failed with 051AH after a 3964(R) error (whose 07xxH [`Station::last_cause`] keeps), or with
+/// class 09H or 0AH; a configuration out of range; the driver stopped).
 pub use si_3964r::tokio::Error;
 
 /// A running RK 512 station.
@@ -136,7 +137,7 @@ impl Handle {
     }
 
     /// The next passive-side or receive event (`Served`, `Refused`, `ServeAborted`,
-    /// `ReceiveError`); `None` once the station has stopped.
+    /// `ProcedureError`, `ReceiveError`); `None` once the station has stopped.
     pub async fn next_event(&mut self) -> Option<Event> {
         self.driver.next_event().await
     }
