@@ -3,7 +3,7 @@
 //! up to 200; one that would not fit ends with 050EH before any request goes on the line.
 
 use si_core::sim::{Simulator, StationId};
-use si_core::{Duration, Instant, SerialSettings, Status};
+use si_core::{Duration, SerialSettings, Status};
 use si_modbus::fb::{Done, Received, SRcv, SSend, MAX_LEN};
 use si_modbus::master::Master;
 use si_modbus::slave::{Slave, Tables};
