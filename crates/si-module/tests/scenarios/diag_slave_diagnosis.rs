@@ -18,6 +18,11 @@ fn with_channel(error_byte: u8) -> Vec<u8> {
     ]
 }
 
+/// The modules the module diagnosis says report something.
+fn reporting_modules(d: &SlaveDiagnosis) -> Vec<usize> {
+    d.module_diagnosis.as_ref().unwrap().modules().collect()
+}
+
 #[test]
 fn table_2_30_every_channel_error_type_decodes_with_meaning_and_action() {
     let table: [(u8, ErrorType, &str, &str); 6] = [
@@ -138,14 +143,7 @@ fn a_full_station_keeps_unknown_parts_raw_and_decodes_the_rest() {
     ];
     let d = SlaveDiagnosis::decode(&bytes).unwrap();
     assert_eq!(d.station.ident_number, 0x80E0);
-    assert_eq!(
-        d.module_diagnosis
-            .as_ref()
-            .unwrap()
-            .modules()
-            .collect::<Vec<_>>(),
-        [3, 4, 5]
-    );
+    assert_eq!(reporting_modules(&d), [3, 4, 5]);
     let status = d.module_status.as_ref().unwrap();
     assert_eq!(
         [status.state(3), status.state(4), status.state(5)],
@@ -315,14 +313,7 @@ fn standard_module_diagnosis_and_module_status_decode() {
             "response monitoring (watchdog) on"
         ]
     );
-    assert_eq!(
-        d.module_diagnosis
-            .as_ref()
-            .unwrap()
-            .modules()
-            .collect::<Vec<_>>(),
-        [3]
-    );
+    assert_eq!(reporting_modules(&d), [3]);
     let status = d.module_status.as_ref().unwrap();
     assert_eq!(status.state(3), Some(ModuleState::Error));
     assert_eq!(status.state(1), Some(ModuleState::Ok));
