@@ -32,6 +32,9 @@
 //!   check before sending, like the other job checks of §4.3, so no request goes on the line
 //!   and no slave is read for a result that could not be delivered. The range checks of §4.3
 //!   come first: 2041 bits is still 0E44H, 128 registers 0E45H. S_RCV LEN is never above 200.
+//!   (The 2005 manual's chapter 3 gives LEN 1…256 and 050EH above 256 bytes instead,
+//!   et200s-si-2005-window-protocol.md §6.2, H-14; like [`MAX_LEN`] we follow the Modbus/USS
+//!   module's own manual, §4.2 and §7.5.)
 
 use crate::frame::{fc, Bits, Registers, Request, Response};
 use crate::master::{Completion, Master, MasterEvent, RequestError};

@@ -521,7 +521,8 @@ impl core::fmt::Display for UnknownKind {
                 status_type: Some(t),
             } => write!(
                 f,
-                "device-related block of status type {t:02X}H, not the module status (82H): an interrupt or status message"
+                "device-related block of status type {t:02X}H, not the module status 82H 00H 00H: \
+                 an interrupt, a status message or manufacturer-specific data"
             ),
             UnknownKind::StatusBlock { status_type: None } => {
                 f.write_str("device-related block without a status type")

@@ -166,7 +166,8 @@ fn diag_decode_shows_what_the_si_tables_do_not_describe_raw() {
             "not decoded at offset 19: channel entry: slot 5 channel 2 (I/O type 00 reserved, \
              channel type reserved): error type 00110 (6); raw 85 02 E6",
             "not decoded at offset 22: device-related block of status type 01H, not the module \
-             status (82H): an interrupt or status message; raw 08 01 04 01 00 11 22 33",
+             status 82H 00H 00H: an interrupt, a status message or manufacturer-specific data; \
+             raw 08 01 04 01 00 11 22 33",
         ],
         "{text}"
     );
