@@ -612,6 +612,7 @@ fn records(c: &mut Criterion) {
             ChannelDiagnosis::si(2, ErrorType::WireBreak),
             ChannelDiagnosis::si(3, ErrorType::MessageError),
         ],
+        unknown: Vec::new(),
     }
     .encode()
     .unwrap();

@@ -7,8 +7,11 @@ use si_core::v24::AutoV24Times;
 use si_core::{Duration, RangeError, SerialSettings, Status};
 
 /// "Operating mode" (§3.7).
+///
+/// Read from a name ([`Mode::from_name`], also when deserialized); a name other than the two
+/// modes is the manual's 0E22H "invalid operating mode; driver not ready" (§3.7, §7.4).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
+#[serde(rename_all = "kebab-case", try_from = "String")]
 pub enum Mode {
     /// Transmission errors and BREAK before or after a message are reported; in the master a
     /// first response byte other than the address gives 0831H.
@@ -18,6 +21,56 @@ pub enum Mode {
     /// a correctly received slave address (leading garbage skipped); errors after the CRC are
     /// ignored.
     InterferenceSuppression,
+}
+
+impl Mode {
+    /// The two modes by the names parameter files and the serialized form use.
+    pub const NAMES: [(&'static str, Mode); 2] = [
+        ("normal", Mode::Normal),
+        ("interference-suppression", Mode::InterferenceSuppression),
+    ];
+
+    /// The name of this mode in [`Mode::NAMES`].
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Normal => Mode::NAMES[0].0,
+            Mode::InterferenceSuppression => Mode::NAMES[1].0,
+        }
+    }
+
+    /// The mode called `name`; any other value is refused with 0E22H, as the module refuses
+    /// an invalid operating mode and stays not ready (§3.7, §7.4).
+    pub fn from_name(name: &str) -> Result<Mode, ConfigError> {
+        Mode::NAMES
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, mode)| *mode)
+            .ok_or_else(|| {
+                ConfigError::new(
+                    "operating mode",
+                    "normal, interference-suppression",
+                    "",
+                    format!("{name:?}"),
+                    status::INVALID_MODE,
+                )
+            })
+    }
+}
+
+impl core::str::FromStr for Mode {
+    type Err = ConfigError;
+
+    fn from_str(name: &str) -> Result<Mode, ConfigError> {
+        Mode::from_name(name)
+    }
+}
+
+impl TryFrom<String> for Mode {
+    type Error = ConfigError;
+
+    fn try_from(name: String) -> Result<Mode, ConfigError> {
+        Mode::from_name(&name)
+    }
 }
 
 /// How a received frame ends (§3.5, and a host extension).
@@ -339,6 +392,32 @@ mod tests {
         assert_eq!(seven.validate().unwrap_err().status.code(), 0x0E20);
         assert_eq!(SlaveConfig::default().address, 222);
         assert_eq!(MasterConfig::default().response_timeout_ms, 2_000);
+    }
+
+    /// §3.7/§7.4: only the two modes; any other value is 0E22H, from a name and when a
+    /// configuration is deserialized.
+    #[test]
+    fn an_invalid_operating_mode_is_0e22h() {
+        for (name, mode) in Mode::NAMES {
+            assert_eq!(Mode::from_name(name).unwrap(), mode);
+            assert_eq!(mode.name(), name);
+        }
+        let e = Mode::from_name("fast").unwrap_err();
+        assert_eq!(e.status.code(), 0x0E22);
+        assert_eq!(
+            e.to_string(),
+            "operating mode = \"fast\" is out of range: normal, interference-suppression \
+             (16#0E22 invalid operating mode; driver not ready)"
+        );
+        let e = serde_json::from_str::<MasterConfig>(r#"{"mode": "fast"}"#).unwrap_err();
+        assert!(e.to_string().contains("16#0E22"), "{e}");
+        let c: MasterConfig =
+            serde_json::from_str(r#"{"mode": "interference-suppression"}"#).unwrap();
+        assert_eq!(c.line.mode, Mode::InterferenceSuppression);
+        assert_eq!(
+            serde_json::to_value(Mode::InterferenceSuppression).unwrap(),
+            "interference-suppression"
+        );
     }
 
     #[test]

@@ -25,6 +25,16 @@
 //! - FC12 always stores 70 bytes; a shorter event log is padded with 00H.
 //! - LEN is checked against 1…200 (1E41H) as the FBs' transfer limit; the Modbus limits
 //!   (2040 bits, 127 registers) are checked as well, so the practical maxima of §4.5 apply.
+//! - A read job whose result would not fit S_RCV's 200 bytes (FC01/02 over 1600 bits, FC03/04
+//!   over 100 registers: §4.5's practical maxima) ends with **050EH** "illegal frame length:
+//!   more than 200 bytes" (§7.2), the manual's code for a frame beyond the 200-byte limit
+//!   between module and CPU. The manual does not say when the module finds out (§11.11); we
+//!   check before sending, like the other job checks of §4.3, so no request goes on the line
+//!   and no slave is read for a result that could not be delivered. The range checks of §4.3
+//!   come first: 2041 bits is still 0E44H, 128 registers 0E45H. S_RCV LEN is never above 200.
+//!   (The 2005 manual's chapter 3 gives LEN 1…256 and 050EH above 256 bytes instead,
+//!   et200s-si-2005-window-protocol.md §6.2, H-14; like [`MAX_LEN`] we follow the Modbus/USS
+//!   module's own manual, §4.2 and §7.5.)
 
 use crate::frame::{fc, Bits, Registers, Request, Response};
 use crate::master::{Completion, Master, MasterEvent, RequestError};
@@ -44,7 +54,8 @@ pub use si_core::fb::{Done, Received, SRcv, SSend};
 pub const MAX_LEN: usize = 200;
 
 /// Read a master job from the S_SEND source area (§4.3): `(unit, request)`, or the STATUS
-/// the module reports (0E40H–0E4AH, 1E41H).
+/// the module reports (0E40H–0E4AH, 1E41H; 050EH for a read whose result exceeds
+/// [`MAX_LEN`], §4.5).
 pub fn parse_job(source: &[u8]) -> Result<(u8, Request<'_>), Status> {
     let len = source.len();
     if len > MAX_LEN {
@@ -88,11 +99,20 @@ pub fn parse_job(source: &[u8]) -> Result<(u8, Request<'_>), Status> {
             Ok((unit, r))
         }
     };
+    // §4.5: the result of a read goes to S_RCV, which takes at most MAX_LEN bytes.
+    let fits_s_rcv = |result_len: usize| {
+        if result_len > MAX_LEN {
+            Err(status::FRAME_TOO_LONG)
+        } else {
+            Ok(())
+        }
+    };
     match f {
         fc::READ_COILS | fc::READ_DISCRETE_INPUTS => {
             if w4 == 0 || w4 > crate::frame::MAX_BITS {
                 return Err(status::BIT_COUNT);
             }
+            fits_s_rcv(bits_result_len(usize::from(w4).div_ceil(8)))?;
             if f == fc::READ_COILS {
                 fixed(Request::ReadCoils {
                     address: w2,
@@ -109,6 +129,7 @@ pub fn parse_job(source: &[u8]) -> Result<(u8, Request<'_>), Status> {
             if w4 == 0 || w4 > crate::frame::MAX_REGISTERS {
                 return Err(status::REGISTER_COUNT);
             }
+            fits_s_rcv(2 * usize::from(w4))?;
             if f == fc::READ_HOLDING_REGISTERS {
                 fixed(Request::ReadHoldingRegisters {
                     address: w2,
@@ -180,8 +201,15 @@ pub fn parse_job(source: &[u8]) -> Result<(u8, Request<'_>), Status> {
     }
 }
 
+/// S_RCV LEN of FC01/02 data of `bytes` bytes: stored word by word, so an odd count gets the
+/// high byte of its last word as well (§4.4).
+const fn bits_result_len(bytes: usize) -> usize {
+    bytes + bytes % 2
+}
+
 /// Write a completed job's response into the S_RCV destination area (§4.4); returns LEN.
-/// `dest` must hold at least [`MAX_LEN`] bytes … or as many as the response needs.
+/// `dest` must hold at least [`MAX_LEN`] bytes … or as many as the response needs. The
+/// response of a job [`parse_job`] accepted never needs more than [`MAX_LEN`].
 pub fn store_response(completion: &Completion, dest: &mut [u8]) -> usize {
     let Some(response) = completion.response() else {
         return 0;
@@ -213,7 +241,7 @@ pub fn store_response(completion: &Completion, dest: &mut [u8]) -> usize {
             if n % 2 == 1 {
                 put(n - 1, 0); // high byte of the last word
             }
-            n + n % 2
+            bits_result_len(n)
         }
         Response::ReadHoldingRegisters(regs) | Response::ReadInputRegisters(regs) => {
             for (i, r) in regs.iter().enumerate() {
@@ -602,6 +630,11 @@ mod tests {
             ("05 05 00 00 12 34", 0x0E48),
             ("05 08 00 01 00 00", 0x0E49),
             ("05 03 00 00 00 01 00", 0x0E4A),
+            // §4.5: results beyond S_RCV's 200 bytes.
+            ("05 01 00 00 06 41", 0x050E),
+            ("05 02 00 00 07 F8", 0x050E),
+            ("05 03 00 00 00 65", 0x050E),
+            ("05 04 00 00 00 7F", 0x050E),
         ] {
             assert_eq!(parse_job(&hex(job)).unwrap_err().code(), code, "{job}");
         }

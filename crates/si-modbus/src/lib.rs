@@ -50,7 +50,12 @@
 //!   FC05/15 on T/C 02, T/C misalignment 03 with 0832H ([`simatic`]; §11.12, §11.13);
 //! - the swapped FC05/FC15 formulas are read the consistent way ([`simatic`]; §11.15);
 //! - a failed master job is reported by S_SEND and S_RCV alike; FC15 sources are sent in S7
-//!   memory order; FC01/02 results go first byte → low byte as printed ([`fb`]; §11.8, §11.9).
+//!   memory order; FC01/02 results go first byte → low byte as printed ([`fb`]; §11.8, §11.9);
+//! - an S_SEND read whose result would exceed S_RCV's 200 bytes (over 100 registers or 1600
+//!   bits) ends with 050EH before any request is sent ([`fb`]; §4.5, §11.11);
+//! - 0806H "character delay time exceeded" is never raised: in RTU the character delay time
+//!   is the end-of-frame gap, and a frame it cuts short fails the checks the manual names
+//!   (0E52H–0E57H, 0836H) ([`status`]; §11.5).
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod config;

@@ -4,6 +4,28 @@
 //! Codes 0830H and 0831H mean one thing in the master and another in the slave (Table 3-65ff.):
 //! the master's meanings are in [`CATALOG`], the slave's in [`slave::CATALOG`]; the same number
 //! appears in both with the text of the side that reports it.
+//!
+//! # Codes of the manual's tables this driver never reports
+//!
+//! The catalogs hold the codes this crate raises (and the exception codes it decodes), so a
+//! code in them is a code a user can meet. Two codes of §7.3 are left out on purpose:
+//!
+//! - **0806H** "character delay time exceeded between two characters". In Modbus RTU the
+//!   character delay time tZVZ *is* the end-of-frame gap (§3.5, Table 3-11: "character delay
+//!   time tZVZ_TAB"; tZVZ = tZVZ_TAB × fMUL): its expiry ends every frame, so it cannot be an
+//!   error by itself (§11.5, 2005 manual H-46). A frame that the gap ended too early fails a
+//!   check the manual does name: in the master 0E52H "too few bytes", 0E54H/0E55H or 0E57H
+//!   (§4.4), in the slave 0836H (CRC). Reporting 0806H there instead would replace a code the
+//!   manual gives for exactly that case with one it does not tie to Modbus framing; the table
+//!   row reads as the shared receive-error table of the 3964(R)/ASCII modules (where 0806H is
+//!   their ZVZ). So it is not raised and not listed.
+//! - **0812H** "characters received after the module set CTS = 0": the Modbus driver has no
+//!   receive flow control (§2.2 offers only the automatic V.24 signals, where RTS belongs to
+//!   sending), so it never holds a partner off.
+//!
+//! 0E22H "invalid operating mode" is raised where the manual says: when the mode parameter has
+//! a value other than Normal or Interference suppression ([`crate::config::Mode::from_name`],
+//! the parameter files of si-module; §3.7).
 
 use crate::frame::ExceptionCode;
 use si_core::Status;
@@ -11,10 +33,10 @@ use si_core::Status;
 si_core::status_codes! {
     /// Every master-side and shared code, in table order.
     pub static CATALOG;
-    pub const CHAR_DELAY_EXCEEDED = 0x0806 {
-        meaning: "character delay time exceeded between two characters",
-        remedy: "partner too slow or faulty; check with an interface tester",
-        source: "et200s-si-modbus-uss.md §7.3",
+    pub const FRAME_TOO_LONG = 0x050E {
+        meaning: "illegal frame length: more than 200 bytes",
+        remedy: "use shorter frames: a read job's result must fit S_RCV's 200 bytes (at most 100 registers or 1600 bits)",
+        source: "et200s-si-modbus-uss.md §7.2; the read limits of §4.5 (§11.11)",
     }
     pub const RECEIVE_BUFFER_OVERFLOW = 0x080A {
         meaning: "receive buffer overflow while receiving a response",

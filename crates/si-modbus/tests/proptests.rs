@@ -1,12 +1,15 @@
-//! Property tests: decode(encode(x)) == x for every request and response, and the decoders and
-//! engines never panic on arbitrary bytes at arbitrary times.
+//! Property tests: decode(encode(x)) == x for every request and response, the decoders and
+//! engines never panic on arbitrary bytes at arbitrary times, and S_SEND read jobs are accepted
+//! exactly when their result fits S_RCV.
 
 use proptest::prelude::*;
 use si_core::{Engine, Instant, LineError, Output};
+use si_modbus::fb::{parse_job, store_response, MAX_LEN};
 use si_modbus::frame::{
     decode_request, decode_response, Adu, Bits, ExceptionCode, Registers, Request, Response,
     MAX_BITS, MAX_REGISTERS,
 };
+use si_modbus::master::{Completion, MasterEvent};
 use si_modbus::{Master, MasterConfig, Mode, SimaticStore, Slave, SlaveConfig, Tables};
 
 #[derive(Debug, Clone)]
@@ -225,8 +228,84 @@ fn drive<E: Engine>(
     }
 }
 
+/// Everything `engine` puts on the line until it waits.
+fn transmitted<E: Engine>(engine: &mut E) -> Vec<u8> {
+    let mut out = Vec::new();
+    loop {
+        match engine.poll_output() {
+            Output::Transmit(b) => out.extend_from_slice(&b),
+            Output::Wait(_) => return out,
+            _ => {}
+        }
+    }
+}
+
+/// One request from a master to a slave with the manual's largest tables, and the master's
+/// completion.
+fn exchange(unit: u8, request: &Request<'_>) -> Completion {
+    let at = Instant::from_micros;
+    let mut m = Master::new(MasterConfig::default()).unwrap();
+    let config = SlaveConfig {
+        address: unit,
+        ..SlaveConfig::default()
+    };
+    let mut s = Slave::new(config, Tables::new(2040, 2040, 127, 127)).unwrap();
+    m.request(Instant::ZERO, unit, request).unwrap();
+    let sent = transmitted(&mut m);
+    m.handle_tx_done(at(10_000));
+    s.handle_rx(at(10_000), &sent);
+    s.handle_timeout(at(20_000));
+    let answer = transmitted(&mut s);
+    m.handle_rx(at(30_000), &answer);
+    m.handle_timeout(at(400_000));
+    loop {
+        match m.poll_output() {
+            Output::Event(MasterEvent::Completed(c)) => return c,
+            Output::Wait(_) => panic!("no completion for {request:?}"),
+            _ => {}
+        }
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(512))]
+
+    /// et200s-si-modbus-uss.md §4.3–§4.5, §7.2: a read job (FC01–04) is accepted exactly when
+    /// its count is in the manual's range and its result fits S_RCV's 200 bytes; a result that
+    /// would not fit is 050EH; an accepted job's stored LEN is its result's size, never above
+    /// 200.
+    #[test]
+    fn s_send_reads_are_accepted_exactly_when_the_result_fits(
+        function in 1u8..=4,
+        quantity in prop_oneof![0u16..=2100, 1590u16..=1610, 95u16..=130],
+    ) {
+        let [hi, lo] = quantity.to_be_bytes();
+        let job = [1, function, 0, 0, hi, lo];
+        let bits = function <= 2;
+        let q = usize::from(quantity);
+        let (max, result) = if bits {
+            (MAX_BITS, q.div_ceil(8).next_multiple_of(2))
+        } else {
+            (MAX_REGISTERS, 2 * q)
+        };
+        let in_range = quantity >= 1 && quantity <= max;
+        match parse_job(&job) {
+            Ok((unit, request)) => {
+                prop_assert!(in_range && result <= MAX_LEN, "{function} × {quantity}");
+                let mut dest = [0u8; 300];
+                prop_assert_eq!(store_response(&exchange(unit, &request), &mut dest), result);
+            }
+            Err(status) => {
+                let expected = match (in_range, bits) {
+                    (false, true) => 0x0E44,
+                    (false, false) => 0x0E45,
+                    (true, _) => 0x050E,
+                };
+                prop_assert_eq!(status.code(), expected, "{} × {}", function, quantity);
+                prop_assert!(!in_range || result > MAX_LEN);
+            }
+        }
+    }
 
     #[test]
     fn requests_round_trip(unit in any::<u8>(), r in req()) {

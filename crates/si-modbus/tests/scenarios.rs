@@ -1,5 +1,6 @@
 //! Modbus RTU scenarios, one module per topic (et200s-si-modbus-uss.md §2–§5): the master, the
-//! slave, the automatic V.24 signals, frames ended by length, and USB adapters.
+//! slave, the automatic V.24 signals, frames ended by length, USB adapters, and read jobs
+//! through S_SEND/S_RCV at the 200-byte limit.
 
 #[path = "scenarios/auto_v24.rs"]
 mod auto_v24;
@@ -7,6 +8,8 @@ mod auto_v24;
 mod frame_end_length;
 #[path = "scenarios/master.rs"]
 mod master;
+#[path = "scenarios/s_send_read_limit.rs"]
+mod s_send_read_limit;
 #[path = "scenarios/slave.rs"]
 mod slave;
 #[path = "scenarios/usb_adapter.rs"]

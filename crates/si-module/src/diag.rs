@@ -14,23 +14,46 @@
 //! | … | channel-specific diagnosis: 3 bytes per channel, header `10SSSSSS` (slot) | 3 each |
 //!
 //! Each part after the standard diagnosis is optional (the IM sends it only when it has
-//! something to say or the parameters ask for it), but they come in this order.
+//! something to say or the parameters ask for it), and the IM sends them in this order.
 //!
 //! The channel-specific third byte holds the channel type (bits 7–5) and the **5-bit error
 //! type** (bits 4–0) of Tables 2-30 / 3-73, decoded as [`ErrorType`] with the manual's meaning
 //! and action per module variant ([`Variant`]).
 //!
-//! Decoding never panics: unknown or truncated data gives a [`DiagError`] naming the offset.
+//! # A full station: what the SI module's tables do not describe
+//!
+//! The diagnosis is the whole station's, so it also carries what the other modules of the
+//! station report, and blocks the SI manuals do not describe. Decoding does not fail on them:
+//! each is kept as an [`UnknownPart`] with its offset, a typed [`UnknownKind`] and its raw
+//! bytes, and everything else is decoded as usual:
+//!
+//! - a channel entry whose error type is not in Tables 2-30 / 3-73 (another module's, such as
+//!   a digital module's short circuit), or whose I/O type (00) or channel type (000, 111) is
+//!   reserved: [`UnknownKind::Channel`], with slot, channel and the fields that are known;
+//! - a device-related block (header `00`) that is not the module status `82H 00H 00H`: an
+//!   interrupt, a DP-V1 status message, a manufacturer-specific block:
+//!   [`UnknownKind::StatusBlock`];
+//! - a second module diagnosis or module status ([`UnknownKind::Repeated`]);
+//! - a header with bits 7–6 = 11, whose length rule none of the manuals give: the rest of the
+//!   diagnosis is kept as one [`UnknownKind::Header`] part rather than guessed at.
+//!
+//! Decoding fails only where a length is wrong: fewer than 6 bytes, more than 244, a block
+//! header of length 0, or a block or channel entry running past the end ([`DiagError`], naming
+//! the offset). It never panics.
 //!
 //! # Readings
 //!
 //! - **Module numbering in the bit fields.** The ET 200S figures label the first bit field byte
 //!   "modules 1 to 8"; we read bit 0 of the first byte as module 1 (the module diagnosis) and
 //!   bits 1–0 of the first byte as module 1 (the module status).
+//! - **Order.** The first module diagnosis and the first module status are decoded wherever
+//!   they stand (an IM may append interrupts after the channel entries; a block out of the
+//!   usual order is still the block its header says). [`SlaveDiagnosis::encode`] writes the
+//!   usual order, then the unknown parts in the order received, so a diagnosis whose unknown
+//!   parts came last encodes to the bytes it was decoded from.
 //! - **Error types outside the tables.** The SI module reports only the six types of Tables 2-30
-//!   / 3-73; any other 5-bit value is refused as unknown data (other ET 200S modules in the same
-//!   station use further types; decode their channel entries with their own tables).
-//! - **Reserved codes** (I/O type 00, channel type 000 and 111) are refused likewise.
+//!   / 3-73; other ET 200S modules in the same station use further types, which are theirs to
+//!   explain, so they are kept raw rather than given a meaning from another manual.
 //! - **Type 8 wording.** Chapter 2 limits "underflow" to 3964(R) ("a message of length 0 was
 //!   sent"); chapter 3 gives the same text without the restriction. [`ErrorType::meaning`] gives
 //!   each variant its own wording.
@@ -203,6 +226,24 @@ impl IoType {
             IoType::Output => "output",
             IoType::InputOutput => "input/output",
         }
+    }
+
+    const fn bits(self) -> u8 {
+        match self {
+            IoType::Input => 1,
+            IoType::Output => 2,
+            IoType::InputOutput => 3,
+        }
+    }
+
+    /// The type for bits 7–6 of byte 2; 00 is reserved.
+    const fn from_bits(bits: u8) -> Option<IoType> {
+        Some(match bits {
+            1 => IoType::Input,
+            2 => IoType::Output,
+            3 => IoType::InputOutput,
+            _ => return None,
+        })
     }
 }
 
@@ -414,6 +455,100 @@ impl ModuleStatus {
     }
 }
 
+/// What an [`UnknownPart`] is, as far as its header and the known fields tell.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum UnknownKind {
+    /// A channel-specific entry (3 bytes) with a code outside the SI module's tables: an error
+    /// type not in Tables 2-30 / 3-73, or a reserved I/O type or channel type. The fields that
+    /// are known are decoded.
+    Channel {
+        /// The slot (identifier number) of the reporting module, 0 … 63.
+        slot: u8,
+        /// The channel number, 0 … 63.
+        channel: u8,
+        /// Input, output or both; `None` for the reserved 00.
+        io: Option<IoType>,
+        /// The data width; `None` for the reserved 000 and 111.
+        channel_type: Option<ChannelType>,
+        /// The 5-bit error type as sent.
+        error_type: u8,
+    },
+    /// A device-related block (header `00`) that is not the module status `82H 00H 00H`: an
+    /// interrupt, a DP-V1 status message or a manufacturer-specific block.
+    StatusBlock {
+        /// Its second byte (the DP-V1 status or alarm type), if the block has one.
+        status_type: Option<u8>,
+    },
+    /// A second module diagnosis or module status (the header says which); the first is the
+    /// one decoded.
+    Repeated,
+    /// A block header with bits 7–6 = 11. No manual gives its length, so this part holds the
+    /// rest of the diagnosis.
+    Header {
+        /// The header byte.
+        header: u8,
+    },
+}
+
+impl core::fmt::Display for UnknownKind {
+    /// One line for a user: what the part is and why it is kept raw.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            UnknownKind::Channel {
+                slot,
+                channel,
+                io,
+                channel_type,
+                error_type,
+            } => {
+                write!(f, "channel entry: slot {slot} channel {channel} (")?;
+                match io {
+                    Some(io) => f.write_str(io.text())?,
+                    None => f.write_str("I/O type 00 reserved")?,
+                }
+                match channel_type {
+                    Some(t) => write!(f, ", {}", t.text())?,
+                    None => f.write_str(", channel type reserved")?,
+                }
+                write!(f, "): error type {error_type:05b} ({error_type})")?;
+                if ErrorType::from_code(error_type).is_none() {
+                    f.write_str(", not in the SI module's tables (see the reporting module's manual)")?;
+                }
+                Ok(())
+            }
+            UnknownKind::StatusBlock {
+                status_type: Some(t),
+            } => write!(
+                f,
+                "device-related block of status type {t:02X}H, not the module status 82H 00H 00H: \
+                 an interrupt, a status message or manufacturer-specific data"
+            ),
+            UnknownKind::StatusBlock { status_type: None } => {
+                f.write_str("device-related block without a status type")
+            }
+            UnknownKind::Repeated => {
+                f.write_str("a second block of a kind already decoded; the first one counts")
+            }
+            UnknownKind::Header { header } => write!(
+                f,
+                "block header {header:02X}H (bits 7-6 = 11) of unknown length: the rest of the diagnosis"
+            ),
+        }
+    }
+}
+
+/// A part of the diagnosis the SI module's tables do not describe, kept as it was sent.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct UnknownPart {
+    /// Offset of its first byte in the diagnosis.
+    pub offset: usize,
+    /// What it is.
+    pub kind: UnknownKind,
+    /// Its bytes as sent, header included.
+    pub bytes: Vec<u8>,
+}
+
 /// A decoded slave diagnosis.
 #[derive(Debug, Clone, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct SlaveDiagnosis {
@@ -423,11 +558,15 @@ pub struct SlaveDiagnosis {
     pub module_diagnosis: Option<ModuleDiagnosis>,
     /// The module status block, if present.
     pub module_status: Option<ModuleStatus>,
-    /// The channel-specific entries, in the order sent.
+    /// The channel-specific entries the SI module's tables describe, in the order sent.
     pub channels: Vec<ChannelDiagnosis>,
+    /// Everything else, in the order sent: other modules' channel entries, interrupts, status
+    /// messages, blocks of unknown layout.
+    pub unknown: Vec<UnknownPart>,
 }
 
-/// Why a slave diagnosis could not be decoded or encoded. Every decode error names the offset
+/// Why a slave diagnosis could not be decoded or encoded. Decoding fails only on a wrong length
+/// (what it does not know it keeps as an [`UnknownPart`]); every decode error names the offset
 /// of the byte where the problem starts.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum DiagError {
@@ -461,26 +600,6 @@ pub enum DiagError {
         /// The smallest valid length.
         min: usize,
     },
-    /// A byte that is not a valid code for its field.
-    #[error("unknown {field} at offset {offset}: byte {value:02X}H")]
-    Unknown {
-        /// Offset of the byte.
-        offset: usize,
-        /// Which field.
-        field: &'static str,
-        /// The byte.
-        value: u8,
-    },
-    /// A block in the wrong place (the order is module diagnosis, module status, channels).
-    #[error("{part} at offset {offset} out of order: {reason}")]
-    OutOfOrder {
-        /// Offset of the header byte.
-        offset: usize,
-        /// Which part.
-        part: &'static str,
-        /// What came before it.
-        reason: &'static str,
-    },
     /// Encoding: a field that does not fit its bits.
     #[error("{field} = {value} does not fit: at most {max}")]
     TooLarge {
@@ -501,6 +620,7 @@ const MAX_STATUS_BYTES: usize = 59;
 const PART_STANDARD: &str = "standard diagnosis";
 const PART_MODULE_DIAG: &str = "module diagnosis";
 const PART_MODULE_STATUS: &str = "module status";
+const PART_DEVICE_BLOCK: &str = "device-related block";
 const PART_CHANNEL: &str = "channel-specific diagnosis";
 
 fn truncated(bytes: &[u8], offset: usize, part: &'static str, needed: usize) -> DiagError {
@@ -550,134 +670,118 @@ impl SlaveDiagnosis {
         };
         let mut at = STANDARD_LEN;
         while let Some(&header) = bytes.get(at) {
-            let len = usize::from(header & 0x3F);
-            match header >> 6 {
-                0b01 => {
-                    if out.module_diagnosis.is_some() || out.module_status.is_some() {
-                        return Err(DiagError::OutOfOrder {
-                            offset: at,
-                            part: PART_MODULE_DIAG,
-                            reason: "it must come first after the standard diagnosis",
-                        });
-                    }
-                    if !out.channels.is_empty() {
-                        return Err(DiagError::OutOfOrder {
-                            offset: at,
-                            part: PART_MODULE_DIAG,
-                            reason: "it must come before the channel-specific diagnosis",
-                        });
-                    }
-                    if len < 1 {
+            at += match header >> 6 {
+                0b10 => {
+                    let entry = bytes
+                        .get(at..at + 3)
+                        .ok_or_else(|| truncated(bytes, at, PART_CHANNEL, 3))?;
+                    out.channel_entry(at, entry);
+                    3
+                }
+                0b11 => {
+                    out.unknown.push(UnknownPart {
+                        offset: at,
+                        kind: UnknownKind::Header { header },
+                        bytes: bytes[at..].to_vec(),
+                    });
+                    bytes.len() - at
+                }
+                kind => {
+                    let len = usize::from(header & 0x3F);
+                    let part = match (kind, bytes.get(at + 1)) {
+                        (0b01, _) => PART_MODULE_DIAG,
+                        (_, Some(&MODULE_STATUS_TYPE)) => PART_MODULE_STATUS,
+                        _ => PART_DEVICE_BLOCK,
+                    };
+                    if len == 0 {
                         return Err(DiagError::BadLength {
                             offset: at,
-                            part: PART_MODULE_DIAG,
+                            part,
                             length: len,
                             min: 1,
                         });
                     }
                     let block = bytes
                         .get(at..at + len)
-                        .ok_or_else(|| truncated(bytes, at, PART_MODULE_DIAG, len))?;
-                    out.module_diagnosis = Some(ModuleDiagnosis {
-                        bits: block[1..].to_vec(),
-                    });
-                    at += len;
+                        .ok_or_else(|| truncated(bytes, at, part, len))?;
+                    if kind == 0b01 {
+                        out.module_diagnosis_block(at, block);
+                    } else {
+                        out.device_block(at, block);
+                    }
+                    len
                 }
-                0b00 => {
-                    if out.module_status.is_some() {
-                        return Err(DiagError::OutOfOrder {
-                            offset: at,
-                            part: PART_MODULE_STATUS,
-                            reason: "a module status was already given",
-                        });
-                    }
-                    if !out.channels.is_empty() {
-                        return Err(DiagError::OutOfOrder {
-                            offset: at,
-                            part: PART_MODULE_STATUS,
-                            reason: "it must come before the channel-specific diagnosis",
-                        });
-                    }
-                    if len < 4 {
-                        return Err(DiagError::BadLength {
-                            offset: at,
-                            part: PART_MODULE_STATUS,
-                            length: len,
-                            min: 4,
-                        });
-                    }
-                    let block = bytes
-                        .get(at..at + len)
-                        .ok_or_else(|| truncated(bytes, at, PART_MODULE_STATUS, len))?;
-                    if block[1] != MODULE_STATUS_TYPE {
-                        return Err(DiagError::Unknown {
-                            offset: at + 1,
-                            field: "status type (the SI module sends 82H, module status)",
-                            value: block[1],
-                        });
-                    }
-                    if let Some(i) = (2..4).find(|&i| block[i] != 0) {
-                        return Err(DiagError::Unknown {
-                            offset: at + i,
-                            field: "module status byte (always 00H)",
-                            value: block[i],
-                        });
-                    }
-                    out.module_status = Some(ModuleStatus {
-                        bits: block[4..].to_vec(),
-                    });
-                    at += len;
-                }
-                0b10 => {
-                    let entry = bytes
-                        .get(at..at + 3)
-                        .ok_or_else(|| truncated(bytes, at, PART_CHANNEL, 3))?;
-                    let io = match entry[1] >> 6 {
-                        1 => IoType::Input,
-                        2 => IoType::Output,
-                        3 => IoType::InputOutput,
-                        _ => {
-                            return Err(DiagError::Unknown {
-                                offset: at + 1,
-                                field: "I/O type (bits 7-6; 00 is reserved)",
-                                value: entry[1],
-                            })
-                        }
-                    };
-                    let channel_type =
-                        ChannelType::from_code(entry[2] >> 5).ok_or(DiagError::Unknown {
-                            offset: at + 2,
-                            field: "channel type (bits 7-5; 000 and 111 are reserved)",
-                            value: entry[2],
-                        })?;
-                    let error =
-                        ErrorType::from_code(entry[2] & 0x1F).ok_or(DiagError::Unknown {
-                            offset: at + 2,
-                            field: "channel error type (bits 4-0; the SI module reports 6, 7, 8, 9, 16, 22)",
-                            value: entry[2],
-                        })?;
-                    out.channels.push(ChannelDiagnosis {
-                        slot: entry[0] & 0x3F,
-                        channel: entry[1] & 0x3F,
-                        io,
-                        channel_type,
-                        error,
-                    });
-                    at += 3;
-                }
-                _ => {
-                    return Err(DiagError::Unknown {
-                        offset: at,
-                        field: "block header (bits 7-6 = 11)",
-                        value: header,
-                    })
-                }
-            }
+            };
         }
         Ok(out)
     }
 
-    /// Encodes the diagnosis; the inverse of [`decode`](Self::decode).
+    /// A channel entry: decoded when every code is in the SI module's tables, else kept raw.
+    fn channel_entry(&mut self, offset: usize, entry: &[u8]) {
+        let (slot, channel) = (entry[0] & 0x3F, entry[1] & 0x3F);
+        let io = IoType::from_bits(entry[1] >> 6);
+        let channel_type = ChannelType::from_code(entry[2] >> 5);
+        let error_type = entry[2] & 0x1F;
+        match (io, channel_type, ErrorType::from_code(error_type)) {
+            (Some(io), Some(channel_type), Some(error)) => self.channels.push(ChannelDiagnosis {
+                slot,
+                channel,
+                io,
+                channel_type,
+                error,
+            }),
+            _ => self.unknown.push(UnknownPart {
+                offset,
+                kind: UnknownKind::Channel {
+                    slot,
+                    channel,
+                    io,
+                    channel_type,
+                    error_type,
+                },
+                bytes: entry.to_vec(),
+            }),
+        }
+    }
+
+    /// An identifier-related block (header `01`): the module diagnosis, unless one was given.
+    fn module_diagnosis_block(&mut self, offset: usize, block: &[u8]) {
+        if self.module_diagnosis.is_some() {
+            return self.keep(offset, UnknownKind::Repeated, block);
+        }
+        self.module_diagnosis = Some(ModuleDiagnosis {
+            bits: block[1..].to_vec(),
+        });
+    }
+
+    /// A device-related block (header `00`): the module status when it is `82H 00H 00H` and
+    /// none was given, else kept raw.
+    fn device_block(&mut self, offset: usize, block: &[u8]) {
+        let is_module_status = matches!(block, [_, MODULE_STATUS_TYPE, 0, 0, ..]);
+        if !is_module_status {
+            let kind = UnknownKind::StatusBlock {
+                status_type: block.get(1).copied(),
+            };
+            return self.keep(offset, kind, block);
+        }
+        if self.module_status.is_some() {
+            return self.keep(offset, UnknownKind::Repeated, block);
+        }
+        self.module_status = Some(ModuleStatus {
+            bits: block[4..].to_vec(),
+        });
+    }
+
+    fn keep(&mut self, offset: usize, kind: UnknownKind, bytes: &[u8]) {
+        self.unknown.push(UnknownPart {
+            offset,
+            kind,
+            bytes: bytes.to_vec(),
+        });
+    }
+
+    /// Encodes the diagnosis; the inverse of [`decode`](Self::decode): the known parts in the
+    /// usual order, then the unknown parts as they were received.
     pub fn encode(&self) -> Result<Vec<u8>, DiagError> {
         let s = &self.station;
         let mut out = vec![s.status1, s.status2, s.status3, s.master_address];
@@ -699,16 +803,14 @@ impl SlaveDiagnosis {
         for c in &self.channels {
             fits("slot", c.slot.into(), 63)?;
             fits("channel", c.channel.into(), 63)?;
-            let io = match c.io {
-                IoType::Input => 1,
-                IoType::Output => 2,
-                IoType::InputOutput => 3,
-            };
             out.extend_from_slice(&[
                 0x80 | c.slot,
-                io << 6 | c.channel,
+                c.io.bits() << 6 | c.channel,
                 c.channel_type.code() << 5 | c.error.code(),
             ]);
+        }
+        for u in &self.unknown {
+            out.extend_from_slice(&u.bytes);
         }
         fits("slave diagnosis bytes", out.len(), MAX_DIAG_LEN)?;
         Ok(out)
@@ -738,7 +840,11 @@ mod tests {
         }
         for b in 0..4 {
             assert_eq!(ModuleState::from_bits(b).bits(), b);
+            if let Some(io) = IoType::from_bits(b) {
+                assert_eq!(io.bits(), b);
+            }
         }
+        assert_eq!(IoType::from_bits(0), None);
     }
 
     #[test]

@@ -7,6 +7,7 @@
 //!   USS master) with the manual's ranges and defaults, read from and written to TOML or JSON,
 //!   and the simulated module a parameter set configures;
 //! * [`diag`]: the PROFIBUS slave diagnosis of a station with an SI module, decode and encode;
+//!   what the SI module's tables do not describe (other modules' entries, interrupts) is kept raw;
 //! * [`ident`]: the identification records I&M0 (DS 231) and I&M1 (DS 232);
 //! * [`led`]: the module's SF, TX and RX LEDs as a function of its state and the time.
 //!

@@ -801,16 +801,15 @@ fn read_modbus_line(r: &mut Reader<'_>) -> (ModbusModule, LineConfig) {
         FlowControl::None,
     );
     let settings = r.settings(false, &PARITIES[..3]);
+    let errors_before_mode = r.errors.len();
+    let mode = r.choice("mode", &Mode::NAMES, Mode::Normal);
+    if let Some(e) = r.errors.get_mut(errors_before_mode) {
+        // §3.7, §7.4: the module refuses any other mode with 0E22H and is not ready.
+        e.text = format!("{} ({})", e.text, si_modbus::status::INVALID_MODE);
+    }
     let line = LineConfig {
         settings,
-        mode: r.choice(
-            "mode",
-            &[
-                ("normal", Mode::Normal),
-                ("interference-suppression", Mode::InterferenceSuppression),
-            ],
-            Mode::Normal,
-        ),
+        mode,
         char_delay_multiplier: r.uint("char_delay_multiplier", 1, 0xFF, "1…10") as u8,
         local_echo: r.bool("local_echo", false),
         // §2.2: the flow control's two times, with the ASCII driver's ranges (§11.3).
@@ -1262,14 +1261,7 @@ impl DriverParams {
                     _ => LineConfig::default(),
                 };
                 settings(&mut put, line.settings, false);
-                put(
-                    "mode",
-                    match line.mode {
-                        Mode::Normal => "normal",
-                        Mode::InterferenceSuppression => "interference-suppression",
-                    }
-                    .into(),
-                );
+                put("mode", line.mode.name().into());
                 put("char_delay_multiplier", line.char_delay_multiplier.into());
                 put("local_echo", line.local_echo.into());
                 if let Some(t) = line.auto_v24 {

@@ -1,7 +1,8 @@
 //! `si diag`, `si im`, `si params`: the SI module's own data, offline.
 //!
 //! - `si diag decode HEX`: a PROFIBUS slave diagnosis with the channel errors' meaning and action
-//!   (et200s-si-2005-window-protocol.md §6.4, [`si_module::diag`]);
+//!   (et200s-si-2005-window-protocol.md §6.4, [`si_module::diag`]); parts the SI module's
+//!   tables do not describe (other modules' channel errors, interrupts) are shown raw;
 //! - `si im decode HEX` / `si im encode --hid TEXT --location TEXT`: the 64-byte identification
 //!   records DS 231 / DS 232 (§9.1, [`si_module::ident`]);
 //! - `si params check FILE`: a TOML or JSON parameter file against the manual's tables; prints
@@ -23,7 +24,8 @@ use std::path::PathBuf;
 #[derive(Debug, Subcommand)]
 pub enum DiagCommand {
     /// Decode a slave diagnosis (from station status 1 on): station status, module diagnosis,
-    /// module status and the channel errors with the manual's meaning and action.
+    /// module status and the channel errors with the manual's meaning and action; what the SI
+    /// module's tables do not describe is shown with its raw bytes.
     Decode(DiagDecodeArgs),
 }
 
@@ -136,6 +138,16 @@ impl DiagDecodeArgs {
                 ),
                 json!({"part": "channel", "channel": c, "code": e.code(), "name": e.name(),
                        "meaning": e.meaning(variant), "action": e.action(variant)}),
+            );
+        }
+        // What the SI module's tables do not describe: other modules' entries, interrupts,
+        // blocks of unknown layout, shown with their raw bytes.
+        for u in &d.unknown {
+            let raw = hex::format(&u.bytes);
+            out.line(
+                &format!("not decoded at offset {}: {}; raw {raw}", u.offset, u.kind),
+                json!({"part": "unknown", "offset": u.offset, "kind": u.kind,
+                       "text": u.kind.to_string(), "bytes": raw}),
             );
         }
         Ok(())

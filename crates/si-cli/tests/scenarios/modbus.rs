@@ -173,5 +173,14 @@ fn serve_config_errors_name_the_file_and_field() {
     let o = serve_on_null(&[], &["--config", path.to_str().unwrap()]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("m_fromm"), "{}", stderr(&o));
+    // §3.7, §7.4: an operating mode other than the two is 0E22H, driver not ready.
+    std::fs::write(&path, "mode = \"fast\"\n").unwrap();
+    let o = serve_on_null(&[], &["--config", path.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(
+        err.contains("bad.toml") && err.contains("\"fast\"") && err.contains("16#0E22"),
+        "{err}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -131,6 +131,63 @@ fn diag_decode_names_the_channel_error_and_its_action() {
     );
 }
 
+/// A full station: besides the SI module's entry, another module's channel error (type 1),
+/// an entry with reserved I/O and channel types, and an interrupt block. They are shown with
+/// their raw bytes, and the SI module's entry is decoded as usual.
+#[test]
+fn diag_decode_shows_what_the_si_tables_do_not_describe_raw() {
+    let words = [
+        "diag",
+        "decode",
+        "08 0C 00 02 80 E0",
+        "42 18",
+        "05 82 00 00 50",
+        "83 C0 96",
+        "84 41 21",
+        "85 02 E6",
+        "08 01 04 01 00 11 22 33",
+    ];
+    let o = si(&words);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(
+        text.contains("error type 10110 (22) message error: frame error or parity error"),
+        "{text}"
+    );
+    let unknown: Vec<&str> = text
+        .lines()
+        .filter(|l| l.starts_with("not decoded"))
+        .collect();
+    assert_eq!(
+        unknown,
+        [
+            "not decoded at offset 16: channel entry: slot 4 channel 1 (input, bit): error type \
+             00001 (1), not in the SI module's tables (see the reporting module's manual); raw 84 41 21",
+            "not decoded at offset 19: channel entry: slot 5 channel 2 (I/O type 00 reserved, \
+             channel type reserved): error type 00110 (6); raw 85 02 E6",
+            "not decoded at offset 22: device-related block of status type 01H, not the module \
+             status 82H 00H 00H: an interrupt, a status message or manufacturer-specific data; \
+             raw 08 01 04 01 00 11 22 33",
+        ],
+        "{text}"
+    );
+
+    let mut json = vec!["--json"];
+    json.extend_from_slice(&words);
+    let o = si(&json);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let parts: Vec<serde_json::Value> = stdout(&o)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .filter(|v: &serde_json::Value| v["part"] == "unknown")
+        .collect();
+    assert_eq!(parts.len(), 3);
+    assert_eq!(parts[0]["offset"], 16);
+    assert_eq!(parts[0]["bytes"], "84 41 21");
+    assert_eq!(parts[0]["kind"]["channel"]["error_type"], 1);
+    assert_eq!(parts[2]["kind"]["status-block"]["status_type"], 1);
+}
+
 #[test]
 fn im_encode_then_decode() {
     let o = si(&["im", "encode", "--hid", "PLANT-A", "--location", "HALL 2"]);

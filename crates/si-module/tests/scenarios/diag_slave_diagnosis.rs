@@ -4,7 +4,7 @@
 use proptest::prelude::*;
 use si_module::diag::{
     ChannelDiagnosis, ChannelType, DiagError, ErrorType, IoType, ModuleDiagnosis, ModuleState,
-    ModuleStatus, SlaveDiagnosis, StationStatus, Variant,
+    ModuleStatus, SlaveDiagnosis, StationStatus, UnknownKind, UnknownPart, Variant,
 };
 
 /// A station whose SI module in slot 3 reports `error` on its channel: standard part (extended
@@ -16,6 +16,11 @@ fn with_channel(error_byte: u8) -> Vec<u8> {
         0x05, 0x82, 0x00, 0x00, 0x10, // module status: 5 bytes, module 3 = 01
         0x83, 0xC0, error_byte, // slot 3, input/output channel 0, byte type + error
     ]
+}
+
+/// The modules the module diagnosis says report something.
+fn reporting_modules(d: &SlaveDiagnosis) -> Vec<usize> {
+    d.module_diagnosis.as_ref().unwrap().modules().collect()
 }
 
 #[test]
@@ -90,18 +95,202 @@ fn table_3_73_modbus_uss_wording_of_underflow() {
 }
 
 #[test]
-fn every_other_error_type_is_refused_naming_the_offset() {
+fn every_other_error_type_is_kept_raw_and_the_rest_decoded() {
     for code in 0..32u8 {
         if ErrorType::from_code(code).is_some() {
             continue;
         }
-        let e = SlaveDiagnosis::decode(&with_channel(0x80 | code)).unwrap_err();
-        assert!(
-            matches!(e, DiagError::Unknown { offset: 15, .. }),
-            "{code}: {e}"
+        let bytes = with_channel(0x80 | code);
+        let d = SlaveDiagnosis::decode(&bytes).unwrap();
+        assert!(d.channels.is_empty(), "{code}");
+        assert_eq!(
+            d.unknown,
+            [UnknownPart {
+                offset: 13,
+                kind: UnknownKind::Channel {
+                    slot: 3,
+                    channel: 0,
+                    io: Some(IoType::InputOutput),
+                    channel_type: Some(ChannelType::Byte),
+                    error_type: code,
+                },
+                bytes: vec![0x83, 0xC0, 0x80 | code],
+            }],
+            "{code}"
         );
-        assert!(e.to_string().contains("at offset 15"), "{e}");
+        assert_eq!(
+            d.module_status.as_ref().unwrap().state(3),
+            Some(ModuleState::Error)
+        );
+        assert_eq!(d.encode().unwrap(), bytes);
     }
+}
+
+/// A whole station, as the IM sends it: the SI module in slot 3 with a message error, a
+/// digital input module in slot 4 with an error type of its own (1, not in the SI tables), an
+/// entry with a reserved I/O type and channel type in slot 5, and a DP-V1 diagnostic interrupt
+/// block (status type 01H) after the channel entries.
+#[test]
+fn a_full_station_keeps_unknown_parts_raw_and_decodes_the_rest() {
+    let bytes = [
+        0x08, 0x0C, 0x00, 0x02, 0x80, 0xE0, // standard diagnosis
+        0x42, 0x1C, // module diagnosis: modules 3, 4, 5
+        0x06, 0x82, 0x00, 0x00, 0x50, 0x02, // module status: 3, 4 error; 5 wrong module
+        0x83, 0xC0, 0x96, // slot 3 channel 0, input/output, byte: message error (22)
+        0x84, 0x41, 0x21, // slot 4 channel 1, input, bit: error type 1
+        0x85, 0x02, 0xE6, // slot 5 channel 2: I/O type 00, channel type 111
+        0x08, 0x01, 0x04, 0x01, 0x00, 0x11, 0x22, 0x33, // interrupt block, 8 bytes
+    ];
+    let d = SlaveDiagnosis::decode(&bytes).unwrap();
+    assert_eq!(d.station.ident_number, 0x80E0);
+    assert_eq!(reporting_modules(&d), [3, 4, 5]);
+    let status = d.module_status.as_ref().unwrap();
+    assert_eq!(
+        [status.state(3), status.state(4), status.state(5)],
+        [
+            Some(ModuleState::Error),
+            Some(ModuleState::Error),
+            Some(ModuleState::WrongModule)
+        ]
+    );
+    assert_eq!(
+        d.channels,
+        [ChannelDiagnosis::si(3, ErrorType::MessageError)]
+    );
+    assert_eq!(
+        d.unknown,
+        [
+            UnknownPart {
+                offset: 17,
+                kind: UnknownKind::Channel {
+                    slot: 4,
+                    channel: 1,
+                    io: Some(IoType::Input),
+                    channel_type: Some(ChannelType::Bit),
+                    error_type: 1,
+                },
+                bytes: vec![0x84, 0x41, 0x21],
+            },
+            UnknownPart {
+                offset: 20,
+                kind: UnknownKind::Channel {
+                    slot: 5,
+                    channel: 2,
+                    io: None,
+                    channel_type: None,
+                    error_type: 6,
+                },
+                bytes: vec![0x85, 0x02, 0xE6],
+            },
+            UnknownPart {
+                offset: 23,
+                kind: UnknownKind::StatusBlock {
+                    status_type: Some(0x01)
+                },
+                bytes: bytes[23..].to_vec(),
+            },
+        ]
+    );
+    assert_eq!(
+        d.unknown[0].kind.to_string(),
+        "channel entry: slot 4 channel 1 (input, bit): error type 00001 (1), not in the SI \
+         module's tables (see the reporting module's manual)"
+    );
+    assert_eq!(
+        d.unknown[1].kind.to_string(),
+        "channel entry: slot 5 channel 2 (I/O type 00 reserved, channel type reserved): error \
+         type 00110 (6)"
+    );
+    // Unknown parts that came last: the same bytes again.
+    assert_eq!(d.encode().unwrap(), bytes);
+}
+
+#[test]
+fn blocks_out_of_the_usual_order_a_second_status_and_header_11_are_kept() {
+    // Module status after a channel entry is still the module status; a second one is kept.
+    let mut d = vec![0x08, 0x0C, 0x00, 0x02, 0x80, 0xE0, 0x83, 0xC0, 0x86];
+    d.extend_from_slice(&[0x05, 0x82, 0x00, 0x00, 0x10]);
+    d.extend_from_slice(&[0x05, 0x82, 0x00, 0x00, 0x04]);
+    let x = SlaveDiagnosis::decode(&d).unwrap();
+    assert_eq!(x.channels, [ChannelDiagnosis::si(3, ErrorType::WireBreak)]);
+    assert_eq!(x.module_status.unwrap().state(3), Some(ModuleState::Error));
+    assert_eq!(x.unknown.len(), 1);
+    assert_eq!(
+        (x.unknown[0].offset, x.unknown[0].kind),
+        (14, UnknownKind::Repeated)
+    );
+    // A module status block with another status type or nonzero bytes 2–3 is a status block;
+    // a short device-related block (DP-V0, manufacturer-specific) as well.
+    for (block, status_type) in [
+        (&[0x05, 0x81, 0x00, 0x00, 0x10][..], Some(0x81)),
+        (&[0x05, 0x82, 0x03, 0x01, 0x10][..], Some(0x82)),
+        (&[0x02, 0x7F][..], Some(0x7F)),
+        (&[0x01][..], None),
+    ] {
+        let mut d = vec![0x08, 0x0C, 0x00, 0x02, 0x80, 0xE0];
+        d.extend_from_slice(block);
+        d.extend_from_slice(&[0x83, 0xC0, 0x86]);
+        let x = SlaveDiagnosis::decode(&d).unwrap();
+        assert_eq!(x.module_status, None, "{block:02X?}");
+        assert_eq!(x.channels.len(), 1, "{block:02X?}");
+        assert_eq!(
+            x.unknown,
+            [UnknownPart {
+                offset: 6,
+                kind: UnknownKind::StatusBlock { status_type },
+                bytes: block.to_vec(),
+            }]
+        );
+    }
+    // Header 11: no known length, so the rest is one part; what came before is decoded.
+    let d = [
+        0x08, 0x0C, 0x00, 0x02, 0x80, 0xE0, 0x83, 0xC0, 0x86, 0xC2, 0x01, 0x83, 0xC0, 0x96,
+    ];
+    let x = SlaveDiagnosis::decode(&d).unwrap();
+    assert_eq!(x.channels, [ChannelDiagnosis::si(3, ErrorType::WireBreak)]);
+    assert_eq!(
+        x.unknown,
+        [UnknownPart {
+            offset: 9,
+            kind: UnknownKind::Header { header: 0xC2 },
+            bytes: d[9..].to_vec(),
+        }]
+    );
+}
+
+#[test]
+fn only_wrong_lengths_fail_naming_the_offset() {
+    let mut d = with_channel(0x86);
+    d[8] = 0x00; // module status header of length 0
+    assert_eq!(
+        SlaveDiagnosis::decode(&d).unwrap_err().to_string(),
+        "invalid length 0 in the module status header at offset 8 (at least 1)"
+    );
+    let mut d = with_channel(0x86);
+    d[6] = 0x40;
+    assert!(matches!(
+        SlaveDiagnosis::decode(&d),
+        Err(DiagError::BadLength {
+            offset: 6,
+            length: 0,
+            ..
+        })
+    ));
+    let mut d = with_channel(0x86);
+    d[8] = 0x3F; // a device-related block longer than what follows
+    assert!(matches!(
+        SlaveDiagnosis::decode(&d),
+        Err(DiagError::Truncated {
+            offset: 8,
+            needed: 63,
+            available: 8,
+            ..
+        })
+    ));
+    assert!(matches!(
+        SlaveDiagnosis::decode(&[0; 245]),
+        Err(DiagError::TooLong { len: 245 })
+    ));
 }
 
 #[test]
@@ -124,14 +313,7 @@ fn standard_module_diagnosis_and_module_status_decode() {
             "response monitoring (watchdog) on"
         ]
     );
-    assert_eq!(
-        d.module_diagnosis
-            .as_ref()
-            .unwrap()
-            .modules()
-            .collect::<Vec<_>>(),
-        [3]
-    );
+    assert_eq!(reporting_modules(&d), [3]);
     let status = d.module_status.as_ref().unwrap();
     assert_eq!(status.state(3), Some(ModuleState::Error));
     assert_eq!(status.state(1), Some(ModuleState::Ok));
@@ -176,54 +358,6 @@ fn diagnosis_cut_at_every_length_decodes_a_prefix_or_names_the_offset() {
 }
 
 #[test]
-fn bad_headers_and_order_name_the_offset() {
-    let mut d = with_channel(0x86);
-    d[9] = 0x81;
-    assert_eq!(
-        SlaveDiagnosis::decode(&d).unwrap_err().to_string(),
-        "unknown status type (the SI module sends 82H, module status) at offset 9: byte 81H"
-    );
-    let mut d = with_channel(0x86);
-    d[6] = 0xC2;
-    assert!(matches!(
-        SlaveDiagnosis::decode(&d),
-        Err(DiagError::Unknown { offset: 6, .. })
-    ));
-    let mut d = with_channel(0x86);
-    d[8] = 0x03;
-    assert!(matches!(
-        SlaveDiagnosis::decode(&d),
-        Err(DiagError::BadLength {
-            offset: 8,
-            length: 3,
-            ..
-        })
-    ));
-    let mut d = with_channel(0x86);
-    d[14] = 0x00; // I/O type 00 is reserved
-    assert!(matches!(
-        SlaveDiagnosis::decode(&d),
-        Err(DiagError::Unknown { offset: 14, .. })
-    ));
-    let d = with_channel(0xE6); // channel type 111 is reserved
-    assert!(matches!(
-        SlaveDiagnosis::decode(&d),
-        Err(DiagError::Unknown { offset: 15, .. })
-    ));
-    // Module status after a channel entry.
-    let mut d = vec![0x08, 0x0C, 0x00, 0x02, 0x80, 0xE0, 0x83, 0xC0, 0x86];
-    d.extend_from_slice(&[0x04, 0x82, 0x00, 0x00]);
-    assert!(matches!(
-        SlaveDiagnosis::decode(&d),
-        Err(DiagError::OutOfOrder { offset: 9, .. })
-    ));
-    assert!(matches!(
-        SlaveDiagnosis::decode(&[0; 245]),
-        Err(DiagError::TooLong { len: 245 })
-    ));
-}
-
-#[test]
 fn simulated_module_entry_encodes() {
     let d = SlaveDiagnosis {
         station: StationStatus {
@@ -240,6 +374,7 @@ fn simulated_module_entry_encodes() {
             s
         }),
         channels: vec![ChannelDiagnosis::si(3, ErrorType::WireBreak)],
+        unknown: Vec::new(),
     };
     assert_eq!(d.encode().unwrap(), with_channel(0x86));
     let too_far = SlaveDiagnosis {
@@ -278,10 +413,63 @@ fn any_channel() -> impl Strategy<Value = ChannelDiagnosis> {
         )
 }
 
+/// A diagnosis whose every length field is right: the standard part, then blocks with headers
+/// 00 and 01 of lengths 1 … 63 and channel entries with any content, optionally a header-11
+/// tail, at most 244 bytes.
+fn well_framed() -> impl Strategy<Value = Vec<u8>> {
+    let block = prop_oneof![
+        (0u8..2, 1usize..64).prop_flat_map(|(kind, len)| {
+            prop::collection::vec(any::<u8>(), len - 1).prop_map(move |body| {
+                let mut b = vec![kind << 6 | len as u8];
+                b.extend(body);
+                b
+            })
+        }),
+        any::<[u8; 3]>().prop_map(|[a, b, c]| vec![0x80 | a & 0x3F, b, c]),
+    ];
+    (
+        any::<[u8; 6]>(),
+        prop::collection::vec(block, 0..12),
+        prop::option::of(prop::collection::vec(any::<u8>(), 0..8)),
+    )
+        .prop_map(|(std, blocks, tail)| {
+            let mut out = std.to_vec();
+            for b in blocks {
+                if out.len() + b.len() <= 236 {
+                    out.extend(b);
+                }
+            }
+            if let Some(t) = tail {
+                out.push(0xC0 | t.len() as u8);
+                out.extend(t);
+            }
+            out
+        })
+}
+
 proptest! {
+    /// Any bytes: no panic, and an error only for a wrong length.
     #[test]
-    fn decode_never_panics(bytes in prop::collection::vec(any::<u8>(), 0..300)) {
-        let _ = SlaveDiagnosis::decode(&bytes);
+    fn decode_never_panics_and_fails_only_on_lengths(
+        bytes in prop::collection::vec(any::<u8>(), 0..300),
+    ) {
+        match SlaveDiagnosis::decode(&bytes) {
+            Ok(d) => prop_assert_eq!(d.encode().unwrap().len(), bytes.len()),
+            Err(DiagError::TooLong { .. }) => prop_assert!(bytes.len() > 244),
+            Err(DiagError::Truncated { .. } | DiagError::BadLength { .. }) => {}
+            Err(e) => prop_assert!(false, "{}", e),
+        }
+    }
+
+    /// Every well-framed diagnosis decodes, whatever its codes, and each unknown part carries
+    /// the bytes it was found at.
+    #[test]
+    fn a_well_framed_diagnosis_always_decodes(bytes in well_framed()) {
+        let d = SlaveDiagnosis::decode(&bytes).unwrap();
+        prop_assert_eq!(d.encode().unwrap().len(), bytes.len());
+        for u in &d.unknown {
+            prop_assert_eq!(&bytes[u.offset..u.offset + u.bytes.len()], &u.bytes[..]);
+        }
     }
 
     #[test]
@@ -299,6 +487,7 @@ proptest! {
             module_diagnosis: diag.map(|bits| ModuleDiagnosis { bits }),
             module_status: status.map(|bits| ModuleStatus { bits }),
             channels,
+            unknown: Vec::new(),
         };
         let bytes = d.encode().unwrap();
         prop_assert_eq!(SlaveDiagnosis::decode(&bytes).unwrap(), d);

@@ -348,6 +348,25 @@ fn receive_line_initial_state_depends_on_the_interface() {
     assert!(e.to_string().contains("none, odd, even"), "{e}");
 }
 
+/// et200s-si-modbus-uss.md §3.7, §7.4: a mode other than Normal or Interference suppression is
+/// 0E22H, "driver not ready".
+#[test]
+fn an_invalid_modbus_mode_names_0e22h() {
+    for driver in ["modbus-master", "modbus-slave"] {
+        let e = DriverParams::from_toml_str(&file(driver, "", "mode", "\"fast\"")).unwrap_err();
+        assert_eq!(e.len(), 1, "{e}");
+        assert_eq!(
+            e.to_string(),
+            "mode = \"fast\" is not one of: normal, interference-suppression \
+             (16#0E22 invalid operating mode; driver not ready)"
+        );
+        let p =
+            DriverParams::from_toml_str(&file(driver, "", "mode", "\"interference-suppression\""))
+                .unwrap();
+        assert_eq!(p.to_value()["mode"], "interference-suppression");
+    }
+}
+
 #[test]
 fn three_wrong_values_and_an_unknown_key_in_one_run() {
     let text =
