@@ -66,6 +66,57 @@ fn sim_uss_cycle_goes_on_past_the_silent_drive() {
     let counters = &last.last().unwrap()["counters"];
     assert_eq!(counters["no_answer"], 3);
     assert_eq!(counters["ok"], 6);
+    // 3 cycles × 3 nodes and no telegram after the run.
+    assert_eq!(counters["sent"], 9);
+}
+
+#[test]
+fn decode_shows_the_full_parameter_number_from_the_page_index() {
+    // uss-parameter-pages.md: p2029[5] → PKE 101DH (AK 1), IND 8005H; P60000 → IND 74xxH.
+    for (net, want) in [
+        ([0x10, 0x1D, 0x80, 0x05], "PNU 29 IND 8005H (P2029:5)"),
+        ([0x10, 0x00, 0x74, 0x00], "PNU 0 IND 7400H (P60000:0)"),
+    ] {
+        let mut t = vec![0x02, 0x0A, 0x01];
+        t.extend_from_slice(&net);
+        t.extend_from_slice(&[0, 0, 0, 0]);
+        let bcc = t.iter().fold(0, |a, b| a ^ b);
+        t.push(bcc);
+        let hex: Vec<String> = t.iter().map(|b| format!("{b:02X}")).collect();
+        let o = si(&[
+            "frame",
+            "decode",
+            "uss",
+            "--pkw-words",
+            "4",
+            "--pzd-words",
+            "0",
+            &hex.join(" "),
+        ]);
+        assert!(o.status.success(), "{o:?}");
+        assert!(stdout(&o).contains(want), "{}", stdout(&o));
+    }
+}
+
+#[test]
+fn help_documents_the_radix_wdh_and_both_pkw_modes() {
+    let o = si(&["uss", "poll", "--help"]);
+    let help = stdout(&o);
+    assert!(help.contains("--stw"), "{help}");
+    assert!(help.contains("0x047F"), "{help}");
+    assert!(
+        help.contains("repetitions after the first telegram"),
+        "{help}"
+    );
+    assert!(help.contains("--pkw-repeat"), "{help}");
+    assert!(help.contains("task 0"), "{help}");
+    let o = si(&["uss", "write-param", "--help"]);
+    let help = stdout(&o);
+    assert!(
+        help.contains("--array") && help.contains("--index"),
+        "{help}"
+    );
+    assert!(help.contains("negative allowed"), "{help}");
 }
 
 #[test]
