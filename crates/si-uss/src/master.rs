@@ -579,8 +579,10 @@ impl Master {
 
     /// End the run as soon as no parameter job runs and no broadcast or mirror telegram waits:
     /// the master stops in the step that reports the last job's end, before the next poll. For a
-    /// program that runs one job and exits (`si uss read-param`): call it in the same driver
-    /// command that starts the job, or the master stops before the job is entered.
+    /// program that runs one job and exits (`si uss read-param`): enter the job and call this
+    /// before [`start`](Self::start), so every telegram of the run carries the job (a master
+    /// started first may poll with AK 0 before a job entered later, and one told to stop while
+    /// idle stops at once).
     pub fn stop_when_idle(&mut self) {
         self.stop_when_idle = true;
     }

@@ -94,29 +94,8 @@ impl Handle {
     /// previous job still runs wait in the driver; other events stay for
     /// [`next_event`](Self::next_event).
     pub async fn parameter(&self, address: u8, request: ParamRequest) -> Result<Pkw, Error> {
-        self.job(address, request, false).await
-    }
-
-    /// Like [`parameter`](Self::parameter), and the last thing this master does: it stops
-    /// polling in the step that ends the job ([`Master::stop_when_idle`], entered in the same
-    /// driver command as the job), so no telegram follows the job on the line. For programs
-    /// that run one job and exit.
-    pub async fn parameter_and_stop(
-        &self,
-        address: u8,
-        request: ParamRequest,
-    ) -> Result<Pkw, Error> {
-        self.job(address, request, true).await
-    }
-
-    async fn job(&self, address: u8, request: ParamRequest, then_stop: bool) -> Result<Pkw, Error> {
         let start = move |m: &mut Master, now| match m.request_parameter(now, address, request) {
-            Ok(job) => {
-                if then_stop {
-                    m.stop_when_idle();
-                }
-                Start::Running(job)
-            }
+            Ok(job) => Start::Running(job),
             Err(RequestError::Busy(_)) => Start::Busy,
             Err(e) => Start::Ended(Err(Error::Refused(e))),
         };

@@ -21,7 +21,7 @@ use si_uss::frame::{
     self, pkw_error_text, Adr, NetData, ParamAddress, Pkw, PkwWords, MAX_TELEGRAM,
 };
 use si_uss::master::{Event, Master, ParamRequest};
-use si_uss::tokio::{Error as UssError, Handle};
+use si_uss::tokio::Handle;
 
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]
@@ -105,7 +105,7 @@ pub struct PollArgs {
     /// Stop after this many cycles (default: until interrupted); no telegram leaves after them.
     #[arg(long)]
     cycles: Option<u64>,
-    /// Read this parameter (PNU[:IND]) from every node in the first polls (PKW task 1); the
+    /// Read this parameter (PNU or PNU:IND) from every node in the first polls (PKW task 1); the
     /// results are printed. With --pkw-repeat the read then stays in every poll's PKW area.
     #[arg(long, value_name = "PARAM")]
     read_param: Option<String>,
@@ -190,7 +190,7 @@ pub struct SimSlaveArgs {
     hex: bool,
 }
 
-/// `PNU[:IND]` with `--index`: the parameter's number and sub-index, checked against the page
+/// `PNU` or `PNU:IND` with `--index`: the parameter's number and sub-index, checked against the page
 /// index's range (si_uss::param).
 fn parse_param(text: &str, index: Option<u8>) -> Result<ParamAddress, CliError> {
     let bad = |why: String| CliError::new(format!("parameter {text:?}: {why}"));
@@ -254,16 +254,6 @@ fn failure_text(address: u8, status: Status, error_number: Option<u16>) -> Strin
     format!("node {address}: {}{number}", status_text(status))
 }
 
-fn uss_error(address: u8, e: UssError) -> CliError {
-    match e {
-        UssError::Failed {
-            status,
-            error_number,
-        } => CliError::new(failure_text(address, status, error_number)),
-        other => CliError::new(other.to_string()),
-    }
-}
-
 impl Command {
     /// Run it on the line.
     pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
@@ -312,8 +302,10 @@ impl Command {
     }
 }
 
-/// Run one parameter job on a master that polls only `slave` and stops in the step that ends
-/// the job: no telegram follows the job on the line.
+/// Run one parameter job on a master that polls only `slave`. The job is entered before the
+/// master starts and the master stops in the step that ends it
+/// ([`Master::stop_when_idle`]): every telegram on the line carries the job, none comes before
+/// or after it.
 async fn last_job(
     conn: &Connection,
     structure: &Structure,
@@ -324,11 +316,27 @@ async fn last_job(
         conn.settings_for(&si_uss::config::USS_BAUD_RATES)?,
         &[slave],
     )?;
-    let transport = conn.open_with(&config.settings).await?;
-    let m = Handle::spawn(config, transport)?;
-    m.parameter_and_stop(slave, request)
-        .await
-        .map_err(|e| uss_error(slave, e))
+    let settings = config.settings;
+    let mut master = Master::new(config)?;
+    let job = master.request_parameter(Instant::ZERO, slave, request)?;
+    master.stop_when_idle();
+    let transport = conn.open_with(&settings).await?;
+    let mut m = Handle::spawn_engine(master, transport);
+    while let Some(event) = m.next_event().await {
+        match event {
+            Event::ParameterDone {
+                job: j, response, ..
+            } if j == job => return Ok(response),
+            Event::ParameterFailed {
+                job: j,
+                status,
+                error_number,
+                ..
+            } if j == job => return Err(CliError::new(failure_text(slave, status, error_number))),
+            _ => {}
+        }
+    }
+    Err(CliError::new("the line was closed"))
 }
 
 async fn poll(a: PollArgs, conn: &Connection, out: &Output) -> Result<(), CliError> {

@@ -233,3 +233,74 @@ fn refusal_negative_values_pages_and_arrays_against_a_simulated_drive() {
     assert!(!ok);
     assert!(err.starts_with("si: error: node 6: 16#1505"), "{err}");
 }
+
+/// (AK, PKE) of every telegram a `--record` trace shows the recording side sending.
+fn pkw_sent(trace: &std::path::Path) -> Vec<(u8, u16)> {
+    std::fs::read_to_string(trace)
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|v| v["kind"] == "tx")
+        .map(|v| {
+            let b: Vec<u8> = v["bytes"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_u64().unwrap() as u8)
+                .collect();
+            let pke = u16::from_be_bytes([b[3], b[4]]);
+            ((pke >> 12) as u8, pke & 0x7FF)
+        })
+        .collect()
+}
+
+#[test]
+fn poll_with_a_read_sends_task_0_after_it_or_with_pkw_repeat_the_read_again() {
+    let Some(pair) = pty_pair_ignoreeof() else {
+        return;
+    };
+    let (a, b) = (&pair.a, &pair.b);
+    let _slave = Kill(
+        si_command()
+            .args(["uss", "sim-slave", "--address", "7", "--port", b])
+            .stdout(Stdio::null())
+            .spawn()
+            .expect("start sim-slave"),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let dir = common::test_dir("si-uss-pkw-repeat");
+    for (repeat, want) in [
+        (false, [(1, 700), (0, 0), (0, 0), (0, 0)]),
+        (true, [(1, 700); 4]),
+    ] {
+        let trace = dir.join(format!("poll-{repeat}.jsonl"));
+        let mut cmd = si_command();
+        cmd.args(["--port", a, "--record"]).arg(&trace).args([
+            "uss",
+            "poll",
+            "--slaves",
+            "7",
+            "--cycles",
+            "4",
+            "--read-param",
+            "700",
+            "--response-timeout",
+            "500",
+        ]);
+        if repeat {
+            cmd.arg("--pkw-repeat");
+        }
+        let o = cmd.output().expect("run poll");
+        let text = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            o.status.success(),
+            "{text}{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(
+            text.contains("slave 7 P700:0 = 5 (response ID 1)"),
+            "{text}"
+        );
+        assert_eq!(pkw_sent(&trace), want, "--pkw-repeat {repeat}");
+    }
+}

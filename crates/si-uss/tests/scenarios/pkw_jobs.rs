@@ -49,7 +49,7 @@ fn pair_with(
     (sim, m, d)
 }
 
-/// Start `request` on node 1 with [`Master::stop_when_idle`] (as `si uss read-param` does), run
+/// Enter `request` for node 1 before the first poll, with [`Master::stop_when_idle`], run
 /// until the line is quiet; the job's end.
 fn last_job(sim: &mut Simulator, m: StationId<Master>, request: ParamRequest) -> Event {
     sim.with(m, |m, now| {
