@@ -8,18 +8,49 @@ use crate::common;
 
 use common::{pty_pair, pty_pair_ignoreeof, si_command, Kill};
 
-#[test]
-fn poll_shows_changing_status_words_from_a_simulated_drive() {
-    let Some(pair) = pty_pair() else { return };
-    let (a, b) = (&pair.a, &pair.b);
-    let _slave = Kill(
+/// `si uss sim-slave --address <address> <extra…> --port <port>`, given 300 ms to open the port.
+fn drive(port: &str, address: &str, extra: &[&str]) -> Kill {
+    let slave = Kill(
         si_command()
-            .args(["uss", "sim-slave", "--address", "3", "--port", b])
+            .args(["uss", "sim-slave", "--address", address])
+            .args(extra)
+            .args(["--port", port])
             .stdout(Stdio::null())
             .spawn()
             .expect("start sim-slave"),
     );
     std::thread::sleep(Duration::from_millis(300));
+    slave
+}
+
+/// `si uss <args…> --slave <address> --response-timeout 500 --port <port>`: success, stdout
+/// and stderr, trimmed.
+fn job(port: &str, address: &str, args: &[&str]) -> (bool, String, String) {
+    let o = si_command()
+        .arg("uss")
+        .args(args)
+        .args([
+            "--slave",
+            address,
+            "--response-timeout",
+            "500",
+            "--port",
+            port,
+        ])
+        .output()
+        .expect("run si");
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stdout).trim().to_owned(),
+        String::from_utf8_lossy(&o.stderr).trim().to_owned(),
+    )
+}
+
+#[test]
+fn poll_shows_changing_status_words_from_a_simulated_drive() {
+    let Some(pair) = pty_pair() else { return };
+    let (a, b) = (&pair.a, &pair.b);
+    let _slave = drive(b, "3", &[]);
     let started = Instant::now();
     let o = si_command()
         .args([
@@ -75,40 +106,19 @@ fn poll_shows_changing_status_words_from_a_simulated_drive() {
 fn read_and_write_param_against_a_simulated_drive_with_an_ak7_refusal() {
     let Some(pair) = pty_pair() else { return };
     let (a, b) = (&pair.a, &pair.b);
-    let _slave = Kill(
-        si_command()
-            .args(["uss", "sim-slave", "--address", "5", "--port", b])
-            .stdout(Stdio::null())
-            .spawn()
-            .expect("start sim-slave"),
-    );
-    std::thread::sleep(Duration::from_millis(300));
-    let run = |args: &[&str]| {
-        let mut all = vec!["uss"];
-        all.extend_from_slice(args);
-        all.extend_from_slice(&["--slave", "5", "--response-timeout", "500", "--port", a]);
-        si_command().args(&all).output().expect("run si")
-    };
-    let o = run(&["read-param", "700"]);
-    let text = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        o.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    assert_eq!(text.trim(), "slave 5 P700:0 = 5 (response ID 1)");
+    let _slave = drive(b, "5", &[]);
+    let run = |args: &[&str]| job(a, "5", args);
+    let (ok, out, err) = run(&["read-param", "700"]);
+    assert!(ok, "{err}");
+    assert_eq!(out, "slave 5 P700:0 = 5 (response ID 1)");
 
-    let o = run(&["write-param", "1082", "120"]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = run(&["read-param", "1082"]);
-    assert_eq!(
-        String::from_utf8_lossy(&o.stdout).trim(),
-        "slave 5 P1082:0 = 120 (response ID 1)"
-    );
+    let (ok, _, err) = run(&["write-param", "1082", "120"]);
+    assert!(ok, "{err}");
+    let (_, out, _) = run(&["read-param", "1082"]);
+    assert_eq!(out, "slave 5 P1082:0 = 120 (response ID 1)");
 
-    let o = run(&["write-param", "1082", "1000"]);
-    assert!(!o.status.success());
-    let err = String::from_utf8_lossy(&o.stderr);
+    let (ok, _, err) = run(&["write-param", "1082", "1000"]);
+    assert!(!ok);
     assert!(err.starts_with("si: error: node 5: 16#1503"), "{err}");
     assert!(
         err.contains("error number 2 (lower or upper value limit exceeded)"),
@@ -169,25 +179,8 @@ fn refusal_negative_values_pages_and_arrays_against_a_simulated_drive() {
         return;
     };
     let (a, b) = (&pair.a, &pair.b);
-    let slave = Kill(
-        si_command()
-            .args(["uss", "sim-slave", "--address", "6", "--port", b])
-            .stdout(Stdio::null())
-            .spawn()
-            .expect("start sim-slave"),
-    );
-    std::thread::sleep(Duration::from_millis(300));
-    let run = |args: &[&str]| {
-        let mut all = vec!["uss"];
-        all.extend_from_slice(args);
-        all.extend_from_slice(&["--slave", "6", "--response-timeout", "500", "--port", a]);
-        let o = si_command().args(&all).output().expect("run si");
-        (
-            o.status.success(),
-            String::from_utf8_lossy(&o.stdout).trim().to_owned(),
-            String::from_utf8_lossy(&o.stderr).trim().to_owned(),
-        )
-    };
+    let slave = drive(b, "6", &[]);
+    let run = |args: &[&str]| job(a, "6", args);
     // A negative word, read back signed and in hex.
     let (ok, out, err) = run(&["write-param", "1120", "-5"]);
     assert!(ok, "{err}");
@@ -213,22 +206,7 @@ fn refusal_negative_values_pages_and_arrays_against_a_simulated_drive() {
     drop(slave);
 
     // The same drive without PKW rights: response ID 8, not "node does not answer".
-    let _slave = Kill(
-        si_command()
-            .args([
-                "uss",
-                "sim-slave",
-                "--address",
-                "6",
-                "--no-pkw-rights",
-                "--port",
-                b,
-            ])
-            .stdout(Stdio::null())
-            .spawn()
-            .expect("start sim-slave"),
-    );
-    std::thread::sleep(Duration::from_millis(300));
+    let _slave = drive(b, "6", &["--no-pkw-rights"]);
     let (ok, _, err) = run(&["read-param", "700"]);
     assert!(!ok);
     assert!(err.starts_with("si: error: node 6: 16#1505"), "{err}");
@@ -260,14 +238,7 @@ fn poll_with_a_read_sends_task_0_after_it_or_with_pkw_repeat_the_read_again() {
         return;
     };
     let (a, b) = (&pair.a, &pair.b);
-    let _slave = Kill(
-        si_command()
-            .args(["uss", "sim-slave", "--address", "7", "--port", b])
-            .stdout(Stdio::null())
-            .spawn()
-            .expect("start sim-slave"),
-    );
-    std::thread::sleep(Duration::from_millis(300));
+    let _slave = drive(b, "7", &[]);
     let dir = common::test_dir("si-uss-pkw-repeat");
     for (repeat, want) in [
         (false, [(1, 700), (0, 0), (0, 0), (0, 0)]),
