@@ -101,7 +101,8 @@ pub enum PkwAfterJob {
     TaskZero,
     /// Send the last job's PKW area again in every poll of that slave until a new job is
     /// entered, as the module's S_USST does (et200s-si-modbus-uss.md §6.7). Responses to the
-    /// repetitions end no job; a drive's change reports still reach the master.
+    /// repetitions end no job. A drive that sends its parameter change reports only in answer
+    /// to AK 0 (as this crate's simulated drive does) cannot report while the task repeats.
     RepeatLast,
 }
 
