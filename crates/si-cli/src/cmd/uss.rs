@@ -472,7 +472,7 @@ async fn poll(a: PollArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
                     ),
                     json!({"cycles": cycle + 1, "counters": counters}),
                 );
-                return never_answered(&nodes, &answered);
+                return never_answered(&nodes, &answered, cycle + 1);
             }
             _ => {}
         }
@@ -480,8 +480,8 @@ async fn poll(a: PollArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
     Err(CliError::new("the line was closed"))
 }
 
-/// Exit status of a run: an error naming the nodes that never answered, if any.
-fn never_answered(nodes: &[u8], answered: &[u8]) -> Result<(), CliError> {
+/// Exit status of a run: an error naming the nodes that never gave a valid response, if any.
+fn never_answered(nodes: &[u8], answered: &[u8], cycles: u64) -> Result<(), CliError> {
     let silent: Vec<String> = nodes
         .iter()
         .filter(|n| !answered.contains(n))
@@ -491,10 +491,9 @@ fn never_answered(nodes: &[u8], answered: &[u8]) -> Result<(), CliError> {
         return Ok(());
     }
     Err(CliError::new(format!(
-        "node{} {} never answered ({})",
+        "node{} {} never answered (no valid response in {cycles} cycles)",
         if silent.len() > 1 { "s" } else { "" },
         silent.join(", "),
-        status_text(si_uss::status::NO_ANSWER)
     )))
 }
 

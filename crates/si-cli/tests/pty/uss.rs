@@ -274,4 +274,19 @@ fn poll_with_a_read_sends_task_0_after_it_or_with_pkw_repeat_the_read_again() {
         );
         assert_eq!(pkw_sent(&trace), want, "--pkw-repeat {repeat}");
     }
+    // Node 8 is not there: the run fails and names it, node 7's lines are printed.
+    let o = si_command()
+        .args([
+            "--port", a, "uss", "poll", "--slaves", "7,8", "--cycles", "2",
+        ])
+        .args(["--response-timeout", "500"])
+        .output()
+        .expect("run poll");
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("node 8 never answered (no valid response in 2 cycles)"),
+        "{err}"
+    );
+    assert!(String::from_utf8_lossy(&o.stdout).contains("cycle 1 slave 7: ZSW"));
 }
