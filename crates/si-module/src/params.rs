@@ -934,6 +934,7 @@ fn read_uss(r: &mut Reader<'_>) -> UssMasterParams {
         pkw_retries: r.uint("pkw_retries", 20, u16::MAX.into(), "0…32767") as u16,
         cycle_pause: ms(r.uint("cycle_pause_ms", 0, u32::MAX.into(), "0 … 60 s")),
         local_echo: r.bool("local_echo", false),
+        pkw_after_job: d.config.pkw_after_job,
     };
     UssMasterParams {
         diagnostic_interrupt,

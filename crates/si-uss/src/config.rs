@@ -85,6 +85,27 @@ pub(crate) fn check(
     }
 }
 
+/// What the master sends in a slave's PKW area after a parameter job has ended.
+///
+/// et200s-si-modbus-uss.md §6.7: with the module's FCs "the last PKW job stays in the transmit
+/// interface after it has been processed and is sent to the slave again and again until the user
+/// enters a new job". The USS rule of public-facts.md §3 (CU240S p.229) is to send AK 0 "no
+/// request" when only the PZD matter. Both are offered; the USS rule is the default because a
+/// repeated write makes the drive execute it again on every poll (and, with an EEPROM task,
+/// wears its EEPROM).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PkwAfterJob {
+    /// Send AK 0 "no task" (PKE, IND and PWE all 0) once the job has ended (public-facts.md §3).
+    #[default]
+    TaskZero,
+    /// Send the last job's PKW area again in every poll of that slave until a new job is
+    /// entered, as the module's S_USST does (et200s-si-modbus-uss.md §6.7). Responses to the
+    /// repetitions end no job. A drive that sends its parameter change reports only in answer
+    /// to AK 0 (as this crate's simulated drive does) cannot report while the task repeats.
+    RepeatLast,
+}
+
 /// How the USS master runs.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct MasterConfig {
@@ -96,9 +117,20 @@ pub struct MasterConfig {
     /// 20 ms (public-facts.md §3, "node x does not transmit after 20 ms"). Longer values (up to
     /// 10 s) are for converters and device servers that add latency.
     pub response_timeout: Duration,
-    /// WDH: how many times a PKW request is repeated without a matching response before the job
-    /// fails with a PKW interface error (0…32 767, et200s-si-modbus-uss.md §6.6).
+    /// WDH, the permitted PKW **repetitions after the first telegram** (0…32 767,
+    /// et200s-si-modbus-uss.md §6.6, §6.8): a job goes out at most `1 + pkw_retries` times;
+    /// when the last of them brings no matching response the job fails, with "node does not
+    /// answer" (16#1408) if the node never answered during the job, else with the PKW
+    /// interface error (16#1505). WDH = 2 therefore puts at most 3 telegrams of one job to a
+    /// silent node on the line.
+    ///
+    /// **Reading chosen:** the manual says "permitted PKW job retries"; we count retries the
+    /// way the word says, as telegrams after the first one.
     pub pkw_retries: u16,
+    /// What the PKW area carries once a job has ended: AK 0 "no task" (the default) or the last
+    /// job again, as the module's FCs do ([`PkwAfterJob`]).
+    #[serde(default)]
+    pub pkw_after_job: PkwAfterJob,
     /// Extra pause after each complete cycle (0 = poll back to back).
     pub cycle_pause: Duration,
     /// The transceiver hears our own transmission (an RS-485 bus, the simulator's bus): discard
@@ -108,13 +140,14 @@ pub struct MasterConfig {
 
 impl MasterConfig {
     /// A master polling `polling_list` at 9600 8E1 with the USS defaults (20 ms response timeout,
-    /// 20 PKW repetitions, no pause, no echo).
+    /// 20 PKW repetitions, AK 0 after a job, no pause, no echo).
     pub fn new(polling_list: Vec<PollEntry>) -> Self {
         MasterConfig {
             settings: SerialSettings::default(),
             polling_list,
             response_timeout: RESPONSE_DELAY_MAX,
             pkw_retries: 20,
+            pkw_after_job: PkwAfterJob::TaskZero,
             cycle_pause: Duration::ZERO,
             local_echo: false,
         }

@@ -11,7 +11,8 @@
 //! - PKW: executes a request once and answers the same response while the master repeats it
 //!   (the handshake); read/write word and double word, arrays; AK 7 with error numbers 0 (no such
 //!   parameter), 1 (read-only), 2 (limit), 3 (sub-index), 4 (no array), 5 (type), 101 (task not
-//!   supported by this simulation);
+//!   supported by this simulation); response ID 8 to every task with
+//!   [`DriveConfig::no_pkw_rights`];
 //! - parameter change reports ([`Drive::change_locally`]): response ID 9/10 with the SPM toggle
 //!   bit flipped, answered to "no task" requests until the master mirrors the toggle bit;
 //! - the status word follows the control word and the actual value ramps to the setpoint
@@ -75,7 +76,7 @@ pub mod zsw {
 /// One parameter of the simulated drive.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Parameter {
-    /// Full parameter number (0…15 999).
+    /// Full parameter number (0…61 999, [`crate::param`]).
     pub number: u16,
     /// Values by sub-index; one for a simple parameter.
     pub values: Vec<u32>,
@@ -87,6 +88,10 @@ pub struct Parameter {
     pub min: u32,
     /// Largest value a write may set.
     pub max: u32,
+    /// The value is signed: `min`, `max` and writes are compared as 16-bit (word) or 32-bit
+    /// (double word) two's complement numbers.
+    #[serde(default)]
+    pub signed: bool,
 }
 
 impl Parameter {
@@ -97,6 +102,7 @@ impl Parameter {
             values: vec![u32::from(value)],
             dword: false,
             read_only: false,
+            signed: false,
             min: 0,
             max: u32::from(u16::MAX),
         }
@@ -120,6 +126,28 @@ impl Parameter {
         self.min = min;
         self.max = max;
         self
+    }
+    /// The same, signed, with write limits `min`…`max`.
+    pub fn signed(mut self, min: i32, max: i32) -> Self {
+        self.signed = true;
+        self.min = min as u32;
+        self.max = max as u32;
+        self
+    }
+    /// May a write set `value` (a word's or double word's bit pattern)?
+    fn allows(&self, value: u32) -> bool {
+        if self.signed {
+            let s = |x: u32| {
+                if self.dword {
+                    x as i32
+                } else {
+                    i32::from(x as u16 as i16)
+                }
+            };
+            (s(self.min)..=s(self.max)).contains(&s(value))
+        } else {
+            (self.min..=self.max).contains(&value)
+        }
     }
     /// The same, as an array of `values`.
     pub fn array(mut self, values: &[u32]) -> Self {
@@ -147,13 +175,19 @@ pub struct DriveConfig {
     pub local_echo: bool,
     /// Parameters.
     pub parameters: Vec<Parameter>,
+    /// The master has no PKW rights here: every task other than AK 0 is answered with response
+    /// ID 8, "no master control / no PKW rights" (public-facts.md §3), as a drive whose PKW
+    /// channel belongs to another interface answers.
+    #[serde(default)]
+    pub no_pkw_rights: bool,
 }
 
 impl DriveConfig {
     /// A drive at `address` with PKW 4 / PZD 2, answering after the start interval, ramping
     /// 10 000 units a second, with a few parameters: P700 (command source, word, 0…6),
     /// P1082 (max frequency, word, limit 0…650), P2010 (USS baud index, array of 2), P964
-    /// (firmware version, read-only) and P2000 (reference frequency, double word).
+    /// (firmware version, read-only), P2000 (reference frequency, double word), P1120 (a signed
+    /// word, −1000…1000, for negative values) and P20001 (a word above 19 999, page index 50H).
     pub fn new(settings: SerialSettings, address: u8) -> Self {
         DriveConfig {
             settings,
@@ -163,12 +197,15 @@ impl DriveConfig {
             response_delay: start_interval(&settings),
             ramp_per_second: 10_000,
             local_echo: false,
+            no_pkw_rights: false,
             parameters: vec![
                 Parameter::word(700, 5).limits(0, 6),
                 Parameter::word(1082, 50).limits(0, 650),
                 Parameter::word(2010, 6).array(&[6, 6]),
                 Parameter::word(964, 0x0102).read_only(),
                 Parameter::dword(2000, 50_000),
+                Parameter::word(1120, 10).signed(-1000, 1000),
+                Parameter::word(20001, 0),
             ],
         }
     }
@@ -568,6 +605,9 @@ impl Drive {
         if ak == task::NONE {
             return Pkw::new(Pke(0), 0, &[0u16; frame::MAX_PWE_WORDS][..words]);
         }
+        if self.config.no_pkw_rights {
+            return reply(response::NO_PERMISSION, 0, false);
+        }
         let Some(p) = self
             .config
             .parameters
@@ -630,7 +670,7 @@ impl Drive {
                 if index >= p.values.len() {
                     return error(3);
                 }
-                if requested < p.min || requested > p.max {
+                if !p.allows(requested) {
                     return error(2);
                 }
                 p.values[index] = requested;

@@ -38,6 +38,10 @@
 use core::fmt;
 use serde::{Deserialize, Serialize};
 
+/// Parameter numbers with their page index live in [`crate::param`]; re-exported here because
+/// PKE and IND are frame fields.
+pub use crate::param::ParamAddress;
+
 /// Start of text, the first byte of every telegram.
 pub const STX: u8 = 0x02;
 /// Most net-data bytes a telegram can carry (LGE ≤ 254).
@@ -368,54 +372,6 @@ impl Pke {
     }
 }
 
-/// A parameter number with its sub-index, as a user writes it (P2010, index 1), and its split into
-/// PKE bits 0–10 and the page bits of IND's high byte.
-///
-/// public-facts.md §3: "PNU ≥ 2000 via IND high byte page" with 2000 → 80H, 4000 → 10H,
-/// 6000 → 90H, 8000 → 20H. We read that as: the page number `PNU / 2000` (0–7) has its bit 0 in
-/// IND bit 15, bit 1 in IND bit 12 and bit 2 in IND bit 13, and PKE carries `PNU mod 2000`; the
-/// sub-index is IND's low byte. Numbers up to 15 999 fit.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub struct ParamAddress {
-    /// The full parameter number.
-    pub number: u16,
-    /// The array sub-index (IND low byte).
-    pub index: u8,
-}
-
-impl ParamAddress {
-    /// Largest number the page bits can express.
-    pub const MAX_NUMBER: u16 = 15_999;
-
-    /// PKE's PNU bits and the IND word, `None` above [`Self::MAX_NUMBER`].
-    pub const fn split(self) -> Option<(u16, u16)> {
-        if self.number > Self::MAX_NUMBER {
-            return None;
-        }
-        let page = self.number / 2000;
-        let pnu = self.number % 2000;
-        let high = ((page & 1) << 7) | ((page & 2) << 3) | ((page & 4) << 3);
-        Some((pnu, (high << 8) | self.index as u16))
-    }
-
-    /// Put a PKE's PNU and an IND back together. Page bits of IND other than 80H, 10H and 20H are
-    /// ignored; a PNU of 2000–2047 with page bits is read literally (it cannot come from `split`).
-    pub const fn join(pnu: u16, ind: u16) -> ParamAddress {
-        let high = ind >> 8;
-        let page = ((high >> 7) & 1) | ((high >> 3) & 2) | ((high >> 3) & 4);
-        ParamAddress {
-            number: page * 2000 + (pnu & 0x7FF),
-            index: (ind & 0xFF) as u8,
-        }
-    }
-}
-
-impl fmt::Display for ParamAddress {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "P{}:{}", self.number, self.index)
-    }
-}
-
 /// A parameter channel area: PKE, IND and 0…124 PWE words.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub struct Pkw {
@@ -453,6 +409,18 @@ impl Pkw {
             [] => 0,
             [w] => u32::from(*w),
             [h, l, ..] => (u32::from(*h) << 16) | u32::from(*l),
+        }
+    }
+
+    /// The value read as signed, by the size the response ID gives: a word ID (1, 4, 9, 11)
+    /// as a 16-bit two's complement number, any other as 32-bit (the PWE of a response carries
+    /// no type of its own; a drive's parameter list says which parameters are signed).
+    pub fn signed_value(&self) -> i32 {
+        let v = self.value();
+        if response::is_word(self.pke.ak()) {
+            i32::from(v as u16 as i16)
+        } else {
+            v as i32
         }
     }
 
@@ -658,6 +626,12 @@ pub mod response {
     /// Transfer text.
     pub const TEXT: u8 = 15;
 
+    /// A response ID that carries a word value: 1, 4, 9 (change report, word) and 11 (change
+    /// report, array word).
+    pub const fn is_word(ak: u8) -> bool {
+        matches!(ak, VALUE_WORD | ARRAY_WORD | CHANGE_REPORT_WORD | 11)
+    }
+
     /// The response IDs that may answer task `ak` successfully (public-facts.md §3 pairs; the
     /// MICROMASTER table in et200s-si-modbus-uss.md §6.7).
     pub const fn answers(ak: u8) -> &'static [u8] {
@@ -723,33 +697,5 @@ mod tests {
         assert_eq!(p.0, 0x2000 | 1082);
         assert_eq!((p.ak(), p.spm(), p.pnu()), (2, false, 1082));
         assert!(Pke(0x1800).spm());
-    }
-
-    #[test]
-    fn pnu_pages_match_public_facts() {
-        for (n, high) in [(2000, 0x80), (4000, 0x10), (6000, 0x90), (8000, 0x20)] {
-            let (pnu, ind) = ParamAddress {
-                number: n,
-                index: 0,
-            }
-            .split()
-            .unwrap();
-            assert_eq!((pnu, ind >> 8), (0, high), "P{n}");
-        }
-        let a = ParamAddress {
-            number: 2010,
-            index: 1,
-        };
-        let (pnu, ind) = a.split().unwrap();
-        assert_eq!((pnu, ind), (10, 0x8001));
-        assert_eq!(ParamAddress::join(pnu, ind), a);
-        assert_eq!(
-            ParamAddress {
-                number: 16_000,
-                index: 0
-            }
-            .split(),
-            None
-        );
     }
 }

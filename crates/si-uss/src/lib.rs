@@ -4,6 +4,7 @@
 //! et200s-si-2005-window-protocol.md §5.11–§5.12 and §8, public-facts.md §3):
 //!
 //! - [`frame`]: the telegram `STX LGE ADR net-data BCC`, PKW and PZD areas, task and response IDs;
+//! - [`param`]: parameter numbers up to 61 999 through the page index in IND's high byte;
 //! - [`config`]: polling list, timing and ranges;
 //! - [`master`]: the Sans-IO master engine with its polling cycle, PKW handshake, broadcast and
 //!   mirror telegrams and diagnostic counters;
@@ -43,6 +44,7 @@ pub mod fb;
 pub mod frame;
 pub mod master;
 pub mod monitor;
+pub mod param;
 mod rx;
 pub mod status;
 #[cfg(feature = "tokio")]

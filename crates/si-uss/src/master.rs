@@ -23,22 +23,41 @@
 //!
 //! A parameter job ([`Master::request_parameter`]) is sent with every poll of its slave until a
 //! response with a matching response ID, PNU and IND (and, for writes, value) arrives
-//! (public-facts.md §3 "master repeats request until matching response"). Response ID 7 ends it
-//! with [`status::PKW_ERROR`] and the error number from PWE; response ID 8, or more than WDH
-//! repetitions, with [`status::PKW_INTERFACE_ERROR`] (et200s-si-modbus-uss.md §6.7 status bits 2
-//! and 4).
+//! (public-facts.md §3 "master repeats request until matching response"). It ends with:
 //!
-//! **Reading chosen:** the manual's FCs keep sending the last PKW job "again and again until the
-//! user enters a new job" (§6.7). That is an artefact of their DB interface and makes a drive
-//! execute a write over and over; we follow the USS rule of public-facts.md §3 (CU240S p.229) and
-//! send AK 0 "no task" once a job has ended.
+//! - response ID 7: [`status::PKW_ERROR`] (16#1503) and the drive's error number from PWE
+//!   (et200s-si-modbus-uss.md §6.7 status bit 2);
+//! - response ID 8, "no master control / no PKW rights": [`status::PKW_INTERFACE_ERROR`]
+//!   (16#1505, status bit 4);
+//! - WDH repetitions after the first telegram used up ([`MasterConfig::pkw_retries`]):
+//!   [`status::NO_ANSWER`] (16#1408, comm error word bit 7, the code a poll reports) when the
+//!   node did not answer a single telegram of the job, or the rejection code of its last
+//!   telegram (BCC, LGE, …) when it answered only with faulty ones; [`status::PKW_INTERFACE_ERROR`]
+//!   when it answered but never matched the job. Status bit 4 is set in each case, as §6.7 says
+//!   ("did not acknowledge within WDH retries").
+//!
+//! **Reading chosen** for the absent node: §6.7 folds it into status bit 4 with response ID 8;
+//! a user must tell a drive that is not there from a drive that refuses, so the job's STATUS
+//! names the telegram-level cause, as a poll does.
+//!
+//! After the job the PKW area carries AK 0 "no task" (public-facts.md §3, CU240S p.229), or, with
+//! [`PkwAfterJob::RepeatLast`], the last job again, as the module's FCs do ("sent to the slave
+//! again and again until the user enters a new job", §6.7). See [`PkwAfterJob`] for why AK 0 is
+//! the default.
+//!
+//! # Ending a run
+//!
+//! [`Master::stop_after_cycles`] and [`Master::stop_when_idle`] end the polling inside the
+//! engine, in the same step as the cycle or the job that completes the run: the telegram that
+//! would follow never leaves. A program that stops the master on the event instead races the
+//! next poll, which may already be on its way.
 //!
 //! # Special telegrams
 //!
 //! [`Master::broadcast`] (ADR bit 5, no response) and [`Master::mirror`] (ADR bit 6, the slave
 //! sends the telegram back unchanged) are slipped in between two polls.
 
-use crate::config::{ConfigError, MasterConfig, PollEntry};
+use crate::config::{ConfigError, MasterConfig, PkwAfterJob, PollEntry};
 use crate::frame::{
     self, response, task, Adr, DecodeError, NetData, ParamAddress, Pke, Pkw, PkwWords, Pzd,
     MAX_NET, MAX_TELEGRAM,
@@ -186,6 +205,17 @@ impl ParamRequest {
             ..Self::read(number, index)
         }
     }
+    /// Write an array element: a word (AK 7) or a double word (AK 8).
+    pub fn write_array(number: u16, index: u8, value: u32, dword: bool) -> Self {
+        ParamRequest {
+            task: if dword {
+                task::WRITE_ARRAY_DWORD
+            } else {
+                task::WRITE_ARRAY_WORD
+            },
+            ..Self::write(number, index, value, dword)
+        }
+    }
     /// Write a word (AK 2) or a double word (AK 3).
     pub fn write(number: u16, index: u8, value: u32, dword: bool) -> Self {
         ParamRequest {
@@ -213,13 +243,22 @@ pub enum RequestError {
     #[error("a PKW job for node {0} is still in progress")]
     Busy(u8),
     /// The task is invalid (status bit 3): 15, 4 with index 255, a double word in a 3-word PKW
-    /// area, a parameter number over 15 999, or an unknown task ID.
+    /// area, or an unknown task ID.
     #[error("invalid PKW task {task} for node {address}")]
     InvalidTask {
         /// The node.
         address: u8,
         /// The task ID.
         task: u8,
+    },
+    /// The parameter number is above [`crate::param::MAX_NUMBER`] (61 999): the page index
+    /// cannot address it (uss-parameter-pages.md).
+    #[error("parameter number {number} for node {address} is out of range: 0 … 61999")]
+    ParameterNumber {
+        /// The node.
+        address: u8,
+        /// The number asked for.
+        number: u16,
     },
     /// A special telegram of this kind is already waiting.
     #[error("a {0} telegram is already waiting to be sent")]
@@ -282,7 +321,9 @@ pub enum Event {
         job: JobId,
         /// The node.
         address: u8,
-        /// [`status::PKW_ERROR`] or [`status::PKW_INTERFACE_ERROR`].
+        /// [`status::PKW_ERROR`] (response ID 7), [`status::PKW_INTERFACE_ERROR`] (response ID
+        /// 8, or answers that never matched), [`status::NO_ANSWER`] (the node never answered)
+        /// or the rejection code of the job's last telegram (module docs, "The PKW handshake").
         status: Status,
         /// The AK 7 error number from PWE.
         error_number: Option<u16>,
@@ -348,6 +389,8 @@ pub struct SlaveState {
     /// Polls not answered or rejected.
     pub failed: u32,
     job: Option<PkwJob>,
+    /// The last job's PKW area, sent again after it with [`PkwAfterJob::RepeatLast`].
+    last_task: Option<Pkw>,
     /// The SPM toggle bit we send: the toggle of the last change report the user acknowledged.
     spm_ack: bool,
     /// The toggle bit of the last change report seen, so a repeated report is reported once.
@@ -370,6 +413,8 @@ struct PkwJob {
     id: JobId,
     request: Pkw,
     sent: u16,
+    /// The node answered (a valid telegram) at least once during the job.
+    answered: bool,
 }
 
 #[derive(Clone, Copy)]
@@ -422,6 +467,10 @@ pub struct Master {
     /// Transmit frames are cut from this pool: a steady state allocates nothing per frame (the
     /// si-core contract).
     tx_pool: FramePool,
+    /// [`Master::stop_after_cycles`].
+    stop_after_cycles: Option<u64>,
+    /// [`Master::stop_when_idle`].
+    stop_when_idle: bool,
 }
 
 impl Master {
@@ -443,6 +492,7 @@ impl Master {
                     answered: 0,
                     failed: 0,
                     job: None,
+                    last_task: None,
                     spm_ack: false,
                     report_spm: None,
                 });
@@ -465,6 +515,8 @@ impl Master {
             next_job: 0,
             counters: Counters::default(),
             tx_pool: FramePool::preallocated(4 * MAX_TELEGRAM),
+            stop_after_cycles: None,
+            stop_when_idle: false,
             config,
         })
     }
@@ -515,6 +567,46 @@ impl Master {
                 status: aborted,
             });
         }
+    }
+
+    /// End the run after `cycles` complete cycles (counted from 0 since the master was built,
+    /// as [`cycle`](Self::cycle) counts): the master stops in the step that reports the last
+    /// [`Event::CycleDone`], so no telegram of the next cycle leaves. A parameter job still
+    /// running then fails as with [`stop`](Self::stop).
+    pub fn stop_after_cycles(&mut self, cycles: u64) {
+        self.stop_after_cycles = Some(cycles);
+    }
+
+    /// End the run as soon as no parameter job runs and no broadcast or mirror telegram waits:
+    /// the master stops in the step that reports the last job's end, before the next poll. For a
+    /// program that runs one job and exits (`si uss read-param`): enter the job and call this
+    /// before [`start`](Self::start), so every telegram of the run carries the job (a master
+    /// started first may poll with AK 0 before a job entered later, and one told to stop while
+    /// idle stops at once).
+    pub fn stop_when_idle(&mut self) {
+        self.stop_when_idle = true;
+    }
+
+    /// Is the run over ([`stop_after_cycles`](Self::stop_after_cycles),
+    /// [`stop_when_idle`](Self::stop_when_idle))?
+    fn run_is_over(&self) -> bool {
+        let cycles_done = self.stop_after_cycles.is_some_and(|n| self.cycle >= n);
+        let idle = self.stop_when_idle
+            && self.slaves.iter().all(|s| s.job.is_none())
+            && self.broadcast.is_none()
+            && self.mirror.is_none();
+        cycles_done || idle
+    }
+
+    /// Stop now if the run is over (and forget the end condition, so a later
+    /// [`start`](Self::start) runs on); true if stopped.
+    fn finish_if_over(&mut self, now: Instant) -> bool {
+        if self.phase != Phase::Stopped && self.run_is_over() {
+            self.stop_after_cycles = None;
+            self.stop_when_idle = false;
+            self.stop(now);
+        }
+        self.phase == Phase::Stopped
     }
 
     /// The diagnostic counters.
@@ -590,6 +682,12 @@ impl Master {
         if self.slaves[i].job.is_some() {
             return Err(RequestError::Busy(address));
         }
+        if request.param.number > crate::param::MAX_NUMBER {
+            return Err(RequestError::ParameterNumber {
+                address,
+                number: request.param.number,
+            });
+        }
         let pkw = build_request(words, &request);
         let Some(pkw) = pkw else {
             self.slaves[i].comm_status |= comm_status::PKW_INVALID;
@@ -607,7 +705,9 @@ impl Master {
             id,
             request: pkw,
             sent: 0,
+            answered: false,
         });
+        s.last_task = Some(pkw);
         Ok(id)
     }
 
@@ -678,6 +778,9 @@ impl Master {
         let Phase::Idle { at } = self.phase else {
             return;
         };
+        if self.finish_if_over(now) {
+            return;
+        }
         if now < at || self.rx.is_receiving() {
             return;
         }
@@ -710,6 +813,7 @@ impl Master {
             return;
         };
         let mut net = [0u8; MAX_NET];
+        let after_job = self.config.pkw_after_job;
         let len = {
             let s = &mut self.slaves[i];
             let pkw = match (&mut s.job, s.pkw) {
@@ -720,6 +824,9 @@ impl Master {
                         bump(&mut self.counters.pkw_repeats);
                     }
                     Some(job.request)
+                }
+                (None, _) if after_job == PkwAfterJob::RepeatLast && s.last_task.is_some() => {
+                    s.last_task
                 }
                 (None, words) => build_request(words, &ParamRequest::read(0, 0)).map(|mut p| {
                     p.pke = Pke(0);
@@ -783,6 +890,7 @@ impl Master {
         self.phase = Phase::Idle {
             at: self.next_send_time(now) + pause,
         };
+        self.finish_if_over(now);
     }
 
     fn complete(&mut self, now: Instant, current: Current) {
@@ -894,6 +1002,9 @@ impl Master {
                         report: reply,
                     });
                 }
+                if let Some(job) = &mut s.job {
+                    job.answered = true;
+                }
                 if let Some(job) = s.job {
                     match judge(&job.request, &reply) {
                         Verdict::Done => {
@@ -960,11 +1071,17 @@ impl Master {
             s.job = None;
             s.comm_status = (s.comm_status & !comm_status::PKW_BUSY) | comm_status::PKW_INTERFACE;
             let address = s.address;
+            // Never answered: the telegram-level cause, as a poll reports it (module docs).
+            let status = if job.answered {
+                status::PKW_INTERFACE_ERROR
+            } else {
+                s.last_status
+            };
             bump(&mut self.counters.pkw_failed);
             self.emit(Event::ParameterFailed {
                 job: job.id,
                 address,
-                status: status::PKW_INTERFACE_ERROR,
+                status,
                 error_number: None,
             });
         }

@@ -13,6 +13,11 @@
 //! - class **15H** mirrors the PKW bits of the comm status word, number = bit + 1
 //!   (bit 2 AK 7 → 1503H, bit 3 invalid task → 1504H, bit 4 PKW interface error → 1505H).
 //!
+//! A PKW job whose node never answered ends with 1408H, "node does not answer", as a poll
+//! does, although §6.7 sets status bit 4 for it as well: 1505H stays for response ID 8 and for
+//! answers that never matched, so a refusal and an absent drive read differently
+//! (`crate::master`, "The PKW handshake").
+//!
 //! Classes 14H and 15H are not used by any table of the manuals (they use 01H–0EH and 1EH), so a
 //! program can tell these apart from module codes; the meaning and the bit they mirror are in each
 //! code's text.
@@ -66,8 +71,8 @@ si_core::status_codes! {
         source: "et200s-si-modbus-uss.md §6.7, comm status word bit 3",
     }
     pub const PKW_INTERFACE_ERROR = 0x1505 {
-        meaning: "PKW interface error: no matching response within the permitted repetitions, or response ID 8 (comm status bit 4)",
-        remedy: "raise the repetitions (WDH) or give the master PKW control rights on the drive",
+        meaning: "PKW interface error: response ID 8 (no master control / no PKW rights), or answers that never matched the job within the permitted repetitions (comm status bit 4)",
+        remedy: "give the master PKW control rights on the drive, or check that it answers this task and parameter",
         source: "et200s-si-modbus-uss.md §6.7, comm status word bit 4",
     }
 }

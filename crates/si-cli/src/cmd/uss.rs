@@ -1,29 +1,38 @@
 //! `si uss`: the USS master on a line (poll drives, read and write parameters), a simulated drive,
 //! offline telegrams and the USS simulator scenarios (et200s-si-modbus-uss.md §6, public-facts.md §3).
+//!
+//! Numbers follow `crate::radix`: decimal by default, `0x…` or `16#…` for hex, `-` where a value
+//! may be negative; output is decimal unless `--hex` is given. STATUS codes always print as
+//! `16#…` (the manuals' notation for them), telegram bytes as hex.
 
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
+use crate::radix;
 use crate::scenario::{print_trace, Scenario, SimOptions};
 use clap::{Args, Subcommand};
 use serde_json::json;
 use si_core::driver::{spawn, DriverOptions};
 use si_core::sim::Simulator;
 use si_core::{Duration, Instant, SerialSettings, Status};
-use si_uss::config::{MasterConfig, PollEntry};
+use si_uss::config::{MasterConfig, PkwAfterJob, PollEntry};
 use si_uss::drive::{stw, Drive, DriveConfig, DriveEvent};
-use si_uss::frame::{self, pkw_error_text, Adr, NetData, ParamAddress, PkwWords, MAX_TELEGRAM};
+use si_uss::frame::{
+    self, pkw_error_text, Adr, NetData, ParamAddress, Pkw, PkwWords, MAX_TELEGRAM,
+};
 use si_uss::master::{Event, Master, ParamRequest};
-use si_uss::tokio::{Error as UssError, Handle};
+use si_uss::tokio::Handle;
 
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Poll drives cyclically; prints status word and actual value per slave per cycle.
+    /// Poll drives cyclically; prints status word and actual value per slave per cycle. Exits
+    /// with 1 when a node never answered during a run of --cycles.
     Poll(PollArgs),
     /// Read a parameter value (PKW task 1, or 6 for an array element with --array).
     ReadParam(ReadArgs),
-    /// Write a parameter value (PKW task 2, or 3 with --dword).
+    /// Write a parameter value (PKW task 2 or 3 with --dword; 7 or 8 for an array element with
+    /// --array).
     WriteParam(WriteArgs),
     /// Answer as a simulated drive (status word follows the control word, actual value ramps).
     SimSlave(SimSlaveArgs),
@@ -41,9 +50,16 @@ pub struct Structure {
     /// Response timeout in ms (the USS spec's 20 ms; more for converters and device servers).
     #[arg(long, default_value_t = 20)]
     response_timeout: u64,
-    /// WDH: PKW repetitions without a matching response before the job fails.
+    /// WDH: PKW repetitions after the first telegram (0…32767). A job goes out at most 1 + N
+    /// times; then it fails with 16#1408 if the node never answered, 16#1505 if it answered
+    /// without a matching response.
     #[arg(long, default_value_t = 20)]
     retries: u16,
+    /// After a parameter job, send its PKW task again in every poll until the next job, as the
+    /// module's FCs do (M §6.7). Default: PKW task 0 "no task" after a job (the USS rule), so a
+    /// drive does not execute a write again and again.
+    #[arg(long)]
+    pkw_repeat: bool,
 }
 
 impl Structure {
@@ -63,6 +79,11 @@ impl Structure {
         c.settings = settings;
         c.response_timeout = Duration::from_millis(self.response_timeout);
         c.pkw_retries = self.retries;
+        c.pkw_after_job = if self.pkw_repeat {
+            PkwAfterJob::RepeatLast
+        } else {
+            PkwAfterJob::TaskZero
+        };
         c.validate()?;
         Ok(c)
     }
@@ -72,17 +93,25 @@ impl Structure {
 #[derive(Debug, Args)]
 pub struct PollArgs {
     /// Node numbers in polling order, e.g. 1,2,5 (a node may appear twice).
-    #[arg(long, value_delimiter = ',', required = true)]
+    #[arg(long, value_delimiter = ',', required = true, value_parser = radix::u8_arg)]
     slaves: Vec<u8>,
-    /// Control word STW (PZD1) in hex, sent to every slave, e.g. 047F.
-    #[arg(long)]
-    stw: Option<String>,
-    /// Main setpoint HSW (PZD2) in hex, e.g. 4000.
-    #[arg(long)]
-    hsw: Option<String>,
-    /// Stop after this many cycles (default: until interrupted).
+    /// Control word STW (PZD1) sent to every slave: decimal, or hex with 0x or 16#, e.g. 0x047F.
+    #[arg(long, value_parser = radix::u16_arg)]
+    stw: Option<u16>,
+    /// Main setpoint HSW (PZD2): decimal (negative allowed, sent as 16-bit two's complement),
+    /// or hex with 0x or 16#, e.g. 0x4000.
+    #[arg(long, value_parser = radix::word_arg, allow_hyphen_values = true)]
+    hsw: Option<u16>,
+    /// Stop after this many cycles (default: until interrupted); no telegram leaves after them.
     #[arg(long)]
     cycles: Option<u64>,
+    /// Read this parameter (PNU or PNU:IND) from every node in the first polls (PKW task 1); the
+    /// results are printed. With --pkw-repeat the read then stays in every poll's PKW area.
+    #[arg(long, value_name = "PARAM")]
+    read_param: Option<String>,
+    /// Print ZSW and HIW in hex (16#…) instead of decimal.
+    #[arg(long)]
+    hex: bool,
     #[command(flatten)]
     structure: Structure,
 }
@@ -91,13 +120,23 @@ pub struct PollArgs {
 #[derive(Debug, Args)]
 pub struct ReadArgs {
     /// Node number.
-    #[arg(long)]
+    #[arg(long, value_parser = radix::u8_arg)]
     slave: u8,
-    /// Parameter number, optionally with sub-index: 700 or 2010:1.
+    /// Parameter number 0…61999 (above 1999 through the page index), optionally with
+    /// sub-index: 700, 2010:1, 20001.
     param: String,
     /// Read an array element (task 6) instead of a value (task 1).
     #[arg(long)]
     array: bool,
+    /// Sub-index 0…255 (instead of PNU:IND).
+    #[arg(long, value_parser = radix::u8_arg)]
+    index: Option<u8>,
+    /// Show the value as signed: 16-bit for a word response (ID 1, 4), 32-bit for a double word.
+    #[arg(long)]
+    signed: bool,
+    /// Print the value in hex (16#…) instead of decimal.
+    #[arg(long)]
+    hex: bool,
     #[command(flatten)]
     structure: Structure,
 }
@@ -106,15 +145,27 @@ pub struct ReadArgs {
 #[derive(Debug, Args)]
 pub struct WriteArgs {
     /// Node number.
-    #[arg(long)]
+    #[arg(long, value_parser = radix::u8_arg)]
     slave: u8,
-    /// Parameter number, optionally with sub-index: 1082 or 2010:1.
+    /// Parameter number 0…61999 (above 1999 through the page index), optionally with
+    /// sub-index: 1082, 2010:1, 20001.
     param: String,
-    /// The value (decimal, or hex with 0x).
+    /// The value: decimal (negative allowed: -5), or hex with 0x or 16#. A word takes
+    /// -32768…65535, a double word -2147483648…4294967295 (two's complement when negative).
+    #[arg(allow_hyphen_values = true)]
     value: String,
-    /// Write a double word (task 3) instead of a word (task 2).
+    /// Write a double word (task 3, or 8 with --array) instead of a word (task 2, or 7).
     #[arg(long)]
     dword: bool,
+    /// Write an array element (task 7 or 8) instead of a value (task 2 or 3).
+    #[arg(long)]
+    array: bool,
+    /// Sub-index 0…255 (instead of PNU:IND).
+    #[arg(long, value_parser = radix::u8_arg)]
+    index: Option<u8>,
+    /// Print the value the drive reports back in hex (16#…) instead of decimal.
+    #[arg(long)]
+    hex: bool,
     #[command(flatten)]
     structure: Structure,
 }
@@ -123,7 +174,7 @@ pub struct WriteArgs {
 #[derive(Debug, Args)]
 pub struct SimSlaveArgs {
     /// Bus address 0…31.
-    #[arg(long)]
+    #[arg(long, value_parser = radix::u8_arg)]
     address: u8,
     /// PKW words: 0, 3 or 4.
     #[arg(long, default_value_t = 4)]
@@ -131,36 +182,60 @@ pub struct SimSlaveArgs {
     /// PZD words: 0…16.
     #[arg(long, default_value_t = 2)]
     pzd_words: u8,
+    /// Answer every PKW task with response ID 8, "no master control / no PKW rights".
+    #[arg(long)]
+    no_pkw_rights: bool,
+    /// Print control words and values in hex (16#…) instead of decimal.
+    #[arg(long)]
+    hex: bool,
 }
 
-fn parse_word(what: &str, text: &str) -> Result<u16, CliError> {
-    let t = text.trim_start_matches("0x").trim_start_matches("16#");
-    u16::from_str_radix(t, 16)
-        .map_err(|_| CliError::new(format!("{what} {text:?} is not a hex word (0000…FFFF)")))
-}
-
-fn parse_value(text: &str) -> Result<u32, CliError> {
-    let r = match text.strip_prefix("0x") {
-        Some(h) => u32::from_str_radix(h, 16),
-        None => text.parse(),
+/// `PNU` or `PNU:IND` with `--index`: the parameter's number and sub-index, checked against the page
+/// index's range (si_uss::param).
+fn parse_param(text: &str, index: Option<u8>) -> Result<ParamAddress, CliError> {
+    let bad = |why: String| CliError::new(format!("parameter {text:?}: {why}"));
+    let (n, i) = match text.split_once(':') {
+        Some((n, i)) => (n, Some(i)),
+        None => (text, None),
     };
-    r.map_err(|_| CliError::new(format!("value {text:?} is not a number 0…4294967295")))
+    let number = radix::bounded(n, u16::MAX.into()).map_err(bad)? as u16;
+    let index = match (i, index) {
+        (Some(_), Some(_)) => {
+            return Err(bad(
+                "give the sub-index as PNU:IND or --index, not both".into()
+            ))
+        }
+        (Some(i), None) => radix::u8_arg(i).map_err(bad)?,
+        (None, i) => i.unwrap_or(0),
+    };
+    Ok(ParamAddress::new(number, index)?)
 }
 
-fn parse_param(text: &str) -> Result<ParamAddress, CliError> {
-    let bad = || {
+/// The value to write as the bit pattern of a word or double word; negative values are
+/// two's complement.
+fn parse_value(text: &str, dword: bool) -> Result<u32, CliError> {
+    let (min, max) = if dword {
+        (i64::from(i32::MIN), i64::from(u32::MAX))
+    } else {
+        (i64::from(i16::MIN), i64::from(u16::MAX))
+    };
+    let v = radix::signed(text, min, max).map_err(|e| {
         CliError::new(format!(
-            "parameter {text:?} is not PNU[:IND] with PNU 0…{} and IND 0…255",
-            ParamAddress::MAX_NUMBER
+            "value {e}{}",
+            if dword { "" } else { " (a word; add --dword)" }
         ))
+    })?;
+    Ok(if dword { v as u32 } else { u32::from(v as u16) })
+}
+
+/// A PKW response's value as the user asked to see it.
+fn show_value(r: &Pkw, signed: bool, hex: bool) -> (String, i64) {
+    let v = if signed {
+        i64::from(r.signed_value())
+    } else {
+        i64::from(r.value())
     };
-    let (n, i) = text.split_once(':').unwrap_or((text, "0"));
-    let number: u16 = n.parse().map_err(|_| bad())?;
-    let index: u8 = i.parse().map_err(|_| bad())?;
-    if number > ParamAddress::MAX_NUMBER {
-        return Err(bad());
-    }
-    Ok(ParamAddress { number, index })
+    (radix::show(v, hex), v)
 }
 
 fn status_text(status: Status) -> String {
@@ -171,26 +246,12 @@ fn status_text(status: Status) -> String {
     }
 }
 
-fn uss_error(e: UssError) -> CliError {
-    match e {
-        UssError::Failed {
-            status,
-            error_number,
-        } => CliError::new(match error_number {
-            Some(n) => format!(
-                "{}: error number {n} ({})",
-                status_text(status),
-                pkw_error_text(n)
-            ),
-            None => status_text(status),
-        }),
-        other => CliError::new(other.to_string()),
-    }
-}
-
-async fn open_master(conn: &Connection, config: MasterConfig) -> Result<Handle, CliError> {
-    let transport = conn.open_with(&config.settings).await?;
-    Ok(Handle::spawn(config, transport)?)
+/// A failed job's line: the node, the STATUS and, for response ID 7, the drive's error number.
+fn failure_text(address: u8, status: Status, error_number: Option<u16>) -> String {
+    let number = error_number
+        .map(|n| format!(": error number {n} ({})", pkw_error_text(n)))
+        .unwrap_or_default();
+    format!("node {address}: {}{number}", status_text(status))
 }
 
 impl Command {
@@ -199,55 +260,83 @@ impl Command {
         match self {
             Command::Poll(a) => poll(a, conn, out).await,
             Command::ReadParam(a) => {
-                let param = parse_param(&a.param)?;
-                let config = a.structure.config(
-                    conn.settings_for(&si_uss::config::USS_BAUD_RATES)?,
-                    &[a.slave],
-                )?;
-                let m = open_master(conn, config).await?;
+                let param = parse_param(&a.param, a.index)?;
                 let request = if a.array {
                     ParamRequest::read_array(param.number, param.index)
                 } else {
                     ParamRequest::read(param.number, param.index)
                 };
-                let r = m.parameter(a.slave, request).await.map_err(uss_error)?;
+                let r = last_job(conn, &a.structure, a.slave, request).await?;
+                let (text, value) = show_value(&r, a.signed, a.hex);
                 out.line(
                     &format!(
-                        "slave {} {param} = {} (response ID {})",
+                        "slave {} {param} = {text} (response ID {})",
                         a.slave,
-                        r.value(),
                         r.pke.ak()
                     ),
                     json!({"slave": a.slave, "pnu": param.number, "index": param.index,
-                           "value": r.value(), "response_id": r.pke.ak()}),
+                           "value": value, "response_id": r.pke.ak()}),
                 );
                 Ok(())
             }
             Command::WriteParam(a) => {
-                let param = parse_param(&a.param)?;
-                let value = parse_value(&a.value)?;
-                if !a.dword && value > u32::from(u16::MAX) {
-                    return Err(CliError::new(format!(
-                        "value {value} does not fit a word; add --dword"
-                    )));
-                }
-                let config = a.structure.config(
-                    conn.settings_for(&si_uss::config::USS_BAUD_RATES)?,
-                    &[a.slave],
-                )?;
-                let m = open_master(conn, config).await?;
-                let request = ParamRequest::write(param.number, param.index, value, a.dword);
-                let r = m.parameter(a.slave, request).await.map_err(uss_error)?;
+                let param = parse_param(&a.param, a.index)?;
+                let value = parse_value(&a.value, a.dword)?;
+                let request = if a.array {
+                    ParamRequest::write_array(param.number, param.index, value, a.dword)
+                } else {
+                    ParamRequest::write(param.number, param.index, value, a.dword)
+                };
+                let r = last_job(conn, &a.structure, a.slave, request).await?;
+                let signed = a.value.trim_start().starts_with('-');
+                let (text, value) = show_value(&r, signed, a.hex);
                 out.line(
-                    &format!("slave {} {param} := {} done", a.slave, r.value()),
+                    &format!("slave {} {param} := {text} done", a.slave),
                     json!({"slave": a.slave, "pnu": param.number, "index": param.index,
-                           "value": r.value(), "response_id": r.pke.ak()}),
+                           "value": value, "response_id": r.pke.ak(), "task": request.task}),
                 );
                 Ok(())
             }
             Command::SimSlave(a) => sim_slave(a, conn, out).await,
         }
     }
+}
+
+/// Run one parameter job on a master that polls only `slave`. The job is entered before the
+/// master starts and the master stops in the step that ends it
+/// ([`Master::stop_when_idle`]): every telegram on the line carries the job, none comes before
+/// or after it.
+async fn last_job(
+    conn: &Connection,
+    structure: &Structure,
+    slave: u8,
+    request: ParamRequest,
+) -> Result<Pkw, CliError> {
+    let config = structure.config(
+        conn.settings_for(&si_uss::config::USS_BAUD_RATES)?,
+        &[slave],
+    )?;
+    let settings = config.settings;
+    let mut master = Master::new(config)?;
+    let job = master.request_parameter(Instant::ZERO, slave, request)?;
+    master.stop_when_idle();
+    let transport = conn.open_with(&settings).await?;
+    let mut m = Handle::spawn_engine(master, transport);
+    while let Some(event) = m.next_event().await {
+        match event {
+            Event::ParameterDone {
+                job: j, response, ..
+            } if j == job => return Ok(response),
+            Event::ParameterFailed {
+                job: j,
+                status,
+                error_number,
+                ..
+            } if j == job => return Err(CliError::new(failure_text(slave, status, error_number))),
+            _ => {}
+        }
+    }
+    Err(CliError::new("the line was closed"))
 }
 
 async fn poll(a: PollArgs, conn: &Connection, out: &Output) -> Result<(), CliError> {
@@ -257,11 +346,9 @@ async fn poll(a: PollArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
     )?;
     let mut words = Vec::new();
     if a.stw.is_some() || a.hsw.is_some() {
-        words.push(a.stw.as_deref().map_or(Ok(0), |t| parse_word("--stw", t))?);
+        words.push(a.stw.unwrap_or(0));
     }
-    if let Some(h) = &a.hsw {
-        words.push(parse_word("--hsw", h)?);
-    }
+    words.extend(a.hsw);
     if words.len() > usize::from(a.structure.pzd_words) {
         return Err(CliError::new(format!(
             "--stw/--hsw need {} PZD words, --pzd-words is {}",
@@ -269,17 +356,37 @@ async fn poll(a: PollArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
             a.structure.pzd_words
         )));
     }
-    let mut m = open_master(conn, config).await?;
-    if !words.is_empty() {
-        let mut seen = Vec::new();
-        for &s in &a.slaves {
-            if !seen.contains(&s) {
-                seen.push(s);
-                m.set_control(s, words.clone()).await.map_err(uss_error)?;
-            }
+    let read = a
+        .read_param
+        .as_deref()
+        .map(|p| parse_param(p, None))
+        .transpose()?;
+    // Control words, the end of the run and the first jobs are set before the master starts:
+    // the first telegram carries them and none follows the last cycle.
+    let settings = config.settings;
+    let mut master = Master::new(config)?;
+    let mut nodes: Vec<u8> = Vec::new();
+    for &s in &a.slaves {
+        if !nodes.contains(&s) {
+            nodes.push(s);
         }
     }
+    for &s in &nodes {
+        if !words.is_empty() {
+            master.set_control(s, &words)?;
+        }
+        if let Some(p) = read {
+            master.request_parameter(Instant::ZERO, s, ParamRequest::read(p.number, p.index))?;
+        }
+    }
+    if let Some(n) = a.cycles {
+        master.stop_after_cycles(n);
+    }
+    let transport = conn.open_with(&settings).await?;
+    let mut m = Handle::spawn_engine(master, transport);
     let mut failures = 0u64;
+    let mut answered: Vec<u8> = Vec::new();
+    let word = |w: Option<u16>| w.map_or("-".to_owned(), |w| radix::show(w, a.hex));
     while let Some(event) = m.next_event().await {
         match event {
             Event::Response {
@@ -287,14 +394,16 @@ async fn poll(a: PollArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
                 address,
                 net,
             } => {
+                if !answered.contains(&address) {
+                    answered.push(address);
+                }
                 let zsw = net.pzd.first();
                 let hiw = net.pzd.second();
-                let show = |w: Option<u16>| w.map_or("-".to_owned(), |w| format!("16#{w:04X}"));
                 out.line(
                     &format!(
                         "cycle {cycle} slave {address}: ZSW {} HIW {}",
-                        show(zsw),
-                        hiw.map_or("-".to_owned(), |w| w.to_string())
+                        word(zsw),
+                        word(hiw)
                     ),
                     json!({"cycle": cycle, "slave": address, "zsw": zsw, "hiw": hiw,
                            "pzd": net.pzd.words()}),
@@ -326,6 +435,29 @@ async fn poll(a: PollArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
                     json!({"cycle": cycle, "slave": address, "status": status.code()}),
                 );
             }
+            Event::ParameterDone {
+                address, response, ..
+            } => {
+                let param = ParamAddress::join(response.pke.pnu(), response.ind);
+                let (text, value) = show_value(&response, false, a.hex);
+                out.line(
+                    &format!(
+                        "slave {address} {param} = {text} (response ID {})",
+                        response.pke.ak()
+                    ),
+                    json!({"slave": address, "pnu": param.number, "index": param.index,
+                           "value": value, "response_id": response.pke.ak()}),
+                );
+            }
+            Event::ParameterFailed {
+                address,
+                status,
+                error_number,
+                ..
+            } => out.line(
+                &failure_text(address, status, error_number),
+                json!({"slave": address, "status": status.code(), "error_number": error_number}),
+            ),
             Event::CycleDone { cycle } if a.cycles.is_some_and(|n| cycle + 1 >= n) => {
                 let counters = m
                     .call(|m, _| *m.counters())
@@ -340,12 +472,29 @@ async fn poll(a: PollArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
                     ),
                     json!({"cycles": cycle + 1, "counters": counters}),
                 );
-                return Ok(());
+                return never_answered(&nodes, &answered, cycle + 1);
             }
             _ => {}
         }
     }
     Err(CliError::new("the line was closed"))
+}
+
+/// Exit status of a run: an error naming the nodes that never gave a valid response, if any.
+fn never_answered(nodes: &[u8], answered: &[u8], cycles: u64) -> Result<(), CliError> {
+    let silent: Vec<String> = nodes
+        .iter()
+        .filter(|n| !answered.contains(n))
+        .map(u8::to_string)
+        .collect();
+    if silent.is_empty() {
+        return Ok(());
+    }
+    Err(CliError::new(format!(
+        "node{} {} never answered (no valid response in {cycles} cycles)",
+        if silent.len() > 1 { "s" } else { "" },
+        silent.join(", "),
+    )))
 }
 
 async fn sim_slave(a: SimSlaveArgs, conn: &Connection, out: &Output) -> Result<(), CliError> {
@@ -361,6 +510,7 @@ async fn sim_slave(a: SimSlaveArgs, conn: &Connection, out: &Output) -> Result<(
     let drive = Drive::new(DriveConfig {
         pkw,
         pzd_words: a.pzd_words,
+        no_pkw_rights: a.no_pkw_rights,
         ..DriveConfig::new(settings, a.address)
     })?;
     let transport = conn.open_with(&settings).await?;
@@ -382,12 +532,16 @@ async fn sim_slave(a: SimSlaveArgs, conn: &Connection, out: &Output) -> Result<(
             DriveEvent::Polled { stw, setpoint, .. } if last != Some((stw, setpoint)) => {
                 last = Some((stw, setpoint));
                 out.line(
-                    &format!("control word 16#{stw:04X}, setpoint {setpoint}"),
+                    &format!(
+                        "control word {}, setpoint {}",
+                        radix::show(stw, a.hex),
+                        radix::show(setpoint, a.hex)
+                    ),
                     json!({"stw": stw, "setpoint": setpoint}),
                 );
             }
             DriveEvent::Written { param, value } => out.line(
-                &format!("{param} := {value}"),
+                &format!("{param} := {}", radix::show(value, a.hex)),
                 json!({"pnu": param.number, "index": param.index, "value": value}),
             ),
             DriveEvent::Discarded { reason } => out.line(
@@ -543,20 +697,21 @@ fn uss_cycle(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     sim.silence(drives[1], Instant::ZERO);
     sim.with(m, |m, now| {
         m.start(now);
+        m.stop_after_cycles(3);
         for a in [1, 3] {
             let _ = m.set_control(a, &[stw::RUN, 1000]);
         }
     });
-    while sim.engine(m).cycle() < 3 && sim.step() {}
+    // The master stops itself after the third cycle: the line goes quiet.
+    while sim.step() {}
     print_trace(sim.trace(), out);
     let master = sim.engine(m);
     for s in master.slaves() {
         out.line(
             &format!(
-                "slave {}: ZSW {} HIW {} comm status 16#{:04X} comm error 16#{:04X} last {}",
+                "slave {}: ZSW {} HIW {} comm status {} comm error {} last {}",
                 s.address,
-                s.status_word()
-                    .map_or("-".into(), |w| format!("16#{w:04X}")),
+                s.status_word().map_or("-".into(), |w| w.to_string()),
                 s.actual_value().map_or("-".into(), |w| w.to_string()),
                 s.comm_status,
                 s.comm_error,

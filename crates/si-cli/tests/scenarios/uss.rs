@@ -20,18 +20,18 @@ fn encode_builds_the_whole_telegram_with_lge_and_bcc_including_stx() {
     );
 }
 
+/// `si frame decode uss --pkw-words 4 <args…>`, which must succeed: its output.
+fn decode_pkw4(args: &[&str]) -> String {
+    let mut all = vec!["frame", "decode", "uss", "--pkw-words", "4"];
+    all.extend_from_slice(args);
+    let o = si(&all);
+    assert!(o.status.success(), "{o:?}");
+    stdout(&o)
+}
+
 #[test]
 fn decode_splits_pkw_and_pzd() {
-    let o = si(&[
-        "frame",
-        "decode",
-        "uss",
-        "--pkw-words",
-        "4",
-        "02 0E 00 12 BC 00 00 00 00 00 00 04 7E 00 00 D8",
-    ]);
-    assert!(o.status.success(), "{o:?}");
-    let text = stdout(&o);
+    let text = decode_pkw4(&["02 0E 00 12 BC 00 00 00 00 00 00 04 7E 00 00 D8"]);
     assert!(text.contains("AK 1 SPM 0 PNU 700"), "{text}");
     assert!(text.contains("PZD: [047E, 0000]"), "{text}");
 }
@@ -66,6 +66,49 @@ fn sim_uss_cycle_goes_on_past_the_silent_drive() {
     let counters = &last.last().unwrap()["counters"];
     assert_eq!(counters["no_answer"], 3);
     assert_eq!(counters["ok"], 6);
+    // 3 cycles × 3 nodes and no telegram after the run.
+    assert_eq!(counters["sent"], 9);
+}
+
+#[test]
+fn decode_shows_the_full_parameter_number_from_the_page_index() {
+    // uss-parameter-pages.md: p2029[5] → PKE 101DH (AK 1), IND 8005H; P60000 → IND 74xxH.
+    for (net, want) in [
+        (
+            [0x10, 0x1D, 0x80, 0x05, 0, 0, 0, 0],
+            "PNU 29 IND 8005H (P2029:5)",
+        ),
+        (
+            [0x10, 0x00, 0x74, 0x00, 0, 0, 0, 0],
+            "PNU 0 IND 7400H (P60000:0)",
+        ),
+    ] {
+        let mut t = [0u8; 12];
+        let n = si_uss::frame::encode(si_uss::frame::Adr(1), &net, &mut t).unwrap();
+        let text = decode_pkw4(&["--pzd-words", "0", &si_core::hex::format(&t[..n])]);
+        assert!(text.contains(want), "{text}");
+    }
+}
+
+#[test]
+fn help_documents_the_radix_wdh_and_both_pkw_modes() {
+    let o = si(&["uss", "poll", "--help"]);
+    let help = stdout(&o);
+    assert!(help.contains("--stw"), "{help}");
+    assert!(help.contains("0x047F"), "{help}");
+    assert!(
+        help.contains("repetitions after the first telegram"),
+        "{help}"
+    );
+    assert!(help.contains("--pkw-repeat"), "{help}");
+    assert!(help.contains("task 0"), "{help}");
+    let o = si(&["uss", "write-param", "--help"]);
+    let help = stdout(&o);
+    assert!(
+        help.contains("--array") && help.contains("--index"),
+        "{help}"
+    );
+    assert!(help.contains("negative allowed"), "{help}");
 }
 
 #[test]
