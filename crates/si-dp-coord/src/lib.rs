@@ -44,7 +44,7 @@
 //! | H-2 receive request printed 10H | 20H | — |
 //! | H-3 XON/XOFF 0BH/0DH in Table 2-28 | defaults DC1/DC3 = 11H/13H; any byte may be sent | values |
 //! | H-4 "LSB" label on the 00H byte | MSB first, as every 16-bit word (§2.5) | — |
-//! | H-5 exec number after 7 | 1 (0 would equal the request bytes 10H/20H); [`coord::next_exec`] | no (see there) |
+//! | H-5 exec number after 7 | 1 (0 would equal the request bytes 10H/20H); [`coord::ExecWrap`] | `exec_wrap` (7 → 1 or 7 → 0) |
 //! | H-6 0101H | the answer 20H + 0101H to a receive job with nothing buffered, "not an error" | — |
 //! | H-7 host error bit in a receive job | module aborts with 20H + 0551H and re-offers the frame | [`config::ReceiveErrorPolicy`] |
 //! | H-8 write V.24 | data in the request, answer 40H + STATUS, host writes 00H | — |
@@ -91,7 +91,7 @@ pub mod status;
 pub mod timing;
 
 pub use config::{HostConfig, ModuleConfig};
-pub use coord::{CoordByte, JobCode};
+pub use coord::{CoordByte, ExecWrap, JobCode};
 pub use frame::{ParamBlock, RxStatus, V24Signals, Window, WindowSize};
 pub use host::{Host, HostEvent, Job, JobId, Outcome};
 pub use line::{EngineSerial, LineHooks};

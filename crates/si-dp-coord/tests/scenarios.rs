@@ -5,6 +5,8 @@
 mod common;
 #[path = "scenarios/end_to_end.rs"]
 mod end_to_end;
+#[path = "scenarios/exec_wrap.rs"]
+mod exec_wrap;
 #[path = "scenarios/fb_over_window.rs"]
 mod fb_over_window;
 #[path = "scenarios/host_module.rs"]
