@@ -23,11 +23,19 @@
 //!   the module itself a station of the line simulator.
 //! * [`engines`]: si-3964r's and si-ascii's links as that serial side, so a simulated module runs
 //!   3964(R) or ASCII on its line.
+//! * [`modbus`]: si-modbus's master as that serial side: the module in Modbus master mode, the
+//!   S_SEND job layout (et200s-si-modbus-uss.md §4.3) in, the S_RCV response layout (§4.4) or
+//!   the job's STATUS out.
 //! * [`sim`]: a host and a module joined by a seeded, lagging, fault-injecting DP exchange.
 //! * [`monitor`]: reads a recorded trace of DP windows window by window, coordination bytes
 //!   and what the data bytes mean for them.
 //! * [`timing`]: the manual's processing-time estimate and the PPI token rotation formula.
 //! * [`status`]: the STATUS words the window carries.
+//!
+//! **Not built:** the Modbus/USS module's USS master mode and Modbus slave mode through the
+//! window. What the Modbus slave driver hands S_MODB through S_RCV, and takes back through
+//! S_SEND, is not documented (et200s-si-2005-window-protocol.md H-56), and no USS job layout for
+//! the window is given either; nothing is invented for them.
 //!
 //! What describes the module itself rather than the window (its parameter sets per driver, its
 //! PROFIBUS slave diagnosis, its identification records I&M0/I&M1 and its LEDs) lives in the
@@ -84,6 +92,7 @@ pub mod fb;
 pub mod frame;
 pub mod host;
 pub mod line;
+pub mod modbus;
 pub mod module;
 pub mod monitor;
 pub mod sim;

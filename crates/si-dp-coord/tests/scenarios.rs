@@ -11,6 +11,8 @@ mod exec_wrap;
 mod fb_over_window;
 #[path = "scenarios/host_module.rs"]
 mod host_module;
+#[path = "scenarios/modbus_master.rs"]
+mod modbus_master;
 #[path = "scenarios/module_on_line.rs"]
 mod module_on_line;
 #[path = "scenarios/section_2_8_rules.rs"]
