@@ -37,7 +37,7 @@
 //!   the rule above; a host restart writes 00H first for the same effect (§2.10).
 
 use crate::config::{ConfigError, FlowControl, ModuleConfig, ReceiveErrorPolicy};
-use crate::coord::{CoordByte, JobCode};
+use crate::coord::{CoordByte, ExecWrap, JobCode};
 use crate::frame::{send_stream, ParamBlock, RxStatus, V24Signals, Window};
 use crate::status::{
     FLOW_CONTROL_MISMATCH, INVALID_FRAME_LENGTH, NO_FREE_RECEIVE_BUFFER, NO_MESSAGE,
@@ -188,6 +188,13 @@ impl<S: SerialSide> Module<S> {
             self.rx_bytes = 0;
         }
         self.publish_idle();
+    }
+
+    /// Counts execution numbers past 7 this way (H-5; [`ModuleConfig::exec_wrap`]), for a
+    /// module built by a constructor that takes no configuration (`engines::r3964r_module`, …).
+    pub fn with_exec_wrap(mut self, wrap: ExecWrap) -> Self {
+        self.cfg.exec_wrap = wrap;
+        self
     }
 
     /// The configuration.
