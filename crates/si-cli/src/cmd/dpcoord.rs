@@ -668,32 +668,56 @@ fn scenario_e2e(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     let a = sim.add_station("A", o.settings, a);
     let b = sim.add_station("B", o.settings, b);
     sim.connect(a, b);
-    let mut host_a = Host::new(HostConfig::new(WindowSize::Eight))?;
-    let mut host_b = Host::new(HostConfig::new(WindowSize::Eight))?;
+    let mut hosts = [
+        Host::new(HostConfig::new(WindowSize::Eight))?,
+        Host::new(HostConfig::new(WindowSize::Eight))?,
+    ];
+    let (sent, got) = user_programs(
+        &mut sim,
+        &mut hosts,
+        1,
+        b"temperature=21.5",
+        |sim, hosts| {
+            let out_a = hosts[0].cycle(sim.now(), &in_a).to_vec();
+            in_a = sim.with(a, |m, now| m.cycle(now, &out_a).to_vec());
+            let out_b = hosts[1].cycle(sim.now(), &in_b).to_vec();
+            in_b = sim.with(b, |m, now| m.cycle(now, &out_b).to_vec());
+        },
+    );
+    print_trace(sim.trace(), out);
+    print_fb_results(sent, ("B", got), out)
+}
+
+/// The user programs of a run: S_SEND with `data` on `hosts[0]` (REQ until it has ended) and
+/// S_RCV (EN_R = 1) on `hosts[receiver]`, one call each per DP cycle of 2 ms, in which
+/// `dp_cycle` runs the hosts and their modules. Ends when both FBs have ended, or after 5000
+/// cycles.
+fn user_programs(
+    sim: &mut Simulator,
+    hosts: &mut [Host],
+    receiver: usize,
+    data: &[u8],
+    mut dp_cycle: impl FnMut(&mut Simulator, &mut [Host]),
+) -> (SendResult, ReceiveResult) {
     let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
-    let data = b"temperature=21.5";
     let mut dest = [0u8; 224];
     let (mut sent, mut got) = (None, None);
     for _ in 0..5_000 {
-        let d = s_send.call(&mut host_a, sim.now(), sent.is_none(), false, data);
+        let d = s_send.call(&mut hosts[0], sim.now(), sent.is_none(), false, data);
         if d.done || d.error {
             sent = Some((sim.now(), d));
         }
-        let r = s_rcv.call(&mut host_b, sim.now(), true, false, &mut dest);
+        let r = s_rcv.call(&mut hosts[receiver], sim.now(), true, false, &mut dest);
         if r.ndr || r.error {
             got = Some((sim.now(), r, dest[..r.len].to_vec()));
         }
         if sent.is_some() && got.is_some() {
             break;
         }
-        let out_a = host_a.cycle(sim.now(), &in_a).to_vec();
-        in_a = sim.with(a, |m, now| m.cycle(now, &out_a).to_vec());
-        let out_b = host_b.cycle(sim.now(), &in_b).to_vec();
-        in_b = sim.with(b, |m, now| m.cycle(now, &out_b).to_vec());
+        dp_cycle(sim, hosts);
         sim.run_for(Duration::from_millis(2));
     }
-    print_trace(sim.trace(), out);
-    print_fb_results(sent, ("B", got), out)
+    (sent, got)
 }
 
 /// What S_SEND ended with: when, and its outputs.
@@ -752,30 +776,15 @@ fn scenario_modbus(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     let config = si_modbus::SlaveConfig { line, address: 1 };
     let slave = sim.add_station("slave", o.settings, si_modbus::Slave::new(config, tables)?);
     sim.connect(a, slave);
-    let mut host = Host::new(HostConfig {
+    let mut hosts = [Host::new(HostConfig {
         max_frame_len: modbus::MAX_FRAME_LEN,
         ..HostConfig::new(WindowSize::Eight)
-    })?;
-    let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
+    })?];
     let job = [0x01, 0x03, 0x00, 0x00, 0x00, 0x02];
-    let mut dest = [0u8; modbus::MAX_FRAME_LEN];
-    let (mut sent, mut got) = (None, None);
-    for _ in 0..5_000 {
-        let d = s_send.call(&mut host, sim.now(), sent.is_none(), false, &job);
-        if d.done || d.error {
-            sent = Some((sim.now(), d));
-        }
-        let r = s_rcv.call(&mut host, sim.now(), true, false, &mut dest);
-        if r.ndr || r.error {
-            got = Some((sim.now(), r, dest[..r.len].to_vec()));
-        }
-        if sent.is_some() && got.is_some() {
-            break;
-        }
-        let output = host.cycle(sim.now(), &input).to_vec();
+    let (sent, got) = user_programs(&mut sim, &mut hosts, 0, &job, |sim, hosts| {
+        let output = hosts[0].cycle(sim.now(), &input).to_vec();
         input = sim.with(a, |m, now| m.cycle(now, &output).to_vec());
-        sim.run_for(Duration::from_millis(2));
-    }
+    });
     print_trace(sim.trace(), out);
     print_fb_results(sent, ("A", got), out)
 }

@@ -276,9 +276,10 @@ fn sim_dp_coord_send_prints_table_2_23_and_ends_done() {
     assert_eq!(lines.last().map(String::as_str), Some("done STATUS=0000"));
 }
 
-#[test]
-fn sim_dp_coord_e2e_delivers_the_frame_through_both_windows() {
-    let out = si_command().args(["sim", "dp-coord-e2e"]).output().unwrap();
+/// Runs `si sim NAME`, a scenario ending with S_SEND's and S_RCV's results; asserts it
+/// succeeded and S_SEND on A was done without error; its lines.
+fn sim_fb_scenario(name: &str) -> Vec<String> {
+    let out = si_command().args(["sim", name]).output().unwrap();
     assert!(out.status.success(), "{out:?}");
     let lines = stdout_lines(&out);
     let n = lines.len();
@@ -286,6 +287,13 @@ fn sim_dp_coord_e2e_delivers_the_frame_through_both_windows() {
         lines[n - 2].ends_with("A S_SEND done=true error=false STATUS=0000"),
         "{lines:?}"
     );
+    lines
+}
+
+#[test]
+fn sim_dp_coord_e2e_delivers_the_frame_through_both_windows() {
+    let lines = sim_fb_scenario("dp-coord-e2e");
+    let n = lines.len();
     // "temperature=21.5"
     assert!(lines[n - 1].ends_with(
         "B S_RCV ndr=true error=false STATUS=0000 LEN=16 74 65 6D 70 65 72 61 74 75 72 65 3D 32 31 2E 35"
@@ -318,17 +326,8 @@ fn json_lines_carry_the_same_windows_and_result() {
 
 #[test]
 fn sim_dp_coord_modbus_reads_registers_through_the_window() {
-    let out = si_command()
-        .args(["sim", "dp-coord-modbus"])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{out:?}");
-    let lines = stdout_lines(&out);
+    let lines = sim_fb_scenario("dp-coord-modbus");
     let n = lines.len();
-    assert!(
-        lines[n - 2].ends_with("A S_SEND done=true error=false STATUS=0000"),
-        "{lines:?}"
-    );
     // FC03, registers 0 and 1 of slave 1: 1234H, 5678H in register order (§4.4).
     assert!(
         lines[n - 1].ends_with("A S_RCV ndr=true error=false STATUS=0000 LEN=4 12 34 56 78"),
