@@ -61,7 +61,7 @@
 //! | H-11 end of receive / read V.24 | the host holds its last echo until the module is idle, then writes 00H | — |
 //! | H-12 no timeouts | host job watchdog, default 30 s, STATUS 0502H | [`HostConfig`] |
 //! | H-13 don't-care bytes | written as 00H, ignored when read | — |
-//! | H-14 224 vs 200 bytes | 224 (chapter 2); 200 for the Modbus/USS module | `max_frame_len` |
+//! | H-14 224 vs 200 bytes | 224 (chapter 2); 200 for the Modbus/USS module ([`modbus::MAX_FRAME_LEN`]) | `max_frame_len` |
 //!
 //! ```
 //! use si_dp_coord::{host::{Host, Job, HostEvent, Outcome}, module::{Module, LoopbackSerial}};

@@ -13,9 +13,10 @@
 //!   receive error) waiting, 0B01H buffer more than 2/3 full (§2.5). A job starts only from a
 //!   request byte (job code, no error bit, exec 0); anything else is ignored.
 //! * **Send (1) / parameters (5):** accepts with the job code and exec 0 (status word = the
-//!   receive status), then checks each segment's exec number against last + 1: in order →
-//!   echo; the same number again → ignore (the host holds a segment until echoed); anything else
-//!   → error bit with the last valid number (§2.8). After the last segment a send frame goes to
+//!   receive status), then checks each segment's exec number against last + 1 (after 7: 1, or 0
+//!   with [`ModuleConfig::exec_wrap`], H-5): in order → echo; the same number again → ignore
+//!   (the host holds a segment until echoed); anything else → error bit with the last valid
+//!   number (§2.8). After the last segment a send frame goes to
 //!   the serial side and the module answers 7xH + STATUS only when it has been transmitted
 //!   (§2.9); a parameter block is applied one cycle after its last echo (Table 2-28 shows 53H
 //!   before 73H). 7xH carries the exec number of the last segment. A length word of 0 or above
