@@ -211,6 +211,20 @@ fn m_4_3_refused_jobs_end_at_once_and_reach_neither_line_nor_buffer() {
     assert_eq!(b.send(&[0u8; 201]), Err(INVALID_FRAME_LENGTH));
 }
 
+/// §4.5: a read whose result exceeds 200 bytes (FC03, 101 registers = 202 bytes) never reaches
+/// the host cut short; the receive job ends with an error instead of a frame.
+#[test]
+fn m_4_5_a_read_over_200_bytes_is_an_error_not_a_cut_frame() {
+    let mut b = Bench::new(WindowSize::ThirtyTwo);
+    b.sim.with(b.slave, |s, _| {
+        s.store_mut().holding_registers.resize(101, 0x5A5A);
+    });
+    let _ = b.send(&[SLAVE, 0x03, 0x00, 0x00, 0x00, 101]);
+    let r = b.run(Job::Receive);
+    assert!(r.is_err(), "{r:?}");
+    assert_eq!(b.run(Job::Receive), Ok(Outcome::NoMessage));
+}
+
 /// What the user program's FBs saw over one run.
 #[derive(Debug, Default)]
 struct Seen {
