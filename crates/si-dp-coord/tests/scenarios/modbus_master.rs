@@ -140,7 +140,7 @@ fn m_4_3_fc03_read_through_the_window_in_every_size() {
 }
 
 /// FC16 and FC06: the slave's registers change, and the receive job brings the echo (address,
-/// FC, start, count / value, §4.4).
+/// FC, start, count / value, §4.4); a broadcast FC06 leaves nothing to receive.
 #[test]
 fn m_4_3_fc16_and_fc06_writes_through_the_window() {
     let mut b = Bench::new(WindowSize::Four);
@@ -162,6 +162,15 @@ fn m_4_3_fc16_and_fc06_writes_through_the_window() {
         .with(b.slave, |s, _| s.store().holding_registers[..20].to_vec());
     assert_eq!(regs[5], 0x1234);
     assert_eq!(regs[16..19], [0x41A1, 0x42A2, 0x43A3]);
+    // A broadcast (address 0, FC06) gets no response: the send job ends after the master's
+    // turnaround, and no response waits for a receive job.
+    assert_eq!(
+        b.send(&[0x00, 0x06, 0x00, 0x07, 0xAB, 0xCD]),
+        Ok(Outcome::Sent)
+    );
+    let r7 = b.sim.with(b.slave, |s, _| s.store().holding_registers[7]);
+    assert_eq!(r7, 0xABCD);
+    assert_eq!(b.run(Job::Receive), Ok(Outcome::NoMessage));
 }
 
 /// An exception response (register 1000 does not exist: exception 02) ends the send job with
