@@ -24,8 +24,9 @@
 //! * **Frame limit 200 bytes** both ways (M §4.2 LEN 1…200, 050EH; H-14): a longer send job is
 //!   refused with 050EH by the window module itself, and a response whose S_RCV layout is longer
 //!   than 200 bytes (FC03/04 above 100 registers, FC01/02 above 1600 bits, §4.5) is never cut:
-//!   unless the master already failed the job for it, the window module refuses the frame and
-//!   the receive job gets 20H + 0850H.
+//!   si-modbus's job check may refuse such a read before the line (050EH, its reading of §4.5);
+//!   a longer response that still arrives is refused by the window module, and the receive job
+//!   gets 20H + 0850H.
 //! * The module's receive buffer holds the responses; the master runs one job at a time, and a
 //!   send job while one runs is refused with 0502H.
 //! * Parameter jobs are refused with 0550H (the Modbus module offers no flow-control block
