@@ -1,6 +1,7 @@
 //! Parameters of the host and module engines, with the manual's values as defaults and the
 //! readings we chose where the manual is silent (et200s-si-2005-window-protocol.md §12.1).
 
+use crate::coord::ExecWrap;
 use crate::frame::{V24Layout, WindowSize};
 use crate::status::NOT_POSSIBLE_IN_MODE;
 use serde::{Deserialize, Serialize};
@@ -55,6 +56,10 @@ pub struct HostConfig {
     pub auto_receive: bool,
     /// Where the V.24 bit field sits in the signal word (H-9); default byte 2.
     pub v24_layout: V24Layout,
+    /// What follows execution number 7 (H-5): 7 → 1 by default, or 7 → 0. Host and module must
+    /// use the same; see [`ExecWrap`] for what a disagreement looks like.
+    #[serde(default)]
+    pub exec_wrap: ExecWrap,
 }
 
 impl Default for HostConfig {
@@ -67,6 +72,7 @@ impl Default for HostConfig {
             queue_capacity: 16,
             auto_receive: false,
             v24_layout: V24Layout::LowByte,
+            exec_wrap: ExecWrap::ToOne,
         }
     }
 }
@@ -148,6 +154,10 @@ pub struct ModuleConfig {
     pub flow_control: FlowControl,
     /// Where the V.24 bit field sits in the signal word (H-9); default byte 2.
     pub v24_layout: V24Layout,
+    /// What follows execution number 7 (H-5): 7 → 1 by default, or 7 → 0. Host and module must
+    /// use the same; see [`ExecWrap`] for what a disagreement looks like.
+    #[serde(default)]
+    pub exec_wrap: ExecWrap,
 }
 
 impl Default for ModuleConfig {
@@ -160,6 +170,7 @@ impl Default for ModuleConfig {
             receive_error_policy: ReceiveErrorPolicy::AbortAndReoffer,
             flow_control: FlowControl::XonXoff,
             v24_layout: V24Layout::LowByte,
+            exec_wrap: ExecWrap::ToOne,
         }
     }
 }

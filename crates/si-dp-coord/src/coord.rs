@@ -153,47 +153,77 @@ impl fmt::Display for CoordByte {
     }
 }
 
-/// The execution number after `exec`: 1, 2, …, 7, then 1 again.
+/// What follows execution number 7 (H-5, et200s-si-2005-window-protocol.md §2.2): a setting of
+/// both the host ([`HostConfig::exec_wrap`](crate::config::HostConfig::exec_wrap)) and the module
+/// ([`ModuleConfig::exec_wrap`](crate::config::ModuleConfig::exec_wrap)), which must agree.
 ///
 /// The manual gives the range "1 to 7" and uses 0 only in the job request and acceptance
-/// (10H, 20H, 50H); it does not say what follows 7 (H-5, et200s-si-2005-window-protocol.md
-/// §2.2). Wrap-around is unavoidable (a 224-byte send takes 76 segments in the 4-byte window).
-/// We read 7 → 1: wrapping to 0 would make the 8th segment of a send or the 8th echo of a
-/// receive identical to the request bytes 10H/20H, which a module in idle would take for a new
-/// job. Verify on hardware.
-pub const fn next_exec(exec: u8) -> u8 {
-    if exec >= 7 {
-        1
-    } else {
-        exec + 1
-    }
+/// (10H, 20H, 50H); it does not say what follows 7. Wrap-around is unavoidable (a 224-byte send
+/// takes 76 segments in the 4-byte window, 33 in the 8-byte one). The default reads 7 → 1:
+/// wrapping to 0 makes the 8th segment of a send or the 8th echo of a receive identical to the
+/// request bytes 10H/20H, which a module back in idle takes for a new job. 7 → 0 is offered for
+/// a module that turns out to count 0…7 on hardware.
+///
+/// When host and module disagree, the first segment after 7 is out of order for the receiver
+/// (§2.8): a module sets its error bit with the last valid number 7 and the host sends the same
+/// segment again, forever, so a send job ends only by the host's watchdog
+/// ([`HostConfig::job_timeout`](crate::config::HostConfig::job_timeout), STATUS 0502H by
+/// default); in a receive job the host sets its error bit and the module aborts with 0551H
+/// (Table 2-21), or the host takes a 20H segment for the module's 20H + STATUS answer.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum ExecWrap {
+    /// 1, 2, …, 7, 1, 2, …: 0 stays the request's and acceptance's number. The default.
+    #[default]
+    ToOne,
+    /// 1, 2, …, 7, 0, 1, …: all eight values of the 3-bit field.
+    ToZero,
 }
 
-/// The execution number of segment `k` (1-based): 1…7, 1…7, …; segment 0 is the request (0).
-pub const fn exec_of_segment(k: usize) -> u8 {
-    if k == 0 {
-        0
-    } else {
-        ((k - 1) % 7) as u8 + 1
-    }
-}
-
-/// The most recent segment at or before `k` whose execution number is `exec` (0 ⇒ segment 0,
-/// the acceptance): how a sender maps "last valid exec" back to a segment for go-back (§2.8).
-/// Looks back at most 6 segments, the largest ambiguity-free distance with 7 numbers.
-pub const fn segment_with_exec(k: usize, exec: u8) -> Option<usize> {
-    if exec == 0 {
-        return Some(0);
-    }
-    let mut back = 0;
-    while back < 7 && back <= k {
-        let j = k - back;
-        if j > 0 && exec_of_segment(j) == exec & 7 {
-            return Some(j);
+impl ExecWrap {
+    /// How many execution numbers the cycle has: 7 or 8.
+    const fn period(self) -> usize {
+        match self {
+            ExecWrap::ToOne => 7,
+            ExecWrap::ToZero => 8,
         }
-        back += 1;
     }
-    None
+
+    /// The execution number after `exec`.
+    pub const fn next(self, exec: u8) -> u8 {
+        match self {
+            ExecWrap::ToOne if exec >= 7 => 1,
+            ExecWrap::ToZero if exec >= 7 => 0,
+            _ => exec + 1,
+        }
+    }
+
+    /// The execution number of segment `k` (1-based); segment 0 is the request (0).
+    pub const fn of_segment(self, k: usize) -> u8 {
+        match self {
+            _ if k == 0 => 0,
+            ExecWrap::ToOne => ((k - 1) % 7) as u8 + 1,
+            ExecWrap::ToZero => (k % 8) as u8,
+        }
+    }
+
+    /// The most recent segment at or before `k` whose execution number is `exec` (segment 0 is
+    /// the acceptance, number 0): how a sender maps "last valid exec" back to a segment for
+    /// go-back (§2.8). Looks back at most one cycle less one segment (6 or 7), the largest
+    /// ambiguity-free distance. With 7 → 1, number 0 can only be the acceptance's.
+    pub const fn segment_with(self, k: usize, exec: u8) -> Option<usize> {
+        if matches!(self, ExecWrap::ToOne) && exec & 7 == 0 {
+            return Some(0);
+        }
+        let mut back = 0;
+        while back < self.period() && back <= k {
+            let j = k - back;
+            if self.of_segment(j) == exec & 7 {
+                return Some(j);
+            }
+            back += 1;
+        }
+        None
+    }
 }
 
 #[cfg(test)]
@@ -247,22 +277,46 @@ mod tests {
     }
 
     #[test]
-    fn exec_numbers_wrap_7_to_1() {
-        let seq: Vec<u8> = (1..=16).map(exec_of_segment).collect();
+    fn exec_numbers_wrap_7_to_1_by_default() {
+        let w = ExecWrap::default();
+        assert_eq!(w, ExecWrap::ToOne);
+        let seq: Vec<u8> = (1..=16).map(|k| w.of_segment(k)).collect();
         assert_eq!(seq, [1, 2, 3, 4, 5, 6, 7, 1, 2, 3, 4, 5, 6, 7, 1, 2]);
-        assert_eq!(next_exec(0), 1);
-        assert_eq!(next_exec(7), 1);
-        for k in 1..40 {
-            assert_eq!(next_exec(exec_of_segment(k)), exec_of_segment(k + 1));
+        assert_eq!(w.next(0), 1);
+        assert_eq!(w.next(7), 1);
+        for k in 0..40 {
+            assert_eq!(w.next(w.of_segment(k)), w.of_segment(k + 1));
+        }
+    }
+
+    #[test]
+    fn exec_numbers_wrap_7_to_0_when_set() {
+        let w = ExecWrap::ToZero;
+        let seq: Vec<u8> = (0..=17).map(|k| w.of_segment(k)).collect();
+        assert_eq!(seq, [0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 6, 7, 0, 1]);
+        assert_eq!(w.next(7), 0);
+        for k in 0..40 {
+            assert_eq!(w.next(w.of_segment(k)), w.of_segment(k + 1));
         }
     }
 
     #[test]
     fn go_back_finds_the_latest_segment() {
-        assert_eq!(segment_with_exec(9, 1), Some(8));
-        assert_eq!(segment_with_exec(9, 2), Some(9));
-        assert_eq!(segment_with_exec(9, 3), Some(3));
-        assert_eq!(segment_with_exec(2, 0), Some(0));
-        assert_eq!(segment_with_exec(2, 5), None);
+        let w = ExecWrap::ToOne;
+        assert_eq!(w.segment_with(9, 1), Some(8));
+        assert_eq!(w.segment_with(9, 2), Some(9));
+        assert_eq!(w.segment_with(9, 3), Some(3));
+        assert_eq!(w.segment_with(2, 0), Some(0));
+        assert_eq!(w.segment_with(2, 5), None);
+        assert_eq!(
+            w.segment_with(9, 0),
+            Some(0),
+            "0 is only the acceptance's number"
+        );
+        let w = ExecWrap::ToZero;
+        assert_eq!(w.segment_with(9, 0), Some(8));
+        assert_eq!(w.segment_with(9, 1), Some(9));
+        assert_eq!(w.segment_with(9, 2), Some(2));
+        assert_eq!(w.segment_with(3, 0), Some(0));
     }
 }

@@ -43,7 +43,7 @@ use crate::frame::{ParamBlock, WindowSize};
 use crate::line::{EngineSerial, LineEvent, LineHooks};
 use crate::module::{Module, SerialEvent};
 use bytes::Bytes;
-use si_core::{Instant, SignalUpdate, Status};
+use si_core::{FramePool, Instant, SignalUpdate, Status};
 
 /// The hooks for a [`si_3964r::Link`].
 pub const R3964R_HOOKS: LineHooks<si_3964r::Link> = LineHooks {
@@ -76,8 +76,12 @@ fn r3964r_classify(event: &si_3964r::Event) -> Option<LineEvent> {
     })
 }
 
-fn r3964r_take(link: &mut si_3964r::Link, now: Instant) -> Option<Bytes> {
-    link.take_block(now)
+fn r3964r_take(
+    link: &mut si_3964r::Link,
+    now: Instant,
+    _: &mut FramePool,
+) -> Option<Result<Bytes, Status>> {
+    link.take_block(now).map(Ok)
 }
 
 /// A 3964(R) engine as the module's serial side, sending from the adapter's frame pool.
@@ -130,10 +134,14 @@ fn ascii_classify(event: &si_ascii::Event) -> Option<LineEvent> {
     })
 }
 
-fn ascii_take(link: &mut si_ascii::Link, now: Instant) -> Option<Bytes> {
+fn ascii_take(
+    link: &mut si_ascii::Link,
+    now: Instant,
+    _: &mut FramePool,
+) -> Option<Result<Bytes, Status>> {
     // Sized by the frame itself, so no frame can stay behind for want of room; cut from the
     // link's kept buffer, so nothing is allocated per frame.
-    link.read_frame_bytes(now)
+    link.read_frame_bytes(now).map(Ok)
 }
 
 fn ascii_set_signals(

@@ -40,7 +40,7 @@
 //!   [`HostConfig::watchdog_status`] and the host writes 00H, which aborts the module's side.
 
 use crate::config::{ConfigError, HostConfig};
-use crate::coord::{exec_of_segment, segment_with_exec, CoordByte, JobCode};
+use crate::coord::{CoordByte, JobCode};
 use crate::frame::{send_stream, ParamBlock, RxStatus, V24Signals, Window};
 use crate::status::{
     lookup, ABORTED_BY_RESET, INVALID_LEN, NOT_POSSIBLE_IN_MODE, RECEIVED_FRAME_TOO_LONG,
@@ -508,9 +508,14 @@ impl Host {
         Some(a)
     }
 
+    /// The execution number of segment `k` under the configured wrap (H-5).
+    fn exec(&self, k: usize) -> u8 {
+        self.cfg.exec_wrap.of_segment(k)
+    }
+
     fn show_segment(&mut self, code: JobCode, k: usize) {
         self.out
-            .set_segment(CoordByte::new(code, exec_of_segment(k)), &self.stream, k);
+            .set_segment(CoordByte::new(code, self.exec(k)), &self.stream, k);
     }
 
     /// One cycle of the running job: the phase handler decides, this applies the decision.
@@ -573,7 +578,7 @@ impl Host {
         let code = job.code();
         if c.job == code && !c.error {
             in_error = None;
-            if c.exec == exec_of_segment(k) && acked < k {
+            if c.exec == self.exec(k) && acked < k {
                 acked = k;
                 self.stats.segments_sent += 1;
                 if k < last {
@@ -583,7 +588,7 @@ impl Host {
             }
         } else if c.job == code {
             // Error bit: resend from the segment after the last valid one.
-            if let Some(j) = segment_with_exec(k, c.exec) {
+            if let Some(j) = self.cfg.exec_wrap.segment_with(k, c.exec) {
                 if in_error != Some(c.exec) {
                     self.stats.resends += 1;
                 }
@@ -626,8 +631,11 @@ impl Host {
         } = st;
         let word = inw.word();
         let complete = k > 0 && got >= len;
+        // With 7 → 0 (H-5) number 0 is also a segment's: the next one or the last valid one
+        // again. While our error bit is out, 20H is the module's abort answer (Table 2-21).
+        let zero_is_segment = k > 0 && !error && (self.exec(k) == 0 || self.exec(k + 1) == 0);
         if c.job == JobCode::Receive && !c.error {
-            if c.exec == 0 {
+            if c.exec == 0 && !zero_is_segment {
                 // 20H + STATUS: nothing there, an erroneous frame, or the abort after our error
                 // bit (§2.8, Table 2-21).
                 return Next::Done(if word == 0x0101 || word == 0 {
@@ -640,7 +648,7 @@ impl Host {
                     Err(lookup(word))
                 });
             }
-            if c.exec == exec_of_segment(k + 1) && !complete {
+            if c.exec == self.exec(k + 1) && !complete {
                 let mut data = inw.data();
                 if k == 0 {
                     len = usize::from(word);
@@ -661,13 +669,13 @@ impl Host {
                 k += 1;
                 error = false;
                 self.stats.segments_received += 1;
-                self.echo_receive(CoordByte::new(JobCode::Receive, exec_of_segment(k)));
-            } else if c.exec == exec_of_segment(k) && k > 0 {
+                self.echo_receive(CoordByte::new(JobCode::Receive, self.exec(k)));
+            } else if c.exec == self.exec(k) && k > 0 {
                 // The last valid segment again (our echo not seen yet, or resent after our
                 // error bit): echo it plainly.
                 if error {
                     error = false;
-                    self.echo_receive(CoordByte::new(JobCode::Receive, exec_of_segment(k)));
+                    self.echo_receive(CoordByte::new(JobCode::Receive, self.exec(k)));
                 }
             } else {
                 // Out of order: error bit + last valid number (§2.8).
@@ -675,7 +683,7 @@ impl Host {
                     self.stats.errors_signalled += 1;
                 }
                 error = true;
-                self.echo_receive(CoordByte::error(JobCode::Receive, exec_of_segment(k)));
+                self.echo_receive(CoordByte::error(JobCode::Receive, self.exec(k)));
             }
         } else if c.job == JobCode::Idle && k > 0 {
             return Next::Done(if !complete {
@@ -709,11 +717,11 @@ impl Host {
         let code = JobCode::ReadV24;
         if c.job == JobCode::Idle || (c.job == code && c.error) {
             Next::Stay(Phase::ReadV24)
-        } else if c.job == code && c.exec == exec_of_segment(1) {
+        } else if c.job == code && c.exec == self.exec(1) {
             let d = inw.data();
             let signals = self.cfg.v24_layout.decode([d[0], d[1]]);
             self.out.clear();
-            self.out.set_coord(CoordByte::new(code, exec_of_segment(1)));
+            self.out.set_coord(CoordByte::new(code, self.exec(1)));
             Next::Stay(Phase::ReadV24Ack(signals))
         } else if c.job == code && c.exec == 0 {
             Next::Done(Err(status_or(inw.word(), NOT_POSSIBLE_IN_MODE)))

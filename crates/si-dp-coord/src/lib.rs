@@ -23,11 +23,19 @@
 //!   the module itself a station of the line simulator.
 //! * [`engines`]: si-3964r's and si-ascii's links as that serial side, so a simulated module runs
 //!   3964(R) or ASCII on its line.
+//! * [`modbus`]: si-modbus's master as that serial side: the module in Modbus master mode, the
+//!   S_SEND job layout (et200s-si-modbus-uss.md §4.3) in, the S_RCV response layout (§4.4) or
+//!   the job's STATUS out.
 //! * [`sim`]: a host and a module joined by a seeded, lagging, fault-injecting DP exchange.
 //! * [`monitor`]: reads a recorded trace of DP windows window by window, coordination bytes
 //!   and what the data bytes mean for them.
 //! * [`timing`]: the manual's processing-time estimate and the PPI token rotation formula.
 //! * [`status`]: the STATUS words the window carries.
+//!
+//! **Not built:** the Modbus/USS module's USS master mode and Modbus slave mode through the
+//! window. What the Modbus slave driver hands S_MODB through S_RCV, and takes back through
+//! S_SEND, is not documented (et200s-si-2005-window-protocol.md H-56), and no USS job layout for
+//! the window is given either; nothing is invented for them.
 //!
 //! What describes the module itself rather than the window (its parameter sets per driver, its
 //! PROFIBUS slave diagnosis, its identification records I&M0/I&M1 and its LEDs) lives in the
@@ -44,7 +52,7 @@
 //! | H-2 receive request printed 10H | 20H | — |
 //! | H-3 XON/XOFF 0BH/0DH in Table 2-28 | defaults DC1/DC3 = 11H/13H; any byte may be sent | values |
 //! | H-4 "LSB" label on the 00H byte | MSB first, as every 16-bit word (§2.5) | — |
-//! | H-5 exec number after 7 | 1 (0 would equal the request bytes 10H/20H); [`coord::next_exec`] | no (see there) |
+//! | H-5 exec number after 7 | 1 (0 would equal the request bytes 10H/20H); [`coord::ExecWrap`] | `exec_wrap` (7 → 1 or 7 → 0) |
 //! | H-6 0101H | the answer 20H + 0101H to a receive job with nothing buffered, "not an error" | — |
 //! | H-7 host error bit in a receive job | module aborts with 20H + 0551H and re-offers the frame | [`config::ReceiveErrorPolicy`] |
 //! | H-8 write V.24 | data in the request, answer 40H + STATUS, host writes 00H | — |
@@ -53,7 +61,7 @@
 //! | H-11 end of receive / read V.24 | the host holds its last echo until the module is idle, then writes 00H | — |
 //! | H-12 no timeouts | host job watchdog, default 30 s, STATUS 0502H | [`HostConfig`] |
 //! | H-13 don't-care bytes | written as 00H, ignored when read | — |
-//! | H-14 224 vs 200 bytes | 224 (chapter 2); 200 for the Modbus/USS module | `max_frame_len` |
+//! | H-14 224 vs 200 bytes | 224 (chapter 2); 200 for the Modbus/USS module ([`modbus::MAX_FRAME_LEN`]) | `max_frame_len` |
 //!
 //! ```
 //! use si_dp_coord::{host::{Host, Job, HostEvent, Outcome}, module::{Module, LoopbackSerial}};
@@ -84,6 +92,7 @@ pub mod fb;
 pub mod frame;
 pub mod host;
 pub mod line;
+pub mod modbus;
 pub mod module;
 pub mod monitor;
 pub mod sim;
@@ -91,7 +100,7 @@ pub mod status;
 pub mod timing;
 
 pub use config::{HostConfig, ModuleConfig};
-pub use coord::{CoordByte, JobCode};
+pub use coord::{CoordByte, ExecWrap, JobCode};
 pub use frame::{ParamBlock, RxStatus, V24Signals, Window, WindowSize};
 pub use host::{Host, HostEvent, Job, JobId, Outcome};
 pub use line::{EngineSerial, LineHooks};

@@ -3,15 +3,17 @@
 //! which the whole module becomes a station of the line simulator.
 //!
 //! The adapter knows an engine only through a few plain functions ([`LineHooks`]): how to start
-//! sending a frame, which of its events mean "frame received", "receive error" and "send
-//! finished", how to take a frame the engine keeps in its own buffer, how to set RTS/DTR and how
-//! to apply a flow-control block. [`EngineSerial`] implements [`SerialSide`] with them, and
+//! sending a frame, which of its events mean "frame received", "receive error", "send finished"
+//! and "send finished with an answer" (a Modbus master's job), how to take a frame (or a failed
+//! reception) the engine keeps in its own buffer, how to set RTS/DTR and how to apply a
+//! flow-control block. [`EngineSerial`] implements [`SerialSide`] with them, and
 //! `Module<EngineSerial<E>>` implements [`Engine`] by passing the line through to `E`, so a
 //! simulator or the tokio driver runs it like any engine while the DP side is driven with
 //! [`Module::cycle`] (from `Simulator::with` or `Handle::call`).
 //!
 //! The hooks for the finished line engines are in [`crate::engines`]: [`crate::engines::r3964r`]
-//! and [`crate::engines::ascii`] make a simulated module that runs 3964(R) or ASCII on its line.
+//! and [`crate::engines::ascii`] make a simulated module that runs 3964(R) or ASCII on its line,
+//! [`crate::modbus::master`] one in Modbus master mode.
 
 use crate::frame::{ParamBlock, V24Signals};
 use crate::module::{Module, SerialEvent, SerialSide};
@@ -23,8 +25,11 @@ use std::collections::VecDeque;
 /// Applies a flow-control block to an engine.
 pub type FlowControlHook<E> = fn(&mut E, Instant, ParamBlock) -> Result<(), Status>;
 
-/// Takes the oldest frame out of an engine's own receive buffer.
-pub type TakeFrameHook<E> = fn(&mut E, Instant) -> Option<Bytes>;
+/// Takes the oldest reception out of an engine's own receive buffer: a frame, or the STATUS of a
+/// reception that failed (a Modbus master job's timeout or exception, which S_RCV reports too).
+/// An engine that builds the frame on the spot (into a scratch area) cuts it from `pool`, which
+/// the adapter keeps, so taking allocates nothing per frame in steady state.
+pub type TakeFrameHook<E> = fn(&mut E, Instant, &mut FramePool) -> Option<Result<Bytes, Status>>;
 
 /// Sets RTS and DTR through the engine (which may refuse, e.g. under automatic V.24 control).
 pub type SetSignalsHook<E> = fn(&mut E, Instant, SignalUpdate) -> Result<(), Status>;
@@ -48,6 +53,12 @@ pub enum LineEvent {
     /// si-3964r and si-ascii); it is taken with [`LineHooks::take_frame`] at the module's next
     /// cycle, in order with the other events, so the engine's buffer frees at that time.
     FrameWaiting,
+    /// A send ended and left an answer in the engine (a master's request and the slave's
+    /// response, or the job's failure): the module hears [`SerialEvent::SendDone`] with the
+    /// result, and takes the answer as after [`LineEvent::FrameWaiting`] (first, so it is
+    /// buffered by the time the end-of-job acknowledgement is shown). Nothing waits after a
+    /// broadcast: `take_frame` then returns `None`.
+    Answered(Result<(), Status>),
 }
 
 impl From<SerialEvent> for LineEvent {
@@ -62,8 +73,8 @@ pub struct LineHooks<E: Engine> {
     pub send: fn(&mut E, Instant, &[u8]) -> Result<(), Status>,
     /// What an engine event means for the module, if anything.
     pub classify: fn(&E::Event) -> Option<LineEvent>,
-    /// Takes a waiting frame after [`LineEvent::FrameWaiting`]; `None` when the engine never
-    /// reports that.
+    /// Takes a waiting frame after [`LineEvent::FrameWaiting`] or [`LineEvent::Answered`];
+    /// `None` when the engine never reports those.
     pub take_frame: Option<TakeFrameHook<E>>,
     /// Sets RTS/DTR through the engine; `None` sets them directly on the line (the adapter
     /// emits the [`Output::SetSignals`] itself).
@@ -106,6 +117,8 @@ pub struct EngineSerial<E: Engine> {
     send_bytes: Option<SendBytesHook<E>>,
     /// Frames to send are cut from this pool (no allocation per frame in steady state).
     tx_pool: FramePool,
+    /// Frames [`LineHooks::take_frame`] builds on the spot are cut from this pool.
+    rx_pool: FramePool,
 }
 
 impl<E: Engine> EngineSerial<E> {
@@ -121,6 +134,7 @@ impl<E: Engine> EngineSerial<E> {
             unannounced: 0,
             send_bytes: None,
             tx_pool: FramePool::new(POOL_BYTES),
+            rx_pool: FramePool::new(POOL_BYTES),
         }
     }
 
@@ -156,21 +170,14 @@ impl<E: Engine> EngineSerial<E> {
         }
         let out = self.engine.poll_output();
         match &out {
-            Output::Event(e) => {
-                if let Some(se) = (self.hooks.classify)(e) {
-                    let send_done = matches!(se, LineEvent::Serial(SerialEvent::SendDone(_)));
-                    if self.events.len() < MAX_PENDING || send_done {
-                        // The end of a send is never dropped (the module would wait for it
-                        // forever); the engine runs one send at a time, so this stays bounded.
-                        self.events.push_back(se);
-                    } else {
-                        self.dropped += 1;
-                        if se == LineEvent::FrameWaiting {
-                            self.unannounced += 1;
-                        }
-                    }
+            Output::Event(e) => match (self.hooks.classify)(e) {
+                Some(LineEvent::Answered(result)) => {
+                    self.note(LineEvent::FrameWaiting);
+                    self.note(SerialEvent::SendDone(result).into());
                 }
-            }
+                Some(se) => self.note(se),
+                None => {}
+            },
             Output::SetSignals(u) => {
                 self.signals.rts = u.rts.unwrap_or(self.signals.rts);
                 self.signals.dtr = u.dtr.unwrap_or(self.signals.dtr);
@@ -178,6 +185,30 @@ impl<E: Engine> EngineSerial<E> {
             Output::Transmit(_) | Output::Wait(_) => {}
         }
         out
+    }
+
+    /// Queues what the module must hear about, within [`MAX_PENDING`].
+    fn note(&mut self, se: LineEvent) {
+        let send_done = matches!(se, LineEvent::Serial(SerialEvent::SendDone(_)));
+        if self.events.len() < MAX_PENDING || send_done {
+            // The end of a send is never dropped (the module would wait for it forever); the
+            // engine runs one send at a time, so this stays bounded.
+            self.events.push_back(se);
+        } else {
+            self.dropped += 1;
+            if se == LineEvent::FrameWaiting {
+                self.unannounced += 1;
+            }
+        }
+    }
+
+    /// Takes the reception waiting in the engine, if any.
+    fn take(&mut self, now: Instant) -> Option<SerialEvent> {
+        let take = self.hooks.take_frame?;
+        Some(match take(&mut self.engine, now, &mut self.rx_pool)? {
+            Ok(frame) => SerialEvent::Received(frame),
+            Err(status) => SerialEvent::ReceiveFailed(status),
+        })
     }
 }
 
@@ -196,13 +227,10 @@ impl<E: Engine> SerialSide for EngineSerial<E> {
         while let Some(e) = self.events.pop_front() {
             match e {
                 LineEvent::Serial(e) => return Some(e),
-                LineEvent::FrameWaiting => {
-                    let frame = self
-                        .hooks
-                        .take_frame
-                        .and_then(|take| take(&mut self.engine, now));
-                    if let Some(frame) = frame {
-                        return Some(SerialEvent::Received(frame));
+                // `Answered` is split into these two by `poll_engine`.
+                LineEvent::FrameWaiting | LineEvent::Answered(_) => {
+                    if let Some(reception) = self.take(now) {
+                        return Some(reception);
                     }
                 }
             }
@@ -211,8 +239,7 @@ impl<E: Engine> SerialSide for EngineSerial<E> {
         // engine: fetch them once the queue is empty, so none stays behind for good.
         if self.unannounced > 0 {
             self.unannounced -= 1;
-            let take = self.hooks.take_frame?;
-            return take(&mut self.engine, now).map(SerialEvent::Received);
+            return self.take(now);
         }
         None
     }
@@ -317,7 +344,7 @@ mod tests {
             0xFF => Some(SerialEvent::SendDone(Ok(())).into()),
             _ => Some(LineEvent::FrameWaiting),
         },
-        take_frame: Some(|f, _| f.frames.pop_front()),
+        take_frame: Some(|f, _, _| f.frames.pop_front().map(Ok)),
         set_signals: None,
         set_flow_control: None,
     };

@@ -13,9 +13,10 @@
 //!   receive error) waiting, 0B01H buffer more than 2/3 full (§2.5). A job starts only from a
 //!   request byte (job code, no error bit, exec 0); anything else is ignored.
 //! * **Send (1) / parameters (5):** accepts with the job code and exec 0 (status word = the
-//!   receive status), then checks each segment's exec number against last + 1: in order →
-//!   echo; the same number again → ignore (the host holds a segment until echoed); anything else
-//!   → error bit with the last valid number (§2.8). After the last segment a send frame goes to
+//!   receive status), then checks each segment's exec number against last + 1 (after 7: 1, or 0
+//!   with [`ModuleConfig::exec_wrap`], H-5): in order → echo; the same number again → ignore
+//!   (the host holds a segment until echoed); anything else → error bit with the last valid
+//!   number (§2.8). After the last segment a send frame goes to
 //!   the serial side and the module answers 7xH + STATUS only when it has been transmitted
 //!   (§2.9); a parameter block is applied one cycle after its last echo (Table 2-28 shows 53H
 //!   before 73H). 7xH carries the exec number of the last segment. A length word of 0 or above
@@ -37,7 +38,7 @@
 //!   the rule above; a host restart writes 00H first for the same effect (§2.10).
 
 use crate::config::{ConfigError, FlowControl, ModuleConfig, ReceiveErrorPolicy};
-use crate::coord::{exec_of_segment, next_exec, segment_with_exec, CoordByte, JobCode};
+use crate::coord::{CoordByte, ExecWrap, JobCode};
 use crate::frame::{send_stream, ParamBlock, RxStatus, V24Signals, Window};
 use crate::status::{
     FLOW_CONTROL_MISMATCH, INVALID_FRAME_LENGTH, NO_FREE_RECEIVE_BUFFER, NO_MESSAGE,
@@ -188,6 +189,13 @@ impl<S: SerialSide> Module<S> {
             self.rx_bytes = 0;
         }
         self.publish_idle();
+    }
+
+    /// Counts execution numbers past 7 this way (H-5; [`ModuleConfig::exec_wrap`]), for a
+    /// module built by a constructor that takes no configuration (`engines::r3964r_module`, …).
+    pub fn with_exec_wrap(mut self, wrap: ExecWrap) -> Self {
+        self.cfg.exec_wrap = wrap;
+        self
     }
 
     /// The configuration.
@@ -362,7 +370,7 @@ impl<S: SerialSide> Module<S> {
                     self.phase = Phase::Idle;
                 } else if c.job != job || c.error || c.exec == last {
                     // Foreign code: ignored with its data; same number: the host holds it.
-                } else if c.exec == next_exec(last) {
+                } else if c.exec == self.cfg.exec_wrap.next(last) {
                     self.collect(job, c.exec, o.data());
                 } else {
                     self.stats.out_of_order += 1;
@@ -371,7 +379,7 @@ impl<S: SerialSide> Module<S> {
             }
             Phase::Transmitting { .. } | Phase::Applying { .. } | Phase::Ended | Phase::ReadV24 => {
                 let echo = self.phase == Phase::ReadV24
-                    && c == CoordByte::new(JobCode::ReadV24, exec_of_segment(1));
+                    && c == CoordByte::new(JobCode::ReadV24, self.cfg.exec_wrap.of_segment(1));
                 if abort || echo {
                     if abort && self.phase != Phase::Ended {
                         self.stats.aborts += 1;
@@ -391,17 +399,19 @@ impl<S: SerialSide> Module<S> {
                         ReceiveErrorPolicy::AbortAndReoffer => {
                             self.answer(JobCode::Receive, TRANSFER_ERROR_TO_CPU.code());
                         }
-                        ReceiveErrorPolicy::GoBack => match segment_with_exec(k, c.exec) {
-                            // The host reports everything valid: as good as the last echo.
-                            Some(j) if j >= segs => self.delivered(),
-                            Some(j) => {
-                                self.phase = Phase::Deliver { k: j + 1, segs };
-                                self.publish_segment(j + 1);
+                        ReceiveErrorPolicy::GoBack => {
+                            match self.cfg.exec_wrap.segment_with(k, c.exec) {
+                                // The host reports everything valid: as good as the last echo.
+                                Some(j) if j >= segs => self.delivered(),
+                                Some(j) => {
+                                    self.phase = Phase::Deliver { k: j + 1, segs };
+                                    self.publish_segment(j + 1);
+                                }
+                                None => {}
                             }
-                            None => {}
-                        },
+                        }
                     }
-                } else if c.exec == exec_of_segment(k) {
+                } else if c.exec == self.cfg.exec_wrap.of_segment(k) {
                     if k >= segs {
                         self.delivered();
                     } else {
@@ -453,8 +463,10 @@ impl<S: SerialSide> Module<S> {
                 let signals = self.serial.signals();
                 let [b1, b2] = self.cfg.v24_layout.encode(signals);
                 self.inw.clear();
-                self.inw
-                    .set_coord(CoordByte::new(JobCode::ReadV24, exec_of_segment(1)));
+                self.inw.set_coord(CoordByte::new(
+                    JobCode::ReadV24,
+                    self.cfg.exec_wrap.of_segment(1),
+                ));
                 self.inw.data_mut()[..2].copy_from_slice(&[b1, b2]);
                 self.phase = Phase::ReadV24;
             }
@@ -474,7 +486,7 @@ impl<S: SerialSide> Module<S> {
 
     fn publish_segment(&mut self, k: usize) {
         self.inw.set_segment(
-            CoordByte::new(JobCode::Receive, exec_of_segment(k)),
+            CoordByte::new(JobCode::Receive, self.cfg.exec_wrap.of_segment(k)),
             &self.tx_stream,
             k,
         );

@@ -311,7 +311,7 @@ mod tests {
                 let s = shift_exec(CoordByte::new(JobCode::Send, e), by).exec;
                 assert!((1..=7).contains(&s));
                 assert_ne!(s, e);
-                assert_ne!(s, crate::coord::next_exec(e));
+                assert_ne!(s, crate::coord::ExecWrap::ToOne.next(e));
             }
         }
     }

@@ -5,10 +5,14 @@
 mod common;
 #[path = "scenarios/end_to_end.rs"]
 mod end_to_end;
+#[path = "scenarios/exec_wrap.rs"]
+mod exec_wrap;
 #[path = "scenarios/fb_over_window.rs"]
 mod fb_over_window;
 #[path = "scenarios/host_module.rs"]
 mod host_module;
+#[path = "scenarios/modbus_master.rs"]
+mod modbus_master;
 #[path = "scenarios/module_on_line.rs"]
 mod module_on_line;
 #[path = "scenarios/section_2_8_rules.rs"]

@@ -11,9 +11,16 @@
 //!   manual's "not an error", H-6); the signal word is printed as bytes 1–2 of the window carry
 //!   it (H-9: byte 1 = 00H, byte 2 = `DCD CTS RTS DSR DTR` in bits 4…0). The host's clock is the
 //!   time since the start, for its job watchdog (`--timeout-s`, STATUS 0502H).
-//! * `si dp-coord module --window N --protocol ascii|3964r`: the mirror image — a simulated
-//!   ET 200S SI module whose line is the serial port (`--port`/`--tcp`): each line read is the
-//!   host's output window, each line written the module's input window.
+//! * `si dp-coord module --window N --protocol ascii|3964r|modbus`: the mirror image — a
+//!   simulated ET 200S SI module whose line is the serial port (`--port`/`--tcp`): each line read
+//!   is the host's output window, each line written the module's input window. With `modbus` the
+//!   module is a Modbus master ([`si_dp_coord::modbus`]): a send job carries the S_SEND source
+//!   area (slave address, function code, address, quantity / data, et200s-si-modbus-uss.md
+//!   §4.3), and the next receive job brings the response in the S_RCV layout (§4.4) or the
+//!   job's STATUS (0830H no response, 0E6xH exception). USS and Modbus slave mode are not
+//!   offered: their window layout is not documented (H-56).
+//! * `--exec-after-7 1|0` (host and module): what follows execution number 7 (H-5), 1 by
+//!   default; both sides must agree ([`si_dp_coord::ExecWrap`]).
 //! * `si dp-coord trace FILE`: annotates a recorded window trace cycle by cycle
 //!   ([`si_dp_coord::frame::describe`]).
 //!
@@ -34,12 +41,14 @@ use si_core::driver::{self, DriverOptions, Transport};
 use si_core::sim::{Simulator, Trace, TraceEntry, TraceKind};
 use si_core::{Duration, Engine, Instant, SerialSettings, Status};
 use si_dp_coord::engines;
-use si_dp_coord::fb::{SRcv, SSend};
+use si_dp_coord::fb::{Done, Received, SRcv, SSend};
 use si_dp_coord::frame::{describe, Direction, V24Layout};
 use si_dp_coord::line::EngineSerial;
+use si_dp_coord::modbus;
 use si_dp_coord::module::{LoopbackSerial, Module};
 use si_dp_coord::{
-    Host, HostConfig, HostEvent, Job, ModuleConfig, Outcome, ParamBlock, Window, WindowSize,
+    ExecWrap, Host, HostConfig, HostEvent, Job, ModuleConfig, Outcome, ParamBlock, Window,
+    WindowSize,
 };
 use std::io::BufRead;
 
@@ -73,6 +82,15 @@ fn window_size(text: &str) -> Result<WindowSize, String> {
         .ok_or_else(|| format!("{text:?} is not a window size: 4, 8 or 32"))
 }
 
+/// What follows execution number 7 (H-5): `1` (the default) or `0`.
+fn exec_after_7(text: &str) -> Result<ExecWrap, String> {
+    match text {
+        "1" => Ok(ExecWrap::ToOne),
+        "0" => Ok(ExecWrap::ToZero),
+        _ => Err(format!("{text:?}: 1 (7 → 1) or 0 (7 → 0)")),
+    }
+}
+
 /// A signal state on the command line: 0 or 1.
 fn bit(text: &str) -> Result<bool, String> {
     match text {
@@ -97,6 +115,9 @@ pub struct HostArgs {
     /// Give up on the job after this many seconds without its end (STATUS 0502H).
     #[arg(long, default_value_t = 30)]
     timeout_s: u64,
+    /// The execution number after 7: 1 or 0 (H-5); the module must count the same way.
+    #[arg(long, default_value = "1", value_parser = exec_after_7)]
+    exec_after_7: ExecWrap,
     /// The job.
     #[command(subcommand)]
     job: JobArg,
@@ -264,6 +285,7 @@ impl HostArgs {
     fn run(self, out: &Output) -> Result<(), CliError> {
         let cfg = HostConfig {
             job_timeout: Some(Duration::from_secs(self.timeout_s)),
+            exec_wrap: self.exec_after_7,
             ..HostConfig::new(self.window)
         };
         let mut host = Host::new(cfg)?;
@@ -304,6 +326,9 @@ pub enum Protocol {
     R3964r,
     /// The ASCII driver with the manual's defaults (end by character delay time).
     Ascii,
+    /// Modbus master (the Modbus/USS module): send jobs carry the S_SEND source area of a
+    /// master job, receive jobs bring the response.
+    Modbus,
 }
 
 /// Priority of the 3964(R) side in an initialization conflict.
@@ -334,6 +359,12 @@ pub struct ModuleArgs {
     /// ASCII: character delay time in ms (the end of a frame; 4 … 65 535).
     #[arg(long, default_value_t = 4)]
     char_delay_ms: u32,
+    /// Modbus: the response time in ms, 50 … 655 000 (STATUS 0830H when no response starts).
+    #[arg(long, default_value_t = 2_000)]
+    response_ms: u32,
+    /// The execution number after 7: 1 or 0 (H-5); the host must count the same way.
+    #[arg(long, default_value = "1", value_parser = exec_after_7)]
+    exec_after_7: ExecWrap,
 }
 
 /// The ASCII driver's flow control on the command line.
@@ -363,7 +394,8 @@ impl ModuleArgs {
                     ..si_3964r::Config::default()
                 };
                 let link = si_3964r::Link::new(config, settings)?;
-                let module = engines::r3964r_module(self.window, link)?;
+                let module =
+                    engines::r3964r_module(self.window, link)?.with_exec_wrap(self.exec_after_7);
                 serve(module, transport, settings, self.window, out).await
             }
             Protocol::Ascii => {
@@ -379,7 +411,22 @@ impl ModuleArgs {
                     ..si_ascii::Config::default()
                 };
                 let link = si_ascii::Link::new(config)?;
-                let module = engines::ascii_module(self.window, link)?;
+                let module =
+                    engines::ascii_module(self.window, link)?.with_exec_wrap(self.exec_after_7);
+                serve(module, transport, settings, self.window, out).await
+            }
+            Protocol::Modbus => {
+                let config = si_modbus::MasterConfig {
+                    line: si_modbus::config::LineConfig {
+                        settings,
+                        ..si_modbus::config::LineConfig::default()
+                    },
+                    response_timeout_ms: self.response_ms,
+                    ..si_modbus::MasterConfig::default()
+                };
+                let master = si_modbus::Master::new(config)?;
+                let module =
+                    modbus::master_module(self.window, master)?.with_exec_wrap(self.exec_after_7);
                 serve(module, transport, settings, self.window, out).await
             }
         }
@@ -541,6 +588,11 @@ pub const SCENARIOS: &[Scenario] = &[
         about: "S_SEND via module A's window, 3964(R) on the line, module B, S_RCV via its window",
         run: scenario_e2e,
     },
+    Scenario {
+        name: "dp-coord-modbus",
+        about: "module in Modbus master mode: FC03 job via S_SEND through the window, a Modbus slave on the line, the registers via S_RCV",
+        run: scenario_modbus,
+    },
 ];
 
 /// Table 2-23 (et200s-si-2005-window-protocol.md §2.7.1, reconstructed, H-1): 22 characters
@@ -616,31 +668,71 @@ fn scenario_e2e(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     let a = sim.add_station("A", o.settings, a);
     let b = sim.add_station("B", o.settings, b);
     sim.connect(a, b);
-    let mut host_a = Host::new(HostConfig::new(WindowSize::Eight))?;
-    let mut host_b = Host::new(HostConfig::new(WindowSize::Eight))?;
+    let mut hosts = [
+        Host::new(HostConfig::new(WindowSize::Eight))?,
+        Host::new(HostConfig::new(WindowSize::Eight))?,
+    ];
+    let (sent, got) = user_programs(
+        &mut sim,
+        &mut hosts,
+        1,
+        b"temperature=21.5",
+        |sim, hosts| {
+            let out_a = hosts[0].cycle(sim.now(), &in_a).to_vec();
+            in_a = sim.with(a, |m, now| m.cycle(now, &out_a).to_vec());
+            let out_b = hosts[1].cycle(sim.now(), &in_b).to_vec();
+            in_b = sim.with(b, |m, now| m.cycle(now, &out_b).to_vec());
+        },
+    );
+    print_trace(sim.trace(), out);
+    print_fb_results(sent, ("B", got), out)
+}
+
+/// The user programs of a run: S_SEND with `data` on `hosts[0]` (REQ until it has ended) and
+/// S_RCV (EN_R = 1) on `hosts[receiver]`, one call each per DP cycle of 2 ms, in which
+/// `dp_cycle` runs the hosts and their modules. Ends when both FBs have ended, or after 5000
+/// cycles.
+fn user_programs(
+    sim: &mut Simulator,
+    hosts: &mut [Host],
+    receiver: usize,
+    data: &[u8],
+    mut dp_cycle: impl FnMut(&mut Simulator, &mut [Host]),
+) -> (SendResult, ReceiveResult) {
     let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
-    let data = b"temperature=21.5";
     let mut dest = [0u8; 224];
     let (mut sent, mut got) = (None, None);
     for _ in 0..5_000 {
-        let d = s_send.call(&mut host_a, sim.now(), sent.is_none(), false, data);
+        let d = s_send.call(&mut hosts[0], sim.now(), sent.is_none(), false, data);
         if d.done || d.error {
             sent = Some((sim.now(), d));
         }
-        let r = s_rcv.call(&mut host_b, sim.now(), true, false, &mut dest);
+        let r = s_rcv.call(&mut hosts[receiver], sim.now(), true, false, &mut dest);
         if r.ndr || r.error {
             got = Some((sim.now(), r, dest[..r.len].to_vec()));
         }
         if sent.is_some() && got.is_some() {
             break;
         }
-        let out_a = host_a.cycle(sim.now(), &in_a).to_vec();
-        in_a = sim.with(a, |m, now| m.cycle(now, &out_a).to_vec());
-        let out_b = host_b.cycle(sim.now(), &in_b).to_vec();
-        in_b = sim.with(b, |m, now| m.cycle(now, &out_b).to_vec());
+        dp_cycle(sim, hosts);
         sim.run_for(Duration::from_millis(2));
     }
-    print_trace(sim.trace(), out);
+    (sent, got)
+}
+
+/// What S_SEND ended with: when, and its outputs.
+type SendResult = Option<(Instant, Done)>;
+
+/// What S_RCV ended with: when, its outputs and the received bytes.
+type ReceiveResult = Option<(Instant, Received, Vec<u8>)>;
+
+/// Prints S_SEND's end (on station A) and S_RCV's (on `station`); an error if either is missing
+/// or failed.
+fn print_fb_results(
+    sent: SendResult,
+    (station, got): (&str, ReceiveResult),
+    out: &Output,
+) -> Result<(), CliError> {
     let Some((at, d)) = sent else {
         return Err(CliError::new("S_SEND did not end"));
     };
@@ -653,11 +745,46 @@ fn scenario_e2e(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     };
     let hex = si_core::hex::format(&bytes);
     out.line(
-        &format!("{at} B S_RCV ndr={} error={} STATUS={:04X} LEN={} {hex}", r.ndr, r.error, r.status.code(), r.len),
+        &format!("{at} {station} S_RCV ndr={} error={} STATUS={:04X} LEN={} {hex}", r.ndr, r.error, r.status.code(), r.len),
         json!({"at_us": at.as_micros(), "fb": "S_RCV", "ndr": r.ndr, "error": r.error, "status": format!("{:04X}", r.status.code()), "frame": hex}),
     );
     if d.error || r.error {
         return Err(CliError::new("the end-to-end job failed"));
     }
     Ok(())
+}
+
+/// The module in Modbus master mode (et200s-si-modbus-uss.md §4.2–§4.4): the user program's
+/// S_SEND carries an FC03 job (slave 1, registers 0 and 1) through module A's window, the module's
+/// master asks a Modbus slave on the simulated line, and S_RCV on the same module gets the two
+/// registers (0x1234, 0x5678) in the S_RCV layout.
+fn scenario_modbus(o: &SimOptions, out: &Output) -> Result<(), CliError> {
+    let line = si_modbus::config::LineConfig {
+        settings: o.settings,
+        ..si_modbus::config::LineConfig::default()
+    };
+    let master = si_modbus::Master::new(si_modbus::MasterConfig {
+        line,
+        ..si_modbus::MasterConfig::default()
+    })?;
+    let mut sim = Simulator::new(o.seed);
+    let module = modbus::master_module(WindowSize::Eight, master)?;
+    let mut input = module.input().to_vec();
+    let a = sim.add_station("A", o.settings, module);
+    let mut tables = si_modbus::Tables::new(8, 8, 8, 8);
+    tables.holding_registers[..2].copy_from_slice(&[0x1234, 0x5678]);
+    let config = si_modbus::SlaveConfig { line, address: 1 };
+    let slave = sim.add_station("slave", o.settings, si_modbus::Slave::new(config, tables)?);
+    sim.connect(a, slave);
+    let mut hosts = [Host::new(HostConfig {
+        max_frame_len: modbus::MAX_FRAME_LEN,
+        ..HostConfig::new(WindowSize::Eight)
+    })?];
+    let job = [0x01, 0x03, 0x00, 0x00, 0x00, 0x02];
+    let (sent, got) = user_programs(&mut sim, &mut hosts, 0, &job, |sim, hosts| {
+        let output = hosts[0].cycle(sim.now(), &input).to_vec();
+        input = sim.with(a, |m, now| m.cycle(now, &output).to_vec());
+    });
+    print_trace(sim.trace(), out);
+    print_fb_results(sent, ("A", got), out)
 }

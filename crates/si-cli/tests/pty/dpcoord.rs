@@ -56,6 +56,27 @@ impl Drop for ModuleProcess {
     }
 }
 
+/// The partner's end of the line: the pty to write to, and what arrives on it, read on its own
+/// thread.
+fn open_partner(path: &str) -> (std::fs::File, mpsc::Receiver<u8>) {
+    let partner = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(path)
+        .expect("open partner pty");
+    let mut reader = partner.try_clone().expect("clone pty");
+    let (tx, rx) = mpsc::channel::<u8>();
+    std::thread::spawn(move || {
+        let mut buf = [0u8; 64];
+        while let Ok(n) = reader.read(&mut buf) {
+            if n == 0 || buf[..n].iter().any(|&b| tx.send(b).is_err()) {
+                break;
+            }
+        }
+    });
+    (partner, rx)
+}
+
 fn start_module(args: &[&str]) -> ModuleProcess {
     let mut child = si_command()
         .args(["dp-coord", "module"])
@@ -155,22 +176,7 @@ fn module_ascii_sends_through_the_window_and_offers_received_frames() {
         "--port",
         &pair.a,
     ]);
-    // The partner's end of the line, read on its own thread.
-    let mut partner = std::fs::OpenOptions::new()
-        .read(true)
-        .write(true)
-        .open(&pair.b)
-        .expect("open partner pty");
-    let mut reader = partner.try_clone().expect("clone pty");
-    let (tx, rx) = mpsc::channel::<u8>();
-    std::thread::spawn(move || {
-        let mut buf = [0u8; 64];
-        while let Ok(n) = reader.read(&mut buf) {
-            if n == 0 || buf[..n].iter().any(|&b| tx.send(b).is_err()) {
-                break;
-            }
-        }
-    });
+    let (mut partner, rx) = open_partner(&pair.b);
 
     // Send "abc" (Table 2-23 in small): request, two segments, end of job after the line.
     assert_eq!(m.cycle("00 00 00 00"), "00 00 00 00");
@@ -283,4 +289,90 @@ fn host_and_module_processes_joined_by_the_test_deliver_a_block_to_si_3964r_recv
         String::from_utf8_lossy(&out.stdout).trim(),
         "48 65 6C 6C 6F 10"
     );
+}
+
+/// `si dp-coord module --protocol modbus`, the test as the Modbus slave on the other end: the
+/// send job's S_SEND source area (et200s-si-modbus-uss.md §4.3) leaves as an RTU request, the
+/// end-of-job acknowledgement comes once the response is in, and the receive job brings the
+/// registers (§4.4). A request nobody answers ends with 7xH + 0830H after the response time, and
+/// the receive job reports the same (20H + 0830H).
+#[test]
+fn module_modbus_asks_the_slave_and_offers_the_response() {
+    let Some(pair) = pty_pair() else { return };
+    let mut m = start_module(&[
+        "--window",
+        "8",
+        "--protocol",
+        "modbus",
+        "--response-ms",
+        "500",
+        "--port",
+        &pair.a,
+    ]);
+    let (mut partner, rx) = open_partner(&pair.b);
+    let idle = "00 00 00 00 00 00 00 00";
+    let take = |n: usize| -> Vec<u8> {
+        (0..n)
+            .map(|_| {
+                rx.recv_timeout(Duration::from_secs(5))
+                    .expect("the request on the line")
+            })
+            .collect()
+    };
+
+    // FC03, slave 1, registers 0 and 1: LEN 6, then 5 + 1 bytes in two segments.
+    assert_eq!(m.cycle(idle), idle);
+    assert_eq!(
+        m.cycle("10 00 00 00 00 00 00 00"),
+        "10 00 00 00 00 00 00 00"
+    );
+    assert_eq!(
+        m.cycle("11 00 06 01 03 00 00 00"),
+        "11 00 00 00 00 00 00 00"
+    );
+    assert_eq!(
+        m.cycle("12 02 00 00 00 00 00 00"),
+        "12 00 00 00 00 00 00 00"
+    );
+    assert_eq!(take(8), [0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B]);
+    partner
+        .write_all(&[0x01, 0x03, 0x04, 0x12, 0x34, 0x56, 0x78, 0x81, 0x07])
+        .unwrap();
+    partner.flush().unwrap();
+    assert_eq!(
+        m.cycle_until("12 02 00 00 00 00 00 00", "72"),
+        "72 00 00 00 00 00 00 00"
+    );
+    assert_eq!(m.cycle(idle), "00 00 01 00 00 00 00 00");
+    assert_eq!(
+        m.cycle("20 00 00 00 00 00 00 00"),
+        "21 00 04 12 34 56 78 00"
+    );
+    assert_eq!(m.cycle("21 00 00 00 00 00 00 00"), idle);
+
+    // The same job to slave 2, which is not there.
+    assert_eq!(m.cycle(idle), idle);
+    assert_eq!(
+        m.cycle("10 00 00 00 00 00 00 00"),
+        "10 00 00 00 00 00 00 00"
+    );
+    assert_eq!(
+        m.cycle("11 00 06 02 03 00 00 00"),
+        "11 00 00 00 00 00 00 00"
+    );
+    assert_eq!(
+        m.cycle("12 02 00 00 00 00 00 00"),
+        "12 00 00 00 00 00 00 00"
+    );
+    assert_eq!(take(8)[..2], [0x02, 0x03]);
+    assert_eq!(
+        m.cycle_until("12 02 00 00 00 00 00 00", "72"),
+        "72 08 30 00 00 00 00 00"
+    );
+    assert_eq!(m.cycle(idle), "00 00 01 00 00 00 00 00");
+    assert_eq!(
+        m.cycle("20 00 00 00 00 00 00 00"),
+        "20 08 30 00 00 00 00 00"
+    );
+    assert_eq!(m.cycle(idle), idle);
 }

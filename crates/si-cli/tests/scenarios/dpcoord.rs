@@ -276,9 +276,10 @@ fn sim_dp_coord_send_prints_table_2_23_and_ends_done() {
     assert_eq!(lines.last().map(String::as_str), Some("done STATUS=0000"));
 }
 
-#[test]
-fn sim_dp_coord_e2e_delivers_the_frame_through_both_windows() {
-    let out = si_command().args(["sim", "dp-coord-e2e"]).output().unwrap();
+/// Runs `si sim NAME`, a scenario ending with S_SEND's and S_RCV's results; asserts it
+/// succeeded and S_SEND on A was done without error; its lines.
+fn sim_fb_scenario(name: &str) -> Vec<String> {
+    let out = si_command().args(["sim", name]).output().unwrap();
     assert!(out.status.success(), "{out:?}");
     let lines = stdout_lines(&out);
     let n = lines.len();
@@ -286,6 +287,13 @@ fn sim_dp_coord_e2e_delivers_the_frame_through_both_windows() {
         lines[n - 2].ends_with("A S_SEND done=true error=false STATUS=0000"),
         "{lines:?}"
     );
+    lines
+}
+
+#[test]
+fn sim_dp_coord_e2e_delivers_the_frame_through_both_windows() {
+    let lines = sim_fb_scenario("dp-coord-e2e");
+    let n = lines.len();
     // "temperature=21.5"
     assert!(lines[n - 1].ends_with(
         "B S_RCV ndr=true error=false STATUS=0000 LEN=16 74 65 6D 70 65 72 61 74 75 72 65 3D 32 31 2E 35"
@@ -314,4 +322,51 @@ fn json_lines_carry_the_same_windows_and_result() {
     assert_eq!(lines[3]["cts"], true);
     assert_eq!(lines[4]["done"], true);
     assert_eq!(lines[4]["status"], "0000");
+}
+
+#[test]
+fn sim_dp_coord_modbus_reads_registers_through_the_window() {
+    let lines = sim_fb_scenario("dp-coord-modbus");
+    let n = lines.len();
+    // FC03, registers 0 and 1 of slave 1: 1234H, 5678H in register order (§4.4).
+    assert!(
+        lines[n - 1].ends_with("A S_RCV ndr=true error=false STATUS=0000 LEN=4 12 34 56 78"),
+        "{lines:?}"
+    );
+    // The request crossed the line as the ADU with its CRC: 01 03 00 00 00 02 C4 0B.
+    let request: Vec<&str> = lines
+        .iter()
+        .filter(|l| l.contains("slave") && l.contains(" rx "))
+        .filter_map(|l| l.split_whitespace().last())
+        .collect();
+    assert_eq!(request, ["01", "03", "00", "00", "00", "02", "C4", "0B"]);
+}
+
+/// H-5: with `--exec-after-7 0` the 8th segment of a send through the 4-byte window carries
+/// number 0 (10H) instead of 1 (11H).
+#[test]
+fn host_exec_after_7_sets_the_number_of_the_8th_segment() {
+    let mut inputs = vec!["00 00 00 00".to_owned(), "10 00 00 00".to_owned()];
+    inputs.extend((1..=7).map(|e| format!("1{e} 00 00 00")));
+    inputs.extend(["10 00 00 00", "70 00 00 00"].map(str::to_owned));
+    let inputs: Vec<&str> = inputs.iter().map(String::as_str).collect();
+    let job = [
+        "--window",
+        "4",
+        "send",
+        "6162636465666768696A6B6C6D6E6F70717273747576",
+    ];
+    let out = host(&[&["--exec-after-7", "0"][..], &job].concat(), &inputs);
+    assert!(out.status.success(), "{out:?}");
+    let lines = stdout_lines(&out);
+    assert_eq!(lines[7], "17 71 72 73", "{lines:?}");
+    assert_eq!(lines[8], "10 74 75 76", "{lines:?}");
+    assert_eq!(lines[9], "10 74 75 76");
+    assert_eq!(lines.last().map(String::as_str), Some("done STATUS=0000"));
+    // The default counts 7 → 1.
+    let out = host(&job, &inputs);
+    assert_eq!(stdout_lines(&out)[8], "11 74 75 76", "{out:?}");
+    let out = host(&[&["--exec-after-7", "2"][..], &job].concat(), &[]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("1 (7 → 1) or 0 (7 → 0)"));
 }

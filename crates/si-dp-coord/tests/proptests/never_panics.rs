@@ -54,6 +54,14 @@ fn count_completions(events: &[HostEvent], into: &mut HashMap<JobId, usize>) {
     }
 }
 
+/// Either reading of what follows execution number 7 (H-5).
+fn exec_wrap() -> impl Strategy<Value = si_dp_coord::ExecWrap> {
+    prop_oneof![
+        Just(si_dp_coord::ExecWrap::ToOne),
+        Just(si_dp_coord::ExecWrap::ToZero)
+    ]
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
 
@@ -61,10 +69,11 @@ proptest! {
     fn host_never_panics_and_completes_every_job_once(
         size in window_size(),
         auto_receive in any::<bool>(),
+        wrap in exec_wrap(),
         jobs in proptest::collection::vec(job(), 0..6),
         inputs in window_size().prop_flat_map(windows),
     ) {
-        let cfg = HostConfig { auto_receive, ..HostConfig::new(size) };
+        let cfg = HostConfig { auto_receive, exec_wrap: wrap, ..HostConfig::new(size) };
         let mut host = Host::new(cfg).unwrap();
         let mut ids = Vec::new();
         for j in jobs {
@@ -114,9 +123,15 @@ proptest! {
         size in window_size(),
         frames in proptest::collection::vec(proptest::collection::vec(any::<u8>(), 0..300), 0..20),
         errors in proptest::collection::vec(any::<u16>(), 0..5),
+        wrap in exec_wrap(),
         outputs in window_size().prop_flat_map(windows),
     ) {
-        let cfg = ModuleConfig { rx_buffer_bytes: 600, rx_buffer_frames: 8, ..ModuleConfig::new(size) };
+        let cfg = ModuleConfig {
+            rx_buffer_bytes: 600,
+            rx_buffer_frames: 8,
+            exec_wrap: wrap,
+            ..ModuleConfig::new(size)
+        };
         let mut module = Module::new(cfg, LoopbackSerial::new()).unwrap();
         for f in frames {
             module.serial_mut().inject_frame(f);
