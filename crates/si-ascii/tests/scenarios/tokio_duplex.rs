@@ -33,6 +33,6 @@ async fn two_handles_exchange_lines_over_a_duplex_pipe() {
     // A frame over 200 bytes is refused before anything is sent.
     assert_eq!(
         a.send(vec![0u8; 201]).await,
-        Err(Error::Send(SendError::Length(201)))
+        Err(Error::Send(SendError::TooLong { len: 201, max: 200 }))
     );
 }
