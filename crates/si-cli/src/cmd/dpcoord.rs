@@ -26,13 +26,14 @@ use crate::conn::Connection;
 use crate::error::CliError;
 use crate::hex::parse_hex;
 use crate::output::Output;
+use crate::preset::module_preset;
 use crate::scenario::{print_trace, record_trace, Scenario, SimOptions};
 use bytes::Bytes;
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 use si_core::driver::{self, DriverOptions, Transport};
 use si_core::sim::{Simulator, Trace, TraceEntry, TraceKind};
-use si_core::{Duration, Engine, Instant, SerialSettings, Status};
+use si_core::{Duration, Engine, Instant, ModulePreset, SerialSettings, Status};
 use si_dp_coord::engines;
 use si_dp_coord::fb::{SRcv, SSend};
 use si_dp_coord::frame::{describe, Direction, V24Layout};
@@ -97,6 +98,14 @@ pub struct HostArgs {
     /// Give up on the job after this many seconds without its end (STATUS 0502H).
     #[arg(long, default_value_t = 30)]
     timeout_s: u64,
+    /// The module behind the window, whose maximum frame length applies: `et200s` (ET 200S 1SI,
+    /// 200 bytes) or `2005` (the 2005 module, 224 bytes). The CP 341 has no DP window.
+    #[arg(long, value_name = "TYPE", default_value = "2005", value_parser = module_preset)]
+    module: ModulePreset,
+    /// Maximum frame length in bytes (1 … 4096), instead of the module's: a longer send job is
+    /// refused (1E41H), a longer received frame fails (0850H).
+    #[arg(long, value_name = "N")]
+    max_frame: Option<usize>,
     /// The job.
     #[command(subcommand)]
     job: JobArg,
@@ -262,10 +271,13 @@ fn finish(result: Result<Outcome, Status>, out: &Output) -> Result<(), CliError>
 
 impl HostArgs {
     fn run(self, out: &Output) -> Result<(), CliError> {
-        let cfg = HostConfig {
+        let mut cfg = HostConfig {
             job_timeout: Some(Duration::from_secs(self.timeout_s)),
-            ..HostConfig::new(self.window)
+            ..HostConfig::for_module(self.window, self.module)?
         };
+        if let Some(n) = self.max_frame {
+            cfg.max_frame_len = n;
+        }
         let mut host = Host::new(cfg)?;
         let id = host
             .submit(self.job.job()?)
