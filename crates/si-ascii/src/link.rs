@@ -1293,38 +1293,42 @@ mod tests {
             any::<(bool, bool, bool)>(),
             1u16..=200,
             prop::bool::ANY,
+            // Every module preset's maximum frame length (200, 224, 1024 bytes).
+            prop::sample::select(si_core::ModulePreset::ALL.to_vec()),
         )
-            .prop_map(|(flow, iface, end, (dynamic, prevent, clear), n, seven)| {
-                let settings = if seven {
-                    SerialSettings::new(9600, 7, Parity::Even, 1).unwrap()
-                } else {
-                    SerialSettings::default()
-                };
-                Config {
-                    settings,
-                    flow_control: [
-                        FlowControl::None,
-                        FlowControl::XonXoff,
-                        FlowControl::RtsCts,
-                        FlowControl::AutoV24,
-                    ][flow],
-                    interface: [Interface::Rs232, Interface::Rs422, Interface::Rs485][iface],
-                    end: [
-                        EndCriterion::CharDelay,
-                        EndCriterion::EndChars {
-                            first: b'\r',
-                            second: b'\n',
-                        },
-                        EndCriterion::DEFAULT_END_CHARS,
-                        EndCriterion::FixedLength { len: n },
-                    ][end],
-                    dynamic_frames: dynamic,
-                    prevent_overwrite: prevent,
-                    clear_at_startup: clear,
-                    tx_chunk: 1,
-                    ..Config::default()
-                }
-            })
+            .prop_map(
+                |(flow, iface, end, (dynamic, prevent, clear), n, seven, module)| {
+                    let settings = if seven {
+                        SerialSettings::new(9600, 7, Parity::Even, 1).unwrap()
+                    } else {
+                        SerialSettings::default()
+                    };
+                    Config {
+                        settings,
+                        flow_control: [
+                            FlowControl::None,
+                            FlowControl::XonXoff,
+                            FlowControl::RtsCts,
+                            FlowControl::AutoV24,
+                        ][flow],
+                        interface: [Interface::Rs232, Interface::Rs422, Interface::Rs485][iface],
+                        end: [
+                            EndCriterion::CharDelay,
+                            EndCriterion::EndChars {
+                                first: b'\r',
+                                second: b'\n',
+                            },
+                            EndCriterion::DEFAULT_END_CHARS,
+                            EndCriterion::FixedLength { len: n },
+                        ][end],
+                        dynamic_frames: dynamic,
+                        prevent_overwrite: prevent,
+                        clear_at_startup: clear,
+                        tx_chunk: 1,
+                        ..Config::for_module(module)
+                    }
+                },
+            )
     }
 
     fn drain(link: &mut Link) -> Vec<Output<Event>> {
