@@ -32,12 +32,12 @@
 //!   applies it through [`Config::validate_for`] where it lies above the ET 200S range floors,
 //!   that is at 1200 bit/s and below. The CP 341 has no 110 bit/s; its 300 bit/s value scaled by
 //!   300/110 and rounded up to the 10 ms step gives 170 ms there (derived).
-//! - **Clear receive buffer on startup.** A 3964(R) parameter in the 2005 manual's table
-//!   (et200s-si-2005-window-protocol.md §3.2, Table 2-9: no/yes, default yes); the older ET 200S
-//!   3964(R) table (§5.8) does not list it, but §6.6 and §10 describe the same CPU STOP → RUN
-//!   clearing for the module's receive buffer. We take it, with its default yes, for 3964(R)
-//!   as for ASCII: [`Link::restart`](crate::Link::restart) drops the blocks still waiting when
-//!   it is set and keeps them (to be delivered again, §9.3 of the 2005 manual) when it is not.
+//! - **Clear receive buffer on startup.** "Clear SI receive buffer at startup", no/yes, default
+//!   yes (§7.2 Table 2-11; et200s-si-2005-window-protocol.md §3.2 Table 2-9). The timer table of
+//!   §5.8 leaves it out. It acts on CPU STOP → RUN (§10 "CPU startup … the receive buffer is
+//!   cleared if configured"), as for ASCII: [`Link::restart`](crate::Link::restart) drops the
+//!   blocks still waiting when it is set and keeps them (to be delivered again, §9.3 of the 2005
+//!   manual) when it is not.
 
 use crate::frame::Mode;
 use serde::{Deserialize, Serialize};
@@ -135,7 +135,7 @@ pub struct Config {
     /// 400 ms buffer wait.
     pub receive_buffer_blocks: u8,
     /// Clear the receive buffer at CPU startup (STOP → RUN, [`Link::restart`](crate::Link::restart));
-    /// default yes (et200s-si-2005-window-protocol.md §3.2, Table 2-9).
+    /// default yes (§7.2 Table 2-11, et200s-si-2005-window-protocol.md §3.2 Table 2-9).
     pub clear_at_startup: bool,
 }
 
@@ -396,7 +396,7 @@ mod tests {
         assert_eq!(c.ack_delay(), Duration::from_millis(2000));
         assert_eq!((c.connection_attempts, c.transmission_attempts), (6, 6));
         assert_eq!(c.priority, Priority::Low);
-        assert!(c.clear_at_startup, "window manual §3.2: default yes");
+        assert!(c.clear_at_startup, "Table 2-11: default yes");
         assert_eq!(c.mode(), Mode::BlockCheck);
         assert_eq!(Config::without_block_check().ack_delay_ms, 550);
         assert_eq!(
