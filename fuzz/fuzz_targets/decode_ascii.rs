@@ -19,7 +19,9 @@ fuzz_target!(|data: &[u8]| {
             len: u16::from(head >> 2) + 1,
         },
     };
-    let _ = split(end, bytes).count();
+    // Every module preset's maximum frame length (200, 224, 1024).
+    let max = si_core::ModulePreset::ALL[usize::from(head >> 6) % 3].max_frame_len();
+    let _ = split(end, usize::from(max), bytes).count();
     if let Ok(block) = ParamBlock::decode(bytes) {
         let encoded = block.encode();
         assert_eq!(ParamBlock::decode(&encoded[..block.len()]), Ok(block));

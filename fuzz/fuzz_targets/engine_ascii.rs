@@ -27,7 +27,12 @@ fuzz_target!(|data: &[u8]| {
         },
         prevent_overwrite: flags & 0x10 != 0,
         dynamic_frames: flags & 0x20 != 0,
-        ..Config::default()
+        // The ET 200S 1SI's 200 bytes, or the CP 341's 1024 that fill the whole buffer.
+        ..Config::for_module(if flags & 0x80 != 0 {
+            si_core::ModulePreset::Cp341
+        } else {
+            si_core::ModulePreset::Et200s1Si
+        })
     };
     let Ok(mut link) = Link::new(config) else {
         return;

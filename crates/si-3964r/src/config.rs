@@ -32,6 +32,12 @@
 //!   applies it through [`Config::validate_for`] where it lies above the ET 200S range floors,
 //!   that is at 1200 bit/s and below. The CP 341 has no 110 bit/s; its 300 bit/s value scaled by
 //!   300/110 and rounded up to the 10 ms step gives 170 ms there (derived).
+//! - **Clear receive buffer on startup.** "Clear SI receive buffer at startup", no/yes, default
+//!   yes (§7.2 Table 2-11; et200s-si-2005-window-protocol.md §3.2 Table 2-9). The timer table of
+//!   §5.8 leaves it out. It acts on CPU STOP → RUN (§10 "CPU startup … the receive buffer is
+//!   cleared if configured"), as for ASCII: [`Link::restart`](crate::Link::restart) drops the
+//!   blocks still waiting when it is set and keeps them (to be delivered again, §9.3 of the 2005
+//!   manual) when it is not.
 
 use crate::frame::Mode;
 use serde::{Deserialize, Serialize};
@@ -128,10 +134,14 @@ pub struct Config {
     /// 1024-byte buffer holds five 200-byte blocks, A-42). When it is full, an STX starts the
     /// 400 ms buffer wait.
     pub receive_buffer_blocks: u8,
+    /// Clear the receive buffer at CPU startup (STOP → RUN, [`Link::restart`](crate::Link::restart));
+    /// default yes (§7.2 Table 2-11, et200s-si-2005-window-protocol.md §3.2 Table 2-9).
+    pub clear_at_startup: bool,
 }
 
 impl Default for Config {
-    /// 3964(R), low priority, ZVZ 220 ms, QVZ 2000 ms, 6 and 6 attempts, 200-byte blocks.
+    /// 3964(R), low priority, ZVZ 220 ms, QVZ 2000 ms, 6 and 6 attempts, 200-byte blocks,
+    /// receive buffer cleared at startup.
     fn default() -> Self {
         Config {
             block_check: true,
@@ -142,6 +152,7 @@ impl Default for Config {
             transmission_attempts: 6,
             max_block_len: 200,
             receive_buffer_blocks: 5,
+            clear_at_startup: true,
         }
     }
 }
@@ -295,6 +306,7 @@ struct RawConfig {
     transmission_attempts: Option<u64>,
     max_block_len: Option<u64>,
     receive_buffer_blocks: Option<u64>,
+    clear_at_startup: Option<bool>,
 }
 
 impl TryFrom<RawConfig> for Config {
@@ -338,6 +350,7 @@ impl TryFrom<RawConfig> for Config {
             transmission_attempts: tx as u8,
             max_block_len: max as u16,
             receive_buffer_blocks: buf as u8,
+            clear_at_startup: r.clear_at_startup.unwrap_or(base.clear_at_startup),
         };
         config.validate()?;
         Ok(config)
@@ -383,6 +396,7 @@ mod tests {
         assert_eq!(c.ack_delay(), Duration::from_millis(2000));
         assert_eq!((c.connection_attempts, c.transmission_attempts), (6, 6));
         assert_eq!(c.priority, Priority::Low);
+        assert!(c.clear_at_startup, "Table 2-11: default yes");
         assert_eq!(c.mode(), Mode::BlockCheck);
         assert_eq!(Config::without_block_check().ack_delay_ms, 550);
         assert_eq!(
@@ -446,9 +460,14 @@ mod tests {
         assert!(e
             .to_string()
             .contains("transmission attempts = 256 is out of range: 1 … 255"));
-        let c: Config =
-            serde_json::from_str(r#"{"priority": "high", "ack_delay_ms": 10}"#).unwrap();
-        assert_eq!((c.priority, c.ack_delay_ms), (Priority::High, 10));
+        let c: Config = serde_json::from_str(
+            r#"{"priority": "high", "ack_delay_ms": 10, "clear_at_startup": false}"#,
+        )
+        .unwrap();
+        assert_eq!(
+            (c.priority, c.ack_delay_ms, c.clear_at_startup),
+            (Priority::High, 10, false)
+        );
         let back: Config = serde_json::from_str(&serde_json::to_string(&c).unwrap()).unwrap();
         assert_eq!(back, c);
     }

@@ -42,6 +42,14 @@
 //!   to its end (BCC, parity, framing, odd DLE, overlong) are answered with NAK and a 4 s wait for
 //!   the repetition, and reported only when the repetitions are used up or do not come (§5.4
 //!   point 5, §5.7), with the *first* error.
+//! - **Character delay time ZVZ** is the longest *gap* between two characters (§5.8). A host
+//!   sees a character only when it is complete, so after a character completing at `t` the
+//!   next must complete by `t` + ZVZ + one character time; one microsecond later the gap was
+//!   longer than ZVZ and the reception ends with NAK and 0806 ([`SerialSettings::gap_limit`],
+//!   the rule of the ASCII driver's character delay time). At 300 bit/s a character takes
+//!   37 ms against a ZVZ minimum of 60 ms, so leaving the character time out gave false 0806
+//!   errors (issue 18). After our DLE the first character gets one more character time, the
+//!   DLE's own. The quiet waits before a NAK (§5.3 point 3, §5.4 point 1) follow the same rule.
 //! - **Receiver repetition limit (A-17, cp341 A-20).** The configured transmission attempts.
 //! - **Zero-length block.** Acknowledged with `DLE`, not queued, reported as 0807 "not an error".
 //! - **Overlong block .** Received to its end, answered with NAK like a BCC error, reported
@@ -322,6 +330,22 @@ impl Link {
         Some(block)
     }
 
+    /// CPU STOP → RUN (et200s-si-3964r-ascii.md §10, et200s-si-2005-window-protocol.md §9.3):
+    /// with [`Config::clear_at_startup`] the blocks waiting in the receive buffer are dropped, so
+    /// only blocks received after the startup are delivered; without it they stay and are
+    /// delivered again. The line procedure is the module's, not the CPU's: a job or a reception
+    /// in progress runs on. A partner waiting for a free buffer (the 400 ms wait) is answered
+    /// with DLE once the clearing freed a slot.
+    pub fn restart(&mut self, now: Instant) {
+        if !self.config.clear_at_startup {
+            return;
+        }
+        self.received.clear();
+        if let State::WaitBuffer { conflict, .. } = self.state {
+            self.start_receiving(now, conflict);
+        }
+    }
+
     /// Blocks waiting in the receive buffer.
     pub fn received_blocks(&self) -> usize {
         self.received.len()
@@ -440,8 +464,10 @@ impl Link {
         self.transmit_static(&[DLE]);
         self.decoder.reset();
         self.rx_line_error = false;
+        // Our DLE takes one character time to leave; the partner's first character may start
+        // up to ZVZ after that.
         self.state = State::Receiving {
-            deadline: now + self.settings.char_time() + self.char_delay(),
+            deadline: self.zvz_deadline(now + self.settings.char_time()),
             conflict,
         };
     }
@@ -524,6 +550,13 @@ impl Link {
         self.config.char_delay() + self.delivery.allowance()
     }
 
+    /// When the gap after a character that completed at `now` is longer than ZVZ: the next
+    /// character may start up to ZVZ later and is seen one character time after that
+    /// ([`SerialSettings::gap_limit`], the rule the ASCII driver's character delay time follows).
+    fn zvz_deadline(&self, now: Instant) -> Instant {
+        now + self.settings.gap_limit(self.char_delay())
+    }
+
     /// The acknowledgement delay time QVZ, plus the port's allowance (as [`Self::char_delay`]).
     fn ack_delay(&self) -> Duration {
         self.config.ack_delay() + self.delivery.allowance()
@@ -542,7 +575,7 @@ impl Link {
                 NAK => {}
                 _ => {
                     self.state = State::IdleQuiet {
-                        until: now + self.char_delay(),
+                        until: self.zvz_deadline(now),
                     }
                 }
             },
@@ -554,7 +587,7 @@ impl Link {
                     self.accept_stx(now, false);
                 } else {
                     self.state = State::IdleQuiet {
-                        until: now + self.char_delay(),
+                        until: self.zvz_deadline(now),
                     };
                 }
             }
@@ -590,7 +623,7 @@ impl Link {
             },
             State::SendQuiet { .. } => {
                 self.state = State::SendQuiet {
-                    until: now + self.char_delay(),
+                    until: self.zvz_deadline(now),
                 };
             }
             State::WaitEndAck { .. } => {
@@ -604,7 +637,7 @@ impl Link {
             State::WaitBuffer { .. } => {}
             State::Receiving { conflict, .. } => {
                 self.state = State::Receiving {
-                    deadline: now + self.char_delay(),
+                    deadline: self.zvz_deadline(now),
                     conflict,
                 };
                 if let Some(result) = self.decoder.push(byte) {
@@ -626,7 +659,7 @@ impl Link {
             job.first_err.get_or_insert(error);
         }
         self.state = State::SendQuiet {
-            until: now + self.char_delay(),
+            until: self.zvz_deadline(now),
         };
     }
 
@@ -649,7 +682,7 @@ impl Link {
                     self.end_of_block(now, Ok(()));
                 } else {
                     self.state = State::Receiving {
-                        deadline: now + self.char_delay(),
+                        deadline: self.zvz_deadline(now),
                         conflict,
                     };
                 }

@@ -47,7 +47,7 @@
 
 use crate::frame::{Decoder as BlockDecoder, FrameError, Mode, DLE, NAK, STX};
 use si_core::monitor::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
-use si_core::{Duration, Instant};
+use si_core::{Duration, Instant, SerialSettings};
 
 /// Raw block characters kept for display: twice the longest block (1024 bytes, every one a
 /// doubled DLE) plus the end sequence; the block decoder itself stops storing at its maximum.
@@ -77,6 +77,12 @@ pub struct Params {
     pub zvz: Duration,
     /// Acknowledgement delay time QVZ.
     pub qvz: Duration,
+    /// The line's character format. A character is seen when it is complete, so the silence
+    /// before it is its distance from the previous one less one character time, and ZVZ has
+    /// run out when a character would complete later than that
+    /// ([`SerialSettings::gap_limit`], as the link counts it). [`Params::from_config`] takes
+    /// the manuals' default line, 9600 8E1; set it for another rate.
+    pub line: SerialSettings,
     /// How to read the blocks' user data; `None`: shown as hex.
     pub payload: Option<Payload>,
 }
@@ -89,6 +95,7 @@ impl Params {
             mode: config.mode(),
             zvz: config.char_delay(),
             qvz: config.ack_delay(),
+            line: SerialSettings::default(),
             payload: None,
         }
     }
@@ -215,8 +222,9 @@ impl Monitor {
                 self.failed = Some(by);
                 self.state = State::Idle;
             }
-            State::Block { last, .. } if now.saturating_since(last.at) > self.p.zvz => {
-                let at = last.at + self.p.zvz;
+            State::Block { last, .. } if now >= last.at + self.p.line.gap_limit(self.p.zvz) => {
+                // The moment the receiver knows: its NAK goes out then (crate::link).
+                let at = last.at + self.p.line.gap_limit(self.p.zvz);
                 let State::Block {
                     by,
                     to,
@@ -401,10 +409,12 @@ impl Decoder for Monitor {
                     *start = c.at;
                 }
                 if let Some(gap) = si_core::monitor::line::gap(Some(last), c) {
-                    if gap > self.p.zvz {
+                    // The silence before `c`: from the end of the last character to `c`'s start.
+                    let silence = gap.saturating_sub(self.p.line.char_time());
+                    if silence > self.p.zvz {
                         flags.push(Flag::error(format!(
                             "character delay {} > ZVZ {}",
-                            ms(gap),
+                            ms(silence),
                             ms(self.p.zvz)
                         )));
                     }
@@ -554,7 +564,7 @@ mod tests {
     }
 
     #[test]
-    fn et200s_3964r_5_8_zvz_exceeded_inside_a_block_ends_it_220_ms_after_the_last_character() {
+    fn et200s_3964r_5_8_zvz_exceeded_inside_a_block_ends_it_when_a_character_would_be_late() {
         // STX, DLE, then two data characters and silence: the receiver's ZVZ runs out.
         let chars = line(&[
             (CT, 0, STX),
@@ -564,7 +574,8 @@ mod tests {
         ]);
         let (records, counters) = run(&chars, 1_000_000);
         let broken = records.last().unwrap();
-        assert_eq!(broken.end, Instant::from_micros(4 * CT + 220_000));
+        // 220 ms of silence, then the character time a next character takes, then 1 µs.
+        assert_eq!(broken.end, Instant::from_micros(4 * CT + 220_000 + CT + 1));
         assert!(broken.flags[0].text.contains("ZVZ 220 ms exceeded"));
         assert_eq!(counters.0["ZVZ exceeded"], 1);
         assert_eq!(counters.0["blocks failed"], 1);
@@ -584,6 +595,42 @@ mod tests {
         assert!(records
             .iter()
             .any(|r| r.flags.iter().any(|f| f.text.contains("ZVZ"))));
+    }
+
+    /// Issue 18: at 300 bit/s a character takes 36.7 ms; a partner leaving exactly ZVZ (60 ms)
+    /// of silence between characters is within the limit, one microsecond more is not.
+    #[test]
+    fn et200s_3964r_5_8_zvz_at_300_bit_s_counts_silence_not_character_distance() {
+        let slow = SerialSettings::new(300, 8, si_core::Parity::Even, 1).unwrap();
+        let ct = slow.char_time().as_micros();
+        let zvz = 60_000;
+        let judge = |extra: u64| {
+            let p = Params {
+                zvz: Duration::from_millis(60),
+                line: slow,
+                ..Params::from_config(&crate::Config::default())
+            };
+            let mut d = Monitor::new(p);
+            let block = [0x41, DLE, 0x03, 0x41 ^ DLE ^ 0x03];
+            let mut at = 2 * ct;
+            let mut items = vec![(ct, 0, STX), (at, 1, DLE)];
+            for (k, &b) in block.iter().enumerate() {
+                at += ct + if k == 1 { zvz + extra } else { zvz };
+                items.push((at, 0, b));
+            }
+            items.push((at + ct, 1, DLE));
+            let records = si_core::monitor::decode_all(
+                &mut d,
+                &line(&items),
+                Instant::from_micros(at + 10_000_000),
+            );
+            records
+                .iter()
+                .flat_map(|r| r.flags.iter())
+                .any(|f| f.text.contains("ZVZ"))
+        };
+        assert!(!judge(0), "silence of exactly ZVZ");
+        assert!(judge(1), "ZVZ + 1 µs");
     }
 
     #[test]

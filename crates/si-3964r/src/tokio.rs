@@ -162,6 +162,12 @@ impl Handle {
         }
     }
 
+    /// CPU STOP → RUN ([`Link::restart`]): with [`Config::clear_at_startup`] (the default) the
+    /// blocks waiting in the receive buffer are dropped, else they are delivered as before.
+    pub async fn restart(&self) -> Result<(), Error> {
+        Ok(self.driver.call(|l, now| l.restart(now)).await?)
+    }
+
     /// Run `f` on the link inside the driver (counters, state).
     pub async fn call<R: Send + 'static>(
         &self,
@@ -221,6 +227,31 @@ mod tests {
             link.send(vec![1]).await,
             Err(Error::Status(status::SETUP_TIMEOUT))
         );
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn restart_drops_waiting_blocks_only_when_clearing_is_set() {
+        for clear in [true, false] {
+            let (left, right) = tokio::io::duplex(4096);
+            let line = SerialSettings::default();
+            let high = Config {
+                priority: Priority::High,
+                ..Config::default()
+            };
+            let receiver = Config {
+                clear_at_startup: clear,
+                ..Config::default()
+            };
+            let a = Handle::spawn(high, line, left).unwrap();
+            let mut b = Handle::spawn(receiver, line, right).unwrap();
+            // Acknowledged with DLE: the block waits in B's receive buffer.
+            a.send(&b"before"[..]).await.unwrap();
+            b.restart().await.unwrap();
+            a.send(&b"after"[..]).await.unwrap();
+            let first = b.recv().await.unwrap();
+            let expected: &[u8] = if clear { b"after" } else { b"before" };
+            assert_eq!(first, expected, "clear_at_startup = {clear}");
+        }
     }
 
     #[tokio::test(start_paused = true)]

@@ -60,6 +60,8 @@ enum Step {
     TxDone,
     Send(u16),
     Take,
+    /// CPU STOP → RUN (clears the buffer with `clear_at_startup`).
+    Restart,
 }
 
 fn step() -> impl Strategy<Value = Step> {
@@ -76,22 +78,32 @@ fn step() -> impl Strategy<Value = Step> {
         1 => Just(Step::TxDone),
         1 => (0u16..260).prop_map(Step::Send),
         1 => Just(Step::Take),
+        1 => Just(Step::Restart),
     ]
 }
 
 fn config() -> impl Strategy<Value = Config> {
-    (any::<bool>(), any::<bool>(), 1u8..4, 1u8..4, 1u8..3).prop_map(|(bcc, high, c, t, buf)| {
-        let mut config = if bcc {
-            Config::default()
-        } else {
-            Config::without_block_check()
-        };
-        config.priority = if high { Priority::High } else { Priority::Low };
-        config.connection_attempts = c;
-        config.transmission_attempts = t;
-        config.receive_buffer_blocks = buf;
-        config
-    })
+    (
+        any::<bool>(),
+        any::<bool>(),
+        1u8..4,
+        1u8..4,
+        1u8..3,
+        any::<bool>(),
+    )
+        .prop_map(|(bcc, high, c, t, buf, clear)| {
+            let mut config = if bcc {
+                Config::default()
+            } else {
+                Config::without_block_check()
+            };
+            config.priority = if high { Priority::High } else { Priority::Low };
+            config.connection_attempts = c;
+            config.transmission_attempts = t;
+            config.receive_buffer_blocks = buf;
+            config.clear_at_startup = clear;
+            config
+        })
 }
 
 proptest! {
@@ -106,6 +118,7 @@ proptest! {
         let mut ended: HashSet<JobId> = HashSet::new();
         let mut announced = 0usize;
         let mut taken = 0usize;
+        let mut cleared = 0usize;
         for step in steps {
             match step {
                 Step::Rx(bytes) => link.handle_rx(now, &bytes),
@@ -131,6 +144,14 @@ proptest! {
                         taken += 1;
                     }
                 }
+                Step::Restart => {
+                    let before = link.received_blocks();
+                    link.restart(now);
+                    cleared += before - link.received_blocks();
+                    if !config.clear_at_startup {
+                        prop_assert_eq!(link.received_blocks(), before);
+                    }
+                }
             }
             // Drain: bounded output per input, deadlines never in the past of the input time
             // by more than the engine could know.
@@ -152,7 +173,7 @@ proptest! {
                 }
             }
             prop_assert!(link.received_blocks() <= usize::from(config.receive_buffer_blocks));
-            prop_assert_eq!(announced, taken + link.received_blocks());
+            prop_assert_eq!(announced, taken + cleared + link.received_blocks());
         }
         // Every job ends: run the clock until the engine has nothing left to wait for.
         for _ in 0..10_000 {

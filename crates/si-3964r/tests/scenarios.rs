@@ -1,9 +1,13 @@
 //! One scenario per path of the manuals' flow descriptions, each named after its section and
 //! asserting the STATUS (et200s-si-3964r-ascii.md §5, cp341-3964r-rk512-ascii.md §3).
 
+#[path = "scenarios/character_delay.rs"]
+mod character_delay;
 mod common;
 #[path = "scenarios/line_errors.rs"]
 mod line_errors;
+#[path = "scenarios/restart.rs"]
+mod restart;
 #[path = "scenarios/usb_adapter.rs"]
 mod usb_adapter;
 
@@ -275,7 +279,7 @@ fn s5_3_other_characters_during_the_block_wait_zvz_then_nak_0704() {
     // The NAK goes out once the line has been quiet for ZVZ (§5.3 point 3).
     let naks = tx_times(&sim, "A", NAK);
     assert_eq!(naks.len(), 2, "startup NAK and the quiet NAK");
-    assert_eq!(naks[1], last_char + ZVZ);
+    assert_eq!(naks[1], last_char + line().gap_limit(ZVZ));
 }
 
 #[test]
@@ -402,7 +406,10 @@ fn s5_4_zvz_expires_during_the_block_nak_0806() {
         sim.take_events(a),
         vec![Event::ReceiveError(CHARACTER_DELAY)]
     );
-    assert_eq!(*tx_times(&sim, "A", NAK).last().unwrap(), last + ZVZ);
+    assert_eq!(
+        *tx_times(&sim, "A", NAK).last().unwrap(),
+        last + line().gap_limit(ZVZ)
+    );
     assert_eq!(sim.engine(a).received_blocks(), 0);
 }
 
@@ -602,7 +609,10 @@ fn s5_4_other_character_in_idle_waits_for_quiet_then_nak_0802() {
     let last = sim.now() + line().chars_time(3);
     settle(&mut sim);
     assert_eq!(sim.take_events(a), vec![Event::ReceiveError(IDLE_GARBAGE)]);
-    assert_eq!(*tx_times(&sim, "A", NAK).last().unwrap(), last + ZVZ);
+    assert_eq!(
+        *tx_times(&sim, "A", NAK).last().unwrap(),
+        last + line().gap_limit(ZVZ)
+    );
 }
 
 #[test]

@@ -10,8 +10,13 @@
 //! - **Minimum character delay time** (§6.5 Table 2-9 vs 2005 Table 2-7): for 110 … 19 200 bit/s
 //!   the ET 200S SI table (364, 134, 68, 34, 18, 9, 4, 4 ms) applies; above 19 200 the 2005 table
 //!   gives 1 ms, and the parameter range starts at 4 ms (H-22), so 4 ms is the minimum there.
-//! - **Maximum frame length**: 200 bytes (§12, Table 2-13/2-14, 1E41H "1 … 200"); the later 1SI
-//!   module's 224 is not used.
+//! - **Maximum frame length**: a setting, [`Config::max_frame_len`], 1 … 1024 bytes, with the
+//!   module presets of [`ModulePreset`]: 200 bytes for the ET 200S 1SI (the default, §8.2–§8.3
+//!   Table 2-13/2-14 LEN 1 … 200, §12), 224 for the 2005 module (et200s-si-2005-window-protocol.md
+//!   H-14), 1024 for the CP 341 (cp341-event-classes.md 0517H "> 1 KB"). 1024 is also the
+//!   receive buffer (§6.6), which a frame must fit. The fixed receive length of
+//!   [`EndCriterion::FixedLength`] ranges up to it (2005 manual Table 2-8: 1 … 224; cp341 §5.7:
+//!   1 … 1024).
 //! - **Time steps** (A-11): the flow-control times are counts of 10 ms on the wire, so values that
 //!   are not multiples of 10 ms are rejected rather than silently rounded.
 //! - **End-of-text characters** (A-30, H-29): two characters form a *sequence* (char 1 then char 2,
@@ -19,10 +24,21 @@
 
 use crate::status;
 use serde::{Deserialize, Serialize};
-use si_core::{Duration, RangeError, SerialSettings, SettingsError, Status, BAUD_RATES};
+use si_core::{
+    Duration, ModulePreset, RangeError, SerialSettings, SettingsError, Status, BAUD_RATES,
+};
 
-/// Longest frame the driver sends or receives (et200s-si-3964r-ascii.md §12: 200 bytes).
-pub const MAX_FRAME_LEN: usize = 200;
+/// Longest frame of the ET 200S 1SI, the default of [`Config::max_frame_len`]
+/// (et200s-si-3964r-ascii.md §12: 200 bytes; [`ModulePreset::Et200s1Si`]).
+pub const MAX_FRAME_LEN: usize = ModulePreset::Et200s1Si.max_frame_len() as usize;
+
+/// The largest [`Config::max_frame_len`] allowed: 1024 bytes, the CP 341's limit
+/// ([`ModulePreset::Cp341`]) and the size of the receive buffer a frame must fit.
+pub const MAX_FRAME_LEN_LIMIT: usize = RECEIVE_BUFFER_SIZE;
+
+/// Largest transmit chunk ([`Config::tx_chunk`]): the ET 200S frame, so a chunk never needs
+/// more than one frame's worth of the driver's write buffer.
+const MAX_TX_CHUNK: usize = MAX_FRAME_LEN;
 
 /// Size of the receive ring buffer (et200s-si-3964r-ascii.md §6.6: 1024 bytes).
 pub const RECEIVE_BUFFER_SIZE: usize = 1024;
@@ -64,7 +80,8 @@ pub enum EndCriterion {
         /// End-of-text character 2: 0 = unused (the default), else the second of a sequence.
         second: u8,
     },
-    /// A fixed number of characters, 1 … 200 (default 100), ends the frame (code transparent).
+    /// A fixed number of characters, 1 … [`Config::max_frame_len`] (default 100), ends the frame
+    /// (code transparent).
     FixedLength {
         /// Characters per frame.
         len: u16,
@@ -152,6 +169,10 @@ pub struct Config {
     pub prevent_overwrite: bool,
     /// Clear the receive buffer at CPU startup (default yes).
     pub clear_at_startup: bool,
+    /// Longest frame sent or received, 1 … [`MAX_FRAME_LEN_LIMIT`] bytes; default 200, the
+    /// ET 200S 1SI's ([`Config::for_module`] sets it from a [`ModulePreset`]). A longer send job
+    /// is refused (1E41H, the FB's LEN check); a longer received frame is discarded with 0850H.
+    pub max_frame_len: u16,
     /// XON/XOFF parameters, used with [`FlowControl::XonXoff`].
     pub xon_xoff: XonXoff,
     /// RTS/CTS parameters, used with [`FlowControl::RtsCts`].
@@ -181,6 +202,7 @@ impl Default for Config {
             dynamic_frames: true,
             prevent_overwrite: true,
             clear_at_startup: true,
+            max_frame_len: MAX_FRAME_LEN as u16,
             xon_xoff: XonXoff::default(),
             rts_cts: RtsCts::default(),
             auto_v24: AutoV24::default(),
@@ -366,15 +388,23 @@ impl Config {
                 }
             }
             EndCriterion::FixedLength { len } => {
-                if len == 0 || usize::from(len) > MAX_FRAME_LEN {
+                if len == 0 || len > self.max_frame_len {
                     errors.push(out_of_range(
                         "length of received frame",
                         len,
                         " bytes",
-                        format!("1 … {MAX_FRAME_LEN} bytes"),
+                        format!("1 … {} bytes", self.max_frame_len),
                     ));
                 }
             }
+        }
+        if self.max_frame_len == 0 || usize::from(self.max_frame_len) > MAX_FRAME_LEN_LIMIT {
+            errors.push(out_of_range(
+                "maximum frame length",
+                self.max_frame_len,
+                " bytes",
+                format!("1 … {MAX_FRAME_LEN_LIMIT} bytes"),
+            ));
         }
         match (self.flow_control, self.interface) {
             (FlowControl::None, _) => {}
@@ -392,12 +422,12 @@ impl Config {
             }
             _ => {}
         }
-        if self.tx_chunk == 0 || usize::from(self.tx_chunk) > MAX_FRAME_LEN {
+        if self.tx_chunk == 0 || usize::from(self.tx_chunk) > MAX_TX_CHUNK {
             errors.push(out_of_range(
                 "transmit chunk",
                 self.tx_chunk,
                 " characters",
-                format!("1 … {MAX_FRAME_LEN} characters"),
+                format!("1 … {MAX_TX_CHUNK} characters"),
             ));
         }
         errors.extend(self.xon_xoff.validate_all(s));
@@ -416,6 +446,27 @@ impl Config {
             }
         }
         errors
+    }
+
+    /// The defaults with the longest frame of `module` (see the module docs' readings).
+    ///
+    /// ```
+    /// use si_ascii::Config;
+    /// use si_core::ModulePreset;
+    ///
+    /// assert_eq!(Config::for_module(ModulePreset::Si2005).max_frame_len, 224);
+    /// assert_eq!(Config::for_module(ModulePreset::Cp341).max_frame_len, 1024);
+    /// ```
+    pub fn for_module(module: ModulePreset) -> Config {
+        Config {
+            max_frame_len: module.max_frame_len(),
+            ..Config::default()
+        }
+    }
+
+    /// The longest frame, in bytes.
+    pub fn max_frame(&self) -> usize {
+        usize::from(self.max_frame_len)
     }
 
     /// The character delay time.
@@ -515,6 +566,29 @@ mod tests {
             c.validate().unwrap_err().to_string(),
             "length of received frame = 201 bytes is out of range: 1 … 200 bytes"
         );
+        // The fixed length follows the module's maximum (2005 manual Table 2-8: 1 … 224).
+        let c = Config {
+            end: EndCriterion::FixedLength { len: 224 },
+            ..Config::for_module(ModulePreset::Si2005)
+        };
+        assert_eq!(c.validate(), Ok(()));
+        for (len, value) in [(0u16, "0"), (1025, "1025")] {
+            let c = Config {
+                max_frame_len: len,
+                ..Config::default()
+            };
+            let e = c.validate().unwrap_err();
+            assert_eq!(
+                e.to_string(),
+                format!("maximum frame length = {value} bytes is out of range: 1 … 1024 bytes")
+            );
+        }
+        let c = Config {
+            max_frame_len: 1024,
+            end: EndCriterion::FixedLength { len: 1024 },
+            ..Config::default()
+        };
+        assert_eq!(c.validate(), Ok(()));
         let mut c = Config::default();
         c.xon_xoff.wait_for_xon_ms = 15;
         assert_eq!(

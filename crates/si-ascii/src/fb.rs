@@ -28,7 +28,7 @@
 //! parameter FBs complete in the call that sees the REQ edge, since the link applies them at
 //! once.
 
-use crate::config::{AutoV24, RtsCts, XonXoff, MAX_FRAME_LEN};
+use crate::config::{AutoV24, RtsCts, XonXoff};
 use crate::link::{Link, Refused, SendError};
 use crate::status;
 use bytes::Bytes;
@@ -50,10 +50,10 @@ impl JobPort for Link {
     type Job = Bytes;
     type Output = ();
 
-    /// [`Link::send`]. A bad LEN (1 … 200, 1E41H) is refused even while the link is busy; a
-    /// busy link takes the frame later.
+    /// [`Link::send`]. A bad LEN (1 … the maximum frame length, 200 on the ET 200S 1SI, Table
+    /// 2-13: 1E41H) is refused even while the link is busy; a busy link takes the frame later.
     fn start_job(&mut self, now: Instant, frame: Bytes) -> Result<JobId, NotStarted> {
-        if frame.is_empty() || frame.len() > MAX_FRAME_LEN {
+        if frame.is_empty() || frame.len() > self.config().max_frame() {
             return Err(NotStarted::Refused(status::INVALID_LEN));
         }
         self.send(now, frame).map_err(|e| match e {

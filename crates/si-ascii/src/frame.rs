@@ -9,7 +9,7 @@
 //! The ASCII driver has no frame *encoding*: the user data are the frame (§6.1). Surplus bytes
 //! after an end criterion start the next frame (cp341 §5.3: "merged with the next frame").
 
-use crate::config::{AutoV24, EndCriterion, RtsCts, XonXoff, MAX_FRAME_LEN};
+use crate::config::{AutoV24, EndCriterion, RtsCts, XonXoff};
 
 /// What one more byte means for the frame in progress.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -18,7 +18,8 @@ pub enum Cut {
     Continue,
     /// This byte completes the frame (it belongs to it).
     Complete,
-    /// This byte would make the frame longer than [`MAX_FRAME_LEN`].
+    /// This byte would make the frame longer than the cutter's maximum
+    /// ([`Config::max_frame_len`](crate::Config::max_frame_len)).
     TooLong,
 }
 
@@ -26,16 +27,19 @@ pub enum Cut {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Cutter {
     end: EndCriterion,
+    /// The longest frame; one byte more is [`Cut::TooLong`].
+    max: usize,
     len: usize,
     /// The last byte was end-of-text character 1 (for a two-character sequence).
     after_first: bool,
 }
 
 impl Cutter {
-    /// A cutter for `end` with no frame in progress.
-    pub const fn new(end: EndCriterion) -> Self {
+    /// A cutter for `end` and frames of at most `max` bytes, with no frame in progress.
+    pub const fn new(end: EndCriterion, max: usize) -> Self {
         Cutter {
             end,
+            max,
             len: 0,
             after_first: false,
         }
@@ -76,7 +80,7 @@ impl Cutter {
     #[inline]
     pub fn push(&mut self, byte: u8) -> Cut {
         self.len += 1;
-        if self.len > MAX_FRAME_LEN {
+        if self.len > self.max {
             return Cut::TooLong;
         }
         let complete = match self.end {
@@ -93,11 +97,12 @@ impl Cutter {
 }
 
 /// Split `stream` into the frames the end-of-text or fixed-length criterion cuts when nothing
-/// else (no timing) intervenes; the unterminated rest comes last, if any. An allocation-free
-/// iterator over sub-slices, handy for tests and for offline tools.
-pub fn split(end: EndCriterion, stream: &[u8]) -> Split<'_> {
+/// else (no timing) intervenes, frames longer than `max` bytes cut there as incomplete; the
+/// unterminated rest comes last, if any. An allocation-free iterator over sub-slices, handy for
+/// tests and for offline tools.
+pub fn split(end: EndCriterion, max: usize, stream: &[u8]) -> Split<'_> {
     Split {
-        cutter: Cutter::new(end),
+        cutter: Cutter::new(end, max),
         rest: stream,
     }
 }
@@ -265,10 +270,13 @@ impl ParamBlock {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::MAX_FRAME_LEN;
     use proptest::prelude::*;
 
     fn frames(end: EndCriterion, s: &[u8]) -> Vec<(Vec<u8>, bool)> {
-        split(end, s).map(|(f, c)| (f.to_vec(), c)).collect()
+        split(end, MAX_FRAME_LEN, s)
+            .map(|(f, c)| (f.to_vec(), c))
+            .collect()
     }
 
     #[test]
@@ -364,19 +372,21 @@ mod tests {
     }
 
     #[test]
-    fn the_201st_byte_is_too_long() {
-        let mut c = Cutter::new(EndCriterion::CharDelay);
-        for _ in 0..MAX_FRAME_LEN {
-            assert_eq!(c.push(0), Cut::Continue);
+    fn the_byte_after_the_maximum_is_too_long() {
+        for max in [MAX_FRAME_LEN, 224, 1024] {
+            let mut c = Cutter::new(EndCriterion::CharDelay, max);
+            for _ in 0..max {
+                assert_eq!(c.push(0), Cut::Continue);
+            }
+            assert_eq!(c.push(0), Cut::TooLong, "max {max}");
         }
-        assert_eq!(c.push(0), Cut::TooLong);
     }
 
     proptest! {
         #[test]
         fn fixed_length_split_reassembles(len in 1u16..=200, stream in proptest::collection::vec(any::<u8>(), 0..1500)) {
             let end = EndCriterion::FixedLength { len };
-            let parts: Vec<_> = split(end, &stream).collect();
+            let parts: Vec<_> = split(end, MAX_FRAME_LEN, &stream).collect();
             let joined: Vec<u8> = parts.iter().flat_map(|(f, _)| f.iter().copied()).collect();
             prop_assert_eq!(&joined, &stream);
             for (f, complete) in &parts {
@@ -392,7 +402,7 @@ mod tests {
         #[test]
         fn end_char_split_reassembles(first in 1u8.., second: u8, stream in proptest::collection::vec(any::<u8>(), 0..600)) {
             let end = EndCriterion::EndChars { first, second };
-            let joined: Vec<u8> = split(end, &stream).flat_map(|(f, _)| f.iter().copied()).collect();
+            let joined: Vec<u8> = split(end, MAX_FRAME_LEN, &stream).flat_map(|(f, _)| f.iter().copied()).collect();
             prop_assert_eq!(joined, stream);
         }
     }

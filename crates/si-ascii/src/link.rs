@@ -31,9 +31,14 @@
 //!   discarded, the error reported once, and the rest of that frame skipped until the line is quiet
 //!   for the CDT (or, with end characters, until the end characters), so its tail never becomes a
 //!   frame of its own.
-//! - **Frame longer than 200 bytes** in CDT or end-character mode (A-20, A-29): reported with
-//!   0850H (2005 manual, "received frame longer than the configured length") and discarded; 050EH
-//!   is class 05 "error executing a CPU job" and stays with the send side.
+//! - **Frame longer than the maximum** ([`Config::max_frame_len`], 200 bytes by default) in CDT
+//!   or end-character mode (A-20, A-29): reported with 0850H (2005 manual §6.1, "received frame
+//!   longer than 224 bytes or than the configured length") and discarded; 050EH is class 05
+//!   "error executing a CPU job" and stays with the send side: a send job longer than the
+//!   maximum is refused with 050EH (Table 2-28 "invalid frame length", §9.6: the module rejects
+//!   a send longer than its maximum, A-20), an empty one with 1E41H (the FB's LEN check). The
+//!   FB itself ([`crate::fb`]) checks LEN against 1 … maximum first and answers 1E41H, as
+//!   S_SEND does (Table 2-13).
 //! - **Buffer full** (§6.6): with dynamic frames and overwrite allowed the oldest frames make room
 //!   (reported with 080AH, the manual's "diagnostic interrupt"); with overwrite prevented the
 //!   newest frame is lost with 080AH, or with 0812H when we had already sent XOFF / RTS = OFF (§6.9).
@@ -67,7 +72,7 @@
 use crate::buffer::FrameBuffer;
 use crate::config::{
     AutoV24, Config, ConfigError, EndCriterion, FlowControl, Interface, RtsCts, XonXoff,
-    MAX_FRAME_LEN, XOFF_MARGIN,
+    XOFF_MARGIN,
 };
 use crate::frame::{Cut, Cutter};
 use crate::status;
@@ -124,19 +129,29 @@ pub enum SendError {
     /// A send job is still running (S_SEND's BUSY).
     #[error("a send job is still running")]
     Busy,
-    /// Length outside 1 … 200 bytes.
-    #[error("frame length {0} out of range: 1 … 200 bytes")]
+    /// An empty frame (S_SEND LEN must be at least 1).
+    #[error("frame length {0} out of range: a frame needs at least 1 byte")]
     Length(usize),
+    /// More bytes than the configured maximum frame length ([`Config::max_frame_len`]).
+    #[error("frame of {len} bytes is longer than the maximum of {max} bytes")]
+    TooLong {
+        /// Bytes given.
+        len: usize,
+        /// The configured maximum.
+        max: usize,
+    },
     /// With XON/XOFF, user data must not contain the XON or XOFF character (§6.2).
     #[error("frame contains the flow-control character {0:02X}H, not allowed with XON/XOFF")]
     FlowCharacter(u8),
 }
 
 impl SendError {
-    /// The STATUS S_SEND reports: 1E41H for a bad length, 0502H otherwise.
+    /// The STATUS: 1E41H for an empty frame, 050EH for one longer than the maximum, 0502H
+    /// otherwise.
     pub fn status(&self) -> Status {
         match self {
             SendError::Length(_) => status::INVALID_LEN,
+            SendError::TooLong { .. } => status::INVALID_FRAME_LENGTH,
             _ => status::NOT_POSSIBLE_IN_MODE,
         }
     }
@@ -277,12 +292,13 @@ pub struct Link {
     v24: Option<AutoV24Sequence>,
     out: VecDeque<Output<Event>>,
     /// [`Link::read_frame_bytes`] cuts frames from this pool: once the caller has dropped the
-    /// frames it took, a steady state allocates nothing per frame. Empty until first used.
+    /// frames it took, a steady state allocates nothing per frame. Allocated at creation, room
+    /// for [`RX_POOL_FRAMES`] of the longest frames.
     rx_pool: FramePool,
 }
 
-/// Bytes [`Link::read_frame_bytes`] allocates at a time: four of the longest frames.
-const RX_POOL_BYTES: usize = 4 * MAX_FRAME_LEN;
+/// Frames [`Link::read_frame_bytes`] allocates room for at a time, of the longest size.
+const RX_POOL_FRAMES: usize = 4;
 
 impl Link {
     /// A link with validated parameters, entering its flow-control mode as the module does at
@@ -292,7 +308,7 @@ impl Link {
         let mut link = Link {
             cfg: config,
             cdt: config.char_delay(),
-            gap: config.char_delay() + config.settings.char_time() + Duration::from_micros(1),
+            gap: config.settings.gap_limit(config.char_delay()),
             delivery: Delivery::new(&config.settings),
             mask: config.settings.data_mask(),
             plain_rx: matches!(config.flow_control, FlowControl::None | FlowControl::RtsCts)
@@ -302,7 +318,7 @@ impl Link {
                 FlowControl::XonXoff | FlowControl::RtsCts
             ),
             buffer: FrameBuffer::new(),
-            cutter: Cutter::new(config.end),
+            cutter: Cutter::new(config.end, config.max_frame()),
             rx: Rx::Idle,
             rx_deadline: None,
             rx_error: None,
@@ -320,7 +336,7 @@ impl Link {
             v24: (config.flow_control == FlowControl::AutoV24)
                 .then(|| AutoV24Sequence::new(config.auto_v24)),
             out: VecDeque::with_capacity(16),
-            rx_pool: FramePool::new(RX_POOL_BYTES),
+            rx_pool: FramePool::preallocated(RX_POOL_FRAMES * config.max_frame()),
             rx_deadline_only: true,
         };
         link.enter_mode();
@@ -367,15 +383,22 @@ impl Link {
 
     // ---------------------------------------------------------------- send side
 
-    /// Start a send job (S_SEND). The frame is the user data, 1 … 200 bytes, including any start
+    /// Start a send job (S_SEND). The frame is the user data, 1 … [`Config::max_frame_len`]
+    /// bytes (200 by default), including any start
     /// and end characters the partner needs (§6.1, §6.2). Completion comes as [`Event::Sent`] or
     /// [`Event::SendFailed`].
     pub fn send(&mut self, now: Instant, frame: Bytes) -> Result<JobId, SendError> {
         if self.tx != Tx::Idle {
             return Err(SendError::Busy);
         }
-        if frame.is_empty() || frame.len() > MAX_FRAME_LEN {
-            return Err(SendError::Length(frame.len()));
+        if frame.is_empty() {
+            return Err(SendError::Length(0));
+        }
+        if frame.len() > self.cfg.max_frame() {
+            return Err(SendError::TooLong {
+                len: frame.len(),
+                max: self.cfg.max_frame(),
+            });
         }
         if self.cfg.flow_control == FlowControl::XonXoff {
             let XonXoff { xon, xoff, .. } = self.cfg.xon_xoff;
@@ -563,7 +586,7 @@ impl Link {
 
     /// Copy the oldest received frame into `out` and remove it from the buffer (S_RCV); its
     /// length. `None` if no frame is stored or `out` is shorter than the frame (then it stays;
-    /// 200 bytes always suffice).
+    /// [`Config::max_frame_len`] bytes always suffice).
     /// `now` matters with flow control: a read that makes room sends XON / sets RTS = ON.
     pub fn read_frame(&mut self, now: Instant, out: &mut [u8]) -> Option<usize> {
         let n = self.buffer.pop_into(out)?;
@@ -960,7 +983,7 @@ impl Link {
                 self.delivery.patience()
             }
         };
-        self.gap = self.cdt + self.cfg.settings.char_time() + Duration::from_micros(1) + allowance;
+        self.gap = self.cfg.settings.gap_limit(self.cdt) + allowance;
     }
 
     /// The receive deadline in force: none while we hold the partner in the middle of a frame
@@ -1270,38 +1293,42 @@ mod tests {
             any::<(bool, bool, bool)>(),
             1u16..=200,
             prop::bool::ANY,
+            // Every module preset's maximum frame length (200, 224, 1024 bytes).
+            prop::sample::select(si_core::ModulePreset::ALL.to_vec()),
         )
-            .prop_map(|(flow, iface, end, (dynamic, prevent, clear), n, seven)| {
-                let settings = if seven {
-                    SerialSettings::new(9600, 7, Parity::Even, 1).unwrap()
-                } else {
-                    SerialSettings::default()
-                };
-                Config {
-                    settings,
-                    flow_control: [
-                        FlowControl::None,
-                        FlowControl::XonXoff,
-                        FlowControl::RtsCts,
-                        FlowControl::AutoV24,
-                    ][flow],
-                    interface: [Interface::Rs232, Interface::Rs422, Interface::Rs485][iface],
-                    end: [
-                        EndCriterion::CharDelay,
-                        EndCriterion::EndChars {
-                            first: b'\r',
-                            second: b'\n',
-                        },
-                        EndCriterion::DEFAULT_END_CHARS,
-                        EndCriterion::FixedLength { len: n },
-                    ][end],
-                    dynamic_frames: dynamic,
-                    prevent_overwrite: prevent,
-                    clear_at_startup: clear,
-                    tx_chunk: 1,
-                    ..Config::default()
-                }
-            })
+            .prop_map(
+                |(flow, iface, end, (dynamic, prevent, clear), n, seven, module)| {
+                    let settings = if seven {
+                        SerialSettings::new(9600, 7, Parity::Even, 1).unwrap()
+                    } else {
+                        SerialSettings::default()
+                    };
+                    Config {
+                        settings,
+                        flow_control: [
+                            FlowControl::None,
+                            FlowControl::XonXoff,
+                            FlowControl::RtsCts,
+                            FlowControl::AutoV24,
+                        ][flow],
+                        interface: [Interface::Rs232, Interface::Rs422, Interface::Rs485][iface],
+                        end: [
+                            EndCriterion::CharDelay,
+                            EndCriterion::EndChars {
+                                first: b'\r',
+                                second: b'\n',
+                            },
+                            EndCriterion::DEFAULT_END_CHARS,
+                            EndCriterion::FixedLength { len: n },
+                        ][end],
+                        dynamic_frames: dynamic,
+                        prevent_overwrite: prevent,
+                        clear_at_startup: clear,
+                        tx_chunk: 1,
+                        ..Config::for_module(module)
+                    }
+                },
+            )
     }
 
     fn drain(link: &mut Link) -> Vec<Output<Event>> {

@@ -40,6 +40,9 @@ pub struct Params {
     pub char_delay: Duration,
     /// XON/XOFF characters, if flow control is on.
     pub xon_xoff: Option<(u8, u8)>,
+    /// The longest frame ([`Config::max_frame_len`](crate::Config::max_frame_len)); a longer
+    /// one is flagged as the link would report it (0850H).
+    pub max_frame_len: usize,
 }
 
 impl Params {
@@ -51,6 +54,7 @@ impl Params {
             char_delay: config.char_delay(),
             xon_xoff: (config.flow_control == FlowControl::XonXoff)
                 .then_some((config.xon_xoff.xon, config.xon_xoff.xoff)),
+            max_frame_len: config.max_frame(),
         }
     }
 }
@@ -70,8 +74,8 @@ impl Monitor {
         counters.declare(&["frames", "line errors", "frames too long", "XON", "XOFF"]);
         Monitor {
             p,
-            framer: Framer::new(p.char_delay, crate::config::MAX_FRAME_LEN + 1),
-            cutter: Cutter::new(p.end),
+            framer: Framer::new(p.char_delay, p.max_frame_len + 1),
+            cutter: Cutter::new(p.end, p.max_frame_len),
             counters,
         }
     }
@@ -163,9 +167,10 @@ impl Decoder for Monitor {
                         let at = f.end;
                         self.frame(f, false, out);
                         if let Some(last) = out.last_mut() {
-                            last.flags.push(Flag::error(
-                                "frame longer than 200 characters (STATUS 16#0801)",
-                            ));
+                            last.flags.push(Flag::error(format!(
+                                "frame longer than {} characters (STATUS 16#0850)",
+                                self.p.max_frame_len
+                            )));
                             let _ = at;
                         }
                     }

@@ -16,7 +16,7 @@ si_core::status_codes! {
     /// The ASCII driver's codes of Table 2-28 (plus 0850H of the 2005 manual), in table order.
     pub static CATALOG;
     pub const INVALID_FRAME_LENGTH = 0x050E {
-        meaning: "invalid frame length: more than 200 bytes",
+        meaning: "invalid frame length: longer than the maximum (200 bytes on the ET 200S 1SI)",
         remedy: "use a shorter frame",
         source: "et200s-si-3964r-ascii.md §11.3",
     }

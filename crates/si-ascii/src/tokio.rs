@@ -165,6 +165,12 @@ impl Handle {
             .await??)
     }
 
+    /// CPU STOP → RUN ([`Link::restart`]): with [`Config::clear_at_startup`] (the default) the
+    /// frames waiting in the receive buffer are dropped, else they are delivered as before.
+    pub async fn restart(&self) -> Result<(), Error> {
+        Ok(self.driver.call(|l, now| l.restart(now)).await?)
+    }
+
     /// Run any command on the link inside the driver.
     pub async fn call<R: Send + 'static>(
         &self,

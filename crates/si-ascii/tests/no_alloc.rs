@@ -7,7 +7,7 @@
 use bytes::Bytes;
 use si_ascii::fb::{SRcv, SSend};
 use si_ascii::{Config, EndCriterion, FlowControl, Link};
-use si_core::{Duration, Engine, Instant, Output};
+use si_core::{Duration, Engine, Instant, ModulePreset, Output};
 use si_testkit::alloc::assert_no_alloc;
 
 fn drain(link: &mut Link) -> usize {
@@ -23,6 +23,8 @@ fn main() {
     println!("no_alloc: steady-state receive and send allocate nothing: ok");
     steady_state_fb_jobs_and_pooled_reads_do_not_allocate();
     println!("no_alloc: S_SEND / S_RCV jobs and read_frame_bytes allocate nothing: ok");
+    cp341_frames_of_1_kb_do_not_allocate();
+    println!("no_alloc: 1 KB frames of the CP 341 preset allocate nothing: ok");
 }
 
 fn steady_state_receive_and_send_do_not_allocate() {
@@ -113,6 +115,40 @@ fn steady_state_fb_jobs_and_pooled_reads_do_not_allocate() {
     assert_no_alloc("2000 S_SEND jobs and 2000 reads", || {
         for n in 0..2_000 {
             cycle(&mut link, &mut now, n);
+        }
+    });
+}
+
+/// The CP 341 preset's 1024-byte frames (issue 18): the receive pool is sized from the
+/// configured maximum at creation, so the longest frames are read without allocating either.
+fn cp341_frames_of_1_kb_do_not_allocate() {
+    let config = Config {
+        end: EndCriterion::EndChars {
+            first: b'\r',
+            second: b'\n',
+        },
+        ..Config::for_module(ModulePreset::Cp341)
+    };
+    let mut link = Link::new(config).unwrap();
+    let frame: Bytes = [&[b'K'; 1022][..], b"\r\n"].concat().into();
+    let mut now = Instant::ZERO;
+    let cycle = |link: &mut Link, now: &mut Instant| {
+        link.handle_rx(*now, &frame);
+        drain(link);
+        let got = link.read_frame_bytes(*now).expect("one frame");
+        assert_eq!(got.len(), 1024);
+        drop(got);
+        drain(link);
+        *now += Duration::from_millis(1);
+        link.handle_timeout(*now);
+        drain(link);
+    };
+    for _ in 0..10 {
+        cycle(&mut link, &mut now); // warm up
+    }
+    assert_no_alloc("1000 frames of 1 KB", || {
+        for _ in 0..1_000 {
+            cycle(&mut link, &mut now);
         }
     });
 }

@@ -6,8 +6,8 @@ use proptest::prelude::*;
 use si_ascii::config::min_char_delay_ms;
 use si_ascii::{Config, EndCriterion, Event, FlowControl, Interface, Link};
 use si_core::{
-    Duration, Engine, Instant, LineError, ModemSignals, Output, Parity, SerialSettings,
-    SignalUpdate,
+    Duration, Engine, Instant, LineError, ModemSignals, ModulePreset, Output, Parity,
+    SerialSettings, SignalUpdate,
 };
 
 /// Feeds an engine with time, firing its timer whenever the clock passes the deadline, and
@@ -53,7 +53,9 @@ impl Driver {
                 Output::Event(Event::Sent { .. } | Event::SendFailed { .. }) => {
                     self.completions += 1
                 }
-                Output::Transmit(b) => assert!(!b.is_empty() && b.len() <= 200),
+                Output::Transmit(b) => {
+                    assert!(!b.is_empty() && b.len() <= self.link.config().max_frame())
+                }
                 Output::SetSignals(_) => {}
             }
         }
@@ -174,6 +176,8 @@ fn op() -> impl Strategy<Value = (u64, Op)> {
         1 => any::<u8>().prop_map(Op::LineError),
         1 => any::<u8>().prop_map(Op::Signals),
         2 => prop::collection::vec(any::<u8>(), 0..210).prop_map(Op::Send),
+        // Around the 2005 module's and the CP 341's maximum frame.
+        1 => prop::collection::vec(any::<u8>(), 220..1030).prop_map(Op::Send),
         2 => Just(Op::Read),
         1 => Just(Op::Restart),
         1 => any::<u8>().prop_map(Op::SetSignals),
@@ -189,9 +193,10 @@ fn config() -> impl Strategy<Value = Config> {
         any::<(bool, bool, bool)>(),
         baud(),
         any::<(u8, u8, u16)>(),
+        prop::sample::select(ModulePreset::ALL.to_vec()),
     )
         .prop_map(
-            |(flow, iface, end, (dynamic, prevent, clear), baud, (a, b, n))| {
+            |(flow, iface, end, (dynamic, prevent, clear), baud, (a, b, n), module)| {
                 let flow_control = [
                     FlowControl::None,
                     FlowControl::XonXoff,
@@ -216,7 +221,7 @@ fn config() -> impl Strategy<Value = Config> {
                     dynamic_frames: dynamic,
                     prevent_overwrite: prevent,
                     clear_at_startup: clear,
-                    ..Config::default()
+                    ..Config::for_module(module)
                 }
             },
         )
@@ -261,7 +266,7 @@ proptest! {
             let completions = d.completions;
             let buffer = d.link.buffer();
             prop_assert!(buffer.fill() <= buffer.capacity());
-            prop_assert!(buffer.pending_len() <= 200);
+            prop_assert!(buffer.pending_len() <= d.link.config().max_frame());
             // Every accepted job ends at most once; at most one is open.
             prop_assert!(completions <= sends && sends - completions <= 1);
         }

@@ -1,6 +1,7 @@
 //! The ASCII driver's scenarios, one module per topic of the manual (et200s-si-3964r-ascii.md
 //! §6–§8, cp341-3964r-rk512-ascii.md §5): end criteria, flow control, the function blocks, line
-//! errors, the receive buffer, the tokio handle and USB adapters.
+//! errors, the maximum frame length and its module presets, the receive buffer, the tokio
+//! handle and USB adapters.
 
 mod common;
 #[path = "scenarios/end_criteria.rs"]
@@ -11,6 +12,8 @@ mod flow_control;
 mod function_blocks;
 #[path = "scenarios/line_errors.rs"]
 mod line_errors;
+#[path = "scenarios/max_frame.rs"]
+mod max_frame;
 #[path = "scenarios/receive_buffer.rs"]
 mod receive_buffer;
 #[path = "scenarios/tokio_duplex.rs"]

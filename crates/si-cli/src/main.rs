@@ -10,6 +10,7 @@ mod conn;
 mod error;
 mod hex;
 mod output;
+mod preset;
 mod radix;
 mod scenario;
 mod svg;

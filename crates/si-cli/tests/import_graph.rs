@@ -5,8 +5,8 @@
 //! groups expanded, and written out in code), resolves it to the longest module path that
 //! exists, and looks for a circle in the graph of modules. The crate root (`main.rs`) and every
 //! `mod.rs` declare their children, so they count as depending on each of them: a child that
-//! imports from its parent closes a circle. Leaf modules (`error`, `output`, `hex`, `scenario`,
-//! `svg`, `conn`) take what several commands share.
+//! imports from its parent closes a circle. Leaf modules (`error`, `output`, `hex`, `preset`,
+//! `scenario`, `svg`, `conn`) take what several commands share.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

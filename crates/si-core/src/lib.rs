@@ -10,6 +10,8 @@
 //!   and [`job::Channel`] (one S_SEND and one S_RCV);
 //! - [`fb`]: edge detection, one-call pulses, and S_SEND / S_RCV written once over [`JobPort`];
 //! - [`RangeError`]: a configuration value outside the manual's range, the same for every crate;
+//! - [`ModulePreset`]: the module types (ET 200S 1SI, 2005 module, CP 341) and their longest
+//!   frame, shared by the ASCII driver and the coordination window;
 //! - [`FramePool`]: the pool engines cut the frames they hand out from (no allocation per
 //!   frame in steady state);
 //! - [`delivery`]: how late the port hands bytes over (USB adapters), and the slack silence
@@ -33,6 +35,7 @@ pub mod interface;
 pub mod job;
 pub mod linemark;
 pub mod memory;
+pub mod module_preset;
 pub mod monitor;
 pub mod port_facts;
 pub mod range;
@@ -50,6 +53,7 @@ pub mod driver;
 
 pub use interface::Interface;
 pub use job::{JobId, JobPort};
+pub use module_preset::ModulePreset;
 pub use range::RangeError;
 #[cfg(feature = "serial")]
 pub mod port;

@@ -210,6 +210,24 @@ impl SerialSettings {
         self.chars_time(1)
     }
 
+    /// How long after a received character completes the next one may complete when the gap
+    /// between them must not exceed `max_gap` (a character delay time, ZVZ / CDT).
+    ///
+    /// A receiver sees a character only once its stop bit is in, so the next character, which
+    /// may *start* up to `max_gap` after this one ended, completes up to one character time
+    /// later still; one microsecond (the clock's resolution) more, and the gap was longer than
+    /// `max_gap`. A deadline of `now + gap_limit(max_gap)` therefore lets a gap of exactly
+    /// `max_gap` pass and catches one of `max_gap` + 1 µs at the moment it is known. The ASCII
+    /// and 3964(R) drivers both monitor their character delay time with it.
+    pub const fn gap_limit(&self, max_gap: Duration) -> Duration {
+        Duration::from_micros(
+            max_gap
+                .as_micros()
+                .saturating_add(self.char_time().as_micros())
+                .saturating_add(1),
+        )
+    }
+
     /// Time `n` back-to-back characters occupy, `ceil(n × bits × 10⁶ / baud)` µs: exact to the
     /// microsecond with no accumulated rounding, so a simulated byte never arrives early.
     pub const fn chars_time(&self, n: u64) -> Duration {
@@ -242,6 +260,16 @@ impl fmt::Display for SerialSettings {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn gap_limit_is_the_gap_plus_one_character_and_a_microsecond() {
+        let s = SerialSettings::new(300, 8, Parity::Even, 1).unwrap();
+        // 11 bits at 300 bit/s: 36 667 µs per character.
+        assert_eq!(
+            s.gap_limit(Duration::from_millis(60)).as_micros(),
+            60_000 + 36_667 + 1
+        );
+    }
 
     #[test]
     fn char_time_counts_start_data_parity_stop() {

@@ -5,11 +5,12 @@ use crate::coord::ExecWrap;
 use crate::frame::{V24Layout, WindowSize};
 use crate::status::NOT_POSSIBLE_IN_MODE;
 use serde::{Deserialize, Serialize};
-use si_core::{Duration, RangeError, Status};
+use si_core::{Duration, ModulePreset, RangeError, Status};
 
-/// The largest frame of chapter 2 (S_SEND/S_RCV LEN, 050EH, 0850H): 224 bytes. The 1E41H text
-/// says 1…200 and the Modbus/USS module uses 200 (H-14); set `max_frame_len` to 200 there.
-pub const MAX_FRAME_LEN: usize = 224;
+/// The largest frame of chapter 2 (S_SEND/S_RCV LEN, 050EH, 0850H): 224 bytes, the 2005
+/// module's ([`ModulePreset::Si2005`]). The 1E41H text says 1…200 and the Modbus/USS module uses
+/// 200 (H-14); [`HostConfig::for_module`] picks the limit by module type.
+pub const MAX_FRAME_LEN: usize = ModulePreset::Si2005.max_frame_len() as usize;
 
 /// The upper bound any configuration may choose: the 16-bit length word could say 65 535, but a
 /// bounded engine needs a bounded buffer.
@@ -37,7 +38,8 @@ pub struct HostConfig {
     /// The window size of the configured module variant (the host cannot learn it from the
     /// module, H-70).
     pub window: WindowSize,
-    /// Largest frame the host sends or accepts, 1 … [`MAX_FRAME_LEN_LIMIT`]; default 224.
+    /// Largest frame the host sends or accepts, 1 … [`MAX_FRAME_LEN_LIMIT`]; default 224, the
+    /// 2005 module's; [`HostConfig::for_module`] takes it from the module type.
     /// Longer send jobs are refused with 1E41H before they touch the window (the FB's own
     /// LEN check, et200s-si-2005-window-protocol.md §11.2).
     pub max_frame_len: usize,
@@ -84,6 +86,38 @@ impl HostConfig {
             window,
             ..HostConfig::default()
         }
+    }
+
+    /// The defaults for a window size and the module type behind the window, whose longest
+    /// frame becomes [`max_frame_len`](Self::max_frame_len): 200 bytes for the ET 200S 1SI
+    /// (et200s-si-3964r-ascii.md §9.6: "send job longer than 200 bytes"), 224 for the 2005
+    /// module (et200s-si-2005-window-protocol.md H-14).
+    ///
+    /// The coordination window is an ET 200S protocol: the CP 341 sits in the S7-300 rack and
+    /// has no DP window, so [`ModulePreset::Cp341`] is refused with an error naming the module
+    /// types that have one.
+    ///
+    /// ```
+    /// use si_core::ModulePreset;
+    /// use si_dp_coord::{HostConfig, WindowSize};
+    ///
+    /// let host = HostConfig::for_module(WindowSize::Eight, ModulePreset::Et200s1Si).unwrap();
+    /// assert_eq!(host.max_frame_len, 200);
+    /// assert!(HostConfig::for_module(WindowSize::Eight, ModulePreset::Cp341).is_err());
+    /// ```
+    pub fn for_module(window: WindowSize, module: ModulePreset) -> Result<Self, ConfigError> {
+        if !module.has_dp_window() {
+            return Err(RangeError::new(
+                "module type behind the coordination window",
+                "ET 200S 1SI (et200s) or 2005 module (2005)",
+                "",
+                module.name(),
+            ));
+        }
+        Ok(HostConfig {
+            max_frame_len: usize::from(module.max_frame_len()),
+            ..HostConfig::new(window)
+        })
     }
 
     /// Checks every range.
@@ -195,6 +229,26 @@ impl ModuleConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn host_max_frame_follows_the_module_type() {
+        assert_eq!(HostConfig::default().max_frame_len, 224);
+        let len = |m| {
+            HostConfig::for_module(WindowSize::Four, m)
+                .map(|c| (c.window, c.max_frame_len))
+                .map_err(|e| e.to_string())
+        };
+        assert_eq!(len(ModulePreset::Et200s1Si), Ok((WindowSize::Four, 200)));
+        assert_eq!(len(ModulePreset::Si2005), Ok((WindowSize::Four, 224)));
+        assert_eq!(
+            len(ModulePreset::Cp341),
+            Err(
+                "module type behind the coordination window = cp341 is out of range: \
+                 ET 200S 1SI (et200s) or 2005 module (2005)"
+                    .into()
+            )
+        );
+    }
 
     #[test]
     fn defaults_are_valid_and_ranges_are_named() {

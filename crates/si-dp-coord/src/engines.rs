@@ -193,7 +193,8 @@ pub fn ascii(link: si_ascii::Link) -> EngineSerial<si_ascii::Link> {
 }
 
 /// The window module configuration matching an ASCII configuration: its flow control (so the
-/// module accepts the right parameter block) and its 200-byte frame limit.
+/// module accepts the right parameter block) and its frame limit
+/// ([`si_ascii::Config::max_frame_len`], 200 bytes by default).
 pub fn ascii_module_config(window: WindowSize, config: &si_ascii::Config) -> ModuleConfig {
     ModuleConfig {
         flow_control: match config.flow_control {
@@ -202,7 +203,7 @@ pub fn ascii_module_config(window: WindowSize, config: &si_ascii::Config) -> Mod
             si_ascii::FlowControl::RtsCts => FlowControl::RtsCts,
             si_ascii::FlowControl::AutoV24 => FlowControl::AutoV24,
         },
-        max_frame_len: si_ascii::MAX_FRAME_LEN,
+        max_frame_len: config.max_frame(),
         rx_buffer_bytes: si_ascii::RECEIVE_BUFFER_SIZE,
         ..ModuleConfig::new(window)
     }

@@ -239,9 +239,8 @@ pub struct R3964Params {
     pub receive_line: ReceiveLine,
     /// Character format; default 9600 8E1.
     pub settings: SerialSettings,
-    /// Clear the receive buffer at CPU startup; default yes.
-    pub clear_at_startup: bool,
-    /// Protocol mode, priority, ZVZ, QVZ, attempts: the 3964(R) link's own configuration.
+    /// Protocol mode, priority, ZVZ, QVZ, attempts, clearing the receive buffer at CPU startup:
+    /// the 3964(R) link's own configuration.
     pub config: si_3964r::Config,
 }
 
@@ -253,7 +252,6 @@ impl Default for R3964Params {
             interface: Interface::Rs232,
             receive_line: ReceiveLine::Ra5vRb0v,
             settings: SerialSettings::default(),
-            clear_at_startup: true,
             config: si_3964r::Config::default(),
         }
     }
@@ -673,6 +671,7 @@ fn read_ascii(r: &mut Reader<'_>) -> AsciiParams {
         dynamic_frames: r.bool("dynamic_frames", dc.dynamic_frames),
         prevent_overwrite: r.bool("prevent_overwrite", dc.prevent_overwrite),
         clear_at_startup: r.bool("clear_at_startup", dc.clear_at_startup),
+        max_frame_len: dc.max_frame_len,
         xon_xoff: si_ascii::config::XonXoff {
             xon: r.uint("xon", dc.xon_xoff.xon.into(), 0xFF, "00H … FFH") as u8,
             xoff: r.uint("xoff", dc.xon_xoff.xoff.into(), 0xFF, "00H … FFH") as u8,
@@ -774,6 +773,7 @@ fn read_3964r(r: &mut Reader<'_>) -> R3964Params {
             0xFF,
             "1 … 255 blocks",
         ) as u8,
+        clear_at_startup: r.bool("clear_at_startup", base.clear_at_startup),
     };
     R3964Params {
         diagnostic_interrupt,
@@ -781,7 +781,6 @@ fn read_3964r(r: &mut Reader<'_>) -> R3964Params {
         interface,
         receive_line,
         settings,
-        clear_at_startup: r.bool("clear_at_startup", true),
         config,
     }
 }
@@ -1132,7 +1131,7 @@ impl DriverParams {
     pub fn clear_at_startup(&self) -> bool {
         match self {
             DriverParams::Ascii(p) => p.config.clear_at_startup,
-            DriverParams::R3964(p) => p.clear_at_startup,
+            DriverParams::R3964(p) => p.config.clear_at_startup,
             DriverParams::ModbusMaster(p) => p.module.clear_at_startup,
             DriverParams::ModbusSlave(p) => p.module.clear_at_startup,
             DriverParams::UssMaster(_) => true,
@@ -1243,7 +1242,7 @@ impl DriverParams {
                 put("transmission_attempts", c.transmission_attempts.into());
                 put("max_block_len", c.max_block_len.into());
                 put("receive_buffer_blocks", c.receive_buffer_blocks.into());
-                put("clear_at_startup", p.clear_at_startup.into());
+                put("clear_at_startup", c.clear_at_startup.into());
             }
             DriverParams::ModbusMaster(ModbusMasterParams { module, .. })
             | DriverParams::ModbusSlave(ModbusSlaveParams { module, .. }) => {

@@ -43,9 +43,17 @@ impl Engine for Partner {
 
 /// Link "A" (with `config`) facing the scripted partner "P".
 pub fn scripted(config: Config) -> (Simulator, StationId<Link>, StationId<Partner>) {
+    scripted_on(line(), config)
+}
+
+/// [`scripted`] on a line with `settings`.
+pub fn scripted_on(
+    settings: SerialSettings,
+    config: Config,
+) -> (Simulator, StationId<Link>, StationId<Partner>) {
     let mut sim = Simulator::new(3964);
-    let a = sim.add_station("A", line(), Link::new(config, line()).unwrap());
-    let p = sim.add_station("P", line(), Partner);
+    let a = sim.add_station("A", settings, Link::new(config, settings).unwrap());
+    let p = sim.add_station("P", settings, Partner);
     sim.connect(a, p);
     (sim, a, p)
 }

@@ -8,6 +8,7 @@ use crate::conn::Connection;
 use crate::error::CliError;
 use crate::hex::parse_hex;
 use crate::output::Output;
+use crate::preset::module_preset;
 use crate::scenario::{print_trace, Scenario, SimOptions};
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
@@ -15,7 +16,7 @@ use si_ascii::config::min_char_delay_ms;
 use si_ascii::tokio::{Error as AsciiError, Handle, Incoming};
 use si_ascii::{Config, EndCriterion, Event, FlowControl, Interface, Link};
 use si_core::sim::{Simulator, StationId, Trace, TraceKind};
-use si_core::{Duration, Instant, SerialSettings, Status};
+use si_core::{Duration, Instant, ModulePreset, SerialSettings, Status};
 
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]
@@ -56,7 +57,7 @@ pub enum Iface {
 #[derive(Debug, Args)]
 pub struct DriverArgs {
     /// End criterion: `delay` (character delay time), `chars HEX[,HEX]` (one or two end-of-text
-    /// characters, e.g. `chars 0D,0A`), or `fixed N` (N characters, 1 … 200).
+    /// characters, e.g. `chars 0D,0A`), or `fixed N` (N characters, 1 … the maximum frame).
     #[arg(long, num_args = 1..=2, value_names = ["KIND", "ARG"], default_values = ["delay"])]
     end: Vec<String>,
     /// Character delay time in ms (default: the manual's minimum for the baud rate, ≥ 4 ms).
@@ -71,6 +72,14 @@ pub struct DriverArgs {
     /// Wait time for XON or CTS = ON in ms (20 … 655350, 10 ms steps; default 2000).
     #[arg(long, value_name = "MS")]
     flow_wait: Option<u32>,
+    /// The module whose maximum frame length applies: `et200s` (ET 200S 1SI, 200 bytes),
+    /// `2005` (the 2005 module, 224 bytes) or `cp341` (CP 341, 1024 bytes).
+    #[arg(long, value_name = "TYPE", default_value = "et200s", value_parser = module_preset)]
+    module: ModulePreset,
+    /// Maximum frame length in bytes (1 … 1024), instead of the module's: longer frames are
+    /// refused to send (050EH) and dropped on receipt (0850H).
+    #[arg(long, value_name = "N")]
+    max_frame: Option<u16>,
 }
 
 impl DriverArgs {
@@ -93,8 +102,11 @@ impl DriverArgs {
                 Iface::Rs422 => Interface::Rs422,
                 Iface::Rs485 => Interface::Rs485,
             },
-            ..Config::default()
+            ..Config::for_module(self.module)
         };
+        if let Some(n) = self.max_frame {
+            c.max_frame_len = n;
+        }
         if let Some(ms) = self.flow_wait {
             c.xon_xoff.wait_for_xon_ms = ms;
             c.rts_cts.wait_for_cts_ms = ms;
@@ -224,6 +236,11 @@ fn status_error(status: Status) -> CliError {
 fn ascii_error(e: AsciiError) -> CliError {
     match e {
         AsciiError::Status(s) => status_error(s),
+        // A refused send names the STATUS too (1E41H, 050EH, 0502H).
+        AsciiError::Send(e) => CliError::new(format!(
+            "{e} ({})",
+            si_ascii::status::lookup(e.status().code())
+        )),
         other => CliError::new(other.to_string()),
     }
 }

@@ -33,13 +33,14 @@ use crate::conn::Connection;
 use crate::error::CliError;
 use crate::hex::parse_hex;
 use crate::output::Output;
+use crate::preset::module_preset;
 use crate::scenario::{print_trace, record_trace, Scenario, SimOptions};
 use bytes::Bytes;
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 use si_core::driver::{self, DriverOptions, Transport};
 use si_core::sim::{Simulator, Trace, TraceEntry, TraceKind};
-use si_core::{Duration, Engine, Instant, SerialSettings, Status};
+use si_core::{Duration, Engine, Instant, ModulePreset, SerialSettings, Status};
 use si_dp_coord::engines;
 use si_dp_coord::fb::{Done, Received, SRcv, SSend};
 use si_dp_coord::frame::{describe, Direction, V24Layout};
@@ -118,6 +119,14 @@ pub struct HostArgs {
     /// The execution number after 7: 1 or 0 (H-5); the module must count the same way.
     #[arg(long, default_value = "1", value_parser = exec_after_7)]
     exec_after_7: ExecWrap,
+    /// The module behind the window, whose maximum frame length applies: `et200s` (ET 200S 1SI,
+    /// 200 bytes) or `2005` (the 2005 module, 224 bytes). The CP 341 has no DP window.
+    #[arg(long, value_name = "TYPE", default_value = "2005", value_parser = module_preset)]
+    module: ModulePreset,
+    /// Maximum frame length in bytes (1 … 4096), instead of the module's: a longer send job is
+    /// refused (1E41H), a longer received frame fails (0850H).
+    #[arg(long, value_name = "N")]
+    max_frame: Option<usize>,
     /// The job.
     #[command(subcommand)]
     job: JobArg,
@@ -283,11 +292,14 @@ fn finish(result: Result<Outcome, Status>, out: &Output) -> Result<(), CliError>
 
 impl HostArgs {
     fn run(self, out: &Output) -> Result<(), CliError> {
-        let cfg = HostConfig {
+        let mut cfg = HostConfig {
             job_timeout: Some(Duration::from_secs(self.timeout_s)),
             exec_wrap: self.exec_after_7,
-            ..HostConfig::new(self.window)
+            ..HostConfig::for_module(self.window, self.module)?
         };
+        if let Some(n) = self.max_frame {
+            cfg.max_frame_len = n;
+        }
         let mut host = Host::new(cfg)?;
         let id = host
             .submit(self.job.job()?)

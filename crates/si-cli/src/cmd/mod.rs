@@ -10,7 +10,7 @@
 //!
 //! Imports point one way (tests/import_graph.rs proves it): `frame` and `sim` list the protocol
 //! modules, and the protocol modules import only the leaves below all commands: hex parsing
-//! (`crate::hex`), scenarios and trace output (`crate::scenario`), printing (`crate::output`)
+//! (`crate::hex`), the module presets (`crate::preset`), scenarios and trace output (`crate::scenario`), printing (`crate::output`)
 //! and errors (`crate::error`).
 
 pub mod ascii;

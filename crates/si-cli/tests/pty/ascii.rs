@@ -297,3 +297,66 @@ fn xon_xoff_on_both_sides_still_delivers_the_line() {
     let v: serde_json::Value = serde_json::from_str(&lines[0]).unwrap();
     assert_eq!(v["text"], r"flow controlled\r\n");
 }
+
+#[test]
+fn max_frame_and_module_are_checked_with_the_fixed_length() {
+    let run = |args: &[&str]| {
+        let out = si_command()
+            .args(["ascii", "recv", "--port", "/nonexistent"])
+            .args(args)
+            .output()
+            .expect("run si");
+        String::from_utf8_lossy(&out.stderr).trim().to_owned()
+    };
+    // ET 200S 1SI (the default): 1 … 200 bytes (Table 2-10).
+    assert_eq!(
+        run(&["--end", "fixed", "224"]),
+        "si: error: length of received frame = 224 bytes is out of range: 1 … 200 bytes"
+    );
+    // The 2005 module takes 224 (Table 2-8): the error is now the missing port.
+    assert!(!run(&["--module", "2005", "--end", "fixed", "224"]).contains("out of range"));
+    assert_eq!(
+        run(&["--max-frame", "2000"]),
+        "si: error: maximum frame length = 2000 bytes is out of range: 1 … 1024 bytes"
+    );
+    assert!(run(&["--module", "cp340"]).contains("\"cp340\" is not a module type"));
+}
+
+#[test]
+fn cp341_frames_of_1_kb_pass_and_the_et200s_refuses_201_bytes_with_050e() {
+    let Some(pair) = pty_pair() else { return };
+    let recv = si_command()
+        .args(["ascii", "recv", "--port", &pair.a, "--module", "cp341"])
+        .args(["--end", "chars", "0D,0A", "--count", "1", "--timeout", "20"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start si ascii recv");
+    std::thread::sleep(Duration::from_millis(700));
+    let line = format!("{}0D 0A", "41 ".repeat(1022));
+    let sent = si_command()
+        .args([
+            "ascii", "send", "--port", &pair.b, "--module", "cp341", &line,
+        ])
+        .output()
+        .expect("run si ascii send");
+    assert!(
+        sent.status.success(),
+        "{}",
+        String::from_utf8_lossy(&sent.stderr)
+    );
+    let out = recv.wait_with_output().expect("si ascii recv ends");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.starts_with("frame 1024 bytes: 41 41"), "{stdout}");
+
+    let refused = si_command()
+        .args(["ascii", "send", "--port", &pair.b, &"41 ".repeat(201)])
+        .output()
+        .expect("run si ascii send");
+    assert!(!refused.status.success());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        stderr.contains("201 bytes is longer than the maximum of 200 bytes (16#050E"),
+        "{stderr}"
+    );
+}

@@ -370,3 +370,42 @@ fn host_exec_after_7_sets_the_number_of_the_8th_segment() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("1 (7 → 1) or 0 (7 → 0)"));
 }
+
+#[test]
+fn host_max_frame_follows_the_module_type_and_max_frame_overrides_it() {
+    let frame = |n: usize| "61".repeat(n);
+    // ET 200S 1SI: 200 bytes (§9.6); one more is the FB's LEN error before any window.
+    let out = host(&["--module", "et200s", "send", &frame(201)], &[]);
+    assert_eq!(out.status.code(), Some(1), "{out:?}");
+    assert!(out.stdout.is_empty());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("frame length 201 outside 1 … 200"),
+        "{stderr}"
+    );
+    // The 2005 module (the default): 224 bytes, so 201 starts the job.
+    for args in [&["send"][..], &["--module", "2005", "send"][..]] {
+        let mut args = args.to_vec();
+        let data = frame(201);
+        args.push(&data);
+        let out = host(&args, &["00 00 00 00 00 00 00 00"]);
+        assert_eq!(
+            stdout_lines(&out).first().map(String::as_str),
+            Some("10 00 00 00 00 00 00 00"),
+            "{args:?}: {out:?}"
+        );
+    }
+    let out = host(&["--module", "2005", "send", &frame(225)], &[]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("outside 1 … 224"));
+    // --max-frame replaces the module's value.
+    let out = host(&["--max-frame", "10", "send", &frame(11)], &[]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("outside 1 … 10"));
+    // The CP 341 has no coordination window.
+    let out = host(&["--module", "cp341", "send", "61"], &[]);
+    assert_eq!(out.status.code(), Some(1), "{out:?}");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("module type behind the coordination window = cp341"),
+        "{stderr}"
+    );
+}

@@ -295,7 +295,7 @@ fn defaults_are_the_manuals() {
         "QVZ default without block check"
     );
     assert_eq!(r.config.char_delay_ms, 220);
-    assert!(r.clear_at_startup);
+    assert!(r.config.clear_at_startup);
 
     let p = DriverParams::from_toml_str("driver = \"modbus-slave\"").unwrap();
     let DriverParams::ModbusSlave(s) = &p else {

@@ -152,6 +152,8 @@ impl MonitorArgs {
                 };
                 p.zvz = self.zvz.map_or(p.zvz, ms);
                 p.qvz = self.qvz.map_or(p.qvz, ms);
+                // ZVZ is silence between characters: the monitor needs the character time.
+                p.line = settings;
                 Box::new(si_3964r::monitor::Monitor::new(p))
             }
             Protocol::Modbus => {
