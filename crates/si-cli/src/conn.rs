@@ -3,7 +3,9 @@
 use crate::error::CliError;
 use clap::Args;
 use si_core::driver::{PortFacts, RtsToggle, Transport, WithFacts};
+use si_core::frame_log::FrameLog;
 use si_core::linemark::{MarkDecoder, Marked};
+use si_core::monitor::Decoder;
 use si_core::port::{self, PortOptions, Rs485};
 use si_core::sim::TraceKind;
 use si_core::tracefile::{Header, Recorder};
@@ -68,6 +70,10 @@ pub struct Connection {
     /// The protocol the command speaks, written into the trace header (set by `main`).
     #[arg(skip)]
     pub protocol: Option<&'static str>,
+    /// With -v: makes the protocol's monitor that logs each frame as text (set by `main`;
+    /// `si_core::frame_log`).
+    #[arg(skip)]
+    pub frame_log: Option<LineDecoder>,
     /// The recorder, created on the first `open` so every port of the command shares one file.
     #[arg(skip)]
     recorder: Arc<OnceLock<Recorder>>,
@@ -128,14 +134,22 @@ impl Connection {
                 ))
             }
         };
-        match self.recorder(settings)? {
-            Some(recorder) => Ok(Box::new(Recording {
+        let transport: Box<dyn Transport> = match self.recorder(settings)? {
+            Some(recorder) => Box::new(Recording {
                 inner: transport,
                 recorder: recorder.for_station(STATION),
                 marks: None,
-            })),
-            None => Ok(transport),
-        }
+            }),
+            None => transport,
+        };
+        let decoder = self
+            .frame_log
+            .zip(self.protocol)
+            .and_then(|(make, protocol)| make(protocol, *settings));
+        Ok(match decoder {
+            Some(decoder) => Box::new(FrameLog::new(transport, decoder, *settings)),
+            None => transport,
+        })
     }
 
     /// The port options the global flags ask for.
@@ -178,6 +192,10 @@ impl Connection {
         Ok(Some(self.recorder.get_or_init(|| r).clone()))
     }
 }
+
+/// Makes the passive monitor for a protocol (by its trace-header name) on a line with these
+/// settings; `None` if the protocol has none.
+pub type LineDecoder = fn(&str, SerialSettings) -> Option<Box<dyn Decoder + Send>>;
 
 /// The station name this program's side has in a recorded trace.
 pub const STATION: &str = "si";

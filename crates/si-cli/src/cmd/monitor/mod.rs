@@ -136,7 +136,7 @@ impl MonitorArgs {
         protocol: Protocol,
         settings: SerialSettings,
         one_sided: bool,
-    ) -> Box<dyn Decoder> {
+    ) -> Box<dyn Decoder + Send> {
         let ms = Duration::from_millis;
         match protocol {
             Protocol::P3964r | Protocol::P3964 | Protocol::Rk512 | Protocol::Auto => {
@@ -257,7 +257,7 @@ impl MonitorArgs {
             }
             (p, _) => p,
         };
-        let mut decoder: Box<dyn Decoder> = if windows {
+        let mut decoder: Box<dyn Decoder + Send> = if windows {
             Box::new(si_dp_coord::monitor::Monitor::new(
                 si_dp_coord::monitor::module_index(&line.stations),
             ))
@@ -399,6 +399,29 @@ impl MonitorArgs {
         }
         Ok(())
     }
+}
+
+/// The monitor for a command's own line, with the engines' default timers: what `si -v` logs
+/// the frames with (`si_core::frame_log`). `None` for a protocol without a line monitor.
+pub fn line_decoder(protocol: &str, settings: SerialSettings) -> Option<Box<dyn Decoder + Send>> {
+    let protocol = Protocol::from_name(protocol).filter(|p| *p != Protocol::DpCoord)?;
+    let defaults = MonitorArgs {
+        protocol,
+        trace: None,
+        svg: None,
+        tap: None,
+        duration: None,
+        zvz: None,
+        qvz: None,
+        timeout: None,
+        char_delay: None,
+        end_char: None,
+        fixed_length: None,
+        events: false,
+        no_xon_xoff: false,
+    };
+    // Both directions are known: what we write and what we read.
+    Some(defaults.decoder(protocol, settings, false))
 }
 
 /// Baud rates a trace or a monitored line may use: the manuals' twelve and USS's 187 500.
