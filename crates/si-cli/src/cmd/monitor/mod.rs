@@ -212,6 +212,13 @@ impl MonitorArgs {
             .and_then(|f| f.settings())
             .map_or_else(|| conn.settings_for(&TRACE_RATES), Ok)?;
         let analysis = self.analyse(&file, settings)?;
+        // Record times count from the recording's start; say when that was. Text only: a JSON
+        // reader has the header itself, and every JSON line stays a record.
+        if let Some(start) = file.header.as_ref().and_then(|h| h.start.as_deref()) {
+            if !out.json {
+                crate::output::write_stdout(format_args!("recorded from {start}\n"));
+            }
+        }
         for r in &analysis.records {
             print_record(r, &analysis.stations, out);
         }
