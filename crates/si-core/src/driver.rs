@@ -138,6 +138,7 @@ impl Transport for tokio::net::TcpStream {}
 impl Transport for tokio::io::DuplexStream {}
 
 #[cfg(feature = "serial")]
+#[cfg_attr(docsrs, doc(cfg(feature = "serial")))]
 impl Transport for tokio_serial::SerialStream {
     fn set_signals(&mut self, update: SignalUpdate) -> io::Result<()> {
         use tokio_serial::SerialPort;

@@ -56,6 +56,7 @@ pub mod passive;
 pub mod station;
 pub mod status;
 #[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod tokio;
 
 pub use config::{Config, CounterLetter, DwUnit};

@@ -46,6 +46,7 @@ pub mod monitor;
 mod rx;
 pub mod status;
 #[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod tokio;
 
 pub use config::{MasterConfig, PollEntry};
