@@ -3,14 +3,16 @@
 //!
 //! The driver cannot name a frame: it moves bytes for any [`Engine`](crate::Engine). The
 //! protocol crates' passive monitors can ([`crate::monitor`]: `si_modbus::monitor`,
-//! `si_3964r::monitor`, …), so [`FrameLog`] feeds one of them everything written to and read
-//! from the transport it wraps and logs every [`Record`] the monitor completes: frames, control
-//! characters and the monitor's notes (a timer that ran out, a bad check sum). Any handle takes
-//! it as its transport, so a program gets the same lines as `si -v` through its own subscriber:
+//! `si_3964r::monitor`, …), so [`Frames`] watches a transport through a [`Tap`], feeds one of
+//! them everything written and read, and logs every [`Record`] the monitor completes: frames,
+//! control characters and the monitor's notes (a timer that ran out, a bad check sum). Any
+//! handle takes the tapped transport ([`FrameLog`]) as its transport, so a program gets the
+//! same lines as `si -v` through its own subscriber:
 //!
 //! ```no_run
 //! # async fn demo(port: tokio::io::DuplexStream) {
-//! use si_core::frame_log::FrameLog;
+//! use si_core::frame_log::Frames;
+//! use si_core::tap::Tap;
 //! use si_core::monitor::{Counters, Decoder, LineChar, Record};
 //! # #[derive(Default)] struct MyMonitor(Counters);
 //! # impl Decoder for MyMonitor {
@@ -20,7 +22,7 @@
 //! # }
 //! let settings = si_core::SerialSettings::default();
 //! // A protocol crate's monitor, e.g. si_modbus::monitor::Monitor::new(params, false).
-//! let logged = FrameLog::new(port, Box::new(MyMonitor::default()), settings);
+//! let logged = Tap::new(port, Frames::new(Box::new(MyMonitor::default()), settings));
 //! // Hand `logged` to a handle's `spawn` in place of the port.
 //! # let _ = logged;
 //! # }
@@ -32,17 +34,14 @@
 //! ended by silence is logged once the silence has passed). The raw bytes, the engine's events
 //! and its timers are the driver's DEBUG and TRACE lines ([`crate::driver`], "Logs").
 
-use crate::driver::{PortFacts, Transport};
-use crate::linemark::{MarkDecoder, Marked};
+use crate::linemark::Marked;
 use crate::monitor::{line, Decoder, Kind, LineChar, Record, Severity};
-use crate::sansio::{ModemSignals, SignalUpdate};
 use crate::serial::SerialSettings;
+use crate::tap::{Tap, Watch};
 use crate::time::{Duration, Instant};
 use std::future::Future;
-use std::io;
 use std::pin::Pin;
-use std::task::{Context, Poll};
-use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
+use std::task::Context;
 
 /// The monitor's station index for this side of the line (what is written).
 pub const SENT: usize = 0;
@@ -54,42 +53,40 @@ pub const RECEIVED: usize = 1;
 /// tick, or eight characters on a slow line.
 const IDLE_TICK: Duration = Duration::from_millis(50);
 
-/// A transport that logs the frames passing through it (module docs).
-pub struct FrameLog<T> {
-    inner: T,
+/// A transport whose frames are logged (module docs).
+pub type FrameLog<T> = Tap<T, Frames>;
+
+/// Logs the frames on a tapped line (module docs).
+pub struct Frames {
     decoder: Box<dyn Decoder + Send>,
     settings: SerialSettings,
-    /// The monitor's clock: microseconds since the wrapper was made.
+    /// The monitor's clock: microseconds since the watcher was made.
     origin: tokio::time::Instant,
     /// The last character's time (characters are fed in time order).
     last: Instant,
-    /// Once a driver attached to a port that marks line errors: reads are marked.
-    marks: Option<MarkDecoder>,
     /// Wakes the reading task when the line has been quiet for [`IDLE_TICK`] after characters
     /// were fed, so a frame ended by silence is logged without waiting for the next byte.
     idle: Option<Pin<Box<tokio::time::Sleep>>>,
     records: Vec<Record>,
 }
 
-impl<T> core::fmt::Debug for FrameLog<T> {
+impl core::fmt::Debug for Frames {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.debug_struct("FrameLog")
+        f.debug_struct("Frames")
             .field("settings", &self.settings)
             .finish_non_exhaustive()
     }
 }
 
-impl<T> FrameLog<T> {
-    /// Log what passes through `inner` with `decoder`, a protocol's passive monitor, on a line
-    /// with `settings` (the character time places the characters of a chunk).
-    pub fn new(inner: T, decoder: Box<dyn Decoder + Send>, settings: SerialSettings) -> Self {
-        FrameLog {
-            inner,
+impl Frames {
+    /// Log with `decoder`, a protocol's passive monitor, on a line with `settings` (the
+    /// character time places the characters of a chunk).
+    pub fn new(decoder: Box<dyn Decoder + Send>, settings: SerialSettings) -> Self {
+        Frames {
             decoder,
             settings,
             origin: tokio::time::Instant::now(),
             last: Instant::ZERO,
-            marks: None,
             idle: None,
             records: Vec::new(),
         }
@@ -133,6 +130,32 @@ impl<T> FrameLog<T> {
         }
     }
 
+    fn flush(&mut self) {
+        for r in self.records.drain(..) {
+            log(&r);
+        }
+    }
+}
+
+impl Watch for Frames {
+    fn written(&mut self, bytes: &[u8]) {
+        if tracing::enabled!(tracing::Level::INFO) {
+            // The characters leave one after another from now on.
+            let ends = self.now() + self.settings.chars_time(bytes.len() as u64);
+            self.feed(bytes, ends, SENT);
+        }
+    }
+
+    fn read(&mut self, piece: Marked<'_>) {
+        if tracing::enabled!(tracing::Level::INFO) {
+            let now = self.now();
+            match piece {
+                Marked::Data(run) => self.feed(run, now, RECEIVED),
+                Marked::Error(error) => self.feed_error(error, now),
+            }
+        }
+    }
+
     /// The silence has passed: ask the monitor what is overdue.
     fn poll_idle(&mut self, cx: &mut Context<'_>) {
         if let Some(sleep) = &mut self.idle {
@@ -142,12 +165,6 @@ impl<T> FrameLog<T> {
                 self.decoder.idle(now, &mut self.records);
                 self.flush();
             }
-        }
-    }
-
-    fn flush(&mut self) {
-        for r in self.records.drain(..) {
-            log(&r);
         }
     }
 }
@@ -178,79 +195,10 @@ fn log(r: &Record) {
     }
 }
 
-impl<T> Drop for FrameLog<T> {
+impl Drop for Frames {
     fn drop(&mut self) {
         let now = self.now();
         self.decoder.finish(now, &mut self.records);
         self.flush();
-    }
-}
-
-impl<T: Transport> AsyncRead for FrameLog<T> {
-    fn poll_read(
-        mut self: Pin<&mut Self>,
-        cx: &mut Context<'_>,
-        buf: &mut ReadBuf<'_>,
-    ) -> Poll<io::Result<()>> {
-        let this = &mut *self;
-        let before = buf.filled().len();
-        let poll = Pin::new(&mut this.inner).poll_read(cx, buf);
-        if let Poll::Ready(Ok(())) = &poll {
-            let new = &buf.filled()[before..];
-            if !new.is_empty() && tracing::enabled!(tracing::Level::INFO) {
-                let now = this.now();
-                match this.marks.take() {
-                    None => this.feed(new, now, RECEIVED),
-                    Some(mut marks) => {
-                        marks.feed(new, |piece| match piece {
-                            Marked::Data(run) => this.feed(run, now, RECEIVED),
-                            Marked::Error(error) => this.feed_error(error, now),
-                        });
-                        this.marks = Some(marks);
-                    }
-                }
-            }
-        }
-        this.poll_idle(cx);
-        poll
-    }
-}
-
-impl<T: Transport> AsyncWrite for FrameLog<T> {
-    fn poll_write(
-        mut self: Pin<&mut Self>,
-        cx: &mut Context<'_>,
-        buf: &[u8],
-    ) -> Poll<io::Result<usize>> {
-        let this = &mut *self;
-        let poll = Pin::new(&mut this.inner).poll_write(cx, buf);
-        if let Poll::Ready(Ok(n)) = &poll {
-            if *n > 0 && tracing::enabled!(tracing::Level::INFO) {
-                // The characters leave one after another from now on.
-                let ends = this.now() + this.settings.chars_time(*n as u64);
-                this.feed(&buf[..*n], ends, SENT);
-            }
-        }
-        poll
-    }
-    fn poll_flush(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
-        Pin::new(&mut self.inner).poll_flush(cx)
-    }
-    fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
-        Pin::new(&mut self.inner).poll_shutdown(cx)
-    }
-}
-
-impl<T: Transport> Transport for FrameLog<T> {
-    fn set_signals(&mut self, update: SignalUpdate) -> io::Result<()> {
-        self.inner.set_signals(update)
-    }
-    fn read_signals(&mut self) -> io::Result<Option<ModemSignals>> {
-        self.inner.read_signals()
-    }
-    fn attach(&mut self) -> PortFacts {
-        let facts = self.inner.attach();
-        self.marks = facts.marked_errors.map(MarkDecoder::new);
-        facts
     }
 }
