@@ -35,7 +35,7 @@
 //! and its timers are the driver's DEBUG and TRACE lines ([`crate::driver`], "Logs").
 
 use crate::linemark::Marked;
-use crate::monitor::{line, Decoder, Kind, LineChar, Record, Severity};
+use crate::monitor::{line, Decoder, Kind, LineChar, Record};
 use crate::serial::SerialSettings;
 use crate::tap::{Tap, Watch};
 use crate::time::{Duration, Instant};
@@ -181,14 +181,7 @@ fn log(r: &Record) {
     } else {
         format!("{}: {}", r.label, r.text)
     };
-    let flags: String = r
-        .flags
-        .iter()
-        .map(|f| match f.severity {
-            Severity::Error => format!(" [!! {}]", f.text),
-            Severity::Note => format!(" [{}]", f.text),
-        })
-        .collect();
+    let flags: String = r.flags.iter().map(|f| format!(" [{f}]")).collect();
     match r.kind {
         Kind::Note => tracing::info!("{side}: !! {}", r.label),
         _ => tracing::info!("{side} {text}{flags}"),

@@ -481,14 +481,7 @@ pub fn print_record(r: &Record, stations: &[String], out: &Output) {
         Some(_) => station(stations, r.to),
         None => "*",
     };
-    let flags: Vec<String> = r
-        .flags
-        .iter()
-        .map(|f| match f.severity {
-            Severity::Error => format!("  !! {}", f.text),
-            Severity::Note => format!("  -- {}", f.text),
-        })
-        .collect();
+    let flags: Vec<String> = r.flags.iter().map(|f| format!("  {f}")).collect();
     let dir = if matches!(r.kind, Kind::Note | Kind::Event) {
         format!("{from:>8}   {:<8}", "")
     } else {
