@@ -64,6 +64,8 @@ pub struct Frames {
     origin: tokio::time::Instant,
     /// The last character's time (characters are fed in time order).
     last: Instant,
+    /// Who sent the last character.
+    last_from: Option<usize>,
     /// Wakes the reading task when the line has been quiet for [`IDLE_TICK`] after characters
     /// were fed, so a frame ended by silence is logged without waiting for the next byte.
     idle: Option<Pin<Box<tokio::time::Sleep>>>,
@@ -87,6 +89,7 @@ impl Frames {
             settings,
             origin: tokio::time::Instant::now(),
             last: Instant::ZERO,
+            last_from: None,
             idle: None,
             records: Vec::new(),
         }
@@ -97,9 +100,18 @@ impl Frames {
     }
 
     /// Feed characters whose last one ends at `at` from `from` to the other side.
+    ///
+    /// The silence before the first character after the other side's is not judged (it is
+    /// not `exact`): what was written is placed at its character times from the write on, but a
+    /// port without wire time (a pseudo-terminal, a device server) delivers the answer sooner,
+    /// and the monitor would flag a turnaround that never happened on the line.
     fn feed(&mut self, bytes: &[u8], at: Instant, from: usize) {
         let to = Some(SENT + RECEIVED - from);
-        for c in line::pace(bytes, at, (Some(from), to), self.settings, &mut self.last) {
+        let turned = self.last_from.replace(from) != Some(from);
+        for (k, mut c) in
+            line::pace(bytes, at, (Some(from), to), self.settings, &mut self.last).enumerate()
+        {
+            c.exact &= !(turned && k == 0);
             self.decoder.push(&c, &mut self.records);
         }
         self.fed();
@@ -115,6 +127,7 @@ impl Frames {
             exact: true,
         };
         self.last = c.at;
+        self.last_from = Some(RECEIVED);
         self.decoder.push(&c, &mut self.records);
         self.fed();
     }

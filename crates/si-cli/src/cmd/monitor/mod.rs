@@ -17,7 +17,7 @@ use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::{Args, ValueEnum};
-use si_core::monitor::{decode_all, line, Analysis, Decoder, Kind, LineChar, Record, Severity};
+use si_core::monitor::{decode_all, line, Analysis, Decoder, Kind, LineChar, Record};
 use si_core::tracefile::{self, TraceFile};
 use si_core::{Duration, Instant, SerialSettings};
 use std::path::PathBuf;
