@@ -1,5 +1,5 @@
-//! Decoded frames in the logs: a [`Transport`] wrapper that shows each frame sent and received
-//! as text through `tracing`, at INFO (the level `si -v` shows).
+//! Decoded frames in the logs: a [`Transport`](crate::driver::Transport) wrapper that shows
+//! each frame sent and received as text through `tracing`, at INFO (the level `si -v` shows).
 //!
 //! The driver cannot name a frame: it moves bytes for any [`Engine`](crate::Engine). The
 //! protocol crates' passive monitors can ([`crate::monitor`]: `si_modbus::monitor`,
