@@ -6,7 +6,7 @@
 //! device server (any `si_core::driver::Transport`) and the module talks to real equipment; the
 //! `si dp-coord module` command does exactly that.
 //!
-//! `cargo run --example dpcoord_tokio`
+//! `cargo run --example dpcoord_tokio --features tokio`
 
 use si_serial::core::driver::{spawn, DriverOptions};
 use si_serial::core::SerialSettings;

@@ -1,5 +1,5 @@
 //! A USS master polling three simulated drives on an RS-485 bus, in virtual time: drive 2 is
-//! switched off, the cycle goes on; then a parameter is read and written.
+//! switched off, the cycle goes on; meanwhile a parameter of drive 3 (P1082) is written.
 //!
 //! `cargo run --example uss_sim`
 

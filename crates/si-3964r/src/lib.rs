@@ -49,6 +49,7 @@ pub mod link;
 pub mod monitor;
 pub mod status;
 #[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod tokio;
 
 pub use config::{Config, ConfigError, Priority};

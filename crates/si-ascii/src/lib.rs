@@ -42,6 +42,7 @@ pub mod monitor;
 pub mod status;
 
 #[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod tokio;
 
 pub use config::{

@@ -3,17 +3,16 @@
 use crate::error::CliError;
 use clap::Args;
 use si_core::driver::{PortFacts, RtsToggle, Transport, WithFacts};
-use si_core::linemark::{MarkDecoder, Marked};
+use si_core::frame_log::Frames;
+use si_core::linemark::Marked;
+use si_core::monitor::Decoder;
 use si_core::port::{self, PortOptions, Rs485};
 use si_core::sim::TraceKind;
+use si_core::tap::{Tap, Watch};
 use si_core::tracefile::{Header, Recorder};
-use si_core::{Duration, ModemSignals, Parity, SerialSettings, SignalUpdate};
-use std::io;
+use si_core::{Duration, Parity, SerialSettings, SignalUpdate};
 use std::path::PathBuf;
-use std::pin::Pin;
 use std::sync::{Arc, OnceLock};
-use std::task::{Context, Poll};
-use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
 
 /// Options every command that talks to a line shares.
 #[derive(Debug, Clone, Args)]
@@ -68,6 +67,10 @@ pub struct Connection {
     /// The protocol the command speaks, written into the trace header (set by `main`).
     #[arg(skip)]
     pub protocol: Option<&'static str>,
+    /// With -v: makes the protocol's monitor that logs each frame as text (set by `main`;
+    /// `si_core::frame_log`).
+    #[arg(skip)]
+    pub frame_log: Option<LineDecoder>,
     /// The recorder, created on the first `open` so every port of the command shares one file.
     #[arg(skip)]
     recorder: Arc<OnceLock<Recorder>>,
@@ -128,14 +131,21 @@ impl Connection {
                 ))
             }
         };
-        match self.recorder(settings)? {
-            Some(recorder) => Ok(Box::new(Recording {
-                inner: transport,
-                recorder: recorder.for_station(STATION),
-                marks: None,
-            })),
-            None => Ok(transport),
-        }
+        let transport: Box<dyn Transport> = match self.recorder(settings)? {
+            Some(recorder) => Box::new(Tap::new(
+                transport,
+                Recording(recorder.for_station(STATION)),
+            )),
+            None => transport,
+        };
+        let decoder = self
+            .frame_log
+            .zip(self.protocol)
+            .and_then(|(make, protocol)| make(protocol, *settings));
+        Ok(match decoder {
+            Some(decoder) => Box::new(Tap::new(transport, Frames::new(decoder, *settings))),
+            None => transport,
+        })
     }
 
     /// The port options the global flags ask for.
@@ -179,104 +189,44 @@ impl Connection {
     }
 }
 
+/// Makes the passive monitor for a protocol (by its trace-header name) on a line with these
+/// settings; `None` if the protocol has none.
+pub type LineDecoder = fn(&str, SerialSettings) -> Option<Box<dyn Decoder + Send>>;
+
 /// The station name this program's side has in a recorded trace.
 pub const STATION: &str = "si";
 
-/// A transport that writes what passes through it into a trace: writes as `tx`, reads as
-/// `rx_chunk`, signal changes as `signals` (si_core::tracefile). Timestamps come from the
-/// recorder's clock when the read or write completes; a recording error is logged, never
-/// allowed to stop the line.
-struct Recording {
-    inner: Box<dyn Transport>,
-    recorder: Recorder,
-    /// Once a driver attached to a port that marks line errors: the reads are marked, and the
-    /// trace gets the decoded bytes and errors.
-    marks: Option<MarkDecoder>,
-}
+/// Writes what passes through a tapped transport into a trace: writes as `tx`, reads as
+/// `rx_chunk` and `rx_error` (decoded from a port that marks line errors), signal changes as
+/// `signals` (si_core::tracefile). Timestamps come from the recorder's clock when the read or
+/// write completes.
+struct Recording(Recorder);
 
 impl Recording {
+    /// Record one entry; a recording error is logged, never allowed to stop the line.
     fn note(&self, kind: TraceKind) {
-        note(&self.recorder, kind);
-    }
-}
-
-/// Record one entry; a recording error is logged, never allowed to stop the line.
-fn note(recorder: &Recorder, kind: TraceKind) {
-    if let Err(e) = recorder.record(kind) {
-        tracing::warn!("trace recording failed: {e}");
-    }
-}
-
-impl AsyncRead for Recording {
-    fn poll_read(
-        mut self: Pin<&mut Self>,
-        cx: &mut Context<'_>,
-        buf: &mut ReadBuf<'_>,
-    ) -> Poll<io::Result<()>> {
-        let before = buf.filled().len();
-        let poll = Pin::new(&mut self.inner).poll_read(cx, buf);
-        if let Poll::Ready(Ok(())) = &poll {
-            let this = &mut *self;
-            let new = &buf.filled()[before..];
-            match &mut this.marks {
-                Some(marks) => marks.feed(new, |piece| match piece {
-                    Marked::Data(run) => note(
-                        &this.recorder,
-                        TraceKind::RxChunk {
-                            bytes: run.to_vec(),
-                        },
-                    ),
-                    Marked::Error(error) => note(&this.recorder, TraceKind::RxError { error }),
-                }),
-                None if !new.is_empty() => note(
-                    &this.recorder,
-                    TraceKind::RxChunk {
-                        bytes: new.to_vec(),
-                    },
-                ),
-                None => {}
-            }
+        if let Err(e) = self.0.record(kind) {
+            tracing::warn!("trace recording failed: {e}");
         }
-        poll
     }
 }
 
-impl AsyncWrite for Recording {
-    fn poll_write(
-        mut self: Pin<&mut Self>,
-        cx: &mut Context<'_>,
-        buf: &[u8],
-    ) -> Poll<io::Result<usize>> {
-        let poll = Pin::new(&mut self.inner).poll_write(cx, buf);
-        if let Poll::Ready(Ok(n)) = &poll {
-            if *n > 0 {
-                self.note(TraceKind::Tx {
-                    bytes: buf[..*n].to_vec(),
-                });
-            }
-        }
-        poll
+impl Watch for Recording {
+    fn written(&mut self, bytes: &[u8]) {
+        self.note(TraceKind::Tx {
+            bytes: bytes.to_vec(),
+        });
     }
-    fn poll_flush(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
-        Pin::new(&mut self.inner).poll_flush(cx)
+    fn read(&mut self, piece: Marked<'_>) {
+        self.note(match piece {
+            Marked::Data(run) => TraceKind::RxChunk {
+                bytes: run.to_vec(),
+            },
+            Marked::Error(error) => TraceKind::RxError { error },
+        });
     }
-    fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
-        Pin::new(&mut self.inner).poll_shutdown(cx)
-    }
-}
-
-impl Transport for Recording {
-    fn set_signals(&mut self, update: SignalUpdate) -> io::Result<()> {
+    fn signals(&mut self, update: SignalUpdate) {
         self.note(TraceKind::Signals { update });
-        self.inner.set_signals(update)
-    }
-    fn read_signals(&mut self) -> io::Result<Option<ModemSignals>> {
-        self.inner.read_signals()
-    }
-    fn attach(&mut self) -> PortFacts {
-        let facts = self.inner.attach();
-        self.marks = facts.marked_errors.map(MarkDecoder::new);
-        facts
     }
 }
 

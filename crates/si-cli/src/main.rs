@@ -2,13 +2,14 @@
 //!
 //! `si <protocol> <action>` over `--port` or `--tcp`, `si frame encode|decode` offline,
 //! `si sim` for two simulated peers. Human output by default, `--json` lines for scripts,
-//! `-v`/`-vv` for `tracing` logs. Errors print one line and exit non-zero; a protocol failure
+//! `-v`/`-vv`/`-vvv` for `tracing` logs on stderr ([`logs`]). Errors print one line and exit non-zero; a protocol failure
 //! prints its STATUS.
 
 mod cmd;
 mod conn;
 mod error;
 mod hex;
+mod logs;
 mod output;
 mod preset;
 mod radix;
@@ -29,7 +30,12 @@ struct Cli {
     /// Print JSON lines instead of text.
     #[arg(long, global = true)]
     json: bool,
-    /// More log output (-v info, -vv debug, -vvv trace) on stderr.
+    /// Log on stderr: -v each frame sent and received, decoded, with its wall-clock time; -vv
+    /// also the raw bytes in hex and the protocol engine's events; -vvv also the timers.
+    ///
+    /// Only si's own logs are raised (dependencies stay at warnings); RUST_LOG (e.g.
+    /// `si_core=debug`) replaces the filter when set. Colour only on a terminal, and never with
+    /// NO_COLOR set.
     #[arg(short, long, global = true, action = clap::ArgAction::Count)]
     verbose: u8,
     #[command(subcommand)]
@@ -89,19 +95,9 @@ fn main() -> ExitCode {
         Command::DpCoord(_) => None,
         _ => None,
     };
-    let level = match cli.verbose {
-        0 => "warn",
-        1 => "info",
-        2 => "debug",
-        _ => "trace",
-    };
-    tracing_subscriber::fmt()
-        .with_writer(std::io::stderr)
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level)),
-        )
-        .init();
+    logs::init(cli.verbose);
+    // Frames are logged only when INFO is on for si_core::frame_log (-v, or RUST_LOG).
+    cli.connection.frame_log = Some(cmd::monitor::line_decoder);
     let out = Output { json: cli.json };
     let result = match cli.command {
         Command::Ports => cmd::ports::run(&cli.connection, &out),

@@ -7,6 +7,8 @@ mod ascii;
 mod common;
 #[path = "pty/dpcoord.rs"]
 mod dpcoord;
+#[path = "pty/logs.rs"]
+mod logs;
 #[path = "pty/modbus_frame_end.rs"]
 mod modbus_frame_end;
 #[path = "pty/modbus_interop.rs"]

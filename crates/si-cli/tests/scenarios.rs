@@ -6,6 +6,8 @@ mod cli;
 mod common;
 #[path = "scenarios/dpcoord.rs"]
 mod dpcoord;
+#[path = "scenarios/examples.rs"]
+mod examples;
 #[path = "scenarios/modbus.rs"]
 mod modbus;
 #[path = "scenarios/module.rs"]

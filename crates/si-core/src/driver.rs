@@ -78,6 +78,21 @@
 //! driver has it. On a port that hears its own transmission ([`PortFacts::local_echo`]), the
 //! received bytes that repeat what was sent, within the transmit window plus the port's
 //! latency, are dropped before the engine sees them ([`crate::echo`]).
+//!
+//! # Logs
+//!
+//! The driver reports what it does through `tracing` (target `si_core::driver`), so a program
+//! sees it with any subscriber, and `si -v`/`-vv`/`-vvv` prints it on stderr:
+//!
+//! | level | what | from |
+//! |---|---|---|
+//! | INFO | each frame sent and received, decoded as text (`sent FC03 req: …`) | [`crate::frame_log::FrameLog`], the transport wrapper that knows the protocol |
+//! | DEBUG | the raw bytes of every write and read in hex, line errors, modem-signal changes, and each event the engine reports (its `Debug` form) | this driver |
+//! | TRACE | timers: the engine's deadline when it changes, each timeout and tx-done as it fires | this driver |
+//!
+//! WARN is kept for trouble the line survives (a trace file that cannot be written, no precise
+//! timer thread). Frames are INFO only through a [`FrameLog`](crate::frame_log::FrameLog)
+//! around the transport: the driver moves bytes for any engine and cannot name a frame.
 
 use crate::linemark::Marked;
 pub use crate::port_facts::{PortFacts, RtsToggle};
@@ -123,6 +138,7 @@ impl Transport for tokio::net::TcpStream {}
 impl Transport for tokio::io::DuplexStream {}
 
 #[cfg(feature = "serial")]
+#[cfg_attr(docsrs, doc(cfg(feature = "serial")))]
 impl Transport for tokio_serial::SerialStream {
     fn set_signals(&mut self, update: SignalUpdate) -> io::Result<()> {
         use tokio_serial::SerialPort;
@@ -635,12 +651,15 @@ where
     let mut wheel_set: Option<Instant> = None;
     let mut spins = 0u32;
     let mut jobs = Jobs::<E>::new();
+    // The engine's deadline last logged (TRACE, "Logs").
+    let mut timer: Option<Instant> = None;
 
     loop {
         // Drain until Wait, acting on every output.
         let mut deadline = loop {
             match engine.poll_output() {
                 Output::Transmit(bytes) => {
+                    tracing::debug!("tx {}", crate::hex::format(&bytes));
                     if options.recorder.is_some() {
                         record(TraceKind::Tx {
                             bytes: bytes.to_vec(),
@@ -669,10 +688,12 @@ where
                     rx_path.sent(&bytes, on_wire + echo_grace);
                 }
                 Output::SetSignals(update) => {
+                    tracing::debug!("signals {update:?}");
                     record(TraceKind::Signals { update });
                     io.set_signals(update)?
                 }
                 Output::Event(event) => {
+                    tracing::debug!("event {event:?}");
                     if options.recorder.is_some() {
                         record(TraceKind::Event {
                             text: format!("{event:?}"),
@@ -692,6 +713,13 @@ where
                 Output::Wait(deadline) => break deadline,
             }
         };
+        if deadline != timer {
+            timer = deadline;
+            match deadline {
+                Some(at) => tracing::trace!("timer set for {at} (now {})", clock.now()),
+                None => tracing::trace!("timer stopped"),
+            }
+        }
         // A start the engine refused as busy may go now; it may cause outputs.
         if !jobs.deferred.is_empty() {
             let before = jobs.deferred.len();
@@ -771,11 +799,16 @@ where
                 fire_due(&mut engine, &mut tx_done_at, deadline.take(), now);
                 direction.due(now, &mut io, &record)?;
                 rx_path.deliver(&mut engine, now, &buf[..n], |piece| match piece {
-                    Marked::Data(bytes) if options.recorder.is_some() => {
-                        record(TraceKind::RxChunk { bytes: bytes.to_vec() })
+                    Marked::Data(bytes) => {
+                        tracing::debug!("rx {}", crate::hex::format(bytes));
+                        if options.recorder.is_some() {
+                            record(TraceKind::RxChunk { bytes: bytes.to_vec() })
+                        }
                     }
-                    Marked::Data(_) => {}
-                    Marked::Error(error) => record(TraceKind::RxError { error }),
+                    Marked::Error(error) => {
+                        tracing::debug!("rx line error: {error:?}");
+                        record(TraceKind::RxError { error })
+                    }
                 });
             }
             _ = &mut wheel, if wheel_at.is_some() => wheel_set = None,
@@ -872,11 +905,13 @@ fn fire_due<E: Engine>(
     deadline: Option<Instant>,
     now: Instant,
 ) {
-    if tx_done_at.is_some_and(|t| now >= t) {
+    if let Some(at) = tx_done_at.filter(|&t| now >= t) {
         *tx_done_at = None;
+        tracing::trace!("tx done (due {at}, now {now})");
         engine.handle_tx_done(now);
     }
-    if deadline.is_some_and(|d| now >= d) {
+    if let Some(at) = deadline.filter(|&d| now >= d) {
+        tracing::trace!("timeout (due {at}, now {now})");
         engine.handle_timeout(now);
     }
 }

@@ -21,7 +21,9 @@
 //! - [`tracefile`]: the JSON-lines trace file the simulator, the driver and `si monitor` share;
 //! - [`linemark`], [`echo`], [`rx_path`], [`port_facts`]: what a real port needs between the
 //!   line and an engine (marked line errors, local echo, RS-485 direction), Sans-IO;
-//! - `driver` (feature `tokio`): runs any engine over `AsyncRead + AsyncWrite`;
+//! - `driver` (feature `tokio`): runs any engine over `AsyncRead + AsyncWrite`, logging through
+//!   `tracing`; `frame_log` adds each frame as decoded text to those logs, through `tap`, a
+//!   transport that shows a watcher what passes through it;
 //! - `port` (feature `serial`): opens a serial port from the engine's [`SerialSettings`], with
 //!   line errors, RS-485 and the USB adapter's latency timer.
 #![cfg_attr(docsrs, feature(doc_cfg))]
@@ -49,13 +51,21 @@ pub mod tracefile;
 pub mod v24;
 
 #[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod driver;
+#[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
+pub mod frame_log;
+#[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
+pub mod tap;
 
 pub use interface::Interface;
 pub use job::{JobId, JobPort};
 pub use module_preset::ModulePreset;
 pub use range::RangeError;
 #[cfg(feature = "serial")]
+#[cfg_attr(docsrs, doc(cfg(feature = "serial")))]
 pub mod port;
 
 pub use frame_pool::FramePool;

@@ -9,8 +9,11 @@
 //! last complete line.
 //!
 //! 1. An optional **header**: `{"format":"si-trace","version":1,"source":"sim","protocol":"3964r",
-//!    "settings":{"baud":9600,"data_bits":8,"parity":"even","stop_bits":1},"stations":["A","B"]}`
-//!    ([`Header`]). A reader that finds no header assumes nothing about protocol or settings.
+//!    "settings":{"baud":9600,"data_bits":8,"parity":"even","stop_bits":1},"stations":["A","B"],
+//!    "start":"2026-11-25T16:18:25.123456Z"}` ([`Header`]). A reader that finds no header
+//!    assumes nothing about protocol or settings. `start` is the wall-clock time (RFC 3339,
+//!    UTC) at which entry time 0 was; a [`Recorder`] (the driver, `si --record`) writes it, the
+//!    simulator's traces, in virtual time, have none, nor do traces written before it existed.
 //! 2. Any number of **entries**, exactly the simulator's [`TraceEntry`]: `at` (µs since the
 //!    start of the recording), `station` (who transmitted or received), `kind` and its fields:
 //!    - `{"at":0,"station":"A","kind":"tx","bytes":[2]}` — bytes the station queued for
@@ -111,6 +114,11 @@ pub struct Header {
     /// The stations named in the entries, in the order to draw them.
     #[serde(default)]
     pub stations: Vec<String>,
+    /// The wall-clock time of entry time 0, RFC 3339 in UTC (`2026-11-25T16:18:25.123456Z`):
+    /// what a reader needs to put a recorded line next to a PLC's or a SCADA tool's logs.
+    /// `None` in simulated traces and in traces older than this field.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start: Option<String>,
 }
 
 impl Header {
@@ -123,7 +131,14 @@ impl Header {
             protocol: None,
             settings: None,
             stations: Vec::new(),
+            start: None,
         }
+    }
+
+    /// With entry time 0 at the wall-clock time `start`.
+    pub fn started(mut self, start: std::time::SystemTime) -> Self {
+        self.start = Some(rfc3339(start));
+        self
     }
 
     /// With the protocol name.
@@ -253,13 +268,23 @@ impl core::fmt::Debug for Recorder {
 }
 
 impl Recorder {
-    /// A recorder writing to `out`, starting with `header`.
+    /// A recorder writing to `out`, starting with `header`; a header without a
+    /// [`start`](Header::start) gets the wall-clock time of the recorder's clock origin.
     pub fn new(mut out: Box<dyn Write + Send>, header: &Header) -> io::Result<Self> {
-        writeln!(out, "{}", serde_json::to_string(header).unwrap_or_default())?;
+        let origin = std::time::Instant::now();
+        let mut header = header.clone();
+        if header.start.is_none() {
+            header = header.started(std::time::SystemTime::now());
+        }
+        writeln!(
+            out,
+            "{}",
+            serde_json::to_string(&header).unwrap_or_default()
+        )?;
         out.flush()?;
         Ok(Recorder {
             inner: Arc::new(Mutex::new(out)),
-            origin: std::time::Instant::now(),
+            origin,
             station: Arc::from("local"),
         })
     }
@@ -310,10 +335,67 @@ impl Recorder {
     }
 }
 
+/// `t` as RFC 3339 in UTC with microseconds (`2026-11-25T16:18:25.123456Z`); times before
+/// 1970 are written as 1970-01-01T00:00:00Z (no clock of a recording machine is that wrong).
+pub fn rfc3339(t: std::time::SystemTime) -> String {
+    let since = t.duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+    let secs = since.as_secs();
+    let (days, rest) = (secs / 86_400, secs % 86_400);
+    let (y, m, d) = civil_from_days(days);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}.{:06}Z",
+        rest / 3600,
+        rest / 60 % 60,
+        rest % 60,
+        since.subsec_micros()
+    )
+}
+
+/// Year, month, day of `days` since 1970-01-01 in the proleptic Gregorian calendar (Howard
+/// Hinnant's `civil_from_days`, for days from the epoch on).
+fn civil_from_days(days: u64) -> (u64, u64, u64) {
+    let z = days + 719_468;
+    let era = z / 146_097;
+    let doe = z % 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + u64::from(m <= 2);
+    (y, m, d)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::sansio::LineError;
+
+    #[test]
+    fn rfc3339_writes_utc_with_microseconds() {
+        let at = |s: u64, us: u32| std::time::UNIX_EPOCH + std::time::Duration::new(s, us * 1000);
+        assert_eq!(rfc3339(at(0, 0)), "1970-01-01T00:00:00.000000Z");
+        // 2000-02-29 (a leap day of a century leap year) 12:34:56.
+        assert_eq!(rfc3339(at(951_827_696, 7)), "2000-02-29T12:34:56.000007Z");
+        // 2026-11-25T16:18:25.123456Z, the last day of a month and of a year around it.
+        assert_eq!(
+            rfc3339(at(1_795_623_505, 123_456)),
+            "2026-11-25T16:18:25.123456Z"
+        );
+        assert_eq!(rfc3339(at(1_798_761_599, 0)), "2026-12-31T23:59:59.000000Z");
+    }
+
+    #[test]
+    fn a_header_without_a_start_still_reads() {
+        let old = concat!(
+            r#"{"format":"si-trace","version":1,"source":"port","stations":["si"]}"#,
+            "\n",
+            r#"{"at":0,"station":"si","kind":"tx","bytes":[2]}"#,
+        );
+        let f = read(old.as_bytes()).unwrap();
+        assert_eq!(f.header.unwrap().start, None);
+        assert_eq!(f.trace.entries.len(), 1);
+    }
 
     fn sample() -> Trace {
         let e = |at, station: &str, kind| TraceEntry {
@@ -410,7 +492,9 @@ mod tests {
             }
         }
         let buf = Shared::default();
+        let before = rfc3339(std::time::SystemTime::now());
         let rec = Recorder::new(Box::new(buf.clone()), &Header::new("driver")).unwrap();
+        let after = rfc3339(std::time::SystemTime::now());
         let rec2 = rec.for_station("si");
         rec.record_at(Instant::from_micros(5), TraceKind::Tx { bytes: vec![1] })
             .unwrap();
@@ -418,7 +502,14 @@ mod tests {
             .unwrap();
         let bytes = buf.0.lock().unwrap().clone();
         let f = read(&bytes[..]).unwrap();
-        assert_eq!(f.header.unwrap().source, "driver");
+        let header = f.header.unwrap();
+        assert_eq!(header.source, "driver");
+        // The recorder stamps its wall-clock start (same width: text order is time order).
+        let start = header.start.unwrap();
+        assert!(
+            before <= start && start <= after,
+            "{before} {start} {after}"
+        );
         assert_eq!(f.trace.entries.len(), 2);
         assert_eq!(f.trace.entries[0].at, Instant::from_micros(5));
         assert_eq!(f.trace.entries[0].station, "local");

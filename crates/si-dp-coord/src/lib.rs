@@ -84,6 +84,7 @@
 //! );
 //! assert_eq!(module.serial().sent().next().map(|f| &f[..]), Some(&b"hello"[..]));
 //! ```
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod config;
 pub mod coord;

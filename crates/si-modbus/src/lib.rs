@@ -70,6 +70,7 @@ pub mod status;
 mod transmitter;
 
 #[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod tokio;
 
 pub use config::{FrameEnd, MasterConfig, Mode, SlaveConfig};

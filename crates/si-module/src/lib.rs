@@ -22,6 +22,7 @@
 //! let params = DriverParams::from_toml_str("driver = \"ascii\"\nbaud = 19200\n").unwrap();
 //! assert_eq!(params.variant(), Variant::R3964Ascii);
 //! ```
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod diag;
 pub mod ident;

@@ -68,6 +68,7 @@ pub mod refusal;
 pub mod station;
 pub mod status;
 #[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod tokio;
 
 pub use config::{Config, CounterLetter, DwUnit};

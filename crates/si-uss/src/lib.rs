@@ -48,6 +48,7 @@ pub mod param;
 mod rx;
 pub mod status;
 #[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod tokio;
 
 pub use config::{MasterConfig, PollEntry};

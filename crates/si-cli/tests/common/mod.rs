@@ -173,7 +173,7 @@ pub fn example(name: &str) -> Option<PathBuf> {
     if path.exists() {
         return Some(path);
     }
-    let build = format!("cargo build --example {name} --features serial");
+    let build = format!("cargo build --example {name} --all-features");
     if std::env::var_os("CI").is_some() {
         panic!("the {name} example is not built and CI is set: {build}");
     }

@@ -108,6 +108,18 @@ fn record_on_3964r_send_and_recv_reads_back_in_the_monitor() {
     assert_eq!(header["source"], "port");
     assert_eq!(header["protocol"], "3964r");
     assert_eq!(header["settings"]["baud"], 9600);
+    // And when the recording started, in UTC, which the text monitor shows first.
+    let start = header["start"].as_str().expect("a start time");
+    assert!(start.ends_with('Z') && start.len() == 27, "{start}");
+    let text = si_command()
+        .args(["monitor", "--trace", send_trace.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let first = String::from_utf8_lossy(&text.stdout)
+        .lines()
+        .next()
+        .map(str::to_owned);
+    assert_eq!(first, Some(format!("recorded from {start}")));
 }
 
 #[test]

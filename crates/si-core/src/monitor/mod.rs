@@ -104,6 +104,16 @@ impl Flag {
     }
 }
 
+/// `!! text` for a fault, `-- text` for a remark: how printers and logs show a flag.
+impl core::fmt::Display for Flag {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self.severity {
+            Severity::Error => write!(f, "!! {}", self.text),
+            Severity::Note => write!(f, "-- {}", self.text),
+        }
+    }
+}
+
 /// What a record is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]

@@ -4,15 +4,15 @@
 #![cfg(feature = "tokio")]
 
 use bytes::Bytes;
-use si_core::driver::{spawn, DriverOptions, PortFacts, RtsToggle, Transport};
+use si_core::driver::{spawn, DriverOptions, PortFacts, RtsToggle};
+use si_core::linemark::Marked;
+use si_core::tap::{Tap, Watch};
 use si_core::{Duration, Engine, Instant, Output, SerialSettings, SignalUpdate};
 use std::collections::VecDeque;
 use std::io;
-use std::pin::Pin;
 use std::sync::{Arc, Mutex};
-use std::task::{Context, Poll};
 use std::time::Duration as StdDuration;
-use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt, DuplexStream, ReadBuf};
+use tokio::io::{AsyncReadExt, AsyncWriteExt, DuplexStream};
 
 /// What happened, in order, with the wall-clock time it happened.
 #[derive(Debug, Clone, PartialEq)]
@@ -28,48 +28,18 @@ fn note(log: &Log, step: Step) {
     log.lock().unwrap().push((std::time::Instant::now(), step));
 }
 
-/// A duplex pipe that records signal changes and writes.
-struct Recorder {
-    inner: DuplexStream,
-    log: Log,
-}
+/// Notes the writes and RTS changes of a tapped duplex pipe.
+struct Steps(Log);
 
-impl AsyncRead for Recorder {
-    fn poll_read(
-        mut self: Pin<&mut Self>,
-        cx: &mut Context<'_>,
-        buf: &mut ReadBuf<'_>,
-    ) -> Poll<io::Result<()>> {
-        Pin::new(&mut self.inner).poll_read(cx, buf)
+impl Watch for Steps {
+    fn written(&mut self, bytes: &[u8]) {
+        note(&self.0, Step::Write(bytes.to_vec()));
     }
-}
-
-impl AsyncWrite for Recorder {
-    fn poll_write(
-        mut self: Pin<&mut Self>,
-        cx: &mut Context<'_>,
-        buf: &[u8],
-    ) -> Poll<io::Result<usize>> {
-        let poll = Pin::new(&mut self.inner).poll_write(cx, buf);
-        if let Poll::Ready(Ok(n)) = &poll {
-            note(&self.log, Step::Write(buf[..*n].to_vec()));
-        }
-        poll
-    }
-    fn poll_flush(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
-        Pin::new(&mut self.inner).poll_flush(cx)
-    }
-    fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<io::Result<()>> {
-        Pin::new(&mut self.inner).poll_shutdown(cx)
-    }
-}
-
-impl Transport for Recorder {
-    fn set_signals(&mut self, update: SignalUpdate) -> io::Result<()> {
+    fn read(&mut self, _: Marked<'_>) {}
+    fn signals(&mut self, update: SignalUpdate) {
         if let Some(rts) = update.rts {
-            note(&self.log, Step::Rts(rts));
+            note(&self.0, Step::Rts(rts));
         }
-        Ok(())
     }
 }
 
@@ -144,10 +114,7 @@ fn start_toggling_with(
         }),
         ..DriverOptions::default()
     };
-    let transport = Recorder {
-        inner: pipe,
-        log: log.clone(),
-    };
+    let transport = Tap::new(pipe, Steps(log.clone()));
     spawn(talker(log), transport, options)
 }
 

@@ -17,7 +17,7 @@ use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::{Args, ValueEnum};
-use si_core::monitor::{decode_all, line, Analysis, Decoder, Kind, LineChar, Record, Severity};
+use si_core::monitor::{decode_all, line, Analysis, Decoder, Kind, LineChar, Record};
 use si_core::tracefile::{self, TraceFile};
 use si_core::{Duration, Instant, SerialSettings};
 use std::path::PathBuf;
@@ -136,7 +136,7 @@ impl MonitorArgs {
         protocol: Protocol,
         settings: SerialSettings,
         one_sided: bool,
-    ) -> Box<dyn Decoder> {
+    ) -> Box<dyn Decoder + Send> {
         let ms = Duration::from_millis;
         match protocol {
             Protocol::P3964r | Protocol::P3964 | Protocol::Rk512 | Protocol::Auto => {
@@ -214,6 +214,13 @@ impl MonitorArgs {
             .and_then(|f| f.settings())
             .map_or_else(|| conn.settings_for(&TRACE_RATES), Ok)?;
         let analysis = self.analyse(&file, settings)?;
+        // Record times count from the recording's start; say when that was. Text only: a JSON
+        // reader has the header itself, and every JSON line stays a record.
+        if let Some(start) = file.header.as_ref().and_then(|h| h.start.as_deref()) {
+            if !out.json {
+                crate::output::write_stdout(format_args!("recorded from {start}\n"));
+            }
+        }
         for r in &analysis.records {
             print_record(r, &analysis.stations, out);
         }
@@ -259,7 +266,7 @@ impl MonitorArgs {
             }
             (p, _) => p,
         };
-        let mut decoder: Box<dyn Decoder> = if windows {
+        let mut decoder: Box<dyn Decoder + Send> = if windows {
             Box::new(si_dp_coord::monitor::Monitor::new(
                 si_dp_coord::monitor::module_index(&line.stations),
             ))
@@ -403,6 +410,29 @@ impl MonitorArgs {
     }
 }
 
+/// The monitor for a command's own line, with the engines' default timers: what `si -v` logs
+/// the frames with (`si_core::frame_log`). `None` for a protocol without a line monitor.
+pub fn line_decoder(protocol: &str, settings: SerialSettings) -> Option<Box<dyn Decoder + Send>> {
+    let protocol = Protocol::from_name(protocol).filter(|p| *p != Protocol::DpCoord)?;
+    let defaults = MonitorArgs {
+        protocol,
+        trace: None,
+        svg: None,
+        tap: None,
+        duration: None,
+        zvz: None,
+        qvz: None,
+        timeout: None,
+        char_delay: None,
+        end_char: None,
+        fixed_length: None,
+        events: false,
+        no_xon_xoff: false,
+    };
+    // Both directions are known: what we write and what we read.
+    Some(defaults.decoder(protocol, settings, false))
+}
+
 /// Baud rates a trace or a monitored line may use: the manuals' twelve and USS's 187 500.
 pub static TRACE_RATES: [u32; 13] = [
     110, 300, 600, 1_200, 2_400, 4_800, 9_600, 19_200, 38_400, 57_600, 76_800, 115_200, 187_500,
@@ -453,14 +483,7 @@ pub fn print_record(r: &Record, stations: &[String], out: &Output) {
         Some(_) => station(stations, r.to),
         None => "*",
     };
-    let flags: Vec<String> = r
-        .flags
-        .iter()
-        .map(|f| match f.severity {
-            Severity::Error => format!("  !! {}", f.text),
-            Severity::Note => format!("  -- {}", f.text),
-        })
-        .collect();
+    let flags: Vec<String> = r.flags.iter().map(|f| format!("  {f}")).collect();
     let dir = if matches!(r.kind, Kind::Note | Kind::Event) {
         format!("{from:>8}   {:<8}", "")
     } else {
