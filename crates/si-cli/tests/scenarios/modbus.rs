@@ -125,15 +125,20 @@ fn flags(sub: &str) -> Vec<String> {
 #[test]
 fn serve_takes_every_framing_flag_read_takes() {
     let (read, serve) = (flags("read"), flags("serve"));
-    // Master-only job options: which slave, how long to wait, how often to retry or poll, and
-    // what to read.
+    // Master-only job options: which slave, how long to wait, how often to retry or poll, what
+    // to read, and how to show it.
     let master_only = [
         "--unit",
         "--timeout",
         "--retries",
         "--poll",
+        "--cycles",
         "--addr",
+        "--base",
         "--count",
+        "--format",
+        "--word-order",
+        "--timestamps",
         "--help",
     ];
     for f in read.iter().filter(|f| !master_only.contains(&f.as_str())) {
