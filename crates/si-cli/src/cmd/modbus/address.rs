@@ -74,12 +74,17 @@ impl AddressArgs {
                  (PDU address 0)"
             )));
         };
+        let top = u32::from(u16::MAX) + base;
+        if pdu > u32::from(u16::MAX) {
+            return Err(CliError::new(format!(
+                "--addr {typed} is past the last address {top} (with --base {base})"
+            )));
+        }
         let last = pdu + u32::from(count.max(1)) - 1;
         if last > u32::from(u16::MAX) {
             return Err(CliError::new(format!(
-                "--addr {typed} with {count} items runs to {} and past the last address {}",
-                last + base,
-                u32::from(u16::MAX) + base
+                "--addr {typed} with {count} items runs to {}, past the last address {top}",
+                last + base
             )));
         }
         Ok(pdu as u16)
