@@ -3,7 +3,7 @@
 //!
 //! The master's jobs run once or as a poll over one or several units ([`poll`]), with
 //! addresses in the user's numbering ([`address`]), registers shown in the user's format
-//! ([`format`]) and one stamped line per outcome ([`report`]).
+//! ([`format`](mod@format)) and one stamped line per outcome ([`report`](mod@report)).
 
 mod address;
 mod explain;

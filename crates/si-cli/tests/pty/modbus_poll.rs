@@ -13,7 +13,7 @@ use common::modbus::{self, have_pymodbus, pymodbus_server};
 use common::{pty_pair, pty_pair_ignoreeof, si_command, stderr, stdout, Kill};
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
-use std::process::Stdio;
+use std::process::{ExitStatus, Stdio};
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
@@ -38,6 +38,23 @@ fn wait_for(lines: &Receiver<String>, what: &str, want: impl Fn(&str) -> bool) -
         }
     }
     panic!("no {what} within {PATIENCE:?}; saw:\n{}", seen.join("\n"));
+}
+
+/// Send SIGINT (what Ctrl-C sends) to `child` and wait, at most [`PATIENCE`], for it to end.
+fn interrupt(child: &mut Kill) -> ExitStatus {
+    let sent = std::process::Command::new("kill")
+        .args(["-INT", &child.0.id().to_string()])
+        .status()
+        .expect("run kill");
+    assert!(sent.success());
+    let start = Instant::now();
+    loop {
+        if let Some(status) = child.0.try_wait().expect("wait") {
+            return status;
+        }
+        assert!(start.elapsed() < PATIENCE, "si did not end after SIGINT");
+        std::thread::sleep(Duration::from_millis(20));
+    }
 }
 
 /// A poll stays up while the slave is gone and reads again when it is back; Ctrl-C prints
@@ -75,21 +92,8 @@ fn poll_survives_a_stopped_slave_and_resumes_when_it_returns() {
     });
     let (_serve, _, _) = modbus::serve(&pair.a, LINE, &[]);
     wait_for(&lines, "answer after the slave returned", answer);
-    let pid = poll.0.id().to_string();
-    let sent = std::process::Command::new("kill")
-        .args(["-INT", &pid])
-        .status()
-        .expect("run kill");
-    assert!(sent.success());
+    let status = interrupt(&mut poll);
     let summary = wait_for(&lines, "counters", |l| l.starts_with("--- unit 1:"));
-    let start = Instant::now();
-    let status = loop {
-        if let Some(s) = poll.0.try_wait().expect("wait") {
-            break s;
-        }
-        assert!(start.elapsed() < PATIENCE, "si did not end after SIGINT");
-        std::thread::sleep(Duration::from_millis(20));
-    };
     reader.join().expect("reader");
     assert_eq!(status.code(), Some(130), "{summary}");
     // "--- unit 1: P polls, A answers, E exceptions, T timeouts, O other errors"
@@ -106,6 +110,46 @@ fn poll_survives_a_stopped_slave_and_resumes_when_it_returns() {
         "{summary}"
     );
     assert_eq!(polls, answers + timeouts + others, "{summary}");
+}
+
+/// Ctrl-C inside a request (the request on the line, its answer not yet due) ends the run
+/// the same way as between polls: counters, exit 130, without waiting for the response time.
+#[test]
+fn sigint_inside_a_request_prints_the_counters_and_exits_130() {
+    let Some(pair) = pty_pair() else { return };
+    // Nobody answers on `a`: the test reads the request there to know it is on the line.
+    let mut slave_end = std::fs::File::open(&pair.a).expect("open the slave's end");
+    let (tx, request) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut adu = [0u8; 8];
+        let got = std::io::Read::read_exact(&mut slave_end, &mut adu);
+        let _ = tx.send(got.map(|()| adu));
+    });
+    let mut poll = Kill(
+        si_command()
+            .args(["--port", &pair.b])
+            .args(LINE)
+            .args(["modbus", "read", "holding", "--unit", "1", "--count", "2"])
+            .args(["--timeout", "60000", "--poll", "1000"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn si --poll"),
+    );
+    let adu = request
+        .recv_timeout(PATIENCE)
+        .expect("the request reaches the line")
+        .expect("read the request");
+    assert_eq!(adu, [0x01, 0x03, 0x00, 0x00, 0x00, 0x02, 0xC4, 0x0B]); // FC03 0, 2
+    let status = interrupt(&mut poll);
+    let mut out = String::new();
+    let _ = std::io::Read::read_to_string(&mut poll.0.stdout.take().expect("stdout"), &mut out);
+    assert_eq!(status.code(), Some(130), "{out}");
+    // The abandoned request is not counted.
+    assert_eq!(
+        out.trim(),
+        "--- unit 1: 0 polls, 0 answers, 0 exceptions, 0 timeouts, 0 other errors"
+    );
 }
 
 /// π as f32, low word first, read through hex and Modicon addresses; `--cycles` ends a poll
@@ -177,7 +221,7 @@ fn f32_word_order_hex_addresses_and_base_1() {
         let ts = l["timestamp"].as_str().expect("timestamp");
         assert!(ts.len() == 24 && ts.ends_with('Z'), "{ts}");
     }
-    assert_eq!(lines[0]["values"], serde_json::json!([3.1415927]));
+    assert_eq!(lines[0]["values"].to_string(), "[3.1415927]");
     assert_eq!(lines[1]["registers"], serde_json::json!([0x0FDB, 0x4049]));
     assert_eq!(lines[2]["summary"]["polls"], 2);
     assert_eq!(lines[2]["summary"]["answers"], 2);

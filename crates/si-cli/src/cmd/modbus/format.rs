@@ -66,7 +66,7 @@ impl ValueFormat {
     /// a 32-bit format).
     pub fn check_count(self, count: u16) -> Result<(), String> {
         let per = self.registers_per_value();
-        if count % per == 0 {
+        if count.is_multiple_of(per) {
             Ok(())
         } else {
             Err(format!(
