@@ -40,6 +40,22 @@ fn wait_for(lines: &Receiver<String>, what: &str, want: impl Fn(&str) -> bool) -
     panic!("no {what} within {PATIENCE:?}; saw:\n{}", seen.join("\n"));
 }
 
+/// `si modbus read holding --unit 1 --count 2` polling every `poll` ms with response time
+/// `timeout` ms on `port`, its stdout piped; killed when dropped.
+fn spawn_poll(port: &str, timeout: &str, poll: &str) -> Kill {
+    Kill(
+        si_command()
+            .args(["--port", port])
+            .args(LINE)
+            .args(["modbus", "read", "holding", "--unit", "1", "--count", "2"])
+            .args(["--timeout", timeout, "--poll", poll])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("spawn si --poll"),
+    )
+}
+
 /// Send SIGINT (what Ctrl-C sends) to `child` and wait, at most [`PATIENCE`], for it to end.
 fn interrupt(child: &mut Kill) -> ExitStatus {
     let sent = std::process::Command::new("kill")
@@ -66,17 +82,7 @@ fn poll_survives_a_stopped_slave_and_resumes_when_it_returns() {
         return;
     };
     let (serve, _, _) = modbus::serve(&pair.a, LINE, &[]);
-    let mut poll = Kill(
-        si_command()
-            .args(["--port", &pair.b])
-            .args(LINE)
-            .args(["modbus", "read", "holding", "--unit", "1", "--count", "2"])
-            .args(["--timeout", "200", "--poll", "50"])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("spawn si --poll"),
-    );
+    let mut poll = spawn_poll(&pair.b, "200", "50");
     let out = poll.0.stdout.take().expect("stdout");
     let (tx, lines) = std::sync::mpsc::channel();
     let reader = std::thread::spawn(move || {
@@ -125,17 +131,7 @@ fn sigint_inside_a_request_prints_the_counters_and_exits_130() {
         let got = std::io::Read::read_exact(&mut slave_end, &mut adu);
         let _ = tx.send(got.map(|()| adu));
     });
-    let mut poll = Kill(
-        si_command()
-            .args(["--port", &pair.b])
-            .args(LINE)
-            .args(["modbus", "read", "holding", "--unit", "1", "--count", "2"])
-            .args(["--timeout", "60000", "--poll", "1000"])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("spawn si --poll"),
-    );
+    let mut poll = spawn_poll(&pair.b, "60000", "1000");
     let adu = request
         .recv_timeout(PATIENCE)
         .expect("the request reaches the line")
@@ -158,23 +154,10 @@ fn sigint_inside_a_request_prints_the_counters_and_exits_130() {
 fn f32_word_order_hex_addresses_and_base_1() {
     let Some(pair) = pty_pair() else { return };
     let (_serve, _, _) = modbus::serve(&pair.a, LINE, &[]);
-    let run = |args: &[&str]| -> String {
-        let o = si(&pair.b, args);
-        assert!(o.status.success(), "si {args:?} failed: {}", stderr(&o));
-        stdout(&o).trim().to_owned()
-    };
+    let run = |args: &[&str]| modbus::si_ok(&pair.b, LINE, args);
     // 0x40490FDB (π) written low word first at 16, 17.
-    let written = run(&[
-        "modbus",
-        "write",
-        "registers",
-        "--unit",
-        "1",
-        "--addr",
-        "0x10",
-        "0x0FDB",
-        "16#4049",
-    ]);
+    let write = ["modbus", "write", "registers", "--unit", "1"];
+    let written = run(&[&write[..], &["--addr", "0x10", "0x0FDB", "16#4049"]].concat());
     assert_eq!(written, "unit 1 FC16 wrote 2 from 16");
     let read = ["modbus", "read", "holding", "--unit", "1", "--count", "2"];
     let f32_swapped = ["--format", "f32", "--word-order", "swapped"];
