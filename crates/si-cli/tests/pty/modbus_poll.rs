@@ -148,8 +148,9 @@ fn sigint_inside_a_request_prints_the_counters_and_exits_130() {
     );
 }
 
-/// π as f32, low word first, read through hex and Modicon addresses; `--cycles` ends a poll
-/// with counters and exit 0 when every poll was answered; JSON lines carry timestamps.
+/// π as f32, low word first, read through hex and Modicon addresses (reads and writes);
+/// `--timestamps`; `--cycles` ends a poll (read or diag) with counters and exit 0 when every
+/// poll was answered; JSON lines carry timestamps.
 #[test]
 fn f32_word_order_hex_addresses_and_base_1() {
     let Some(pair) = pty_pair() else { return };
@@ -179,6 +180,35 @@ fn f32_word_order_hex_addresses_and_base_1() {
         let line = at(addr, &["--format", "hex"]);
         assert!(line.ends_with(": 0x0FDB 0x4049"), "{addr:?}: {line}");
     }
+    // Writes take the base too: Modicon register 21 is PDU address 20.
+    assert_eq!(
+        run(&["modbus", "write", "register", "--unit", "1", "--addr", "21", "--base", "1", "7"]),
+        "unit 1 register 21 = 7 written"
+    );
+    assert_eq!(
+        at(&["--addr", "20"], &["--format", "i16"]),
+        "unit 1 FC03 20…21: 7 0"
+    );
+    // --timestamps: the wall clock first, then the same line.
+    let stamped = at(&["--addr", "16", "--timestamps"], &f32_swapped);
+    let (ts, line) = stamped.split_once(' ').expect("two parts");
+    assert!(
+        ts.len() == 24 && ts.ends_with('Z') && ts.as_bytes()[10] == b'T',
+        "{stamped}"
+    );
+    assert_eq!(line, "unit 1 FC03 16…17: 3.1415927");
+    // diag polls too (FC08 as a ping).
+    let diag = run(&[
+        "modbus", "diag", "--unit", "1", "--poll", "10", "--cycles", "2",
+    ]);
+    assert_eq!(
+        diag.lines().collect::<Vec<_>>(),
+        [
+            "unit 1 diagnostics echo 0xA537",
+            "unit 1 diagnostics echo 0xA537",
+            "--- unit 1: 2 polls, 2 answers, 0 exceptions, 0 timeouts, 0 other errors",
+        ]
+    );
     // High word first reads other bits.
     assert_ne!(
         at(&["--addr", "16"], &["--format", "f32"]),
