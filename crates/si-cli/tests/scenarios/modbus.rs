@@ -198,7 +198,7 @@ fn read_usage_errors_name_the_value() {
         (&["holding", "--addr", "0", "--base", "1"], "--addr 0"),
         (&["holding", "--count", "3", "--format", "f32"], "--count 3"),
         (&["holding", "--addr", "0x10000"], "--addr 65536 is past"),
-        (&["holding", "--addr", "0x10001"], "\"0x10001\""),
+        (&["holding", "--addr", "0x10001"], "0x10001"),
         (&["holding", "--addr", "65535", "--count", "2"], "65536"),
         (&["coils", "--format", "hex"], "coils"),
         (&["holding", "--cycles", "3"], "--poll"),

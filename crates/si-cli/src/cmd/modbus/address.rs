@@ -10,6 +10,9 @@ use crate::error::CliError;
 use clap::Args;
 
 /// A number in decimal, `0x…` or `16#…` hex, up to `max`.
+///
+/// The same convention as `radix::bounded`, which issue 18 added to si-cli on main after
+/// this branch began: when both meet, this function gives way to that one.
 pub fn parse_number(text: &str, max: u64) -> Result<u64, String> {
     let t = text.trim();
     let hex = t
@@ -23,7 +26,7 @@ pub fn parse_number(text: &str, max: u64) -> Result<u64, String> {
     match value {
         Some(v) if v <= max => Ok(v),
         _ => Err(format!(
-            "bad value {text:?}: use 0…{max} in decimal, or 0x/16# hex up to 0x{max:X}"
+            "{text} is not a number in 0 … {max} (decimal, or hex with 0x or 16#)"
         )),
     }
 }
@@ -106,7 +109,7 @@ mod tests {
         assert_eq!(parse_number("0X1f", 0xFFFF), Ok(31));
         assert_eq!(parse_number("16#0E62", 0xFFFF), Ok(0x0E62));
         let e = parse_number("65536", 0xFFFF).unwrap_err();
-        assert!(e.contains("\"65536\"") && e.contains("0xFFFF"), "{e}");
+        assert!(e.contains("65536") && e.contains("65535"), "{e}");
         assert!(parse_number("0x", 0xFFFF).is_err());
         assert!(parse_number("-1", 0xFFFF).is_err());
         assert_eq!(parse_unit("0x11"), Ok(17));
