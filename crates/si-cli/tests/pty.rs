@@ -13,6 +13,8 @@ mod logs;
 mod modbus_frame_end;
 #[path = "pty/modbus_interop.rs"]
 mod modbus_interop;
+#[path = "pty/modbus_poll.rs"]
+mod modbus_poll;
 #[path = "pty/modbus_serial_example.rs"]
 mod modbus_serial_example;
 #[path = "pty/modbus_usb_relay.rs"]

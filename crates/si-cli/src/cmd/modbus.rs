@@ -1,5 +1,22 @@
 //! `si modbus`: Modbus RTU master jobs, a slave serving simulated SIMATIC memory, offline
 //! frames, and simulator scenarios (et200s-si-modbus-uss.md §3–§5).
+//!
+//! The master's jobs run once or as a poll over one or several units ([`poll`]), with
+//! addresses in the user's numbering ([`address`]), registers shown in the user's format
+//! ([`format`](mod@format)) and one stamped line per outcome ([`report`](mod@report)).
+
+mod address;
+mod explain;
+mod format;
+mod poll;
+mod report;
+mod stamp;
+
+use address::{parse_u16, parse_unit, AddressArgs};
+use explain::{failure, status_text};
+use format::{ValueFormat, WordOrder};
+use poll::PollArgs;
+use report::Report;
 
 use crate::conn::Connection;
 use crate::error::CliError;
@@ -10,19 +27,21 @@ use serde::Deserialize;
 use serde_json::json;
 use si_core::memory::{Memory, MemorySizes};
 use si_core::sim::Simulator;
-use si_core::{Duration, Instant, SerialSettings, Status};
-use si_modbus::frame::{self, Request, Response};
-use si_modbus::master::{Completion, Master, MasterEvent};
+use si_core::{Duration, Instant, SerialSettings};
+use si_modbus::frame::{self, Request};
+use si_modbus::master::{Master, MasterEvent};
 use si_modbus::slave::{Slave, SlaveEvent};
-use si_modbus::tokio::{self as handle, Error as ModbusError};
+use si_modbus::tokio as handle;
 use si_modbus::{ConversionDb, FrameEnd, MasterConfig, Mode, SimaticStore, SlaveConfig};
 
 /// Master parameters every job shares (Table 3-17).
 #[derive(Debug, Clone, Args)]
 pub struct MasterOptions {
-    /// Slave address, 0 = broadcast (FC05/06/15/16 only).
-    #[arg(long, short = 'u')]
-    unit: u8,
+    /// Slave address 1–255, 0 = broadcast (FC05/06/15/16 only); several as `1,2,5` or
+    /// repeated `--unit`, asked in turn, each line labelled with its unit (§3.2).
+    #[arg(long = "unit", short = 'u', required = true, value_delimiter = ',',
+          value_name = "UNIT", value_parser = parse_unit)]
+    units: Vec<u8>,
     /// Response time in ms (50–655000): the wait for the start of the response.
     #[arg(long, default_value_t = 2000)]
     timeout: u32,
@@ -31,6 +50,10 @@ pub struct MasterOptions {
     retries: u8,
     #[command(flatten)]
     framing: FramingOptions,
+    /// Start each text line with the wall-clock time (RFC 3339, UTC, milliseconds); JSON
+    /// lines always carry it as `timestamp`.
+    #[arg(long)]
+    timestamps: bool,
 }
 
 /// How received frames are recognised (§3.5, §3.7): the same flags on the master's jobs and on
@@ -125,15 +148,20 @@ pub enum Command {
         kind: ReadKind,
         #[command(flatten)]
         master: MasterOptions,
-        /// First address (0-based, as on the wire).
-        #[arg(long, default_value_t = 0)]
-        addr: u16,
+        #[command(flatten)]
+        at: AddressArgs,
         /// How many (bits 1–2040, registers 1–127).
         #[arg(long, default_value_t = 1)]
         count: u16,
-        /// Repeat the read every MS milliseconds until interrupted.
-        #[arg(long, value_name = "MS")]
-        poll: Option<u64>,
+        #[command(flatten)]
+        polling: PollArgs,
+        /// How registers are shown (holding and input registers only) [default: u16].
+        #[arg(long, value_enum)]
+        format: Option<ValueFormat>,
+        /// For u32/i32/f32: `big` = high word first (Modicon default), `swapped` = low word
+        /// first.
+        #[arg(long, value_enum, default_value_t = WordOrder::Big)]
+        word_order: WordOrder,
     },
     /// Write coils or registers (FC05, 06, 15, 16).
     Write {
@@ -142,10 +170,9 @@ pub enum Command {
         kind: WriteKind,
         #[command(flatten)]
         master: MasterOptions,
-        /// First address.
-        #[arg(long, default_value_t = 0)]
-        addr: u16,
-        /// The values: coils 1/0/on/off/true/false, registers decimal or 0x hex.
+        #[command(flatten)]
+        at: AddressArgs,
+        /// The values: coils 1/0/on/off/true/false, registers decimal, 0x or 16# hex.
         #[arg(required = true, num_args = 1..)]
         values: Vec<String>,
     },
@@ -153,9 +180,11 @@ pub enum Command {
     Diag {
         #[command(flatten)]
         master: MasterOptions,
-        /// Test value (decimal or 0x hex).
+        /// Test value (decimal, 0x or 16# hex).
         #[arg(long, default_value = "0xA537")]
         data: String,
+        #[command(flatten)]
+        polling: PollArgs,
     },
     /// FC11 get comm event counter.
     EventCounter {
@@ -213,42 +242,6 @@ fn master_config(conn: &Connection, o: &MasterOptions) -> Result<MasterConfig, C
     Ok(config)
 }
 
-fn failure(e: ModbusError) -> CliError {
-    match e.status() {
-        Some(s) => CliError::new(status_text(s)),
-        None => CliError::new(e.to_string()),
-    }
-}
-
-/// The STATUS with its text and remedy: the remedy the engine gave this occurrence (a USB
-/// adapter's latency, [`si_core::delivery::ADAPTER_REMEDY`]) or else the manual's.
-fn status_text(s: Status) -> String {
-    let s = match s.info() {
-        Some(_) => s,
-        None => {
-            let looked_up = si_modbus::status::lookup(s.code());
-            match s.remedy() {
-                Some(r) => looked_up.with_remedy(r),
-                None => looked_up,
-            }
-        }
-    };
-    match s.remedy() {
-        Some(remedy) => format!("{s} (remedy: {remedy})"),
-        None => s.to_string(),
-    }
-}
-
-fn parse_u16(text: &str) -> Result<u16, CliError> {
-    let t = text.trim();
-    let r = if let Some(h) = t.strip_prefix("0x").or_else(|| t.strip_prefix("0X")) {
-        u16::from_str_radix(h, 16)
-    } else {
-        t.parse()
-    };
-    r.map_err(|_| CliError::new(format!("bad value {text:?}: use 0…65535 or 0x0000…0xFFFF")))
-}
-
 fn parse_bool(text: &str) -> Result<bool, CliError> {
     match text.to_ascii_lowercase().as_str() {
         "1" | "on" | "true" => Ok(true),
@@ -271,43 +264,51 @@ impl Command {
             Command::Read {
                 kind,
                 master,
-                addr,
+                at,
                 count,
-                poll,
+                polling,
+                format,
+                word_order,
             } => {
+                let address = at.pdu(count)?;
                 let request = match kind {
                     ReadKind::Coils => Request::ReadCoils {
-                        address: addr,
+                        address,
                         quantity: count,
                     },
                     ReadKind::Discrete => Request::ReadDiscreteInputs {
-                        address: addr,
+                        address,
                         quantity: count,
                     },
                     ReadKind::Holding => Request::ReadHoldingRegisters {
-                        address: addr,
+                        address,
                         quantity: count,
                     },
                     ReadKind::Input => Request::ReadInputRegisters {
-                        address: addr,
+                        address,
                         quantity: count,
                     },
                 };
-                let mut m = open_master(conn, &master).await?;
-                loop {
-                    let c = m.request(master.unit, &request).await.map_err(failure)?;
-                    print_completion(&c, out);
-                    let Some(ms) = poll else { return Ok(()) };
-                    tokio::select! {
-                        _ = tokio::time::sleep(std::time::Duration::from_millis(ms)) => {}
-                        _ = tokio::signal::ctrl_c() => return Ok(()),
+                if let Some(f) = format {
+                    if matches!(kind, ReadKind::Coils | ReadKind::Discrete) {
+                        return Err(CliError::new(format!(
+                            "--format {} shows registers: coils and discrete inputs are bits",
+                            f.name()
+                        )));
                     }
+                    f.check_count(count).map_err(CliError::new)?;
                 }
+                let report = Report {
+                    format: format.unwrap_or_default(),
+                    order: word_order,
+                    ..reporter(out, &master, at.base())
+                };
+                jobs(conn, &master, &request, &polling, &report).await
             }
             Command::Write {
                 kind,
                 master,
-                addr,
+                at,
                 values,
             } => {
                 let single = matches!(kind, WriteKind::Coil | WriteKind::Register);
@@ -321,8 +322,10 @@ impl Command {
                         values.len()
                     )));
                 }
-                let mut m = open_master(conn, &master).await?;
-                let c = match kind {
+                let address = at.pdu(u16::try_from(values.len()).unwrap_or(u16::MAX))?;
+                let report = reporter(out, &master, at.base());
+                let once = PollArgs::default();
+                match kind {
                     WriteKind::Coil | WriteKind::Coils => {
                         let bits = values
                             .iter()
@@ -330,16 +333,16 @@ impl Command {
                             .collect::<Result<Vec<_>, _>>()?;
                         let r = if single {
                             Request::WriteSingleCoil {
-                                address: addr,
+                                address,
                                 value: bits[0],
                             }
                         } else {
                             Request::WriteMultipleCoils {
-                                address: addr,
+                                address,
                                 values: frame::Bits::Bools(&bits),
                             }
                         };
-                        m.request(master.unit, &r).await
+                        jobs(conn, &master, &r, &once, &report).await
                     }
                     WriteKind::Register | WriteKind::Registers => {
                         let regs = values
@@ -348,25 +351,29 @@ impl Command {
                             .collect::<Result<Vec<_>, _>>()?;
                         let r = if single {
                             Request::WriteSingleRegister {
-                                address: addr,
+                                address,
                                 value: regs[0],
                             }
                         } else {
                             Request::WriteMultipleRegisters {
-                                address: addr,
+                                address,
                                 values: frame::Registers::Words(&regs),
                             }
                         };
-                        m.request(master.unit, &r).await
+                        jobs(conn, &master, &r, &once, &report).await
                     }
                 }
-                .map_err(failure)?;
-                print_completion(&c, out);
-                Ok(())
             }
-            Command::Diag { master, data } => {
-                let data = parse_u16(&data)?;
-                job(conn, out, &master, Request::Diagnostics { data }).await
+            Command::Diag {
+                master,
+                data,
+                polling,
+            } => {
+                let request = Request::Diagnostics {
+                    data: parse_u16(&data)?,
+                };
+                let report = reporter(out, &master, 0);
+                jobs(conn, &master, &request, &polling, &report).await
             }
             Command::EventCounter { master } => {
                 job(conn, out, &master, Request::GetCommEventCounter).await
@@ -376,6 +383,17 @@ impl Command {
                 job(conn, out, &master, Request::ReadExceptionStatus).await
             }
         }
+    }
+}
+
+/// How a master job's outcomes are printed, registers as u16 until `--format` says otherwise.
+fn reporter<'a>(out: &'a Output, o: &MasterOptions, base: u8) -> Report<'a> {
+    Report {
+        out,
+        timestamps: o.timestamps,
+        base,
+        format: ValueFormat::default(),
+        order: WordOrder::default(),
     }
 }
 
@@ -395,111 +413,31 @@ async fn open_master(conn: &Connection, o: &MasterOptions) -> Result<handle::Mas
     Ok(handle::Master::spawn_engine(master, port))
 }
 
+/// `request` on every `--unit`, once or as a poll ([`poll::run`]).
+async fn jobs(
+    conn: &Connection,
+    o: &MasterOptions,
+    request: &Request<'_>,
+    polling: &PollArgs,
+    report: &Report<'_>,
+) -> Result<(), CliError> {
+    let mut m = open_master(conn, o).await?;
+    let mut units = o.units.clone();
+    // Each unit once, in the order given.
+    let mut seen = std::collections::BTreeSet::new();
+    units.retain(|u| seen.insert(*u));
+    poll::run(&mut m, &units, request, polling, report).await
+}
+
+/// A job without an address: once on every `--unit`.
 async fn job(
     conn: &Connection,
     out: &Output,
     o: &MasterOptions,
     request: Request<'static>,
 ) -> Result<(), CliError> {
-    let mut m = open_master(conn, o).await?;
-    let c = m.request(o.unit, &request).await.map_err(failure)?;
-    print_completion(&c, out);
-    Ok(())
-}
-
-/// One line per result: values for reads, the echo for writes.
-fn print_completion(c: &Completion, out: &Output) {
-    let unit = c.unit();
-    let request = c.request();
-    let function = request.function();
-    let Some(response) = c.response() else {
-        out.line(
-            &format!("broadcast FC{function:02} sent (no reply by design)"),
-            json!({"unit": unit, "function": function, "broadcast": true}),
-        );
-        return;
-    };
-    let start = match request {
-        Request::ReadCoils { address, .. }
-        | Request::ReadDiscreteInputs { address, .. }
-        | Request::ReadHoldingRegisters { address, .. }
-        | Request::ReadInputRegisters { address, .. } => address,
-        _ => 0,
-    };
-    match response {
-        Response::ReadCoils(bits) | Response::ReadDiscreteInputs(bits) => {
-            let values: Vec<u8> = bits.iter().map(u8::from).collect();
-            let text: Vec<String> = values.iter().map(|v| v.to_string()).collect();
-            out.line(
-                &format!(
-                    "unit {unit} FC{function:02} {start}…{}: {}",
-                    start as usize + values.len().saturating_sub(1),
-                    text.join(" ")
-                ),
-                json!({"unit": unit, "function": function, "address": start, "values": values}),
-            );
-        }
-        Response::ReadHoldingRegisters(regs) | Response::ReadInputRegisters(regs) => {
-            let values: Vec<u16> = regs.iter().collect();
-            let text: Vec<String> = values.iter().map(|v| format!("{v}")).collect();
-            out.line(
-                &format!(
-                    "unit {unit} FC{function:02} {start}…{}: {}",
-                    start as usize + values.len().saturating_sub(1),
-                    text.join(" ")
-                ),
-                json!({"unit": unit, "function": function, "address": start, "values": values}),
-            );
-        }
-        Response::WriteSingleCoil { address, value } => out.line(
-            &format!(
-                "unit {unit} coil {address} = {} written",
-                if value { "ON" } else { "OFF" }
-            ),
-            json!({"unit": unit, "function": function, "address": address, "value": value}),
-        ),
-        Response::WriteSingleRegister { address, value } => out.line(
-            &format!("unit {unit} register {address} = {value} written"),
-            json!({"unit": unit, "function": function, "address": address, "value": value}),
-        ),
-        Response::WriteMultipleCoils { address, quantity }
-        | Response::WriteMultipleRegisters { address, quantity } => out.line(
-            &format!("unit {unit} FC{function:02} wrote {quantity} from {address}"),
-            json!({"unit": unit, "function": function, "address": address, "quantity": quantity}),
-        ),
-        Response::ReadExceptionStatus(s) => out.line(
-            &format!("unit {unit} exception status {s:08b} (0x{s:02X})"),
-            json!({"unit": unit, "function": function, "exception_status": s}),
-        ),
-        Response::Diagnostics { data } => out.line(
-            &format!("unit {unit} diagnostics echo 0x{data:04X}"),
-            json!({"unit": unit, "function": function, "data": data}),
-        ),
-        Response::GetCommEventCounter {
-            status,
-            event_count,
-        } => out.line(
-            &format!("unit {unit} status 0x{status:04X}, event counter {event_count}"),
-            json!({"unit": unit, "function": function, "status": status, "event_count": event_count}),
-        ),
-        Response::GetCommEventLog {
-            status,
-            event_count,
-            message_count,
-            events,
-        } => out.line(
-            &format!(
-                "unit {unit} status 0x{status:04X}, events {event_count}, messages {message_count}, log {}",
-                si_core::hex::format(events)
-            ),
-            json!({"unit": unit, "function": function, "status": status, "event_count": event_count,
-                   "message_count": message_count, "events": events}),
-        ),
-        Response::Exception { function, code } => out.line(
-            &format!("unit {unit} FC{function:02} {code}"),
-            json!({"unit": unit, "function": function, "exception": code.code()}),
-        ),
-    }
+    let report = reporter(out, o, 0);
+    jobs(conn, o, &request, &PollArgs::default(), &report).await
 }
 
 /// The `serve --config` file.
@@ -912,23 +850,4 @@ fn scenario_crc(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     print_trace(sim.trace(), out);
     report(&e, at, out);
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use si_core::delivery::ADAPTER_REMEDY;
-
-    #[test]
-    fn a_failure_prints_the_occurrences_remedy_else_the_manuals() {
-        let crc = si_modbus::status::RESPONSE_CRC;
-        let manual = crc.info().unwrap().remedy;
-        assert!(status_text(crc).ends_with(&format!("(remedy: {manual})")));
-        let adapter = status_text(crc.with_remedy(ADAPTER_REMEDY));
-        assert!(adapter.starts_with("16#0E57 "), "{adapter}");
-        assert!(adapter.ends_with(&format!("(remedy: {ADAPTER_REMEDY})")));
-        // A bare code (as deserialised) gets the manual's text and keeps the given remedy.
-        let bare = status_text(Status::from_code(0x0E57).with_remedy(ADAPTER_REMEDY));
-        assert_eq!(bare, adapter);
-    }
 }

@@ -109,3 +109,15 @@ pub fn wait_for_echo(port: &str, line: &[&str], extra: &[&str]) {
         );
     }
 }
+
+/// `si --port <port> <line> <args>` that must succeed: its stdout trimmed (a failure fails the
+/// test, showing the arguments and stderr).
+pub fn si_ok(port: &str, line: &[&str], args: &[&str]) -> String {
+    let o = si_on(port, line, args);
+    assert!(
+        o.status.success(),
+        "si {args:?} failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).trim().to_owned()
+}

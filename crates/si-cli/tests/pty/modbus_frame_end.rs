@@ -135,11 +135,7 @@ fn si_modbus_read_and_write_frame_end_length_against_pymodbus_server() {
     let _server = pymodbus_server(PYMODBUS_SERVER, &pair.b);
     let fe = ["--frame-end", "length"];
     modbus::wait_for_echo(&pair.a, LINE, &fe);
-    let run = |args: &[&str]| -> String {
-        let o = si(&pair.a, &[args, &fe].concat());
-        assert!(o.status.success(), "si {args:?} failed: {}", stderr(&o));
-        stdout(&o).trim().to_string()
-    };
+    let run = |args: &[&str]| modbus::si_ok(&pair.a, LINE, &[args, &fe].concat());
     assert_eq!(
         run(&[
             "modbus",

@@ -113,11 +113,7 @@ fn pymodbus_server_against_si_modbus_read_and_write() {
     let Some(pair) = pty_pair() else { return };
     let _server = pymodbus_server(PYMODBUS_SERVER, &pair.b);
     modbus::wait_for_echo(&pair.a, LINE, &[]);
-    let run = |args: &[&str]| -> String {
-        let o = si(&pair.a, args);
-        assert!(o.status.success(), "si {args:?} failed: {}", stderr(&o));
-        stdout(&o).trim().to_string()
-    };
+    let run = |args: &[&str]| modbus::si_ok(&pair.a, LINE, args);
     let a = "--addr";
     assert_eq!(
         run(&["modbus", "read", "holding", "--unit", "1", a, "0", "--count", "5"]),

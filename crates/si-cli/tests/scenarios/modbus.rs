@@ -125,15 +125,20 @@ fn flags(sub: &str) -> Vec<String> {
 #[test]
 fn serve_takes_every_framing_flag_read_takes() {
     let (read, serve) = (flags("read"), flags("serve"));
-    // Master-only job options: which slave, how long to wait, how often to retry or poll, and
-    // what to read.
+    // Master-only job options: which slave, how long to wait, how often to retry or poll, what
+    // to read, and how to show it.
     let master_only = [
         "--unit",
         "--timeout",
         "--retries",
         "--poll",
+        "--cycles",
         "--addr",
+        "--base",
         "--count",
+        "--format",
+        "--word-order",
+        "--timestamps",
         "--help",
     ];
     for f in read.iter().filter(|f| !master_only.contains(&f.as_str())) {
@@ -183,4 +188,24 @@ fn serve_config_errors_name_the_file_and_field() {
         "{err}"
     );
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 19: `read`'s usage errors name the value, and come before any port is opened (none
+/// is given here).
+#[test]
+fn read_usage_errors_name_the_value() {
+    let cases: [(&[&str], &str); 7] = [
+        (&["holding", "--addr", "0", "--base", "1"], "--addr 0"),
+        (&["holding", "--count", "3", "--format", "f32"], "--count 3"),
+        (&["holding", "--addr", "0x10000"], "--addr 65536 is past"),
+        (&["holding", "--addr", "0x10001"], "0x10001"),
+        (&["holding", "--addr", "65535", "--count", "2"], "65536"),
+        (&["coils", "--format", "hex"], "coils"),
+        (&["holding", "--cycles", "3"], "--poll"),
+    ];
+    for (args, named) in cases {
+        let o = si(&[&["modbus", "read", "--unit", "1"][..], args].concat());
+        assert!(!o.status.success(), "{args:?} passed");
+        assert!(stderr(&o).contains(named), "{args:?}: {}", stderr(&o));
+    }
 }

@@ -1,0 +1,254 @@
+//! Running a master job once or as a poll, over one or several units, as mbpoll users expect
+//! (issue 19): a poll keeps going after timeouts, exceptions and CRC errors, prints one line
+//! per outcome, and ends with counters per unit.
+//!
+//! Exit status, one rule however the run ends:
+//! - interrupted (Ctrl-C, SIGINT), between polls or inside a request: the counters (when
+//!   polling), then exit 130 (128 + SIGINT, as shells report it); the request in flight is
+//!   abandoned and not counted;
+//! - a poll that ends after `--cycles N`: the counters, then 0 if every poll was answered,
+//!   else 1 ("k of n polls failed");
+//! - one job without `--poll`: its line, or its failure as the error (exit 1); with several
+//!   units, one line per unit and exit 1 if any failed.
+//!
+//! A failure's kind comes from its STATUS (et200s-si-modbus-uss.md): 0830H is the response
+//! timeout (§3.8), 0E61H–0E67H an exception response (§3.6, Table 3-12); everything else on
+//! the line (0E57H CRC, 0831H wrong slave, 0E5xH malformed responses, 08xxH receive errors)
+//! counts as another error. A job the master refuses before sending (0E4xH) or a closed port
+//! ends the run: repeating it could only fail the same way.
+
+use super::explain::failure;
+use super::report::Report;
+use clap::Args;
+use serde_json::json;
+use si_core::Status;
+use si_modbus::frame::Request;
+use si_modbus::tokio::{Error as ModbusError, Master};
+
+use crate::error::CliError;
+
+/// `--poll` and `--cycles`.
+#[derive(Debug, Clone, Default, Args)]
+pub struct PollArgs {
+    /// Repeat every MS milliseconds (after the last unit's answer) until interrupted or
+    /// --cycles ends it; failures print a line each and polling goes on. Ctrl-C prints the
+    /// counters per unit and exits with 130 (interrupted), whether between polls or inside a
+    /// request. After --cycles: the counters, exit 0 if every poll was answered, else 1.
+    #[arg(long, value_name = "MS")]
+    poll: Option<u64>,
+    /// With --poll: stop after N cycles (a cycle asks every --unit once).
+    #[arg(long, value_name = "N", requires = "poll",
+          value_parser = clap::value_parser!(u64).range(1..))]
+    cycles: Option<u64>,
+}
+
+/// What happened to the polls of one unit.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Jobs that ended (one of the four below).
+    pub polls: u64,
+    /// Answered (a broadcast counts when sent).
+    pub answers: u64,
+    /// Exception responses (0E61H–0E67H).
+    pub exceptions: u64,
+    /// No response in time (0830H).
+    pub timeouts: u64,
+    /// Any other failure on the line.
+    pub other_errors: u64,
+}
+
+/// How a failed job is counted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// An exception response (§3.6).
+    Exception,
+    /// The response timeout (§3.8).
+    Timeout,
+    /// Anything else on the line.
+    Other,
+}
+
+impl Kind {
+    /// The kind of a failure with this STATUS.
+    pub fn of(status: Status) -> Kind {
+        match status.code() {
+            0x0830 => Kind::Timeout,
+            0x0E61..=0x0E67 => Kind::Exception,
+            _ => Kind::Other,
+        }
+    }
+
+    /// The name in the failure line's JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Exception => "exception",
+            Kind::Timeout => "timeout",
+            Kind::Other => "error",
+        }
+    }
+}
+
+impl Counters {
+    /// Count one failure.
+    pub fn failed(&mut self, kind: Kind) {
+        self.polls += 1;
+        match kind {
+            Kind::Exception => self.exceptions += 1,
+            Kind::Timeout => self.timeouts += 1,
+            Kind::Other => self.other_errors += 1,
+        }
+    }
+
+    /// Count one answer.
+    pub fn answered(&mut self) {
+        self.polls += 1;
+        self.answers += 1;
+    }
+
+    /// The counters as one line of text.
+    pub fn text(&self, unit: u8) -> String {
+        format!(
+            "--- unit {unit}: {} polls, {} answers, {} exceptions, {} timeouts, {} other errors",
+            self.polls, self.answers, self.exceptions, self.timeouts, self.other_errors
+        )
+    }
+}
+
+/// How a run ended, for the counters' line.
+#[derive(Debug, Clone, Copy)]
+enum End {
+    Interrupted,
+    Cycles,
+    Fatal,
+}
+
+/// Run `request` on every unit once, or as a poll.
+pub async fn run(
+    master: &mut Master,
+    units: &[u8],
+    request: &Request<'_>,
+    polling: &PollArgs,
+    report: &Report<'_>,
+) -> Result<(), CliError> {
+    let interrupt = tokio::signal::ctrl_c();
+    tokio::pin!(interrupt);
+    let mut counters = vec![Counters::default(); units.len()];
+    let one_job = polling.poll.is_none() && units.len() == 1;
+    let function = request.function();
+    let mut cycle: u64 = 0;
+    loop {
+        cycle += 1;
+        for (i, &unit) in units.iter().enumerate() {
+            let result = tokio::select! {
+                r = master.request(unit, request) => r,
+                Ok(()) = &mut interrupt => {
+                    return interrupted(units, &counters, polling, report);
+                }
+            };
+            match result {
+                Ok(c) => {
+                    counters[i].answered();
+                    report.completion(&c);
+                }
+                Err(e) if one_job => return Err(failure(e)),
+                Err(ModbusError::Failed(status)) => {
+                    let kind = Kind::of(status);
+                    counters[i].failed(kind);
+                    report.failed(unit, function, status, kind.name());
+                }
+                Err(e) => {
+                    summary(units, &counters, polling, report, End::Fatal);
+                    return Err(failure(e));
+                }
+            }
+        }
+        let Some(ms) = polling.poll else { break };
+        if polling.cycles.is_some_and(|n| cycle >= n) {
+            break;
+        }
+        tokio::select! {
+            () = tokio::time::sleep(std::time::Duration::from_millis(ms)) => {}
+            Ok(()) = &mut interrupt => return interrupted(units, &counters, polling, report),
+        }
+    }
+    summary(units, &counters, polling, report, End::Cycles);
+    let polls: u64 = counters.iter().map(|c| c.polls).sum();
+    let failed = polls - counters.iter().map(|c| c.answers).sum::<u64>();
+    if failed == 0 {
+        return Ok(());
+    }
+    let what = if polling.poll.is_some() {
+        "polls"
+    } else {
+        "units"
+    };
+    Err(CliError::new(format!("{failed} of {polls} {what} failed")))
+}
+
+/// The counters per unit, when polling.
+fn summary(units: &[u8], counters: &[Counters], polling: &PollArgs, report: &Report<'_>, end: End) {
+    if polling.poll.is_none() {
+        return;
+    }
+    let end = match end {
+        End::Interrupted => "interrupted",
+        End::Cycles => "cycles",
+        End::Fatal => "error",
+    };
+    for (c, &unit) in counters.iter().zip(units) {
+        report.emit(
+            &c.text(unit),
+            json!({"summary": {"unit": unit, "polls": c.polls, "answers": c.answers,
+                               "exceptions": c.exceptions, "timeouts": c.timeouts,
+                               "other_errors": c.other_errors},
+                   "end": end}),
+        );
+    }
+}
+
+/// Ctrl-C: the counters, then exit 130 at once. `si`'s one error type exits 1, so the
+/// interrupted status is set here, after stdout has been written and flushed
+/// (crate::output flushes every line).
+fn interrupted(
+    units: &[u8],
+    counters: &[Counters],
+    polling: &PollArgs,
+    report: &Report<'_>,
+) -> Result<(), CliError> {
+    summary(units, counters, polling, report, End::Interrupted);
+    std::process::exit(EXIT_INTERRUPTED)
+}
+
+/// The exit status after Ctrl-C: 128 + SIGINT (2), what a shell reports for a program that
+/// SIGINT ended.
+pub const EXIT_INTERRUPTED: i32 = 130;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn failures_are_counted_by_their_status() {
+        let mut c = Counters::default();
+        c.failed(Kind::of(si_modbus::status::RESPONSE_TIMEOUT));
+        c.failed(Kind::of(si_modbus::status::EXCEPTION_ILLEGAL_DATA_ADDRESS));
+        c.failed(Kind::of(si_modbus::status::EXCEPTION_NEGATIVE_ACKNOWLEDGE));
+        c.failed(Kind::of(si_modbus::status::RESPONSE_CRC));
+        c.failed(Kind::of(si_modbus::status::WRONG_SLAVE_ADDRESS));
+        c.answered();
+        assert_eq!(
+            c,
+            Counters {
+                polls: 6,
+                answers: 1,
+                exceptions: 2,
+                timeouts: 1,
+                other_errors: 2
+            }
+        );
+        assert_eq!(
+            c.text(5),
+            "--- unit 5: 6 polls, 1 answers, 2 exceptions, 1 timeouts, 2 other errors"
+        );
+    }
+}
