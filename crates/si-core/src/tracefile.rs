@@ -338,16 +338,32 @@ impl Recorder {
 /// `t` as RFC 3339 in UTC with microseconds (`2026-11-25T16:18:25.123456Z`); times before
 /// 1970 are written as 1970-01-01T00:00:00Z (no clock of a recording machine is that wrong).
 pub fn rfc3339(t: std::time::SystemTime) -> String {
+    utc(t, 6)
+}
+
+/// `t` as RFC 3339 in UTC with milliseconds (`2026-11-25T16:43:59.123Z`), as log and poll
+/// lines show it: UTC, so that lines of two machines and a trace line up without a time-zone
+/// database.
+pub fn rfc3339_millis(t: std::time::SystemTime) -> String {
+    utc(t, 3)
+}
+
+/// `t` in UTC with `digits` (3 or 6) digits of the second's fraction.
+fn utc(t: std::time::SystemTime, digits: usize) -> String {
     let since = t.duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
     let secs = since.as_secs();
     let (days, rest) = (secs / 86_400, secs % 86_400);
     let (y, m, d) = civil_from_days(days);
+    let fraction = if digits == 3 {
+        since.subsec_millis()
+    } else {
+        since.subsec_micros()
+    };
     format!(
-        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}.{:06}Z",
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}.{fraction:0digits$}Z",
         rest / 3600,
         rest / 60 % 60,
         rest % 60,
-        since.subsec_micros()
     )
 }
 
@@ -383,6 +399,26 @@ mod tests {
             "2026-11-25T16:18:25.123456Z"
         );
         assert_eq!(rfc3339(at(1_798_761_599, 0)), "2026-12-31T23:59:59.000000Z");
+    }
+
+    #[test]
+    fn rfc3339_millis_writes_utc_with_milliseconds() {
+        let at = |s: u64, ms: u64| {
+            std::time::UNIX_EPOCH
+                + std::time::Duration::from_secs(s)
+                + std::time::Duration::from_millis(ms)
+        };
+        assert_eq!(rfc3339_millis(at(0, 0)), "1970-01-01T00:00:00.000Z");
+        assert_eq!(
+            rfc3339_millis(at(951_827_696, 7)),
+            "2000-02-29T12:34:56.007Z"
+        );
+        assert_eq!(
+            rfc3339_millis(at(1_798_761_599, 999)),
+            "2026-12-31T23:59:59.999Z"
+        );
+        let before_1970 = std::time::UNIX_EPOCH - std::time::Duration::from_secs(5);
+        assert_eq!(rfc3339_millis(before_1970), "1970-01-01T00:00:00.000Z");
     }
 
     #[test]

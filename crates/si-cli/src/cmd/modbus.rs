@@ -10,7 +10,6 @@ mod explain;
 mod format;
 mod poll;
 mod report;
-mod stamp;
 
 use address::{parse_u16, parse_unit, AddressArgs};
 use explain::{failure, status_text};

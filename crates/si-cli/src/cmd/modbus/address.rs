@@ -7,29 +7,8 @@
 //! does by default, and what device manuals listing "register 1" mean).
 
 use crate::error::CliError;
+use crate::radix::bounded as parse_number;
 use clap::Args;
-
-/// A number in decimal, `0x…` or `16#…` hex, up to `max`.
-///
-/// The same convention as `radix::bounded`, which issue 18 added to si-cli on main after
-/// this branch began: when both meet, this function gives way to that one.
-pub fn parse_number(text: &str, max: u64) -> Result<u64, String> {
-    let t = text.trim();
-    let hex = t
-        .strip_prefix("0x")
-        .or_else(|| t.strip_prefix("0X"))
-        .or_else(|| t.strip_prefix("16#"));
-    let value = match hex {
-        Some(h) => u64::from_str_radix(h, 16).ok(),
-        None => t.parse::<u64>().ok(),
-    };
-    match value {
-        Some(v) if v <= max => Ok(v),
-        _ => Err(format!(
-            "{text} is not a number in 0 … {max} (decimal, or hex with 0x or 16#)"
-        )),
-    }
-}
 
 /// A 16-bit value (a register, the FC08 test value).
 pub fn parse_u16(text: &str) -> Result<u16, CliError> {

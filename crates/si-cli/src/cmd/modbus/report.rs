@@ -3,9 +3,9 @@
 
 use super::explain::status_text;
 use super::format::{show, ValueFormat, WordOrder};
-use super::stamp::rfc3339_millis;
 use crate::output::Output;
 use serde_json::{json, Value as Json};
+use si_core::tracefile::rfc3339_millis;
 use si_core::Status;
 use si_modbus::frame::{Request, Response};
 use si_modbus::master::Completion;
