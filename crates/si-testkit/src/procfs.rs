@@ -1,7 +1,7 @@
-//! What a process costs, read from Linux's `/proc/self`: its threads (all, or by name) and its
-//! resident memory. For tests that count the driver's helper threads and for the benchmarks'
-//! "threads and memory per line" (BENCHMARKS.md). Elsewhere, and where `/proc` cannot be
-//! read, every count is `None`.
+//! What a process costs, read from Linux's `/proc/self`: its threads (all, or by name), its
+//! resident memory and its CPU time. For tests that count the driver's helper threads and for
+//! the benchmarks' "threads, memory and idle CPU per line" (BENCHMARKS.md). Elsewhere, and
+//! where `/proc` cannot be read, every count is `None`.
 
 use std::path::Path;
 
@@ -35,6 +35,19 @@ pub fn rss_bytes() -> Option<u64> {
     Some(kib * 1024)
 }
 
+/// CPU time this process has used so far, user and system (`utime` + `stime` in
+/// `/proc/self/stat`, in the kernel's `USER_HZ` ticks of 10 ms: the ABI fixes them at 100 per
+/// second). Coarse: measure over seconds.
+pub fn cpu_time() -> Option<std::time::Duration> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // The command name (field 2) may hold spaces; the fields after its ')' are plain.
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let mut fields = rest.split_whitespace().skip(11); // state is field 3; utime field 14
+    let utime: u64 = fields.next()?.parse().ok()?;
+    let stime: u64 = fields.next()?.parse().ok()?;
+    Some(std::time::Duration::from_millis((utime + stime) * 10))
+}
+
 #[cfg(all(test, target_os = "linux"))]
 mod tests {
     use super::*;
@@ -59,5 +72,19 @@ mod tests {
         stop.send(()).unwrap();
         probe.join().unwrap().unwrap();
         assert!(rss_bytes().unwrap() > 0);
+    }
+
+    #[test]
+    fn cpu_time_grows_with_work() {
+        let before = cpu_time().unwrap();
+        let start = std::time::Instant::now();
+        let mut x = 0u64;
+        while cpu_time().unwrap() < before + std::time::Duration::from_millis(30) {
+            x = std::hint::black_box(x.wrapping_mul(31).wrapping_add(7));
+            assert!(
+                start.elapsed() < std::time::Duration::from_secs(10),
+                "no CPU time counted"
+            );
+        }
     }
 }
