@@ -28,11 +28,13 @@
 //! Tokio's timer wheel has **1 ms granularity**: alone, it fires a deadline between 0 and about
 //! 2 ms late, which turns Modbus's 1 ms end-of-frame gap at 57 600–115 200 bit/s into 2–3 ms.
 //! So the driver uses tokio's timer only to get within [`PRECISE_LEAD`] (3 ms) of a deadline;
-//! the last stretch is waited by a small helper thread per driver, started on first use, that
-//! blocks on a condition variable with a timeout (the kernel's high-resolution timers: some
-//! 50–100 µs late on an idle Linux machine, timer slack included) and wakes the driver task
-//! [`SPIN_BELOW`] (50 µs) early; the driver yields to the runtime for the rest. The thread
-//! sleeps in the kernel, so it burns no CPU; tokio's timer stays armed as a backstop. A
+//! the last stretch is waited by one helper thread for all the process's drivers
+//! (`si-driver-timer`, started on first use, ended when the last driver using it ends; see
+//! [`precise_timer_drivers`]) that blocks on a condition variable with a timeout until the
+//! earliest armed deadline (the kernel's high-resolution timers: some 50–100 µs late on an
+//! idle Linux machine, timer slack included) and wakes that driver's task [`SPIN_BELOW`]
+//! (50 µs) early; the driver yields to the runtime for the rest. The thread sleeps in the
+//! kernel, so it burns no CPU; tokio's timer stays armed as a backstop. A
 //! deadline already due when the engine names it (tx-done right after a write on a transport
 //! without wire time) is handled at once, and whatever fell due while the driver slept reaches
 //! the engine before the bytes or the command that woke it.
@@ -102,12 +104,15 @@ use crate::serial::SerialSettings;
 use crate::sim::TraceKind;
 use crate::time::{Duration, Instant};
 use crate::tracefile::Recorder;
+use precise_timer::PreciseTimer;
+pub use precise_timer::{precise_timer_drivers, PRECISE_LEAD, SPIN_BELOW};
 use std::io;
 use std::ops::ControlFlow;
-use std::sync::{Arc, Condvar, Mutex, PoisonError};
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::sync::{mpsc, oneshot};
 use tokio::task::JoinHandle;
+
+mod precise_timer;
 
 /// A byte stream the driver can run an engine over, with optional modem-signal access.
 ///
@@ -455,160 +460,10 @@ impl Clock {
     }
 }
 
-/// How close to a deadline the driver hands over from tokio's 1 ms timer wheel to the precise
-/// helper thread ("Timing, honestly" in the module docs): more than the wheel's worst lateness
-/// on an idle machine, so the wheel wakes the driver before the deadline.
-pub const PRECISE_LEAD: Duration = Duration::from_millis(3);
-
-/// How close to a deadline the driver stops sleeping and yields to the runtime until the
-/// deadline has passed: about the kernel's timer slack, below which a sleeping thread cannot
-/// be woken more precisely, and far cheaper than a thread's wake-up for the microsecond waits
-/// of a fast line (tx-done of a short frame at a high baud rate). At most this long per
-/// deadline the driver task polls instead of sleeping; other tasks run in between.
-pub const SPIN_BELOW: Duration = Duration::from_micros(50);
-
 /// Yields in a row for one deadline before the driver leaves it to the wheel: never reached
 /// in real time (a yield costs a system call), only when the clock stands still (tokio's
 /// paused test clock).
 const MAX_SPINS: u32 = 1_000;
-
-/// The helper thread's side of a [`PreciseTimer`].
-struct TimerShared {
-    state: Mutex<TimerState>,
-    /// Tells the thread that the deadline changed or the driver has gone.
-    changed: Condvar,
-    /// Tells the driver task that the deadline has passed.
-    fired: tokio::sync::Notify,
-}
-
-#[derive(Default)]
-struct TimerState {
-    deadline: Option<std::time::Instant>,
-    closed: bool,
-}
-
-/// Fires deadlines less than [`PRECISE_LEAD`] ahead with the kernel's high-resolution timers
-/// instead of tokio's 1 ms wheel, from a helper thread that sleeps in a condition variable.
-#[derive(Default)]
-struct PreciseTimer {
-    shared: Option<Arc<TimerShared>>,
-    /// The engine deadline the thread is armed for (to skip re-arming for the same one).
-    armed: Option<Instant>,
-    /// The thread could not be started: tokio's timer alone, as before.
-    unavailable: bool,
-}
-
-impl PreciseTimer {
-    /// Wake the driver `remaining` from now for the engine deadline `at`.
-    fn arm(&mut self, at: Instant, remaining: Duration) {
-        if self.armed == Some(at) || self.unavailable {
-            return;
-        }
-        let Some(shared) = self.shared() else {
-            return;
-        };
-        let when = std::time::Instant::now() + std::time::Duration::from(remaining);
-        let mut state = shared.state.lock().unwrap_or_else(PoisonError::into_inner);
-        state.deadline = Some(when);
-        drop(state);
-        shared.changed.notify_one();
-        self.armed = Some(at);
-    }
-
-    fn disarm(&mut self) {
-        if self.armed.take().is_some() {
-            if let Some(shared) = &self.shared {
-                shared
-                    .state
-                    .lock()
-                    .unwrap_or_else(PoisonError::into_inner)
-                    .deadline = None;
-            }
-        }
-    }
-
-    fn is_armed(&self) -> bool {
-        self.armed.is_some()
-    }
-
-    /// The thread has fired (it disarmed itself): arm it again for the next deadline, even if
-    /// that is the same one (a wake-up before it, such as a stale notification).
-    fn fired_seen(&mut self) {
-        self.armed = None;
-    }
-
-    /// Resolves when the armed deadline has passed (or spuriously: the driver checks the
-    /// clock, never the timer).
-    async fn fired(&self) {
-        if let Some(shared) = &self.shared {
-            shared.fired.notified().await;
-        }
-    }
-
-    /// The helper thread, started on first use.
-    fn shared(&mut self) -> Option<&Arc<TimerShared>> {
-        if self.shared.is_none() {
-            let shared = Arc::new(TimerShared {
-                state: Mutex::new(TimerState::default()),
-                changed: Condvar::new(),
-                fired: tokio::sync::Notify::new(),
-            });
-            let theirs = Arc::clone(&shared);
-            let started = std::thread::Builder::new()
-                .name("si-driver-timer".into())
-                .spawn(move || precise_timer_thread(&theirs));
-            if let Err(e) = started {
-                tracing::warn!("no precise timer thread ({e}): deadlines may fire 1–2 ms late");
-                self.unavailable = true;
-                return None;
-            }
-            self.shared = Some(shared);
-        }
-        self.shared.as_ref()
-    }
-}
-
-impl Drop for PreciseTimer {
-    fn drop(&mut self) {
-        if let Some(shared) = &self.shared {
-            shared
-                .state
-                .lock()
-                .unwrap_or_else(PoisonError::into_inner)
-                .closed = true;
-            shared.changed.notify_one();
-        }
-    }
-}
-
-fn precise_timer_thread(shared: &TimerShared) {
-    let mut state = shared.state.lock().unwrap_or_else(PoisonError::into_inner);
-    loop {
-        if state.closed {
-            return;
-        }
-        state = match state.deadline {
-            None => shared
-                .changed
-                .wait(state)
-                .unwrap_or_else(PoisonError::into_inner),
-            Some(deadline) => {
-                let now = std::time::Instant::now();
-                if now >= deadline {
-                    state.deadline = None;
-                    shared.fired.notify_one();
-                    state
-                } else {
-                    shared
-                        .changed
-                        .wait_timeout(state, deadline - now)
-                        .unwrap_or_else(PoisonError::into_inner)
-                        .0
-                }
-            }
-        };
-    }
-}
 
 async fn run<E, T>(
     mut engine: E,
