@@ -1,5 +1,6 @@
 //! Async Modbus over any [`Transport`] (feature `tokio`): a [`Master`] handle with one method
-//! per function code, and a [`Slave`] handle serving a store.
+//! per function code, and a [`Slave`] handle serving a store; Modbus TCP client and server in
+//! [`tcp`].
 //!
 //! Both run the Sans-IO engines on the si-core driver, which feeds them tokio's clock and fires
 //! short deadlines precisely (see its "Timing, honestly"), so the end-of-frame gap (4 ms at
@@ -26,6 +27,8 @@ use si_core::driver::{self, DriverOptions, DriverStopped, Start, Transport};
 use si_core::{Instant, Status};
 use std::ops::ControlFlow::{Break, Continue};
 use tokio::task::JoinHandle;
+
+pub mod tcp;
 
 /// Why an async job failed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]

@@ -1,0 +1,223 @@
+//! The Modbus TCP server: a [`Store`] served to several clients at once.
+
+use std::net::SocketAddr;
+use std::sync::{Arc, Mutex};
+
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::{TcpListener, TcpStream, ToSocketAddrs};
+use tokio::sync::Semaphore;
+
+use crate::frame::{ExceptionCode, Response};
+use crate::mbap::{Decoder, TcpAdu};
+use crate::serve::{self, Outcome, ResponseData};
+use crate::slave::Store;
+
+/// Connections served at once unless configured otherwise: mbusd's default (its `-C` option,
+/// 32; external: mbusd's README), the gateway issue 20 measures against.
+pub const DEFAULT_MAX_CONNECTIONS: usize = 32;
+
+/// Bytes read from a connection at once.
+const RX_CHUNK: usize = 1024;
+
+/// The unit ids a server answers.
+#[derive(Clone, PartialEq, Eq)]
+pub struct Units([bool; 256]);
+
+impl Units {
+    /// Every unit id, 0–255. Over TCP the server is addressed by its IP address; the
+    /// Implementation Guide (external, §4.4.2) has a plain server accept any unit id, and
+    /// clients send 0, 1 or 255.
+    pub const fn all() -> Self {
+        Units([true; 256])
+    }
+
+    /// Only these unit ids.
+    pub fn only(units: &[u8]) -> Self {
+        let mut set = [false; 256];
+        for &u in units {
+            set[u as usize] = true;
+        }
+        Units(set)
+    }
+
+    /// Is `unit` answered?
+    pub fn contains(&self, unit: u8) -> bool {
+        self.0[unit as usize]
+    }
+}
+
+impl Default for Units {
+    fn default() -> Self {
+        Units::all()
+    }
+}
+
+impl std::fmt::Debug for Units {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let ids = (0..=255u8).filter(|&u| self.contains(u));
+        if self.0.iter().all(|&b| b) {
+            f.write_str("Units(all)")
+        } else {
+            f.debug_tuple("Units").field(&ids.collect::<Vec<_>>()).finish()
+        }
+    }
+}
+
+/// Server options.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ServerConfig {
+    /// Connections served at once; one more is accepted and closed at once (as mbusd does),
+    /// so a client sees a clear refusal instead of a hang.
+    pub max_connections: usize,
+    /// The unit ids answered. A request for any other unit id is not answered, as a serial
+    /// slave does not answer another address (et200s-si-modbus-uss.md §3.2); a gateway that
+    /// should answer exception 0AH for it is issue 20's `si gateway`, not this server.
+    pub units: Units,
+}
+
+impl Default for ServerConfig {
+    fn default() -> Self {
+        ServerConfig {
+            max_connections: DEFAULT_MAX_CONNECTIONS,
+            units: Units::all(),
+        }
+    }
+}
+
+/// A Modbus TCP server serving one [`Store`] to every connection.
+///
+/// Each connection is a tokio task reading requests in any chunking (several in one segment
+/// are answered in order, each with its own transaction id). A request is executed with the
+/// RTU slave's code ([`crate::serve`]), under a lock on the store, so TCP and RTU answer
+/// alike; a response too long for TCP (a read of 126 or 127 registers, over 2008 bits —
+/// the manual's limits are above TCP's 253-byte PDU) is answered with exception 03. A header
+/// that cannot be framed (protocol id ≠ 0, length outside 2…254) closes that connection
+/// ([`crate::mbap`]).
+pub struct Server<S> {
+    listener: TcpListener,
+    store: Arc<Mutex<S>>,
+    config: ServerConfig,
+}
+
+impl<S: Store + Send + 'static> Server<S> {
+    /// Listen on `addr` (port 0: any free port, see [`Server::local_addr`]).
+    pub async fn bind(
+        addr: impl ToSocketAddrs,
+        config: ServerConfig,
+        store: S,
+    ) -> std::io::Result<Self> {
+        Ok(Server {
+            listener: TcpListener::bind(addr).await?,
+            store: Arc::new(Mutex::new(store)),
+            config,
+        })
+    }
+
+    /// The address listened on.
+    pub fn local_addr(&self) -> std::io::Result<SocketAddr> {
+        self.listener.local_addr()
+    }
+
+    /// The store, shared with the server (to simulate a process or look at what was written).
+    pub fn store(&self) -> Arc<Mutex<S>> {
+        Arc::clone(&self.store)
+    }
+
+    /// Accept and serve connections until the task is dropped or aborted.
+    pub async fn run(self) -> std::io::Result<()> {
+        let slots = Arc::new(Semaphore::new(self.config.max_connections));
+        let units = Arc::new(self.config.units);
+        loop {
+            let (stream, _) = match self.listener.accept().await {
+                Ok(accepted) => accepted,
+                // Out of file descriptors and the like: the next accept may succeed, and a
+                // failing connection attempt must not end the server.
+                Err(_) => {
+                    tokio::task::yield_now().await;
+                    continue;
+                }
+            };
+            let Ok(slot) = Arc::clone(&slots).try_acquire_owned() else {
+                drop(stream);
+                continue;
+            };
+            let store = Arc::clone(&self.store);
+            let units = Arc::clone(&units);
+            tokio::spawn(async move {
+                let _ = serve_connection(stream, &store, &units).await;
+                drop(slot);
+            });
+        }
+    }
+}
+
+/// Answer the requests on one connection until it closes or sends a bad header.
+async fn serve_connection<S: Store>(
+    mut stream: TcpStream,
+    store: &Mutex<S>,
+    units: &Units,
+) -> std::io::Result<()> {
+    stream.set_nodelay(true)?;
+    let mut decoder = Decoder::new();
+    let mut rx = [0u8; RX_CHUNK];
+    // Answers to the requests of one read, written together; its capacity is kept.
+    let mut tx = Vec::with_capacity(RX_CHUNK);
+    loop {
+        let n = stream.read(&mut rx).await?;
+        if n == 0 {
+            return Ok(());
+        }
+        let mut input = &rx[..n];
+        let mut header_error = false;
+        loop {
+            match decoder.decode(&mut input) {
+                Ok(Some(request)) => {
+                    if let Some(reply) = answer(store, units, request) {
+                        tx.extend_from_slice(reply.as_bytes());
+                    }
+                }
+                Ok(None) => break,
+                Err(_) => {
+                    header_error = true;
+                    break;
+                }
+            }
+        }
+        stream.write_all(&tx).await?;
+        tx.clear();
+        if header_error {
+            return Ok(());
+        }
+    }
+}
+
+/// The answer to one request, `None` for a unit id not served.
+fn answer<S: Store>(store: &Mutex<S>, units: &Units, request: &TcpAdu) -> Option<TcpAdu> {
+    let unit = request.unit();
+    if !units.contains(unit) {
+        return None;
+    }
+    let transaction = request.transaction();
+    let function = request.function() & 0x7F;
+    let exception = |code| Response::Exception { function, code };
+    let mut data: ResponseData = [0; 256];
+    let response = match request.decode_request() {
+        Ok((_, r)) => {
+            let mut store = store.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+            match serve::execute(&mut *store, &r, &mut data) {
+                Outcome::Answer { response, .. } => response,
+                Outcome::Refused { code, .. } => exception(code),
+            }
+        }
+        Err(e) => exception(serve::refusal(e.kind).0),
+    };
+    TcpAdu::response(transaction, unit, &response)
+        .or_else(|_| {
+            TcpAdu::response(
+                transaction,
+                unit,
+                &exception(ExceptionCode::IllegalDataValue),
+            )
+        })
+        .ok()
+}
