@@ -1,0 +1,219 @@
+//! Modbus TCP on loopback (127.0.0.1, port 0): our client against our server for every
+//! function code the module serves, exceptions, the unit filter, the connection limit, a bad
+//! header, a server that never answers, a late answer, and two clients at once.
+#![cfg(feature = "tokio")]
+
+use std::time::Duration;
+
+use si_modbus::frame::{ExceptionCode, Registers, Request};
+use si_modbus::mbap::TcpAdu;
+use si_modbus::slave::Tables;
+use si_modbus::tokio::tcp::{Client, Error, Server, ServerConfig, Units};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::{TcpListener, TcpStream};
+
+/// A bound on waits for answers that never come; the tests assert the outcome, not the time.
+const SHORT: Duration = Duration::from_millis(300);
+
+async fn start(config: ServerConfig) -> (std::net::SocketAddr, std::sync::Arc<std::sync::Mutex<Tables>>) {
+    let server = Server::bind("127.0.0.1:0", config, Tables::new(64, 64, 200, 64))
+        .await
+        .unwrap();
+    let addr = server.local_addr().unwrap();
+    let store = server.store();
+    tokio::spawn(server.run());
+    (addr, store)
+}
+
+#[tokio::test]
+async fn every_function_code_between_our_client_and_server() {
+    let (addr, store) = start(ServerConfig::default()).await;
+    {
+        let mut s = store.lock().unwrap();
+        s.discrete_inputs[3] = true;
+        s.discrete_inputs[9] = true;
+        s.input_registers[5] = 0xBEEF;
+    }
+    let mut c = Client::connect(addr).await.unwrap();
+    c.write_single_coil(1, 2, true).await.unwrap(); // FC05
+    c.write_multiple_coils(1, 8, &[true, false, true]).await.unwrap(); // FC15
+    let coils = c.read_coils(1, 0, 11).await.unwrap(); // FC01
+    assert_eq!(
+        coils,
+        [false, false, true, false, false, false, false, false, true, false, true]
+    );
+    let inputs = c.read_discrete_inputs(1, 2, 8).await.unwrap(); // FC02
+    assert_eq!(inputs, [false, true, false, false, false, false, false, true]);
+    c.write_single_register(1, 7, 0x1234).await.unwrap(); // FC06
+    c.write_multiple_registers(1, 8, &[1, 2, 3]).await.unwrap(); // FC16
+    assert_eq!(
+        c.read_holding_registers(1, 6, 5).await.unwrap(), // FC03
+        [0, 0x1234, 1, 2, 3]
+    );
+    assert_eq!(c.read_input_registers(1, 4, 2).await.unwrap(), [0, 0xBEEF]); // FC04
+    assert_eq!(c.diagnostics(1, 0xA537).await.unwrap(), 0xA537); // FC08
+    let s = store.lock().unwrap();
+    assert_eq!(&s.holding_registers[7..11], [0x1234, 1, 2, 3]);
+    assert!(s.coils[2] && s.coils[8] && !s.coils[9] && s.coils[10]);
+}
+
+#[tokio::test]
+async fn exceptions_pass_as_they_are() {
+    let (addr, _) = start(ServerConfig::default()).await;
+    let mut c = Client::connect(addr).await.unwrap();
+    // Past the 200 holding registers: the store's exception 02.
+    let e = c.read_holding_registers(1, 199, 2).await.unwrap_err();
+    assert!(
+        matches!(e, Error::Exception { function: 3, code: 2 }),
+        "{e:?}"
+    );
+    assert_eq!(e.exception_code(), Some(ExceptionCode::IllegalDataAddress.code()));
+    // FC07: the module's slave has none (§5.7), exception 01.
+    let e = c.request(1, &Request::ReadExceptionStatus).await.unwrap_err();
+    assert_eq!(e.exception_code(), Some(1), "{e:?}");
+    // 126 registers: within the manual's 127, but the answer does not fit a TCP PDU: 03.
+    let raw = TcpAdu::request(0x0BAD, 1, &Request::ReadHoldingRegisters { address: 0, quantity: 126 });
+    let answer = raw_exchange(addr, raw.unwrap().as_bytes(), 9).await;
+    assert_eq!(answer, [0x0B, 0xAD, 0, 0, 0, 3, 1, 0x83, 0x03]);
+    // The connection is still good after exceptions.
+    assert_eq!(c.read_holding_registers(1, 0, 1).await.unwrap(), [0]);
+}
+
+/// Send `request` on a new connection and read `len` bytes of answer.
+async fn raw_exchange(addr: std::net::SocketAddr, request: &[u8], len: usize) -> Vec<u8> {
+    let mut s = TcpStream::connect(addr).await.unwrap();
+    s.write_all(request).await.unwrap();
+    let mut answer = vec![0; len];
+    s.read_exact(&mut answer).await.unwrap();
+    answer
+}
+
+#[tokio::test]
+async fn a_unit_not_served_gets_no_answer() {
+    let config = ServerConfig {
+        units: Units::only(&[1, 17]),
+        ..ServerConfig::default()
+    };
+    let (addr, _) = start(config).await;
+    let mut c = Client::connect(addr).await.unwrap().with_timeout(SHORT);
+    assert!(c.read_holding_registers(17, 0, 1).await.is_ok());
+    let e = c.read_holding_registers(2, 0, 1).await.unwrap_err();
+    assert!(matches!(e, Error::Timeout(_)), "{e:?}");
+    assert!(c.read_holding_registers(1, 0, 1).await.is_ok());
+}
+
+#[tokio::test]
+async fn a_server_that_never_answers_times_out_and_a_late_answer_is_discarded() {
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    let peer = tokio::spawn(async move {
+        let (mut s, _) = listener.accept().await.unwrap();
+        let mut first = [0u8; 12];
+        s.read_exact(&mut first).await.unwrap();
+        // No answer to the first request. When the second comes, answer the first (late),
+        // then the second.
+        let mut second = [0u8; 12];
+        s.read_exact(&mut second).await.unwrap();
+        for (request, value) in [(first, 0xDEAD_u16), (second, 0x0042)] {
+            let reply = TcpAdu::response(
+                u16::from_be_bytes([request[0], request[1]]),
+                request[6],
+                &si_modbus::frame::Response::ReadHoldingRegisters(Registers::Words(&[value])),
+            )
+            .unwrap();
+            s.write_all(reply.as_bytes()).await.unwrap();
+        }
+        let mut rest = Vec::new();
+        let _ = s.read_to_end(&mut rest).await;
+    });
+    let mut c = Client::connect(addr).await.unwrap().with_timeout(SHORT);
+    let e = c.read_holding_registers(1, 0, 1).await.unwrap_err();
+    assert!(matches!(e, Error::Timeout(_)), "{e:?}");
+    let mut c = c.with_timeout(Duration::from_secs(10));
+    assert_eq!(c.read_holding_registers(1, 0, 1).await.unwrap(), [0x0042]);
+    drop(c);
+    peer.await.unwrap();
+}
+
+/// Two clients at once, both counting transaction ids from 1, their requests interleaved:
+/// each gets its own answers.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn two_clients_at_once_with_interleaved_transaction_ids() {
+    let (addr, _) = start(ServerConfig::default()).await;
+    let run = |base: u16| async move {
+        let mut c = Client::connect(addr).await.unwrap();
+        for i in 0..50u16 {
+            let value = base + i;
+            let at = base / 1000;
+            c.write_single_register(1, at, value).await.unwrap();
+            assert_eq!(c.read_holding_registers(1, at, 1).await.unwrap(), [value]);
+        }
+        c.next_transaction_id()
+    };
+    let (a, b) = tokio::join!(tokio::spawn(run(1000)), tokio::spawn(run(2000)));
+    assert_eq!((a.unwrap(), b.unwrap()), (101, 101));
+}
+
+/// Two requests in one segment, transaction ids out of order: two answers, in order, each
+/// with its own id.
+#[tokio::test]
+async fn pipelined_requests_are_answered_in_order_with_their_ids() {
+    let (addr, store) = start(ServerConfig::default()).await;
+    store.lock().unwrap().holding_registers[..2].copy_from_slice(&[11, 22]);
+    let mut wire = Vec::new();
+    for (transaction, address) in [(0x0102, 1), (0x0101, 0)] {
+        let r = Request::ReadHoldingRegisters { address, quantity: 1 };
+        wire.extend_from_slice(TcpAdu::request(transaction, 1, &r).unwrap().as_bytes());
+    }
+    let answer = raw_exchange(addr, &wire, 22).await;
+    assert_eq!(
+        answer,
+        [
+            0x01, 0x02, 0, 0, 0, 5, 1, 3, 2, 0, 22, //
+            0x01, 0x01, 0, 0, 0, 5, 1, 3, 2, 0, 11
+        ]
+    );
+}
+
+#[tokio::test]
+async fn a_bad_header_closes_the_connection() {
+    let (addr, _) = start(ServerConfig::default()).await;
+    for bad in [
+        [0, 1, 0, 1, 0, 6, 1, 3, 0, 0, 0, 1], // protocol id 1
+        [0, 1, 0, 0, 1, 0, 1, 3, 0, 0, 0, 1], // length 256
+    ] {
+        let mut s = TcpStream::connect(addr).await.unwrap();
+        s.write_all(&bad).await.unwrap();
+        let mut rest = Vec::new();
+        let n = s.read_to_end(&mut rest).await.unwrap_or(0);
+        assert_eq!(n, 0, "closed without an answer");
+    }
+}
+
+#[tokio::test]
+async fn connections_over_the_limit_are_closed() {
+    let config = ServerConfig {
+        max_connections: 1,
+        ..ServerConfig::default()
+    };
+    let (addr, _) = start(config).await;
+    let mut first = Client::connect(addr).await.unwrap();
+    first.read_coils(1, 0, 1).await.unwrap();
+    let mut second = Client::connect(addr).await.unwrap();
+    let e = second.read_coils(1, 0, 1).await.unwrap_err();
+    assert!(matches!(e, Error::Closed | Error::Io(_)), "{e:?}");
+    first.read_coils(1, 0, 1).await.unwrap();
+    drop(first);
+    // The slot is free once the server has seen the first connection close.
+    for attempt in 0.. {
+        let mut third = Client::connect(addr).await.unwrap();
+        match third.read_coils(1, 0, 1).await {
+            Ok(_) => break,
+            Err(e) if attempt < 50 => {
+                assert!(matches!(e, Error::Closed | Error::Io(_)), "{e:?}");
+                tokio::task::yield_now().await;
+            }
+            Err(e) => panic!("the slot was never freed: {e}"),
+        }
+    }
+}
