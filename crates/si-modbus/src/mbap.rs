@@ -54,9 +54,7 @@
 
 use core::fmt;
 
-use crate::frame::{
-    self, DecodeError, EncodeError, Expected, Request, Response, MAX_ADU,
-};
+use crate::frame::{self, DecodeError, EncodeError, Expected, Request, Response, MAX_ADU};
 
 /// Bytes before the unit id: transaction id, protocol id, length.
 pub const PREFIX_LEN: usize = 6;
@@ -374,12 +372,23 @@ mod tests {
             },
         )
         .unwrap();
-        assert_eq!(si_core::hex::format(resp.as_bytes()), "00 07 00 00 00 03 11 90 02");
+        assert_eq!(
+            si_core::hex::format(resp.as_bytes()),
+            "00 07 00 00 00 03 11 90 02"
+        );
     }
 
     #[test]
     fn two_adus_in_one_chunk_come_out_one_by_one() {
-        let a = TcpAdu::request(1, 1, &Request::ReadCoils { address: 0, quantity: 8 }).unwrap();
+        let a = TcpAdu::request(
+            1,
+            1,
+            &Request::ReadCoils {
+                address: 0,
+                quantity: 8,
+            },
+        )
+        .unwrap();
         let b = TcpAdu::request(2, 9, &Request::Diagnostics { data: 0xA537 }).unwrap();
         let mut wire = a.as_bytes().to_vec();
         wire.extend_from_slice(b.as_bytes());
@@ -424,7 +433,17 @@ mod tests {
             &Response::ReadHoldingRegisters(Registers::Words(&words)),
         )
         .unwrap_err();
-        assert!(matches!(e, EncodeError::Quantity { value: 257, max: 254, .. }), "{e:?}");
+        assert!(
+            matches!(
+                e,
+                EncodeError::Quantity {
+                    value: 257,
+                    max: 254,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
         // 125 registers, the Modbus specification's limit, fit: unit, FC, byte count, 250 bytes.
         let ok = TcpAdu::response(
             1,

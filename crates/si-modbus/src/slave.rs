@@ -22,8 +22,8 @@ use crate::config::{FrameEnd, SlaveConfig};
 use crate::frame::{
     self, fc, Adu, Bits, DecodeErrorKind, ExceptionCode, Registers, Response, BROADCAST, MAX_ADU,
 };
-use crate::serve::{self, Outcome, ResponseData};
 use crate::rx::{Counters, Expect, Fault, Received, Receiver};
+use crate::serve::{self, Outcome, ResponseData};
 use crate::status::{self, slave as codes};
 use crate::transmitter::{Gate, Transmitter};
 use si_core::{Duration, Engine, Instant, LineError, ModemSignals, Output, Status};

@@ -15,7 +15,12 @@ use tokio::net::{TcpListener, TcpStream};
 /// A bound on waits for answers that never come; the tests assert the outcome, not the time.
 const SHORT: Duration = Duration::from_millis(300);
 
-async fn start(config: ServerConfig) -> (std::net::SocketAddr, std::sync::Arc<std::sync::Mutex<Tables>>) {
+async fn start(
+    config: ServerConfig,
+) -> (
+    std::net::SocketAddr,
+    std::sync::Arc<std::sync::Mutex<Tables>>,
+) {
     let server = Server::bind("127.0.0.1:0", config, Tables::new(64, 64, 200, 64))
         .await
         .unwrap();
@@ -36,14 +41,19 @@ async fn every_function_code_between_our_client_and_server() {
     }
     let mut c = Client::connect(addr).await.unwrap();
     c.write_single_coil(1, 2, true).await.unwrap(); // FC05
-    c.write_multiple_coils(1, 8, &[true, false, true]).await.unwrap(); // FC15
+    c.write_multiple_coils(1, 8, &[true, false, true])
+        .await
+        .unwrap(); // FC15
     let coils = c.read_coils(1, 0, 11).await.unwrap(); // FC01
     assert_eq!(
         coils,
         [false, false, true, false, false, false, false, false, true, false, true]
     );
     let inputs = c.read_discrete_inputs(1, 2, 8).await.unwrap(); // FC02
-    assert_eq!(inputs, [false, true, false, false, false, false, false, true]);
+    assert_eq!(
+        inputs,
+        [false, true, false, false, false, false, false, true]
+    );
     c.write_single_register(1, 7, 0x1234).await.unwrap(); // FC06
     c.write_multiple_registers(1, 8, &[1, 2, 3]).await.unwrap(); // FC16
     assert_eq!(
@@ -64,15 +74,34 @@ async fn exceptions_pass_as_they_are() {
     // Past the 200 holding registers: the store's exception 02.
     let e = c.read_holding_registers(1, 199, 2).await.unwrap_err();
     assert!(
-        matches!(e, Error::Exception { function: 3, code: 2 }),
+        matches!(
+            e,
+            Error::Exception {
+                function: 3,
+                code: 2
+            }
+        ),
         "{e:?}"
     );
-    assert_eq!(e.exception_code(), Some(ExceptionCode::IllegalDataAddress.code()));
+    assert_eq!(
+        e.exception_code(),
+        Some(ExceptionCode::IllegalDataAddress.code())
+    );
     // FC07: the module's slave has none (§5.7), exception 01.
-    let e = c.request(1, &Request::ReadExceptionStatus).await.unwrap_err();
+    let e = c
+        .request(1, &Request::ReadExceptionStatus)
+        .await
+        .unwrap_err();
     assert_eq!(e.exception_code(), Some(1), "{e:?}");
     // 126 registers: within the manual's 127, but the answer does not fit a TCP PDU: 03.
-    let raw = TcpAdu::request(0x0BAD, 1, &Request::ReadHoldingRegisters { address: 0, quantity: 126 });
+    let raw = TcpAdu::request(
+        0x0BAD,
+        1,
+        &Request::ReadHoldingRegisters {
+            address: 0,
+            quantity: 126,
+        },
+    );
     let answer = raw_exchange(addr, raw.unwrap().as_bytes(), 9).await;
     assert_eq!(answer, [0x0B, 0xAD, 0, 0, 0, 3, 1, 0x83, 0x03]);
     // The connection is still good after exceptions.
@@ -162,7 +191,10 @@ async fn pipelined_requests_are_answered_in_order_with_their_ids() {
     store.lock().unwrap().holding_registers[..2].copy_from_slice(&[11, 22]);
     let mut wire = Vec::new();
     for (transaction, address) in [(0x0102, 1), (0x0101, 0)] {
-        let r = Request::ReadHoldingRegisters { address, quantity: 1 };
+        let r = Request::ReadHoldingRegisters {
+            address,
+            quantity: 1,
+        };
         wire.extend_from_slice(TcpAdu::request(transaction, 1, &r).unwrap().as_bytes());
     }
     let answer = raw_exchange(addr, &wire, 22).await;
@@ -215,5 +247,113 @@ async fn connections_over_the_limit_are_closed() {
             }
             Err(e) => panic!("the slot was never freed: {e}"),
         }
+    }
+}
+
+/// An exception code the serial module never sends (0BH, "gateway target device failed to
+/// respond", from a gateway) reaches the caller as it is.
+#[tokio::test]
+async fn a_gateway_exception_code_passes_as_it_is() {
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    tokio::spawn(async move {
+        let (mut s, _) = listener.accept().await.unwrap();
+        let mut request = [0u8; 12];
+        s.read_exact(&mut request).await.unwrap();
+        let [t0, t1] = [request[0], request[1]];
+        s.write_all(&[t0, t1, 0, 0, 0, 3, request[6], 0x83, 0x0B])
+            .await
+            .unwrap();
+        let mut rest = Vec::new();
+        let _ = s.read_to_end(&mut rest).await;
+    });
+    let mut c = Client::connect(addr).await.unwrap();
+    let e = c.read_holding_registers(5, 0, 1).await.unwrap_err();
+    assert!(
+        matches!(
+            e,
+            Error::Exception {
+                function: 3,
+                code: 0x0B
+            }
+        ),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.to_string(),
+        "function 03H answered with exception 0BH (gateway target device failed to respond)"
+    );
+}
+
+/// The same request PDUs, valid and refused, sent to the RTU slave (over an in-memory line)
+/// and to the TCP server, both serving equal tables: the response PDUs are byte for byte the
+/// same (both execute with `si_modbus::serve`).
+#[tokio::test]
+async fn tcp_and_rtu_answer_every_request_alike() {
+    use si_modbus::frame::crc16;
+    use si_modbus::tokio::Slave;
+    use si_modbus::SlaveConfig;
+
+    let tables = || {
+        let mut t = Tables::new(64, 64, 200, 64);
+        t.holding_registers[1] = 0x1234;
+        t.coils[3] = true;
+        t
+    };
+    let (addr, _) = start(ServerConfig::default()).await;
+    {
+        // start() serves Tables::new(64, 64, 200, 64); give it the same contents.
+        let mut c = Client::connect(addr).await.unwrap();
+        c.write_single_register(1, 1, 0x1234).await.unwrap();
+        c.write_single_coil(1, 3, true).await.unwrap();
+    }
+    let (mut line, slave_end) = tokio::io::duplex(1024);
+    let config = SlaveConfig {
+        address: 1,
+        ..SlaveConfig::default()
+    };
+    let _slave = Slave::spawn(config, tables(), slave_end).unwrap();
+    let mut tcp = TcpStream::connect(addr).await.unwrap();
+    let pdus: &[&[u8]] = &[
+        &[0x03, 0, 0, 0, 3],                // FC03
+        &[0x03, 0, 0, 0, 0],                // quantity 0: 03
+        &[0x03, 0, 199, 0, 2],              // past the table: 02
+        &[0x01, 0, 0, 0, 10],               // FC01
+        &[0x06, 0, 5, 0xAB, 0xCD],          // FC06
+        &[0x05, 0, 1, 0x12, 0x34],          // coil value neither FF00H nor 0000H: 03
+        &[0x07],                            // FC07, not served by the module's slave: 01
+        &[0x2B, 0x0E, 1, 0],                // unknown function: 01
+        &[0x08, 0, 1, 0, 0],                // FC08 sub-function 0001: 03
+        &[0x10, 0, 0, 0, 2, 3, 0, 1, 0, 2], // FC16 byte count 3 for 2 registers: 03
+        &[0x08, 0, 0, 0xA5, 0x37],          // FC08 echo
+    ];
+    for (i, pdu) in pdus.iter().enumerate() {
+        let mut rtu = vec![1];
+        rtu.extend_from_slice(pdu);
+        let crc = crc16(&rtu).to_le_bytes();
+        rtu.extend_from_slice(&crc);
+        line.write_all(&rtu).await.unwrap();
+        let mut rtu_answer = Vec::new();
+        while rtu_answer.len() < 4 || !si_modbus::frame::crc_ok(&rtu_answer) {
+            let mut b = [0u8; 64];
+            let n = tokio::time::timeout(Duration::from_secs(5), line.read(&mut b))
+                .await
+                .expect("the RTU slave answers")
+                .unwrap();
+            rtu_answer.extend_from_slice(&b[..n]);
+        }
+        let mut tcp_request = vec![0, i as u8, 0, 0, 0, pdu.len() as u8 + 1, 1];
+        tcp_request.extend_from_slice(pdu);
+        tcp.write_all(&tcp_request).await.unwrap();
+        let mut header = [0u8; 6];
+        tcp.read_exact(&mut header).await.unwrap();
+        assert_eq!(header[..4], [0, i as u8, 0, 0]);
+        let mut unit_pdu = vec![0; usize::from(u16::from_be_bytes([header[4], header[5]]))];
+        tcp.read_exact(&mut unit_pdu).await.unwrap();
+        assert_eq!(
+            unit_pdu,
+            rtu_answer[..rtu_answer.len() - 2],
+            "request PDU {pdu:02X?}"
+        );
     }
 }

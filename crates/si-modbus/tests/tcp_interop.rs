@@ -193,24 +193,43 @@ fn our_client_against_pymodbus_tcp_server() {
             tokio::time::sleep(Duration::from_millis(100)).await;
         }
         let mut c = c.expect("pymodbus server listening");
-        assert_eq!(c.read_holding_registers(1, 0, 5).await.unwrap(), [0, 1, 2, 3, 4]); // FC03
+        assert_eq!(
+            c.read_holding_registers(1, 0, 5).await.unwrap(),
+            [0, 1, 2, 3, 4]
+        ); // FC03
         assert_eq!(c.read_input_registers(1, 2, 2).await.unwrap(), [1002, 1003]); // FC04
         assert_eq!(
             c.read_discrete_inputs(1, 0, 4).await.unwrap(), // FC02
             [false, true, false, true]
         );
-        c.write_multiple_registers(1, 10, &[7, 0x0102]).await.unwrap(); // FC16
+        c.write_multiple_registers(1, 10, &[7, 0x0102])
+            .await
+            .unwrap(); // FC16
         c.write_single_register(1, 12, 99).await.unwrap(); // FC06
-        assert_eq!(c.read_holding_registers(1, 10, 3).await.unwrap(), [7, 258, 99]);
+        assert_eq!(
+            c.read_holding_registers(1, 10, 3).await.unwrap(),
+            [7, 258, 99]
+        );
         c.write_single_coil(1, 4, true).await.unwrap(); // FC05
-        c.write_multiple_coils(1, 6, &[true, false, true]).await.unwrap(); // FC15
+        c.write_multiple_coils(1, 6, &[true, false, true])
+            .await
+            .unwrap(); // FC15
         assert_eq!(
             c.read_coils(1, 0, 10).await.unwrap(), // FC01
             [false, false, false, false, true, false, true, false, true, false]
         );
         // Beyond the server's 100 registers: exception 02, passed as it is.
         let e = c.read_holding_registers(1, 200, 2).await.unwrap_err();
-        assert!(matches!(e, Error::Exception { function: 3, code: 2 }), "{e:?}");
+        assert!(
+            matches!(
+                e,
+                Error::Exception {
+                    function: 3,
+                    code: 2
+                }
+            ),
+            "{e:?}"
+        );
     });
 }
 

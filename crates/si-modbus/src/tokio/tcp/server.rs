@@ -58,7 +58,9 @@ impl std::fmt::Debug for Units {
         if self.0.iter().all(|&b| b) {
             f.write_str("Units(all)")
         } else {
-            f.debug_tuple("Units").field(&ids.collect::<Vec<_>>()).finish()
+            f.debug_tuple("Units")
+                .field(&ids.collect::<Vec<_>>())
+                .finish()
         }
     }
 }
@@ -203,7 +205,9 @@ fn answer<S: Store>(store: &Mutex<S>, units: &Units, request: &TcpAdu) -> Option
     let mut data: ResponseData = [0; 256];
     let response = match request.decode_request() {
         Ok((_, r)) => {
-            let mut store = store.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+            let mut store = store
+                .lock()
+                .unwrap_or_else(|poisoned| poisoned.into_inner());
             match serve::execute(&mut *store, &r, &mut data) {
                 Outcome::Answer { response, .. } => response,
                 Outcome::Refused { code, .. } => exception(code),
