@@ -5,7 +5,7 @@ use std::time::Duration;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpStream, ToSocketAddrs};
 
-use crate::frame::{Bits, DecodeError, EncodeError, ExceptionCode, Registers, Request, Response};
+use crate::frame::{DecodeError, EncodeError, ExceptionCode, Request, Response};
 use crate::mbap::{Decoder, HeaderError, TcpAdu};
 
 /// How long [`Client::request`] waits for an answer unless told otherwise
@@ -213,134 +213,12 @@ impl Client {
         })
     }
 
-    /// FC01: `quantity` coils from `address`.
-    pub async fn read_coils(
-        &mut self,
-        unit: u8,
-        address: u16,
-        quantity: u16,
-    ) -> Result<Vec<bool>, Error> {
-        let request = Request::ReadCoils { address, quantity };
-        self.exchange_typed(unit, request, |r| match r {
-            Response::ReadCoils(b) => Some(bools(b, quantity)),
-            _ => None,
-        })
-        .await
-    }
-
-    /// FC02: `quantity` discrete inputs from `address`.
-    pub async fn read_discrete_inputs(
-        &mut self,
-        unit: u8,
-        address: u16,
-        quantity: u16,
-    ) -> Result<Vec<bool>, Error> {
-        let request = Request::ReadDiscreteInputs { address, quantity };
-        self.exchange_typed(unit, request, |r| match r {
-            Response::ReadDiscreteInputs(b) => Some(bools(b, quantity)),
-            _ => None,
-        })
-        .await
-    }
-
-    /// FC03: `quantity` holding registers from `address`.
-    pub async fn read_holding_registers(
-        &mut self,
-        unit: u8,
-        address: u16,
-        quantity: u16,
-    ) -> Result<Vec<u16>, Error> {
-        let request = Request::ReadHoldingRegisters { address, quantity };
-        self.exchange_typed(unit, request, |r| match r {
-            Response::ReadHoldingRegisters(w) => Some(words(w)),
-            _ => None,
-        })
-        .await
-    }
-
-    /// FC04: `quantity` input registers from `address`.
-    pub async fn read_input_registers(
-        &mut self,
-        unit: u8,
-        address: u16,
-        quantity: u16,
-    ) -> Result<Vec<u16>, Error> {
-        let request = Request::ReadInputRegisters { address, quantity };
-        self.exchange_typed(unit, request, |r| match r {
-            Response::ReadInputRegisters(w) => Some(words(w)),
-            _ => None,
-        })
-        .await
-    }
-
-    /// FC05.
-    pub async fn write_single_coil(
-        &mut self,
-        unit: u8,
-        address: u16,
-        value: bool,
-    ) -> Result<(), Error> {
-        self.write(unit, Request::WriteSingleCoil { address, value })
-            .await
-    }
-
-    /// FC06.
-    pub async fn write_single_register(
-        &mut self,
-        unit: u8,
-        address: u16,
-        value: u16,
-    ) -> Result<(), Error> {
-        self.write(unit, Request::WriteSingleRegister { address, value })
-            .await
-    }
-
-    /// FC15.
-    pub async fn write_multiple_coils(
-        &mut self,
-        unit: u8,
-        address: u16,
-        values: &[bool],
-    ) -> Result<(), Error> {
-        let values = Bits::Bools(values);
-        self.write(unit, Request::WriteMultipleCoils { address, values })
-            .await
-    }
-
-    /// FC16.
-    pub async fn write_multiple_registers(
-        &mut self,
-        unit: u8,
-        address: u16,
-        values: &[u16],
-    ) -> Result<(), Error> {
-        let values = Registers::Words(values);
-        self.write(unit, Request::WriteMultipleRegisters { address, values })
-            .await
-    }
-
-    /// FC08 sub-function 0000: the server echoes `data`.
-    pub async fn diagnostics(&mut self, unit: u8, data: u16) -> Result<u16, Error> {
-        self.exchange_typed(unit, Request::Diagnostics { data }, |r| match r {
-            Response::Diagnostics { data } => Some(data),
-            _ => None,
-        })
-        .await
-    }
-
     /// A write: the response (an echo or start and quantity) was checked by [`Client::request`].
     async fn write(&mut self, unit: u8, request: Request<'_>) -> Result<(), Error> {
         self.request(unit, &request).await.map(|_| ())
     }
-}
 
-/// A read's bits, cut to the requested quantity (the response carries whole bytes).
-fn bools(bits: Bits<'_>, quantity: u16) -> Vec<bool> {
-    bits.truncate(quantity).iter().collect()
-}
-
-fn words(registers: Registers<'_>) -> Vec<u16> {
-    registers.iter().collect()
+    crate::tokio::typed::typed_requests!(Error);
 }
 
 /// Check an answer against its request: unit id, function code (an exception is returned as
