@@ -887,22 +887,30 @@ impl<'a> Reader<'a> {
     }
 }
 
-/// Check length ≥ 4 and the CRC; returns a reader.
-fn open(adu: &[u8], frame: FrameKind) -> Result<Reader<'_>, DecodeError> {
+/// A reader over `bytes`, which end in `trailer` bytes after the PDU (2 for the RTU CRC, 0
+/// for Modbus TCP), once they hold at least an address, a function code and the trailer.
+fn reader(bytes: &[u8], frame: FrameKind, trailer: usize) -> Result<Reader<'_>, DecodeError> {
     let r = Reader {
-        adu,
+        adu: bytes,
         frame,
-        trailer: 2,
+        trailer,
     };
-    if adu.len() < 4 {
+    let min = 2 + trailer;
+    if bytes.len() < min {
         return Err(r.err(
-            adu.len(),
+            bytes.len(),
             "length",
             DecodeErrorKind::TooShort,
-            Expected::AtLeast(4),
-            adu.len() as u32,
+            Expected::AtLeast(min as u32),
+            bytes.len() as u32,
         ));
     }
+    Ok(r)
+}
+
+/// Check length ≥ 4 and the CRC; returns a reader.
+fn open(adu: &[u8], frame: FrameKind) -> Result<Reader<'_>, DecodeError> {
+    let r = reader(adu, frame, 2)?;
     let n = adu.len() - 2;
     let expected = crc16(&adu[..n]);
     let found = u16::from_le_bytes([adu[n], adu[n + 1]]);
@@ -920,21 +928,7 @@ fn open(adu: &[u8], frame: FrameKind) -> Result<Reader<'_>, DecodeError> {
 
 /// Check that `unit | PDU` (no CRC, as Modbus TCP carries it) has a unit and a function code.
 fn open_unit_pdu(bytes: &[u8], frame: FrameKind) -> Result<Reader<'_>, DecodeError> {
-    let r = Reader {
-        adu: bytes,
-        frame,
-        trailer: 0,
-    };
-    if bytes.len() < 2 {
-        return Err(r.err(
-            bytes.len(),
-            "length",
-            DecodeErrorKind::TooShort,
-            Expected::AtLeast(2),
-            bytes.len() as u32,
-        ));
-    }
-    Ok(r)
+    reader(bytes, frame, 0)
 }
 
 /// True if the last two bytes are the CRC of the rest (and there are at least 4 bytes).

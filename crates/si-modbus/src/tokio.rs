@@ -175,11 +175,6 @@ impl Master {
         c.response().and_then(pick).ok_or_else(unexpected)
     }
 
-    /// A write: its response was checked by the engine (§4.4).
-    async fn write(&mut self, unit: u8, request: Request<'_>) -> Result<(), Error> {
-        self.request(unit, &request).await.map(|_| ())
-    }
-
     typed::typed_requests!(Error);
 
     /// Line diagnostics seen while waiting for jobs (unsolicited frames 0E50H, line errors in

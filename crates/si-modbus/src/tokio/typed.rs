@@ -7,14 +7,23 @@
 //! - `async fn exchange_typed<T>(&mut self, unit: u8, request: Request<'_>,
 //!   pick: impl FnOnce(Response<'_>) -> Option<T>) -> Result<T, E>`: send the request and pick
 //!   the typed result out of its response (`None`: the response does not fit the request);
-//! - `async fn write(&mut self, unit: u8, request: Request<'_>) -> Result<(), E>`: send a write
-//!   and check its answer;
+//! - `async fn request(&mut self, unit: u8, request: &Request<'_>) -> Result<_, E>`: send any
+//!   request and check its answer (a write needs nothing more);
 //!
 //! and passes its error type `E`. Methods are inherent, so callers need no trait import.
 
-/// The typed methods (FC01–08, 11, 12, 15, 16) over `exchange_typed` and `write`.
+/// The typed methods (FC01–08, 11, 12, 15, 16) over `exchange_typed` and `request`.
 macro_rules! typed_requests {
     ($error:ty) => {
+        /// A write: its answer (an echo, or start and quantity) was checked by `request`.
+        async fn write(
+            &mut self,
+            unit: u8,
+            request: $crate::frame::Request<'_>,
+        ) -> Result<(), $error> {
+            self.request(unit, &request).await.map(|_| ())
+        }
+
         /// FC01: `quantity` coils from `address`.
         pub async fn read_coils(
             &mut self,

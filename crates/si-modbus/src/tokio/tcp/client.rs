@@ -213,11 +213,6 @@ impl Client {
         })
     }
 
-    /// A write: the response (an echo or start and quantity) was checked by [`Client::request`].
-    async fn write(&mut self, unit: u8, request: Request<'_>) -> Result<(), Error> {
-        self.request(unit, &request).await.map(|_| ())
-    }
-
     crate::tokio::typed::typed_requests!(Error);
 }
 
