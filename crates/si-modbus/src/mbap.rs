@@ -29,7 +29,8 @@
 //! - After a bad header (protocol id ≠ 0, length outside 2…254) there is no way to find the
 //!   next frame: the length field is the only delimiter. The guide names no resynchronisation;
 //!   the [`Decoder`] stays failed until [`Decoder::reset`], and the connection should be closed,
-//!   which is what common servers (libmodbus, pymodbus) do. Our server closes it.
+//!   as mbusd does ("header is damaged, drop connection", `conn_loop` in the copy at
+//!   `shared/peers/mbusd/src/conn.c`). Our server closes it.
 //!
 //! No allocation: an ADU is held inline ([`TcpAdu`]), the decoder owns one.
 //!

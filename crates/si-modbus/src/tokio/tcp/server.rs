@@ -12,8 +12,9 @@ use crate::mbap::{Decoder, TcpAdu};
 use crate::serve::{self, Outcome, ResponseData};
 use crate::slave::Store;
 
-/// Connections served at once unless configured otherwise: mbusd's default (its `-C` option,
-/// 32; external: mbusd's README), the gateway issue 20 measures against.
+/// Connections served at once unless configured otherwise: mbusd's default (its `-C maxconn`,
+/// `DEFAULT_MAXCONN` 32 in `shared/peers/mbusd/src/conn.h`), the gateway issue 20 measures
+/// against.
 pub const DEFAULT_MAX_CONNECTIONS: usize = 32;
 
 /// Bytes read from a connection at once.
@@ -24,9 +25,9 @@ const RX_CHUNK: usize = 1024;
 pub struct Units([bool; 256]);
 
 impl Units {
-    /// Every unit id, 0–255. Over TCP the server is addressed by its IP address; the
-    /// Implementation Guide (external, §4.4.2) has a plain server accept any unit id, and
-    /// clients send 0, 1 or 255.
+    /// Every unit id, 0–255 (the default). Over TCP a server is addressed by its IP address
+    /// and the unit id matters only behind a gateway (Implementation Guide, external, §3.1.3);
+    /// clients send 0, 1 or 255 to a plain server, so it answers them all.
     pub const fn all() -> Self {
         Units([true; 256])
     }
@@ -68,8 +69,9 @@ impl std::fmt::Debug for Units {
 /// Server options.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ServerConfig {
-    /// Connections served at once; one more is accepted and closed at once (as mbusd does),
-    /// so a client sees a clear refusal instead of a hang.
+    /// Connections served at once; one more is accepted and closed at once, as mbusd does
+    /// (`conn_open` in `shared/peers/mbusd/src/conn.c`), so a client sees a clear refusal
+    /// instead of a hang.
     pub max_connections: usize,
     /// The unit ids answered. A request for any other unit id is not answered, as a serial
     /// slave does not answer another address (et200s-si-modbus-uss.md §3.2); a gateway that
