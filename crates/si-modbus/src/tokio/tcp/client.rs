@@ -79,6 +79,24 @@ impl Error {
             _ => None,
         }
     }
+
+    /// The module's master STATUS for the failures it has one for, so a TCP job reports like
+    /// an RTU job: exceptions 01–07 as 0E61H–0E67H (§3.6), no answer as 0830H (§4.4), a
+    /// response for another function as 0E51H. Connection failures, header and PDU errors and
+    /// gateway exceptions (0AH, 0BH) have none.
+    pub fn status(&self) -> Option<si_core::Status> {
+        match self {
+            Error::Exception { code, .. } => {
+                ExceptionCode::from_u8(*code).map(crate::status::for_exception)
+            }
+            Error::Timeout(_) => Some(crate::status::RESPONSE_TIMEOUT),
+            Error::Mismatch {
+                field: "function code",
+                ..
+            } => Some(crate::status::WRONG_FUNCTION),
+            _ => None,
+        }
+    }
 }
 
 /// A Modbus TCP client on one connection.
@@ -248,6 +266,22 @@ fn check(reply: TcpAdu, request: &TcpAdu) -> Result<TcpAdu, Error> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn statuses_are_the_rtu_masters() {
+        let e = Error::Exception {
+            function: 3,
+            code: 2,
+        };
+        assert_eq!(e.status().map(|s| s.code()), Some(0x0E62));
+        let gateway = Error::Exception {
+            function: 3,
+            code: 0x0B,
+        };
+        assert_eq!(gateway.status(), None);
+        let timeout = Error::Timeout(DEFAULT_TIMEOUT).status();
+        assert_eq!(timeout.map(|s| s.code()), Some(0x0830));
+    }
 
     #[test]
     fn default_timeout_is_the_masters_default_response_time() {
