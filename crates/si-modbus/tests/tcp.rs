@@ -357,3 +357,21 @@ async fn tcp_and_rtu_answer_every_request_alike() {
         );
     }
 }
+
+/// A connection that stays silent past the idle timeout is closed, and its slot serves the
+/// next client.
+#[tokio::test]
+async fn a_silent_connection_is_closed_after_the_idle_timeout() {
+    let config = ServerConfig {
+        max_connections: 1,
+        idle_timeout: Some(Duration::from_millis(100)),
+        ..ServerConfig::default()
+    };
+    let (addr, _) = start(config).await;
+    let mut silent = TcpStream::connect(addr).await.unwrap();
+    let mut rest = Vec::new();
+    let closed = tokio::time::timeout(Duration::from_secs(10), silent.read_to_end(&mut rest)).await;
+    assert!(matches!(closed, Ok(Ok(0))), "{closed:?}");
+    let mut c = Client::connect(addr).await.unwrap();
+    c.read_coils(1, 0, 1).await.unwrap();
+}

@@ -35,4 +35,4 @@ mod client;
 mod server;
 
 pub use client::{Client, Error, DEFAULT_TIMEOUT};
-pub use server::{Server, ServerConfig, Units, DEFAULT_MAX_CONNECTIONS};
+pub use server::{Server, ServerConfig, Units, DEFAULT_IDLE_TIMEOUT, DEFAULT_MAX_CONNECTIONS};

@@ -2,6 +2,7 @@
 
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream, ToSocketAddrs};
@@ -16,6 +17,11 @@ use crate::slave::Store;
 /// `DEFAULT_MAXCONN` 32 in `shared/peers/mbusd/src/conn.h`), the gateway issue 20 measures
 /// against.
 pub const DEFAULT_MAX_CONNECTIONS: usize = 32;
+
+/// How long a connection may stay silent before the server closes it, unless configured
+/// otherwise: mbusd's default (`-T`, `DEFAULT_CONNTIMEOUT` 60 s in
+/// `shared/peers/mbusd/src/conn.h`), so idle clients cannot hold every slot for ever.
+pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(60);
 
 /// Bytes read from a connection at once.
 const RX_CHUNK: usize = 1024;
@@ -77,6 +83,8 @@ pub struct ServerConfig {
     /// slave does not answer another address (et200s-si-modbus-uss.md §3.2); a gateway that
     /// should answer exception 0AH for it is issue 20's `si gateway`, not this server.
     pub units: Units,
+    /// A connection that sends nothing for this long is closed (`None`: never).
+    pub idle_timeout: Option<Duration>,
 }
 
 impl Default for ServerConfig {
@@ -84,6 +92,7 @@ impl Default for ServerConfig {
         ServerConfig {
             max_connections: DEFAULT_MAX_CONNECTIONS,
             units: Units::all(),
+            idle_timeout: Some(DEFAULT_IDLE_TIMEOUT),
         }
     }
 }
@@ -131,6 +140,7 @@ impl<S: Store + Send + 'static> Server<S> {
     pub async fn run(self) -> std::io::Result<()> {
         let slots = Arc::new(Semaphore::new(self.config.max_connections));
         let units = Arc::new(self.config.units);
+        let idle = self.config.idle_timeout;
         loop {
             let (stream, _) = match self.listener.accept().await {
                 Ok(accepted) => accepted,
@@ -148,8 +158,11 @@ impl<S: Store + Send + 'static> Server<S> {
             let store = Arc::clone(&self.store);
             let units = Arc::clone(&units);
             tokio::spawn(async move {
-                let _ = serve_connection(stream, &store, &units).await;
+                let mut stream = stream;
+                let _ = serve_connection(&mut stream, &store, &units, idle).await;
+                // The slot is free before the client sees the connection close.
                 drop(slot);
+                drop(stream);
             });
         }
     }
@@ -157,9 +170,10 @@ impl<S: Store + Send + 'static> Server<S> {
 
 /// Answer the requests on one connection until it closes or sends a bad header.
 async fn serve_connection<S: Store>(
-    mut stream: TcpStream,
+    stream: &mut TcpStream,
     store: &Mutex<S>,
     units: &Units,
+    idle: Option<Duration>,
 ) -> std::io::Result<()> {
     stream.set_nodelay(true)?;
     let mut decoder = Decoder::new();
@@ -167,7 +181,14 @@ async fn serve_connection<S: Store>(
     // Answers to the requests of one read, written together; its capacity is kept.
     let mut tx = Vec::with_capacity(RX_CHUNK);
     loop {
-        let n = stream.read(&mut rx).await?;
+        let read = stream.read(&mut rx);
+        let n = match idle {
+            Some(limit) => match tokio::time::timeout(limit, read).await {
+                Ok(n) => n?,
+                Err(_) => return Ok(()),
+            },
+            None => read.await?,
+        };
         if n == 0 {
             return Ok(());
         }
