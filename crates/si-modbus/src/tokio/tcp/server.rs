@@ -23,6 +23,9 @@ pub const DEFAULT_MAX_CONNECTIONS: usize = 32;
 /// `shared/peers/mbusd/src/conn.h`), so idle clients cannot hold every slot for ever.
 pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(60);
 
+/// The pause after a failed accept (no file descriptors left) before the next.
+const ACCEPT_RETRY: Duration = Duration::from_millis(100);
+
 /// Bytes read from a connection at once.
 const RX_CHUNK: usize = 1024;
 
@@ -144,10 +147,11 @@ impl<S: Store + Send + 'static> Server<S> {
         loop {
             let (stream, _) = match self.listener.accept().await {
                 Ok(accepted) => accepted,
-                // Out of file descriptors and the like: the next accept may succeed, and a
-                // failing connection attempt must not end the server.
+                // Out of file descriptors and the like: a failing connection attempt must not
+                // end the server, and retrying at once would spin; the next accept after a
+                // pause may succeed.
                 Err(_) => {
-                    tokio::task::yield_now().await;
+                    tokio::time::sleep(ACCEPT_RETRY).await;
                     continue;
                 }
             };
