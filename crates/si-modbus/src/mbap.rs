@@ -110,6 +110,26 @@ impl TcpAdu {
         a.finish(transaction, n)
     }
 
+    /// Put an MBAP header before raw `unit | PDU` bytes, unchecked beyond their length (2…254):
+    /// what a transparent gateway does with an RTU ADU without its CRC, or with an exception
+    /// the module never sends (0AH, 0BH).
+    pub fn from_unit_pdu(transaction: u16, unit_pdu: &[u8]) -> Result<Self, EncodeError> {
+        let mut a = Self::EMPTY;
+        let n = unit_pdu.len();
+        if n < MIN_LENGTH as usize {
+            return Err(EncodeError::Quantity {
+                what: "Modbus TCP unit id + PDU bytes",
+                value: n,
+                max: MAX_LENGTH as usize,
+            });
+        }
+        a.buf
+            .get_mut(PREFIX_LEN..PREFIX_LEN + n)
+            .ok_or(EncodeError::BufferTooSmall(ENCODE_ROOM))?
+            .copy_from_slice(unit_pdu);
+        a.finish(transaction, n)
+    }
+
     /// Write the header for `unit_pdu` bytes of unit + PDU, refusing more than [`MAX_LENGTH`].
     fn finish(mut self, transaction: u16, unit_pdu: usize) -> Result<Self, EncodeError> {
         if unit_pdu > MAX_LENGTH as usize {
@@ -377,6 +397,16 @@ mod tests {
             si_core::hex::format(resp.as_bytes()),
             "00 07 00 00 00 03 11 90 02"
         );
+    }
+
+    #[test]
+    fn raw_unit_pdu_gets_a_header_within_the_length_limits() {
+        let adu = TcpAdu::from_unit_pdu(0x1234, &[5, 0x83, 0x0B]).unwrap();
+        assert_eq!(adu.as_bytes(), [0x12, 0x34, 0, 0, 0, 3, 5, 0x83, 0x0B]);
+        assert!(TcpAdu::from_unit_pdu(1, &[5]).is_err());
+        assert!(TcpAdu::from_unit_pdu(1, &[0; 254]).is_ok());
+        assert!(TcpAdu::from_unit_pdu(1, &[0; 255]).is_err());
+        assert!(TcpAdu::from_unit_pdu(1, &[0; 1000]).is_err());
     }
 
     #[test]

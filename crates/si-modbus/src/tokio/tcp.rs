@@ -1,6 +1,8 @@
 //! Modbus TCP over tokio: a [`Client`] (one request at a time, each with its own transaction
 //! id and a timeout) and a [`Server`] that serves a [`Store`](crate::slave::Store) to several
-//! clients at once.
+//! clients at once, or answers with any [`Handler`] (a gateway's routing to serial lines) while
+//! keeping the connection handling: the connection limit, the idle timeout, the unit-id filter
+//! and closing on a bad header.
 //!
 //! Both use the Sans-IO MBAP codec ([`crate::mbap`]) and the RTU PDU codec
 //! ([`crate::frame`]); the server executes requests with the RTU slave's code
@@ -35,4 +37,7 @@ mod client;
 mod server;
 
 pub use client::{Client, Error, DEFAULT_TIMEOUT};
-pub use server::{Server, ServerConfig, Units, DEFAULT_IDLE_TIMEOUT, DEFAULT_MAX_CONNECTIONS};
+pub use server::{
+    Handler, Server, ServerConfig, StoreHandler, Units, DEFAULT_IDLE_TIMEOUT,
+    DEFAULT_MAX_CONNECTIONS,
+};

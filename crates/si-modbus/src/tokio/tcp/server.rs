@@ -1,5 +1,7 @@
-//! The Modbus TCP server: a [`Store`] served to several clients at once.
+//! The Modbus TCP server: requests from several clients at once, answered by a [`Handler`];
+//! [`StoreHandler`] serves a [`Store`] with the RTU slave's code.
 
+use std::future::Future;
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -100,31 +102,82 @@ impl Default for ServerConfig {
     }
 }
 
-/// A Modbus TCP server serving one [`Store`] to every connection.
+/// What answers the requests a [`Server`] receives: a store ([`StoreHandler`]), or anything
+/// else that can answer a Modbus TCP request, such as a gateway to serial lines.
+pub trait Handler: Send + Sync + 'static {
+    /// The answer to one request, with its transaction id and unit id (`None`: no answer).
+    /// Requests on one connection are answered one after the other, in order.
+    fn answer(&self, request: TcpAdu) -> impl Future<Output = Option<TcpAdu>> + Send;
+}
+
+/// A [`Store`] behind a lock, answering requests as the RTU slave does ([`crate::serve`]).
+///
+/// A response too long for TCP (a read of 126 or 127 registers, or of over 2008 bits: the
+/// manual's limits are above TCP's 253-byte PDU) is answered with exception 03.
+pub struct StoreHandler<S> {
+    store: Arc<Mutex<S>>,
+}
+
+impl<S: Store + Send + 'static> StoreHandler<S> {
+    /// Serve `store`.
+    pub fn new(store: S) -> Self {
+        StoreHandler {
+            store: Arc::new(Mutex::new(store)),
+        }
+    }
+
+    /// The store, shared with the handler.
+    pub fn store(&self) -> Arc<Mutex<S>> {
+        Arc::clone(&self.store)
+    }
+}
+
+impl<S: Store + Send + 'static> Handler for StoreHandler<S> {
+    async fn answer(&self, request: TcpAdu) -> Option<TcpAdu> {
+        Some(execute(&self.store, &request))
+    }
+}
+
+/// A Modbus TCP server: accepts connections up to a limit and answers their requests with a
+/// [`Handler`].
 ///
 /// Each connection is a tokio task reading requests in any chunking (several in one segment
-/// are answered in order, each with its own transaction id). A request is executed with the
-/// RTU slave's code ([`crate::serve`]), under a lock on the store, so TCP and RTU answer
-/// alike; a response too long for TCP (a read of 126 or 127 registers, over 2008 bits —
-/// the manual's limits are above TCP's 253-byte PDU) is answered with exception 03. A header
-/// that cannot be framed (protocol id ≠ 0, length outside 2…254) closes that connection
-/// ([`crate::mbap`]).
-pub struct Server<S> {
+/// are answered in order, each with its own transaction id). Requests for a unit id not in
+/// [`ServerConfig::units`] are not answered. A header that cannot be framed (protocol id ≠ 0,
+/// length outside 2…254) closes that connection ([`crate::mbap`]), and so does silence past
+/// [`ServerConfig::idle_timeout`].
+pub struct Server<H> {
     listener: TcpListener,
-    store: Arc<Mutex<S>>,
+    handler: Arc<H>,
     config: ServerConfig,
 }
 
-impl<S: Store + Send + 'static> Server<S> {
-    /// Listen on `addr` (port 0: any free port, see [`Server::local_addr`]).
+impl<S: Store + Send + 'static> Server<StoreHandler<S>> {
+    /// Listen on `addr` (port 0: any free port, see [`Server::local_addr`]) and serve `store`.
     pub async fn bind(
         addr: impl ToSocketAddrs,
         config: ServerConfig,
         store: S,
     ) -> std::io::Result<Self> {
+        Self::with_handler(addr, config, StoreHandler::new(store)).await
+    }
+
+    /// The store, shared with the server (to simulate a process or look at what was written).
+    pub fn store(&self) -> Arc<Mutex<S>> {
+        self.handler.store()
+    }
+}
+
+impl<H: Handler> Server<H> {
+    /// Listen on `addr` and answer with `handler`.
+    pub async fn with_handler(
+        addr: impl ToSocketAddrs,
+        config: ServerConfig,
+        handler: H,
+    ) -> std::io::Result<Self> {
         Ok(Server {
             listener: TcpListener::bind(addr).await?,
-            store: Arc::new(Mutex::new(store)),
+            handler: Arc::new(handler),
             config,
         })
     }
@@ -132,11 +185,6 @@ impl<S: Store + Send + 'static> Server<S> {
     /// The address listened on.
     pub fn local_addr(&self) -> std::io::Result<SocketAddr> {
         self.listener.local_addr()
-    }
-
-    /// The store, shared with the server (to simulate a process or look at what was written).
-    pub fn store(&self) -> Arc<Mutex<S>> {
-        Arc::clone(&self.store)
     }
 
     /// Accept and serve connections until the task is dropped or aborted.
@@ -159,11 +207,11 @@ impl<S: Store + Send + 'static> Server<S> {
                 drop(stream);
                 continue;
             };
-            let store = Arc::clone(&self.store);
+            let handler = Arc::clone(&self.handler);
             let units = Arc::clone(&units);
             tokio::spawn(async move {
                 let mut stream = stream;
-                let _ = serve_connection(&mut stream, &store, &units, idle).await;
+                let _ = serve_connection(&mut stream, &*handler, &units, idle).await;
                 // The slot is free before the client sees the connection close.
                 drop(slot);
                 drop(stream);
@@ -173,9 +221,9 @@ impl<S: Store + Send + 'static> Server<S> {
 }
 
 /// Answer the requests on one connection until it closes or sends a bad header.
-async fn serve_connection<S: Store>(
+async fn serve_connection<H: Handler>(
     stream: &mut TcpStream,
-    store: &Mutex<S>,
+    handler: &H,
     units: &Units,
     idle: Option<Duration>,
 ) -> std::io::Result<()> {
@@ -201,7 +249,11 @@ async fn serve_connection<S: Store>(
         loop {
             match decoder.decode(&mut input) {
                 Ok(Some(request)) => {
-                    if let Some(reply) = answer(store, units, request) {
+                    if !units.contains(request.unit()) {
+                        continue;
+                    }
+                    let request = *request;
+                    if let Some(reply) = handler.answer(request).await {
                         tx.extend_from_slice(reply.as_bytes());
                     }
                 }
@@ -220,12 +272,9 @@ async fn serve_connection<S: Store>(
     }
 }
 
-/// The answer to one request, `None` for a unit id not served.
-fn answer<S: Store>(store: &Mutex<S>, units: &Units, request: &TcpAdu) -> Option<TcpAdu> {
+/// The answer of `store` to one request.
+fn execute<S: Store>(store: &Mutex<S>, request: &TcpAdu) -> TcpAdu {
     let unit = request.unit();
-    if !units.contains(unit) {
-        return None;
-    }
     let transaction = request.transaction();
     let function = request.function() & 0x7F;
     let exception = |code| Response::Exception { function, code };
@@ -242,13 +291,9 @@ fn answer<S: Store>(store: &Mutex<S>, units: &Units, request: &TcpAdu) -> Option
         }
         Err(e) => exception(serve::refusal(e.kind).0),
     };
-    TcpAdu::response(transaction, unit, &response)
-        .or_else(|_| {
-            TcpAdu::response(
-                transaction,
-                unit,
-                &exception(ExceptionCode::IllegalDataValue),
-            )
-        })
-        .ok()
+    TcpAdu::response(transaction, unit, &response).unwrap_or_else(|_| {
+        // Only a response too long for TCP fails to encode; an exception always fits.
+        let refused = exception(ExceptionCode::IllegalDataValue);
+        TcpAdu::response(transaction, unit, &refused).unwrap_or_default()
+    })
 }
