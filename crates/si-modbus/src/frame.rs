@@ -505,6 +505,14 @@ impl Request<'_> {
 
     /// Write the ADU (address, PDU, CRC) into `buf`; returns its length.
     pub fn encode(&self, unit: u8, buf: &mut [u8]) -> Result<usize, EncodeError> {
+        let n = self.encode_unit_pdu(unit, buf)?;
+        append_crc(buf, n)
+    }
+
+    /// Write `unit | PDU` without a CRC into `buf`; returns its length. The RTU ADU adds the
+    /// CRC to it ([`Request::encode`]), the Modbus TCP ADU puts an MBAP header before it
+    /// ([`crate::mbap`]): one PDU encoder for both.
+    pub fn encode_unit_pdu(&self, unit: u8, buf: &mut [u8]) -> Result<usize, EncodeError> {
         self.validate()?;
         let mut w = Writer::new(buf);
         w.u8(unit)?;
@@ -549,7 +557,7 @@ impl Request<'_> {
                 }
             }
         }
-        w.crc()
+        Ok(w.len)
     }
 }
 
@@ -575,6 +583,13 @@ impl Response<'_> {
 
     /// Write the ADU into `buf`; returns its length.
     pub fn encode(&self, unit: u8, buf: &mut [u8]) -> Result<usize, EncodeError> {
+        let n = self.encode_unit_pdu(unit, buf)?;
+        append_crc(buf, n)
+    }
+
+    /// Write `unit | PDU` without a CRC into `buf`; returns its length (shared by RTU and
+    /// Modbus TCP, see [`Request::encode_unit_pdu`]).
+    pub fn encode_unit_pdu(&self, unit: u8, buf: &mut [u8]) -> Result<usize, EncodeError> {
         let mut w = Writer::new(buf);
         w.u8(unit)?;
         w.u8(self.function())?;
@@ -652,8 +667,17 @@ impl Response<'_> {
             }
             Response::Exception { code, .. } => w.u8(code.code())?,
         }
-        w.crc()
+        Ok(w.len)
     }
+}
+
+/// Append the CRC of `buf[..len]` (§3.4, low byte first); returns the new length.
+fn append_crc(buf: &mut [u8], len: usize) -> Result<usize, EncodeError> {
+    let mut w = Writer { buf, len };
+    let [lo, hi] = crc16(&w.buf[..len]).to_le_bytes();
+    w.u8(lo)?;
+    w.u8(hi)?;
+    Ok(w.len)
 }
 
 fn check_quantity(value: u16, max: u16, what: &'static str) -> Result<(), EncodeError> {
@@ -708,13 +732,6 @@ impl<'b> Writer<'b> {
         let [h, l] = v.to_be_bytes();
         self.u8(h)?;
         self.u8(l)
-    }
-    fn crc(mut self) -> Result<usize, EncodeError> {
-        let c = crc16(&self.buf[..self.len]);
-        let [lo, hi] = c.to_le_bytes();
-        self.u8(lo)?;
-        self.u8(hi)?;
-        Ok(self.len)
     }
 }
 
@@ -806,6 +823,8 @@ pub struct DecodeError {
 struct Reader<'a> {
     adu: &'a [u8],
     frame: FrameKind,
+    /// Bytes after the PDU: 2 for the RTU CRC, 0 for `unit | PDU` from Modbus TCP.
+    trailer: usize,
 }
 
 impl<'a> Reader<'a> {
@@ -831,13 +850,13 @@ impl<'a> Reader<'a> {
     }
     /// The body (ADU without CRC) must be exactly `n` bytes.
     fn exact(&self, n: usize) -> Result<(), DecodeError> {
-        let body = self.adu.len() - 2;
+        let body = self.adu.len() - self.trailer;
         if body < n {
             Err(self.err(
                 body,
                 "length",
                 DecodeErrorKind::TooShort,
-                Expected::Exactly(n as u32 + 2),
+                Expected::Exactly((n + self.trailer) as u32),
                 self.adu.len() as u32,
             ))
         } else if body > n {
@@ -845,7 +864,7 @@ impl<'a> Reader<'a> {
                 n,
                 "length",
                 DecodeErrorKind::TooLong,
-                Expected::Exactly(n as u32 + 2),
+                Expected::Exactly((n + self.trailer) as u32),
                 self.adu.len() as u32,
             ))
         } else {
@@ -853,13 +872,13 @@ impl<'a> Reader<'a> {
         }
     }
     fn at_least(&self, n: usize) -> Result<(), DecodeError> {
-        let body = self.adu.len() - 2;
+        let body = self.adu.len() - self.trailer;
         if body < n {
             Err(self.err(
                 body,
                 "length",
                 DecodeErrorKind::TooShort,
-                Expected::AtLeast(n as u32 + 2),
+                Expected::AtLeast((n + self.trailer) as u32),
                 self.adu.len() as u32,
             ))
         } else {
@@ -868,18 +887,30 @@ impl<'a> Reader<'a> {
     }
 }
 
-/// Check length ≥ 4 and the CRC; returns a reader.
-fn open(adu: &[u8], frame: FrameKind) -> Result<Reader<'_>, DecodeError> {
-    let r = Reader { adu, frame };
-    if adu.len() < 4 {
+/// A reader over `bytes`, which end in `trailer` bytes after the PDU (2 for the RTU CRC, 0
+/// for Modbus TCP), once they hold at least an address, a function code and the trailer.
+fn reader(bytes: &[u8], frame: FrameKind, trailer: usize) -> Result<Reader<'_>, DecodeError> {
+    let r = Reader {
+        adu: bytes,
+        frame,
+        trailer,
+    };
+    let min = 2 + trailer;
+    if bytes.len() < min {
         return Err(r.err(
-            adu.len(),
+            bytes.len(),
             "length",
             DecodeErrorKind::TooShort,
-            Expected::AtLeast(4),
-            adu.len() as u32,
+            Expected::AtLeast(min as u32),
+            bytes.len() as u32,
         ));
     }
+    Ok(r)
+}
+
+/// Check length ≥ 4 and the CRC; returns a reader.
+fn open(adu: &[u8], frame: FrameKind) -> Result<Reader<'_>, DecodeError> {
+    let r = reader(adu, frame, 2)?;
     let n = adu.len() - 2;
     let expected = crc16(&adu[..n]);
     let found = u16::from_le_bytes([adu[n], adu[n + 1]]);
@@ -893,6 +924,11 @@ fn open(adu: &[u8], frame: FrameKind) -> Result<Reader<'_>, DecodeError> {
         ));
     }
     Ok(r)
+}
+
+/// Check that `unit | PDU` (no CRC, as Modbus TCP carries it) has a unit and a function code.
+fn open_unit_pdu(bytes: &[u8], frame: FrameKind) -> Result<Reader<'_>, DecodeError> {
+    reader(bytes, frame, 0)
 }
 
 /// True if the last two bytes are the CRC of the rest (and there are at least 4 bytes).
@@ -947,7 +983,18 @@ fn sub_function(r: &Reader<'_>, at: usize) -> Result<(), DecodeError> {
 /// quantities and byte counts, the FC05 value and the FC08 sub-function, which is the order
 /// in which the slave driver reports 0836H, 0831H, 0832H, 0833H, 0834H, 0835H (§5.7).
 pub fn decode_request(adu: &[u8]) -> Result<(u8, Request<'_>), DecodeError> {
-    let r = open(adu, FrameKind::Request)?;
+    read_request(open(adu, FrameKind::Request)?)
+}
+
+/// Read `unit | PDU` without a CRC (the part of a Modbus TCP ADU after the MBAP header) as a
+/// request, with the checks of [`decode_request`] but the CRC's. Offsets in errors count from
+/// the unit byte.
+pub fn decode_unit_pdu_request(bytes: &[u8]) -> Result<(u8, Request<'_>), DecodeError> {
+    read_request(open_unit_pdu(bytes, FrameKind::Request)?)
+}
+
+fn read_request(r: Reader<'_>) -> Result<(u8, Request<'_>), DecodeError> {
+    let adu = r.adu;
     let unit = adu[0];
     let function = adu[1];
     let req = match function {
@@ -1053,7 +1100,17 @@ pub fn decode_request(adu: &[u8]) -> Result<(u8, Request<'_>), DecodeError> {
 /// Without the request it cannot know how many bits a read asked for: coil and input
 /// responses come back in whole bytes (see [`Bits::truncate`]).
 pub fn decode_response(adu: &[u8]) -> Result<(u8, Response<'_>), DecodeError> {
-    let r = open(adu, FrameKind::Response)?;
+    read_response(open(adu, FrameKind::Response)?)
+}
+
+/// Read `unit | PDU` without a CRC (Modbus TCP) as a response; see
+/// [`decode_unit_pdu_request`].
+pub fn decode_unit_pdu_response(bytes: &[u8]) -> Result<(u8, Response<'_>), DecodeError> {
+    read_response(open_unit_pdu(bytes, FrameKind::Response)?)
+}
+
+fn read_response(r: Reader<'_>) -> Result<(u8, Response<'_>), DecodeError> {
+    let adu = r.adu;
     let unit = adu[0];
     let function = adu[1];
     if function & 0x80 != 0 && fc::is_supported(function & 0x7F) {

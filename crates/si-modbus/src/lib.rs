@@ -12,7 +12,12 @@
 //! - [`monitor`]: the passive listener of an RTU line, with the master's gap and response
 //!   timeout;
 //! - [`fb`]: S_SEND/S_RCV master jobs and S_MODB as the PLC programmer sees them;
-//! - `tokio` (feature `tokio`): an async master handle and a slave server task.
+//! - [`serve`]: one decoded request executed on a [`slave::Store`], shared by the RTU slave and
+//!   the Modbus TCP server so both answer alike;
+//! - [`mbap`]: Modbus TCP framing (MBAP header, streaming decoder), Sans-IO, over the same PDU
+//!   codec as RTU;
+//! - `tokio` (feature `tokio`): an async master handle and a slave server task, and
+//!   `tokio::tcp`, a Modbus TCP client and server.
 //!
 //! ```
 //! use si_modbus::frame::{Adu, Request};
@@ -62,8 +67,10 @@ pub mod config;
 pub mod fb;
 pub mod frame;
 pub mod master;
+pub mod mbap;
 pub mod monitor;
 pub mod rx;
+pub mod serve;
 pub mod simatic;
 pub mod slave;
 pub mod status;

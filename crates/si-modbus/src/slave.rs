@@ -20,10 +20,10 @@
 
 use crate::config::{FrameEnd, SlaveConfig};
 use crate::frame::{
-    self, fc, Adu, Bits, DecodeErrorKind, ExceptionCode, Registers, Request, Response, BROADCAST,
-    MAX_ADU,
+    self, fc, Adu, Bits, DecodeErrorKind, ExceptionCode, Registers, Response, BROADCAST, MAX_ADU,
 };
 use crate::rx::{Counters, Expect, Fault, Received, Receiver};
+use crate::serve::{self, Outcome, ResponseData};
 use crate::status::{self, slave as codes};
 use crate::transmitter::{Gate, Transmitter};
 use si_core::{Duration, Engine, Instant, LineError, ModemSignals, Output, Status};
@@ -382,31 +382,13 @@ impl<S: Store> Slave<S> {
             Ok((_, r)) => r,
             Err(e) => {
                 self.rx.count_discarded();
-                let (code, status) = match e.kind {
-                    DecodeErrorKind::Crc => {
-                        // A request cut in two by a late packet fails its CRC: name the adapter.
-                        let status = self.rx.delivery().annotate(codes::CRC);
-                        self.event(SlaveEvent::Error(status));
-                        return;
-                    }
-                    DecodeErrorKind::Function => (
-                        ExceptionCode::IllegalFunction,
-                        Some(codes::INVALID_FUNCTION),
-                    ),
-                    DecodeErrorKind::Quantity => {
-                        (ExceptionCode::IllegalDataValue, Some(codes::QUANTITY))
-                    }
-                    DecodeErrorKind::ByteCount => {
-                        (ExceptionCode::IllegalDataValue, Some(codes::BYTE_COUNT))
-                    }
-                    DecodeErrorKind::CoilValue => {
-                        (ExceptionCode::IllegalDataValue, Some(codes::COIL_VALUE))
-                    }
-                    DecodeErrorKind::SubFunction => {
-                        (ExceptionCode::IllegalDataValue, Some(codes::SUB_FUNCTION))
-                    }
-                    _ => (ExceptionCode::IllegalDataValue, None),
-                };
+                if e.kind == DecodeErrorKind::Crc {
+                    // A request cut in two by a late packet fails its CRC: name the adapter.
+                    let status = self.rx.delivery().annotate(codes::CRC);
+                    self.event(SlaveEvent::Error(status));
+                    return;
+                }
+                let (code, status) = serve::refusal(e.kind);
                 if broadcast {
                     let s = if fc::broadcast_allowed(function) {
                         status
@@ -426,93 +408,13 @@ impl<S: Store> Slave<S> {
             self.event(SlaveEvent::Error(codes::BROADCAST_NOT_ALLOWED));
             return;
         }
-        let mut data = [0u8; 256];
-        let result: Result<(Response<'_>, u16, u16), StoreError> = match request {
-            Request::ReadCoils { address, quantity }
-            | Request::ReadDiscreteInputs { address, quantity } => {
-                let n = (quantity as usize).div_ceil(8);
-                data[..n].fill(0);
-                let r = if function == fc::READ_COILS {
-                    self.store.read_coils(address, quantity, &mut data[..n])
-                } else {
-                    self.store
-                        .read_discrete_inputs(address, quantity, &mut data[..n])
-                };
-                r.map(|()| {
-                    let bits = Bits::packed(&data[..n], quantity);
-                    let resp = if function == fc::READ_COILS {
-                        Response::ReadCoils(bits)
-                    } else {
-                        Response::ReadDiscreteInputs(bits)
-                    };
-                    (resp, address, quantity)
-                })
-            }
-            Request::ReadHoldingRegisters { address, quantity }
-            | Request::ReadInputRegisters { address, quantity } => {
-                let n = quantity as usize * 2;
-                let r = if function == fc::READ_HOLDING_REGISTERS {
-                    self.store
-                        .read_holding_registers(address, quantity, &mut data[..n])
-                } else {
-                    self.store
-                        .read_input_registers(address, quantity, &mut data[..n])
-                };
-                r.map(|()| {
-                    let regs = Registers::Wire(&data[..n]);
-                    let resp = if function == fc::READ_HOLDING_REGISTERS {
-                        Response::ReadHoldingRegisters(regs)
-                    } else {
-                        Response::ReadInputRegisters(regs)
-                    };
-                    (resp, address, quantity)
-                })
-            }
-            Request::WriteSingleCoil { address, value } => self
-                .store
-                .write_coils(address, Bits::Bools(&[value]))
-                .map(|()| (Response::WriteSingleCoil { address, value }, address, 1)),
-            Request::WriteSingleRegister { address, value } => self
-                .store
-                .write_registers(address, Registers::Words(&[value]))
-                .map(|()| (Response::WriteSingleRegister { address, value }, address, 1)),
-            Request::Diagnostics { data } => Ok((Response::Diagnostics { data }, 0, 1)),
-            Request::WriteMultipleCoils { address, values } => {
-                let quantity = values.len() as u16;
-                self.store.write_coils(address, values).map(|()| {
-                    (
-                        Response::WriteMultipleCoils { address, quantity },
-                        address,
-                        quantity,
-                    )
-                })
-            }
-            Request::WriteMultipleRegisters { address, values } => {
-                let quantity = values.len() as u16;
-                self.store.write_registers(address, values).map(|()| {
-                    (
-                        Response::WriteMultipleRegisters { address, quantity },
-                        address,
-                        quantity,
-                    )
-                })
-            }
-            Request::ReadExceptionStatus
-            | Request::GetCommEventCounter
-            | Request::GetCommEventLog => {
-                // §5.7: the slave has no FC07, FC11, FC12.
-                self.exception(
-                    now,
-                    function,
-                    ExceptionCode::IllegalFunction,
-                    Some(codes::INVALID_FUNCTION),
-                    None,
-                );
-                return;
-            }
-        };
-        match result {
-            Ok((response, address, quantity)) => {
+        let mut data: ResponseData = [0; 256];
+        match serve::execute(&mut self.store, &request, &mut data) {
+            Outcome::Answer {
+                response,
+                address,
+                quantity,
+            } => {
                 if broadcast {
                     self.event(SlaveEvent::Broadcast {
                         function,
@@ -531,17 +433,21 @@ impl<S: Store> Slave<S> {
                     });
                 }
             }
-            Err(e) => {
+            Outcome::Refused {
+                code,
+                status,
+                error,
+            } => {
                 if broadcast {
                     // Refused like a unicast request, but a broadcast is never answered.
                     self.event(SlaveEvent::Exception {
                         function,
-                        code: e.exception,
-                        status: e.status,
-                        error: Some(e),
+                        code,
+                        status,
+                        error,
                     });
                 } else {
-                    self.exception(now, function, e.exception, e.status, Some(e));
+                    self.exception(now, function, code, status, error);
                 }
             }
         }

@@ -1,5 +1,6 @@
 //! Async Modbus over any [`Transport`] (feature `tokio`): a [`Master`] handle with one method
-//! per function code, and a [`Slave`] handle serving a store.
+//! per function code, and a [`Slave`] handle serving a store; Modbus TCP client and server in
+//! [`tcp`].
 //!
 //! Both run the Sans-IO engines on the si-core driver, which feeds them tokio's clock and fires
 //! short deadlines precisely (see its "Timing, honestly"), so the end-of-frame gap (4 ms at
@@ -18,7 +19,7 @@
 //! ```
 
 use crate::config::{ConfigError, MasterConfig, SlaveConfig};
-use crate::frame::{Bits, Registers, Request, Response};
+use crate::frame::{Request, Response};
 use crate::master::{Completion, MasterEvent, RequestError};
 use crate::slave::{SlaveEvent, Store};
 use crate::{master, slave};
@@ -26,6 +27,9 @@ use si_core::driver::{self, DriverOptions, DriverStopped, Start, Transport};
 use si_core::{Instant, Status};
 use std::ops::ControlFlow::{Break, Continue};
 use tokio::task::JoinHandle;
+
+pub mod tcp;
+mod typed;
 
 /// Why an async job failed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -160,178 +164,18 @@ impl Master {
         }
     }
 
-    async fn bits(&mut self, unit: u8, request: Request<'_>) -> Result<Vec<bool>, Error> {
+    /// Send `request` and pick the typed result out of its completion ([`typed`]).
+    async fn exchange_typed<T>(
+        &mut self,
+        unit: u8,
+        request: Request<'_>,
+        pick: impl FnOnce(Response<'_>) -> Option<T>,
+    ) -> Result<T, Error> {
         let c = self.request(unit, &request).await?;
-        match c.response() {
-            Some(Response::ReadCoils(b) | Response::ReadDiscreteInputs(b)) => {
-                Ok(b.iter().collect())
-            }
-            _ => Err(unexpected()),
-        }
+        c.response().and_then(pick).ok_or_else(unexpected)
     }
 
-    async fn registers(&mut self, unit: u8, request: Request<'_>) -> Result<Vec<u16>, Error> {
-        let c = self.request(unit, &request).await?;
-        match c.response() {
-            Some(Response::ReadHoldingRegisters(r) | Response::ReadInputRegisters(r)) => {
-                Ok(r.iter().collect())
-            }
-            _ => Err(unexpected()),
-        }
-    }
-
-    /// FC01.
-    pub async fn read_coils(
-        &mut self,
-        unit: u8,
-        address: u16,
-        quantity: u16,
-    ) -> Result<Vec<bool>, Error> {
-        self.bits(unit, Request::ReadCoils { address, quantity })
-            .await
-    }
-
-    /// FC02.
-    pub async fn read_discrete_inputs(
-        &mut self,
-        unit: u8,
-        address: u16,
-        quantity: u16,
-    ) -> Result<Vec<bool>, Error> {
-        self.bits(unit, Request::ReadDiscreteInputs { address, quantity })
-            .await
-    }
-
-    /// FC03.
-    pub async fn read_holding_registers(
-        &mut self,
-        unit: u8,
-        address: u16,
-        quantity: u16,
-    ) -> Result<Vec<u16>, Error> {
-        self.registers(unit, Request::ReadHoldingRegisters { address, quantity })
-            .await
-    }
-
-    /// FC04.
-    pub async fn read_input_registers(
-        &mut self,
-        unit: u8,
-        address: u16,
-        quantity: u16,
-    ) -> Result<Vec<u16>, Error> {
-        self.registers(unit, Request::ReadInputRegisters { address, quantity })
-            .await
-    }
-
-    /// FC05.
-    pub async fn write_single_coil(
-        &mut self,
-        unit: u8,
-        address: u16,
-        value: bool,
-    ) -> Result<(), Error> {
-        self.request(unit, &Request::WriteSingleCoil { address, value })
-            .await
-            .map(|_| ())
-    }
-
-    /// FC06.
-    pub async fn write_single_register(
-        &mut self,
-        unit: u8,
-        address: u16,
-        value: u16,
-    ) -> Result<(), Error> {
-        self.request(unit, &Request::WriteSingleRegister { address, value })
-            .await
-            .map(|_| ())
-    }
-
-    /// FC07: the eight exception status bits.
-    pub async fn read_exception_status(&mut self, unit: u8) -> Result<u8, Error> {
-        let c = self.request(unit, &Request::ReadExceptionStatus).await?;
-        match c.response() {
-            Some(Response::ReadExceptionStatus(s)) => Ok(s),
-            _ => Err(unexpected()),
-        }
-    }
-
-    /// FC08 sub-function 0000: the slave echoes `data`.
-    pub async fn diagnostics(&mut self, unit: u8, data: u16) -> Result<u16, Error> {
-        let c = self.request(unit, &Request::Diagnostics { data }).await?;
-        match c.response() {
-            Some(Response::Diagnostics { data }) => Ok(data),
-            _ => Err(unexpected()),
-        }
-    }
-
-    /// FC11: `(status, event_count)`.
-    pub async fn get_comm_event_counter(&mut self, unit: u8) -> Result<(u16, u16), Error> {
-        let c = self.request(unit, &Request::GetCommEventCounter).await?;
-        match c.response() {
-            Some(Response::GetCommEventCounter {
-                status,
-                event_count,
-            }) => Ok((status, event_count)),
-            _ => Err(unexpected()),
-        }
-    }
-
-    /// FC12.
-    pub async fn get_comm_event_log(&mut self, unit: u8) -> Result<CommEventLog, Error> {
-        let c = self.request(unit, &Request::GetCommEventLog).await?;
-        match c.response() {
-            Some(Response::GetCommEventLog {
-                status,
-                event_count,
-                message_count,
-                events,
-            }) => Ok(CommEventLog {
-                status,
-                event_count,
-                message_count,
-                events: events.to_vec(),
-            }),
-            _ => Err(unexpected()),
-        }
-    }
-
-    /// FC15.
-    pub async fn write_multiple_coils(
-        &mut self,
-        unit: u8,
-        address: u16,
-        values: &[bool],
-    ) -> Result<(), Error> {
-        self.request(
-            unit,
-            &Request::WriteMultipleCoils {
-                address,
-                values: Bits::Bools(values),
-            },
-        )
-        .await
-        .map(|_| ())
-    }
-
-    /// FC16.
-    pub async fn write_multiple_registers(
-        &mut self,
-        unit: u8,
-        address: u16,
-        values: &[u16],
-    ) -> Result<(), Error> {
-        self.request(
-            unit,
-            &Request::WriteMultipleRegisters {
-                address,
-                values: Registers::Words(values),
-            },
-        )
-        .await
-        .map(|_| ())
-    }
+    typed::typed_requests!(Error);
 
     /// Line diagnostics seen while waiting for jobs (unsolicited frames 0E50H, line errors in
     /// Normal mode), oldest first; taking them empties the list.
