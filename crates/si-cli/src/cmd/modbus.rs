@@ -673,7 +673,7 @@ pub struct EncodeArgs {
 impl EncodeArgs {
     /// Append the CRC (low byte first) and say how the frame reads.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let body = crate::hex::parse_hex(&self.hex.join(" "))?;
+        let body = crate::hex::parse_hex_args(&self.hex)?;
         if body.len() < 2 {
             return Err(CliError::new(
                 "give at least the slave address and the function code",
@@ -725,7 +725,7 @@ pub struct DecodeArgs {
 impl DecodeArgs {
     /// Check the CRC, then read the frame as a request, else as a response.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let adu = crate::hex::parse_hex(&self.hex.join(" "))?;
+        let adu = crate::hex::parse_hex_args(&self.hex)?;
         let as_request = frame::decode_request(&adu);
         let as_response = frame::decode_response(&adu);
         match (&as_request, &as_response) {

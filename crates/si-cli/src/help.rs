@@ -1,0 +1,56 @@
+//! How the command tree reads in `--help` (issue 19): the line options under their own heading
+//! and only where a command uses them, and one hex rule written beside every byte argument.
+//!
+//! The line options stay `global` (so `si --port X modbus read` and `si modbus read --port X`
+//! both work) and are declared once, in [`crate::conn::Connection`]. This module post-processes
+//! the built tree instead of touching every command file: clap copies a global option into a
+//! subcommand only where the subcommand has no argument of that id yet, so giving an offline
+//! command a hidden copy of each line option keeps it out of that command's help (and its
+//! subcommands'), while still accepting it from the scripts that pass it everywhere.
+
+use crate::conn::LINE_OPTIONS;
+use crate::hex::HEX_HELP;
+use clap::{Arg, Command};
+
+/// The commands that open no line: every line option is hidden from their help.
+const OFFLINE: &[&str] = &["frame", "diag", "im", "params", "completions"];
+
+/// The line options that still mean something to `si sim`: the simulated line's character
+/// format, and `--record` for its trace. The port options are hidden there.
+const SIM_USES: &[&str] = &["baud", "data_bits", "parity", "stop_bits", "record"];
+
+/// The tree as the user sees it: line options hidden where unused, the hex rule beside every
+/// `HEX` argument.
+pub fn arrange(cli: Command) -> Command {
+    let line: Vec<Arg> = cli
+        .get_arguments()
+        .filter(|a| a.get_help_heading() == Some(LINE_OPTIONS))
+        .cloned()
+        .collect();
+    let hide = |sub: Command, keep: &[&str]| {
+        line.iter()
+            .filter(|a| !keep.contains(&a.get_id().as_str()))
+            .fold(sub, |sub, a| sub.arg(a.clone().hide(true)))
+    };
+    let cli = cli.mut_subcommands(|sub| match sub.get_name() {
+        name if OFFLINE.contains(&name) => hide(sub, &[]),
+        "sim" => hide(sub, SIM_USES),
+        _ => sub,
+    });
+    with_hex_rule(cli)
+}
+
+/// Append [`HEX_HELP`] to the help of every argument named `HEX`, in this command and below.
+fn with_hex_rule(cmd: Command) -> Command {
+    cmd.mut_args(|a| {
+        let takes_hex = a
+            .get_value_names()
+            .is_some_and(|names| names.iter().any(|n| n.as_str() == "HEX"));
+        if !takes_hex {
+            return a;
+        }
+        let what = a.get_help().map(ToString::to_string).unwrap_or_default();
+        a.help(format!("{what}. {HEX_HELP}"))
+    })
+    .mut_subcommands(with_hex_rule)
+}
