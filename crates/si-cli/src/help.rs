@@ -12,8 +12,18 @@ use crate::conn::LINE_OPTIONS;
 use crate::hex::HEX_HELP;
 use clap::{Arg, Command};
 
-/// The commands that open no line: every line option is hidden from their help.
-const OFFLINE: &[&str] = &["frame", "diag", "im", "params", "completions"];
+/// The commands that open no line, as paths from the top: every line option is hidden from
+/// their help (and their subcommands').
+const OFFLINE: &[&[&str]] = &[
+    &["frame"],
+    &["diag"],
+    &["im"],
+    &["params"],
+    &["completions"],
+    // The host side of the DP window runs on windows read from stdin; `dp-coord module`
+    // opens the serial line.
+    &["dp-coord", "host"],
+];
 
 /// The line options that still mean something to `si sim`: the simulated line's character
 /// format, and `--record` for its trace. The port options are hidden there.
@@ -32,12 +42,19 @@ pub fn arrange(cli: Command) -> Command {
             .filter(|a| !keep.contains(&a.get_id().as_str()))
             .fold(sub, |sub, a| sub.arg(a.clone().hide(true)))
     };
-    let cli = cli.mut_subcommands(|sub| match sub.get_name() {
-        name if OFFLINE.contains(&name) => hide(sub, &[]),
-        "sim" => hide(sub, SIM_USES),
-        _ => sub,
-    });
+    let mut cli = cli.mut_subcommand("sim", |sim| hide(sim, SIM_USES));
+    for path in OFFLINE {
+        cli = at_path(cli, path, &|sub| hide(sub, &[]));
+    }
     with_hex_rule(cli)
+}
+
+/// Apply `f` to the subcommand at `path` below `cmd`.
+fn at_path(cmd: Command, path: &[&str], f: &dyn Fn(Command) -> Command) -> Command {
+    match path {
+        [] => f(cmd),
+        [name, rest @ ..] => cmd.mut_subcommand(name, |sub| at_path(sub, rest, f)),
+    }
 }
 
 /// Append [`HEX_HELP`] to the help of every argument named `HEX`, in this command and below.

@@ -7,6 +7,8 @@ mod ascii;
 mod common;
 #[path = "pty/dpcoord.rs"]
 mod dpcoord;
+#[path = "pty/hex_input.rs"]
+mod hex_input;
 #[path = "pty/modbus_frame_end.rs"]
 mod modbus_frame_end;
 #[path = "pty/modbus_interop.rs"]
@@ -19,6 +21,8 @@ mod modbus_usb_relay;
 mod monitor;
 #[path = "pty/port_flags.rs"]
 mod port_flags;
+#[path = "pty/profile.rs"]
+mod profile;
 #[path = "pty/r3964.rs"]
 mod r3964;
 #[path = "pty/rk512.rs"]

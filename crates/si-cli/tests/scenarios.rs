@@ -6,12 +6,16 @@ mod cli;
 mod common;
 #[path = "scenarios/dpcoord.rs"]
 mod dpcoord;
+#[path = "scenarios/help.rs"]
+mod help;
 #[path = "scenarios/modbus.rs"]
 mod modbus;
 #[path = "scenarios/module.rs"]
 mod module;
 #[path = "scenarios/monitor.rs"]
 mod monitor;
+#[path = "scenarios/profile.rs"]
+mod profile;
 #[path = "scenarios/r3964.rs"]
 mod r3964;
 #[path = "scenarios/rk512.rs"]

@@ -1,0 +1,44 @@
+//! A profile supplies the port settings (issue 19): `si modbus read --profile plc1` reads from
+//! `si modbus serve` over a pseudo-terminal pair (socat: `apt-get install socat`; a skip with a
+//! message when it is missing, a failure with `CI` set) with the port and line given only by the
+//! profile in `SI_CONFIG`, and records them in its trace header.
+
+use crate::common;
+
+use common::modbus::{self, wait_for_echo};
+use common::{pty_pair, si_command, stderr, stdout, test_dir};
+
+const LINE: &[&str] = &["--baud", "19200", "--parity", "none"];
+
+#[test]
+fn modbus_read_takes_port_and_line_from_the_profile() {
+    let Some(pair) = pty_pair() else { return };
+    let (_serve, _, _log) = modbus::serve(&pair.a, LINE, &[]);
+    wait_for_echo(&pair.b, LINE, &[]);
+    let dir = test_dir("si-profile-pty");
+    let config = dir.join("config.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "[profile.plc1]\nport = \"{}\"\nbaud = 19200\nparity = \"none\"\n",
+            pair.b
+        ),
+    )
+    .unwrap();
+    let trace = dir.join("read.jsonl");
+    let o = si_command()
+        .env("SI_CONFIG", &config)
+        .args(["--json", "--profile", "plc1", "modbus", "read", "holding"])
+        .args(["--unit", "1", "--count", "2", "--record"])
+        .arg(&trace)
+        .output()
+        .expect("run si");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("\"values\":[0,0]"), "{}", stdout(&o));
+    let header = std::fs::read_to_string(&trace).unwrap();
+    let header = header.lines().next().unwrap_or_default();
+    assert!(
+        header.contains(r#""settings":{"baud":19200,"data_bits":8,"parity":"none","stop_bits":1}"#),
+        "{header}"
+    );
+}
