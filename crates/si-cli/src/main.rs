@@ -10,6 +10,7 @@ mod conn;
 mod error;
 mod help;
 mod hex;
+mod line_names;
 mod output;
 mod profile;
 mod scenario;

@@ -20,6 +20,8 @@ mod profile;
 mod r3964;
 #[path = "scenarios/rk512.rs"]
 mod rk512;
+#[path = "scenarios/structured.rs"]
+mod structured;
 #[path = "scenarios/svg.rs"]
 mod svg;
 #[path = "scenarios/uss.rs"]

@@ -174,7 +174,7 @@ fn ten_ms(name: &str, value: u32, min: u32) -> Result<u16, CliError> {
 impl JobArg {
     fn job(&self) -> Result<Job, CliError> {
         Ok(match self {
-            JobArg::Send { hex } => Job::Send(Bytes::from(parse_hex_args(&hex)?)),
+            JobArg::Send { hex } => Job::Send(Bytes::from(parse_hex_args(hex)?)),
             JobArg::Receive => Job::Receive,
             JobArg::ReadV24 => Job::ReadV24,
             JobArg::WriteV24 { rts, dtr } => Job::WriteV24 {

@@ -743,8 +743,11 @@ impl DecodeArgs {
         let crc = u16::from_le_bytes([adu[adu.len() - 2], adu[adu.len() - 1]]);
         out.line(
             &format!("{reading}: {text}, CRC {crc:04X} ok"),
+            // The PDU's fields as read each way (null where that reading fails).
             json!({"reading": reading, "unit": adu[0], "function": adu[1],
-                   "decoded": text, "crc": format!("{crc:04X}")}),
+                   "request": as_request.as_ref().ok().map(|(_, r)| r),
+                   "response": as_response.as_ref().ok().map(|(_, p)| p),
+                   "crc": format!("{crc:04X}")}),
         );
         Ok(())
     }

@@ -550,6 +550,7 @@ impl DecodeArgs {
                     ),
                     json!({
                         "telegram": "command",
+                        "job": command_name(h.command),
                         "command": letter.to_string(),
                         "data_type": (h.address.data_type().letter() as char).to_string(),
                         "address": h.address.to_string(),
@@ -572,6 +573,7 @@ impl DecodeArgs {
                 ),
                 json!({
                     "telegram": "continuation",
+                    "job": command_name(h.command),
                     "command": (h.command.letter() as char).to_string(),
                     "data_type": (h.data_type.letter() as char).to_string(),
                 }),

@@ -6,6 +6,7 @@ use crate::common;
 
 use common::{si_command, stderr, stdout, test_dir};
 use std::process::Output;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 const FILE: &str = "\
 [profile.plc1]
@@ -21,7 +22,10 @@ baud = 1200
 /// `si ARGS` with `SI_CONFIG` naming a file holding `toml`.
 fn si_with(toml: &str, args: &[&str]) -> Output {
     let dir = test_dir("si-profile");
-    let path = dir.join(format!("{}.toml", toml.len()));
+    // One file per call: tests run in parallel, and a file rewritten while another `si` reads
+    // it would read empty.
+    static NEXT: AtomicUsize = AtomicUsize::new(0);
+    let path = dir.join(format!("{}.toml", NEXT.fetch_add(1, Ordering::Relaxed)));
     std::fs::write(&path, toml).unwrap();
     si_command()
         .env("SI_CONFIG", &path)
