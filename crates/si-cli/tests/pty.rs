@@ -15,6 +15,8 @@ mod modbus_frame_end;
 mod modbus_interop;
 #[path = "pty/modbus_serial_example.rs"]
 mod modbus_serial_example;
+#[path = "pty/modbus_serve_map.rs"]
+mod modbus_serve_map;
 #[path = "pty/modbus_usb_relay.rs"]
 mod modbus_usb_relay;
 #[path = "pty/monitor.rs"]

@@ -1,6 +1,8 @@
 //! `si modbus`: Modbus RTU master jobs, a slave serving simulated SIMATIC memory, offline
 //! frames, and simulator scenarios (et200s-si-modbus-uss.md §3–§5).
 
+mod serve_map;
+
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
@@ -574,9 +576,12 @@ async fn serve(
         counters: memory.counters,
         dbs: memory.dbs.iter().map(|d| (d.number, d.length)).collect(),
     };
-    let store = SimaticStore::new(
-        Memory::new(&sizes),
-        file.conversion.unwrap_or(ConversionDb::EXAMPLE),
+    let conversion = file.conversion.unwrap_or(ConversionDb::EXAMPLE);
+    let map = serve_map::ServeMap::new(&conversion, &sizes);
+    let store = serve_map::Explaining::new(
+        SimaticStore::new(Memory::new(&sizes), conversion),
+        map.clone(),
+        *out,
     );
     let config = SlaveConfig {
         line: line_config(
@@ -608,6 +613,7 @@ async fn serve(
                "gap_us": config.line.gap().as_micros(),
                "frame_end": match frame_end { FrameEnd::Gap => "gap", FrameEnd::Length => "length" }}),
     );
+    map.print(unit, out);
     loop {
         tokio::select! {
             event = server.next_event() => match event {
