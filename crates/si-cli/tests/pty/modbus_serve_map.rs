@@ -4,20 +4,18 @@
 
 use crate::common;
 
-use common::modbus::{self, served, wait_for_echo};
-use common::{pty_pair, stderr};
-
-const LINE: &[&str] = &["--baud", "19200", "--parity", "none"];
+use common::modbus::{self, served};
+use common::stderr;
 
 #[test]
 fn serve_prints_its_address_map_and_explains_a_refusal() {
-    let Some(pair) = pty_pair() else { return };
-    let (_serve, _, log) = modbus::serve(&pair.a, LINE, &[]);
-    wait_for_echo(&pair.b, LINE, &[]);
+    let Some((pair, _serve, log, line)) = modbus::serving_8n1() else {
+        return;
+    };
     // Table 3-20's conversion DB over the default memory: FC03 reaches DB6 only.
     let o = modbus::si_on(
         &pair.b,
-        LINE,
+        line,
         &[
             "modbus", "read", "holding", "--unit", "1", "--addr", "500", "--count", "20",
         ],
@@ -27,14 +25,14 @@ fn serve_prints_its_address_map_and_explains_a_refusal() {
     // Past every FC02 range of the conversion DB: exception 02.
     let o = modbus::si_on(
         &pair.b,
-        LINE,
+        line,
         &[
             "modbus", "read", "discrete", "--unit", "1", "--addr", "12300",
         ],
     );
     assert!(stderr(&o).contains("exception 02"), "{}", stderr(&o));
     let log = served(&log);
-    for line in [
+    for want in [
         "unit 1 serves coils (FC01/05/15) 0..=2039: M500.0 … M754.7, writes to MB500..=MB1200 only",
         "unit 1 serves holding registers (FC03/06/16) 0..=511: DB6.DBW0 … DB6.DBW1022, writable",
         "unit 1 serves input registers (FC04) 2048..=2559: DB6.DBW0 … DB6.DBW1022",
@@ -44,8 +42,8 @@ fn serve_prints_its_address_map_and_explains_a_refusal() {
          12300 is outside the discrete inputs served: 8160..=10199, 10200..=11087",
     ] {
         assert!(
-            log.lines().any(|l| l == line),
-            "missing {line:?} in:\n{log}"
+            log.lines().any(|l| l == want),
+            "missing {want:?} in:\n{log}"
         );
     }
 }

@@ -5,16 +5,15 @@
 
 use crate::common;
 
-use common::modbus::{self, wait_for_echo};
-use common::{pty_pair, si_command, stderr, stdout, test_dir};
-
-const LINE: &[&str] = &["--baud", "19200", "--parity", "none"];
+use common::modbus;
+use common::{si_command, stderr, stdout, test_dir};
 
 #[test]
 fn modbus_read_takes_port_and_line_from_the_profile() {
-    let Some(pair) = pty_pair() else { return };
-    let (_serve, _, _log) = modbus::serve(&pair.a, LINE, &[]);
-    wait_for_echo(&pair.b, LINE, &[]);
+    let Some((pair, _serve, _log, _)) = modbus::serving_8n1() else {
+        return;
+    };
+    // The profile names the master's end and the server's 19 200 bit/s 8N1; no line flag given.
     let dir = test_dir("si-profile-pty");
     let config = dir.join("config.toml");
     std::fs::write(
