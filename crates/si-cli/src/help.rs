@@ -25,9 +25,24 @@ const OFFLINE: &[&[&str]] = &[
     &["dp-coord", "host"],
 ];
 
-/// The line options that still mean something to `si sim`: the simulated line's character
-/// format, and `--record` for its trace. The port options are hidden there.
-const SIM_USES: &[&str] = &["baud", "data_bits", "parity", "stop_bits", "record"];
+/// The commands that use only some line options, and those they use: the others are hidden.
+/// `si sim` takes the simulated line's character format and `--record` for its trace; `si
+/// ports` looks at one port (`--port`) and may set its latency timer; both take them from a
+/// `--profile` too.
+const PARTLY: &[(&str, &[&str])] = &[
+    (
+        "sim",
+        &[
+            "profile",
+            "baud",
+            "data_bits",
+            "parity",
+            "stop_bits",
+            "record",
+        ],
+    ),
+    ("ports", &["profile", "port", "latency_timer"]),
+];
 
 /// The tree as the user sees it: line options hidden where unused, the hex rule beside every
 /// `HEX` argument.
@@ -42,7 +57,10 @@ pub fn arrange(cli: Command) -> Command {
             .filter(|a| !keep.contains(&a.get_id().as_str()))
             .fold(sub, |sub, a| sub.arg(a.clone().hide(true)))
     };
-    let mut cli = cli.mut_subcommand("sim", |sim| hide(sim, SIM_USES));
+    let mut cli = cli;
+    for (name, uses) in PARTLY {
+        cli = cli.mut_subcommand(name, |sub| hide(sub, uses));
+    }
     for path in OFFLINE {
         cli = at_path(cli, path, &|sub| hide(sub, &[]));
     }

@@ -103,6 +103,17 @@ fn sim_shows_the_character_format_but_no_port() {
 }
 
 #[test]
+fn ports_shows_only_the_port_and_its_latency_timer() {
+    let text = help(&["ports"]);
+    for option in ["--port <", "--latency-timer", "--profile"] {
+        assert!(text.contains(option), "{option} missing:\n{text}");
+    }
+    for option in ["--baud", "--tcp", "--rs485", "--record"] {
+        assert!(!text.contains(option), "{option} shown:\n{text}");
+    }
+}
+
+#[test]
 fn every_byte_argument_documents_the_same_hex_rule() {
     for args in [
         &["3964r", "send"][..],
