@@ -86,11 +86,11 @@ fn bits(
     (area, byte, size): (Area, u16, u32),
     writes: Option<String>,
 ) -> Option<Range> {
-    let available = size.saturating_sub(u32::from(byte)) * 8;
+    let available = size.saturating_sub(u32::from(byte)).saturating_mul(8);
     if from > to || available == 0 {
         return None;
     }
-    let last = u32::from(to).min(u32::from(from) + available - 1);
+    let last = u32::from(to).min(u32::from(from).saturating_add(available - 1));
     let end = last - u32::from(from);
     Some(Range {
         table,
@@ -107,11 +107,11 @@ fn bits(
 
 /// A bit range onto timers or counters from `number`, 16 bits an element, FC01 only.
 fn elements((from, to): (u16, u16), (area, number, count): (Area, u16, u32)) -> Option<Range> {
-    let available = count.saturating_sub(u32::from(number)) * 16;
+    let available = count.saturating_sub(u32::from(number)).saturating_mul(16);
     if from > to || available == 0 {
         return None;
     }
-    let last = u32::from(to).min(u32::from(from) + available - 1);
+    let last = u32::from(to).min(u32::from(from).saturating_add(available - 1));
     Some(Range {
         table: Table::Coils,
         first: from,
@@ -448,6 +448,20 @@ mod tests {
             .collect();
         assert_eq!(input.len(), 5);
         assert_eq!(input[4].last, 2559);
+    }
+
+    #[test]
+    fn huge_memory_sizes_from_a_config_file_do_not_overflow() {
+        let sizes = MemorySizes {
+            inputs: u32::MAX,
+            outputs: u32::MAX,
+            flags: u32::MAX,
+            timers: u32::MAX,
+            counters: u32::MAX,
+            ..MemorySizes::default()
+        };
+        let map = ServeMap::new(&ConversionDb::EXAMPLE, &sizes);
+        assert_eq!(find(&map, Table::Coils, 0).last, 2039);
     }
 
     #[test]
