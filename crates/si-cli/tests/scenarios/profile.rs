@@ -99,6 +99,24 @@ fn a_flag_port_replaces_the_profiles_line() {
 }
 
 #[test]
+fn si_port_counts_as_given_and_wins_over_the_profile() {
+    let dir = test_dir("si-profile");
+    let path = dir.join("env.toml");
+    std::fs::write(&path, FILE).unwrap();
+    let o = si_command()
+        .env("SI_CONFIG", &path)
+        .env("SI_PORT", "/nonexistent/from-env")
+        .args(["--profile", "plc1", "modbus", "read", "holding", "-u", "1"])
+        .output()
+        .expect("run si");
+    assert!(
+        stderr(&o).contains("/nonexistent/from-env"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
 fn a_bad_value_gives_the_range_error_with_file_line_and_key() {
     let o = si_with(
         "[profile.x]\nport = \"/dev/null\"\nbaud = 12345\n",
