@@ -14,55 +14,64 @@ use si_core::{Duration, Parity, SerialSettings, SignalUpdate};
 use std::path::PathBuf;
 use std::sync::{Arc, OnceLock};
 
-/// Options every command that talks to a line shares.
+/// Options every command that talks to a line shares, under their own help heading
+/// ([`LINE_OPTIONS`], set on each so it does not carry over to the options declared after them); `crate::help` hides them where a command opens no line.
+///
+/// A value comes from, in this order: the flag (or its environment variable, `SI_PORT`), the
+/// `--profile` named in the settings file (`crate::profile`), the default shown here.
 #[derive(Debug, Clone, Args)]
 pub struct Connection {
+    /// Take the line options from this profile of the settings file ($SI_CONFIG, else
+    /// $XDG_CONFIG_HOME/si/config.toml or ~/.config/si/config.toml); a flag given on the
+    /// command line wins over the profile.
+    #[arg(long, global = true, help_heading = LINE_OPTIONS, value_name = "NAME")]
+    pub profile: Option<String>,
     /// Serial port, e.g. /dev/ttyUSB0 or COM3.
-    #[arg(long, global = true, conflicts_with = "tcp", env = "SI_PORT")]
+    #[arg(long, global = true, help_heading = LINE_OPTIONS, conflicts_with = "tcp", env = "SI_PORT")]
     pub port: Option<String>,
     /// TCP serial device server, e.g. 192.0.2.10:4001 (raw TCP mode).
-    #[arg(long, global = true, value_name = "HOST:PORT")]
+    #[arg(long, global = true, help_heading = LINE_OPTIONS, value_name = "HOST:PORT")]
     pub tcp: Option<String>,
     /// Baud rate: 110, 300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 76800, 115200.
-    #[arg(long, global = true, default_value_t = 9600)]
+    #[arg(long, global = true, help_heading = LINE_OPTIONS, default_value_t = 9600)]
     pub baud: u32,
     /// Data bits: 7 or 8.
-    #[arg(long, global = true, default_value_t = 8)]
+    #[arg(long, global = true, help_heading = LINE_OPTIONS, default_value_t = 8)]
     pub data_bits: u8,
     /// Parity: none, even, odd, mark, space (the manuals' "any" is space).
-    #[arg(long, global = true, default_value = "even")]
+    #[arg(long, global = true, help_heading = LINE_OPTIONS, default_value = "even")]
     pub parity: String,
     /// Stop bits: 1 or 2.
-    #[arg(long, global = true, default_value_t = 1)]
+    #[arg(long, global = true, help_heading = LINE_OPTIONS, default_value_t = 1)]
     pub stop_bits: u8,
     /// Set the USB adapter's latency timer to MS milliseconds (1–255) before use (Linux,
     /// /sys/bus/usb-serial/devices/TTY/latency_timer; needs write permission there). 1 makes
     /// an FTDI-type adapter deliver received bytes at once instead of every 16 ms.
-    #[arg(long, global = true, value_name = "MS")]
+    #[arg(long, global = true, help_heading = LINE_OPTIONS, value_name = "MS")]
     pub latency_timer: Option<u64>,
     /// RS-485 direction control: `kernel` (the UART driver's RS-485 mode, Linux TIOCSRS485)
     /// or `rts` (this program raises RTS around each transmission).
-    #[arg(long, global = true, value_enum, value_name = "HOW")]
+    #[arg(long, global = true, help_heading = LINE_OPTIONS, value_enum, value_name = "HOW")]
     pub rs485: Option<Rs485Mode>,
     /// With --rs485: RTS on this long before the first bit (ms).
-    #[arg(long, global = true, default_value_t = 0, value_name = "MS")]
+    #[arg(long, global = true, help_heading = LINE_OPTIONS, default_value_t = 0, value_name = "MS")]
     pub rs485_delay_before: u64,
     /// With --rs485: RTS kept on this long after the last bit (ms).
-    #[arg(long, global = true, default_value_t = 0, value_name = "MS")]
+    #[arg(long, global = true, help_heading = LINE_OPTIONS, default_value_t = 0, value_name = "MS")]
     pub rs485_delay_after: u64,
     /// The port hears its own transmission (two-wire RS-485 adapter with its receiver always
     /// on, a bus tap): drop that echo instead of taking it for the partner's answer. Not
     /// together with a Modbus/USS config's own `local_echo`, which would then discard the
     /// answer.
-    #[arg(long, global = true)]
+    #[arg(long, global = true, help_heading = LINE_OPTIONS)]
     pub local_echo: bool,
     /// Do not put the port in line-error mode (Linux PARMRK): parity, framing and BREAK are
     /// then not reported, as on other platforms.
-    #[arg(long, global = true)]
+    #[arg(long, global = true, help_heading = LINE_OPTIONS)]
     pub no_line_errors: bool,
     /// Record every byte sent and received (with its time) into this trace file, JSON lines;
     /// `si monitor --trace FILE` decodes it. With `si sim`, records the simulated line.
-    #[arg(long, global = true, value_name = "FILE")]
+    #[arg(long, global = true, help_heading = LINE_OPTIONS, value_name = "FILE")]
     pub record: Option<PathBuf>,
     /// The protocol the command speaks, written into the trace header (set by `main`).
     #[arg(skip)]
@@ -192,6 +201,9 @@ impl Connection {
 /// Makes the passive monitor for a protocol (by its trace-header name) on a line with these
 /// settings; `None` if the protocol has none.
 pub type LineDecoder = fn(&str, SerialSettings) -> Option<Box<dyn Decoder + Send>>;
+
+/// The help heading of the line options.
+pub const LINE_OPTIONS: &str = "Line options";
 
 /// The station name this program's side has in a recorded trace.
 pub const STATION: &str = "si";

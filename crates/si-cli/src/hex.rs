@@ -1,12 +1,94 @@
-//! The user's hex arguments.
+//! The user's hex arguments: one rule for every command that takes bytes.
 //!
 //! A leaf module: the protocol commands, `si frame` and the module commands all read hex, so it
 //! lives below them rather than in one of them.
+//!
+//! The rule ([`HEX_HELP`]): the bytes may be given as separate words (`01 02 10 03`), as one
+//! quoted string (`"01 02 10 03"`, `"01021003"`) or mixed; words are joined with spaces and read
+//! by [`si_core::hex::parse`], so `,` `:` `-` also separate and each group may carry `0x` (or the
+//! manuals' `16#`, as the numbers of the issue-18 radix convention do). A group
+//! needs an even number of digits (`0203` is two bytes, `2` is an error, not `02`).
 
 use crate::error::CliError;
 
-/// Parse the user's hex argument, turning a mistake into a one-line error. Frame commands take
-/// the bytes as one quoted argument or as several words (`01 03 00 00`), joined with spaces.
+/// The hex rule in one sentence, for the help of every argument that takes bytes
+/// (`#[arg(help = crate::hex::HEX_HELP)]`), so all commands document the same rule.
+pub const HEX_HELP: &str = "Hex as separate words (01 02 10 03) or one quoted string \
+     (\"01021003\"); , : - also separate, 0x or 16# may lead a group, each group an even \
+     number of digits";
+
+/// Parse the user's hex argument, turning a mistake into a one-line error. A group may carry the
+/// manuals' `16#` prefix as well as `0x`.
 pub fn parse_hex(text: &str) -> Result<Vec<u8>, CliError> {
-    si_core::hex::parse(text).map_err(|e| CliError::new(format!("bad hex {text:?}: {e}")))
+    si_core::hex::parse(&without_16_prefix(text))
+        .map_err(|e| CliError::new(format!("bad hex {text:?}: {e}")))
+}
+
+/// `text` with each group's `16#` (the SIMATIC notation, `16#0A`) blanked out: spaces in its
+/// place, so an error still names the position in what the user typed.
+fn without_16_prefix(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut group_start = true;
+    let mut rest = text;
+    while let Some(c) = rest.chars().next() {
+        if group_start && rest.starts_with("16#") {
+            out.push_str("   ");
+            rest = &rest[3..];
+            group_start = false;
+            continue;
+        }
+        group_start = c.is_whitespace() || matches!(c, ',' | ':' | '-');
+        out.push(c);
+        rest = &rest[c.len_utf8()..];
+    }
+    out
+}
+
+/// Parse hex given as several command-line words (`01 02 10 03`, or one quoted string), the
+/// rule of [`HEX_HELP`].
+pub fn parse_hex_args(words: &[String]) -> Result<Vec<u8>, CliError> {
+    parse_hex(&words.join(" "))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn words(w: &[&str]) -> Vec<String> {
+        w.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn separate_words_one_string_and_prefixes_give_the_same_bytes() {
+        let want = vec![0x01, 0x02, 0x10, 0x03];
+        assert_eq!(
+            parse_hex_args(&words(&["01", "02", "10", "03"])).unwrap(),
+            want
+        );
+        assert_eq!(parse_hex_args(&words(&["01 02 10 03"])).unwrap(), want);
+        assert_eq!(parse_hex_args(&words(&["01021003"])).unwrap(), want);
+        assert_eq!(
+            parse_hex_args(&words(&["0x01,0x02", "1003"])).unwrap(),
+            want
+        );
+        assert_eq!(
+            parse_hex_args(&words(&["16#01", "16#0210", "03"])).unwrap(),
+            want
+        );
+    }
+
+    #[test]
+    fn an_error_after_16_names_the_position_in_what_was_typed() {
+        let e = parse_hex_args(&words(&["16#0G"])).unwrap_err();
+        assert!(e.0.contains("'G' at position 5"), "{}", e.0);
+        // `16#` inside a group is not a prefix.
+        assert!(parse_hex_args(&words(&["0116#02"])).is_err());
+    }
+
+    #[test]
+    fn a_lone_digit_is_an_error_naming_the_input() {
+        let e = parse_hex_args(&words(&["01", "2"])).unwrap_err();
+        assert!(e.0.contains("\"01 2\""), "{}", e.0);
+        assert!(e.0.contains("odd number"), "{}", e.0);
+    }
 }

@@ -8,15 +8,18 @@
 mod cmd;
 mod conn;
 mod error;
+mod help;
 mod hex;
+mod line_names;
 mod logs;
 mod output;
 mod preset;
+mod profile;
 mod radix;
 mod scenario;
 mod svg;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use error::CliError;
 use output::Output;
 use std::process::ExitCode;
@@ -80,10 +83,13 @@ enum Command {
     /// USS master: poll drives, read and write parameters; a simulated drive.
     #[command(subcommand)]
     Uss(cmd::uss::Command),
+    /// Print the completion script for a shell (bash, zsh, fish, elvish, powershell).
+    Completions(cmd::completions::CompletionsArgs),
 }
 
 fn main() -> ExitCode {
-    let mut cli = Cli::parse();
+    let matches = help::arrange(Cli::command()).get_matches();
+    let mut cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     cli.connection.protocol = match &cli.command {
         Command::R3964(_) => Some("3964r"),
         Command::Rk512(_) => Some("rk512"),
@@ -99,7 +105,7 @@ fn main() -> ExitCode {
     // Frames are logged only when INFO is on for si_core::frame_log (-v, or RUST_LOG).
     cli.connection.frame_log = Some(cmd::monitor::line_decoder);
     let out = Output { json: cli.json };
-    let result = match cli.command {
+    let result = profile::apply(&mut cli.connection, &matches).and_then(|()| match cli.command {
         Command::Ports => cmd::ports::run(&cli.connection, &out),
         Command::Frame(c) => c.run(&out),
         Command::Monitor(a) => runtime().and_then(|rt| rt.block_on(a.run(&cli.connection, &out))),
@@ -116,7 +122,8 @@ fn main() -> ExitCode {
         Command::Modbus(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
         Command::DpCoord(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
         Command::Uss(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
-    };
+        Command::Completions(a) => a.run(help::arrange(Cli::command())),
+    });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(CliError(text)) => {

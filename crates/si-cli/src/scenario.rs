@@ -7,10 +7,11 @@
 
 use crate::cmd::monitor::MonitorArgs;
 use crate::error::CliError;
+use crate::line_names::{named_trace, Naming};
 use crate::output::{write_stdout, Output};
 use si_core::sim::Trace;
 use si_core::SerialSettings;
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::path::PathBuf;
 
 /// A named simulation.
@@ -53,16 +54,21 @@ struct Active {
 thread_local! {
     /// Set by [`run`] around one scenario; read by [`print_trace`].
     static SINK: RefCell<Option<Active>> = const { RefCell::new(None) };
+    /// The running scenario's protocol, set by [`run`]: how [`print_trace`] names its control
+    /// characters.
+    static NAMING: Cell<Option<Naming>> = const { Cell::new(None) };
 }
 
-/// Run `scenario` (called `name`) with `options`, saving its trace to `sink` if given.
+/// Run `scenario` (called `name`, speaking `protocol` on its line) with `options`, saving its
+/// trace to `sink` if given.
 pub fn run(
     scenario: &Scenario,
-    name: &str,
+    (name, protocol): (&str, Option<&'static str>),
     options: &SimOptions,
     sink: Option<Sink>,
     out: &Output,
 ) -> Result<(), CliError> {
+    NAMING.with(|n| n.set(protocol.and_then(Naming::for_protocol)));
     SINK.with(|s| {
         *s.borrow_mut() = sink.map(|sink| Active {
             sink,
@@ -151,6 +157,9 @@ pub fn print_trace(trace: &Trace, out: &Output) {
             ));
         }
     } else {
-        write_stdout(format_args!("{trace}"));
+        match NAMING.with(Cell::get) {
+            Some(naming) => write_stdout(format_args!("{}", named_trace(trace, naming))),
+            None => write_stdout(format_args!("{trace}")),
+        }
     }
 }

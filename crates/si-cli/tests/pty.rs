@@ -7,6 +7,8 @@ mod ascii;
 mod common;
 #[path = "pty/dpcoord.rs"]
 mod dpcoord;
+#[path = "pty/hex_input.rs"]
+mod hex_input;
 #[path = "pty/logs.rs"]
 mod logs;
 #[path = "pty/modbus_frame_end.rs"]
@@ -17,12 +19,16 @@ mod modbus_interop;
 mod modbus_poll;
 #[path = "pty/modbus_serial_example.rs"]
 mod modbus_serial_example;
+#[path = "pty/modbus_serve_map.rs"]
+mod modbus_serve_map;
 #[path = "pty/modbus_usb_relay.rs"]
 mod modbus_usb_relay;
 #[path = "pty/monitor.rs"]
 mod monitor;
 #[path = "pty/port_flags.rs"]
 mod port_flags;
+#[path = "pty/profile.rs"]
+mod profile;
 #[path = "pty/r3964.rs"]
 mod r3964;
 #[path = "pty/rk512.rs"]

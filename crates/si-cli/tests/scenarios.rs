@@ -8,16 +8,22 @@ mod common;
 mod dpcoord;
 #[path = "scenarios/examples.rs"]
 mod examples;
+#[path = "scenarios/help.rs"]
+mod help;
 #[path = "scenarios/modbus.rs"]
 mod modbus;
 #[path = "scenarios/module.rs"]
 mod module;
 #[path = "scenarios/monitor.rs"]
 mod monitor;
+#[path = "scenarios/profile.rs"]
+mod profile;
 #[path = "scenarios/r3964.rs"]
 mod r3964;
 #[path = "scenarios/rk512.rs"]
 mod rk512;
+#[path = "scenarios/structured.rs"]
+mod structured;
 #[path = "scenarios/svg.rs"]
 mod svg;
 #[path = "scenarios/uss.rs"]

@@ -192,6 +192,13 @@ impl PartialEq for Bits<'_> {
 }
 impl Eq for Bits<'_> {}
 
+/// The bits in order, as booleans.
+impl serde::Serialize for Bits<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(self.iter())
+    }
+}
+
 impl fmt::Debug for Bits<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "Bits[")?;
@@ -248,6 +255,13 @@ impl PartialEq for Registers<'_> {
 }
 impl Eq for Registers<'_> {}
 
+/// The registers in order, as numbers.
+impl serde::Serialize for Registers<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(self.iter())
+    }
+}
+
 impl fmt::Debug for Registers<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "[")?;
@@ -262,7 +276,11 @@ impl fmt::Debug for Registers<'_> {
 }
 
 /// A request PDU (§3.3, §4.3, §5.7).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+///
+/// Serializes (for JSON output) as `{"pdu": "read_holding_registers", "fields": {"address": 0,
+/// "quantity": 10}}`: the variant's name in snake case, its fields by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(tag = "pdu", content = "fields", rename_all = "snake_case")]
 pub enum Request<'a> {
     /// 01: `start`, `quantity` 1–2040.
     ReadCoils {
@@ -374,6 +392,13 @@ impl ExceptionCode {
     }
 }
 
+/// The byte on the wire (01–07).
+impl serde::Serialize for ExceptionCode {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_u8(self.code())
+    }
+}
+
 impl fmt::Display for ExceptionCode {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let text = match self {
@@ -390,7 +415,11 @@ impl fmt::Display for ExceptionCode {
 }
 
 /// A response PDU (§4.4, §5.7).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+///
+/// Serializes like [`Request`]: `{"pdu": "read_holding_registers", "fields": [1, 2]}`, bits as
+/// booleans, registers as numbers, an exception code as its byte.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(tag = "pdu", content = "fields", rename_all = "snake_case")]
 pub enum Response<'a> {
     /// 01: whole bytes of coils; [`Bits::truncate`] to the requested quantity.
     ReadCoils(Bits<'a>),

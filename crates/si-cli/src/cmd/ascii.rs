@@ -6,7 +6,7 @@
 
 use crate::conn::Connection;
 use crate::error::CliError;
-use crate::hex::parse_hex;
+use crate::hex::{parse_hex, parse_hex_args};
 use crate::output::Output;
 use crate::preset::module_preset;
 use crate::scenario::{print_trace, Scenario, SimOptions};
@@ -142,9 +142,9 @@ fn parse_end(words: &[String]) -> Result<EndCriterion, CliError> {
 /// `si ascii send`.
 #[derive(Debug, Args)]
 pub struct SendArgs {
-    /// The frame in hex, e.g. "48 49 0D 0A".
-    #[arg(required_unless_present = "text", conflicts_with = "text")]
-    hex: Option<String>,
+    /// The frame, e.g. 48 49 0D 0A.
+    #[arg(required_unless_present = "text", conflicts_with = "text", num_args = 1.., value_name = "HEX")]
+    hex: Vec<String>,
     /// The frame as text; \r \n \t \\ \0 and \xHH are understood.
     #[arg(long)]
     text: Option<String>,
@@ -247,9 +247,9 @@ fn ascii_error(e: AsciiError) -> CliError {
 
 async fn send(a: SendArgs, conn: &Connection, out: &Output) -> Result<(), CliError> {
     let frame = match (&a.hex, &a.text) {
-        (Some(hex), _) => parse_hex(hex)?,
-        (None, Some(text)) => unescape(text)?,
-        (None, None) => return Err(CliError::new("give the frame as HEX or --text")),
+        (_, Some(text)) => unescape(text)?,
+        (hex, None) if !hex.is_empty() => parse_hex_args(hex)?,
+        _ => return Err(CliError::new("give the frame as HEX or --text")),
     };
     let config = a.driver.config(conn.settings()?)?;
     let port = Handle::spawn(config, conn.open().await?)?;

@@ -31,7 +31,7 @@
 
 use crate::conn::Connection;
 use crate::error::CliError;
-use crate::hex::parse_hex;
+use crate::hex::{parse_hex, parse_hex_args};
 use crate::output::Output;
 use crate::preset::module_preset;
 use crate::scenario::{print_trace, record_trace, Scenario, SimOptions};
@@ -138,7 +138,7 @@ pub enum JobArg {
     /// Job 1: send a frame (hex) to the module's serial partner.
     Send {
         /// The frame, e.g. `61 62 63` or `616263`.
-        #[arg(required = true, num_args = 1..)]
+        #[arg(required = true, num_args = 1.., value_name = "HEX")]
         hex: Vec<String>,
     },
     /// Job 2: fetch the oldest received frame.
@@ -204,7 +204,7 @@ fn ten_ms(name: &str, value: u32, min: u32) -> Result<u16, CliError> {
 impl JobArg {
     fn job(&self) -> Result<Job, CliError> {
         Ok(match self {
-            JobArg::Send { hex } => Job::Send(Bytes::from(parse_hex(&hex.join(" "))?)),
+            JobArg::Send { hex } => Job::Send(Bytes::from(parse_hex_args(hex)?)),
             JobArg::Receive => Job::Receive,
             JobArg::ReadV24 => Job::ReadV24,
             JobArg::WriteV24 { rts, dtr } => Job::WriteV24 {

@@ -14,6 +14,7 @@
 //! and errors (`crate::error`).
 
 pub mod ascii;
+pub mod completions;
 pub mod dpcoord;
 pub mod frame;
 pub mod modbus;

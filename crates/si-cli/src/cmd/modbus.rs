@@ -17,6 +17,8 @@ use format::{ValueFormat, WordOrder};
 use poll::PollArgs;
 use report::Report;
 
+mod serve_map;
+
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
@@ -511,9 +513,12 @@ async fn serve(
         counters: memory.counters,
         dbs: memory.dbs.iter().map(|d| (d.number, d.length)).collect(),
     };
-    let store = SimaticStore::new(
-        Memory::new(&sizes),
-        file.conversion.unwrap_or(ConversionDb::EXAMPLE),
+    let conversion = file.conversion.unwrap_or(ConversionDb::EXAMPLE);
+    let map = serve_map::ServeMap::new(&conversion, &sizes);
+    let store = serve_map::Explaining::new(
+        SimaticStore::new(Memory::new(&sizes), conversion),
+        map.clone(),
+        *out,
     );
     let config = SlaveConfig {
         line: line_config(
@@ -545,6 +550,7 @@ async fn serve(
                "gap_us": config.line.gap().as_micros(),
                "frame_end": match frame_end { FrameEnd::Gap => "gap", FrameEnd::Length => "length" }}),
     );
+    map.print(unit, out);
     loop {
         tokio::select! {
             event = server.next_event() => match event {
@@ -610,7 +616,7 @@ pub struct EncodeArgs {
 impl EncodeArgs {
     /// Append the CRC (low byte first) and say how the frame reads.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let body = crate::hex::parse_hex(&self.hex.join(" "))?;
+        let body = crate::hex::parse_hex_args(&self.hex)?;
         if body.len() < 2 {
             return Err(CliError::new(
                 "give at least the slave address and the function code",
@@ -662,7 +668,7 @@ pub struct DecodeArgs {
 impl DecodeArgs {
     /// Check the CRC, then read the frame as a request, else as a response.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let adu = crate::hex::parse_hex(&self.hex.join(" "))?;
+        let adu = crate::hex::parse_hex_args(&self.hex)?;
         let as_request = frame::decode_request(&adu);
         let as_response = frame::decode_response(&adu);
         match (&as_request, &as_response) {
@@ -680,8 +686,11 @@ impl DecodeArgs {
         let crc = u16::from_le_bytes([adu[adu.len() - 2], adu[adu.len() - 1]]);
         out.line(
             &format!("{reading}: {text}, CRC {crc:04X} ok"),
+            // The PDU's fields as read each way (null where that reading fails).
             json!({"reading": reading, "unit": adu[0], "function": adu[1],
-                   "decoded": text, "crc": format!("{crc:04X}")}),
+                   "request": as_request.as_ref().ok().map(|(_, r)| r),
+                   "response": as_response.as_ref().ok().map(|(_, p)| p),
+                   "crc": format!("{crc:04X}")}),
         );
         Ok(())
     }

@@ -10,7 +10,7 @@
 //!   DRIVER` prints a file with the manual's defaults to start from.
 
 use crate::error::CliError;
-use crate::hex::parse_hex;
+use crate::hex::parse_hex_args;
 use crate::output::Output;
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
@@ -44,7 +44,7 @@ pub enum VariantArg {
 #[derive(Debug, Args)]
 pub struct DiagDecodeArgs {
     /// The diagnosis bytes in hex, as one argument or several words.
-    #[arg(required = true, num_args = 1..)]
+    #[arg(required = true, num_args = 1.., value_name = "HEX")]
     hex: Vec<String>,
     /// The module variant, for the wording of the channel errors.
     #[arg(long, value_enum, default_value_t)]
@@ -62,7 +62,7 @@ impl DiagCommand {
 
 impl DiagDecodeArgs {
     fn run(&self, out: &Output) -> Result<(), CliError> {
-        let bytes = parse_hex(&self.hex.join(" "))?;
+        let bytes = parse_hex_args(&self.hex)?;
         let d = SlaveDiagnosis::decode(&bytes).map_err(|e| CliError::new(e.to_string()))?;
         let variant = match self.variant {
             VariantArg::R3964Ascii => Variant::R3964Ascii,
@@ -167,7 +167,7 @@ pub enum ImCommand {
 #[derive(Debug, Args)]
 pub struct ImDecodeArgs {
     /// The record in hex, as one argument or several words.
-    #[arg(required = true, num_args = 1..)]
+    #[arg(required = true, num_args = 1.., value_name = "HEX")]
     hex: Vec<String>,
 }
 
@@ -187,7 +187,7 @@ impl ImCommand {
     pub fn run(self, out: &Output) -> Result<(), CliError> {
         match self {
             ImCommand::Decode(a) => {
-                let bytes = parse_hex(&a.hex.join(" "))?;
+                let bytes = parse_hex_args(&a.hex)?;
                 match Record::decode(&bytes).map_err(|e| CliError::new(e.to_string()))? {
                     Record::Im0(r) => out.line(
                         &format!(

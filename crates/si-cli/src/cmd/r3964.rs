@@ -26,9 +26,9 @@ pub enum Command {
 /// `si 3964r send`.
 #[derive(Debug, Args)]
 pub struct SendArgs {
-    /// The block in hex, e.g. "41 42 10 43".
-    #[arg(required_unless_present = "text", conflicts_with = "text")]
-    hex: Option<String>,
+    /// The block, e.g. 41 42 10 43.
+    #[arg(required_unless_present = "text", conflicts_with = "text", num_args = 1.., value_name = "HEX")]
+    hex: Vec<String>,
     /// The block as text (its UTF-8 bytes) instead of hex.
     #[arg(long)]
     text: Option<String>,
@@ -120,8 +120,8 @@ impl SendArgs {
     async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         let data = match (&self.hex, &self.text) {
             (_, Some(text)) => text.as_bytes().to_vec(),
-            (Some(hex), None) => crate::hex::parse_hex(hex)?,
-            (None, None) => return Err(CliError::new("give the block as HEX or --text")),
+            (hex, None) if !hex.is_empty() => crate::hex::parse_hex_args(hex)?,
+            _ => return Err(CliError::new("give the block as HEX or --text")),
         };
         let config = self.link.config()?;
         let settings = conn.settings()?;
@@ -200,7 +200,7 @@ pub struct EncodeArgs {
 impl EncodeArgs {
     /// Print the block that follows the partner's DLE: stuffed data, DLE ETX, BCC.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let payload = crate::hex::parse_hex(&self.hex.join(" "))?;
+        let payload = crate::hex::parse_hex_args(&self.hex)?;
         let mode = mode(self.no_bcc);
         let block = frame::encode(&payload, mode);
         let text = si_core::hex::format(&block);
@@ -230,7 +230,7 @@ pub struct DecodeArgs {
 impl DecodeArgs {
     /// Print the payload, or fail naming what is wrong (and its STATUS).
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let block = crate::hex::parse_hex(&self.hex.join(" "))?;
+        let block = crate::hex::parse_hex_args(&self.hex)?;
         match frame::decode(&block, mode(self.no_bcc), self.max_len) {
             Ok(payload) => {
                 let text = si_core::hex::format(&payload);

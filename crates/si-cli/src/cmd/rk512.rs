@@ -200,8 +200,9 @@ pub struct SendArgs {
     target: Target,
     #[command(flatten)]
     link: LinkArgs,
-    /// The data in hex (an even number of bytes: SEND counts data words).
-    hex: String,
+    /// The data (an even number of bytes: SEND counts data words).
+    #[arg(required = true, num_args = 1.., value_name = "HEX")]
+    hex: Vec<String>,
 }
 
 /// `si rk512 fetch`.
@@ -267,7 +268,7 @@ async fn failed(station: &Handle, what: &str, e: StationError) -> CliError {
 
 impl SendArgs {
     async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
-        let data = crate::hex::parse_hex(&self.hex)?;
+        let data = crate::hex::parse_hex_args(&self.hex)?;
         let address = self.target.address();
         let coordination = self.target.coordination()?;
         let config = self.link.config(Priority::High)?;
@@ -518,7 +519,7 @@ fn command_name(c: si_rk512::Command) -> &'static str {
 impl DecodeArgs {
     /// Print the header fields (and the data, if any); fail naming offset, expected and found.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let bytes = crate::hex::parse_hex(&self.hex.join(" "))?;
+        let bytes = crate::hex::parse_hex_args(&self.hex)?;
         let telegram = Telegram::decode(&bytes).map_err(|e| CliError::new(e.to_string()))?;
         let (text, value, data) = match telegram {
             Telegram::Command(h, data) => {
@@ -549,6 +550,7 @@ impl DecodeArgs {
                     ),
                     json!({
                         "telegram": "command",
+                        "job": command_name(h.command),
                         "command": letter.to_string(),
                         "data_type": (h.address.data_type().letter() as char).to_string(),
                         "address": h.address.to_string(),
@@ -571,6 +573,7 @@ impl DecodeArgs {
                 ),
                 json!({
                     "telegram": "continuation",
+                    "job": command_name(h.command),
                     "command": (h.command.letter() as char).to_string(),
                     "data_type": (h.data_type.letter() as char).to_string(),
                 }),

@@ -103,13 +103,14 @@ impl SimArgs {
             seed: self.seed,
             settings,
         };
+        let protocol = protocol_of(name);
         let sink = (record.is_some() || self.svg.is_some()).then(|| Sink {
-            protocol: protocol_of(name),
+            protocol,
             settings,
             record: record.map(Path::to_path_buf),
             svg: self.svg.clone(),
         });
-        scenario::run(scenario, name, &options, sink, out)
+        scenario::run(scenario, (name, protocol), &options, sink, out)
     }
 }
 

@@ -565,7 +565,7 @@ pub struct EncodeArgs {
 impl EncodeArgs {
     /// Run it.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let bytes = crate::hex::parse_hex(&self.hex.join(" "))?;
+        let bytes = crate::hex::parse_hex_args(&self.hex)?;
         let (&adr, net) = bytes
             .split_first()
             .ok_or_else(|| CliError::new("give at least the ADR byte"))?;
@@ -597,7 +597,7 @@ pub struct DecodeArgs {
 impl DecodeArgs {
     /// Run it.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
-        let bytes = crate::hex::parse_hex(&self.hex.join(" "))?;
+        let bytes = crate::hex::parse_hex_args(&self.hex)?;
         let t = frame::decode(&bytes)?;
         let mut text = format!(
             "ADR {:02X}H (slave {}{}), LGE {}, {} net bytes: {}",

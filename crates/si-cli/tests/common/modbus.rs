@@ -61,6 +61,22 @@ pub fn serve(port: &str, line: &[&str], extra: &[&str]) -> (Kill, String, Receiv
     (Kill(child), first, rx)
 }
 
+/// `si modbus serve --unit 1` on one end of a fresh pty pair at 19 200 bit/s 8N1, answering
+/// on the other: the pair, the server process, its later lines, and the master's line flags.
+/// `None` when socat is missing (a skip, see [`super::pty_pair`]).
+pub fn serving_8n1() -> Option<(
+    super::PtyPair,
+    Kill,
+    Receiver<String>,
+    &'static [&'static str],
+)> {
+    const LINE: &[&str] = &["--baud", "19200", "--parity", "none"];
+    let pair = super::pty_pair()?;
+    let (server, _, log) = serve(&pair.a, LINE, &[]);
+    wait_for_echo(&pair.b, LINE, &[]);
+    Some((pair, server, log, LINE))
+}
+
 /// What `serve` printed so far, one line per served request, after giving it 200 ms to log
 /// its last answers.
 pub fn served(rx: &Receiver<String>) -> String {

@@ -1,0 +1,254 @@
+//! Named line profiles from a settings file: `--profile plc1` instead of typing `--port --baud
+//! --parity` every time (issue 19).
+//!
+//! The file is TOML, read from `$SI_CONFIG` if set, else the platform's configuration
+//! directory: `$XDG_CONFIG_HOME/si/config.toml` or `~/.config/si/config.toml` (Linux and other
+//! Unix), `~/Library/Application Support/si/config.toml` (macOS), `%APPDATA%\si\config.toml`
+//! (Windows). It is read only when `--profile` is given. Each profile is a table of the line
+//! options, named as the flags with `_` for `-`:
+//!
+//! ```toml
+//! [profile.plc1]
+//! port = "/dev/ttyUSB0"
+//! baud = 19200
+//! parity = "even"      # none, even, odd, mark, space
+//! data_bits = 8
+//! stop_bits = 1
+//! ```
+//!
+//! Also `tcp`, `latency_timer`, `rs485` (`kernel`/`rts`), `rs485_delay_before`,
+//! `rs485_delay_after`, `local_echo`, `no_line_errors`. An unknown key is refused with its line;
+//! baud, data bits, parity and stop bits are checked with the same errors as the flags
+//! ([`SerialSettings`]), naming the file, line and key. The baud rate is checked against the
+//! widest list (USS adds 187 500 bit/s); the command then checks its own list, as for the flag.
+//!
+//! Precedence: a flag on the command line (or its environment variable, `SI_PORT`) wins over
+//! the profile, which wins over the default. A `--port` or `--tcp` flag replaces both of the
+//! profile's `port` and `tcp`: a line is chosen as a whole.
+
+use crate::conn::{Connection, Rs485Mode};
+use crate::error::CliError;
+use clap::parser::ValueSource;
+use clap::ArgMatches;
+use serde::Deserialize;
+use si_core::{Parity, SerialSettings, SettingsError};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use toml::Spanned;
+
+/// The settings file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SettingsFile {
+    /// The named profiles.
+    #[serde(default)]
+    profile: BTreeMap<String, Profile>,
+}
+
+/// One named profile: the line options it supplies.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Profile {
+    port: Option<String>,
+    tcp: Option<String>,
+    baud: Option<Spanned<u32>>,
+    data_bits: Option<Spanned<u8>>,
+    parity: Option<Spanned<String>>,
+    stop_bits: Option<Spanned<u8>>,
+    latency_timer: Option<u64>,
+    rs485: Option<Rs485Name>,
+    rs485_delay_before: Option<u64>,
+    rs485_delay_after: Option<u64>,
+    local_echo: Option<bool>,
+    no_line_errors: Option<bool>,
+}
+
+/// `rs485` in a profile, spelled as the flag's values.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum Rs485Name {
+    Kernel,
+    Rts,
+}
+
+impl From<Rs485Name> for Rs485Mode {
+    fn from(n: Rs485Name) -> Self {
+        match n {
+            Rs485Name::Kernel => Rs485Mode::Kernel,
+            Rs485Name::Rts => Rs485Mode::Rts,
+        }
+    }
+}
+
+/// Where the settings file is: `$SI_CONFIG`, else `si/config.toml` in the platform's
+/// configuration directory (see the module doc).
+pub fn settings_path() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("SI_CONFIG") {
+        return Some(PathBuf::from(p));
+    }
+    config_dir().map(|d| d.join("si").join("config.toml"))
+}
+
+/// The platform's per-user configuration directory, by the platform's own rule (the few lines
+/// the `dirs` crate would add a dependency for).
+fn config_dir() -> Option<PathBuf> {
+    let var = |name: &str| {
+        std::env::var_os(name)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
+    if cfg!(windows) {
+        var("APPDATA")
+    } else if cfg!(target_os = "macos") {
+        var("HOME").map(|h| h.join("Library/Application Support"))
+    } else {
+        var("XDG_CONFIG_HOME").or_else(|| var("HOME").map(|h| h.join(".config")))
+    }
+}
+
+/// Fill the line options the user did not give on the command line from `--profile`, if any.
+pub fn apply(conn: &mut Connection, matches: &ArgMatches) -> Result<(), CliError> {
+    let Some(name) = conn.profile.clone() else {
+        return Ok(());
+    };
+    let path = settings_path()
+        .ok_or_else(|| CliError::new("--profile: no settings file: set SI_CONFIG or HOME"))?;
+    let text = std::fs::read_to_string(&path).map_err(|e| {
+        CliError::new(format!(
+            "--profile {name}: cannot read {}: {e}",
+            path.display()
+        ))
+    })?;
+    let line_of = |offset: usize| text[..offset.min(text.len())].matches('\n').count() + 1;
+    let mut file: SettingsFile = toml::from_str(&text).map_err(|e| {
+        let line = e.span().map_or(1, |s| line_of(s.start));
+        CliError::new(format!("{}:{line}: {}", path.display(), e.message()))
+    })?;
+    let profile = file.profile.remove(&name).ok_or_else(|| {
+        let names: Vec<_> = file.profile.keys().map(String::as_str).collect();
+        CliError::new(format!(
+            "{}: no profile {name:?}; the file has: {}",
+            path.display(),
+            names.join(", ")
+        ))
+    })?;
+    let at = |key: &str, span: std::ops::Range<usize>, e: SettingsError| {
+        CliError::new(format!(
+            "{}:{}: [profile.{name}] {key}: {e}",
+            path.display(),
+            line_of(span.start)
+        ))
+    };
+    profile.check(&at)?;
+    profile.fill(conn, |id| explicit(matches, id));
+    Ok(())
+}
+
+impl Profile {
+    /// Check the character format with the flags' own errors ([`SerialSettings`]), each value
+    /// on its own so the error names the key; `at` places the error in the file.
+    fn check(
+        &self,
+        at: &dyn Fn(&str, std::ops::Range<usize>, SettingsError) -> CliError,
+    ) -> Result<(), CliError> {
+        let rates = &si_uss::config::USS_BAUD_RATES;
+        let format =
+            |baud, bits, stop| SerialSettings::with_rates(baud, bits, Parity::Even, stop, rates);
+        if let Some(b) = &self.baud {
+            format(*b.get_ref(), 8, 1).map_err(|e| at("baud", b.span(), e))?;
+        }
+        if let Some(d) = &self.data_bits {
+            format(9600, *d.get_ref(), 1).map_err(|e| at("data_bits", d.span(), e))?;
+        }
+        if let Some(s) = &self.stop_bits {
+            format(9600, 8, *s.get_ref()).map_err(|e| at("stop_bits", s.span(), e))?;
+        }
+        if let Some(p) = &self.parity {
+            p.get_ref()
+                .parse::<Parity>()
+                .map_err(|e| at("parity", p.span(), e))?;
+        }
+        Ok(())
+    }
+
+    /// Set each option the profile has and the command line did not give (`explicit`).
+    fn fill(self, conn: &mut Connection, explicit: impl Fn(&str) -> bool) {
+        fn set<T>(field: &mut T, value: Option<T>, given: bool) {
+            if let (Some(v), false) = (value, given) {
+                *field = v;
+            }
+        }
+        let line_given = explicit("port") || explicit("tcp");
+        if !line_given && (self.port.is_some() || self.tcp.is_some()) {
+            conn.port = self.port;
+            conn.tcp = self.tcp;
+        }
+        set(
+            &mut conn.baud,
+            self.baud.map(Spanned::into_inner),
+            explicit("baud"),
+        );
+        set(
+            &mut conn.data_bits,
+            self.data_bits.map(Spanned::into_inner),
+            explicit("data_bits"),
+        );
+        set(
+            &mut conn.parity,
+            self.parity.map(Spanned::into_inner),
+            explicit("parity"),
+        );
+        set(
+            &mut conn.stop_bits,
+            self.stop_bits.map(Spanned::into_inner),
+            explicit("stop_bits"),
+        );
+        set(
+            &mut conn.latency_timer,
+            self.latency_timer.map(Some),
+            explicit("latency_timer"),
+        );
+        set(
+            &mut conn.rs485,
+            self.rs485.map(|m| Some(m.into())),
+            explicit("rs485"),
+        );
+        set(
+            &mut conn.rs485_delay_before,
+            self.rs485_delay_before,
+            explicit("rs485_delay_before"),
+        );
+        set(
+            &mut conn.rs485_delay_after,
+            self.rs485_delay_after,
+            explicit("rs485_delay_after"),
+        );
+        set(
+            &mut conn.local_echo,
+            self.local_echo,
+            explicit("local_echo"),
+        );
+        set(
+            &mut conn.no_line_errors,
+            self.no_line_errors,
+            explicit("no_line_errors"),
+        );
+    }
+}
+
+/// Did the user give this option (flag or environment variable), at any level of the
+/// subcommands? A global option given after a subcommand is recorded in that subcommand's
+/// matches.
+fn explicit(matches: &ArgMatches, id: &str) -> bool {
+    let mut level = Some(matches);
+    while let Some(m) = level {
+        if matches!(
+            m.value_source(id),
+            Some(ValueSource::CommandLine | ValueSource::EnvVariable)
+        ) {
+            return true;
+        }
+        level = m.subcommand().map(|(_, sub)| sub);
+    }
+    false
+}
