@@ -58,7 +58,7 @@ const PROMISES: &[(&str, &[&str])] = &[
         "rk512_sim",
         &[
             "host: job 2 fetched 200 bytes",
-            "16#0909 DB/DX locked at the partner by a coordination flag",
+            "16#0909 target DB/DX locked at the partner by a coordination flag",
             "DB10.DBW0 = AA55",
         ],
     ),
