@@ -10,6 +10,7 @@ mod explain;
 mod format;
 mod poll;
 mod report;
+mod tcp;
 
 use address::{parse_u16, parse_unit, AddressArgs};
 use explain::{failure, status_text};
@@ -49,6 +50,8 @@ pub struct MasterOptions {
     retries: u8,
     #[command(flatten)]
     framing: FramingOptions,
+    #[command(flatten)]
+    modbus_tcp: tcp::ModbusTcp,
     /// Start each text line with the wall-clock time (RFC 3339, UTC, milliseconds); JSON
     /// lines always carry it as `timestamp`.
     #[arg(long)]
@@ -412,7 +415,8 @@ async fn open_master(conn: &Connection, o: &MasterOptions) -> Result<handle::Mas
     Ok(handle::Master::spawn_engine(master, port))
 }
 
-/// `request` on every `--unit`, once or as a poll ([`poll::run`]).
+/// `request` on every `--unit`, once or as a poll ([`poll::run`]), on the serial line or to
+/// the `--modbus-tcp` server.
 async fn jobs(
     conn: &Connection,
     o: &MasterOptions,
@@ -420,11 +424,16 @@ async fn jobs(
     polling: &PollArgs,
     report: &Report<'_>,
 ) -> Result<(), CliError> {
-    let mut m = open_master(conn, o).await?;
     let mut units = o.units.clone();
     // Each unit once, in the order given.
     let mut seen = std::collections::BTreeSet::new();
     units.retain(|u| seen.insert(*u));
+    // --timeout and --retries in the module's ranges, whichever way the jobs go.
+    master_config(conn, o)?;
+    if let Some(mut server) = o.modbus_tcp.connect(o.timeout, o.retries).await? {
+        return poll::run(&mut server, &units, request, polling, report).await;
+    }
+    let mut m = open_master(conn, o).await?;
     poll::run(&mut m, &units, request, polling, report).await
 }
 
