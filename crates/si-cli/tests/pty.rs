@@ -17,6 +17,8 @@ mod modbus_interop;
 mod modbus_poll;
 #[path = "pty/modbus_serial_example.rs"]
 mod modbus_serial_example;
+#[path = "pty/modbus_tcp.rs"]
+mod modbus_tcp;
 #[path = "pty/modbus_usb_relay.rs"]
 mod modbus_usb_relay;
 #[path = "pty/monitor.rs"]

@@ -14,6 +14,7 @@
 use super::explain::status_text;
 use super::poll::{JobError, Kind, Line, LineFailure};
 use super::report::Report;
+use crate::conn::Connection;
 use crate::error::CliError;
 use clap::Args;
 use si_modbus::frame::Request;
@@ -25,10 +26,10 @@ use std::time::Duration;
 #[derive(Debug, Clone, Default, Args)]
 pub struct ModbusTcp {
     /// Modbus TCP server, e.g. 192.0.2.20:502: the jobs go in MBAP frames, each --unit as the
-    /// unit id, instead of RTU over --port or --tcp (a raw serial device server). --timeout is
-    /// the wait for each answer (and for the connection); --retries sends again after a
-    /// timeout; the serial framing options do not apply. Unit 0 addresses the server itself
-    /// and is answered (no broadcast on TCP).
+    /// unit id, instead of RTU over --port or --tcp (a raw serial device server; SI_PORT
+    /// counts as --port). --timeout is the wait for each answer (and for the connection);
+    /// --retries sends again after a timeout; the serial framing options do not apply. Unit 0
+    /// addresses the server itself and is answered (no broadcast on TCP).
     #[arg(long = "modbus-tcp", value_name = "HOST:PORT",
           conflicts_with_all = ["port", "tcp", "record"])]
     pub server: Option<String>,
@@ -37,10 +38,16 @@ pub struct ModbusTcp {
 impl ModbusTcp {
     /// Connect when `--modbus-tcp` is given (`None`: the jobs go to the serial line), waiting
     /// at most `timeout_ms` for the connection.
-    pub async fn connect(&self, timeout_ms: u32, retries: u8) -> Result<Option<TcpLine>, CliError> {
+    pub async fn connect(
+        &self,
+        conn: &Connection,
+        timeout_ms: u32,
+        retries: u8,
+    ) -> Result<Option<TcpLine>, CliError> {
         let Some(server) = &self.server else {
             return Ok(None);
         };
+        refuse_serial_line(conn);
         let timeout = Duration::from_millis(u64::from(timeout_ms));
         let cannot = |why: String| CliError::new(format!("cannot connect to {server}: {why}"));
         let client = tokio::time::timeout(timeout, Client::connect(server.as_str()))
@@ -52,6 +59,25 @@ impl ModbusTcp {
             retries,
             server: server.clone(),
         }))
+    }
+}
+
+/// The usage error (exit 2) for `--modbus-tcp` with a serial line or a line recording. Clap's
+/// `conflicts_with` sees `--port`, `--tcp` and `--record` only when they follow the
+/// subcommand: given before it (`si --port P modbus read …`) they reach the subcommand after
+/// its conflicts were checked, so the same error is raised here.
+fn refuse_serial_line(conn: &Connection) {
+    let given = [
+        ("--port <PORT>", conn.port.is_some()),
+        ("--tcp <HOST:PORT>", conn.tcp.is_some()),
+        ("--record <FILE>", conn.record.is_some()),
+    ];
+    if let Some((flag, _)) = given.iter().find(|(_, set)| *set) {
+        clap::Error::raw(
+            clap::error::ErrorKind::ArgumentConflict,
+            format!("the argument '--modbus-tcp <HOST:PORT>' cannot be used with '{flag}'\n"),
+        )
+        .exit()
     }
 }
 
