@@ -1,7 +1,8 @@
 //! `si modbus`: Modbus RTU master jobs, a slave serving simulated SIMATIC memory, offline
 //! frames, and simulator scenarios (et200s-si-modbus-uss.md §3–§5).
 //!
-//! The master's jobs run once or as a poll over one or several units ([`poll`]), with
+//! The master's jobs run on the serial line or to a Modbus TCP server (`--modbus-tcp`,
+//! [`tcp`]), once or as a poll over one or several units ([`poll`]), with
 //! addresses in the user's numbering ([`address`]), registers shown in the user's format
 //! ([`format`](mod@format)) and one stamped line per outcome ([`report`](mod@report)).
 

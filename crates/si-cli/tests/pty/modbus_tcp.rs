@@ -11,9 +11,10 @@ use crate::common;
 
 use common::modbus::{have_pymodbus, pymodbus_server};
 use common::{si, stderr, stdout, text};
-use serde_json::Value;
+use serde_json::{json, Value};
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
+use std::process::Output;
 use std::time::{Duration, Instant};
 
 /// pymodbus TCP server on 127.0.0.1:argv[1], units 1 and 2 (data blocks start at 1 for wire
@@ -44,11 +45,25 @@ fn free_port() -> u16 {
         .port()
 }
 
-/// `si ARGS --modbus-tcp SERVER` that must succeed: its stdout trimmed.
-fn si_ok(server: &str, args: &[&str]) -> String {
-    let o = si(&[args, &["--modbus-tcp", server]].concat());
-    assert!(o.status.success(), "si {args:?} failed: {}", text(&o));
+/// `si ARGS --modbus-tcp SERVER`, the arguments split at spaces, run to its end.
+fn si_to(server: &str, args: &str) -> Output {
+    let args: Vec<&str> = args.split_whitespace().collect();
+    si(&[&args[..], &["--modbus-tcp", server]].concat())
+}
+
+/// [`si_to`] that must succeed: its stdout trimmed.
+fn si_ok(server: &str, args: &str) -> String {
+    let o = si_to(server, args);
+    assert!(o.status.success(), "si {args} failed: {}", text(&o));
     stdout(&o).trim().to_owned()
+}
+
+/// `--json` output as its JSON lines.
+fn json_lines(o: &Output) -> Vec<Value> {
+    stdout(o)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON line"))
+        .collect()
 }
 
 /// Ask `server` for an FC08 echo until it answers (a server just started may not listen
@@ -56,18 +71,9 @@ fn si_ok(server: &str, args: &[&str]) -> String {
 fn wait_for_echo(server: &str) {
     let start = Instant::now();
     loop {
-        let o = si(&[
-            "modbus",
-            "diag",
-            "--unit",
-            "1",
-            "--timeout",
-            "500",
-            "--modbus-tcp",
-            server,
-        ]);
+        let o = si_to(server, "modbus diag --unit 1 --timeout 500");
         if o.status.success() {
-            assert_eq!(stdout(&o).trim(), "unit 1 diagnostics echo 0xA537");
+            assert_eq!(stdout(&o).trim(), "unit 1 diagnostics echo 0xA537"); // FC08
             return;
         }
         assert!(
@@ -88,108 +94,45 @@ fn modbus_tcp_read_write_and_exception_against_pymodbus() {
     let _server = pymodbus_server(PYMODBUS_TCP_SERVER, &port);
     let server = format!("127.0.0.1:{port}");
     wait_for_echo(&server);
-    let a = "--addr";
+    let ok = |args| si_ok(&server, args);
     assert_eq!(
-        si_ok(
-            &server,
-            &["modbus", "read", "holding", "-u", "1", a, "0", "--count", "5"]
-        ),
+        ok("modbus read holding -u 1 --addr 0 --count 5"),
         "unit 1 FC03 0…4: 0 1 2 3 4"
     );
     assert_eq!(
-        si_ok(
-            &server,
-            &[
-                "modbus",
-                "write",
-                "registers",
-                "-u",
-                "1",
-                a,
-                "10",
-                "7",
-                "0x8",
-                "16#9"
-            ]
-        ),
+        ok("modbus write registers -u 1 --addr 10 7 0x8 16#9"),
         "unit 1 FC16 wrote 3 from 10"
     );
     assert_eq!(
-        si_ok(
-            &server,
-            &["modbus", "read", "holding", "-u", "1", a, "10", "--count", "3", "--format", "hex"]
-        ),
+        ok("modbus read holding -u 1 --addr 10 --count 3 --format hex"),
         "unit 1 FC03 10…12: 0x0007 0x0008 0x0009"
     );
-    // Coils come in whole bytes: shown up to the count asked.
+    // Bits come in whole bytes: shown up to the count asked.
     assert_eq!(
-        si_ok(
-            &server,
-            &["modbus", "read", "discrete", "-u", "1", a, "0", "--count", "3"]
-        ),
+        ok("modbus read discrete -u 1 --addr 0 --count 3"),
         "unit 1 FC02 0…2: 0 1 0"
     );
     // Past the 100 registers: exception 02 as the RTU master reports it (0E62H), exit 1.
-    let o = si(&[
-        "modbus",
-        "read",
-        "holding",
-        "-u",
-        "1",
-        a,
-        "98",
-        "--count",
-        "5",
-        "--modbus-tcp",
-        &server,
-    ]);
+    let o = si_to(&server, "modbus read holding -u 1 --addr 98 --count 5");
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
-    assert!(
-        stderr(&o).contains("16#0E62 exception 02 received: illegal data address"),
-        "{}",
-        text(&o)
-    );
+    let why = "16#0E62 exception 02 received: illegal data address";
+    assert!(stderr(&o).contains(why), "{}", text(&o));
     // Several units in one poll, each in its own MBAP unit id, with the counters per unit.
-    let o = si(&[
-        "--json",
-        "modbus",
-        "read",
-        "input",
-        "-u",
-        "1,2",
-        a,
-        "0",
-        "--count",
-        "2",
-        "--poll",
-        "10",
-        "--cycles",
-        "2",
-        "--modbus-tcp",
-        &server,
-    ]);
+    let poll = "--json modbus read input -u 1,2 --addr 0 --count 2 --poll 10 --cycles 2";
+    let o = si_to(&server, poll);
     assert!(o.status.success(), "{}", text(&o));
-    let lines: Vec<Value> = stdout(&o)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("JSON line"))
-        .collect();
-    let units: Vec<_> = lines
-        .iter()
-        .filter_map(|l| l["values"].as_array().map(|_| l["unit"].clone()))
-        .collect();
+    let lines = json_lines(&o);
+    let read: Vec<_> = lines.iter().filter(|l| l.get("values").is_some()).collect();
+    let units: Vec<_> = read.iter().map(|l| l["unit"].clone()).collect();
     assert_eq!(units, [1, 2, 1, 2], "{lines:?}");
-    assert!(lines
-        .iter()
-        .filter(|l| l.get("values").is_some())
-        .all(|l| l["values"] == serde_json::json!([1000, 1001])));
+    assert!(
+        read.iter().all(|l| l["values"] == json!([1000, 1001])),
+        "{lines:?}"
+    );
     let summaries: Vec<_> = lines.iter().filter_map(|l| l.get("summary")).collect();
     assert_eq!(summaries.len(), 2, "{lines:?}");
     for s in summaries {
-        assert_eq!(
-            (s["polls"].as_u64(), s["answers"].as_u64()),
-            (Some(2), Some(2)),
-            "{s}"
-        );
+        assert_eq!((&s["polls"], &s["answers"]), (&json!(2), &json!(2)), "{s}");
     }
 }
 
@@ -231,35 +174,12 @@ fn serve_one(stream: &mut TcpStream, reply: fn(&[u8]) -> Option<Vec<u8>>) {
 #[test]
 fn modbus_tcp_no_answer_is_the_response_timeout() {
     let server = fake_server(|_| None);
-    let o = si(&[
-        "modbus",
-        "read",
-        "holding",
-        "-u",
-        "1",
-        "--timeout",
-        "200",
-        "--modbus-tcp",
-        &server,
-    ]);
+    let o = si_to(&server, "modbus read holding -u 1 --timeout 200");
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(stderr(&o).contains("16#0830"), "{}", text(&o));
     // In a poll each timeout is counted, and the poll goes on.
-    let o = si(&[
-        "modbus",
-        "read",
-        "holding",
-        "-u",
-        "1",
-        "--timeout",
-        "100",
-        "--poll",
-        "1",
-        "--cycles",
-        "2",
-        "--modbus-tcp",
-        &server,
-    ]);
+    let poll = "modbus read holding -u 1 --timeout 100 --poll 1 --cycles 2";
+    let o = si_to(&server, poll);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let out = stdout(&o);
     assert_eq!(
@@ -267,10 +187,8 @@ fn modbus_tcp_no_answer_is_the_response_timeout() {
         2,
         "{out}"
     );
-    assert!(
-        out.contains("--- unit 1: 2 polls, 0 answers, 0 exceptions, 2 timeouts, 0 other errors"),
-        "{out}"
-    );
+    let counters = "--- unit 1: 2 polls, 0 answers, 0 exceptions, 2 timeouts, 0 other errors";
+    assert!(out.contains(counters), "{out}");
     assert!(stderr(&o).contains("2 of 2 polls failed"), "{}", text(&o));
 }
 
@@ -282,33 +200,18 @@ fn modbus_tcp_gateway_exception_is_counted_without_a_status() {
         answer.extend_from_slice(&[0, 3, req[6], req[7] | 0x80, 0x0B]);
         Some(answer)
     });
-    let o = si(&[
-        "--json",
-        "modbus",
-        "read",
-        "holding",
-        "-u",
-        "7",
-        "--poll",
-        "1",
-        "--cycles",
-        "1",
-        "--modbus-tcp",
+    let o = si_to(
         &server,
-    ]);
+        "--json modbus read holding -u 7 --poll 1 --cycles 1",
+    );
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
-    let lines: Vec<Value> = stdout(&o)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("JSON line"))
-        .collect();
+    let lines = json_lines(&o);
     assert_eq!(lines[0]["failed"], "exception", "{lines:?}");
     assert_eq!(lines[0]["unit"], 7);
     assert_eq!(lines[0]["status"], Value::Null);
+    let why = "exception 0BH (gateway target device failed to respond)";
     assert!(
-        lines[0]["error"]
-            .as_str()
-            .unwrap()
-            .contains("exception 0BH (gateway target device failed to respond)"),
+        lines[0]["error"].as_str().unwrap().contains(why),
         "{lines:?}"
     );
     assert_eq!(lines[1]["summary"]["exceptions"], 1, "{lines:?}");

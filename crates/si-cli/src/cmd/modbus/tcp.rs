@@ -98,7 +98,7 @@ impl Line for TcpLine {
         request: &Request<'_>,
         report: &Report<'_>,
     ) -> Result<(), JobError> {
-        // The module's checks on counts (§4.3); unit 0 is not a broadcast here (module docs).
+        // The module's checks on counts (§4.3); unit 0 is not a broadcast on TCP (see above).
         Master::check_job(unit.max(1), request)
             .map_err(|e| JobError::Fatal(CliError::new(status_text(e.status()))))?;
         let mut retries = self.retries;
