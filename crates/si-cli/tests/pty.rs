@@ -21,6 +21,8 @@ mod modbus_poll;
 mod modbus_serial_example;
 #[path = "pty/modbus_serve_map.rs"]
 mod modbus_serve_map;
+#[path = "pty/modbus_tcp.rs"]
+mod modbus_tcp;
 #[path = "pty/modbus_usb_relay.rs"]
 mod modbus_usb_relay;
 #[path = "pty/monitor.rs"]

@@ -1,7 +1,8 @@
 //! `si modbus`: Modbus RTU master jobs, a slave serving simulated SIMATIC memory, offline
 //! frames, and simulator scenarios (et200s-si-modbus-uss.md §3–§5).
 //!
-//! The master's jobs run once or as a poll over one or several units ([`poll`]), with
+//! The master's jobs run on the serial line or to a Modbus TCP server (`--modbus-tcp`,
+//! [`tcp`]), once or as a poll over one or several units ([`poll`]), with
 //! addresses in the user's numbering ([`address`]), registers shown in the user's format
 //! ([`format`](mod@format)) and one stamped line per outcome ([`report`](mod@report)).
 
@@ -10,6 +11,7 @@ mod explain;
 mod format;
 mod poll;
 mod report;
+mod tcp;
 
 use address::{parse_u16, parse_unit, AddressArgs};
 use explain::{failure, status_text};
@@ -51,6 +53,8 @@ pub struct MasterOptions {
     retries: u8,
     #[command(flatten)]
     framing: FramingOptions,
+    #[command(flatten)]
+    modbus_tcp: tcp::ModbusTcp,
     /// Start each text line with the wall-clock time (RFC 3339, UTC, milliseconds); JSON
     /// lines always carry it as `timestamp`.
     #[arg(long)]
@@ -414,7 +418,8 @@ async fn open_master(conn: &Connection, o: &MasterOptions) -> Result<handle::Mas
     Ok(handle::Master::spawn_engine(master, port))
 }
 
-/// `request` on every `--unit`, once or as a poll ([`poll::run`]).
+/// `request` on every `--unit`, once or as a poll ([`poll::run`]), on the serial line or to
+/// the `--modbus-tcp` server.
 async fn jobs(
     conn: &Connection,
     o: &MasterOptions,
@@ -422,11 +427,16 @@ async fn jobs(
     polling: &PollArgs,
     report: &Report<'_>,
 ) -> Result<(), CliError> {
-    let mut m = open_master(conn, o).await?;
     let mut units = o.units.clone();
     // Each unit once, in the order given.
     let mut seen = std::collections::BTreeSet::new();
     units.retain(|u| seen.insert(*u));
+    // --timeout and --retries in the module's ranges, whichever way the jobs go.
+    master_config(conn, o)?;
+    if let Some(mut server) = o.modbus_tcp.connect(conn, o.timeout, o.retries).await? {
+        return poll::run(&mut server, &units, request, polling, report).await;
+    }
+    let mut m = open_master(conn, o).await?;
     poll::run(&mut m, &units, request, polling, report).await
 }
 

@@ -125,10 +125,11 @@ fn flags(sub: &str) -> Vec<String> {
 #[test]
 fn serve_takes_every_framing_flag_read_takes() {
     let (read, serve) = (flags("read"), flags("serve"));
-    // Master-only job options: which slave, how long to wait, how often to retry or poll, what
-    // to read, and how to show it.
+    // Master-only job options: which slave (on a serial line or a Modbus TCP server), how long
+    // to wait, how often to retry or poll, what to read, and how to show it.
     let master_only = [
         "--unit",
+        "--modbus-tcp",
         "--timeout",
         "--retries",
         "--poll",

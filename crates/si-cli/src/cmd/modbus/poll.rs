@@ -17,7 +17,7 @@
 //! counts as another error. A job the master refuses before sending (0E4xH) or a closed port
 //! ends the run: repeating it could only fail the same way.
 
-use super::explain::failure;
+use super::explain::{failure, status_text};
 use super::report::Report;
 use clap::Args;
 use serde_json::json;
@@ -114,6 +114,69 @@ impl Counters {
     }
 }
 
+/// A job that failed on the line: counted, printed, and the poll goes on.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct LineFailure {
+    /// What the counters count it as.
+    pub kind: Kind,
+    /// The module's STATUS, when there is one (a Modbus TCP gateway exception 0AH/0BH has
+    /// none: the serial module never answers with it).
+    pub status: Option<Status>,
+    /// The STATUS with its text and remedy, or the failure described.
+    pub text: String,
+}
+
+impl LineFailure {
+    /// A failure with the module's STATUS.
+    pub fn of(status: Status) -> Self {
+        LineFailure {
+            kind: Kind::of(status),
+            status: Some(status),
+            text: status_text(status),
+        }
+    }
+}
+
+/// Why a job failed.
+#[derive(Debug)]
+pub enum JobError {
+    /// On the line: counted, the poll goes on.
+    Line(LineFailure),
+    /// Refused before sending, or the connection is gone: repeating could only fail the same
+    /// way, so the run ends.
+    Fatal(CliError),
+}
+
+/// Where a poll's jobs go: the RTU master on a serial line or device server, or a Modbus TCP
+/// client (`super::tcp`). One job at a time.
+pub trait Line {
+    /// Run one job and print its answer through `report`.
+    async fn job(
+        &mut self,
+        unit: u8,
+        request: &Request<'_>,
+        report: &Report<'_>,
+    ) -> Result<(), JobError>;
+}
+
+impl Line for Master {
+    async fn job(
+        &mut self,
+        unit: u8,
+        request: &Request<'_>,
+        report: &Report<'_>,
+    ) -> Result<(), JobError> {
+        match self.request(unit, request).await {
+            Ok(c) => {
+                report.completion(&c);
+                Ok(())
+            }
+            Err(ModbusError::Failed(status)) => Err(JobError::Line(LineFailure::of(status))),
+            Err(e) => Err(JobError::Fatal(failure(e))),
+        }
+    }
+}
+
 /// How a run ended, for the counters' line.
 #[derive(Debug, Clone, Copy)]
 enum End {
@@ -124,7 +187,7 @@ enum End {
 
 /// Run `request` on every unit once, or as a poll.
 pub async fn run(
-    master: &mut Master,
+    line: &mut impl Line,
     units: &[u8],
     request: &Request<'_>,
     polling: &PollArgs,
@@ -140,25 +203,21 @@ pub async fn run(
         cycle += 1;
         for (i, &unit) in units.iter().enumerate() {
             let result = tokio::select! {
-                r = master.request(unit, request) => r,
+                r = line.job(unit, request, report) => r,
                 Ok(()) = &mut interrupt => {
                     return interrupted(units, &counters, polling, report);
                 }
             };
             match result {
-                Ok(c) => {
-                    counters[i].answered();
-                    report.completion(&c);
+                Ok(()) => counters[i].answered(),
+                Err(JobError::Line(f)) if one_job => return Err(CliError::new(f.text)),
+                Err(JobError::Line(f)) => {
+                    counters[i].failed(f.kind);
+                    report.failed(unit, function, &f);
                 }
-                Err(e) if one_job => return Err(failure(e)),
-                Err(ModbusError::Failed(status)) => {
-                    let kind = Kind::of(status);
-                    counters[i].failed(kind);
-                    report.failed(unit, function, status, kind.name());
-                }
-                Err(e) => {
+                Err(JobError::Fatal(e)) => {
                     summary(units, &counters, polling, report, End::Fatal);
-                    return Err(failure(e));
+                    return Err(e);
                 }
             }
         }

@@ -1,8 +1,8 @@
 //! One line per job outcome, in the user's address numbering and value format, stamped with
 //! the wall clock: always in JSON (`timestamp`), in text with `--timestamps`.
 
-use super::explain::status_text;
 use super::format::{show, ValueFormat, WordOrder};
+use super::poll::LineFailure;
 use crate::output::Output;
 use serde_json::{json, Value as Json};
 use si_core::tracefile::rfc3339_millis;
@@ -44,25 +44,28 @@ impl Report<'_> {
         u32::from(pdu) + u32::from(self.base)
     }
 
-    /// A job that failed on the line, as one line: what the poll counts it as (`kind`) and
-    /// the STATUS with its text.
-    pub fn failed(&self, unit: u8, function: u8, status: Status, kind: &str) {
+    /// A job that failed on the line, as one line: what the poll counts it as and the STATUS
+    /// with its text (`status` is null for a failure the module has no STATUS for, a Modbus
+    /// TCP gateway exception).
+    pub fn failed(&self, unit: u8, function: u8, failure: &LineFailure) {
         self.emit(
-            &format!(
-                "unit {unit} FC{function:02} failed: {}",
-                status_text(status)
-            ),
-            json!({"unit": unit, "function": function, "failed": kind,
-                   "status": status.code(), "error": status_text(status)}),
+            &format!("unit {unit} FC{function:02} failed: {}", failure.text),
+            json!({"unit": unit, "function": function, "failed": failure.kind.name(),
+                   "status": failure.status.map(Status::code), "error": failure.text}),
         );
     }
 
-    /// One line per result: values for reads, the echo for writes.
+    /// One line per result of the RTU master: values for reads, the echo for writes.
     pub fn completion(&self, c: &Completion) {
-        let unit = c.unit();
-        let request = c.request();
+        self.answer(c.unit(), c.request(), c.response());
+    }
+
+    /// One line per answer however it came (RTU or Modbus TCP): values for reads, the echo
+    /// for writes; `None` is a broadcast. Coil and input reads are shown up to the quantity
+    /// asked (a response carries whole bytes).
+    pub fn answer(&self, unit: u8, request: Request<'_>, response: Option<Response<'_>>) {
         let function = request.function();
-        let Some(response) = c.response() else {
+        let Some(response) = response else {
             self.emit(
                 &format!("broadcast FC{function:02} sent (no reply by design)"),
                 json!({"unit": unit, "function": function, "broadcast": true}),
@@ -81,7 +84,12 @@ impl Report<'_> {
         let base = self.base;
         match response {
             Response::ReadCoils(bits) | Response::ReadDiscreteInputs(bits) => {
-                let values: Vec<u8> = bits.iter().map(u8::from).collect();
+                let asked = match request {
+                    Request::ReadCoils { quantity, .. }
+                    | Request::ReadDiscreteInputs { quantity, .. } => quantity,
+                    _ => u16::MAX,
+                };
+                let values: Vec<u8> = bits.truncate(asked).iter().map(u8::from).collect();
                 let text: Vec<String> = values.iter().map(u8::to_string).collect();
                 self.emit(
                     &format!(

@@ -1,0 +1,136 @@
+//! `--modbus-tcp HOST:PORT`: the master's jobs (`read`, `write`, `diag`, …) to a Modbus TCP
+//! server instead of an RTU slave, with the same output, formats, `--poll`, counters and
+//! STATUS texts (issue 20). Each `--unit` travels as the MBAP unit id; the PDU is the RTU
+//! one ([`si_modbus::tokio::tcp::Client`]).
+//!
+//! What is the module's and what is not: a job is checked before sending as the module's
+//! master checks it (§4.3, 0E43H–0E46H); a failure the module has a STATUS for reads as on a
+//! serial line (exceptions 01–07 as 0E61H–0E67H, no answer within `--timeout` as 0830H, an
+//! answer for another function as 0E51H; see [`Error::status`]). Gateway exceptions 0AH and
+//! 0BH have no STATUS: they are counted as exceptions and shown with the exception's name.
+//! Reading chosen for unit 0: Modbus TCP has no broadcast (the MBAP unit id 0 addresses the
+//! server itself), so a job to unit 0 waits for its answer like any other.
+
+use super::explain::status_text;
+use super::poll::{JobError, Kind, Line, LineFailure};
+use super::report::Report;
+use crate::conn::Connection;
+use crate::error::CliError;
+use clap::Args;
+use si_modbus::frame::Request;
+use si_modbus::master::Master;
+use si_modbus::tokio::tcp::{Client, Error};
+use std::time::Duration;
+
+/// `--modbus-tcp`.
+#[derive(Debug, Clone, Default, Args)]
+pub struct ModbusTcp {
+    /// Modbus TCP server, e.g. 192.0.2.20:502: the jobs go in MBAP frames, each --unit as the
+    /// unit id, instead of RTU over --port or --tcp (a raw serial device server; SI_PORT
+    /// counts as --port). --timeout is the wait for each answer (and for the connection);
+    /// --retries sends again after a timeout; the serial framing options do not apply. Unit 0
+    /// addresses the server itself and is answered (no broadcast on TCP).
+    #[arg(long = "modbus-tcp", value_name = "HOST:PORT",
+          conflicts_with_all = ["port", "tcp", "record"])]
+    pub server: Option<String>,
+}
+
+impl ModbusTcp {
+    /// Connect when `--modbus-tcp` is given (`None`: the jobs go to the serial line), waiting
+    /// at most `timeout_ms` for the connection.
+    pub async fn connect(
+        &self,
+        conn: &Connection,
+        timeout_ms: u32,
+        retries: u8,
+    ) -> Result<Option<TcpLine>, CliError> {
+        let Some(server) = &self.server else {
+            return Ok(None);
+        };
+        refuse_serial_line(conn);
+        let timeout = Duration::from_millis(u64::from(timeout_ms));
+        let cannot = |why: String| CliError::new(format!("cannot connect to {server}: {why}"));
+        let client = tokio::time::timeout(timeout, Client::connect(server.as_str()))
+            .await
+            .map_err(|_| cannot(format!("no connection within {timeout:?}")))?
+            .map_err(|e| cannot(e.to_string()))?;
+        Ok(Some(TcpLine {
+            client: client.with_timeout(timeout),
+            retries,
+            server: server.clone(),
+        }))
+    }
+}
+
+/// The usage error (exit 2) for `--modbus-tcp` with a serial line or a line recording. Clap's
+/// `conflicts_with` sees `--port`, `--tcp` and `--record` only when they follow the
+/// subcommand: given before it (`si --port P modbus read …`) they reach the subcommand after
+/// its conflicts were checked, so the same error is raised here.
+fn refuse_serial_line(conn: &Connection) {
+    let given = [
+        ("--port <PORT>", conn.port.is_some()),
+        ("--tcp <HOST:PORT>", conn.tcp.is_some()),
+        ("--record <FILE>", conn.record.is_some()),
+    ];
+    if let Some((flag, _)) = given.iter().find(|(_, set)| *set) {
+        clap::Error::raw(
+            clap::error::ErrorKind::ArgumentConflict,
+            format!("the argument '--modbus-tcp <HOST:PORT>' cannot be used with '{flag}'\n"),
+        )
+        .exit()
+    }
+}
+
+/// A Modbus TCP connection running a poll's jobs.
+#[derive(Debug)]
+pub struct TcpLine {
+    client: Client,
+    /// Sends again after a timeout, as the RTU master's `--retries`.
+    retries: u8,
+    /// HOST:PORT, for the error that ends a run.
+    server: String,
+}
+
+impl Line for TcpLine {
+    async fn job(
+        &mut self,
+        unit: u8,
+        request: &Request<'_>,
+        report: &Report<'_>,
+    ) -> Result<(), JobError> {
+        // The module's checks on counts (§4.3); unit 0 is not a broadcast on TCP (see above).
+        Master::check_job(unit.max(1), request)
+            .map_err(|e| JobError::Fatal(CliError::new(status_text(e.status()))))?;
+        let mut retries = self.retries;
+        let answer = loop {
+            match self.client.request(unit, request).await {
+                Err(Error::Timeout(_)) if retries > 0 => retries -= 1,
+                result => break result,
+            }
+        };
+        let adu = answer.map_err(|e| self.failed(e))?;
+        // `request` checked that the answer decodes.
+        let (_, response) = adu.decode_response().map_err(|e| self.failed(e.into()))?;
+        report.answer(unit, *request, Some(response));
+        Ok(())
+    }
+}
+
+impl TcpLine {
+    /// How a failure is counted: an exception, a timeout or a malformed answer is on the line
+    /// and the poll goes on; a broken connection ends the run.
+    fn failed(&self, e: Error) -> JobError {
+        let kind = match e {
+            Error::Exception { .. } => Kind::Exception,
+            Error::Timeout(_) => Kind::Timeout,
+            Error::Mismatch { .. } | Error::Decode(_) => Kind::Other,
+            _ => return JobError::Fatal(CliError::new(format!("{}: {e}", self.server))),
+        };
+        let status = e.status();
+        JobError::Line(LineFailure {
+            kind,
+            status,
+            text: status.map_or_else(|| e.to_string(), status_text),
+        })
+    }
+}
