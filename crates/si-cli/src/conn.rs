@@ -148,6 +148,19 @@ impl Connection {
         })
     }
 
+    /// The error of a command whose line closed under it: one line naming the port that hung
+    /// up or the TCP peer that closed the connection, exit 1 (issue 21: a lost line is an
+    /// error, never a success).
+    pub fn closed(&self) -> CliError {
+        CliError::new(match (&self.port, &self.tcp) {
+            (Some(path), _) => format!("the line closed: {path} hung up"),
+            (None, Some(addr)) => {
+                format!("the line closed: TCP peer {addr} closed the connection")
+            }
+            (None, None) => "the line closed".to_owned(),
+        })
+    }
+
     /// The port options the global flags ask for.
     pub fn port_options(&self) -> PortOptions {
         let delays = (

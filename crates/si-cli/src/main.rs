@@ -2,7 +2,8 @@
 //!
 //! `si <protocol> <action>` over `--port` or `--tcp`, `si frame encode|decode` offline,
 //! `si sim` for two simulated peers. Human output by default, `--json` lines for scripts,
-//! `-v`/`-vv`/`-vvv` for `tracing` logs on stderr ([`logs`]). Errors print one line and exit non-zero; a protocol failure
+//! `-v`/`-vv`/`-vvv` for `tracing` logs on stderr ([`logs`]). Errors print one line and exit non-zero (1 a
+//! protocol or I/O failure, 2 usage, 130 interrupted: [`error::EXIT_CODES`]); a protocol failure
 //! prints its STATUS.
 
 mod cmd;
@@ -23,7 +24,7 @@ use std::process::ExitCode;
 
 /// Speak the SIMATIC ET 200S serial interface module protocols: 3964(R), RK 512, ASCII, Modbus RTU, USS.
 #[derive(Debug, Parser)]
-#[command(name = "si", version, about, propagate_version = true)]
+#[command(name = "si", version, about, propagate_version = true, after_help = error::EXIT_CODES)]
 struct Cli {
     #[command(flatten)]
     connection: conn::Connection,
@@ -119,9 +120,9 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(CliError(text)) => {
-            eprintln!("si: error: {text}");
-            ExitCode::FAILURE
+        Err(e) => {
+            eprintln!("si: error: {}", e.text());
+            ExitCode::from(e.code())
         }
     }
 }

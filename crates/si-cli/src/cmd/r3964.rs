@@ -121,7 +121,7 @@ impl SendArgs {
         let data = match (&self.hex, &self.text) {
             (_, Some(text)) => text.as_bytes().to_vec(),
             (Some(hex), None) => crate::hex::parse_hex(hex)?,
-            (None, None) => return Err(CliError::new("give the block as HEX or --text")),
+            (None, None) => return Err(CliError::usage("give the block as HEX or --text")),
         };
         let config = self.link.config()?;
         let settings = conn.settings()?;
@@ -168,7 +168,7 @@ impl RecvArgs {
                 Some(Err(status)) => {
                     eprintln!("si: receive error {}", described(status));
                 }
-                None => return Err(CliError::new("the line closed")),
+                None => return Err(conn.closed()),
             }
         }
         // Our DLE for the last block is already written; give the port a moment to drain it.
