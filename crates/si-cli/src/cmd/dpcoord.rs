@@ -823,3 +823,23 @@ fn scenario_modbus(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     print_trace(sim.trace(), out);
     print_fb_results(sent, ("A", got), out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_window_status_has_its_text_or_says_it_is_not_in_the_catalog() {
+        assert_eq!(
+            described(Status::from_code(0x49D1)),
+            "16#49D1 (not in the catalog)"
+        );
+        let len = described(Status::from_code(0x1E41));
+        assert!(len.starts_with("16#1E41 invalid number of bytes"), "{len}");
+        // Codes of the drivers behind the module: 3964(R) 0703H, ASCII 0708H.
+        let setup = described(Status::from_code(0x0703));
+        assert_eq!(setup, si_3964r::status::SETUP_TIMEOUT.to_string());
+        let xon = described(Status::from_code(0x0708));
+        assert_eq!(xon, si_ascii::status::XON_CTS_TIMEOUT.to_string());
+    }
+}

@@ -208,7 +208,7 @@ fn parse_param(text: &str, index: Option<u8>) -> Result<ParamAddress, CliError> 
         (Some(i), None) => radix::u8_arg(i).map_err(bad)?,
         (None, i) => i.unwrap_or(0),
     };
-    Ok(ParamAddress::new(number, index)?)
+    ParamAddress::new(number, index).map_err(|e| CliError::usage(e.to_string()))
 }
 
 /// The value to write as the bit pattern of a word or double word; negative values are
