@@ -431,7 +431,7 @@ impl ModuleArgs {
                 let link = si_3964r::Link::new(config, settings)?;
                 let module =
                     engines::r3964r_module(self.window, link)?.with_exec_wrap(self.exec_after_7);
-                serve(module, transport, settings, self.window, out).await
+                serve(module, transport, settings, self.window, conn, out).await
             }
             Protocol::Ascii => {
                 let config = si_ascii::Config {
@@ -448,7 +448,7 @@ impl ModuleArgs {
                 let link = si_ascii::Link::new(config)?;
                 let module =
                     engines::ascii_module(self.window, link)?.with_exec_wrap(self.exec_after_7);
-                serve(module, transport, settings, self.window, out).await
+                serve(module, transport, settings, self.window, conn, out).await
             }
             Protocol::Modbus => {
                 let config = si_modbus::MasterConfig {
@@ -462,18 +462,20 @@ impl ModuleArgs {
                 let master = si_modbus::Master::new(config)?;
                 let module =
                     modbus::master_module(self.window, master)?.with_exec_wrap(self.exec_after_7);
-                serve(module, transport, settings, self.window, out).await
+                serve(module, transport, settings, self.window, conn, out).await
             }
         }
     }
 }
 
-/// Runs the module over the transport; each stdin line is one DP cycle.
+/// Runs the module over the transport; each stdin line is one DP cycle. The end of stdin ends
+/// it (exit 0); the line closing first is an error naming it (exit 1).
 async fn serve<E>(
     module: Module<EngineSerial<E>>,
     transport: Box<dyn Transport>,
     settings: SerialSettings,
     window: WindowSize,
+    conn: &Connection,
     out: &Output,
 ) -> Result<(), CliError>
 where
@@ -514,7 +516,9 @@ where
             }
             event = handle.next_event() => match event {
                 Some(e) => tracing::info!("line: {e:?}"),
-                None => break,
+                // The driver stopped while stdin still has cycles: the line closed (issue 21,
+                // a lost line is an error). Stdin's end is the module's normal end.
+                None => return Err(conn.closed()),
             },
         }
     }

@@ -1,5 +1,5 @@
 //! A lost line is an error (issue 21): every long-running role (`modbus serve`, `uss
-//! sim-slave`, `monitor`, `3964r recv`, `rk512 serve`, `ascii recv`) exits 1 with one line
+//! sim-slave`, `monitor`, `3964r recv`, `rk512 serve`, `ascii recv`, `dp-coord module`) exits 1 with one line
 //! naming what closed when its pseudo-terminal hangs up (socat killed) or its TCP peer closes
 //! the connection; Ctrl-C exits 130. `modbus serve` logs each request with the text of its own
 //! code. socat makes the pty pairs (`apt-get install socat`): missing, the pty tests skip with a
@@ -52,9 +52,11 @@ fn ended(child: Child, what: &str) -> Output {
 fn hang_up(args: &[&str], feed: &[&[u8]]) -> Option<(Output, String)> {
     let pair = pty_pair()?;
     let port = pair.a.clone();
+    // stdin stays open (dp-coord module ends with it) until the child is reaped.
     let child = si_command()
         .args(["--port", &port])
         .args(args)
+        .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -108,8 +110,12 @@ fn monitor_exits_1_when_its_pty_hangs_up_after_printing_its_counters() {
 }
 
 #[test]
-fn r3964_recv_and_rk512_serve_name_the_pty_that_hung_up() {
-    for args in [&["3964r", "recv"][..], &["rk512", "serve"][..]] {
+fn r3964_recv_rk512_serve_and_dp_coord_module_name_the_pty_that_hung_up() {
+    for args in [
+        &["3964r", "recv"][..],
+        &["rk512", "serve"][..],
+        &["dp-coord", "module", "--protocol", "ascii"][..],
+    ] {
         let Some((o, port)) = hang_up(args, &[]) else {
             return;
         };
@@ -210,6 +216,7 @@ fn peer_closes(args: &[&str]) -> (Output, String) {
     let child = si_command()
         .args(["--tcp", &addr])
         .args(args)
+        .stdin(Stdio::piped())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -222,13 +229,14 @@ fn peer_closes(args: &[&str]) -> (Output, String) {
 
 #[test]
 fn every_long_running_role_exits_1_naming_the_tcp_peer_that_closed() {
-    let roles: [&[&str]; 6] = [
+    let roles: [&[&str]; 7] = [
         &["modbus", "serve", "--unit", "1"],
         &["uss", "sim-slave", "--address", "3"],
         &["monitor", "--protocol", "3964r"],
         &["3964r", "recv"],
         &["rk512", "serve"],
         &["ascii", "recv"],
+        &["dp-coord", "module", "--protocol", "3964r"],
     ];
     for args in roles {
         let (o, addr) = peer_closes(args);
