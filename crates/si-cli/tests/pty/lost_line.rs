@@ -6,7 +6,7 @@
 //! message (fail with `CI` set); the TCP tests need no peer.
 
 use std::io::Write;
-use std::net::TcpListener;
+use std::net::{TcpListener, TcpStream};
 use std::process::{Child, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -46,21 +46,26 @@ fn ended(child: Child, what: &str) -> Output {
     out
 }
 
+/// `si <line…> <args…>` with its output piped; stdin stays open until the child is reaped
+/// (`dp-coord module` ends with stdin, not with the line).
+fn start(line: &[&str], args: &[&str]) -> Child {
+    si_command()
+        .args(line)
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start si")
+}
+
 /// Start `si --port <first pty> <args…>`, let it open the port, write `feed` (raw bytes, each
 /// a piece written after a pause) into the other end, hang up (socat killed), and return how
 /// `si` ended and the pty's name. `None` when socat is missing.
 fn hang_up(args: &[&str], feed: &[&[u8]]) -> Option<(Output, String)> {
     let pair = pty_pair()?;
     let port = pair.a.clone();
-    // stdin stays open (dp-coord module ends with it) until the child is reaped.
-    let child = si_command()
-        .args(["--port", &port])
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start si");
+    let child = start(&["--port", &port], args);
     std::thread::sleep(Duration::from_millis(700));
     if !feed.is_empty() {
         let mut other = std::fs::OpenOptions::new()
@@ -208,21 +213,19 @@ fn modbus_serve_logs_each_request_with_the_text_of_its_own_code() {
     );
 }
 
-/// `si --tcp <a listener of ours> <args…>`: accept its connection, close it, and return how
-/// `si` ended and the address.
-fn peer_closes(args: &[&str]) -> (Output, String) {
+/// `si --tcp <a listener of ours> <args…>`, once it has connected: the child, our end of the connection, and the address.
+fn connected(args: &[&str]) -> (Child, TcpStream, String) {
     let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
     let addr = listener.local_addr().unwrap().to_string();
-    let child = si_command()
-        .args(["--tcp", &addr])
-        .args(args)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start si");
+    let child = start(&["--tcp", &addr], args);
     let (conn, _) = listener.accept().expect("si connects");
     std::thread::sleep(Duration::from_millis(300));
+    (child, conn, addr)
+}
+
+/// `si --tcp … <args…>` whose peer (we) closes the connection: how `si` ended, and the address.
+fn peer_closes(args: &[&str]) -> (Output, String) {
+    let (child, conn, addr) = connected(args);
     drop(conn);
     (ended(child, &args.join(" ")), addr)
 }
@@ -255,17 +258,7 @@ fn ctrl_c_ends_modbus_serve_and_monitor_with_130() {
         &["modbus", "serve", "--unit", "1"][..],
         &["monitor", "--protocol", "modbus"][..],
     ] {
-        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
-        let addr = listener.local_addr().unwrap().to_string();
-        let child = si_command()
-            .args(["--tcp", &addr])
-            .args(args)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("start si");
-        let (_conn, _) = listener.accept().expect("si connects");
-        std::thread::sleep(Duration::from_millis(300));
+        let (child, _conn, _) = connected(args);
         let sent = std::process::Command::new("kill")
             .args(["-INT", &child.id().to_string()])
             .status()
