@@ -127,8 +127,31 @@ fn main() -> ExitCode {
     }
 }
 
-fn runtime() -> Result<tokio::runtime::Runtime, CliError> {
-    Ok(tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()?)
+fn runtime() -> Result<Runtime, CliError> {
+    Ok(Runtime(
+        tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()?,
+    ))
+}
+
+/// The runtime of the commands that talk to a line, with the one SIGINT rule: Ctrl-C ends
+/// every command with exit 130 ([`CliError::interrupted`]). A command that watches Ctrl-C
+/// itself (a poll's or a monitor's counters, `modbus serve`) is polled first and ends with its
+/// own output; any other is dropped at once.
+struct Runtime(tokio::runtime::Runtime);
+
+impl Runtime {
+    fn block_on(
+        &self,
+        command: impl std::future::Future<Output = Result<(), CliError>>,
+    ) -> Result<(), CliError> {
+        self.0.block_on(async {
+            tokio::select! {
+                biased;
+                result = command => result,
+                _ = tokio::signal::ctrl_c() => Err(CliError::interrupted()),
+            }
+        })
+    }
 }

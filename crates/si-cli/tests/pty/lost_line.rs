@@ -253,10 +253,14 @@ fn every_long_running_role_exits_1_naming_the_tcp_peer_that_closed() {
 }
 
 #[test]
-fn ctrl_c_ends_modbus_serve_and_monitor_with_130() {
+fn ctrl_c_ends_every_long_running_role_with_130() {
     for args in [
         &["modbus", "serve", "--unit", "1"][..],
-        &["monitor", "--protocol", "modbus"][..],
+        &["--json", "monitor", "--protocol", "modbus"][..],
+        &["uss", "sim-slave", "--address", "3"][..],
+        &["3964r", "recv"][..],
+        &["rk512", "serve"][..],
+        &["ascii", "recv"][..],
     ] {
         let (child, _conn, _) = connected(args);
         let sent = std::process::Command::new("kill")
@@ -271,5 +275,9 @@ fn ctrl_c_ends_modbus_serve_and_monitor_with_130() {
             Some("si: error: interrupted"),
             "{args:?}"
         );
+        // A monitor still prints its counters before it goes.
+        if args.contains(&"monitor") {
+            assert!(stdout(&o).contains("\"counters\""), "{}", stdout(&o));
+        }
     }
 }
