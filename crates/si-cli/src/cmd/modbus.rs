@@ -545,15 +545,11 @@ async fn serve(
                "gap_us": config.line.gap().as_micros(),
                "frame_end": match frame_end { FrameEnd::Gap => "gap", FrameEnd::Length => "length" }}),
     );
-    loop {
-        tokio::select! {
-            event = server.next_event() => match event {
-                Some(e) => print_slave_event(&e, out),
-                None => return Err(conn.closed()),
-            },
-            _ = tokio::signal::ctrl_c() => return Err(CliError::interrupted()),
-        }
+    // Serves until Ctrl-C (exit 130, main's runtime) or until the line closes (exit 1).
+    while let Some(e) = server.next_event().await {
+        print_slave_event(&e, out);
     }
+    Err(conn.closed())
 }
 
 fn print_slave_event(e: &SlaveEvent, out: &Output) {
