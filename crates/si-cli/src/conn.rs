@@ -83,16 +83,11 @@ impl Connection {
     }
 
     /// The validated character format, with a baud rate from a protocol's own list (USS adds
-    /// 187 500 bit/s).
+    /// 187 500 bit/s); a value outside the lists is a usage error (exit 2).
     pub fn settings_for(&self, rates: &'static [u32]) -> Result<SerialSettings, CliError> {
-        let parity: Parity = self.parity.parse()?;
-        Ok(SerialSettings::with_rates(
-            self.baud,
-            self.data_bits,
-            parity,
-            self.stop_bits,
-            rates,
-        )?)
+        let parity: Parity = self.parity.parse().map_err(CliError::bad_argument)?;
+        SerialSettings::with_rates(self.baud, self.data_bits, parity, self.stop_bits, rates)
+            .map_err(CliError::bad_argument)
     }
 
     /// Open the port or connect to the device server, with [`settings`](Self::settings).

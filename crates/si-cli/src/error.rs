@@ -43,6 +43,12 @@ impl CliError {
         }
     }
 
+    /// A library's refusal of values the user typed (a parameter out of the manual's range, a
+    /// baud rate not in the list), before any port is opened: a usage error, exit code 2.
+    pub fn bad_argument(e: impl std::fmt::Display) -> Self {
+        CliError::usage(e.to_string())
+    }
+
     /// Ended by Ctrl-C (SIGINT), after whatever the command prints at its end: exit code 130.
     pub fn interrupted() -> Self {
         CliError {

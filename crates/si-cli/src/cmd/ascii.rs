@@ -111,7 +111,7 @@ impl DriverArgs {
             c.xon_xoff.wait_for_xon_ms = ms;
             c.rts_cts.wait_for_cts_ms = ms;
         }
-        c.validate()?;
+        c.validate().map_err(CliError::bad_argument)?;
         Ok(c)
     }
 }

@@ -237,7 +237,7 @@ fn master_config(conn: &Connection, o: &MasterOptions) -> Result<MasterConfig, C
         retries: o.retries,
         ..MasterConfig::default()
     };
-    config.validate()?;
+    config.validate().map_err(CliError::bad_argument)?;
     Ok(config)
 }
 

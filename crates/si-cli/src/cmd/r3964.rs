@@ -98,7 +98,7 @@ impl LinkArgs {
                 raw[key] = json!(v);
             }
         }
-        serde_json::from_value(raw).map_err(|e| CliError::new(e.to_string()))
+        serde_json::from_value(raw).map_err(CliError::bad_argument)
     }
 }
 

@@ -195,7 +195,7 @@ impl LinkArgs {
             CounterArg::Z => CounterLetter::Z,
             CounterArg::C => CounterLetter::C,
         };
-        c.validate()?;
+        c.validate().map_err(CliError::bad_argument)?;
         Ok(c)
     }
 }

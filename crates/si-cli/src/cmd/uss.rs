@@ -84,7 +84,7 @@ impl Structure {
         } else {
             PkwAfterJob::TaskZero
         };
-        c.validate()?;
+        c.validate().map_err(CliError::bad_argument)?;
         Ok(c)
     }
 }

@@ -128,6 +128,34 @@ fn other_argument_checks_are_usage_errors() {
         &["uss", "write-param", "--slave", "3", "1082", "70000"][..],
         &["uss", "sim-slave", "--address", "3", "--pkw-words", "2"][..],
         &["rk512", "fetch", "--db", "1", "--count", "1", "--cpu", "9"][..],
+        // Values a library refuses: the baud rate list, the manual's parameter ranges.
+        &["--baud", "1234", "3964r", "recv"][..],
+        &["--parity", "sometimes", "ascii", "recv"][..],
+        &["--baud", "1200", "ascii", "recv", "--cdt", "10"][..],
+        &["3964r", "recv", "--zvz-ms", "0"][..],
+        &[
+            "rk512",
+            "fetch",
+            "--db",
+            "1",
+            "--count",
+            "1",
+            "--tres-ms",
+            "0",
+        ][..],
+        &[
+            "modbus",
+            "read",
+            "holding",
+            "--unit",
+            "1",
+            "--addr",
+            "0",
+            "--count",
+            "1",
+            "--timeout",
+            "1",
+        ][..],
     ] {
         let (code, err) = run(args);
         assert_eq!(code, Some(2), "{args:?}: {err}");
