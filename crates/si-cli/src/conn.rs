@@ -92,16 +92,11 @@ impl Connection {
     }
 
     /// The validated character format, with a baud rate from a protocol's own list (USS adds
-    /// 187 500 bit/s).
+    /// 187 500 bit/s); a value outside the lists is a usage error (exit 2).
     pub fn settings_for(&self, rates: &'static [u32]) -> Result<SerialSettings, CliError> {
-        let parity: Parity = self.parity.parse()?;
-        Ok(SerialSettings::with_rates(
-            self.baud,
-            self.data_bits,
-            parity,
-            self.stop_bits,
-            rates,
-        )?)
+        let parity: Parity = self.parity.parse().map_err(CliError::bad_argument)?;
+        SerialSettings::with_rates(self.baud, self.data_bits, parity, self.stop_bits, rates)
+            .map_err(CliError::bad_argument)
     }
 
     /// Open the port or connect to the device server, with [`settings`](Self::settings).
@@ -154,6 +149,19 @@ impl Connection {
         Ok(match decoder {
             Some(decoder) => Box::new(Tap::new(transport, Frames::new(decoder, *settings))),
             None => transport,
+        })
+    }
+
+    /// The error of a command whose line closed under it: one line naming the port that hung
+    /// up or the TCP peer that closed the connection, exit 1 (issue 21: a lost line is an
+    /// error, never a success).
+    pub fn closed(&self) -> CliError {
+        CliError::new(match (&self.port, &self.tcp) {
+            (Some(path), _) => format!("the line closed: {path} hung up"),
+            (None, Some(addr)) => {
+                format!("the line closed: TCP peer {addr} closed the connection")
+            }
+            (None, None) => "the line closed".to_owned(),
         })
     }
 

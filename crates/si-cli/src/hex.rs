@@ -80,7 +80,7 @@ mod tests {
     #[test]
     fn an_error_after_16_names_the_position_in_what_was_typed() {
         let e = parse_hex_args(&words(&["16#0G"])).unwrap_err();
-        assert!(e.0.contains("'G' at position 5"), "{}", e.0);
+        assert!(e.text().contains("'G' at position 5"), "{}", e.text());
         // `16#` inside a group is not a prefix.
         assert!(parse_hex_args(&words(&["0116#02"])).is_err());
     }
@@ -88,7 +88,7 @@ mod tests {
     #[test]
     fn a_lone_digit_is_an_error_naming_the_input() {
         let e = parse_hex_args(&words(&["01", "2"])).unwrap_err();
-        assert!(e.0.contains("\"01 2\""), "{}", e.0);
-        assert!(e.0.contains("odd number"), "{}", e.0);
+        assert!(e.text().contains("\"01 2\""), "{}", e.text());
+        assert!(e.text().contains("odd number"), "{}", e.text());
     }
 }

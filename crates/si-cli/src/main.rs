@@ -2,7 +2,8 @@
 //!
 //! `si <protocol> <action>` over `--port` or `--tcp`, `si frame encode|decode` offline,
 //! `si sim` for two simulated peers. Human output by default, `--json` lines for scripts,
-//! `-v`/`-vv`/`-vvv` for `tracing` logs on stderr ([`logs`]). Errors print one line and exit non-zero; a protocol failure
+//! `-v`/`-vv`/`-vvv` for `tracing` logs on stderr ([`logs`]). Errors print one line and exit non-zero (1 a
+//! protocol or I/O failure, 2 usage, 130 interrupted: [`error::EXIT_CODES`]); a protocol failure
 //! prints its STATUS.
 
 mod cmd;
@@ -26,7 +27,7 @@ use std::process::ExitCode;
 
 /// Speak the SIMATIC ET 200S serial interface module protocols: 3964(R), RK 512, ASCII, Modbus RTU, USS.
 #[derive(Debug, Parser)]
-#[command(name = "si", version, about, propagate_version = true)]
+#[command(name = "si", version, about, propagate_version = true, after_help = error::EXIT_CODES)]
 struct Cli {
     #[command(flatten)]
     connection: conn::Connection,
@@ -126,15 +127,38 @@ fn main() -> ExitCode {
     });
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(CliError(text)) => {
-            eprintln!("si: error: {text}");
-            ExitCode::FAILURE
+        Err(e) => {
+            eprintln!("si: error: {}", e.text());
+            ExitCode::from(e.code())
         }
     }
 }
 
-fn runtime() -> Result<tokio::runtime::Runtime, CliError> {
-    Ok(tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()?)
+fn runtime() -> Result<Runtime, CliError> {
+    Ok(Runtime(
+        tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()?,
+    ))
+}
+
+/// The runtime of the commands that talk to a line, with the one SIGINT rule: Ctrl-C ends
+/// every command with exit 130 ([`CliError::interrupted`]). A command that watches Ctrl-C
+/// itself (a poll's or a monitor's counters, `modbus serve`) is polled first and ends with its
+/// own output; any other is dropped at once.
+struct Runtime(tokio::runtime::Runtime);
+
+impl Runtime {
+    fn block_on(
+        &self,
+        command: impl std::future::Future<Output = Result<(), CliError>>,
+    ) -> Result<(), CliError> {
+        self.0.block_on(async {
+            tokio::select! {
+                biased;
+                result = command => result,
+                _ = tokio::signal::ctrl_c() => Err(CliError::interrupted()),
+            }
+        })
+    }
 }

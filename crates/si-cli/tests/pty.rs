@@ -11,6 +11,8 @@ mod dpcoord;
 mod hex_input;
 #[path = "pty/logs.rs"]
 mod logs;
+#[path = "pty/lost_line.rs"]
+mod lost_line;
 #[path = "pty/modbus_frame_end.rs"]
 mod modbus_frame_end;
 #[path = "pty/modbus_interop.rs"]

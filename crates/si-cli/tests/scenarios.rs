@@ -8,6 +8,8 @@ mod common;
 mod dpcoord;
 #[path = "scenarios/examples.rs"]
 mod examples;
+#[path = "scenarios/exit_codes.rs"]
+mod exit_codes;
 #[path = "scenarios/help.rs"]
 mod help;
 #[path = "scenarios/modbus.rs"]

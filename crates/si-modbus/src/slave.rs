@@ -233,7 +233,9 @@ pub enum SlaveEvent {
         function: u8,
         /// The exception sent.
         code: ExceptionCode,
-        /// The driver event (0831H–0835H), if the driver rejected it.
+        /// The driver event (0831H–0835H), if the driver rejected it. `None` with no `error`
+        /// when the request is too short or too long for its function code: §5.7 lists no
+        /// event for that, the answer is exception 03.
         status: Option<Status>,
         /// The store's refusal, if the store rejected it.
         error: Option<StoreError>,
@@ -477,7 +479,7 @@ impl<S: Store> Slave<S> {
 
 fn fault_status(fault: Fault) -> Status {
     match fault {
-        Fault::Overflow => status::RECEIVE_BUFFER_OVERFLOW,
+        Fault::Overflow => codes::RECEIVE_BUFFER_OVERFLOW,
         Fault::Line(LineError::Parity) => status::PARITY_ERROR,
         Fault::Line(LineError::Framing) => status::FRAMING_ERROR,
         Fault::Line(LineError::Overrun) => status::TRANSMISSION_ERROR,

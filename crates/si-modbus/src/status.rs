@@ -233,8 +233,15 @@ si_core::status_codes! {
 /// The slave driver's receive and syntax events (§5.7, Table 3-65ff.).
 pub mod slave {
     si_core::status_codes! {
-        /// Every slave-side code.
+        /// Every slave-side code, and the slave's wording of the shared 080AH.
         pub static CATALOG;
+        // §7.3 words 080AH for the master ("while receiving a response"); a slave that
+        // overflows is receiving a request, so its report says so (same code, same remedy).
+        pub const RECEIVE_BUFFER_OVERFLOW = 0x080A {
+            meaning: "receive buffer overflow while receiving a request",
+            remedy: "check the master's protocol settings",
+            source: "et200s-si-modbus-uss.md §7.3 (worded there for the master)",
+        }
         pub const BROADCAST_NOT_ALLOWED = 0x0830 {
             meaning: "broadcast not allowed for this function code",
             remedy: "broadcast only FC05, 06, 15, 16",

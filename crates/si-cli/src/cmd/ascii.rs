@@ -111,7 +111,7 @@ impl DriverArgs {
             c.xon_xoff.wait_for_xon_ms = ms;
             c.rts_cts.wait_for_cts_ms = ms;
         }
-        c.validate()?;
+        c.validate().map_err(CliError::bad_argument)?;
         Ok(c)
     }
 }
@@ -155,11 +155,13 @@ pub struct SendArgs {
 /// `si ascii recv`.
 #[derive(Debug, Args)]
 pub struct RecvArgs {
-    /// Stop after this many frames.
-    #[arg(long, default_value_t = 1)]
-    count: u64,
-    /// Give up after this many seconds without the frames (default: wait for ever).
-    #[arg(long, value_name = "SECS")]
+    /// Stop after this many frames (default: receive until Ctrl-C or the line closes, like
+    /// `3964r recv`; a closed line is an error, exit 1).
+    #[arg(long)]
+    count: Option<u64>,
+    /// With --count: give up after this many seconds without the frames, exit 1 (default: wait
+    /// for ever).
+    #[arg(long, value_name = "SECS", requires = "count")]
     timeout: Option<f64>,
     #[command(flatten)]
     driver: DriverArgs,
@@ -245,11 +247,20 @@ fn ascii_error(e: AsciiError) -> CliError {
     }
 }
 
+/// A receiver's error: the driver stopping is the line closing (named, exit 1), anything
+/// else is [`ascii_error`].
+fn received_error(e: AsciiError, conn: &Connection) -> CliError {
+    match e {
+        AsciiError::Stopped(_) => conn.closed(),
+        other => ascii_error(other),
+    }
+}
+
 async fn send(a: SendArgs, conn: &Connection, out: &Output) -> Result<(), CliError> {
     let frame = match (&a.hex, &a.text) {
         (_, Some(text)) => unescape(text)?,
         (hex, None) if !hex.is_empty() => parse_hex_args(hex)?,
-        _ => return Err(CliError::new("give the frame as HEX or --text")),
+        _ => return Err(CliError::usage("give the frame as HEX or --text")),
     };
     let config = a.driver.config(conn.settings()?)?;
     let port = Handle::spawn(config, conn.open().await?)?;
@@ -299,8 +310,8 @@ async fn recv(a: RecvArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
     let mut port = Handle::spawn(config, conn.open().await?)?;
     let frames = async {
         let mut got = 0;
-        while got < a.count {
-            let incoming = port.next().await.map_err(ascii_error)?;
+        while a.count.is_none_or(|n| got < n) {
+            let incoming = port.next().await.map_err(|e| received_error(e, conn))?;
             print_incoming(out, &incoming, false);
             if matches!(incoming, Incoming::Frame { .. }) {
                 got += 1;
@@ -312,10 +323,11 @@ async fn recv(a: RecvArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
         None => frames.await,
         Some(secs) => {
             let limit = std::time::Duration::try_from_secs_f64(secs)
-                .map_err(|_| CliError::new(format!("--timeout {secs}: not a duration")))?;
-            tokio::time::timeout(limit, frames)
-                .await
-                .map_err(|_| CliError::new(format!("no {} frame(s) within {secs} s", a.count)))?
+                .map_err(|_| CliError::usage(format!("--timeout {secs}: not a duration")))?;
+            tokio::time::timeout(limit, frames).await.map_err(|_| {
+                let n = a.count.unwrap_or_default();
+                CliError::new(format!("no {n} frame(s) within {secs} s"))
+            })?
         }
     }
 }
@@ -328,7 +340,7 @@ async fn monitor(a: MonitorArgs, conn: &Connection, out: &Output) -> Result<(), 
     let mut got = 0;
     let limit = a.count.unwrap_or(u64::MAX);
     while got < limit {
-        let incoming = port.next().await.map_err(ascii_error)?;
+        let incoming = port.next().await.map_err(|e| received_error(e, conn))?;
         print_incoming(out, &incoming, true);
         if matches!(incoming, Incoming::Frame { .. }) {
             got += 1;

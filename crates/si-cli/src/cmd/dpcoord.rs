@@ -281,13 +281,36 @@ fn finish(result: Result<Outcome, Status>, out: &Output) -> Result<(), CliError>
             Ok(())
         }
         Err(s) => {
+            let text = described(s);
             out.line(
                 &format!("error STATUS={code}"),
-                json!({"done": false, "status": code}),
+                json!({"done": false, "status": code, "text": text}),
             );
-            Err(CliError::new(format!("the job failed: {s}")))
+            Err(CliError::new(format!("the job failed: {text}")))
         }
     }
+}
+
+/// A window STATUS with its text: the window's own catalogs, then those of the drivers behind
+/// the module (3964(R), ASCII); a code none of them has says so instead of standing bare
+/// (issue 21: dp-coord host printed 16#49D1 with no text).
+fn described(status: Status) -> String {
+    if status.info().is_some() {
+        return status.to_string();
+    }
+    let catalogs: [fn(u16) -> Status; 3] = [
+        si_dp_coord::status::lookup,
+        si_3964r::status::lookup,
+        si_ascii::status::lookup,
+    ];
+    catalogs
+        .iter()
+        .map(|lookup| lookup(status.code()))
+        .find(|s| s.info().is_some())
+        .map_or_else(
+            || format!("{status} (not in the catalog)"),
+            |s| s.to_string(),
+        )
 }
 
 impl HostArgs {
@@ -408,7 +431,7 @@ impl ModuleArgs {
                 let link = si_3964r::Link::new(config, settings)?;
                 let module =
                     engines::r3964r_module(self.window, link)?.with_exec_wrap(self.exec_after_7);
-                serve(module, transport, settings, self.window, out).await
+                serve(module, transport, settings, self.window, conn, out).await
             }
             Protocol::Ascii => {
                 let config = si_ascii::Config {
@@ -425,7 +448,7 @@ impl ModuleArgs {
                 let link = si_ascii::Link::new(config)?;
                 let module =
                     engines::ascii_module(self.window, link)?.with_exec_wrap(self.exec_after_7);
-                serve(module, transport, settings, self.window, out).await
+                serve(module, transport, settings, self.window, conn, out).await
             }
             Protocol::Modbus => {
                 let config = si_modbus::MasterConfig {
@@ -439,18 +462,20 @@ impl ModuleArgs {
                 let master = si_modbus::Master::new(config)?;
                 let module =
                     modbus::master_module(self.window, master)?.with_exec_wrap(self.exec_after_7);
-                serve(module, transport, settings, self.window, out).await
+                serve(module, transport, settings, self.window, conn, out).await
             }
         }
     }
 }
 
-/// Runs the module over the transport; each stdin line is one DP cycle.
+/// Runs the module over the transport; each stdin line is one DP cycle. The end of stdin ends
+/// it (exit 0); the line closing first is an error naming it (exit 1).
 async fn serve<E>(
     module: Module<EngineSerial<E>>,
     transport: Box<dyn Transport>,
     settings: SerialSettings,
     window: WindowSize,
+    conn: &Connection,
     out: &Output,
 ) -> Result<(), CliError>
 where
@@ -491,7 +516,9 @@ where
             }
             event = handle.next_event() => match event {
                 Some(e) => tracing::info!("line: {e:?}"),
-                None => break,
+                // The driver stopped while stdin still has cycles: the line closed (issue 21,
+                // a lost line is an error). Stdin's end is the module's normal end.
+                None => return Err(conn.closed()),
             },
         }
     }
@@ -799,4 +826,24 @@ fn scenario_modbus(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     });
     print_trace(sim.trace(), out);
     print_fb_results(sent, ("A", got), out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_window_status_has_its_text_or_says_it_is_not_in_the_catalog() {
+        assert_eq!(
+            described(Status::from_code(0x49D1)),
+            "16#49D1 (not in the catalog)"
+        );
+        let len = described(Status::from_code(0x1E41));
+        assert!(len.starts_with("16#1E41 invalid number of bytes"), "{len}");
+        // Codes of the drivers behind the module: 3964(R) 0703H, ASCII 0708H.
+        let setup = described(Status::from_code(0x0703));
+        assert_eq!(setup, si_3964r::status::SETUP_TIMEOUT.to_string());
+        let xon = described(Status::from_code(0x0708));
+        assert_eq!(xon, si_ascii::status::XON_CTS_TIMEOUT.to_string());
+    }
 }

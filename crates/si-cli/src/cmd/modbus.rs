@@ -243,7 +243,7 @@ fn master_config(conn: &Connection, o: &MasterOptions) -> Result<MasterConfig, C
         retries: o.retries,
         ..MasterConfig::default()
     };
-    config.validate()?;
+    config.validate().map_err(CliError::bad_argument)?;
     Ok(config)
 }
 
@@ -251,7 +251,7 @@ fn parse_bool(text: &str) -> Result<bool, CliError> {
     match text.to_ascii_lowercase().as_str() {
         "1" | "on" | "true" => Ok(true),
         "0" | "off" | "false" => Ok(false),
-        _ => Err(CliError::new(format!(
+        _ => Err(CliError::usage(format!(
             "bad coil value {text:?}: use 1/0, on/off or true/false"
         ))),
     }
@@ -296,12 +296,12 @@ impl Command {
                 };
                 if let Some(f) = format {
                     if matches!(kind, ReadKind::Coils | ReadKind::Discrete) {
-                        return Err(CliError::new(format!(
+                        return Err(CliError::usage(format!(
                             "--format {} shows registers: coils and discrete inputs are bits",
                             f.name()
                         )));
                     }
-                    f.check_count(count).map_err(CliError::new)?;
+                    f.check_count(count).map_err(CliError::usage)?;
                 }
                 let report = Report {
                     format: format.unwrap_or_default(),
@@ -318,7 +318,7 @@ impl Command {
             } => {
                 let single = matches!(kind, WriteKind::Coil | WriteKind::Register);
                 if single && values.len() != 1 {
-                    return Err(CliError::new(format!(
+                    return Err(CliError::usage(format!(
                         "write {} takes exactly one value, got {}",
                         match kind {
                             WriteKind::Coil => "coil",
@@ -561,15 +561,11 @@ async fn serve(
                "frame_end": match frame_end { FrameEnd::Gap => "gap", FrameEnd::Length => "length" }}),
     );
     map.print(unit, out);
-    loop {
-        tokio::select! {
-            event = server.next_event() => match event {
-                Some(e) => print_slave_event(&e, out),
-                None => return Ok(()),
-            },
-            _ = tokio::signal::ctrl_c() => return Ok(()),
-        }
+    // Serves until Ctrl-C (exit 130, main's runtime) or until the line closes (exit 1).
+    while let Some(e) = server.next_event().await {
+        print_slave_event(&e, out);
     }
+    Err(conn.closed())
 }
 
 fn print_slave_event(e: &SlaveEvent, out: &Output) {
@@ -599,18 +595,23 @@ fn print_slave_event(e: &SlaveEvent, out: &Output) {
             let why = match (status, error) {
                 (Some(s), _) => status_text(s),
                 (None, Some(e)) => format!("S_MODB ERROR_NR {} ERROR_INFO {}", e.error_nr, e.info),
-                _ => String::new(),
+                // SlaveEvent::Exception: no STATUS and no store error is a request of the
+                // wrong length for its function (§5.7 lists no event for it).
+                (None, None) => format!(
+                    "the request is too short or too long for FC{function:02} (no STATUS: \
+                     et200s-si-modbus-uss.md §5.7 lists none)"
+                ),
             };
             out.line(
                 &format!("answered FC{function:02} with {code}: {why}"),
                 json!({"exception": code.code(), "function": function,
                        "status": status.map(|s| s.code()),
-                       "error_nr": error.map(|e| e.error_nr)}),
+                       "error_nr": error.map(|e| e.error_nr), "text": why}),
             )
         }
         SlaveEvent::Error(s) => out.line(
-            &format!("not answered: {}", status_text(s)),
-            json!({"error": s.code()}),
+            &format!("request not answered: {}", status_text(s)),
+            json!({"error": s.code(), "text": status_text(s)}),
         ),
     }
 }

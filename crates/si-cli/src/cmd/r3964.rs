@@ -98,7 +98,7 @@ impl LinkArgs {
                 raw[key] = json!(v);
             }
         }
-        serde_json::from_value(raw).map_err(|e| CliError::new(e.to_string()))
+        serde_json::from_value(raw).map_err(CliError::bad_argument)
     }
 }
 
@@ -121,7 +121,7 @@ impl SendArgs {
         let data = match (&self.hex, &self.text) {
             (_, Some(text)) => text.as_bytes().to_vec(),
             (hex, None) if !hex.is_empty() => crate::hex::parse_hex_args(hex)?,
-            _ => return Err(CliError::new("give the block as HEX or --text")),
+            _ => return Err(CliError::usage("give the block as HEX or --text")),
         };
         let config = self.link.config()?;
         let settings = conn.settings()?;
@@ -168,7 +168,7 @@ impl RecvArgs {
                 Some(Err(status)) => {
                     eprintln!("si: receive error {}", described(status));
                 }
-                None => return Err(CliError::new("the line closed")),
+                None => return Err(conn.closed()),
             }
         }
         // Our DLE for the last block is already written; give the port a moment to drain it.

@@ -11,7 +11,7 @@ use serde_json::json;
 use si_3964r::Priority;
 use si_core::memory::{Area, MemorySizes};
 use si_core::sim::{Simulator, StationId};
-use si_core::{Duration, Status};
+use si_core::{Duration, Instant, Status};
 use si_rk512::frame::{Address, Coordination, DataType, Telegram};
 use si_rk512::passive::ServerConfig;
 use si_rk512::status;
@@ -57,9 +57,10 @@ pub struct Target {
     /// Memory area.
     #[arg(long, value_enum, default_value = "db")]
     area: AreaArg,
-    /// DB (or DX) number, 0 … 255.
-    #[arg(long, default_value_t = 1)]
-    db: u8,
+    /// DB (or DX) number, 0 … 255; required with --area db (the default) and dx, so a job
+    /// never lands in a DB the user did not name.
+    #[arg(long)]
+    db: Option<u8>,
     /// Start data word of the DB/DX, 0 … 255 (header byte 6).
     #[arg(long, default_value_t = 0)]
     dw: u8,
@@ -76,14 +77,20 @@ pub struct Target {
 }
 
 impl Target {
-    fn address(&self) -> Address {
-        match self.area {
+    /// The partner address, or a usage error when a DB or DX job names no --db.
+    fn address(&self) -> Result<Address, CliError> {
+        let db = || {
+            self.db.ok_or_else(|| {
+                CliError::usage("--db N is required with --area db or dx (the data block to use)")
+            })
+        };
+        Ok(match self.area {
             AreaArg::Db => Address::Db {
-                db: self.db,
+                db: db()?,
                 dw: self.dw,
             },
             AreaArg::Dx => Address::Dx {
-                db: self.db,
+                db: db()?,
                 dw: self.dw,
             },
             AreaArg::I => Address::Inputs(self.start),
@@ -91,7 +98,7 @@ impl Target {
             AreaArg::M => Address::Flags(self.start),
             AreaArg::T => Address::Timers(self.start),
             AreaArg::C => Address::Counters(self.start),
-        }
+        })
     }
 
     fn coordination(&self) -> Result<Coordination, CliError> {
@@ -104,7 +111,7 @@ impl Target {
                 match parsed {
                     Some((byte, bit)) if byte != 0xFF && bit <= 7 => Coordination::flag(byte, bit),
                     _ => {
-                        return Err(CliError::new(format!(
+                        return Err(CliError::usage(format!(
                             "--flag must be BYTE.BIT with BYTE 0 … 254 and BIT 0 … 7, got {text:?}"
                         )))
                     }
@@ -113,7 +120,7 @@ impl Target {
         };
         if let Some(cpu) = self.cpu {
             if !(1..=4).contains(&cpu) {
-                return Err(CliError::new(format!("--cpu must be 1 … 4, got {cpu}")));
+                return Err(CliError::usage(format!("--cpu must be 1 … 4, got {cpu}")));
             }
             c.cpu = cpu;
         }
@@ -188,7 +195,7 @@ impl LinkArgs {
             CounterArg::Z => CounterLetter::Z,
             CounterArg::C => CounterLetter::C,
         };
-        c.validate()?;
+        c.validate().map_err(CliError::bad_argument)?;
         Ok(c)
     }
 }
@@ -245,6 +252,25 @@ impl Command {
     }
 }
 
+/// Start the job on an offline station first: what the station refuses before sending
+/// (1E41H for a length outside 1 … `max_job_len` or odd for a word type, 0515H, 0516H) is a
+/// usage error naming the limit and the value, and no port is opened (issue 21: 1E41 names
+/// the limit it broke).
+fn refused_offline(
+    config: Config,
+    settings: si_core::SerialSettings,
+    start: impl FnOnce(&mut Station) -> Result<si_rk512::JobId, si_rk512::RequestError>,
+) -> Result<(), CliError> {
+    let mut probe = Station::new(config, settings)?;
+    match start(&mut probe) {
+        Ok(_) => Ok(()),
+        Err(e) => Err(CliError::usage(format!(
+            "{}: {e}",
+            status::lookup(e.status().code())
+        ))),
+    }
+}
+
 /// The job's STATUS; a 051A names the 3964(R) error reported just before it
 /// (cp341-event-classes.md §2 "chained reports"), on the same line.
 async fn failed(station: &Handle, what: &str, e: StationError) -> CliError {
@@ -269,10 +295,13 @@ async fn failed(station: &Handle, what: &str, e: StationError) -> CliError {
 impl SendArgs {
     async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         let data = crate::hex::parse_hex_args(&self.hex)?;
-        let address = self.target.address();
+        let address = self.target.address()?;
         let coordination = self.target.coordination()?;
         let config = self.link.config(Priority::High)?;
         let settings = conn.settings()?;
+        refused_offline(config, settings, |s| {
+            s.send(Instant::ZERO, address, coordination, data.clone())
+        })?;
         let transport = conn.open().await?;
         let station = Handle::spawn(config, settings, transport)?;
         tokio::time::sleep(SETTLE).await;
@@ -292,7 +321,7 @@ impl SendArgs {
 
 impl FetchArgs {
     async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
-        let address = self.target.address();
+        let address = self.target.address()?;
         let coordination = self.target.coordination()?;
         let len = if address.data_type().counts_words() {
             self.count.saturating_mul(2)
@@ -301,6 +330,9 @@ impl FetchArgs {
         };
         let config = self.link.config(Priority::High)?;
         let settings = conn.settings()?;
+        refused_offline(config, settings, |s| {
+            s.fetch(Instant::ZERO, address, coordination, len)
+        })?;
         let transport = conn.open().await?;
         let station = Handle::spawn(config, settings, transport)?;
         tokio::time::sleep(SETTLE).await;
@@ -478,7 +510,7 @@ impl ServeArgs {
                     eprintln!("si: {}", status::lookup(s.code()));
                 }
                 Some(Event::Done { .. } | Event::Failed { .. }) => {}
-                None => return Err(CliError::new("the line closed")),
+                None => return Err(conn.closed()),
             }
         }
         // Our last reaction is queued; give it time to go out and be acknowledged.

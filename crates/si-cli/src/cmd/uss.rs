@@ -65,7 +65,7 @@ pub struct Structure {
 impl Structure {
     fn config(&self, settings: SerialSettings, slaves: &[u8]) -> Result<MasterConfig, CliError> {
         let pkw = PkwWords::from_count(self.pkw_words).ok_or_else(|| {
-            CliError::new(format!(
+            CliError::usage(format!(
                 "--pkw-words {} is out of range: 0, 3, 4 or 127 (variable)",
                 self.pkw_words
             ))
@@ -84,7 +84,7 @@ impl Structure {
         } else {
             PkwAfterJob::TaskZero
         };
-        c.validate()?;
+        c.validate().map_err(CliError::bad_argument)?;
         Ok(c)
     }
 }
@@ -193,7 +193,7 @@ pub struct SimSlaveArgs {
 /// `PNU` or `PNU:IND` with `--index`: the parameter's number and sub-index, checked against the page
 /// index's range (si_uss::param).
 fn parse_param(text: &str, index: Option<u8>) -> Result<ParamAddress, CliError> {
-    let bad = |why: String| CliError::new(format!("parameter {text:?}: {why}"));
+    let bad = |why: String| CliError::usage(format!("parameter {text:?}: {why}"));
     let (n, i) = match text.split_once(':') {
         Some((n, i)) => (n, Some(i)),
         None => (text, None),
@@ -208,7 +208,7 @@ fn parse_param(text: &str, index: Option<u8>) -> Result<ParamAddress, CliError> 
         (Some(i), None) => radix::u8_arg(i).map_err(bad)?,
         (None, i) => i.unwrap_or(0),
     };
-    Ok(ParamAddress::new(number, index)?)
+    ParamAddress::new(number, index).map_err(|e| CliError::usage(e.to_string()))
 }
 
 /// The value to write as the bit pattern of a word or double word; negative values are
@@ -220,7 +220,7 @@ fn parse_value(text: &str, dword: bool) -> Result<u32, CliError> {
         (i64::from(i16::MIN), i64::from(u16::MAX))
     };
     let v = radix::signed(text, min, max).map_err(|e| {
-        CliError::new(format!(
+        CliError::usage(format!(
             "value {e}{}",
             if dword { "" } else { " (a word; add --dword)" }
         ))
@@ -336,7 +336,7 @@ async fn last_job(
             _ => {}
         }
     }
-    Err(CliError::new("the line was closed"))
+    Err(conn.closed())
 }
 
 async fn poll(a: PollArgs, conn: &Connection, out: &Output) -> Result<(), CliError> {
@@ -477,7 +477,7 @@ async fn poll(a: PollArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
             _ => {}
         }
     }
-    Err(CliError::new("the line was closed"))
+    Err(conn.closed())
 }
 
 /// Exit status of a run: an error naming the nodes that never gave a valid response, if any.
@@ -502,7 +502,7 @@ async fn sim_slave(a: SimSlaveArgs, conn: &Connection, out: &Output) -> Result<(
     let pkw = PkwWords::from_count(a.pkw_words)
         .filter(|p| *p != PkwWords::Variable)
         .ok_or_else(|| {
-            CliError::new(format!(
+            CliError::usage(format!(
                 "--pkw-words {} is out of range: 0, 3 or 4",
                 a.pkw_words
             ))
@@ -551,7 +551,9 @@ async fn sim_slave(a: SimSlaveArgs, conn: &Connection, out: &Output) -> Result<(
             _ => {}
         }
     }
-    Ok(())
+    // The drive answers until Ctrl-C (the default SIGINT exit, 130); its events ending means
+    // the driver stopped: the line closed under it.
+    Err(conn.closed())
 }
 
 /// `si frame encode uss`.

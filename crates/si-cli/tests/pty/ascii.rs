@@ -81,7 +81,7 @@ fn recv_json_and_timeout_without_a_partner() {
     let Some(pair) = pty_pair() else { return };
     let out = si_command()
         .args(["ascii", "recv", "--port", &pair.a, "--end", "fixed", "4"])
-        .args(["--timeout", "0.5"])
+        .args(["--count", "1", "--timeout", "0.5"])
         .output()
         .expect("run si ascii recv");
     assert!(!out.status.success());
@@ -289,7 +289,7 @@ fn xon_xoff_on_both_sides_still_delivers_the_line() {
     let lines = recv_while_sending(
         &pair,
         &[
-            "--end", "chars", "0D,0A", "--cdt", "200", "--flow", "xon-xoff",
+            "--end", "chars", "0D,0A", "--cdt", "200", "--flow", "xon-xoff", "--count", "1",
         ],
         &[&["--flow", "xon-xoff", "--text", r"flow controlled\r\n"]],
     );

@@ -59,7 +59,17 @@ fn r3964r_send_takes_the_bytes_as_separate_words() {
 #[test]
 fn ascii_send_takes_words_a_quoted_group_and_0x() {
     let Some((sent, got)) = send_to(
-        &["ascii", "recv", "--end", "fixed", "4", "--timeout", "20"],
+        &[
+            "ascii",
+            "recv",
+            "--end",
+            "fixed",
+            "4",
+            "--count",
+            "1",
+            "--timeout",
+            "20",
+        ],
         &["ascii", "send", "41", "0x42", "43 44"],
     ) else {
         return;

@@ -14,7 +14,7 @@ use clap::Args;
 pub fn parse_u16(text: &str) -> Result<u16, CliError> {
     parse_number(text, u16::MAX.into())
         .map(|v| v as u16)
-        .map_err(CliError::new)
+        .map_err(CliError::usage)
 }
 
 /// A slave address for `--unit` (0 broadcast, 1–255, et200s-si-modbus-uss.md §3.2).
@@ -51,20 +51,20 @@ impl AddressArgs {
         let base = u32::from(self.base);
         let typed = self.addr.unwrap_or(base);
         let Some(pdu) = typed.checked_sub(base) else {
-            return Err(CliError::new(format!(
+            return Err(CliError::usage(format!(
                 "--addr {typed} does not exist with --base 1: Modicon addresses start at 1 \
                  (PDU address 0)"
             )));
         };
         let top = u32::from(u16::MAX) + base;
         if pdu > u32::from(u16::MAX) {
-            return Err(CliError::new(format!(
+            return Err(CliError::usage(format!(
                 "--addr {typed} is past the last address {top} (with --base {base})"
             )));
         }
         let last = pdu + u32::from(count.max(1)) - 1;
         if last > u32::from(u16::MAX) {
-            return Err(CliError::new(format!(
+            return Err(CliError::usage(format!(
                 "--addr {typed} with {count} items runs to {}, past the last address {top}",
                 last + base
             )));
@@ -106,13 +106,13 @@ mod tests {
 
     #[test]
     fn address_0_with_base_1_is_refused_naming_the_value() {
-        let e = at(Some(0), 1).pdu(1).unwrap_err().0;
+        let e = at(Some(0), 1).pdu(1).unwrap_err().text().to_owned();
         assert!(e.contains("--addr 0") && e.contains("--base 1"), "{e}");
     }
 
     #[test]
     fn a_range_past_the_last_address_is_refused() {
-        let e = at(Some(65535), 0).pdu(2).unwrap_err().0;
+        let e = at(Some(65535), 0).pdu(2).unwrap_err().text().to_owned();
         assert!(e.contains("65536") && e.contains("65535"), "{e}");
         assert!(at(Some(65536), 0).pdu(1).is_err());
         assert_eq!(at(Some(65534), 0).pdu(2).unwrap(), 65534);

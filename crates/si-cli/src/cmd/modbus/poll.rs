@@ -265,9 +265,8 @@ fn summary(units: &[u8], counters: &[Counters], polling: &PollArgs, report: &Rep
     }
 }
 
-/// Ctrl-C: the counters, then exit 130 at once. `si`'s one error type exits 1, so the
-/// interrupted status is set here, after stdout has been written and flushed
-/// (crate::output flushes every line).
+/// Ctrl-C: the counters, then [`CliError::interrupted`] (exit 130, crate::error), after stdout
+/// has been written and flushed (crate::output flushes every line).
 fn interrupted(
     units: &[u8],
     counters: &[Counters],
@@ -275,12 +274,8 @@ fn interrupted(
     report: &Report<'_>,
 ) -> Result<(), CliError> {
     summary(units, counters, polling, report, End::Interrupted);
-    std::process::exit(EXIT_INTERRUPTED)
+    Err(CliError::interrupted())
 }
-
-/// The exit status after Ctrl-C: 128 + SIGINT (2), what a shell reports for a program that
-/// SIGINT ended.
-pub const EXIT_INTERRUPTED: i32 = 130;
 
 #[cfg(test)]
 mod tests {

@@ -312,13 +312,14 @@ impl MonitorArgs {
         let mut port = conn.open_with(&settings).await?;
         // A monitor cable for a point-to-point line has two receive wires: with --tap the
         // second direction is read from a second port, and both stations get a lane.
-        let mut tap = match &self.tap {
-            Some(path) => {
-                let mut other = conn.clone();
-                other.port = Some(path.clone());
-                other.tcp = None;
-                Some(other.open_with(&settings).await?)
-            }
+        let tap_conn = self.tap.as_ref().map(|path| {
+            let mut other = conn.clone();
+            other.port = Some(path.clone());
+            other.tcp = None;
+            other
+        });
+        let mut tap = match &tap_conn {
+            Some(other) => Some(other.open_with(&settings).await?),
             None => None,
         };
         let name = |p: Option<&String>, fallback: &str| {
@@ -355,12 +356,16 @@ impl MonitorArgs {
             serde_json::json!({"monitor": protocol.name(), "settings": settings.to_string()}),
         );
         let read_error = |e: std::io::Error| CliError::new(format!("reading the line: {e}"));
+        // How the watch ended when it was not its --duration: the counters and the diagram
+        // are still written, then the exit code says it (a closed line 1, Ctrl-C 130).
+        let mut ended: Option<CliError> = None;
         loop {
             let mut records = Vec::new();
             tokio::select! {
                 read = port.read(&mut buf) => {
                     let n = read.map_err(read_error)?;
                     if n == 0 {
+                        ended = Some(conn.closed());
                         break;
                     }
                     for c in line::pace(&buf[..n], now(), (Some(0), to_a), settings, &mut last) {
@@ -370,6 +375,7 @@ impl MonitorArgs {
                 read = async { tap.as_mut().map(|t| t.read(&mut buf2)).expect("guarded").await }, if tap.is_some() => {
                     let n = read.map_err(read_error)?;
                     if n == 0 {
+                        ended = tap_conn.as_ref().map(Connection::closed);
                         break;
                     }
                     for c in line::pace(&buf2[..n], now(), (Some(1), to_b), settings, &mut last) {
@@ -377,7 +383,10 @@ impl MonitorArgs {
                     }
                 }
                 _ = tick.tick() => decoder.idle(now(), &mut records),
-                _ = &mut ctrl_c => break,
+                _ = &mut ctrl_c => {
+                    ended = Some(CliError::interrupted());
+                    break;
+                }
                 _ = tokio::time::sleep_until(stop.unwrap_or(origin)), if stop.is_some() => break,
             }
             for r in &records {
@@ -406,7 +415,7 @@ impl MonitorArgs {
         if let Some(svg) = &self.svg {
             write_svg(svg, &analysis)?;
         }
-        Ok(())
+        ended.map_or(Ok(()), Err)
     }
 }
 
