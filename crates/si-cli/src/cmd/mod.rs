@@ -16,6 +16,7 @@
 pub mod ascii;
 pub mod dpcoord;
 pub mod frame;
+pub mod gateway;
 pub mod modbus;
 pub mod module;
 pub mod monitor;
