@@ -3,7 +3,7 @@
 //!
 //! Requests are routed by unit id to a line ([`router`]); each line has a bounded queue served
 //! in round-robin order between clients ([`queue`]) by a task driving si-modbus's RTU master
-//! ([`line`]); counters per line and per client are printed as status lines and readable on a
+//! ([`mod@line`]); counters per line and per client are printed as status lines and readable on a
 //! diagnostic unit ([`counters`]). The configuration is a TOML file or flags ([`config`]);
 //! line kinds other than `modbus-rtu` (USS, RK 512) are planned as further `kind`s.
 

@@ -2,7 +2,7 @@
 //! line), checked into [`Gateway`] with every value in range.
 //!
 //! Ranges and defaults: the response timeout is the module's "Response Time", 50–655 000 ms
-//! (et200s-si-modbus-uss.md §3.8, checked by [`MasterConfig::validate`]); retries, the pause
+//! (et200s-si-modbus-uss.md §3.8, the range `si_modbus::MasterConfig::validate` checks); retries, the pause
 //! between requests and the connection limit have no module counterpart (the module has no
 //! retries, §3.8) and follow mbusd, the gateway issue 20 measures against
 //! (`shared/peers/mbusd/src/conn.h`: `DEFAULT_MAXTRY` 3 tries = 2 retries, `MAX_MAXTRY` 15,

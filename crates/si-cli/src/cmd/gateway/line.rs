@@ -45,14 +45,15 @@ impl LineQueue {
         }
     }
 
-    /// Queue a job for `client`; the job back when the queue is full. Returns the depth.
-    pub fn push(&self, client: u64, job: Job) -> Result<usize, Job> {
+    /// Queue a job for `client`: the queue depth after it, or `None` when the queue is full
+    /// (the job is dropped; the caller answers 06H).
+    pub fn push(&self, client: u64, job: Job) -> Option<usize> {
         let mut q = lock(&self.queue);
-        q.push(client, job)?;
+        q.push(client, job).ok()?;
         let depth = q.len();
         drop(q);
         self.ready.notify_one();
-        Ok(depth)
+        Some(depth)
     }
 
     /// The next job in fair order, waiting for one; the client and the depth left.

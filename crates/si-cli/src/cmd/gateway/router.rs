@@ -66,8 +66,8 @@ impl Router {
         let pushed = self.lines[index].push(id, job);
         let mut s = line::lock(&self.stats);
         let depth = match pushed {
-            Ok(depth) => depth,
-            Err(_) => {
+            Some(depth) => depth,
+            None => {
                 s.lines[index].count(Outcome::Busy);
                 if let Some(c) = s.client(id) {
                     c.count(Outcome::Busy);
