@@ -34,9 +34,15 @@ use std::time::Duration;
 /// global ones (`--baud`, `--parity`, `--rs485` …). A slave that does not answer gives
 /// exception 0BH, a unit no line serves 0AH, a full queue 06H; slave exceptions pass unchanged.
 #[derive(Debug, Clone, Args)]
+#[command(next_help_heading = "Gateway options")]
 pub struct GatewayArgs {
-    /// The TOML configuration file (lines, routes, limits).
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["line", "units"])]
+    /// The TOML configuration file (lines, routes, limits); its lines take their serial
+    /// settings from the file, not from the global flags.
+    #[arg(
+        long,
+        value_name = "FILE",
+        conflicts_with_all = ["line", "units", "retries", "timeout", "pause", "queue", "broadcast"]
+    )]
     config: Option<PathBuf>,
     /// TCP address to listen on (overrides the file's `listen`; default 127.0.0.1:502).
     #[arg(long, value_name = "HOST:PORT")]
