@@ -2,7 +2,7 @@
 //! and come back; its exception passes unchanged; a silent unit gives 0BH and an unrouted one
 //! 0AH, and so does a broadcast on lines that do not allow them; the diagnostic unit and the status line at exit count what happened.
 
-use super::harness::Rig;
+use super::harness::{read_holding, Mbap, Rig};
 use crate::common::{stderr, stdout};
 use std::process::Command;
 
@@ -70,4 +70,21 @@ fn pymodbus_tcp_client_through_the_gateway_to_a_pymodbus_rtu_slave() {
     assert_eq!(meters["queue_depth"], 0, "{status}");
     assert_eq!(silent["requests"], 1, "{status}");
     assert_eq!(silent["timeouts"], 1, "{status}");
+}
+
+/// With `broadcast = true` a write to unit 0 reaches the slave and gets no answer (mbusd's
+/// default): the next answer on the connection is the following read's, showing the value the
+/// broadcast wrote.
+#[test]
+fn a_configured_broadcast_is_written_and_not_answered() {
+    let Some(rig) = Rig::start("", "broadcast = true\npause_ms = 0") else {
+        return;
+    };
+    let mut m = Mbap::connect(&rig.addr);
+    m.send(0x0101, 0, &[0x06, 0x00, 0x30, 0x12, 0x34]);
+    m.send(0x0102, 1, &read_holding(0x30, 1));
+    assert_eq!(m.recv(), (0x0102, 1, vec![0x03, 2, 0x12, 0x34]));
+    let status = rig.stop();
+    assert_eq!(status["lines"][0]["requests"], 2, "{status}");
+    assert_eq!(status["lines"][0]["answers"], 1, "{status}");
 }

@@ -8,7 +8,7 @@ use std::process::Stdio;
 use std::sync::mpsc::{self, Receiver};
 use std::time::Duration;
 
-/// A pymodbus RTU server answering unit 1 at 19200 baud, 8N2 (pyserial cannot set even parity
+/// A pymodbus RTU server answering unit 1 (and executing broadcasts) at 19200 baud, 8N2 (pyserial cannot set even parity
 /// on a pseudo-terminal); holding
 /// register n holds n, input register n holds 1000 + n, discrete inputs alternate 0 1.
 const RTU_SERVER: &str = r#"
@@ -24,7 +24,7 @@ dev = ModbusDeviceContext(
 )
 ctx = ModbusServerContext(devices={1: dev}, single=False)
 print("ready", flush=True)
-StartSerialServer(context=ctx, port=sys.argv[1], baudrate=19200, parity="N", stopbits=2, bytesize=8)
+StartSerialServer(context=ctx, port=sys.argv[1], baudrate=19200, parity="N", stopbits=2, bytesize=8, broadcast_enable=True)
 "#;
 
 /// A running gateway with its RTU slave; everything is killed when dropped.
