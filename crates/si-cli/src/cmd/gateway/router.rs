@@ -152,3 +152,96 @@ impl Handler for Router {
         line::lock(&self.stats).clients.remove(&peer.id);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use si_modbus::frame::Request;
+    use si_modbus::slave::Tables;
+    use si_modbus::tokio::{Master, Slave};
+    use si_modbus::{MasterConfig, SlaveConfig};
+
+    /// A router with one line (units 7 and 8) to a slave at address 7 over an in-memory pipe;
+    /// unit 8 never answers. Diagnostic unit 247.
+    fn router() -> (Router, Slave<Tables>) {
+        let (a, b) = tokio::io::duplex(1024);
+        let mut tables = Tables::new(0, 0, 4, 0);
+        tables.holding_registers[2] = 0x1234;
+        let slave_config = SlaveConfig {
+            address: 7,
+            ..SlaveConfig::default()
+        };
+        let slave = Slave::spawn(slave_config, tables, b).unwrap();
+        let master_config = MasterConfig {
+            response_timeout_ms: 50,
+            retries: 1,
+            ..MasterConfig::default()
+        };
+        let master = Master::spawn(master_config, a).unwrap();
+        let stats = Arc::new(Mutex::new(Stats::new(1)));
+        let queue = Arc::new(LineQueue::new(4));
+        tokio::spawn(line::run(
+            0,
+            Arc::clone(&queue),
+            master,
+            std::time::Duration::ZERO,
+            Arc::clone(&stats),
+        ));
+        let mut routes = [None; 256];
+        routes[7] = Some(0);
+        routes[8] = Some(0);
+        let router = Router {
+            routes,
+            lines: vec![queue],
+            broadcast_lines: vec![],
+            diagnostic_unit: Some(247),
+            reply_on_broadcast: false,
+            stats,
+        };
+        (router, slave)
+    }
+
+    fn read(transaction: u16, unit: u8, address: u16) -> TcpAdu {
+        let r = Request::ReadHoldingRegisters {
+            address,
+            quantity: 1,
+        };
+        TcpAdu::request(transaction, unit, &r).unwrap()
+    }
+
+    async fn ask(router: &Router, request: TcpAdu) -> Vec<u8> {
+        let answer = router.route(1, request).await.expect("an answer");
+        assert_eq!(answer.transaction(), request.transaction());
+        answer.unit_pdu().to_vec()
+    }
+
+    #[tokio::test]
+    async fn answers_exceptions_and_gateway_exceptions() {
+        let (router, _slave) = router();
+        let peer = Peer {
+            id: 1,
+            addr: "127.0.0.1:9".parse().unwrap(),
+        };
+        router.connected(&peer);
+        assert_eq!(ask(&router, read(1, 7, 2)).await, [7, 0x03, 2, 0x12, 0x34]);
+        // Past the slave's table: its exception 02, unchanged.
+        assert_eq!(ask(&router, read(2, 7, 9)).await, [7, 0x83, 0x02]);
+        assert_eq!(ask(&router, read(3, 8, 0)).await, [8, 0x83, 0x0B]);
+        assert_eq!(ask(&router, read(4, 9, 0)).await, [9, 0x83, 0x0A]);
+        assert_eq!(ask(&router, read(5, 0, 0)).await, [0, 0x83, 0x0A]);
+        assert_eq!(ask(&router, read(6, 247, 0)).await, [247, 0x83, 0x01]);
+        let diag = TcpAdu::from_unit_pdu(7, &[247, 0x04, 0, 16, 0, 8]).unwrap();
+        let line = ask(&router, diag).await;
+        // Line block: 3 requests, 1 answer, 1 exception, 1 timeout.
+        assert_eq!(line[..3], [247, 0x04, 16]);
+        let words: Vec<u16> = line[3..]
+            .chunks(2)
+            .map(|w| u16::from_be_bytes([w[0], w[1]]))
+            .collect();
+        assert_eq!(words, [0, 3, 0, 1, 0, 1, 0, 1]);
+        let own = line::lock(&router.stats).clients[&1].counters;
+        assert_eq!((own.requests, own.other), (7, 3));
+        router.disconnected(&peer);
+        assert!(line::lock(&router.stats).clients.is_empty());
+    }
+}
