@@ -1,6 +1,6 @@
 //! `si gateway` end to end, loopback only: Modbus TCP clients (pymodbus, and raw MBAP frames
 //! from std sockets) → `si gateway` → a socat pseudo-terminal pair → a pymodbus RTU serial
-//! server. A missing peer (socat, pymodbus) skips with a message, and fails with `CI` set
+//! server, and a bounded soak of 32 clients with bad input. A missing peer (socat, pymodbus) skips with a message, and fails with `CI` set
 //! (common/mod.rs).
 
 mod common;
@@ -12,3 +12,5 @@ mod forwarding;
 mod harness;
 #[path = "gateway/queueing.rs"]
 mod queueing;
+#[path = "gateway/soak.rs"]
+mod soak;
