@@ -7,7 +7,7 @@
 //! retries, §3.8) and follow mbusd, the gateway issue 20 measures against
 //! (`shared/peers/mbusd/src/conn.h`: `DEFAULT_MAXTRY` 3 tries = 2 retries, `MAX_MAXTRY` 15,
 //! `DEFAULT_RQSTPAUSE` 100 ms, `MAX_RQSTPAUSE` 10 000 ms, `DEFAULT_RESPWAIT` 500 ms,
-//! `DEFAULT_MAXCONN` 32). mbusd's pause is 1–10 000 ms; we also allow 0 (no pause).
+//! `DEFAULT_MAXCONN` 32, `MAX_CONNTIMEOUT` 1000 s for the idle timeout). mbusd's pause is 1–10 000 ms; we also allow 0 (no pause).
 
 use serde::Deserialize;
 use si_core::RangeError;
@@ -32,7 +32,7 @@ pub struct File {
     pub listen: Option<String>,
     /// Connections served at once.
     pub max_connections: Option<usize>,
-    /// A connection silent this long is closed (s, 0: never).
+    /// A connection silent this long is closed (0–1000 s, 0: never; default 60).
     pub idle_timeout_s: Option<u64>,
     /// The unit id that answers the gateway's counters as input registers.
     pub diagnostic_unit: Option<u8>,
@@ -201,7 +201,10 @@ impl File {
             .map_err(top)?;
         let idle_timeout = match self.idle_timeout_s {
             Some(0) => None,
-            Some(s) => Some(std::time::Duration::from_secs(s)),
+            Some(s) => {
+                RangeError::check("idle_timeout_s", (0, 1000), " s", s).map_err(top)?;
+                Some(std::time::Duration::from_secs(s))
+            }
             None => Some(si_modbus::tokio::tcp::DEFAULT_IDLE_TIMEOUT),
         };
         if let Some(u) = self.diagnostic_unit {
