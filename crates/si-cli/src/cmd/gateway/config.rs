@@ -2,12 +2,13 @@
 //! line), checked into [`Gateway`] with every value in range.
 //!
 //! Ranges and defaults: the response timeout is the module's "Response Time", 50–655 000 ms
-//! (et200s-si-modbus-uss.md §3.8, the range `si_modbus::MasterConfig::validate` checks); retries, the pause
-//! between requests and the connection limit have no module counterpart (the module has no
-//! retries, §3.8) and follow mbusd, the gateway issue 20 measures against
-//! (`shared/peers/mbusd/src/conn.h`: `DEFAULT_MAXTRY` 3 tries = 2 retries, `MAX_MAXTRY` 15,
-//! `DEFAULT_RQSTPAUSE` 100 ms, `MAX_RQSTPAUSE` 10 000 ms, `DEFAULT_RESPWAIT` 500 ms,
-//! `DEFAULT_MAXCONN` 32, `MAX_CONNTIMEOUT` 1000 s for the idle timeout). mbusd's pause is 1–10 000 ms; we also allow 0 (no pause).
+//! (et200s-si-modbus-uss.md §3.8, the range `si_modbus::MasterConfig::validate` checks);
+//! retries, the pause between requests, the connection limit and the idle timeout have no
+//! module counterpart (the module has no retries, §3.8) and follow mbusd, the gateway issue 20
+//! measures against (`shared/peers/mbusd/src/conn.h`: `DEFAULT_MAXTRY` 3 tries = 2 retries,
+//! `MAX_MAXTRY` 15, `DEFAULT_RQSTPAUSE` 100 ms, `MAX_RQSTPAUSE` 10 000 ms, `DEFAULT_RESPWAIT`
+//! 500 ms, `DEFAULT_MAXCONN` 32, `MAX_CONNTIMEOUT` 1000 s). mbusd's pause is 1–10 000 ms; we
+//! also allow 0 (no pause).
 
 use serde::Deserialize;
 use si_core::RangeError;
