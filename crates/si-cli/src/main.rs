@@ -84,6 +84,8 @@ enum Command {
     /// USS master: poll drives, read and write parameters; a simulated drive.
     #[command(subcommand)]
     Uss(cmd::uss::Command),
+    /// Modbus TCP gateway to Modbus RTU lines: routes by unit id, queues, retries, counters.
+    Gateway(cmd::gateway::GatewayArgs),
     /// Print the completion script for a shell (bash, zsh, fish, elvish, powershell).
     Completions(cmd::completions::CompletionsArgs),
 }
@@ -123,6 +125,7 @@ fn main() -> ExitCode {
         Command::Modbus(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
         Command::DpCoord(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
         Command::Uss(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
+        Command::Gateway(a) => runtime().and_then(|rt| rt.block_on(a.run(&cli.connection, &out))),
         Command::Completions(a) => a.run(help::arrange(Cli::command())),
     });
     match result {

@@ -17,6 +17,7 @@ pub mod ascii;
 pub mod completions;
 pub mod dpcoord;
 pub mod frame;
+pub mod gateway;
 pub mod modbus;
 pub mod module;
 pub mod monitor;

@@ -38,6 +38,6 @@ mod server;
 
 pub use client::{Client, Error, DEFAULT_TIMEOUT};
 pub use server::{
-    Handler, Server, ServerConfig, StoreHandler, Units, DEFAULT_IDLE_TIMEOUT,
+    Handler, Peer, Server, ServerConfig, StoreHandler, Units, DEFAULT_IDLE_TIMEOUT,
     DEFAULT_MAX_CONNECTIONS,
 };

@@ -108,6 +108,37 @@ pub trait Handler: Send + Sync + 'static {
     /// The answer to one request, with its transaction id and unit id (`None`: no answer).
     /// Requests on one connection are answered one after the other, in order.
     fn answer(&self, request: TcpAdu) -> impl Future<Output = Option<TcpAdu>> + Send;
+
+    /// The answer to one request from the connection `peer` (a gateway counts and queues per
+    /// client); by default the same as [`answer`](Self::answer).
+    fn answer_from(
+        &self,
+        peer: &Peer,
+        request: TcpAdu,
+    ) -> impl Future<Output = Option<TcpAdu>> + Send {
+        let _ = peer;
+        self.answer(request)
+    }
+
+    /// A connection was accepted (called before its first request).
+    fn connected(&self, peer: &Peer) {
+        let _ = peer;
+    }
+
+    /// A connection ended (closed by either side, idle or a bad header).
+    fn disconnected(&self, peer: &Peer) {
+        let _ = peer;
+    }
+}
+
+/// One accepted connection, as a [`Handler`] sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Peer {
+    /// Numbered from 1 in the order of acceptance, unique for the server's life (addresses
+    /// repeat when a client reconnects from the same port).
+    pub id: u64,
+    /// The client's address.
+    pub addr: SocketAddr,
 }
 
 /// A [`Store`] behind a lock, answering requests as the RTU slave does ([`crate::serve`]).
@@ -192,8 +223,9 @@ impl<H: Handler> Server<H> {
         let slots = Arc::new(Semaphore::new(self.config.max_connections));
         let units = Arc::new(self.config.units);
         let idle = self.config.idle_timeout;
+        let mut accepted = 0u64;
         loop {
-            let (stream, _) = match self.listener.accept().await {
+            let (stream, addr) = match self.listener.accept().await {
                 Ok(accepted) => accepted,
                 // Out of file descriptors and the like: a failing connection attempt must not
                 // end the server, and retrying at once would spin; the next accept after a
@@ -207,11 +239,15 @@ impl<H: Handler> Server<H> {
                 drop(stream);
                 continue;
             };
+            accepted += 1;
+            let peer = Peer { id: accepted, addr };
             let handler = Arc::clone(&self.handler);
             let units = Arc::clone(&units);
             tokio::spawn(async move {
                 let mut stream = stream;
-                let _ = serve_connection(&mut stream, &*handler, &units, idle).await;
+                handler.connected(&peer);
+                let _ = serve_connection(&mut stream, &*handler, &peer, &units, idle).await;
+                handler.disconnected(&peer);
                 // The slot is free before the client sees the connection close.
                 drop(slot);
                 drop(stream);
@@ -224,6 +260,7 @@ impl<H: Handler> Server<H> {
 async fn serve_connection<H: Handler>(
     stream: &mut TcpStream,
     handler: &H,
+    peer: &Peer,
     units: &Units,
     idle: Option<Duration>,
 ) -> std::io::Result<()> {
@@ -253,7 +290,7 @@ async fn serve_connection<H: Handler>(
                         continue;
                     }
                     let request = *request;
-                    if let Some(reply) = handler.answer(request).await {
+                    if let Some(reply) = handler.answer_from(peer, request).await {
                         tx.extend_from_slice(reply.as_bytes());
                     }
                 }

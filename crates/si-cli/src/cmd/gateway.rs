@@ -1,0 +1,304 @@
+//! `si gateway`: Modbus TCP clients served by Modbus RTU lines, as mbusd does, several lines
+//! in one process (issue 20).
+//!
+//! Requests are routed by unit id to a line ([`router`]); each line has a bounded queue served
+//! in round-robin order between clients ([`queue`]) by a task driving si-modbus's RTU master
+//! ([`mod@line`]); counters per line and per client are printed as status lines and readable on a
+//! diagnostic unit ([`counters`]). The configuration is a TOML file or flags ([`config`]);
+//! line kinds other than `modbus-rtu` (USS, RK 512) are planned as further `kind`s.
+
+mod config;
+mod counters;
+mod line;
+mod queue;
+mod router;
+
+use crate::conn::{Connection, Rs485Mode};
+use crate::error::CliError;
+use crate::output::Output;
+use clap::Args;
+use config::{Device, File, Gateway, LineFile};
+use counters::Stats;
+use si_modbus::config::LineConfig;
+use si_modbus::tokio::tcp::{Server, ServerConfig, Units};
+use si_modbus::{MasterConfig, Mode};
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// `si gateway`: a Modbus TCP server whose unit ids are slaves on Modbus RTU lines.
+///
+/// Either `--config FILE` (TOML, any number of `[[line]]`s; see the README's "si gateway") or
+/// one line from flags: `si gateway --listen 127.0.0.1:5020 --line /dev/ttyUSB0 --baud 19200
+/// --units 1-10`. The serial settings and RS-485 options of a flag-configured line are the
+/// global ones (`--baud`, `--parity`, `--rs485` …). A slave that does not answer gives
+/// exception 0BH, a unit no line serves 0AH, a full queue 06H; slave exceptions pass unchanged.
+#[derive(Debug, Clone, Args)]
+#[command(next_help_heading = "Gateway options")]
+pub struct GatewayArgs {
+    /// The TOML configuration file (lines, routes, limits); its lines take their serial
+    /// settings from the file, not from the global flags.
+    #[arg(
+        long,
+        value_name = "FILE",
+        conflicts_with_all = ["line", "units", "retries", "timeout", "pause", "queue", "broadcast"]
+    )]
+    config: Option<PathBuf>,
+    /// TCP address to listen on (overrides the file's `listen`; default 127.0.0.1:502).
+    #[arg(long, value_name = "HOST:PORT")]
+    listen: Option<String>,
+    /// The one line of the flag form: a serial port, or tcp:HOST:PORT for a device server.
+    #[arg(long, value_name = "DEVICE", requires = "units")]
+    line: Option<String>,
+    /// Unit ids served by --line, e.g. 1-10,12.
+    #[arg(long, value_name = "LIST")]
+    units: Option<String>,
+    /// Retries after a timeout or corrupt answer, 0–15 (default 2: mbusd's 3 tries).
+    #[arg(long)]
+    retries: Option<u8>,
+    /// Response timeout, 50–655000 ms (default 500, mbusd's).
+    #[arg(long, value_name = "MS")]
+    timeout: Option<u32>,
+    /// Pause after each request before the next, 0–10000 ms (default 100, mbusd's).
+    #[arg(long, value_name = "MS")]
+    pause: Option<u64>,
+    /// Requests waiting per line, 1–1024 (default 32); one more is refused with 06H.
+    #[arg(long)]
+    queue: Option<usize>,
+    /// Forward broadcasts (unit 0) to the line; without, unit 0 is refused with 0AH.
+    #[arg(long)]
+    broadcast: bool,
+    /// Answer a broadcast with its echo once sent (mbusd's -b); default: no answer.
+    #[arg(long)]
+    reply_on_broadcast: bool,
+    /// Connections served at once, 1–1024 (default 32, mbusd's).
+    #[arg(long)]
+    max_connections: Option<usize>,
+    /// Unit id answering the counters as input registers (README "si gateway").
+    #[arg(long, value_name = "UNIT")]
+    diagnostic_unit: Option<u8>,
+    /// Print the counters every S seconds (always once at exit).
+    #[arg(long, value_name = "S")]
+    status_every: Option<u64>,
+}
+
+impl GatewayArgs {
+    /// The checked configuration: the file with the top-level flags over it, or the flag form.
+    fn gateway(&self, conn: &Connection) -> Result<Gateway, CliError> {
+        let mut file = match &self.config {
+            Some(path) => {
+                let text = std::fs::read_to_string(path)
+                    .map_err(|e| CliError::new(format!("cannot read {}: {e}", path.display())))?;
+                File::from_toml(&text).map_err(CliError::new)?
+            }
+            None => File {
+                listen: None,
+                max_connections: None,
+                idle_timeout_s: None,
+                diagnostic_unit: None,
+                reply_on_broadcast: false,
+                lines: vec![self.flag_line(conn)?],
+            },
+        };
+        file.listen = self.listen.clone().or(file.listen);
+        file.max_connections = self.max_connections.or(file.max_connections);
+        file.diagnostic_unit = self.diagnostic_unit.or(file.diagnostic_unit);
+        file.reply_on_broadcast |= self.reply_on_broadcast;
+        Ok(file.check()?)
+    }
+
+    /// The line of the flag form, with the global serial flags.
+    fn flag_line(&self, conn: &Connection) -> Result<LineFile, CliError> {
+        let device = self
+            .line
+            .clone()
+            .or_else(|| conn.port.clone())
+            .or_else(|| conn.tcp.as_ref().map(|t| format!("tcp:{t}")))
+            .ok_or_else(|| {
+                CliError::new("no line: use --config FILE, or --line DEVICE --units LIST")
+            })?;
+        Ok(LineFile {
+            device: Some(device),
+            baud: Some(conn.baud),
+            data_bits: Some(conn.data_bits),
+            parity: Some(conn.parity.clone()),
+            stop_bits: Some(conn.stop_bits),
+            rs485: conn.rs485.map(|m| match m {
+                Rs485Mode::Kernel => "kernel".to_string(),
+                Rs485Mode::Rts => "rts".to_string(),
+            }),
+            rs485_delay_before_ms: Some(conn.rs485_delay_before),
+            rs485_delay_after_ms: Some(conn.rs485_delay_after),
+            local_echo: conn.local_echo,
+            latency_timer_ms: conn.latency_timer,
+            units: self.units.clone(),
+            retries: self.retries,
+            pause_ms: self.pause,
+            response_timeout_ms: self.timeout,
+            broadcast: self.broadcast,
+            queue: self.queue,
+            ..LineFile::default()
+        })
+    }
+
+    /// Open every line, listen, and serve until Ctrl-C.
+    pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
+        let gw = self.gateway(conn)?;
+        let stats = Arc::new(Mutex::new(Stats::new(gw.lines.len())));
+        let mut routes = [None; 256];
+        let mut queues = Vec::with_capacity(gw.lines.len());
+        for (i, l) in gw.lines.iter().enumerate() {
+            let master = open_line(conn, l).await?;
+            let queue = Arc::new(line::LineQueue::new(l.queue));
+            tokio::spawn(line::run(
+                i,
+                Arc::clone(&queue),
+                master,
+                l.pause,
+                Arc::clone(&stats),
+            ));
+            queues.push(queue);
+            for &u in &l.units {
+                routes[u as usize] = Some(i);
+            }
+        }
+        let router = router::Router {
+            routes,
+            lines: queues,
+            broadcast_lines: (0..gw.lines.len())
+                .filter(|&i| gw.lines[i].broadcast)
+                .collect(),
+            diagnostic_unit: gw.diagnostic_unit,
+            reply_on_broadcast: gw.reply_on_broadcast,
+            stats: Arc::clone(&stats),
+        };
+        let server_config = ServerConfig {
+            max_connections: gw.max_connections,
+            units: Units::all(),
+            idle_timeout: gw.idle_timeout,
+        };
+        let server = Server::with_handler(&gw.listen, server_config, router)
+            .await
+            .map_err(|e| CliError::new(format!("cannot listen on {}: {e}", gw.listen)))?;
+        let addr = server.local_addr()?;
+        out.line(
+            &format!("gateway listening on {addr}, {} line(s)", gw.lines.len()),
+            serde_json::json!({"event": "listening", "addr": addr.to_string(),
+                "lines": gw.lines.iter().map(|l| &l.name).collect::<Vec<_>>()}),
+        );
+        let mut server = tokio::spawn(server.run());
+        let every = self
+            .status_every
+            .filter(|&s| s > 0)
+            .map(Duration::from_secs);
+        let result = loop {
+            let tick = async {
+                match every {
+                    Some(d) => tokio::time::sleep(d).await,
+                    None => std::future::pending().await,
+                }
+            };
+            tokio::select! {
+                _ = tokio::signal::ctrl_c() => break Err(CliError::interrupted()),
+                ended = &mut server => break match ended {
+                    Ok(Err(e)) => Err(CliError::new(format!("gateway stopped: {e}"))),
+                    _ => Err(CliError::new("gateway stopped")),
+                },
+                () = tick => print_status(&gw, &stats, out),
+            }
+        };
+        print_status(&gw, &stats, out);
+        result
+    }
+}
+
+/// Open line `l` with the global connection's other options (recording, frame log) and start
+/// its RTU master.
+async fn open_line(
+    conn: &Connection,
+    l: &config::Line,
+) -> Result<si_modbus::tokio::Master, CliError> {
+    let mut c = conn.clone();
+    (c.port, c.tcp) = match &l.device {
+        Device::Port(p) => (Some(p.clone()), None),
+        Device::Tcp(t) => (None, Some(t.clone())),
+    };
+    c.baud = l.baud;
+    c.data_bits = l.data_bits;
+    c.parity = l.parity.clone();
+    c.stop_bits = l.stop_bits;
+    c.rs485 = match l.rs485.as_deref() {
+        Some("kernel") => Some(Rs485Mode::Kernel),
+        Some(_) => Some(Rs485Mode::Rts),
+        None => None,
+    };
+    (c.rs485_delay_before, c.rs485_delay_after) = l.rs485_delays_ms;
+    c.local_echo = l.local_echo;
+    c.latency_timer = l.latency_timer_ms;
+    c.protocol = Some("modbus");
+    let named = |e: CliError| CliError::new(format!("line {}: {}", l.name, e.text()));
+    let settings = c.settings().map_err(named)?;
+    let config = MasterConfig {
+        line: LineConfig {
+            settings,
+            mode: Mode::Normal,
+            char_delay_multiplier: 1,
+            local_echo: false,
+            auto_v24: None,
+        },
+        response_timeout_ms: l.response_timeout_ms,
+        retries: l.retries,
+        ..MasterConfig::default()
+    };
+    // On RS-485 a response is recognised by its address, skipping a turnaround glitch (§2.5).
+    let interface = if l.rs485.is_some() {
+        si_core::Interface::Rs485
+    } else {
+        si_core::Interface::Rs232
+    };
+    let master = si_modbus::Master::new(config)
+        .map_err(|e| named(e.into()))?
+        .with_interface(interface);
+    let port = c.open_with(&settings).await.map_err(named)?;
+    Ok(si_modbus::tokio::Master::spawn_engine(master, port))
+}
+
+/// One status line: every line's and every client's counters.
+fn print_status(gw: &Gateway, stats: &Mutex<Stats>, out: &Output) {
+    let s = line::lock(stats);
+    let lines: Vec<_> = gw
+        .lines
+        .iter()
+        .zip(&s.lines)
+        .map(|(l, c)| {
+            let mut v = serde_json::to_value(c).unwrap_or_default();
+            v["name"] = l.name.clone().into();
+            v
+        })
+        .collect();
+    let clients: Vec<_> = s
+        .clients
+        .iter()
+        .map(|(id, c)| {
+            let mut v = serde_json::to_value(c).unwrap_or_default();
+            v["id"] = (*id).into();
+            v
+        })
+        .collect();
+    let text = gw
+        .lines
+        .iter()
+        .zip(&s.lines)
+        .map(|(l, c)| {
+            format!(
+                "{}: {} requests, {} answers, {} exceptions, {} timeouts, {} CRC errors, {} busy, {} other, queue {}",
+                l.name, c.requests, c.answers, c.exceptions, c.timeouts, c.crc_errors, c.busy, c.other, c.queue_depth
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("; ");
+    out.line(
+        &format!("status: {text}; {} client(s)", clients.len()),
+        serde_json::json!({"event": "status", "lines": lines, "clients": clients}),
+    );
+}

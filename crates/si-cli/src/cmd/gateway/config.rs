@@ -1,0 +1,408 @@
+//! The gateway's configuration: a TOML file (`--config`) or the flags of the common case (one
+//! line), checked into [`Gateway`] with every value in range.
+//!
+//! Ranges and defaults: the response timeout is the module's "Response Time", 50–655 000 ms
+//! (et200s-si-modbus-uss.md §3.8, the range `si_modbus::MasterConfig::validate` checks);
+//! retries, the pause between requests, the connection limit and the idle timeout have no
+//! module counterpart (the module has no retries, §3.8) and follow mbusd, the gateway issue 20
+//! measures against (`shared/peers/mbusd/src/conn.h`: `DEFAULT_MAXTRY` 3 tries = 2 retries,
+//! `MAX_MAXTRY` 15, `DEFAULT_RQSTPAUSE` 100 ms, `MAX_RQSTPAUSE` 10 000 ms, `DEFAULT_RESPWAIT`
+//! 500 ms, `DEFAULT_MAXCONN` 32, `MAX_CONNTIMEOUT` 1000 s). mbusd's pause is 1–10 000 ms; we
+//! also allow 0 (no pause).
+
+use serde::Deserialize;
+use si_core::RangeError;
+use std::fmt;
+
+/// The line kinds a `[[line]]` may be. USS and RK 512 lines are planned (issue 20) and will
+/// be further kinds with their own keys.
+pub const LINE_KINDS: &str = "modbus-rtu";
+
+/// Default request queue length per line.
+pub const DEFAULT_QUEUE: usize = 32;
+/// The longest request queue per line: bounded memory whatever the file says.
+pub const MAX_QUEUE: usize = 1024;
+/// The most connections a gateway accepts (a host limit; mbusd's `MAX_MAXCONN` is 128).
+pub const MAX_CONNECTIONS: usize = 1024;
+
+/// The whole file, as written (before checking).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct File {
+    /// TCP address listened on, e.g. `127.0.0.1:5020`.
+    pub listen: Option<String>,
+    /// Connections served at once.
+    pub max_connections: Option<usize>,
+    /// A connection silent this long is closed (0–1000 s, 0: never; default 60).
+    pub idle_timeout_s: Option<u64>,
+    /// The unit id that answers the gateway's counters as input registers.
+    pub diagnostic_unit: Option<u8>,
+    /// Answer a broadcast request with its echo once sent (mbusd's `-b`); default: no answer.
+    #[serde(default)]
+    pub reply_on_broadcast: bool,
+    /// The serial lines.
+    #[serde(default, rename = "line")]
+    pub lines: Vec<LineFile>,
+}
+
+/// One `[[line]]`, as written.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LineFile {
+    /// `modbus-rtu` (the default); see [`LINE_KINDS`].
+    pub kind: Option<String>,
+    /// A name for status lines and errors (default `line<N>`).
+    pub name: Option<String>,
+    /// Serial port path, or `tcp:HOST:PORT` for a serial device server.
+    pub device: Option<String>,
+    /// Baud rate (default 9600).
+    pub baud: Option<u32>,
+    /// Data bits (default 8).
+    pub data_bits: Option<u8>,
+    /// none, even, odd, mark, space (default even).
+    pub parity: Option<String>,
+    /// Stop bits (default 1).
+    pub stop_bits: Option<u8>,
+    /// RS-485 direction control: `kernel` or `rts`.
+    pub rs485: Option<String>,
+    /// RTS on this long before the first bit (ms).
+    pub rs485_delay_before_ms: Option<u64>,
+    /// RTS kept on this long after the last bit (ms).
+    pub rs485_delay_after_ms: Option<u64>,
+    /// The port hears its own transmission.
+    #[serde(default)]
+    pub local_echo: bool,
+    /// USB adapter latency timer (ms).
+    pub latency_timer_ms: Option<u64>,
+    /// Unit ids served by this line: `"1-10,12"`.
+    pub units: Option<String>,
+    /// Retries after a timeout or a corrupt answer.
+    pub retries: Option<u8>,
+    /// Pause between the end of one request and the next (ms).
+    pub pause_ms: Option<u64>,
+    /// Response timeout (ms).
+    pub response_timeout_ms: Option<u32>,
+    /// Forward broadcasts (unit 0) to this line.
+    #[serde(default)]
+    pub broadcast: bool,
+    /// Requests waiting for this line at most; one more is refused with exception 06.
+    pub queue: Option<usize>,
+}
+
+/// A checked gateway configuration.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Gateway {
+    /// Listen address.
+    pub listen: String,
+    /// Connections served at once.
+    pub max_connections: usize,
+    /// Idle timeout (`None`: never).
+    pub idle_timeout: Option<std::time::Duration>,
+    /// The diagnostic unit, if any.
+    pub diagnostic_unit: Option<u8>,
+    /// Echo a broadcast once sent.
+    pub reply_on_broadcast: bool,
+    /// The lines, in file order.
+    pub lines: Vec<Line>,
+}
+
+/// A checked Modbus RTU line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Line {
+    /// Name.
+    pub name: String,
+    /// Port path, or the device server's `HOST:PORT` in `tcp`.
+    pub device: Device,
+    /// Baud rate.
+    pub baud: u32,
+    /// Data bits.
+    pub data_bits: u8,
+    /// Parity name.
+    pub parity: String,
+    /// Stop bits.
+    pub stop_bits: u8,
+    /// RS-485 mode name (`kernel`, `rts`).
+    pub rs485: Option<String>,
+    /// RS-485 delays before and after (ms).
+    pub rs485_delays_ms: (u64, u64),
+    /// The port hears its own transmission.
+    pub local_echo: bool,
+    /// USB latency timer (ms).
+    pub latency_timer_ms: Option<u64>,
+    /// Unit ids routed here (1–255).
+    pub units: Vec<u8>,
+    /// Retries.
+    pub retries: u8,
+    /// Pause between requests.
+    pub pause: std::time::Duration,
+    /// Response timeout (ms).
+    pub response_timeout_ms: u32,
+    /// Broadcasts forwarded.
+    pub broadcast: bool,
+    /// Queue length.
+    pub queue: usize,
+}
+
+/// Where a line's bytes go.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Device {
+    /// A serial port.
+    Port(String),
+    /// A serial device server in raw TCP mode.
+    Tcp(String),
+}
+
+impl Device {
+    /// `tcp:HOST:PORT` or a port path.
+    pub fn parse(text: &str) -> Device {
+        match text.strip_prefix("tcp:") {
+            Some(addr) => Device::Tcp(addr.to_string()),
+            None => Device::Port(text.to_string()),
+        }
+    }
+}
+
+/// A configuration error: which line (if any), which key, and why.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ConfigError {
+    /// `line 2 (meters)`, or `None` for a top-level key.
+    pub line: Option<String>,
+    /// The key, its range and the value given.
+    pub range: RangeError,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match &self.line {
+            Some(line) => write!(f, "gateway config, {line}: {}", self.range),
+            None => write!(f, "gateway config: {}", self.range),
+        }
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+impl File {
+    /// Parse TOML text.
+    pub fn from_toml(text: &str) -> Result<File, String> {
+        toml::from_str(text).map_err(|e| format!("gateway config: {e}"))
+    }
+
+    /// Check every value and fill in the defaults.
+    pub fn check(&self) -> Result<Gateway, ConfigError> {
+        let top = |range| ConfigError { line: None, range };
+        let listen = self
+            .listen
+            .clone()
+            .unwrap_or_else(|| "127.0.0.1:502".to_string());
+        let max_connections = self
+            .max_connections
+            .unwrap_or(si_modbus::tokio::tcp::DEFAULT_MAX_CONNECTIONS);
+        RangeError::check("max_connections", (1, MAX_CONNECTIONS), "", max_connections)
+            .map_err(top)?;
+        let idle_timeout = match self.idle_timeout_s {
+            Some(0) => None,
+            Some(s) => {
+                RangeError::check("idle_timeout_s", (0, 1000), " s", s).map_err(top)?;
+                Some(std::time::Duration::from_secs(s))
+            }
+            None => Some(si_modbus::tokio::tcp::DEFAULT_IDLE_TIMEOUT),
+        };
+        if let Some(u) = self.diagnostic_unit {
+            RangeError::check("diagnostic_unit", (1, 255), "", u).map_err(top)?;
+        }
+        if self.lines.is_empty() {
+            return Err(top(RangeError::new(
+                "line",
+                "at least one [[line]]",
+                "",
+                "none",
+            )));
+        }
+        let mut lines: Vec<Line> = Vec::with_capacity(self.lines.len());
+        let mut owner: [Option<usize>; 256] = [None; 256];
+        for (i, l) in self.lines.iter().enumerate() {
+            let name = l.name.clone().unwrap_or_else(|| format!("line{}", i + 1));
+            let at = format!("line {} ({name})", i + 1);
+            let err = |range| ConfigError {
+                line: Some(at.clone()),
+                range,
+            };
+            let line = l.check(name.clone()).map_err(err)?;
+            for &u in &line.units {
+                if let Some(other) = owner[u as usize] {
+                    return Err(err(RangeError::new(
+                        "units",
+                        format!("unit ids not served by {}", lines[other].name),
+                        "",
+                        u,
+                    )));
+                }
+                if Some(u) == self.diagnostic_unit {
+                    return Err(err(RangeError::new(
+                        "units",
+                        "unit ids other than diagnostic_unit",
+                        "",
+                        u,
+                    )));
+                }
+                owner[u as usize] = Some(i);
+            }
+            lines.push(line);
+        }
+        Ok(Gateway {
+            listen,
+            max_connections,
+            idle_timeout,
+            diagnostic_unit: self.diagnostic_unit,
+            reply_on_broadcast: self.reply_on_broadcast,
+            lines,
+        })
+    }
+}
+
+impl LineFile {
+    /// Check one line (the caller names it in the error).
+    fn check(&self, name: String) -> Result<Line, RangeError> {
+        let kind = self.kind.as_deref().unwrap_or("modbus-rtu");
+        if kind != "modbus-rtu" {
+            return Err(RangeError::new("kind", LINE_KINDS, "", kind));
+        }
+        let device =
+            self.device.as_deref().map(Device::parse).ok_or_else(|| {
+                RangeError::new("device", "a port path or tcp:HOST:PORT", "", "none")
+            })?;
+        let units = parse_units(self.units.as_deref().unwrap_or(""))?;
+        let retries = self.retries.unwrap_or(2);
+        RangeError::check("retries", (0, 15), "", retries)?;
+        let pause_ms = self.pause_ms.unwrap_or(100);
+        RangeError::check("pause_ms", (0, 10_000), " ms", pause_ms)?;
+        let response_timeout_ms = self.response_timeout_ms.unwrap_or(500);
+        RangeError::check(
+            "response_timeout_ms",
+            (50, 655_000),
+            " ms",
+            response_timeout_ms,
+        )?;
+        let queue = self.queue.unwrap_or(DEFAULT_QUEUE);
+        RangeError::check("queue", (1, MAX_QUEUE), "", queue)?;
+        let baud = self.baud.unwrap_or(9600);
+        if !si_core::BAUD_RATES.contains(&baud) {
+            return Err(RangeError::new(
+                "baud",
+                format!("{:?}", si_core::BAUD_RATES),
+                " bit/s",
+                baud,
+            ));
+        }
+        if let Some(mode) = self.rs485.as_deref() {
+            if !matches!(mode, "kernel" | "rts") {
+                return Err(RangeError::new("rs485", "kernel or rts", "", mode));
+            }
+        }
+        Ok(Line {
+            name,
+            device,
+            baud,
+            data_bits: self.data_bits.unwrap_or(8),
+            parity: self.parity.clone().unwrap_or_else(|| "even".to_string()),
+            stop_bits: self.stop_bits.unwrap_or(1),
+            rs485: self.rs485.clone(),
+            rs485_delays_ms: (
+                self.rs485_delay_before_ms.unwrap_or(0),
+                self.rs485_delay_after_ms.unwrap_or(0),
+            ),
+            local_echo: self.local_echo,
+            latency_timer_ms: self.latency_timer_ms,
+            units,
+            retries,
+            pause: std::time::Duration::from_millis(pause_ms),
+            response_timeout_ms,
+            broadcast: self.broadcast,
+            queue,
+        })
+    }
+}
+
+/// `"1-10,12"` → the unit ids 1–10 and 12 (each 1–255; unit 0 is the broadcast, see
+/// `broadcast`). At least one unit, or the line would serve nothing.
+pub fn parse_units(text: &str) -> Result<Vec<u8>, RangeError> {
+    const RANGE: &str = "unit ids 1 … 255 as a list of N or N-M, e.g. 1-10,12";
+    let bad = || RangeError::new("units", RANGE, "", format!("{text:?}"));
+    let mut units = Vec::new();
+    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let (a, b) = part.split_once('-').unwrap_or((part, part));
+        let a: u8 = a.trim().parse().map_err(|_| bad())?;
+        let b: u8 = b.trim().parse().map_err(|_| bad())?;
+        if a == 0 || b < a {
+            return Err(bad());
+        }
+        units.extend(a..=b);
+    }
+    if units.is_empty() {
+        return Err(bad());
+    }
+    units.sort_unstable();
+    units.dedup();
+    Ok(units)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(text: &str) -> Result<Gateway, String> {
+        File::from_toml(text)?.check().map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn a_full_file_is_read_with_defaults_filled_in() {
+        let g = check(
+            r#"
+            listen = "127.0.0.1:5020"
+            diagnostic_unit = 247
+            [[line]]
+            name = "meters"
+            device = "tcp:127.0.0.1:4001"
+            units = "1-3, 7"
+            broadcast = true
+            "#,
+        )
+        .unwrap();
+        assert_eq!(g.max_connections, 32);
+        let l = &g.lines[0];
+        assert_eq!(l.units, [1, 2, 3, 7]);
+        assert_eq!(l.device, Device::Tcp("127.0.0.1:4001".into()));
+        assert_eq!((l.retries, l.response_timeout_ms, l.queue), (2, 500, 32));
+        assert_eq!(l.pause.as_millis(), 100);
+    }
+
+    #[test]
+    fn errors_name_the_line_the_key_and_the_value() {
+        let base = "[[line]]\nname = \"m\"\ndevice = \"/dev/null\"\nunits = \"1\"\n";
+        let e = check(&format!("{base}retries = 20\n")).unwrap_err();
+        assert_eq!(
+            e,
+            "gateway config, line 1 (m): retries = 20 is out of range: 0 … 15"
+        );
+        let e = check(&format!("{base}response_timeout_ms = 10\n")).unwrap_err();
+        assert!(e.contains("line 1 (m): response_timeout_ms = 10 ms"), "{e}");
+        let e = check("[[line]]\ndevice = \"/dev/null\"\nunits = \"0-3\"\n").unwrap_err();
+        assert!(e.contains("line 1 (line1): units = \"0-3\""), "{e}");
+        let e = check(&format!("{base}kind = \"uss\"\n")).unwrap_err();
+        assert!(e.contains("kind = uss is out of range: modbus-rtu"), "{e}");
+        let e = check(&format!("max_connections = 0\n{base}")).unwrap_err();
+        assert!(e.starts_with("gateway config: max_connections = 0"), "{e}");
+        let e = check(&format!("{base}{base}")).unwrap_err();
+        assert!(e.contains("line 2 (m): units = 1"), "{e}");
+        let e = check(&format!("{base}speed = 1\n")).unwrap_err();
+        assert!(e.contains("speed"), "unknown keys are refused: {e}");
+    }
+
+    #[test]
+    fn the_diagnostic_unit_is_not_routed_to_a_line() {
+        let e =
+            check("diagnostic_unit = 5\n[[line]]\ndevice = \"x\"\nunits = \"1-10\"\n").unwrap_err();
+        assert!(e.contains("units = 5"), "{e}");
+    }
+}

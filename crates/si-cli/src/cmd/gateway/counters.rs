@@ -1,0 +1,194 @@
+//! The gateway's counters per line and per client, as JSON status lines and as the diagnostic
+//! unit's input registers.
+//!
+//! # Register map of the diagnostic unit (FC 04, read input registers)
+//!
+//! Blocks of [`BLOCK`] = 16 registers. Block 0 (registers 0–15) holds the counters of the
+//! connection that asks; block 1 + i (registers 16 + 16·i …) those of line i, in the order of
+//! the configuration. In each block, counters are 32 bits, high word first, wrapping:
+//!
+//! | offset | counter |
+//! |---|---|
+//! | 0–1 | requests (every request received; for a line, every one queued for it) |
+//! | 2–3 | answers (normal responses returned) |
+//! | 4–5 | exceptions (exception responses of the slave, passed through) |
+//! | 6–7 | timeouts (no answer after the retries: 0BH returned) |
+//! | 8–9 | CRC errors (a corrupt answer after the retries: 04H returned, as mbusd does) |
+//! | 10–11 | busy (queue full: 06H returned) |
+//! | 12–13 | other failures (0AH no route or line down, 01H/03H refused, other bad answers) |
+//! | 14 | queue depth now (for a client: its requests waiting) |
+//! | 15 | 0 (reserved) |
+//!
+//! Any other function code on the diagnostic unit is answered with exception 01H, registers
+//! past the last block with 02H, and a quantity outside 1–125 with 03H.
+
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::net::SocketAddr;
+
+/// Registers per block of the diagnostic map.
+pub const BLOCK: usize = 16;
+
+/// What became of one request.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    /// A normal response.
+    Answer,
+    /// The slave's exception, passed through.
+    Exception,
+    /// No answer: 0BH.
+    Timeout,
+    /// A corrupt answer after the retries: 04H.
+    CrcError,
+    /// Queue full: 06H.
+    Busy,
+    /// Anything else the gateway answered itself (0AH, 01H, 03H, 04H).
+    Other,
+    /// A broadcast, sent without an answer.
+    Sent,
+}
+
+/// Counters of one line or one client.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct Counters {
+    /// Requests received (client) or queued (line).
+    pub requests: u64,
+    /// Normal responses.
+    pub answers: u64,
+    /// Slave exceptions passed through.
+    pub exceptions: u64,
+    /// No answer (0BH).
+    pub timeouts: u64,
+    /// Corrupt answers after the retries.
+    pub crc_errors: u64,
+    /// Refused with 06H, queue full.
+    pub busy: u64,
+    /// Other failures.
+    pub other: u64,
+    /// Requests waiting now.
+    pub queue_depth: u64,
+}
+
+impl Counters {
+    /// Count what became of a request.
+    pub fn count(&mut self, outcome: Outcome) {
+        let c = match outcome {
+            Outcome::Answer => &mut self.answers,
+            Outcome::Exception => &mut self.exceptions,
+            Outcome::Timeout => &mut self.timeouts,
+            Outcome::CrcError => &mut self.crc_errors,
+            Outcome::Busy => &mut self.busy,
+            Outcome::Other => &mut self.other,
+            Outcome::Sent => return,
+        };
+        *c += 1;
+    }
+
+    /// The block of the diagnostic register map (module docs).
+    pub fn registers(&self) -> [u16; BLOCK] {
+        let mut r = [0u16; BLOCK];
+        let counts = [
+            self.requests,
+            self.answers,
+            self.exceptions,
+            self.timeouts,
+            self.crc_errors,
+            self.busy,
+            self.other,
+        ];
+        for (i, v) in counts.into_iter().enumerate() {
+            let v = v as u32;
+            r[2 * i] = (v >> 16) as u16;
+            r[2 * i + 1] = v as u16;
+        }
+        r[14] = self.queue_depth.min(u16::MAX.into()) as u16;
+        r
+    }
+}
+
+/// One connected client's counters.
+#[derive(Debug, Clone, Serialize)]
+pub struct Client {
+    /// Its address.
+    pub peer: SocketAddr,
+    /// Its counters.
+    #[serde(flatten)]
+    pub counters: Counters,
+}
+
+/// Every counter of the gateway.
+#[derive(Debug, Default)]
+pub struct Stats {
+    /// Per line, in configuration order.
+    pub lines: Vec<Counters>,
+    /// Per connected client, by connection number (gone when it disconnects).
+    pub clients: BTreeMap<u64, Client>,
+}
+
+impl Stats {
+    /// Counters for `lines` lines and no client yet.
+    pub fn new(lines: usize) -> Self {
+        Stats {
+            lines: vec![Counters::default(); lines],
+            clients: BTreeMap::new(),
+        }
+    }
+
+    /// The client's counters (a request before `connected`, e.g. from a test, gets none).
+    pub fn client(&mut self, id: u64) -> Option<&mut Counters> {
+        self.clients.get_mut(&id).map(|c| &mut c.counters)
+    }
+
+    /// The diagnostic registers as seen by client `id` (module docs).
+    pub fn registers(&self, id: u64) -> Vec<u16> {
+        let own = self
+            .clients
+            .get(&id)
+            .map(|c| c.counters)
+            .unwrap_or_default();
+        std::iter::once(own)
+            .chain(self.lines.iter().copied())
+            .flat_map(|c| c.registers())
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counters_are_32_bit_high_word_first_in_their_block() {
+        let c = Counters {
+            requests: 0x1_0002,
+            timeouts: 7,
+            queue_depth: 3,
+            ..Counters::default()
+        };
+        let r = c.registers();
+        assert_eq!(&r[0..2], [1, 2]);
+        assert_eq!(&r[6..8], [0, 7]);
+        assert_eq!(r[14], 3);
+    }
+
+    #[test]
+    fn block_0_is_the_asking_client_and_lines_follow() {
+        let mut s = Stats::new(2);
+        s.lines[1].answers = 9;
+        s.clients.insert(
+            4,
+            Client {
+                peer: "127.0.0.1:1".parse().unwrap(),
+                counters: Counters {
+                    busy: 5,
+                    ..Counters::default()
+                },
+            },
+        );
+        let r = s.registers(4);
+        assert_eq!(r.len(), 3 * BLOCK);
+        assert_eq!(r[11], 5);
+        assert_eq!(r[2 * BLOCK + 3], 9);
+        assert_eq!(s.registers(99)[11], 0, "another client sees its own block");
+    }
+}

@@ -1,0 +1,168 @@
+//! One Modbus RTU line behind the gateway: its queue, and the task that takes requests from it
+//! one at a time (the master has one job at a time, et200s-si-modbus-uss.md §4.2), sends each
+//! through si-modbus's RTU master with the line's retries, and hands the answer back.
+
+use super::counters::{Outcome, Stats};
+use super::queue::FairQueue;
+use si_modbus::mbap::TcpAdu;
+use si_modbus::tokio::{Error, Master};
+use si_modbus::{serve, status};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use tokio::sync::{oneshot, Notify};
+
+/// Exception 04H: what mbusd answers for a corrupt answer after its retries (`MB_EX_CRC` in
+/// `shared/peers/mbusd/src/modbus.h`); we also use it for any other malformed answer.
+pub const SLAVE_DEVICE_FAILURE: u8 = 0x04;
+/// Exception 06H: the line's queue is full.
+pub const SLAVE_DEVICE_BUSY: u8 = 0x06;
+/// Exception 0AH: no line serves the unit, or its line is down (Modbus application protocol
+/// V1.1b3 §7, "gateway path unavailable").
+pub const GATEWAY_PATH_UNAVAILABLE: u8 = 0x0A;
+/// Exception 0BH: the slave did not answer (§7, "gateway target device failed to respond").
+pub const GATEWAY_TARGET_FAILED: u8 = 0x0B;
+
+/// A request waiting for a line, with where its answer goes (`None`: a broadcast).
+pub struct Job {
+    /// The request as the client sent it.
+    pub request: TcpAdu,
+    /// The waiting client.
+    pub reply: Option<oneshot::Sender<TcpAdu>>,
+}
+
+/// A line's queue, shared by the router (pushes) and the line task (pops).
+pub struct LineQueue {
+    queue: Mutex<FairQueue<Job>>,
+    ready: Notify,
+}
+
+impl LineQueue {
+    /// An empty queue of `capacity` requests.
+    pub fn new(capacity: usize) -> Self {
+        LineQueue {
+            queue: Mutex::new(FairQueue::new(capacity)),
+            ready: Notify::new(),
+        }
+    }
+
+    /// Queue a job for `client`: the queue depth after it, or `None` when the queue is full
+    /// (the job is dropped; the caller answers 06H).
+    pub fn push(&self, client: u64, job: Job) -> Option<usize> {
+        let mut q = lock(&self.queue);
+        q.push(client, job).ok()?;
+        let depth = q.len();
+        drop(q);
+        self.ready.notify_one();
+        Some(depth)
+    }
+
+    /// The next job in fair order, waiting for one; the client and the depth left.
+    async fn pop(&self) -> (u64, Job, usize) {
+        loop {
+            {
+                let mut q = lock(&self.queue);
+                if let Some((client, job)) = q.pop() {
+                    return (client, job, q.len());
+                }
+            }
+            // A push between the check and here leaves a permit, so nothing is missed.
+            self.ready.notified().await;
+        }
+    }
+}
+
+/// Lock, taking over a lock poisoned by a panicking holder (the data are plain counters).
+pub fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Serve line `index` until the process ends: one request at a time, then the pause.
+pub async fn run(
+    index: usize,
+    queue: Arc<LineQueue>,
+    mut master: Master,
+    pause: Duration,
+    stats: Arc<Mutex<Stats>>,
+) {
+    loop {
+        let (client, job, depth) = queue.pop().await;
+        {
+            let mut s = lock(&stats);
+            s.lines[index].queue_depth = depth as u64;
+            if let Some(c) = s.client(client) {
+                c.queue_depth = c.queue_depth.saturating_sub(1);
+            }
+        }
+        let (answer, outcome) = forward(&mut master, &job.request).await;
+        {
+            let mut s = lock(&stats);
+            s.lines[index].count(outcome);
+            if let Some(c) = s.client(client) {
+                c.count(outcome);
+            }
+        }
+        if let (Some(reply), Some(answer)) = (job.reply, answer) {
+            // The client may have gone; its answer is then dropped.
+            let _ = reply.send(answer);
+        }
+        if !pause.is_zero() {
+            tokio::time::sleep(pause).await;
+        }
+    }
+}
+
+/// Send one request through the RTU master: the slave's answer with the client's transaction
+/// id (exceptions as they are), or the gateway's own exception.
+async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outcome) {
+    let broadcast = request.unit() == 0;
+    let result = match request.decode_request() {
+        Ok((unit, r)) => master.request(unit, &r).await,
+        Err(e) => {
+            let code = serve::refusal(e.kind).0.code();
+            return (Some(exception(request, code)), Outcome::Other);
+        }
+    };
+    let (code, outcome) = match result {
+        Ok(done) => {
+            let answer = done.response_bytes().and_then(|rtu| {
+                // The RTU frame without its CRC is unit + PDU, what MBAP carries.
+                let unit_pdu = rtu.get(..rtu.len().saturating_sub(2))?;
+                TcpAdu::from_unit_pdu(request.transaction(), unit_pdu).ok()
+            });
+            return match answer {
+                Some(a) => (Some(a), Outcome::Answer),
+                None if broadcast => (None, Outcome::Sent),
+                None => (
+                    Some(exception(request, SLAVE_DEVICE_FAILURE)),
+                    Outcome::Other,
+                ),
+            };
+        }
+        Err(Error::Failed(s)) => match s.code() {
+            // 0E61H–0E67H: the slave's exception 01H–07H (§3.6), passed through unchanged.
+            c @ 0x0E61..=0x0E67 => ((c - 0x0E60) as u8, Outcome::Exception),
+            _ if s == status::RESPONSE_TIMEOUT => (GATEWAY_TARGET_FAILED, Outcome::Timeout),
+            _ if s == status::RESPONSE_CRC => (SLAVE_DEVICE_FAILURE, Outcome::CrcError),
+            _ => (SLAVE_DEVICE_FAILURE, Outcome::Other),
+        },
+        // The master's own checks (§4.3): a function it does not know or that may not be
+        // broadcast is 01H, a quantity out of range 03H, as a slave would answer.
+        Err(Error::Refused(e)) => {
+            let s = e.status();
+            let function =
+                s == status::INVALID_FUNCTION || s == status::BROADCAST_NOT_ALLOWED_FOR_FC;
+            (if function { 0x01 } else { 0x03 }, Outcome::Other)
+        }
+        Err(Error::Stopped(_) | Error::Config(_)) => (GATEWAY_PATH_UNAVAILABLE, Outcome::Other),
+    };
+    if broadcast {
+        return (None, outcome);
+    }
+    (Some(exception(request, code)), outcome)
+}
+
+/// Exception `code` in answer to `request`, with its transaction and unit id.
+pub fn exception(request: &TcpAdu, code: u8) -> TcpAdu {
+    let pdu = [request.unit(), request.function() | 0x80, code];
+    TcpAdu::from_unit_pdu(request.transaction(), &pdu).unwrap_or_default()
+}

@@ -1,0 +1,153 @@
+//! A gateway in front of a pymodbus RTU server on a pty pair, and raw Modbus TCP frames.
+
+use crate::common::modbus::{have_pymodbus, pymodbus_server};
+use crate::common::{have_socat, pty_pair, si_command, test_dir, Kill, PtyPair};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::process::Stdio;
+use std::sync::mpsc::{self, Receiver};
+use std::time::Duration;
+
+/// A pymodbus RTU server answering unit 1 (and executing broadcasts) at 19200 baud, 8N2 (pyserial cannot set even parity
+/// on a pseudo-terminal); holding
+/// register n holds n, input register n holds 1000 + n, discrete inputs alternate 0 1.
+const RTU_SERVER: &str = r#"
+import sys, warnings
+warnings.filterwarnings("ignore")
+from pymodbus.server import StartSerialServer
+from pymodbus.datastore import ModbusSequentialDataBlock, ModbusServerContext, ModbusDeviceContext
+dev = ModbusDeviceContext(
+    di=ModbusSequentialDataBlock(1, [False, True] * 50),
+    co=ModbusSequentialDataBlock(1, [False] * 100),
+    hr=ModbusSequentialDataBlock(1, list(range(100))),
+    ir=ModbusSequentialDataBlock(1, [1000 + i for i in range(100)]),
+)
+ctx = ModbusServerContext(devices={1: dev}, single=False)
+print("ready", flush=True)
+StartSerialServer(context=ctx, port=sys.argv[1], baudrate=19200, parity="N", stopbits=2, bytesize=8, broadcast_enable=True)
+"#;
+
+/// A running gateway with its RTU slave; everything is killed when dropped.
+pub struct Rig {
+    /// The gateway's TCP address.
+    pub addr: String,
+    /// The gateway's stdout lines after the first.
+    pub log: Receiver<String>,
+    gateway: Kill,
+    _slave: Kill,
+    _pairs: (PtyPair, PtyPair),
+}
+
+impl Rig {
+    /// `si gateway --config` with two lines: `meters` (unit 1, the pymodbus slave) and
+    /// `silent` (unit 2, a pseudo-terminal nobody answers on), both with the TOML keys
+    /// `line_keys`, and the top-level keys `top_keys`; listening on a free loopback port.
+    /// `None` when a peer is missing (skip).
+    pub fn start(top_keys: &str, line_keys: &str) -> Option<Rig> {
+        if !(have_socat() && have_pymodbus()) {
+            return None;
+        }
+        let pair = pty_pair()?;
+        let dead = pty_pair()?;
+        let slave = pymodbus_server(RTU_SERVER, &pair.b);
+        let line = "baud = 19200\nparity = \"none\"\nstop_bits = 2\n";
+        let toml = format!(
+            "listen = \"127.0.0.1:0\"\n{top_keys}\n\
+             [[line]]\nname = \"meters\"\ndevice = \"{}\"\nunits = \"1\"\n{line}{line_keys}\n\
+             [[line]]\nname = \"silent\"\ndevice = \"{}\"\nunits = \"2\"\n{line}{line_keys}\n",
+            pair.a, dead.a
+        );
+        let path = test_dir("gateway").join(format!("{}.toml", pair.a.replace('/', "_")));
+        std::fs::write(&path, toml).expect("write the config");
+        let mut child = si_command()
+            .args(["--json", "gateway", "--config"])
+            .arg(&path)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("spawn si gateway");
+        let (tx, log) = mpsc::channel();
+        let stdout = child.stdout.take().expect("stdout");
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                if tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+        let gateway = Kill(child);
+        let first = log
+            .recv_timeout(Duration::from_secs(20))
+            .expect("the gateway says where it listens");
+        let v: serde_json::Value = serde_json::from_str(&first).expect(&first);
+        assert_eq!(v["event"], "listening", "{first}");
+        Some(Rig {
+            addr: v["addr"].as_str().expect("addr").to_owned(),
+            log,
+            gateway,
+            _slave: slave,
+            _pairs: (pair, dead),
+        })
+    }
+
+    /// Stop the gateway with SIGINT (as Ctrl-C) and return its last status line.
+    pub fn stop(self) -> serde_json::Value {
+        let pid = self.gateway.0.id().to_string();
+        let ok = std::process::Command::new("kill")
+            .args(["-INT", &pid])
+            .status()
+            .is_ok_and(|s| s.success());
+        assert!(ok, "kill -INT {pid}");
+        let mut last = None;
+        while let Ok(line) = self.log.recv_timeout(Duration::from_secs(10)) {
+            last = Some(line);
+        }
+        let last = last.expect("a status line at exit");
+        serde_json::from_str(&last).expect(&last)
+    }
+}
+
+/// A connection sending raw MBAP frames.
+pub struct Mbap(pub TcpStream);
+
+impl Mbap {
+    /// Connect, with a generous read timeout as a bound only.
+    pub fn connect(addr: &str) -> Mbap {
+        let s = TcpStream::connect(addr).expect("connect to the gateway");
+        s.set_read_timeout(Some(Duration::from_secs(15))).unwrap();
+        Mbap(s)
+    }
+
+    /// Send `unit | pdu` with transaction id `tid`.
+    pub fn send(&mut self, tid: u16, unit: u8, pdu: &[u8]) {
+        self.0.write_all(&frame(tid, unit, pdu)).expect("send");
+    }
+
+    /// The next answer: (transaction id, unit, PDU).
+    pub fn recv(&mut self) -> (u16, u8, Vec<u8>) {
+        let mut head = [0u8; 7];
+        self.0.read_exact(&mut head).expect("answer header");
+        let len = u16::from_be_bytes([head[4], head[5]]) as usize;
+        let mut pdu = vec![0u8; len - 1];
+        self.0.read_exact(&mut pdu).expect("answer PDU");
+        (u16::from_be_bytes([head[0], head[1]]), head[6], pdu)
+    }
+}
+
+/// An MBAP frame.
+pub fn frame(tid: u16, unit: u8, pdu: &[u8]) -> Vec<u8> {
+    let mut f = Vec::with_capacity(7 + pdu.len());
+    f.extend_from_slice(&tid.to_be_bytes());
+    f.extend_from_slice(&[0, 0]);
+    f.extend_from_slice(&(pdu.len() as u16 + 1).to_be_bytes());
+    f.push(unit);
+    f.extend_from_slice(pdu);
+    f
+}
+
+/// FC03 for `count` registers from `addr`.
+pub fn read_holding(addr: u16, count: u16) -> Vec<u8> {
+    let [a, b] = addr.to_be_bytes();
+    let [c, d] = count.to_be_bytes();
+    vec![0x03, a, b, c, d]
+}
