@@ -4,5 +4,7 @@
 //!
 //! - [`alloc`]: the counting global allocator of the `no_alloc` tests, which prove the si-core
 //!   contract "no allocation per frame in steady state" (ARCHITECTURE.md).
+//! - [`noise`]: noise peers and a noise driver for the "bound on every job" tests (issue 21).
 
 pub mod alloc;
+pub mod noise;
