@@ -9,7 +9,7 @@ use si_core::{Duration, Instant, SerialSettings};
 use si_modbus::frame::{Registers, Request};
 use si_modbus::master::{Master, MasterEvent};
 use si_modbus::{status, FrameEnd, MasterConfig, Mode};
-use si_testkit::noise::{drive, Noise, NoisePeer, Source};
+use si_testkit::noise::{drive, issue_patterns, NoisePeer, Pattern};
 
 const WORDS: [u16; 2] = [1, 2];
 
@@ -36,57 +36,6 @@ fn ms(n: u64) -> Duration {
     Duration::from_millis(n)
 }
 
-/// The issue's patterns at 9600 bit/s (a character is 1.146 ms, the gap 4 ms).
-fn patterns() -> Vec<(&'static str, Noise, Option<Instant>)> {
-    let char_time = SerialSettings::default().char_time();
-    vec![
-        ("silent", Noise::Silent, None),
-        (
-            "random every 2 ms",
-            Noise::Every {
-                every: ms(2),
-                burst: 1,
-                bytes: Source::Random(21),
-            },
-            None,
-        ),
-        (
-            "01H every 2 ms",
-            Noise::Every {
-                every: ms(2),
-                burst: 1,
-                bytes: Source::Fixed(0x01),
-            },
-            None,
-        ),
-        (
-            "endless frame",
-            Noise::Every {
-                every: char_time.saturating_mul(2),
-                burst: 1,
-                bytes: Source::Random(5),
-            },
-            None,
-        ),
-        ("random flood", Noise::Flood(Source::Random(9)), None),
-        ("01H flood", Noise::Flood(Source::Fixed(0x01)), None),
-        (
-            "random flood then silence",
-            Noise::Flood(Source::Random(3)),
-            Some(Instant::from_micros(300_000)),
-        ),
-        (
-            "01H every 2 ms for 5 s",
-            Noise::Every {
-                every: ms(2),
-                burst: 1,
-                bytes: Source::Fixed(0x01),
-            },
-            Some(Instant::from_micros(5_000_000)),
-        ),
-    ]
-}
-
 fn configs() -> Vec<(MasterConfig, FrameEnd)> {
     let mut out = Vec::new();
     for mode in [Mode::Normal, Mode::InterferenceSuppression] {
@@ -111,7 +60,7 @@ fn assert_bounded(
     frame_end: FrameEnd,
     adapter: bool,
     job: &Request<'_>,
-    (name, noise, until): (&str, Noise, Option<Instant>),
+    Pattern { name, noise, until }: Pattern,
 ) {
     let mut sim = Simulator::new(1).without_trace();
     let s = SerialSettings::default();
@@ -147,7 +96,7 @@ fn assert_bounded(
 fn every_job_ends_with_a_status_within_its_bound_under_every_noise() {
     for (config, frame_end) in configs() {
         for job in &jobs() {
-            for pattern in patterns() {
+            for pattern in issue_patterns(SerialSettings::default().char_time()) {
                 assert_bounded(config, frame_end, false, job, pattern);
             }
         }
@@ -160,7 +109,7 @@ fn behind_a_usb_adapter_too() {
         response_timeout_ms: 500,
         ..MasterConfig::default()
     };
-    for pattern in patterns() {
+    for pattern in issue_patterns(SerialSettings::default().char_time()) {
         assert_bounded(config, FrameEnd::Gap, true, &jobs()[0], pattern);
     }
 }
@@ -175,7 +124,11 @@ fn a_silent_partner_gives_0830h_after_the_response_time() {
     let mut sim = Simulator::new(1).without_trace();
     let s = SerialSettings::default();
     let m = sim.add_station("master", s, Master::new(config).unwrap());
-    let p = sim.add_station("noise", s, NoisePeer::new(Noise::Silent, None));
+    let p = sim.add_station(
+        "noise",
+        s,
+        NoisePeer::new(si_testkit::noise::Noise::Silent, None),
+    );
     sim.connect(m, p);
     sim.with(m, |e, now| e.request(now, 1, &jobs()[0])).unwrap();
     // 8 request bytes (9.2 ms) + 500 ms.

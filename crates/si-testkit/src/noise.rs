@@ -138,6 +138,57 @@ impl Engine for NoisePeer {
     }
 }
 
+/// A named noise pattern for a test loop: [`NoisePeer::new`]`(noise, until)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Pattern {
+    /// What the assertion messages call it.
+    pub name: &'static str,
+    /// The noise.
+    pub noise: Noise,
+    /// When it stops (`None`: never).
+    pub until: Option<Instant>,
+}
+
+/// The patterns issue 21 probed, for a line with this character time: silent, random bytes
+/// every 2 ms, 01H every 2 ms, an endless frame (a byte every two character times, never a
+/// gap), a random, a 01H and a 02H (STX) flood, a flood that stops after 300 ms, and 01H every 2 ms for 5 s.
+pub fn issue_patterns(char_time: Duration) -> Vec<Pattern> {
+    let every = |every, bytes| Noise::Every {
+        every,
+        burst: 1,
+        bytes,
+    };
+    let ms = Duration::from_millis;
+    let p = |name, noise, until: Option<u64>| Pattern {
+        name,
+        noise,
+        until: until.map(|ms| Instant::from_micros(ms * 1_000)),
+    };
+    vec![
+        p("silent", Noise::Silent, None),
+        p("random every 2 ms", every(ms(2), Source::Random(21)), None),
+        p("01H every 2 ms", every(ms(2), Source::Fixed(0x01)), None),
+        p(
+            "endless frame",
+            every(char_time.saturating_mul(2), Source::Random(5)),
+            None,
+        ),
+        p("random flood", Noise::Flood(Source::Random(9)), None),
+        p("01H flood", Noise::Flood(Source::Fixed(0x01)), None),
+        p("02H (STX) flood", Noise::Flood(Source::Fixed(0x02)), None),
+        p(
+            "random flood then silence",
+            Noise::Flood(Source::Random(3)),
+            Some(300),
+        ),
+        p(
+            "01H every 2 ms for 5 s",
+            every(ms(2), Source::Fixed(0x01)),
+            Some(5_000),
+        ),
+    ]
+}
+
 /// Wake-ups at one instant after which [`drive`] calls the engine a busy loop.
 pub const MAX_STEPS_AT_ONE_INSTANT: u32 = 10_000;
 
