@@ -149,6 +149,9 @@ fn the_issue_s_example_is_under_2_5_s() {
         ..MasterConfig::default()
     };
     assert!(config.job_bound() < ms(2_500), "{:?}", config.job_bound());
+    // The crate docs' worked example ("Bounds").
+    assert_eq!(config.max_response_duration().as_micros(), 562_646);
+    assert_eq!(config.job_bound().as_micros(), 2_183_938);
     // And each retry adds one attempt.
     let twice = MasterConfig {
         retries: 1,

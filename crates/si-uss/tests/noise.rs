@@ -107,6 +107,15 @@ fn a_poll_under_a_flood_goes_out_after_the_wait_for_silence() {
     assert_eq!(sim.engine(m).counters().sent, 1);
 }
 
+#[test]
+fn the_crate_docs_example_numbers() {
+    // "Bounds" in the crate docs: 9600 bit/s, one slave, 20 ms.
+    assert_eq!(config(0).max_wait_for_silence().as_micros(), 697_866);
+    assert_eq!(config(0).poll_bound().as_micros(), 1_962_920);
+    assert_eq!(config(0).job_bound().as_micros(), 2 * 1_962_920);
+    assert_eq!(config(20).job_bound().as_micros(), 22 * 1_962_920);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(128))]
 
