@@ -1,7 +1,7 @@
 //! A bound on every master job under noise (issue 21; the crate docs, "Bounds"): against a
 //! partner that never sends a valid response (silent, random bytes, 01H every 2 ms, an endless
 //! frame, a flood, noise that stops), every job — read, write, diagnostics — ends with a
-//! non-zero STATUS within [`MasterConfig::job_bound`], in virtual time.
+//! non-zero STATUS within [`MasterConfig::job_bound`], in virtual time, through S_SEND too.
 
 use proptest::prelude::*;
 use si_core::sim::{Simulator, UsbAdapter};
@@ -111,6 +111,35 @@ fn behind_a_usb_adapter_too() {
     };
     for pattern in issue_patterns(SerialSettings::default().char_time()) {
         assert_bounded(config, FrameEnd::Gap, true, &jobs()[0], pattern);
+    }
+}
+
+#[test]
+fn an_s_send_job_ends_with_error_within_the_bound_under_every_noise() {
+    // The FB layer (S_SEND over the master, si_core::fb) inherits the master's bound.
+    let config = MasterConfig {
+        response_timeout_ms: 500,
+        ..MasterConfig::default()
+    };
+    let s = SerialSettings::default();
+    for pattern in issue_patterns(s.char_time()) {
+        let mut sim = Simulator::new(1).without_trace();
+        let m = sim.add_station("master", s, Master::new(config).unwrap());
+        let p = sim.add_station("noise", s, NoisePeer::new(pattern.noise, pattern.until));
+        sim.connect(m, p);
+        sim.run_until(Instant::from_micros(50_000));
+        let start = sim.now();
+        let job = [0x01, 0x03, 0x00, 0x00, 0x00, 0x01];
+        let mut s_send = si_core::fb::SSend::default();
+        let first = sim.with(m, |e, now| s_send.call(e, now, true, false, &job));
+        assert!(!first.done && !first.error, "{}", pattern.name);
+        sim.run_until(start + config.job_bound());
+        let out = sim.with(m, |e, now| s_send.call(e, now, true, false, &job));
+        assert!(
+            out.error && out.status.code() != 0,
+            "{}: {out:?}",
+            pattern.name
+        );
     }
 }
 
