@@ -29,6 +29,8 @@ mod modbus_tcp;
 mod modbus_usb_relay;
 #[path = "pty/monitor.rs"]
 mod monitor;
+#[path = "pty/noise_masters.rs"]
+mod noise_masters;
 #[path = "pty/port_flags.rs"]
 mod port_flags;
 #[path = "pty/profile.rs"]

@@ -292,6 +292,62 @@ impl MasterConfig {
     pub fn response_timeout(&self) -> Duration {
         Duration::from_millis(self.response_timeout_ms as u64)
     }
+
+    /// The wire time of the longest frame at this line's character time (start + data +
+    /// parity + stop bits, §3.9): [`MAX_ADU`](crate::frame::MAX_ADU) = 264 bytes, the
+    /// Modbus specification's 256 raised to what the manual's 2040-bit FC15 needs (§3.6).
+    pub fn max_frame_time(&self) -> Duration {
+        self.line.settings.chars_time(crate::frame::MAX_ADU as u64)
+    }
+
+    /// What a port that hands bytes over in packets may add to any time judged on the host:
+    /// the longest latency a USB adapter has plus one character ([`si_core::delivery`]'s
+    /// patience at its largest). The bound's margin; zero would do on a byte-by-byte port.
+    pub fn port_margin(&self) -> Duration {
+        si_core::delivery::MAX_LATENCY + self.line.settings.char_time()
+    }
+
+    /// Host bound (issue 21; the manual's "Response Time" of §3.8 runs only to the **start**
+    /// of a response): how long one response may take once it has started, the longest frame's
+    /// wire time + the end-of-frame gap tZVZ (§3.5) + [`port_margin`](Self::port_margin):
+    ///
+    /// `264 × t_char + tZVZ + (255 ms + t_char)`
+    ///
+    /// A valid response that started in time is whole by then; bytes still arriving are noise.
+    pub fn max_response_duration(&self) -> Duration {
+        self.max_frame_time() + self.line.gap() + self.port_margin()
+    }
+
+    /// Host bound on one attempt of a job, from its start to its end whatever the line does:
+    ///
+    /// `hold + send + wait + response`, where
+    /// - hold = [`max_response_duration`](Self::max_response_duration): the request waits for
+    ///   silence after a frame in progress (§3.5; [`FrameEnd::Length`] only) at most this long;
+    /// - send = [`max_frame_time`](Self::max_frame_time) + the data output wait time of
+    ///   automatic V.24 (§2.2) if configured;
+    /// - wait = the response time (§3.8) + [`port_margin`](Self::port_margin) (the first byte
+    ///   may reach us a port latency late), or the broadcast turnaround if that is longer;
+    /// - response = [`max_response_duration`](Self::max_response_duration).
+    pub fn attempt_bound(&self) -> Duration {
+        let cts = self.line.auto_v24.map_or(Duration::ZERO, |t| {
+            Duration::from_millis(t.data_wait_time_ms as u64)
+        });
+        let wait = (self.response_timeout() + self.port_margin())
+            .max(Duration::from_millis(self.broadcast_turnaround_ms as u64));
+        self.max_response_duration()
+            + self.max_frame_time()
+            + cts
+            + wait
+            + self.max_response_duration()
+    }
+
+    /// Host bound on a job as a whole: `(retries + 1) ×` [`attempt_bound`](Self::attempt_bound).
+    /// Every master job ends with a STATUS by then (0830H if nothing valid came), see the
+    /// crate docs, "Bounds".
+    pub fn job_bound(&self) -> Duration {
+        self.attempt_bound()
+            .saturating_mul(u64::from(self.retries) + 1)
+    }
 }
 
 /// Slave parameters (§5.3, Table 3-20).

@@ -61,6 +61,33 @@
 //! - 0806H "character delay time exceeded" is never raised: in RTU the character delay time
 //!   is the end-of-frame gap, and a frame it cuts short fails the checks the manual names
 //!   (0E52H–0E57H, 0836H) ([`status`]; §11.5).
+//!
+//! # Bounds
+//!
+//! The manual's "Response Time" (§3.8, 0830H) runs only to the **start** of a response. On a
+//! line that never goes quiet (noise, a flood, a partner that sends an endless frame) that
+//! alone ends no job, so the master adds host bounds derived from its configuration
+//! ([`config::MasterConfig`], issue 21), and every master job — [`master::Master::request`],
+//! S_SEND/S_RCV ([`fb`]), `si modbus read/write/diag` — ends with a STATUS within
+//! [`config::MasterConfig::job_bound`]:
+//!
+//! - **one response**, once started, must be whole within
+//!   `max_response_duration = 264 × t_char + tZVZ + (255 ms + t_char)`: the longest frame's
+//!   wire time, the end-of-frame gap (§3.5) and the longest USB-adapter hold; later bytes
+//!   are noise and the attempt ends with 0830H (a retry follows if configured);
+//! - **one attempt**: `attempt_bound = max_response_duration` (the longest hold for silence
+//!   before the request, `FrameEnd::Length` only) `+ 264 × t_char` (the request; + the V.24
+//!   data output wait if configured) `+ Response Time + (255 ms + t_char)` (the response's
+//!   first byte may come a port latency late; or the broadcast turnaround if longer)
+//!   `+ max_response_duration`;
+//! - **the job**: `job_bound = (retries + 1) × attempt_bound`; whatever is still running then
+//!   fails with 0830H.
+//!
+//! Example: `si modbus read --timeout 500` at 9600 bit/s 8E1 (t_char = 1.146 ms, tZVZ = 4 ms,
+//! no retries): max_response_duration = 302.5 + 4 + 256.1 = 562.6 ms, and the job ends within
+//! 562.6 + 302.5 + 756.1 + 562.6 = **2184 ms**, under the 2.5 s issue 21 asks for. Against a
+//! silent partner it still ends at the Response Time (0830H, 509 ms here), and a frame that
+//! does end is judged by §4.4 as before (0831H, 0E57H, …).
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod config;

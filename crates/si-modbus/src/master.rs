@@ -7,7 +7,16 @@
 //! byte counts (0E52H–0E55H), echoed fields (0E56H). A broadcast (address 0, FC05/06/15/16
 //! only, else 0E43H) completes after the turnaround delay without waiting for a reply.
 //!
-//! Every job ends in exactly one [`MasterEvent::Completed`] or [`MasterEvent::Failed`].
+//! Every job ends in exactly one [`MasterEvent::Completed`] or [`MasterEvent::Failed`], and
+//! within [`MasterConfig::job_bound`] whatever the line does (host bound, issue 21; the
+//! crate docs, "Bounds"): a response that has started must be whole within
+//! [`MasterConfig::max_response_duration`], else the attempt ends with 0830H as if nothing had
+//! come (a retry follows if configured); a request held for silence (`FrameEnd::Length`) goes
+//! out after that long even if the line never goes quiet; and whatever is left when the job's
+//! bound passes (a flood, a state that never moves) fails the job with 0830H. **Reading
+//! chosen** for the STATUS: 0830H "no response start within Response Time" (§7.3) rather than
+//! a frame error, because noise that never forms a frame is no response at all, and a frame
+//! that does end is still judged by §4.4 (0831H, 0E57H, …) as before.
 //!
 //! With [`FrameEnd::Length`] (a host extension, see there) a response also ends as soon as it
 //! has the length its function code and byte count predict and its CRC checks
@@ -123,9 +132,11 @@ enum State {
     Sending {
         until: Instant,
     },
-    /// Waiting for the start of the response until `deadline`.
+    /// Waiting for the start of the response until `deadline`, and for its end until `limit`
+    /// (`deadline` + [`MasterConfig::max_response_duration`]).
     Waiting {
         deadline: Instant,
+        limit: Instant,
     },
     /// Automatic V.24 (§2.2): RTS is on, the request waits for CTS = ON.
     WaitCts,
@@ -142,6 +153,10 @@ pub struct Master {
     rx: Receiver,
     state: State,
     job: Option<(Adu, u8)>,
+    /// The running job fails with 0830H at this instant ([`MasterConfig::job_bound`]).
+    job_deadline: Option<Instant>,
+    /// The current attempt's request goes out by then even if the line is never quiet.
+    hold_limit: Instant,
     out: VecDeque<Output<MasterEvent>>,
     /// Frames out, with automatic V.24 operation (§2.2) around each if configured.
     tx: Transmitter,
@@ -161,6 +176,8 @@ impl Master {
             config,
             state: State::Idle,
             job: None,
+            job_deadline: None,
+            hold_limit: Instant::ZERO,
             out,
             fb: FbJobs::default(),
         })
@@ -222,7 +239,8 @@ impl Master {
         }
         let adu = Self::check_job(unit, request)?;
         self.job = Some((adu, 1 + self.config.retries));
-        self.send(now);
+        self.job_deadline = Some(now + self.config.job_bound());
+        self.attempt(now);
         Ok(())
     }
 
@@ -243,10 +261,24 @@ impl Master {
         })
     }
 
+    /// Start an attempt: its request may be held for silence at most
+    /// [`MasterConfig::max_response_duration`] (a frame in progress is over by then; a line
+    /// that is still busy carries noise, which the request would not wait out).
+    fn attempt(&mut self, now: Instant) {
+        self.hold_limit = now + self.config.max_response_duration();
+        self.send(now);
+    }
+
     /// Send the job's request, or hold it while the line has not been silent for the gap.
     fn send(&mut self, now: Instant) {
-        if let Some(until) = self.rx.quiet_at().filter(|&q| now < q) {
-            self.state = State::Holding { until };
+        if let Some(until) = self
+            .rx
+            .quiet_at()
+            .filter(|&q| now < q && now < self.hold_limit)
+        {
+            self.state = State::Holding {
+                until: until.min(self.hold_limit),
+            };
             return;
         }
         let Some((adu, attempts)) = self.job.as_mut() else {
@@ -279,8 +311,11 @@ impl Master {
                 }
             } else {
                 // The response's first byte may reach us up to the port's latency late.
+                let deadline =
+                    now + self.config.response_timeout() + self.rx.delivery().allowance();
                 State::Waiting {
-                    deadline: now + self.config.response_timeout() + self.rx.delivery().allowance(),
+                    deadline,
+                    limit: deadline + self.config.max_response_duration(),
                 }
             };
         }
@@ -288,6 +323,7 @@ impl Master {
 
     fn finish(&mut self, event: MasterEvent) {
         self.job = None;
+        self.job_deadline = None;
         self.state = State::Idle;
         self.fb.finished(&event);
         self.out.push_back(Output::Event(event));
@@ -309,7 +345,7 @@ impl Master {
         let retry = self.job.is_some_and(|(_, left)| left > 0)
             && (status == status::RESPONSE_TIMEOUT || status == status::RESPONSE_CRC);
         if retry {
-            self.send(now);
+            self.attempt(now);
         } else {
             self.fail(status);
         }
@@ -369,10 +405,22 @@ impl Master {
         }
         let gate = self.tx.on_timeout(now, &mut self.out);
         self.on_gate(now, gate);
+        if self.job.is_some() && self.job_deadline.is_some_and(|d| now >= d) {
+            // The job's bound: whatever the line still does, the job is over (module docs).
+            self.rx.discard();
+            self.fail(status::RESPONSE_TIMEOUT);
+            return;
+        }
         match self.state {
             State::Holding { until } if now >= until => self.send(now),
             State::Sending { until } if now >= until => self.sent(now),
-            State::Waiting { deadline } if now >= deadline && !self.rx.is_receiving() => {
+            State::Waiting { limit, .. } if now >= limit => {
+                // A "response" still running past its longest duration is noise: no valid
+                // response came in this attempt (module docs, reading chosen).
+                self.rx.discard();
+                self.fail_or_retry(now, status::RESPONSE_TIMEOUT)
+            }
+            State::Waiting { deadline, .. } if now >= deadline && !self.rx.is_receiving() => {
                 self.fail_or_retry(now, status::RESPONSE_TIMEOUT)
             }
             State::Turnaround { until } if now >= until => {
@@ -393,10 +441,15 @@ impl Master {
             State::Holding { until } | State::Sending { until } | State::Turnaround { until } => {
                 Some(until)
             }
-            State::Waiting { deadline } => (!self.rx.is_receiving()).then_some(deadline),
+            State::Waiting { deadline, limit } => Some(if self.rx.is_receiving() {
+                limit
+            } else {
+                deadline
+            }),
         };
+        let engine = Instant::earliest(state, self.job_deadline);
         Instant::earliest(
-            Instant::earliest(state, self.rx.deadline()),
+            Instant::earliest(engine, self.rx.deadline()),
             self.tx.deadline(),
         )
     }

@@ -239,6 +239,60 @@ impl MasterConfig {
     pub fn start_interval(&self) -> Duration {
         start_interval(&self.settings)
     }
+
+    /// What a port that hands bytes over in packets may add to any time judged on the host:
+    /// the longest latency a USB adapter has plus one character ([`si_core::delivery`]'s
+    /// patience and allowance at their largest). The bounds' margin.
+    pub fn port_margin(&self) -> Duration {
+        si_core::delivery::MAX_LATENCY + self.settings.char_time()
+    }
+
+    /// Host bound (issue 21): the longest a telegram may occupy the line, its STX and the
+    /// residual run time of the longest net data, 1 + 1.5 × (252 + 3) character times
+    /// (public-facts.md §3, USS spec §5.2.1.2), plus [`port_margin`](Self::port_margin).
+    pub fn max_telegram_duration(&self) -> Duration {
+        self.settings.char_time() + residual_run_time(&self.settings, MAX_NET) + self.port_margin()
+    }
+
+    /// Host bound (issue 21): how long a poll waits for the start interval of silence before
+    /// it sends anyway, [`start_interval`](Self::start_interval) +
+    /// [`max_telegram_duration`](Self::max_telegram_duration). Any telegram on the line has
+    /// ended by then; a line still busy carries noise, which a master would wait out forever.
+    pub fn max_wait_for_silence(&self) -> Duration {
+        self.start_interval() + self.max_telegram_duration()
+    }
+
+    /// Host bound on one poll, from the moment it is due to its response, "no answer" or
+    /// rejection, whatever the line does:
+    /// [`max_wait_for_silence`](Self::max_wait_for_silence) + the request's wire time
+    /// (at most 256 characters) + the response timeout + [`port_margin`](Self::port_margin) (the
+    /// STX may reach us a port latency late) + [`max_telegram_duration`](Self::max_telegram_duration)
+    /// (the response's rest within its residual run time).
+    pub fn poll_bound(&self) -> Duration {
+        self.max_wait_for_silence()
+            + self.settings.chars_time(crate::frame::MAX_TELEGRAM as u64)
+            + self.response_timeout
+            + self.port_margin()
+            + self.max_telegram_duration()
+    }
+
+    /// Host bound on one cycle: every entry's [`poll_bound`](Self::poll_bound) plus the cycle
+    /// pause. (A broadcast or mirror telegram slipped in adds one poll bound each.)
+    pub fn cycle_bound(&self) -> Duration {
+        self.poll_bound()
+            .saturating_mul(self.polling_list.len() as u64)
+            + self.cycle_pause
+    }
+
+    /// Host bound on a parameter job, from [`Master::request_parameter`] to its end:
+    /// `(WDH + 2) ×` [`cycle_bound`](Self::cycle_bound). The job goes out with its slave's next
+    /// poll (within one cycle) and at most 1 + WDH times, once per cycle (§6.8).
+    ///
+    /// [`Master::request_parameter`]: crate::master::Master::request_parameter
+    pub fn job_bound(&self) -> Duration {
+        self.cycle_bound()
+            .saturating_mul(u64::from(self.pkw_retries) + 2)
+    }
 }
 
 /// Start interval of a line: 2 character times (public-facts.md §3, USS spec §5.1.2).

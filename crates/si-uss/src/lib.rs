@@ -36,6 +36,30 @@
 //! let events = sim.take_events(m);
 //! assert!(events.iter().any(|e| matches!(e, Event::Response { address: 1, .. })));
 //! ```
+//!
+//! # Bounds
+//!
+//! The USS timing (public-facts.md §3) bounds a poll only on a line that goes quiet: the master
+//! waits for a start interval of silence before every request, and a flood never leaves one.
+//! So the master adds host bounds derived from its configuration ([`config::MasterConfig`],
+//! issue 21):
+//!
+//! - **wait for silence**: a due poll goes out after at most
+//!   `max_wait_for_silence = 2 × t_char + t_char + 1.5 × (252 + 3) × t_char + (255 ms + t_char)`,
+//!   the start interval plus the longest telegram (STX and its residual run time) plus the
+//!   longest USB-adapter hold; any telegram on the line is over by then;
+//! - **one poll**: `poll_bound = max_wait_for_silence + 256 × t_char` (the request)
+//!   `+ response timeout + (255 ms + t_char)` (the STX may come a port latency late)
+//!   `+ max_telegram_duration` (the response's residual run time, + the hold); it ends with a
+//!   response, "no answer" (16#1408) or a rejection (residual time, LGE, BCC, …);
+//! - **one cycle**: `cycle_bound = entries × poll_bound + cycle pause` (`si uss poll --cycles 1`);
+//! - **a parameter job**: `job_bound = (WDH + 2) × cycle_bound` (`si uss read-param`): it goes
+//!   out with its slave's next poll and at most 1 + WDH times, once per cycle.
+//!
+//! Example at 9600 bit/s (t_char = 1.146 ms), one slave, response timeout 20 ms: a poll ends
+//! within 697.9 + 293.3 + 20 + 256.1 + 695.6 = **1963 ms**; `uss read-param --retries 0`
+//! within 3.93 s, with the default WDH = 20 within 43.2 s. Under noise that never forms a
+//! telegram the engine never spins: each wait ends at an instant that moves forward.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod config;

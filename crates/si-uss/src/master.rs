@@ -433,9 +433,11 @@ enum Current {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Phase {
     Stopped,
-    /// Send the next telegram at `at`.
+    /// Send the next telegram at `at`, and at `latest` even if the line has not been quiet
+    /// for the start interval ([`MasterConfig::max_wait_for_silence`] after it was due).
     Idle {
         at: Instant,
+        latest: Instant,
     },
     /// Waiting for the response to `current` until `deadline` (STX) or the residual run time.
     Awaiting {
@@ -529,9 +531,7 @@ impl Master {
     /// Begin (or resume) cyclic polling: the first request goes out after the start interval.
     pub fn start(&mut self, now: Instant) {
         if self.phase == Phase::Stopped {
-            self.phase = Phase::Idle {
-                at: self.next_send_time(now),
-            };
+            self.idle(self.next_send_time(now));
             self.tick(now);
         }
     }
@@ -773,28 +773,39 @@ impl Master {
         now.max(busy + self.start_interval)
     }
 
+    /// The next telegram is due at `at`: it waits for the start interval of silence at most
+    /// [`MasterConfig::max_wait_for_silence`] (host bound, issue 21; module docs, "Bounds").
+    fn idle(&mut self, at: Instant) {
+        self.phase = Phase::Idle {
+            at,
+            latest: at + self.config.max_wait_for_silence(),
+        };
+    }
+
     /// Send whatever is due.
     fn tick(&mut self, now: Instant) {
-        let Phase::Idle { at } = self.phase else {
+        let Phase::Idle { at, latest } = self.phase else {
             return;
         };
         if self.finish_if_over(now) {
             return;
         }
-        if now < at || self.rx.is_receiving() {
+        let overdue = now >= latest;
+        if now < at || (self.rx.is_receiving() && !overdue) {
             return;
         }
         let at = self.next_send_time(now);
-        if now < at {
-            self.phase = Phase::Idle { at };
+        if now < at && !overdue {
+            self.phase = Phase::Idle {
+                at: at.min(latest),
+                latest,
+            };
             return;
         }
         if let Some(b) = self.broadcast.take() {
             self.transmit(now, Adr::broadcast(), &b.net[..b.len]);
             self.emit(Event::BroadcastDone { job: b.job });
-            self.phase = Phase::Idle {
-                at: self.line_free + self.start_interval,
-            };
+            self.idle(self.line_free + self.start_interval);
             return;
         }
         if let Some((address, m)) = self.mirror.take() {
@@ -887,9 +898,7 @@ impl Master {
                 pause = self.config.cycle_pause;
             }
         }
-        self.phase = Phase::Idle {
-            at: self.next_send_time(now) + pause,
-        };
+        self.idle(self.next_send_time(now) + pause);
         self.finish_if_over(now);
     }
 
@@ -1248,9 +1257,11 @@ impl Engine for Master {
                 }
                 _ => {}
             }
-            if let Phase::Idle { at } = self.phase {
+            if let Phase::Idle { at, latest } = self.phase {
+                // Silence is waited for, but not past `latest` (a line that never goes quiet).
                 self.phase = Phase::Idle {
-                    at: at.max(now + self.start_interval),
+                    at: at.max(now + self.start_interval).min(latest),
+                    latest,
                 };
             }
         }
@@ -1309,7 +1320,7 @@ impl Engine for Master {
             Phase::Stopped => None,
             // While a stray telegram is on the line we send nothing: wake at its residual
             // deadline, not at a send time that may already have passed (no busy loop).
-            Phase::Idle { at } => Some(self.rx.deadline().unwrap_or(at)),
+            Phase::Idle { at, latest } => Some(self.rx.deadline().map_or(at, |d| d.min(latest))),
             Phase::Awaiting { deadline, .. } => Some(self.rx.deadline().unwrap_or(deadline)),
         })
     }
