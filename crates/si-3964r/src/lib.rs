@@ -13,6 +13,8 @@
 //! - [`monitor`]: the passive listener of a 3964(R) line, judging ZVZ and QVZ with the link's
 //!   own timers (and reading a layer's user data, RK 512 in `si_rk512::monitor`);
 //! - [`fb`]: S_SEND and S_RCV with the S7 call semantics;
+//! - [`bound`]: the longest a send job may take whatever the line does (issue 21), with the
+//!   formula and an example at 9600 bit/s: 88.83 s for a 200-byte block with the defaults;
 //! - `tokio` (feature `tokio`): an async handle, `send(bytes).await` and `recv().await`.
 //!
 //! Two stations exchange blocks on the deterministic line simulator:
@@ -42,6 +44,7 @@
 //! ```
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
+pub mod bound;
 pub mod config;
 pub mod fb;
 pub mod frame;
