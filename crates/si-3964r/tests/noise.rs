@@ -229,3 +229,42 @@ proptest! {
         }
     }
 }
+
+/// A driver flooded with input may call the engine only with bytes, never on its timer: the
+/// job's bound is still judged, on the bytes' arrival (si_3964r::bound).
+#[test]
+fn the_bound_ends_the_job_on_input_alone_when_the_timer_never_fires() {
+    use si_core::{Engine, Output};
+    let config = short(Priority::Low);
+    let mut link = Link::new(config, line()).unwrap();
+    let job = link.send(Instant::ZERO, vec![1, 2, 3]).unwrap();
+    let bound = Instant::ZERO + config.send_job_bound(&line(), 3);
+    // The partner's STX (we yield), then data every millisecond: the link receives, cuts the
+    // block off and waits for a repetition whose 4 s timer never fires.
+    let mut events = Vec::new();
+    let mut now = Instant::ZERO;
+    // Input comes every millisecond: the job ends at the first input after its bound.
+    let last = bound + Duration::from_millis(1);
+    while now <= last {
+        let byte = if now == Instant::ZERO { STX } else { b'A' };
+        link.handle_rx(now, &[byte]);
+        while let Some(output) = match link.poll_output() {
+            Output::Wait(_) => None,
+            other => Some(other),
+        } {
+            if let Output::Event(e) = output {
+                events.push((now, e));
+            }
+        }
+        now += Duration::from_millis(1);
+    }
+    let ends: Vec<_> = events
+        .iter()
+        .filter(|(_, e)| matches!(e, Event::SendFailed { .. }))
+        .collect();
+    assert_eq!(ends.len(), 1, "{events:?}");
+    assert!(ends[0].0 >= bound && ends[0].0 <= last, "{:?}", ends[0]);
+    assert!(
+        matches!(ends[0].1, Event::SendFailed { job: j, status } if j == job && !status.is_ok())
+    );
+}

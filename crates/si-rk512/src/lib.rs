@@ -27,6 +27,8 @@
 //!   - **0AH** (requester): the partner's reaction is faulty (0A01 … 0A04) or missing (0A05).
 //! - [`monitor`]: the passive listener, the 3964(R) monitor reading RK 512 telegrams;
 //! - [`fb`]: send and fetch FB equivalents with REQ / DONE / ERROR / STATUS;
+//! - [`bound`]: the longest a job may take whatever the line does (issue 21): per telegram two
+//!   3964(R) send jobs and TRES; 185.95 s for up to 128 bytes at 9600 bit/s with the defaults;
 //! - `tokio` (feature `tokio`): an async handle, `send(..).await` and `fetch(..).await`.
 //!
 //! A SEND of 300 bytes (three telegrams) and a FETCH of them back, on the line simulator:
@@ -59,6 +61,7 @@
 //! ```
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
+pub mod bound;
 pub mod config;
 pub mod fb;
 pub mod frame;
