@@ -59,6 +59,14 @@
 //! let events = sim.take_events(host);
 //! assert_eq!(events.last(), Some(&Event::Done { job, data: data.into() }));
 //! ```
+//!
+//! # Bounds
+//!
+//! Every SEND and FETCH ends with [`Event::Done`] or [`Event::Failed`] within
+//! [`Config::job_bound`] whatever the line does: per telegram two 3964(R) send jobs (a reaction
+//! of ours may go first) and TRES, each bounded ([`si_3964r::bound`]). The formula, the readings
+//! and an example: [`bound`]. At 9600 bit/s with the defaults a job of up to 128 bytes ends
+//! within 185.95 s, one of up to 256 bytes within twice that.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod bound;

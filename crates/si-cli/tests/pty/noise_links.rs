@@ -1,0 +1,171 @@
+//! Issue 21, "A noise test per role": `si 3964r send` and `si rk512 fetch` against a noise peer
+//! (a thread writing to the other end of a socat pty pair) exit non-zero within twice their
+//! documented bound (si_3964r::bound, si_rk512::bound). Twice the bound is a bound, not a
+//! timing claim: it leaves room for the process start and a loaded machine. Skips without socat
+//! (fails with `CI` set).
+
+use std::io::Write;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use crate::common::{pty_pair, si_command, stderr, PtyPair};
+use si_core::delivery::MAX_LATENCY;
+use si_core::SerialSettings;
+
+const STX: u8 = 0x02;
+
+/// What the noise peer writes.
+#[derive(Debug, Clone, Copy)]
+enum Pattern {
+    /// `STX`, then data for ever, 64 bytes every 5 ms: a frame that never ends.
+    EndlessFrame,
+    /// One pseudo-random byte every 2 ms.
+    Random,
+    /// Pseudo-random bytes, 1 KiB a millisecond: about a thousand times what 9600 bit/s
+    /// carries.
+    Flood,
+}
+
+/// Writes `pattern` to `port` until `stop` is set or the pty goes away (socat killed).
+fn noise_peer(port: &str, pattern: Pattern, stop: Arc<AtomicBool>) {
+    let mut file = std::fs::OpenOptions::new()
+        .write(true)
+        .open(port)
+        .expect("open the peer's pty");
+    std::thread::spawn(move || {
+        let mut x: u32 = 0x1234_5678;
+        let mut random = move || {
+            // xorshift32: reproducible noise without a dependency.
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x as u8
+        };
+        let mut first = true;
+        while !stop.load(Ordering::Relaxed) {
+            let (chunk, pause): (Vec<u8>, u64) = match pattern {
+                Pattern::EndlessFrame => {
+                    let mut c = vec![b'A'; 64];
+                    if first {
+                        c[0] = STX;
+                    }
+                    (c, 5)
+                }
+                Pattern::Random => (vec![random()], 2),
+                Pattern::Flood => ((0..1024).map(|_| random()).collect(), 1),
+            };
+            first = false;
+            if file.write_all(&chunk).is_err() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(pause));
+        }
+    });
+}
+
+/// QVZ and ZVZ get at most the port's delivery allowance (si_core::delivery: the largest
+/// latency plus one character) on a pty that hands bytes over in bursts.
+fn allowance_ms() -> u32 {
+    let t = MAX_LATENCY + SerialSettings::default().char_time();
+    u32::try_from(t.as_millis()).unwrap() + 1
+}
+
+/// One noise test at a time: two floods through two socat pairs at once starve each other
+/// (and once left a socat that would not end), which says nothing about `si`.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// Runs `si` with `args` on side `a` while the noise peer writes to side `b`; returns how
+/// long it ran and its stderr, after asserting a non-zero exit.
+fn run_against(pair: &PtyPair, pattern: Pattern, args: &[&str]) -> (Duration, String) {
+    eprintln!("noise peer: {pattern:?}, si {args:?}");
+    let stop = Arc::new(AtomicBool::new(false));
+    noise_peer(&pair.b, pattern, stop.clone());
+    let start = Instant::now();
+    let o = si_command()
+        .args(["--port", &pair.a])
+        .args(args)
+        .output()
+        .expect("run si");
+    let took = start.elapsed();
+    stop.store(true, Ordering::Relaxed);
+    assert!(
+        !o.status.success(),
+        "{pattern:?}: {args:?} exited 0: {}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    (took, stderr(&o))
+}
+
+#[test]
+fn send_3964r_ends_non_zero_within_its_bound_against_noise() {
+    let config = si_3964r::Config {
+        ack_delay_ms: 100 + allowance_ms(),
+        char_delay_ms: 50 + allowance_ms(),
+        connection_attempts: 2,
+        transmission_attempts: 2,
+        ..si_3964r::Config::default()
+    };
+    let bound = config.send_job_bound(&SerialSettings::default(), 1);
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    for pattern in [Pattern::EndlessFrame, Pattern::Random, Pattern::Flood] {
+        let Some(pair) = pty_pair() else {
+            return;
+        };
+        let args = [
+            "3964r",
+            "send",
+            "01",
+            "--qvz-ms",
+            "100",
+            "--zvz-ms",
+            "50",
+            "--connection-attempts",
+            "2",
+            "--transmission-attempts",
+            "2",
+        ];
+        let (took, err) = run_against(&pair, pattern, &args);
+        assert!(
+            took < Duration::from(bound) * 2,
+            "{pattern:?}: took {took:?}, bound {bound}: {err}"
+        );
+        assert!(err.contains("send failed: 16#07"), "{pattern:?}: {err}");
+    }
+}
+
+#[test]
+fn fetch_rk512_ends_non_zero_within_its_bound_against_noise() {
+    let mut config = si_rk512::Config {
+        response_timeout_ms: 200,
+        ..si_rk512::Config::default()
+    };
+    config.link.priority = si_3964r::Priority::High;
+    config.link.ack_delay_ms = 100 + allowance_ms();
+    config.link.char_delay_ms += allowance_ms();
+    let bound = config.job_bound(&SerialSettings::default(), 2);
+    let _one = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    for pattern in [Pattern::EndlessFrame, Pattern::Random, Pattern::Flood] {
+        let Some(pair) = pty_pair() else {
+            return;
+        };
+        let args = [
+            "rk512",
+            "fetch",
+            "--db",
+            "10",
+            "--count",
+            "2",
+            "--qvz-ms",
+            "100",
+            "--tres-ms",
+            "200",
+        ];
+        let (took, err) = run_against(&pair, pattern, &args);
+        assert!(
+            took < Duration::from(bound) * 2,
+            "{pattern:?}: took {took:?}, bound {bound}: {err}"
+        );
+        assert!(err.contains("16#"), "{pattern:?}: a STATUS: {err}");
+    }
+}
