@@ -8,7 +8,7 @@
 //! receiving (a low-priority side yields to every `STX`, §5.6), and the job never starts or never
 //! ends. A host needs that bound (issue 21), so the link adds one where the manual has none:
 //!
-//! - **An overlong block ends at once** ([derived] from the receive buffer, §5.4 point 2 and
+//! - **An overlong block ends at once** (`[derived]` from the receive buffer, §5.4 point 2 and
 //!   et200s-si-2005-window-protocol.md §6.1 "received frame longer than … the configured
 //!   length", 0850H). The manual lets a reception with an error run to the partner's
 //!   `DLE ETX` (§5.4 point 5), but a block longer than the maximum cannot be stored, so the
@@ -16,7 +16,7 @@
 //!   block the receiver cannot take (§5.3 point 3: a NAK during a send makes the partner abort
 //!   and repeat). A partner that sends `STX` and then data for ever, or `DLE`-doubled data with
 //!   no `ETX`, is thereby cut off after at most `2 × max + 3` characters.
-//! - **Every send job ends by its deadline** ([derived]): [`Config::send_job_bound`] after
+//! - **Every send job ends by its deadline** (`[derived]`): [`Config::send_job_bound`] after
 //!   [`Link::send`](crate::Link::send). It is the longest the manual's own procedure takes on a
 //!   line that answers nothing, or answers wrongly, at every step:
 //!

@@ -56,7 +56,7 @@
 //!   end, so a partner that never sends `DLE ETX` cannot hold the line), then treated like a BCC
 //!   error (repetition awaited), reported as 0850 (et200s-si-2005-window-protocol.md §6.1) unless
 //!   an earlier error of the block came first. See [`crate::bound`].
-//! - **A bound on every send job [derived].** A job that has not ended by
+//! - **A bound on every send job `[derived]`.** A job that has not ended by
 //!   [`Config::send_job_bound`] after [`Link::send`] ends then with its first error (or 0703H /
 //!   070BH), whatever the line is doing; [`crate::bound`] gives the formula and the reasons.
 //! - **A corrupted character in idle** is reported at once as 080C (§5.7); other characters in

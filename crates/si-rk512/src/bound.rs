@@ -6,7 +6,7 @@
 //!
 //! - each telegram ends within the 3964(R) link's bound, [`si_3964r::Config::send_job_bound`]
 //!   (see [`si_3964r::bound`]: the attempts and timers of the procedure, an overlong received
-//!   block cut off with NAK, and a hard deadline per send job [derived]);
+//!   block cut off with NAK, and a hard deadline per send job `[derived]`);
 //! - our telegram may wait in the station's queue behind one reaction of ours to a partner's
 //!   job, which is itself one 3964(R) send job (nesting depth 1, §4.6: the queue holds one
 //!   command and one reaction);
