@@ -1,7 +1,8 @@
 //! Issue 21, "A bound on every job": a 3964(R) send job ends with a non-zero STATUS within
 //! [`Config::send_job_bound`] whatever the partner does: silence, random characters, an
 //! endless frame (`STX` then data for ever, `DLE`-doubled data with no `DLE ETX`), a flood, noise
-//! that stops. Virtual time on the line simulator; the noise peer is si-testkit's.
+//! that stops. Virtual time on the line simulator; the noise peers are si-testkit's
+//! ([`issue_patterns`]).
 
 use proptest::prelude::*;
 use si_3964r::frame::{DLE, STX};
@@ -9,7 +10,8 @@ use si_3964r::status::*;
 use si_3964r::{Config, Event, JobId, Link, Priority};
 use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Instant, SerialSettings, Status};
-use si_testkit::noise::{run_while, Noise, NoisePeer};
+use si_testkit::job_run::run_while;
+use si_testkit::noise::{issue_patterns, Noise, NoisePeer, Pattern, Source};
 
 fn line() -> SerialSettings {
     SerialSettings::default()
@@ -28,43 +30,40 @@ fn short(priority: Priority) -> Config {
     }
 }
 
-/// A partner that sends `STX` and then `DLE`-doubled data for ever, with no `DLE ETX`. Its
-/// `DLE`s also acknowledge our `STX` and our block when they come at the right moment (§5.3
-/// points 1 and 4), so a job facing it may end with success; it must still end in time.
-fn endless_dles() -> Noise {
-    Noise::Endless {
-        first: vec![STX],
-        then: vec![DLE, DLE],
+/// A partner that sends `DLE` for ever: after an `STX`, `DLE`-doubled data with no `DLE ETX`.
+/// Its `DLE`s also acknowledge our `STX` and our block when they come at the right moment
+/// (§5.3 points 1 and 4), so a job facing it may end with success; it must still end in time.
+fn endless_dles() -> Pattern {
+    Pattern {
+        name: "DLE flood",
+        noise: Noise::Flood(Source::Fixed(DLE)),
+        until: None,
     }
 }
 
-/// Every pattern of issue 21, and the endless frames a 3964(R) partner can send that hold no
-/// `DLE` (which would acknowledge): each must fail the job.
-fn patterns() -> Vec<Noise> {
-    let mut all = Noise::issue_21_patterns(&[STX], b"A", Duration::from_secs(5));
-    all.push(Noise::Endless {
-        first: vec![],
-        then: vec![0x01],
-    });
-    all.push(Noise::ThenSilence {
-        noise: Box::new(Noise::Flood),
-        for_: Duration::from_secs(2),
-    });
-    all
+/// Every pattern of issue 21 (the STX flood is an endless frame: `STX`, then data for ever).
+/// None holds a `DLE` that acknowledges at the right moment (the random ones by their seeds),
+/// so each must fail the job.
+fn patterns() -> Vec<Pattern> {
+    issue_patterns(line().char_time())
 }
 
-/// The host link facing `noise`; sends `len` bytes at `at` and runs until the job ends.
+/// The host link facing `pattern`; sends `len` bytes at `at` and runs until the job ends.
 /// Returns how long it took, the outcome and the host's events.
 fn send_into(
     config: Config,
-    noise: Noise,
+    pattern: Pattern,
     seed: u64,
     at: Duration,
     len: usize,
 ) -> (Duration, Result<(), Status>, Vec<Event>) {
     let mut sim = Simulator::new(seed).without_trace();
     let host = sim.add_station("host", line(), Link::new(config, line()).unwrap());
-    let peer = sim.add_station("noise", line(), NoisePeer::new(noise.clone(), line(), seed));
+    let peer = sim.add_station(
+        "noise",
+        line(),
+        NoisePeer::new(pattern.noise, pattern.until),
+    );
     sim.connect(host, peer);
     sim.run_for(at);
     let start = sim.now();
@@ -99,12 +98,12 @@ fn ends_once(events: &[Event], outcome: Result<(), Status>) -> bool {
 fn every_pattern_ends_the_job_with_a_status_within_the_bound() {
     for priority in [Priority::Low, Priority::High] {
         for (i, noise) in patterns().into_iter().enumerate() {
+            let name = noise.name;
             for at in [Duration::ZERO, Duration::from_millis(37)] {
-                let (took, outcome, events) =
-                    send_into(short(priority), noise.clone(), i as u64, at, 10);
-                assert!(outcome.is_err(), "{priority:?} {noise:?}: {outcome:?}");
-                assert!(ends_once(&events, outcome), "{noise:?}: {events:?}");
-                assert!(took > Duration::ZERO, "{noise:?}");
+                let (took, outcome, events) = send_into(short(priority), noise, i as u64, at, 10);
+                assert!(outcome.is_err(), "{priority:?} {name}: {outcome:?}");
+                assert!(ends_once(&events, outcome), "{name}: {events:?}");
+                assert!(took > Duration::ZERO, "{name}");
             }
         }
     }
@@ -124,7 +123,7 @@ fn an_endless_dle_doubled_frame_ends_the_job_within_the_bound() {
 #[test]
 fn a_silent_partner_ends_the_job_after_the_connection_attempts_with_0703() {
     let config = short(Priority::Low);
-    let (took, outcome, _) = send_into(config, Noise::Silent, 1, Duration::ZERO, 10);
+    let (took, outcome, _) = send_into(config, patterns()[0], 1, Duration::ZERO, 10);
     assert_eq!(outcome, Err(SETUP_TIMEOUT));
     // Three STX, each waiting one character and QVZ: the manual's own ending, well inside the
     // bound.
@@ -140,16 +139,12 @@ fn the_defaults_hold_their_documented_bound_against_a_flood_and_an_endless_frame
         Config::default().send_job_bound(&line(), 200),
         Duration::from_micros(88_828_558)
     );
-    for noise in [
-        Noise::Flood,
-        Noise::Endless {
-            first: vec![STX],
-            then: b"A".to_vec(),
-        },
-    ] {
-        let (_, outcome, events) =
-            send_into(Config::default(), noise.clone(), 21, Duration::ZERO, 200);
-        assert!(outcome.is_err(), "{noise:?}");
+    for noise in patterns()
+        .into_iter()
+        .filter(|p| matches!(p.noise, Noise::Flood(_)) && p.until.is_none())
+    {
+        let (_, outcome, events) = send_into(Config::default(), noise, 21, Duration::ZERO, 200);
+        assert!(outcome.is_err(), "{}", noise.name);
         assert!(ends_once(&events, outcome), "{events:?}");
     }
     // send_into asserts the bound whatever the outcome.
@@ -163,12 +158,11 @@ fn an_endless_frame_is_cut_off_at_the_maximum_length_with_0850() {
     let config = short(Priority::Low);
     let mut sim = Simulator::new(5).without_trace();
     let host = sim.add_station("host", line(), Link::new(config, line()).unwrap());
-    let noise = Noise::Endless {
-        first: vec![STX],
-        then: b"A".to_vec(),
-    };
-    let peer = sim.add_station("noise", line(), NoisePeer::new(noise, line(), 5));
+    let peer = sim.add_station("noise", line(), NoisePeer::new(Noise::Silent, None));
     sim.connect(host, peer);
+    let mut frame = vec![STX];
+    frame.extend([b'A'; 1_000]);
+    sim.transmit(peer, &frame);
     // STX, then 64 bytes fit; the 65th, the 66th character, is one too many.
     sim.run_until(Instant::ZERO + line().chars_time(65));
     assert_eq!(sim.engine(host).counters().blocks_rejected, 0);
@@ -199,7 +193,7 @@ proptest! {
         let config = short(if high { Priority::High } else { Priority::Low });
         let mut sim = Simulator::new(9).without_trace();
         let host = sim.add_station("host", line(), Link::new(config, line()).unwrap());
-        let peer = sim.add_station("noise", line(), NoisePeer::new(Noise::Silent, line(), 0));
+        let peer = sim.add_station("noise", line(), NoisePeer::new(Noise::Silent, None));
         sim.connect(host, peer);
         let job = sim.with(host, |l, now| l.send(now, vec![0xAA; len])).unwrap();
         let limit = Instant::ZERO + config.send_job_bound(&line(), len);

@@ -4,13 +4,14 @@
 //! is si-testkit's.
 
 use proptest::prelude::*;
-use si_3964r::frame::{DLE, STX};
+use si_3964r::frame::DLE;
 use si_3964r::Priority;
 use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Instant, SerialSettings, Status};
 use si_rk512::frame::{Address, Coordination};
 use si_rk512::{status, Config, Event, JobId, Station};
-use si_testkit::noise::{run_while, Noise, NoisePeer};
+use si_testkit::job_run::run_while;
+use si_testkit::noise::{issue_patterns, Noise, NoisePeer, Pattern, Source};
 
 fn line() -> SerialSettings {
     SerialSettings::default()
@@ -54,16 +55,14 @@ impl Job {
     }
 }
 
-/// Issue 21's patterns, the endless frames of a 3964(R) partner, and a flood that stops.
-fn patterns() -> Vec<Noise> {
-    let mut all = Noise::issue_21_patterns(&[STX], b"A", Duration::from_secs(3));
-    all.push(Noise::Endless {
-        first: vec![STX],
-        then: vec![DLE, DLE],
-    });
-    all.push(Noise::ThenSilence {
-        noise: Box::new(Noise::Flood),
-        for_: Duration::from_secs(2),
+/// Issue 21's patterns (si-testkit's; the STX flood is an endless 3964(R) frame) and a `DLE`
+/// flood (after an `STX`, `DLE`-doubled data with no end).
+fn patterns() -> Vec<Pattern> {
+    let mut all = issue_patterns(line().char_time());
+    all.push(Pattern {
+        name: "DLE flood",
+        noise: Noise::Flood(Source::Fixed(DLE)),
+        until: None,
     });
     all
 }
@@ -72,14 +71,14 @@ fn patterns() -> Vec<Noise> {
 /// took, its failure STATUS and the host's events.
 fn run_job(
     config: Config,
-    noise: Noise,
+    noise: Pattern,
     seed: u64,
     at: Duration,
     job: Job,
 ) -> (Duration, Status, Vec<Event>) {
     let mut sim = Simulator::new(seed).without_trace();
     let host = sim.add_station("host", line(), Station::new(config, line()).unwrap());
-    let peer = sim.add_station("noise", line(), NoisePeer::new(noise.clone(), line(), seed));
+    let peer = sim.add_station("noise", line(), NoisePeer::new(noise.noise, noise.until));
     sim.connect(host, peer);
     sim.run_for(at);
     let start = sim.now();
@@ -88,15 +87,15 @@ fn run_job(
     let end = run_while(&mut sim, start + bound, |sim| sim.engine(host).is_busy());
     (
         end.saturating_since(start),
-        failure(&sim, host, id, &noise),
+        failure(&sim, host, id, noise.name),
         sim.take_events(host),
     )
 }
 
-fn failure(sim: &Simulator, host: StationId<Station>, id: JobId, noise: &Noise) -> Status {
+fn failure(sim: &Simulator, host: StationId<Station>, id: JobId, noise: &str) -> Status {
     match sim.engine(host).job_outcome(id) {
         Some(Err(status)) => status,
-        other => panic!("{noise:?}: job {id:?} ended with {other:?}"),
+        other => panic!("{noise}: job {id:?} ended with {other:?}"),
     }
 }
 
@@ -106,14 +105,13 @@ fn every_pattern_ends_fetch_and_send_with_a_status_within_the_bound() {
         for (i, noise) in patterns().into_iter().enumerate() {
             for job in [Job::Fetch(10), Job::Send(10), Job::Fetch(200)] {
                 for at in [Duration::ZERO, Duration::from_millis(23)] {
-                    let (_, status, events) =
-                        run_job(short(priority), noise.clone(), i as u64, at, job);
-                    assert!(!status.is_ok(), "{noise:?} {job:?}");
+                    let (_, status, events) = run_job(short(priority), noise, i as u64, at, job);
+                    assert!(!status.is_ok(), "{} {job:?}", noise.name);
                     let failed = events
                         .iter()
                         .filter(|e| matches!(e, Event::Failed { status: s, .. } if *s == status))
                         .count();
-                    assert_eq!(failed, 1, "{priority:?} {noise:?} {job:?}: {events:?}");
+                    assert_eq!(failed, 1, "{priority:?} {} {job:?}: {events:?}", noise.name);
                 }
             }
         }
@@ -126,7 +124,7 @@ fn every_pattern_ends_fetch_and_send_with_a_status_within_the_bound() {
 fn a_silent_partner_ends_the_job_with_051a_after_the_link_gave_up() {
     let (took, status, events) = run_job(
         short(Priority::Low),
-        Noise::Silent,
+        patterns()[0],
         1,
         Duration::ZERO,
         Job::Fetch(10),
@@ -146,7 +144,11 @@ fn the_defaults_hold_their_documented_bound_against_a_flood() {
     );
     let (_, status, _) = run_job(
         Config::default(),
-        Noise::Flood,
+        Pattern {
+            name: "random flood",
+            noise: Noise::Flood(Source::Random(21)),
+            until: None,
+        },
         21,
         Duration::ZERO,
         Job::Fetch(128),
@@ -157,17 +159,27 @@ fn the_defaults_hold_their_documented_bound_against_a_flood() {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(32))]
 
-    /// Any of the patterns with any seed, from any instant: FETCH ends within its bound with a
-    /// STATUS.
+    /// Random bursts of random bytes at a random period, from any instant, stopping or not:
+    /// FETCH ends within its bound with a STATUS.
     #[test]
-    fn any_seed_ends_a_fetch_within_the_bound(
-        pattern in 0usize..6,
+    fn random_noise_ends_a_fetch_within_the_bound(
+        every_us in 300u64..5_000,
+        burst in 1usize..64,
+        stop_ms in prop::option::of(0u64..3_000),
         seed in any::<u64>(),
         at_ms in 0u64..500,
         words in 1usize..150,
         high in any::<bool>(),
     ) {
-        let noise = patterns().swap_remove(pattern);
+        let noise = Pattern {
+            name: "random bursts",
+            noise: Noise::Every {
+                every: Duration::from_micros(every_us),
+                burst,
+                bytes: Source::Random(seed),
+            },
+            until: stop_ms.map(|ms| Instant::from_micros(ms * 1_000)),
+        };
         let priority = if high { Priority::High } else { Priority::Low };
         let (_, status, _) = run_job(short(priority), noise, seed, Duration::from_millis(at_ms), Job::Fetch(2 * words));
         prop_assert!(!status.is_ok());

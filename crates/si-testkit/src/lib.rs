@@ -4,8 +4,9 @@
 //!
 //! - [`alloc`]: the counting global allocator of the `no_alloc` tests, which prove the si-core
 //!   contract "no allocation per frame in steady state" (ARCHITECTURE.md).
-//! - [`noise`]: a noise peer for the line simulator (silent, random, endless frame, flood,
-//!   noise then silence), for the "bound on every job" tests of issue 21.
+//! - [`noise`]: noise peers and a noise driver for the "bound on every job" tests (issue 21).
+//! - [`job_run`]: step the line simulator while a job runs, failing past its bound.
 
 pub mod alloc;
+pub mod job_run;
 pub mod noise;

@@ -1,192 +1,115 @@
-//! A noise peer for the line simulator: a station that sends what a broken or hostile partner
-//! sends, so a test can show that every job of an engine ends within its bound whatever the line
-//! does (issue 21, "A bound on every job"): silence, random characters, an endless frame, a flood,
-//! and noise that stops.
+//! Noise peers for the "bound on every job" tests (issue 21): a line that never carries a valid
+//! answer, in the patterns the issue probed (silent, random bytes, one byte repeated, an
+//! endless frame, a flood, noise that stops), and a direct driver that feeds an engine an
+//! arbitrary noise stream in virtual time and says when its job ended.
 //!
-//! ```
-//! use si_core::sim::Simulator;
-//! use si_core::{Duration, Instant, SerialSettings};
-//! use si_testkit::noise::{Noise, NoisePeer};
-//!
-//! let line = SerialSettings::default();
-//! let mut sim = Simulator::new(1);
-//! let peer = sim.add_station("noise", line, NoisePeer::new(Noise::Flood, line, 7));
-//! let listener = sim.add_station("host", line, NoisePeer::new(Noise::Silent, line, 0));
-//! sim.connect(peer, listener);
-//! sim.run_until(Instant::from_micros(100_000));
-//! // 100 ms of 9600 8E1 back to back: about 87 characters.
-//! assert!(sim.trace().received("host").len() >= 80);
-//! ```
+//! Both are Sans-IO: time is passed in, nothing sleeps, so a bound is asserted exactly.
 
 use bytes::Bytes;
-use si_core::sim::Simulator;
-use si_core::{Duration, Engine, Instant, Output, SerialSettings};
+use si_core::{Duration, Engine, Instant, Output};
 
-/// Steps `sim` one happening at a time while `busy` holds (a job is running) and returns the
-/// instant it stopped holding. Panics when it still holds after `limit` (the job outlived its
-/// bound) or when nothing is scheduled any more although it holds (the job hangs).
-pub fn run_while(
-    sim: &mut Simulator,
-    limit: Instant,
-    mut busy: impl FnMut(&Simulator) -> bool,
-) -> Instant {
-    while busy(sim) {
-        assert!(
-            sim.now() <= limit,
-            "the job still runs at {} (bound {limit})",
-            sim.now()
-        );
-        assert!(
-            sim.step(),
-            "the job runs with nothing scheduled at {}",
-            sim.now()
-        );
-    }
-    assert!(
-        sim.now() <= limit,
-        "the job ended at {}, after its bound {limit}",
-        sim.now()
-    );
-    sim.now()
+/// Where a noise peer's bytes come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Source {
+    /// Pseudo-random bytes from a seed (reproducible).
+    Random(u64),
+    /// The same byte every time (the issue's "01H every 2 ms").
+    Fixed(u8),
 }
 
-/// What the peer sends.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// What a [`NoisePeer`] puts on the line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Noise {
-    /// Nothing at all: a partner that is off or not connected.
+    /// Nothing at all (a partner that is not there).
     Silent,
-    /// One random character every `every` (e.g. 2 ms), the rest of the time quiet.
-    Random {
-        /// The spacing between the starts of two characters.
+    /// `burst` bytes every `every`. With `every` below the receiver's end-of-frame silence
+    /// this is an endless frame: bytes that never form a frame end.
+    Every {
+        /// The period.
         every: Duration,
+        /// Bytes per period.
+        burst: usize,
+        /// Which bytes.
+        bytes: Source,
     },
-    /// `first` once, then `then` over and over, back to back: a frame that never ends (e.g.
-    /// 3964(R)'s `STX` and then data for ever, or `DLE`-doubled data with no `DLE ETX`).
-    Endless {
-        /// Sent once at the start.
-        first: Vec<u8>,
-        /// Repeated for ever after it (must not be empty).
-        then: Vec<u8>,
-    },
-    /// Random characters back to back, as fast as the line carries them.
-    Flood,
-    /// `noise` until `for_` has passed, then silence.
-    ThenSilence {
-        /// The noise before the silence.
-        noise: Box<Noise>,
-        /// How long the noise lasts from the peer's start.
-        for_: Duration,
-    },
+    /// Back to back at line rate, forever: the next chunk as soon as the last has left.
+    Flood(Source),
 }
 
-impl Noise {
-    /// The five patterns of issue 21, with `STX`-like framing bytes for the endless frame
-    /// given by the caller: silent, random every 2 ms, endless, flood, and random for
-    /// `noise_for` then silence.
-    pub fn issue_21_patterns(first: &[u8], then: &[u8], noise_for: Duration) -> Vec<Noise> {
-        let random = Noise::Random {
-            every: Duration::from_millis(2),
-        };
-        vec![
-            Noise::Silent,
-            random.clone(),
-            Noise::Endless {
-                first: first.to_vec(),
-                then: then.to_vec(),
-            },
-            Noise::Flood,
-            Noise::ThenSilence {
-                noise: Box::new(random),
-                for_: noise_for,
-            },
-        ]
-    }
-}
-
-/// Characters the flood and the endless frame hand to the line at a time.
-const CHUNK: usize = 16;
-
-/// A station that sends [`Noise`] and ignores what it receives. Its events are never emitted.
+/// A station that transmits [`Noise`] from the start until `until` (forever if `None`), then
+/// stays silent; it hears nothing.
 #[derive(Debug)]
 pub struct NoisePeer {
-    pattern: Noise,
-    settings: SerialSettings,
-    rng: u64,
-    /// When the next characters go out; `None` once the peer is silent for good.
+    noise: Noise,
+    until: Option<Instant>,
     next: Option<Instant>,
-    /// The end of the noise ([`Noise::ThenSilence`]), fixed at the first wake-up.
-    stop: Option<Instant>,
-    started: bool,
-    pending: Option<Bytes>,
-    /// Where the endless frame's repeated part continues.
-    offset: usize,
+    rng: u64,
+    out: Option<Bytes>,
+    /// Bytes sent so far.
+    pub sent: u64,
 }
 
+/// Bytes per flood chunk: one USB packet's worth.
+const FLOOD_CHUNK: usize = 64;
+
 impl NoisePeer {
-    /// A peer sending `pattern` on a line with `settings` from the simulation's start; `seed`
-    /// makes the random characters reproducible.
-    pub fn new(pattern: Noise, settings: SerialSettings, seed: u64) -> NoisePeer {
-        let next = (pattern != Noise::Silent).then_some(Instant::ZERO);
+    /// A peer making `noise` until `until` (`None`: forever).
+    pub fn new(noise: Noise, until: Option<Instant>) -> Self {
+        let rng = match noise {
+            Noise::Every {
+                bytes: Source::Random(seed),
+                ..
+            }
+            | Noise::Flood(Source::Random(seed)) => seed | 1,
+            _ => 1,
+        };
         NoisePeer {
-            pattern,
-            settings,
-            rng: seed ^ 0x9E37_79B9_7F4A_7C15,
-            next,
-            stop: None,
-            started: false,
-            pending: None,
-            offset: 0,
+            noise,
+            until,
+            next: (noise != Noise::Silent).then_some(Instant::ZERO),
+            rng,
+            out: None,
+            sent: 0,
         }
     }
 
-    /// SplitMix64: small, reproducible, good enough for noise.
-    fn random_byte(&mut self) -> u8 {
-        self.rng = self.rng.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.rng;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        (z ^ (z >> 31)) as u8
+    fn byte(&mut self, source: Source) -> u8 {
+        match source {
+            Source::Fixed(b) => b,
+            Source::Random(_) => {
+                // xorshift64: reproducible, no dependency.
+                self.rng ^= self.rng << 13;
+                self.rng ^= self.rng >> 7;
+                self.rng ^= self.rng << 17;
+                (self.rng >> 24) as u8
+            }
+        }
     }
 
     fn emit(&mut self, now: Instant) {
-        let mut pattern = &self.pattern;
-        if let Noise::ThenSilence { noise, for_ } = pattern {
-            let stop = *self.stop.get_or_insert(now + *for_);
-            if now >= stop {
-                self.next = None;
-                return;
-            }
-            pattern = noise;
+        if self.until.is_some_and(|u| now >= u) {
+            self.next = None;
+            return;
         }
-        let (bytes, wait) = match pattern.clone() {
-            Noise::Silent | Noise::ThenSilence { .. } => {
+        let (n, source) = match self.noise {
+            Noise::Silent => return,
+            Noise::Every {
+                every,
+                burst,
+                bytes,
+            } => {
+                self.next = Some(now + every);
+                (burst, bytes)
+            }
+            // The next chunk when this one has left (tx-done).
+            Noise::Flood(bytes) => {
                 self.next = None;
-                return;
-            }
-            Noise::Random { every } => (vec![self.random_byte()], every),
-            Noise::Flood => {
-                let chunk: Vec<u8> = (0..CHUNK).map(|_| self.random_byte()).collect();
-                let wait = self.settings.chars_time(CHUNK as u64);
-                (chunk, wait)
-            }
-            Noise::Endless { first, then } => {
-                let mut chunk = Vec::with_capacity(CHUNK + first.len());
-                if !self.started {
-                    chunk.extend_from_slice(&first);
-                }
-                for _ in 0..CHUNK {
-                    if let Some(&b) = then.get(self.offset % then.len().max(1)) {
-                        chunk.push(b);
-                    }
-                    self.offset = self.offset.wrapping_add(1);
-                }
-                let wait = self.settings.chars_time(chunk.len() as u64);
-                (chunk, wait)
+                (FLOOD_CHUNK, bytes)
             }
         };
-        self.started = true;
-        self.pending = Some(Bytes::from(bytes));
-        self.next = Some(now + wait);
+        let chunk: Vec<u8> = (0..n).map(|_| self.byte(source)).collect();
+        self.sent += n as u64;
+        self.out = Some(Bytes::from(chunk));
     }
 }
 
@@ -201,10 +124,133 @@ impl Engine for NoisePeer {
         }
     }
 
+    fn handle_tx_done(&mut self, now: Instant) {
+        if matches!(self.noise, Noise::Flood(_)) {
+            self.emit(now);
+        }
+    }
+
     fn poll_output(&mut self) -> Output<()> {
-        match self.pending.take() {
-            Some(bytes) => Output::Transmit(bytes),
+        match self.out.take() {
+            Some(b) => Output::Transmit(b),
             None => Output::Wait(self.next),
+        }
+    }
+}
+
+/// A named noise pattern for a test loop: [`NoisePeer::new`]`(noise, until)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Pattern {
+    /// What the assertion messages call it.
+    pub name: &'static str,
+    /// The noise.
+    pub noise: Noise,
+    /// When it stops (`None`: never).
+    pub until: Option<Instant>,
+}
+
+/// The patterns issue 21 probed, for a line with this character time: silent, random bytes
+/// every 2 ms, 01H every 2 ms, an endless frame (a byte every two character times, never a
+/// gap), a random, a 01H and a 02H (STX) flood, a flood that stops after 300 ms, and 01H every 2 ms for 5 s.
+pub fn issue_patterns(char_time: Duration) -> Vec<Pattern> {
+    let every = |every, bytes| Noise::Every {
+        every,
+        burst: 1,
+        bytes,
+    };
+    let ms = Duration::from_millis;
+    let p = |name, noise, until: Option<u64>| Pattern {
+        name,
+        noise,
+        until: until.map(|ms| Instant::from_micros(ms * 1_000)),
+    };
+    vec![
+        p("silent", Noise::Silent, None),
+        p("random every 2 ms", every(ms(2), Source::Random(21)), None),
+        p("01H every 2 ms", every(ms(2), Source::Fixed(0x01)), None),
+        p(
+            "endless frame",
+            every(char_time.saturating_mul(2), Source::Random(5)),
+            None,
+        ),
+        p("random flood", Noise::Flood(Source::Random(9)), None),
+        p("01H flood", Noise::Flood(Source::Fixed(0x01)), None),
+        p("02H (STX) flood", Noise::Flood(Source::Fixed(0x02)), None),
+        p(
+            "random flood then silence",
+            Noise::Flood(Source::Random(3)),
+            Some(300),
+        ),
+        p(
+            "01H every 2 ms for 5 s",
+            every(ms(2), Source::Fixed(0x01)),
+            Some(5_000),
+        ),
+    ]
+}
+
+/// Wake-ups at one instant after which [`drive`] calls the engine a busy loop.
+pub const MAX_STEPS_AT_ONE_INSTANT: u32 = 10_000;
+
+/// Drive `engine` directly (no line model) with `chunks` of noise, each `(delay after the
+/// previous one in µs, bytes)`, then silence; transmissions end `char_time` per byte later
+/// (tx-done). Returns the instant and event at which `ended` first holds, or `None` if the
+/// engine went idle with no deadline, `horizon` passed first, or the engine kept asking for
+/// the same instant ([`MAX_STEPS_AT_ONE_INSTANT`] wake-ups without time moving: a busy loop).
+pub fn drive<E: Engine>(
+    engine: &mut E,
+    start: Instant,
+    chunks: &[(u64, Vec<u8>)],
+    char_time: Duration,
+    horizon: Instant,
+    mut ended: impl FnMut(&E::Event) -> bool,
+) -> Option<(Instant, E::Event)> {
+    let mut now = start;
+    let mut next_chunk = 0;
+    let mut chunk_at = chunks
+        .first()
+        .map(|(d, _)| start + Duration::from_micros(*d));
+    let mut tx_done: Option<Instant> = None;
+    let mut same_instant = 0;
+    loop {
+        // Outputs first: an event may already end the job.
+        let deadline = loop {
+            match engine.poll_output() {
+                Output::Event(e) if ended(&e) => return Some((now, e)),
+                Output::Transmit(b) => {
+                    let from = tx_done.unwrap_or(now).max(now);
+                    tx_done = Some(from + char_time.saturating_mul(b.len() as u64));
+                }
+                Output::Wait(d) => break d,
+                _ => {}
+            }
+        };
+        let next = Instant::earliest(Instant::earliest(deadline, chunk_at), tx_done)?;
+        if next <= now {
+            same_instant += 1;
+            if same_instant > MAX_STEPS_AT_ONE_INSTANT {
+                return None;
+            }
+        } else {
+            same_instant = 0;
+        }
+        now = now.max(next);
+        if now > horizon {
+            return None;
+        }
+        if tx_done.is_some_and(|t| now >= t) {
+            tx_done = None;
+            engine.handle_tx_done(now);
+        }
+        if chunk_at.is_some_and(|t| now >= t) {
+            engine.handle_rx(now, &chunks[next_chunk].1);
+            next_chunk += 1;
+            chunk_at = chunks
+                .get(next_chunk)
+                .map(|(d, _)| now + Duration::from_micros(*d));
+        }
+        if deadline.is_some_and(|d| now >= d) {
+            engine.handle_timeout(now);
         }
     }
 }
