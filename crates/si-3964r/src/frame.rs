@@ -185,6 +185,8 @@ pub struct Decoder {
     bcc: u8,
     received: usize,
     error: Option<FrameError>,
+    /// More user data arrived than the maximum: the receive buffer cannot hold the block.
+    overlong: bool,
 }
 
 impl Decoder {
@@ -198,6 +200,7 @@ impl Decoder {
             bcc: 0,
             received: 0,
             error: None,
+            overlong: false,
         }
     }
 
@@ -208,6 +211,7 @@ impl Decoder {
         self.bcc = 0;
         self.received = 0;
         self.error = None;
+        self.overlong = false;
     }
 
     /// Feed one received character. `Some` once the block is complete (after `DLE ETX`, or the
@@ -278,7 +282,7 @@ impl Decoder {
                     let take = run.min(room);
                     self.payload.extend_from_slice(&chunk[..take]);
                     if take < run {
-                        self.note(FrameError::TooLong { max: self.max_len });
+                        self.overflow();
                     }
                     self.received = self.received.saturating_add(run);
                     i += run;
@@ -320,6 +324,13 @@ impl Decoder {
         &self.payload
     }
 
+    /// True once more user data arrived than the maximum length, whatever the first error was:
+    /// the block cannot be stored, and a receiver may end it here instead of reading a partner
+    /// that never sends the end sequence for ever (see `Link`, "Bounds").
+    pub fn is_overlong(&self) -> bool {
+        self.overlong
+    }
+
     /// The first error seen so far, if any.
     pub fn error(&self) -> Option<FrameError> {
         self.error
@@ -337,8 +348,13 @@ impl Decoder {
         if self.payload.len() < self.max_len {
             self.payload.push(byte);
         } else {
-            self.note(FrameError::TooLong { max: self.max_len });
+            self.overflow();
         }
+    }
+
+    fn overflow(&mut self) {
+        self.overlong = true;
+        self.note(FrameError::TooLong { max: self.max_len });
     }
 
     fn note(&mut self, e: FrameError) {

@@ -13,6 +13,8 @@
 //! - [`monitor`]: the passive listener of a 3964(R) line, judging ZVZ and QVZ with the link's
 //!   own timers (and reading a layer's user data, RK 512 in `si_rk512::monitor`);
 //! - [`fb`]: S_SEND and S_RCV with the S7 call semantics;
+//! - [`bound`]: the longest a send job may take whatever the line does (issue 21), with the
+//!   formula and an example at 9600 bit/s: 88.83 s for a 200-byte block with the defaults;
 //! - `tokio` (feature `tokio`): an async handle, `send(bytes).await` and `recv().await`.
 //!
 //! Two stations exchange blocks on the deterministic line simulator:
@@ -40,8 +42,17 @@
 //! assert_eq!(sim.with(plc, |l, now| l.take_block(now)).unwrap(), &b"setpoint"[..]);
 //! assert_eq!(sim.with(host, |l, now| l.take_block(now)).unwrap(), &b"status"[..]);
 //! ```
+//!
+//! # Bounds
+//!
+//! Every send job ends with [`Event::Sent`] or [`Event::SendFailed`] within
+//! [`Config::send_job_bound`] whatever the line does: a silent partner, noise, a flood, a frame
+//! that never ends (cut off with NAK at the maximum block length). The formula, the readings
+//! and an example: [`bound`]. At 9600 bit/s with the defaults a 200-byte block ends within
+//! 88.83 s; a silent partner ends it after 6 × 2.001 s with 0703H.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
+pub mod bound;
 pub mod config;
 pub mod fb;
 pub mod frame;

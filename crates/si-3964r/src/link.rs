@@ -52,8 +52,13 @@
 //!   DLE's own. The quiet waits before a NAK (§5.3 point 3, §5.4 point 1) follow the same rule.
 //! - **Receiver repetition limit (A-17, cp341 A-20).** The configured transmission attempts.
 //! - **Zero-length block.** Acknowledged with `DLE`, not queued, reported as 0807 "not an error".
-//! - **Overlong block .** Received to its end, answered with NAK like a BCC error, reported
-//!   as 0850 (et200s-si-2005-window-protocol.md §6.1).
+//! - **Overlong block .** Ended with NAK at the first byte too many (not received to its
+//!   end, so a partner that never sends `DLE ETX` cannot hold the line), then treated like a BCC
+//!   error (repetition awaited), reported as 0850 (et200s-si-2005-window-protocol.md §6.1) unless
+//!   an earlier error of the block came first. See [`crate::bound`].
+//! - **A bound on every send job `[derived]`.** A job that has not ended by
+//!   [`Config::send_job_bound`] after [`Link::send`] ends then with its first error (or 0703H /
+//!   070BH), whatever the line is doing; [`crate::bound`] gives the formula and the reasons.
 //! - **A corrupted character in idle** is reported at once as 080C (§5.7); other characters in
 //!   idle are answered, once the line is quiet for ZVZ, with NAK and 0802 (§5.4 point 1). An `STX`
 //!   arriving during that wait is taken as a connection request (after reporting the 0802).
@@ -181,6 +186,8 @@ struct Job {
     tx_try: u8,
     first_err: Option<Status>,
     conflict_seen: bool,
+    /// The job's bound ([`Config::send_job_bound`], with the port's allowance) from its start.
+    deadline: Instant,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -296,6 +303,9 @@ impl Link {
         }
         let id = JobId(self.next_job);
         self.next_job += 1;
+        let bound =
+            self.config
+                .send_job_bound_with(&self.settings, data.len(), self.delivery.allowance());
         self.job = Some(Job {
             id,
             data,
@@ -303,6 +313,7 @@ impl Link {
             tx_try: 1,
             first_err: None,
             conflict_seen: false,
+            deadline: now + bound,
         });
         if self.state == State::Idle {
             self.connect(now);
@@ -414,13 +425,11 @@ impl Link {
             }
         };
         if exhausted {
-            let mut status = job.first_err.unwrap_or(error);
-            if kind == Attempt::Connection
-                && job.conflict_seen
-                && self.config.priority == Priority::High
-            {
-                status = status::CONFLICT_BOTH_HIGH;
-            }
+            let first = job.first_err.unwrap_or(error);
+            let status = match kind {
+                Attempt::Connection => self.final_status(first),
+                Attempt::Transmission => first,
+            };
             // Giving up: NAK to the partner (§5.3 points 1 and 5).
             self.transmit_static(&[NAK]);
             self.finish_job(Err(status));
@@ -430,6 +439,39 @@ impl Link {
                 self.transmit_static(&[NAK]);
             }
             self.connect(now);
+        }
+    }
+
+    /// What a job that gives up while connecting reports: its first error, or 070B when a
+    /// high-priority side met the partner's `STX` (both high, §5.6).
+    fn final_status(&self, error: Status) -> Status {
+        let Some(job) = &self.job else { return error };
+        if job.conflict_seen && self.config.priority == Priority::High {
+            status::CONFLICT_BOTH_HIGH
+        } else {
+            job.first_err.unwrap_or(error)
+        }
+    }
+
+    /// The job's bound has passed ([`crate::bound`]): end it whatever the line is doing. A job
+    /// that is on the line is given up with NAK (§5.3 point 5); a reception in progress, for
+    /// which the job was waiting, runs on.
+    fn end_overdue_job(&mut self, now: Instant) {
+        if self.job.as_ref().is_none_or(|j| now < j.deadline) {
+            return;
+        }
+        let status = self.final_status(status::SETUP_TIMEOUT);
+        let on_the_line = matches!(
+            self.state,
+            State::WaitConnAck { .. }
+                | State::Sending { .. }
+                | State::WaitEndAck { .. }
+                | State::SendQuiet { .. }
+        );
+        self.finish_job(Err(status));
+        if on_the_line {
+            self.transmit_static(&[NAK]);
+            self.state = State::Idle;
         }
     }
 
@@ -642,6 +684,11 @@ impl Link {
                 };
                 if let Some(result) = self.decoder.push(byte) {
                     self.end_of_block(now, result);
+                } else if self.decoder.is_overlong() {
+                    // The receive buffer cannot take more: end the block here (see the
+                    // module docs), with its first error.
+                    let error = self.decoder.error().map_or(Ok(()), Err);
+                    self.end_of_block(now, error);
                 }
             }
             State::WaitRepeat { .. } => {
@@ -700,7 +747,12 @@ impl Link {
         let _ = now;
     }
 
+    /// The next instant the engine must be woken: the state's timer or the job's bound.
     fn deadline(&self) -> Option<Instant> {
+        Instant::earliest(self.state_deadline(), self.job.as_ref().map(|j| j.deadline))
+    }
+
+    fn state_deadline(&self) -> Option<Instant> {
         match self.state {
             State::Idle => None,
             State::IdleQuiet { until } | State::SendQuiet { until } => Some(until),
@@ -762,6 +814,9 @@ impl Engine for Link {
     type Event = Event;
 
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+        // Checked here too: on a line that never goes quiet the bound holds even if the
+        // driver's timers are late.
+        self.end_overdue_job(now);
         self.delivery.observe(bytes.len());
         for &b in bytes {
             self.on_byte(now, b);
@@ -769,7 +824,8 @@ impl Engine for Link {
     }
 
     fn handle_timeout(&mut self, now: Instant) {
-        if self.deadline().is_some_and(|d| now >= d) {
+        self.end_overdue_job(now);
+        if self.state_deadline().is_some_and(|d| now >= d) {
             self.on_deadline(now);
         }
     }
@@ -783,6 +839,7 @@ impl Engine for Link {
     }
 
     fn handle_line_error(&mut self, now: Instant, error: LineError) {
+        self.end_overdue_job(now);
         self.on_line_error(now, error);
     }
 

@@ -543,7 +543,7 @@ fn s5_10_zero_length_block_is_acknowledged_and_reported_0807() {
 }
 
 #[test]
-fn overlong_block_is_received_to_the_end_nakked_and_reported_0850() {
+fn overlong_block_is_cut_off_at_the_first_byte_too_many_with_nak_and_0850() {
     let config = Config {
         max_block_len: 4,
         transmission_attempts: 1,
@@ -552,11 +552,20 @@ fn overlong_block_is_received_to_the_end_nakked_and_reported_0850() {
     let (mut sim, a, p) = scripted(config);
     partner_sends(&mut sim, p, &encode(b"12345", Mode::BlockCheck));
     settle(&mut sim);
+    // NAK at the fifth byte (si_3964r::bound); this scripted partner ignores the NAK and sends
+    // the rest of its block, which the idle link then answers as stray characters (§5.4 point 1).
     assert_eq!(
         sim.take_events(a),
-        vec![Event::ReceiveError(BLOCK_TOO_LONG)]
+        vec![
+            Event::ReceiveError(BLOCK_TOO_LONG),
+            Event::ReceiveError(IDLE_GARBAGE)
+        ]
     );
-    assert_eq!(sent_bytes(&sim, "A"), [NAK, DLE, NAK]);
+    assert_eq!(sent_bytes(&sim, "A"), [NAK, DLE, NAK, NAK]);
+    let received = sim.trace().received("A");
+    let nak_at = sent(&sim, "A")[2].0;
+    let fifth = received[5].0; // STX, then "12345"
+    assert_eq!(nak_at, fifth, "the NAK answers the first byte too many");
 }
 
 #[test]

@@ -27,6 +27,8 @@
 //!   - **0AH** (requester): the partner's reaction is faulty (0A01 … 0A04) or missing (0A05).
 //! - [`monitor`]: the passive listener, the 3964(R) monitor reading RK 512 telegrams;
 //! - [`fb`]: send and fetch FB equivalents with REQ / DONE / ERROR / STATUS;
+//! - [`bound`]: the longest a job may take whatever the line does (issue 21): per telegram two
+//!   3964(R) send jobs and TRES; 185.95 s for up to 128 bytes at 9600 bit/s with the defaults;
 //! - `tokio` (feature `tokio`): an async handle, `send(..).await` and `fetch(..).await`.
 //!
 //! A SEND of 300 bytes (three telegrams) and a FETCH of them back, on the line simulator:
@@ -57,8 +59,17 @@
 //! let events = sim.take_events(host);
 //! assert_eq!(events.last(), Some(&Event::Done { job, data: data.into() }));
 //! ```
+//!
+//! # Bounds
+//!
+//! Every SEND and FETCH ends with [`Event::Done`] or [`Event::Failed`] within
+//! [`Config::job_bound`] whatever the line does: per telegram two 3964(R) send jobs (a reaction
+//! of ours may go first) and TRES, each bounded ([`si_3964r::bound`]). The formula, the readings
+//! and an example: [`bound`]. At 9600 bit/s with the defaults a job of up to 128 bytes ends
+//! within 185.95 s, one of up to 256 bytes within twice that.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
+pub mod bound;
 pub mod config;
 pub mod fb;
 pub mod frame;

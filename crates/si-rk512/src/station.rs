@@ -57,6 +57,8 @@
 //!   the link's receive errors (08xx), one per call, oldest first, at most
 //!   [`RECEIVE_REPORTS`] kept (the oldest is dropped). The partner's SEND data land in memory,
 //!   so S_RCV has no NDR here; [`Event::Served`] tells of them.
+//! - **Bounds** ([`crate::bound`]): every job ends within [`Config::job_bound`] whatever the
+//!   line does: each telegram within the 3964(R) link's bound, TRES judged on every input.
 //! - **Cancel** ([`Station::cancel`], the FBs' R input): the station forgets the job at once,
 //!   and the next job can start in the same call. A command telegram still queued is dropped;
 //!   one already on the line cannot be called back (3964(R) sends what it has), so the next
@@ -805,8 +807,12 @@ impl Station {
 impl Engine for Station {
     type Event = Event;
 
+    /// TRES is judged before the bytes are read (a reaction that arrives after it is late), so
+    /// a line that never goes quiet cannot hold a job beyond its bound even if the driver's
+    /// timers are late ([`crate::bound`]).
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
         self.now = now;
+        self.check_timers();
         self.link.handle_rx(now, bytes);
     }
 

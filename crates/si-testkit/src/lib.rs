@@ -5,9 +5,11 @@
 //! - [`alloc`]: the counting global allocator of the `no_alloc` tests, which prove the si-core
 //!   contract "no allocation per frame in steady state" (ARCHITECTURE.md).
 //! - [`noise`]: noise peers and a noise driver for the "bound on every job" tests (issue 21).
+//! - [`job_run`]: step the line simulator while a job runs, failing past its bound.
 //! - [`procfs`]: threads and resident memory of the process (Linux), for the driver's
 //!   thread-count test and the lines-per-process benchmark.
 
 pub mod alloc;
+pub mod job_run;
 pub mod noise;
 pub mod procfs;

@@ -7,6 +7,7 @@
 #![allow(dead_code)]
 
 pub mod modbus;
+pub mod noise;
 pub mod relay;
 
 use serde_json::Value;

@@ -5,7 +5,6 @@
 //! in under twice its bound: a bound, not a timing claim (the process start and a loaded
 //! machine fit in the slack).
 
-use std::io::Write;
 use std::process::Stdio;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -13,16 +12,8 @@ use std::time::{Duration, Instant};
 
 use crate::common;
 
+use common::noise::{noise_peer, one_at_a_time, Noise};
 use common::{pty_pair, si_command, Kill};
-
-#[derive(Debug, Clone, Copy)]
-enum Noise {
-    Silent,
-    RandomEvery2Ms,
-    OneEvery2Ms,
-    Flood,
-    RandomForOneSecond,
-}
 
 const PATTERNS: [Noise; 5] = [
     Noise::Silent,
@@ -32,53 +23,10 @@ const PATTERNS: [Noise; 5] = [
     Noise::RandomForOneSecond,
 ];
 
-/// Write `noise` to `port` until `stop` is set, the pattern ends, or the pty goes away.
-/// Non-blocking: a write blocked on a full pty would hold its write lock, and socat, restoring
-/// the termios as it exits after `si` closed the other end, would wait for it forever.
-fn noise_peer(port: &str, noise: Noise, stop: Arc<AtomicBool>) {
-    use std::os::unix::fs::OpenOptionsExt;
-    let mut tty = std::fs::OpenOptions::new()
-        .write(true)
-        .custom_flags(libc::O_NONBLOCK)
-        .open(port)
-        .expect("open the noise end of the pty pair");
-    std::thread::spawn(move || {
-        let started = Instant::now();
-        let mut rng: u64 = 0x9E37_79B9_7F4A_7C15;
-        let mut random = move || {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            (rng >> 24) as u8
-        };
-        while !stop.load(Ordering::Relaxed) {
-            let written = match noise {
-                Noise::Silent => return,
-                Noise::RandomEvery2Ms => tty.write_all(&[random()]),
-                Noise::OneEvery2Ms => tty.write_all(&[0x01]),
-                Noise::Flood => tty.write_all(&[0x01; 4096]),
-                Noise::RandomForOneSecond if started.elapsed() > Duration::from_secs(1) => return,
-                Noise::RandomForOneSecond => tty.write_all(&[random()]),
-            };
-            match written {
-                // The pty is full (nobody reads the far end now): wait a little.
-                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
-                    std::thread::sleep(Duration::from_millis(1));
-                    continue;
-                }
-                Err(_) => return, // the pair is gone
-                Ok(()) => {}
-            }
-            if !matches!(noise, Noise::Flood) {
-                std::thread::sleep(Duration::from_millis(2));
-            }
-        }
-    });
-}
-
 /// Run `si <args> --port <pty>` against each noise pattern: it must exit non-zero in under
 /// twice `bound`.
 fn ends_within(args: &[&str], bound: Duration) {
+    let _one = one_at_a_time();
     for noise in PATTERNS {
         let Some(pair) = pty_pair() else { return };
         let stop = Arc::new(AtomicBool::new(false));
