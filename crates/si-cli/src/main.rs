@@ -9,6 +9,7 @@ mod cmd;
 mod conn;
 mod error;
 mod hex;
+mod lines;
 mod logs;
 mod output;
 mod preset;

@@ -511,10 +511,13 @@ async fn serve(
         counters: memory.counters,
         dbs: memory.dbs.iter().map(|d| (d.number, d.length)).collect(),
     };
-    let store = SimaticStore::new(
-        Memory::new(&sizes),
-        file.conversion.unwrap_or(ConversionDb::EXAMPLE),
-    );
+    // Every size is checked against its maximum before anything is allocated
+    // (si_core::memory::MAX_AREA_BYTES and the others).
+    let memory = Memory::checked(&sizes).map_err(|e| match &path {
+        Some(p) => CliError::new(format!("{}: {e}", p.display())),
+        None => e.into(),
+    })?;
+    let store = SimaticStore::new(memory, file.conversion.unwrap_or(ConversionDb::EXAMPLE));
     let config = SlaveConfig {
         line: line_config(
             conn,

@@ -23,7 +23,7 @@ fn params_check_reports_three_wrong_values_in_one_run() {
     let text = stdout(&o);
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines.len(), 3, "{text}");
-    assert!(lines[0].ends_with("baud = 9601 is not one of: 110, 300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 76800, 115200"), "{text}");
+    assert!(lines[0].ends_with("baud = 9601 is not one of: 110, 300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 76800, 115200 (line 2)"), "{text}");
     assert!(
         lines[1].ends_with("character delay time (ZVZ) = 5 ms is out of range: 20 … 655350 ms"),
         "{text}"
