@@ -92,7 +92,8 @@ impl LineFormat {
             // Baud is the only other check of `with_rates` (parity is already typed).
             _ => {
                 let rates: Vec<String> = TRACE_RATES.iter().map(u32::to_string).collect();
-                RangeError::new("baud", rates.join(", "), " bit/s", self.baud)
+                let range = format!("{} bit/s", rates.join(", "));
+                RangeError::new("baud", range, " bit/s", self.baud)
             }
         })
     }
