@@ -207,8 +207,8 @@ pub enum Command {
         unit: u8,
         /// TOML file with `mode`, `char_delay_multiplier`, `frame_end` ("gap" or "length"),
         /// `[conversion]` (the 26 fields of Table 3-19) and `[memory]` (inputs, outputs,
-        /// flags, timers, counters, dbs); without it, the manual's example conversion DB of
-        /// Table 3-20.
+        /// flags up to 65536 bytes, timers and counters up to 65536, dbs of up to 65536 bytes,
+        /// 16 MiB in all); without it, the manual's example conversion DB of Table 3-20.
         #[arg(long)]
         config: Option<std::path::PathBuf>,
         #[command(flatten)]

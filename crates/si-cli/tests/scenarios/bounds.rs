@@ -165,3 +165,27 @@ fn an_address_span_past_65535_is_refused() {
         assert!(stderr(&o).contains("65536"), "{args:?}: {}", stderr(&o));
     }
 }
+
+/// `rk512 serve --config` caps each area at 1 MiB and all of them together at 16 MiB: twenty
+/// DBs of 1 MiB are refused before the port is opened.
+#[test]
+fn rk512_serve_refuses_blocks_that_add_up_beyond_the_total() {
+    let blocks: Vec<String> = (1..=20)
+        .map(|n| format!("[[db]]\nnumber = {n}\nlength = 1048576\n"))
+        .collect();
+    let path = file("rk512-total.toml", &blocks.join(""));
+    let o = si(&[
+        "--port",
+        "/dev/null",
+        "rk512",
+        "serve",
+        "--config",
+        path.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{o:?}");
+    let err = stderr(&o);
+    assert!(
+        err.contains("memory in all areas = 20974848 bytes is out of range: 0 … 16777216 bytes"),
+        "{err}"
+    );
+}
