@@ -21,6 +21,8 @@ mod modbus_serial_example;
 mod modbus_usb_relay;
 #[path = "pty/monitor.rs"]
 mod monitor;
+#[path = "pty/monitor_flood.rs"]
+mod monitor_flood;
 #[path = "pty/port_flags.rs"]
 mod port_flags;
 #[path = "pty/r3964.rs"]
