@@ -2,18 +2,19 @@
 //! documented maximum before anything is allocated, stdin lines are capped, and the decoders
 //! and readers refuse what is out of range with the value, the range and where it was.
 
-use std::io::Write;
-use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 use crate::common;
+use crate::dpcoord::host;
+use crate::module::temp_file as file;
 
-use common::{si, si_command, stderr, stdout, test_dir};
+use common::{si, stderr, stdout};
 
-fn file(name: &str, text: &str) -> std::path::PathBuf {
-    let path = test_dir("si-bounds-test").join(name);
-    std::fs::write(&path, text).unwrap();
-    path
+/// Runs `si ARGS`, which must fail with exit code 1; what it printed (stdout, then stderr).
+fn fails(args: &[&str]) -> String {
+    let o = si(args);
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {o:?}");
+    format!("{}{}", stdout(&o), stderr(&o))
 }
 
 /// `modbus serve --config` with a 4 GiB area (or DB) is refused with a range error, exit 1,
@@ -46,7 +47,7 @@ fn modbus_serve_refuses_a_4_gib_memory_area_with_a_range_error() {
     ] {
         let path = file(name, text);
         let started = Instant::now();
-        let o = si(&[
+        let err = fails(&[
             "--port",
             "/dev/null",
             "modbus",
@@ -56,8 +57,6 @@ fn modbus_serve_refuses_a_4_gib_memory_area_with_a_range_error() {
             "--config",
             path.to_str().unwrap(),
         ]);
-        assert_eq!(o.status.code(), Some(1), "{name}: {o:?}");
-        let err = stderr(&o);
         assert!(err.contains(named) && err.contains(name), "{name}: {err}");
         assert!(started.elapsed() < Duration::from_secs(20), "{name}: quick");
     }
@@ -67,26 +66,12 @@ fn modbus_serve_refuses_a_4_gib_memory_area_with_a_range_error() {
 /// cap, instead of reading it whole.
 #[test]
 fn dp_coord_host_refuses_an_overlong_stdin_line() {
-    let mut child = si_command()
-        .args(["dp-coord", "host", "--window", "8", "send", "41"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start si");
-    let mut stdin = child.stdin.take().expect("piped stdin");
-    let writer = std::thread::spawn(move || {
-        // 64 MiB in one line: the host stops reading long before the end (a broken pipe).
-        let chunk = vec![b'0'; 1 << 20];
-        let _ = writeln!(stdin, "00 00 00 00 00 00 00 00");
-        for _ in 0..64 {
-            if stdin.write_all(&chunk).is_err() {
-                break;
-            }
-        }
-    });
-    let o = child.wait_with_output().expect("si runs");
-    let _ = writer.join();
+    // 16 MiB in one line: the host stops reading after 4 KiB of it.
+    let long = "0".repeat(16 << 20);
+    let o = host(
+        &["--window", "8", "send", "41"],
+        &["00 00 00 00 00 00 00 00", &long],
+    );
     assert_eq!(o.status.code(), Some(1), "{o:?}");
     let err = stderr(&o);
     assert!(
@@ -104,12 +89,10 @@ fn frame_decode_rk512_refuses_a_reaction_beyond_128_data_bytes() {
     assert!(o.status.success(), "{}", stderr(&o));
     // Without spaces: one argument may not exceed 128 KiB (Linux MAX_ARG_STRLEN).
     let long = format!("00000000{}", "11".repeat(59_996));
-    let o = si(&["frame", "decode", "rk512", &long]);
-    assert_eq!(o.status.code(), Some(1));
+    let err = fails(&["frame", "decode", "rk512", &long]);
     assert!(
-        stderr(&o).contains("expected at most 128 data bytes per telegram, found 59996"),
-        "{}",
-        stderr(&o)
+        err.contains("expected at most 128 data bytes per telegram, found 59996"),
+        "{err}"
     );
 }
 
@@ -120,9 +103,7 @@ fn monitor_refuses_a_trace_header_with_baud_0() {
         "baud0.jsonl",
         "{\"format\":\"si-trace\",\"version\":1,\"source\":\"port\",\"settings\":{\"baud\":0,\"data_bits\":8,\"parity\":\"even\",\"stop_bits\":1}}\n",
     );
-    let o = si(&["monitor", "--trace", path.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(1), "{o:?}");
-    let err = stderr(&o);
+    let err = fails(&["monitor", "--trace", path.to_str().unwrap()]);
     assert!(
         err.contains("trace line 1: baud = 0 bit/s is out of range: 110, 300"),
         "{err}"
@@ -134,9 +115,7 @@ fn monitor_refuses_a_trace_header_with_baud_0() {
 #[test]
 fn params_check_names_type_errors_and_oversized_integers_with_their_line() {
     let path = file("quoted.toml", "driver = \"3964r\"\nbaud = \"9600\"\n");
-    let o = si(&["params", "check", path.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(1), "{o:?}");
-    let text = format!("{}{}", stdout(&o), stderr(&o));
+    let text = fails(&["params", "check", path.to_str().unwrap()]);
     assert!(
         text.contains("baud = \"9600\" must be a number") && text.contains("(line 2)"),
         "{text}"
@@ -145,9 +124,7 @@ fn params_check_names_type_errors_and_oversized_integers_with_their_line() {
         "huge.toml",
         "driver = \"3964r\"\n\nchar_delay_ms = 99999999999999999999999\n",
     );
-    let o = si(&["params", "check", path.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(1), "{o:?}");
-    let text = format!("{}{}", stdout(&o), stderr(&o));
+    let text = fails(&["params", "check", path.to_str().unwrap()]);
     assert!(text.contains("(line 3)"), "{text}");
 }
 
@@ -160,9 +137,8 @@ fn an_address_span_past_65535_is_refused() {
         &["write", "registers", "--addr", "65535", "1", "2"][..],
         &["write", "coils", "--addr", "65535", "1", "0"][..],
     ] {
-        let o = si(&[&["modbus"][..], args, &["--unit", "1"]].concat());
-        assert!(!o.status.success(), "{args:?} passed");
-        assert!(stderr(&o).contains("65536"), "{args:?}: {}", stderr(&o));
+        let err = fails(&[&["modbus"][..], args, &["--unit", "1"]].concat());
+        assert!(err.contains("65536"), "{args:?}: {err}");
     }
 }
 
@@ -174,7 +150,7 @@ fn rk512_serve_refuses_blocks_that_add_up_beyond_the_total() {
         .map(|n| format!("[[db]]\nnumber = {n}\nlength = 1048576\n"))
         .collect();
     let path = file("rk512-total.toml", &blocks.join(""));
-    let o = si(&[
+    let err = fails(&[
         "--port",
         "/dev/null",
         "rk512",
@@ -182,8 +158,6 @@ fn rk512_serve_refuses_blocks_that_add_up_beyond_the_total() {
         "--config",
         path.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(1), "{o:?}");
-    let err = stderr(&o);
     assert!(
         err.contains("memory in all areas = 20974848 bytes is out of range: 0 … 16777216 bytes"),
         "{err}"

@@ -5,8 +5,8 @@ use crate::common;
 
 use common::{si, stderr, stdout, test_dir};
 
-/// A file in the test's own temporary directory.
-fn temp_file(name: &str, text: &str) -> std::path::PathBuf {
+/// A file in the test's own temporary directory (also used by `bounds`).
+pub(crate) fn temp_file(name: &str, text: &str) -> std::path::PathBuf {
     let path = test_dir("si-module-cli").join(name);
     std::fs::write(&path, text).unwrap();
     path
