@@ -77,14 +77,16 @@ impl Default for MemorySizes {
 /// Largest I, Q or M area, in bytes: the conversion DB addresses bytes by WORD (uuuuu, ooooo,
 /// vvvvv, sssss are 0…65535, et200s-si-modbus-uss.md §5.4 "Value ranges"), so bytes 0…65535
 /// are all a module can reach. Area sizes otherwise "depend on the CPU type"
-/// (et200s-si-2005-window-protocol.md §7.8); 64 KiB is at least what any S7 CPU offers.
+/// (et200s-si-2005-window-protocol.md §7.8); more than the module addresses would only be
+/// memory no request reaches.
 pub const MAX_AREA_BYTES: u32 = 65_536;
 
 /// Most timers or counters: their numbers (ttttt, zzzzz) are WORDs 0…65535 as well (§5.4).
 pub const MAX_ELEMENTS: u32 = 65_536;
 
-/// Largest data block, in bytes: an S7 DB is addressed DBB0…DBB65535 (a WORD byte offset); the
-/// S_MODB conversion itself reaches only DBW0…DBW1022 of each DB (§5.5, `(R & 1FFH) × 2`).
+/// Largest data block, in bytes. Our reading (the manuals give no DB size): an S7 byte offset
+/// is a WORD, DBB0…DBB65535; the S_MODB conversion itself reaches only DBW0…DBW1022 of each
+/// DB (§5.5, `(R & 1FFH) × 2`).
 pub const MAX_DB_BYTES: u32 = 65_536;
 
 /// Most memory in all areas together, in bytes (timers and counters count two bytes each): a
@@ -105,8 +107,11 @@ impl MemorySizes {
         }
         RangeError::check("memory.timers", (0, MAX_ELEMENTS), "", self.timers)?;
         RangeError::check("memory.counters", (0, MAX_ELEMENTS), "", self.counters)?;
-        for &len in self.dbs.values() {
-            RangeError::check("DB length", (0, MAX_DB_BYTES), " bytes", len)?;
+        for (&n, &len) in &self.dbs {
+            if len > MAX_DB_BYTES {
+                let range = format!("0 … {MAX_DB_BYTES} bytes (DB{n})");
+                return Err(RangeError::new("DB length", range, " bytes", len));
+            }
         }
         let total = self.total_bytes();
         RangeError::check("memory in all areas", (0, MAX_TOTAL_BYTES), " bytes", total)
@@ -378,7 +383,10 @@ mod tests {
         assert_eq!(sizes.check().unwrap_err().parameter, "memory.timers");
         sizes.timers = 0;
         sizes.dbs.insert(1, MAX_DB_BYTES + 1);
-        assert_eq!(sizes.check().unwrap_err().parameter, "DB length");
+        assert_eq!(
+            sizes.check().unwrap_err().to_string(),
+            "DB length = 65537 bytes is out of range: 0 … 65536 bytes (DB1)"
+        );
         // Every DB at its maximum is fine alone, not 300 of them together.
         sizes.dbs = (1..=300).map(|n| (n, MAX_DB_BYTES)).collect();
         let e = sizes.check().unwrap_err();

@@ -31,7 +31,7 @@ fn modbus_serve_refuses_a_4_gib_memory_area_with_a_range_error() {
         (
             "db.toml",
             "[memory]\ndbs = [{ number = 1, length = 4294967295 }]\n",
-            "DB length = 4294967295 bytes is out of range: 0 … 65536 bytes",
+            "DB length = 4294967295 bytes is out of range: 0 … 65536 bytes (DB1)",
         ),
         (
             "total.toml",
