@@ -12,6 +12,7 @@ mod error;
 mod help;
 mod hex;
 mod line_names;
+mod lines;
 mod logs;
 mod output;
 mod preset;

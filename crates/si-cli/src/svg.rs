@@ -26,8 +26,8 @@ const LANE: u32 = 230;
 const NOTES: u32 = 470;
 const TOP: u32 = 76;
 
-enum Row<'a> {
-    Record(&'a Record),
+enum Row {
+    Record(Record),
     Gap(Duration),
     Summary {
         count: usize,
@@ -36,62 +36,174 @@ enum Row<'a> {
     },
 }
 
-/// Choose the rows: every record, or a summary of a long recording.
-fn rows(records: &[Record]) -> Vec<Row<'_>> {
-    let keep: Vec<bool> = if records.len() <= MAX_ROWS {
-        vec![true; records.len()]
-    } else {
-        let mut keep = vec![false; records.len()];
-        let head = 30.min(records.len());
-        keep[..head].iter_mut().for_each(|k| *k = true);
-        let tail = records.len().saturating_sub(10);
-        keep[tail..].iter_mut().for_each(|k| *k = true);
-        let mut budget = MAX_ROWS.saturating_sub(head + 10);
-        for (i, r) in records.iter().enumerate() {
-            if budget == 0 {
-                break;
-            }
-            if !r.flags.is_empty() {
-                // The remark, the three records before it (the exchange it belongs to) and the
-                // one after (how the line recovered).
-                let last = (i + 1).min(records.len() - 1);
-                for k in &mut keep[i.saturating_sub(3)..=last] {
-                    if !*k && budget > 0 {
-                        *k = true;
-                        budget -= 1;
-                    }
-                }
-            }
+/// Records kept from the start of a long recording.
+const HEAD: usize = 30;
+/// Records kept at its end.
+const TAIL: usize = 10;
+/// Records kept before a remark (the exchange it belongs to).
+const BEFORE: usize = 3;
+
+/// The diagram's rows, built as the records arrive, in bounded memory (issue 21: a live
+/// monitor under a flood grew to 312 MB keeping every record for the figure).
+///
+/// Up to [`MAX_ROWS`] records every record is drawn. Beyond, the figure keeps the first 30,
+/// the last 10, and every record with an error or remark together with the three before it
+/// and the one after, as long as the [`MAX_ROWS`] budget lasts (first remarks first); each run
+/// of the others becomes one summary row. A record's fate is decided when it is [`TAIL`]
+/// records old, so at most `MAX_ROWS + TAIL` records are held, plus the kept rows.
+pub struct Diagram {
+    /// Records seen.
+    seen: usize,
+    /// Every record while there are at most [`MAX_ROWS`]; dropped beyond.
+    all: Vec<Record>,
+    /// The last [`TAIL`] records, not yet decided (the last of them may be the tail).
+    recent: std::collections::VecDeque<Record>,
+    /// Whether the record just decided had a remark (its successor is its context).
+    previous_flagged: bool,
+    /// Rows left for remarks and their context.
+    budget: usize,
+    rows: RowBuilder,
+    first_start: Option<Instant>,
+}
+
+impl Default for Diagram {
+    fn default() -> Self {
+        Diagram {
+            seen: 0,
+            all: Vec::new(),
+            recent: std::collections::VecDeque::with_capacity(TAIL + 1),
+            previous_flagged: false,
+            budget: MAX_ROWS - HEAD - TAIL,
+            rows: RowBuilder::default(),
+            first_start: None,
         }
-        keep
-    };
-    let mut out = Vec::new();
-    let mut skipped: Option<(usize, Instant, Instant)> = None;
-    let mut prev_end: Option<Instant> = None;
-    for (r, k) in records.iter().zip(keep) {
-        if !k {
-            let s = skipped.get_or_insert((0, r.start, r.end));
+    }
+}
+
+impl Diagram {
+    /// An empty diagram.
+    pub fn new() -> Self {
+        Diagram::default()
+    }
+
+    /// Add the next record (in time order). Its raw bytes and decoded text are not drawn, so
+    /// they are not kept.
+    pub fn push(&mut self, mut record: Record) {
+        record.bytes = Vec::new();
+        record.text = String::new();
+        self.first_start.get_or_insert(record.start);
+        self.seen += 1;
+        if self.seen <= MAX_ROWS {
+            self.all.push(record.clone());
+        } else {
+            self.all = Vec::new();
+        }
+        self.recent.push_back(record);
+        if self.recent.len() > TAIL {
+            self.decide();
+        }
+    }
+
+    /// The oldest undecided record is `TAIL` records old: it is not in the tail, and the
+    /// records after it that could make it context are known.
+    fn decide(&mut self) {
+        let Some(record) = self.recent.pop_front() else {
+            return;
+        };
+        let index = self.seen - self.recent.len() - 1;
+        let flagged = !record.flags.is_empty();
+        let remark_soon = self.recent.iter().take(BEFORE).any(|r| !r.flags.is_empty());
+        let keep = if index < HEAD {
+            true
+        } else if (flagged || remark_soon || self.previous_flagged) && self.budget > 0 {
+            self.budget -= 1;
+            true
+        } else {
+            false
+        };
+        self.previous_flagged = flagged;
+        self.rows.push(record, keep);
+    }
+
+    /// Records seen.
+    #[cfg(test)]
+    fn seen(&self) -> usize {
+        self.seen
+    }
+
+    /// Records and rows held: at most about `MAX_ROWS + TAIL` records and `3 × MAX_ROWS` rows,
+    /// however many records were pushed.
+    #[cfg(test)]
+    fn held(&self) -> usize {
+        self.all.len() + self.recent.len() + self.rows.out.len()
+    }
+
+    /// The rows to draw.
+    fn finish(self) -> Vec<Row> {
+        if self.seen <= MAX_ROWS {
+            let mut rows = RowBuilder::default();
+            for r in self.all {
+                rows.push(r, true);
+            }
+            return rows.finish();
+        }
+        let mut rows = self.rows;
+        for r in self.recent {
+            rows.push(r, true);
+        }
+        rows.finish()
+    }
+
+    /// The first record's start, if any.
+    pub fn first_start(&self) -> Option<Instant> {
+        self.first_start
+    }
+
+    /// Draw the diagram: the lanes of `a.stations`, its protocol, counters and span (its
+    /// `records` are not read; they came through [`Diagram::push`]).
+    pub fn render(self, a: &Analysis) -> String {
+        let count = self.seen;
+        render_rows(a, count, &self.finish())
+    }
+}
+
+/// Turns kept and skipped records into rows: a summary for each run of skipped ones, a gap
+/// mark before a kept record after a long silence.
+#[derive(Default)]
+struct RowBuilder {
+    out: Vec<Row>,
+    skipped: Option<(usize, Instant, Instant)>,
+    prev_end: Option<Instant>,
+}
+
+impl RowBuilder {
+    fn push(&mut self, r: Record, keep: bool) {
+        if !keep {
+            let s = self.skipped.get_or_insert((0, r.start, r.end));
             s.0 += 1;
             s.2 = r.end;
-            continue;
+            return;
         }
-        if let Some((count, from, to)) = skipped.take() {
-            out.push(Row::Summary { count, from, to });
-            prev_end = Some(to);
+        if let Some((count, from, to)) = self.skipped.take() {
+            self.out.push(Row::Summary { count, from, to });
+            self.prev_end = Some(to);
         }
-        if let Some(p) = prev_end {
+        if let Some(p) = self.prev_end {
             let gap = r.start.saturating_since(p);
             if gap > GAP_MARK {
-                out.push(Row::Gap(gap));
+                self.out.push(Row::Gap(gap));
             }
         }
-        out.push(Row::Record(r));
-        prev_end = Some(prev_end.map_or(r.end, |p| p.max(r.end)));
+        self.prev_end = Some(self.prev_end.map_or(r.end, |p| p.max(r.end)));
+        self.out.push(Row::Record(r));
     }
-    if let Some((count, from, to)) = skipped {
-        out.push(Row::Summary { count, from, to });
+
+    fn finish(mut self) -> Vec<Row> {
+        if let Some((count, from, to)) = self.skipped.take() {
+            self.out.push(Row::Summary { count, from, to });
+        }
+        self.out
     }
-    out
 }
 
 /// Escape text for XML character data and attribute values.
@@ -157,9 +269,17 @@ fn control_colour(label: &str) -> &'static str {
 
 /// Draw the analysis as an SVG document.
 pub fn render(a: &Analysis) -> String {
+    let mut diagram = Diagram::new();
+    for r in &a.records {
+        diagram.push(r.clone());
+    }
+    diagram.render(a)
+}
+
+/// Draw `rows` of a recording of `count` records.
+fn render_rows(a: &Analysis, count: usize, rows: &[Row]) -> String {
     let lanes = a.stations.len().max(2);
     let lane_x = |i: usize| LEFT + LANE / 2 + LANE * i as u32;
-    let rows = rows(&a.records);
     let counters: Vec<_> = a.counters.0.iter().collect();
     let footer = 40 + 16 * counters.len().div_ceil(2) as u32;
     let width = LEFT + LANE * lanes as u32 + NOTES;
@@ -181,7 +301,7 @@ pub fn render(a: &Analysis) -> String {
         s,
         r#"<text x="12" y="22" font-size="15" font-weight="bold">{} — {} records, {} … {}{}</text>"#,
         escape(&a.protocol),
-        a.records.len(),
+        count,
         time(a.span.0),
         time(a.span.1),
         if summarised { " (summarised)" } else { "" }
@@ -413,6 +533,79 @@ mod tests {
             escape(nasty),
             "&lt;DLE&gt; &amp; &quot;STX&quot; &apos;x&apos; ?"
         );
+    }
+
+    fn analysis(records: Vec<Record>) -> Analysis {
+        Analysis {
+            protocol: "modbus".to_owned(),
+            stations: vec!["A".to_owned(), "B".to_owned()],
+            span: (Instant::ZERO, Instant::from_micros(1_000)),
+            records,
+            counters: Default::default(),
+        }
+    }
+
+    /// Record `i` of a steady exchange, 1 ms apart, with a fault where `faulty` says.
+    fn record(i: usize, faulty: bool) -> Record {
+        let at = Instant::from_micros(1_000 * i as u64);
+        let mut r = Record::new(Kind::Frame, at, at, Some(i % 2));
+        r.to = Some((i + 1) % 2);
+        r.label = format!("frame {i}");
+        r.text = "a decoded text the diagram does not draw".repeat(4);
+        r.bytes = vec![0x55; 256];
+        if faulty {
+            r.flags.push(si_core::monitor::Flag::error("CRC wrong"));
+        }
+        r
+    }
+
+    #[test]
+    fn a_short_recording_draws_every_record() {
+        let records: Vec<Record> = (0..MAX_ROWS).map(|i| record(i, i == 100)).collect();
+        let svg = render(&analysis(records));
+        assert!(svg.contains(&format!("{MAX_ROWS} records")));
+        assert!(!svg.contains("summarised") && !svg.contains("without remarks"));
+        for i in [0, 100, MAX_ROWS - 1] {
+            assert!(svg.contains(&format!(">frame {i}<")), "record {i} drawn");
+        }
+    }
+
+    /// Head 30, the remark at 500 with three before and one after, tail 10; the runs between
+    /// become summary rows.
+    #[test]
+    fn a_long_recording_keeps_head_remarks_with_context_and_tail() {
+        let records: Vec<Record> = (0..1000).map(|i| record(i, i == 500)).collect();
+        let svg = render(&analysis(records));
+        assert!(svg.contains("1000 records") && svg.contains("(summarised)"));
+        assert!(svg.contains("⋯ 467 records without remarks"), "30 … 496");
+        assert!(svg.contains("⋯ 488 records without remarks"), "502 … 989");
+        for kept in [0, 29, 497, 500, 501, 990, 999] {
+            assert!(svg.contains(&format!(">frame {kept}<")), "{kept} kept");
+        }
+        for skipped in [30, 496, 502, 989] {
+            assert!(
+                !svg.contains(&format!(">frame {skipped}<")),
+                "{skipped} skipped"
+            );
+        }
+    }
+
+    /// Issue 21: a flood of records, every tenth with a fault, holds a bounded number of
+    /// records and rows, and still draws the budget's worth of remarks.
+    #[test]
+    fn a_flood_is_summarised_as_it_arrives() {
+        let mut d = Diagram::new();
+        let mut most = 0;
+        for i in 0..200_000 {
+            d.push(record(i, i % 10 == 0));
+            most = most.max(d.held());
+        }
+        assert_eq!(d.seen(), 200_000);
+        assert!(most <= MAX_ROWS + TAIL + 3 * MAX_ROWS, "held {most}");
+        let svg = d.render(&analysis(Vec::new()));
+        assert!(svg.contains("200000 records") && svg.contains("(summarised)"));
+        assert!(svg.len() < 200_000, "{} bytes", svg.len());
+        assert!(svg.contains(">frame 199999<"), "the tail is drawn");
     }
 
     #[test]

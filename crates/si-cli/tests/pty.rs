@@ -29,6 +29,8 @@ mod modbus_tcp;
 mod modbus_usb_relay;
 #[path = "pty/monitor.rs"]
 mod monitor;
+#[path = "pty/monitor_flood.rs"]
+mod monitor_flood;
 #[path = "pty/noise_links.rs"]
 mod noise_links;
 #[path = "pty/noise_masters.rs"]

@@ -1,6 +1,8 @@
 //! The `si` binary offline, one module per command: help and errors, frames, simulations,
 //! monitors and their SVG, the module's tables.
 
+#[path = "scenarios/bounds.rs"]
+mod bounds;
 #[path = "scenarios/cli.rs"]
 mod cli;
 mod common;

@@ -8,6 +8,7 @@
 //! against the configured sizes and reports which limit it crossed, so callers can map it to
 //! their manual's error (S_MODB ERROR_NR 14–17, 20, 21).
 
+use crate::range::RangeError;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -73,6 +74,58 @@ impl Default for MemorySizes {
     }
 }
 
+/// Largest I, Q or M area, in bytes: the conversion DB addresses bytes by WORD (uuuuu, ooooo,
+/// vvvvv, sssss are 0…65535, et200s-si-modbus-uss.md §5.4 "Value ranges"), so bytes 0…65535
+/// are all a module can reach. Area sizes otherwise "depend on the CPU type"
+/// (et200s-si-2005-window-protocol.md §7.8); more than the module addresses would only be
+/// memory no request reaches.
+pub const MAX_AREA_BYTES: u32 = 65_536;
+
+/// Most timers or counters: their numbers (ttttt, zzzzz) are WORDs 0…65535 as well (§5.4).
+pub const MAX_ELEMENTS: u32 = 65_536;
+
+/// Largest data block, in bytes. Our reading (the manuals give no DB size): an S7 byte offset
+/// is a WORD, DBB0…DBB65535; the S_MODB conversion itself reaches only DBW0…DBW1022 of each
+/// DB (§5.5, `(R & 1FFH) × 2`).
+pub const MAX_DB_BYTES: u32 = 65_536;
+
+/// Most memory in all areas together, in bytes (timers and counters count two bytes each): a
+/// host limit, not the manual's, so a configuration of many large DBs cannot exhaust the host.
+/// 16 MiB holds 256 full-size DBs, or every DB S_MODB can address from one base DB at 1 KiB.
+pub const MAX_TOTAL_BYTES: u64 = 16 * 1024 * 1024;
+
+impl MemorySizes {
+    /// Check every size against [`MAX_AREA_BYTES`], [`MAX_ELEMENTS`], [`MAX_DB_BYTES`] and
+    /// [`MAX_TOTAL_BYTES`] without allocating anything: the first size out of range.
+    pub fn check(&self) -> Result<(), RangeError> {
+        for (parameter, value) in [
+            ("memory.inputs", self.inputs),
+            ("memory.outputs", self.outputs),
+            ("memory.flags", self.flags),
+        ] {
+            RangeError::check(parameter, (0, MAX_AREA_BYTES), " bytes", value)?;
+        }
+        RangeError::check("memory.timers", (0, MAX_ELEMENTS), "", self.timers)?;
+        RangeError::check("memory.counters", (0, MAX_ELEMENTS), "", self.counters)?;
+        for (&n, &len) in &self.dbs {
+            if len > MAX_DB_BYTES {
+                let range = format!("0 … {MAX_DB_BYTES} bytes (DB{n})");
+                return Err(RangeError::new("DB length", range, " bytes", len));
+            }
+        }
+        let total = self.total_bytes();
+        RangeError::check("memory in all areas", (0, MAX_TOTAL_BYTES), " bytes", total)
+    }
+
+    /// Bytes these sizes take (timers and counters two each).
+    pub fn total_bytes(&self) -> u64 {
+        let bytes = u64::from(self.inputs) + u64::from(self.outputs) + u64::from(self.flags);
+        let words = 2 * (u64::from(self.timers) + u64::from(self.counters));
+        let dbs: u64 = self.dbs.values().map(|&l| u64::from(l)).sum();
+        bytes + words + dbs
+    }
+}
+
 /// An access the CPU would refuse.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum MemoryError {
@@ -104,7 +157,15 @@ pub struct Memory {
 }
 
 impl Memory {
-    /// Zeroed memory of these sizes.
+    /// Zeroed memory of these sizes, after [`MemorySizes::check`]: a size beyond its maximum
+    /// is refused before anything is allocated.
+    pub fn checked(sizes: &MemorySizes) -> Result<Self, RangeError> {
+        sizes.check()?;
+        Ok(Memory::new(sizes))
+    }
+
+    /// Zeroed memory of these sizes, unchecked: for sizes the program chose. Sizes from a user
+    /// go through [`Memory::checked`].
     pub fn new(sizes: &MemorySizes) -> Self {
         Memory {
             inputs: vec![0; sizes.inputs as usize],
@@ -305,5 +366,31 @@ mod tests {
         assert_eq!(m.element(Area::Timers, 255).unwrap(), 0x1234);
         assert!(m.element(Area::Counters, 256).is_err());
         assert_eq!(Area::Db(6).to_string(), "DB6");
+    }
+
+    #[test]
+    fn sizes_beyond_their_maximum_are_refused_with_the_parameter_and_range() {
+        let mut sizes = MemorySizes::default();
+        assert!(Memory::checked(&sizes).is_ok());
+        sizes.flags = u32::MAX;
+        let e = Memory::checked(&sizes).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "memory.flags = 4294967295 bytes is out of range: 0 … 65536 bytes"
+        );
+        sizes.flags = MAX_AREA_BYTES;
+        sizes.timers = MAX_ELEMENTS + 1;
+        assert_eq!(sizes.check().unwrap_err().parameter, "memory.timers");
+        sizes.timers = 0;
+        sizes.dbs.insert(1, MAX_DB_BYTES + 1);
+        assert_eq!(
+            sizes.check().unwrap_err().to_string(),
+            "DB length = 65537 bytes is out of range: 0 … 65536 bytes (DB1)"
+        );
+        // Every DB at its maximum is fine alone, not 300 of them together.
+        sizes.dbs = (1..=300).map(|n| (n, MAX_DB_BYTES)).collect();
+        let e = sizes.check().unwrap_err();
+        assert_eq!(e.parameter, "memory in all areas");
+        assert_eq!(e.range, "0 … 16777216 bytes");
     }
 }

@@ -30,7 +30,8 @@
 //! Entries are in time order. Unknown header fields are ignored, so later versions can add
 //! fields; a line that is neither a header nor an entry is an error naming its line number.
 
-use crate::serial::{Parity, SerialSettings, BAUD_RATES};
+use crate::range::RangeError;
+use crate::serial::{Parity, SerialSettings, SettingsError, BAUD_RATES};
 use crate::sim::{Trace, TraceEntry, TraceKind};
 use crate::time::Instant;
 use serde::{Deserialize, Serialize};
@@ -72,6 +73,12 @@ pub struct LineFormat {
 impl LineFormat {
     /// The validated settings, `None` if the header names an impossible format.
     pub fn settings(&self) -> Option<SerialSettings> {
+        self.check().ok()
+    }
+
+    /// The validated settings, or the field out of range (a header with `baud` 0, say: issue
+    /// 21). The rates are the manuals' twelve and USS's 187 500 bit/s ([`BAUD_RATES`]).
+    pub fn check(&self) -> Result<SerialSettings, RangeError> {
         SerialSettings::with_rates(
             self.baud,
             self.data_bits,
@@ -79,7 +86,16 @@ impl LineFormat {
             self.stop_bits,
             &TRACE_RATES,
         )
-        .ok()
+        .map_err(|e| match e {
+            SettingsError::DataBits(v) => RangeError::new("data_bits", "7 or 8", "", v),
+            SettingsError::StopBits(v) => RangeError::new("stop_bits", "1 or 2", "", v),
+            // Baud is the only other check of `with_rates` (parity is already typed).
+            _ => {
+                let rates: Vec<String> = TRACE_RATES.iter().map(u32::to_string).collect();
+                let range = format!("{} bit/s", rates.join(", "));
+                RangeError::new("baud", range, " bit/s", self.baud)
+            }
+        })
     }
 }
 
@@ -200,6 +216,14 @@ pub enum TraceFileError {
         /// What the JSON parser said.
         message: String,
     },
+    /// A header whose line format is out of range.
+    #[error("trace line {line}: {error}")]
+    Range {
+        /// 1-based line number of the header.
+        line: usize,
+        /// The field out of range.
+        error: RangeError,
+    },
     /// A header with a format version this reader does not know.
     #[error("trace format version {0} is newer than this reader (version {VERSION})")]
     Version(u32),
@@ -238,6 +262,11 @@ pub fn read<R: BufRead>(input: R) -> Result<TraceFile, TraceFileError> {
             let header: Header = serde_json::from_value(value).map_err(syntax)?;
             if header.version > VERSION {
                 return Err(TraceFileError::Version(header.version));
+            }
+            if let Some(format) = &header.settings {
+                format
+                    .check()
+                    .map_err(|error| TraceFileError::Range { line: k + 1, error })?;
             }
             file.header = Some(header);
         } else {
@@ -498,6 +527,33 @@ mod tests {
             f.trace.entries[2].kind,
             TraceKind::RxChunk { bytes: vec![16, 2] }
         );
+    }
+
+    /// Issue 21: a header with `baud` 0 is refused with a range error naming the field.
+    #[test]
+    fn a_header_out_of_range_is_refused() {
+        let header = |baud: u32, data_bits: u8| {
+            format!(
+                r#"{{"format":"si-trace","version":1,"source":"port","settings":{{"baud":{baud},"data_bits":{data_bits},"parity":"even","stop_bits":1}}}}"#
+            )
+        };
+        match read(header(0, 8).as_bytes()) {
+            Err(e @ TraceFileError::Range { line: 1, .. }) => {
+                let text = e.to_string();
+                assert!(
+                    text.starts_with("trace line 1: baud = 0 bit/s is out of range: 110, 300,"),
+                    "{text}"
+                );
+                assert!(text.ends_with("115200, 187500 bit/s"), "{text}");
+            }
+            other => panic!("expected a range error, got {other:?}"),
+        }
+        let e = read(header(9600, 9).as_bytes()).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "trace line 1: data_bits = 9 is out of range: 7 or 8"
+        );
+        assert!(read(header(9600, 7).as_bytes()).is_ok());
     }
 
     #[test]

@@ -82,7 +82,7 @@
 //! .unwrap_err();
 //! let lines: Vec<String> = e.iter().map(|e| e.to_string()).collect();
 //! assert_eq!(lines, [
-//!     "baud = 9601 is not one of: 110, 300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 76800, 115200",
+//!     "baud = 9601 is not one of: 110, 300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 76800, 115200 (line 2)",
 //!     "character delay time (ZVZ) = 5 ms is out of range: 20 … 655350 ms",
 //!     "connection attempts = 0 is out of range: 1 … 255",
 //! ]);
@@ -488,18 +488,32 @@ impl<'a> Reader<'a> {
         let Some(v) = self.get(key) else {
             return default;
         };
+        // Numeric options (baud, data and stop bits) take numbers, named ones strings: a
+        // quoted `baud = "9600"` is a type error (issue 21), not a baud rate.
+        let numeric = options.iter().all(|(n, _)| n.parse::<u64>().is_ok());
         let found = match v {
-            Value::String(s) => options.iter().find(|(n, _)| n == s),
-            Value::Number(number) => {
+            Value::String(s) if !numeric => options.iter().find(|(n, _)| n == s),
+            Value::Number(number) if numeric => {
                 let text = number.to_string();
                 options.iter().find(|(n, _)| *n == text)
             }
             _ => None,
         };
+        let names: Vec<&str> = options.iter().map(|(n, _)| *n).collect();
         match found {
             Some((_, t)) => *t,
+            None if numeric && !v.is_number() => {
+                self.error(
+                    key,
+                    format!(
+                        "{key} = {} must be a number, one of: {}",
+                        show(v),
+                        names.join(", ")
+                    ),
+                );
+                default
+            }
             None => {
-                let names: Vec<&str> = options.iter().map(|(n, _)| *n).collect();
                 self.error(
                     key,
                     format!("{key} = {} is not one of: {}", show(v), names.join(", ")),
@@ -592,6 +606,25 @@ impl Reader<'_> {
             ReceiveLine::default_for(interface),
         )
     }
+}
+
+/// The 1-based line of byte `offset` in `text`.
+fn line_at(text: &str, offset: usize) -> usize {
+    let before = text.get(..offset).unwrap_or(text);
+    before.matches('\n').count() + 1
+}
+
+/// The 1-based line where the flat table sets `key` (bare or quoted), if it does.
+fn key_line(text: &str, key: &str) -> Option<usize> {
+    text.lines()
+        .position(|line| {
+            let line = line.trim_start();
+            let rest = line
+                .strip_prefix(key)
+                .or_else(|| line.strip_prefix(&format!("\"{key}\"")));
+            rest.is_some_and(|r| r.trim_start().starts_with('='))
+        })
+        .map(|i| i + 1)
 }
 
 fn crate_errors<E: ToString>(parameter: impl Fn(&E) -> String, errors: Vec<E>) -> Vec<ParamError> {
@@ -985,14 +1018,28 @@ impl DriverParams {
     }
 
     /// Reads a TOML parameter file.
+    ///
+    /// Each error names the line of its key where the file has one (` (line 3)`), and a file
+    /// TOML cannot parse (an integer beyond 64 bits, say) names the line of the fault.
     pub fn from_toml_str(text: &str) -> Result<DriverParams, ParamErrors> {
         let value: Value = toml::from_str(text).map_err(|e| {
+            let at = e
+                .span()
+                .map(|span| format!(" (line {})", line_at(text, span.start)))
+                .unwrap_or_default();
             ParamErrors(vec![ParamError::new(
                 "file",
-                format!("not valid TOML: {}", e.message()),
+                format!("not valid TOML: {}{at}", e.message().trim_end()),
             )])
         })?;
-        DriverParams::from_value(&value)
+        DriverParams::from_value(&value).map_err(|mut errors| {
+            for e in &mut errors.0 {
+                if let Some(line) = key_line(text, &e.parameter) {
+                    e.text.push_str(&format!(" (line {line})"));
+                }
+            }
+            errors
+        })
     }
 
     /// Reads a JSON parameter file.

@@ -476,8 +476,11 @@ impl<'a> Telegram<'a> {
     pub fn decode(bytes: &'a [u8]) -> Result<Telegram<'a>, DecodeError> {
         need(bytes, SHORT_HEADER_LEN)?;
         if bytes[2] == 0x00 {
+            // A FETCH reaction carries at most 128 data bytes as well (§4.9).
             let h = ReactionHeader::decode(bytes)?;
-            return Ok(Telegram::Reaction(h, &bytes[SHORT_HEADER_LEN..]));
+            let data = &bytes[SHORT_HEADER_LEN..];
+            check_data_len(data.len(), SHORT_HEADER_LEN)?;
+            return Ok(Telegram::Reaction(h, data));
         }
         let data_len = bytes.len().saturating_sub(SHORT_HEADER_LEN);
         match bytes[0] {
@@ -694,6 +697,32 @@ mod tests {
                 offset: 132,
                 len: 129
             })
+        );
+    }
+
+    /// Issue 21: a reaction of 59,996 data bytes is refused like a command of 129 (§4.9).
+    #[test]
+    fn a_reaction_with_more_than_128_data_bytes_is_refused() {
+        let mut reaction = vec![0, 0, 0, 0];
+        reaction.extend([0; 128]);
+        assert!(matches!(
+            Telegram::decode(&reaction),
+            Ok(Telegram::Reaction(_, d)) if d.len() == 128
+        ));
+        reaction.push(0);
+        assert_eq!(
+            Telegram::decode(&reaction),
+            Err(DecodeError::TooMuchData {
+                offset: 132,
+                len: 129
+            })
+        );
+        let mut huge = vec![0xFF, 0, 0, 0];
+        huge.extend(std::iter::repeat_n(0x55, 59_996));
+        let e = Telegram::decode(&huge).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "at offset 132: expected at most 128 data bytes per telegram, found 59996"
         );
     }
 

@@ -68,8 +68,8 @@
 
 use crate::config::Config;
 use crate::frame::{
-    Address, Command, CommandHeader, ContinuationHeader, Coordination, DataType, Telegram,
-    COMMAND_HEADER_LEN, MAX_DATA_PER_TELEGRAM,
+    Address, Command, CommandHeader, ContinuationHeader, Coordination, DataType, ReactionHeader,
+    COMMAND_HEADER_LEN, MAX_DATA_PER_TELEGRAM, SHORT_HEADER_LEN,
 };
 use crate::passive::{Served, Server, ServerConfig};
 use crate::refusal::ServeError;
@@ -698,10 +698,13 @@ impl Station {
             self.event(Event::ReceiveError(status::REACTION_SEQUENCE));
             return;
         };
-        let (header, data) = match Telegram::decode(block) {
-            Ok(Telegram::Reaction(h, d)) => (h, d),
-            _ => return self.finish(Err(status::REACTION_HEADER)),
+        // The header alone: the data amount is judged against the job below (0A03, 0A04),
+        // not against the 128-byte limit of `Telegram::decode`.
+        let header = match ReactionHeader::decode(block) {
+            Ok(h) => h,
+            Err(_) => return self.finish(Err(status::REACTION_HEADER)),
         };
+        let data = &block[SHORT_HEADER_LEN..];
         let expected_continuation = job.done > 0;
         if header.continuation != expected_continuation {
             return self.finish(Err(status::REACTION_SEQUENCE));

@@ -32,6 +32,7 @@
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::hex::{parse_hex, parse_hex_args};
+use crate::lines::{CappedLines, MAX_WINDOW_LINE};
 use crate::output::Output;
 use crate::preset::module_preset;
 use crate::scenario::{print_trace, record_trace, Scenario, SimOptions};
@@ -51,7 +52,6 @@ use si_dp_coord::{
     ExecWrap, Host, HostConfig, HostEvent, Job, ModuleConfig, Outcome, ParamBlock, Window,
     WindowSize,
 };
-use std::io::BufRead;
 
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]
@@ -328,8 +328,8 @@ impl HostArgs {
             .submit(self.job.job()?)
             .map_err(|e| CliError::new(e.to_string()))?;
         let start = std::time::Instant::now();
-        let stdin = std::io::stdin().lock();
-        for (n, line) in stdin.lines().enumerate() {
+        let stdin = CappedLines::new(std::io::stdin().lock(), MAX_WINDOW_LINE);
+        for (n, line) in stdin.enumerate() {
             let line = line?;
             if skip(&line) {
                 continue;
@@ -490,7 +490,7 @@ where
     let (tx, mut lines) = tokio::sync::mpsc::channel::<std::io::Result<String>>(16);
     // Standard input blocks: read it on its own thread, so the driver keeps serving the line.
     std::thread::spawn(move || {
-        for line in std::io::stdin().lock().lines() {
+        for line in CappedLines::new(std::io::stdin().lock(), MAX_WINDOW_LINE) {
             if tx.blocking_send(line).is_err() {
                 break;
             }

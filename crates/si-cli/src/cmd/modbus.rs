@@ -213,8 +213,8 @@ pub enum Command {
         unit: u8,
         /// TOML file with `mode`, `char_delay_multiplier`, `frame_end` ("gap" or "length"),
         /// `[conversion]` (the 26 fields of Table 3-19) and `[memory]` (inputs, outputs,
-        /// flags, timers, counters, dbs); without it, the manual's example conversion DB of
-        /// Table 3-20.
+        /// flags up to 65536 bytes, timers and counters up to 65536, dbs of up to 65536 bytes,
+        /// 16 MiB in all); without it, the manual's example conversion DB of Table 3-20.
         #[arg(long)]
         config: Option<std::path::PathBuf>,
         #[command(flatten)]
@@ -525,11 +525,14 @@ async fn serve(
     };
     let conversion = file.conversion.unwrap_or(ConversionDb::EXAMPLE);
     let map = serve_map::ServeMap::new(&conversion, &sizes);
-    let store = serve_map::Explaining::new(
-        SimaticStore::new(Memory::new(&sizes), conversion),
-        map.clone(),
-        *out,
-    );
+    // Every size is checked against its maximum before anything is allocated
+    // (si_core::memory::MAX_AREA_BYTES and the others).
+    let memory = Memory::checked(&sizes).map_err(|e| match &path {
+        Some(p) => CliError::new(format!("{}: {e}", p.display())),
+        None => e.into(),
+    })?;
+    let store =
+        serve_map::Explaining::new(SimaticStore::new(memory, conversion), map.clone(), *out);
     let config = SlaveConfig {
         line: line_config(
             conn,

@@ -447,15 +447,25 @@ impl ServeFile {
         let blocks = |v: &[BlockFile]| -> BTreeMap<u16, u32> {
             v.iter().map(|b| (b.number, b.length)).collect()
         };
+        let memory = MemorySizes {
+            inputs: m.inputs,
+            outputs: m.outputs,
+            flags: m.flags,
+            timers: m.timers,
+            counters: m.counters,
+            dbs: blocks(&self.db),
+        };
+        // Each area is capped above, and all of them together (DX blocks included) at the
+        // SIMATIC memory's host limit, so many blocks cannot add up to gigabytes either.
+        let dx_bytes: u64 = self.dx.iter().map(|b| u64::from(b.length)).sum();
+        si_core::RangeError::check(
+            "memory in all areas",
+            (0, si_core::memory::MAX_TOTAL_BYTES),
+            " bytes",
+            memory.total_bytes() + dx_bytes,
+        )?;
         Ok(ServerConfig {
-            memory: MemorySizes {
-                inputs: m.inputs,
-                outputs: m.outputs,
-                flags: m.flags,
-                timers: m.timers,
-                counters: m.counters,
-                dbs: blocks(&self.db),
-            },
+            memory,
             dx: blocks(&self.dx),
             accept_send: self.accept_send,
             accept_fetch: self.accept_fetch,

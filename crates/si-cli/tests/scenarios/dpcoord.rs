@@ -9,8 +9,9 @@ use crate::common;
 
 use common::si_command;
 
-/// Runs `si dp-coord host ARGS` with `inputs` as the module's input windows, one per line.
-fn host(args: &[&str], inputs: &[&str]) -> Output {
+/// Runs `si dp-coord host ARGS` with `inputs` as the module's input windows, one per line
+/// (also used by `bounds`).
+pub(crate) fn host(args: &[&str], inputs: &[&str]) -> Output {
     let mut child = si_command()
         .args(["dp-coord", "host"])
         .args(args)

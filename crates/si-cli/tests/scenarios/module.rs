@@ -5,8 +5,8 @@ use crate::common;
 
 use common::{si, stderr, stdout, test_dir};
 
-/// A file in the test's own temporary directory.
-fn temp_file(name: &str, text: &str) -> std::path::PathBuf {
+/// A file in the test's own temporary directory (also used by `bounds`).
+pub(crate) fn temp_file(name: &str, text: &str) -> std::path::PathBuf {
     let path = test_dir("si-module-cli").join(name);
     std::fs::write(&path, text).unwrap();
     path
@@ -23,7 +23,7 @@ fn params_check_reports_three_wrong_values_in_one_run() {
     let text = stdout(&o);
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines.len(), 3, "{text}");
-    assert!(lines[0].ends_with("baud = 9601 is not one of: 110, 300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 76800, 115200"), "{text}");
+    assert!(lines[0].ends_with("baud = 9601 is not one of: 110, 300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 76800, 115200 (line 2)"), "{text}");
     assert!(
         lines[1].ends_with("character delay time (ZVZ) = 5 ms is out of range: 20 … 655350 ms"),
         "{text}"

@@ -331,12 +331,12 @@ fn receive_line_initial_state_depends_on_the_interface() {
     .unwrap_err();
     assert_eq!(
         e.to_string(),
-        "receive_line = \"inverted\" is not offered on rs485: ra0v-rb5v, none"
+        "receive_line = \"inverted\" is not offered on rs485: ra0v-rb5v, none (line 3)"
     );
     let e = DriverParams::from_toml_str("driver = \"3964r\"\ninterface = \"rs485\"").unwrap_err();
     assert_eq!(
         e.to_string(),
-        "interface = \"rs485\" is not one of: rs232, rs422"
+        "interface = \"rs485\" is not one of: rs232, rs422 (line 2)"
     );
     let e = DriverParams::from_toml_str(
         "driver = \"modbus-master\"\ninterface = \"rs485\"\nflow_control = \"auto-v24\"",
@@ -358,7 +358,7 @@ fn an_invalid_modbus_mode_names_0e22h() {
         assert_eq!(
             e.to_string(),
             "mode = \"fast\" is not one of: normal, interference-suppression \
-             (16#0E22 invalid operating mode; driver not ready)"
+             (16#0E22 invalid operating mode; driver not ready) (line 3)"
         );
         let p =
             DriverParams::from_toml_str(&file(driver, "", "mode", "\"interference-suppression\""))
@@ -375,8 +375,11 @@ fn three_wrong_values_and_an_unknown_key_in_one_run() {
     let lines: Vec<String> = e.iter().map(|e| e.to_string()).collect();
     assert_eq!(lines.len(), 4, "{lines:?}");
     assert!(lines[0].starts_with("baud = 9601 is not one of: 110, 300"));
-    assert_eq!(lines[1], "data_bits = 9 is not one of: 7, 8");
-    assert_eq!(lines[2], "colour is not a parameter of the ascii driver");
+    assert_eq!(lines[1], "data_bits = 9 is not one of: 7, 8 (line 3)");
+    assert_eq!(
+        lines[2],
+        "colour is not a parameter of the ascii driver (line 5)"
+    );
     assert_eq!(
         lines[3],
         "character delay time = 70000 ms is out of range: 4 … 65535 ms at 9600 bit/s"
@@ -384,7 +387,7 @@ fn three_wrong_values_and_an_unknown_key_in_one_run() {
     let e = DriverParams::from_toml_str("driver = \"ascii\"\nend_char_1 = 13").unwrap_err();
     assert_eq!(
         e.to_string(),
-        "end_char_1 applies only with end_criterion = \"end-chars\""
+        "end_char_1 applies only with end_criterion = \"end-chars\" (line 2)"
     );
     let e = DriverParams::from_toml_str("baud = 9600").unwrap_err();
     assert!(e.to_string().starts_with("driver is missing"));
@@ -394,7 +397,8 @@ fn three_wrong_values_and_an_unknown_key_in_one_run() {
     assert!(e.to_string().starts_with("not valid TOML"));
     let e = DriverParams::from_toml_str("driver = \"ascii\"\nbaud = \"fast\"").unwrap_err();
     assert!(
-        e.to_string().contains("baud = \"fast\" is not one of"),
+        e.to_string()
+            .contains("baud = \"fast\" must be a number, one of"),
         "{e}"
     );
     let e = DriverParams::from_toml_str("driver = \"ascii\"\nchar_delay_ms = \"4\"").unwrap_err();
@@ -583,4 +587,37 @@ fn modbus_auto_v24_carries_its_two_times_to_the_engine_config() {
     let e =
         DriverParams::from_toml_str("driver = \"modbus-slave\"\ntime_rts_off_ms = 30").unwrap_err();
     assert!(e.to_string().contains("time_rts_off_ms"), "{e}");
+}
+
+/// Issue 21: a quoted number is a type error naming the key and its line, not a baud rate; an
+/// integer beyond 64 bits (which TOML itself refuses) names its line too.
+#[test]
+fn type_errors_and_oversized_integers_name_their_line() {
+    let e = DriverParams::from_toml_str("driver = \"3964r\"\n\nbaud = \"9600\"\n").unwrap_err();
+    assert_eq!(e.len(), 1, "{e}");
+    assert_eq!(
+        e.to_string(),
+        "baud = \"9600\" must be a number, one of: 110, 300, 600, 1200, 2400, 4800, 9600, \
+         19200, 38400, 57600, 76800, 115200 (line 3)"
+    );
+    let e = DriverParams::from_toml_str("driver = \"ascii\"\nstop_bits = \"1\"").unwrap_err();
+    assert!(
+        e.to_string()
+            .ends_with("must be a number, one of: 1, 2 (line 2)"),
+        "{e}"
+    );
+    // Named choices still refuse numbers as before.
+    let e = DriverParams::from_toml_str("driver = \"ascii\"\nparity = 1").unwrap_err();
+    assert!(e.to_string().contains("parity = 1 is not one of"), "{e}");
+    let e = DriverParams::from_toml_str(
+        "driver = \"ascii\"\nbaud = 9600\nchar_delay_ms = 99999999999999999999\n",
+    )
+    .unwrap_err();
+    let text = e.to_string();
+    assert!(text.starts_with("not valid TOML"), "{text}");
+    assert!(text.ends_with("(line 3)"), "{text}");
+    let e =
+        DriverParams::from_toml_str("driver = \"ascii\"\nchar_delay_ms = 18446744073709551616\n")
+            .unwrap_err();
+    assert!(e.to_string().ends_with("(line 2)"), "{e}");
 }

@@ -341,7 +341,9 @@ impl MonitorArgs {
         let stop = self
             .duration
             .map(|s| origin + std::time::Duration::from_secs_f64(s.max(0.0)));
-        let mut all = Vec::new();
+        // The diagram summarises as the records arrive: a monitor left running for days, or
+        // flooded, holds a bounded number of them (crate::svg::Diagram).
+        let mut diagram = self.svg.as_ref().map(|_| crate::svg::Diagram::new());
         let mut buf = [0u8; 512];
         let mut buf2 = [0u8; 512];
         let mut last = Instant::ZERO;
@@ -392,10 +394,8 @@ impl MonitorArgs {
             for r in &records {
                 print_record(r, &stations, out);
             }
-            // Keep the records only for the diagram: a monitor left running for days must
-            // not grow.
-            if self.svg.is_some() {
-                all.extend(records);
+            if let Some(d) = &mut diagram {
+                records.into_iter().for_each(|r| d.push(r));
             }
         }
         let mut records = Vec::new();
@@ -403,17 +403,20 @@ impl MonitorArgs {
         for r in &records {
             print_record(r, &stations, out);
         }
-        all.extend(records);
+        if let Some(d) = &mut diagram {
+            records.into_iter().for_each(|r| d.push(r));
+        }
+        let first = diagram.as_ref().and_then(crate::svg::Diagram::first_start);
         let analysis = Analysis {
             protocol: protocol.name().to_owned(),
             stations,
-            span: (all.first().map(|r| r.start).unwrap_or_default(), now()),
-            records: all,
+            span: (first.unwrap_or_default(), now()),
+            records: Vec::new(),
             counters: decoder.counters().clone(),
         };
         print_counters(&analysis, out);
-        if let Some(svg) = &self.svg {
-            write_svg(svg, &analysis)?;
+        if let (Some(path), Some(d)) = (&self.svg, diagram) {
+            write_file(path, d.render(&analysis))?;
         }
         ended.map_or(Ok(()), Err)
     }
@@ -543,7 +546,10 @@ pub fn print_counters(a: &Analysis, out: &Output) {
 }
 
 fn write_svg(path: &std::path::Path, a: &Analysis) -> Result<(), CliError> {
-    let svg = crate::svg::render(a);
+    write_file(path, crate::svg::render(a))
+}
+
+fn write_file(path: &std::path::Path, svg: String) -> Result<(), CliError> {
     std::fs::write(path, svg)
         .map_err(|e| CliError::new(format!("cannot write {}: {e}", path.display())))
 }
