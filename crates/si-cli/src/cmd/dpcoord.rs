@@ -52,6 +52,7 @@ use si_dp_coord::{
     ExecWrap, Host, HostConfig, HostEvent, Job, ModuleConfig, Outcome, ParamBlock, Window,
     WindowSize,
 };
+use std::sync::mpsc::RecvTimeoutError;
 
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]
@@ -328,18 +329,44 @@ impl HostArgs {
             .submit(self.job.job()?)
             .map_err(|e| CliError::new(e.to_string()))?;
         let start = std::time::Instant::now();
-        let stdin = CappedLines::new(std::io::stdin().lock(), MAX_WINDOW_LINE);
-        for (n, line) in stdin.enumerate() {
-            let line = line?;
-            if skip(&line) {
-                continue;
+        // Stdin is read on its own thread, so the job's watchdog holds while no line comes
+        // (issue 21: `--timeout-s 2` waited until stdin closed). The host's own watchdog runs
+        // in its cycles, one per line; with no line for `--timeout-s`, the job ends here with
+        // the same STATUS.
+        let limit = std::time::Duration::from_secs(self.timeout_s);
+        let (tx, lines) = std::sync::mpsc::sync_channel(16);
+        std::thread::spawn(move || {
+            for line in CappedLines::new(std::io::stdin().lock(), MAX_WINDOW_LINE) {
+                if tx.send(line).is_err() {
+                    break;
+                }
             }
-            let input = read_window(&line, self.window, n + 1)?;
-            let now = Instant::from_micros(
-                u64::try_from(start.elapsed().as_micros()).unwrap_or(u64::MAX),
-            );
-            let output = si_core::hex::format(host.cycle(now, &input));
-            out.line(&output, json!({"output": output}));
+        });
+        let mut n = 0;
+        loop {
+            match lines.recv_timeout(std::time::Duration::from_millis(100)) {
+                Ok(line) => {
+                    n += 1;
+                    let line = line?;
+                    if skip(&line) {
+                        continue;
+                    }
+                    let input = read_window(&line, self.window, n)?;
+                    let now = Instant::from_micros(
+                        u64::try_from(start.elapsed().as_micros()).unwrap_or(u64::MAX),
+                    );
+                    let output = si_core::hex::format(host.cycle(now, &input));
+                    out.line(&output, json!({"output": output}));
+                }
+                Err(RecvTimeoutError::Timeout) if start.elapsed() >= limit => {
+                    host.abort(id);
+                    return finish(Err(host.config().watchdog_status), out);
+                }
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => {
+                    return Err(CliError::new("standard input ended before the job did"))
+                }
+            }
             while let Some(event) = host.poll_event() {
                 match event {
                     HostEvent::Completed {
@@ -349,7 +376,6 @@ impl HostArgs {
                 }
             }
         }
-        Err(CliError::new("standard input ended before the job did"))
     }
 }
 

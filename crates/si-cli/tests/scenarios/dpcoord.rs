@@ -410,3 +410,33 @@ fn host_max_frame_follows_the_module_type_and_max_frame_overrides_it() {
         "{stderr}"
     );
 }
+
+#[test]
+fn host_ends_at_its_timeout_while_stdin_stays_open_and_silent() {
+    // Issue 21: `--timeout-s 2` waited until stdin closed. Stdin stays open here and carries
+    // nothing; the job must end with the watchdog's STATUS (0502H) at about its timeout.
+    let mut child = si_command()
+        .args(["dp-coord", "host", "--timeout-s", "1", "receive"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run si");
+    let _stdin_kept_open = child.stdin.take();
+    let started = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait for si") {
+            break status;
+        }
+        // A bound, not a timing claim: 1 s of timeout and a loaded machine fit in 20 s.
+        if started.elapsed() > std::time::Duration::from_secs(20) {
+            let _ = child.kill();
+            panic!("dp-coord host still running 20 s after a 1 s timeout");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let out = child.wait_with_output().expect("collect output");
+    assert!(!status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("16#0502"), "{stderr}");
+}
