@@ -1,5 +1,5 @@
 //! Issue 21, "A noise test per role": `si 3964r send` and `si rk512 fetch` against a noise peer
-//! (a thread writing to the other end of a socat pty pair) exit non-zero within twice their
+//! (a thread writing to the other end of a socat pty pair: every pattern of common::noise) exit non-zero within twice their
 //! documented bound (si_3964r::bound, si_rk512::bound). Twice the bound is a bound, not a
 //! timing claim: it leaves room for the process start and a loaded machine. Skips without socat
 //! (fails with `CI` set).
@@ -46,7 +46,14 @@ fn run_against(pair: &PtyPair, pattern: Noise, args: &[&str]) -> (Duration, Stri
 /// `expected`. Returns early (a skip) without socat.
 fn each_pattern_within(bound: si_core::Duration, args: &[&str], expected: &str) {
     let _one = one_at_a_time();
-    for pattern in [Noise::EndlessFrame, Noise::RandomEvery2Ms, Noise::Flood] {
+    for pattern in [
+        Noise::Silent,
+        Noise::RandomEvery2Ms,
+        Noise::OneEvery2Ms,
+        Noise::Flood,
+        Noise::RandomForOneSecond,
+        Noise::EndlessFrame,
+    ] {
         let Some(pair) = pty_pair() else {
             return;
         };
