@@ -1,8 +1,8 @@
 //! Issue 21, "A noise test per role": `si 3964r send` and `si rk512 fetch` against a noise peer
-//! (a thread writing to the other end of a socat pty pair: every pattern of common::noise) exit non-zero within twice their
-//! documented bound (si_3964r::bound, si_rk512::bound). Twice the bound is a bound, not a
-//! timing claim: it leaves room for the process start and a loaded machine. Skips without socat
-//! (fails with `CI` set).
+//! (a thread writing to the other end of a socat pty pair, every pattern of `common::noise`)
+//! exit non-zero within twice their documented bound (si_3964r::bound, si_rk512::bound). Twice
+//! the bound is a bound, not a timing claim: it leaves room for the process start and a loaded
+//! machine. Skips without socat (fails with `CI` set).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
