@@ -12,8 +12,14 @@ use common::{si, stderr, stdout};
 
 /// Runs `si ARGS`, which must fail with exit code 1; what it printed (stdout, then stderr).
 fn fails(args: &[&str]) -> String {
+    fails_with(1, args)
+}
+
+/// Runs `si ARGS`, which must fail with exit code `code` (2: a usage error, before any port
+/// is opened); what it printed (stdout, then stderr).
+fn fails_with(code: i32, args: &[&str]) -> String {
     let o = si(args);
-    assert_eq!(o.status.code(), Some(1), "{args:?}: {o:?}");
+    assert_eq!(o.status.code(), Some(code), "{args:?}: {o:?}");
     format!("{}{}", stdout(&o), stderr(&o))
 }
 
@@ -137,7 +143,7 @@ fn an_address_span_past_65535_is_refused() {
         &["write", "registers", "--addr", "65535", "1", "2"][..],
         &["write", "coils", "--addr", "65535", "1", "0"][..],
     ] {
-        let err = fails(&[&["modbus"][..], args, &["--unit", "1"]].concat());
+        let err = fails_with(2, &[&["modbus"][..], args, &["--unit", "1"]].concat());
         assert!(err.contains("65536"), "{args:?}: {err}");
     }
 }
