@@ -2,8 +2,9 @@
 //! server role (`si modbus serve`, `si uss sim-slave`, `si rk512 serve`) runs on one end of a
 //! socat pty pair; a client stores known data, the noise peer floods the client's end with 01H
 //! for about 2 s and stops, and after a pause to settle the same client reads the data back:
-//! the server must answer with it and still be running. Every wait is a generous bound, not a
-//! timing claim. Skips without socat (fails with `CI` set).
+//! the server must answer with it and still be running. The flood and the pause are plain
+//! durations and each client ends within its own timeout: nothing here claims a timing. Skips
+//! without socat (fails with `CI` set).
 
 use std::io::Write;
 use std::process::{Output, Stdio};
