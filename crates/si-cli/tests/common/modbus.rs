@@ -137,3 +137,23 @@ pub fn si_ok(port: &str, line: &[&str], args: &[&str]) -> String {
     );
     String::from_utf8_lossy(&o.stdout).trim().to_owned()
 }
+
+/// A pymodbus RTU server answering unit 1 (and executing broadcasts) at 19 200 bit/s 8N2
+/// (pyserial cannot set even parity on a pseudo-terminal), for [`pymodbus_server`]: holding
+/// register n holds n, input register n holds 1000 + n, discrete inputs alternate 0 1, 100 of
+/// each (pymodbus 3.x data blocks start at 1 for wire address 0).
+pub const RTU_SERVER_19200: &str = r#"
+import sys, warnings
+warnings.filterwarnings("ignore")
+from pymodbus.server import StartSerialServer
+from pymodbus.datastore import ModbusSequentialDataBlock, ModbusServerContext, ModbusDeviceContext
+dev = ModbusDeviceContext(
+    di=ModbusSequentialDataBlock(1, [False, True] * 50),
+    co=ModbusSequentialDataBlock(1, [False] * 100),
+    hr=ModbusSequentialDataBlock(1, list(range(100))),
+    ir=ModbusSequentialDataBlock(1, [1000 + i for i in range(100)]),
+)
+ctx = ModbusServerContext(devices={1: dev}, single=False)
+print("ready", flush=True)
+StartSerialServer(context=ctx, port=sys.argv[1], baudrate=19200, parity="N", stopbits=2, bytesize=8, broadcast_enable=True)
+"#;

@@ -1,31 +1,12 @@
 //! A gateway in front of a pymodbus RTU server on a pty pair, and raw Modbus TCP frames.
 
-use crate::common::modbus::{have_pymodbus, pymodbus_server};
+use crate::common::modbus::{have_pymodbus, pymodbus_server, RTU_SERVER_19200};
 use crate::common::{have_socat, pty_pair, si_command, test_dir, Kill, PtyPair};
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::process::Stdio;
 use std::sync::mpsc::{self, Receiver};
 use std::time::Duration;
-
-/// A pymodbus RTU server answering unit 1 (and executing broadcasts) at 19200 baud, 8N2 (pyserial cannot set even parity
-/// on a pseudo-terminal); holding
-/// register n holds n, input register n holds 1000 + n, discrete inputs alternate 0 1.
-const RTU_SERVER: &str = r#"
-import sys, warnings
-warnings.filterwarnings("ignore")
-from pymodbus.server import StartSerialServer
-from pymodbus.datastore import ModbusSequentialDataBlock, ModbusServerContext, ModbusDeviceContext
-dev = ModbusDeviceContext(
-    di=ModbusSequentialDataBlock(1, [False, True] * 50),
-    co=ModbusSequentialDataBlock(1, [False] * 100),
-    hr=ModbusSequentialDataBlock(1, list(range(100))),
-    ir=ModbusSequentialDataBlock(1, [1000 + i for i in range(100)]),
-)
-ctx = ModbusServerContext(devices={1: dev}, single=False)
-print("ready", flush=True)
-StartSerialServer(context=ctx, port=sys.argv[1], baudrate=19200, parity="N", stopbits=2, bytesize=8, broadcast_enable=True)
-"#;
 
 /// A running gateway with its RTU slave; everything is killed when dropped.
 pub struct Rig {
@@ -49,7 +30,7 @@ impl Rig {
         }
         let pair = pty_pair()?;
         let dead = pty_pair()?;
-        let slave = pymodbus_server(RTU_SERVER, &pair.b);
+        let slave = pymodbus_server(RTU_SERVER_19200, &pair.b);
         let line = "baud = 19200\nparity = \"none\"\nstop_bits = 2\n";
         let toml = format!(
             "listen = \"127.0.0.1:0\"\n{top_keys}\n\

@@ -88,30 +88,13 @@ fn pymodbus_client_against_si_modbus_serve() {
     );
 }
 
-const PYMODBUS_SERVER: &str = r#"
-import sys, warnings
-warnings.filterwarnings("ignore")
-from pymodbus.server import StartSerialServer
-from pymodbus.datastore import ModbusSequentialDataBlock, ModbusServerContext, ModbusDeviceContext
-# pymodbus 3.x data blocks start at 1 for wire address 0.
-dev = ModbusDeviceContext(
-    di=ModbusSequentialDataBlock(1, [False, True] * 50),
-    co=ModbusSequentialDataBlock(1, [False] * 100),
-    hr=ModbusSequentialDataBlock(1, list(range(100))),
-    ir=ModbusSequentialDataBlock(1, [1000 + i for i in range(100)]),
-)
-ctx = ModbusServerContext(devices={1: dev}, single=False)
-print("ready", flush=True)
-StartSerialServer(context=ctx, port=sys.argv[1], baudrate=19200, parity='N', stopbits=2, bytesize=8)
-"#;
-
 #[test]
 fn pymodbus_server_against_si_modbus_read_and_write() {
     if !(have_socat() && have_pymodbus()) {
         return;
     }
     let Some(pair) = pty_pair() else { return };
-    let _server = pymodbus_server(PYMODBUS_SERVER, &pair.b);
+    let _server = pymodbus_server(modbus::RTU_SERVER_19200, &pair.b);
     modbus::wait_for_echo(&pair.a, LINE, &[]);
     let run = |args: &[&str]| modbus::si_ok(&pair.a, LINE, args);
     let a = "--addr";
