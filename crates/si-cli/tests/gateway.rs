@@ -1,6 +1,6 @@
 //! `si gateway` end to end, loopback only: Modbus TCP clients (pymodbus, and raw MBAP frames
 //! from std sockets) → `si gateway` → a socat pseudo-terminal pair → a pymodbus RTU serial
-//! server, and a bounded soak of 32 clients with bad input. A missing peer (socat, pymodbus)
+//! server (and a simulated USS drive behind a `uss` line), and a bounded soak of 32 clients with bad input. A missing peer (socat, pymodbus)
 //! skips with a message, and fails with `CI` set (common/mod.rs).
 
 mod common;
@@ -14,3 +14,5 @@ mod harness;
 mod queueing;
 #[path = "gateway/soak.rs"]
 mod soak;
+#[path = "gateway/uss.rs"]
+mod uss;

@@ -4,20 +4,24 @@
 //! Requests are routed by unit id to a line ([`router`]); each line has a bounded queue served
 //! in round-robin order between clients ([`queue`]) by a task driving si-modbus's RTU master
 //! ([`mod@line`]); counters per line and per client are printed as status lines and readable on a
-//! diagnostic unit ([`counters`]). The configuration is a TOML file or flags ([`config`]);
-//! line kinds other than `modbus-rtu` (USS, RK 512) are planned as further `kind`s.
+//! diagnostic unit ([`counters`]). The configuration is a TOML file or flags ([`config`]).
+//! A `kind = "uss"` line serves USS drives instead: each drive is a unit id whose PZD and
+//! parameter window are registers ([`uss`], keys in [`uss_config`]); RK 512 lines are planned
+//! as a further `kind`.
 
 mod config;
 mod counters;
 mod line;
 mod queue;
 mod router;
+mod uss;
+mod uss_config;
 
 use crate::conn::{Connection, Rs485Mode};
 use crate::error::CliError;
 use crate::output::Output;
 use clap::Args;
-use config::{Device, File, Gateway, LineFile};
+use config::{Device, File, Gateway, Kind, LineFile};
 use counters::Stats;
 use si_modbus::config::LineConfig;
 use si_modbus::tokio::tcp::{Server, ServerConfig, Units};
@@ -148,16 +152,24 @@ impl GatewayArgs {
         let mut routes = [None; 256];
         let mut queues = Vec::with_capacity(gw.lines.len());
         for (i, l) in gw.lines.iter().enumerate() {
-            let master = open_line(conn, l).await?;
-            let queue = Arc::new(line::LineQueue::new(l.queue));
-            tokio::spawn(line::run(
-                i,
-                Arc::clone(&queue),
-                master,
-                l.pause,
-                Arc::clone(&stats),
-            ));
-            queues.push(queue);
+            let handle = match &l.kind {
+                Kind::ModbusRtu => {
+                    let master = open_line(conn, l).await?;
+                    let queue = Arc::new(line::LineQueue::new(l.queue));
+                    tokio::spawn(line::run(
+                        i,
+                        Arc::clone(&queue),
+                        master,
+                        l.pause,
+                        Arc::clone(&stats),
+                    ));
+                    router::LineHandle::Rtu(queue)
+                }
+                Kind::Uss(u) => {
+                    router::LineHandle::Uss(uss::UssDrives::new(open_uss(conn, l, u).await?, u))
+                }
+            };
+            queues.push(handle);
             for &u in &l.units {
                 routes[u as usize] = Some(i);
             }
@@ -214,10 +226,8 @@ impl GatewayArgs {
 
 /// Open line `l` with the global connection's other options (recording, frame log) and start
 /// its RTU master.
-async fn open_line(
-    conn: &Connection,
-    l: &config::Line,
-) -> Result<si_modbus::tokio::Master, CliError> {
+/// The connection options of line `l`: the common ones (trace, monitor) with the line's port.
+fn line_connection(conn: &Connection, l: &config::Line, protocol: &'static str) -> Connection {
     let mut c = conn.clone();
     (c.port, c.tcp) = match &l.device {
         Device::Port(p) => (Some(p.clone()), None),
@@ -235,9 +245,40 @@ async fn open_line(
     (c.rs485_delay_before, c.rs485_delay_after) = l.rs485_delays_ms;
     c.local_echo = l.local_echo;
     c.latency_timer = l.latency_timer_ms;
-    c.protocol = Some("modbus");
-    let named = |e: CliError| CliError::new(format!("line {}: {}", l.name, e.text()));
-    let settings = c.settings().map_err(named)?;
+    c.protocol = Some(protocol);
+    c
+}
+
+/// `line NAME: why`.
+fn named(l: &config::Line) -> impl Fn(CliError) -> CliError + '_ {
+    move |e| CliError::new(format!("line {}: {}", l.name, e.text()))
+}
+
+/// Open a USS line and start its master polling the drives.
+async fn open_uss(
+    conn: &Connection,
+    l: &config::Line,
+    u: &uss_config::UssLine,
+) -> Result<si_uss::tokio::Handle, CliError> {
+    let c = line_connection(conn, l, "uss");
+    let settings = c
+        .settings_for(&si_uss::config::USS_BAUD_RATES)
+        .map_err(named(l))?;
+    let mut config = u.master.clone();
+    config.settings = settings;
+    let master = si_uss::Master::new(config).map_err(|e| named(l)(e.into()))?;
+    let port = c.open_with(&settings).await.map_err(named(l))?;
+    Ok(si_uss::tokio::Handle::spawn_engine(master, port))
+}
+
+/// Open a Modbus RTU line and start its master.
+async fn open_line(
+    conn: &Connection,
+    l: &config::Line,
+) -> Result<si_modbus::tokio::Master, CliError> {
+    let c = line_connection(conn, l, "modbus");
+    let named = named(l);
+    let settings = c.settings().map_err(&named)?;
     let config = MasterConfig {
         line: LineConfig {
             settings,

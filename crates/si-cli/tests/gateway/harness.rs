@@ -38,32 +38,9 @@ impl Rig {
              [[line]]\nname = \"silent\"\ndevice = \"{}\"\nunits = \"2\"\n{line}{line_keys}\n",
             pair.a, dead.a
         );
-        let path = test_dir("gateway").join(format!("{}.toml", pair.a.replace('/', "_")));
-        std::fs::write(&path, toml).expect("write the config");
-        let mut child = si_command()
-            .args(["--json", "gateway", "--config"])
-            .arg(&path)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("spawn si gateway");
-        let (tx, log) = mpsc::channel();
-        let stdout = child.stdout.take().expect("stdout");
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        let gateway = Kill(child);
-        let first = log
-            .recv_timeout(Duration::from_secs(20))
-            .expect("the gateway says where it listens");
-        let v: serde_json::Value = serde_json::from_str(&first).expect(&first);
-        assert_eq!(v["event"], "listening", "{first}");
+        let (addr, log, gateway) = launch(&toml, &pair.a);
         Some(Rig {
-            addr: v["addr"].as_str().expect("addr").to_owned(),
+            addr,
             log,
             gateway,
             _slave: slave,
@@ -86,6 +63,38 @@ impl Rig {
         let last = last.expect("a status line at exit");
         serde_json::from_str(&last).expect(&last)
     }
+}
+
+/// `si --json gateway --config` with the configuration `toml` (written to a file named after
+/// `tag`, e.g. the pty it uses): the address it listens on, its stdout lines after the first,
+/// and the process (killed when dropped).
+pub fn launch(toml: &str, tag: &str) -> (String, Receiver<String>, Kill) {
+    let path = test_dir("gateway").join(format!("{}.toml", tag.replace('/', "_")));
+    std::fs::write(&path, toml).expect("write the config");
+    let mut child = si_command()
+        .args(["--json", "gateway", "--config"])
+        .arg(&path)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("spawn si gateway");
+    let (tx, log) = mpsc::channel();
+    let stdout = child.stdout.take().expect("stdout");
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let gateway = Kill(child);
+    let first = log
+        .recv_timeout(Duration::from_secs(20))
+        .expect("the gateway says where it listens");
+    let v: serde_json::Value = serde_json::from_str(&first).expect(&first);
+    assert_eq!(v["event"], "listening", "{first}");
+    let addr = v["addr"].as_str().expect("addr").to_owned();
+    (addr, log, gateway)
 }
 
 /// A connection sending raw MBAP frames.

@@ -14,9 +14,9 @@ use serde::Deserialize;
 use si_core::RangeError;
 use std::fmt;
 
-/// The line kinds a `[[line]]` may be. USS and RK 512 lines are planned (issue 20) and will
-/// be further kinds with their own keys.
-pub const LINE_KINDS: &str = "modbus-rtu";
+/// The line kinds a `[[line]]` may be: Modbus RTU slaves, or USS drives ([`super::uss_config`]).
+/// RK 512 lines are planned (issue 20) as a further kind with its own keys.
+pub const LINE_KINDS: &str = "modbus-rtu or uss";
 
 /// Default request queue length per line.
 pub const DEFAULT_QUEUE: usize = 32;
@@ -87,6 +87,13 @@ pub struct LineFile {
     pub broadcast: bool,
     /// Requests waiting for this line at most; one more is refused with exception 06.
     pub queue: Option<usize>,
+    /// `uss`: the drives' bus addresses (0–31) in the order of `units`, e.g. `"0,5"`;
+    /// default: each unit id is its drive's address.
+    pub drives: Option<String>,
+    /// `uss`: PZD words per drive (0–16, default 2: STW/HSW out, ZSW/HIW in).
+    pub pzd_words: Option<u8>,
+    /// `uss`: PKW words per drive (0, 3, 4 or 127 = variable; default 4).
+    pub pkw_words: Option<u8>,
 }
 
 /// A checked gateway configuration.
@@ -141,6 +148,18 @@ pub struct Line {
     pub broadcast: bool,
     /// Queue length.
     pub queue: usize,
+    /// What is on the line.
+    pub kind: Kind,
+}
+
+/// What a line's units are.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Kind {
+    /// Modbus RTU slaves: requests are forwarded.
+    ModbusRtu,
+    /// USS drives polled by a USS master: requests are served from their PZD and a parameter
+    /// window ([`super::uss`]).
+    Uss(super::uss_config::UssLine),
 }
 
 /// Where a line's bytes go.
@@ -265,7 +284,7 @@ impl LineFile {
     /// Check one line (the caller names it in the error).
     fn check(&self, name: String) -> Result<Line, RangeError> {
         let kind = self.kind.as_deref().unwrap_or("modbus-rtu");
-        if kind != "modbus-rtu" {
+        if !matches!(kind, "modbus-rtu" | "uss") {
             return Err(RangeError::new("kind", LINE_KINDS, "", kind));
         }
         let device =
@@ -273,6 +292,23 @@ impl LineFile {
                 RangeError::new("device", "a port path or tcp:HOST:PORT", "", "none")
             })?;
         let units = parse_units(self.units.as_deref().unwrap_or(""))?;
+        if kind == "uss" {
+            return self.check_uss(name, device, units);
+        }
+        for (key, given) in [
+            ("drives", self.drives.is_some()),
+            ("pzd_words", self.pzd_words.is_some()),
+            ("pkw_words", self.pkw_words.is_some()),
+        ] {
+            if given {
+                return Err(RangeError::new(
+                    key,
+                    "a key of uss lines",
+                    "",
+                    format!("set on a {kind} line"),
+                ));
+            }
+        }
         let retries = self.retries.unwrap_or(2);
         RangeError::check("retries", (0, 15), "", retries)?;
         let pause_ms = self.pause_ms.unwrap_or(100);
@@ -295,11 +331,7 @@ impl LineFile {
                 baud,
             ));
         }
-        if let Some(mode) = self.rs485.as_deref() {
-            if !matches!(mode, "kernel" | "rts") {
-                return Err(RangeError::new("rs485", "kernel or rts", "", mode));
-            }
-        }
+        self.check_rs485()?;
         Ok(Line {
             name,
             device,
@@ -320,7 +352,20 @@ impl LineFile {
             response_timeout_ms,
             broadcast: self.broadcast,
             queue,
+            kind: Kind::ModbusRtu,
         })
+    }
+}
+
+impl LineFile {
+    /// The RS-485 mode, if given, is one we know.
+    pub(super) fn check_rs485(&self) -> Result<(), RangeError> {
+        if let Some(mode) = self.rs485.as_deref() {
+            if !matches!(mode, "kernel" | "rts") {
+                return Err(RangeError::new("rs485", "kernel or rts", "", mode));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -389,8 +434,11 @@ mod tests {
         assert!(e.contains("line 1 (m): response_timeout_ms = 10 ms"), "{e}");
         let e = check("[[line]]\ndevice = \"/dev/null\"\nunits = \"0-3\"\n").unwrap_err();
         assert!(e.contains("line 1 (line1): units = \"0-3\""), "{e}");
-        let e = check(&format!("{base}kind = \"uss\"\n")).unwrap_err();
-        assert!(e.contains("kind = uss is out of range: modbus-rtu"), "{e}");
+        let e = check(&format!("{base}kind = \"rk512\"\n")).unwrap_err();
+        assert!(
+            e.contains("kind = rk512 is out of range: modbus-rtu or uss"),
+            "{e}"
+        );
         let e = check(&format!("max_connections = 0\n{base}")).unwrap_err();
         assert!(e.starts_with("gateway config: max_connections = 0"), "{e}");
         let e = check(&format!("{base}{base}")).unwrap_err();

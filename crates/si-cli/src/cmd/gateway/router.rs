@@ -1,8 +1,10 @@
-//! The gateway's face to Modbus TCP: routes each request by its unit id to a line's queue,
-//! answers the diagnostic unit itself, and keeps the counters per client.
+//! The gateway's face to Modbus TCP: routes each request by its unit id to a line's queue (or
+//! to a USS line's drive images), answers the diagnostic unit itself, and keeps the counters
+//! per client.
 
 use super::counters::{Client, Counters, Outcome, Stats};
 use super::line::{self, exception, Job, LineQueue};
+use super::uss::UssDrives;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::tcp::{Handler, Peer};
 use std::sync::{Arc, Mutex};
@@ -12,8 +14,8 @@ use tokio::sync::oneshot;
 pub struct Router {
     /// The line serving each unit id.
     pub routes: [Option<usize>; 256],
-    /// Every line's queue, in configuration order.
-    pub lines: Vec<Arc<LineQueue>>,
+    /// Every line, in configuration order.
+    pub lines: Vec<LineHandle>,
     /// The lines broadcasts (unit 0) go to; empty: broadcasts are refused with 0AH.
     pub broadcast_lines: Vec<usize>,
     /// The unit that answers the counters.
@@ -22,6 +24,14 @@ pub struct Router {
     pub reply_on_broadcast: bool,
     /// The counters.
     pub stats: Arc<Mutex<Stats>>,
+}
+
+/// How requests reach a line.
+pub enum LineHandle {
+    /// Modbus RTU: through the line's queue to its master.
+    Rtu(Arc<LineQueue>),
+    /// USS: answered from the drives' images ([`super::uss`]).
+    Uss(UssDrives),
 }
 
 impl Router {
@@ -46,6 +56,16 @@ impl Router {
             self.count_client(id, |c| c.count(Outcome::Other));
             return Some(exception(&request, line::GATEWAY_PATH_UNAVAILABLE));
         };
+        if let LineHandle::Uss(drives) = &self.lines[index] {
+            let (answer, outcome) = drives.answer(&request).await;
+            let mut s = line::lock(&self.stats);
+            s.lines[index].requests += 1;
+            s.lines[index].count(outcome);
+            if let Some(c) = s.client(id) {
+                c.count(outcome);
+            }
+            return Some(answer);
+        }
         let (tx, rx) = oneshot::channel();
         let job = Job {
             request,
@@ -63,7 +83,10 @@ impl Router {
 
     /// Queue `job` on line `index` for client `id`, counting it; busy (06H, counted) if full.
     fn enqueue(&self, id: u64, index: usize, job: Job) -> Result<(), ()> {
-        let pushed = self.lines[index].push(id, job);
+        let LineHandle::Rtu(queue) = &self.lines[index] else {
+            return Err(());
+        };
+        let pushed = queue.push(id, job);
         let mut s = line::lock(&self.stats);
         let depth = match pushed {
             Some(depth) => depth,
@@ -192,7 +215,7 @@ mod tests {
         routes[8] = Some(0);
         let router = Router {
             routes,
-            lines: vec![queue],
+            lines: vec![LineHandle::Rtu(queue)],
             broadcast_lines: vec![],
             diagnostic_unit: Some(247),
             reply_on_broadcast: false,

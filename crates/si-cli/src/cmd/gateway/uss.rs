@@ -1,0 +1,291 @@
+//! USS drives behind the gateway (issue 20): each drive is a Modbus unit id, served from the
+//! USS master's cyclic polling (et200s-si-modbus-uss.md §6, public-facts.md §3) rather than
+//! forwarded, so a Modbus request never waits for the bus except to start a parameter job.
+//!
+//! The register map of one drive:
+//!
+//! | registers | table | meaning |
+//! |---|---|---|
+//! | 0 … n−1 | input (FC 04) | PZD of the latest answer: ZSW, HIW, further PZD in. 0BH if the drive never answered or its last poll failed |
+//! | 0 … n−1 | holding (FC 03/06/16) | PZD sent with every poll: STW, HSW, further PZD out; a write takes effect from the next poll |
+//! | 100 | holding | PNU (parameter number) |
+//! | 101 | holding | sub-index IND, 0 … 255 |
+//! | 102, 103 | holding | value, high and low word (a word write sends 103 alone) |
+//! | 104 | holding | command: writing 1 reads the parameter, 2 writes a word, 3 a double word; 06H while a job runs; reads back the last command |
+//! | 105 | holding, read-only | status: 0 idle (no job yet), 1 busy, 2 done (102/103 hold the drive's value), 3 error |
+//! | 106 | holding, read-only | the failed job's STATUS code (e.g. 16#1503 for response ID 7, 16#1408 "node does not answer") |
+//! | 107 | holding, read-only | the drive's error number for response ID 7 (0 otherwise) |
+//!
+//! n is the line's `pzd_words`. A request spanning the PZD and the window, or past either, is
+//! answered with exception 02H.
+
+use super::counters::Outcome;
+use super::line::{
+    exception, lock, GATEWAY_PATH_UNAVAILABLE, GATEWAY_TARGET_FAILED, SLAVE_DEVICE_BUSY,
+};
+use super::uss_config::UssLine;
+use si_modbus::frame::Request;
+use si_modbus::mbap::TcpAdu;
+use si_modbus::serve;
+use si_uss::master::ParamRequest;
+use si_uss::tokio::{Error, Handle};
+use std::sync::{Arc, Mutex};
+
+/// First register of the parameter window.
+pub const WINDOW: u16 = 100;
+/// Window registers, 100 … 107.
+const WINDOW_LEN: usize = 8;
+/// The command register's offset in the window.
+const COMMAND: usize = 4;
+/// The first read-only register's offset (status, STATUS, error number).
+const READ_ONLY: usize = 5;
+
+/// Window status: the job runs.
+pub const BUSY: u16 = 1;
+/// Window status: the job ended; the value registers hold the drive's answer.
+pub const DONE: u16 = 2;
+/// Window status: the job failed; register 106 holds its STATUS.
+pub const FAILED: u16 = 3;
+
+/// Exception 01H: a function the drive image does not serve.
+const ILLEGAL_FUNCTION: u8 = 0x01;
+/// Exception 02H: registers outside the map.
+const ILLEGAL_DATA_ADDRESS: u8 = 0x02;
+/// Exception 03H: a command or sub-index out of range.
+const ILLEGAL_DATA_VALUE: u8 = 0x03;
+
+/// One drive: its unit id, bus address, PZD count and parameter window.
+struct Drive {
+    unit: u8,
+    address: u8,
+    pzd_words: usize,
+    window: Arc<Mutex<[u16; WINDOW_LEN]>>,
+}
+
+/// The drives of one USS line and the master polling them.
+pub struct UssDrives {
+    master: Arc<Handle>,
+    drives: Vec<Drive>,
+}
+
+impl UssDrives {
+    /// The drives of `line`, served through `master` (already polling).
+    pub fn new(master: Handle, line: &UssLine) -> Self {
+        UssDrives {
+            master: Arc::new(master),
+            drives: line
+                .drives
+                .iter()
+                .map(|&(unit, address)| Drive {
+                    unit,
+                    address,
+                    pzd_words: usize::from(line.pzd_words),
+                    window: Arc::default(),
+                })
+                .collect(),
+        }
+    }
+
+    /// The answer to `request` and how it is counted.
+    pub async fn answer(&self, request: &TcpAdu) -> (TcpAdu, Outcome) {
+        let result = match self.drives.iter().find(|d| d.unit == request.unit()) {
+            Some(drive) => match request.decode_request() {
+                Ok((_, r)) => self.serve(drive, request, r).await,
+                Err(e) => Err(serve::refusal(e.kind).0.code()),
+            },
+            None => Err(GATEWAY_PATH_UNAVAILABLE),
+        };
+        match result {
+            Ok(pdu) => {
+                let mut unit_pdu = Vec::with_capacity(1 + pdu.len());
+                unit_pdu.push(request.unit());
+                unit_pdu.extend_from_slice(&pdu);
+                let answer =
+                    TcpAdu::from_unit_pdu(request.transaction(), &unit_pdu).unwrap_or_default();
+                (answer, Outcome::Answer)
+            }
+            Err(code) => {
+                let outcome = match code {
+                    GATEWAY_TARGET_FAILED => Outcome::Timeout,
+                    SLAVE_DEVICE_BUSY => Outcome::Busy,
+                    _ => Outcome::Other,
+                };
+                (exception(request, code), outcome)
+            }
+        }
+    }
+
+    /// The response PDU, or the exception code.
+    async fn serve(&self, drive: &Drive, request: &TcpAdu, r: Request<'_>) -> Result<Vec<u8>, u8> {
+        match r {
+            Request::ReadInputRegisters { address, quantity } => {
+                let a = drive.address;
+                let words = self
+                    .master
+                    .call(move |m, _| {
+                        m.slave(a)
+                            .filter(|s| s.answered > 0 && s.last_status == si_core::Status::OK)
+                            .map(|s| s.status.words().to_vec())
+                    })
+                    .await
+                    .map_err(|_| GATEWAY_PATH_UNAVAILABLE)?
+                    .ok_or(GATEWAY_TARGET_FAILED)?;
+                registers(0x04, &words, address, quantity)
+            }
+            Request::ReadHoldingRegisters { address, quantity } if address >= WINDOW => {
+                let window = *lock(&drive.window);
+                registers(0x03, &window, address - WINDOW, quantity)
+            }
+            Request::ReadHoldingRegisters { address, quantity } => {
+                let words = self.control(drive).await?;
+                registers(0x03, &words, address, quantity)
+            }
+            Request::WriteSingleRegister { address, value } => {
+                self.write(drive, address, &[value]).await?;
+                Ok(request.unit_pdu()[1..].to_vec())
+            }
+            Request::WriteMultipleRegisters { address, values } => {
+                let values: Vec<u16> = values.iter().collect();
+                self.write(drive, address, &values).await?;
+                let mut pdu = vec![0x10];
+                pdu.extend(address.to_be_bytes());
+                pdu.extend((values.len() as u16).to_be_bytes());
+                Ok(pdu)
+            }
+            _ => Err(ILLEGAL_FUNCTION),
+        }
+    }
+
+    /// The PZD words sent to `drive` with every poll.
+    async fn control(&self, drive: &Drive) -> Result<Vec<u16>, u8> {
+        let a = drive.address;
+        self.master
+            .call(move |m, _| m.slave(a).map(|s| s.control.words().to_vec()))
+            .await
+            .map_err(|_| GATEWAY_PATH_UNAVAILABLE)?
+            .ok_or(GATEWAY_PATH_UNAVAILABLE)
+    }
+
+    /// Write `values` from register `address`: into the PZD out, or into the window.
+    async fn write(&self, drive: &Drive, address: u16, values: &[u16]) -> Result<(), u8> {
+        let start = usize::from(address);
+        let end = start + values.len();
+        if address < WINDOW {
+            if end > drive.pzd_words {
+                return Err(ILLEGAL_DATA_ADDRESS);
+            }
+            let (a, words) = (drive.address, values.to_vec());
+            return self
+                .master
+                .call(move |m, _| {
+                    let mut control = m.slave(a)?.control.words().to_vec();
+                    control.get_mut(start..end)?.copy_from_slice(&words);
+                    m.set_control(a, &control).ok()
+                })
+                .await
+                .map_err(|_| GATEWAY_PATH_UNAVAILABLE)?
+                .ok_or(ILLEGAL_DATA_ADDRESS);
+        }
+        let (start, end) = (start - usize::from(WINDOW), end - usize::from(WINDOW));
+        if end > READ_ONLY {
+            return Err(ILLEGAL_DATA_ADDRESS);
+        }
+        let mut window = lock(&drive.window);
+        let starts_job = (start..end).contains(&COMMAND);
+        if starts_job && window[READ_ONLY] == BUSY {
+            return Err(SLAVE_DEVICE_BUSY);
+        }
+        let mut next = *window;
+        next[start..end].copy_from_slice(values);
+        if !starts_job {
+            *window = next;
+            return Ok(());
+        }
+        let request = job(&next).ok_or(ILLEGAL_DATA_VALUE)?;
+        next[READ_ONLY..].copy_from_slice(&[BUSY, 0, 0]);
+        *window = next;
+        drop(window);
+        let (master, slot, a) = (
+            Arc::clone(&self.master),
+            Arc::clone(&drive.window),
+            drive.address,
+        );
+        tokio::spawn(async move {
+            let result = master.parameter(a, request).await;
+            let mut w = lock(&slot);
+            match result {
+                Ok(pkw) => {
+                    let v = pkw.value();
+                    w[2..4].copy_from_slice(&[(v >> 16) as u16, v as u16]);
+                    w[READ_ONLY..].copy_from_slice(&[DONE, 0, 0]);
+                }
+                Err(e) => {
+                    let number = match e {
+                        Error::Failed { error_number, .. } => error_number.unwrap_or(0),
+                        _ => 0,
+                    };
+                    let status = e.status().map_or(0xFFFF, |s| s.code());
+                    w[READ_ONLY..].copy_from_slice(&[FAILED, status, number]);
+                }
+            }
+        });
+        Ok(())
+    }
+}
+
+/// The parameter job the window's command asks for; `None` for an unknown command or a
+/// sub-index past 255.
+fn job(window: &[u16; WINDOW_LEN]) -> Option<ParamRequest> {
+    let [pnu, index, high, low, command, ..] = *window;
+    let index = u8::try_from(index).ok()?;
+    match command {
+        1 => Some(ParamRequest::read(pnu, index)),
+        2 => Some(ParamRequest::write(pnu, index, u32::from(low), false)),
+        3 => Some(ParamRequest::write(
+            pnu,
+            index,
+            u32::from(high) << 16 | u32::from(low),
+            true,
+        )),
+        _ => None,
+    }
+}
+
+/// The read response `function` over `words[address..address + quantity]`, or 02H.
+fn registers(function: u8, words: &[u16], address: u16, quantity: u16) -> Result<Vec<u8>, u8> {
+    let start = usize::from(address);
+    let values = words
+        .get(start..start + usize::from(quantity))
+        .ok_or(ILLEGAL_DATA_ADDRESS)?;
+    let mut pdu = Vec::with_capacity(2 + 2 * values.len());
+    pdu.extend([function, (2 * values.len()) as u8]);
+    pdu.extend(values.iter().flat_map(|v| v.to_be_bytes()));
+    Ok(pdu)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_window_command_picks_the_parameter_task() {
+        let read = job(&[700, 0, 0, 0, 1, 0, 0, 0]).unwrap();
+        assert_eq!(read, ParamRequest::read(700, 0));
+        let word = job(&[1082, 2, 9, 120, 2, 0, 0, 0]).unwrap();
+        assert_eq!(word, ParamRequest::write(1082, 2, 120, false));
+        let dword = job(&[1082, 0, 1, 2, 3, 0, 0, 0]).unwrap();
+        assert_eq!(dword, ParamRequest::write(1082, 0, 0x0001_0002, true));
+        assert_eq!(job(&[700, 0, 0, 0, 4, 0, 0, 0]), None);
+        assert_eq!(job(&[700, 256, 0, 0, 1, 0, 0, 0]), None);
+    }
+
+    #[test]
+    fn reads_outside_the_image_are_refused() {
+        assert_eq!(
+            registers(0x04, &[1, 2], 0, 2),
+            Ok(vec![0x04, 4, 0, 1, 0, 2])
+        );
+        assert_eq!(registers(0x04, &[1, 2], 1, 2), Err(ILLEGAL_DATA_ADDRESS));
+        assert_eq!(registers(0x03, &[1, 2], 9, 1), Err(ILLEGAL_DATA_ADDRESS));
+    }
+}

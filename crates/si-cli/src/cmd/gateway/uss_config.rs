@@ -1,0 +1,183 @@
+//! The keys of a `kind = "uss"` line: its drives and their net-data structure, checked into a
+//! si-uss master configuration.
+//!
+//! Ranges from the USS master (et200s-si-modbus-uss.md §6.6, public-facts.md §3): bus addresses
+//! 0–31, 0–16 PZD words, 0/3/4/variable PKW words, WDH 0–32 767 PKW repetitions (`retries`,
+//! default 20), response timeout 1 ms–10 s (default the USS spec's 20 ms). Every other
+//! `si_uss::config::MasterConfig::validate` finding is reported under its own name.
+
+use super::config::{Device, Kind, Line, LineFile};
+use si_core::RangeError;
+use si_uss::config::{ConfigError, MasterConfig, PollEntry, RESPONSE_DELAY_MAX};
+use si_uss::frame::PkwWords;
+use std::time::Duration;
+
+/// Highest USS bus address (public-facts.md §3).
+pub const MAX_ADDRESS: u8 = 31;
+/// Most PZD words of a drive (et200s-si-modbus-uss.md §6.6).
+pub const MAX_PZD_WORDS: u8 = 16;
+
+/// A checked USS line: which unit id is which drive, and the master that polls them.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UssLine {
+    /// `(unit id, bus address)` of each drive, in polling order.
+    pub drives: Vec<(u8, u8)>,
+    /// PZD words per drive.
+    pub pzd_words: u8,
+    /// The master's configuration (its serial settings are filled in when the port opens).
+    pub master: MasterConfig,
+}
+
+impl LineFile {
+    /// Check a `uss` line whose device and unit ids are already read.
+    pub(super) fn check_uss(
+        &self,
+        name: String,
+        device: Device,
+        units: Vec<u8>,
+    ) -> Result<Line, RangeError> {
+        if self.broadcast {
+            return Err(RangeError::new(
+                "broadcast",
+                "false on a uss line",
+                "",
+                true,
+            ));
+        }
+        let addresses = match self.drives.as_deref() {
+            Some(text) => parse_addresses(text, units.len())?,
+            None => units.clone(),
+        };
+        for &a in &addresses {
+            let key = if self.drives.is_some() {
+                "drives"
+            } else {
+                "units"
+            };
+            RangeError::check(key, (0, MAX_ADDRESS), " (USS bus address)", a)?;
+        }
+        let pzd_words = self.pzd_words.unwrap_or(2);
+        RangeError::check("pzd_words", (0, MAX_PZD_WORDS), "", pzd_words)?;
+        let pkw_count = self.pkw_words.unwrap_or(4);
+        let pkw = PkwWords::from_count(pkw_count)
+            .ok_or_else(|| RangeError::new("pkw_words", "0, 3, 4 or 127", "", pkw_count))?;
+        let mut master = MasterConfig::new(
+            addresses
+                .iter()
+                .map(|&a| PollEntry::new(a, pkw, pzd_words))
+                .collect(),
+        );
+        let timeout_ms = self
+            .response_timeout_ms
+            .unwrap_or(RESPONSE_DELAY_MAX.as_millis() as u32);
+        RangeError::check("response_timeout_ms", (1, 10_000), " ms", timeout_ms)?;
+        master.response_timeout = si_core::Duration::from_millis(timeout_ms.into());
+        master.pkw_retries = self.retries.map_or(20, u16::from);
+        master.local_echo = self.local_echo;
+        master.validate().map_err(|e| match e {
+            ConfigError::OutOfRange(r) => r,
+            other => RangeError::new("drives", "each address once", "", other),
+        })?;
+        self.check_rs485()?;
+        Ok(Line {
+            name,
+            device,
+            baud: self.baud.unwrap_or(9600),
+            data_bits: self.data_bits.unwrap_or(8),
+            parity: self.parity.clone().unwrap_or_else(|| "even".to_string()),
+            stop_bits: self.stop_bits.unwrap_or(1),
+            rs485: self.rs485.clone(),
+            rs485_delays_ms: (
+                self.rs485_delay_before_ms.unwrap_or(0),
+                self.rs485_delay_after_ms.unwrap_or(0),
+            ),
+            local_echo: self.local_echo,
+            latency_timer_ms: self.latency_timer_ms,
+            units: units.clone(),
+            retries: self.retries.unwrap_or(20),
+            pause: Duration::ZERO,
+            response_timeout_ms: timeout_ms,
+            broadcast: false,
+            queue: 1,
+            kind: Kind::Uss(UssLine {
+                drives: units.into_iter().zip(addresses).collect(),
+                pzd_words,
+                master,
+            }),
+        })
+    }
+}
+
+/// `"0,5"`: one bus address per unit id.
+fn parse_addresses(text: &str, count: usize) -> Result<Vec<u8>, RangeError> {
+    let bad = || {
+        RangeError::new(
+            "drives",
+            format!("{count} bus address(es) 0 … 31, one per unit id, e.g. 0,5"),
+            "",
+            format!("{text:?}"),
+        )
+    };
+    let addresses = text
+        .split(',')
+        .map(|a| a.trim().parse::<u8>().map_err(|_| bad()))
+        .collect::<Result<Vec<u8>, _>>()?;
+    if addresses.len() != count {
+        return Err(bad());
+    }
+    Ok(addresses)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::cmd::gateway::config::File;
+
+    fn check(keys: &str) -> Result<super::UssLine, String> {
+        let text = format!("[[line]]\nname = \"d\"\nkind = \"uss\"\ndevice = \"x\"\n{keys}");
+        let g = File::from_toml(&text)?.check().map_err(|e| e.to_string())?;
+        match g.lines[0].kind.clone() {
+            super::Kind::Uss(u) => Ok(u),
+            super::Kind::ModbusRtu => Err("not a uss line".into()),
+        }
+    }
+
+    #[test]
+    fn drives_are_unit_ids_mapped_to_bus_addresses() {
+        let u = check("units = \"5,7\"\n").unwrap();
+        assert_eq!(u.drives, [(5, 5), (7, 7)]);
+        assert_eq!(u.pzd_words, 2);
+        assert_eq!(u.master.response_timeout.as_millis(), 20);
+        let u = check("units = \"10-11\"\ndrives = \"0, 31\"\npzd_words = 4\n").unwrap();
+        assert_eq!(u.drives, [(10, 0), (11, 31)]);
+    }
+
+    #[test]
+    fn errors_name_the_key_and_the_value() {
+        let e = check("units = \"32\"\n").unwrap_err();
+        assert!(
+            e.contains("line 1 (d): units = 32 (USS bus address) is out of range: 0 … 31"),
+            "{e}"
+        );
+        let e = check("units = \"1\"\ndrives = \"40\"\n").unwrap_err();
+        assert!(e.contains("drives = 40"), "{e}");
+        let e = check("units = \"1,2\"\ndrives = \"4\"\n").unwrap_err();
+        assert!(e.contains("drives = \"4\""), "{e}");
+        let e = check("units = \"1\"\npzd_words = 17\n").unwrap_err();
+        assert!(e.contains("pzd_words = 17 is out of range: 0 … 16"), "{e}");
+        let e = check("units = \"1\"\npkw_words = 2\n").unwrap_err();
+        assert!(e.contains("pkw_words = 2"), "{e}");
+        let e = check("units = \"1\"\nbroadcast = true\n").unwrap_err();
+        assert!(e.contains("broadcast = true"), "{e}");
+        let e = check("units = \"1\"\nresponse_timeout_ms = 20000\n").unwrap_err();
+        assert!(e.contains("response_timeout_ms = 20000 ms"), "{e}");
+        let e = File::from_toml("[[line]]\ndevice = \"x\"\nunits = \"1\"\npzd_words = 2\n")
+            .unwrap()
+            .check()
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("pzd_words = set on a modbus-rtu line is out of range: a key of uss lines"),
+            "{e}"
+        );
+    }
+}

@@ -1,0 +1,151 @@
+//! A `kind = "uss"` line: `si uss sim-slave --address 5` on one end of a socat pty pair,
+//! `si gateway` polling it on the other, raw MBAP frames from a std socket. Unit 5 is the drive;
+//! unit 6 is drive address 6, which nobody answers. Skips without socat (fails with `CI` set).
+
+use crate::common::{pty_pair, si_command, Kill};
+use crate::harness::{launch, read_holding, Mbap};
+use std::process::Stdio;
+use std::time::{Duration, Instant};
+
+/// FC04 for `count` registers from `addr`.
+fn read_input(addr: u16, count: u16) -> Vec<u8> {
+    let mut pdu = read_holding(addr, count);
+    pdu[0] = 0x04;
+    pdu
+}
+
+/// FC16 of `values` from `addr`.
+fn write_registers(addr: u16, values: &[u16]) -> Vec<u8> {
+    let mut pdu = vec![0x10];
+    pdu.extend(addr.to_be_bytes());
+    pdu.extend((values.len() as u16).to_be_bytes());
+    pdu.push(2 * values.len() as u8);
+    pdu.extend(values.iter().flat_map(|v| v.to_be_bytes()));
+    pdu
+}
+
+/// The words of a read answer (`[fc, bytes, words…]`).
+fn words(pdu: &[u8]) -> Vec<u16> {
+    assert!(pdu[0] & 0x80 == 0, "an exception: {pdu:02X?}");
+    pdu[2..]
+        .chunks(2)
+        .map(|w| u16::from_be_bytes([w[0], w[1]]))
+        .collect()
+}
+
+struct Client {
+    mbap: Mbap,
+    tid: u16,
+}
+
+impl Client {
+    /// Send `pdu` to `unit` and return the answer's PDU.
+    fn ask(&mut self, unit: u8, pdu: &[u8]) -> Vec<u8> {
+        self.tid += 1;
+        self.mbap.send(self.tid, unit, pdu);
+        let (tid, u, answer) = self.mbap.recv();
+        assert_eq!((tid, u), (self.tid, unit));
+        answer
+    }
+
+    /// Ask until `done` holds for the answer; a generous bound, not a timing claim.
+    fn until(&mut self, unit: u8, pdu: &[u8], done: impl Fn(&[u8]) -> bool) -> Vec<u8> {
+        let start = Instant::now();
+        loop {
+            let answer = self.ask(unit, pdu);
+            if done(&answer) {
+                return answer;
+            }
+            assert!(
+                start.elapsed() < Duration::from_secs(20),
+                "still {answer:02X?} for {pdu:02X?}"
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// Run a parameter job through unit 5's window (registers 100…104) and return the window
+    /// (100…107) once it is no longer busy.
+    fn job(&mut self, pnu: u16, value: u32, command: u16) -> Vec<u16> {
+        let window = [pnu, 0, (value >> 16) as u16, value as u16, command];
+        assert_eq!(
+            self.ask(5, &write_registers(100, &window)),
+            [0x10, 0, 100, 0, 5]
+        );
+        let answer = self.until(5, &read_holding(100, 8), |a| words(a)[5] != 1);
+        words(&answer)
+    }
+}
+
+#[test]
+fn a_simulated_drive_is_served_as_pzd_registers_and_a_parameter_window() {
+    let Some(pair) = pty_pair() else { return };
+    let _drive = Kill(
+        si_command()
+            .args(["uss", "sim-slave", "--address", "5", "--port", &pair.b])
+            .stdout(Stdio::null())
+            .spawn()
+            .expect("start sim-slave"),
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let toml = format!(
+        "listen = \"127.0.0.1:0\"\n[[line]]\nname = \"drives\"\nkind = \"uss\"\n\
+         device = \"{}\"\nunits = \"5,6\"\nresponse_timeout_ms = 200\nretries = 2\n",
+        pair.a
+    );
+    let (addr, _log, _gateway) = launch(&toml, &pair.a);
+    let mut c = Client {
+        mbap: Mbap::connect(&addr),
+        tid: 0,
+    };
+
+    // ZSW and HIW once the drive has answered; a drive that never answers is 0BH.
+    c.until(5, &read_input(0, 2), |a| a[0] == 0x04);
+    assert_eq!(c.ask(6, &read_input(0, 2)), [0x84, 0x0B]);
+    // Outside the map: past the PZD, across into the window, an unknown function.
+    assert_eq!(c.ask(5, &read_input(1, 2)), [0x84, 0x02]);
+    assert_eq!(c.ask(5, &read_holding(2, 1)), [0x83, 0x02]);
+    assert_eq!(c.ask(5, &read_holding(104, 5)), [0x83, 0x02]);
+    assert_eq!(c.ask(5, &[0x01, 0, 0, 0, 1]), [0x81, 0x01]);
+    assert_eq!(c.ask(5, &write_registers(105, &[0])), [0x90, 0x02]);
+    assert_eq!(
+        c.ask(5, &write_registers(100, &[700, 0, 0, 0, 9])),
+        [0x90, 0x03]
+    );
+
+    // STW "run" and HSW 2000 as holding registers; they read back and the drive follows:
+    // running (ZSW bit 2), HIW ramps to the setpoint, "setpoint reached" (bit 10) comes on.
+    assert_eq!(
+        c.ask(5, &write_registers(0, &[0x047F, 2000])),
+        [0x10, 0, 0, 0, 2]
+    );
+    assert_eq!(words(&c.ask(5, &read_holding(0, 2))), [0x047F, 2000]);
+    let running = c.until(5, &read_input(0, 2), |a| words(a)[1] == 2000);
+    let zsw = words(&running)[0];
+    assert_ne!(zsw & 0x0004, 0, "ZSW {zsw:04X}");
+    assert_ne!(zsw & 0x0400, 0, "ZSW {zsw:04X}");
+    // FC06 on HSW alone.
+    assert_eq!(
+        c.ask(5, &[0x06, 0, 1, 0x01, 0xF4]),
+        [0x06, 0, 1, 0x01, 0xF4]
+    );
+    c.until(5, &read_input(1, 1), |a| words(a) == [500]);
+
+    // The parameter window: read P700 (the simulated drive's 5), write P1082 = 120 and read
+    // it back, and a write past its limit fails with 16#1503 and AK 7 error number 2.
+    let w = c.job(700, 0, 1);
+    assert_eq!((w[3], w[4], w[5]), (5, 1, 2), "{w:?}");
+    let w = c.job(1082, 120, 2);
+    assert_eq!((w[3], w[5]), (120, 2), "{w:?}");
+    let w = c.job(1082, 0, 1);
+    assert_eq!((w[0], w[3], w[5]), (1082, 120, 2), "{w:?}");
+    let w = c.job(1082, 1000, 2);
+    assert_eq!((w[5], w[6], w[7]), (3, 0x1503, 2), "{w:?}");
+    // Unit 6 never answers: its job fails with "node does not answer" (16#1408).
+    c.tid += 1;
+    c.mbap
+        .send(c.tid, 6, &write_registers(100, &[700, 0, 0, 0, 1]));
+    assert_eq!(c.mbap.recv().2, [0x10, 0, 100, 0, 5]);
+    let w = c.until(6, &read_holding(105, 2), |a| words(a)[0] != 1);
+    assert_eq!(words(&w), [3, 0x1408]);
+}
