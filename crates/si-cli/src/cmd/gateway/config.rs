@@ -333,9 +333,30 @@ impl LineFile {
         }
         self.check_rs485()?;
         Ok(Line {
+            retries,
+            pause: std::time::Duration::from_millis(pause_ms),
+            response_timeout_ms,
+            broadcast: self.broadcast,
+            queue,
+            ..self.port_line(name, device, units, Kind::ModbusRtu)
+        })
+    }
+}
+
+impl LineFile {
+    /// Line `name` with its port keys (defaults filled in) and no retries, pause or queue:
+    /// each kind sets those it has.
+    pub(super) fn port_line(
+        &self,
+        name: String,
+        device: Device,
+        units: Vec<u8>,
+        kind: Kind,
+    ) -> Line {
+        Line {
             name,
             device,
-            baud,
+            baud: self.baud.unwrap_or(9600),
             data_bits: self.data_bits.unwrap_or(8),
             parity: self.parity.clone().unwrap_or_else(|| "even".to_string()),
             stop_bits: self.stop_bits.unwrap_or(1),
@@ -347,17 +368,15 @@ impl LineFile {
             local_echo: self.local_echo,
             latency_timer_ms: self.latency_timer_ms,
             units,
-            retries,
-            pause: std::time::Duration::from_millis(pause_ms),
-            response_timeout_ms,
-            broadcast: self.broadcast,
-            queue,
-            kind: Kind::ModbusRtu,
-        })
+            retries: 0,
+            pause: std::time::Duration::ZERO,
+            response_timeout_ms: 0,
+            broadcast: false,
+            queue: 1,
+            kind,
+        }
     }
-}
 
-impl LineFile {
     /// The RS-485 mode, if given, is one we know.
     pub(super) fn check_rs485(&self) -> Result<(), RangeError> {
         if let Some(mode) = self.rs485.as_deref() {

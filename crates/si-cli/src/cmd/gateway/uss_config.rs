@@ -8,9 +8,8 @@
 
 use super::config::{Device, Kind, Line, LineFile};
 use si_core::RangeError;
-use si_uss::config::{ConfigError, MasterConfig, PollEntry, RESPONSE_DELAY_MAX};
+use si_uss::config::{ConfigError, MasterConfig, PollEntry, RESPONSE_DELAY_MAX, USS_BAUD_RATES};
 use si_uss::frame::PkwWords;
-use std::time::Duration;
 
 /// Highest USS bus address (public-facts.md §3).
 pub const MAX_ADDRESS: u8 = 31;
@@ -56,6 +55,11 @@ impl LineFile {
             };
             RangeError::check(key, (0, MAX_ADDRESS), " (USS bus address)", a)?;
         }
+        let baud = self.baud.unwrap_or(9600);
+        if !USS_BAUD_RATES.contains(&baud) {
+            let rates = format!("{USS_BAUD_RATES:?}");
+            return Err(RangeError::new("baud", rates, " bit/s", baud));
+        }
         let pzd_words = self.pzd_words.unwrap_or(2);
         RangeError::check("pzd_words", (0, MAX_PZD_WORDS), "", pzd_words)?;
         let pkw_count = self.pkw_words.unwrap_or(4);
@@ -79,31 +83,15 @@ impl LineFile {
             other => RangeError::new("drives", "each address once", "", other),
         })?;
         self.check_rs485()?;
+        let kind = Kind::Uss(UssLine {
+            drives: units.iter().copied().zip(addresses).collect(),
+            pzd_words,
+            master,
+        });
         Ok(Line {
-            name,
-            device,
-            baud: self.baud.unwrap_or(9600),
-            data_bits: self.data_bits.unwrap_or(8),
-            parity: self.parity.clone().unwrap_or_else(|| "even".to_string()),
-            stop_bits: self.stop_bits.unwrap_or(1),
-            rs485: self.rs485.clone(),
-            rs485_delays_ms: (
-                self.rs485_delay_before_ms.unwrap_or(0),
-                self.rs485_delay_after_ms.unwrap_or(0),
-            ),
-            local_echo: self.local_echo,
-            latency_timer_ms: self.latency_timer_ms,
-            units: units.clone(),
             retries: self.retries.unwrap_or(20),
-            pause: Duration::ZERO,
             response_timeout_ms: timeout_ms,
-            broadcast: false,
-            queue: 1,
-            kind: Kind::Uss(UssLine {
-                drives: units.into_iter().zip(addresses).collect(),
-                pzd_words,
-                master,
-            }),
+            ..self.port_line(name, device, units, kind)
         })
     }
 }
@@ -166,6 +154,8 @@ mod tests {
         assert!(e.contains("pzd_words = 17 is out of range: 0 … 16"), "{e}");
         let e = check("units = \"1\"\npkw_words = 2\n").unwrap_err();
         assert!(e.contains("pkw_words = 2"), "{e}");
+        let e = check("units = \"1\"\nbaud = 1234\n").unwrap_err();
+        assert!(e.contains("baud = 1234 bit/s"), "{e}");
         let e = check("units = \"1\"\nbroadcast = true\n").unwrap_err();
         assert!(e.contains("broadcast = true"), "{e}");
         let e = check("units = \"1\"\nresponse_timeout_ms = 20000\n").unwrap_err();
