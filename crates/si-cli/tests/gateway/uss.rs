@@ -141,6 +141,9 @@ fn a_simulated_drive_is_served_as_pzd_registers_and_a_parameter_window() {
     assert_eq!((w[0], w[3], w[5]), (1082, 120, 2), "{w:?}");
     let w = c.job(1082, 1000, 2);
     assert_eq!((w[5], w[6], w[7]), (3, 0x1503, 2), "{w:?}");
+    // A PNU the page index cannot address: the master refuses the job (FFFFH, no STATUS).
+    let w = c.job(62_000, 0, 1);
+    assert_eq!((w[5], w[6]), (3, 0xFFFF), "{w:?}");
     // Unit 6 never answers: its job fails with "node does not answer" (16#1408).
     c.tid += 1;
     c.mbap

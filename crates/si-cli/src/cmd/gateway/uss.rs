@@ -13,7 +13,7 @@
 //! | 102, 103 | holding | value, high and low word (a word write sends 103 alone) |
 //! | 104 | holding | command: writing 1 reads the parameter, 2 writes a word, 3 a double word; 06H while a job runs; reads back the last command |
 //! | 105 | holding, read-only | status: 0 idle (no job yet), 1 busy, 2 done (102/103 hold the drive's value), 3 error |
-//! | 106 | holding, read-only | the failed job's STATUS code (e.g. 16#1503 for response ID 7, 16#1408 "node does not answer") |
+//! | 106 | holding, read-only | the failed job's STATUS code (e.g. 16#1503 for response ID 7, 16#1408 "node does not answer"); FFFFH when the master refused the job, which has no STATUS (no PKW area, a PNU above 61 999, a double word in a 3-word area) |
 //! | 107 | holding, read-only | the drive's error number for response ID 7 (0 otherwise) |
 //!
 //! n is the line's `pzd_words`. A request spanning the PZD and the window, or past either, is
@@ -46,6 +46,10 @@ pub const BUSY: u16 = 1;
 pub const DONE: u16 = 2;
 /// Window status: the job failed; register 106 holds its STATUS.
 pub const FAILED: u16 = 3;
+
+/// Register 106 for a job the master refused before sending it (`si_uss::tokio::Error::Refused`
+/// carries no STATUS).
+pub const REFUSED: u16 = 0xFFFF;
 
 /// Exception 01H: a function the drive image does not serve.
 const ILLEGAL_FUNCTION: u8 = 0x01;
@@ -224,7 +228,7 @@ impl UssDrives {
                         Error::Failed { error_number, .. } => error_number.unwrap_or(0),
                         _ => 0,
                     };
-                    let status = e.status().map_or(0xFFFF, |s| s.code());
+                    let status = e.status().map_or(REFUSED, |s| s.code());
                     w[READ_ONLY..].copy_from_slice(&[FAILED, status, number]);
                 }
             }
