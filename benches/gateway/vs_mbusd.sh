@@ -22,8 +22,8 @@ MBUSD_SRC=${MBUSD_SRC:-$ROOT/../shared/peers/mbusd}
 [ -d "$MBUSD_SRC/src" ] || MBUSD_SRC=/work/shared/peers/mbusd
 TMP=$(mktemp -d /tmp/si-vs-mbusd.XXXXXX)
 PIDS=()
-cleanup() {
-    for p in "${PIDS[@]}"; do kill "$p" 2>/dev/null || true; done
+cleanup() { # the gateway first, then the slave, then socat (the gateway would log the lost pty)
+    for ((i = ${#PIDS[@]} - 1; i >= 0; i--)); do kill "${PIDS[i]}" 2>/dev/null || true; done
     wait 2>/dev/null || true
 }
 trap cleanup EXIT
