@@ -27,7 +27,9 @@ pub struct Connection {
     #[arg(long, global = true, help_heading = LINE_OPTIONS, value_name = "NAME")]
     pub profile: Option<String>,
     /// Serial port, e.g. /dev/ttyUSB0 or COM3.
-    #[arg(long, global = true, help_heading = LINE_OPTIONS, conflicts_with = "tcp", env = "SI_PORT")]
+    /// SI_PORT yields to --tcp and to `modbus … --modbus-tcp`; --port given on the command line
+    /// together with either is a usage error.
+    #[arg(long, global = true, help_heading = LINE_OPTIONS, env = "SI_PORT")]
     pub port: Option<String>,
     /// TCP serial device server, e.g. 192.0.2.10:4001 (raw TCP mode).
     #[arg(long, global = true, help_heading = LINE_OPTIONS, value_name = "HOST:PORT")]
@@ -80,12 +82,33 @@ pub struct Connection {
     /// `si_core::frame_log`).
     #[arg(skip)]
     pub frame_log: Option<LineDecoder>,
+    /// `--port` was typed on the command line, not taken from `SI_PORT` (set by
+    /// [`Connection::settle_line`]).
+    #[arg(skip)]
+    pub port_on_command_line: bool,
     /// The recorder, created on the first `open` so every port of the command shares one file.
     #[arg(skip)]
     recorder: Arc<OnceLock<Recorder>>,
 }
 
 impl Connection {
+    /// Decide between `--port` and `--tcp` once the command line is parsed: both typed is a
+    /// usage error (exit 2); a port from `SI_PORT` yields to a typed `--tcp`, so an
+    /// environment set up for one adapter does not forbid reaching a device server. (Clap's own
+    /// `conflicts_with` cannot tell the two sources apart: it counts the environment as given.)
+    pub fn settle_line(&mut self, matches: &clap::ArgMatches) -> Result<(), CliError> {
+        self.port_on_command_line = given_on_command_line(matches, "port");
+        if self.tcp.is_some() {
+            if self.port_on_command_line {
+                return Err(CliError::usage(
+                    "the argument '--port <PORT>' cannot be used with '--tcp <HOST:PORT>'",
+                ));
+            }
+            self.port = None;
+        }
+        Ok(())
+    }
+
     /// The validated character format, with one of the manuals' twelve baud rates.
     pub fn settings(&self) -> Result<SerialSettings, CliError> {
         self.settings_for(&si_core::BAUD_RATES)
@@ -257,4 +280,17 @@ pub enum Rs485Mode {
     Kernel,
     /// This program raises RTS before each transmission and drops it after.
     Rts,
+}
+
+/// Was option `id` typed on the command line, at any level of the subcommands? (A global option
+/// given after a subcommand is recorded in that subcommand's matches.)
+fn given_on_command_line(matches: &clap::ArgMatches, id: &str) -> bool {
+    let mut level = Some(matches);
+    while let Some(m) = level {
+        if m.value_source(id) == Some(clap::parser::ValueSource::CommandLine) {
+            return true;
+        }
+        level = m.subcommand().map(|(_, sub)| sub);
+    }
+    false
 }

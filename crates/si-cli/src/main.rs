@@ -109,26 +109,38 @@ fn main() -> ExitCode {
     // Frames are logged only when INFO is on for si_core::frame_log (-v, or RUST_LOG).
     cli.connection.frame_log = Some(cmd::monitor::line_decoder);
     let out = Output { json: cli.json };
-    let result = profile::apply(&mut cli.connection, &matches).and_then(|()| match cli.command {
-        Command::Ports => cmd::ports::run(&cli.connection, &out),
-        Command::Frame(c) => c.run(&out),
-        Command::Monitor(a) => runtime().and_then(|rt| rt.block_on(a.run(&cli.connection, &out))),
-        Command::Diag(c) => c.run(&out),
-        Command::Im(c) => c.run(&out),
-        Command::Params(c) => c.run(&out),
-        Command::Sim(a) => cli
-            .connection
-            .settings()
-            .and_then(|s| a.run(s, cli.connection.record.as_deref(), &out)),
-        Command::R3964(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
-        Command::Rk512(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
-        Command::Ascii(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
-        Command::Modbus(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
-        Command::DpCoord(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
-        Command::Uss(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
-        Command::Gateway(a) => runtime().and_then(|rt| rt.block_on(a.run(&cli.connection, &out))),
-        Command::Completions(a) => a.run(help::arrange(Cli::command())),
-    });
+    let result = cli
+        .connection
+        .settle_line(&matches)
+        .and_then(|()| profile::apply(&mut cli.connection, &matches))
+        .and_then(|()| match cli.command {
+            Command::Ports => cmd::ports::run(&cli.connection, &out),
+            Command::Frame(c) => c.run(&out),
+            Command::Monitor(a) => {
+                runtime().and_then(|rt| rt.block_on(a.run(&cli.connection, &out)))
+            }
+            Command::Diag(c) => c.run(&out),
+            Command::Im(c) => c.run(&out),
+            Command::Params(c) => c.run(&out),
+            Command::Sim(a) => cli
+                .connection
+                .settings()
+                .and_then(|s| a.run(s, cli.connection.record.as_deref(), &out)),
+            Command::R3964(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
+            Command::Rk512(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
+            Command::Ascii(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
+            Command::Modbus(c) => {
+                runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out)))
+            }
+            Command::DpCoord(c) => {
+                runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out)))
+            }
+            Command::Uss(c) => runtime().and_then(|rt| rt.block_on(c.run(&cli.connection, &out))),
+            Command::Gateway(a) => {
+                runtime().and_then(|rt| rt.block_on(a.run(&cli.connection, &out)))
+            }
+            Command::Completions(a) => a.run(help::arrange(Cli::command())),
+        });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -168,3 +168,104 @@ fn an_unknown_profile_names_the_ones_there_are() {
         stderr(&o)
     );
 }
+
+/// `si ARGS` with `SI_PORT` set, as a shell set up for one adapter would have it.
+fn si_with_port_env(args: &[&str]) -> Output {
+    si_command()
+        .env("SI_PORT", "/nonexistent/from-env")
+        .args(args)
+        .output()
+        .expect("run si")
+}
+
+#[test]
+fn si_port_yields_to_a_typed_tcp_line_or_modbus_tcp() {
+    // Nothing listens on loopback port 1: the command fails connecting there, not on the
+    // environment's port, and it is not a usage error.
+    for args in [
+        &[
+            "--tcp",
+            "127.0.0.1:1",
+            "modbus",
+            "read",
+            "holding",
+            "-u",
+            "1",
+        ][..],
+        &[
+            "modbus",
+            "read",
+            "holding",
+            "-u",
+            "1",
+            "--timeout",
+            "200",
+            "--modbus-tcp",
+            "127.0.0.1:1",
+        ][..],
+    ] {
+        let o = si_with_port_env(args);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("127.0.0.1:1"), "{}", stderr(&o));
+        assert!(!stderr(&o).contains("from-env"), "{}", stderr(&o));
+    }
+    // A profile's port yields to --modbus-tcp the same way.
+    let o = si_with(
+        FILE,
+        &[
+            "--profile",
+            "plc1",
+            "modbus",
+            "read",
+            "holding",
+            "-u",
+            "1",
+            "--timeout",
+            "200",
+            "--modbus-tcp",
+            "127.0.0.1:1",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("cannot connect to 127.0.0.1:1"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn a_typed_port_with_a_tcp_line_is_a_usage_error() {
+    for args in [
+        &[
+            "--port",
+            "/dev/null",
+            "--tcp",
+            "127.0.0.1:1",
+            "modbus",
+            "read",
+            "holding",
+            "-u",
+            "1",
+        ][..],
+        &[
+            "modbus",
+            "read",
+            "holding",
+            "-u",
+            "1",
+            "--tcp",
+            "127.0.0.1:1",
+            "--port",
+            "/dev/null",
+        ][..],
+    ] {
+        let o = si_command().args(args).output().expect("run si");
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("'--port <PORT>' cannot be used with '--tcp <HOST:PORT>'"),
+            "{}",
+            stderr(&o)
+        );
+    }
+}

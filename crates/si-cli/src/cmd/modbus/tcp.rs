@@ -26,12 +26,12 @@ use std::time::Duration;
 #[derive(Debug, Clone, Default, Args)]
 pub struct ModbusTcp {
     /// Modbus TCP server, e.g. 192.0.2.20:502: the jobs go in MBAP frames, each --unit as the
-    /// unit id, instead of RTU over --port or --tcp (a raw serial device server; SI_PORT
-    /// counts as --port). --timeout is the wait for each answer (and for the connection);
+    /// unit id, instead of RTU over --port or --tcp (a raw serial device server; a port
+    /// from SI_PORT or --profile is not used). --timeout is the wait for each answer (and for the connection);
     /// --retries sends again after a timeout; the serial framing options do not apply. Unit 0
     /// addresses the server itself and is answered (no broadcast on TCP).
     #[arg(long = "modbus-tcp", value_name = "HOST:PORT",
-          conflicts_with_all = ["port", "tcp", "record"])]
+          conflicts_with_all = ["tcp", "record"])]
     pub server: Option<String>,
 }
 
@@ -63,12 +63,14 @@ impl ModbusTcp {
 }
 
 /// The usage error (exit 2) for `--modbus-tcp` with a serial line or a line recording. Clap's
-/// `conflicts_with` sees `--port`, `--tcp` and `--record` only when they follow the
-/// subcommand: given before it (`si --port P modbus read …`) they reach the subcommand after
-/// its conflicts were checked, so the same error is raised here.
+/// `conflicts_with` sees `--tcp` and `--record` only when they follow the subcommand: given
+/// before it (`si --tcp H:P modbus read …`) they reach the subcommand after its conflicts were
+/// checked, so the same error is raised here. `--port` is checked here only: typed, it
+/// conflicts; from `SI_PORT` or a profile it is simply not used (clap would count the
+/// environment as given).
 fn refuse_serial_line(conn: &Connection) {
     let given = [
-        ("--port <PORT>", conn.port.is_some()),
+        ("--port <PORT>", conn.port_on_command_line),
         ("--tcp <HOST:PORT>", conn.tcp.is_some()),
         ("--record <FILE>", conn.record.is_some()),
     ];
