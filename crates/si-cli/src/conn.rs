@@ -27,8 +27,7 @@ pub struct Connection {
     #[arg(long, global = true, help_heading = LINE_OPTIONS, value_name = "NAME")]
     pub profile: Option<String>,
     /// Serial port, e.g. /dev/ttyUSB0 or COM3.
-    /// SI_PORT yields to --tcp and to `modbus … --modbus-tcp`; --port given on the command line
-    /// together with either is a usage error.
+    /// SI_PORT yields to a device server or Modbus TCP server given on the command line.
     #[arg(long, global = true, help_heading = LINE_OPTIONS, env = "SI_PORT")]
     pub port: Option<String>,
     /// TCP serial device server, e.g. 192.0.2.10:4001 (raw TCP mode).

@@ -19,6 +19,8 @@
 
 use core::fmt;
 
+mod text;
+
 /// The largest ADU the manual's limits produce: FC15 with 2040 bits =
 /// address + FC + start + quantity + byte count + 255 data bytes + CRC = 264 bytes.
 pub const MAX_ADU: usize = 264;

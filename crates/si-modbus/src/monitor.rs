@@ -185,7 +185,7 @@ impl Monitor {
                 Ok((unit, resp)) => {
                     self.counters.bump("slave messages");
                     r.label = format!("FC{:02} resp", resp.function() & 0x7F);
-                    r.text = format!("slave {unit}: {resp:?}");
+                    r.text = format!("slave {unit}: {resp:#}");
                     if let Response::Exception { function, code } = resp {
                         self.counters.bump("exception responses");
                         r.label = format!("FC{:02} exception {:02}", function, code as u8);
@@ -222,7 +222,7 @@ impl Monitor {
             match decode_request(adu) {
                 Ok((unit, req)) => {
                     r.label = format!("FC{:02} req → {unit}", req.function());
-                    r.text = format!("to slave {unit}: {req:?}");
+                    r.text = format!("to slave {unit}: {req:#}");
                     if unit == crate::frame::BROADCAST {
                         self.counters.bump("broadcasts");
                         r.label = format!("FC{:02} broadcast", req.function());

@@ -663,10 +663,10 @@ fn reading(adu: &[u8]) -> Option<(&'static str, String)> {
     match (req, resp) {
         (Some((u, r)), Some((_, p))) if format!("{r:?}") == format!("{p:?}") => Some((
             "request and response (an echo reads the same both ways)",
-            format!("unit {u} {r:?}"),
+            format!("unit {u} {r}"),
         )),
-        (Some((u, r)), _) => Some(("request", format!("unit {u} {r:?}"))),
-        (None, Some((u, p))) => Some(("response", format!("unit {u} {p:?}"))),
+        (Some((u, r)), _) => Some(("request", format!("unit {u} {r}"))),
+        (None, Some((u, p))) => Some(("response", format!("unit {u} {p}"))),
         (None, None) => None,
     }
 }

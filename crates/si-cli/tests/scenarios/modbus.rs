@@ -22,10 +22,10 @@ fn frame_decode_says_which_reading_it_used() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(
         stdout(&o).trim(),
-        "request: unit 1 ReadHoldingRegisters { address: 0, quantity: 10 }, CRC CDC5 ok"
+        "request: unit 1 FC03 read 10 holding registers from 0, CRC CDC5 ok"
     );
     let o = si(&["frame", "decode", "modbus", "01 03 02 00 01 79 84"]);
-    assert!(stdout(&o).starts_with("response: unit 1 ReadHoldingRegisters([0001])"));
+    assert!(stdout(&o).starts_with("response: unit 1 FC03 1 register: 0001,"));
     let o = si(&["frame", "decode", "modbus", "01 06 00 01 00 03 98 0B"]);
     assert!(
         stdout(&o).starts_with("request and response"),
