@@ -31,7 +31,7 @@ use crate::error::CliError;
 use clap::parser::ValueSource;
 use clap::ArgMatches;
 use serde::Deserialize;
-use si_core::{Parity, SerialSettings, SettingsError};
+use si_core::{Parity, SerialSettings};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use toml::Spanned;
@@ -55,7 +55,7 @@ struct Profile {
     data_bits: Option<Spanned<u8>>,
     parity: Option<Spanned<String>>,
     stop_bits: Option<Spanned<u8>>,
-    latency_timer: Option<u64>,
+    latency_timer: Option<Spanned<u64>>,
     rs485: Option<Rs485Name>,
     rs485_delay_before: Option<u64>,
     rs485_delay_after: Option<u64>,
@@ -132,7 +132,7 @@ pub fn apply(conn: &mut Connection, matches: &ArgMatches) -> Result<(), CliError
             names.join(", ")
         ))
     })?;
-    let at = |key: &str, span: std::ops::Range<usize>, e: SettingsError| {
+    let at = |key: &str, span: std::ops::Range<usize>, e: &dyn std::fmt::Display| {
         CliError::new(format!(
             "{}:{}: [profile.{name}] {key}: {e}",
             path.display(),
@@ -149,24 +149,37 @@ impl Profile {
     /// on its own so the error names the key; `at` places the error in the file.
     fn check(
         &self,
-        at: &dyn Fn(&str, std::ops::Range<usize>, SettingsError) -> CliError,
+        at: &dyn Fn(&str, std::ops::Range<usize>, &dyn std::fmt::Display) -> CliError,
     ) -> Result<(), CliError> {
         let rates = &si_uss::config::USS_BAUD_RATES;
         let format =
             |baud, bits, stop| SerialSettings::with_rates(baud, bits, Parity::Even, stop, rates);
         if let Some(b) = &self.baud {
-            format(*b.get_ref(), 8, 1).map_err(|e| at("baud", b.span(), e))?;
+            format(*b.get_ref(), 8, 1).map_err(|e| at("baud", b.span(), &e))?;
         }
         if let Some(d) = &self.data_bits {
-            format(9600, *d.get_ref(), 1).map_err(|e| at("data_bits", d.span(), e))?;
+            format(9600, *d.get_ref(), 1).map_err(|e| at("data_bits", d.span(), &e))?;
         }
         if let Some(s) = &self.stop_bits {
-            format(9600, 8, *s.get_ref()).map_err(|e| at("stop_bits", s.span(), e))?;
+            format(9600, 8, *s.get_ref()).map_err(|e| at("stop_bits", s.span(), &e))?;
         }
         if let Some(p) = &self.parity {
             p.get_ref()
                 .parse::<Parity>()
-                .map_err(|e| at("parity", p.span(), e))?;
+                .map_err(|e| at("parity", p.span(), &e))?;
+        }
+        // Checked here, not only when the port opens, so the error names the file and key.
+        if let Some(t) = &self.latency_timer {
+            let range = si_core::port::LATENCY_TIMER_MS;
+            if !range.contains(t.get_ref()) {
+                let why = format!(
+                    "latency timer {} ms out of range: {} … {} ms",
+                    t.get_ref(),
+                    range.start(),
+                    range.end()
+                );
+                return Err(at("latency_timer", t.span(), &why));
+            }
         }
         Ok(())
     }
@@ -205,7 +218,7 @@ impl Profile {
         );
         set(
             &mut conn.latency_timer,
-            self.latency_timer.map(Some),
+            self.latency_timer.map(|t| Some(t.into_inner())),
             explicit("latency_timer"),
         );
         set(

@@ -144,6 +144,17 @@ fn a_bad_value_gives_the_range_error_with_file_line_and_key() {
         "{}",
         stderr(&o)
     );
+    let o = si_with(
+        "[profile.x]\nport = \"/dev/null\"\nlatency_timer = 300\n",
+        &["--profile", "x", "ports"],
+    );
+    assert!(
+        stderr(&o).contains(
+            ":3: [profile.x] latency_timer: latency timer 300 ms out of range: 1 … 255 ms"
+        ),
+        "{}",
+        stderr(&o)
+    );
 }
 
 #[test]

@@ -44,7 +44,9 @@ mod info;
 mod linux;
 mod stream;
 
-pub use info::{describe, latency_timer, list, set_latency_timer, PortInfo, UsbIds};
+pub use info::{
+    describe, latency_timer, list, set_latency_timer, PortInfo, UsbIds, LATENCY_TIMER_MS,
+};
 pub use stream::SerialPort;
 
 use crate::driver::{PortFacts, RtsToggle, Transport};
