@@ -144,12 +144,15 @@ pub fn apply(conn: &mut Connection, matches: &ArgMatches) -> Result<(), CliError
     Ok(())
 }
 
+/// Places an error in the settings file: key, its span in the text, why.
+type Placed = dyn Fn(&str, std::ops::Range<usize>, &dyn std::fmt::Display) -> CliError;
+
 impl Profile {
     /// Check the character format with the flags' own errors ([`SerialSettings`]), each value
     /// on its own so the error names the key; `at` places the error in the file.
     fn check(
         &self,
-        at: &dyn Fn(&str, std::ops::Range<usize>, &dyn std::fmt::Display) -> CliError,
+        at: &Placed,
     ) -> Result<(), CliError> {
         let rates = &si_uss::config::USS_BAUD_RATES;
         let format =
