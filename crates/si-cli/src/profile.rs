@@ -145,15 +145,12 @@ pub fn apply(conn: &mut Connection, matches: &ArgMatches) -> Result<(), CliError
 }
 
 /// Places an error in the settings file: key, its span in the text, why.
-type Placed = dyn Fn(&str, std::ops::Range<usize>, &dyn std::fmt::Display) -> CliError;
+type Placed<'a> = dyn Fn(&str, std::ops::Range<usize>, &dyn std::fmt::Display) -> CliError + 'a;
 
 impl Profile {
     /// Check the character format with the flags' own errors ([`SerialSettings`]), each value
     /// on its own so the error names the key; `at` places the error in the file.
-    fn check(
-        &self,
-        at: &Placed,
-    ) -> Result<(), CliError> {
+    fn check(&self, at: &Placed<'_>) -> Result<(), CliError> {
         let rates = &si_uss::config::USS_BAUD_RATES;
         let format =
             |baud, bits, stop| SerialSettings::with_rates(baud, bits, Parity::Even, stop, rates);
