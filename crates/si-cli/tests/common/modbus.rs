@@ -7,6 +7,22 @@ use std::process::{Command, Output, Stdio};
 use std::sync::mpsc::Receiver;
 use std::time::Duration;
 
+/// Run the pymodbus client `script` with its one argument (a port, or the server's address),
+/// which must end well and print OK; else fail with what it printed.
+pub fn pymodbus_client_ok(script: &str, arg: &str) {
+    let out = Command::new("python3")
+        .args(["-c", script, arg])
+        .output()
+        .expect("run python3");
+    let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+    assert!(
+        out.status.success() && text(&out.stdout).contains("OK"),
+        "pymodbus client failed:\n{}\n{}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+}
+
 /// pymodbus and pyserial are importable (else a skip message, or a failure under CI).
 pub fn have_pymodbus() -> bool {
     peer(

@@ -3,8 +3,7 @@
 //! 0AH, and so does a broadcast on lines that do not allow them; the diagnostic unit and the status line at exit count what happened.
 
 use super::harness::{read_holding, Mbap, Rig};
-use crate::common::{stderr, stdout};
-use std::process::Command;
+use crate::common::modbus::pymodbus_client_ok;
 
 const TCP_CLIENT: &str = r#"
 import sys
@@ -50,16 +49,7 @@ fn pymodbus_tcp_client_through_the_gateway_to_a_pymodbus_rtu_slave() {
     let Some(rig) = Rig::start("diagnostic_unit = 247", keys) else {
         return;
     };
-    let out = Command::new("python3")
-        .args(["-c", TCP_CLIENT, &rig.addr])
-        .output()
-        .expect("run python3");
-    assert!(
-        out.status.success() && stdout(&out).contains("OK"),
-        "pymodbus TCP client failed:\n{}\n{}",
-        stdout(&out),
-        stderr(&out)
-    );
+    pymodbus_client_ok(TCP_CLIENT, &rig.addr);
     let status = rig.stop();
     assert_eq!(status["event"], "status", "{status}");
     let (meters, silent) = (&status["lines"][0], &status["lines"][1]);

@@ -12,7 +12,9 @@ use std::process::{Command, Output};
 
 use crate::common;
 
-use common::modbus::{self, have_mbpoll, have_pymodbus, pymodbus_server, served};
+use common::modbus::{
+    self, have_mbpoll, have_pymodbus, pymodbus_client_ok, pymodbus_server, served,
+};
 use common::{have_socat, pty_pair, si_command, stderr, stdout, test_dir, Kill};
 use std::sync::mpsc::Receiver;
 
@@ -56,16 +58,7 @@ fn pymodbus_client_against_si_modbus_serve_frame_end_length() {
     let Some(pair) = pty_pair() else { return };
     let (_serve, first, log) = serve(&pair.a, &["--frame-end", "length"]);
     assert!(first.contains("or at the predicted length"), "{first}");
-    let out = Command::new("python3")
-        .args(["-c", PYMODBUS_CLIENT, &pair.b])
-        .output()
-        .expect("run python3");
-    assert!(
-        out.status.success() && stdout(&out).contains("OK"),
-        "pymodbus client failed:\n{}\n{}",
-        stdout(&out),
-        stderr(&out)
-    );
+    pymodbus_client_ok(PYMODBUS_CLIENT, &pair.b);
     let log = served(&log);
     assert_eq!(log.matches("served FC03").count(), 50, "{log}");
     assert!(!log.contains("not answered"), "{log}");

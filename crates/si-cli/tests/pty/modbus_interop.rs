@@ -15,7 +15,9 @@ use std::time::Duration;
 
 use crate::common;
 
-use common::modbus::{self, have_mbpoll, have_pymodbus, pymodbus_server, served};
+use common::modbus::{
+    self, have_mbpoll, have_pymodbus, pymodbus_client_ok, pymodbus_server, served,
+};
 use common::{have_socat, pty_pair, si_command, stderr, stdout, test_dir, Kill};
 use std::sync::mpsc::Receiver;
 
@@ -63,16 +65,7 @@ fn pymodbus_client_against_si_modbus_serve() {
     }
     let Some(pair) = pty_pair() else { return };
     let (_serve, log) = serve(&pair.a, &[]);
-    let out = Command::new("python3")
-        .args(["-c", PYMODBUS_CLIENT, &pair.b])
-        .output()
-        .expect("run python3");
-    assert!(
-        out.status.success() && stdout(&out).contains("OK"),
-        "pymodbus client failed:\n{}\n{}",
-        stdout(&out),
-        stderr(&out)
-    );
+    pymodbus_client_ok(PYMODBUS_CLIENT, &pair.b);
     let log = served(&log);
     for fc in [
         "FC16", "FC03", "FC06", "FC04", "FC05", "FC15", "FC01", "FC02",
@@ -293,16 +286,7 @@ fn pymodbus_client_against_si_modbus_serve_with_a_config_file() {
     std::fs::write(&path, CONFIG).expect("write config");
     let Some(pair) = pty_pair() else { return };
     let (_serve, log) = serve(&pair.a, &["--config", path.to_str().expect("utf-8 path")]);
-    let out = Command::new("python3")
-        .args(["-c", PYMODBUS_CONFIGURED, &pair.b])
-        .output()
-        .expect("run python3");
-    assert!(
-        out.status.success() && stdout(&out).contains("OK"),
-        "pymodbus client failed:\n{}\n{}",
-        stdout(&out),
-        stderr(&out)
-    );
+    pymodbus_client_ok(PYMODBUS_CONFIGURED, &pair.b);
     let log = served(&log);
     assert!(
         log.contains("answered FC03 with exception 04 slave device failure: S_MODB ERROR_NR 21"),
