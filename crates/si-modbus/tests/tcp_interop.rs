@@ -9,31 +9,14 @@
 
 use std::io::{BufRead, BufReader};
 use std::net::SocketAddr;
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Command, Output, Stdio};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use si_modbus::slave::Tables;
 use si_modbus::tokio::tcp::{Client, Server, ServerConfig};
 
-/// Is the external program `name` runnable (`check` exits 0)? A missing peer skips the test
-/// with a message saying how to install it; with `CI` set it is a failure instead, so a CI
-/// image without the peer cannot pass by skipping. (The helper of si-cli's tests/common.)
-fn peer(name: &str, check: &mut Command, install: &str) -> bool {
-    let ok = check
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if ok {
-        return true;
-    }
-    if std::env::var_os("CI").is_some() {
-        panic!("test peer {name} is missing and CI is set; install it with: {install}");
-    }
-    eprintln!("SKIPPED: test peer {name} is not installed ({install})");
-    false
-}
+use si_testkit::peers::{have_mbpoll, peer, Kill};
 
 fn have_pymodbus() -> bool {
     peer(
@@ -41,24 +24,6 @@ fn have_pymodbus() -> bool {
         Command::new("python3").args(["-c", "import pymodbus"]),
         "pip install pymodbus==3.16.1",
     )
-}
-
-fn have_mbpoll() -> bool {
-    peer(
-        "mbpoll",
-        Command::new("mbpoll").arg("-V"),
-        "apt-get install mbpoll",
-    )
-}
-
-/// A child process killed when dropped.
-struct Kill(Child);
-
-impl Drop for Kill {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
 }
 
 /// Our server on a free loopback port, on a runtime of its own (the peers run as blocking

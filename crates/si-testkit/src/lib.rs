@@ -6,10 +6,13 @@
 //!   contract "no allocation per frame in steady state" (ARCHITECTURE.md).
 //! - [`noise`]: noise peers and a noise driver for the "bound on every job" tests (issue 21).
 //! - [`job_run`]: step the line simulator while a job runs, failing past its bound.
+//! - [`peers`]: external test peers (socat, pymodbus, mbpoll): skip without one, fail under
+//!   `CI`; a child process killed when the test ends.
 //! - [`procfs`]: threads and resident memory of the process (Linux), for the driver's
 //!   thread-count test and the lines-per-process benchmark.
 
 pub mod alloc;
 pub mod job_run;
 pub mod noise;
+pub mod peers;
 pub mod procfs;

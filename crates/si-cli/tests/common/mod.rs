@@ -4,7 +4,7 @@
 //! clearer skip message) reaches every test.
 //!
 //! Each file under `tests/` is its own test crate and uses only some of these helpers.
-#![allow(dead_code)]
+#![allow(dead_code, unused_imports)]
 
 pub mod modbus;
 pub mod noise;
@@ -14,7 +14,7 @@ use serde_json::Value;
 use std::ffi::OsStr;
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Command, Output, Stdio};
 
 /// The built `si` binary as a command, for tests that add pipes, spawn it or set stdin.
 pub fn si_command() -> Command {
@@ -68,35 +68,7 @@ pub fn test_dir(name: &str) -> PathBuf {
     dir
 }
 
-/// A child process killed (and reaped) when dropped, so a failing assertion never leaves an
-/// `si`, socat or peer process behind holding a pseudo-terminal.
-pub struct Kill(pub Child);
-
-impl Drop for Kill {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-/// Is the external program `name` runnable (`check` exits 0)? A missing peer skips the test
-/// with a message saying how to install it; with the environment variable `CI` set it is a
-/// failure instead, so a CI image without the peer cannot pass by skipping.
-pub fn peer(name: &str, check: &mut Command, install: &str) -> bool {
-    let ok = check
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    if ok {
-        return true;
-    }
-    if std::env::var_os("CI").is_some() {
-        panic!("test peer {name} is missing and CI is set; install it with: {install}");
-    }
-    eprintln!("SKIPPED: test peer {name} is not installed ({install})");
-    false
-}
+pub use si_testkit::peers::{peer, Kill};
 
 /// Is socat installed? A skip with a message if not, a failure with `CI` set (see [`peer`]).
 pub fn have_socat() -> bool {

@@ -32,14 +32,7 @@ pub fn have_pymodbus() -> bool {
     )
 }
 
-/// mbpoll (libmodbus) is installed (else a skip message, or a failure under CI).
-pub fn have_mbpoll() -> bool {
-    peer(
-        "mbpoll",
-        Command::new("mbpoll").arg("-V"),
-        "apt-get install mbpoll",
-    )
-}
+pub use si_testkit::peers::have_mbpoll;
 
 /// `si --port <port> <line> <args>`, run to its end.
 pub fn si_on(port: &str, line: &[&str], args: &[&str]) -> Output {
