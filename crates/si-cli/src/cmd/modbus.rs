@@ -433,7 +433,11 @@ async fn jobs(
     units.retain(|u| seen.insert(*u));
     // --timeout and --retries in the module's ranges, whichever way the jobs go.
     master_config(conn, o)?;
-    if let Some(mut server) = o.modbus_tcp.connect(conn, o.timeout, o.retries).await? {
+    if let Some(mut server) = o
+        .modbus_tcp
+        .connect(conn, o.timeout, o.retries, polling.is_polling())
+        .await?
+    {
         return poll::run(&mut server, &units, request, polling, report).await;
     }
     let mut m = open_master(conn, o).await?;

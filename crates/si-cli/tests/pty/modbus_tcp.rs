@@ -238,3 +238,43 @@ fn modbus_tcp_conflicts_with_a_serial_line() {
         }
     }
 }
+
+#[test]
+fn modbus_tcp_poll_connects_again_after_the_server_drops_the_connection() {
+    // Each connection gets one answer (FC03, one register holding the connection's number),
+    // then the server closes it, as a server restarting or dropping idle connections would.
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let server = listener.local_addr().unwrap().to_string();
+    std::thread::spawn(move || {
+        for (n, stream) in listener.incoming().enumerate() {
+            let Ok(mut stream) = stream else { return };
+            let mut request = [0u8; 12];
+            if stream.read_exact(&mut request).is_err() {
+                continue;
+            }
+            let mut answer = request[..4].to_vec();
+            answer.extend_from_slice(&[0, 5, request[6], 3, 2, 0, n as u8 + 1]);
+            let _ = stream.write_all(&answer);
+        }
+    });
+    let poll = "--json modbus read holding -u 1 --timeout 1000 --poll 10 --cycles 4";
+    let o = si_to(&server, poll);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let lines = json_lines(&o);
+    // Answer on connection 1, lost, answer on connection 2, lost: the run goes on.
+    let answers: Vec<_> = lines.iter().filter_map(|l| l.get("values")).collect();
+    assert_eq!(answers, [&json!([1]), &json!([2])], "{lines:?}");
+    let lost: Vec<_> = lines.iter().filter_map(|l| l["error"].as_str()).collect();
+    assert_eq!(lost.len(), 2, "{lines:?}");
+    assert!(lost.iter().all(|e| e.contains("lost")), "{lost:?}");
+    let summary = lines.iter().find_map(|l| l.get("summary")).unwrap();
+    assert_eq!(
+        (
+            &summary["polls"],
+            &summary["answers"],
+            &summary["other_errors"]
+        ),
+        (&json!(4), &json!(2), &json!(2)),
+        "{summary}"
+    );
+}

@@ -42,6 +42,13 @@ pub struct PollArgs {
     cycles: Option<u64>,
 }
 
+impl PollArgs {
+    /// `--poll` given: the jobs repeat until interrupted or `--cycles` ends them.
+    pub fn is_polling(&self) -> bool {
+        self.poll.is_some()
+    }
+}
+
 /// What happened to the polls of one unit.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Counters {

@@ -43,23 +43,32 @@ impl ModbusTcp {
         conn: &Connection,
         timeout_ms: u32,
         retries: u8,
+        polling: bool,
     ) -> Result<Option<TcpLine>, CliError> {
         let Some(server) = &self.server else {
             return Ok(None);
         };
         refuse_serial_line(conn);
         let timeout = Duration::from_millis(u64::from(timeout_ms));
-        let cannot = |why: String| CliError::new(format!("cannot connect to {server}: {why}"));
-        let client = tokio::time::timeout(timeout, Client::connect(server.as_str()))
-            .await
-            .map_err(|_| cannot(format!("no connection within {timeout:?}")))?
-            .map_err(|e| cannot(e.to_string()))?;
+        let client = open(server, timeout).await.map_err(CliError::new)?;
         Ok(Some(TcpLine {
-            client: client.with_timeout(timeout),
+            client: Some(client),
             retries,
             server: server.clone(),
+            timeout,
+            reconnect: polling,
         }))
     }
+}
+
+/// Connect to `server` within `timeout`; the error says why, naming the server.
+async fn open(server: &str, timeout: Duration) -> Result<Client, String> {
+    let cannot = |why: String| format!("cannot connect to {server}: {why}");
+    let client = tokio::time::timeout(timeout, Client::connect(server))
+        .await
+        .map_err(|_| cannot(format!("no connection within {timeout:?}")))?
+        .map_err(|e| cannot(e.to_string()))?;
+    Ok(client.with_timeout(timeout))
 }
 
 /// The usage error (exit 2) for `--modbus-tcp` with a serial line or a line recording. Clap's
@@ -84,13 +93,23 @@ fn refuse_serial_line(conn: &Connection) {
 }
 
 /// A Modbus TCP connection running a poll's jobs.
+///
+/// A poll outlives its connection: a server that restarts, a gateway that drops idle
+/// connections or a network that breaks for a moment costs the polls that fail meanwhile
+/// (each counted as an error, "connection … lost"), and the next poll connects again. A single
+/// job, or a first connection that fails, ends the run instead: there is nothing to go on with.
 #[derive(Debug)]
 pub struct TcpLine {
-    client: Client,
+    /// `None` after the connection broke, until the next job connects again.
+    client: Option<Client>,
     /// Sends again after a timeout, as the RTU master's `--retries`.
     retries: u8,
     /// HOST:PORT, for the error that ends a run.
     server: String,
+    /// The wait for each answer and for a connection.
+    timeout: Duration,
+    /// Connect again after a broken connection (a poll) instead of ending the run.
+    reconnect: bool,
 }
 
 impl Line for TcpLine {
@@ -103,9 +122,22 @@ impl Line for TcpLine {
         // The module's checks on counts (§4.3); unit 0 is not a broadcast on TCP (see above).
         Master::check_job(unit.max(1), request)
             .map_err(|e| JobError::Fatal(CliError::new(status_text(e.status()))))?;
+        let client = match &mut self.client {
+            Some(client) => client,
+            None => {
+                let client = open(&self.server, self.timeout).await.map_err(|why| {
+                    JobError::Line(LineFailure {
+                        kind: Kind::Other,
+                        status: None,
+                        text: why,
+                    })
+                })?;
+                self.client.insert(client)
+            }
+        };
         let mut retries = self.retries;
         let answer = loop {
-            match self.client.request(unit, request).await {
+            match client.request(unit, request).await {
                 Err(Error::Timeout(_)) if retries > 0 => retries -= 1,
                 result => break result,
             }
@@ -120,12 +152,24 @@ impl Line for TcpLine {
 
 impl TcpLine {
     /// How a failure is counted: an exception, a timeout or a malformed answer is on the line
-    /// and the poll goes on; a broken connection ends the run.
-    fn failed(&self, e: Error) -> JobError {
+    /// and the poll goes on; a broken connection ends the run, or in a poll is counted and
+    /// the next job connects again.
+    fn failed(&mut self, e: Error) -> JobError {
         let kind = match e {
             Error::Exception { .. } => Kind::Exception,
             Error::Timeout(_) => Kind::Timeout,
             Error::Mismatch { .. } | Error::Decode(_) => Kind::Other,
+            _ if self.reconnect => {
+                self.client = None;
+                return JobError::Line(LineFailure {
+                    kind: Kind::Other,
+                    status: None,
+                    text: format!(
+                        "connection to {} lost: {e}; connecting again for the next poll",
+                        self.server
+                    ),
+                });
+            }
             _ => return JobError::Fatal(CliError::new(format!("{}: {e}", self.server))),
         };
         let status = e.status();
