@@ -100,9 +100,7 @@ fn main() -> ExitCode {
         Command::Ascii(_) => Some("ascii"),
         Command::Modbus(_) => Some("modbus"),
         Command::Uss(_) => Some("uss"),
-        // The serial line under `dp-coord module` speaks 3964(R) or ASCII, not windows (the
-        // monitor's `dp-coord` decoder reads window traces): let the monitor recognise it.
-        Command::DpCoord(_) => None,
+        // `dp-coord module` names its line's procedure itself (from `--protocol`).
         _ => None,
     };
     logs::init(cli.verbose);

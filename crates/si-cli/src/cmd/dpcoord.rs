@@ -443,6 +443,15 @@ pub enum FlowControlArg {
 
 impl ModuleArgs {
     async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
+        // The serial line speaks the procedure behind the window: its name goes into a
+        // recording's header and picks the decoder of `-v`'s frame log.
+        let mut line = conn.clone();
+        line.protocol = Some(match self.protocol {
+            Protocol::R3964r => "3964r",
+            Protocol::Ascii => "ascii",
+            Protocol::Modbus => "modbus",
+        });
+        let conn = &line;
         let settings = conn.settings()?;
         let transport = conn.open().await?;
         match self.protocol {
@@ -541,7 +550,8 @@ where
                 out.line(&hex, json!({"input": hex}));
             }
             event = handle.next_event() => match event {
-                Some(e) => tracing::info!("line: {e:?}"),
+                // The driver logs each event at DEBUG (-vv); -v shows the frames themselves.
+                Some(_) => {}
                 // The driver stopped while stdin still has cycles: the line closed (issue 21,
                 // a lost line is an error). Stdin's end is the module's normal end.
                 None => return Err(conn.closed()),

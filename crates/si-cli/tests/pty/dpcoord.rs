@@ -78,12 +78,17 @@ fn open_partner(path: &str) -> (std::fs::File, mpsc::Receiver<u8>) {
 }
 
 fn start_module(args: &[&str]) -> ModuleProcess {
+    start_module_logging(args, Stdio::inherit())
+}
+
+/// [`start_module`] with its log (stderr) going to `stderr`.
+fn start_module_logging(args: &[&str], stderr: Stdio) -> ModuleProcess {
     let mut child = si_command()
         .args(["dp-coord", "module"])
         .args(args)
         .stdin(Stdio::piped())
         .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
+        .stderr(stderr)
         .spawn()
         .expect("start si dp-coord module");
     let stdin = child.stdin.take().expect("piped stdin");
@@ -375,4 +380,41 @@ fn module_modbus_asks_the_slave_and_offers_the_response() {
         "20 08 30 00 00 00 00 00"
     );
     assert_eq!(m.cycle(idle), idle);
+}
+
+#[test]
+fn module_v_logs_the_frames_of_its_line_decoded_as_the_procedure() {
+    let Some(pair) = pty_pair() else { return };
+    let args = [
+        "-v",
+        "--window",
+        "8",
+        "--protocol",
+        "3964r",
+        "--port",
+        &pair.a,
+    ];
+    let mut m = start_module_logging(&args, Stdio::piped());
+    assert_eq!(
+        m.cycle("00 00 00 00 00 00 00 00"),
+        "00 00 00 00 00 00 00 00"
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let sent = si_command()
+        .args(["3964r", "send", "--port", &pair.b, "--priority", "high"])
+        .arg("41 42 10 43")
+        .output()
+        .expect("si 3964r send");
+    assert!(sent.status.success(), "{sent:?}");
+    m.cycle_until("00 00 00 00 00 00 00 00", "00 00 01");
+    // The block was acknowledged before it was offered: its lines are in the pipe, which
+    // stays readable after the module is killed.
+    let mut stderr = m.child.stderr.take().expect("piped stderr");
+    drop(m);
+    let mut log = String::new();
+    stderr.read_to_string(&mut log).expect("module log");
+    assert!(log.contains("received STX: connection request"), "{log}");
+    assert!(log.contains("received block 4 B 41 42 10 43"), "{log}");
+    assert!(log.contains("sent DLE: block acknowledged"), "{log}");
+    assert!(!log.contains("Received {"), "events stay at DEBUG: {log}");
 }
