@@ -42,6 +42,11 @@
 //!   to its end (BCC, parity, framing, odd DLE, overlong) are answered with NAK and a 4 s wait for
 //!   the repetition, and reported only when the repetitions are used up or do not come (§5.4
 //!   point 5, §5.7), with the *first* error (A-39).
+//! - **No repetition within the 4 s block wait (A-19, 0809H).** The first error is reported as
+//!   the state table says, and then 0809H "the number of repetitions must be set to the same
+//!   value on both partners": a partner with as many attempts as we have repeats until *our*
+//!   count runs out, so one that stops earlier has fewer (the CP 440 names 0809 "block-repeat
+//!   wait time expired", cp341-event-classes.md). S_RCV shows the two in two calls.
 //! - **Character delay time ZVZ** is the longest *gap* between two characters (§5.8). A host
 //!   sees a character only when it is complete, so after a character completing at `t` the
 //!   next must complete by `t` + ZVZ + one character time; one microsecond later the gap was
@@ -805,7 +810,10 @@ impl Link {
                 self.receive_error(error);
                 self.enter_idle(now);
             }
-            State::WaitRepeat { .. } => self.give_up_receiving(now),
+            State::WaitRepeat { .. } => {
+                self.give_up_receiving(now);
+                self.receive_error(status::REPETITIONS_DIFFER);
+            }
         }
     }
 }

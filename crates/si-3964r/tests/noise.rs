@@ -168,11 +168,15 @@ fn an_endless_frame_is_cut_off_at_the_maximum_length_with_0850() {
     assert_eq!(sim.engine(host).counters().blocks_rejected, 0);
     sim.run_until(Instant::ZERO + line().chars_time(67));
     assert_eq!(sim.engine(host).counters().blocks_rejected, 1);
-    // No STX follows, so no repetition comes within the 4 s block wait: 0850 (§5.5).
+    // No STX follows, so no repetition comes within the 4 s block wait: 0850 (§5.5), then
+    // 0809 for the repetition that never came.
     sim.run_for(Duration::from_millis(4_100));
     assert_eq!(
         sim.take_events(host),
-        vec![Event::ReceiveError(BLOCK_TOO_LONG)]
+        vec![
+            Event::ReceiveError(BLOCK_TOO_LONG),
+            Event::ReceiveError(REPETITIONS_DIFFER)
+        ]
     );
 }
 
