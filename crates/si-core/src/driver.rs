@@ -436,7 +436,15 @@ where
 {
     let (command_tx, command_rx) = mpsc::unbounded_channel();
     let (event_tx, event_rx) = mpsc::channel(options.event_capacity.max(1));
-    let task = tokio::spawn(run(engine, transport, options, command_rx, event_tx));
+    let task = tokio::spawn(async move {
+        let ended = run(engine, transport, options, command_rx, event_tx).await;
+        // The application sees only that the driver stopped (DriverStopped): say why here,
+        // e.g. an adapter unplugged, or a port that cannot set RTS (a pseudo-terminal).
+        if let Err(e) = &ended {
+            tracing::error!("the line failed: {e}");
+        }
+        ended
+    });
     (
         Handle {
             caller: Caller {
@@ -545,7 +553,9 @@ where
                 Output::SetSignals(update) => {
                     tracing::debug!("signals {update:?}");
                     record(TraceKind::Signals { update });
-                    io.set_signals(update)?
+                    io.set_signals(update).map_err(|e| {
+                        io::Error::new(e.kind(), format!("cannot set the RTS/DTR outputs: {e}"))
+                    })?
                 }
                 Output::Event(event) => {
                     tracing::debug!("event {event:?}");

@@ -30,6 +30,7 @@ use serde::Deserialize;
 use serde_json::json;
 use si_core::memory::{Memory, MemorySizes};
 use si_core::sim::Simulator;
+use si_core::v24::AutoV24Times;
 use si_core::{Duration, Instant, SerialSettings};
 use si_modbus::frame::{self, Request};
 use si_modbus::master::{Master, MasterEvent};
@@ -78,6 +79,38 @@ pub struct FramingOptions {
     /// the config file's `frame_end`).
     #[arg(long, value_enum, default_value_t = FrameEndArg::Gap)]
     frame_end: FrameEndArg,
+    /// Data flow control "automatic use of the V.24 signals" (§2.2; RS-232C only): RTS on
+    /// before each frame, send once CTS is on, RTS off after it. Default: none.
+    #[arg(long)]
+    auto_v24: bool,
+    /// With --auto-v24: time from the last byte sent until RTS off, 0–655350 ms in 10 ms steps
+    /// (default 10).
+    #[arg(long, value_name = "MS", requires = "auto_v24")]
+    rts_off_ms: Option<u32>,
+    /// With --auto-v24: the wait for CTS on after RTS on, 0–655350 ms in 10 ms steps
+    /// (default 10).
+    #[arg(long, value_name = "MS", requires = "auto_v24")]
+    data_wait_ms: Option<u32>,
+}
+
+impl FramingOptions {
+    /// The automatic V.24 times, when `--auto-v24` is given (ranges checked with the config).
+    /// RS-485 has no V.24 signals (§2.2: "none possible on RS-485"): a usage error.
+    fn auto_v24(&self, conn: &Connection) -> Result<Option<AutoV24Times>, CliError> {
+        if !self.auto_v24 {
+            return Ok(None);
+        }
+        if conn.rs485.is_some() {
+            return Err(CliError::usage(
+                "--auto-v24 needs RS-232C: RS-485 has no V.24 signals (§2.2); leave out --rs485",
+            ));
+        }
+        let d = AutoV24Times::default();
+        Ok(Some(AutoV24Times {
+            time_rts_off_ms: self.rts_off_ms.unwrap_or(d.time_rts_off_ms),
+            data_wait_time_ms: self.data_wait_ms.unwrap_or(d.data_wait_time_ms),
+        }))
+    }
 }
 
 /// `--frame-end`.
@@ -226,19 +259,25 @@ fn line_config(
     conn: &Connection,
     mode: Mode,
     mul: u8,
+    framing: &FramingOptions,
 ) -> Result<si_modbus::config::LineConfig, CliError> {
     Ok(si_modbus::config::LineConfig {
         settings: conn.settings()?,
         mode,
         char_delay_multiplier: mul,
         local_echo: false,
-        auto_v24: None,
+        auto_v24: framing.auto_v24(conn)?,
     })
 }
 
 fn master_config(conn: &Connection, o: &MasterOptions) -> Result<MasterConfig, CliError> {
     let config = MasterConfig {
-        line: line_config(conn, o.framing.mode.into(), o.framing.char_delay_multiplier)?,
+        line: line_config(
+            conn,
+            o.framing.mode.into(),
+            o.framing.char_delay_multiplier,
+            &o.framing,
+        )?,
         response_timeout_ms: o.timeout,
         retries: o.retries,
         ..MasterConfig::default()
@@ -543,6 +582,7 @@ async fn serve(
             file.mode.unwrap_or(framing.mode.into()),
             file.char_delay_multiplier
                 .unwrap_or(framing.char_delay_multiplier),
+            framing,
         )?,
         address: unit,
     };
