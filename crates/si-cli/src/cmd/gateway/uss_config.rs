@@ -77,7 +77,9 @@ impl LineFile {
         RangeError::check("response_timeout_ms", (1, 10_000), " ms", timeout_ms)?;
         master.response_timeout = si_core::Duration::from_millis(timeout_ms.into());
         master.pkw_retries = self.retries.map_or(20, u16::from);
-        master.local_echo = self.local_echo;
+        // `local_echo` is the port's (the line opens with it and drops our own bytes there);
+        // the master dropping them again would eat the first bytes of each answer.
+        master.local_echo = false;
         master.validate().map_err(|e| match e {
             ConfigError::OutOfRange(r) => r,
             other => RangeError::new("drives", "each address once", "", other),
@@ -137,6 +139,17 @@ mod tests {
         assert_eq!(u.master.response_timeout.as_millis(), 20);
         let u = check("units = \"10-11\"\ndrives = \"0, 31\"\npzd_words = 4\n").unwrap();
         assert_eq!(u.drives, [(10, 0), (11, 31)]);
+    }
+
+    #[test]
+    fn local_echo_is_dropped_once_by_the_port_not_again_by_the_master() {
+        let text = "[[line]]\nkind = \"uss\"\ndevice = \"x\"\nunits = \"1\"\nlocal_echo = true\n";
+        let g = File::from_toml(text).unwrap().check().unwrap();
+        assert!(g.lines[0].local_echo, "the port filters the echo");
+        let super::Kind::Uss(u) = &g.lines[0].kind else {
+            panic!("not a uss line")
+        };
+        assert!(!u.master.local_echo, "and the master does not again");
     }
 
     #[test]
