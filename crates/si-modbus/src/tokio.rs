@@ -20,7 +20,7 @@
 
 use crate::config::{ConfigError, MasterConfig, SlaveConfig};
 use crate::frame::{Request, Response};
-use crate::master::{Completion, MasterEvent, RequestError};
+use crate::master::{Attempts, Completion, MasterEvent, RequestError};
 use crate::slave::{SlaveEvent, Store};
 use crate::{master, slave};
 use si_core::driver::{self, DriverOptions, DriverStopped, Start, Transport};
@@ -149,6 +149,23 @@ impl Master {
             other @ MasterEvent::Diagnostic(_) => Continue(other),
         };
         self.driver.job(start, done).await?
+    }
+
+    /// [`request`](Self::request), and what the job's attempts met ([`Attempts`]): a job that
+    /// completed after a retry still shows the corrupt answer or the timeout before it. A job
+    /// refused before it started met nothing. The attempts are read from the engine once the
+    /// job has ended, before this handle can start another (one job at a time, §4.2).
+    pub async fn request_with_attempts(
+        &mut self,
+        unit: u8,
+        request: &Request<'_>,
+    ) -> (Result<Completion, Error>, Attempts) {
+        let result = self.request(unit, request).await;
+        if matches!(result, Err(Error::Refused(_) | Error::Stopped(_))) {
+            return (result, Attempts::default());
+        }
+        let attempts = self.call(|m, _| m.attempts()).await.unwrap_or_default();
+        (result, attempts)
     }
 
     /// Move the diagnostics the driver has reported into the kept list.
