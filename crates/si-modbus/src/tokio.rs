@@ -322,6 +322,51 @@ mod tests {
         assert_eq!(regs, 0xAAAA);
     }
 
+    /// `request_with_attempts`: a corrupt first answer and a good retry complete the job and
+    /// still show the CRC error; a silent unit shows its timeouts.
+    #[tokio::test]
+    async fn a_job_reports_what_its_attempts_met() {
+        use tokio::io::{AsyncReadExt, AsyncWriteExt};
+        let (a, mut b) = tokio::io::duplex(1024);
+        let config = MasterConfig {
+            retries: 1,
+            response_timeout_ms: 50,
+            ..MasterConfig::default()
+        };
+        let mut m = Master::spawn(config, a).unwrap();
+        let peer = tokio::spawn(async move {
+            let mut request = [0u8; 8];
+            for corrupt in [true, false] {
+                b.read_exact(&mut request).await.unwrap();
+                let mut answer = vec![7, 3, 2, 0x12, 0x34];
+                answer.extend(crate::frame::crc16(&answer).to_le_bytes());
+                answer[6] ^= u8::from(corrupt);
+                b.write_all(&answer).await.unwrap();
+            }
+            b
+        });
+        let read = Request::ReadHoldingRegisters {
+            address: 0,
+            quantity: 1,
+        };
+        let (result, attempts) = m.request_with_attempts(7, &read).await;
+        assert!(result.is_ok(), "{result:?}");
+        assert_eq!(
+            (attempts.sent, attempts.crc_errors, attempts.timeouts),
+            (2, 1, 0)
+        );
+        let _b = peer.await.unwrap();
+        let (result, attempts) = m.request_with_attempts(9, &read).await;
+        assert_eq!(
+            result.unwrap_err().status(),
+            Some(crate::status::RESPONSE_TIMEOUT)
+        );
+        assert_eq!(
+            (attempts.sent, attempts.crc_errors, attempts.timeouts),
+            (2, 0, 2)
+        );
+    }
+
     /// A `request` future dropped before its job ended (here: no answer from unit 9, which
     /// does not exist) does not leave its outcome to the next call: the next request waits
     /// for that job to time out (0830H) and then gets its own answer.
