@@ -268,6 +268,53 @@ mod tests {
         );
     }
 
+    /// In virtual time: a line whose port closed at once is reopened on the fourth attempt,
+    /// 1, 2 and 4 s apart after the first second, answers in the meantime, and counts one
+    /// reconnect.
+    #[tokio::test(start_paused = true)]
+    async fn a_closed_line_is_reopened_after_the_backoff_and_counted() {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        let stats = Arc::new(Mutex::new(Stats::new(1)));
+        let log = LineLog {
+            index: 0,
+            name: "l".into(),
+            stats: Arc::clone(&stats),
+            out: Output { json: true },
+        };
+        let (a, _b) = tokio::io::duplex(8);
+        let (port, closed) = watch(Box::new(a));
+        drop(port);
+        let first = Opened { link: 0, closed };
+        let start = tokio::time::Instant::now();
+        let (mut attempts, mut ports) = (Vec::new(), Vec::new());
+        let open = async || {
+            attempts.push(start.elapsed().as_secs());
+            if attempts.len() < 4 {
+                return Err(CliError::new("away"));
+            }
+            let (a, _b) = tokio::io::duplex(8);
+            let (port, closed) = watch(Box::new(a));
+            ports.push(port);
+            Ok(Opened { link: 1, closed })
+        };
+        let serve = async |link, closed: Closed| match link {
+            0 => closed.await,
+            _ => std::future::pending().await,
+        };
+        let down = AtomicUsize::new(0);
+        let while_down = async || {
+            down.fetch_add(1, Ordering::Relaxed);
+            std::future::pending().await
+        };
+        let run = supervise(log, first, open, serve, while_down);
+        let ended = tokio::time::timeout(Duration::from_secs(100), run).await;
+        assert!(ended.is_err(), "a line is served for ever");
+        assert_eq!(attempts, [1, 3, 7, 15]);
+        assert_eq!(down.load(Ordering::Relaxed), 1);
+        let s = lock(&stats);
+        assert_eq!((s.lines[0].reconnects, s.down[0].clone()), (1, None));
+    }
+
     #[tokio::test]
     async fn the_port_closing_is_seen_with_its_reason() {
         let (a, b) = tokio::io::duplex(64);
