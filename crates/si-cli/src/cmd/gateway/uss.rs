@@ -18,7 +18,10 @@
 //!
 //! n is the line's `pzd_words`. A request spanning the PZD and the window, or past either, is
 //! answered with exception 02H. While the line's port is closed every request to its drives is
-//! answered with 0AH ([`super::reopen`]), the window's too: the line is down as a whole.
+//! answered with 0AH ([`super::reopen`]), the window's too: the line is down as a whole. A
+//! reopened line has a new master, whose PZD out start as at start-up: the client writes
+//! STW/HSW again, as it would after a drive's own telegram-loss fault, rather than the
+//! gateway sending a run command it can no longer vouch for.
 
 use super::counters::Outcome;
 use super::line::{
