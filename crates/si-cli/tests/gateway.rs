@@ -1,17 +1,22 @@
 //! `si gateway` end to end, loopback only: Modbus TCP clients (pymodbus, and raw MBAP frames
 //! from std sockets) → `si gateway` → a socat pseudo-terminal pair → a pymodbus RTU serial
-//! server (and a simulated USS drive behind a `uss` line), and a bounded soak of 32 clients with bad input. A missing peer (socat, pymodbus)
-//! skips with a message, and fails with `CI` set (common/mod.rs).
+//! server (and a simulated USS drive behind a `uss` line), and a bounded soak of 32 clients with bad input; a line whose pty goes
+//! away and comes back, and a slave whose corrupt answers a retry cures. A missing peer (socat,
+//! pymodbus) skips with a message, and fails with `CI` set (common/mod.rs).
 
 mod common;
 #[path = "gateway/config_errors.rs"]
 mod config_errors;
+#[path = "gateway/crc_errors.rs"]
+mod crc_errors;
 #[path = "gateway/forwarding.rs"]
 mod forwarding;
 #[path = "gateway/harness.rs"]
 mod harness;
 #[path = "gateway/queueing.rs"]
 mod queueing;
+#[path = "gateway/reconnect.rs"]
+mod reconnect;
 #[path = "gateway/soak.rs"]
 mod soak;
 #[path = "gateway/uss.rs"]

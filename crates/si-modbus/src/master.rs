@@ -76,6 +76,20 @@ impl Completion {
     }
 }
 
+/// What the attempts of one job met (a host extension, issue 20): a job whose first response
+/// was corrupt and whose retry was answered completes like any other, and a gateway that counts
+/// CRC errors per line must still see the corrupt answer. Counts saturate at 255; a job has at
+/// most 16 attempts (retries 0–15, §3.8).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Attempts {
+    /// Requests put on the line (1 + the retries used).
+    pub sent: u8,
+    /// Attempts ended by a response whose CRC was wrong (0E57H, §4.4).
+    pub crc_errors: u8,
+    /// Attempts ended without a response (0830H, §3.8).
+    pub timeouts: u8,
+}
+
 /// What the master reports.
 ///
 /// A completion carries its request and response inline (no heap per frame), which makes
@@ -153,6 +167,8 @@ pub struct Master {
     rx: Receiver,
     state: State,
     job: Option<(Adu, u8)>,
+    /// What the running job's attempts met so far, or the last job's once it ended.
+    attempts: Attempts,
     /// The running job fails with 0830H at this instant ([`MasterConfig::job_bound`]).
     job_deadline: Option<Instant>,
     /// The current attempt's request goes out by then even if the line is never quiet.
@@ -176,6 +192,7 @@ impl Master {
             config,
             state: State::Idle,
             job: None,
+            attempts: Attempts::default(),
             job_deadline: None,
             hold_limit: Instant::ZERO,
             out,
@@ -226,6 +243,12 @@ impl Master {
         self.job.is_some()
     }
 
+    /// What the running job's attempts met so far, or the last job's once it has ended
+    /// ([`Attempts`]); a refused job leaves the previous job's.
+    pub fn attempts(&self) -> Attempts {
+        self.attempts
+    }
+
     /// Start a job: send `request` to `unit` (0 = broadcast). Refused with the manual's STATUS
     /// when it breaks §4.3, or when a job is running.
     pub fn request(
@@ -239,6 +262,7 @@ impl Master {
         }
         let adu = Self::check_job(unit, request)?;
         self.job = Some((adu, 1 + self.config.retries));
+        self.attempts = Attempts::default();
         self.job_deadline = Some(now + self.config.job_bound());
         self.attempt(now);
         Ok(())
@@ -285,6 +309,7 @@ impl Master {
             return;
         };
         *attempts = attempts.saturating_sub(1);
+        self.attempts.sent = self.attempts.sent.saturating_add(1);
         let gate = self.tx.transmit(now, adu.as_bytes(), &mut self.out);
         self.on_gate(now, gate);
     }
@@ -342,12 +367,23 @@ impl Master {
 
     /// Fail, or send again if retries are left and the failure is one a retry can cure.
     fn fail_or_retry(&mut self, now: Instant, status: Status) {
+        self.count_attempt(status);
         let retry = self.job.is_some_and(|(_, left)| left > 0)
             && (status == status::RESPONSE_TIMEOUT || status == status::RESPONSE_CRC);
         if retry {
             self.attempt(now);
         } else {
             self.fail(status);
+        }
+    }
+
+    /// Count an attempt that ended without a good response ([`Attempts`]).
+    fn count_attempt(&mut self, status: Status) {
+        let a = &mut self.attempts;
+        if status == status::RESPONSE_CRC {
+            a.crc_errors = a.crc_errors.saturating_add(1);
+        } else if status == status::RESPONSE_TIMEOUT {
+            a.timeouts = a.timeouts.saturating_add(1);
         }
     }
 
@@ -408,6 +444,7 @@ impl Master {
         if self.job.is_some() && self.job_deadline.is_some_and(|d| now >= d) {
             // The job's bound: whatever the line still does, the job is over (module docs).
             self.rx.discard();
+            self.count_attempt(status::RESPONSE_TIMEOUT);
             self.fail(status::RESPONSE_TIMEOUT);
             return;
         }

@@ -20,7 +20,7 @@
 
 use crate::config::{ConfigError, MasterConfig, SlaveConfig};
 use crate::frame::{Request, Response};
-use crate::master::{Completion, MasterEvent, RequestError};
+use crate::master::{Attempts, Completion, MasterEvent, RequestError};
 use crate::slave::{SlaveEvent, Store};
 use crate::{master, slave};
 use si_core::driver::{self, DriverOptions, DriverStopped, Start, Transport};
@@ -149,6 +149,23 @@ impl Master {
             other @ MasterEvent::Diagnostic(_) => Continue(other),
         };
         self.driver.job(start, done).await?
+    }
+
+    /// [`request`](Self::request), and what the job's attempts met ([`Attempts`]): a job that
+    /// completed after a retry still shows the corrupt answer or the timeout before it. A job
+    /// refused before it started met nothing. The attempts are read from the engine once the
+    /// job has ended, before this handle can start another (one job at a time, §4.2).
+    pub async fn request_with_attempts(
+        &mut self,
+        unit: u8,
+        request: &Request<'_>,
+    ) -> (Result<Completion, Error>, Attempts) {
+        let result = self.request(unit, request).await;
+        if matches!(result, Err(Error::Refused(_) | Error::Stopped(_))) {
+            return (result, Attempts::default());
+        }
+        let attempts = self.call(|m, _| m.attempts()).await.unwrap_or_default();
+        (result, attempts)
     }
 
     /// Move the diagnostics the driver has reported into the kept list.
@@ -303,6 +320,51 @@ mod tests {
         ));
         let regs = server.with_store(|s| s.holding_registers[2]).await.unwrap();
         assert_eq!(regs, 0xAAAA);
+    }
+
+    /// `request_with_attempts`: a corrupt first answer and a good retry complete the job and
+    /// still show the CRC error; a silent unit shows its timeouts.
+    #[tokio::test]
+    async fn a_job_reports_what_its_attempts_met() {
+        use tokio::io::{AsyncReadExt, AsyncWriteExt};
+        let (a, mut b) = tokio::io::duplex(1024);
+        let config = MasterConfig {
+            retries: 1,
+            response_timeout_ms: 50,
+            ..MasterConfig::default()
+        };
+        let mut m = Master::spawn(config, a).unwrap();
+        let peer = tokio::spawn(async move {
+            let mut request = [0u8; 8];
+            for corrupt in [true, false] {
+                b.read_exact(&mut request).await.unwrap();
+                let mut answer = vec![7, 3, 2, 0x12, 0x34];
+                answer.extend(crate::frame::crc16(&answer).to_le_bytes());
+                answer[6] ^= u8::from(corrupt);
+                b.write_all(&answer).await.unwrap();
+            }
+            b
+        });
+        let read = Request::ReadHoldingRegisters {
+            address: 0,
+            quantity: 1,
+        };
+        let (result, attempts) = m.request_with_attempts(7, &read).await;
+        assert!(result.is_ok(), "{result:?}");
+        assert_eq!(
+            (attempts.sent, attempts.crc_errors, attempts.timeouts),
+            (2, 1, 0)
+        );
+        let _b = peer.await.unwrap();
+        let (result, attempts) = m.request_with_attempts(9, &read).await;
+        assert_eq!(
+            result.unwrap_err().status(),
+            Some(crate::status::RESPONSE_TIMEOUT)
+        );
+        assert_eq!(
+            (attempts.sent, attempts.crc_errors, attempts.timeouts),
+            (2, 0, 2)
+        );
     }
 
     /// A `request` future dropped before its job ended (here: no answer from unit 9, which

@@ -271,6 +271,43 @@ pub enum RequestError {
     Stopped,
 }
 
+impl RequestError {
+    /// The STATUS a refused command reports, so a caller that shows STATUS words (a CPU-style
+    /// status register, a gateway's parameter window) never has to invent one.
+    ///
+    /// **Reading chosen:** the manual's USS FCs refuse nothing with a STATUS of their own
+    /// (et200s-si-modbus-uss.md §6.7 flags bits instead), so each refusal takes the code whose
+    /// meaning fits it:
+    ///
+    /// - an invalid task ([`RequestError::InvalidTask`]) sets comm status bit 3, and a job for
+    ///   a node without a PKW area is a task its PKW area cannot carry: 16#1504
+    ///   ([`status::PKW_INVALID_TASK`], §6.7 comm status word bit 3);
+    /// - a node outside the polling list, or a parameter number the page index cannot address
+    ///   (uss-parameter-pages.md): an input out of range, 16#1E20
+    ///   ([`si_core::status::common::PARAMETER_OUT_OF_RANGE`], §7.5);
+    /// - net data or a PZD list too long: a byte count the job cannot carry, 16#1E41
+    ///   ([`si_core::status::common::INVALID_LEN`], §7.5, "invalid byte count");
+    /// - a job still running for the node (one job per slave, §6.3), a special telegram still
+    ///   waiting, or a stopped master: "job not possible in the current mode", 16#0502
+    ///   ([`si_core::status::common::NOT_POSSIBLE_IN_MODE`], §7.2), as si-modbus reports a
+    ///   busy master.
+    pub fn status(&self) -> Status {
+        use si_core::status::common;
+        match self {
+            RequestError::InvalidTask { .. } | RequestError::NoPkwArea(_) => {
+                status::PKW_INVALID_TASK
+            }
+            RequestError::UnknownSlave(_) | RequestError::ParameterNumber { .. } => {
+                common::PARAMETER_OUT_OF_RANGE
+            }
+            RequestError::TooLong(_) => common::INVALID_LEN,
+            RequestError::Busy(_) | RequestError::SpecialPending(_) | RequestError::Stopped => {
+                common::NOT_POSSIBLE_IN_MODE
+            }
+        }
+    }
+}
+
 /// What the master reports.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Event {

@@ -37,11 +37,13 @@ pub enum Error {
 }
 
 impl Error {
-    /// The STATUS for this error, if it has one (a failed job's).
+    /// The STATUS for this error, if it has one: a failed job's, or a refused command's
+    /// ([`RequestError::status`]). A stopped driver and a configuration error have none.
     pub fn status(&self) -> Option<Status> {
         match self {
             Error::Failed { status, .. } => Some(*status),
-            Error::Refused(_) | Error::Config(_) | Error::Stopped(_) => None,
+            Error::Refused(e) => Some(e.status()),
+            Error::Config(_) | Error::Stopped(_) => None,
         }
     }
 }

@@ -5,6 +5,7 @@
 //! in round-robin order between clients ([`queue`]) by a task driving si-modbus's RTU master
 //! ([`mod@line`]); counters per line and per client are printed as status lines and readable on a
 //! diagnostic unit ([`counters`]). The configuration is a TOML file or flags ([`config`]).
+//! A line whose port closes is reopened while its requests get 0AH ([`reopen`]).
 //! A `kind = "uss"` line serves USS drives instead: each drive is a unit id whose PZD and
 //! parameter window are registers ([`uss`], keys in [`uss_config`]); RK 512 lines are planned
 //! as a further `kind`.
@@ -13,6 +14,7 @@ mod config;
 mod counters;
 mod line;
 mod queue;
+mod reopen;
 mod router;
 mod uss;
 mod uss_config;
@@ -152,25 +154,34 @@ impl GatewayArgs {
         let mut routes = [None; 256];
         let mut queues = Vec::with_capacity(gw.lines.len());
         for (i, l) in gw.lines.iter().enumerate() {
+            let units = l.units.clone();
+            let log = reopen::LineLog {
+                index: i,
+                name: l.name.clone(),
+                stats: Arc::clone(&stats),
+                out: *out,
+            };
+            let (conn, l) = (conn.clone(), l.clone());
             let handle = match &l.kind {
                 Kind::ModbusRtu => {
-                    let master = open_line(conn, l).await?;
+                    let first = open_line(&conn, &l).await?;
                     let queue = Arc::new(line::LineQueue::new(l.queue));
-                    tokio::spawn(line::run(
-                        i,
-                        Arc::clone(&queue),
-                        master,
-                        l.pause,
-                        Arc::clone(&stats),
-                    ));
+                    let (q, pause) = (Arc::clone(&queue), l.pause);
+                    let open = async move || open_line(&conn, &l).await;
+                    tokio::spawn(line::run(log, q, first, open, pause));
                     router::LineHandle::Rtu(queue)
                 }
                 Kind::Uss(u) => {
-                    router::LineHandle::Uss(uss::UssDrives::new(open_uss(conn, l, u).await?, u))
+                    let u = u.clone();
+                    let first = open_uss(&conn, &l, &u).await?;
+                    let drives = uss::UssDrives::new(&u);
+                    let open = async move || open_uss(&conn, &l, &u).await;
+                    tokio::spawn(drives.supervise(log, first, open));
+                    router::LineHandle::Uss(drives)
                 }
             };
             queues.push(handle);
-            for &u in &l.units {
+            for &u in &units {
                 routes[u as usize] = Some(i);
             }
         }
@@ -259,7 +270,7 @@ async fn open_uss(
     conn: &Connection,
     l: &config::Line,
     u: &uss_config::UssLine,
-) -> Result<si_uss::tokio::Handle, CliError> {
+) -> Result<reopen::Opened<si_uss::tokio::Handle>, CliError> {
     let c = line_connection(conn, l, "uss");
     let settings = c
         .settings_for(&si_uss::config::USS_BAUD_RATES)
@@ -267,15 +278,16 @@ async fn open_uss(
     let mut config = u.master.clone();
     config.settings = settings;
     let master = si_uss::Master::new(config).map_err(|e| named(l)(e.into()))?;
-    let port = c.open_with(&settings).await.map_err(named(l))?;
-    Ok(si_uss::tokio::Handle::spawn_engine(master, port))
+    let (port, closed) = reopen::watch(c.open_with(&settings).await.map_err(named(l))?);
+    let link = si_uss::tokio::Handle::spawn_engine(master, port);
+    Ok(reopen::Opened { link, closed })
 }
 
 /// Open a Modbus RTU line and start its master.
 async fn open_line(
     conn: &Connection,
     l: &config::Line,
-) -> Result<si_modbus::tokio::Master, CliError> {
+) -> Result<reopen::Opened<si_modbus::tokio::Master>, CliError> {
     let c = line_connection(conn, l, "modbus");
     let named = named(l);
     let settings = c.settings().map_err(&named)?;
@@ -300,8 +312,9 @@ async fn open_line(
     let master = si_modbus::Master::new(config)
         .map_err(|e| named(e.into()))?
         .with_interface(interface);
-    let port = c.open_with(&settings).await.map_err(named)?;
-    Ok(si_modbus::tokio::Master::spawn_engine(master, port))
+    let (port, closed) = reopen::watch(c.open_with(&settings).await.map_err(named)?);
+    let link = si_modbus::tokio::Master::spawn_engine(master, port);
+    Ok(reopen::Opened { link, closed })
 }
 
 /// One status line: every line's and every client's counters.
@@ -310,10 +323,14 @@ fn print_status(gw: &Gateway, stats: &Mutex<Stats>, out: &Output) {
     let lines: Vec<_> = gw
         .lines
         .iter()
-        .zip(&s.lines)
-        .map(|(l, c)| {
+        .zip(s.lines.iter().zip(&s.down))
+        .map(|(l, (c, down))| {
             let mut v = serde_json::to_value(c).unwrap_or_default();
             v["name"] = l.name.clone().into();
+            v["state"] = if down.is_some() { "down" } else { "up" }.into();
+            if let Some(why) = down {
+                v["down_reason"] = why.clone().into();
+            }
             v
         })
         .collect();
@@ -329,11 +346,12 @@ fn print_status(gw: &Gateway, stats: &Mutex<Stats>, out: &Output) {
     let text = gw
         .lines
         .iter()
-        .zip(&s.lines)
-        .map(|(l, c)| {
+        .zip(s.lines.iter().zip(&s.down))
+        .map(|(l, (c, down))| {
+            let state = down.as_ref().map(|why| format!(" (down: {why})")).unwrap_or_default();
             format!(
-                "{}: {} requests, {} answers, {} exceptions, {} timeouts, {} CRC errors, {} busy, {} other, queue {}",
-                l.name, c.requests, c.answers, c.exceptions, c.timeouts, c.crc_errors, c.busy, c.other, c.queue_depth
+                "{}{state}: {} requests, {} answers, {} exceptions, {} timeouts, {} CRC errors, {} busy, {} other, queue {}, {} reconnects",
+                l.name, c.requests, c.answers, c.exceptions, c.timeouts, c.crc_errors, c.busy, c.other, c.queue_depth, c.reconnects
             )
         })
         .collect::<Vec<_>>()

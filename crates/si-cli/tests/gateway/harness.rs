@@ -50,18 +50,74 @@ impl Rig {
 
     /// Stop the gateway with SIGINT (as Ctrl-C) and return its last status line.
     pub fn stop(self) -> serde_json::Value {
-        let pid = self.gateway.0.id().to_string();
-        let ok = std::process::Command::new("kill")
-            .args(["-INT", &pid])
-            .status()
-            .is_ok_and(|s| s.success());
-        assert!(ok, "kill -INT {pid}");
-        let mut last = None;
-        while let Ok(line) = self.log.recv_timeout(Duration::from_secs(10)) {
-            last = Some(line);
+        stop(&self.gateway, &self.log)
+    }
+}
+
+/// Stop `gateway` with SIGINT (as Ctrl-C) and return the last status line of its `log`.
+pub fn stop(gateway: &Kill, log: &Receiver<String>) -> serde_json::Value {
+    let pid = gateway.0.id().to_string();
+    let ok = std::process::Command::new("kill")
+        .args(["-INT", &pid])
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(ok, "kill -INT {pid}");
+    let mut last = None;
+    while let Ok(line) = log.recv_timeout(Duration::from_secs(10)) {
+        last = Some(line);
+    }
+    let last = last.expect("a status line at exit");
+    serde_json::from_str(&last).expect(&last)
+}
+
+/// The next JSON line of `log` whose `event` is `event`, waiting at most `bound` (a bound
+/// only, not a timing claim); other lines are passed over.
+pub fn wait_for_event(log: &Receiver<String>, event: &str, bound: Duration) -> serde_json::Value {
+    let until = std::time::Instant::now() + bound;
+    loop {
+        let left = until.saturating_duration_since(std::time::Instant::now());
+        let line = log
+            .recv_timeout(left)
+            .unwrap_or_else(|_| panic!("no {event} event within {bound:?}"));
+        let v: serde_json::Value = serde_json::from_str(&line).expect(&line);
+        if v["event"] == event {
+            return v;
         }
-        let last = last.expect("a status line at exit");
-        serde_json::from_str(&last).expect(&last)
+    }
+}
+
+/// A socat pseudo-terminal pair reached through the symbolic links `a` and `b`, which a new
+/// pair can take over after this one is gone (a device node that comes back under its name);
+/// socat is killed when dropped, closing both ends.
+pub struct LinkedPair {
+    _socat: Kill,
+}
+
+impl LinkedPair {
+    /// Start the pair once both links point to it (a bound of 10 s).
+    pub fn start(a: &str, b: &str) -> LinkedPair {
+        for link in [a, b] {
+            let _ = std::fs::remove_file(link);
+        }
+        let end = |link: &str| format!("pty,raw,echo=0,link={link}");
+        let socat = std::process::Command::new("socat")
+            .args([end(a), end(b)])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("spawn socat");
+        let pair = LinkedPair {
+            _socat: Kill(socat),
+        };
+        let start = std::time::Instant::now();
+        while !(std::path::Path::new(a).exists() && std::path::Path::new(b).exists()) {
+            assert!(
+                start.elapsed() < Duration::from_secs(10),
+                "socat made no {a}"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        pair
     }
 }
 

@@ -2,8 +2,8 @@
 //! `si gateway` polling it on the other, raw MBAP frames from a std socket. Unit 5 is the drive;
 //! unit 6 is drive address 6, which nobody answers. Skips without socat (fails with `CI` set).
 
-use crate::common::{pty_pair, si_command, Kill};
-use crate::harness::{launch, read_holding, Mbap};
+use crate::common::{have_socat, pty_pair, si_command, test_dir, Kill};
+use crate::harness::{launch, read_holding, stop, wait_for_event, LinkedPair, Mbap};
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
@@ -77,17 +77,23 @@ impl Client {
     }
 }
 
-#[test]
-fn a_simulated_drive_is_served_as_pzd_registers_and_a_parameter_window() {
-    let Some(pair) = pty_pair() else { return };
-    let _drive = Kill(
+/// `si uss sim-slave --address 5` on `port`, killed when dropped.
+fn drive(port: &str) -> Kill {
+    let drive = Kill(
         si_command()
-            .args(["uss", "sim-slave", "--address", "5", "--port", &pair.b])
+            .args(["uss", "sim-slave", "--address", "5", "--port", port])
             .stdout(Stdio::null())
             .spawn()
             .expect("start sim-slave"),
     );
     std::thread::sleep(Duration::from_millis(300));
+    drive
+}
+
+#[test]
+fn a_simulated_drive_is_served_as_pzd_registers_and_a_parameter_window() {
+    let Some(pair) = pty_pair() else { return };
+    let _drive = drive(&pair.b);
     let toml = format!(
         "listen = \"127.0.0.1:0\"\n[[line]]\nname = \"drives\"\nkind = \"uss\"\n\
          device = \"{}\"\nunits = \"5,6\"\nresponse_timeout_ms = 200\nretries = 2\n",
@@ -141,9 +147,10 @@ fn a_simulated_drive_is_served_as_pzd_registers_and_a_parameter_window() {
     assert_eq!((w[0], w[3], w[5]), (1082, 120, 2), "{w:?}");
     let w = c.job(1082, 1000, 2);
     assert_eq!((w[5], w[6], w[7]), (3, 0x1503, 2), "{w:?}");
-    // A PNU the page index cannot address: the master refuses the job (FFFFH, no STATUS).
+    // A PNU the page index cannot address: the master refuses the job with its STATUS,
+    // 16#1E20 "parameter out of range" (`RequestError::status`), never a made-up FFFFH.
     let w = c.job(62_000, 0, 1);
-    assert_eq!((w[5], w[6]), (3, 0xFFFF), "{w:?}");
+    assert_eq!((w[5], w[6]), (3, 0x1E20), "{w:?}");
     // Unit 6 never answers: its job fails with "node does not answer" (16#1408).
     c.tid += 1;
     c.mbap
@@ -151,4 +158,42 @@ fn a_simulated_drive_is_served_as_pzd_registers_and_a_parameter_window() {
     assert_eq!(c.mbap.recv().2, [0x10, 0, 100, 0, 5]);
     let w = c.until(6, &read_holding(105, 2), |a| words(a)[0] != 1);
     assert_eq!(words(&w), [3, 0x1408]);
+}
+
+/// The USS line goes down with its port like an RTU line (`reopen`): 0AH for its drives, the
+/// window included, until the port is back under its name; then the drive is polled again.
+#[test]
+fn a_uss_line_whose_port_closes_answers_0ah_and_is_reopened() {
+    if !have_socat() {
+        return;
+    }
+    let dir = test_dir("gateway-uss-reconnect");
+    let (a, b) = (dir.join("line"), dir.join("drive"));
+    let (a, b) = (a.to_str().unwrap(), b.to_str().unwrap());
+    let pair = LinkedPair::start(a, b);
+    let sim = drive(b);
+    let toml = format!(
+        "listen = \"127.0.0.1:0\"\n[[line]]\nname = \"drives\"\nkind = \"uss\"\n\
+         device = \"{a}\"\nunits = \"5\"\nresponse_timeout_ms = 200\nretries = 2\n"
+    );
+    let (addr, log, gateway) = launch(&toml, a);
+    let mut c = Client {
+        mbap: Mbap::connect(&addr),
+        tid: 0,
+    };
+    c.until(5, &read_input(0, 2), |a| a[0] == 0x04);
+
+    drop(sim);
+    drop(pair);
+    wait_for_event(&log, "line_down", Duration::from_secs(10));
+    assert_eq!(c.ask(5, &read_input(0, 2)), [0x84, 0x0A]);
+    assert_eq!(c.ask(5, &read_holding(100, 8)), [0x83, 0x0A]);
+
+    let _pair = LinkedPair::start(a, b);
+    let _sim = drive(b);
+    wait_for_event(&log, "line_up", Duration::from_secs(40));
+    c.until(5, &read_input(0, 2), |a| a[0] == 0x04);
+    let status = stop(&gateway, &log);
+    assert_eq!(status["lines"][0]["reconnects"], 1, "{status}");
+    assert_eq!(status["lines"][0]["state"], "up", "{status}");
 }

@@ -128,6 +128,49 @@ fn s3_8_extension_retries_resend_before_failing() {
             status: status::RESPONSE_TIMEOUT
         }]
     );
+    let attempts = sim.engine(m).attempts();
+    assert_eq!(
+        (attempts.sent, attempts.timeouts, attempts.crc_errors),
+        (3, 3, 0)
+    );
+}
+
+/// A corrupt first answer and a good retry: the job completes, and its attempts still show
+/// the CRC error (`Attempts`, issue 20), which the next job starts over from.
+#[test]
+fn s4_4_a_crc_error_cured_by_a_retry_is_counted_in_the_attempts() {
+    let config = MasterConfig {
+        retries: 1,
+        ..MasterConfig::default()
+    };
+    let (mut sim, m, _) = master_with_slave(config);
+    sim.corrupt_received(m, 3, 0x01);
+    sim.with(m, |e, now| e.request(now, 1, &READ10)).unwrap();
+    sim.run_until_quiet(LIMIT);
+    let events = sim.take_events(m);
+    assert!(
+        matches!(events[..], [MasterEvent::Completed(_)]),
+        "{events:?}"
+    );
+    let attempts = sim.engine(m).attempts();
+    assert_eq!(
+        (attempts.sent, attempts.crc_errors, attempts.timeouts),
+        (2, 1, 0)
+    );
+
+    sim.with(m, |e, now| e.request(now, 1, &READ10)).unwrap();
+    sim.run_until_quiet(LIMIT);
+    assert!(matches!(
+        sim.take_events(m)[..],
+        [MasterEvent::Completed(_)]
+    ));
+    assert_eq!(
+        sim.engine(m).attempts(),
+        si_modbus::master::Attempts {
+            sent: 1,
+            ..Default::default()
+        }
+    );
 }
 
 type PartnerRig = (

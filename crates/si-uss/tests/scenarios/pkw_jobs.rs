@@ -177,6 +177,35 @@ fn parameters_above_1999_go_through_the_page_index() {
     );
 }
 
+/// Every refusal carries a STATUS (`RequestError::status`, reading chosen there), so a
+/// status register never shows a made-up code.
+#[test]
+fn every_refused_job_has_a_status() {
+    let (mut sim, m, _) = pair_with(20, PkwAfterJob::TaskZero, |_| {});
+    let refuse = |sim: &mut Simulator, address, request| {
+        let r = sim.with(m, |m, now| m.request_parameter(now, address, request));
+        r.expect_err("refused").status().code()
+    };
+    // A PNU the page index cannot address, and a node outside the polling list: 16#1E20.
+    assert_eq!(refuse(&mut sim, 1, ParamRequest::read(62_000, 0)), 0x1E20);
+    assert_eq!(refuse(&mut sim, 9, ParamRequest::read(700, 0)), 0x1E20);
+    // Task 15 (§6.7 comm status bit 3): 16#1504.
+    let text = ParamRequest {
+        task: 15,
+        ..ParamRequest::read(700, 0)
+    };
+    assert_eq!(refuse(&mut sim, 1, text), 0x1504);
+    // A second job while the node's first runs (one job per slave, §6.3): 16#0502.
+    sim.with(m, |m, now| {
+        m.request_parameter(now, 1, ParamRequest::read(700, 0))
+    })
+    .unwrap();
+    assert_eq!(refuse(&mut sim, 1, ParamRequest::read(701, 0)), 0x0502);
+    // Net data longer than the slave's PZD list: 16#1E41.
+    let long = sim.with(m, |m, _| m.set_control(1, &[0; 3]));
+    assert_eq!(long.expect_err("too long").status().code(), 0x1E41);
+}
+
 #[test]
 fn array_writes_use_task_ids_7_and_8() {
     let (mut sim, m, d) = pair_with(20, PkwAfterJob::TaskZero, |d| {

@@ -1,12 +1,16 @@
 //! One Modbus RTU line behind the gateway: its queue, and the task that takes requests from it
 //! one at a time (the master has one job at a time, et200s-si-modbus-uss.md §4.2), sends each
-//! through si-modbus's RTU master with the line's retries, and hands the answer back.
+//! through si-modbus's RTU master with the line's retries, and hands the answer back; while
+//! the line's port is closed, the task answers 0AH and reopens it ([`super::reopen`]).
 
 use super::counters::{Outcome, Stats};
 use super::queue::FairQueue;
+use super::reopen::{self, Closed, LineLog, Opened};
+use crate::error::CliError;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::{Error, Master};
 use si_modbus::{serve, status};
+use std::convert::Infallible;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::sync::{oneshot, Notify};
@@ -76,52 +80,112 @@ pub fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-/// Serve line `index` until the process ends: one request at a time, then the pause.
+/// Serve line `log.index` until the process ends: one request at a time, then the pause.
+/// While its port is closed every request is answered with 0AH and the port is reopened with
+/// `open` ([`super::reopen`]).
 pub async fn run(
+    log: LineLog,
+    queue: Arc<LineQueue>,
+    first: Opened<Master>,
+    open: impl AsyncFnMut() -> Result<Opened<Master>, CliError>,
+    pause: Duration,
+) {
+    // The closures own what their futures use: a future borrowing from the task would not
+    // be `Send` for every lifetime, which `tokio::spawn` asks.
+    let (index, stats) = (log.index, Arc::clone(&log.stats));
+    let (q, s) = (Arc::clone(&queue), Arc::clone(&stats));
+    reopen::supervise(
+        log,
+        first,
+        open,
+        move |master, closed| serve(index, Arc::clone(&q), master, closed, pause, Arc::clone(&s)),
+        move || refuse(index, Arc::clone(&queue), Arc::clone(&stats)),
+    )
+    .await;
+}
+
+/// Serve the queue through `master` until its port closes: why it closed.
+async fn serve(
     index: usize,
     queue: Arc<LineQueue>,
     mut master: Master,
+    mut closed: Closed,
     pause: Duration,
     stats: Arc<Mutex<Stats>>,
-) {
+) -> String {
     loop {
-        let (client, job, depth) = queue.pop().await;
-        {
-            let mut s = lock(&stats);
-            s.lines[index].queue_depth = depth as u64;
-            if let Some(c) = s.client(client) {
-                c.queue_depth = c.queue_depth.saturating_sub(1);
-            }
-        }
-        let (answer, outcome) = forward(&mut master, &job.request).await;
-        {
-            let mut s = lock(&stats);
-            s.lines[index].count(outcome);
-            if let Some(c) = s.client(client) {
-                c.count(outcome);
-            }
-        }
-        if let (Some(reply), Some(answer)) = (job.reply, answer) {
-            // The client may have gone; its answer is then dropped.
-            let _ = reply.send(answer);
-        }
+        let (client, job, depth) = tokio::select! {
+            why = &mut closed => return why,
+            next = queue.pop() => next,
+        };
+        taken(index, &stats, client, depth);
+        let (answer, outcome, crc_errors) = forward(&mut master, &job.request).await;
+        answered(index, &stats, client, job, answer, outcome, crc_errors);
         if !pause.is_zero() {
             tokio::time::sleep(pause).await;
         }
     }
 }
 
+/// While the line is down: every request it takes is answered with 0AH, "gateway path
+/// unavailable" (§7), at once.
+async fn refuse(index: usize, queue: Arc<LineQueue>, stats: Arc<Mutex<Stats>>) -> Infallible {
+    loop {
+        let (client, job, depth) = queue.pop().await;
+        taken(index, &stats, client, depth);
+        let answer = exception(&job.request, GATEWAY_PATH_UNAVAILABLE);
+        answered(index, &stats, client, job, Some(answer), Outcome::Other, 0);
+    }
+}
+
+/// A job left the queue: the depths of the line and of its client.
+fn taken(index: usize, stats: &Mutex<Stats>, client: u64, depth: usize) {
+    let mut s = lock(stats);
+    s.lines[index].queue_depth = depth as u64;
+    if let Some(c) = s.client(client) {
+        c.queue_depth = c.queue_depth.saturating_sub(1);
+    }
+}
+
+/// Count what became of `job` for the line and its client, and hand the answer back.
+fn answered(
+    index: usize,
+    stats: &Mutex<Stats>,
+    client: u64,
+    job: Job,
+    answer: Option<TcpAdu>,
+    outcome: Outcome,
+    crc_errors: u8,
+) {
+    {
+        let mut s = lock(stats);
+        let line = &mut s.lines[index];
+        line.count(outcome);
+        line.crc_errors += u64::from(crc_errors);
+        if let Some(c) = s.client(client) {
+            c.count(outcome);
+            c.crc_errors += u64::from(crc_errors);
+        }
+    }
+    if let (Some(reply), Some(answer)) = (job.reply, answer) {
+        // The client may have gone; its answer is then dropped.
+        let _ = reply.send(answer);
+    }
+}
+
 /// Send one request through the RTU master: the slave's answer with the client's transaction
-/// id (exceptions as they are), or the gateway's own exception.
-async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outcome) {
+/// id (exceptions as they are), or the gateway's own exception; and the corrupt answers its
+/// attempts met ([`si_modbus::master::Attempts`]), counted even when a retry cured them.
+async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outcome, u8) {
     let broadcast = request.unit() == 0;
-    let result = match request.decode_request() {
-        Ok((unit, r)) => master.request(unit, &r).await,
+    let (result, attempts) = match request.decode_request() {
+        Ok((unit, r)) => master.request_with_attempts(unit, &r).await,
         Err(e) => {
             let code = serve::refusal(e.kind).0.code();
-            return (Some(exception(request, code)), Outcome::Other);
+            return (Some(exception(request, code)), Outcome::Other, 0);
         }
     };
+    let crc_errors = attempts.crc_errors;
     let (code, outcome) = match result {
         Ok(done) => {
             let answer = done.response_bytes().and_then(|rtu| {
@@ -130,11 +194,12 @@ async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outc
                 TcpAdu::from_unit_pdu(request.transaction(), unit_pdu).ok()
             });
             return match answer {
-                Some(a) => (Some(a), Outcome::Answer),
-                None if broadcast => (None, Outcome::Sent),
+                Some(a) => (Some(a), Outcome::Answer, crc_errors),
+                None if broadcast => (None, Outcome::Sent, crc_errors),
                 None => (
                     Some(exception(request, SLAVE_DEVICE_FAILURE)),
                     Outcome::Other,
+                    crc_errors,
                 ),
             };
         }
@@ -142,7 +207,8 @@ async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outc
             // 0E61H–0E67H: the slave's exception 01H–07H (§3.6), passed through unchanged.
             c @ 0x0E61..=0x0E67 => ((c - 0x0E60) as u8, Outcome::Exception),
             _ if s == status::RESPONSE_TIMEOUT => (GATEWAY_TARGET_FAILED, Outcome::Timeout),
-            _ if s == status::RESPONSE_CRC => (SLAVE_DEVICE_FAILURE, Outcome::CrcError),
+            // Still corrupt after the retries (0E57H) or otherwise bad: 04H; the corrupt
+            // answers are in `crc_errors`.
             _ => (SLAVE_DEVICE_FAILURE, Outcome::Other),
         },
         // The master's own checks (§4.3): a function it does not know or that may not be
@@ -153,12 +219,13 @@ async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outc
                 s == status::INVALID_FUNCTION || s == status::BROADCAST_NOT_ALLOWED_FOR_FC;
             (if function { 0x01 } else { 0x03 }, Outcome::Other)
         }
+        // The port closed under the job: the line is going down ([`super::reopen`]).
         Err(Error::Stopped(_) | Error::Config(_)) => (GATEWAY_PATH_UNAVAILABLE, Outcome::Other),
     };
     if broadcast {
-        return (None, outcome);
+        return (None, outcome, crc_errors);
     }
-    (Some(exception(request, code)), outcome)
+    (Some(exception(request, code)), outcome, crc_errors)
 }
 
 /// Exception `code` in answer to `request`, with its transaction and unit id.

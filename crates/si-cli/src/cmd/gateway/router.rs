@@ -179,6 +179,7 @@ impl Handler for Router {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cmd::gateway::reopen::{self, LineLog, Opened};
     use si_modbus::frame::Request;
     use si_modbus::slave::Tables;
     use si_modbus::tokio::{Master, Slave};
@@ -200,16 +201,20 @@ mod tests {
             retries: 1,
             ..MasterConfig::default()
         };
-        let master = Master::spawn(master_config, a).unwrap();
+        let (port, closed) = reopen::watch(Box::new(a));
+        let link = Master::spawn(master_config, port).unwrap();
         let stats = Arc::new(Mutex::new(Stats::new(1)));
         let queue = Arc::new(LineQueue::new(4));
-        tokio::spawn(line::run(
-            0,
-            Arc::clone(&queue),
-            master,
-            std::time::Duration::ZERO,
-            Arc::clone(&stats),
-        ));
+        let log = LineLog {
+            index: 0,
+            name: "pipe".into(),
+            stats: Arc::clone(&stats),
+            out: crate::output::Output { json: true },
+        };
+        let never = async || Err(crate::error::CliError::new("an in-memory pipe"));
+        let first = Opened { link, closed };
+        let pause = std::time::Duration::ZERO;
+        tokio::spawn(line::run(log, Arc::clone(&queue), first, never, pause));
         let mut routes = [None; 256];
         routes[7] = Some(0);
         routes[8] = Some(0);

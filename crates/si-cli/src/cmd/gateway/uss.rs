@@ -13,22 +13,29 @@
 //! | 102, 103 | holding | value, high and low word (a word write sends 103 alone) |
 //! | 104 | holding | command: writing 1 reads the parameter, 2 writes a word, 3 a double word; 06H while a job runs; reads back the last command |
 //! | 105 | holding, read-only | status: 0 idle (no job yet), 1 busy, 2 done (102/103 hold the drive's value), 3 error |
-//! | 106 | holding, read-only | the failed job's STATUS code (e.g. 16#1503 for response ID 7, 16#1408 "node does not answer"); FFFFH when the master refused the job, which has no STATUS (no PKW area, a PNU above 61 999, a double word in a 3-word area) |
+//! | 106 | holding, read-only | the failed job's STATUS code: the drive's or the line's (16#1503 for response ID 7, 16#1408 "node does not answer"), the master's refusal before sending (16#1E20 a PNU above 61 999, 16#1504 no PKW area or a double word in a 3-word area: `si_uss::master::RequestError::status`), or 16#1E0D when the line's port closed under the job |
 //! | 107 | holding, read-only | the drive's error number for response ID 7 (0 otherwise) |
 //!
 //! n is the line's `pzd_words`. A request spanning the PZD and the window, or past either, is
-//! answered with exception 02H.
+//! answered with exception 02H. While the line's port is closed every request to its drives is
+//! answered with 0AH ([`super::reopen`]), the window's too: the line is down as a whole. A
+//! reopened line has a new master, whose PZD out start as at start-up: the client writes
+//! STW/HSW again, as it would after a drive's own telegram-loss fault, rather than the
+//! gateway sending a run command it can no longer vouch for.
 
 use super::counters::Outcome;
 use super::line::{
     exception, lock, GATEWAY_PATH_UNAVAILABLE, GATEWAY_TARGET_FAILED, SLAVE_DEVICE_BUSY,
 };
+use super::reopen::{self, Closed, LineLog, Opened};
 use super::uss_config::UssLine;
+use crate::error::CliError;
 use si_modbus::frame::Request;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::serve;
 use si_uss::master::ParamRequest;
 use si_uss::tokio::{Error, Handle};
+use std::future::Future;
 use std::sync::{Arc, Mutex};
 
 /// First register of the parameter window.
@@ -47,10 +54,6 @@ pub const DONE: u16 = 2;
 /// Window status: the job failed; register 106 holds its STATUS.
 pub const FAILED: u16 = 3;
 
-/// Register 106 for a job the master refused before sending it (`si_uss::tokio::Error::Refused`
-/// carries no STATUS).
-pub const REFUSED: u16 = 0xFFFF;
-
 /// Exception 01H: a function the drive image does not serve.
 const ILLEGAL_FUNCTION: u8 = 0x01;
 /// Exception 02H: registers outside the map.
@@ -66,17 +69,20 @@ struct Drive {
     window: Arc<Mutex<[u16; WINDOW_LEN]>>,
 }
 
+/// The master of a USS line while its port is open; `None` while the line is down.
+type Link = Mutex<Option<Arc<Handle>>>;
+
 /// The drives of one USS line and the master polling them.
 pub struct UssDrives {
-    master: Arc<Handle>,
+    link: Arc<Link>,
     drives: Vec<Drive>,
 }
 
 impl UssDrives {
-    /// The drives of `line`, served through `master` (already polling).
-    pub fn new(master: Handle, line: &UssLine) -> Self {
+    /// The drives of `line`, down until [`supervise`](Self::supervise) gives them a master.
+    pub fn new(line: &UssLine) -> Self {
         UssDrives {
-            master: Arc::new(master),
+            link: Arc::default(),
             drives: line
                 .drives
                 .iter()
@@ -90,12 +96,37 @@ impl UssDrives {
         }
     }
 
+    /// Serve the drives through `first`, and through each master reopened after the port
+    /// closed, until the process ends ([`super::reopen`]).
+    pub fn supervise(
+        &self,
+        log: LineLog,
+        first: Opened<Handle>,
+        open: impl AsyncFnMut() -> Result<Opened<Handle>, CliError> + 'static,
+    ) -> impl Future<Output = ()> + 'static {
+        let link = Arc::clone(&self.link);
+        // The closure owns what its futures use (see `line::run`).
+        reopen::supervise(
+            log,
+            first,
+            open,
+            move |master, closed| serve_until_closed(Arc::clone(&link), master, closed),
+            std::future::pending,
+        )
+    }
+
+    /// The line's master, or 0AH while the line is down.
+    fn master(&self) -> Result<Arc<Handle>, u8> {
+        lock(&self.link).clone().ok_or(GATEWAY_PATH_UNAVAILABLE)
+    }
+
     /// The answer to `request` and how it is counted.
     pub async fn answer(&self, request: &TcpAdu) -> (TcpAdu, Outcome) {
         let result = match self.drives.iter().find(|d| d.unit == request.unit()) {
-            Some(drive) => match request.decode_request() {
-                Ok((_, r)) => self.serve(drive, request, r).await,
-                Err(e) => Err(serve::refusal(e.kind).0.code()),
+            Some(drive) => match (request.decode_request(), self.master()) {
+                (_, Err(down)) => Err(down),
+                (Ok((_, r)), Ok(master)) => Self::serve(&master, drive, request, r).await,
+                (Err(e), _) => Err(serve::refusal(e.kind).0.code()),
             },
             None => Err(GATEWAY_PATH_UNAVAILABLE),
         };
@@ -120,12 +151,16 @@ impl UssDrives {
     }
 
     /// The response PDU, or the exception code.
-    async fn serve(&self, drive: &Drive, request: &TcpAdu, r: Request<'_>) -> Result<Vec<u8>, u8> {
+    async fn serve(
+        master: &Arc<Handle>,
+        drive: &Drive,
+        request: &TcpAdu,
+        r: Request<'_>,
+    ) -> Result<Vec<u8>, u8> {
         match r {
             Request::ReadInputRegisters { address, quantity } => {
                 let a = drive.address;
-                let words = self
-                    .master
+                let words = master
                     .call(move |m, _| {
                         m.slave(a)
                             .filter(|s| s.answered > 0 && s.last_status == si_core::Status::OK)
@@ -141,16 +176,16 @@ impl UssDrives {
                 registers(0x03, &window, address - WINDOW, quantity)
             }
             Request::ReadHoldingRegisters { address, quantity } => {
-                let words = self.control(drive).await?;
+                let words = Self::control(master, drive).await?;
                 registers(0x03, &words, address, quantity)
             }
             Request::WriteSingleRegister { address, value } => {
-                self.write(drive, address, &[value]).await?;
+                Self::write(master, drive, address, &[value]).await?;
                 Ok(request.unit_pdu()[1..].to_vec())
             }
             Request::WriteMultipleRegisters { address, values } => {
                 let values: Vec<u16> = values.iter().collect();
-                self.write(drive, address, &values).await?;
+                Self::write(master, drive, address, &values).await?;
                 let mut pdu = vec![0x10];
                 pdu.extend(address.to_be_bytes());
                 pdu.extend((values.len() as u16).to_be_bytes());
@@ -161,9 +196,9 @@ impl UssDrives {
     }
 
     /// The PZD words sent to `drive` with every poll.
-    async fn control(&self, drive: &Drive) -> Result<Vec<u16>, u8> {
+    async fn control(master: &Handle, drive: &Drive) -> Result<Vec<u16>, u8> {
         let a = drive.address;
-        self.master
+        master
             .call(move |m, _| m.slave(a).map(|s| s.control.words().to_vec()))
             .await
             .map_err(|_| GATEWAY_PATH_UNAVAILABLE)?
@@ -171,7 +206,12 @@ impl UssDrives {
     }
 
     /// Write `values` from register `address`: into the PZD out, or into the window.
-    async fn write(&self, drive: &Drive, address: u16, values: &[u16]) -> Result<(), u8> {
+    async fn write(
+        master: &Arc<Handle>,
+        drive: &Drive,
+        address: u16,
+        values: &[u16],
+    ) -> Result<(), u8> {
         let start = usize::from(address);
         let end = start + values.len();
         if address < WINDOW {
@@ -179,8 +219,7 @@ impl UssDrives {
                 return Err(ILLEGAL_DATA_ADDRESS);
             }
             let (a, words) = (drive.address, values.to_vec());
-            return self
-                .master
+            return master
                 .call(move |m, _| {
                     let mut control = m.slave(a)?.control.words().to_vec();
                     control.get_mut(start..end)?.copy_from_slice(&words);
@@ -209,11 +248,7 @@ impl UssDrives {
         next[READ_ONLY..].copy_from_slice(&[BUSY, 0, 0]);
         *window = next;
         drop(window);
-        let (master, slot, a) = (
-            Arc::clone(&self.master),
-            Arc::clone(&drive.window),
-            drive.address,
-        );
+        let (master, slot, a) = (Arc::clone(master), Arc::clone(&drive.window), drive.address);
         tokio::spawn(async move {
             let result = master.parameter(a, request).await;
             let mut w = lock(&slot);
@@ -228,13 +263,27 @@ impl UssDrives {
                         Error::Failed { error_number, .. } => error_number.unwrap_or(0),
                         _ => 0,
                     };
-                    let status = e.status().map_or(REFUSED, |s| s.code());
+                    // A refusal has its STATUS too (`RequestError::status`); a job whose port
+                    // closed under it ends as the module ends jobs at a reset (1E0DH, §7.5).
+                    let status = e
+                        .status()
+                        .unwrap_or(si_core::status::common::ABORTED_BY_RESET)
+                        .code();
                     w[READ_ONLY..].copy_from_slice(&[FAILED, status, number]);
                 }
             }
         });
         Ok(())
     }
+}
+
+/// Hand `master` to the drives until its port closes: why it closed. The master is dropped
+/// (once the jobs still holding it end), and the drives are down until the next.
+async fn serve_until_closed(link: Arc<Link>, master: Handle, closed: Closed) -> String {
+    *lock(&link) = Some(Arc::new(master));
+    let why = closed.await;
+    *lock(&link) = None;
+    why
 }
 
 /// The parameter job the window's command asks for; `None` for an unknown command or a
