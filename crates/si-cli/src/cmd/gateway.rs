@@ -6,13 +6,17 @@
 //! ([`mod@line`]); counters per line and per client are printed as status lines and readable on a
 //! diagnostic unit ([`counters`]). The configuration is a TOML file or flags ([`config`]).
 //! A `kind = "uss"` line serves USS drives instead: each drive is a unit id whose PZD and
-//! parameter window are registers ([`uss`], keys in [`uss_config`]); RK 512 lines are planned
-//! as a further `kind`.
+//! parameter window are registers ([`uss`], keys in [`uss_config`]). A `kind = "rk512"` line
+//! serves an RK 512 partner's S7 memory through S_MODB's conversion DB, or the gateway's own
+//! memory as a passive partner ([`rk512`], keys in [`rk512_config`], spans in [`rk512_spans`]).
 
 mod config;
 mod counters;
 mod line;
 mod queue;
+mod rk512;
+mod rk512_config;
+mod rk512_spans;
 mod router;
 mod uss;
 mod uss_config;
@@ -168,6 +172,27 @@ impl GatewayArgs {
                 Kind::Uss(u) => {
                     router::LineHandle::Uss(uss::UssDrives::new(open_uss(conn, l, u).await?, u))
                 }
+                Kind::Rk512(r) => {
+                    let station = open_rk512(conn, l, r).await?;
+                    match r.role {
+                        rk512_config::Role::Active => {
+                            let queue = Arc::new(line::LineQueue::new(l.queue));
+                            let partner = rk512::Partner::new(station, r);
+                            let stats = Arc::clone(&stats);
+                            tokio::spawn(rk512::run(
+                                i,
+                                Arc::clone(&queue),
+                                partner,
+                                l.pause,
+                                stats,
+                            ));
+                            router::LineHandle::Rk512(queue)
+                        }
+                        rk512_config::Role::Passive => {
+                            router::LineHandle::Rk512Memory(rk512::OwnMemory::new(station, r))
+                        }
+                    }
+                }
             };
             queues.push(handle);
             for &u in &l.units {
@@ -269,6 +294,30 @@ async fn open_uss(
     let master = si_uss::Master::new(config).map_err(|e| named(l)(e.into()))?;
     let port = c.open_with(&settings).await.map_err(named(l))?;
     Ok(si_uss::tokio::Handle::spawn_engine(master, port))
+}
+
+/// Open an RK 512 line and start its station: active only, or serving the line's memory in
+/// the passive role.
+async fn open_rk512(
+    conn: &Connection,
+    l: &config::Line,
+    r: &rk512_config::Rk512Line,
+) -> Result<si_rk512::tokio::Handle, CliError> {
+    let c = line_connection(conn, l, "rk512");
+    let settings = c.settings().map_err(named(l))?;
+    let station = match r.role {
+        rk512_config::Role::Active => si_rk512::Station::new(r.config, settings),
+        rk512_config::Role::Passive => {
+            let server = si_rk512::passive::ServerConfig {
+                memory: r.memory.clone(),
+                ..si_rk512::passive::ServerConfig::default()
+            };
+            si_rk512::Station::serving(r.config, settings, &server)
+        }
+    }
+    .map_err(|e| named(l)(CliError::new(e.to_string())))?;
+    let port = c.open_with(&settings).await.map_err(named(l))?;
+    Ok(si_rk512::tokio::Handle::spawn_engine(station, port))
 }
 
 /// Open a Modbus RTU line and start its master.
