@@ -1,6 +1,7 @@
 //! `si gateway` end to end, loopback only: Modbus TCP clients (pymodbus, and raw MBAP frames
 //! from std sockets) → `si gateway` → a socat pseudo-terminal pair → a pymodbus RTU serial
-//! server (and a simulated USS drive behind a `uss` line), and a bounded soak of 32 clients with bad input. A missing peer (socat, pymodbus)
+//! server (a simulated USS drive behind a `uss` line, `si rk512 serve` behind an `rk512`
+//! line), and a bounded soak of 32 clients with bad input. A missing peer (socat, pymodbus)
 //! skips with a message, and fails with `CI` set (common/mod.rs).
 
 mod common;
@@ -12,6 +13,8 @@ mod forwarding;
 mod harness;
 #[path = "gateway/queueing.rs"]
 mod queueing;
+#[path = "gateway/rk512.rs"]
+mod rk512;
 #[path = "gateway/soak.rs"]
 mod soak;
 #[path = "gateway/uss.rs"]
