@@ -3,60 +3,12 @@
 //! `si rk512 send` / `fetch` reach from the other end. Skips without socat (fails with `CI`).
 
 use crate::common::{pty_pair, pty_pair_ignoreeof, si_command, Kill, PtyPair};
-use crate::harness::{launch, read_holding, Mbap};
-use std::io::{BufRead, BufReader};
+use crate::harness::{launch, read_holding, stdout_lines, write_registers, Client};
 use std::process::Stdio;
-use std::sync::mpsc::{self, Receiver};
-use std::time::{Duration, Instant};
-
-/// FC16 of `values` from `addr`.
-fn write_registers(addr: u16, values: &[u16]) -> Vec<u8> {
-    let mut pdu = vec![0x10];
-    pdu.extend(addr.to_be_bytes());
-    pdu.extend((values.len() as u16).to_be_bytes());
-    pdu.push(2 * values.len() as u8);
-    pdu.extend(values.iter().flat_map(|v| v.to_be_bytes()));
-    pdu
-}
-
-struct Client {
-    mbap: Mbap,
-    tid: u16,
-}
+use std::sync::mpsc::Receiver;
+use std::time::Duration;
 
 impl Client {
-    fn connect(addr: &str) -> Client {
-        Client {
-            mbap: Mbap::connect(addr),
-            tid: 0,
-        }
-    }
-
-    /// Send `pdu` to `unit` and return the answer's PDU.
-    fn ask(&mut self, unit: u8, pdu: &[u8]) -> Vec<u8> {
-        self.tid += 1;
-        self.mbap.send(self.tid, unit, pdu);
-        let (tid, u, answer) = self.mbap.recv();
-        assert_eq!((tid, u), (self.tid, unit));
-        answer
-    }
-
-    /// Ask until the answer is `want`; a generous bound, not a timing claim.
-    fn until(&mut self, unit: u8, pdu: &[u8], want: &[u8]) {
-        let start = Instant::now();
-        loop {
-            let answer = self.ask(unit, pdu);
-            if answer == want {
-                return;
-            }
-            assert!(
-                start.elapsed() < Duration::from_secs(20),
-                "still {answer:02X?} for {pdu:02X?}"
-            );
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-
     /// Line `line`'s 32-bit counter at `offset` of its block on diagnostic unit 247.
     fn counter(&mut self, line: u16, offset: u16) -> u32 {
         let start = 16 * (1 + line) + offset;
@@ -65,34 +17,25 @@ impl Client {
     }
 }
 
-/// `si --json rk512 serve` on `port` (low priority, DB1–DB16): the process and its JSON lines.
-fn serve(port: &str) -> (Kill, Receiver<serde_json::Value>) {
+/// `si --json rk512 serve` on `port` (low priority, DB1–DB16): the process and its lines.
+fn serve(port: &str) -> (Kill, Receiver<String>) {
     let mut child = si_command()
         .args(["--json", "--port", port, "rk512", "serve"])
         .stdout(Stdio::piped())
         .spawn()
         .expect("start si rk512 serve");
-    let (tx, log) = mpsc::channel();
-    let stdout = child.stdout.take().expect("stdout");
-    std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-            let Ok(v) = serde_json::from_str(&line) else {
-                continue;
-            };
-            if tx.send(v).is_err() {
-                break;
-            }
-        }
-    });
+    let log = stdout_lines(&mut child);
     // Let it open the port and send its startup NAK before the gateway's station starts.
     std::thread::sleep(Duration::from_millis(300));
     (Kill(child), log)
 }
 
-/// The partner's next log line (a generous bound).
-fn next(log: &Receiver<serde_json::Value>) -> serde_json::Value {
-    log.recv_timeout(Duration::from_secs(20))
-        .expect("a line from si rk512 serve")
+/// The partner's next log line, as JSON (a generous bound).
+fn next(log: &Receiver<String>) -> serde_json::Value {
+    let line = log
+        .recv_timeout(Duration::from_secs(20))
+        .expect("a line from si rk512 serve");
+    serde_json::from_str(&line).expect(&line)
 }
 
 fn rk512_line(name: &str, pair: &PtyPair, unit: u8, keys: &str) -> String {
@@ -166,7 +109,7 @@ fn a_partner_db_is_written_by_send_and_read_by_fetch() {
     // The refresh line: a write is sent at once; reads come from the image, refreshed every
     // 100 ms, so the written words show there once a refresh has run after the SEND.
     assert_eq!(c.ask(3, &write_registers(2, &[0xCAFE])), [0x10, 0, 2, 0, 1]);
-    c.until(3, &read_holding(2, 1), &[0x03, 2, 0xCA, 0xFE]);
+    c.until(3, &read_holding(2, 1), |a| a == [0x03, 2, 0xCA, 0xFE]);
     assert_eq!(
         c.ask(3, &read_holding(10, 1)),
         [0x83, 0x02],

@@ -322,20 +322,15 @@ impl LineFile {
         if kind == "uss" {
             return self.check_uss(name, device, units);
         }
-        for (key, given) in [
-            ("drives", self.drives.is_some()),
-            ("pzd_words", self.pzd_words.is_some()),
-            ("pkw_words", self.pkw_words.is_some()),
-        ] {
-            if given {
-                return Err(RangeError::new(
-                    key,
-                    "a key of uss lines",
-                    "",
-                    format!("set on a {kind} line"),
-                ));
-            }
-        }
+        refuse_keys(
+            &[
+                ("drives", self.drives.is_some()),
+                ("pzd_words", self.pzd_words.is_some()),
+                ("pkw_words", self.pkw_words.is_some()),
+            ],
+            "a key of uss lines",
+            format!("set on a {kind} line"),
+        )?;
         let retries = self.retries.unwrap_or(2);
         RangeError::check("retries", (0, 15), "", retries)?;
         let pause_ms = self.pause_ms.unwrap_or(100);
@@ -412,6 +407,18 @@ impl LineFile {
             }
         }
         Ok(())
+    }
+}
+
+/// The first of `keys` given (`(name, given)`) as an error: `range` says where it belongs.
+pub(super) fn refuse_keys(
+    keys: &[(&'static str, bool)],
+    range: &'static str,
+    value: String,
+) -> Result<(), RangeError> {
+    match keys.iter().find(|(_, given)| *given) {
+        Some((key, _)) => Err(RangeError::new(key, range, "", value)),
+        None => Ok(()),
     }
 }
 

@@ -345,17 +345,23 @@ mod tests {
         }
     }
 
-    /// A gateway station and a partner with DB6 (64 bytes) over an in-memory pipe.
-    fn partner(refresh: Vec<Span>, every: Option<Duration>) -> (Partner, Handle) {
+    /// Over an in-memory pipe: an active-only station of high priority, and a serving one
+    /// (low priority) with a DB6 of `db6` bytes.
+    fn stations(db6: u32) -> (Handle, Handle) {
         let (a, b) = tokio::io::duplex(4096);
         let settings = SerialSettings::default();
         let mut high = Config::default();
         high.link.priority = si_3964r::Priority::High;
         let mut memory = ServerConfig::default();
-        memory.memory.dbs.insert(6, 64);
-        let plc = Station::serving(Config::default(), settings, &memory).unwrap();
-        let plc = Handle::spawn_engine(plc, b);
-        let station = Handle::spawn(high, settings, a).unwrap();
+        memory.memory.dbs.insert(6, db6);
+        let serving = Station::serving(Config::default(), settings, &memory).unwrap();
+        let serving = Handle::spawn_engine(serving, b);
+        (Handle::spawn(high, settings, a).unwrap(), serving)
+    }
+
+    /// A gateway station and a partner with DB6 (64 bytes).
+    fn partner(refresh: Vec<Span>, every: Option<Duration>) -> (Partner, Handle) {
+        let (station, plc) = stations(64);
         (Partner::new(station, &line(refresh, every)), plc)
     }
 
@@ -460,15 +466,8 @@ mod tests {
 
     #[tokio::test]
     async fn the_passive_memory_is_served_to_modbus_and_to_the_partner() {
-        let (a, b) = tokio::io::duplex(4096);
-        let settings = SerialSettings::default();
-        let mut high = Config::default();
-        high.link.priority = si_3964r::Priority::High;
-        let mut memory = ServerConfig::default();
-        memory.memory.dbs.insert(6, 1024);
-        let own = Station::serving(Config::default(), settings, &memory).unwrap();
-        let own = OwnMemory::new(Handle::spawn_engine(own, b), &line(vec![], None));
-        let cp = Handle::spawn(high, settings, a).unwrap();
+        let (cp, own) = stations(1024);
+        let own = OwnMemory::new(own, &line(vec![], None));
         let at = si_rk512::frame::Address::Db { db: 6, dw: 1 };
         cp.send(at, Coordination::NONE, vec![0xAB, 0xCD])
             .await

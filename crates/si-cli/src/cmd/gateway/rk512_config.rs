@@ -22,7 +22,7 @@
 //! (cells 0–65 535); one number for one word, byte or cell. Each is at most the job limit
 //! (1024 bytes, `si_rk512::Config::max_job_len`).
 
-use super::config::{Device, Kind, Line, LineFile, DEFAULT_QUEUE, MAX_QUEUE};
+use super::config::{refuse_keys, Device, Kind, Line, LineFile, DEFAULT_QUEUE, MAX_QUEUE};
 use super::rk512_spans::{db_span, Span, DB_BYTES};
 use si_core::memory::{Area, MemorySizes};
 use si_core::RangeError;
@@ -80,27 +80,22 @@ fn default_memory() -> MemorySizes {
 impl LineFile {
     /// The RK 512 keys given on a line of another kind: refused by name.
     pub(super) fn refuse_rk512_keys(&self, kind: &str) -> Result<(), RangeError> {
-        let given = [
-            ("role", self.role.is_some()),
-            ("priority", self.priority.is_some()),
-            ("block_check", self.block_check.is_some()),
-            ("qvz_ms", self.qvz_ms.is_some()),
-            ("cpu", self.cpu.is_some()),
-            ("dw_unit", self.dw_unit.is_some()),
-            ("conversion", self.conversion.is_some()),
-            ("refresh_ms", self.refresh_ms.is_some()),
-            ("refresh", self.refresh.is_some()),
-            ("memory", self.memory.is_some()),
-        ];
-        match given.iter().find(|(_, g)| *g) {
-            Some((key, _)) => Err(RangeError::new(
-                key,
-                "a key of rk512 lines",
-                "",
-                format!("set on a {kind} line"),
-            )),
-            None => Ok(()),
-        }
+        refuse_keys(
+            &[
+                ("role", self.role.is_some()),
+                ("priority", self.priority.is_some()),
+                ("block_check", self.block_check.is_some()),
+                ("qvz_ms", self.qvz_ms.is_some()),
+                ("cpu", self.cpu.is_some()),
+                ("dw_unit", self.dw_unit.is_some()),
+                ("conversion", self.conversion.is_some()),
+                ("refresh_ms", self.refresh_ms.is_some()),
+                ("refresh", self.refresh.is_some()),
+                ("memory", self.memory.is_some()),
+            ],
+            "a key of rk512 lines",
+            format!("set on a {kind} line"),
+        )
     }
 
     /// Check an `rk512` line whose device and unit ids are already read.
@@ -110,22 +105,17 @@ impl LineFile {
         device: Device,
         units: Vec<u8>,
     ) -> Result<Line, RangeError> {
-        for (key, given) in [
-            ("broadcast", self.broadcast),
-            ("retries", self.retries.is_some()),
-            ("drives", self.drives.is_some()),
-            ("pzd_words", self.pzd_words.is_some()),
-            ("pkw_words", self.pkw_words.is_some()),
-        ] {
-            if given {
-                return Err(RangeError::new(
-                    key,
-                    "not a key of rk512 lines",
-                    "",
-                    "given",
-                ));
-            }
-        }
+        refuse_keys(
+            &[
+                ("broadcast", self.broadcast),
+                ("retries", self.retries.is_some()),
+                ("drives", self.drives.is_some()),
+                ("pzd_words", self.pzd_words.is_some()),
+                ("pkw_words", self.pkw_words.is_some()),
+            ],
+            "not a key of rk512 lines",
+            "given".to_string(),
+        )?;
         let role = match self.role.as_deref().unwrap_or("active") {
             "active" => Role::Active,
             "passive" => Role::Passive,
