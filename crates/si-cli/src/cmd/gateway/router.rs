@@ -1,6 +1,6 @@
 //! The gateway's face to Modbus TCP: routes each request by its unit id to a line's queue (or
-//! to a USS line's drive images, or a passive RK 512 line's memory), answers the diagnostic unit itself, and keeps the counters
-//! per client.
+//! to a USS line's drive images, or a passive RK 512 line's memory), answers the diagnostic
+//! unit itself, and keeps the counters per client.
 
 use super::counters::{Client, Counters, Outcome, Stats};
 use super::line::{self, exception, Job, LineQueue};
