@@ -8,12 +8,16 @@
 //! A `kind = "uss"` line serves USS drives instead: each drive is a unit id whose PZD and
 //! parameter window are registers ([`uss`], keys in [`uss_config`]). A `kind = "rk512"` line
 //! serves an RK 512 partner's S7 memory through S_MODB's conversion DB, or the gateway's own
-//! memory as a passive partner ([`rk512`], keys in [`rk512_config`], spans in [`rk512_spans`]).
+//! memory as a passive partner ([`rk512`], keys in [`rk512_config`], spans in [`rk512_spans`]);
+//! a `kind = "3964r"` line shows a plain 3964(R) partner's latest block as input registers and
+//! sends a block for a register write ([`r3964`], keys in [`r3964_config`]).
 
 mod config;
 mod counters;
 mod line;
 mod queue;
+mod r3964;
+mod r3964_config;
 mod rk512;
 mod rk512_config;
 mod rk512_spans;
@@ -193,6 +197,11 @@ impl GatewayArgs {
                         }
                     }
                 }
+                Kind::R3964(link) => {
+                    let handle = open_3964r(conn, l, link).await?;
+                    let blocks = r3964::BlockLine::new(handle, link.max_block_len.into());
+                    router::LineHandle::R3964(blocks)
+                }
             };
             queues.push(handle);
             for &u in &l.units {
@@ -303,9 +312,7 @@ async fn open_rk512(
     l: &config::Line,
     r: &rk512_config::Rk512Line,
 ) -> Result<si_rk512::tokio::Handle, CliError> {
-    let c = line_connection(conn, l, "rk512");
-    let settings = c.settings().map_err(named(l))?;
-    let station = match r.role {
+    let (station, port) = open_engine(conn, l, "rk512", |settings| match r.role {
         rk512_config::Role::Active => si_rk512::Station::new(r.config, settings),
         rk512_config::Role::Passive => {
             let server = si_rk512::passive::ServerConfig {
@@ -314,10 +321,37 @@ async fn open_rk512(
             };
             si_rk512::Station::serving(r.config, settings, &server)
         }
-    }
-    .map_err(|e| named(l)(CliError::new(e.to_string())))?;
-    let port = c.open_with(&settings).await.map_err(named(l))?;
+    })
+    .await?;
     Ok(si_rk512::tokio::Handle::spawn_engine(station, port))
+}
+
+/// Open a plain 3964(R) line and start its link.
+async fn open_3964r(
+    conn: &Connection,
+    l: &config::Line,
+    link: &si_3964r::Config,
+) -> Result<si_3964r::tokio::Handle, CliError> {
+    let (engine, port) = open_engine(conn, l, "3964r", |settings| {
+        si_3964r::Link::new(*link, settings)
+    })
+    .await?;
+    Ok(si_3964r::tokio::Handle::spawn_engine(engine, port))
+}
+
+/// Build line `l`'s engine for its serial settings (checking its configuration before the
+/// port opens), then open the port.
+async fn open_engine<E, F: std::error::Error>(
+    conn: &Connection,
+    l: &config::Line,
+    protocol: &'static str,
+    engine: impl FnOnce(si_core::SerialSettings) -> Result<E, F>,
+) -> Result<(E, Box<dyn si_core::driver::Transport>), CliError> {
+    let c = line_connection(conn, l, protocol);
+    let settings = c.settings().map_err(named(l))?;
+    let engine = engine(settings).map_err(|e| named(l)(e.into()))?;
+    let port = c.open_with(&settings).await.map_err(named(l))?;
+    Ok((engine, port))
 }
 
 /// Open a Modbus RTU line and start its master.

@@ -1,6 +1,7 @@
 //! `kind = "rk512"` lines: `si rk512 serve` (DB1–DB16 of 512 bytes) on one end of a socat pty
-//! pair, `si gateway` on the other, raw MBAP frames from a std socket; and a passive line that
-//! `si rk512 send` / `fetch` reach from the other end. Skips without socat (fails with `CI`).
+//! pair, `si gateway` on the other, raw MBAP frames from a std socket; a passive line that
+//! `si rk512 send` / `fetch` reach from the other end; and a `kind = "3964r"` line with
+//! `si 3964r send` / `recv` at the other end. Skips without socat (fails with `CI`).
 
 use crate::common::{pty_pair, pty_pair_ignoreeof, si_command, Kill, PtyPair};
 use crate::harness::{launch, read_holding, stdout_lines, write_registers, Client};
@@ -160,4 +161,47 @@ fn a_passive_line_serves_the_gateways_own_memory() {
     assert_eq!(c.ask(1, &[0x05, 0, 1, 0xFF, 0]), [0x05, 0, 1, 0xFF, 0]);
     let flags = rk512(&["fetch", "--area", "m", "--start", "500", "--count", "1"]);
     assert_eq!(flags["hex"], "02", "{flags}");
+}
+
+#[test]
+fn a_3964r_partners_blocks_are_registers() {
+    let Some(pair) = pty_pair_ignoreeof() else {
+        return;
+    };
+    let toml = format!(
+        "listen = \"127.0.0.1:0\"\n[[line]]\nname = \"blocks\"\nkind = \"3964r\"\n\
+         device = \"{}\"\nunits = \"4\"\n",
+        pair.a
+    );
+    let (addr, _glog, _gateway) = launch(&toml, &pair.a);
+    let mut c = Client::connect(&addr);
+    assert_eq!(c.ask(4, &[0x04, 0, 0, 0, 2]), [0x04, 4, 0, 0, 0, 0]);
+    // The partner sends a block: count 1, 3 bytes, the data high byte first.
+    let o = si_command()
+        .args(["--port", &pair.b, "3964r", "send", "01", "02", "03"])
+        .output()
+        .expect("run si 3964r send");
+    assert!(o.status.success(), "{o:?}");
+    c.until(4, &[0x04, 0, 0, 0, 4], |a| {
+        a == [0x04, 8, 0, 1, 0, 3, 0x01, 0x02, 0x03, 0]
+    });
+    // A register write sends a block the partner receives.
+    let mut recv = si_command()
+        .args(["--json", "--port", &pair.b, "3964r", "recv", "--count", "1"])
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("start si 3964r recv");
+    let log = stdout_lines(&mut recv);
+    let _recv = Kill(recv);
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(
+        c.ask(4, &write_registers(0, &[3, 0x4142, 0x4300])),
+        [0x10, 0, 0, 0, 3]
+    );
+    let got = next(&log);
+    assert_eq!(
+        (&got["hex"], &got["len"]),
+        (&"41 42 43".into(), &3.into()),
+        "{got}"
+    );
 }

@@ -15,8 +15,9 @@ use si_core::RangeError;
 use std::fmt;
 
 /// The line kinds a `[[line]]` may be: Modbus RTU slaves, USS drives ([`super::uss_config`]),
-/// or an RK 512 partner ([`super::rk512_config`]).
-pub const LINE_KINDS: &str = "modbus-rtu, uss or rk512";
+/// an RK 512 partner ([`super::rk512_config`]) or a plain 3964(R) partner
+/// ([`super::r3964_config`]).
+pub const LINE_KINDS: &str = "modbus-rtu, uss, rk512 or 3964r";
 
 /// Default request queue length per line.
 pub const DEFAULT_QUEUE: usize = 32;
@@ -96,11 +97,11 @@ pub struct LineFile {
     pub pkw_words: Option<u8>,
     /// `rk512`: `active` (default) or `passive` ([`super::rk512_config`] has every rk512 key).
     pub role: Option<String>,
-    /// `rk512`: 3964(R) priority, `high` or `low`.
+    /// `rk512`, `3964r`: 3964(R) priority, `high` or `low`.
     pub priority: Option<String>,
-    /// `rk512`: 3964R with block check (default), or plain 3964.
+    /// `rk512`, `3964r`: 3964R with block check (default), or plain 3964.
     pub block_check: Option<bool>,
-    /// `rk512`: acknowledgement delay time QVZ (ms).
+    /// `rk512`, `3964r`: acknowledgement delay time QVZ (ms).
     pub qvz_ms: Option<u32>,
     /// `rk512`: the partner's CPU number 1–4 (header byte 10).
     pub cpu: Option<u8>,
@@ -183,6 +184,9 @@ pub enum Kind {
     /// An RK 512 partner: requests become FETCH and SEND jobs, or are served from the
     /// gateway's own memory in the passive role ([`super::rk512`]).
     Rk512(Box<super::rk512_config::Rk512Line>),
+    /// A plain 3964(R) partner: the latest block received as input registers, a register
+    /// write sends a block ([`super::r3964`]).
+    R3964(si_3964r::Config),
 }
 
 /// Where a line's bytes go.
@@ -307,7 +311,7 @@ impl LineFile {
     /// Check one line (the caller names it in the error).
     fn check(&self, name: String) -> Result<Line, RangeError> {
         let kind = self.kind.as_deref().unwrap_or("modbus-rtu");
-        if !matches!(kind, "modbus-rtu" | "uss" | "rk512") {
+        if !matches!(kind, "modbus-rtu" | "uss" | "rk512" | "3964r") {
             return Err(RangeError::new("kind", LINE_KINDS, "", kind));
         }
         let device =
@@ -319,6 +323,9 @@ impl LineFile {
             return self.check_rk512(name, device, units);
         }
         self.refuse_rk512_keys(kind)?;
+        if kind == "3964r" {
+            return self.check_3964r(name, device, units);
+        }
         if kind == "uss" {
             return self.check_uss(name, device, units);
         }
@@ -489,7 +496,7 @@ mod tests {
         assert!(e.contains("line 1 (line1): units = \"0-3\""), "{e}");
         let e = check(&format!("{base}kind = \"profibus\"\n")).unwrap_err();
         assert!(
-            e.contains("kind = profibus is out of range: modbus-rtu, uss or rk512"),
+            e.contains("kind = profibus is out of range: modbus-rtu, uss, rk512 or 3964r"),
             "{e}"
         );
         let e = check(&format!("max_connections = 0\n{base}")).unwrap_err();

@@ -183,7 +183,12 @@ fn failed(what: &str, span: &Span, e: &Error) -> u8 {
     };
     let s = status::lookup(s.code());
     tracing::debug!("rk512 {what} {}: {s}", span.address);
-    match s.code() {
+    status_exception(s.code())
+}
+
+/// The exception for a failed job's STATUS (module docs; a 3964(R) send job's class 07H too).
+pub fn status_exception(code: u16) -> u8 {
+    match code {
         0x0502 => SLAVE_DEVICE_BUSY,
         0x051A => GATEWAY_TARGET_FAILED,
         c if matches!(c >> 8, 0x07 | 0x08 | 0x0A) => GATEWAY_TARGET_FAILED,
@@ -193,7 +198,7 @@ fn failed(what: &str, span: &Span, e: &Error) -> u8 {
 
 /// The answer or exception to `adu`, and how it is counted: refusals of the store or of the
 /// partner are the unit's exceptions, as an RTU slave's would be.
-fn counted(adu: &TcpAdu, result: Result<TcpAdu, u8>) -> (TcpAdu, Outcome) {
+pub fn counted(adu: &TcpAdu, result: Result<TcpAdu, u8>) -> (TcpAdu, Outcome) {
     match result {
         Ok(answer) => (answer, Outcome::Answer),
         Err(code) => {

@@ -78,14 +78,13 @@ fn default_memory() -> MemorySizes {
 }
 
 impl LineFile {
-    /// The RK 512 keys given on a line of another kind: refused by name.
+    /// The RK 512 keys given on a line of another kind: refused by name. A `3964r` line has
+    /// the link's keys (priority, block check, QVZ), not RK 512's.
     pub(super) fn refuse_rk512_keys(&self, kind: &str) -> Result<(), RangeError> {
+        let value = format!("set on a {kind} line");
         refuse_keys(
             &[
                 ("role", self.role.is_some()),
-                ("priority", self.priority.is_some()),
-                ("block_check", self.block_check.is_some()),
-                ("qvz_ms", self.qvz_ms.is_some()),
                 ("cpu", self.cpu.is_some()),
                 ("dw_unit", self.dw_unit.is_some()),
                 ("conversion", self.conversion.is_some()),
@@ -94,8 +93,51 @@ impl LineFile {
                 ("memory", self.memory.is_some()),
             ],
             "a key of rk512 lines",
-            format!("set on a {kind} line"),
+            value.clone(),
+        )?;
+        if kind == "3964r" {
+            return Ok(());
+        }
+        refuse_keys(
+            &[
+                ("priority", self.priority.is_some()),
+                ("block_check", self.block_check.is_some()),
+                ("qvz_ms", self.qvz_ms.is_some()),
+            ],
+            "a key of rk512 and 3964r lines",
+            value,
         )
+    }
+
+    /// The keys neither `rk512` nor `3964r` lines have, each with whether it is given:
+    /// broadcasts, Modbus retries, USS drives.
+    pub(super) fn not_on_3964r_links(&self) -> Vec<(&'static str, bool)> {
+        vec![
+            ("broadcast", self.broadcast),
+            ("retries", self.retries.is_some()),
+            ("drives", self.drives.is_some()),
+            ("pzd_words", self.pzd_words.is_some()),
+            ("pkw_words", self.pkw_words.is_some()),
+        ]
+    }
+
+    /// The 3964(R) link of an `rk512` or `3964r` line: `priority` (default `default`),
+    /// `block_check`, `qvz_ms` (checked with the rest of the configuration).
+    pub(super) fn link(&self, default: si_3964r::Priority) -> Result<si_3964r::Config, RangeError> {
+        let mut link = si_3964r::Config::default();
+        if self.block_check == Some(false) {
+            link = si_3964r::Config::without_block_check();
+        }
+        link.priority = match self.priority.as_deref() {
+            None => default,
+            Some("low") => si_3964r::Priority::Low,
+            Some("high") => si_3964r::Priority::High,
+            Some(other) => return Err(RangeError::new("priority", "high or low", "", other)),
+        };
+        if let Some(q) = self.qvz_ms {
+            link.ack_delay_ms = q;
+        }
+        Ok(link)
     }
 
     /// Check an `rk512` line whose device and unit ids are already read.
@@ -106,13 +148,7 @@ impl LineFile {
         units: Vec<u8>,
     ) -> Result<Line, RangeError> {
         refuse_keys(
-            &[
-                ("broadcast", self.broadcast),
-                ("retries", self.retries.is_some()),
-                ("drives", self.drives.is_some()),
-                ("pzd_words", self.pzd_words.is_some()),
-                ("pkw_words", self.pkw_words.is_some()),
-            ],
+            &self.not_on_3964r_links(),
             "not a key of rk512 lines",
             "given".to_string(),
         )?;
@@ -121,19 +157,13 @@ impl LineFile {
             "passive" => Role::Passive,
             other => return Err(RangeError::new("role", "active or passive", "", other)),
         };
-        let mut config = Config::default();
-        if self.block_check == Some(false) {
-            config.link = si_3964r::Config::without_block_check();
-        }
-        config.link.priority = match self.priority.as_deref() {
-            None if role == Role::Active => si_3964r::Priority::High,
-            None | Some("low") => si_3964r::Priority::Low,
-            Some("high") => si_3964r::Priority::High,
-            Some(other) => return Err(RangeError::new("priority", "high or low", "", other)),
+        let mut config = Config {
+            link: self.link(match role {
+                Role::Active => si_3964r::Priority::High,
+                Role::Passive => si_3964r::Priority::Low,
+            })?,
+            ..Config::default()
         };
-        if let Some(q) = self.qvz_ms {
-            config.link.ack_delay_ms = q;
-        }
         if let Some(t) = self.response_timeout_ms {
             config.response_timeout_ms = t;
         }

@@ -1,9 +1,10 @@
 //! The gateway's face to Modbus TCP: routes each request by its unit id to a line's queue (or
-//! to a USS line's drive images, or a passive RK 512 line's memory), answers the diagnostic
-//! unit itself, and keeps the counters per client.
+//! to a USS line's drive images, a passive RK 512 line's memory or a 3964(R) line's blocks),
+//! answers the diagnostic unit itself, and keeps the counters per client.
 
 use super::counters::{Client, Counters, Outcome, Stats};
 use super::line::{self, exception, Job, LineQueue};
+use super::r3964::BlockLine;
 use super::rk512::OwnMemory;
 use super::uss::UssDrives;
 use si_modbus::mbap::TcpAdu;
@@ -37,6 +38,8 @@ pub enum LineHandle {
     Rk512(Arc<LineQueue>),
     /// A passive RK 512 line: answered from the gateway's own memory ([`super::rk512`]).
     Rk512Memory(OwnMemory),
+    /// A plain 3964(R) line: its latest block, and blocks sent ([`super::r3964`]).
+    R3964(BlockLine),
 }
 
 impl Router {
@@ -64,6 +67,7 @@ impl Router {
         let answered = match &self.lines[index] {
             LineHandle::Uss(drives) => Some(drives.answer(&request).await),
             LineHandle::Rk512Memory(memory) => Some(memory.answer(&request).await),
+            LineHandle::R3964(blocks) => Some(blocks.answer(&request).await),
             _ => None,
         };
         if let Some((answer, outcome)) = answered {
