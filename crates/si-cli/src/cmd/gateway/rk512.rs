@@ -162,14 +162,21 @@ impl Partner {
         Ok(())
     }
 
-    /// FETCH every refresh area into the mirror, marking each as it went.
+    /// FETCH every refresh area into the mirror, marking each as it went. Once the partner
+    /// does not respond (0BH, 0AH), the areas left are marked stale without trying them, so a
+    /// silent partner holds the line for one job bound per refresh, not one per area.
     async fn refresh(&mut self) {
+        let mut silent = false;
         for i in 0..self.image.len() {
             let span = self.image[i].0;
-            let fresh = match self.fetch(&span).await {
-                Ok(data) => span.store(&mut self.mirror.memory, &data).is_ok(),
-                Err(_) => false,
-            };
+            let fresh = !silent
+                && match self.fetch(&span).await {
+                    Ok(data) => span.store(&mut self.mirror.memory, &data).is_ok(),
+                    Err(code) => {
+                        silent = matches!(code, GATEWAY_TARGET_FAILED | GATEWAY_PATH_UNAVAILABLE);
+                        false
+                    }
+                };
             self.image[i].1 = fresh;
         }
     }
@@ -446,7 +453,15 @@ mod tests {
     #[tokio::test]
     async fn a_refresh_image_serves_reads_once_fetched() {
         let area = rk512_spans::db_span(6, 0, 8, DwUnit::Words).unwrap();
-        let (mut p, plc) = partner(vec![area], Some(Duration::from_millis(100)));
+        let missing = rk512_spans::db_span(9, 0, 2, DwUnit::Words).unwrap();
+        let flags = Span {
+            address: si_rk512::frame::Address::Flags(0),
+            area: Area::Flags,
+            start: 0,
+            len: 2,
+        };
+        let image = vec![area, missing, flags];
+        let (mut p, plc) = partner(image, Some(Duration::from_millis(100)));
         plc.with_server(|s| s.memory_mut().set_word(Area::Db(6), 2, 0x0102))
             .await
             .unwrap()
@@ -461,12 +476,16 @@ mod tests {
         );
         p.refresh().await;
         assert_eq!(ask(&mut p, &read(1)).await.0, [0x03, 2, 0x01, 0x02]);
+        // A refused area (DB9 missing) is stale; the areas after it are still fetched.
+        let fresh: Vec<bool> = p.image.iter().map(|(_, f)| *f).collect();
+        assert_eq!(fresh, [true, false, true]);
         // Outside the image: 02H.
         assert_eq!(ask(&mut p, &read(4)).await.0, [0x83, 0x02]);
         // A failed refresh makes the image stale again.
         drop(plc);
         p.refresh().await;
         assert_eq!(ask(&mut p, &read(1)).await.0, [0x83, 0x0B]);
+        assert!(p.image.iter().all(|(_, f)| !f));
     }
 
     #[tokio::test]
