@@ -1,8 +1,9 @@
 //! `si gateway` end to end, loopback only: Modbus TCP clients (pymodbus, and raw MBAP frames
 //! from std sockets) → `si gateway` → a socat pseudo-terminal pair → a pymodbus RTU serial
-//! server (and a simulated USS drive behind a `uss` line), and a bounded soak of 32 clients with bad input; a line whose pty goes
-//! away and comes back, and a slave whose corrupt answers a retry cures. A missing peer (socat,
-//! pymodbus) skips with a message, and fails with `CI` set (common/mod.rs).
+//! server (a simulated USS drive behind a `uss` line, `si rk512 serve` behind an `rk512`
+//! line), and a bounded soak of 32 clients with bad input; a line whose pty goes away and comes
+//! back, and a slave whose corrupt answers a retry cures. A missing peer (socat, pymodbus)
+//! skips with a message, and fails with `CI` set (common/mod.rs).
 
 mod common;
 #[path = "gateway/config_errors.rs"]
@@ -17,6 +18,8 @@ mod harness;
 mod queueing;
 #[path = "gateway/reconnect.rs"]
 mod reconnect;
+#[path = "gateway/rk512.rs"]
+mod rk512;
 #[path = "gateway/soak.rs"]
 mod soak;
 #[path = "gateway/uss.rs"]

@@ -7,14 +7,22 @@
 //! diagnostic unit ([`counters`]). The configuration is a TOML file or flags ([`config`]).
 //! A line whose port closes is reopened while its requests get 0AH ([`reopen`]).
 //! A `kind = "uss"` line serves USS drives instead: each drive is a unit id whose PZD and
-//! parameter window are registers ([`uss`], keys in [`uss_config`]); RK 512 lines are planned
-//! as a further `kind`.
+//! parameter window are registers ([`uss`], keys in [`uss_config`]). A `kind = "rk512"` line
+//! serves an RK 512 partner's S7 memory through S_MODB's conversion DB, or the gateway's own
+//! memory as a passive partner ([`rk512`], keys in [`rk512_config`], spans in [`rk512_spans`]);
+//! a `kind = "3964r"` line shows a plain 3964(R) partner's latest block as input registers and
+//! sends a block for a register write ([`r3964`], keys in [`r3964_config`]).
 
 mod config;
 mod counters;
 mod line;
 mod queue;
+mod r3964;
+mod r3964_config;
 mod reopen;
+mod rk512;
+mod rk512_config;
+mod rk512_spans;
 mod router;
 mod uss;
 mod uss_config;
@@ -179,6 +187,32 @@ impl GatewayArgs {
                     tokio::spawn(drives.supervise(log, first, open));
                     router::LineHandle::Uss(drives)
                 }
+                Kind::Rk512(r) => {
+                    let station = open_rk512(&conn, &l, r).await?;
+                    match r.role {
+                        rk512_config::Role::Active => {
+                            let queue = Arc::new(line::LineQueue::new(l.queue));
+                            let partner = rk512::Partner::new(station, r);
+                            let stats = Arc::clone(&stats);
+                            tokio::spawn(rk512::run(
+                                i,
+                                Arc::clone(&queue),
+                                partner,
+                                l.pause,
+                                stats,
+                            ));
+                            router::LineHandle::Rk512(queue)
+                        }
+                        rk512_config::Role::Passive => {
+                            router::LineHandle::Rk512Memory(rk512::OwnMemory::new(station, r))
+                        }
+                    }
+                }
+                Kind::R3964(link) => {
+                    let handle = open_3964r(&conn, &l, link).await?;
+                    let blocks = r3964::BlockLine::new(handle, link.max_block_len.into());
+                    router::LineHandle::R3964(blocks)
+                }
             };
             queues.push(handle);
             for &u in &units {
@@ -281,6 +315,55 @@ async fn open_uss(
     let (port, closed) = reopen::watch(c.open_with(&settings).await.map_err(named(l))?);
     let link = si_uss::tokio::Handle::spawn_engine(master, port);
     Ok(reopen::Opened { link, closed })
+}
+
+/// Open an RK 512 line and start its station: active only, or serving the line's memory in
+/// the passive role.
+async fn open_rk512(
+    conn: &Connection,
+    l: &config::Line,
+    r: &rk512_config::Rk512Line,
+) -> Result<si_rk512::tokio::Handle, CliError> {
+    let (station, port) = open_engine(conn, l, "rk512", |settings| match r.role {
+        rk512_config::Role::Active => si_rk512::Station::new(r.config, settings),
+        rk512_config::Role::Passive => {
+            let server = si_rk512::passive::ServerConfig {
+                memory: r.memory.clone(),
+                ..si_rk512::passive::ServerConfig::default()
+            };
+            si_rk512::Station::serving(r.config, settings, &server)
+        }
+    })
+    .await?;
+    Ok(si_rk512::tokio::Handle::spawn_engine(station, port))
+}
+
+/// Open a plain 3964(R) line and start its link.
+async fn open_3964r(
+    conn: &Connection,
+    l: &config::Line,
+    link: &si_3964r::Config,
+) -> Result<si_3964r::tokio::Handle, CliError> {
+    let (engine, port) = open_engine(conn, l, "3964r", |settings| {
+        si_3964r::Link::new(*link, settings)
+    })
+    .await?;
+    Ok(si_3964r::tokio::Handle::spawn_engine(engine, port))
+}
+
+/// Build line `l`'s engine for its serial settings (checking its configuration before the
+/// port opens), then open the port.
+async fn open_engine<E, F: std::error::Error>(
+    conn: &Connection,
+    l: &config::Line,
+    protocol: &'static str,
+    engine: impl FnOnce(si_core::SerialSettings) -> Result<E, F>,
+) -> Result<(E, Box<dyn si_core::driver::Transport>), CliError> {
+    let c = line_connection(conn, l, protocol);
+    let settings = c.settings().map_err(named(l))?;
+    let engine = engine(settings).map_err(|e| named(l)(e.into()))?;
+    let port = c.open_with(&settings).await.map_err(named(l))?;
+    Ok((engine, port))
 }
 
 /// Open a Modbus RTU line and start its master.

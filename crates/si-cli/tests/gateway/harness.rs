@@ -134,6 +134,19 @@ pub fn launch(toml: &str, tag: &str) -> (String, Receiver<String>, Kill) {
         .stderr(Stdio::inherit())
         .spawn()
         .expect("spawn si gateway");
+    let log = stdout_lines(&mut child);
+    let gateway = Kill(child);
+    let first = log
+        .recv_timeout(Duration::from_secs(20))
+        .expect("the gateway says where it listens");
+    let v: serde_json::Value = serde_json::from_str(&first).expect(&first);
+    assert_eq!(v["event"], "listening", "{first}");
+    let addr = v["addr"].as_str().expect("addr").to_owned();
+    (addr, log, gateway)
+}
+
+/// The child's stdout lines, read by a thread as they come.
+pub fn stdout_lines(child: &mut std::process::Child) -> Receiver<String> {
     let (tx, log) = mpsc::channel();
     let stdout = child.stdout.take().expect("stdout");
     std::thread::spawn(move || {
@@ -143,14 +156,7 @@ pub fn launch(toml: &str, tag: &str) -> (String, Receiver<String>, Kill) {
             }
         }
     });
-    let gateway = Kill(child);
-    let first = log
-        .recv_timeout(Duration::from_secs(20))
-        .expect("the gateway says where it listens");
-    let v: serde_json::Value = serde_json::from_str(&first).expect(&first);
-    assert_eq!(v["event"], "listening", "{first}");
-    let addr = v["addr"].as_str().expect("addr").to_owned();
-    (addr, log, gateway)
+    log
 }
 
 /// A connection sending raw MBAP frames.
@@ -196,4 +202,58 @@ pub fn read_holding(addr: u16, count: u16) -> Vec<u8> {
     let [a, b] = addr.to_be_bytes();
     let [c, d] = count.to_be_bytes();
     vec![0x03, a, b, c, d]
+}
+
+/// FC16 of `values` from `addr`.
+pub fn write_registers(addr: u16, values: &[u16]) -> Vec<u8> {
+    let mut pdu = vec![0x10];
+    pdu.extend(addr.to_be_bytes());
+    pdu.extend((values.len() as u16).to_be_bytes());
+    pdu.push(2 * values.len() as u8);
+    pdu.extend(values.iter().flat_map(|v| v.to_be_bytes()));
+    pdu
+}
+
+/// A raw MBAP connection that numbers its requests and checks each answer's transaction id
+/// and unit.
+pub struct Client {
+    /// The connection.
+    pub mbap: Mbap,
+    /// The last transaction id used.
+    pub tid: u16,
+}
+
+impl Client {
+    /// Connect to the gateway at `addr`.
+    pub fn connect(addr: &str) -> Client {
+        Client {
+            mbap: Mbap::connect(addr),
+            tid: 0,
+        }
+    }
+
+    /// Send `pdu` to `unit` and return the answer's PDU.
+    pub fn ask(&mut self, unit: u8, pdu: &[u8]) -> Vec<u8> {
+        self.tid += 1;
+        self.mbap.send(self.tid, unit, pdu);
+        let (tid, u, answer) = self.mbap.recv();
+        assert_eq!((tid, u), (self.tid, unit));
+        answer
+    }
+
+    /// Ask until `done` holds for the answer; a generous bound, not a timing claim.
+    pub fn until(&mut self, unit: u8, pdu: &[u8], done: impl Fn(&[u8]) -> bool) -> Vec<u8> {
+        let start = std::time::Instant::now();
+        loop {
+            let answer = self.ask(unit, pdu);
+            if done(&answer) {
+                return answer;
+            }
+            assert!(
+                start.elapsed() < Duration::from_secs(20),
+                "still {answer:02X?} for {pdu:02X?}"
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
 }

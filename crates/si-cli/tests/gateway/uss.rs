@@ -3,24 +3,16 @@
 //! unit 6 is drive address 6, which nobody answers. Skips without socat (fails with `CI` set).
 
 use crate::common::{have_socat, pty_pair, si_command, test_dir, Kill};
-use crate::harness::{launch, read_holding, stop, wait_for_event, LinkedPair, Mbap};
+use crate::harness::{
+    launch, read_holding, stop, wait_for_event, write_registers, Client, LinkedPair,
+};
 use std::process::Stdio;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// FC04 for `count` registers from `addr`.
 fn read_input(addr: u16, count: u16) -> Vec<u8> {
     let mut pdu = read_holding(addr, count);
     pdu[0] = 0x04;
-    pdu
-}
-
-/// FC16 of `values` from `addr`.
-fn write_registers(addr: u16, values: &[u16]) -> Vec<u8> {
-    let mut pdu = vec![0x10];
-    pdu.extend(addr.to_be_bytes());
-    pdu.extend((values.len() as u16).to_be_bytes());
-    pdu.push(2 * values.len() as u8);
-    pdu.extend(values.iter().flat_map(|v| v.to_be_bytes()));
     pdu
 }
 
@@ -33,37 +25,7 @@ fn words(pdu: &[u8]) -> Vec<u16> {
         .collect()
 }
 
-struct Client {
-    mbap: Mbap,
-    tid: u16,
-}
-
 impl Client {
-    /// Send `pdu` to `unit` and return the answer's PDU.
-    fn ask(&mut self, unit: u8, pdu: &[u8]) -> Vec<u8> {
-        self.tid += 1;
-        self.mbap.send(self.tid, unit, pdu);
-        let (tid, u, answer) = self.mbap.recv();
-        assert_eq!((tid, u), (self.tid, unit));
-        answer
-    }
-
-    /// Ask until `done` holds for the answer; a generous bound, not a timing claim.
-    fn until(&mut self, unit: u8, pdu: &[u8], done: impl Fn(&[u8]) -> bool) -> Vec<u8> {
-        let start = Instant::now();
-        loop {
-            let answer = self.ask(unit, pdu);
-            if done(&answer) {
-                return answer;
-            }
-            assert!(
-                start.elapsed() < Duration::from_secs(20),
-                "still {answer:02X?} for {pdu:02X?}"
-            );
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-
     /// Run a parameter job through unit 5's window (registers 100…104) and return the window
     /// (100…107) once it is no longer busy.
     fn job(&mut self, pnu: u16, value: u32, command: u16) -> Vec<u16> {
@@ -100,10 +62,7 @@ fn a_simulated_drive_is_served_as_pzd_registers_and_a_parameter_window() {
         pair.a
     );
     let (addr, _log, _gateway) = launch(&toml, &pair.a);
-    let mut c = Client {
-        mbap: Mbap::connect(&addr),
-        tid: 0,
-    };
+    let mut c = Client::connect(&addr);
 
     // ZSW and HIW once the drive has answered; a drive that never answers is 0BH.
     c.until(5, &read_input(0, 2), |a| a[0] == 0x04);
@@ -177,10 +136,7 @@ fn a_uss_line_whose_port_closes_answers_0ah_and_is_reopened() {
          device = \"{a}\"\nunits = \"5\"\nresponse_timeout_ms = 200\nretries = 2\n"
     );
     let (addr, log, gateway) = launch(&toml, a);
-    let mut c = Client {
-        mbap: Mbap::connect(&addr),
-        tid: 0,
-    };
+    let mut c = Client::connect(&addr);
     c.until(5, &read_input(0, 2), |a| a[0] == 0x04);
 
     drop(sim);

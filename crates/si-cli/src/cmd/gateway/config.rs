@@ -14,9 +14,10 @@ use serde::Deserialize;
 use si_core::RangeError;
 use std::fmt;
 
-/// The line kinds a `[[line]]` may be: Modbus RTU slaves, or USS drives ([`super::uss_config`]).
-/// RK 512 lines are planned (issue 20) as a further kind with its own keys.
-pub const LINE_KINDS: &str = "modbus-rtu or uss";
+/// The line kinds a `[[line]]` may be: Modbus RTU slaves, USS drives ([`super::uss_config`]),
+/// an RK 512 partner ([`super::rk512_config`]) or a plain 3964(R) partner
+/// ([`super::r3964_config`]).
+pub const LINE_KINDS: &str = "modbus-rtu, uss, rk512 or 3964r";
 
 /// Default request queue length per line.
 pub const DEFAULT_QUEUE: usize = 32;
@@ -94,6 +95,26 @@ pub struct LineFile {
     pub pzd_words: Option<u8>,
     /// `uss`: PKW words per drive (0, 3, 4 or 127 = variable; default 4).
     pub pkw_words: Option<u8>,
+    /// `rk512`: `active` (default) or `passive` ([`super::rk512_config`] has every rk512 key).
+    pub role: Option<String>,
+    /// `rk512`, `3964r`: 3964(R) priority, `high` or `low`.
+    pub priority: Option<String>,
+    /// `rk512`, `3964r`: 3964R with block check (default), or plain 3964.
+    pub block_check: Option<bool>,
+    /// `rk512`, `3964r`: acknowledgement delay time QVZ (ms).
+    pub qvz_ms: Option<u32>,
+    /// `rk512`: the partner's CPU number 1–4 (header byte 10).
+    pub cpu: Option<u8>,
+    /// `rk512`: header byte 6 counts `words` (default) or `bytes`.
+    pub dw_unit: Option<String>,
+    /// `rk512`: S_MODB's conversion DB (`[line.conversion]`).
+    pub conversion: Option<si_modbus::simatic::ConversionDb>,
+    /// `rk512`: FETCH the `refresh` areas this often (ms; 0: on demand).
+    pub refresh_ms: Option<u64>,
+    /// `rk512`: the refresh image's areas, e.g. `["DB6:0-99", "MB500-531"]`.
+    pub refresh: Option<Vec<String>>,
+    /// `rk512`, passive: the gateway's own memory (`[line.memory]`).
+    pub memory: Option<si_core::memory::MemorySizes>,
 }
 
 /// A checked gateway configuration.
@@ -160,6 +181,12 @@ pub enum Kind {
     /// USS drives polled by a USS master: requests are served from their PZD and a parameter
     /// window ([`super::uss`]).
     Uss(super::uss_config::UssLine),
+    /// An RK 512 partner: requests become FETCH and SEND jobs, or are served from the
+    /// gateway's own memory in the passive role ([`super::rk512`]).
+    Rk512(Box<super::rk512_config::Rk512Line>),
+    /// A plain 3964(R) partner: the latest block received as input registers, a register
+    /// write sends a block ([`super::r3964`]).
+    R3964(si_3964r::Config),
 }
 
 /// Where a line's bytes go.
@@ -284,7 +311,7 @@ impl LineFile {
     /// Check one line (the caller names it in the error).
     fn check(&self, name: String) -> Result<Line, RangeError> {
         let kind = self.kind.as_deref().unwrap_or("modbus-rtu");
-        if !matches!(kind, "modbus-rtu" | "uss") {
+        if !matches!(kind, "modbus-rtu" | "uss" | "rk512" | "3964r") {
             return Err(RangeError::new("kind", LINE_KINDS, "", kind));
         }
         let device =
@@ -292,23 +319,25 @@ impl LineFile {
                 RangeError::new("device", "a port path or tcp:HOST:PORT", "", "none")
             })?;
         let units = parse_units(self.units.as_deref().unwrap_or(""))?;
+        if kind == "rk512" {
+            return self.check_rk512(name, device, units);
+        }
+        self.refuse_rk512_keys(kind)?;
+        if kind == "3964r" {
+            return self.check_3964r(name, device, units);
+        }
         if kind == "uss" {
             return self.check_uss(name, device, units);
         }
-        for (key, given) in [
-            ("drives", self.drives.is_some()),
-            ("pzd_words", self.pzd_words.is_some()),
-            ("pkw_words", self.pkw_words.is_some()),
-        ] {
-            if given {
-                return Err(RangeError::new(
-                    key,
-                    "a key of uss lines",
-                    "",
-                    format!("set on a {kind} line"),
-                ));
-            }
-        }
+        refuse_keys(
+            &[
+                ("drives", self.drives.is_some()),
+                ("pzd_words", self.pzd_words.is_some()),
+                ("pkw_words", self.pkw_words.is_some()),
+            ],
+            "a key of uss lines",
+            format!("set on a {kind} line"),
+        )?;
         let retries = self.retries.unwrap_or(2);
         RangeError::check("retries", (0, 15), "", retries)?;
         let pause_ms = self.pause_ms.unwrap_or(100);
@@ -388,6 +417,18 @@ impl LineFile {
     }
 }
 
+/// The first of `keys` given (`(name, given)`) as an error: `range` says where it belongs.
+pub(super) fn refuse_keys(
+    keys: &[(&'static str, bool)],
+    range: &'static str,
+    value: String,
+) -> Result<(), RangeError> {
+    match keys.iter().find(|(_, given)| *given) {
+        Some((key, _)) => Err(RangeError::new(key, range, "", value)),
+        None => Ok(()),
+    }
+}
+
 /// `"1-10,12"` → the unit ids 1–10 and 12 (each 1–255; unit 0 is the broadcast, see
 /// `broadcast`). At least one unit, or the line would serve nothing.
 pub fn parse_units(text: &str) -> Result<Vec<u8>, RangeError> {
@@ -453,9 +494,9 @@ mod tests {
         assert!(e.contains("line 1 (m): response_timeout_ms = 10 ms"), "{e}");
         let e = check("[[line]]\ndevice = \"/dev/null\"\nunits = \"0-3\"\n").unwrap_err();
         assert!(e.contains("line 1 (line1): units = \"0-3\""), "{e}");
-        let e = check(&format!("{base}kind = \"rk512\"\n")).unwrap_err();
+        let e = check(&format!("{base}kind = \"profibus\"\n")).unwrap_err();
         assert!(
-            e.contains("kind = rk512 is out of range: modbus-rtu or uss"),
+            e.contains("kind = profibus is out of range: modbus-rtu, uss, rk512 or 3964r"),
             "{e}"
         );
         let e = check(&format!("max_connections = 0\n{base}")).unwrap_err();

@@ -61,7 +61,7 @@ impl LineQueue {
     }
 
     /// The next job in fair order, waiting for one; the client and the depth left.
-    async fn pop(&self) -> (u64, Job, usize) {
+    pub async fn pop(&self) -> (u64, Job, usize) {
         loop {
             {
                 let mut q = lock(&self.queue);

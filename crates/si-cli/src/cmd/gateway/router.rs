@@ -1,9 +1,11 @@
 //! The gateway's face to Modbus TCP: routes each request by its unit id to a line's queue (or
-//! to a USS line's drive images), answers the diagnostic unit itself, and keeps the counters
-//! per client.
+//! to a USS line's drive images, a passive RK 512 line's memory or a 3964(R) line's blocks),
+//! answers the diagnostic unit itself, and keeps the counters per client.
 
 use super::counters::{Client, Counters, Outcome, Stats};
 use super::line::{self, exception, Job, LineQueue};
+use super::r3964::BlockLine;
+use super::rk512::OwnMemory;
 use super::uss::UssDrives;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::tcp::{Handler, Peer};
@@ -32,6 +34,12 @@ pub enum LineHandle {
     Rtu(Arc<LineQueue>),
     /// USS: answered from the drives' images ([`super::uss`]).
     Uss(UssDrives),
+    /// An active RK 512 line: through the line's queue to its station ([`super::rk512`]).
+    Rk512(Arc<LineQueue>),
+    /// A passive RK 512 line: answered from the gateway's own memory ([`super::rk512`]).
+    Rk512Memory(OwnMemory),
+    /// A plain 3964(R) line: its latest block, and blocks sent ([`super::r3964`]).
+    R3964(BlockLine),
 }
 
 impl Router {
@@ -56,8 +64,13 @@ impl Router {
             self.count_client(id, |c| c.count(Outcome::Other));
             return Some(exception(&request, line::GATEWAY_PATH_UNAVAILABLE));
         };
-        if let LineHandle::Uss(drives) = &self.lines[index] {
-            let (answer, outcome) = drives.answer(&request).await;
+        let answered = match &self.lines[index] {
+            LineHandle::Uss(drives) => Some(drives.answer(&request).await),
+            LineHandle::Rk512Memory(memory) => Some(memory.answer(&request).await),
+            LineHandle::R3964(blocks) => Some(blocks.answer(&request).await),
+            _ => None,
+        };
+        if let Some((answer, outcome)) = answered {
             let mut s = line::lock(&self.stats);
             s.lines[index].requests += 1;
             s.lines[index].count(outcome);
@@ -83,7 +96,7 @@ impl Router {
 
     /// Queue `job` on line `index` for client `id`, counting it; busy (06H, counted) if full.
     fn enqueue(&self, id: u64, index: usize, job: Job) -> Result<(), ()> {
-        let LineHandle::Rtu(queue) = &self.lines[index] else {
+        let (LineHandle::Rtu(queue) | LineHandle::Rk512(queue)) = &self.lines[index] else {
             return Err(());
         };
         let pushed = queue.push(id, job);

@@ -127,7 +127,7 @@ mod tests {
         let g = File::from_toml(&text)?.check().map_err(|e| e.to_string())?;
         match g.lines[0].kind.clone() {
             super::Kind::Uss(u) => Ok(u),
-            super::Kind::ModbusRtu => Err("not a uss line".into()),
+            _ => Err("not a uss line".into()),
         }
     }
 

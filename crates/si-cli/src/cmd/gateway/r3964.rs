@@ -1,0 +1,211 @@
+//! A plain 3964(R) partner behind the gateway (issue 20, "RK 512 / 3964(R) partners"): the
+//! procedure carries blocks without addresses (et200s-si-3964r-ascii.md §5), so the unit id is
+//! the partner and its blocks are registers.
+//!
+//! | registers | table | meaning |
+//! |---|---|---|
+//! | 0 | input (FC 04) | blocks received so far (wrapping at 65 536) |
+//! | 1 | input | bytes of the latest block (0 before the first) |
+//! | 2 … 2 + ⌈L/2⌉ − 1 | input | the latest block, two bytes per register, high byte first, the odd last byte padded with 00H; L = the link's longest block (200 bytes by default) |
+//! | 0 … | holding, FC 16 only, from 0 | register 0 the block's length n (1 … L, at most two per further register), registers 1 … its bytes, high byte first: the block is sent, and the echo comes once the partner acknowledged it (DLE) |
+//!
+//! Every block received is taken at once (S_RCV's job), so the partner never waits for the
+//! receive buffer. A send that fails is answered as an RK 512 job's STATUS is
+//! ([`super::rk512::status_exception`]: class 07H → 0BH, busy → 06H); a length out of range is
+//! 03H, a write elsewhere or a read past the block 02H, any other function 01H.
+
+use super::counters::Outcome;
+use super::line::{lock, GATEWAY_PATH_UNAVAILABLE};
+use super::rk512::{counted, status_exception};
+use si_3964r::tokio::{Error, Handle, Sender};
+use si_modbus::frame::{Registers, Request, Response};
+use si_modbus::mbap::TcpAdu;
+use si_modbus::serve;
+use std::sync::{Arc, Mutex};
+
+/// Exception 01H: a function the block registers do not serve.
+const ILLEGAL_FUNCTION: u8 = 0x01;
+/// Exception 02H: registers outside the map.
+const ILLEGAL_DATA_ADDRESS: u8 = 0x02;
+/// Exception 03H: a block length out of range.
+const ILLEGAL_DATA_VALUE: u8 = 0x03;
+
+/// The input registers before the block's data: count and length.
+const HEADER: usize = 2;
+
+/// The partner's latest block, as the input registers show it.
+#[derive(Debug, Default)]
+struct Latest {
+    count: u16,
+    block: Vec<u8>,
+}
+
+/// A 3964(R) line: its sending half and the latest block the receiving task took.
+pub struct BlockLine {
+    sender: Sender,
+    latest: Arc<Mutex<Latest>>,
+    max_block_len: usize,
+}
+
+impl BlockLine {
+    /// Serve the link `handle` (running, with blocks up to `max_block_len` bytes): a task takes
+    /// every block it receives.
+    pub fn new(mut handle: Handle, max_block_len: usize) -> Self {
+        let latest = Arc::new(Mutex::new(Latest::default()));
+        let sender = handle.sender();
+        let slot = Arc::clone(&latest);
+        tokio::spawn(async move {
+            while let Some(received) = handle.next().await {
+                match received {
+                    Ok(block) => {
+                        let mut l = lock(&slot);
+                        l.count = l.count.wrapping_add(1);
+                        l.block = block.to_vec();
+                    }
+                    Err(s) => {
+                        let s = si_3964r::status::lookup(s.code());
+                        tracing::debug!("3964(R) reception: {s}");
+                    }
+                }
+            }
+        });
+        BlockLine {
+            sender,
+            latest,
+            max_block_len,
+        }
+    }
+
+    /// The answer to `adu` and how it is counted.
+    pub async fn answer(&self, adu: &TcpAdu) -> (TcpAdu, Outcome) {
+        let result = match adu.decode_request() {
+            Ok((_, request)) => self.serve(adu, request).await,
+            Err(e) => Err(serve::refusal(e.kind).0.code()),
+        };
+        counted(adu, result)
+    }
+
+    async fn serve(&self, adu: &TcpAdu, request: Request<'_>) -> Result<TcpAdu, u8> {
+        let response = |r: &Response<'_>| {
+            TcpAdu::response(adu.transaction(), adu.unit(), r).map_err(|_| ILLEGAL_DATA_VALUE)
+        };
+        match request {
+            Request::ReadInputRegisters { address, quantity } => {
+                let words = self.input_registers();
+                let start = usize::from(address);
+                let values = words
+                    .get(start..start + usize::from(quantity))
+                    .ok_or(ILLEGAL_DATA_ADDRESS)?;
+                response(&Response::ReadInputRegisters(Registers::Words(values)))
+            }
+            Request::WriteMultipleRegisters { address: 0, values } => {
+                let words: Vec<u16> = values.iter().collect();
+                let block = block(&words, self.max_block_len)?;
+                if let Err(e) = self.sender.send(block).await {
+                    return Err(match e {
+                        Error::Status(s) => {
+                            let s = si_3964r::status::lookup(s.code());
+                            tracing::debug!("3964(R) send: {s}");
+                            status_exception(s.code())
+                        }
+                        Error::Config(_) | Error::Stopped(_) => GATEWAY_PATH_UNAVAILABLE,
+                    });
+                }
+                let quantity = words.len() as u16;
+                response(&Response::WriteMultipleRegisters {
+                    address: 0,
+                    quantity,
+                })
+            }
+            Request::WriteMultipleRegisters { .. } => Err(ILLEGAL_DATA_ADDRESS),
+            _ => Err(ILLEGAL_FUNCTION),
+        }
+    }
+
+    /// Count, length and the latest block's words, padded to the longest block.
+    fn input_registers(&self) -> Vec<u16> {
+        let l = lock(&self.latest);
+        let mut words = vec![0u16; HEADER + self.max_block_len.div_ceil(2)];
+        words[0] = l.count;
+        words[1] = l.block.len() as u16;
+        for (w, pair) in words[HEADER..].iter_mut().zip(l.block.chunks(2)) {
+            *w = u16::from_be_bytes([pair[0], pair.get(1).copied().unwrap_or(0)]);
+        }
+        words
+    }
+}
+
+/// The block an FC 16 from register 0 asks to send: length word, then the bytes.
+fn block(words: &[u16], max_block_len: usize) -> Result<Vec<u8>, u8> {
+    let (&len, data) = words.split_first().ok_or(ILLEGAL_DATA_VALUE)?;
+    let len = usize::from(len);
+    if len == 0 || len > max_block_len || len > 2 * data.len() {
+        return Err(ILLEGAL_DATA_VALUE);
+    }
+    Ok(data
+        .iter()
+        .flat_map(|w| w.to_be_bytes())
+        .take(len)
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use si_core::SerialSettings;
+
+    #[test]
+    fn the_length_word_cuts_the_block() {
+        assert_eq!(block(&[3, 0x4142, 0x4300], 200), Ok(b"ABC".to_vec()));
+        assert_eq!(block(&[4, 0x4142, 0x4344], 200), Ok(b"ABCD".to_vec()));
+        assert_eq!(block(&[5, 0x4142, 0x4344], 200), Err(ILLEGAL_DATA_VALUE));
+        assert_eq!(block(&[0, 0x4142], 200), Err(ILLEGAL_DATA_VALUE));
+        assert_eq!(block(&[2, 0x4142], 1), Err(ILLEGAL_DATA_VALUE));
+    }
+
+    async fn ask(line: &BlockLine, unit_pdu: &[u8]) -> Vec<u8> {
+        let adu = TcpAdu::from_unit_pdu(1, unit_pdu).unwrap();
+        line.answer(&adu).await.0.unit_pdu()[1..].to_vec()
+    }
+
+    #[tokio::test]
+    async fn blocks_are_input_registers_and_a_register_write_sends_one() {
+        let (a, b) = tokio::io::duplex(4096);
+        let settings = SerialSettings::default();
+        let high = si_3964r::Config {
+            priority: si_3964r::Priority::High,
+            ..si_3964r::Config::default()
+        };
+        let line = BlockLine::new(Handle::spawn(high, settings, a).unwrap(), 200);
+        let mut partner = Handle::spawn(si_3964r::Config::default(), settings, b).unwrap();
+        // Nothing yet: count and length 0.
+        assert_eq!(
+            ask(&line, &[1, 0x04, 0, 0, 0, 2]).await,
+            [0x04, 4, 0, 0, 0, 0]
+        );
+        partner.send(vec![1, 2, 3]).await.unwrap();
+        let mut answer = Vec::new();
+        for _ in 0..1000 {
+            answer = ask(&line, &[1, 0x04, 0, 0, 0, 4]).await;
+            if answer[2] == 0 && answer[3] == 1 {
+                break;
+            }
+            tokio::task::yield_now().await;
+        }
+        assert_eq!(answer, [0x04, 8, 0, 1, 0, 3, 1, 2, 3, 0]);
+        // Past the longest block (2 + 100 registers): 02H; FC 03: 01H; a bad length: 03H.
+        assert_eq!(ask(&line, &[1, 0x04, 0, 101, 0, 2]).await, [0x84, 0x02]);
+        assert_eq!(ask(&line, &[1, 0x03, 0, 0, 0, 1]).await, [0x83, 0x01]);
+        let bad = [1, 0x10, 0, 0, 0, 2, 4, 0, 9, 0x41, 0x42];
+        assert_eq!(ask(&line, &bad).await, [0x90, 0x03]);
+        let elsewhere = [1, 0x10, 0, 1, 0, 1, 2, 0, 1];
+        assert_eq!(ask(&line, &elsewhere).await, [0x90, 0x02]);
+        // A block sent: the echo once acknowledged, and the partner has it.
+        let write = [1, 0x10, 0, 0, 0, 3, 6, 0, 3, 0x41, 0x42, 0x43, 0];
+        assert_eq!(ask(&line, &write).await, [0x10, 0, 0, 0, 3]);
+        assert_eq!(&partner.recv().await.unwrap()[..], b"ABC");
+        // The partner gone: 0AH.
+        drop(partner);
+        assert_eq!(ask(&line, &write).await, [0x90, 0x0A]);
+    }
+}
