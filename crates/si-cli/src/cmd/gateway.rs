@@ -11,6 +11,8 @@
 
 mod config;
 mod counters;
+mod faces;
+mod limits;
 mod line;
 mod queue;
 mod router;
@@ -24,7 +26,6 @@ use clap::Args;
 use config::{Device, File, Gateway, Kind, LineFile};
 use counters::Stats;
 use si_modbus::config::LineConfig;
-use si_modbus::tokio::tcp::{Server, ServerConfig, Units};
 use si_modbus::{MasterConfig, Mode};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
@@ -148,8 +149,13 @@ impl GatewayArgs {
     /// Open every line, listen, and serve until Ctrl-C.
     pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         let gw = self.gateway(conn)?;
+        let listeners = faces::faces(&gw).len();
+        limits::raise_open_files(limits::descriptors_needed(
+            gw.lines.len(),
+            listeners,
+            gw.max_connections,
+        ))?;
         let stats = Arc::new(Mutex::new(Stats::new(gw.lines.len())));
-        let mut routes = [None; 256];
         let mut queues = Vec::with_capacity(gw.lines.len());
         for (i, l) in gw.lines.iter().enumerate() {
             let handle = match &l.kind {
@@ -170,35 +176,13 @@ impl GatewayArgs {
                 }
             };
             queues.push(handle);
-            for &u in &l.units {
-                routes[u as usize] = Some(i);
-            }
         }
-        let router = router::Router {
-            routes,
-            lines: queues,
-            broadcast_lines: (0..gw.lines.len())
-                .filter(|&i| gw.lines[i].broadcast)
-                .collect(),
-            diagnostic_unit: gw.diagnostic_unit,
-            reply_on_broadcast: gw.reply_on_broadcast,
-            stats: Arc::clone(&stats),
-        };
-        let server_config = ServerConfig {
-            max_connections: gw.max_connections,
-            units: Units::all(),
-            idle_timeout: gw.idle_timeout,
-        };
-        let server = Server::with_handler(&gw.listen, server_config, router)
-            .await
-            .map_err(|e| CliError::new(format!("cannot listen on {}: {e}", gw.listen)))?;
-        let addr = server.local_addr()?;
+        let bound = faces::bind(&gw, queues.into(), &stats).await?;
         out.line(
-            &format!("gateway listening on {addr}, {} line(s)", gw.lines.len()),
-            serde_json::json!({"event": "listening", "addr": addr.to_string(),
-                "lines": gw.lines.iter().map(|l| &l.name).collect::<Vec<_>>()}),
+            &faces::listening_text(&gw, &bound),
+            faces::listening_json(&gw, &bound),
         );
-        let mut server = tokio::spawn(server.run());
+        let mut server = tokio::spawn(faces::run(bound));
         let every = self
             .status_every
             .filter(|&s| s > 0)

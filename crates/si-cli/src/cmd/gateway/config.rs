@@ -87,6 +87,10 @@ pub struct LineFile {
     pub broadcast: bool,
     /// Requests waiting for this line at most; one more is refused with exception 06.
     pub queue: Option<usize>,
+    /// A listening address of its own (`[[line]]`s naming the same address share it): this
+    /// line's units are reached there and not on the top-level `listen`, and need to be
+    /// unique only among the lines on that address ([`super::faces`]).
+    pub listen: Option<String>,
     /// `uss`: the drives' bus addresses (0–31) in the order of `units`, e.g. `"0,5"`;
     /// default: each unit id is its drive's address.
     pub drives: Option<String>,
@@ -150,6 +154,8 @@ pub struct Line {
     pub queue: usize,
     /// What is on the line.
     pub kind: Kind,
+    /// Its own listening address (`None`: the gateway's `listen`).
+    pub listen: Option<String>,
 }
 
 /// What a line's units are.
@@ -239,7 +245,9 @@ impl File {
             )));
         }
         let mut lines: Vec<Line> = Vec::with_capacity(self.lines.len());
-        let mut owner: [Option<usize>; 256] = [None; 256];
+        // The line owning each unit id, per listening address (`None`: the top-level one).
+        let mut owners: std::collections::HashMap<Option<String>, [Option<usize>; 256]> =
+            std::collections::HashMap::new();
         for (i, l) in self.lines.iter().enumerate() {
             let name = l.name.clone().unwrap_or_else(|| format!("line{}", i + 1));
             let at = format!("line {} ({name})", i + 1);
@@ -247,7 +255,11 @@ impl File {
                 line: Some(at.clone()),
                 range,
             };
-            let line = l.check(name.clone()).map_err(err)?;
+            let mut line = l.check(name.clone()).map_err(err)?;
+            if line.listen.as_ref() == Some(&listen) {
+                line.listen = None;
+            }
+            let owner = owners.entry(line.listen.clone()).or_insert([None; 256]);
             for &u in &line.units {
                 if let Some(other) = owner[u as usize] {
                     return Err(err(RangeError::new(
@@ -374,6 +386,7 @@ impl LineFile {
             broadcast: false,
             queue: 1,
             kind,
+            listen: self.listen.clone(),
         }
     }
 
