@@ -10,6 +10,8 @@ mod config_errors;
 mod forwarding;
 #[path = "gateway/harness.rs"]
 mod harness;
+#[path = "gateway/many_lines.rs"]
+mod many_lines;
 #[path = "gateway/queueing.rs"]
 mod queueing;
 #[path = "gateway/soak.rs"]

@@ -150,11 +150,7 @@ impl GatewayArgs {
     pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         let gw = self.gateway(conn)?;
         let listeners = faces::faces(&gw).len();
-        limits::raise_open_files(limits::descriptors_needed(
-            gw.lines.len(),
-            listeners,
-            gw.max_connections,
-        ))?;
+        limits::raise_open_files(limits::descriptors_needed(&gw, listeners))?;
         let stats = Arc::new(Mutex::new(Stats::new(gw.lines.len())));
         let mut queues = Vec::with_capacity(gw.lines.len());
         for (i, l) in gw.lines.iter().enumerate() {

@@ -273,8 +273,8 @@ mod tests {
 
     #[test]
     fn the_top_face_exists_without_lines_of_its_own() {
-        let g = gateway("[[line]]\ndevice = \"a\"\nunits = \"1\"\nlisten = \"127.0.0.1:7\"\n")
-            .unwrap();
+        let g =
+            gateway("[[line]]\ndevice = \"a\"\nunits = \"1\"\nlisten = \"127.0.0.1:7\"\n").unwrap();
         let f = faces(&g);
         assert_eq!(f.len(), 2);
         assert!(f[0].lines.is_empty());

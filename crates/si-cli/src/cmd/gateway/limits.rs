@@ -10,6 +10,7 @@
 //! Client connections beyond what is left are refused by the TCP server, which pauses and
 //! retries its accept (si-modbus `tokio::tcp`), so only the lower bound is checked here.
 
+use super::config::{Device, Gateway};
 use crate::error::CliError;
 
 /// Descriptors a process has open before the gateway opens any line: stdin, stdout, stderr,
@@ -20,10 +21,22 @@ const RUNTIME_DESCRIPTORS: u64 = 32;
 /// `setrlimit` fails even when the hard limit is unlimited.
 const NR_OPEN_DEFAULT: u64 = 1 << 20;
 
-/// Descriptors the gateway needs at least: one per line, one per listening address, the
-/// connections one listener may hold, and the runtime's own.
-pub fn descriptors_needed(lines: usize, listeners: usize, max_connections: usize) -> u64 {
-    (lines + listeners + max_connections) as u64 + RUNTIME_DESCRIPTORS
+/// Descriptors per line on a serial port: si-core opens the tty twice on Linux, the stream and
+/// a second handle for termios and RS-485 (`si_core::port`); a device-server line has one socket.
+const PORT_DESCRIPTORS: u64 = 2;
+
+/// Descriptors the gateway needs at least: for each line its port's or socket's, one per
+/// listening address, the connections one listener may hold, and the runtime's own.
+pub fn descriptors_needed(gw: &Gateway, listeners: usize) -> u64 {
+    let lines: u64 = gw
+        .lines
+        .iter()
+        .map(|l| match l.device {
+            Device::Port(_) => PORT_DESCRIPTORS,
+            Device::Tcp(_) => 1,
+        })
+        .sum();
+    lines + (listeners + gw.max_connections) as u64 + RUNTIME_DESCRIPTORS
 }
 
 /// What to do with the limits `soft` and `hard` for `needed` descriptors: `Ok(Some(new
@@ -33,8 +46,8 @@ fn plan(soft: u64, hard: u64, needed: u64) -> Result<Option<u64>, String> {
     let target = hard.min(NR_OPEN_DEFAULT);
     if target < needed {
         return Err(format!(
-            "the configuration needs at least {needed} open files (one per line, listener and \
-             connection), but the hard limit RLIMIT_NOFILE is {hard}: raise it (e.g. \
+            "the configuration needs at least {needed} open files (two per serial line, one per \
+             device-server line, listener and connection), but the hard limit RLIMIT_NOFILE is {hard}: raise it (e.g. \
              `ulimit -Hn {needed}` as root, LimitNOFILE={needed} in a systemd unit, or \
              nofile in /etc/security/limits.conf), or serve fewer lines per process"
         ));
@@ -97,10 +110,16 @@ mod tests {
     }
 
     #[test]
-    fn a_thousand_lines_need_more_than_the_usual_1024() {
-        // 1,000 lines on one listener with mbusd's 32 connections.
-        assert_eq!(descriptors_needed(1000, 1, 32), 1065);
-        assert!(descriptors_needed(1000, 1, 32) > 1024);
+    fn a_port_line_needs_two_descriptors_and_a_device_server_line_one() {
+        let toml = "listen = \"127.0.0.1:5020\"\n\
+                    [[line]]\ndevice = \"/dev/ttyS0\"\nunits = \"1\"\n\
+                    [[line]]\ndevice = \"tcp:127.0.0.1:4001\"\nunits = \"2\"\n";
+        let gw = super::super::config::File::from_toml(toml)
+            .unwrap()
+            .check()
+            .unwrap();
+        // 2 + 1 for the lines, 1 listener, mbusd's 32 connections, the runtime's 32.
+        assert_eq!(descriptors_needed(&gw, 1), 68);
     }
 
     #[cfg(unix)]
