@@ -186,13 +186,15 @@ def measure(si, n, per_face, idle, settle, tmp):
         idle_cpu = cpu_seconds(rig.pid) - cpu0
         answers = [ask(rig.addr[i], rig.units[i]) for i in live]
         after = proc_status(rig.pid)
+        names = sorted(set(thread_names(rig.pid)))
         return {
             "lines": n,
             "per_face": per_face,
             "listeners": len(set(rig.addr.values())),
             "startup_s": round(rig.startup_s, 2),
             "threads": status["Threads"],
-            "thread_names": sorted(set(thread_names(rig.pid))),
+            "threads_after": after["Threads"],
+            "thread_names": names,
             "rss_kb": status["VmRSS"],
             "rss_after_kb": after["VmRSS"],
             "hwm_kb": after["VmHWM"],
@@ -265,7 +267,7 @@ def main():
         rows.append(r)
     base = next((r for r in rows if r["lines"] == 1), None)
     print(
-        "| lines | listeners | threads | RSS | RSS per line | open fds (soft limit) "
+        "| lines | listeners | threads idle / after requests | RSS | RSS per line | open fds (soft limit) "
         f"| idle CPU ({a.idle:g} s) | FC03 first / last line | start-up |"
     )
     print("|---|---|---|---|---|---|---|---|---|")
@@ -275,7 +277,8 @@ def main():
             per = f"{(r['rss_kb'] - base['rss_kb']) / (r['lines'] - 1):.1f} KiB"
         live = " / ".join("no answer" if ms is None else f"{ms} ms" for ms in r["first_last_ms"])
         print(
-            f"| {r['lines']} | {r['listeners']} | {r['threads']} ({', '.join(r['thread_names'])}) "
+            f"| {r['lines']} | {r['listeners']} | {r['threads']} / {r['threads_after']} "
+            f"({', '.join(r['thread_names'])}) "
             f"| {r['rss_kb'] / 1024:.1f} MiB | {per} | {r['fds']} ({r['soft_nofile']}) "
             f"| {r['idle_cpu_ms']} ms | {live} | {r['startup_s']} s |"
         )
