@@ -7,7 +7,8 @@
 //! diagnostic unit ([`counters`]). The configuration is a TOML file or flags ([`config`]).
 //! A `kind = "uss"` line serves USS drives instead: each drive is a unit id whose PZD and
 //! parameter window are registers ([`uss`], keys in [`uss_config`]); RK 512 lines are planned
-//! as a further `kind`.
+//! as a further `kind`. A line may have its own listening address ([`faces`]), so that more
+//! than 255 lines fit in one process; the open-file limit is raised for them ([`limits`]).
 
 mod config;
 mod counters;
