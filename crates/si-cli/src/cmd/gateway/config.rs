@@ -425,10 +425,11 @@ pub fn parse_units(text: &str) -> Result<Vec<u8>, RangeError> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    fn check(text: &str) -> Result<Gateway, String> {
+    /// The checked gateway of TOML `text`, or the error's text.
+    pub(in crate::cmd::gateway) fn check(text: &str) -> Result<Gateway, String> {
         File::from_toml(text)?.check().map_err(|e| e.to_string())
     }
 

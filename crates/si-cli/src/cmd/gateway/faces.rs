@@ -201,60 +201,36 @@ pub async fn run(faces: Vec<Bound>) -> std::io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cmd::gateway::config::File;
+    use crate::cmd::gateway::config::tests::check as gateway;
 
-    fn gateway(text: &str) -> Result<Gateway, String> {
-        File::from_toml(text)?.check().map_err(|e| e.to_string())
-    }
+    /// Units 1 and 2 on the top-level address and again on 127.0.0.1:5021.
+    const TWO_FACES: &str = r#"
+        listen = "127.0.0.1:5020"
+        [[line]]
+        device = "a"
+        units = "1"
+        [[line]]
+        device = "b"
+        units = "1"
+        listen = "127.0.0.1:5021"
+        [[line]]
+        device = "c"
+        units = "2"
+        [[line]]
+        device = "d"
+        units = "2"
+        listen = "127.0.0.1:5021"
+        "#;
 
     #[test]
     fn lines_with_their_own_address_get_their_own_face() {
-        let g = gateway(
-            r#"
-            listen = "127.0.0.1:5020"
-            [[line]]
-            device = "a"
-            units = "1"
-            [[line]]
-            device = "b"
-            units = "1"
-            listen = "127.0.0.1:5021"
-            [[line]]
-            device = "c"
-            units = "2"
-            [[line]]
-            device = "d"
-            units = "2"
-            listen = "127.0.0.1:5021"
-            [[line]]
-            device = "e"
-            units = "1"
-            listen = "127.0.0.1:5020"
-            "#,
-        );
-        // Line 5 names the top-level address: it is on the top face, where unit 1 is taken.
-        let e = g.unwrap_err();
+        // A line naming the top-level address is on the top face, where unit 1 is taken.
+        let e = gateway(&format!(
+            "{TWO_FACES}[[line]]\ndevice = \"e\"\nunits = \"1\"\nlisten = \"127.0.0.1:5020\"\n"
+        ))
+        .unwrap_err();
         assert!(e.contains("line 5 (line5): units = 1"), "{e}");
-        let g = gateway(
-            r#"
-            listen = "127.0.0.1:5020"
-            [[line]]
-            device = "a"
-            units = "1"
-            [[line]]
-            device = "b"
-            units = "1"
-            listen = "127.0.0.1:5021"
-            [[line]]
-            device = "c"
-            units = "2"
-            [[line]]
-            device = "d"
-            units = "2"
-            listen = "127.0.0.1:5021"
-            "#,
-        )
-        .unwrap();
+        let g = gateway(TWO_FACES).unwrap();
         let f = faces(&g);
         assert_eq!(
             f,

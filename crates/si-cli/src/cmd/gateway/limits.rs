@@ -114,10 +114,7 @@ mod tests {
         let toml = "listen = \"127.0.0.1:5020\"\n\
                     [[line]]\ndevice = \"/dev/ttyS0\"\nunits = \"1\"\n\
                     [[line]]\ndevice = \"tcp:127.0.0.1:4001\"\nunits = \"2\"\n";
-        let gw = super::super::config::File::from_toml(toml)
-            .unwrap()
-            .check()
-            .unwrap();
+        let gw = crate::cmd::gateway::config::tests::check(toml).unwrap();
         // 2 + 1 for the lines, 1 listener, mbusd's 32 connections, the runtime's 32.
         assert_eq!(descriptors_needed(&gw, 1), 68);
     }
