@@ -429,7 +429,7 @@ pub(super) mod tests {
     use super::*;
 
     /// The checked gateway of TOML `text`, or the error's text.
-    pub(in crate::cmd::gateway) fn check(text: &str) -> Result<Gateway, String> {
+    pub(crate) fn check(text: &str) -> Result<Gateway, String> {
         File::from_toml(text)?.check().map_err(|e| e.to_string())
     }
 
