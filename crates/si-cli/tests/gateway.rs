@@ -14,6 +14,8 @@ mod crc_errors;
 mod forwarding;
 #[path = "gateway/harness.rs"]
 mod harness;
+#[path = "gateway/many_lines.rs"]
+mod many_lines;
 #[path = "gateway/queueing.rs"]
 mod queueing;
 #[path = "gateway/reconnect.rs"]

@@ -112,6 +112,7 @@ use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::sync::{mpsc, oneshot};
 use tokio::task::JoinHandle;
 
+mod events;
 mod precise_timer;
 
 /// A byte stream the driver can run an engine over, with optional modem-signal access.
@@ -312,7 +313,7 @@ impl<E: Engine> Clone for Caller<E> {
 /// engine's events.
 pub struct Handle<E: Engine> {
     caller: Caller<E>,
-    events: mpsc::Receiver<E::Event>,
+    events: events::Receiver<E::Event>,
 }
 
 impl<E: Engine> std::ops::Deref for Handle<E> {
@@ -418,7 +419,7 @@ impl<E: Engine> Handle<E> {
 
     /// An event already waiting, without waiting for one.
     pub fn try_next_event(&mut self) -> Option<E::Event> {
-        self.events.try_recv().ok()
+        self.events.try_recv()
     }
 }
 
@@ -435,7 +436,7 @@ where
     T: Transport,
 {
     let (command_tx, command_rx) = mpsc::unbounded_channel();
-    let (event_tx, event_rx) = mpsc::channel(options.event_capacity.max(1));
+    let (event_tx, event_rx) = events::channel(options.event_capacity);
     let task = tokio::spawn(async move {
         let ended = run(engine, transport, options, command_rx, event_tx).await;
         // The application sees only that the driver stopped (DriverStopped): say why here,
@@ -478,7 +479,7 @@ async fn run<E, T>(
     mut io: T,
     options: DriverOptions,
     mut commands: mpsc::UnboundedReceiver<Command<E>>,
-    events: mpsc::Sender<E::Event>,
+    events: events::Sender<E::Event>,
 ) -> io::Result<()>
 where
     E: Engine,
@@ -568,7 +569,7 @@ where
                         continue;
                     };
                     if options.drop_unread_events {
-                        if let Err(mpsc::error::TrySendError::Closed(_)) = events.try_send(event) {
+                        if let Err(events::TrySendError::Closed) = events.try_send(event) {
                             return Ok(()); // the application is gone
                         }
                     } else if events.send(event).await.is_err() {

@@ -11,10 +11,14 @@
 //! serves an RK 512 partner's S7 memory through S_MODB's conversion DB, or the gateway's own
 //! memory as a passive partner ([`rk512`], keys in [`rk512_config`], spans in [`rk512_spans`]);
 //! a `kind = "3964r"` line shows a plain 3964(R) partner's latest block as input registers and
-//! sends a block for a register write ([`r3964`], keys in [`r3964_config`]).
+//! sends a block for a register write ([`r3964`], keys in [`r3964_config`]). A line may have
+//! its own listening address ([`faces`]), so that more than 255 lines fit in one process; the
+//! open-file limit is raised for them ([`limits`]).
 
 mod config;
 mod counters;
+mod faces;
+mod limits;
 mod line;
 mod queue;
 mod r3964;
@@ -34,7 +38,6 @@ use clap::Args;
 use config::{Device, File, Gateway, Kind, LineFile};
 use counters::Stats;
 use si_modbus::config::LineConfig;
-use si_modbus::tokio::tcp::{Server, ServerConfig, Units};
 use si_modbus::{MasterConfig, Mode};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
@@ -158,11 +161,11 @@ impl GatewayArgs {
     /// Open every line, listen, and serve until Ctrl-C.
     pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         let gw = self.gateway(conn)?;
+        let listeners = faces::faces(&gw).len();
+        limits::raise_open_files(limits::descriptors_needed(&gw, listeners))?;
         let stats = Arc::new(Mutex::new(Stats::new(gw.lines.len())));
-        let mut routes = [None; 256];
         let mut queues = Vec::with_capacity(gw.lines.len());
         for (i, l) in gw.lines.iter().enumerate() {
-            let units = l.units.clone();
             let log = reopen::LineLog {
                 index: i,
                 name: l.name.clone(),
@@ -215,35 +218,13 @@ impl GatewayArgs {
                 }
             };
             queues.push(handle);
-            for &u in &units {
-                routes[u as usize] = Some(i);
-            }
         }
-        let router = router::Router {
-            routes,
-            lines: queues,
-            broadcast_lines: (0..gw.lines.len())
-                .filter(|&i| gw.lines[i].broadcast)
-                .collect(),
-            diagnostic_unit: gw.diagnostic_unit,
-            reply_on_broadcast: gw.reply_on_broadcast,
-            stats: Arc::clone(&stats),
-        };
-        let server_config = ServerConfig {
-            max_connections: gw.max_connections,
-            units: Units::all(),
-            idle_timeout: gw.idle_timeout,
-        };
-        let server = Server::with_handler(&gw.listen, server_config, router)
-            .await
-            .map_err(|e| CliError::new(format!("cannot listen on {}: {e}", gw.listen)))?;
-        let addr = server.local_addr()?;
+        let bound = faces::bind(&gw, queues.into(), &stats).await?;
         out.line(
-            &format!("gateway listening on {addr}, {} line(s)", gw.lines.len()),
-            serde_json::json!({"event": "listening", "addr": addr.to_string(),
-                "lines": gw.lines.iter().map(|l| &l.name).collect::<Vec<_>>()}),
+            &faces::listening_text(&gw, &bound),
+            faces::listening_json(&gw, &bound),
         );
-        let mut server = tokio::spawn(server.run());
+        let mut server = tokio::spawn(faces::run(bound));
         let every = self
             .status_every
             .filter(|&s| s > 0)

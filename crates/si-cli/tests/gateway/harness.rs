@@ -125,9 +125,20 @@ impl LinkedPair {
 /// `tag`, e.g. the pty it uses): the address it listens on, its stdout lines after the first,
 /// and the process (killed when dropped).
 pub fn launch(toml: &str, tag: &str) -> (String, Receiver<String>, Kill) {
+    let (addr, log, gateway, _) = launch_with(si_command(), toml, tag);
+    (addr, log, gateway)
+}
+
+/// [`launch`] with `command` as the `si` to run (e.g. `sh -c '…; exec "$0" "$@"' si`, to start
+/// it under other limits), also returning its whole "listening" event.
+pub fn launch_with(
+    mut command: std::process::Command,
+    toml: &str,
+    tag: &str,
+) -> (String, Receiver<String>, Kill, serde_json::Value) {
     let path = test_dir("gateway").join(format!("{}.toml", tag.replace('/', "_")));
     std::fs::write(&path, toml).expect("write the config");
-    let mut child = si_command()
+    let mut child = command
         .args(["--json", "gateway", "--config"])
         .arg(&path)
         .stdout(Stdio::piped())
@@ -142,7 +153,7 @@ pub fn launch(toml: &str, tag: &str) -> (String, Receiver<String>, Kill) {
     let v: serde_json::Value = serde_json::from_str(&first).expect(&first);
     assert_eq!(v["event"], "listening", "{first}");
     let addr = v["addr"].as_str().expect("addr").to_owned();
-    (addr, log, gateway)
+    (addr, log, gateway, v)
 }
 
 /// The child's stdout lines, read by a thread as they come.

@@ -88,6 +88,10 @@ pub struct LineFile {
     pub broadcast: bool,
     /// Requests waiting for this line at most; one more is refused with exception 06.
     pub queue: Option<usize>,
+    /// A listening address of its own (`[[line]]`s naming the same address share it): this
+    /// line's units are reached there and not on the top-level `listen`, and need to be
+    /// unique only among the lines on that address ([`super::faces`]).
+    pub listen: Option<String>,
     /// `uss`: the drives' bus addresses (0–31) in the order of `units`, e.g. `"0,5"`;
     /// default: each unit id is its drive's address.
     pub drives: Option<String>,
@@ -171,6 +175,8 @@ pub struct Line {
     pub queue: usize,
     /// What is on the line.
     pub kind: Kind,
+    /// Its own listening address (`None`: the gateway's `listen`).
+    pub listen: Option<String>,
 }
 
 /// What a line's units are.
@@ -266,7 +272,9 @@ impl File {
             )));
         }
         let mut lines: Vec<Line> = Vec::with_capacity(self.lines.len());
-        let mut owner: [Option<usize>; 256] = [None; 256];
+        // The line owning each unit id, per listening address (`None`: the top-level one).
+        let mut owners: std::collections::HashMap<Option<String>, [Option<usize>; 256]> =
+            std::collections::HashMap::new();
         for (i, l) in self.lines.iter().enumerate() {
             let name = l.name.clone().unwrap_or_else(|| format!("line{}", i + 1));
             let at = format!("line {} ({name})", i + 1);
@@ -274,7 +282,11 @@ impl File {
                 line: Some(at.clone()),
                 range,
             };
-            let line = l.check(name.clone()).map_err(err)?;
+            let mut line = l.check(name.clone()).map_err(err)?;
+            if line.listen.as_ref() == Some(&listen) {
+                line.listen = None;
+            }
+            let owner = owners.entry(line.listen.clone()).or_insert([None; 256]);
             for &u in &line.units {
                 if let Some(other) = owner[u as usize] {
                     return Err(err(RangeError::new(
@@ -403,6 +415,7 @@ impl LineFile {
             broadcast: false,
             queue: 1,
             kind,
+            listen: self.listen.clone(),
         }
     }
 
@@ -453,10 +466,11 @@ pub fn parse_units(text: &str) -> Result<Vec<u8>, RangeError> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
-    fn check(text: &str) -> Result<Gateway, String> {
+    /// The checked gateway of TOML `text`, or the error's text.
+    pub(crate) fn check(text: &str) -> Result<Gateway, String> {
         File::from_toml(text)?.check().map_err(|e| e.to_string())
     }
 

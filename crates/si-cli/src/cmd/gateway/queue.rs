@@ -17,10 +17,13 @@ pub struct FairQueue<T> {
 }
 
 impl<T> FairQueue<T> {
-    /// An empty queue holding at most `capacity` requests.
+    /// An empty queue holding at most `capacity` requests. Room is taken as requests wait,
+    /// not up front: a gateway line's job is ~300 bytes, so the default 32 slots reserved per
+    /// line were 9.5 KiB of each idle line's memory (issue 20, BENCHMARKS.md "Lines per
+    /// process"); `push` keeps the bound.
     pub fn new(capacity: usize) -> Self {
         FairQueue {
-            entries: VecDeque::with_capacity(capacity),
+            entries: VecDeque::new(),
             capacity,
             last: None,
         }
@@ -75,6 +78,14 @@ mod tests {
         }
         let order: Vec<_> = std::iter::from_fn(|| q.pop().map(|(_, v)| v)).collect();
         assert_eq!(order, ["a1", "b1", "c1", "a2", "b2", "a3"]);
+    }
+
+    #[test]
+    fn an_idle_queue_reserves_no_room() {
+        let mut q = FairQueue::new(1024);
+        assert_eq!(q.entries.capacity(), 0);
+        q.push(1, [0u8; 300]).unwrap();
+        assert!(q.entries.capacity() < 1024);
     }
 
     #[test]

@@ -16,8 +16,8 @@ use tokio::sync::oneshot;
 pub struct Router {
     /// The line serving each unit id.
     pub routes: [Option<usize>; 256],
-    /// Every line, in configuration order.
-    pub lines: Vec<LineHandle>,
+    /// Every line, in configuration order (shared by the listening addresses, [`super::faces`]).
+    pub lines: Arc<[LineHandle]>,
     /// The lines broadcasts (unit 0) go to; empty: broadcasts are refused with 0AH.
     pub broadcast_lines: Vec<usize>,
     /// The unit that answers the counters.
@@ -233,7 +233,7 @@ mod tests {
         routes[8] = Some(0);
         let router = Router {
             routes,
-            lines: vec![LineHandle::Rtu(queue)],
+            lines: Arc::new([LineHandle::Rtu(queue)]),
             broadcast_lines: vec![],
             diagnostic_unit: Some(247),
             reply_on_broadcast: false,
