@@ -359,7 +359,7 @@ async fn open_line(
         line: LineConfig {
             settings,
             mode: Mode::Normal,
-            char_delay_multiplier: 1,
+            char_delay_multiplier: l.rtu.char_delay_multiplier,
             local_echo: false,
             auto_v24: None,
         },
@@ -375,7 +375,8 @@ async fn open_line(
     };
     let master = si_modbus::Master::new(config)
         .map_err(|e| named(e.into()))?
-        .with_interface(interface);
+        .with_interface(interface)
+        .with_frame_end(l.rtu.frame_end);
     let (port, closed) = reopen::watch(c.open_with(&settings).await.map_err(named)?);
     let link = si_modbus::tokio::Master::spawn_engine(master, port);
     Ok(reopen::Opened { link, closed })

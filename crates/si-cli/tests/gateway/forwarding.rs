@@ -78,3 +78,18 @@ fn a_configured_broadcast_is_written_and_not_answered() {
     assert_eq!(status["lines"][0]["requests"], 2, "{status}");
     assert_eq!(status["lines"][0]["answers"], 1, "{status}");
 }
+
+/// A line with framing keys of its own (`frame_end = "length"`, a doubled gap) opens and
+/// forwards: write and read back through the pymodbus slave.
+#[test]
+fn a_line_with_its_own_rtu_framing_forwards() {
+    let keys = "frame_end = \"length\"\nchar_delay_multiplier = 2\npause_ms = 0";
+    let Some(rig) = Rig::start("", keys) else {
+        return;
+    };
+    let mut m = Mbap::connect(&rig.addr);
+    m.send(7, 1, &[0x06, 0x00, 0x31, 0xAB, 0xCD]);
+    assert_eq!(m.recv(), (7, 1, vec![0x06, 0x00, 0x31, 0xAB, 0xCD]));
+    m.send(8, 1, &read_holding(0x31, 1));
+    assert_eq!(m.recv(), (8, 1, vec![0x03, 2, 0xAB, 0xCD]));
+}

@@ -88,6 +88,13 @@ pub struct LineFile {
     pub broadcast: bool,
     /// Requests waiting for this line at most; one more is refused with exception 06.
     pub queue: Option<usize>,
+    /// `modbus-rtu`: the character delay multiplier 1–10, end-of-frame gap = table value × it
+    /// (et200s-si-modbus-uss.md §3.5; default 1).
+    pub char_delay_multiplier: Option<u8>,
+    /// `modbus-rtu`: `gap` (the module's: an answer ends after the end-of-frame gap, the
+    /// default) or `length` (host extension: also at the length its header predicts, once its
+    /// CRC checks).
+    pub frame_end: Option<String>,
     /// A listening address of its own (`[[line]]`s naming the same address share it): this
     /// line's units are reached there and not on the top-level `listen`, and need to be
     /// unique only among the lines on that address ([`super::faces`]).
@@ -173,10 +180,30 @@ pub struct Line {
     pub broadcast: bool,
     /// Queue length.
     pub queue: usize,
+    /// Modbus RTU framing (defaults for other kinds, which do not use it).
+    pub rtu: RtuFraming,
     /// What is on the line.
     pub kind: Kind,
     /// Its own listening address (`None`: the gateway's `listen`).
     pub listen: Option<String>,
+}
+
+/// How a Modbus RTU line's master recognises the end of an answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RtuFraming {
+    /// fMUL 1–10 (§3.5).
+    pub char_delay_multiplier: u8,
+    /// At the gap, or also at the predicted length.
+    pub frame_end: si_modbus::FrameEnd,
+}
+
+impl Default for RtuFraming {
+    fn default() -> Self {
+        RtuFraming {
+            char_delay_multiplier: 1,
+            frame_end: si_modbus::FrameEnd::Gap,
+        }
+    }
 }
 
 /// What a line's units are.
@@ -335,6 +362,19 @@ impl LineFile {
             return self.check_rk512(name, device, units);
         }
         self.refuse_rk512_keys(kind)?;
+        if kind != "modbus-rtu" {
+            refuse_keys(
+                &[
+                    (
+                        "char_delay_multiplier",
+                        self.char_delay_multiplier.is_some(),
+                    ),
+                    ("frame_end", self.frame_end.is_some()),
+                ],
+                "a key of modbus-rtu lines",
+                format!("set on a {kind} line"),
+            )?;
+        }
         if kind == "3964r" {
             return self.check_3964r(name, device, units);
         }
@@ -379,6 +419,7 @@ impl LineFile {
             response_timeout_ms,
             broadcast: self.broadcast,
             queue,
+            rtu: self.rtu_framing()?,
             ..self.port_line(name, device, units, Kind::ModbusRtu)
         })
     }
@@ -414,9 +455,25 @@ impl LineFile {
             response_timeout_ms: 0,
             broadcast: false,
             queue: 1,
+            rtu: RtuFraming::default(),
             kind,
             listen: self.listen.clone(),
         }
+    }
+
+    /// `char_delay_multiplier` and `frame_end`, checked (the ranges of `si modbus`'s flags).
+    fn rtu_framing(&self) -> Result<RtuFraming, RangeError> {
+        let char_delay_multiplier = self.char_delay_multiplier.unwrap_or(1);
+        RangeError::check("char_delay_multiplier", (1, 10), "", char_delay_multiplier)?;
+        let frame_end = match self.frame_end.as_deref() {
+            None | Some("gap") => si_modbus::FrameEnd::Gap,
+            Some("length") => si_modbus::FrameEnd::Length,
+            Some(other) => return Err(RangeError::new("frame_end", "gap or length", "", other)),
+        };
+        Ok(RtuFraming {
+            char_delay_multiplier,
+            frame_end,
+        })
     }
 
     /// The RS-485 mode, if given, is one we know.
@@ -519,6 +576,29 @@ pub(super) mod tests {
         assert!(e.contains("line 2 (m): units = 1"), "{e}");
         let e = check(&format!("{base}speed = 1\n")).unwrap_err();
         assert!(e.contains("speed"), "unknown keys are refused: {e}");
+    }
+
+    #[test]
+    fn rtu_framing_keys_are_checked_and_belong_to_modbus_rtu_lines() {
+        let base = "[[line]]\nname = \"m\"\ndevice = \"/dev/null\"\nunits = \"1\"\n";
+        let g = check(&format!(
+            "{base}char_delay_multiplier = 3\nframe_end = \"length\"\n"
+        ));
+        let rtu = g.unwrap().lines[0].rtu;
+        assert_eq!(rtu.char_delay_multiplier, 3);
+        assert_eq!(rtu.frame_end, si_modbus::FrameEnd::Length);
+        let e = check(&format!("{base}char_delay_multiplier = 11\n")).unwrap_err();
+        assert!(
+            e.contains("char_delay_multiplier = 11 is out of range: 1 … 10"),
+            "{e}"
+        );
+        let e = check(&format!("{base}frame_end = \"predicted\"\n")).unwrap_err();
+        assert!(
+            e.contains("frame_end = predicted is out of range: gap or length"),
+            "{e}"
+        );
+        let e = check(&format!("{base}kind = \"uss\"\nframe_end = \"gap\"\n")).unwrap_err();
+        assert!(e.contains("frame_end = set on a uss line"), "{e}");
     }
 
     #[test]
