@@ -96,10 +96,20 @@ pub struct LinkedPair {
 impl LinkedPair {
     /// Start the pair once both links point to it (a bound of 10 s).
     pub fn start(a: &str, b: &str) -> LinkedPair {
+        Self::with(a, b, "")
+    }
+
+    /// Like [`start`](Self::start), with `ignoreeof`: a process that opens its end and closes
+    /// it again (`si rk512 send`) does not end the pair; killing socat still does.
+    pub fn start_ignoreeof(a: &str, b: &str) -> LinkedPair {
+        Self::with(a, b, ",ignoreeof")
+    }
+
+    fn with(a: &str, b: &str, options: &str) -> LinkedPair {
         for link in [a, b] {
             let _ = std::fs::remove_file(link);
         }
-        let end = |link: &str| format!("pty,raw,echo=0,link={link}");
+        let end = |link: &str| format!("pty,raw,echo=0{options},link={link}");
         let socat = std::process::Command::new("socat")
             .args([end(a), end(b)])
             .stdout(Stdio::null())

@@ -1,0 +1,126 @@
+//! `kind = "rk512"` lines whose port goes away and comes back (issue 20), as
+//! `reconnect.rs` does for a Modbus RTU line: socat's pty pair behind symbolic links is the
+//! adapter; killing socat pulls it, a new socat on the same links plugs it in again. An active
+//! line answers 0AH while down and serves the new partner after; a passive line's memory (the
+//! gateway's own) still holds what the partner and a Modbus client wrote before.
+//! Skips without socat (fails with `CI` set).
+
+use super::harness::LinkedPair;
+use super::harness::{launch, read_holding, stop, wait_for_event, write_registers, Client};
+use super::rk512::{rk512_on, serve};
+use crate::common::{have_socat, test_dir};
+use std::sync::mpsc::Receiver;
+use std::time::Duration;
+
+/// Exception 0AH to FC03: the line is down.
+const DOWN: [u8; 2] = [0x83, 0x0A];
+
+/// The pair's links `NAME-line` (the gateway's end) and `NAME-partner`, in the test directory.
+fn links(name: &str) -> (String, String) {
+    let dir = test_dir("gateway-rk512-reconnect");
+    let link = |end: &str| dir.join(format!("{name}-{end}")).display().to_string();
+    (link("line"), link("partner"))
+}
+
+/// `si gateway` with one rk512 line `name` on `device`, unit 1, and the extra keys `keys`.
+fn gateway(
+    name: &str,
+    device: &str,
+    keys: &str,
+) -> (String, Receiver<String>, crate::common::Kill) {
+    let toml = format!(
+        "listen = \"127.0.0.1:0\"\n[[line]]\nname = \"{name}\"\nkind = \"rk512\"\n\
+         device = \"{device}\"\nunits = \"1\"\n{keys}"
+    );
+    launch(&toml, device)
+}
+
+/// The pair is pulled: the line says it is down, and a read is answered with 0AH.
+fn pulled(pair: LinkedPair, c: &mut Client, log: &Receiver<String>, name: &str) {
+    drop(pair);
+    let down = wait_for_event(log, "line_down", Duration::from_secs(10));
+    assert_eq!(down["line"], name, "{down}");
+    assert_eq!(
+        c.ask(1, &read_holding(0, 1)),
+        DOWN,
+        "gateway path unavailable"
+    );
+}
+
+/// The last status shows the line up again after one reconnect, with the 0AH counted.
+fn reopened_once(status: &serde_json::Value) {
+    let line = &status["lines"][0];
+    assert_eq!(line["state"], "up", "{status}");
+    assert_eq!(line["reconnects"], 1, "{status}");
+    assert!(
+        line["other"].as_u64() >= Some(1),
+        "the 0AH is counted: {status}"
+    );
+}
+
+#[test]
+fn an_active_rk512_line_answers_0ah_while_down_and_serves_the_partner_after() {
+    if !have_socat() {
+        return;
+    }
+    let (a, b) = links("active");
+    let pair = LinkedPair::start(&a, &b);
+    let plc = serve(&b);
+    let (addr, log, gateway) = gateway("plc", &a, "");
+    let mut c = Client::connect(&addr);
+    // FC16 at R 10 → SEND to DB6.DW10; FC03 FETCHes it back.
+    assert_eq!(
+        c.ask(1, &write_registers(10, &[0x1234])),
+        [0x10, 0, 10, 0, 1]
+    );
+    assert_eq!(c.ask(1, &read_holding(10, 1)), [0x03, 2, 0x12, 0x34]);
+
+    drop(plc);
+    pulled(pair, &mut c, &log, "plc");
+
+    // Plugged in again, with a partner whose DB6 is fresh: served again through the new port.
+    let _pair = LinkedPair::start(&a, &b);
+    let _plc = serve(&b);
+    let up = wait_for_event(&log, "line_up", Duration::from_secs(40));
+    assert_eq!(up["reconnects"], 1, "{up}");
+    let echo = [0x10, 0, 11, 0, 1];
+    c.until(1, &write_registers(11, &[0xBEEF]), |a| a == echo);
+    assert_eq!(
+        c.ask(1, &read_holding(10, 2)),
+        [0x03, 4, 0, 0, 0xBE, 0xEF],
+        "the new partner's DB6"
+    );
+    reopened_once(&stop(&gateway, &log));
+}
+
+#[test]
+fn a_passive_rk512_lines_memory_survives_the_port_closing() {
+    if !have_socat() {
+        return;
+    }
+    let (a, b) = links("passive");
+    let pair = LinkedPair::start_ignoreeof(&a, &b);
+    let (addr, log, gateway) = gateway("own", &a, "role = \"passive\"\n");
+    let mut c = Client::connect(&addr);
+    // The partner SENDs DBW0 and DBW2 of DB6; a Modbus client writes DBW4.
+    rk512_on(&b, &["send", "--db", "6", "--dw", "0", "1122", "3344"]);
+    assert_eq!(
+        c.ask(1, &[0x06, 0, 2, 0x55, 0x66]),
+        [0x06, 0, 2, 0x55, 0x66]
+    );
+
+    pulled(pair, &mut c, &log, "own");
+
+    let _pair = LinkedPair::start_ignoreeof(&a, &b);
+    let up = wait_for_event(&log, "line_up", Duration::from_secs(40));
+    assert_eq!(up["reconnects"], 1, "{up}");
+    let all = [0x03, 6, 0x11, 0x22, 0x33, 0x44, 0x55, 0x66];
+    assert_eq!(
+        c.ask(1, &read_holding(0, 3)),
+        all,
+        "kept across the reopening"
+    );
+    let fetched = rk512_on(&b, &["fetch", "--db", "6", "--dw", "0", "--count", "3"]);
+    assert_eq!(fetched["hex"], "11 22 33 44 55 66", "{fetched}");
+    reopened_once(&stop(&gateway, &log));
+}
