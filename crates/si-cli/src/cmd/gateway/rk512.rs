@@ -368,7 +368,7 @@ pub(super) mod tests {
 
     /// Over an in-memory pipe: an active-only station of high priority, and a serving one
     /// (low priority) with a DB6 of `db6` bytes.
-    pub(crate) fn stations(db6: u32) -> (Handle, Handle) {
+    fn stations(db6: u32) -> (Handle, Handle) {
         let (a, b) = tokio::io::duplex(4096);
         let settings = SerialSettings::default();
         let mut high = Config::default();

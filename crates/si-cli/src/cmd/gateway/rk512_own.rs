@@ -185,56 +185,12 @@ const NO_MEMORY: MemorySizes = MemorySizes {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cmd::gateway::rk512::tests::{line, stations};
+    use crate::cmd::gateway::rk512::tests::line;
     use si_modbus::frame::Request;
     use si_rk512::frame::{Address, Coordination};
 
     fn adu(request: &Request<'_>) -> TcpAdu {
         TcpAdu::request(1, 1, request).unwrap()
-    }
-
-    #[tokio::test]
-    async fn the_passive_memory_is_served_to_modbus_and_to_the_partner() {
-        let (cp, own) = stations(1024);
-        let own_memory = OwnMemory::new(&line(vec![], None));
-        let kept = own_memory.kept();
-        let at = Address::Db { db: 6, dw: 1 };
-        cp.send(at, Coordination::NONE, vec![0xAB, 0xCD])
-            .await
-            .unwrap();
-        let read = Request::ReadHoldingRegisters {
-            address: 1,
-            quantity: 1,
-        };
-        let conversion = own_memory.conversion;
-        let (answer, outcome) = from_memory(&own, conversion, &kept, &adu(&read)).await;
-        assert_eq!(
-            (answer.unit_pdu()[1..].to_vec(), outcome),
-            (vec![0x03, 2, 0xAB, 0xCD], Outcome::Answer)
-        );
-        assert!(lock(&kept.0).is_none(), "a read keeps nothing");
-        let write = Request::WriteSingleRegister {
-            address: 2,
-            value: 0x4242,
-        };
-        let (answer, _) = from_memory(&own, conversion, &kept, &adu(&write)).await;
-        assert_eq!(answer.unit_pdu()[1], 0x06);
-        let fetched = cp.fetch(at, Coordination::NONE, 4).await.unwrap();
-        assert_eq!(&fetched[..], [0xAB, 0xCD, 0x42, 0x42]);
-
-        // What was kept is what a new station starts from.
-        let mut fresh = Station::serving(
-            si_rk512::Config::default(),
-            si_core::SerialSettings::default(),
-            &si_rk512::passive::ServerConfig::default(),
-        )
-        .unwrap();
-        kept.restore(&mut fresh);
-        let word = fresh
-            .server()
-            .memory()
-            .word(si_core::memory::Area::Db(6), 4);
-        assert_eq!(word, Ok(0x4242));
     }
 
     /// A passive station of low priority with a DB6 of 64 bytes on `port`, from `kept`.
@@ -272,7 +228,7 @@ mod tests {
     #[tokio::test(start_paused = true)]
     async fn the_memory_survives_a_reopening() {
         let own = OwnMemory::new(&line(vec![], None));
-        let kept = own.kept();
+        let (kept, watch) = (own.kept(), own.kept());
         let (a, b) = tokio::io::duplex(4096);
         let (port, closed) = reopen::watch(Box::new(a));
         let first = Opened {
@@ -302,6 +258,11 @@ mod tests {
             value: 0x4242,
         };
         assert_eq!(ask(&queue, &write).await, [0x06, 0, 2, 0x42, 0x42]);
+        let kept_word = |k: &Kept| {
+            let server = lock(&k.0).clone().expect("kept after a write");
+            server.memory().word(si_core::memory::Area::Db(6), 4)
+        };
+        assert_eq!(kept_word(&watch), Ok(0x4242));
 
         drop(plc);
         let read = Request::ReadHoldingRegisters {
