@@ -2,14 +2,15 @@
 //! `reconnect.rs` does for a Modbus RTU line: socat's pty pair behind symbolic links is the
 //! adapter; killing socat pulls it, a new socat on the same links plugs it in again. An active
 //! line answers 0AH while down and serves the new partner after; a passive line's memory (the
-//! gateway's own) still holds what the partner and a Modbus client wrote before.
-//! Skips without socat (fails with `CI` set).
+//! gateway's own) still holds what the partner and a Modbus client wrote before; a
+//! `kind = "3964r"` line still shows the partner's latest block. Skips without socat (fails
+//! with `CI` set).
 
 use super::harness::{
     launch, read_holding, reopened_once, stop, wait_for_event, write_registers, Client, LinkedPair,
 };
 use super::rk512::{rk512_on, serve};
-use crate::common::{have_socat, test_dir};
+use crate::common::{have_socat, si_command, test_dir};
 use std::sync::mpsc::Receiver;
 use std::time::Duration;
 
@@ -21,6 +22,16 @@ fn links(name: &str) -> (String, String) {
     let dir = test_dir("gateway-rk512-reconnect");
     let link = |end: &str| dir.join(format!("{name}-{end}")).display().to_string();
     (link("line"), link("partner"))
+}
+
+/// `si --port PORT 3964r send BYTES…`: the partner sends one block.
+fn send_block(port: &str, bytes: &[&str]) {
+    let o = si_command()
+        .args(["--port", port, "3964r", "send"])
+        .args(bytes)
+        .output()
+        .expect("run si 3964r send");
+    assert!(o.status.success(), "{o:?}");
 }
 
 /// `si gateway` with one rk512 line `name` on `device`, unit 1, and the extra keys `keys`.
@@ -113,4 +124,47 @@ fn a_passive_rk512_lines_memory_survives_the_port_closing() {
     let fetched = rk512_on(&b, &["fetch", "--db", "6", "--dw", "0", "--count", "3"]);
     assert_eq!(fetched["hex"], "11 22 33 44 55 66", "{fetched}");
     reopened_once(&stop(&gateway, &log));
+}
+
+#[test]
+fn a_3964r_line_keeps_the_latest_block_across_the_port_closing() {
+    if !have_socat() {
+        return;
+    }
+    let (a, b) = links("blocks");
+    let pair = LinkedPair::start_ignoreeof(&a, &b);
+    let toml = format!(
+        "listen = \"127.0.0.1:0\"\n[[line]]\nname = \"blocks\"\nkind = \"3964r\"\n\
+         device = \"{a}\"\nunits = \"1\"\n"
+    );
+    let (addr, log, gateway) = launch(&toml, &a);
+    let mut c = Client::connect(&addr);
+    let latest = [0x04, 6, 0, 1, 0, 2, 0x0A, 0x0B];
+    send_block(&b, &["0A", "0B"]);
+    c.until(1, &[0x04, 0, 0, 0, 3], |r| r == latest);
+
+    drop(pair);
+    let down = wait_for_event(&log, "line_down", Duration::from_secs(10));
+    assert_eq!(down["line"], "blocks", "{down}");
+    assert_eq!(
+        c.ask(1, &[0x04, 0, 0, 0, 3]),
+        [0x84, 0x0A],
+        "down as a whole"
+    );
+
+    let _pair = LinkedPair::start_ignoreeof(&a, &b);
+    let up = wait_for_event(&log, "line_up", Duration::from_secs(40));
+    assert_eq!(up["reconnects"], 1, "{up}");
+    assert_eq!(
+        c.ask(1, &[0x04, 0, 0, 0, 3]),
+        latest,
+        "kept across the reopening"
+    );
+    send_block(&b, &["0C"]);
+    c.until(1, &[0x04, 0, 0, 0, 3], |r| {
+        r == [0x04, 6, 0, 2, 0, 1, 0x0C, 0]
+    });
+    let status = stop(&gateway, &log);
+    assert_eq!(status["lines"][0]["state"], "up", "{status}");
+    assert_eq!(status["lines"][0]["reconnects"], 1, "{status}");
 }

@@ -492,8 +492,18 @@ pub(super) mod tests {
         assert_eq!(fresh, [true, false, true]);
         // Outside the image: 02H.
         assert_eq!(ask(&mut p, &read(4)).await.0, [0x83, 0x02]);
+        // A station attached after a reopening: stale until its first refresh through it.
+        let (station, plc2) = stations(64);
+        p.attach(station);
+        assert_eq!(ask(&mut p, &read(1)).await.0, [0x83, 0x0B]);
+        p.refresh().await;
+        assert_eq!(
+            ask(&mut p, &read(1)).await.0,
+            [0x03, 2, 0, 0],
+            "the new DB6"
+        );
         // A failed refresh makes the image stale again.
-        drop(plc);
+        drop((plc, plc2));
         p.refresh().await;
         assert_eq!(ask(&mut p, &read(1)).await.0, [0x83, 0x0B]);
         assert!(p.image.iter().all(|(_, f)| !f));

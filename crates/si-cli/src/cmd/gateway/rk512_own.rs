@@ -5,7 +5,8 @@
 //!
 //! Modbus requests reach the line's task through the line's queue, like an active line's, so
 //! that one task owns the station: it answers them between the station's events, one at a
-//! time (the station's memory is one CPU's, changed by one program at a time).
+//! time (the station's memory is one CPU's, changed by one program at a time). The line's
+//! `queue` bounds them (06H when full); `pause_ms` does not apply, there is no line traffic.
 //!
 //! # The memory survives a reopening
 //!
@@ -129,7 +130,7 @@ async fn serve(
                         command: Command::Send | Command::SendDx,
                         ..
                     }) => kept.keep_from(&station).await,
-                    Some(_) => {}
+                    Some(other) => tracing::debug!("rk512 passive side: {other:?}"),
                     // The station stopped: its port is closing.
                     None => return closed.await,
                 }
