@@ -15,9 +15,9 @@
 //! new port starts from the memory as last kept, not zeroed. It is kept (the whole passive
 //! side, [`si_rk512::passive::Server`]) after every Modbus write and after every SEND the
 //! partner completed, since the old station is gone with its port and cannot be read out once
-//! it has closed. Our reading: a SEND completed in the very moment the port closed, whose event
-//! comes after the station stopped, is not kept; the partner sends it again, as it would after
-//! the CPU restarted. A partner's job that was half received when the port closed is dropped.
+//! it has closed. The limit of this: a SEND the station completed in the very moment its port
+//! closed (between serving it and the line's task reading the event, a few microseconds) is
+//! not kept. A partner's job that was half received when the port closed is dropped.
 
 use super::counters::{Outcome, Stats};
 use super::line::{self, lock, LineQueue, GATEWAY_PATH_UNAVAILABLE};
