@@ -16,8 +16,8 @@
 //! side, [`si_rk512::passive::Server`]) after every Modbus write and after every SEND the
 //! partner completed, since the old station is gone with its port and cannot be read out once
 //! it has closed. The limit of this: a SEND the station completed in the very moment its port
-//! closed (between serving it and the line's task reading the event) is
-//! not kept. A partner's job that was half received when the port closed is dropped.
+//! closed (between serving it and the line's task reading the event) is not kept. A partner's
+//! job that was half received when the port closed is dropped.
 
 use super::counters::{Outcome, Stats};
 use super::line::{self, lock, LineQueue, GATEWAY_PATH_UNAVAILABLE};
