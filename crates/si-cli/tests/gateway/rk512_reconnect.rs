@@ -14,9 +14,6 @@ use crate::common::{have_socat, si_command, test_dir};
 use std::sync::mpsc::Receiver;
 use std::time::Duration;
 
-/// Exception 0AH to FC03: the line is down.
-const DOWN: [u8; 2] = [0x83, 0x0A];
-
 /// The pair's links `NAME-line` (the gateway's end) and `NAME-partner`, in the test directory.
 fn links(name: &str) -> (String, String) {
     let dir = test_dir("gateway-rk512-reconnect");
@@ -47,16 +44,26 @@ fn gateway(
     launch(&toml, device)
 }
 
-/// The pair is pulled: the line says it is down, and a read is answered with 0AH.
-fn pulled(pair: LinkedPair, c: &mut Client, log: &Receiver<String>, name: &str) {
+/// The adapter is pulled (`pair` dropped): line `name` says it is down and answers `probe`
+/// with 0AH; it is plugged in again by `replug` (whose result the caller keeps): the line says
+/// it is up after one reconnect.
+fn replugged<T>(
+    pair: LinkedPair,
+    c: &mut Client,
+    log: &Receiver<String>,
+    name: &str,
+    probe: &[u8],
+    replug: impl FnOnce() -> T,
+) -> T {
     drop(pair);
     let down = wait_for_event(log, "line_down", Duration::from_secs(10));
     assert_eq!(down["line"], name, "{down}");
-    assert_eq!(
-        c.ask(1, &read_holding(0, 1)),
-        DOWN,
-        "gateway path unavailable"
-    );
+    let unavailable = [probe[0] | 0x80, 0x0A];
+    assert_eq!(c.ask(1, probe), unavailable, "gateway path unavailable");
+    let again = replug();
+    let up = wait_for_event(log, "line_up", Duration::from_secs(40));
+    assert_eq!(up["reconnects"], 1, "{up}");
+    again
 }
 
 #[test]
@@ -77,13 +84,10 @@ fn an_active_rk512_line_answers_0ah_while_down_and_serves_the_partner_after() {
     assert_eq!(c.ask(1, &read_holding(10, 1)), [0x03, 2, 0x12, 0x34]);
 
     drop(plc);
-    pulled(pair, &mut c, &log, "plc");
-
     // Plugged in again, with a partner whose DB6 is fresh: served again through the new port.
-    let _pair = LinkedPair::start(&a, &b);
-    let _plc = serve(&b);
-    let up = wait_for_event(&log, "line_up", Duration::from_secs(40));
-    assert_eq!(up["reconnects"], 1, "{up}");
+    let _again = replugged(pair, &mut c, &log, "plc", &read_holding(0, 1), || {
+        (LinkedPair::start(&a, &b), serve(&b))
+    });
     let echo = [0x10, 0, 11, 0, 1];
     c.until(1, &write_registers(11, &[0xBEEF]), |a| a == echo);
     assert_eq!(
@@ -110,11 +114,9 @@ fn a_passive_rk512_lines_memory_survives_the_port_closing() {
         [0x06, 0, 2, 0x55, 0x66]
     );
 
-    pulled(pair, &mut c, &log, "own");
-
-    let _pair = LinkedPair::start_ignoreeof(&a, &b);
-    let up = wait_for_event(&log, "line_up", Duration::from_secs(40));
-    assert_eq!(up["reconnects"], 1, "{up}");
+    let _again = replugged(pair, &mut c, &log, "own", &read_holding(0, 1), || {
+        LinkedPair::start_ignoreeof(&a, &b)
+    });
     let all = [0x03, 6, 0x11, 0x22, 0x33, 0x44, 0x55, 0x66];
     assert_eq!(
         c.ask(1, &read_holding(0, 3)),
@@ -143,18 +145,10 @@ fn a_3964r_line_keeps_the_latest_block_across_the_port_closing() {
     send_block(&b, &["0A", "0B"]);
     c.until(1, &[0x04, 0, 0, 0, 3], |r| r == latest);
 
-    drop(pair);
-    let down = wait_for_event(&log, "line_down", Duration::from_secs(10));
-    assert_eq!(down["line"], "blocks", "{down}");
-    assert_eq!(
-        c.ask(1, &[0x04, 0, 0, 0, 3]),
-        [0x84, 0x0A],
-        "down as a whole"
-    );
-
-    let _pair = LinkedPair::start_ignoreeof(&a, &b);
-    let up = wait_for_event(&log, "line_up", Duration::from_secs(40));
-    assert_eq!(up["reconnects"], 1, "{up}");
+    // Down as a whole: the latest block is not shown while the line is down.
+    let _again = replugged(pair, &mut c, &log, "blocks", &[0x04, 0, 0, 0, 3], || {
+        LinkedPair::start_ignoreeof(&a, &b)
+    });
     assert_eq!(
         c.ask(1, &[0x04, 0, 0, 0, 3]),
         latest,
@@ -164,7 +158,5 @@ fn a_3964r_line_keeps_the_latest_block_across_the_port_closing() {
     c.until(1, &[0x04, 0, 0, 0, 3], |r| {
         r == [0x04, 6, 0, 2, 0, 1, 0x0C, 0]
     });
-    let status = stop(&gateway, &log);
-    assert_eq!(status["lines"][0]["state"], "up", "{status}");
-    assert_eq!(status["lines"][0]["reconnects"], 1, "{status}");
+    reopened_once(&stop(&gateway, &log));
 }
