@@ -2,7 +2,7 @@
 //! from std sockets) → `si gateway` → a socat pseudo-terminal pair → a pymodbus RTU serial
 //! server (a simulated USS drive behind a `uss` line, `si rk512 serve` behind an `rk512`
 //! line), and a bounded soak of 32 clients with bad input; a line whose pty goes away and comes
-//! back, and a slave whose corrupt answers a retry cures. A missing peer (socat, pymodbus)
+//! back (RTU, RK 512 in both roles), and a slave whose corrupt answers a retry cures. A missing peer (socat, pymodbus)
 //! skips with a message, and fails with `CI` set (common/mod.rs).
 
 mod common;
@@ -22,6 +22,8 @@ mod queueing;
 mod reconnect;
 #[path = "gateway/rk512.rs"]
 mod rk512;
+#[path = "gateway/rk512_reconnect.rs"]
+mod rk512_reconnect;
 #[path = "gateway/soak.rs"]
 mod soak;
 #[path = "gateway/uss.rs"]

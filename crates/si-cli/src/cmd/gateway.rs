@@ -9,11 +9,12 @@
 //! A `kind = "uss"` line serves USS drives instead: each drive is a unit id whose PZD and
 //! parameter window are registers ([`uss`], keys in [`uss_config`]). A `kind = "rk512"` line
 //! serves an RK 512 partner's S7 memory through S_MODB's conversion DB, or the gateway's own
-//! memory as a passive partner ([`rk512`], keys in [`rk512_config`], spans in [`rk512_spans`]);
-//! a `kind = "3964r"` line shows a plain 3964(R) partner's latest block as input registers and
-//! sends a block for a register write ([`r3964`], keys in [`r3964_config`]). A line may have
-//! its own listening address ([`faces`]), so that more than 255 lines fit in one process; the
-//! open-file limit is raised for them ([`limits`]).
+//! memory as a passive partner ([`rk512`], [`rk512_own`], keys in [`rk512_config`], spans in
+//! [`rk512_spans`]); a `kind = "3964r"` line shows a plain 3964(R) partner's latest block as
+//! input registers and sends a block for a register write ([`r3964`], keys in
+//! [`r3964_config`]). Every line kind is reopened the same way when its port closes. A line
+//! may have its own listening address ([`faces`]), so that more than 255 lines fit in one
+//! process; the open-file limit is raised for them ([`limits`]).
 
 mod config;
 mod counters;
@@ -26,6 +27,7 @@ mod r3964_config;
 mod reopen;
 mod rk512;
 mod rk512_config;
+mod rk512_own;
 mod rk512_spans;
 mod router;
 mod uss;
@@ -191,29 +193,32 @@ impl GatewayArgs {
                     router::LineHandle::Uss(drives)
                 }
                 Kind::Rk512(r) => {
-                    let station = open_rk512(&conn, &l, r).await?;
+                    let (r, pause) = (r.clone(), l.pause);
+                    let queue = Arc::new(line::LineQueue::new(l.queue));
+                    let q = Arc::clone(&queue);
                     match r.role {
                         rk512_config::Role::Active => {
-                            let queue = Arc::new(line::LineQueue::new(l.queue));
-                            let partner = rk512::Partner::new(station, r);
-                            let stats = Arc::clone(&stats);
-                            tokio::spawn(rk512::run(
-                                i,
-                                Arc::clone(&queue),
-                                partner,
-                                l.pause,
-                                stats,
-                            ));
-                            router::LineHandle::Rk512(queue)
+                            let first = open_rk512(&conn, &l, &r, None).await?;
+                            let partner = rk512::Partner::new(&r);
+                            let open = async move || open_rk512(&conn, &l, &r, None).await;
+                            tokio::spawn(rk512::run(log, q, partner, first, open, pause));
                         }
                         rk512_config::Role::Passive => {
-                            router::LineHandle::Rk512Memory(rk512::OwnMemory::new(station, r))
+                            let own = rk512_own::OwnMemory::new(&r);
+                            let kept = own.kept();
+                            let first = open_rk512(&conn, &l, &r, None).await?;
+                            let open = async move || open_rk512(&conn, &l, &r, Some(&kept)).await;
+                            tokio::spawn(own.run(log, q, first, open));
                         }
                     }
+                    router::LineHandle::Rk512(queue)
                 }
                 Kind::R3964(link) => {
-                    let handle = open_3964r(&conn, &l, link).await?;
-                    let blocks = r3964::BlockLine::new(handle, link.max_block_len.into());
+                    let link = *link;
+                    let first = open_3964r(&conn, &l, &link).await?;
+                    let blocks = r3964::BlockLine::new(link.max_block_len.into());
+                    let open = async move || open_3964r(&conn, &l, &link).await;
+                    tokio::spawn(blocks.supervise(log, first, open));
                     router::LineHandle::R3964(blocks)
                 }
             };
@@ -299,24 +304,30 @@ async fn open_uss(
 }
 
 /// Open an RK 512 line and start its station: active only, or serving the line's memory in
-/// the passive role.
+/// the passive role, from the memory `kept` before its port last closed, if any.
 async fn open_rk512(
     conn: &Connection,
     l: &config::Line,
     r: &rk512_config::Rk512Line,
-) -> Result<si_rk512::tokio::Handle, CliError> {
-    let (station, port) = open_engine(conn, l, "rk512", |settings| match r.role {
+    kept: Option<&rk512_own::Kept>,
+) -> Result<reopen::Opened<si_rk512::tokio::Handle>, CliError> {
+    let (station, port, closed) = open_engine(conn, l, "rk512", |settings| match r.role {
         rk512_config::Role::Active => si_rk512::Station::new(r.config, settings),
         rk512_config::Role::Passive => {
             let server = si_rk512::passive::ServerConfig {
                 memory: r.memory.clone(),
                 ..si_rk512::passive::ServerConfig::default()
             };
-            si_rk512::Station::serving(r.config, settings, &server)
+            let mut station = si_rk512::Station::serving(r.config, settings, &server)?;
+            if let Some(kept) = kept {
+                kept.restore(&mut station);
+            }
+            Ok(station)
         }
     })
     .await?;
-    Ok(si_rk512::tokio::Handle::spawn_engine(station, port))
+    let link = si_rk512::tokio::Handle::spawn_engine(station, port);
+    Ok(reopen::Opened { link, closed })
 }
 
 /// Open a plain 3964(R) line and start its link.
@@ -324,27 +335,28 @@ async fn open_3964r(
     conn: &Connection,
     l: &config::Line,
     link: &si_3964r::Config,
-) -> Result<si_3964r::tokio::Handle, CliError> {
-    let (engine, port) = open_engine(conn, l, "3964r", |settings| {
+) -> Result<reopen::Opened<si_3964r::tokio::Handle>, CliError> {
+    let (engine, port, closed) = open_engine(conn, l, "3964r", |settings| {
         si_3964r::Link::new(*link, settings)
     })
     .await?;
-    Ok(si_3964r::tokio::Handle::spawn_engine(engine, port))
+    let link = si_3964r::tokio::Handle::spawn_engine(engine, port);
+    Ok(reopen::Opened { link, closed })
 }
 
 /// Build line `l`'s engine for its serial settings (checking its configuration before the
-/// port opens), then open the port.
+/// port opens), then open the port, watched for its closing ([`reopen::watch`]).
 async fn open_engine<E, F: std::error::Error>(
     conn: &Connection,
     l: &config::Line,
     protocol: &'static str,
     engine: impl FnOnce(si_core::SerialSettings) -> Result<E, F>,
-) -> Result<(E, Box<dyn si_core::driver::Transport>), CliError> {
+) -> Result<(E, Box<dyn si_core::driver::Transport>, reopen::Closed), CliError> {
     let c = line_connection(conn, l, protocol);
     let settings = c.settings().map_err(named(l))?;
     let engine = engine(settings).map_err(|e| named(l)(e.into()))?;
-    let port = c.open_with(&settings).await.map_err(named(l))?;
-    Ok((engine, port))
+    let (port, closed) = reopen::watch(c.open_with(&settings).await.map_err(named(l))?);
+    Ok((engine, port, closed))
 }
 
 /// Open a Modbus RTU line and start its master.

@@ -70,6 +70,18 @@ pub fn stop(gateway: &Kill, log: &Receiver<String>) -> serde_json::Value {
     serde_json::from_str(&last).expect(&last)
 }
 
+/// A last status line showing line 0 up again after one reconnect, with the 0AH it answered
+/// while down counted.
+pub fn reopened_once(status: &serde_json::Value) {
+    let line = &status["lines"][0];
+    assert_eq!(line["state"], "up", "{status}");
+    assert_eq!(line["reconnects"], 1, "{status}");
+    assert!(
+        line["other"].as_u64() >= Some(1),
+        "the 0AH is counted: {status}"
+    );
+}
+
 /// The next JSON line of `log` whose `event` is `event`, waiting at most `bound` (a bound
 /// only, not a timing claim); other lines are passed over.
 pub fn wait_for_event(log: &Receiver<String>, event: &str, bound: Duration) -> serde_json::Value {
@@ -96,10 +108,20 @@ pub struct LinkedPair {
 impl LinkedPair {
     /// Start the pair once both links point to it (a bound of 10 s).
     pub fn start(a: &str, b: &str) -> LinkedPair {
+        Self::with(a, b, "")
+    }
+
+    /// Like [`start`](Self::start), with `ignoreeof`: a process that opens its end and closes
+    /// it again (`si rk512 send`) does not end the pair; killing socat still does.
+    pub fn start_ignoreeof(a: &str, b: &str) -> LinkedPair {
+        Self::with(a, b, ",ignoreeof")
+    }
+
+    fn with(a: &str, b: &str, options: &str) -> LinkedPair {
         for link in [a, b] {
             let _ = std::fs::remove_file(link);
         }
-        let end = |link: &str| format!("pty,raw,echo=0,link={link}");
+        let end = |link: &str| format!("pty,raw,echo=0{options},link={link}");
         let socat = std::process::Command::new("socat")
             .args([end(a), end(b)])
             .stdout(Stdio::null())

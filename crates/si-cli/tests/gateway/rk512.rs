@@ -19,7 +19,7 @@ impl Client {
 }
 
 /// `si --json rk512 serve` on `port` (low priority, DB1–DB16): the process and its lines.
-fn serve(port: &str) -> (Kill, Receiver<String>) {
+pub fn serve(port: &str) -> (Kill, Receiver<String>) {
     let mut child = si_command()
         .args(["--json", "--port", port, "rk512", "serve"])
         .stdout(Stdio::piped())
@@ -37,6 +37,18 @@ fn next(log: &Receiver<String>) -> serde_json::Value {
         .recv_timeout(Duration::from_secs(20))
         .expect("a line from si rk512 serve");
     serde_json::from_str(&line).expect(&line)
+}
+
+/// `si --json --port PORT rk512 ARGS` (a partner's one job): its JSON line.
+pub fn rk512_on(port: &str, args: &[&str]) -> serde_json::Value {
+    let o = si_command()
+        .args(["--json", "--port", port, "rk512"])
+        .args(args)
+        .output()
+        .expect("run si rk512");
+    assert!(o.status.success(), "{o:?}");
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    serde_json::from_str::<serde_json::Value>(out.trim()).expect(&out)
 }
 
 fn rk512_line(name: &str, pair: &PtyPair, unit: u8, keys: &str) -> String {
@@ -134,16 +146,7 @@ fn a_passive_line_serves_the_gateways_own_memory() {
     );
     let (addr, _glog, _gateway) = launch(&toml, &pair.a);
     let mut c = Client::connect(&addr);
-    let rk512 = |args: &[&str]| {
-        let o = si_command()
-            .args(["--json", "--port", &pair.b, "rk512"])
-            .args(args)
-            .output()
-            .expect("run si rk512");
-        assert!(o.status.success(), "{o:?}");
-        let out = String::from_utf8_lossy(&o.stdout).into_owned();
-        serde_json::from_str::<serde_json::Value>(out.trim()).expect(&out)
-    };
+    let rk512 = |args: &[&str]| rk512_on(&pair.b, args);
     // A partner SENDs into DB6 (the default memory: DB1–DB6, 1024 bytes): Modbus reads it.
     rk512(&["send", "--db", "6", "--dw", "0", "1122", "3344"]);
     assert_eq!(

@@ -128,8 +128,8 @@ async fn serve(
 }
 
 /// While the line is down: every request it takes is answered with 0AH, "gateway path
-/// unavailable" (§7), at once.
-async fn refuse(index: usize, queue: Arc<LineQueue>, stats: Arc<Mutex<Stats>>) -> Infallible {
+/// unavailable" (§7), at once. Every queued line kind (RTU, RK 512) refuses so.
+pub async fn refuse(index: usize, queue: Arc<LineQueue>, stats: Arc<Mutex<Stats>>) -> Infallible {
     loop {
         let (client, job, depth) = queue.pop().await;
         taken(index, &stats, client, depth);
@@ -138,8 +138,9 @@ async fn refuse(index: usize, queue: Arc<LineQueue>, stats: Arc<Mutex<Stats>>) -
     }
 }
 
-/// A job left the queue: the depths of the line and of its client.
-fn taken(index: usize, stats: &Mutex<Stats>, client: u64, depth: usize) {
+/// A job left the queue: the depths of the line and of its client. Every queued line kind
+/// counts through this and [`answered`].
+pub fn taken(index: usize, stats: &Mutex<Stats>, client: u64, depth: usize) {
     let mut s = lock(stats);
     s.lines[index].queue_depth = depth as u64;
     if let Some(c) = s.client(client) {
@@ -147,8 +148,9 @@ fn taken(index: usize, stats: &Mutex<Stats>, client: u64, depth: usize) {
     }
 }
 
-/// Count what became of `job` for the line and its client, and hand the answer back.
-fn answered(
+/// Count what became of `job` for the line and its client (`crc_errors`: the corrupt answers
+/// its attempts met, 0 where there is no CRC to check), and hand the answer back.
+pub fn answered(
     index: usize,
     stats: &Mutex<Stats>,
     client: u64,

@@ -13,14 +13,22 @@
 //! receive buffer. A send that fails is answered as an RK 512 job's STATUS is
 //! ([`super::rk512::status_exception`]: class 07H → 0BH, busy → 06H); a length out of range is
 //! 03H, a write elsewhere or a read past the block 02H, any other function 01H.
+//!
+//! While the line's port is closed every request is answered with 0AH, reads of the latest
+//! block too (the line is down as a whole, as a USS line is), and the port is reopened
+//! ([`super::reopen`]). The latest block and the count survive the reopening: they are the
+//! last the partner sent, and the count goes on from there.
 
 use super::counters::Outcome;
 use super::line::{lock, GATEWAY_PATH_UNAVAILABLE};
+use super::reopen::{self, Closed, LineLog, Opened};
 use super::rk512::{counted, status_exception};
+use crate::error::CliError;
 use si_3964r::tokio::{Error, Handle, Sender};
 use si_modbus::frame::{Registers, Request, Response};
 use si_modbus::mbap::TcpAdu;
 use si_modbus::serve;
+use std::future::Future;
 use std::sync::{Arc, Mutex};
 
 /// Exception 01H: a function the block registers do not serve.
@@ -40,40 +48,46 @@ struct Latest {
     block: Vec<u8>,
 }
 
+/// The sending half of a 3964(R) line while its port is open; `None` while it is down.
+type Link = Mutex<Option<Sender>>;
+
 /// A 3964(R) line: its sending half and the latest block the receiving task took.
 pub struct BlockLine {
-    sender: Sender,
+    sender: Arc<Link>,
     latest: Arc<Mutex<Latest>>,
     max_block_len: usize,
 }
 
 impl BlockLine {
-    /// Serve the link `handle` (running, with blocks up to `max_block_len` bytes): a task takes
-    /// every block it receives.
-    pub fn new(mut handle: Handle, max_block_len: usize) -> Self {
-        let latest = Arc::new(Mutex::new(Latest::default()));
-        let sender = handle.sender();
-        let slot = Arc::clone(&latest);
-        tokio::spawn(async move {
-            while let Some(received) = handle.next().await {
-                match received {
-                    Ok(block) => {
-                        let mut l = lock(&slot);
-                        l.count = l.count.wrapping_add(1);
-                        l.block = block.to_vec();
-                    }
-                    Err(s) => {
-                        let s = si_3964r::status::lookup(s.code());
-                        tracing::debug!("3964(R) reception: {s}");
-                    }
-                }
-            }
-        });
+    /// A line with blocks up to `max_block_len` bytes, down until
+    /// [`supervise`](Self::supervise) gives it a link.
+    pub fn new(max_block_len: usize) -> Self {
         BlockLine {
-            sender,
-            latest,
+            sender: Arc::default(),
+            latest: Arc::default(),
             max_block_len,
         }
+    }
+
+    /// Serve the line through `first`, and through each link reopened after the port closed,
+    /// until the process ends ([`super::reopen`]): every block received is taken at once.
+    pub fn supervise(
+        &self,
+        log: LineLog,
+        first: Opened<Handle>,
+        open: impl AsyncFnMut() -> Result<Opened<Handle>, CliError> + 'static,
+    ) -> impl Future<Output = ()> + 'static {
+        // The closure owns what its futures use (see `line::run`).
+        let (sender, latest) = (Arc::clone(&self.sender), Arc::clone(&self.latest));
+        reopen::supervise(
+            log,
+            first,
+            open,
+            move |link, closed| {
+                serve_until_closed(Arc::clone(&sender), Arc::clone(&latest), link, closed)
+            },
+            std::future::pending,
+        )
     }
 
     /// The answer to `adu` and how it is counted.
@@ -86,6 +100,7 @@ impl BlockLine {
     }
 
     async fn serve(&self, adu: &TcpAdu, request: Request<'_>) -> Result<TcpAdu, u8> {
+        let sender = lock(&self.sender).clone().ok_or(GATEWAY_PATH_UNAVAILABLE)?;
         let response = |r: &Response<'_>| {
             TcpAdu::response(adu.transaction(), adu.unit(), r).map_err(|_| ILLEGAL_DATA_VALUE)
         };
@@ -101,7 +116,7 @@ impl BlockLine {
             Request::WriteMultipleRegisters { address: 0, values } => {
                 let words: Vec<u16> = values.iter().collect();
                 let block = block(&words, self.max_block_len)?;
-                if let Err(e) = self.sender.send(block).await {
+                if let Err(e) = sender.send(block).await {
                     return Err(match e {
                         Error::Status(s) => {
                             let s = si_3964r::status::lookup(s.code());
@@ -135,6 +150,38 @@ impl BlockLine {
     }
 }
 
+/// Lend `link`'s sending half to the requests and take every block it receives into
+/// `latest`, until its port closes: why it closed. The line is down again after.
+async fn serve_until_closed(
+    slot: Arc<Link>,
+    latest: Arc<Mutex<Latest>>,
+    mut link: Handle,
+    mut closed: Closed,
+) -> String {
+    *lock(&slot) = Some(link.sender());
+    let why = loop {
+        tokio::select! {
+            biased;
+            why = &mut closed => break why,
+            received = link.next() => match received {
+                Some(Ok(block)) => {
+                    let mut l = lock(&latest);
+                    l.count = l.count.wrapping_add(1);
+                    l.block = block.to_vec();
+                }
+                Some(Err(s)) => {
+                    let s = si_3964r::status::lookup(s.code());
+                    tracing::debug!("3964(R) reception: {s}");
+                }
+                // The link stopped: its port is closing.
+                None => break (&mut closed).await,
+            },
+        }
+    };
+    *lock(&slot) = None;
+    why
+}
+
 /// The block an FC 16 from register 0 asks to send: length word, then the bytes.
 fn block(words: &[u16], max_block_len: usize) -> Result<Vec<u8>, u8> {
     let (&len, data) = words.split_first().ok_or(ILLEGAL_DATA_VALUE)?;
@@ -163,6 +210,21 @@ mod tests {
         assert_eq!(block(&[2, 0x4142], 1), Err(ILLEGAL_DATA_VALUE));
     }
 
+    /// Yield until the line is up (`true`) or down.
+    async fn until_up(line: &BlockLine, up: bool) {
+        while lock(&line.sender).is_some() != up {
+            tokio::task::yield_now().await;
+        }
+    }
+
+    /// The link's high-priority configuration (the partner keeps the default, low).
+    fn high() -> si_3964r::Config {
+        si_3964r::Config {
+            priority: si_3964r::Priority::High,
+            ..si_3964r::Config::default()
+        }
+    }
+
     async fn ask(line: &BlockLine, unit_pdu: &[u8]) -> Vec<u8> {
         let adu = TcpAdu::from_unit_pdu(1, unit_pdu).unwrap();
         line.answer(&adu).await.0.unit_pdu()[1..].to_vec()
@@ -172,11 +234,16 @@ mod tests {
     async fn blocks_are_input_registers_and_a_register_write_sends_one() {
         let (a, b) = tokio::io::duplex(4096);
         let settings = SerialSettings::default();
-        let high = si_3964r::Config {
-            priority: si_3964r::Priority::High,
-            ..si_3964r::Config::default()
+        let high = high();
+        let line = BlockLine::new(200);
+        let (port, closed) = reopen::watch(Box::new(a));
+        let first = Opened {
+            link: Handle::spawn(high, settings, port).unwrap(),
+            closed,
         };
-        let line = BlockLine::new(Handle::spawn(high, settings, a).unwrap(), 200);
+        let never = async || Err(CliError::new("an in-memory pipe"));
+        tokio::spawn(line.supervise(LineLog::test(1), first, never));
+        until_up(&line, true).await;
         let mut partner = Handle::spawn(si_3964r::Config::default(), settings, b).unwrap();
         // Nothing yet: count and length 0.
         assert_eq!(
@@ -207,5 +274,53 @@ mod tests {
         // The partner gone: 0AH.
         drop(partner);
         assert_eq!(ask(&line, &write).await, [0x90, 0x0A]);
+    }
+
+    /// In virtual time: the port closes, every request gets 0AH, the line is reopened after
+    /// the first second of backoff, and the latest block and its count are still there.
+    #[tokio::test(start_paused = true)]
+    async fn a_reopened_line_keeps_the_latest_block() {
+        let settings = SerialSettings::default();
+        let (a, b) = tokio::io::duplex(4096);
+        let (port, closed) = reopen::watch(Box::new(a));
+        let first = Opened {
+            link: Handle::spawn(high(), settings, port).unwrap(),
+            closed,
+        };
+        let (ends, mut partner_ends) = tokio::sync::mpsc::unbounded_channel();
+        let open = async move || {
+            let (a, b) = tokio::io::duplex(4096);
+            let (port, closed) = reopen::watch(Box::new(a));
+            let _ = ends.send(b);
+            let link =
+                Handle::spawn(high(), settings, port).map_err(|e| CliError::new(e.to_string()))?;
+            Ok(Opened { link, closed })
+        };
+        let line = BlockLine::new(200);
+        let log = LineLog::test(1);
+        let stats = Arc::clone(&log.stats);
+        tokio::spawn(line.supervise(log, first, open));
+        let partner = Handle::spawn(si_3964r::Config::default(), settings, b).unwrap();
+        until_up(&line, true).await;
+        partner.send(vec![7, 8]).await.unwrap();
+        let latest = [0x04, 6, 0, 1, 0, 2, 7, 8];
+        let read = [1, 0x04, 0, 0, 0, 3];
+        while ask(&line, &read).await != latest {
+            tokio::task::yield_now().await;
+        }
+
+        drop(partner);
+        until_up(&line, false).await;
+        assert_eq!(ask(&line, &read).await, [0x84, 0x0A]);
+        let write = [1, 0x10, 0, 0, 0, 2, 4, 0, 1, 0x41, 0];
+        assert_eq!(ask(&line, &write).await, [0x90, 0x0A]);
+
+        let b = partner_ends.recv().await.expect("reopened");
+        let mut partner = Handle::spawn(si_3964r::Config::default(), settings, b).unwrap();
+        until_up(&line, true).await;
+        assert_eq!(ask(&line, &read).await, latest, "kept across the reopening");
+        assert_eq!(ask(&line, &write).await, [0x10, 0, 0, 0, 2]);
+        assert_eq!(&partner.recv().await.unwrap()[..], b"A");
+        assert_eq!(lock(&stats).lines[0].reconnects, 1);
     }
 }

@@ -219,6 +219,19 @@ impl LineLog {
     }
 }
 
+#[cfg(test)]
+impl LineLog {
+    /// Line 0 of `lines` fresh counters, logging JSON.
+    pub fn test(lines: usize) -> LineLog {
+        LineLog {
+            index: 0,
+            name: "test".into(),
+            stats: Arc::new(Mutex::new(Stats::new(lines))),
+            out: Output { json: true },
+        }
+    }
+}
+
 /// Serve a line for ever: `serve` runs the link until its port closes (returning why), then
 /// the line is down until `open` succeeds, tried after [`backoff`]; `while_down` runs
 /// meanwhile (answering what reaches the line with 0AH) and is dropped once it is back.

@@ -30,34 +30,39 @@
 //! | other (1E41, 0515, 0516) | the station refused the job before sending | 04H |
 //! | the port closed | | 0AH |
 //!
-//! # Passive role: the gateway's own memory
+//! While the port is closed, the queued jobs are answered with 0AH and the port is reopened
+//! ([`super::reopen`]), as for a Modbus RTU line. The mirror keeps what it last knew of the
+//! partner across the reopening, but the refresh image is stale (0BH) until the first refresh
+//! through the new station, which runs at once: the partner may have changed meanwhile.
 //!
-//! The gateway's station is a passive RK 512 partner ([`si_rk512::Station::serving`]): a
-//! CP 341 or PLC SENDs into its memory and FETCHes from it, and Modbus TCP clients read and
-//! write that same memory through the conversion DB, answered at once without line traffic.
+//! The passive role (the gateway's own memory) is in [`super::rk512_own`].
 
 use super::counters::{Outcome, Stats};
 use super::line::{
-    exception, lock, LineQueue, GATEWAY_PATH_UNAVAILABLE, GATEWAY_TARGET_FAILED, SLAVE_DEVICE_BUSY,
+    self, exception, LineQueue, GATEWAY_PATH_UNAVAILABLE, GATEWAY_TARGET_FAILED, SLAVE_DEVICE_BUSY,
     SLAVE_DEVICE_FAILURE,
 };
+use super::reopen::{self, Closed, LineLog, Opened};
 use super::rk512_config::Rk512Line;
 use super::rk512_spans::{self, add_dbs, is_read, Span, ILLEGAL_DATA_ADDRESS};
-use si_core::memory::{Memory, MemorySizes};
+use crate::error::CliError;
+use si_core::memory::Memory;
 use si_modbus::frame::Request;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::serve::{self, ResponseData};
-use si_modbus::simatic::{ConversionDb, SimaticStore};
+use si_modbus::simatic::SimaticStore;
 use si_rk512::config::DwUnit;
 use si_rk512::frame::Coordination;
 use si_rk512::status;
 use si_rk512::tokio::{Error, Handle};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
+use tokio::time::Interval;
 
-/// An active line's station and its mirror of the partner's memory.
+/// An active line's mirror of the partner's memory, and the station reaching the partner.
 pub struct Partner {
-    station: Handle,
+    /// The station while the line's port is open; `None` while the line is down (0AH).
+    station: Option<Handle>,
     mirror: SimaticStore,
     dw_unit: DwUnit,
     coordination: Coordination,
@@ -67,18 +72,27 @@ pub struct Partner {
 }
 
 impl Partner {
-    /// The partner of `line`, reached through `station` (already running).
-    pub fn new(station: Handle, line: &Rk512Line) -> Self {
+    /// The partner of `line`, reached once a station is [attached](Self::attach).
+    pub fn new(line: &Rk512Line) -> Self {
         let sizes = rk512_spans::mirror_sizes(&line.conversion);
         let mut mirror = SimaticStore::new(Memory::new(&sizes), line.conversion);
         add_dbs(&mut mirror.memory, &line.refresh);
         Partner {
-            station,
+            station: None,
             mirror,
             dw_unit: line.config.dw_unit,
             coordination: line.coordination,
             image: line.refresh.iter().map(|&s| (s, false)).collect(),
             every: line.refresh_every,
+        }
+    }
+
+    /// Reach the partner through `station` (newly opened, running). The mirror keeps what it
+    /// knew; the refresh image is stale until the next refresh (module docs).
+    fn attach(&mut self, station: Handle) {
+        self.station = Some(station);
+        for (_, fresh) in &mut self.image {
+            *fresh = false;
         }
     }
 
@@ -118,7 +132,7 @@ impl Partner {
         for s in &spans {
             let data = s.load(&self.mirror.memory).map_err(memory_failed)?;
             let sent = self
-                .station
+                .station()?
                 .send(s.address, self.coordination, data)
                 .await
                 .map_err(|e| failed("SEND", s, &e));
@@ -133,10 +147,15 @@ impl Partner {
         Ok(answer)
     }
 
+    /// The station, or 0AH while the line is down.
+    fn station(&self) -> Result<&Handle, u8> {
+        self.station.as_ref().ok_or(GATEWAY_PATH_UNAVAILABLE)
+    }
+
     /// FETCH one span's bytes.
     async fn fetch(&self, s: &Span) -> Result<Vec<u8>, u8> {
         let data = self
-            .station
+            .station()?
             .fetch(s.address, self.coordination, s.len)
             .await
             .map_err(|e| failed("FETCH", s, &e))?;
@@ -221,7 +240,7 @@ pub fn counted(adu: &TcpAdu, result: Result<TcpAdu, u8>) -> (TcpAdu, Outcome) {
 }
 
 /// `request` executed on `store` by si-modbus's serve code: the answer, or the exception.
-fn answer_from(
+pub fn answer_from(
     store: &mut SimaticStore,
     adu: &TcpAdu,
     request: &Request<'_>,
@@ -236,116 +255,106 @@ fn answer_from(
     }
 }
 
-/// Serve active line `index` until the process ends: one request at a time, then the pause;
-/// with a refresh period, the refresh areas are FETCHed between requests.
+/// Serve active line `log.index` until the process ends: one request at a time, then the
+/// pause; with a refresh period, the refresh areas are FETCHed between requests. While its
+/// port is closed the queued jobs are answered with 0AH and the port is reopened with `open`
+/// ([`super::reopen`]); `partner` (its mirror) is kept across.
 pub async fn run(
+    log: LineLog,
+    queue: Arc<LineQueue>,
+    partner: Partner,
+    first: Opened<Handle>,
+    open: impl AsyncFnMut() -> Result<Opened<Handle>, CliError>,
+    pause: Duration,
+) {
+    // The closures own what their futures use (see `line::run`); the partner is lent to one
+    // station at a time.
+    let (index, stats) = (log.index, Arc::clone(&log.stats));
+    let (q, s) = (Arc::clone(&queue), Arc::clone(&stats));
+    let partner = Arc::new(tokio::sync::Mutex::new(partner));
+    reopen::supervise(
+        log,
+        first,
+        open,
+        move |station, closed| {
+            let partner = Arc::clone(&partner);
+            serve(
+                index,
+                Arc::clone(&q),
+                partner,
+                station,
+                closed,
+                pause,
+                Arc::clone(&s),
+            )
+        },
+        move || line::refuse(index, Arc::clone(&queue), Arc::clone(&stats)),
+    )
+    .await;
+}
+
+/// Serve the queue through `station` until its port closes: why it closed.
+async fn serve(
     index: usize,
     queue: Arc<LineQueue>,
-    mut partner: Partner,
+    partner: Arc<tokio::sync::Mutex<Partner>>,
+    station: Handle,
+    mut closed: Closed,
     pause: Duration,
     stats: Arc<Mutex<Stats>>,
-) {
+) -> String {
+    let mut partner = partner.lock_owned().await;
+    partner.attach(station);
+    // A new interval ticks at once: the first refresh runs as soon as the line is up.
     let mut tick = partner.every.map(|every| {
         let mut t = tokio::time::interval(every);
         t.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
         t
     });
-    loop {
-        let (client, job, depth) = match tick.as_mut() {
-            Some(t) => tokio::select! {
-                biased;
-                _ = t.tick() => {
-                    partner.refresh().await;
-                    continue;
-                }
-                popped = queue.pop() => popped,
-            },
-            None => queue.pop().await,
+    let why = loop {
+        let (client, job, depth) = tokio::select! {
+            biased;
+            why = &mut closed => break why,
+            () = next_tick(&mut tick) => {
+                partner.refresh().await;
+                continue;
+            }
+            popped = queue.pop() => popped,
         };
-        {
-            let mut s = lock(&stats);
-            s.lines[index].queue_depth = depth as u64;
-            if let Some(c) = s.client(client) {
-                c.queue_depth = c.queue_depth.saturating_sub(1);
-            }
-        }
+        line::taken(index, &stats, client, depth);
         let (answer, outcome) = partner.answer(&job.request).await;
-        {
-            let mut s = lock(&stats);
-            s.lines[index].count(outcome);
-            if let Some(c) = s.client(client) {
-                c.count(outcome);
-            }
-        }
-        if let Some(reply) = job.reply {
-            // The client may have gone; its answer is then dropped.
-            let _ = reply.send(answer);
-        }
+        line::answered(index, &stats, client, job, Some(answer), outcome, 0);
         if !pause.is_zero() {
             tokio::time::sleep(pause).await;
         }
-    }
+    };
+    partner.station = None;
+    why
 }
 
-/// A passive line: the gateway's own memory, served to the RK 512 partner by the station and
-/// to Modbus clients through the conversion DB.
-pub struct OwnMemory {
-    station: Handle,
-    conversion: ConversionDb,
-}
-
-impl OwnMemory {
-    /// The memory of `station` (a serving station, running), mapped by `line`'s conversion DB.
-    pub fn new(station: Handle, line: &Rk512Line) -> Self {
-        OwnMemory {
-            station,
-            conversion: line.conversion,
+/// The refresh period's next tick; never without a refresh.
+async fn next_tick(tick: &mut Option<Interval>) {
+    match tick {
+        Some(t) => {
+            t.tick().await;
         }
-    }
-
-    /// The answer to `adu` from the station's memory, at once, and how it is counted.
-    pub async fn answer(&self, adu: &TcpAdu) -> (TcpAdu, Outcome) {
-        let (adu, conversion) = (*adu, self.conversion);
-        let result = self
-            .station
-            .with_server(move |server| {
-                // The store owns its memory: lend it the station's for this one request.
-                let memory = std::mem::replace(server.memory_mut(), Memory::new(&NO_MEMORY));
-                let mut store = SimaticStore::new(memory, conversion);
-                let answer = match adu.decode_request() {
-                    Ok((_, request)) => answer_from(&mut store, &adu, &request),
-                    Err(e) => Err(serve::refusal(e.kind).0.code()),
-                };
-                *server.memory_mut() = store.memory;
-                answer
-            })
-            .await
-            .unwrap_or(Err(GATEWAY_PATH_UNAVAILABLE));
-        counted(&adu, result)
+        None => std::future::pending().await,
     }
 }
-
-/// Sizes of a memory that allocates nothing: the placeholder while a request has the real one.
-const NO_MEMORY: MemorySizes = MemorySizes {
-    inputs: 0,
-    outputs: 0,
-    flags: 0,
-    timers: 0,
-    counters: 0,
-    dbs: std::collections::BTreeMap::new(),
-};
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::cmd::gateway::rk512_config::Role;
-    use si_core::memory::Area;
+    use si_core::memory::{Area, MemorySizes};
     use si_core::SerialSettings;
     use si_modbus::frame::Registers;
+    use si_modbus::simatic::ConversionDb;
     use si_rk512::passive::ServerConfig;
     use si_rk512::{Config, Station};
 
-    fn line(refresh: Vec<Span>, every: Option<Duration>) -> Rk512Line {
+    /// An active line with the example conversion DB and these refresh areas.
+    pub(crate) fn line(refresh: Vec<Span>, every: Option<Duration>) -> Rk512Line {
         Rk512Line {
             role: Role::Active,
             config: Config::default(),
@@ -374,7 +383,9 @@ mod tests {
     /// A gateway station and a partner with DB6 (64 bytes).
     fn partner(refresh: Vec<Span>, every: Option<Duration>) -> (Partner, Handle) {
         let (station, plc) = stations(64);
-        (Partner::new(station, &line(refresh, every)), plc)
+        let mut p = Partner::new(&line(refresh, every));
+        p.attach(station);
+        (p, plc)
     }
 
     fn adu(request: &Request<'_>) -> TcpAdu {
@@ -481,37 +492,20 @@ mod tests {
         assert_eq!(fresh, [true, false, true]);
         // Outside the image: 02H.
         assert_eq!(ask(&mut p, &read(4)).await.0, [0x83, 0x02]);
+        // A station attached after a reopening: stale until its first refresh through it.
+        let (station, plc2) = stations(64);
+        p.attach(station);
+        assert_eq!(ask(&mut p, &read(1)).await.0, [0x83, 0x0B]);
+        p.refresh().await;
+        assert_eq!(
+            ask(&mut p, &read(1)).await.0,
+            [0x03, 2, 0, 0],
+            "the new DB6"
+        );
         // A failed refresh makes the image stale again.
-        drop(plc);
+        drop((plc, plc2));
         p.refresh().await;
         assert_eq!(ask(&mut p, &read(1)).await.0, [0x83, 0x0B]);
         assert!(p.image.iter().all(|(_, f)| !f));
-    }
-
-    #[tokio::test]
-    async fn the_passive_memory_is_served_to_modbus_and_to_the_partner() {
-        let (cp, own) = stations(1024);
-        let own = OwnMemory::new(own, &line(vec![], None));
-        let at = si_rk512::frame::Address::Db { db: 6, dw: 1 };
-        cp.send(at, Coordination::NONE, vec![0xAB, 0xCD])
-            .await
-            .unwrap();
-        let read = Request::ReadHoldingRegisters {
-            address: 1,
-            quantity: 1,
-        };
-        let (answer, outcome) = own.answer(&adu(&read)).await;
-        assert_eq!(
-            (answer.unit_pdu()[1..].to_vec(), outcome),
-            (vec![0x03, 2, 0xAB, 0xCD], Outcome::Answer)
-        );
-        let write = Request::WriteSingleRegister {
-            address: 2,
-            value: 0x4242,
-        };
-        let (answer, _) = own.answer(&adu(&write)).await;
-        assert_eq!(answer.unit_pdu()[1], 0x06);
-        let fetched = cp.fetch(at, Coordination::NONE, 4).await.unwrap();
-        assert_eq!(&fetched[..], [0xAB, 0xCD, 0x42, 0x42]);
     }
 }

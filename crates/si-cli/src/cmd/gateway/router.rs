@@ -1,11 +1,10 @@
 //! The gateway's face to Modbus TCP: routes each request by its unit id to a line's queue (or
-//! to a USS line's drive images, a passive RK 512 line's memory or a 3964(R) line's blocks),
+//! to a USS line's drive images or a 3964(R) line's blocks),
 //! answers the diagnostic unit itself, and keeps the counters per client.
 
 use super::counters::{Client, Counters, Outcome, Stats};
 use super::line::{self, exception, Job, LineQueue};
 use super::r3964::BlockLine;
-use super::rk512::OwnMemory;
 use super::uss::UssDrives;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::tcp::{Handler, Peer};
@@ -34,10 +33,9 @@ pub enum LineHandle {
     Rtu(Arc<LineQueue>),
     /// USS: answered from the drives' images ([`super::uss`]).
     Uss(UssDrives),
-    /// An active RK 512 line: through the line's queue to its station ([`super::rk512`]).
+    /// An RK 512 line: through the line's queue to its task, which serves the partner's
+    /// memory ([`super::rk512`]) or the gateway's own ([`super::rk512_own`]).
     Rk512(Arc<LineQueue>),
-    /// A passive RK 512 line: answered from the gateway's own memory ([`super::rk512`]).
-    Rk512Memory(OwnMemory),
     /// A plain 3964(R) line: its latest block, and blocks sent ([`super::r3964`]).
     R3964(BlockLine),
 }
@@ -66,7 +64,6 @@ impl Router {
         };
         let answered = match &self.lines[index] {
             LineHandle::Uss(drives) => Some(drives.answer(&request).await),
-            LineHandle::Rk512Memory(memory) => Some(memory.answer(&request).await),
             LineHandle::R3964(blocks) => Some(blocks.answer(&request).await),
             _ => None,
         };
