@@ -36,6 +36,18 @@ impl std::fmt::Debug for SerialPort {
     }
 }
 
+impl Drop for SerialPort {
+    /// A port closed while its transmitter is on would hold the RS-485 bus for every other
+    /// station: leave it receiving (the driver's "off `after` tx-done" may not have come when a
+    /// command ends on the answer, or the task is cancelled). Nothing to report an error to
+    /// here; the port is going away.
+    fn drop(&mut self) {
+        if let Some(enable) = &mut self.tx_enable {
+            let _ = enable.release(&mut self.stream);
+        }
+    }
+}
+
 impl SerialPort {
     #[cfg(target_os = "linux")]
     pub(super) fn new(

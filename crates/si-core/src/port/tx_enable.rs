@@ -26,6 +26,10 @@ pub enum TxEnable {
     #[default]
     Rts,
     /// RTS off while transmitting (mbusd `-r`): an inverting driver stage between RTS and DE.
+    /// The port is left receiving (RTS on) when it is dropped, but the kernel drops RTS when
+    /// the tty is closed (termios `HUPCL`), which on this wiring enables the transmitter
+    /// again: as with mbusd, keep the bus safe with a pull-up on the inverter's input or clear
+    /// `HUPCL` (`stty -F PORT -hupcl`).
     RtsInverted,
     /// `1` written to this file to transmit and `0` to receive (mbusd `-y`), e.g. a GPIO's
     /// `/sys/class/gpio/gpio17/value`.
@@ -56,6 +60,8 @@ impl TxEnable {
 pub struct TxEnableOutput {
     how: TxEnable,
     file: Option<LevelFile>,
+    /// The transmitter was last switched on (and not off since).
+    transmitting: bool,
 }
 
 /// The open level file. A regular file (a sysfs attribute is one) is rewritten at offset 0,
@@ -86,7 +92,11 @@ impl TxEnableOutput {
             }
             None => None,
         };
-        Ok(TxEnableOutput { how, file })
+        Ok(TxEnableOutput {
+            how,
+            file,
+            transmitting: false,
+        })
     }
 
     /// The output this drives.
@@ -105,6 +115,8 @@ impl TxEnableOutput {
             return port.set_signals(update);
         };
         let level = transmit != self.how.inverted();
+        // Until the switch succeeds, count the transmitter as on: `release` then tries again.
+        self.transmitting = true;
         match &mut self.file {
             None => port.set_signals(SignalUpdate {
                 rts: Some(level),
@@ -120,6 +132,16 @@ impl TxEnableOutput {
                     None => Ok(()),
                 }
             }
+        }?;
+        self.transmitting = transmit;
+        Ok(())
+    }
+
+    /// Switch to receive if the transmitter is (or may be) on: for a port going away.
+    pub fn release<T: Transport + ?Sized>(&mut self, port: &mut T) -> io::Result<()> {
+        match self.transmitting {
+            true => self.receive(port),
+            false => Ok(()),
         }
     }
 

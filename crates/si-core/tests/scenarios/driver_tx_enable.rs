@@ -219,3 +219,20 @@ fn a_write_error_is_an_io_error_naming_the_file() {
         "{e}"
     );
 }
+
+#[test]
+fn release_switches_a_transmitting_output_to_receive_once() {
+    let log = Log::default();
+    let mut port = probe(tokio::io::duplex(1).0, &log);
+    let mut output = TxEnableOutput::open(TxEnable::RtsInverted).unwrap();
+    output.release(&mut port).unwrap(); // receiving: nothing to do
+    let transmit = SignalUpdate {
+        rts: Some(true),
+        ..SignalUpdate::default()
+    };
+    output.set_signals(&mut port, transmit).unwrap();
+    output.release(&mut port).unwrap();
+    output.release(&mut port).unwrap();
+    let levels: Vec<Step> = log.lock().unwrap().iter().map(|(_, s)| s.clone()).collect();
+    assert_eq!(levels, vec![Step::Rts(false), Step::Rts(true)]);
+}
