@@ -22,6 +22,8 @@ mod queueing;
 mod reconnect;
 #[path = "gateway/rk512.rs"]
 mod rk512;
+#[path = "gateway/rs485.rs"]
+mod rs485;
 #[path = "gateway/soak.rs"]
 mod soak;
 #[path = "gateway/uss.rs"]

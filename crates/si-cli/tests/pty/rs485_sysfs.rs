@@ -8,41 +8,14 @@
 
 use crate::common;
 
+use common::fifo::{drain, mkfifo};
 use common::modbus;
 use common::{si_command, stderr, stdout, test_dir, text};
-use std::io::Read;
-use std::path::Path;
 use std::time::Duration;
 
 const READ: &[&str] = &[
     "modbus", "read", "holding", "--unit", "1", "--addr", "0", "--count", "2",
 ];
-
-/// Make a FIFO at `path` (`mkfifo`, coreutils).
-fn mkfifo(path: &Path) {
-    let _ = std::fs::remove_file(path);
-    let made = std::process::Command::new("mkfifo")
-        .arg(path)
-        .status()
-        .expect("run mkfifo");
-    assert!(made.success(), "mkfifo {}", path.display());
-}
-
-/// What is written into the FIFO at `path` until its writer closes it, read on a thread of its
-/// own (opening a FIFO waits for the other end).
-fn drain(path: &Path) -> std::sync::mpsc::Receiver<String> {
-    let (tx, rx) = std::sync::mpsc::channel();
-    let path = path.to_owned();
-    std::thread::spawn(move || {
-        let mut text = String::new();
-        std::fs::File::open(&path)
-            .expect("open the FIFO")
-            .read_to_string(&mut text)
-            .expect("read the FIFO");
-        let _ = tx.send(text);
-    });
-    rx
-}
 
 #[test]
 fn a_request_writes_1_before_and_0_after_into_the_sysfs_file() {
