@@ -206,11 +206,7 @@ impl Profile {
             self.latency_timer.map(|t| Some(t.into_inner())),
             explicit("latency_timer"),
         );
-        set(
-            &mut conn.rs485,
-            self.rs485.map(Some),
-            explicit("rs485"),
-        );
+        set(&mut conn.rs485, self.rs485.map(Some), explicit("rs485"));
         set(
             &mut conn.rs485_file,
             self.rs485_file.map(Some),

@@ -7,7 +7,7 @@
 mod driver_logs;
 #[path = "scenarios/driver_rs485.rs"]
 mod driver_rs485;
-#[path = "scenarios/driver_tx_enable.rs"]
-mod driver_tx_enable;
 #[path = "scenarios/driver_timers.rs"]
 mod driver_timers;
+#[path = "scenarios/driver_tx_enable.rs"]
+mod driver_tx_enable;

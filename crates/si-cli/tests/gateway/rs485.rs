@@ -46,7 +46,9 @@ fn a_sysfs_mode_needs_rs485_file_and_only_it_takes_one() {
     );
     let e = refused("rs485 = \"rts-inverted\"\nrs485_file = \"/tmp/x\"");
     assert!(
-        e.contains("line 1 (bus): rs485_file = \"/tmp/x\" is out of range: only with rs485 = \"sysfs\""),
+        e.contains(
+            "line 1 (bus): rs485_file = \"/tmp/x\" is out of range: only with rs485 = \"sysfs\""
+        ),
         "{e}"
     );
 }

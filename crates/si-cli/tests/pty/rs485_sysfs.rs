@@ -110,7 +110,13 @@ fn a_file_that_cannot_be_opened_is_named() {
     };
     let missing = test_dir("si-rs485-missing").join("gpio17/value");
     let o = si_command()
-        .args(["--port", &pair.a, "--rs485", "sysfs-inverted", "--rs485-file"])
+        .args([
+            "--port",
+            &pair.a,
+            "--rs485",
+            "sysfs-inverted",
+            "--rs485-file",
+        ])
         .arg(&missing)
         .args(READ)
         .output()

@@ -17,14 +17,15 @@
 //!
 //! What the port tells the driver ([`Transport::attach`]) is then acted on without further
 //! settings: the adapter's latency timer reaches the engine (`Engine::set_rx_latency`), line
-//! errors arrive as [`LineError`](crate::LineError)s, RTS is toggled for RS-485 and our own
+//! errors arrive as [`LineError`](crate::LineError)s, the RS-485 transmitter is switched (RTS
+//! either polarity or a sysfs file, [`TxEnable`]) and our own
 //! echo is dropped when [`PortOptions`] asks for it.
 //!
 //! # Platforms
 //!
-//! Opening, the character format, modem signals, driver-side RTS toggling and echo
-//! suppression work wherever `tokio-serial` does (Linux, macOS, the BSDs, Windows `COMn`
-//! names). **Linux only**, through the sysfs and termios of the Linux kernel:
+//! Opening, the character format, modem signals, driver-side RS-485 switching (RTS or a
+//! file) and echo suppression work wherever `tokio-serial` does (Linux, macOS, the BSDs,
+//! Windows `COMn` names). **Linux only**, through the sysfs and termios of the Linux kernel:
 //!
 //! - line errors: the port is put in `PARMRK` mode ([`crate::linemark`] says what is marked
 //!   and how). Elsewhere the port is opened as `tokio-serial` leaves it: a bad character
@@ -137,7 +138,9 @@ pub fn open(
         portable_parity.unwrap_or(tokio_serial::Parity::None),
     )?;
     let tx_enable = match &options.rs485 {
-        Some(Rs485::Driver { output, .. }) => Some(receiving(&mut stream, output.clone()).map_err(context)?),
+        Some(Rs485::Driver { output, .. }) => {
+            Some(receiving(&mut stream, output.clone()).map_err(context)?)
+        }
         _ => None,
     };
     let info = describe(path);
@@ -196,13 +199,15 @@ fn receiving(
     output: TxEnable,
 ) -> io::Result<TxEnableOutput> {
     let mut enable = TxEnableOutput::open(output)?;
-    enable.receive(stream).map_err(|e| match enable.how().file() {
-        Some(_) => e,
-        None => io::Error::new(
-            e.kind(),
-            format!("cannot drive RTS for RS-485 ({e}): the port has no modem lines"),
-        ),
-    })?;
+    enable
+        .receive(stream)
+        .map_err(|e| match enable.how().file() {
+            Some(_) => e,
+            None => io::Error::new(
+                e.kind(),
+                format!("cannot drive RTS for RS-485 ({e}): the port has no modem lines"),
+            ),
+        })?;
     Ok(enable)
 }
 

@@ -128,7 +128,10 @@ impl TxEnableOutput {
                     named(path, "cannot write the RS-485 direction to", e)
                 })?;
                 match update.dtr {
-                    Some(_) => port.set_signals(SignalUpdate { rts: None, ..update }),
+                    Some(_) => port.set_signals(SignalUpdate {
+                        rts: None,
+                        ..update
+                    }),
                     None => Ok(()),
                 }
             }

@@ -129,7 +129,10 @@ async fn rts_active_high_is_on_while_transmitting() {
 
 #[tokio::test]
 async fn rts_inverted_is_off_while_transmitting_and_on_after() {
-    assert_eq!(transmit_through(TxEnable::RtsInverted).await, switched(false));
+    assert_eq!(
+        transmit_through(TxEnable::RtsInverted).await,
+        switched(false)
+    );
 }
 
 #[tokio::test]

@@ -10,8 +10,8 @@
 //! 500 ms, `DEFAULT_MAXCONN` 32, `MAX_CONNTIMEOUT` 1000 s). mbusd's pause is 1–10 000 ms; we
 //! also allow 0 (no pause).
 
-use serde::Deserialize;
 use crate::conn::Rs485Mode;
+use serde::Deserialize;
 use si_core::RangeError;
 use std::fmt;
 
