@@ -200,13 +200,19 @@ impl Connection {
         })
     }
 
-    /// The port options the global flags ask for; an error if a sysfs mode has no file (a
-    /// profile or gateway line can ask for one without `--rs485-file`).
+    /// The port options the global flags ask for; a usage error if a sysfs mode has no file
+    /// (a profile or gateway line can ask for one without `--rs485-file`) or a file is given
+    /// for another mode.
     pub fn port_options(&self) -> Result<PortOptions, CliError> {
         let (before, after) = (
             Duration::from_millis(self.rs485_delay_before),
             Duration::from_millis(self.rs485_delay_after),
         );
+        if self.rs485_file.is_some() && !self.rs485.is_some_and(Rs485Mode::needs_file) {
+            return Err(CliError::usage(
+                "--rs485-file is for --rs485 sysfs or sysfs-inverted",
+            ));
+        }
         let rs485 = match self.rs485 {
             None => None,
             Some(Rs485Mode::Kernel) => Some(Rs485::Kernel {

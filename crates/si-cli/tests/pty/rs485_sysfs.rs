@@ -101,6 +101,19 @@ fn a_sysfs_mode_needs_its_file() {
         .expect("run si");
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(text(&o).contains("--rs485-file"), "{}", text(&o));
+    // And the file is for the sysfs modes only.
+    let o = si_command()
+        .args(["--port", "/dev/null", "--rs485", "rts-inverted"])
+        .args(["--rs485-file", "/dev/null"])
+        .args(READ)
+        .output()
+        .expect("run si");
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("--rs485-file is for --rs485 sysfs or sysfs-inverted"),
+        "{}",
+        text(&o)
+    );
 }
 
 #[test]

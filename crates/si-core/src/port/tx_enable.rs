@@ -9,9 +9,11 @@
 //! wiring without a second code path, and a `--record` trace shows the direction the same
 //! way whatever the wiring (`signals` with `rts: true` = transmitting).
 //!
-//! Auto V.24 (Modbus `--auto-v24`, the ASCII driver) also sets RTS, but RS-485 has no V.24
-//! signals: the two never combine (the commands refuse it), so every RTS update that reaches
-//! a port with a [`TxEnableOutput`] is the direction.
+//! Auto V.24 (Modbus `--auto-v24`, the ASCII driver's flow control) also sets RTS, but RS-485
+//! has no V.24 signals: the two must not combine, so every RTS update that reaches a port
+//! with a [`TxEnableOutput`] is taken for the direction. `si modbus` refuses `--auto-v24` with
+//! `--rs485`; a program that runs a V.24 engine over a port opened with
+//! [`Rs485::Driver`](super::Rs485::Driver) must refuse it too.
 
 use crate::driver::Transport;
 use crate::sansio::SignalUpdate;
