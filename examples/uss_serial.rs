@@ -15,7 +15,7 @@
 mod common;
 
 use si_serial::core::driver::RtsToggle;
-use si_serial::core::port::{PortOptions, Rs485};
+use si_serial::core::port::{PortOptions, Rs485, TxEnable};
 use si_serial::core::Duration;
 use si_serial::uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_serial::uss::frame::PkwWords;
@@ -39,7 +39,10 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
             delay_before: Duration::ZERO,
             delay_after: Duration::ZERO,
         }),
-        Some("rts") => Some(Rs485::Rts(RtsToggle::default())),
+        Some("rts") => Some(Rs485::Driver {
+            toggle: RtsToggle::default(),
+            output: TxEnable::Rts,
+        }),
         Some(other) => return Err(format!("unknown RS-485 mode {other}: kernel or rts").into()),
         None => None,
     };

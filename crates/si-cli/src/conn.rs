@@ -6,7 +6,7 @@ use si_core::driver::{PortFacts, RtsToggle, Transport, WithFacts};
 use si_core::frame_log::Frames;
 use si_core::linemark::Marked;
 use si_core::monitor::Decoder;
-use si_core::port::{self, PortOptions, Rs485};
+use si_core::port::{self, PortOptions, Rs485, TxEnable};
 use si_core::sim::TraceKind;
 use si_core::tap::{Tap, Watch};
 use si_core::tracefile::{Header, Recorder};
@@ -50,14 +50,27 @@ pub struct Connection {
     /// an FTDI-type adapter deliver received bytes at once instead of every 16 ms.
     #[arg(long, global = true, help_heading = LINE_OPTIONS, value_name = "MS")]
     pub latency_timer: Option<u64>,
-    /// RS-485 direction control: `kernel` (the UART driver's RS-485 mode, Linux TIOCSRS485)
-    /// or `rts` (this program raises RTS around each transmission).
+    /// RS-485 direction control: `kernel` (the UART driver's RS-485 mode, Linux TIOCSRS485);
+    /// or this program switches the transmitter around each transmission with `rts` (RTS on
+    /// to transmit), `rts-inverted` (RTS off to transmit), `sysfs` ('1' written to
+    /// --rs485-file to transmit, '0' to receive) or `sysfs-inverted` ('0' to transmit), as
+    /// mbusd's -t, -r, -y and -Y.
     #[arg(long, global = true, help_heading = LINE_OPTIONS, value_enum, value_name = "HOW")]
     pub rs485: Option<Rs485Mode>,
-    /// With --rs485: RTS on this long before the first bit (ms).
+    /// With --rs485 sysfs or sysfs-inverted: the file written, e.g. a GPIO's
+    /// /sys/class/gpio/gpio17/value (exported and set to output beforehand).
+    #[arg(
+        long,
+        global = true,
+        help_heading = LINE_OPTIONS,
+        value_name = "PATH",
+        required_if_eq_any = [("rs485", "sysfs"), ("rs485", "sysfs-inverted")]
+    )]
+    pub rs485_file: Option<PathBuf>,
+    /// With --rs485: the transmitter on this long before the first bit (ms).
     #[arg(long, global = true, help_heading = LINE_OPTIONS, default_value_t = 0, value_name = "MS")]
     pub rs485_delay_before: u64,
-    /// With --rs485: RTS kept on this long after the last bit (ms).
+    /// With --rs485: the transmitter kept on this long after the last bit (ms).
     #[arg(long, global = true, help_heading = LINE_OPTIONS, default_value_t = 0, value_name = "MS")]
     pub rs485_delay_after: u64,
     /// The port hears its own transmission (two-wire RS-485 adapter with its receiver always
@@ -132,7 +145,7 @@ impl Connection {
         settings: &SerialSettings,
     ) -> Result<Box<dyn Transport>, CliError> {
         let transport: Box<dyn Transport> = match (&self.port, &self.tcp) {
-            (Some(path), _) => Box::new(port::open(path, settings, &self.port_options())?),
+            (Some(path), _) => Box::new(port::open(path, settings, &self.port_options()?)?),
             (None, Some(addr)) => {
                 if self.rs485.is_some() || self.latency_timer.is_some() {
                     return Err(CliError::new(
@@ -184,27 +197,36 @@ impl Connection {
         })
     }
 
-    /// The port options the global flags ask for.
-    pub fn port_options(&self) -> PortOptions {
-        let delays = (
+    /// The port options the global flags ask for; a usage error if a sysfs mode has no file
+    /// (a profile or gateway line can ask for one without `--rs485-file`) or a file is given
+    /// for another mode.
+    pub fn port_options(&self) -> Result<PortOptions, CliError> {
+        let (before, after) = (
             Duration::from_millis(self.rs485_delay_before),
             Duration::from_millis(self.rs485_delay_after),
         );
-        PortOptions {
-            latency_timer: self.latency_timer.map(Duration::from_millis),
-            rs485: self.rs485.map(|mode| match mode {
-                Rs485Mode::Kernel => Rs485::Kernel {
-                    delay_before: delays.0,
-                    delay_after: delays.1,
-                },
-                Rs485Mode::Rts => Rs485::Rts(RtsToggle {
-                    before: delays.0,
-                    after: delays.1,
-                }),
+        if self.rs485_file.is_some() && !self.rs485.is_some_and(Rs485Mode::needs_file) {
+            return Err(CliError::usage(
+                "--rs485-file is for --rs485 sysfs or sysfs-inverted",
+            ));
+        }
+        let rs485 = match self.rs485 {
+            None => None,
+            Some(Rs485Mode::Kernel) => Some(Rs485::Kernel {
+                delay_before: before,
+                delay_after: after,
             }),
+            Some(mode) => Some(Rs485::Driver {
+                toggle: RtsToggle { before, after },
+                output: mode.output(self.rs485_file.as_deref())?,
+            }),
+        };
+        Ok(PortOptions {
+            latency_timer: self.latency_timer.map(Duration::from_millis),
+            rs485,
             local_echo: self.local_echo,
             no_line_errors: self.no_line_errors,
-        }
+        })
     }
 
     /// The shared recorder if `--record` was given, created with a header on first use.
@@ -269,13 +291,68 @@ impl Watch for Recording {
     }
 }
 
-/// `--rs485`: who switches the transceiver.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+/// `--rs485`: who switches the transceiver, and how. The same names in a profile's and a
+/// gateway line's `rs485` key.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Rs485Mode {
     /// The kernel's RS-485 mode (Linux TIOCSRS485, where the port's driver has it).
     Kernel,
-    /// This program raises RTS before each transmission and drops it after.
+    /// This program raises RTS before each transmission and drops it after (mbusd -t).
     Rts,
+    /// This program drops RTS to transmit and raises it after (mbusd -r).
+    RtsInverted,
+    /// This program writes '1' to --rs485-file to transmit and '0' after (mbusd -y).
+    Sysfs,
+    /// This program writes '0' to --rs485-file to transmit and '1' after (mbusd -Y).
+    SysfsInverted,
+}
+
+impl Rs485Mode {
+    /// The name as typed (`rts-inverted`).
+    pub fn name(self) -> String {
+        clap::ValueEnum::to_possible_value(&self)
+            .map(|v| v.get_name().to_owned())
+            .unwrap_or_default()
+    }
+
+    /// The mode named `name`, as the flag spells it.
+    pub fn from_name(name: &str) -> Option<Rs485Mode> {
+        clap::ValueEnum::from_str(name, false).ok()
+    }
+
+    /// Every name, for an error that lists them: `kernel, rts, …`.
+    pub fn names() -> String {
+        let names: Vec<String> = <Rs485Mode as clap::ValueEnum>::value_variants()
+            .iter()
+            .map(|m| m.name())
+            .collect();
+        names.join(", ")
+    }
+
+    /// Whether this mode writes a file (`--rs485-file` needed).
+    pub fn needs_file(self) -> bool {
+        matches!(self, Rs485Mode::Sysfs | Rs485Mode::SysfsInverted)
+    }
+
+    /// The transmitter's enable output for a driver-switched mode; a sysfs mode needs `file`.
+    /// (`kernel` has none: the UART switches; it maps to RTS, unused.)
+    fn output(self, file: Option<&std::path::Path>) -> Result<TxEnable, CliError> {
+        let file = || {
+            file.map(std::path::Path::to_path_buf).ok_or_else(|| {
+                CliError::usage(format!(
+                    "--rs485 {} needs --rs485-file PATH (the file to write '1'/'0' to)",
+                    self.name()
+                ))
+            })
+        };
+        Ok(match self {
+            Rs485Mode::Kernel | Rs485Mode::Rts => TxEnable::Rts,
+            Rs485Mode::RtsInverted => TxEnable::RtsInverted,
+            Rs485Mode::Sysfs => TxEnable::File(file()?),
+            Rs485Mode::SysfsInverted => TxEnable::FileInverted(file()?),
+        })
+    }
 }
 
 /// The longest wait for a serial device server to accept the connection (an unreachable host

@@ -16,8 +16,9 @@
 //! stop_bits = 1
 //! ```
 //!
-//! Also `tcp`, `latency_timer`, `rs485` (`kernel`/`rts`), `rs485_delay_before`,
-//! `rs485_delay_after`, `local_echo`, `no_line_errors`. An unknown key is refused with its line;
+//! Also `tcp`, `latency_timer`, `rs485` (`kernel`, `rts`, `rts-inverted`, `sysfs`,
+//! `sysfs-inverted`), `rs485_file`, `rs485_delay_before`, `rs485_delay_after`, `local_echo`,
+//! `no_line_errors`. An unknown key is refused with its line;
 //! baud, data bits, parity and stop bits are checked with the same errors as the flags
 //! ([`SerialSettings`]), naming the file, line and key. The baud rate is checked against the
 //! widest list (USS adds 187 500 bit/s); the command then checks its own list, as for the flag.
@@ -56,28 +57,12 @@ struct Profile {
     parity: Option<Spanned<String>>,
     stop_bits: Option<Spanned<u8>>,
     latency_timer: Option<Spanned<u64>>,
-    rs485: Option<Rs485Name>,
+    rs485: Option<Rs485Mode>,
+    rs485_file: Option<PathBuf>,
     rs485_delay_before: Option<u64>,
     rs485_delay_after: Option<u64>,
     local_echo: Option<bool>,
     no_line_errors: Option<bool>,
-}
-
-/// `rs485` in a profile, spelled as the flag's values.
-#[derive(Debug, Clone, Copy, Deserialize)]
-#[serde(rename_all = "lowercase")]
-enum Rs485Name {
-    Kernel,
-    Rts,
-}
-
-impl From<Rs485Name> for Rs485Mode {
-    fn from(n: Rs485Name) -> Self {
-        match n {
-            Rs485Name::Kernel => Rs485Mode::Kernel,
-            Rs485Name::Rts => Rs485Mode::Rts,
-        }
-    }
 }
 
 /// Where the settings file is: `$SI_CONFIG`, else `si/config.toml` in the platform's
@@ -221,10 +206,11 @@ impl Profile {
             self.latency_timer.map(|t| Some(t.into_inner())),
             explicit("latency_timer"),
         );
+        set(&mut conn.rs485, self.rs485.map(Some), explicit("rs485"));
         set(
-            &mut conn.rs485,
-            self.rs485.map(|m| Some(m.into())),
-            explicit("rs485"),
+            &mut conn.rs485_file,
+            self.rs485_file.map(Some),
+            explicit("rs485_file"),
         );
         set(
             &mut conn.rs485_delay_before,

@@ -24,6 +24,8 @@ mod reconnect;
 mod rk512;
 #[path = "gateway/rk512_reconnect.rs"]
 mod rk512_reconnect;
+#[path = "gateway/rs485.rs"]
+mod rs485;
 #[path = "gateway/soak.rs"]
 mod soak;
 #[path = "gateway/uss.rs"]

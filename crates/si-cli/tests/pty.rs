@@ -43,6 +43,8 @@ mod profile;
 mod r3964;
 #[path = "pty/rk512.rs"]
 mod rk512;
+#[path = "pty/rs485_sysfs.rs"]
+mod rs485_sysfs;
 #[path = "pty/servers_flooded.rs"]
 mod servers_flooded;
 #[path = "pty/three_protocols_example.rs"]

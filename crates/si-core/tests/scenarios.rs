@@ -9,3 +9,5 @@ mod driver_logs;
 mod driver_rs485;
 #[path = "scenarios/driver_timers.rs"]
 mod driver_timers;
+#[path = "scenarios/driver_tx_enable.rs"]
+mod driver_tx_enable;

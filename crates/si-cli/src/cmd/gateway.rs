@@ -142,10 +142,8 @@ impl GatewayArgs {
             data_bits: Some(conn.data_bits),
             parity: Some(conn.parity.clone()),
             stop_bits: Some(conn.stop_bits),
-            rs485: conn.rs485.map(|m| match m {
-                Rs485Mode::Kernel => "kernel".to_string(),
-                Rs485Mode::Rts => "rts".to_string(),
-            }),
+            rs485: conn.rs485.map(Rs485Mode::name),
+            rs485_file: conn.rs485_file.clone(),
             rs485_delay_before_ms: Some(conn.rs485_delay_before),
             rs485_delay_after_ms: Some(conn.rs485_delay_after),
             local_echo: conn.local_echo,
@@ -268,11 +266,9 @@ fn line_connection(conn: &Connection, l: &config::Line, protocol: &'static str) 
     c.data_bits = l.data_bits;
     c.parity = l.parity.clone();
     c.stop_bits = l.stop_bits;
-    c.rs485 = match l.rs485.as_deref() {
-        Some("kernel") => Some(Rs485Mode::Kernel),
-        Some(_) => Some(Rs485Mode::Rts),
-        None => None,
-    };
+    // Names checked with the file (`LineFile::check_rs485`).
+    c.rs485 = l.rs485.as_deref().and_then(Rs485Mode::from_name);
+    c.rs485_file = l.rs485_file.clone();
     (c.rs485_delay_before, c.rs485_delay_after) = l.rs485_delays_ms;
     c.local_echo = l.local_echo;
     c.latency_timer = l.latency_timer_ms;

@@ -6,6 +6,7 @@
 //! Each file under `tests/` is its own test crate and uses only some of these helpers.
 #![allow(dead_code, unused_imports)]
 
+pub mod fifo;
 pub mod modbus;
 pub mod noise;
 pub mod relay;

@@ -17,14 +17,15 @@
 //!
 //! What the port tells the driver ([`Transport::attach`]) is then acted on without further
 //! settings: the adapter's latency timer reaches the engine (`Engine::set_rx_latency`), line
-//! errors arrive as [`LineError`](crate::LineError)s, RTS is toggled for RS-485 and our own
+//! errors arrive as [`LineError`](crate::LineError)s, the RS-485 transmitter is switched (RTS
+//! either polarity or a sysfs file, [`TxEnable`]) and our own
 //! echo is dropped when [`PortOptions`] asks for it.
 //!
 //! # Platforms
 //!
-//! Opening, the character format, modem signals, driver-side RTS toggling and echo
-//! suppression work wherever `tokio-serial` does (Linux, macOS, the BSDs, Windows `COMn`
-//! names). **Linux only**, through the sysfs and termios of the Linux kernel:
+//! Opening, the character format, modem signals, driver-side RS-485 switching (RTS or a
+//! file) and echo suppression work wherever `tokio-serial` does (Linux, macOS, the BSDs,
+//! Windows `COMn` names). **Linux only**, through the sysfs and termios of the Linux kernel:
 //!
 //! - line errors: the port is put in `PARMRK` mode ([`crate::linemark`] says what is marked
 //!   and how). Elsewhere the port is opened as `tokio-serial` leaves it: a bad character
@@ -43,11 +44,13 @@ mod info;
 #[cfg(target_os = "linux")]
 mod linux;
 mod stream;
+mod tx_enable;
 
 pub use info::{
     describe, latency_timer, list, set_latency_timer, PortInfo, UsbIds, LATENCY_TIMER_MS,
 };
 pub use stream::SerialPort;
+pub use tx_enable::{TxEnable, TxEnableOutput};
 
 use crate::driver::{PortFacts, RtsToggle, Transport};
 use crate::linemark::bad_char_error;
@@ -77,7 +80,7 @@ pub struct PortOptions {
 }
 
 /// Who switches an RS-485 transceiver between sending and receiving.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Rs485 {
     /// The kernel's RS-485 mode (Linux `TIOCSRS485`): the UART driver raises RTS for each
     /// transmission, with these delays in whole milliseconds (the kernel's unit).
@@ -87,10 +90,16 @@ pub enum Rs485 {
         /// RTS kept on this long after the last bit.
         delay_after: Duration,
     },
-    /// The driver toggles RTS itself around each write ([`RtsToggle`]): for adapters and
-    /// kernels without RS-485 mode. Less exact (user-space timing, "Timing, honestly" in the
-    /// driver docs).
-    Rts(RtsToggle),
+    /// The driver switches the transceiver itself around each write ([`RtsToggle`]): for
+    /// adapters and kernels without RS-485 mode. Less exact (user-space timing, "Timing,
+    /// honestly" in the driver docs).
+    Driver {
+        /// The waits before the first byte and after tx-done.
+        toggle: RtsToggle,
+        /// The output that enables the transmitter: RTS either polarity or a file such as
+        /// a GPIO's sysfs `value` (mbusd's `-t`, `-r`, `-y`, `-Y`).
+        output: TxEnable,
+    },
 }
 
 /// Open `path` (`/dev/ttyUSB0`, `/dev/serial/by-id/…`, `COM3`) with the line format `settings`
@@ -128,22 +137,17 @@ pub fn open(
         settings,
         portable_parity.unwrap_or(tokio_serial::Parity::None),
     )?;
-    if matches!(options.rs485, Some(Rs485::Rts(_))) {
-        // RTS toggling starts with RTS off (receiving); a port without modem lines says so
-        // here rather than stopping the driver at the first transmission.
-        use tokio_serial::SerialPort as _;
-        stream.write_request_to_send(false).map_err(|e| {
-            context(io::Error::new(
-                io::Error::from(e.clone()).kind(),
-                format!("cannot drive RTS for RS-485 ({e}): the port has no modem lines"),
-            ))
-        })?;
-    }
+    let tx_enable = match &options.rs485 {
+        Some(Rs485::Driver { output, .. }) => {
+            Some(receiving(&mut stream, output.clone()).map_err(context)?)
+        }
+        _ => None,
+    };
     let info = describe(path);
     let facts = PortFacts {
         rx_latency: info.latency_timer,
-        rts_toggle: match options.rs485 {
-            Some(Rs485::Rts(toggle)) => Some(toggle),
+        rts_toggle: match &options.rs485 {
+            Some(Rs485::Driver { toggle, .. }) => Some(*toggle),
             _ => None,
         },
         local_echo: options.local_echo,
@@ -161,17 +165,17 @@ pub fn open(
         if let Some(Rs485::Kernel {
             delay_before,
             delay_after,
-        }) = options.rs485
+        }) = &options.rs485
         {
             control
-                .set_rs485(delay_before, delay_after)
+                .set_rs485(*delay_before, *delay_after)
                 .map_err(context)?;
         }
         // Our second handle is open: from now on no other program may open the port.
         stream
             .set_exclusive(true)
             .map_err(|e| context(io::Error::from(e)))?;
-        SerialPort::new(stream, info, facts, Some(control))
+        SerialPort::new(stream, info, facts, tx_enable, Some(control))
     };
     #[cfg(not(target_os = "linux"))]
     let port = {
@@ -181,9 +185,30 @@ pub fn open(
                 "the kernel's RS-485 mode needs Linux; use driver-side RTS toggling",
             )));
         }
-        SerialPort::new(stream, info, facts)
+        SerialPort::new(stream, info, facts, tx_enable)
     };
     Ok(port)
+}
+
+/// The transmitter's enable output for driver-side direction control, opened and set to
+/// receive: direction control starts receiving, and a port without modem lines (for the RTS
+/// kinds) or a missing GPIO file says so here rather than stopping the driver at the first
+/// transmission.
+fn receiving(
+    stream: &mut tokio_serial::SerialStream,
+    output: TxEnable,
+) -> io::Result<TxEnableOutput> {
+    let mut enable = TxEnableOutput::open(output)?;
+    enable
+        .receive(stream)
+        .map_err(|e| match enable.how().file() {
+            Some(_) => e,
+            None => io::Error::new(
+                e.kind(),
+                format!("cannot drive RTS for RS-485 ({e}): the port has no modem lines"),
+            ),
+        })?;
+    Ok(enable)
 }
 
 /// The portable part: `tokio-serial` with the character format. On Linux shared (not
@@ -219,7 +244,7 @@ fn open_stream(
 
 impl Transport for SerialPort {
     fn set_signals(&mut self, update: crate::SignalUpdate) -> io::Result<()> {
-        self.stream_mut().set_signals(update)
+        SerialPort::set_signals(self, update)
     }
 
     fn read_signals(&mut self) -> io::Result<Option<crate::ModemSignals>> {

@@ -18,6 +18,9 @@ pub struct SerialPort {
     /// dropped (as every portable serial API drops them) until a driver attaches and takes
     /// the marked stream itself.
     clean: Option<MarkDecoder>,
+    /// The transmitter's enable output when the driver switches RS-485 direction: the RTS
+    /// updates it makes are mapped there ([`super::TxEnableOutput`]).
+    tx_enable: Option<super::TxEnableOutput>,
     /// A second handle on the same tty for what `tokio-serial` does not offer (termios
     /// flags, RS-485 mode).
     #[cfg(target_os = "linux")]
@@ -33,12 +36,25 @@ impl std::fmt::Debug for SerialPort {
     }
 }
 
+impl Drop for SerialPort {
+    /// A port closed while its transmitter is on would hold the RS-485 bus for every other
+    /// station: leave it receiving (the driver's "off `after` tx-done" may not have come when a
+    /// command ends on the answer, or the task is cancelled). Nothing to report an error to
+    /// here; the port is going away.
+    fn drop(&mut self) {
+        if let Some(enable) = &mut self.tx_enable {
+            let _ = enable.release(&mut self.stream);
+        }
+    }
+}
+
 impl SerialPort {
     #[cfg(target_os = "linux")]
     pub(super) fn new(
         stream: tokio_serial::SerialStream,
         info: PortInfo,
         facts: PortFacts,
+        tx_enable: Option<super::TxEnableOutput>,
         control: Option<super::linux::Control>,
     ) -> Self {
         SerialPort {
@@ -46,6 +62,7 @@ impl SerialPort {
             info,
             clean: facts.marked_errors.map(MarkDecoder::new),
             facts,
+            tx_enable,
             control,
         }
     }
@@ -55,12 +72,14 @@ impl SerialPort {
         stream: tokio_serial::SerialStream,
         info: PortInfo,
         facts: PortFacts,
+        tx_enable: Option<super::TxEnableOutput>,
     ) -> Self {
         SerialPort {
             stream,
             info,
             clean: facts.marked_errors.map(MarkDecoder::new),
             facts,
+            tx_enable,
         }
     }
 
@@ -79,6 +98,16 @@ impl SerialPort {
     pub(super) fn attach(&mut self) -> PortFacts {
         self.clean = None;
         self.facts
+    }
+
+    /// Set RTS/DTR; with driver-side RS-485 direction control, RTS is the direction and goes
+    /// to the transmitter's enable output at its polarity.
+    pub(super) fn set_signals(&mut self, update: crate::SignalUpdate) -> io::Result<()> {
+        use crate::driver::Transport as _;
+        match &mut self.tx_enable {
+            Some(enable) => enable.set_signals(&mut self.stream, update),
+            None => self.stream.set_signals(update),
+        }
     }
 
     /// The underlying `tokio-serial` stream (modem lines, buffers, exclusivity).

@@ -16,20 +16,20 @@ use tokio::io::{AsyncReadExt, AsyncWriteExt, DuplexStream};
 
 /// What happened, in order, with the wall-clock time it happened.
 #[derive(Debug, Clone, PartialEq)]
-enum Step {
+pub(crate) enum Step {
     Rts(bool),
     Write(Vec<u8>),
     TxDone,
 }
 
-type Log = Arc<Mutex<Vec<(std::time::Instant, Step)>>>;
+pub(crate) type Log = Arc<Mutex<Vec<(std::time::Instant, Step)>>>;
 
-fn note(log: &Log, step: Step) {
+pub(crate) fn note(log: &Log, step: Step) {
     log.lock().unwrap().push((std::time::Instant::now(), step));
 }
 
 /// Notes the writes and RTS changes of a tapped duplex pipe.
-struct Steps(Log);
+pub(crate) struct Steps(pub(crate) Log);
 
 impl Watch for Steps {
     fn written(&mut self, bytes: &[u8]) {
@@ -44,8 +44,9 @@ impl Watch for Steps {
 }
 
 /// Transmits on command, notes tx-done, reports what it receives.
-struct Talker {
-    out: VecDeque<Output<Vec<u8>>>,
+pub(crate) struct Talker {
+    /// What it transmits next.
+    pub(crate) out: VecDeque<Output<Vec<u8>>>,
     log: Log,
 }
 
@@ -63,7 +64,7 @@ impl Engine for Talker {
     }
 }
 
-fn talker(log: &Log) -> Talker {
+pub(crate) fn talker(log: &Log) -> Talker {
     Talker {
         out: VecDeque::new(),
         log: log.clone(),
@@ -71,7 +72,7 @@ fn talker(log: &Log) -> Talker {
 }
 
 /// Wait (bounded) until the log has `n` steps.
-async fn steps(log: &Log, n: usize) -> Vec<(std::time::Instant, Step)> {
+pub(crate) async fn steps(log: &Log, n: usize) -> Vec<(std::time::Instant, Step)> {
     for _ in 0..1_000 {
         if log.lock().unwrap().len() >= n {
             break;

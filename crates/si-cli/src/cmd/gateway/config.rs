@@ -10,6 +10,7 @@
 //! 500 ms, `DEFAULT_MAXCONN` 32, `MAX_CONNTIMEOUT` 1000 s). mbusd's pause is 1–10 000 ms; we
 //! also allow 0 (no pause).
 
+use crate::conn::Rs485Mode;
 use serde::Deserialize;
 use si_core::RangeError;
 use std::fmt;
@@ -64,8 +65,11 @@ pub struct LineFile {
     pub parity: Option<String>,
     /// Stop bits (default 1).
     pub stop_bits: Option<u8>,
-    /// RS-485 direction control: `kernel` or `rts`.
+    /// RS-485 direction control: `kernel`, `rts`, `rts-inverted`, `sysfs`,
+    /// `sysfs-inverted` (the `--rs485` names).
     pub rs485: Option<String>,
+    /// The file `sysfs`/`sysfs-inverted` write '1'/'0' to (e.g. a GPIO's `value`).
+    pub rs485_file: Option<std::path::PathBuf>,
     /// RTS on this long before the first bit (ms).
     pub rs485_delay_before_ms: Option<u64>,
     /// RTS kept on this long after the last bit (ms).
@@ -160,8 +164,10 @@ pub struct Line {
     pub parity: String,
     /// Stop bits.
     pub stop_bits: u8,
-    /// RS-485 mode name (`kernel`, `rts`).
+    /// RS-485 mode name (`kernel`, `rts`, …: the `--rs485` names, checked).
     pub rs485: Option<String>,
+    /// The file a sysfs RS-485 mode writes.
+    pub rs485_file: Option<std::path::PathBuf>,
     /// RS-485 delays before and after (ms).
     pub rs485_delays_ms: (u64, u64),
     /// The port hears its own transmission.
@@ -443,6 +449,7 @@ impl LineFile {
             parity: self.parity.clone().unwrap_or_else(|| "even".to_string()),
             stop_bits: self.stop_bits.unwrap_or(1),
             rs485: self.rs485.clone(),
+            rs485_file: self.rs485_file.clone(),
             rs485_delays_ms: (
                 self.rs485_delay_before_ms.unwrap_or(0),
                 self.rs485_delay_after_ms.unwrap_or(0),
@@ -476,14 +483,31 @@ impl LineFile {
         })
     }
 
-    /// The RS-485 mode, if given, is one we know.
+    /// The RS-485 mode, if given, is one we know (the `--rs485` names), and `rs485_file` is
+    /// given exactly when the mode writes a file.
     pub(super) fn check_rs485(&self) -> Result<(), RangeError> {
-        if let Some(mode) = self.rs485.as_deref() {
-            if !matches!(mode, "kernel" | "rts") {
-                return Err(RangeError::new("rs485", "kernel or rts", "", mode));
-            }
+        let mode = match self.rs485.as_deref() {
+            Some(name) => Some(Rs485Mode::from_name(name).ok_or_else(|| {
+                RangeError::new("rs485", Rs485Mode::names(), "", format!("{name:?}"))
+            })?),
+            None => None,
+        };
+        let wants_file = mode.is_some_and(Rs485Mode::needs_file);
+        match &self.rs485_file {
+            None if wants_file => Err(RangeError::new(
+                "rs485_file",
+                "a file path, needed with rs485 = \"sysfs\" or \"sysfs-inverted\"",
+                "",
+                "missing",
+            )),
+            Some(file) if !wants_file => Err(RangeError::new(
+                "rs485_file",
+                "only with rs485 = \"sysfs\" or \"sysfs-inverted\"",
+                "",
+                format!("{:?}", file.display().to_string()),
+            )),
+            _ => Ok(()),
         }
-        Ok(())
     }
 }
 
