@@ -83,7 +83,16 @@ pub struct DriverArgs {
 }
 
 impl DriverArgs {
-    fn config(&self, settings: SerialSettings) -> Result<Config, CliError> {
+    fn config(&self, conn: &Connection) -> Result<Config, CliError> {
+        let settings = conn.settings()?;
+        // RTS/CTS and automatic V.24 drive RTS for flow control; RS-485 direction control
+        // drives it (or its file) for the transmitter: the two cannot share it, and RS-485 has
+        // no V.24 signals (et200s-si-3964r-ascii.md §1.2, Table 2-1: RS-232C only).
+        if conn.rs485.is_some() && matches!(self.flow, Flow::RtsCts | Flow::AutoV24) {
+            return Err(CliError::usage(
+                "--flow rts-cts and auto-v24 need RS-232C: RS-485 has no V.24 signals; leave out --rs485",
+            ));
+        }
         let end = parse_end(&self.end)?;
         let mut c = Config {
             settings,
@@ -262,7 +271,7 @@ async fn send(a: SendArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
         (hex, None) if !hex.is_empty() => parse_hex_args(hex)?,
         _ => return Err(CliError::usage("give the frame as HEX or --text")),
     };
-    let config = a.driver.config(conn.settings()?)?;
+    let config = a.driver.config(conn)?;
     let port = Handle::spawn(config, conn.open().await?)?;
     port.send(frame.clone()).await.map_err(ascii_error)?;
     out.line(
@@ -306,7 +315,7 @@ fn print_incoming(out: &Output, incoming: &Incoming, with_time: bool) {
 }
 
 async fn recv(a: RecvArgs, conn: &Connection, out: &Output) -> Result<(), CliError> {
-    let config = a.driver.config(conn.settings()?)?;
+    let config = a.driver.config(conn)?;
     let mut port = Handle::spawn(config, conn.open().await?)?;
     let frames = async {
         let mut got = 0;
@@ -333,7 +342,7 @@ async fn recv(a: RecvArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
 }
 
 async fn monitor(a: MonitorArgs, conn: &Connection, out: &Output) -> Result<(), CliError> {
-    let mut config = a.driver.config(conn.settings()?)?;
+    let mut config = a.driver.config(conn)?;
     // A monitor only listens: no XON at startup, no RTS/DTR changes.
     config.flow_control = FlowControl::None;
     let mut port = Handle::spawn(config, conn.open().await?)?;

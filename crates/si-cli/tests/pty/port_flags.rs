@@ -203,3 +203,24 @@ fn modbus_auto_v24_on_a_port_without_rts_says_so() {
         text(&o)
     );
 }
+
+#[test]
+fn ascii_v24_flow_control_with_rs485_direction_is_refused() {
+    // Table 2-1: the secondary signals and RTS/CTS exist on RS-232C only; RS-485 direction
+    // control would share RTS with them.
+    for flow in ["rts-cts", "auto-v24"] {
+        let o = si(&[
+            "--port",
+            "/dev/null",
+            "--rs485",
+            "rts",
+            "ascii",
+            "send",
+            "--flow",
+            flow,
+            "41",
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{flow}: {}", text(&o));
+        assert!(text(&o).contains("need RS-232C"), "{}", text(&o));
+    }
+}
