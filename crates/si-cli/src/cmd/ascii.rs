@@ -16,7 +16,7 @@ use si_ascii::config::min_char_delay_ms;
 use si_ascii::tokio::{Error as AsciiError, Handle, Incoming};
 use si_ascii::{Config, EndCriterion, Event, FlowControl, Interface, Link};
 use si_core::sim::{Simulator, StationId, Trace, TraceKind};
-use si_core::{Duration, Instant, ModulePreset, SerialSettings, Status};
+use si_core::{Duration, Instant, ModulePreset, Status};
 
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]
