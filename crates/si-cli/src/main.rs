@@ -85,7 +85,8 @@ enum Command {
     /// USS master: poll drives, read and write parameters; a simulated drive.
     #[command(subcommand)]
     Uss(cmd::uss::Command),
-    /// Modbus TCP gateway to Modbus RTU lines: routes by unit id, queues, retries, counters.
+    /// Modbus TCP gateway to Modbus RTU, USS, RK 512 and 3964(R) lines: routes by unit id,
+    /// queues, retries, counters.
     Gateway(cmd::gateway::GatewayArgs),
     /// Print the completion script for a shell (bash, zsh, fish, elvish, powershell).
     Completions(cmd::completions::CompletionsArgs),

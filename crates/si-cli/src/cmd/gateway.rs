@@ -45,7 +45,8 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-/// `si gateway`: a Modbus TCP server whose unit ids are slaves on Modbus RTU lines.
+/// `si gateway`: a Modbus TCP server whose unit ids are slaves on Modbus RTU lines, USS
+/// drives, RK 512 or 3964(R) partners (`kind` in the file).
 ///
 /// Either `--config FILE` (TOML, any number of `[[line]]`s; see the README's "si gateway") or
 /// one line from flags: `si gateway --listen 127.0.0.1:5020 --line /dev/ttyUSB0 --baud 19200
