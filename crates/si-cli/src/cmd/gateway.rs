@@ -100,6 +100,10 @@ pub struct GatewayArgs {
     /// Print the counters every S seconds (always once at exit).
     #[arg(long, value_name = "S")]
     status_every: Option<u64>,
+    /// A line whose device cannot be opened at start starts down (0AH) and is reopened like
+    /// a line whose port closed, instead of stopping the gateway.
+    #[arg(long)]
+    allow_down_at_start: bool,
 }
 
 impl GatewayArgs {
@@ -117,6 +121,7 @@ impl GatewayArgs {
                 idle_timeout_s: None,
                 diagnostic_unit: None,
                 reply_on_broadcast: false,
+                allow_down_at_start: false,
                 lines: vec![self.flag_line(conn)?],
             },
         };
@@ -124,6 +129,7 @@ impl GatewayArgs {
         file.max_connections = self.max_connections.or(file.max_connections);
         file.diagnostic_unit = self.diagnostic_unit.or(file.diagnostic_unit);
         file.reply_on_broadcast |= self.reply_on_broadcast;
+        file.allow_down_at_start |= self.allow_down_at_start;
         Ok(file.check()?)
     }
 
@@ -176,7 +182,7 @@ impl GatewayArgs {
             let (conn, l) = (conn.clone(), l.clone());
             let handle = match &l.kind {
                 Kind::ModbusRtu => {
-                    let first = open_line(&conn, &l).await?;
+                    let first = start(open_line(&conn, &l).await, &gw)?;
                     let queue = Arc::new(line::LineQueue::new(l.queue));
                     let (q, pause) = (Arc::clone(&queue), l.pause);
                     let open = async move || open_line(&conn, &l).await;
@@ -185,7 +191,7 @@ impl GatewayArgs {
                 }
                 Kind::Uss(u) => {
                     let u = u.clone();
-                    let first = open_uss(&conn, &l, &u).await?;
+                    let first = start(open_uss(&conn, &l, &u).await, &gw)?;
                     let drives = uss::UssDrives::new(&u);
                     let open = async move || open_uss(&conn, &l, &u).await;
                     tokio::spawn(drives.supervise(log, first, open));
@@ -197,7 +203,7 @@ impl GatewayArgs {
                     let q = Arc::clone(&queue);
                     match r.role {
                         rk512_config::Role::Active => {
-                            let first = open_rk512(&conn, &l, &r, None).await?;
+                            let first = start(open_rk512(&conn, &l, &r, None).await, &gw)?;
                             let partner = rk512::Partner::new(&r);
                             let open = async move || open_rk512(&conn, &l, &r, None).await;
                             tokio::spawn(rk512::run(log, q, partner, first, open, pause));
@@ -205,7 +211,7 @@ impl GatewayArgs {
                         rk512_config::Role::Passive => {
                             let own = rk512_own::OwnMemory::new(&r);
                             let kept = own.kept();
-                            let first = open_rk512(&conn, &l, &r, None).await?;
+                            let first = start(open_rk512(&conn, &l, &r, None).await, &gw)?;
                             let open = async move || open_rk512(&conn, &l, &r, Some(&kept)).await;
                             tokio::spawn(own.run(log, q, first, open));
                         }
@@ -214,7 +220,7 @@ impl GatewayArgs {
                 }
                 Kind::R3964(link) => {
                     let link = *link;
-                    let first = open_3964r(&conn, &l, &link).await?;
+                    let first = start(open_3964r(&conn, &l, &link).await, &gw)?;
                     let blocks = r3964::BlockLine::new(link.max_block_len.into());
                     let open = async move || open_3964r(&conn, &l, &link).await;
                     tokio::spawn(blocks.supervise(log, first, open));
@@ -275,6 +281,19 @@ fn line_connection(conn: &Connection, l: &config::Line, protocol: &'static str) 
     c.latency_timer = l.latency_timer_ms;
     c.protocol = Some(protocol);
     c
+}
+
+/// How a line starts from its first opening: open, or (with `allow_down_at_start`) down with
+/// the reason; otherwise the error stops the gateway.
+fn start<L>(
+    opened: Result<reopen::Opened<L>, CliError>,
+    gw: &Gateway,
+) -> Result<reopen::First<L>, CliError> {
+    match opened {
+        Ok(o) => Ok(Ok(o)),
+        Err(e) if gw.allow_down_at_start => Ok(Err(e.text().to_owned())),
+        Err(e) => Err(e),
+    }
 }
 
 /// `line NAME: why`.

@@ -169,11 +169,8 @@ pub fn launch_with(
         .expect("spawn si gateway");
     let log = stdout_lines(&mut child);
     let gateway = Kill(child);
-    let first = log
-        .recv_timeout(Duration::from_secs(20))
-        .expect("the gateway says where it listens");
-    let v: serde_json::Value = serde_json::from_str(&first).expect(&first);
-    assert_eq!(v["event"], "listening", "{first}");
+    // A line that starts down (`allow_down_at_start`) may say so before this.
+    let v = wait_for_event(&log, "listening", Duration::from_secs(20));
     let addr = v["addr"].as_str().expect("addr").to_owned();
     (addr, log, gateway, v)
 }

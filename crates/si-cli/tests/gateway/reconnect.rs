@@ -74,3 +74,31 @@ fn a_line_whose_port_closes_answers_0ah_and_is_reopened() {
 
     reopened_once(&stop(&gateway, &log));
 }
+
+/// With `allow_down_at_start` a line whose adapter is not plugged in yet does not stop the
+/// gateway: it starts down (0AH), and is served once its device appears.
+#[test]
+fn a_line_missing_at_start_may_start_down_and_is_opened_when_it_appears() {
+    if !(have_socat() && have_pymodbus()) {
+        return;
+    }
+    let dir = test_dir("gateway-start-down");
+    let (a, b) = (dir.join("line"), dir.join("slave"));
+    let (a, b) = (a.to_str().unwrap(), b.to_str().unwrap());
+    let toml = format!(
+        "listen = \"127.0.0.1:0\"\nallow_down_at_start = true\n[[line]]\nname = \"meters\"\n\
+         device = \"{a}\"\nunits = \"1\"\nbaud = 19200\nparity = \"none\"\nstop_bits = 2\n\
+         response_timeout_ms = 300\nretries = 1\npause_ms = 0\n"
+    );
+    let (addr, log, gateway) = launch(&toml, a);
+    let mut m = Mbap::connect(&addr);
+    m.send(1, 1, &read_holding(7, 1));
+    assert_eq!(m.recv(), (1, 1, vec![0x83, 0x0A]), "down: path unavailable");
+
+    let _pair = LinkedPair::start(a, b);
+    let _slave = pymodbus_server(RTU_SERVER_19200, b);
+    wait_for_event(&log, "line_up", Duration::from_secs(40));
+    let mut tid = 1;
+    assert_eq!(read_until_answered(&mut m, &mut tid), [0x03, 2, 0, 7]);
+    reopened_once(&stop(&gateway, &log));
+}

@@ -42,6 +42,11 @@ pub struct File {
     /// Answer a broadcast request with its echo once sent (mbusd's `-b`); default: no answer.
     #[serde(default)]
     pub reply_on_broadcast: bool,
+    /// A line whose device cannot be opened at start starts down and is reopened like a line
+    /// whose port closed ([`super::reopen`]), instead of stopping the gateway (the default,
+    /// so that a wrong path is reported at once).
+    #[serde(default)]
+    pub allow_down_at_start: bool,
     /// The serial lines.
     #[serde(default, rename = "line")]
     pub lines: Vec<LineFile>,
@@ -145,6 +150,8 @@ pub struct Gateway {
     pub diagnostic_unit: Option<u8>,
     /// Echo a broadcast once sent.
     pub reply_on_broadcast: bool,
+    /// Lines that cannot be opened at start start down.
+    pub allow_down_at_start: bool,
     /// The lines, in file order.
     pub lines: Vec<Line>,
 }
@@ -347,6 +354,7 @@ impl File {
             idle_timeout,
             diagnostic_unit: self.diagnostic_unit,
             reply_on_broadcast: self.reply_on_broadcast,
+            allow_down_at_start: self.allow_down_at_start,
             lines,
         })
     }

@@ -86,7 +86,7 @@ pub fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 pub async fn run(
     log: LineLog,
     queue: Arc<LineQueue>,
-    first: Opened<Master>,
+    first: reopen::First<Master>,
     open: impl AsyncFnMut() -> Result<Opened<Master>, CliError>,
     pause: Duration,
 ) {

@@ -74,7 +74,7 @@ impl BlockLine {
     pub fn supervise(
         &self,
         log: LineLog,
-        first: Opened<Handle>,
+        first: reopen::First<Handle>,
         open: impl AsyncFnMut() -> Result<Opened<Handle>, CliError> + 'static,
     ) -> impl Future<Output = ()> + 'static {
         // The closure owns what its futures use (see `line::run`).
@@ -242,7 +242,7 @@ mod tests {
             closed,
         };
         let never = async || Err(CliError::new("an in-memory pipe"));
-        tokio::spawn(line.supervise(LineLog::test(1), first, never));
+        tokio::spawn(line.supervise(LineLog::test(1), Ok(first), never));
         until_up(&line, true).await;
         let mut partner = Handle::spawn(si_3964r::Config::default(), settings, b).unwrap();
         // Nothing yet: count and length 0.
@@ -299,7 +299,7 @@ mod tests {
         let line = BlockLine::new(200);
         let log = LineLog::test(1);
         let stats = Arc::clone(&log.stats);
-        tokio::spawn(line.supervise(log, first, open));
+        tokio::spawn(line.supervise(log, Ok(first), open));
         let partner = Handle::spawn(si_3964r::Config::default(), settings, b).unwrap();
         until_up(&line, true).await;
         partner.send(vec![7, 8]).await.unwrap();

@@ -232,19 +232,27 @@ impl LineLog {
     }
 }
 
+/// How a line starts: open, or down with the reason its first opening failed (only with the
+/// gateway's `allow_down_at_start`).
+pub type First<L> = Result<Opened<L>, String>;
+
 /// Serve a line for ever: `serve` runs the link until its port closes (returning why), then
 /// the line is down until `open` succeeds, tried after [`backoff`]; `while_down` runs
-/// meanwhile (answering what reaches the line with 0AH) and is dropped once it is back.
+/// meanwhile (answering what reaches the line with 0AH) and is dropped once it is back. A
+/// line that starts down begins with the reopening.
 pub async fn supervise<L>(
     log: LineLog,
-    first: Opened<L>,
+    first: First<L>,
     mut open: impl AsyncFnMut() -> Result<Opened<L>, CliError>,
     mut serve: impl AsyncFnMut(L, Closed) -> String,
     mut while_down: impl AsyncFnMut() -> Infallible,
 ) {
-    let mut opened = first;
+    let mut state = first;
     loop {
-        let why = serve(opened.link, opened.closed).await;
+        let why = match state {
+            Ok(opened) => serve(opened.link, opened.closed).await,
+            Err(why) => why,
+        };
         log.down(&why);
         let reopen = async {
             let mut attempt = 0;
@@ -257,10 +265,10 @@ pub async fn supervise<L>(
                 attempt = attempt.saturating_add(1);
             }
         };
-        opened = tokio::select! {
+        state = Ok(tokio::select! {
             o = reopen => o,
             never = while_down() => match never {},
-        };
+        });
         log.up();
     }
 }
@@ -297,7 +305,7 @@ mod tests {
         let (a, _b) = tokio::io::duplex(8);
         let (port, closed) = watch(Box::new(a));
         drop(port);
-        let first = Opened { link: 0, closed };
+        let first = Ok(Opened { link: 0, closed });
         let start = tokio::time::Instant::now();
         let (mut attempts, mut ports) = (Vec::new(), Vec::new());
         let open = async || {

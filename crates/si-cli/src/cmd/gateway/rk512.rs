@@ -263,7 +263,7 @@ pub async fn run(
     log: LineLog,
     queue: Arc<LineQueue>,
     partner: Partner,
-    first: Opened<Handle>,
+    first: reopen::First<Handle>,
     open: impl AsyncFnMut() -> Result<Opened<Handle>, CliError>,
     pause: Duration,
 ) {

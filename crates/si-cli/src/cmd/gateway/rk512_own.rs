@@ -88,7 +88,7 @@ impl OwnMemory {
         self,
         log: LineLog,
         queue: Arc<LineQueue>,
-        first: Opened<Handle>,
+        first: reopen::First<Handle>,
         open: impl AsyncFnMut() -> Result<Opened<Handle>, CliError>,
     ) {
         // The closures own what their futures use (see `line::run`).
@@ -247,7 +247,7 @@ mod tests {
         let log = LineLog::test(1);
         let stats = Arc::clone(&log.stats);
         let queue = Arc::new(LineQueue::new(4));
-        tokio::spawn(own.run(log, Arc::clone(&queue), first, open));
+        tokio::spawn(own.run(log, Arc::clone(&queue), Ok(first), open));
 
         let plc = cp(b);
         let at = Address::Db { db: 6, dw: 1 };

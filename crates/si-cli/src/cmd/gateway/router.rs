@@ -222,7 +222,7 @@ mod tests {
             out: crate::output::Output { json: true },
         };
         let never = async || Err(crate::error::CliError::new("an in-memory pipe"));
-        let first = Opened { link, closed };
+        let first = Ok(Opened { link, closed });
         let pause = std::time::Duration::ZERO;
         tokio::spawn(line::run(log, Arc::clone(&queue), first, never, pause));
         let mut routes = [None; 256];

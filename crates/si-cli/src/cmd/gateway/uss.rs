@@ -101,7 +101,7 @@ impl UssDrives {
     pub fn supervise(
         &self,
         log: LineLog,
-        first: Opened<Handle>,
+        first: reopen::First<Handle>,
         open: impl AsyncFnMut() -> Result<Opened<Handle>, CliError> + 'static,
     ) -> impl Future<Output = ()> + 'static {
         let link = Arc::clone(&self.link);
