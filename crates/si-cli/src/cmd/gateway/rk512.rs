@@ -317,6 +317,12 @@ async fn serve(
             why = &mut closed => break why,
             () = next_tick(&mut tick) => {
                 partner.refresh().await;
+                // A full period for the queue after every refresh: a refresh as long as the
+                // period (a silent partner, many areas) would otherwise be followed by the
+                // next at once, and the queue never served.
+                if let Some(t) = &mut tick {
+                    t.reset();
+                }
                 continue;
             }
             popped = queue.pop() => popped,
@@ -507,5 +513,43 @@ pub(super) mod tests {
         p.refresh().await;
         assert_eq!(ask(&mut p, &read(1)).await.0, [0x83, 0x0B]);
         assert!(p.image.iter().all(|(_, f)| !f));
+    }
+
+    /// A refresh longer than the period (here a silent partner: the 3964(R) attempts, about
+    /// 12 s, against 1 ms) still leaves the queue its turn, in virtual time.
+    #[tokio::test(start_paused = true)]
+    async fn requests_are_served_between_refreshes_longer_than_the_period() {
+        let (a, _silent) = tokio::io::duplex(4096);
+        let (port, closed) = reopen::watch(Box::new(a));
+        let mut high = Config::default();
+        high.link.priority = si_3964r::Priority::High;
+        let station = Station::new(high, SerialSettings::default()).unwrap();
+        let station = Handle::spawn_engine(station, port);
+        let area = rk512_spans::db_span(6, 0, 8, DwUnit::Words).unwrap();
+        let every = Some(Duration::from_millis(1));
+        let partner = Arc::new(tokio::sync::Mutex::new(Partner::new(&line(
+            vec![area],
+            every,
+        ))));
+        let queue = Arc::new(LineQueue::new(4));
+        let stats = Arc::new(Mutex::new(Stats::new(1)));
+        let q = Arc::clone(&queue);
+        tokio::spawn(serve(0, q, partner, station, closed, Duration::ZERO, stats));
+        let (tx, rx) = tokio::sync::oneshot::channel();
+        let read = Request::ReadHoldingRegisters {
+            address: 1,
+            quantity: 1,
+        };
+        let job = super::super::line::Job {
+            request: adu(&read),
+            reply: Some(tx),
+        };
+        assert!(queue.push(1, job).is_some());
+        let answer = tokio::time::timeout(Duration::from_secs(600), rx)
+            .await
+            .expect("answered between two refreshes")
+            .unwrap();
+        // Never fetched (the partner is silent): 0BH from the image, no line traffic.
+        assert_eq!(answer.unit_pdu()[1..], [0x83, 0x0B]);
     }
 }
