@@ -1,11 +1,14 @@
 //! `si gateway`: Modbus TCP clients served by Modbus RTU lines, as mbusd does, several lines
-//! in one process (issue 20).
+//! in one process (issue 20), and by USS, RK 512 and 3964(R) lines.
 //!
-//! Requests are routed by unit id to a line ([`router`]); each line has a bounded queue served
-//! in round-robin order between clients ([`queue`]) by a task driving si-modbus's RTU master
-//! ([`mod@line`]); counters per line and per client are printed as status lines and readable on a
-//! diagnostic unit ([`counters`]). The configuration is a TOML file or flags ([`config`]).
-//! A line whose port closes is reopened while its requests get 0AH ([`reopen`]).
+//! Requests are routed by unit id to a line ([`router`]); a Modbus RTU or RK 512 line has a
+//! bounded queue served in round-robin order between clients ([`queue`]) by a task driving the
+//! line's master ([`mod@line`]), USS and 3964(R) lines answer from their images at once;
+//! counters per line and per client are printed as status lines and readable on a diagnostic
+//! unit ([`counters`]). The configuration is a TOML file or flags ([`config`]); the RS-485
+//! direction modes (`kernel`, `rts`, `rts-inverted`, `sysfs`, `sysfs-inverted`) apply to every
+//! line kind. A line whose port closes is reopened while its requests get 0AH ([`reopen`]);
+//! with `allow_down_at_start` a line whose port cannot be opened at start starts that way.
 //! A `kind = "uss"` line serves USS drives instead: each drive is a unit id whose PZD and
 //! parameter window are registers ([`uss`], keys in [`uss_config`]). A `kind = "rk512"` line
 //! serves an RK 512 partner's S7 memory through S_MODB's conversion DB, or the gateway's own
@@ -182,18 +185,18 @@ impl GatewayArgs {
             let (conn, l) = (conn.clone(), l.clone());
             let handle = match &l.kind {
                 Kind::ModbusRtu => {
-                    let first = start(open_line(&conn, &l).await, &gw)?;
+                    let first = start(open_line(&conn, &l).await, &gw, &l)?;
                     let queue = Arc::new(line::LineQueue::new(l.queue));
                     let (q, pause) = (Arc::clone(&queue), l.pause);
-                    let open = async move || open_line(&conn, &l).await;
+                    let open = async move || Ok(open_line(&conn, &l).await?);
                     tokio::spawn(line::run(log, q, first, open, pause));
                     router::LineHandle::Rtu(queue)
                 }
                 Kind::Uss(u) => {
                     let u = u.clone();
-                    let first = start(open_uss(&conn, &l, &u).await, &gw)?;
+                    let first = start(open_uss(&conn, &l, &u).await, &gw, &l)?;
                     let drives = uss::UssDrives::new(&u);
-                    let open = async move || open_uss(&conn, &l, &u).await;
+                    let open = async move || Ok(open_uss(&conn, &l, &u).await?);
                     tokio::spawn(drives.supervise(log, first, open));
                     router::LineHandle::Uss(drives)
                 }
@@ -203,16 +206,17 @@ impl GatewayArgs {
                     let q = Arc::clone(&queue);
                     match r.role {
                         rk512_config::Role::Active => {
-                            let first = start(open_rk512(&conn, &l, &r, None).await, &gw)?;
+                            let first = start(open_rk512(&conn, &l, &r, None).await, &gw, &l)?;
                             let partner = rk512::Partner::new(&r);
-                            let open = async move || open_rk512(&conn, &l, &r, None).await;
+                            let open = async move || Ok(open_rk512(&conn, &l, &r, None).await?);
                             tokio::spawn(rk512::run(log, q, partner, first, open, pause));
                         }
                         rk512_config::Role::Passive => {
                             let own = rk512_own::OwnMemory::new(&r);
                             let kept = own.kept();
-                            let first = start(open_rk512(&conn, &l, &r, None).await, &gw)?;
-                            let open = async move || open_rk512(&conn, &l, &r, Some(&kept)).await;
+                            let first = start(open_rk512(&conn, &l, &r, None).await, &gw, &l)?;
+                            let open =
+                                async move || Ok(open_rk512(&conn, &l, &r, Some(&kept)).await?);
                             tokio::spawn(own.run(log, q, first, open));
                         }
                     }
@@ -220,9 +224,9 @@ impl GatewayArgs {
                 }
                 Kind::R3964(link) => {
                     let link = *link;
-                    let first = start(open_3964r(&conn, &l, &link).await, &gw)?;
+                    let first = start(open_3964r(&conn, &l, &link).await, &gw, &l)?;
                     let blocks = r3964::BlockLine::new(link.max_block_len.into());
-                    let open = async move || open_3964r(&conn, &l, &link).await;
+                    let open = async move || Ok(open_3964r(&conn, &l, &link).await?);
                     tokio::spawn(blocks.supervise(log, first, open));
                     router::LineHandle::R3964(blocks)
                 }
@@ -260,8 +264,6 @@ impl GatewayArgs {
     }
 }
 
-/// Open line `l` with the global connection's other options (recording, frame log) and start
-/// its RTU master.
 /// The connection options of line `l`: the common ones (trace, monitor) with the line's port.
 fn line_connection(conn: &Connection, l: &config::Line, protocol: &'static str) -> Connection {
     let mut c = conn.clone();
@@ -283,16 +285,38 @@ fn line_connection(conn: &Connection, l: &config::Line, protocol: &'static str) 
     c
 }
 
-/// How a line starts from its first opening: open, or (with `allow_down_at_start`) down with
-/// the reason; otherwise the error stops the gateway.
+/// Why a line could not be opened: its configuration, which no retry can mend (the gateway
+/// stops, naming it), or its port (a device missing or busy: with `allow_down_at_start` the
+/// line starts down and is reopened).
+enum OpenError {
+    /// The line's settings or engine configuration were refused.
+    Config(CliError),
+    /// The port could not be opened.
+    Port(CliError),
+}
+
+impl From<OpenError> for CliError {
+    fn from(e: OpenError) -> CliError {
+        match e {
+            OpenError::Config(e) | OpenError::Port(e) => e,
+        }
+    }
+}
+
+/// How line `l` starts from its first opening: open, or (with `allow_down_at_start` and a port
+/// that cannot be opened) down with the reason; otherwise the error stops the gateway.
 fn start<L>(
-    opened: Result<reopen::Opened<L>, CliError>,
+    opened: Result<reopen::Opened<L>, OpenError>,
     gw: &Gateway,
+    l: &config::Line,
 ) -> Result<reopen::First<L>, CliError> {
     match opened {
         Ok(o) => Ok(Ok(o)),
-        Err(e) if gw.allow_down_at_start => Ok(Err(e.text().to_owned())),
-        Err(e) => Err(e),
+        Err(OpenError::Port(e)) if gw.allow_down_at_start => {
+            let prefix = format!("line {}: ", l.name);
+            Ok(Err(e.text().trim_start_matches(&prefix).to_owned()))
+        }
+        Err(e) => Err(e.into()),
     }
 }
 
@@ -306,17 +330,15 @@ async fn open_uss(
     conn: &Connection,
     l: &config::Line,
     u: &uss_config::UssLine,
-) -> Result<reopen::Opened<si_uss::tokio::Handle>, CliError> {
-    let c = line_connection(conn, l, "uss");
-    let settings = c
-        .settings_for(&si_uss::config::USS_BAUD_RATES)
-        .map_err(named(l))?;
-    let mut config = u.master.clone();
-    config.settings = settings;
-    let master = si_uss::Master::new(config).map_err(|e| named(l)(e.into()))?;
-    let (port, closed) = reopen::watch(c.open_with(&settings).await.map_err(named(l))?);
-    let link = si_uss::tokio::Handle::spawn_engine(master, port);
-    Ok(reopen::Opened { link, closed })
+) -> Result<reopen::Opened<si_uss::tokio::Handle>, OpenError> {
+    let rates = Some(&si_uss::config::USS_BAUD_RATES[..]);
+    open_engine(conn, l, "uss", rates, |settings| {
+        let mut config = u.master.clone();
+        config.settings = settings;
+        si_uss::Master::new(config)
+    })
+    .await
+    .map(|o| o.spawn(si_uss::tokio::Handle::spawn_engine))
 }
 
 /// Open an RK 512 line and start its station: active only, or serving the line's memory in
@@ -326,8 +348,8 @@ async fn open_rk512(
     l: &config::Line,
     r: &rk512_config::Rk512Line,
     kept: Option<&rk512_own::Kept>,
-) -> Result<reopen::Opened<si_rk512::tokio::Handle>, CliError> {
-    let (station, port, closed) = open_engine(conn, l, "rk512", |settings| match r.role {
+) -> Result<reopen::Opened<si_rk512::tokio::Handle>, OpenError> {
+    open_engine(conn, l, "rk512", None, |settings| match r.role {
         rk512_config::Role::Active => si_rk512::Station::new(r.config, settings),
         rk512_config::Role::Passive => {
             let server = si_rk512::passive::ServerConfig {
@@ -341,9 +363,8 @@ async fn open_rk512(
             Ok(station)
         }
     })
-    .await?;
-    let link = si_rk512::tokio::Handle::spawn_engine(station, port);
-    Ok(reopen::Opened { link, closed })
+    .await
+    .map(|o| o.spawn(si_rk512::tokio::Handle::spawn_engine))
 }
 
 /// Open a plain 3964(R) line and start its link.
@@ -351,63 +372,69 @@ async fn open_3964r(
     conn: &Connection,
     l: &config::Line,
     link: &si_3964r::Config,
-) -> Result<reopen::Opened<si_3964r::tokio::Handle>, CliError> {
-    let (engine, port, closed) = open_engine(conn, l, "3964r", |settings| {
+) -> Result<reopen::Opened<si_3964r::tokio::Handle>, OpenError> {
+    open_engine(conn, l, "3964r", None, |settings| {
         si_3964r::Link::new(*link, settings)
     })
-    .await?;
-    let link = si_3964r::tokio::Handle::spawn_engine(engine, port);
-    Ok(reopen::Opened { link, closed })
-}
-
-/// Build line `l`'s engine for its serial settings (checking its configuration before the
-/// port opens), then open the port, watched for its closing ([`reopen::watch`]).
-async fn open_engine<E, F: std::error::Error>(
-    conn: &Connection,
-    l: &config::Line,
-    protocol: &'static str,
-    engine: impl FnOnce(si_core::SerialSettings) -> Result<E, F>,
-) -> Result<(E, Box<dyn si_core::driver::Transport>, reopen::Closed), CliError> {
-    let c = line_connection(conn, l, protocol);
-    let settings = c.settings().map_err(named(l))?;
-    let engine = engine(settings).map_err(|e| named(l)(e.into()))?;
-    let (port, closed) = reopen::watch(c.open_with(&settings).await.map_err(named(l))?);
-    Ok((engine, port, closed))
+    .await
+    .map(|o| o.spawn(si_3964r::tokio::Handle::spawn_engine))
 }
 
 /// Open a Modbus RTU line and start its master.
 async fn open_line(
     conn: &Connection,
     l: &config::Line,
-) -> Result<reopen::Opened<si_modbus::tokio::Master>, CliError> {
-    let c = line_connection(conn, l, "modbus");
-    let named = named(l);
-    let settings = c.settings().map_err(&named)?;
-    let config = MasterConfig {
-        line: LineConfig {
-            settings,
-            mode: Mode::Normal,
-            char_delay_multiplier: l.rtu.char_delay_multiplier,
-            local_echo: false,
-            auto_v24: None,
-        },
-        response_timeout_ms: l.response_timeout_ms,
-        retries: l.retries,
-        ..MasterConfig::default()
-    };
+) -> Result<reopen::Opened<si_modbus::tokio::Master>, OpenError> {
     // On RS-485 a response is recognised by its address, skipping a turnaround glitch (§2.5).
     let interface = if l.rs485.is_some() {
         si_core::Interface::Rs485
     } else {
         si_core::Interface::Rs232
     };
-    let master = si_modbus::Master::new(config)
-        .map_err(|e| named(e.into()))?
-        .with_interface(interface)
-        .with_frame_end(l.rtu.frame_end);
-    let (port, closed) = reopen::watch(c.open_with(&settings).await.map_err(named)?);
-    let link = si_modbus::tokio::Master::spawn_engine(master, port);
-    Ok(reopen::Opened { link, closed })
+    open_engine(conn, l, "modbus", None, |settings| {
+        let config = MasterConfig {
+            line: LineConfig {
+                settings,
+                mode: Mode::Normal,
+                char_delay_multiplier: l.rtu.char_delay_multiplier,
+                local_echo: false,
+                auto_v24: None,
+            },
+            response_timeout_ms: l.response_timeout_ms,
+            retries: l.retries,
+            ..MasterConfig::default()
+        };
+        si_modbus::Master::new(config)
+            .map(|m| m.with_interface(interface).with_frame_end(l.rtu.frame_end))
+    })
+    .await
+    .map(|o| o.spawn(si_modbus::tokio::Master::spawn_engine))
+}
+
+/// Build line `l`'s engine for its serial settings (the protocol's baud rates, `rates`, where
+/// they differ from the manuals' twelve), checking its configuration before the port opens,
+/// then open the port, watched for its closing ([`reopen::watch`]).
+async fn open_engine<E, F: std::error::Error>(
+    conn: &Connection,
+    l: &config::Line,
+    protocol: &'static str,
+    rates: Option<&'static [u32]>,
+    engine: impl FnOnce(si_core::SerialSettings) -> Result<E, F>,
+) -> Result<reopen::Opened<(E, Box<dyn si_core::driver::Transport>)>, OpenError> {
+    let c = line_connection(conn, l, protocol);
+    let named = named(l);
+    let settings = match rates {
+        Some(rates) => c.settings_for(rates),
+        None => c.settings(),
+    }
+    .map_err(|e| OpenError::Config(named(e)))?;
+    let engine = engine(settings).map_err(|e| OpenError::Config(named(e.into())))?;
+    let port = c.open_with(&settings).await;
+    let (port, closed) = reopen::watch(port.map_err(|e| OpenError::Port(named(e)))?);
+    Ok(reopen::Opened {
+        link: (engine, port),
+        closed,
+    })
 }
 
 /// One status line: every line's and every client's counters.

@@ -33,6 +33,8 @@ pause_ms = 0";
     let status = rig.stop();
     assert_eq!(status["lines"][1]["busy"], 1, "{status}");
     assert_eq!(status["lines"][1]["timeouts"], 2, "{status}");
+    // The refused request counts too: the outcomes add up to the requests.
+    assert_eq!(status["lines"][1]["requests"], 3, "{status}");
 }
 
 /// Two clients at once, each reading its own register with its own run of transaction ids

@@ -97,8 +97,27 @@ fn a_line_missing_at_start_may_start_down_and_is_opened_when_it_appears() {
 
     let _pair = LinkedPair::start(a, b);
     let _slave = pymodbus_server(RTU_SERVER_19200, b);
-    wait_for_event(&log, "line_up", Duration::from_secs(40));
+    let up = wait_for_event(&log, "line_up", Duration::from_secs(40));
+    assert_eq!(up["reconnects"], 0, "a first opening is no reconnect: {up}");
     let mut tid = 1;
     assert_eq!(read_until_answered(&mut m, &mut tid), [0x03, 2, 0, 7]);
-    reopened_once(&stop(&gateway, &log));
+    let status = stop(&gateway, &log);
+    assert_eq!(status["lines"][0]["state"], "up", "{status}");
+}
+
+/// `allow_down_at_start` covers a missing device, not a configuration no retry can mend: a
+/// character format the line cannot have stops the gateway as without it.
+#[test]
+fn allow_down_at_start_still_stops_on_a_bad_line_configuration() {
+    let toml = "allow_down_at_start = true\n[[line]]\ndevice = \"/nonexistent/tty\"\n\
+                units = \"1\"\ndata_bits = 9\n";
+    let path = test_dir("gateway-start-down").join("bad.toml");
+    std::fs::write(&path, toml).expect("write the config");
+    let o = crate::common::si(&["gateway", "--config", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1), "{}", crate::common::stderr(&o));
+    assert!(
+        crate::common::stderr(&o).contains("data bits 9 out of range"),
+        "{}",
+        crate::common::stderr(&o)
+    );
 }

@@ -494,6 +494,22 @@ impl LineFile {
     /// The RS-485 mode, if given, is one we know (the `--rs485` names), and `rs485_file` is
     /// given exactly when the mode writes a file.
     pub(super) fn check_rs485(&self) -> Result<(), RangeError> {
+        // A device server switches its own line: these are serial port options (refused by
+        // the port too, but here as a configuration error, never a line down for ever).
+        if self
+            .device
+            .as_deref()
+            .is_some_and(|d| d.starts_with("tcp:"))
+        {
+            refuse_keys(
+                &[
+                    ("rs485", self.rs485.is_some()),
+                    ("latency_timer_ms", self.latency_timer_ms.is_some()),
+                ],
+                "a serial port's key (a device server switches its own line)",
+                "set on a tcp: device".to_owned(),
+            )?;
+        }
         let mode = match self.rs485.as_deref() {
             Some(name) => Some(Rs485Mode::from_name(name).ok_or_else(|| {
                 RangeError::new("rs485", Rs485Mode::names(), "", format!("{name:?}"))
@@ -608,6 +624,15 @@ pub(super) mod tests {
         assert!(e.contains("line 2 (m): units = 1"), "{e}");
         let e = check(&format!("{base}speed = 1\n")).unwrap_err();
         assert!(e.contains("speed"), "unknown keys are refused: {e}");
+    }
+
+    #[test]
+    fn serial_port_keys_are_refused_on_a_device_server_line() {
+        let base = "[[line]]\nname = \"m\"\ndevice = \"tcp:127.0.0.1:4001\"\nunits = \"1\"\n";
+        let e = check(&format!("{base}rs485 = \"rts\"\n")).unwrap_err();
+        assert!(e.contains("rs485 = set on a tcp: device"), "{e}");
+        let e = check(&format!("{base}kind = \"uss\"\nlatency_timer_ms = 1\n")).unwrap_err();
+        assert!(e.contains("latency_timer_ms = set on a tcp: device"), "{e}");
     }
 
     #[test]

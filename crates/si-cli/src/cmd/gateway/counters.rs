@@ -9,7 +9,7 @@
 //!
 //! | offset | counter |
 //! |---|---|
-//! | 0–1 | requests (every request received; for a line, every one queued for it) |
+//! | 0–1 | requests (every request received; for a line, every one routed to it) |
 //! | 2–3 | answers (normal responses returned) |
 //! | 4–5 | exceptions (exception responses of the slave, passed through) |
 //! | 6–7 | timeouts (no answer after the retries: 0BH returned) |
@@ -20,7 +20,9 @@
 //! | 15 | reconnects: times the line was reopened after its port closed, low 16 bits ([`super::reopen`]; 0 for a client) |
 //!
 //! Every request ends in one of answers, exceptions, timeouts, busy or other (a broadcast
-//! without an answer in none), so those add up to the requests once the queue is empty. CRC
+//! without an answer in none), so those add up to the requests once the queue is empty; a
+//! client's broadcast goes to every line that allows them, and a full queue on one of them
+//! counts busy for the client once per line. CRC
 //! errors count the line's corrupt answers instead, several for one request when its retries
 //! met them too (issue 20: a retry that cures a CRC error must not hide it).
 //!

@@ -32,7 +32,8 @@ pub fn descriptors_needed(gw: &Gateway, listeners: usize) -> u64 {
         .lines
         .iter()
         .map(|l| match l.device {
-            Device::Port(_) => PORT_DESCRIPTORS,
+            // A sysfs RS-485 direction file stays open with its port.
+            Device::Port(_) => PORT_DESCRIPTORS + u64::from(l.rs485_file.is_some()),
             Device::Tcp(_) => 1,
         })
         .sum();
@@ -46,7 +47,7 @@ fn plan(soft: u64, hard: u64, needed: u64) -> Result<Option<u64>, String> {
     let target = hard.min(NR_OPEN_DEFAULT);
     if target < needed {
         return Err(format!(
-            "the configuration needs at least {needed} open files (two per serial line, one per \
+            "the configuration needs at least {needed} open files (two per serial line, three with an rs485_file, one per \
              device-server line, listener and connection), but the hard limit RLIMIT_NOFILE is {hard}: raise it (e.g. \
              `ulimit -Hn {needed}` as root, LimitNOFILE={needed} in a systemd unit, or \
              nofile in /etc/security/limits.conf), or serve fewer lines per process"
@@ -117,6 +118,11 @@ mod tests {
         let gw = crate::cmd::gateway::config::tests::check(toml).unwrap();
         // 2 + 1 for the lines, 1 listener, mbusd's 32 connections, the runtime's 32.
         assert_eq!(descriptors_needed(&gw, 1), 68);
+        // A sysfs direction file stays open with its port: one more.
+        let sysfs = "rs485 = \"sysfs\"\nrs485_file = \"/sys/class/gpio/gpio17/value\"\n";
+        let with_file = toml.replace("units = \"1\"\n", &format!("units = \"1\"\n{sysfs}"));
+        let gw = crate::cmd::gateway::config::tests::check(&with_file).unwrap();
+        assert_eq!(descriptors_needed(&gw, 1), 69);
     }
 
     #[cfg(unix)]

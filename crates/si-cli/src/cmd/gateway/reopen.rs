@@ -13,7 +13,9 @@
 //!
 //! A line that cannot be opened at **start** still stops `si gateway` with exit 1 naming it:
 //! a wrong path or setting in the configuration is better reported at once than served as a
-//! line that is down for ever.
+//! line that is down for ever — unless the gateway's `allow_down_at_start` is set and the
+//! port (not the configuration) failed: the line then starts down, and [`supervise`] begins
+//! with the reopening (its first opening is no reconnect).
 
 use super::counters::Stats;
 use super::line::lock;
@@ -172,6 +174,17 @@ pub struct Opened<L> {
     pub closed: Closed,
 }
 
+impl<E> Opened<(E, Box<dyn Transport>)> {
+    /// Start the engine on its port (e.g. `si_uss::tokio::Handle::spawn_engine`).
+    pub fn spawn<L>(self, start: impl FnOnce(E, Box<dyn Transport>) -> L) -> Opened<L> {
+        let (engine, port) = self.link;
+        Opened {
+            link: start(engine, port),
+            closed: self.closed,
+        }
+    }
+}
+
 /// What a line reports about itself: its counters, state and log lines.
 #[derive(Clone)]
 pub struct LineLog {
@@ -186,12 +199,21 @@ pub struct LineLog {
 }
 
 impl LineLog {
-    /// The line's port closed: down, and say so.
-    fn down(&self, why: &str) {
+    /// The line's port closed (`was_open`), or could not be opened at start: down, and say so.
+    fn down(&self, why: &str, was_open: bool) {
         lock(&self.stats).down[self.index] = Some(why.to_owned());
+        let text = if was_open {
+            format!("line {}: closed ({why}); reopening", self.name)
+        } else {
+            format!(
+                "line {}: not opened at start ({why}); trying again",
+                self.name
+            )
+        };
         self.out.line(
-            &format!("line {}: closed ({why}); reopening", self.name),
-            serde_json::json!({"event": "line_down", "line": self.name, "reason": why}),
+            &text,
+            serde_json::json!({"event": "line_down", "line": self.name, "reason": why,
+                "at_start": !was_open}),
         );
     }
 
@@ -203,17 +225,18 @@ impl LineLog {
         lock(&self.stats).down[self.index] = Some(reason);
     }
 
-    /// The line serves again.
-    fn up(&self) {
+    /// The line serves again (`was_open`: a reconnect), or for the first time.
+    fn up(&self, was_open: bool) {
         let reconnects = {
             let mut s = lock(&self.stats);
             s.down[self.index] = None;
             let c = &mut s.lines[self.index];
-            c.reconnects += 1;
+            c.reconnects += u64::from(was_open);
             c.reconnects
         };
+        let done = if was_open { "reopened" } else { "opened" };
         self.out.line(
-            &format!("line {}: reopened", self.name),
+            &format!("line {}: {done}", self.name),
             serde_json::json!({"event": "line_up", "line": self.name, "reconnects": reconnects}),
         );
     }
@@ -247,13 +270,15 @@ pub async fn supervise<L>(
     mut serve: impl AsyncFnMut(L, Closed) -> String,
     mut while_down: impl AsyncFnMut() -> Infallible,
 ) {
+    // A line that started down was never open: its first opening is no reconnect.
+    let mut was_open = first.is_ok();
     let mut state = first;
     loop {
         let why = match state {
             Ok(opened) => serve(opened.link, opened.closed).await,
             Err(why) => why,
         };
-        log.down(&why);
+        log.down(&why, was_open);
         let reopen = async {
             let mut attempt = 0;
             loop {
@@ -269,7 +294,8 @@ pub async fn supervise<L>(
             o = reopen => o,
             never = while_down() => match never {},
         });
-        log.up();
+        log.up(was_open);
+        was_open = true;
     }
 }
 

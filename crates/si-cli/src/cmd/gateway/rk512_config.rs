@@ -207,6 +207,17 @@ impl LineFile {
                 "given",
             ));
         }
+        if role == Role::Passive {
+            // Both belong to jobs the gateway starts; a passive line starts none.
+            refuse_keys(
+                &[
+                    ("response_timeout_ms", self.response_timeout_ms.is_some()),
+                    ("pause_ms", self.pause_ms.is_some()),
+                ],
+                "a key of active rk512 lines (the passive role starts no jobs)",
+                "set on a passive line".to_owned(),
+            )?;
+        }
         let memory = match (&self.memory, role) {
             (Some(_), Role::Active) => {
                 return Err(RangeError::new(
@@ -404,6 +415,10 @@ mod tests {
             (
                 "role = \"passive\"\n[line.memory]\nflags = 70000\n",
                 "memory.flags = 70000 bytes",
+            ),
+            (
+                "role = \"passive\"\npause_ms = 10\n",
+                "pause_ms = set on a passive line",
             ),
             ("[line.conversion]\nbogus = 1\n", "bogus"),
         ] {

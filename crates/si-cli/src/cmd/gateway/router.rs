@@ -98,6 +98,8 @@ impl Router {
         };
         let pushed = queue.push(id, job);
         let mut s = line::lock(&self.stats);
+        // Every request routed to the line counts, a refused one too: its outcomes add up.
+        s.lines[index].requests += 1;
         let depth = match pushed {
             Some(depth) => depth,
             None => {
@@ -108,7 +110,6 @@ impl Router {
                 return Err(());
             }
         };
-        s.lines[index].requests += 1;
         s.lines[index].queue_depth = depth as u64;
         if let Some(c) = s.client(id) {
             c.queue_depth += 1;
