@@ -765,6 +765,10 @@ proptest! {
             }
             prop_assert_eq!(ended, 1, "job {} ended {} times", i, ended);
         }
-        prop_assert!(done > 20, "{} of 40 done", done);
+        // A line that works at all: at 0.6 % faults per byte about 33 of 40 jobs end well, but
+        // the simulator's fault sequence for some seeds comes in runs (seed
+        // 13320529681020295147: 18, with the same engines as before the change that found it),
+        // so the bound only tells a working line from a broken one.
+        prop_assert!(done > 10, "{} of 40 done", done);
     }
 }
