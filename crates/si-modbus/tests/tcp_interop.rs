@@ -16,7 +16,7 @@ use std::time::Duration;
 use si_modbus::slave::Tables;
 use si_modbus::tokio::tcp::{Client, Server, ServerConfig};
 
-use si_testkit::peers::{have_mbpoll, peer, Kill};
+use si_testkit::peers::{have_mbpoll, mbpoll_values, peer, Kill};
 
 fn have_pymodbus() -> bool {
     peer(
@@ -202,16 +202,6 @@ fn mbpoll(addr: SocketAddr, args: &[&str], values: &[&str]) -> Output {
     cmd.output().expect("run mbpoll")
 }
 
-/// mbpoll prints `[ref]: \tvalue` lines.
-fn values(o: &Output) -> Vec<String> {
-    String::from_utf8_lossy(&o.stdout)
-        .lines()
-        .filter(|l| l.starts_with('['))
-        .filter_map(|l| l.split(':').nth(1))
-        .map(|v| v.trim().to_string())
-        .collect()
-}
-
 #[test]
 fn mbpoll_tcp_against_our_server() {
     if !have_mbpoll() {
@@ -222,21 +212,21 @@ fn mbpoll_tcp_against_our_server() {
     ok(mbpoll(addr, &["-t", "4", "-r", "0"], &["7", "8", "9"])); // FC16
     ok(mbpoll(addr, &["-t", "4", "-r", "3"], &["4660"])); // FC06
     assert_eq!(
-        values(&mbpoll(addr, &["-t", "4", "-r", "0", "-c", "4"], &[])), // FC03
+        mbpoll_values(&mbpoll(addr, &["-t", "4", "-r", "0", "-c", "4"], &[])), // FC03
         ["7", "8", "9", "4660"]
     );
     assert_eq!(
-        values(&mbpoll(addr, &["-t", "3", "-r", "1", "-c", "2"], &[])), // FC04
+        mbpoll_values(&mbpoll(addr, &["-t", "3", "-r", "1", "-c", "2"], &[])), // FC04
         ["1001", "1002"]
     );
     ok(mbpoll(addr, &["-t", "0", "-r", "3"], &["1"])); // FC05
     ok(mbpoll(addr, &["-t", "0", "-r", "8"], &["1", "0", "1"])); // FC15
     assert_eq!(
-        values(&mbpoll(addr, &["-t", "0", "-r", "0", "-c", "12"], &[])), // FC01
+        mbpoll_values(&mbpoll(addr, &["-t", "0", "-r", "0", "-c", "12"], &[])), // FC01
         ["0", "0", "0", "1", "0", "0", "0", "0", "1", "0", "1", "0"]
     );
     assert_eq!(
-        values(&mbpoll(addr, &["-t", "1", "-r", "0", "-c", "4"], &[])), // FC02
+        mbpoll_values(&mbpoll(addr, &["-t", "1", "-r", "0", "-c", "4"], &[])), // FC02
         ["0", "1", "0", "1"]
     );
     // Register 100 is past the table: exception 02.

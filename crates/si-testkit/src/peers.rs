@@ -34,6 +34,16 @@ pub fn have_mbpoll() -> bool {
     )
 }
 
+/// The values mbpoll printed, one per `[ref]: \tvalue` line, in order.
+pub fn mbpoll_values(o: &std::process::Output) -> Vec<String> {
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .filter(|l| l.starts_with('['))
+        .filter_map(|l| l.split(':').nth(1))
+        .map(|v| v.trim().to_string())
+        .collect()
+}
+
 /// A child process killed and reaped when dropped, so a failing test leaves no peer behind.
 #[derive(Debug)]
 pub struct Kill(pub Child);

@@ -100,25 +100,30 @@ fn start_module_logging(args: &[&str], stderr: Stdio) -> ModuleProcess {
     }
 }
 
-#[test]
-fn module_3964r_receives_from_si_3964r_send_and_sends_to_si_3964r_recv() {
-    let Some(pair) = pty_pair() else { return };
-    let mut m = start_module(&["--window", "8", "--protocol", "3964r", "--port", &pair.a]);
-    // Let the module open its port (and send its startup NAK) before the partner starts.
+/// `si 3964r send` of the block 41 42 10 43 from the partner end `partner`, once the module's
+/// port is open (its startup NAK sent): the input window that offers the received block.
+fn partner_sends_abc(m: &mut ModuleProcess, partner: &str) -> String {
     assert_eq!(
         m.cycle("00 00 00 00 00 00 00 00"),
         "00 00 00 00 00 00 00 00"
     );
     std::thread::sleep(Duration::from_millis(300));
     let sent = si_command()
-        .args(["3964r", "send", "--port", &pair.b, "--priority", "high"])
+        .args(["3964r", "send", "--port", partner, "--priority", "high"])
         .arg("41 42 10 43")
         .output()
         .expect("si 3964r send");
     assert!(sent.status.success(), "{sent:?}");
+    m.cycle_until("00 00 00 00 00 00 00 00", "00 00 01")
+}
+
+#[test]
+fn module_3964r_receives_from_si_3964r_send_and_sends_to_si_3964r_recv() {
+    let Some(pair) = pty_pair() else { return };
+    let mut m = start_module(&["--window", "8", "--protocol", "3964r", "--port", &pair.a]);
     // The block (with its DLE) is offered and fetched through the window.
     assert_eq!(
-        m.cycle_until("00 00 00 00 00 00 00 00", "00 00 01"),
+        partner_sends_abc(&mut m, &pair.b),
         "00 00 01 00 00 00 00 00"
     );
     assert_eq!(
@@ -395,18 +400,7 @@ fn module_v_logs_the_frames_of_its_line_decoded_as_the_procedure() {
         &pair.a,
     ];
     let mut m = start_module_logging(&args, Stdio::piped());
-    assert_eq!(
-        m.cycle("00 00 00 00 00 00 00 00"),
-        "00 00 00 00 00 00 00 00"
-    );
-    std::thread::sleep(Duration::from_millis(300));
-    let sent = si_command()
-        .args(["3964r", "send", "--port", &pair.b, "--priority", "high"])
-        .arg("41 42 10 43")
-        .output()
-        .expect("si 3964r send");
-    assert!(sent.status.success(), "{sent:?}");
-    m.cycle_until("00 00 00 00 00 00 00 00", "00 00 01");
+    partner_sends_abc(&mut m, &pair.b);
     // The block was acknowledged before it was offered: its lines are in the pipe, which
     // stays readable after the module is killed.
     let mut stderr = m.child.stderr.take().expect("piped stderr");

@@ -19,6 +19,7 @@ use common::modbus::{
     self, have_mbpoll, have_pymodbus, pymodbus_client_ok, pymodbus_server, served,
 };
 use common::{have_socat, pty_pair, si_command, stderr, stdout, test_dir, Kill};
+use si_testkit::peers::mbpoll_values;
 use std::sync::mpsc::Receiver;
 
 const LINE: &[&str] = &["--baud", "19200", "--parity", "none", "--stop-bits", "2"];
@@ -191,16 +192,6 @@ fn mbpoll_write(port: &str, args: &[&str], values: &[&str]) -> Output {
         .expect("run mbpoll")
 }
 
-/// mbpoll prints `[ref]: \tvalue` lines.
-fn values(o: &Output) -> Vec<String> {
-    stdout(o)
-        .lines()
-        .filter(|l| l.starts_with('['))
-        .filter_map(|l| l.split(':').nth(1))
-        .map(|v| v.trim().to_string())
-        .collect()
-}
-
 #[test]
 fn mbpoll_against_si_modbus_serve() {
     if !(have_socat() && have_mbpoll()) {
@@ -214,20 +205,20 @@ fn mbpoll_against_si_modbus_serve() {
     let o = mbpoll_write(b, &["-t", "4", "-r", "3"], &["4660"]); // FC06
     assert!(o.status.success(), "{}", stderr(&o));
     let o = mbpoll(b, &["-t", "4", "-r", "0", "-c", "4"]); // FC03
-    assert_eq!(values(&o), ["7", "8", "9", "4660"]);
+    assert_eq!(mbpoll_values(&o), ["7", "8", "9", "4660"]);
     let o = mbpoll(b, &["-t", "3", "-r", "0", "-c", "2"]); // FC04
-    assert_eq!(values(&o), ["0", "0"]);
+    assert_eq!(mbpoll_values(&o), ["0", "0"]);
     let o = mbpoll_write(b, &["-t", "0", "-r", "3"], &["1"]); // FC05
     assert!(o.status.success(), "{}", stderr(&o));
     let o = mbpoll_write(b, &["-t", "0", "-r", "8"], &["1", "0", "1"]); // FC15
     assert!(o.status.success(), "{}", stderr(&o));
     let o = mbpoll(b, &["-t", "0", "-r", "0", "-c", "12"]); // FC01
     assert_eq!(
-        values(&o),
+        mbpoll_values(&o),
         ["0", "0", "0", "1", "0", "0", "0", "0", "1", "0", "1", "0"]
     );
     let o = mbpoll(b, &["-t", "1", "-r", "8160", "-c", "4"]); // FC02
-    assert_eq!(values(&o), ["0", "0", "0", "0"]);
+    assert_eq!(mbpoll_values(&o), ["0", "0", "0", "0"]);
     // R = 512 → DB7, above DB_Max 6: exception 02.
     let o = mbpoll_write(b, &["-t", "4", "-r", "512"], &["1"]);
     assert!(
