@@ -267,8 +267,6 @@ async fn serve_connection<H: Handler>(
     stream.set_nodelay(true)?;
     let mut decoder = Decoder::new();
     let mut rx = [0u8; RX_CHUNK];
-    // Answers to the requests of one read, written together; its capacity is kept.
-    let mut tx = Vec::with_capacity(RX_CHUNK);
     loop {
         let read = stream.read(&mut rx);
         let n = match idle {
@@ -290,8 +288,11 @@ async fn serve_connection<H: Handler>(
                         continue;
                     }
                     let request = *request;
+                    // Each answer goes as soon as it is ready: behind a slow handler (a
+                    // gateway's serial line) a pipelined request must not hold back the
+                    // answers to those before it.
                     if let Some(reply) = handler.answer_from(peer, request).await {
-                        tx.extend_from_slice(reply.as_bytes());
+                        stream.write_all(reply.as_bytes()).await?;
                     }
                 }
                 Ok(None) => break,
@@ -301,8 +302,6 @@ async fn serve_connection<H: Handler>(
                 }
             }
         }
-        stream.write_all(&tx).await?;
-        tx.clear();
         if header_error {
             return Ok(());
         }
