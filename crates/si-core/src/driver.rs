@@ -441,8 +441,12 @@ where
         let ended = run(engine, transport, options, command_rx, event_tx).await;
         // The application sees only that the driver stopped (DriverStopped): say why here,
         // e.g. an adapter unplugged, or a port that cannot set RTS (a pseudo-terminal).
-        if let Err(e) = &ended {
-            tracing::error!("the line failed: {e}");
+        match &ended {
+            // A hang-up (pty closed, USB adapter pulled: EIO/ENODEV/ENXIO, a peer's reset) is
+            // what the application reports itself as a lost line: said once, there.
+            Err(e) if hung_up(e) => tracing::debug!("the line closed: {e}"),
+            Err(e) => tracing::error!("the line failed: {e}"),
+            Ok(()) => {}
         }
         ended
     });
@@ -455,6 +459,19 @@ where
         },
         task,
     )
+}
+
+/// Is `e` the port going away rather than something the application could not know?
+fn hung_up(e: &io::Error) -> bool {
+    // EIO, ENXIO and ENODEV (Linux and the BSDs agree on these numbers).
+    const HANG_UPS: [i32; 3] = [5, 6, 19];
+    matches!(
+        e.kind(),
+        io::ErrorKind::BrokenPipe
+            | io::ErrorKind::ConnectionReset
+            | io::ErrorKind::ConnectionAborted
+            | io::ErrorKind::UnexpectedEof
+    ) || e.raw_os_error().is_some_and(|n| HANG_UPS.contains(&n))
 }
 
 /// The engine's clock: microseconds since the driver started.
@@ -852,6 +869,21 @@ impl Transport for Box<dyn Transport> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_hang_up_is_told_from_a_failure() {
+        assert!(hung_up(&io::Error::from_raw_os_error(5)), "EIO: pty closed");
+        assert!(
+            hung_up(&io::Error::from_raw_os_error(19)),
+            "ENODEV: adapter pulled"
+        );
+        assert!(hung_up(&io::ErrorKind::BrokenPipe.into()));
+        assert!(
+            !hung_up(&io::Error::from_raw_os_error(25)),
+            "ENOTTY: cannot set RTS"
+        );
+        assert!(!hung_up(&io::ErrorKind::PermissionDenied.into()));
+    }
     use crate::tracefile::{self, Header};
     use std::io::Write;
     use std::sync::{Arc, Mutex};

@@ -116,7 +116,8 @@ impl TcpAdu {
     pub fn from_unit_pdu(transaction: u16, unit_pdu: &[u8]) -> Result<Self, EncodeError> {
         let mut a = Self::EMPTY;
         let n = unit_pdu.len();
-        if n < MIN_LENGTH as usize {
+        // One error for every length out of range, too short or too long.
+        if !(MIN_LENGTH as usize..=MAX_LENGTH as usize).contains(&n) {
             return Err(EncodeError::Quantity {
                 what: "Modbus TCP unit id + PDU bytes",
                 value: n,
@@ -405,8 +406,15 @@ mod tests {
         assert_eq!(adu.as_bytes(), [0x12, 0x34, 0, 0, 0, 3, 5, 0x83, 0x0B]);
         assert!(TcpAdu::from_unit_pdu(1, &[5]).is_err());
         assert!(TcpAdu::from_unit_pdu(1, &[0; 254]).is_ok());
-        assert!(TcpAdu::from_unit_pdu(1, &[0; 255]).is_err());
-        assert!(TcpAdu::from_unit_pdu(1, &[0; 1000]).is_err());
+        for n in [1, 255, 256, 1000] {
+            assert!(
+                matches!(
+                    TcpAdu::from_unit_pdu(1, &vec![0; n]),
+                    Err(EncodeError::Quantity { value, max: 254, .. }) if value == n
+                ),
+                "{n} bytes"
+            );
+        }
     }
 
     #[test]

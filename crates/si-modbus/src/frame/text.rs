@@ -10,12 +10,13 @@
 use super::{Bits, Registers, Request, Response};
 use core::fmt;
 
-/// `n thing` or `n things`.
-fn count(n: usize, thing: &str) -> String {
-    if n == 1 {
-        format!("1 {thing}")
-    } else {
-        format!("{n} {thing}s")
+/// `n thing` or `n things`, written without building a string.
+struct Count<'a>(usize, &'a str);
+
+impl fmt::Display for Count<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let plural = if self.0 == 1 { "" } else { "s" };
+        write!(f, "{} {}{plural}", self.0, self.1)
     }
 }
 
@@ -49,7 +50,7 @@ impl fmt::Display for Request<'_> {
             write!(f, "FC{:02} ", self.function())?;
         }
         let read = |f: &mut fmt::Formatter<'_>, quantity: u16, thing: &str, address: u16| {
-            write!(f, "read {} from {address}", count(quantity.into(), thing))
+            write!(f, "read {} from {address}", Count(quantity.into(), thing))
         };
         match self {
             Request::ReadCoils { address, quantity } => read(f, *quantity, "coil", *address),
@@ -73,11 +74,11 @@ impl fmt::Display for Request<'_> {
             Request::GetCommEventCounter => f.write_str("get comm event counter"),
             Request::GetCommEventLog => f.write_str("get comm event log"),
             Request::WriteMultipleCoils { address, values } => {
-                write!(f, "write {} from {address}: ", count(values.len(), "coil"))?;
+                write!(f, "write {} from {address}: ", Count(values.len(), "coil"))?;
                 bits(f, values)
             }
             Request::WriteMultipleRegisters { address, values } => {
-                let n = count(values.len(), "holding register");
+                let n = Count(values.len(), "holding register");
                 write!(f, "write {n} from {address}: ")?;
                 registers(f, values)
             }
@@ -93,11 +94,11 @@ impl fmt::Display for Response<'_> {
         match self {
             Response::ReadCoils(values) | Response::ReadDiscreteInputs(values) => {
                 // The count is the byte count × 8: the request's quantity is not in the answer.
-                write!(f, "{}: ", count(values.len(), "bit"))?;
+                write!(f, "{}: ", Count(values.len(), "bit"))?;
                 bits(f, values)
             }
             Response::ReadHoldingRegisters(values) | Response::ReadInputRegisters(values) => {
-                write!(f, "{}: ", count(values.len(), "register"))?;
+                write!(f, "{}: ", Count(values.len(), "register"))?;
                 registers(f, values)
             }
             Response::WriteSingleCoil { address, value } => {
@@ -121,19 +122,19 @@ impl fmt::Display for Response<'_> {
                 f,
                 "status {status:04X}, event count {event_count}, message count \
                  {message_count}, {}",
-                count(events.len(), "event byte")
+                Count(events.len(), "event byte")
             ),
             Response::WriteMultipleCoils { address, quantity } => {
                 write!(
                     f,
                     "{} written from {address}",
-                    count((*quantity).into(), "coil")
+                    Count((*quantity).into(), "coil")
                 )
             }
             Response::WriteMultipleRegisters { address, quantity } => write!(
                 f,
                 "{} written from {address}",
-                count((*quantity).into(), "holding register")
+                Count((*quantity).into(), "holding register")
             ),
             Response::Exception { code, .. } => write!(f, "{code}"),
         }
