@@ -527,7 +527,11 @@ pub fn check_response(request: &[u8], response: &[u8]) -> Result<(), Status> {
     if response.len() < 4 {
         return Err(status::TOO_FEW_BYTES);
     }
-    let structure = check_structure(request, response);
+    let without_crc = |adu: &[u8]| adu.len().saturating_sub(2);
+    let structure = check_structure(
+        &request[..without_crc(request)],
+        &response[..without_crc(response)],
+    );
     if !frame::crc_ok(response) {
         return match structure {
             Err(s) if s == status::TOO_FEW_BYTES || s == status::TOO_MANY_BYTES => Err(s),
@@ -540,10 +544,11 @@ pub fn check_response(request: &[u8], response: &[u8]) -> Result<(), Status> {
         .map_err(|_| status::BYTE_COUNT_WRONG)
 }
 
-fn check_structure(request: &[u8], response: &[u8]) -> Result<(), Status> {
-    let n = response.len();
+/// The structure of a response (`unit | PDU`, no CRC: RTU and Modbus TCP alike) against its
+/// request's: function code, lengths, byte count, echo (§4.4).
+pub(crate) fn check_structure(request: &[u8], response: &[u8]) -> Result<(), Status> {
     let f = request[1];
-    let body = n - 2;
+    let body = response.len();
     let exact = |len: usize| -> Result<(), Status> {
         match body.cmp(&len) {
             core::cmp::Ordering::Less => Err(status::TOO_FEW_BYTES),

@@ -424,3 +424,37 @@ async fn a_pipelined_answer_is_not_held_back_by_the_next_request() {
         .unwrap();
     assert_eq!(answer, [0, 2, 0, 0, 0, 3, 1, 0x83, 0x04]);
 }
+
+/// Answers a read with one register too few, and a register write with another value.
+struct Misfits;
+
+impl Handler for Misfits {
+    async fn answer(&self, request: TcpAdu) -> Option<TcpAdu> {
+        let (unit, t) = (request.unit(), request.transaction());
+        let pdu: &[u8] = match request.function() {
+            0x03 => &[unit, 0x03, 4, 0, 1, 0, 2],
+            _ => &[unit, 0x06, 0, 5, 0, 9],
+        };
+        Some(TcpAdu::from_unit_pdu(t, pdu).unwrap())
+    }
+}
+
+/// The client checks an answer's structure against its request as the RTU master does
+/// (§4.4): a short read and a wrong echo are errors with the master's STATUS, not values.
+#[tokio::test]
+async fn an_answer_that_does_not_fit_its_request_is_refused() {
+    let server = Server::with_handler("127.0.0.1:0", ServerConfig::default(), Misfits)
+        .await
+        .unwrap();
+    let addr = server.local_addr().unwrap();
+    tokio::spawn(server.run());
+    let mut c = Client::connect(addr).await.unwrap().with_timeout(SHORT);
+    let e = c.read_holding_registers(1, 0, 3).await.unwrap_err();
+    assert_eq!(
+        e.status(),
+        Some(si_modbus::status::BYTE_COUNT_TOO_SMALL),
+        "{e}"
+    );
+    let e = c.write_single_register(1, 5, 7).await.unwrap_err();
+    assert_eq!(e.status(), Some(si_modbus::status::ECHO_WRONG), "{e}");
+}

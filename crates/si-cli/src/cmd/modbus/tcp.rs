@@ -158,7 +158,7 @@ impl TcpLine {
         let kind = match e {
             Error::Exception { .. } => Kind::Exception,
             Error::Timeout(_) => Kind::Timeout,
-            Error::Mismatch { .. } | Error::Decode(_) => Kind::Other,
+            Error::Mismatch { .. } | Error::Decode(_) | Error::Response(_) => Kind::Other,
             _ if self.reconnect => {
                 self.client = None;
                 return JobError::Line(LineFailure {

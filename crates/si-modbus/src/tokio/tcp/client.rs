@@ -49,6 +49,10 @@ pub enum Error {
         /// The response's.
         found: u8,
     },
+    /// The answer has the request's function code but does not fit the request (a wrong
+    /// byte count, length or echo), with the RTU master's STATUS for it (0E52H–0E56H, §4.4).
+    #[error("the answer does not fit the request: {0}")]
+    Response(si_core::Status),
     /// The server answered with an exception, passed as it is.
     #[error("function {function:02X}H answered with exception {code:02X}H{}", exception_text(*.code))]
     Exception {
@@ -90,6 +94,7 @@ impl Error {
                 ExceptionCode::from_u8(*code).map(crate::status::for_exception)
             }
             Error::Timeout(_) => Some(crate::status::RESPONSE_TIMEOUT),
+            Error::Response(s) => Some(*s),
             Error::Mismatch {
                 field: "function code",
                 ..
@@ -235,7 +240,8 @@ impl Client {
 }
 
 /// Check an answer against its request: unit id, function code (an exception is returned as
-/// [`Error::Exception`]), and a PDU that decodes.
+/// [`Error::Exception`]), its structure as the RTU master checks it (byte count, length, echo:
+/// [`Error::Response`]), and a PDU that decodes.
 fn check(reply: TcpAdu, request: &TcpAdu) -> Result<TcpAdu, Error> {
     if reply.unit() != request.unit() {
         return Err(Error::Mismatch {
@@ -259,6 +265,8 @@ fn check(reply: TcpAdu, request: &TcpAdu) -> Result<TcpAdu, Error> {
             found: reply.function(),
         });
     }
+    crate::master::check_structure(request.unit_pdu(), reply.unit_pdu())
+        .map_err(Error::Response)?;
     reply.decode_response()?;
     Ok(reply)
 }
