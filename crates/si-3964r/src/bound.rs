@@ -33,7 +33,7 @@
 //!   doubled `DLE`, then `DLE ETX BCC`), `gap(ZVZ)` = ZVZ + `t_char` + 1 µs the gap limit of
 //!   [`SerialSettings::gap_limit`]. On a port with delivery latency QVZ and ZVZ get the port's
 //!   allowance, as everywhere in the link (at most [`si_core::delivery::MAX_LATENCY`] plus one
-//!   character; the job's deadline uses the allowance known when the job starts). Time spent receiving the partner's blocks while our
+//!   character; the job's deadline grows with the allowance if it is learnt while the job runs). Time spent receiving the partner's blocks while our
 //!   job waits counts against the bound. When the deadline passes, the job ends with
 //!   [`Event::SendFailed`](crate::Event::SendFailed) carrying the first error of the job, or
 //!   0703H (no connection set up within QVZ) when the line never let it get as far as an error,

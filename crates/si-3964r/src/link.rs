@@ -191,7 +191,12 @@ struct Job {
     tx_try: u8,
     first_err: Option<Status>,
     conflict_seen: bool,
-    /// The job's bound ([`Config::send_job_bound`], with the port's allowance) from its start.
+    /// When [`Link::send`] took it.
+    started: Instant,
+    /// The port's delivery allowance [`deadline`](Self::deadline) was computed with.
+    allowance: Duration,
+    /// The job's bound ([`Config::send_job_bound`], with the port's allowance) from its start;
+    /// widened if the allowance grows while the job runs ([`Link::widen_job_bound`]).
     deadline: Instant,
 }
 
@@ -308,9 +313,10 @@ impl Link {
         }
         let id = JobId(self.next_job);
         self.next_job += 1;
-        let bound =
-            self.config
-                .send_job_bound_with(&self.settings, data.len(), self.delivery.allowance());
+        let allowance = self.delivery.allowance();
+        let bound = self
+            .config
+            .send_job_bound_with(&self.settings, data.len(), allowance);
         self.job = Some(Job {
             id,
             data,
@@ -318,12 +324,28 @@ impl Link {
             tx_try: 1,
             first_err: None,
             conflict_seen: false,
+            started: now,
+            allowance,
             deadline: now + bound,
         });
         if self.state == State::Idle {
             self.connect(now);
         }
         Ok(id)
+    }
+
+    /// A port found to packetise while a job runs (a USB adapter learnt from a multi-byte read)
+    /// lengthens every QVZ and ZVZ wait from then on: the job's deadline grows with it, so
+    /// the bound never cuts off attempts the manual still allows.
+    fn widen_job_bound(&mut self) {
+        let allowance = self.delivery.allowance();
+        if let Some(job) = self.job.as_mut().filter(|j| allowance > j.allowance) {
+            let bound = self
+                .config
+                .send_job_bound_with(&self.settings, job.data.len(), allowance);
+            job.allowance = allowance;
+            job.deadline = job.deadline.max(job.started + bound);
+        }
     }
 
     /// True while a send job runs (or waits for the line).
@@ -826,6 +848,7 @@ impl Engine for Link {
         // driver's timers are late.
         self.end_overdue_job(now);
         self.delivery.observe(bytes.len());
+        self.widen_job_bound();
         for &b in bytes {
             self.on_byte(now, b);
         }
@@ -853,11 +876,40 @@ impl Engine for Link {
 
     fn set_rx_latency(&mut self, latency: Duration) {
         self.delivery.declare(latency);
+        self.widen_job_bound();
     }
 
     fn poll_output(&mut self) -> Output<Event> {
         self.out
             .pop_front()
             .unwrap_or_else(|| Output::Wait(self.deadline()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_port_learnt_to_packetise_mid_job_widens_the_jobs_deadline() {
+        let settings = SerialSettings::default();
+        let mut link = Link::new(Config::default(), settings).unwrap();
+        let start = Instant::ZERO;
+        link.send(start, &b"hello"[..]).unwrap();
+        let before = link.job.as_ref().unwrap().deadline;
+        assert_eq!(
+            before,
+            start + Config::default().send_job_bound(&settings, 5),
+            "no allowance on a port not yet seen to packetise"
+        );
+        // Two bytes in one read: the port hands bytes over in packets (a USB adapter).
+        link.handle_rx(start + Duration::from_millis(1), &[0x55, 0x55]);
+        let job = link.job.as_ref().expect("the job runs on");
+        assert!(job.allowance > Duration::ZERO);
+        assert_eq!(
+            job.deadline,
+            start + Config::default().send_job_bound_with(&settings, 5, link.delivery.allowance())
+        );
+        assert!(job.deadline > before);
     }
 }
