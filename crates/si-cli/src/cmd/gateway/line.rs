@@ -235,3 +235,43 @@ pub fn exception(request: &TcpAdu, code: u8) -> TcpAdu {
     let pdu = [request.unit(), request.function() | 0x80, code];
     TcpAdu::from_unit_pdu(request.transaction(), &pdu).unwrap_or_default()
 }
+
+/// The answer or exception to `adu`, and how it is counted, for every line kind that answers
+/// itself (USS, RK 512, 3964(R)): refusals of the image, the store or the partner are the
+/// unit's exceptions, as an RTU slave's would be; 0BH a timeout, 06H busy, 0AH other.
+pub fn counted(adu: &TcpAdu, result: Result<TcpAdu, u8>) -> (TcpAdu, Outcome) {
+    match result {
+        Ok(answer) => (answer, Outcome::Answer),
+        Err(code) => {
+            let outcome = match code {
+                GATEWAY_TARGET_FAILED => Outcome::Timeout,
+                SLAVE_DEVICE_BUSY => Outcome::Busy,
+                GATEWAY_PATH_UNAVAILABLE => Outcome::Other,
+                _ => Outcome::Exception,
+            };
+            (exception(adu, code), outcome)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_line_kind_counts_its_own_answers_one_way() {
+        let adu = TcpAdu::from_unit_pdu(7, &[5, 0x03, 0, 0, 0, 1]).unwrap();
+        let outcome = |code| counted(&adu, Err(code)).1;
+        assert_eq!(outcome(0x02), Outcome::Exception, "the unit's own refusal");
+        assert_eq!(outcome(0x01), Outcome::Exception);
+        assert_eq!(outcome(GATEWAY_TARGET_FAILED), Outcome::Timeout);
+        assert_eq!(outcome(SLAVE_DEVICE_BUSY), Outcome::Busy);
+        assert_eq!(outcome(GATEWAY_PATH_UNAVAILABLE), Outcome::Other);
+        let (answer, o) = counted(&adu, Err(0x02));
+        assert_eq!(
+            (answer.transaction(), answer.unit_pdu()),
+            (7, &[5, 0x83, 0x02][..])
+        );
+        assert_eq!(o, Outcome::Exception);
+    }
+}

@@ -20,9 +20,9 @@
 //! last the partner sent, and the count goes on from there.
 
 use super::counters::Outcome;
-use super::line::{lock, GATEWAY_PATH_UNAVAILABLE};
+use super::line::{counted, lock, GATEWAY_PATH_UNAVAILABLE};
 use super::reopen::{self, Closed, LineLog, Opened};
-use super::rk512::{counted, status_exception};
+use super::rk512::status_exception;
 use crate::error::CliError;
 use si_3964r::tokio::{Error, Handle, Sender};
 use si_modbus::frame::{Registers, Request, Response};

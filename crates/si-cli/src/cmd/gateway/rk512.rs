@@ -39,7 +39,7 @@
 
 use super::counters::{Outcome, Stats};
 use super::line::{
-    self, exception, LineQueue, GATEWAY_PATH_UNAVAILABLE, GATEWAY_TARGET_FAILED, SLAVE_DEVICE_BUSY,
+    self, counted, LineQueue, GATEWAY_PATH_UNAVAILABLE, GATEWAY_TARGET_FAILED, SLAVE_DEVICE_BUSY,
     SLAVE_DEVICE_FAILURE,
 };
 use super::reopen::{self, Closed, LineLog, Opened};
@@ -219,23 +219,6 @@ pub fn status_exception(code: u16) -> u8 {
         0x051A => GATEWAY_TARGET_FAILED,
         c if matches!(c >> 8, 0x07 | 0x08 | 0x0A) => GATEWAY_TARGET_FAILED,
         _ => SLAVE_DEVICE_FAILURE,
-    }
-}
-
-/// The answer or exception to `adu`, and how it is counted: refusals of the store or of the
-/// partner are the unit's exceptions, as an RTU slave's would be.
-pub fn counted(adu: &TcpAdu, result: Result<TcpAdu, u8>) -> (TcpAdu, Outcome) {
-    match result {
-        Ok(answer) => (answer, Outcome::Answer),
-        Err(code) => {
-            let outcome = match code {
-                GATEWAY_TARGET_FAILED => Outcome::Timeout,
-                SLAVE_DEVICE_BUSY => Outcome::Busy,
-                GATEWAY_PATH_UNAVAILABLE => Outcome::Other,
-                _ => Outcome::Exception,
-            };
-            (exception(adu, code), outcome)
-        }
     }
 }
 

@@ -20,9 +20,9 @@
 //! job that was half received when the port closed is dropped.
 
 use super::counters::{Outcome, Stats};
-use super::line::{self, lock, LineQueue, GATEWAY_PATH_UNAVAILABLE};
+use super::line::{self, counted, lock, LineQueue, GATEWAY_PATH_UNAVAILABLE};
 use super::reopen::{self, Closed, LineLog, Opened};
-use super::rk512::{answer_from, counted};
+use super::rk512::answer_from;
 use super::rk512_config::Rk512Line;
 use super::rk512_spans::is_read;
 use crate::error::CliError;

@@ -25,7 +25,7 @@
 
 use super::counters::Outcome;
 use super::line::{
-    exception, lock, GATEWAY_PATH_UNAVAILABLE, GATEWAY_TARGET_FAILED, SLAVE_DEVICE_BUSY,
+    counted, lock, GATEWAY_PATH_UNAVAILABLE, GATEWAY_TARGET_FAILED, SLAVE_DEVICE_BUSY,
 };
 use super::reopen::{self, Closed, LineLog, Opened};
 use super::uss_config::UssLine;
@@ -130,24 +130,13 @@ impl UssDrives {
             },
             None => Err(GATEWAY_PATH_UNAVAILABLE),
         };
-        match result {
-            Ok(pdu) => {
-                let mut unit_pdu = Vec::with_capacity(1 + pdu.len());
-                unit_pdu.push(request.unit());
-                unit_pdu.extend_from_slice(&pdu);
-                let answer =
-                    TcpAdu::from_unit_pdu(request.transaction(), &unit_pdu).unwrap_or_default();
-                (answer, Outcome::Answer)
-            }
-            Err(code) => {
-                let outcome = match code {
-                    GATEWAY_TARGET_FAILED => Outcome::Timeout,
-                    SLAVE_DEVICE_BUSY => Outcome::Busy,
-                    _ => Outcome::Other,
-                };
-                (exception(request, code), outcome)
-            }
-        }
+        let answer = result.map(|pdu| {
+            let mut unit_pdu = Vec::with_capacity(1 + pdu.len());
+            unit_pdu.push(request.unit());
+            unit_pdu.extend_from_slice(&pdu);
+            TcpAdu::from_unit_pdu(request.transaction(), &unit_pdu).unwrap_or_default()
+        });
+        counted(request, answer)
     }
 
     /// The response PDU, or the exception code.
