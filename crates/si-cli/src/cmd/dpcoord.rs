@@ -331,8 +331,8 @@ impl HostArgs {
         let start = std::time::Instant::now();
         // Stdin is read on its own thread, so the job's watchdog holds while no line comes
         // (issue 21: `--timeout-s 2` waited until stdin closed). The host's own watchdog runs
-        // in its cycles, one per line; with no line for `--timeout-s`, the job ends here with
-        // the same STATUS.
+        // in its cycles, and without one every 100 ms while stdin is silent; before the first
+        // window (the job not started) the limit counts from here, with the same STATUS.
         let limit = std::time::Duration::from_secs(self.timeout_s);
         let (tx, lines) = std::sync::mpsc::sync_channel(16);
         std::thread::spawn(move || {
@@ -358,9 +358,18 @@ impl HostArgs {
                     let output = si_core::hex::format(host.cycle(now, &input));
                     out.line(&output, json!({"output": output}));
                 }
-                Err(RecvTimeoutError::Timeout) if start.elapsed() >= limit => {
+                // No window yet: the job has not started, and its watchdog cannot run.
+                Err(RecvTimeoutError::Timeout) if n == 0 && start.elapsed() >= limit => {
                     host.abort(id);
                     return finish(Err(host.config().watchdog_status), out);
+                }
+                // Windows came, then none: the host's own watchdog, counted from the job's
+                // start, runs without a cycle (an input of the wrong length is "watchdog only").
+                Err(RecvTimeoutError::Timeout) if n > 0 => {
+                    let now = Instant::from_micros(
+                        u64::try_from(start.elapsed().as_micros()).unwrap_or(u64::MAX),
+                    );
+                    host.cycle(now, &[]);
                 }
                 Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => {

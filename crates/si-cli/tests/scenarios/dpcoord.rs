@@ -411,10 +411,9 @@ fn host_max_frame_follows_the_module_type_and_max_frame_overrides_it() {
     );
 }
 
-#[test]
-fn host_ends_at_its_timeout_while_stdin_stays_open_and_silent() {
-    // Issue 21: `--timeout-s 2` waited until stdin closed. Stdin stays open here and carries
-    // nothing; the job must end with the watchdog's STATUS (0502H) at about its timeout.
+/// `dp-coord host --timeout-s 1 receive` given the input windows `lines`, then stdin kept open
+/// and silent: the job must end with the watchdog's STATUS (0502H).
+fn host_times_out_on_silent_stdin_after(lines: &[&str]) {
     let mut child = si_command()
         .args(["dp-coord", "host", "--timeout-s", "1", "receive"])
         .stdin(Stdio::piped())
@@ -422,7 +421,11 @@ fn host_ends_at_its_timeout_while_stdin_stays_open_and_silent() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("run si");
-    let _stdin_kept_open = child.stdin.take();
+    let mut stdin = child.stdin.take().expect("piped stdin");
+    for line in lines {
+        writeln!(stdin, "{line}").expect("write a window");
+    }
+    let _stdin_kept_open = stdin;
     let started = std::time::Instant::now();
     let status = loop {
         if let Some(status) = child.try_wait().expect("wait for si") {
@@ -439,4 +442,18 @@ fn host_ends_at_its_timeout_while_stdin_stays_open_and_silent() {
     assert!(!status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("16#0502"), "{stderr}");
+}
+
+#[test]
+fn host_ends_at_its_timeout_while_stdin_stays_open_and_silent() {
+    // Issue 21: `--timeout-s 2` waited until stdin closed. No window ever comes: the job never
+    // started, and the limit counts from the start.
+    host_times_out_on_silent_stdin_after(&[]);
+}
+
+#[test]
+fn host_watchdog_runs_when_windows_stop_coming() {
+    // Windows came (the job started), then none: the host's own watchdog, from the job's
+    // start, ends it.
+    host_times_out_on_silent_stdin_after(&["00 00 00 00 00 00 00 00"; 3]);
 }
