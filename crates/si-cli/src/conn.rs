@@ -109,7 +109,8 @@ impl Connection {
     /// environment set up for one adapter does not forbid reaching a device server. (Clap's own
     /// `conflicts_with` cannot tell the two sources apart: it counts the environment as given.)
     pub fn settle_line(&mut self, matches: &clap::ArgMatches) -> Result<(), CliError> {
-        self.port_on_command_line = given_on_command_line(matches, "port");
+        self.port_on_command_line =
+            value_source(matches, "port") == Some(clap::parser::ValueSource::CommandLine);
         if self.tcp.is_some() {
             if self.port_on_command_line {
                 return Err(CliError::usage(
@@ -393,17 +394,22 @@ async fn device_server(addr: &str) -> Result<tokio::net::TcpStream, CliError> {
     Ok(stream)
 }
 
-/// Was option `id` typed on the command line, at any level of the subcommands? (A global option
-/// given after a subcommand is recorded in that subcommand's matches.)
-fn given_on_command_line(matches: &clap::ArgMatches, id: &str) -> bool {
+/// Where option `id` got its value, looked for at every level of the subcommands (a global
+/// option given after a subcommand is recorded in that subcommand's matches); `None` when it
+/// was not given and has no default.
+pub fn value_source(matches: &clap::ArgMatches, id: &str) -> Option<clap::parser::ValueSource> {
+    use clap::parser::ValueSource::{CommandLine, EnvVariable};
     let mut level = Some(matches);
+    let mut found = None;
     while let Some(m) = level {
-        if m.value_source(id) == Some(clap::parser::ValueSource::CommandLine) {
-            return true;
+        match m.value_source(id) {
+            Some(s @ (CommandLine | EnvVariable)) => return Some(s),
+            Some(s) => found = found.or(Some(s)),
+            None => {}
         }
         level = m.subcommand().map(|(_, sub)| sub);
     }
-    false
+    found
 }
 
 #[cfg(test)]

@@ -236,18 +236,10 @@ impl Profile {
 }
 
 /// Did the user give this option (flag or environment variable), at any level of the
-/// subcommands? A global option given after a subcommand is recorded in that subcommand's
-/// matches.
+/// subcommands?
 fn explicit(matches: &ArgMatches, id: &str) -> bool {
-    let mut level = Some(matches);
-    while let Some(m) = level {
-        if matches!(
-            m.value_source(id),
-            Some(ValueSource::CommandLine | ValueSource::EnvVariable)
-        ) {
-            return true;
-        }
-        level = m.subcommand().map(|(_, sub)| sub);
-    }
-    false
+    matches!(
+        crate::conn::value_source(matches, id),
+        Some(ValueSource::CommandLine | ValueSource::EnvVariable)
+    )
 }
