@@ -146,7 +146,7 @@ pub enum MemoryError {
 }
 
 /// The memory of a simulated CPU.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, PartialEq, Eq)]
 pub struct Memory {
     inputs: Vec<u8>,
     outputs: Vec<u8>,
@@ -154,6 +154,37 @@ pub struct Memory {
     timers: Vec<u16>,
     counters: Vec<u16>,
     dbs: BTreeMap<u16, Vec<u8>>,
+}
+
+impl Clone for Memory {
+    fn clone(&self) -> Self {
+        Memory {
+            inputs: self.inputs.clone(),
+            outputs: self.outputs.clone(),
+            flags: self.flags.clone(),
+            timers: self.timers.clone(),
+            counters: self.counters.clone(),
+            dbs: self.dbs.clone(),
+        }
+    }
+
+    /// Copy `source` into this memory, reusing its buffers: no allocation when the two have
+    /// the same areas and data blocks (a memory kept as a copy of another, updated after each
+    /// change).
+    fn clone_from(&mut self, source: &Self) {
+        self.inputs.clone_from(&source.inputs);
+        self.outputs.clone_from(&source.outputs);
+        self.flags.clone_from(&source.flags);
+        self.timers.clone_from(&source.timers);
+        self.counters.clone_from(&source.counters);
+        if self.dbs.keys().eq(source.dbs.keys()) {
+            for (mine, theirs) in self.dbs.values_mut().zip(source.dbs.values()) {
+                mine.clone_from(theirs);
+            }
+        } else {
+            self.dbs.clone_from(&source.dbs);
+        }
+    }
 }
 
 impl Memory {
@@ -343,6 +374,35 @@ impl Memory {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn clone_from_copies_into_the_same_buffers() {
+        let mut sizes = MemorySizes {
+            flags: 16,
+            ..MemorySizes::default()
+        };
+        sizes.dbs.insert(1, 8);
+        let mut source = Memory::new(&sizes);
+        let mut kept = source.clone();
+        let (db, flags) = (
+            kept.bytes(Area::Db(1)).unwrap().as_ptr(),
+            kept.bytes(Area::Flags).unwrap().as_ptr(),
+        );
+        source.set_word(Area::Db(1), 2, 0xBEEF).unwrap();
+        source.write(Area::Flags, 0, &[7]).unwrap();
+        kept.clone_from(&source);
+        assert_eq!(kept, source);
+        assert_eq!(
+            kept.bytes(Area::Db(1)).unwrap().as_ptr(),
+            db,
+            "no new DB buffer"
+        );
+        assert_eq!(kept.bytes(Area::Flags).unwrap().as_ptr(), flags);
+        // Other data blocks: a plain copy.
+        source.add_db(9, 4);
+        kept.clone_from(&source);
+        assert_eq!(kept, source);
+    }
 
     #[test]
     fn bits_words_and_limits() {

@@ -35,14 +35,22 @@ use si_rk512::tokio::Handle;
 use si_rk512::{Command, Event, Station};
 use std::sync::{Arc, Mutex};
 
-/// The passive side as last kept, restored into each reopened station (module docs).
+/// The passive side's memory (and DX blocks) as last kept, restored into each reopened
+/// station (module docs). Kept by copying into the same buffers after each change: no
+/// allocation per write once the first copy is made.
 #[derive(Clone, Default)]
-pub struct Kept(Arc<Mutex<Option<Server>>>);
+pub struct Kept(Arc<Mutex<Option<(Memory, Memory)>>>);
 
 impl Kept {
     /// Keep `server`'s memory as it is now.
     fn keep(&self, server: &Server) {
-        *lock(&self.0) = Some(server.clone());
+        match &mut *lock(&self.0) {
+            Some((memory, dx)) => {
+                memory.clone_from(server.memory());
+                dx.clone_from(server.dx());
+            }
+            empty => *empty = Some((server.memory().clone(), server.dx().clone())),
+        }
     }
 
     /// Keep the memory of the running `station` (nothing if it has stopped).
@@ -52,11 +60,11 @@ impl Kept {
     }
 
     /// Give a newly built `station` the memory last kept; a job half received by the old
-    /// station is dropped. Nothing before anything was kept.
+    /// station is dropped with the old station. Nothing before anything was kept.
     pub fn restore(&self, station: &mut Station) {
-        if let Some(server) = lock(&self.0).clone() {
-            *station.server_mut() = server;
-            station.server_mut().abort();
+        if let Some((memory, dx)) = &*lock(&self.0) {
+            station.server_mut().memory_mut().clone_from(memory);
+            station.server_mut().dx_mut().clone_from(dx);
         }
     }
 }
@@ -260,8 +268,8 @@ mod tests {
         };
         assert_eq!(ask(&queue, &write).await, [0x06, 0, 2, 0x42, 0x42]);
         let kept_word = |k: &Kept| {
-            let server = lock(&k.0).clone().expect("kept after a write");
-            server.memory().word(si_core::memory::Area::Db(6), 4)
+            let (memory, _dx) = lock(&k.0).clone().expect("kept after a write");
+            memory.word(si_core::memory::Area::Db(6), 4)
         };
         assert_eq!(kept_word(&watch), Ok(0x4242));
 
