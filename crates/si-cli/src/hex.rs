@@ -45,9 +45,9 @@ fn without_16_prefix(text: &str) -> String {
 }
 
 /// Parse hex given as several command-line words (`01 02 10 03`, or one quoted string), the
-/// rule of [`HEX_HELP`].
+/// rule of [`HEX_HELP`]; a mistake there is a usage error (exit 2), like clap's own.
 pub fn parse_hex_args(words: &[String]) -> Result<Vec<u8>, CliError> {
-    parse_hex(&words.join(" "))
+    parse_hex(&words.join(" ")).map_err(|e| CliError::usage(e.text()))
 }
 
 #[cfg(test)]
@@ -56,6 +56,13 @@ mod tests {
 
     fn words(w: &[&str]) -> Vec<String> {
         w.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn a_bad_hex_argument_is_a_usage_error() {
+        let e = parse_hex_args(&words(&["01", "2"])).unwrap_err();
+        assert_eq!(e.code(), crate::error::EXIT_USAGE);
+        assert!(e.text().contains("bad hex"), "{}", e.text());
     }
 
     #[test]
