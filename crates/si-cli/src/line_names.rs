@@ -79,16 +79,14 @@ impl Naming {
     }
 }
 
-const STX: u8 = 0x02;
-const ETX: u8 = 0x03;
-const DLE: u8 = 0x10;
+use si_3964r::frame::{DLE, ETX, NAK, STX};
 
 /// A 3964(R) control character sent alone (et200s-si-3964r-ascii.md §5.1).
 fn r3964_control(b: u8) -> Option<&'static str> {
     match b {
         STX => Some("STX"),
         DLE => Some("DLE"),
-        0x15 => Some("NAK"),
+        NAK => Some("NAK"),
         _ => None,
     }
 }
