@@ -32,7 +32,10 @@
 //!         exact: true,
 //!     })
 //!     .collect();
-//! let mut monitor = Monitor::new(Params::from_config(&si_3964r::Config::default()));
+//! let mut monitor = Monitor::new(Params::from_config(
+//!     &si_3964r::Config::default(),
+//!     si_core::SerialSettings::default(),
+//! ));
 //! let records = decode_all(&mut monitor, &chars, Instant::from_micros(1_000_000));
 //! let block = records.iter().find(|r| r.kind == Kind::Frame).unwrap();
 //! assert_eq!(block.text, "block, 2 B user data: 68 69");
@@ -88,14 +91,16 @@ pub struct Params {
 }
 
 impl Params {
-    /// The mode and timers a link with `config` runs with (et200s-si-3964r-ascii.md §7.2,
-    /// Table 2-11): ZVZ [`crate::Config::char_delay`], QVZ [`crate::Config::ack_delay`].
-    pub fn from_config(config: &crate::Config) -> Params {
+    /// The mode and timers a link with `config` runs with on a line with `line`'s character
+    /// format (et200s-si-3964r-ascii.md §7.2, Table 2-11): ZVZ [`crate::Config::char_delay`],
+    /// QVZ [`crate::Config::ack_delay`]. The line is needed: ZVZ is judged with the character
+    /// time, which at 300 bit/s is most of the minimum ZVZ.
+    pub fn from_config(config: &crate::Config, line: SerialSettings) -> Params {
         Params {
             mode: config.mode(),
             zvz: config.char_delay(),
             qvz: config.ack_delay(),
-            line: SerialSettings::default(),
+            line,
             payload: None,
         }
     }
@@ -558,7 +563,10 @@ mod tests {
     }
 
     fn run(chars: &[LineChar], end: u64) -> (Vec<Record>, Counters) {
-        let mut d = Monitor::new(Params::from_config(&crate::Config::default()));
+        let mut d = Monitor::new(Params::from_config(
+            &crate::Config::default(),
+            SerialSettings::default(),
+        ));
         let records = si_core::monitor::decode_all(&mut d, chars, Instant::from_micros(end));
         (records, d.counters().clone())
     }
@@ -608,7 +616,7 @@ mod tests {
             let p = Params {
                 zvz: Duration::from_millis(60),
                 line: slow,
-                ..Params::from_config(&crate::Config::default())
+                ..Params::from_config(&crate::Config::default(), SerialSettings::default())
             };
             let mut d = Monitor::new(p);
             let block = [0x41, DLE, 0x03, 0x41 ^ DLE ^ 0x03];

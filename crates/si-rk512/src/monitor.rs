@@ -8,13 +8,14 @@
 //! use si_rk512::monitor;
 //! use si_core::monitor::Decoder;
 //!
-//! let m = monitor::new(&si_rk512::Config::default());
+//! let m = monitor::new(&si_rk512::Config::default(), si_core::SerialSettings::default());
 //! assert_eq!(m.counters().0["RK 512 telegrams"], 0);
 //! ```
 
 use crate::frame::Telegram;
 use crate::Config;
 use si_3964r::monitor::{Described, Monitor, Params, Payload};
+use si_core::SerialSettings;
 
 /// The 3964(R) monitor's reading of RK 512 telegrams.
 pub const PAYLOAD: Payload = Payload {
@@ -23,16 +24,17 @@ pub const PAYLOAD: Payload = Payload {
     describe,
 };
 
-/// The monitor for a line a station with `config` runs on.
-pub fn new(config: &Config) -> Monitor {
-    Monitor::new(params(&config.link))
+/// The monitor for a line with `line`'s character format that a station with `config` runs
+/// on.
+pub fn new(config: &Config, line: SerialSettings) -> Monitor {
+    Monitor::new(params(&config.link, line))
 }
 
-/// The 3964(R) monitor's parameters for `link` with RK 512 telegrams in its blocks.
-pub fn params(link: &si_3964r::Config) -> Params {
+/// The 3964(R) monitor's parameters for `link` on `line` with RK 512 telegrams in its blocks.
+pub fn params(link: &si_3964r::Config, line: SerialSettings) -> Params {
     Params {
         payload: Some(PAYLOAD),
-        ..Params::from_config(link)
+        ..Params::from_config(link, line)
     }
 }
 

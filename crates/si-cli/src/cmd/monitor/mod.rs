@@ -145,15 +145,14 @@ impl MonitorArgs {
                 } else {
                     si_3964r::Config::default()
                 };
+                // ZVZ is silence between characters: the monitor needs the character time.
                 let mut p = if protocol == Protocol::Rk512 {
-                    si_rk512::monitor::params(&link)
+                    si_rk512::monitor::params(&link, settings)
                 } else {
-                    si_3964r::monitor::Params::from_config(&link)
+                    si_3964r::monitor::Params::from_config(&link, settings)
                 };
                 p.zvz = self.zvz.map_or(p.zvz, ms);
                 p.qvz = self.qvz.map_or(p.qvz, ms);
-                // ZVZ is silence between characters: the monitor needs the character time.
-                p.line = settings;
                 Box::new(si_3964r::monitor::Monitor::new(p))
             }
             Protocol::Modbus => {
