@@ -12,7 +12,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use super::{pty_pair, si_command, Kill};
+use super::{exit_within, pty_pair, si_command, Kill};
 
 /// What the noise peer writes.
 #[derive(Debug, Clone, Copy)]
@@ -120,16 +120,8 @@ pub fn each_pattern_within(patterns: &[Noise], bound: Duration, args: &[&str], e
             let _ = pipe.read_to_string(&mut text);
             text
         });
-        let status = loop {
-            if let Some(status) = si.0.try_wait().expect("wait for si") {
-                break status;
-            }
-            assert!(
-                started.elapsed() < limit,
-                "si {args:?} against {noise:?} still running after {limit:?} (bound {bound:?})"
-            );
-            std::thread::sleep(Duration::from_millis(20));
-        };
+        let what = format!("si {args:?} against {noise:?} (bound {bound:?})");
+        let status = exit_within(&mut si, started, limit, &what);
         stop.store(true, Ordering::Relaxed);
         let err = stderr.join().expect("stderr reader");
         assert_eq!(

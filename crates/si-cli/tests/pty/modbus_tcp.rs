@@ -9,12 +9,12 @@
 
 use crate::common;
 
-use common::modbus::have_pymodbus;
+use common::modbus::{have_pymodbus, pymodbus_first_line};
 use common::{si, stderr, stdout, text, Kill};
 use serde_json::{json, Value};
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
-use std::process::{Command, Output, Stdio};
+use std::process::Output;
 use std::time::{Duration, Instant};
 
 /// pymodbus TCP server on 127.0.0.1, units 1 and 2 (data blocks start at 1 for wire address
@@ -43,18 +43,8 @@ asyncio.run(main())
 
 /// Starts [`PYMODBUS_TCP_SERVER`]: the process (killed when dropped) and its `127.0.0.1:PORT`.
 fn pymodbus_tcp_server() -> (Kill, String) {
-    let mut child = Command::new("python3")
-        .args(["-c", PYMODBUS_TCP_SERVER])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("spawn pymodbus server");
-    let mut port = String::new();
-    BufReader::new(child.stdout.take().expect("stdout"))
-        .read_line(&mut port)
-        .expect("the server prints its port");
-    let server = Kill(child);
-    let port: u16 = port.trim().parse().expect("a port number");
+    let (server, port) = pymodbus_first_line(PYMODBUS_TCP_SERVER, &[]);
+    let port: u16 = port.parse().expect("a port number");
     (server, format!("127.0.0.1:{port}"))
 }
 
