@@ -70,7 +70,14 @@ fn a_flood_does_not_starve_the_engine_s_deadline() {
             .expect("the deadline fired under the flood within 10 s")
             .expect("the driver is running");
         flood.abort();
-        assert!(fired.at >= fired.deadline, "{fired:?}");
+        // The engine records `at` only once `now >= deadline`, so only the lateness can be
+        // wrong: a starved deadline fires late (or never). Half a second is a generous bound
+        // for a 20 ms timer, not a timing claim.
+        let late = fired.at.saturating_since(fired.deadline);
+        assert!(
+            late < Duration::from_millis(500),
+            "fired {late:?} late: {fired:?}"
+        );
         // The flood was on when the deadline came: reads kept coming before it fired.
         assert!(fired.bytes_before > 256, "{fired:?}");
     });

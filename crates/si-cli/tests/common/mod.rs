@@ -15,7 +15,8 @@ use serde_json::Value;
 use std::ffi::OsStr;
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, ExitStatus, Output, Stdio};
+use std::time::{Duration, Instant};
 
 /// The built `si` binary as a command, for tests that add pipes, spawn it or set stdin.
 pub fn si_command() -> Command {
@@ -70,6 +71,27 @@ pub fn test_dir(name: &str) -> PathBuf {
 }
 
 pub use si_testkit::peers::{peer, Kill};
+
+/// Waits for `child` to exit, polling every 20 ms; fails the test (the child is killed when
+/// dropped) once `limit` has passed since `started`: a bound on a wait, not a timing claim.
+/// `what` names the process in that failure.
+pub fn exit_within(
+    child: &mut Kill,
+    started: Instant,
+    limit: Duration,
+    what: &dyn std::fmt::Display,
+) -> ExitStatus {
+    loop {
+        if let Some(status) = child.0.try_wait().expect("wait for the child") {
+            return status;
+        }
+        assert!(
+            started.elapsed() < limit,
+            "{what} still running after {limit:?}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
 
 /// Is socat installed? A skip with a message if not, a failure with `CI` set (see [`peer`]).
 pub fn have_socat() -> bool {

@@ -96,19 +96,26 @@ pub fn served(rx: &Receiver<String>) -> String {
 /// A pymodbus serial server running `script` (which prints "ready" once its data is set up)
 /// on `port`, killed when dropped.
 pub fn pymodbus_server(script: &str, port: &str) -> Kill {
+    let (server, ready) = pymodbus_first_line(script, &[port]);
+    assert_eq!(ready, "ready");
+    server
+}
+
+/// `python3 -c script ARGS` (a pymodbus peer): the process, killed when dropped, and the
+/// first line it printed, trimmed (its "ready", or the port it listens on).
+pub fn pymodbus_first_line(script: &str, args: &[&str]) -> (Kill, String) {
     let mut child = Command::new("python3")
-        .args(["-c", script, port])
+        .args(["-c", script])
+        .args(args)
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
-        .expect("spawn pymodbus server");
-    let mut ready = String::new();
+        .expect("spawn pymodbus peer");
+    let mut first = String::new();
     BufReader::new(child.stdout.take().expect("stdout"))
-        .read_line(&mut ready)
-        .expect("server says ready");
-    let server = Kill(child);
-    assert_eq!(ready.trim(), "ready");
-    server
+        .read_line(&mut first)
+        .expect("the pymodbus peer prints a first line");
+    (Kill(child), first.trim().to_owned())
 }
 
 /// Ask the slave on `port` for an FC08 echo until it answers (a server just started may not

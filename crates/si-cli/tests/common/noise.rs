@@ -6,10 +6,13 @@
 //! ever. And one noise test runs at a time ([`one_at_a_time`]): two floods through two socat
 //! pairs at once starve each other on a 2-core machine, which says nothing about `si`.
 
-use std::io::Write;
+use std::io::{Read, Write};
+use std::process::Stdio;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
+
+use super::{exit_within, pty_pair, si_command, Kill};
 
 /// What the noise peer writes.
 #[derive(Debug, Clone, Copy)]
@@ -84,4 +87,51 @@ pub fn noise_peer(port: &str, noise: Noise, stop: Arc<AtomicBool>) {
             }
         }
     });
+}
+
+/// Runs `si --port <pty> ARGS` against each of `patterns` (one at a time, a fresh pty pair
+/// each): it must end with exit code 1 (a protocol failure, not a usage error's 2 nor a
+/// panic's 101) in under twice `bound`, its stderr holding `expected` (a STATUS, `16#…`).
+/// Twice the bound is a bound, not a timing claim: it leaves room for the process start and a
+/// loaded machine. Returns early (a skip) without socat.
+pub fn each_pattern_within(patterns: &[Noise], bound: Duration, args: &[&str], expected: &str) {
+    let _one = one_at_a_time();
+    let limit = bound * 2;
+    for &noise in patterns {
+        let Some(pair) = pty_pair() else { return };
+        let stop = Arc::new(AtomicBool::new(false));
+        noise_peer(&pair.b, noise, stop.clone());
+        // The line is already noisy when the job starts.
+        std::thread::sleep(Duration::from_millis(100));
+        let started = Instant::now();
+        let mut si = Kill(
+            si_command()
+                .args(["--port", &pair.a])
+                .args(args)
+                .stdout(Stdio::null())
+                .stderr(Stdio::piped())
+                .spawn()
+                .expect("start si"),
+        );
+        // Drained by a thread, so a chatty stderr never blocks `si` while we poll its exit.
+        let mut pipe = si.0.stderr.take().expect("si stderr");
+        let stderr = std::thread::spawn(move || {
+            let mut text = String::new();
+            let _ = pipe.read_to_string(&mut text);
+            text
+        });
+        let what = format!("si {args:?} against {noise:?} (bound {bound:?})");
+        let status = exit_within(&mut si, started, limit, &what);
+        stop.store(true, Ordering::Relaxed);
+        let err = stderr.join().expect("stderr reader");
+        assert_eq!(
+            status.code(),
+            Some(1),
+            "si {args:?} against {noise:?}: {err}"
+        );
+        assert!(
+            err.contains(expected),
+            "si {args:?} against {noise:?}: {expected} in {err}"
+        );
+    }
 }

@@ -64,7 +64,7 @@ fn a_partner_db_is_written_by_send_and_read_by_fetch() {
     let Some(dead) = pty_pair() else { return };
     let Some(imaged) = pty_pair() else { return };
     let (_plc, log) = serve(&pair.b);
-    let (_plc2, _log2) = serve(&imaged.b);
+    let (_plc2, log2) = serve(&imaged.b);
     let toml = format!(
         "listen = \"127.0.0.1:0\"\ndiagnostic_unit = 247\n{}\n{}\n{}",
         rk512_line("plc", &pair, 1, ""),
@@ -122,6 +122,21 @@ fn a_partner_db_is_written_by_send_and_read_by_fetch() {
     // The refresh line: a write is sent at once; reads come from the image, refreshed every
     // 100 ms, so the written words show there once a refresh has run after the SEND.
     assert_eq!(c.ask(3, &write_registers(2, &[0xCAFE])), [0x10, 0, 2, 0, 1]);
+    // The image partner's log: refresh FETCHes from before, then the SEND of the write, then
+    // (the proof the image was refreshed, not just mirrored from the write) a FETCH of DB6.
+    let mut after_send = std::iter::repeat_with(|| next(&log2))
+        .skip_while(|l| !(l["served"] == "SEND" && l["address"] == "DB6.DW2"));
+    assert_eq!(after_send.next().map(|l| l["len"].clone()), Some(2.into()));
+    let refresh = after_send
+        .find(|l| l.get("served").is_some())
+        .expect("a line after the SEND");
+    assert_eq!(refresh["served"], "FETCH", "{refresh}");
+    assert!(
+        refresh["address"]
+            .as_str()
+            .is_some_and(|a| a.starts_with("DB6.")),
+        "{refresh}"
+    );
     c.until(3, &read_holding(2, 1), |a| a == [0x03, 2, 0xCA, 0xFE]);
     assert_eq!(
         c.ask(3, &read_holding(10, 1)),

@@ -11,10 +11,11 @@ const CLIENTS: u16 = 32;
 /// Steps per client.
 const STEPS: u16 = 12;
 
-/// One client's run; returns how many answers it checked.
+/// One client's run; returns how many of its valid requests got the slave's data (each answer
+/// is checked against its request; a 06H for a full queue is allowed, and not counted).
 fn client(addr: &str, index: u16) -> u32 {
     let mut m = Mbap::connect(addr);
-    let mut checked = 0;
+    let mut answered = 0;
     for step in 0..STEPS {
         let tid = index << 8 | step;
         // Holding register n holds n on the slave: the value names the request.
@@ -49,7 +50,6 @@ fn client(addr: &str, index: u16) -> u32 {
                 let (t, unit, pdu) = m.recv();
                 assert_eq!((t, unit), (tid, 2));
                 assert!(pdu == [0x83, 0x0B] || pdu == [0x83, 0x06], "{pdu:02X?}");
-                checked += 1;
             }
             _ => {
                 m.send(tid, 1, &read_holding(register, 1));
@@ -58,12 +58,12 @@ fn client(addr: &str, index: u16) -> u32 {
                 if pdu != [0x83, 0x06] {
                     let [hi, lo] = register.to_be_bytes();
                     assert_eq!(pdu, [0x03, 2, hi, lo], "client {index} step {step}");
+                    answered += 1;
                 }
-                checked += 1;
             }
         }
     }
-    checked
+    answered
 }
 
 #[test]
@@ -80,14 +80,14 @@ fn thirty_two_clients_with_bad_input_never_get_anothers_answer() {
             std::thread::spawn(move || client(&addr, i))
         })
         .collect();
-    let checked: u32 = threads
+    let answered: u32 = threads
         .into_iter()
         .map(|t| t.join().expect("a client saw a wrong answer"))
         .sum();
-    assert!(
-        checked > u32::from(CLIENTS) * u32::from(STEPS) / 3,
-        "{checked}"
-    );
+    // 128 of the 384 steps are valid requests to unit 1; about 55 get data here, the rest a
+    // full queue's 06H. One for every other client (16) is a floor a loaded machine clears,
+    // and it fails if the slave's data stopped coming through at all.
+    assert!(answered >= u32::from(CLIENTS) / 2, "{answered} answers");
     let mut m = Mbap::connect(&rig.addr);
     m.send(0xFFFF, 1, &read_holding(7, 1));
     assert_eq!(m.recv(), (0xFFFF, 1, vec![0x03, 2, 0, 7]));
@@ -97,7 +97,12 @@ fn thirty_two_clients_with_bad_input_never_get_anothers_answer() {
         assert_eq!(line["queue_depth"], 0, "{status}");
     }
     // Both kinds of answer happened: the slave's data and the silent unit's 0BH.
-    assert!(status["lines"][0]["answers"].as_u64() > Some(0), "{status}");
+    // The line counted every answer a client checked (and those of the clients gone before
+    // theirs came, and the fresh client's).
+    assert!(
+        status["lines"][0]["answers"].as_u64() > Some(u64::from(answered)),
+        "{answered}: {status}"
+    );
     assert!(
         status["lines"][1]["timeouts"].as_u64() > Some(0),
         "{status}"

@@ -9,20 +9,21 @@
 
 use crate::common;
 
-use common::modbus::{have_pymodbus, pymodbus_server};
-use common::{si, stderr, stdout, text};
+use common::modbus::{have_pymodbus, pymodbus_first_line};
+use common::{si, stderr, stdout, text, Kill};
 use serde_json::{json, Value};
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::process::Output;
 use std::time::{Duration, Instant};
 
-/// pymodbus TCP server on 127.0.0.1:argv[1], units 1 and 2 (data blocks start at 1 for wire
-/// address 0); it prints "ready" before it listens, so callers wait for an answer.
+/// pymodbus TCP server on 127.0.0.1, units 1 and 2 (data blocks start at 1 for wire address
+/// 0). It binds port 0 and prints the port the kernel gave it once it listens: no port picked
+/// by the test, freed and bound later, which a parallel test could take in between.
 const PYMODBUS_TCP_SERVER: &str = r#"
-import sys, warnings
+import asyncio, warnings
 warnings.filterwarnings("ignore")
-from pymodbus.server import StartTcpServer
+from pymodbus.server import ModbusTcpServer
 from pymodbus.datastore import ModbusSequentialDataBlock, ModbusServerContext, ModbusDeviceContext
 def device():
     return ModbusDeviceContext(
@@ -32,17 +33,19 @@ def device():
         ir=ModbusSequentialDataBlock(1, [1000 + i for i in range(100)]),
     )
 ctx = ModbusServerContext(devices={1: device(), 2: device()}, single=False)
-print("ready", flush=True)
-StartTcpServer(context=ctx, address=("127.0.0.1", int(sys.argv[1])))
+async def main():
+    server = ModbusTcpServer(ctx, address=("127.0.0.1", 0))
+    await server.serve_forever(background=True)
+    print(server.transport.sockets[0].getsockname()[1], flush=True)
+    await server.serving
+asyncio.run(main())
 "#;
 
-/// A loopback port free a moment ago, for a server that binds it itself.
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
+/// Starts [`PYMODBUS_TCP_SERVER`]: the process (killed when dropped) and its `127.0.0.1:PORT`.
+fn pymodbus_tcp_server() -> (Kill, String) {
+    let (server, port) = pymodbus_first_line(PYMODBUS_TCP_SERVER, &[]);
+    let port: u16 = port.parse().expect("a port number");
+    (server, format!("127.0.0.1:{port}"))
 }
 
 /// `si ARGS --modbus-tcp SERVER`, the arguments split at spaces, run to its end.
@@ -90,9 +93,7 @@ fn modbus_tcp_read_write_and_exception_against_pymodbus() {
     if !have_pymodbus() {
         return;
     }
-    let port = free_port().to_string();
-    let _server = pymodbus_server(PYMODBUS_TCP_SERVER, &port);
-    let server = format!("127.0.0.1:{port}");
+    let (_server, server) = pymodbus_tcp_server();
     wait_for_echo(&server);
     let ok = |args| si_ok(&server, args);
     assert_eq!(

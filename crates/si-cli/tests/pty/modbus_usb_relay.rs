@@ -13,7 +13,7 @@ use crate::common;
 
 use common::modbus::{self, have_pymodbus, pymodbus_server, served};
 use common::relay::{usb_relay, Adapter};
-use common::{have_socat, pty_pair_ignoreeof, stderr, stdout, Kill, PtyPair};
+use common::{exit_within, have_socat, pty_pair_ignoreeof, stderr, stdout, Kill, PtyPair};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -43,16 +43,7 @@ fn bounded(cmd: &mut Command, limit: Duration) -> Output {
             .expect("spawn"),
     );
     let start = Instant::now();
-    let status = loop {
-        if let Some(status) = child.0.try_wait().expect("wait") {
-            break status;
-        }
-        assert!(
-            start.elapsed() < limit,
-            "{cmd:?} took longer than {limit:?}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    };
+    let status = exit_within(&mut child, start, limit, &format_args!("{cmd:?}"));
     let (mut out, mut err) = (Vec::new(), Vec::new());
     child
         .0
