@@ -96,8 +96,11 @@ impl Router {
         let (LineHandle::Rtu(queue) | LineHandle::Rk512(queue)) = &self.lines[index] else {
             return Err(());
         };
-        let pushed = queue.push(id, job);
+        // The counters are locked before the push: a line task taking the job at once then
+        // writes its depth after ours, never a stale one over it. (No one holds the queue's
+        // lock while taking the counters', so the order cannot deadlock.)
         let mut s = line::lock(&self.stats);
+        let pushed = queue.push(id, job);
         // Every request routed to the line counts, a refused one too: its outcomes add up.
         s.lines[index].requests += 1;
         let depth = match pushed {
