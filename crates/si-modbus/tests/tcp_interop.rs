@@ -107,13 +107,13 @@ fn pymodbus_tcp_client_against_our_server() {
     assert!(s.coils[3] && s.coils[8] && !s.coils[9] && s.coils[10]);
 }
 
+/// pymodbus's TCP server on port 0: it prints the port the kernel gave it once it listens, so
+/// no port is picked, freed and bound again (a parallel test could take it in between).
 const PYMODBUS_SERVER: &str = r#"
-import socket, warnings
+import asyncio, warnings
 warnings.filterwarnings("ignore")
-from pymodbus.server import StartTcpServer
+from pymodbus.server import ModbusTcpServer
 from pymodbus.datastore import ModbusSequentialDataBlock, ModbusServerContext, ModbusDeviceContext
-# A free loopback port, chosen here and printed for the test.
-s = socket.socket(); s.bind(("127.0.0.1", 0)); port = s.getsockname()[1]; s.close()
 # pymodbus 3.x data blocks start at 1 for wire address 0.
 dev = ModbusDeviceContext(
     di=ModbusSequentialDataBlock(1, [False, True] * 50),
@@ -122,8 +122,12 @@ dev = ModbusDeviceContext(
     ir=ModbusSequentialDataBlock(1, [1000 + i for i in range(100)]),
 )
 ctx = ModbusServerContext(devices={1: dev}, single=False)
-print(port, flush=True)
-StartTcpServer(context=ctx, address=("127.0.0.1", port))
+async def main():
+    server = ModbusTcpServer(ctx, address=("127.0.0.1", 0))
+    await server.serve_forever(background=True)
+    print(server.transport.sockets[0].getsockname()[1], flush=True)
+    await server.serving
+asyncio.run(main())
 "#;
 
 #[test]
@@ -134,7 +138,7 @@ fn our_client_against_pymodbus_tcp_server() {
     let mut child = Command::new("python3")
         .args(["-c", PYMODBUS_SERVER])
         .stdout(Stdio::piped())
-        .stderr(Stdio::null())
+        .stderr(Stdio::inherit())
         .spawn()
         .expect("spawn pymodbus server");
     let mut port = String::new();
