@@ -491,9 +491,10 @@ fn never_answered(nodes: &[u8], answered: &[u8], cycles: u64) -> Result<(), CliE
         return Ok(());
     }
     Err(CliError::new(format!(
-        "node{} {} never answered (no valid response in {cycles} cycles)",
+        "node{} {} never answered (no valid response in {cycles} cycles): {}",
         if silent.len() > 1 { "s" } else { "" },
         silent.join(", "),
+        status_text(si_uss::status::NO_ANSWER),
     )))
 }
 
