@@ -7,6 +7,7 @@ use super::counters::{Outcome, Stats};
 use super::queue::FairQueue;
 use super::reopen::{self, Closed, LineLog, Opened};
 use crate::error::CliError;
+use si_modbus::frame::ExceptionCode;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::{Error, Master};
 use si_modbus::{serve, status};
@@ -15,11 +16,17 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::sync::{oneshot, Notify};
 
+/// Exception 01H: a function the line or its image does not serve.
+pub const ILLEGAL_FUNCTION: u8 = ExceptionCode::IllegalFunction as u8;
+/// Exception 02H: registers outside the line's map.
+pub const ILLEGAL_DATA_ADDRESS: u8 = ExceptionCode::IllegalDataAddress as u8;
+/// Exception 03H: a value (quantity, command, length) out of range.
+pub const ILLEGAL_DATA_VALUE: u8 = ExceptionCode::IllegalDataValue as u8;
 /// Exception 04H: what mbusd answers for a corrupt answer after its retries (`MB_EX_CRC` in
 /// `shared/peers/mbusd/src/modbus.h`); we also use it for any other malformed answer.
-pub const SLAVE_DEVICE_FAILURE: u8 = 0x04;
+pub const SLAVE_DEVICE_FAILURE: u8 = ExceptionCode::SlaveDeviceFailure as u8;
 /// Exception 06H: the line's queue is full.
-pub const SLAVE_DEVICE_BUSY: u8 = 0x06;
+pub const SLAVE_DEVICE_BUSY: u8 = ExceptionCode::SlaveDeviceBusy as u8;
 /// Exception 0AH: no line serves the unit, or its line is down (Modbus application protocol
 /// V1.1b3 §7, "gateway path unavailable").
 pub const GATEWAY_PATH_UNAVAILABLE: u8 = 0x0A;

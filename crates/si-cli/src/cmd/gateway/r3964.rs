@@ -20,7 +20,10 @@
 //! last the partner sent, and the count goes on from there.
 
 use super::counters::Outcome;
-use super::line::{counted, lock, GATEWAY_PATH_UNAVAILABLE};
+use super::line::{
+    counted, lock, GATEWAY_PATH_UNAVAILABLE, ILLEGAL_DATA_ADDRESS, ILLEGAL_DATA_VALUE,
+    ILLEGAL_FUNCTION,
+};
 use super::reopen::{self, Closed, LineLog, Opened};
 use super::rk512::status_exception;
 use crate::error::CliError;
@@ -30,13 +33,6 @@ use si_modbus::mbap::TcpAdu;
 use si_modbus::serve;
 use std::future::Future;
 use std::sync::{Arc, Mutex};
-
-/// Exception 01H: a function the block registers do not serve.
-const ILLEGAL_FUNCTION: u8 = 0x01;
-/// Exception 02H: registers outside the map.
-const ILLEGAL_DATA_ADDRESS: u8 = 0x02;
-/// Exception 03H: a block length out of range.
-const ILLEGAL_DATA_VALUE: u8 = 0x03;
 
 /// The input registers before the block's data: count and length.
 const HEADER: usize = 2;

@@ -39,12 +39,12 @@
 
 use super::counters::{Outcome, Stats};
 use super::line::{
-    self, counted, LineQueue, GATEWAY_PATH_UNAVAILABLE, GATEWAY_TARGET_FAILED, SLAVE_DEVICE_BUSY,
-    SLAVE_DEVICE_FAILURE,
+    self, counted, LineQueue, GATEWAY_PATH_UNAVAILABLE, GATEWAY_TARGET_FAILED,
+    ILLEGAL_DATA_ADDRESS, SLAVE_DEVICE_BUSY, SLAVE_DEVICE_FAILURE,
 };
 use super::reopen::{self, Closed, LineLog, Opened};
 use super::rk512_config::Rk512Line;
-use super::rk512_spans::{self, add_dbs, is_read, Span, ILLEGAL_DATA_ADDRESS};
+use super::rk512_spans::{self, add_dbs, is_read, Span};
 use crate::error::CliError;
 use si_core::memory::Memory;
 use si_modbus::frame::Request;

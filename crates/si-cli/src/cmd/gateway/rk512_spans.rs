@@ -22,16 +22,12 @@
 //! - Flags, inputs and outputs are addressed by byte (`'M'`, `'E'`, `'A'` with a 16-bit byte
 //!   number), timers and counters by cell (`'T'`, `'Z'`, one word each).
 
+use super::line::{ILLEGAL_DATA_ADDRESS, ILLEGAL_FUNCTION};
 use si_core::memory::{Area, Memory, MemoryError, MemorySizes, MAX_AREA_BYTES, MAX_ELEMENTS};
 use si_modbus::frame::{fc, Request};
 use si_modbus::simatic::{BitAddress, ConversionDb};
 use si_rk512::config::DwUnit;
 use si_rk512::frame::Address;
-
-/// Exception 01H: SEND cannot write M or Q (module docs).
-pub const ILLEGAL_FUNCTION: u8 = 0x01;
-/// Exception 02H: an address RK 512 cannot reach (module docs).
-pub const ILLEGAL_DATA_ADDRESS: u8 = 0x02;
 
 /// The bytes of a data block the mirror holds: DBW 0 … 1022, all S_MODB's conversion reaches
 /// ((R & 1FFH) × 2, §5.5).

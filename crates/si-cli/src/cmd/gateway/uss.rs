@@ -25,7 +25,8 @@
 
 use super::counters::Outcome;
 use super::line::{
-    counted, lock, GATEWAY_PATH_UNAVAILABLE, GATEWAY_TARGET_FAILED, SLAVE_DEVICE_BUSY,
+    counted, lock, GATEWAY_PATH_UNAVAILABLE, GATEWAY_TARGET_FAILED, ILLEGAL_DATA_ADDRESS,
+    ILLEGAL_DATA_VALUE, ILLEGAL_FUNCTION, SLAVE_DEVICE_BUSY,
 };
 use super::reopen::{self, Closed, LineLog, Opened};
 use super::uss_config::UssLine;
@@ -53,13 +54,6 @@ pub const BUSY: u16 = 1;
 pub const DONE: u16 = 2;
 /// Window status: the job failed; register 106 holds its STATUS.
 pub const FAILED: u16 = 3;
-
-/// Exception 01H: a function the drive image does not serve.
-const ILLEGAL_FUNCTION: u8 = 0x01;
-/// Exception 02H: registers outside the map.
-const ILLEGAL_DATA_ADDRESS: u8 = 0x02;
-/// Exception 03H: a command or sub-index out of range.
-const ILLEGAL_DATA_VALUE: u8 = 0x03;
 
 /// One drive: its unit id, bus address, PZD count and parameter window.
 struct Drive {
