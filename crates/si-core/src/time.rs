@@ -56,9 +56,11 @@ impl fmt::Display for Instant {
 ///
 /// The manuals give timers in milliseconds (ZVZ 220 ms, QVZ 2000 ms) and character times in
 /// fractions of a millisecond; both fit exactly.
-#[derive(
-    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
-)]
+///
+/// `std::time::Duration` converts into it (rounded down to whole microseconds, saturating), so
+/// every config and handle that takes a time accepts either; `Debug` prints like `Display`
+/// ("50 ms"), not the raw count.
+#[derive(Clone, Copy, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 pub struct Duration(u64);
 
 impl Duration {
@@ -108,6 +110,19 @@ impl fmt::Display for Duration {
         } else {
             write!(f, "{}.{:03} ms", self.0 / 1_000, self.0 % 1_000)
         }
+    }
+}
+
+impl fmt::Debug for Duration {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        fmt::Display::fmt(self, f)
+    }
+}
+
+impl From<core::time::Duration> for Duration {
+    /// Whole microseconds, rounded down; a span beyond `u64::MAX` µs saturates.
+    fn from(d: core::time::Duration) -> Self {
+        Duration(u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
     }
 }
 
@@ -162,6 +177,16 @@ mod tests {
         assert_eq!(Duration::from_millis(220).to_string(), "220 ms");
         assert_eq!(Duration::from_micros(1_146).to_string(), "1.146 ms");
         assert_eq!(Instant::from_micros(4_000_001).to_string(), "4.000001 s");
+        assert_eq!(format!("{:?}", Duration::from_millis(50)), "50 ms");
+    }
+
+    #[test]
+    fn std_durations_convert_both_ways() {
+        let d: Duration = core::time::Duration::from_micros(1_500).into();
+        assert_eq!(d, Duration::from_micros(1_500));
+        assert_eq!(core::time::Duration::from(d).as_micros(), 1_500);
+        assert_eq!(Duration::from(core::time::Duration::from_nanos(999)), Duration::ZERO);
+        assert_eq!(Duration::from(core::time::Duration::MAX).as_micros(), u64::MAX);
     }
 
     #[test]
