@@ -8,7 +8,8 @@
 //!
 //! | feature | crate | what |
 //! |---|---|---|
-//! | (always) | [`core`] (`si-core`) | time, serial settings, STATUS codes, the Sans-IO contract, simulator, tokio driver |
+//! | (always) | [`core`] (`si-core`) | time, serial settings, STATUS codes, the Sans-IO contract, line traces, tokio driver |
+//! | `sim` (default) | [`sim`] (`si-sim`) | the deterministic line simulator with seeded faults |
 //! | `3964r` (default) | [`r3964`] (`si-3964r`) | the 3964 / 3964(R) procedure and its FBs |
 //! | `rk512` (default) | [`rk512`] (`si-rk512`) | RK 512 SEND/FETCH over 3964(R) |
 //! | `ascii` (default) | [`ascii`] (`si-ascii`) | the ASCII driver and its FBs |
@@ -24,6 +25,10 @@
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub use si_core as core;
+
+#[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
+pub use si_sim as sim;
 
 #[cfg(feature = "3964r")]
 #[cfg_attr(docsrs, doc(cfg(feature = "3964r")))]
@@ -53,8 +58,15 @@ pub use si_dp_coord as dp_coord;
 #[cfg_attr(docsrs, doc(cfg(feature = "module")))]
 pub use si_module as module;
 /// The README, compiled as doc-tests: a snippet there that stops compiling fails
-/// `cargo test --doc`. Its Rust blocks use 3964(R), Modbus and a serial port, so they are
-/// tested with those features (`--all-features` in CI); shell blocks are tagged `sh`.
-#[cfg(all(doctest, feature = "serial", feature = "3964r", feature = "modbus"))]
+/// `cargo test --doc`. Its Rust blocks use the simulator, 3964(R), Modbus and a serial port,
+/// so they are tested with those features (`--all-features` in CI); shell blocks are tagged
+/// `sh`.
+#[cfg(all(
+    doctest,
+    feature = "sim",
+    feature = "serial",
+    feature = "3964r",
+    feature = "modbus"
+))]
 #[doc = include_str!("../README.md")]
 pub struct ReadmeDoctests;
