@@ -3,7 +3,7 @@
 //! `si monitor --trace` and the diagram writer.
 //!
 //! The header and the file's contents ([`Header`], [`TraceFile`]) are always here, for the
-//! monitors; reading and writing the JSON lines ([`read`], [`write`], [`Recorder`]) need the
+//! monitors; reading and writing the JSON lines (`read`, `write`, `Recorder`) need the
 //! feature `tracefile` (serde_json), which `tokio` turns on.
 //!
 //! # Format
@@ -18,8 +18,9 @@
 //!    assumes nothing about protocol or settings. `start` is the wall-clock time (RFC 3339,
 //!    UTC) at which entry time 0 was; a [`Recorder`] (the driver, `si --record`) writes it, the
 //!    simulator's traces, in virtual time, have none, nor do traces written before it existed.
-//! 2. Any number of **entries**, exactly the simulator's [`TraceEntry`](crate::trace::TraceEntry): `at` (µs since the
-//!    start of the recording), `station` (who transmitted or received), `kind` and its fields:
+//! 2. Any number of **entries**, exactly the simulator's [`crate::trace::TraceEntry`]: `at`
+//!    (µs since the start of the recording), `station` (who transmitted or received), `kind`
+//!    and its fields:
 //!    - `{"at":0,"station":"A","kind":"tx","bytes":[2]}` — bytes the station queued for
 //!      transmission (on a real port: the write began at `at`; the characters follow each other
 //!      at the character time);
