@@ -17,7 +17,8 @@
 //! | `uss` (default) | [`uss`] (`si-uss`) | the USS master and its FC equivalents |
 //! | `dp-coord` (default) | [`dp_coord`] (`si-dp-coord`) | the coordination-byte DP window protocol, host and module |
 //! | `module` (default) | [`module`] (`si-module`) | the ET 200S SI module itself: parameters per driver, diagnosis, I&M, LEDs |
-//! | `tokio` | | the async driver and handles |
+//! | `tracefile` | | reading and writing trace files (JSON lines), without the driver |
+//! | `tokio` | | the async driver and handles (implies `tracefile`) |
 //! | `serial` | | serial ports: `core::port::open` from the engine's `SerialSettings` (implies `tokio`) |
 //!
 //! Every engine is Sans-IO: it is fed bytes and time and says what to transmit and when to wake
