@@ -14,8 +14,8 @@
 
 use bytes::Bytes;
 use criterion::Criterion;
-use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Instant, SerialSettings};
+use si_sim::{Simulator, StationId};
 use si_testkit::alloc::Stats;
 use std::time::Instant as Wall;
 

@@ -5,9 +5,9 @@
 //! cargo run --example 3964r_sim
 //! ```
 
-use si_serial::core::sim::Simulator;
 use si_serial::core::{Duration, SerialSettings};
 use si_serial::r3964::{Config, Event, Link, Priority};
+use si_serial::sim::Simulator;
 
 fn main() {
     let line = SerialSettings::default(); // 9600 bit/s, 8 data bits, even parity, 1 stop bit

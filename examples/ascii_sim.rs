@@ -6,8 +6,8 @@
 
 use si_serial::ascii::fb::{SRcv, SSend};
 use si_serial::ascii::{Config, EndCriterion, Link};
-use si_serial::core::sim::Simulator;
 use si_serial::core::{Duration, Parity, SerialSettings};
+use si_serial::sim::Simulator;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     // 4800 bit/s 8N1, frames end with ETX (03H), as a barcode reader might send them.

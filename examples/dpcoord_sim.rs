@@ -6,12 +6,12 @@
 //! `cargo run --example dpcoord_sim`
 
 use si_serial::core::job::{Channel, FramePort};
-use si_serial::core::sim::{Simulator, StationId};
 use si_serial::core::{Duration, Instant, SerialSettings};
 use si_serial::dp_coord::line::EngineSerial;
 use si_serial::dp_coord::module::Module;
 use si_serial::dp_coord::{engines, Host, HostConfig, WindowSize};
 use si_serial::r3964::{config::Priority, Config, Link};
+use si_serial::sim::{Simulator, StationId};
 
 /// The user program: sends its message once, prints what arrives. Unchanged for both transports.
 struct Program {

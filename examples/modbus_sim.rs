@@ -4,10 +4,10 @@
 //!
 //! `cargo run --example modbus_sim`
 
-use si_serial::core::sim::Simulator;
 use si_serial::core::{Instant, SerialSettings};
 use si_serial::modbus::frame::{Registers, Request};
 use si_serial::modbus::{Master, MasterConfig, MasterEvent, SimaticStore, Slave, SlaveConfig};
+use si_serial::sim::Simulator;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let settings = SerialSettings::default(); // 9600 8E1, the module's default

@@ -7,12 +7,12 @@
 //! ```
 
 use si_serial::core::memory::Area;
-use si_serial::core::sim::Simulator;
 use si_serial::core::{Duration, Instant, SerialSettings};
 use si_serial::r3964::Priority;
 use si_serial::rk512::frame::{Address, Coordination};
 use si_serial::rk512::passive::ServerConfig;
 use si_serial::rk512::{Config, Event, Station};
+use si_serial::sim::Simulator;
 
 fn main() {
     let line = SerialSettings::default(); // 9600 8E1

@@ -3,8 +3,8 @@
 //!
 //! `cargo run --example uss_sim`
 
-use si_serial::core::sim::Simulator;
 use si_serial::core::{Duration, Instant};
+use si_serial::sim::Simulator;
 use si_serial::uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_serial::uss::drive::{stw, Drive, DriveConfig};
 use si_serial::uss::frame::PkwWords;

@@ -8,7 +8,8 @@
 //!
 //! | feature | crate | what |
 //! |---|---|---|
-//! | (always) | [`core`] (`si-core`) | time, serial settings, STATUS codes, the Sans-IO contract, simulator, tokio driver |
+//! | (always) | [`core`] (`si-core`) | time, serial settings, STATUS codes, the Sans-IO contract, line traces, tokio driver |
+//! | `sim` (default) | [`sim`] (`si-sim`) | the deterministic line simulator with seeded faults |
 //! | `3964r` (default) | [`r3964`] (`si-3964r`) | the 3964 / 3964(R) procedure and its FBs |
 //! | `rk512` (default) | [`rk512`] (`si-rk512`) | RK 512 SEND/FETCH over 3964(R) |
 //! | `ascii` (default) | [`ascii`] (`si-ascii`) | the ASCII driver and its FBs |
@@ -16,7 +17,8 @@
 //! | `uss` (default) | [`uss`] (`si-uss`) | the USS master and its FC equivalents |
 //! | `dp-coord` (default) | [`dp_coord`] (`si-dp-coord`) | the coordination-byte DP window protocol, host and module |
 //! | `module` (default) | [`module`] (`si-module`) | the ET 200S SI module itself: parameters per driver, diagnosis, I&M, LEDs |
-//! | `tokio` | | the async driver and handles |
+//! | `tracefile` | | reading and writing trace files (JSON lines), without the driver |
+//! | `tokio` | | the async driver and handles (implies `tracefile`) |
 //! | `serial` | | serial ports: `core::port::open` from the engine's `SerialSettings` (implies `tokio`) |
 //!
 //! Every engine is Sans-IO: it is fed bytes and time and says what to transmit and when to wake
@@ -24,6 +26,10 @@
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub use si_core as core;
+
+#[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
+pub use si_sim as sim;
 
 #[cfg(feature = "3964r")]
 #[cfg_attr(docsrs, doc(cfg(feature = "3964r")))]
@@ -53,8 +59,15 @@ pub use si_dp_coord as dp_coord;
 #[cfg_attr(docsrs, doc(cfg(feature = "module")))]
 pub use si_module as module;
 /// The README, compiled as doc-tests: a snippet there that stops compiling fails
-/// `cargo test --doc`. Its Rust blocks use 3964(R), Modbus and a serial port, so they are
-/// tested with those features (`--all-features` in CI); shell blocks are tagged `sh`.
-#[cfg(all(doctest, feature = "serial", feature = "3964r", feature = "modbus"))]
+/// `cargo test --doc`. Its Rust blocks use the simulator, 3964(R), Modbus and a serial port,
+/// so they are tested with those features (`--all-features` in CI); shell blocks are tagged
+/// `sh`.
+#[cfg(all(
+    doctest,
+    feature = "sim",
+    feature = "serial",
+    feature = "3964r",
+    feature = "modbus"
+))]
 #[doc = include_str!("../README.md")]
 pub struct ReadmeDoctests;

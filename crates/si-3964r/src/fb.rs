@@ -6,7 +6,7 @@
 //! ```
 //! use si_3964r::fb::{SRcv, SSend};
 //! use si_3964r::{Config, Link, Priority};
-//! use si_core::sim::Simulator;
+//! use si_sim::Simulator;
 //! use si_core::{Duration, SerialSettings};
 //!
 //! let line = SerialSettings::default();
@@ -97,16 +97,10 @@ mod tests {
     use super::*;
     use crate::config::{Config, Priority};
     use crate::status;
-    use si_core::sim::Simulator;
     use si_core::{Duration, SerialSettings};
+    use si_sim::Simulator;
 
-    fn setup(
-        b_config: Config,
-    ) -> (
-        Simulator,
-        si_core::sim::StationId<Link>,
-        si_core::sim::StationId<Link>,
-    ) {
+    fn setup(b_config: Config) -> (Simulator, si_sim::StationId<Link>, si_sim::StationId<Link>) {
         let line = SerialSettings::default();
         let mut sim = Simulator::new(1);
         let high = Config {

@@ -22,7 +22,7 @@
 //! ```
 //! use si_3964r::config::Priority;
 //! use si_3964r::{Config, Event, Link};
-//! use si_core::sim::Simulator;
+//! use si_sim::Simulator;
 //! use si_core::{Instant, SerialSettings};
 //!
 //! let line = SerialSettings::default(); // 9600 8E1

@@ -4,7 +4,7 @@
 //!
 //! ```
 //! use si_3964r::{Config, Event, Link};
-//! use si_core::sim::Simulator;
+//! use si_sim::Simulator;
 //! use si_core::{Instant, SerialSettings};
 //! use si_3964r::config::Priority;
 //!

@@ -8,8 +8,8 @@
 use bytes::Bytes;
 use si_3964r::fb::{SRcv, SSend};
 use si_3964r::{Config, Link, Priority};
-use si_core::sim::Pair;
 use si_core::{Duration, SerialSettings};
+use si_sim::Pair;
 use si_testkit::alloc::assert_no_alloc;
 
 fn main() {

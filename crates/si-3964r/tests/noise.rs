@@ -8,8 +8,8 @@ use proptest::prelude::*;
 use si_3964r::frame::{DLE, STX};
 use si_3964r::status::*;
 use si_3964r::{Config, Event, JobId, Link, Priority};
-use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Instant, SerialSettings, Status};
+use si_sim::{Simulator, StationId};
 use si_testkit::job_run::run_while;
 use si_testkit::noise::{issue_patterns, Noise, NoisePeer, Pattern, Source};
 

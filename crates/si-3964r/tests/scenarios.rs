@@ -20,7 +20,7 @@ use si_core::{Duration, Instant};
 const ZVZ: Duration = Duration::from_millis(220);
 const QVZ: Duration = Duration::from_millis(2000);
 
-fn take(sim: &mut si_core::sim::Simulator, s: si_core::sim::StationId<Link>) -> Option<Vec<u8>> {
+fn take(sim: &mut si_sim::Simulator, s: si_sim::StationId<Link>) -> Option<Vec<u8>> {
     sim.with(s, |l, now| l.take_block(now)).map(|b| b.to_vec())
 }
 
@@ -383,11 +383,7 @@ fn s5_3_first_error_is_reported_not_the_last() {
 // --- §5.4 / §5.5 receiver error paths --------------------------------------------------------
 
 /// The partner sends STX, waits for our DLE, then sends `block`.
-fn partner_sends(
-    sim: &mut si_core::sim::Simulator,
-    p: si_core::sim::StationId<Partner>,
-    block: &[u8],
-) {
+fn partner_sends(sim: &mut si_sim::Simulator, p: si_sim::StationId<Partner>, block: &[u8]) {
     sim.transmit(p, &[STX]);
     run_ms(sim, 5);
     sim.transmit(p, block);

@@ -9,8 +9,8 @@
 //! 100,000 blocks, which for the hour's ~60,000 blocks means none at all.
 
 use si_3964r::{Config, Event, JobId, Link, Priority};
-use si_core::sim::{Faults, Simulator, StationId};
 use si_core::{Duration, Instant, SerialSettings};
+use si_sim::{Faults, Simulator, StationId};
 use std::collections::HashSet;
 
 /// The payload of block `seq` from station `dir`: its own length and sequence number inside

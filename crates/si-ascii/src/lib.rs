@@ -18,7 +18,7 @@
 //!
 //! ```
 //! use si_ascii::{Config, EndCriterion, Event, Link};
-//! use si_core::sim::Simulator;
+//! use si_sim::Simulator;
 //! use si_core::{Instant, SerialSettings};
 //!
 //! let config = Config { end: EndCriterion::EndChars { first: b'\r', second: b'\n' }, ..Config::default() };

@@ -13,8 +13,8 @@
 
 use bytes::Bytes;
 use si_ascii::{Config, EndCriterion, Event, FlowControl, JobId, Link};
-use si_core::sim::{Faults, Simulator, StationId};
 use si_core::{Duration, Instant};
+use si_sim::{Faults, Simulator, StationId};
 
 /// Frame `seq` from `dir`: "D SSSSSSSS CC\r\n" with an 8-bit sum CC over the rest, so the
 /// receiving application can tell intact frames from ones the line changed.

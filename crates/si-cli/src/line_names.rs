@@ -10,7 +10,7 @@
 //! sent in that place (the line delivers in order, [`arrived`] skips the characters lost), and
 //! keeps none if a fault changed it.
 
-use si_core::sim::{Trace, TraceEntry, TraceKind};
+use si_sim::{Trace, TraceEntry, TraceKind};
 use std::collections::{HashMap, VecDeque};
 
 /// How a protocol's bytes are named.

@@ -9,8 +9,8 @@ use crate::cmd::monitor::MonitorArgs;
 use crate::error::CliError;
 use crate::line_names::{named_trace, Naming};
 use crate::output::{write_stdout, Output};
-use si_core::sim::Trace;
 use si_core::SerialSettings;
+use si_sim::Trace;
 use std::cell::{Cell, RefCell};
 use std::path::PathBuf;
 

@@ -1,6 +1,10 @@
 //! # si-core
 //!
-//! What every `si` protocol crate shares:
+//! What every `si` protocol crate shares. The line simulator is its own crate, `si-sim`; the
+//! driver and ports stay here behind features, so an engine crate built without features
+//! depends on neither tokio nor serde_json.
+//!
+//! Always:
 //!
 //! - [`Instant`] and [`Duration`]: time passed into engines, microseconds, no clock reads;
 //! - [`SerialSettings`]: the manuals' character formats and the character time derived from them;
@@ -16,14 +20,21 @@
 //!   frame in steady state);
 //! - [`delivery`]: how late the port hands bytes over (USB adapters), and the slack silence
 //!   timers need for it;
-//! - [`sim`]: a deterministic discrete-event line simulator with seeded faults;
+//! - [`trace`]: the timestamped record of a line ([`trace::Trace`], [`trace::TraceKind`]) that
+//!   the simulator, the driver, the monitors and the module's LEDs share;
 //! - [`monitor`]: what a passive listener sees and reports, shared by the protocols' monitors;
-//! - [`tracefile`]: the JSON-lines trace file the simulator, the driver and `si monitor` share;
+//! - [`tracefile`]: the trace file's header and line format; reading and writing the JSON lines
+//!   (`tracefile::read`, `write`, `Recorder`) need feature `tracefile`;
 //! - [`linemark`], [`echo`], [`rx_path`], [`port_facts`]: what a real port needs between the
-//!   line and an engine (marked line errors, local echo, RS-485 direction), Sans-IO;
-//! - `driver` (feature `tokio`): runs any engine over `AsyncRead + AsyncWrite`, logging through
-//!   `tracing`; `frame_log` adds each frame as decoded text to those logs, through `tap`, a
-//!   transport that shows a watcher what passes through it;
+//!   line and an engine (marked line errors, local echo, RS-485 direction), Sans-IO.
+//!
+//! Behind features:
+//!
+//! - `tracefile`: the JSON-lines trace file the simulator, the driver and `si monitor` share
+//!   (serde_json);
+//! - `driver` (feature `tokio`, implies `tracefile`): runs any engine over
+//!   `AsyncRead + AsyncWrite`, logging through `tracing`; `frame_log` adds each frame as decoded
+//!   text to those logs, through `tap`, a transport that shows a watcher what passes through it;
 //! - `port` (feature `serial`): opens a serial port from the engine's [`SerialSettings`], with
 //!   line errors, RS-485 and the USB adapter's latency timer.
 #![cfg_attr(docsrs, feature(doc_cfg))]
@@ -44,9 +55,9 @@ pub mod range;
 pub mod rx_path;
 pub mod sansio;
 pub mod serial;
-pub mod sim;
 pub mod status;
 pub mod time;
+pub mod trace;
 pub mod tracefile;
 pub mod v24;
 

@@ -1,7 +1,7 @@
 //! The Sans-IO contract every protocol engine follows.
 //!
 //! An engine is a state machine. It never reads a clock, sleeps, spawns a task or touches a port:
-//! a *driver* (the [simulator](crate::sim), the [tokio driver](crate::driver), a test, a
+//! a *driver* (the `si-sim` simulator, the [tokio driver](crate::driver), a test, a
 //! microcontroller main loop) feeds it what happened on the line together with the current
 //! [`Instant`], and then **drains** its outputs until it says [`Output::Wait`]:
 //!

@@ -2,6 +2,10 @@
 //! --record`), by the tokio driver and by `si --record` on real ports, and read back by
 //! `si monitor --trace` and the diagram writer.
 //!
+//! The header and the file's contents ([`Header`], [`TraceFile`]) are always here, for the
+//! monitors; reading and writing the JSON lines (`read`, `write`, `Recorder`) need the
+//! feature `tracefile` (serde_json), which `tokio` turns on.
+//!
 //! # Format
 //!
 //! JSON lines (UTF-8, one object per line, `\n`-separated), so a trace can be appended while the
@@ -14,8 +18,9 @@
 //!    assumes nothing about protocol or settings. `start` is the wall-clock time (RFC 3339,
 //!    UTC) at which entry time 0 was; a [`Recorder`] (the driver, `si --record`) writes it, the
 //!    simulator's traces, in virtual time, have none, nor do traces written before it existed.
-//! 2. Any number of **entries**, exactly the simulator's [`TraceEntry`]: `at` (µs since the
-//!    start of the recording), `station` (who transmitted or received), `kind` and its fields:
+//! 2. Any number of **entries**, exactly the simulator's [`crate::trace::TraceEntry`]: `at`
+//!    (µs since the start of the recording), `station` (who transmitted or received), `kind`
+//!    and its fields:
 //!    - `{"at":0,"station":"A","kind":"tx","bytes":[2]}` — bytes the station queued for
 //!      transmission (on a real port: the write began at `at`; the characters follow each other
 //!      at the character time);
@@ -32,10 +37,15 @@
 
 use crate::range::RangeError;
 use crate::serial::{Parity, SerialSettings, SettingsError, BAUD_RATES};
-use crate::sim::{Trace, TraceEntry, TraceKind};
+#[cfg(feature = "tracefile")]
 use crate::time::Instant;
+use crate::trace::Trace;
+#[cfg(feature = "tracefile")]
+use crate::trace::{TraceEntry, TraceKind};
 use serde::{Deserialize, Serialize};
+#[cfg(feature = "tracefile")]
 use std::io::{self, BufRead, Write};
+#[cfg(feature = "tracefile")]
 use std::sync::{Arc, Mutex};
 
 /// The value of [`Header::format`]: marks a JSON line as an `si` trace header.
@@ -202,6 +212,8 @@ impl TraceFile {
     }
 }
 
+#[cfg(feature = "tracefile")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
 /// A trace file that cannot be read.
 #[derive(Debug, thiserror::Error)]
 pub enum TraceFileError {
@@ -229,12 +241,16 @@ pub enum TraceFileError {
     Version(u32),
 }
 
+#[cfg(feature = "tracefile")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
 /// Serialize one entry as its JSON line (without the newline).
 pub fn entry_line(entry: &TraceEntry) -> String {
     // A TraceEntry holds only strings, numbers and enums: serialization cannot fail.
     serde_json::to_string(entry).unwrap_or_default()
 }
 
+#[cfg(feature = "tracefile")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
 /// Write a whole trace: the header, then every entry.
 pub fn write<W: Write>(mut out: W, header: &Header, trace: &Trace) -> io::Result<()> {
     writeln!(out, "{}", serde_json::to_string(header).unwrap_or_default())?;
@@ -244,6 +260,8 @@ pub fn write<W: Write>(mut out: W, header: &Header, trace: &Trace) -> io::Result
     out.flush()
 }
 
+#[cfg(feature = "tracefile")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
 /// Read a trace file: an optional header line, then entries. Blank lines are skipped.
 pub fn read<R: BufRead>(input: R) -> Result<TraceFile, TraceFileError> {
     let mut file = TraceFile::default();
@@ -277,6 +295,8 @@ pub fn read<R: BufRead>(input: R) -> Result<TraceFile, TraceFileError> {
     Ok(file)
 }
 
+#[cfg(feature = "tracefile")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
 /// A live trace writer shared by everything that records one line: the driver, a transport
 /// wrapper, a monitor. Cheap to clone; every clone appends to the same file, and each entry is
 /// flushed as it is written so a trace survives Ctrl-C up to its last line.
@@ -290,12 +310,14 @@ pub struct Recorder {
     station: Arc<str>,
 }
 
+#[cfg(feature = "tracefile")]
 impl core::fmt::Debug for Recorder {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.debug_struct("Recorder").finish_non_exhaustive()
     }
 }
 
+#[cfg(feature = "tracefile")]
 impl Recorder {
     /// A recorder writing to `out`, starting with `header`; a header without a
     /// [`start`](Header::start) gets the wall-clock time of the recorder's clock origin.
@@ -414,6 +436,7 @@ fn civil_from_days(days: u64) -> (u64, u64, u64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    #[cfg(feature = "tracefile")]
     use crate::sansio::LineError;
 
     #[test]
@@ -450,6 +473,7 @@ mod tests {
         assert_eq!(rfc3339_millis(before_1970), "1970-01-01T00:00:00.000Z");
     }
 
+    #[cfg(feature = "tracefile")]
     #[test]
     fn a_header_without_a_start_still_reads() {
         let old = concat!(
@@ -462,6 +486,7 @@ mod tests {
         assert_eq!(f.trace.entries.len(), 1);
     }
 
+    #[cfg(feature = "tracefile")]
     fn sample() -> Trace {
         let e = |at, station: &str, kind| TraceEntry {
             at: Instant::from_micros(at),
@@ -497,6 +522,7 @@ mod tests {
         }
     }
 
+    #[cfg(feature = "tracefile")]
     #[test]
     fn write_then_read_gives_the_same_trace() {
         let header = Header::new("sim")
@@ -511,6 +537,7 @@ mod tests {
         assert_eq!(back.stations(), vec!["A", "B"]);
     }
 
+    #[cfg(feature = "tracefile")]
     #[test]
     fn the_documented_line_shapes_parse() {
         let text = r#"{"format":"si-trace","version":1,"source":"port","settings":{"baud":187500,"data_bits":8,"parity":"even","stop_bits":1}}
@@ -529,6 +556,7 @@ mod tests {
         );
     }
 
+    #[cfg(feature = "tracefile")]
     /// Issue 21: a header with `baud` 0 is refused with a range error naming the field.
     #[test]
     fn a_header_out_of_range_is_refused() {
@@ -556,6 +584,7 @@ mod tests {
         assert!(read(header(9600, 7).as_bytes()).is_ok());
     }
 
+    #[cfg(feature = "tracefile")]
     #[test]
     fn a_bad_line_is_named() {
         let text = "{\"at\":0,\"station\":\"A\",\"kind\":\"tx\",\"bytes\":[2]}\nnot json\n";
@@ -570,6 +599,7 @@ mod tests {
         ));
     }
 
+    #[cfg(feature = "tracefile")]
     #[test]
     fn recorder_appends_lines_a_reader_understands() {
         #[derive(Clone, Default)]
@@ -608,6 +638,7 @@ mod tests {
         assert_eq!(f.trace.entries[1].station, "si");
     }
 
+    #[cfg(feature = "tracefile")]
     proptest::proptest! {
         #[test]
         fn read_never_panics_on_arbitrary_text(text in "(\\PC|\n|\\{|\\}|\"|:|,|[0-9])*") {

@@ -33,7 +33,7 @@ use crate::frame::{describe, Direction, V24Layout};
 use crate::Window;
 use si_core::monitor::line::Line;
 use si_core::monitor::{Counters, Decoder, Flag, Kind, LineChar, Record};
-use si_core::sim::TraceKind;
+use si_core::trace::TraceKind;
 use si_core::tracefile::TraceFile;
 use si_core::{Duration, Instant};
 use std::collections::BTreeMap;

@@ -13,8 +13,8 @@ use crate::frame::Window;
 use crate::host::{Host, HostEvent, Job, JobId, Outcome, SubmitError};
 use crate::module::{LoopbackSerial, Module, SerialSide};
 use bytes::Bytes;
-use si_core::sim::SplitMix64;
 use si_core::{Duration, Instant, Status};
+use si_sim::SplitMix64;
 
 /// Faults injected on the DP exchange, as probabilities per exchange.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

@@ -5,13 +5,13 @@
 //!
 //! Runs without libtest's harness, whose own threads would allocate while we count.
 
-use si_core::sim::Pair;
 use si_core::Duration;
 use si_modbus::frame::{Registers, Request};
 use si_modbus::mbap::{Decoder, TcpAdu};
 use si_modbus::serve::{execute, Outcome, ResponseData};
 use si_modbus::Tables;
 use si_modbus::{FrameEnd, Master, MasterConfig, MasterEvent, SimaticStore, Slave, SlaveConfig};
+use si_sim::Pair;
 use si_testkit::alloc::assert_no_alloc;
 
 fn main() {

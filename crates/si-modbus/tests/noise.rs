@@ -4,11 +4,11 @@
 //! non-zero STATUS within [`MasterConfig::job_bound`], in virtual time, through S_SEND too.
 
 use proptest::prelude::*;
-use si_core::sim::{Simulator, UsbAdapter};
 use si_core::{Duration, Instant, SerialSettings};
 use si_modbus::frame::{Registers, Request};
 use si_modbus::master::{Master, MasterEvent};
 use si_modbus::{status, FrameEnd, MasterConfig, Mode};
+use si_sim::{Simulator, UsbAdapter};
 use si_testkit::noise::{drive, issue_patterns, NoisePeer, Pattern};
 
 const WORDS: [u16; 2] = [1, 2];

@@ -10,10 +10,10 @@
 //! usable. The short test runs in every `cargo test`; the day runs with
 //! `cargo test --release -p si-modbus --test soak -- --ignored`.
 
-use si_core::sim::{Faults, Simulator};
 use si_core::{Duration, Instant, SerialSettings};
 use si_modbus::frame::{Registers, Request, Response};
 use si_modbus::{Master, MasterConfig, MasterEvent, Slave, SlaveConfig, Tables};
+use si_sim::{Faults, Simulator};
 
 struct Outcome {
     done: u64,

@@ -34,7 +34,7 @@
 //! - **STOP** by itself does not light SF; its causes (wire break, invalid parameters) do.
 
 use serde::{Deserialize, Serialize};
-use si_core::sim::{Trace, TraceKind};
+use si_core::trace::{Trace, TraceKind};
 use si_core::{Instant, SerialSettings};
 
 /// Half a period of the 2 Hz flashing.

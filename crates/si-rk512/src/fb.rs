@@ -21,7 +21,7 @@
 //! use si_rk512::frame::{Address, Coordination};
 //! use si_rk512::passive::ServerConfig;
 //! use si_rk512::{Config, Station};
-//! use si_core::sim::Simulator;
+//! use si_sim::Simulator;
 //! use si_core::{Duration, SerialSettings};
 //!
 //! let line = SerialSettings::default();
@@ -249,14 +249,14 @@ mod tests {
     use super::*;
     use crate::passive::ServerConfig;
     use crate::Config;
-    use si_core::sim::Simulator;
     use si_core::status::common;
     use si_core::{Duration, SerialSettings};
+    use si_sim::Simulator;
 
     fn setup() -> (
         Simulator,
-        si_core::sim::StationId<Station>,
-        si_core::sim::StationId<Station>,
+        si_sim::StationId<Station>,
+        si_sim::StationId<Station>,
     ) {
         let line = SerialSettings::default();
         let mut high = Config::default();

@@ -37,7 +37,7 @@
 //! use si_rk512::frame::{Address, Coordination};
 //! use si_rk512::passive::ServerConfig;
 //! use si_rk512::{Config, Event, Station};
-//! use si_core::sim::Simulator;
+//! use si_sim::Simulator;
 //! use si_core::{Instant, SerialSettings};
 //!
 //! let line = SerialSettings::default();

@@ -7,7 +7,7 @@
 //! use si_rk512::passive::ServerConfig;
 //! use si_rk512::{Config, Event, Station};
 //! use si_3964r::Priority;
-//! use si_core::sim::Simulator;
+//! use si_sim::Simulator;
 //! use si_core::memory::Area;
 //! use si_core::{Instant, SerialSettings};
 //!

@@ -9,11 +9,11 @@
 use bytes::Bytes;
 use si_3964r::Priority;
 use si_core::memory::Area;
-use si_core::sim::Pair;
 use si_core::{Duration, SerialSettings};
 use si_rk512::frame::{Address, Coordination};
 use si_rk512::passive::ServerConfig;
 use si_rk512::{Command, Config, Event, Station};
+use si_sim::Pair;
 use si_testkit::alloc::assert_no_alloc;
 
 fn main() {

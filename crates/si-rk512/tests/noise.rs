@@ -6,10 +6,10 @@
 use proptest::prelude::*;
 use si_3964r::frame::DLE;
 use si_3964r::Priority;
-use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Instant, SerialSettings, Status};
 use si_rk512::frame::{Address, Coordination};
 use si_rk512::{status, Config, Event, JobId, Station};
+use si_sim::{Simulator, StationId};
 use si_testkit::job_run::run_while;
 use si_testkit::noise::{issue_patterns, Noise, NoisePeer, Pattern, Source};
 

@@ -2,7 +2,6 @@
 //! bytes and timing (cp341-3964r-rk512-ascii.md §4.2–§4.3).
 
 use proptest::prelude::*;
-use si_core::sim::{Faults, Simulator};
 use si_core::{Duration, Engine, Instant, LineError, Output, SerialSettings};
 use si_rk512::frame::{
     Address, Command, CommandHeader, ContinuationHeader, Coordination, DataType, ReactionHeader,
@@ -10,6 +9,7 @@ use si_rk512::frame::{
 };
 use si_rk512::passive::ServerConfig;
 use si_rk512::{Config, Event, Station};
+use si_sim::{Faults, Simulator};
 
 fn address() -> impl Strategy<Value = Address> {
     prop_oneof![

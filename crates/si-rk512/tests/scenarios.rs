@@ -10,13 +10,13 @@ mod cp341_status;
 use bytes::Bytes;
 use si_3964r::{Link, Priority};
 use si_core::memory::Area;
-use si_core::sim::{Faults, Simulator, StationId, TraceKind};
 use si_core::{Duration, Instant, SerialSettings, Status};
 use si_rk512::frame::{Address, Coordination};
 use si_rk512::passive::ServerConfig;
 use si_rk512::refusal::ServeError;
 use si_rk512::status;
 use si_rk512::{Command, Config, Event, Station};
+use si_sim::{Faults, Simulator, StationId, TraceKind};
 
 /// 9600 8E1, the manual's default.
 fn line() -> SerialSettings {

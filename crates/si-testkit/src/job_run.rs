@@ -2,8 +2,8 @@
 //! bound on every job"), for tests that run an engine against a [`NoisePeer`](crate::noise::NoisePeer)
 //! on [`Simulator`].
 
-use si_core::sim::Simulator;
 use si_core::Instant;
+use si_sim::Simulator;
 
 /// Steps `sim` one happening at a time while `busy` holds (a job is running) and returns the
 /// instant it stopped holding. Panics when it still holds after `limit` (the job outlived its

@@ -17,7 +17,7 @@
 //! - `tokio` (feature `tokio`): an async handle over the si-core driver.
 //!
 //! ```
-//! use si_core::sim::Simulator;
+//! use si_sim::Simulator;
 //! use si_core::Instant;
 //! use si_uss::config::{MasterConfig, PollEntry};
 //! use si_uss::drive::{Drive, DriveConfig};

@@ -4,8 +4,8 @@
 //!
 //! Runs without libtest's harness, whose own threads would allocate while we count.
 
-use si_core::sim::Pair;
 use si_core::{Duration, Instant};
+use si_sim::Pair;
 use si_testkit::alloc::assert_no_alloc;
 use si_uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_uss::drive::{Drive, DriveConfig};

@@ -5,8 +5,8 @@
 //! [`MasterConfig::cycle_bound`], in virtual time.
 
 use proptest::prelude::*;
-use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Instant};
+use si_sim::{Simulator, StationId};
 use si_testkit::noise::{drive, issue_patterns, NoisePeer, Pattern};
 use si_uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_uss::frame::PkwWords;

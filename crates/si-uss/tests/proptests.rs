@@ -95,7 +95,7 @@ proptest! {
 
 /// Step the simulator for `span`, failing if the engines keep it busy at one instant (a timer
 /// asked for at a time already past, over and over).
-fn run_without_spinning(sim: &mut si_core::sim::Simulator, span: si_core::Duration) {
+fn run_without_spinning(sim: &mut si_sim::Simulator, span: si_core::Duration) {
     let end = sim.now() + span;
     let (mut at, mut same) = (sim.now(), 0);
     while sim.now() <= end && sim.step() {
@@ -115,7 +115,7 @@ proptest! {
     /// keeps going, and every parameter job ends in exactly one completion event.
     #[test]
     fn every_job_ends_exactly_once_under_line_faults(seed in any::<u64>(), flip in 0.0f64..0.02, drop in 0.0f64..0.02, insert in 0.0f64..0.02) {
-        use si_core::sim::{Faults, Simulator};
+        use si_sim::{Faults, Simulator};
         use si_uss::master::Event;
         let settings = uss_settings(19_200).unwrap();
         let mut cfg = MasterConfig::new(vec![PollEntry::new(1, PkwWords::Four, 2), PollEntry::new(2, PkwWords::Four, 2)]);

@@ -12,8 +12,8 @@ mod tokio_duplex;
 #[path = "scenarios/usb_adapter.rs"]
 mod usb_adapter;
 
-use si_core::sim::{Simulator, StationId, TraceKind};
 use si_core::{Duration, Engine, Instant, LineError, Output, SerialSettings};
+use si_sim::{Simulator, StationId, TraceKind};
 use si_uss::config::{residual_run_time, start_interval, uss_settings, MasterConfig, PollEntry};
 use si_uss::drive::{stw, zsw, Drive, DriveConfig, DriveEvent};
 use si_uss::frame::{self, Adr, DecodeError, PkwWords, MAX_TELEGRAM};

@@ -12,8 +12,8 @@
 //! counted as an undetectable corruption, and those must stay rare. The short test runs in every `cargo test`; the day runs with
 //! `cargo test --release -p si-uss --test soak -- --ignored`.
 
-use si_core::sim::{Faults, Simulator};
 use si_core::{Duration, Instant};
+use si_sim::{Faults, Simulator};
 use si_uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_uss::drive::{Drive, DriveConfig};
 use si_uss::frame::PkwWords;

@@ -2,8 +2,8 @@
 #![allow(dead_code)]
 
 use si_3964r::{Config, Link, Priority};
-use si_core::sim::{Simulator, StationId, TraceKind};
 use si_core::{Duration, Engine, Instant, LineError, Output, SerialSettings};
+use si_sim::{Simulator, StationId, TraceKind};
 
 /// 9600 8E1, the manuals' default line: one character is 1146 µs.
 pub fn line() -> SerialSettings {

@@ -18,8 +18,8 @@ use si_3964r::{Config, Event, Link, Priority};
 use si_core::linemark::{bad_char_error, mark, Received};
 use si_core::port_facts::PortFacts;
 use si_core::rx_path::RxPath;
-use si_core::sim::Simulator;
 use si_core::{Engine, Instant, LineError, Output};
+use si_sim::Simulator;
 
 /// A link behind a parity-checking UART and a `PARMRK` kernel: the `bad`-th received
 /// character (counting from 0) arrives marked, and everything passes the driver's receive

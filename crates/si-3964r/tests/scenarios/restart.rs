@@ -7,7 +7,7 @@ use crate::common;
 
 use common::*;
 use si_3964r::{Config, Event, Link, Priority};
-use si_core::sim::{Simulator, StationId};
+use si_sim::{Simulator, StationId};
 
 /// A (high) sends `data` to B (low) and the block waits in B's buffer.
 fn deliver(sim: &mut Simulator, a: StationId<Link>, data: &[u8]) {

@@ -9,8 +9,8 @@ use crate::common;
 use common::*;
 use si_3964r::frame::{DLE, ETX};
 use si_3964r::{Config, Event, Link, Priority};
-use si_core::sim::{Simulator, StationId, TraceKind, UsbAdapter};
 use si_core::{Parity, SerialSettings};
+use si_sim::{Simulator, StationId, TraceKind, UsbAdapter};
 
 fn rig(baud: u32, adapter: Option<UsbAdapter>) -> (Simulator, StationId<Link>, StationId<Link>) {
     let s = SerialSettings::new(baud, 8, Parity::Even, 1).unwrap();

@@ -2,10 +2,10 @@
 #![allow(dead_code)]
 
 use si_ascii::{Config, Event, Link};
-use si_core::sim::{Simulator, StationId};
 use si_core::{
     Engine, Instant, LineError, ModemSignals, Output, Parity, SerialSettings, SignalUpdate,
 };
+use si_sim::{Simulator, StationId};
 use std::collections::VecDeque;
 
 /// A partner that only does what the test scripts: transmits through `Simulator::transmit`,

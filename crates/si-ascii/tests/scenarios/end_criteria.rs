@@ -220,7 +220,7 @@ fn maximum_length_guard_reports_0850_and_the_next_frame_is_clean() {
 fn s6_2_inter_frame_pause_keeps_two_sent_frames_apart_for_a_cdt_partner() {
     for baud in [1_200, 9_600, 19_200] {
         let c = config(baud, EndCriterion::CharDelay);
-        let mut sim = si_core::sim::Simulator::new(3);
+        let mut sim = si_sim::Simulator::new(3);
         let a = sim.add_station("A", c.settings, si_ascii::Link::new(c).unwrap());
         let b = sim.add_station("B", c.settings, si_ascii::Link::new(c).unwrap());
         sim.connect(a, b);
@@ -241,7 +241,7 @@ fn s6_2_inter_frame_pause_keeps_two_sent_frames_apart_for_a_cdt_partner() {
         let tx: Vec<_> = sim
             .trace()
             .of("A")
-            .filter(|e| matches!(e.kind, si_core::sim::TraceKind::Tx { .. }))
+            .filter(|e| matches!(e.kind, si_sim::TraceKind::Tx { .. }))
             .map(|e| e.at)
             .collect();
         assert_eq!(tx[1], done_at + cdt(&c) + US1, "{baud}: {tx:?}");

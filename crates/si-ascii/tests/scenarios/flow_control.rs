@@ -7,8 +7,8 @@ use crate::common;
 use common::{errors, settings, Bench, Partner};
 use si_ascii::fb::{SRts, SVset, SVstat, SXon};
 use si_ascii::{status, Config, EndCriterion, Event, FlowControl, Link, RtsCts, XonXoff};
-use si_core::sim::{Simulator, StationId, TraceKind};
 use si_core::{Duration, Instant, SerialSettings, SignalUpdate};
+use si_sim::{Simulator, StationId, TraceKind};
 
 const FRAMES: u8 = 20;
 

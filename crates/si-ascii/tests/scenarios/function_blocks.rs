@@ -6,8 +6,8 @@ use crate::common;
 use common::{settings, Bench, Partner};
 use si_ascii::fb::{SRcv, SSend};
 use si_ascii::{status, Config, EndCriterion, FlowControl, Link};
-use si_core::sim::Simulator;
 use si_core::{Duration, Status};
+use si_sim::Simulator;
 
 fn config() -> Config {
     Config {

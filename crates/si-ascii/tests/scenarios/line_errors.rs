@@ -6,8 +6,8 @@ use crate::common;
 
 use common::{errors, received, settings, Bench, Partner};
 use si_ascii::{status, Config, EndCriterion, Event, Interface, Link};
-use si_core::sim::{Faults, Simulator};
 use si_core::{Duration, Engine, Instant, LineError, Output, Parity, SerialSettings};
+use si_sim::{Faults, Simulator};
 
 fn drain(link: &mut Link) -> Vec<Event> {
     let mut v = Vec::new();

@@ -8,8 +8,8 @@ use crate::common;
 
 use common::{errors, received, settings, Bench};
 use si_ascii::{Config, EndCriterion};
-use si_core::sim::UsbAdapter;
 use si_core::Duration;
+use si_sim::UsbAdapter;
 
 const BAUDS: [u32; 2] = [9_600, 19_200];
 

@@ -15,8 +15,8 @@ use serde_json::json;
 use si_ascii::config::min_char_delay_ms;
 use si_ascii::tokio::{Error as AsciiError, Handle, Incoming};
 use si_ascii::{Config, EndCriterion, Event, FlowControl, Interface, Link};
-use si_core::sim::{Simulator, StationId, Trace, TraceKind};
 use si_core::{Duration, Instant, ModulePreset, Status};
+use si_sim::{Simulator, StationId, Trace, TraceKind};
 
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]

@@ -40,7 +40,6 @@ use bytes::Bytes;
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
 use si_core::driver::{self, DriverOptions, Transport};
-use si_core::sim::{Simulator, Trace, TraceEntry, TraceKind};
 use si_core::{Duration, Engine, Instant, ModulePreset, SerialSettings, Status};
 use si_dp_coord::engines;
 use si_dp_coord::fb::{Done, Received, SRcv, SSend};
@@ -52,6 +51,7 @@ use si_dp_coord::{
     ExecWrap, Host, HostConfig, HostEvent, Job, ModuleConfig, Outcome, ParamBlock, Window,
     WindowSize,
 };
+use si_sim::{Simulator, Trace, TraceEntry, TraceKind};
 use std::sync::mpsc::RecvTimeoutError;
 
 /// The protocol's subcommands.

@@ -29,7 +29,6 @@ use clap::{Args, Subcommand, ValueEnum};
 use serde::Deserialize;
 use serde_json::json;
 use si_core::memory::{Memory, MemorySizes};
-use si_core::sim::Simulator;
 use si_core::v24::AutoV24Times;
 use si_core::{Duration, Instant, SerialSettings};
 use si_modbus::frame::{self, Request};
@@ -37,6 +36,7 @@ use si_modbus::master::{Master, MasterEvent};
 use si_modbus::slave::{Slave, SlaveEvent};
 use si_modbus::tokio as handle;
 use si_modbus::{ConversionDb, FrameEnd, MasterConfig, Mode, SimaticStore, SlaveConfig};
+use si_sim::Simulator;
 
 /// Master parameters every job shares (Table 3-17).
 #[derive(Debug, Clone, Args)]
@@ -775,8 +775,8 @@ pub const SCENARIOS: &[Scenario] = &[
 
 type Rig = (
     Simulator,
-    si_core::sim::StationId<Master>,
-    si_core::sim::StationId<Slave<SimaticStore>>,
+    si_sim::StationId<Master>,
+    si_sim::StationId<Slave<SimaticStore>>,
 );
 
 fn rig(o: &SimOptions, timeout_ms: u32) -> Result<Rig, CliError> {
@@ -799,7 +799,7 @@ fn rig(o: &SimOptions, timeout_ms: u32) -> Result<Rig, CliError> {
 
 fn run_job(
     sim: &mut Simulator,
-    m: si_core::sim::StationId<Master>,
+    m: si_sim::StationId<Master>,
     request: &Request<'_>,
 ) -> Result<(MasterEvent, Instant), CliError> {
     sim.with(m, |e, now| e.request(now, 1, request))

@@ -10,8 +10,8 @@ use serde_json::json;
 use si_3964r::frame::{self, FrameError, Mode};
 use si_3964r::tokio::{Error as LinkError, Handle};
 use si_3964r::{status, Config, Event, Link, Priority};
-use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Instant, Status};
+use si_sim::{Simulator, StationId};
 
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]

@@ -10,13 +10,13 @@ use serde::Deserialize;
 use serde_json::json;
 use si_3964r::Priority;
 use si_core::memory::{Area, MemorySizes};
-use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Instant, Status};
 use si_rk512::frame::{Address, Coordination, DataType, Telegram};
 use si_rk512::passive::ServerConfig;
 use si_rk512::status;
 use si_rk512::tokio::{Error as StationError, Handle};
 use si_rk512::{Config, CounterLetter, DwUnit, Event, Station};
+use si_sim::{Simulator, StationId};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 

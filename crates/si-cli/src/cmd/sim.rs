@@ -14,8 +14,8 @@ use crate::error::CliError;
 use crate::output::Output;
 use crate::scenario::{self, print_trace, Scenario, SimOptions, Sink};
 use clap::Args;
-use si_core::sim::Simulator;
 use si_core::{Engine, Instant, LineError, Output as EngineOutput, SerialSettings};
+use si_sim::Simulator;
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 

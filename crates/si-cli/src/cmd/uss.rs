@@ -13,8 +13,8 @@ use crate::scenario::{print_trace, Scenario, SimOptions};
 use clap::{Args, Subcommand};
 use serde_json::json;
 use si_core::driver::{spawn, DriverOptions};
-use si_core::sim::Simulator;
 use si_core::{Duration, Instant, SerialSettings, Status};
+use si_sim::Simulator;
 use si_uss::config::{MasterConfig, PkwAfterJob, PollEntry};
 use si_uss::drive::{stw, Drive, DriveConfig, DriveEvent};
 use si_uss::frame::{
@@ -670,7 +670,7 @@ fn sim_master(
     sim: &mut Simulator,
     settings: SerialSettings,
     slaves: &[u8],
-) -> Result<si_core::sim::StationId<Master>, CliError> {
+) -> Result<si_sim::StationId<Master>, CliError> {
     let mut config = MasterConfig::new(
         slaves
             .iter()

@@ -1,7 +1,7 @@
 //! A relay between two pseudo-terminals that behaves like a USB-serial adapter in front of a
 //! real line: bytes cross a virtual wire paced at the character time, and the adapter hands
 //! them on in packets of up to 62 bytes, when full or 16 ms after the first byte it holds (the
-//! model of `si_core::sim::UsbAdapter`, here in real time). A pseudo-terminal alone delivers
+//! model of `si_sim::UsbAdapter`, here in real time). A pseudo-terminal alone delivers
 //! every write at once; through this relay a long frame arrives as bursts with 16 ms holes,
 //! as it does on a laptop with an FTDI adapter.
 

@@ -18,7 +18,7 @@
 //!   shown. Gaps inside a write or a chunk are not judged.
 
 use super::LineChar;
-use crate::sim::TraceKind;
+use crate::trace::TraceKind;
 use crate::tracefile::TraceFile;
 use crate::{Duration, Instant, SerialSettings};
 use std::collections::HashMap;
@@ -230,7 +230,7 @@ pub fn pace<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::{Trace, TraceEntry};
+    use crate::trace::{Trace, TraceEntry};
     use crate::tracefile::Header;
 
     fn entry(at: u64, station: &str, kind: TraceKind) -> TraceEntry {

@@ -1,7 +1,7 @@
 //! Zero heap allocations per frame in steady state through the window-bridged line engines
 //! (the si-core contract, ARCHITECTURE.md; `si_dp_coord::engines`): two hosts, each with a
 //! simulated module running a real line engine, the modules wired back to back
-//! ([`si_core::sim::Pair`]). Host A's send job puts a 200-byte frame through module A's window
+//! ([`si_sim::Pair`]). Host A's send job puts a 200-byte frame through module A's window
 //! onto the line, module B's engine receives it, and host B's receive job fetches it through
 //! module B's window; then the same back from B to A. Once for 3964(R), once for ASCII, under
 //! a counting global allocator.
@@ -10,12 +10,12 @@
 //! received frames from the engines' kept buffers, so nothing is allocated per frame.
 
 use bytes::Bytes;
-use si_core::sim::Pair;
 use si_core::{Duration, Engine, SerialSettings};
 use si_dp_coord::engines;
 use si_dp_coord::host::HostEvent;
 use si_dp_coord::line::EngineSerial;
 use si_dp_coord::{Host, HostConfig, Job, Module, Outcome, WindowSize};
+use si_sim::Pair;
 use si_testkit::alloc::assert_no_alloc;
 
 pub(crate) fn run() {

@@ -1,13 +1,12 @@
 //! Zero heap allocations per job in steady state through the module in Modbus master mode
 //! (`si_dp_coord::modbus`): a host's send job carries an FC03 read through the window, the
-//! module's si-modbus master asks si-modbus's slave on an instant line ([`si_core::sim::Pair`]),
+//! module's si-modbus master asks si-modbus's slave on an instant line ([`si_sim::Pair`]),
 //! and the host's receive job fetches the response in the S_RCV layout.
 //!
 //! The job goes to the master as `Bytes` cut from the adapter's send pool; the response is
 //! stored into a scratch area and cut from the adapter's receive pool.
 
 use bytes::Bytes;
-use si_core::sim::Pair;
 use si_core::Duration;
 use si_dp_coord::host::HostEvent;
 use si_dp_coord::line::EngineSerial;
@@ -16,6 +15,7 @@ use si_dp_coord::{Host, HostConfig, Job, Module, Outcome, WindowSize};
 use si_modbus::master::Master;
 use si_modbus::slave::{Slave, Tables};
 use si_modbus::{MasterConfig, SlaveConfig};
+use si_sim::Pair;
 use si_testkit::alloc::assert_no_alloc;
 
 pub(crate) fn run() {

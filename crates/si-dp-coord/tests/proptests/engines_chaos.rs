@@ -6,13 +6,13 @@
 
 use bytes::Bytes;
 use proptest::prelude::*;
-use si_core::sim::{Faults, Simulator, StationId};
 use si_core::{Duration, Engine, SerialSettings};
 use si_dp_coord::engines;
 use si_dp_coord::host::{Host, HostEvent, Job, JobId};
 use si_dp_coord::line::EngineSerial;
 use si_dp_coord::module::Module;
 use si_dp_coord::{HostConfig, ParamBlock, WindowSize};
+use si_sim::{Faults, Simulator, StationId};
 use std::collections::HashMap;
 
 const CYCLE: Duration = Duration::from_millis(2);

@@ -9,13 +9,13 @@
 //! cycle. Every test counts the FB completions: each job ends exactly once.
 
 use si_core::job::{Channel, FramePort};
-use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Engine, Instant, SerialSettings, Status};
 use si_dp_coord::engines;
 use si_dp_coord::fb::{Done, Received, SRcv, SSend, SVset, SXon};
 use si_dp_coord::line::EngineSerial;
 use si_dp_coord::module::Module;
 use si_dp_coord::{Host, HostConfig, WindowSize};
+use si_sim::{Simulator, StationId};
 
 /// DP cycle of the simulated master.
 const CYCLE: Duration = Duration::from_millis(2);

@@ -8,7 +8,6 @@
 //! (the window level); the last ones are end to end, with the user program's S_SEND and S_RCV
 //! over the host.
 
-use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Instant, SerialSettings, Status};
 use si_dp_coord::fb::{Done, Received, SRcv, SSend};
 use si_dp_coord::host::{Job, Outcome};
@@ -20,6 +19,7 @@ use si_dp_coord::{Host, HostConfig, HostEvent, RxStatus, WindowSize};
 use si_modbus::master::Master;
 use si_modbus::slave::{Slave, Tables};
 use si_modbus::{status, MasterConfig, SlaveConfig};
+use si_sim::{Simulator, StationId};
 
 /// DP cycle of the simulated master.
 const CYCLE: Duration = Duration::from_millis(2);

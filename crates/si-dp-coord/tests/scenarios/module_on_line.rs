@@ -1,4 +1,4 @@
-//! The module as a station on the line simulator (si_core::sim), its serial side a line engine
+//! The module as a station on the line simulator (si_sim), its serial side a line engine
 //! behind [`EngineSerial`]: a host's send job puts the frame on the line with baud-accurate
 //! timing, and the end-of-job acknowledgement comes only after the last character has left
 //! (et200s-si-2005-window-protocol.md §2.9: "the module sends the end-of-job ack only after the
@@ -11,12 +11,12 @@
 //! them between two modules.
 
 use bytes::{Bytes, BytesMut};
-use si_core::sim::Simulator;
 use si_core::{Duration, Engine, Instant, Output, SerialSettings, Status};
 use si_dp_coord::host::{Host, HostEvent, Job, Outcome};
 use si_dp_coord::line::{EngineSerial, LineHooks};
 use si_dp_coord::module::{Module, SerialEvent};
 use si_dp_coord::{HostConfig, ModuleConfig, WindowSize};
+use si_sim::Simulator;
 use std::collections::VecDeque;
 
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -205,7 +205,7 @@ fn the_module_forwards_the_ports_latency_to_its_line_engine() {
     .unwrap();
     let m = sim.add_station("module", SerialSettings::default(), module);
     assert_eq!(sim.engine(m).serial().engine().latency, None);
-    sim.set_adapter(m, si_core::sim::UsbAdapter::FTDI_DEFAULT)
+    sim.set_adapter(m, si_sim::UsbAdapter::FTDI_DEFAULT)
         .unwrap();
     assert_eq!(
         sim.engine(m).serial().engine().latency,

@@ -7,7 +7,6 @@
 //! 9167 µs, 25 characters 28 646 µs, and the end-of-frame gap is 4 ms (Table 3-11).
 
 use proptest::prelude::*;
-use si_core::sim::{Faults, Simulator, StationId, TraceKind};
 use si_core::{Duration, Engine, Instant, LineError, Output, SerialSettings};
 use si_modbus::config::FrameEnd;
 use si_modbus::frame::{crc16, Bits, Registers, Request, Response};
@@ -15,6 +14,7 @@ use si_modbus::master::{Master, MasterEvent};
 use si_modbus::slave::{Slave, SlaveEvent, Tables};
 use si_modbus::status::{self, slave as codes};
 use si_modbus::{MasterConfig, Mode, SlaveConfig};
+use si_sim::{Faults, Simulator, StationId, TraceKind};
 
 /// A scripted partner: hears bytes, says nothing unless the test transmits for it.
 #[derive(Default)]

@@ -1,12 +1,12 @@
 //! Master scenarios on the line simulator, one per error path of et200s-si-modbus-uss.md
 //! §3.5–§3.8 and §4.4, each asserting the manual's STATUS in virtual time.
 
-use si_core::sim::Simulator;
 use si_core::{Duration, Engine, Instant, Interface, LineError, Output, SerialSettings};
 use si_modbus::frame::{crc16, Registers, Request, Response};
 use si_modbus::master::{Master, MasterEvent};
 use si_modbus::slave::{Slave, SlaveEvent, Tables};
 use si_modbus::{status, MasterConfig, Mode, SlaveConfig};
+use si_sim::Simulator;
 
 /// A scripted partner: hears bytes, says nothing unless the test transmits for it.
 #[derive(Default)]
@@ -45,8 +45,8 @@ fn master_with_slave(
     config: MasterConfig,
 ) -> (
     Simulator,
-    si_core::sim::StationId<Master>,
-    si_core::sim::StationId<Slave<Tables>>,
+    si_sim::StationId<Master>,
+    si_sim::StationId<Slave<Tables>>,
 ) {
     let mut sim = Simulator::new(7);
     let s = SerialSettings::default();
@@ -175,8 +175,8 @@ fn s4_4_a_crc_error_cured_by_a_retry_is_counted_in_the_attempts() {
 
 type PartnerRig = (
     Simulator,
-    si_core::sim::StationId<Master>,
-    si_core::sim::StationId<Partner>,
+    si_sim::StationId<Master>,
+    si_sim::StationId<Partner>,
 );
 
 fn master_with_partner(mode: Mode) -> PartnerRig {

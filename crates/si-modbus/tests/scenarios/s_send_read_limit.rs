@@ -2,12 +2,12 @@
 //! 1…200, §4.5 practical maxima, §7.2 050EH): a result that fits is delivered whole with LEN
 //! up to 200; one that would not fit ends with 050EH before any request goes on the line.
 
-use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, SerialSettings, Status};
 use si_modbus::fb::{Done, Received, SRcv, SSend, MAX_LEN};
 use si_modbus::master::Master;
 use si_modbus::slave::{Slave, Tables};
 use si_modbus::{status, MasterConfig, SlaveConfig};
+use si_sim::{Simulator, StationId};
 
 /// A PLC cycle: S_SEND and S_RCV are called this often.
 const CYCLE: Duration = Duration::from_millis(10);

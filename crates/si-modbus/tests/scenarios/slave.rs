@@ -2,12 +2,12 @@
 //! a scripted master sends raw frames, the slave's answers and events are asserted.
 
 use si_core::memory::Area;
-use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, Engine, Instant, Output, SerialSettings};
 use si_modbus::frame::{crc16, ExceptionCode};
 use si_modbus::slave::{Slave, SlaveEvent};
 use si_modbus::status::slave as codes;
 use si_modbus::{SimaticStore, SlaveConfig};
+use si_sim::{Simulator, StationId};
 
 #[derive(Default)]
 struct Partner;

@@ -3,13 +3,13 @@
 //! bit/s, whether the host announces the adapter's latency or the engines have to learn it;
 //! and without an adapter the frames still end at the manual's gap (§3.5, Table 3-11).
 
-use si_core::sim::{Simulator, StationId, TraceKind, UsbAdapter};
 use si_core::{Duration, Instant, Parity, SerialSettings};
 use si_modbus::config::LineConfig;
 use si_modbus::frame::{Request, Response};
 use si_modbus::master::{Master, MasterEvent};
 use si_modbus::slave::{Slave, SlaveEvent, Tables};
 use si_modbus::{MasterConfig, SlaveConfig};
+use si_sim::{Simulator, StationId, TraceKind, UsbAdapter};
 
 fn line(baud: u32) -> LineConfig {
     LineConfig {

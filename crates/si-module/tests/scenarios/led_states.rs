@@ -138,8 +138,8 @@ proptest! {
 
 #[test]
 fn tx_and_rx_follow_a_simulated_line_in_virtual_time() {
-    use si_core::sim::Simulator;
     use si_core::Duration;
+    use si_sim::Simulator;
     let config = si_ascii::Config::default();
     let settings = config.settings;
     let mut sim = Simulator::new(1);

@@ -9,7 +9,6 @@ use bytes::Bytes;
 use si_3964r::{Link, Priority};
 use si_core::fb::SRcv;
 use si_core::memory::Area;
-use si_core::sim::Simulator;
 use si_core::status::common;
 use si_core::{Duration, Instant, Status};
 use si_rk512::fb::{FetchFb, SendFb};
@@ -17,6 +16,7 @@ use si_rk512::frame::{Address, Coordination};
 use si_rk512::refusal::ServeError;
 use si_rk512::status;
 use si_rk512::{Config, Event, Station};
+use si_sim::Simulator;
 
 /// The 06xx codes of the station's refusals since the last call.
 fn refusals(s: &mut Scripted) -> Vec<u16> {

@@ -8,11 +8,11 @@ use bytes::Bytes;
 use si_3964r::frame::DLE;
 use si_3964r::Priority;
 use si_core::memory::Area;
-use si_core::sim::{Simulator, StationId, TraceKind, UsbAdapter};
 use si_core::{Duration, Parity, SerialSettings, Status};
 use si_rk512::frame::{Address, Coordination};
 use si_rk512::passive::ServerConfig;
 use si_rk512::{Config, Event, Station};
+use si_sim::{Simulator, StationId, TraceKind, UsbAdapter};
 
 struct Rig {
     sim: Simulator,

@@ -1,8 +1,8 @@
 //! The FC equivalents S_USSI / S_USST / S_USSR over a simulated bus, called once per "PLC cycle"
 //! in the mandatory order (et200s-si-modbus-uss.md §6.3–§6.8).
 
-use si_core::sim::{Simulator, StationId};
 use si_core::Duration;
+use si_sim::{Simulator, StationId};
 use si_uss::config::uss_settings;
 use si_uss::drive::{stw, zsw, Drive, DriveConfig};
 use si_uss::fb::{entry, master_config, s_ussi, s_ussr, s_usst, SlaveLayout, UssDbs, UssiParams};

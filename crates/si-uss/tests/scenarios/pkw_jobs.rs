@@ -3,8 +3,8 @@
 //! uss-parameter-pages.md).
 
 use super::{bus, master_config, pair, run_to, s9600};
-use si_core::sim::{Simulator, StationId, TraceKind};
 use si_core::Instant;
+use si_sim::{Simulator, StationId, TraceKind};
 use si_uss::config::PkwAfterJob;
 use si_uss::drive::{Drive, DriveConfig, DriveEvent, Parameter};
 use si_uss::frame::{NetData, PkwWords};

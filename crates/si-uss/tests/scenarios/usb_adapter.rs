@@ -5,8 +5,8 @@
 //! allowance. Without the adapter the master still starts its next request exactly one start
 //! interval after the response (public-facts.md §3).
 
-use si_core::sim::{Simulator, StationId, TraceKind, UsbAdapter};
 use si_core::{Duration, Instant};
+use si_sim::{Simulator, StationId, TraceKind, UsbAdapter};
 use si_uss::config::{start_interval, uss_settings, MasterConfig, PollEntry};
 use si_uss::drive::{Drive, DriveConfig};
 use si_uss::frame::PkwWords;

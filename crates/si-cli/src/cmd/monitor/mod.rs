@@ -275,7 +275,7 @@ impl MonitorArgs {
         let mut records = decode_all(decoder.as_mut(), &line.chars, end);
         if self.events {
             for e in &file.trace.entries {
-                if let si_core::sim::TraceKind::Event { text } = &e.kind {
+                if let si_core::trace::TraceKind::Event { text } = &e.kind {
                     let from = line.stations.iter().position(|s| s == &e.station);
                     let mut r = Record::new(Kind::Event, e.at, e.at, from);
                     r.label = text.clone();
@@ -557,8 +557,8 @@ fn write_file(path: &std::path::Path, svg: String) -> Result<(), CliError> {
 mod tests {
     use super::*;
     use clap::FromArgMatches;
-    use si_core::sim::{SplitMix64, Trace, TraceEntry, TraceKind};
     use si_core::LineError;
+    use si_sim::{SplitMix64, Trace, TraceEntry, TraceKind};
 
     fn args(extra: &[&str]) -> MonitorArgs {
         let cmd = <MonitorArgs as clap::Args>::augment_args(clap::Command::new("m"));

@@ -17,8 +17,8 @@
 //! they stand for (the chip reports them in the status bytes of the packet carrying that
 //! character) and reach the engine in order with the bytes around them.
 
-use crate::sansio::LineError;
-use crate::time::Duration;
+use si_core::Duration;
+use si_core::LineError;
 
 /// A USB-serial adapter in front of a station's receiver ([`Simulator::set_adapter`]).
 ///
@@ -33,7 +33,7 @@ pub struct UsbAdapter {
     /// driver does from sysfs on Linux. `false` models a host that cannot know it (Windows, a
     /// TCP serial device server): the engine must learn it from the packets.
     ///
-    /// [`Engine::set_rx_latency`]: crate::Engine::set_rx_latency
+    /// [`Engine::set_rx_latency`]: si_core::Engine::set_rx_latency
     pub announce_latency: bool,
 }
 

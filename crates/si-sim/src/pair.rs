@@ -2,7 +2,7 @@
 //! [`Simulator`](super::Simulator)'s character timing and event queue would be in the way.
 //!
 //! ```
-//! use si_core::sim::Pair;
+//! use si_sim::Pair;
 //! use si_core::{Engine, Instant, Output};
 //! # struct Quiet;
 //! # impl Engine for Quiet {
@@ -17,8 +17,8 @@
 //! assert_eq!(pair.events, (0, 0));
 //! ```
 
-use crate::sansio::{Engine, Output};
-use crate::time::Instant;
+use si_core::Instant;
+use si_core::{Engine, Output};
 
 /// Two engines wired back to back with an instant line: everything one transmits is handed to
 /// the other at the same instant, and its tx-done follows at once. Allocates nothing itself.

@@ -1,7 +1,9 @@
-//! The simulator's timestamped record of what happened on the line.
+//! A timestamped record of what happened on a line: what the simulator (`si-sim`) records, the
+//! tokio driver and `si --record` write, and the monitors and the module's LEDs read.
 //!
-//! The same entries are the lines of a trace file ([`crate::tracefile`]): the simulator, the tokio
-//! driver and `si --record` write them, `si monitor` reads them.
+//! The types live here, beside the Sans-IO contract, so the simulator and the driver both use
+//! them without one depending on the other. The same entries are the lines of a trace file
+//! ([`crate::tracefile`]).
 
 use crate::sansio::{LineError, SignalUpdate};
 use crate::time::Instant;
@@ -11,7 +13,8 @@ use serde::{Deserialize, Serialize};
 /// One recorded happening.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct TraceEntry {
-    /// When it happened (virtual time).
+    /// When it happened: virtual time in the simulator, µs since the recording began on a real
+    /// line.
     pub at: Instant,
     /// The station it concerns.
     pub station: String,

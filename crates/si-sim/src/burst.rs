@@ -16,9 +16,9 @@
 //! character by character, receiver by receiver, *is* their (time, seq) order: one lane.
 //! Seeded faults are drawn at transmit time in that same order and kept as [`Mod`]s.
 
-use crate::sansio::LineError;
-use crate::serial::SerialSettings;
-use crate::time::{Duration, Instant};
+use si_core::LineError;
+use si_core::SerialSettings;
+use si_core::{Duration, Instant};
 
 /// When a happening is processed: time first, then the order it was scheduled in.
 pub(super) type Key = (Instant, u64);

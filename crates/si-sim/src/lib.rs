@@ -32,7 +32,7 @@
 //! saw), not one `Rx` per character. Stations without an adapter are unchanged.
 //!
 //! ```
-//! use si_core::sim::Simulator;
+//! use si_sim::Simulator;
 //! use si_core::{Engine, Instant, Output, SerialSettings};
 //!
 //! /// An engine that reports every character it receives.
@@ -62,20 +62,19 @@ mod adapter;
 mod burst;
 mod pair;
 mod rng;
-mod trace;
 
 pub use adapter::{AdapterError, UsbAdapter};
 pub use pair::Pair;
 pub use rng::SplitMix64;
-pub use trace::{Trace, TraceEntry, TraceKind};
+pub use si_core::trace::{Trace, TraceEntry, TraceKind};
 
-use crate::sansio::{Engine, LineError, ModemSignals, Output, SignalUpdate};
-use crate::serial::SerialSettings;
-use crate::time::{Duration, Instant};
 use adapter::Held;
 use burst::{Burst, Key, Mod};
 use core::any::Any;
 use core::marker::PhantomData;
+use si_core::SerialSettings;
+use si_core::{Duration, Instant};
+use si_core::{Engine, LineError, ModemSignals, Output, SignalUpdate};
 use std::cmp::Ordering;
 use std::collections::{BinaryHeap, VecDeque};
 

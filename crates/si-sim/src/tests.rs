@@ -1,5 +1,5 @@
 use super::*;
-use crate::serial::Parity;
+use si_core::Parity;
 
 /// A probe engine: reports every character, line error, timeout and tx-done with its time, and
 /// can be told to transmit or to set a timer.
