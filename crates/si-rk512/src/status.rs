@@ -133,7 +133,7 @@ si_core::status_codes! {
     pub const FRAME_LENGTH = 0x0611 {
         meaning: "partner's telegram longer than any RK 512 telegram may be (more than 128 data bytes)",
         remedy: "the partner must split jobs into telegrams of 128 data bytes",
-        source: "cp341-event-classes.md §1 class 06H, row 0611 [M,T]",
+        source: "[CP 341 Diag] §8.1 class 06H, row 0611 [M,T] \"actual frame length and header length disagree\"; raised only for more than 128 data bytes [derived]: the other disagreements have rows of their own, 060B (SEND data) and 060C (FETCH with data)",
     }
     pub const REACTION_NOT_SENT = 0x0612 {
         meaning: "sending our reaction telegram failed; the 3964(R) error was reported just before",
