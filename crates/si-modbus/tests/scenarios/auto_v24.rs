@@ -301,6 +301,34 @@ fn s2_2_slave_reports_0818_when_cts_never_comes() {
 }
 
 #[test]
+fn s2_2_slave_dsr_dropping_during_the_rts_off_time_aborts_its_response_with_0818() {
+    let config = SlaveConfig {
+        line: line(),
+        address: 1,
+    };
+    let mut s = Slave::new(config, Tables::new(8, 8, 8, 8)).unwrap();
+    s.handle_signals(ms(0), signals(true, true));
+    s.handle_rx(ms(1), &with_crc(vec![1, 3, 0, 0, 0, 1]));
+    s.handle_timeout(ms(20));
+    drain(&mut s);
+    s.handle_tx_done(ms(30));
+    assert!(
+        drain(&mut s).is_empty(),
+        "RTS stays on for the RTS-off time"
+    );
+    s.handle_signals(ms(40), signals(false, true));
+    assert_eq!(
+        drain(&mut s),
+        vec![
+            Out::Rts(false),
+            Out::Event(SlaveEvent::Error(status::DSR_CTS_OFF))
+        ]
+    );
+    s.handle_timeout(ms(60));
+    assert!(drain(&mut s).is_empty(), "RTS is already off");
+}
+
+#[test]
 fn s2_2_times_off_the_10_ms_grid_are_refused_naming_the_parameter() {
     let mut config = MasterConfig::default();
     config.line.auto_v24 = Some(AutoV24Times {
