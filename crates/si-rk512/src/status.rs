@@ -31,8 +31,8 @@
 //!
 //! | Case | si-rk512 reports (ET 200S link) | CP 341 row |
 //! |---|---|---|
-//! | the partner repeats fewer times than we wait for | 0809H (`[ET200S SI]` §2.13, Table 2-28) | 0815H "different numbers of transmission attempts" (`[CP 341 Diag]` §8.1, [T]) |
-//! | a received block longer than the maximum | 0850H (`[ET200S SI 2005]` Table 2-29) | 0816H "received frame longer than the allowed maximum" (`[CP 341 Diag]` §8.1, [T]) |
+//! | the partner repeats fewer times than we wait for | 0809H (`[ET200S SI]` §2.13, Table 2-28) | 0815H "different numbers of transmission attempts" (`[CP 341 Diag]` §8.1, `[T]`) |
+//! | a received block longer than the maximum | 0850H (`[ET200S SI 2005]` Table 2-29) | 0816H "received frame longer than the allowed maximum" (`[CP 341 Diag]` §8.1, `[T]`) |
 //!
 //! `[derived]` Passed on, not mapped: one link gives one event one number, whether RK 512 runs
 //! on it or not, so a program or a log that reads si-3964r's codes reads the same codes here,
@@ -45,11 +45,11 @@
 //! (the request's own address and length are refused with the FB codes 1E20/1E41 before a
 //! telegram exists) are left out of the catalog rather than listed unused. So are:
 //!
-//! - **0501H** "job aborted because the CP restarted" (`[CP 341 Diag]` §8.1, class 05H, [T]).
+//! - **0501H** "job aborted because the CP restarted" (`[CP 341 Diag]` §8.1, class 05H, `[T]`).
 //!   A station has no restart of its own under a running job: the engine starts once, and a
 //!   job ends only with its outcome, with R on its FB (1E0DH, as every si-core FB reports a
 //!   reset) or when the station is dropped (the async handle's `Stopped`).
-//! - **0815H** and **0816H** (`[CP 341 Diag]` §8.1, class 08H, [T]): the link reports these
+//! - **0815H** and **0816H** (`[CP 341 Diag]` §8.1, class 08H, `[T]`): the link reports these
 //!   cases as 0809H and 0850H ("Link codes under RK 512" above).
 
 use si_core::status::common;
