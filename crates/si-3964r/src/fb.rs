@@ -66,8 +66,8 @@ impl JobPort for Link {
     fn cancel_job(&mut self, _id: JobId) {}
 
     /// The oldest receive error first (one per call, [`Link::take_receive_error`]), else the
-    /// oldest block. The 0B01H warning with NDR
-    /// counts the block just taken (the buffer as it was when S_RCV was called).
+    /// oldest block. The 0B01H warning with NDR counts the block just taken (the buffer as it
+    /// was when S_RCV was called).
     fn take_received(&mut self, now: Instant, dest: &mut [u8]) -> Option<Reception> {
         let warning = JobPort::receive_warning(self);
         if let Some(status) = self.take_receive_error() {
