@@ -65,8 +65,9 @@ impl JobPort for Link {
     /// The block is still sent (§8.2); nothing to do.
     fn cancel_job(&mut self, _id: JobId) {}
 
-    /// A receive error first (taken once), else the oldest block. The 0B01H warning with NDR
-    /// counts the block just taken (the buffer as it was when S_RCV was called).
+    /// The oldest receive error first (one per call, [`Link::take_receive_error`]), else the
+    /// oldest block. The 0B01H warning with NDR counts the block just taken (the buffer as it
+    /// was when S_RCV was called).
     fn take_received(&mut self, now: Instant, dest: &mut [u8]) -> Option<Reception> {
         let warning = JobPort::receive_warning(self);
         if let Some(status) = self.take_receive_error() {
@@ -205,6 +206,30 @@ mod tests {
         assert_eq!((out.error, out.status), (true, status::IDLE_GARBAGE));
         let out = sim.with(b, |l, now| fb.call(l, now, true, false, &mut db));
         assert!(!out.error);
+    }
+
+    #[test]
+    fn receive_errors_wait_oldest_first_and_the_oldest_is_dropped_beyond_the_bound() {
+        use crate::link::RECEIVE_ERRORS;
+        use si_core::{Engine, Instant, LineError};
+        let line = SerialSettings::default();
+        let mut link = Link::new(Config::default(), line).unwrap();
+        // A corrupted character in idle is reported at once as 080CH; a BREAK as 080DH.
+        let mut raise = |parity_errors: usize| {
+            link.handle_line_error(Instant::ZERO, LineError::Break);
+            for _ in 0..parity_errors {
+                link.handle_line_error(Instant::ZERO, LineError::Parity);
+            }
+            std::iter::from_fn(|| link.take_receive_error()).collect::<Vec<_>>()
+        };
+        let mut full = vec![status::BREAK];
+        full.extend([status::TRANSMISSION_ERROR; RECEIVE_ERRORS - 1]);
+        assert_eq!(raise(RECEIVE_ERRORS - 1), full, "oldest first");
+        assert_eq!(
+            raise(RECEIVE_ERRORS),
+            vec![status::TRANSMISSION_ERROR; RECEIVE_ERRORS],
+            "the oldest (080DH) dropped"
+        );
     }
 
     #[test]

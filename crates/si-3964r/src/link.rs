@@ -46,7 +46,12 @@
 //!   the state table says, and then 0809H "the number of repetitions must be set to the same
 //!   value on both partners": a partner with as many attempts as we have repeats until *our*
 //!   count runs out, so one that stops earlier has fewer (the CP 440 names 0809 "block-repeat
-//!   wait time expired", cp341-event-classes.md). S_RCV shows the two in two calls.
+//!   wait time expired", cp341-event-classes.md). S_RCV shows the two in two calls: receive
+//!   errors wait in a queue, oldest first, one per call, at most [`RECEIVE_ERRORS`] of them
+//!   (the oldest is dropped beyond, as si-rk512 keeps its passive side's codes). `[derived]`
+//!   Table 2-28 (`[ET200S SI]` §2.13) gives the block's error and 0809H a row each, and S_RCV
+//!   shows one STATUS per call; the manual does not say how many codes wait, and a single slot
+//!   would hide every first error behind its 0809H.
 //! - **Character delay time ZVZ** is the longest *gap* between two characters (§5.8). A host
 //!   sees a character only when it is complete, so after a character completing at `t` the
 //!   next must complete by `t` + ZVZ + one character time; one microsecond later the gap was
@@ -91,6 +96,10 @@ use si_core::delivery::Delivery;
 pub use si_core::JobId;
 use si_core::{Duration, Engine, FramePool, Instant, LineError, Output, SerialSettings, Status};
 use std::collections::VecDeque;
+
+/// How many receive errors wait for S_RCV ([`Link::take_receive_error`]); the oldest is
+/// dropped beyond. Two are needed for a failed repetition (its first error, then 0809H).
+pub const RECEIVE_ERRORS: usize = 4;
 
 /// What the engine tells the application.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -231,7 +240,8 @@ pub struct Link {
     /// blocks it took, the allocation is reused.
     rx_pool: FramePool,
     last_outcome: Option<(JobId, Result<(), Status>)>,
-    last_receive_error: Option<Status>,
+    /// Receive errors not yet taken by S_RCV, oldest first (at most [`RECEIVE_ERRORS`]).
+    receive_errors: VecDeque<Status>,
     counters: Counters,
     /// How late the port hands bytes over: ZVZ and QVZ get its allowance.
     delivery: Delivery,
@@ -271,7 +281,7 @@ impl Link {
             tx_pool: FramePool::preallocated(2 * (2 * max + 3)),
             rx_pool: FramePool::preallocated(2 * max),
             last_outcome: None,
-            last_receive_error: None,
+            receive_errors: VecDeque::with_capacity(RECEIVE_ERRORS),
             counters: Counters::default(),
             delivery: Delivery::new(&settings),
         };
@@ -394,10 +404,12 @@ impl Link {
         self.received.len() * 3 > usize::from(self.config.receive_buffer_blocks) * 2
     }
 
-    /// The last receive error not yet taken (for the S_RCV equivalent; newer replace older, as
-    /// a PLC output would).
+    /// The oldest receive error not yet taken (for the S_RCV equivalent): one per call, so a
+    /// failed repetition shows its first error and then 0809H (module docs, "No repetition
+    /// within the 4 s block wait"). At most [`RECEIVE_ERRORS`] wait; the oldest is dropped
+    /// beyond.
     pub fn take_receive_error(&mut self) -> Option<Status> {
-        self.last_receive_error.take()
+        self.receive_errors.pop_front()
     }
 
     // --- sending -------------------------------------------------------------------------
@@ -593,7 +605,10 @@ impl Link {
     }
 
     fn receive_error(&mut self, status: Status) {
-        self.last_receive_error = Some(status);
+        if self.receive_errors.len() == RECEIVE_ERRORS {
+            self.receive_errors.pop_front();
+        }
+        self.receive_errors.push_back(status);
         self.out
             .push_back(Output::Event(Event::ReceiveError(status)));
     }

@@ -473,6 +473,28 @@ fn s5_5_no_repetition_within_the_block_wait_0808_then_0809() {
 }
 
 #[test]
+fn s5_5_s_rcv_shows_the_first_error_and_then_0809_in_two_calls() {
+    use si_3964r::fb::SRcv;
+    let (mut sim, a, p) = scripted(Config::default());
+    let mut bad = encode(b"abc", Mode::BlockCheck);
+    *bad.last_mut().unwrap() ^= 0x01;
+    partner_sends(&mut sim, p, &bad);
+    settle(&mut sim);
+    // S_RCV called only now, after both codes were raised (A-19: both are to be seen).
+    let mut s_rcv = SRcv::default();
+    let mut db = [0u8; 16];
+    let mut shown = Vec::new();
+    for _ in 0..4 {
+        let out = sim.with(a, |l, now| s_rcv.call(l, now, true, false, &mut db));
+        assert!(!out.ndr);
+        if out.error {
+            shown.push(out.status);
+        }
+    }
+    assert_eq!(shown, vec![BCC_ERROR, REPETITIONS_DIFFER]);
+}
+
+#[test]
 fn s5_5_bcc_error_on_every_repetition_gives_up_after_the_attempts_0808() {
     let (mut sim, a, p) = scripted(Config::default());
     let mut bad = encode(b"abc", Mode::BlockCheck);

@@ -1196,9 +1196,10 @@ impl Link {
                     step
                 });
                 match (step, &self.tx) {
-                    (Step::Abort, Tx::WaitCts { job, .. } | Tx::Sending { job, .. }) => {
-                        self.fail_send(now, *job, status::DSR_CTS_OFF)
-                    }
+                    (
+                        Step::Abort,
+                        Tx::WaitCts { job, .. } | Tx::Sending { job, .. } | Tx::RtsOff { job },
+                    ) => self.fail_send(now, *job, status::DSR_CTS_OFF),
                     (Step::Send, Tx::WaitCts { .. }) => {
                         let Tx::WaitCts { job, frame } = std::mem::replace(&mut self.tx, Tx::Idle)
                         else {

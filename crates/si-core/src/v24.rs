@@ -20,6 +20,10 @@
 //!   when the time ends. A fixed delay would make CTS meaningless whenever it is ON early.
 //! - **A send job while DSR = OFF** is aborted at once (ASCII §6.8: "a send job is aborted",
 //!   Modbus §2.2 item 7 for DSR dropping).
+//! - **DSR dropping during the RTS-off time** aborts the send job and drops RTS at once
+//!   (`[Modbus/USS]` §3.2.2 item 7, `[ET200S SI]` §2.8: "an active send job … aborted"). The
+//!   manuals end the send job only when RTS is OFF (step 3), so it is still active then
+//!   `[derived]`. CTS dropping in that time aborts nothing: the module "does not wait for CTS".
 //! - **Ranges** (0 … 655 350 ms in 10 ms steps, default 10 ms) are the ASCII driver's S_V24 block
 //!   (Table 2-26, block 22H); the Modbus manual gives none (its §11.3), so Modbus takes the same.
 //!
@@ -106,8 +110,9 @@ pub enum Step {
     Nothing,
     /// Transmit the job's data now.
     Send,
-    /// The send job is aborted: DSR = OFF, CTS not ON within the data output wait time, or CTS
-    /// dropped while sending. RTS is already OFF again.
+    /// The send job is aborted: DSR = OFF, CTS not ON within the data output wait time, CTS
+    /// dropped while sending, or DSR dropped at any time before RTS = OFF (the RTS-off time
+    /// included). RTS is already OFF again.
     Abort,
     /// RTS is OFF after the RTS-off time: the send job is done.
     Done,
@@ -206,7 +211,11 @@ impl AutoV24 {
         let dsr_dropped = self.inputs.dsr && !signals.dsr;
         self.inputs = signals;
         let step = match self.phase {
-            Phase::WaitCts { .. } | Phase::Sending if dsr_dropped => self.abort(out),
+            // The send job runs until RTS is OFF (step 3), so DSR dropping during the RTS-off
+            // time aborts it too ("an active send job", step 4): RTS goes OFF at once.
+            Phase::WaitCts { .. } | Phase::Sending | Phase::RtsOff { .. } if dsr_dropped => {
+                self.abort(out)
+            }
             Phase::WaitCts { .. } if signals.cts => {
                 self.phase = Phase::Sending;
                 Step::Send
@@ -359,6 +368,34 @@ mod tests {
         assert_eq!((step, dropped), (Step::Abort, true));
         assert!(!v.may_receive());
         assert_eq!(rts_changes(&mut out), vec![true, false]);
+    }
+
+    #[test]
+    fn dsr_dropping_during_the_rts_off_time_aborts_and_drops_rts_at_once() {
+        let mut v = AutoV24::new(AutoV24Times::default());
+        let mut out = Out::new();
+        v.on_signals(ready(), &mut out);
+        v.begin(at(0), &mut out);
+        assert_eq!(v.sent(at(5), &mut out), Step::Nothing);
+        let (step, dropped) = v.on_signals(ModemSignals::default(), &mut out);
+        assert_eq!((step, dropped), (Step::Abort, true));
+        assert_eq!(rts_changes(&mut out), vec![true, false]);
+        assert_eq!((v.phase(), v.deadline()), (Phase::Idle, None));
+    }
+
+    #[test]
+    fn cts_dropping_during_the_rts_off_time_does_not_abort() {
+        let mut v = AutoV24::new(AutoV24Times::default());
+        let mut out = Out::new();
+        v.on_signals(ready(), &mut out);
+        v.begin(at(0), &mut out);
+        v.sent(at(5), &mut out);
+        let only_dsr = ModemSignals {
+            dsr: true,
+            ..ModemSignals::default()
+        };
+        assert_eq!(v.on_signals(only_dsr, &mut out), (Step::Nothing, false));
+        assert_eq!(v.on_timeout(at(15), &mut out), Step::Done);
     }
 
     #[test]

@@ -24,9 +24,9 @@ si_core::status_codes! {
         source: "et200s-si-2005-window-protocol.md §2.8 (§2.12.7)",
     }
     pub const INVALID_FRAME_LENGTH = 0x050E {
-        meaning: "invalid frame length: send frame longer than the maximum (224 bytes) or empty",
+        meaning: "invalid frame length: send frame empty or longer than the module's maximum (224 bytes for the 2005 module's 3964(R)/ASCII, 200 for the ET 200S 1SI and in Modbus mode)",
         remedy: "use a shorter frame",
-        source: "et200s-si-2005-window-protocol.md §2.8, §6.1",
+        source: "[ET200S SI 2005] Table 2-29 (224 bytes); [ET200S SI] §2.12 and [Modbus/USS] §3.4.2 (LEN 1 … 200); the limit per module is HostConfig::max_frame_len",
     }
     pub const FLOW_CONTROL_MISMATCH = 0x0550 {
         meaning: "parameter job does not match the configured flow-control type",
@@ -73,6 +73,11 @@ mod tests {
         );
         assert_eq!(lookup(0x0B01), BUFFER_TWO_THIRDS_FULL);
         assert!(lookup(0x050E).info().is_some());
+        let text = lookup(0x050E).to_string();
+        assert!(
+            text.contains("224") && text.contains("200") && text.contains("Modbus"),
+            "{text}"
+        );
         assert!(lookup(0x4242).info().is_none());
     }
 }

@@ -661,12 +661,22 @@ impl Engine for Master {
         self.tick(now);
         let (gate, dsr_dropped) = self.tx.on_signals(signals, &mut self.out);
         self.on_gate(now, gate);
-        if dsr_dropped && self.rx.is_receiving() {
-            // §2.2 item 7: DSR ON → OFF aborts a reception (and with it the job).
+        if !dsr_dropped {
+            return;
+        }
+        // `[Modbus/USS]` §3.2.2 item 7: DSR ON → OFF aborts "an active send job and any active
+        // reception". A running job is aborted at once in every phase, not only while the
+        // request waits for CTS or is sent (the gate above) or a response is arriving: also
+        // during the RTS-off time, between the request's last byte and the response's first,
+        // and in a broadcast's turnaround delay. `[derived]` The master's job is one send job
+        // from S_SEND's start to its end (response or timeout), and nothing can be received
+        // while DSR = OFF (item 6), so waiting out the response time would only turn the
+        // abort into a later 0830H.
+        if self.rx.is_receiving() {
             self.rx.discard();
-            if matches!(self.state, State::Waiting { .. }) {
-                self.fail(status::DSR_CTS_OFF);
-            }
+        }
+        if self.job.is_some() {
+            self.fail(status::DSR_CTS_OFF);
         }
     }
 

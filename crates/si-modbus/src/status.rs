@@ -8,7 +8,7 @@
 //! # Codes of the manual's tables this driver never reports
 //!
 //! The catalogs hold the codes this crate raises (and the exception codes it decodes), so a
-//! code in them is a code a user can meet. Two codes of §7.3 are left out on purpose:
+//! code in them is a code a user can meet. These codes of the tables are left out on purpose:
 //!
 //! - **0806H** "character delay time exceeded between two characters". In Modbus RTU the
 //!   character delay time tZVZ *is* the end-of-frame gap (§3.5, Table 3-11: "character delay
@@ -22,6 +22,17 @@
 //! - **0812H** "characters received after the module set CTS = 0": the Modbus driver has no
 //!   receive flow control (§2.2 offers only the automatic V.24 signals, where RTS belongs to
 //!   sending), so it never holds a partner off.
+//! - **0E2EH** "error reading the interface parameter file; driver not ready" (`[Modbus/USS]`
+//!   §3.6, event class 0EH; `[ET200S SI 2005]` Tables 3-65 … 3-72). The module's firmware reads
+//!   its parameters from a file the configuration tool loads; here the parameters are a typed
+//!   [`MasterConfig`](crate::MasterConfig) or [`SlaveConfig`](crate::SlaveConfig) that
+//!   `Master::new`/`Slave::new` check field by field. There is no file to fail reading, and a
+//!   value out of range is refused with the code the manual gives for it (0E20H–0E23H) or an
+//!   error naming the parameter, range and value, so the driver is never "not ready".
+//! - **0201H** "no (valid) parameter assignment" (`[ET200S SI 2005]` Tables 3-65 … 3-72 only;
+//!   the Modbus/USS manual has no such row). An engine exists only once its parameters passed
+//!   the checks above, so no job can meet an unparameterized driver (a module still waiting
+//!   for its parameter record is a state of the module, outside this driver).
 //!
 //! 0E22H "invalid operating mode" is raised where the manual says: when the mode parameter has
 //! a value other than Normal or Interference suppression ([`crate::config::Mode::from_name`],

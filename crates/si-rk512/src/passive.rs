@@ -18,6 +18,9 @@
 //!   or command not served (060D), command/type pair (0604), CPU number (060A), coordination
 //!   flag (0609), length against the job limit (0608), data in the telegram (060B, 060C), the
 //!   area (0606 DB missing, 0607 start beyond the area, 0608 end beyond it), flag set (060F).
+//!   0611, "actual frame length and header length disagree" (`[CP 341 Diag]` §8.1), is
+//!   raised only for a telegram of more than 128 data bytes `[derived]`: the other
+//!   disagreements are 060B and 060C, which name them exactly ([`ServeError::FrameLength`]).
 //!   The whole job's range is checked on the first telegram, so a long job is refused before
 //!   any byte is written. The reaction carries the error number of
 //!   [`ServeError::error_number`] (`[inferred]`, see [`crate::refusal`]).

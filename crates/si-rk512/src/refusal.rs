@@ -63,6 +63,13 @@ pub enum ServeError {
     /// 0610: shorter than a header.
     TooShort,
     /// 0611: more than 128 data bytes in one telegram.
+    ///
+    /// `[CP 341 Diag]` §8.1 row 0611 reads "actual frame length and header length disagree".
+    /// `[derived]` The narrower reading: a SEND telegram whose data disagree with its header's
+    /// length is 060B ([`ServeError::DataAmount`]) and a FETCH command with data 060C
+    /// ([`ServeError::FetchWithData`]), rows of their own; 0611 is left with the telegram no
+    /// header can announce, one with more than 128 data bytes (`[CP 341]` §2.2.3, at most 128 per
+    /// telegram).
     FrameLength,
 }
 

@@ -23,11 +23,34 @@
 //! 0612 ([`Event::ServeAborted`](crate::Event)); the request FBs show the two codes in two
 //! successive calls ([`crate::fb`]), and S_RCV hands over both, in that order.
 //!
+//! # Link codes under RK 512
+//!
+//! The 3964(R) link underneath is si-3964r's, the ET 200S SI's procedure, and its codes pass
+//! through unchanged (as [`Event::ProcedureError`](crate::Event), [`Event::ReceiveError`](crate::Event)
+//! and S_RCV). Two of them have a different number in the CP 341's table:
+//!
+//! | Case | si-rk512 reports (ET 200S link) | CP 341 row |
+//! |---|---|---|
+//! | the partner repeats fewer times than we wait for | 0809H (`[ET200S SI]` §2.13, Table 2-28) | 0815H "different numbers of transmission attempts" (`[CP 341 Diag]` §8.1, `[T]`) |
+//! | a received block longer than the maximum | 0850H (`[ET200S SI 2005]` Table 2-29) | 0816H "received frame longer than the allowed maximum" (`[CP 341 Diag]` §8.1, `[T]`) |
+//!
+//! `[derived]` Passed on, not mapped: one link gives one event one number, whether RK 512 runs
+//! on it or not, so a program or a log that reads si-3964r's codes reads the same codes here,
+//! and [`CATALOGS`] carries their texts. The two rows describe the same cases, so no
+//! information is lost.
+//!
 //! # Codes of the tables this crate never raises
 //!
 //! 0904 ("request type not allowed": no reaction byte of §2.1 leads to it), 0514 and 0517
 //! (the request's own address and length are refused with the FB codes 1E20/1E41 before a
-//! telegram exists) are left out of the catalog rather than listed unused.
+//! telegram exists) are left out of the catalog rather than listed unused. So are:
+//!
+//! - **0501H** "job aborted because the CP restarted" (`[CP 341 Diag]` §8.1, class 05H, `[T]`).
+//!   A station has no restart of its own under a running job: the engine starts once, and a
+//!   job ends only with its outcome, with R on its FB (1E0DH, as every si-core FB reports a
+//!   reset) or when the station is dropped (the async handle's `Stopped`).
+//! - **0815H** and **0816H** (`[CP 341 Diag]` §8.1, class 08H, `[T]`): the link reports these
+//!   cases as 0809H and 0850H ("Link codes under RK 512" above).
 
 use si_core::status::common;
 use si_core::Status;
@@ -133,7 +156,7 @@ si_core::status_codes! {
     pub const FRAME_LENGTH = 0x0611 {
         meaning: "partner's telegram longer than any RK 512 telegram may be (more than 128 data bytes)",
         remedy: "the partner must split jobs into telegrams of 128 data bytes",
-        source: "cp341-event-classes.md §1 class 06H, row 0611 [M,T]",
+        source: "[CP 341 Diag] §8.1 class 06H, row 0611 [M,T] \"actual frame length and header length disagree\"; raised only for more than 128 data bytes [derived]: the other disagreements have rows of their own, 060B (SEND data) and 060C (FETCH with data)",
     }
     pub const REACTION_NOT_SENT = 0x0612 {
         meaning: "sending our reaction telegram failed; the 3964(R) error was reported just before",
@@ -336,6 +359,18 @@ mod tests {
             "16#0909 target DB/DX locked at the partner by a coordination flag"
         );
         assert_eq!(lookup(0x0703), si_3964r::status::SETUP_TIMEOUT);
+    }
+
+    #[test]
+    fn link_codes_pass_through_and_the_never_raised_codes_have_no_text() {
+        assert_eq!(lookup(0x0809), si_3964r::status::REPETITIONS_DIFFER);
+        assert_eq!(lookup(0x0850), si_3964r::status::BLOCK_TOO_LONG);
+        for code in [0x0501, 0x0815, 0x0816] {
+            assert!(
+                CATALOGS.iter().all(|c| c.iter().all(|s| s.code() != code)),
+                "{code:04X} is listed as never raised"
+            );
+        }
     }
 
     #[test]

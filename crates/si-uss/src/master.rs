@@ -242,8 +242,9 @@ pub enum RequestError {
     /// A PKW job for this node is still running (one job per slave, et200s-si-modbus-uss.md §6.3).
     #[error("a PKW job for node {0} is still in progress")]
     Busy(u8),
-    /// The task is invalid (status bit 3): 15, 4 with index 255, a double word in a 3-word PKW
-    /// area, or an unknown task ID.
+    /// The task is invalid (status bit 3): 15, 4 with index 255 (the manual's two), and, as
+    /// this crate reads it (`[derived]`), the reserved ID 10, an ID above 15, or a double word
+    /// in a 3-word PKW area.
     #[error("invalid PKW task {task} for node {address}")]
     InvalidTask {
         /// The node.
@@ -1225,6 +1226,10 @@ fn judge(request: &Pkw, reply: &Pkw) -> Verdict {
 /// Lay a request out in a PKW area of `words`; `None` if the task is invalid there
 /// (et200s-si-modbus-uss.md §6.7 status bit 3).
 fn build_request(words: PkwWords, r: &ParamRequest) -> Option<Pkw> {
+    // `[Modbus/USS]` §3.7.7, comm status word bit 3, names two invalid request IDs: 15, and 4
+    // with index 255. `[derived]` 10 is refused too: the USS task-ID table reserves it
+    // (`[USS]`, `[MM420]`), so no drive serves it, and a refusal here says so at once instead
+    // of a drive's error response. Above 15 the ID does not fit PKE's four bits.
     if r.task > 15 || r.task == task::TEXT || r.task == 10 {
         return None;
     }

@@ -66,9 +66,9 @@ si_core::status_codes! {
         source: "et200s-si-modbus-uss.md §6.7, comm status word bit 2; public-facts.md §3",
     }
     pub const PKW_INVALID_TASK = 0x1504 {
-        meaning: "invalid PKW task ID: 15, 4 with index 255, or a task the PKW area cannot carry (comm status bit 3)",
+        meaning: "invalid PKW task ID: 15, or 4 with index 255; also (a reading of this crate) the reserved ID 10, or a task the PKW area cannot carry (comm status bit 3)",
         remedy: "use a valid task ID",
-        source: "et200s-si-modbus-uss.md §6.7, comm status word bit 3",
+        source: "[Modbus/USS] §3.7.7, comm status word bit 3 (15; 4 with index 255); ID 10 and the PKW-area case [derived]: 10 is reserved in the USS task-ID table ([USS], [MM420])",
     }
     pub const PKW_INTERFACE_ERROR = 0x1505 {
         meaning: "PKW interface error: response ID 8 (no master control / no PKW rights), or answers that never matched the job within the permitted repetitions (comm status bit 4)",

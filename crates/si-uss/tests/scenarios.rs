@@ -332,6 +332,41 @@ fn s6_7_invalid_task_sets_status_bit_3_and_is_refused() {
     assert!(r.is_err());
 }
 
+/// The manual's invalid request IDs (15; 4 with index 255) and the reserved ID 10, refused
+/// here as a `[derived]` reading (the USS task-ID table reserves it): each sets status bit 3
+/// and reports 1504H; task 9, its neighbour, is accepted.
+#[test]
+fn s6_7_task_ids_15_and_reserved_10_are_refused_with_1504() {
+    let (mut sim, m, _) = pair(s9600());
+    for task in [frame::task::TEXT, 10] {
+        let r = sim.with(m, |m, now| {
+            m.request_parameter(
+                now,
+                1,
+                ParamRequest {
+                    task,
+                    ..ParamRequest::read(700, 0)
+                },
+            )
+        });
+        let e = r.unwrap_err();
+        assert_eq!(e.status(), status::PKW_INVALID_TASK, "task {task}");
+        let cs = sim.engine(m).slave(1).unwrap().comm_status;
+        assert_ne!(cs & comm_status::PKW_INVALID, 0, "task {task}");
+    }
+    let r = sim.with(m, |m, now| {
+        m.request_parameter(
+            now,
+            1,
+            ParamRequest {
+                task: frame::task::READ_ARRAY_LEN,
+                ..ParamRequest::read(700, 0)
+            },
+        )
+    });
+    assert!(r.is_ok());
+}
+
 #[test]
 fn s6_8_wdh_repetitions_exceeded_is_a_pkw_interface_error() {
     let settings = s9600();

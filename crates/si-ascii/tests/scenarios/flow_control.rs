@@ -530,6 +530,48 @@ fn s6_8_automatic_v24_cts_dropping_during_the_send_is_0818() {
 }
 
 #[test]
+fn s6_8_automatic_v24_dsr_dropping_during_the_rts_off_time_is_0818() {
+    let mut b = Bench::with_partner(auto_v24(), Partner::modem());
+    b.sim.with(b.partner, |p, _| {
+        p.set(SignalUpdate {
+            dtr: Some(true),
+            rts: None,
+        })
+    });
+    let job = b
+        .sim
+        .with(b.link, |l, now| l.send(now, "data\x03".into()))
+        .unwrap();
+    // Until the last byte has reached the partner: the RTS-off time (10 ms) is running.
+    for _ in 0..100 {
+        if b.sim.engine(b.partner).bytes().len() == 5 {
+            break;
+        }
+        b.sim.run_for(Duration::from_micros(100));
+    }
+    assert_eq!(b.sim.engine(b.partner).bytes(), b"data\x03");
+    assert!(b.sim.engine(b.link).signals().rts, "RTS still on");
+    let dropped_at = b.sim.now();
+    b.sim.with(b.partner, |p, _| {
+        p.set(SignalUpdate {
+            dtr: Some(false),
+            rts: None,
+        })
+    });
+    b.run_for_ms(100);
+    assert_eq!(
+        b.events(),
+        vec![Event::SendFailed {
+            job,
+            status: status::DSR_CTS_OFF,
+            at: dropped_at
+        }],
+        "the send job is done only once RTS is off, so DSR dropping aborts it"
+    );
+    assert!(!b.sim.engine(b.link).signals().rts);
+}
+
+#[test]
 fn s6_8_automatic_v24_dsr_dropping_aborts_the_reception_with_0818() {
     let mut b = Bench::new(auto_v24());
     b.sim.with(b.partner, |p, _| {

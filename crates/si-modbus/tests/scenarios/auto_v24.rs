@@ -176,6 +176,73 @@ fn s2_2_dsr_dropping_aborts_the_reception_of_a_response() {
     assert!(drain(&mut m).is_empty());
 }
 
+/// A master whose request has left the line at 10 ms with DSR and CTS on: RTS drops at 30 ms
+/// (the RTS-off time, 20 ms), and the response time runs to 1 010 ms.
+fn master_after_tx_done() -> Master {
+    let mut m = master();
+    m.handle_signals(ms(0), signals(true, true));
+    m.request(ms(0), 1, &READ).unwrap();
+    m.handle_tx_done(ms(10));
+    drain(&mut m);
+    m
+}
+
+const ABORTED: MasterEvent = MasterEvent::Failed {
+    unit: 1,
+    function: 3,
+    status: status::DSR_CTS_OFF,
+};
+
+#[test]
+fn s2_2_dsr_dropping_during_the_rts_off_time_aborts_the_job_at_once_with_0818() {
+    let mut m = master_after_tx_done();
+    m.handle_signals(ms(20), signals(false, true));
+    assert_eq!(
+        drain(&mut m),
+        vec![Out::Rts(false), Out::Event(ABORTED)],
+        "the send job is not done before RTS is off: DSR dropping aborts it (item 7)"
+    );
+    assert!(!m.is_busy());
+    m.handle_timeout(ms(2_000));
+    assert!(drain(&mut m).is_empty(), "no 0830H after the response time");
+}
+
+#[test]
+fn s2_2_dsr_dropping_before_the_first_answer_byte_aborts_the_job_at_once_with_0818() {
+    let mut m = master_after_tx_done();
+    m.handle_timeout(ms(30));
+    assert_eq!(drain(&mut m), vec![Out::Rts(false)]);
+    m.handle_signals(ms(40), signals(false, true));
+    assert_eq!(drain(&mut m), vec![Out::Event(ABORTED)]);
+    assert!(!m.is_busy());
+    m.handle_timeout(ms(2_000));
+    assert!(drain(&mut m).is_empty(), "no 0830H after the response time");
+}
+
+#[test]
+fn s2_2_dsr_dropping_after_a_broadcast_aborts_it_during_the_turnaround_delay() {
+    let mut m = master();
+    m.handle_signals(ms(0), signals(true, true));
+    let write = Request::WriteSingleRegister {
+        address: 0,
+        value: 1,
+    };
+    m.request(ms(0), 0, &write).unwrap();
+    m.handle_tx_done(ms(10));
+    m.handle_timeout(ms(30));
+    drain(&mut m);
+    assert!(m.is_busy(), "the turnaround delay is still running");
+    m.handle_signals(ms(40), signals(false, true));
+    assert_eq!(
+        drain(&mut m),
+        vec![Out::Event(MasterEvent::Failed {
+            unit: 0,
+            function: 6,
+            status: status::DSR_CTS_OFF
+        })]
+    );
+}
+
 #[test]
 fn s2_2_slave_holds_its_response_for_cts_and_ignores_requests_while_dsr_is_off() {
     let config = SlaveConfig {
@@ -231,6 +298,34 @@ fn s2_2_slave_reports_0818_when_cts_never_comes() {
             Out::Event(SlaveEvent::Error(status::DSR_CTS_OFF))
         ]
     );
+}
+
+#[test]
+fn s2_2_slave_dsr_dropping_during_the_rts_off_time_aborts_its_response_with_0818() {
+    let config = SlaveConfig {
+        line: line(),
+        address: 1,
+    };
+    let mut s = Slave::new(config, Tables::new(8, 8, 8, 8)).unwrap();
+    s.handle_signals(ms(0), signals(true, true));
+    s.handle_rx(ms(1), &with_crc(vec![1, 3, 0, 0, 0, 1]));
+    s.handle_timeout(ms(20));
+    drain(&mut s);
+    s.handle_tx_done(ms(30));
+    assert!(
+        drain(&mut s).is_empty(),
+        "RTS stays on for the RTS-off time"
+    );
+    s.handle_signals(ms(40), signals(false, true));
+    assert_eq!(
+        drain(&mut s),
+        vec![
+            Out::Rts(false),
+            Out::Event(SlaveEvent::Error(status::DSR_CTS_OFF))
+        ]
+    );
+    s.handle_timeout(ms(60));
+    assert!(drain(&mut s).is_empty(), "RTS is already off");
 }
 
 #[test]

@@ -373,3 +373,31 @@ fn reaction_without_a_job_is_0a01() {
         None::<Result<Bytes, Status>>
     );
 }
+
+/// Class 06H row 0611, "actual frame length and header length disagree", read narrowly
+/// (`[derived]`, see `ServeError::FrameLength`): a SEND telegram whose data disagree with its
+/// header's length is 060B, a FETCH command with data 060C, and only a telegram with more
+/// data than any header can announce in one telegram (over 128 bytes) is 0611.
+#[test]
+fn passive_0611_only_beyond_128_data_bytes_other_length_disagreements_060b_060c() {
+    let mut s = scripted(303);
+    let send = |words: u8, data: usize| {
+        let mut t = vec![0, 0, b'A', b'D', 10, 0, 0, words, 0xFF, 0xFF];
+        t.extend(std::iter::repeat_n(5u8, data));
+        t
+    };
+    // 100 words = 200 bytes: the first telegram must carry 128.
+    assert_eq!(s.exchange(&send(100, 127)), [0, 0, 0, 0x34]);
+    assert_eq!(s.exchange(&send(1, 3)), [0, 0, 0, 0x34]);
+    assert_eq!(s.exchange(&send(1, 1)), [0, 0, 0, 0x34]);
+    assert_eq!(
+        s.exchange(&[0, 0, b'E', b'D', 10, 0, 0, 1, 0xFF, 0xFF, 1, 2]),
+        [0, 0, 0, 0x34]
+    );
+    assert_eq!(s.exchange(&send(1, 129)), [0, 0, 0, 0x34]);
+    assert_eq!(s.exchange(&send(100, 129)), [0, 0, 0, 0x34]);
+    assert_eq!(
+        refusals(&mut s),
+        vec![0x060B, 0x060B, 0x060B, 0x060C, 0x0611, 0x0611]
+    );
+}
