@@ -1,10 +1,10 @@
 //! Why the passive side refused a partner's telegram: one class 06H STATUS each
-//! (cp341-event-classes.md §1 class 06H), and the error number its reaction carries.
+//! ([CP 341 Diag] class 06H), and the error number its reaction carries.
 //!
 //! # The error number sent for each 06xx: **`[inferred]`**
 //!
 //! No source says which byte 4 the CP 341 sends when it finds a 06xx error as responder
-//! (cp341-event-classes.md §2.1, last paragraph). The numbers here are the symmetric choice that
+//! ([CP 341 Diag] `[derived]`, last paragraph). The numbers here are the symmetric choice that
 //! paragraph suggests, so a requester built to §2.1 reads back the matching 09xx:
 //!
 //! | 06xx | byte 4 | the requester reads |
