@@ -48,8 +48,8 @@ pub struct HostConfig {
     pub job_timeout: Option<Duration>,
     /// The STATUS a job ends with when its watchdog expires. The manual has no such code; the
     /// default 0502H ("job not possible in the module's current mode") names the likely cause: a
-    /// module that is not in RUN or not parameterized does not process jobs ([ET200S SI 2005] §3.8 of
-    /// [Modbus/USS]).
+    /// module that is not in RUN or not parameterized does not process jobs
+    /// ([Modbus/USS] §3.8.2).
     pub watchdog_status: Status,
     /// Jobs waiting for the arbiter, 1 … 1024; default 16. Further submissions are refused.
     pub queue_capacity: usize,

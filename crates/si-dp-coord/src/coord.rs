@@ -7,7 +7,7 @@
 //!       | res |  job code   | error | exec number |
 //! ```
 //!
-//! The layout is the same in both directions. The Russian extraction proves the field order
+//! The layout is the same in both directions. The Russian manual's examples prove the field order
 //! from the example bytes 51H/52H/53H/73H ([ET200S SI] §2.12, Table 2-20).
 
 use core::fmt;

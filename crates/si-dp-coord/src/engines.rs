@@ -58,7 +58,7 @@ fn r3964r_send(link: &mut si_3964r::Link, now: Instant, frame: &[u8]) -> Result<
     r3964r_send_bytes(link, now, Bytes::copy_from_slice(frame))
 }
 
-/// The link keeps the frame for its repetitions ([ET200S SI 2005] §2.10, Table 2-14) until the job ends.
+/// The link keeps the frame for its repetitions ([ET200S SI] §2.7) until the job ends.
 fn r3964r_send_bytes(link: &mut si_3964r::Link, now: Instant, frame: Bytes) -> Result<(), Status> {
     link.send(now, frame)
         .map(|_| ())

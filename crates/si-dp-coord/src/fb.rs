@@ -127,7 +127,7 @@ pub struct V24State {
     pub signals: V24Signals,
 }
 
-/// FB4 S_VSTAT: reads the V.24 signals with a read V.24 job ([ET200S SI 2005] §2.10).
+/// FB4 S_VSTAT: reads the V.24 signals with a read V.24 job ([ET200S SI 2005] §2.10, Table 2-19).
 #[derive(Debug, Default)]
 pub struct SVstat {
     t: JobRequest,
@@ -150,7 +150,7 @@ impl SVstat {
     }
 }
 
-/// FB5 S_VSET: sets RTS and DTR with a write V.24 job ([ET200S SI 2005] §2.10).
+/// FB5 S_VSET: sets RTS and DTR with a write V.24 job ([ET200S SI 2005] §2.10, Table 2-20).
 #[derive(Debug, Default)]
 pub struct SVset {
     t: JobRequest,
@@ -172,7 +172,7 @@ fn ten_ms(time: Duration, min_ms: u64) -> Result<u16, Status> {
     u16::try_from(ms / 10).map_err(|_| PARAMETER_OUT_OF_RANGE)
 }
 
-/// FB6 S_XON: XON/XOFF parameters, block 20H ([ET200S SI 2005] §2.10).
+/// FB6 S_XON: XON/XOFF parameters, block 20H ([ET200S SI 2005] §2.10, Table 2-16).
 #[derive(Debug, Default)]
 pub struct SXon {
     t: JobRequest,
@@ -199,7 +199,7 @@ impl SXon {
     }
 }
 
-/// FB7 S_RTS: RTS/CTS parameters, block 21H ([ET200S SI 2005] §2.10).
+/// FB7 S_RTS: RTS/CTS parameters, block 21H ([ET200S SI 2005] §2.10, Table 2-17).
 #[derive(Debug, Default)]
 pub struct SRts {
     t: JobRequest,
@@ -216,7 +216,7 @@ impl SRts {
     }
 }
 
-/// FB8 S_V24: automatic V.24 control parameters, block 22H ([ET200S SI 2005] §2.10).
+/// FB8 S_V24: automatic V.24 control parameters, block 22H ([ET200S SI 2005] §2.10, Table 2-18).
 #[derive(Debug, Default)]
 pub struct SV24 {
     t: JobRequest,

@@ -170,8 +170,8 @@ impl fmt::Debug for Window {
     }
 }
 
-/// The payload stream of a send job: `[LEN_hi][LEN_lo][data …]` ([ET200S SI 2005] §2.12.2–§2.12.6 `[derived]`, reading H1 of
-/// [ET200S SI] §2.12, Tables 2-22 to 2-25 `[derived]`, confirmed by the 2005 extraction's Table 2-23 with
+/// The payload stream of a send job: `[LEN_hi][LEN_lo][data …]` ([ET200S SI 2005] §2.12.2–§2.12.6 `[derived]`, the most likely reading of
+/// [ET200S SI] §2.12, Tables 2-22 to 2-25 `[derived]`, confirmed by the 2005 manual's Table 2-23 with
 /// `11 00 16 'a'…`). Writes into `out` (cleared first) so the caller can reuse its buffer.
 pub fn send_stream(data: &[u8], out: &mut Vec<u8>) {
     out.clear();

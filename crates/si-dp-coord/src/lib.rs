@@ -24,7 +24,7 @@
 //! * [`engines`]: si-3964r's and si-ascii's links as that serial side, so a simulated module runs
 //!   3964(R) or ASCII on its line.
 //! * [`modbus`]: si-modbus's master as that serial side: the module in Modbus master mode, the
-//!   S_SEND job layout ([Modbus/USS] §3.4.5–§3.4.16) in, the S_RCV response layout ([ET200S SI 2005] §2.8.5) or
+//!   S_SEND job layout ([Modbus/USS] §3.4.5–§3.4.16) in, the S_RCV response layout ([Modbus/USS] §3.4.5–§3.4.16) or
 //!   the job's STATUS out.
 //! * [`sim`]: a host and a module joined by a seeded, lagging, fault-injecting DP exchange.
 //! * [`monitor`]: reads a recorded trace of DP windows window by window, coordination bytes
@@ -48,7 +48,7 @@
 //!
 //! | Gap | Reading | Configurable |
 //! |---|---|---|
-//! | Table 2-23 data shifted | the extraction's reconstruction (hold each segment until echoed) | — |
+//! | Table 2-23 data shifted | our reconstruction `[derived]` (hold each segment until echoed) | — |
 //! | receive request printed 10H | 20H | — |
 //! | XON/XOFF 0BH/0DH in Table 2-28 | defaults DC1/DC3 = 11H/13H; any byte may be sent | values |
 //! | "LSB" label on the 00H byte | MSB first, as every 16-bit word ([ET200S SI 2005] §2.12.1) | — |

@@ -19,12 +19,12 @@
 //!   ended, after the response or the response time (default 2 s); the window's own rule that
 //!   7xH follows the transmission ([ET200S SI 2005] §2.12.1–§2.12.7 `[derived]`) is kept in the sense that the job's "transmission" is
 //!   the whole request–response exchange ([Modbus/USS] §3.4.2: S_SEND DONE with S_RCV NDR).
-//! * **Refused jobs** (a source area breaking [ET200S SI 2005] §2.8.3, Table 2-8: 0E40H–0E4AH, 1E41H) end the send job at once
+//! * **Refused jobs** (a source area breaking [Modbus/USS] §3.4.5–§3.4.16: 0E40H–0E4AH, 1E41H) end the send job at once
 //!   with 7xH + that STATUS and reach neither the line nor the receive buffer.
 //! * **Frame limit 200 bytes** both ways ([Modbus/USS] §3.4.2 LEN 1…200, 050EH; `[derived]`): a longer send job is
 //!   refused with 050EH by the window module itself, and a response whose S_RCV layout is longer
-//!   than 200 bytes (FC03/04 above 100 registers, FC01/02 above 1600 bits, [ET200S SI 2005] §2.8.5) is never cut:
-//!   si-modbus's job check may refuse such a read before the line (050EH, its reading of [ET200S SI 2005] §2.8.5);
+//!   than 200 bytes (FC03/04 above 100 registers, FC01/02 above 1600 bits, [Modbus/USS] §3.4.5–§3.4.16) is never cut:
+//!   si-modbus's job check may refuse such a read before the line (050EH, its reading of [Modbus/USS] §3.4.5–§3.4.16);
 //!   a longer response that still arrives is refused by the window module, and the receive job
 //!   gets 20H + 0850H.
 //! * The module's receive buffer holds the responses; the master runs one job at a time, and a

@@ -16,7 +16,7 @@
 //!   turnaround), and S_RCV NDR at the same time with the data.
 //! - FC15 source data are sent in S7 memory order (DBB6, DBB7, …), as the Modbus/USS manual
 //!   §3.4.15 says; the 2005 manual's example comment suggests the opposite byte order in each
-//!   word ([Modbus/USS] §3.6 there), which we do not follow.
+//!   word ([ET200S SI 2005] §3.5.5–§3.5.16), which we do not follow.
 //! - FC01/02 responses are stored word by word with the first received byte in the **low**
 //!   byte of `data[1]` (S7 offset +1), as [Modbus/USS] §3.4.5–§3.4.16 says literally and its examples show
 //!   (W#16#1701 for 01, 17). So reading coils and writing the same DB back with FC15 swaps byte
@@ -571,7 +571,7 @@ mod tests {
         si_core::hex::parse(s).unwrap()
     }
 
-    /// [Modbus/USS] §3.4.5–§3.4.16 job examples of the 2005 manual (§3.6 there) and every refusal code.
+    /// [Modbus/USS] §3.4.5–§3.4.16 job examples of the 2005 manual ([ET200S SI 2005] §3.5.5–§3.5.16) and every refusal code.
     #[test]
     fn send_area_jobs_and_their_refusals() {
         let j1 = hex("05 01 00 40 00 10");

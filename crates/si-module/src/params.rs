@@ -103,7 +103,7 @@
 //! - **Modbus parity.** none/odd/even as in the parameter tables; "any" of the technical data
 //!   (`[derived]`) is refused.
 //! - **USS interface.** Table 3-78 offers RS-232C and RS-485 (default RS-485); Table 3-1 says
-//!   RS-485 only (`[derived]`). We follow the parameter table. USS runs 8E1 ([USS spec]); the
+//!   RS-485 only (`[derived]`). We follow the parameter table. USS runs 8E1 ([USS spec] §6.1); the
 //!   tables have no data-bit, parity or stop-bit parameter, so the file has none.
 //! - **Maximum frame length of the simulated module**: the line engines' limits (ASCII 200
 //!   bytes, 3964(R) its `max_block_len`, default 200), and 200 for the Modbus/USS module (`[derived]`).
@@ -318,7 +318,7 @@ pub struct UssMasterParams {
 
 impl Default for UssMasterParams {
     /// One drive, node 1, PKW 4 words and PZD 2 words (the common fixed-length telegram,
-    /// [USS spec]).
+    /// [SINAMICS CU240S] p. 178).
     fn default() -> Self {
         UssMasterParams {
             diagnostic_interrupt: false,

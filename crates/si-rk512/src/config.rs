@@ -18,7 +18,7 @@
 //!   prose's 10 s, which is never shorter than the flowchart values; it is a setting
 //!   (10 … 655 350 ms, the 3964(R) timer range) for partners that expect the shorter values.
 //!   TRES runs from the partner's `DLE` for our telegram, so 3964(R) repetitions do not eat it.
-//! - **Job length ([CP 341] §2.2.3).** The seed gives no maximum. A job is limited to
+//! - **Job length ([CP 341] §2.2.3).** The manual gives no maximum. A job is limited to
 //!   [`Config::max_job_len`] bytes (default 1024, the S7 point-to-point block limit of
 //!   [CP 440], [Public 3964R]; at most 65 534, what fits the header's 16-bit length without
 //!   overflowing a host buffer needlessly).

@@ -4,7 +4,7 @@
 //! exactly one call. The [`Station`] is a [`JobPort`] whose jobs are [`Rk512Job`]s; both FBs
 //! run on si-core's [`JobRequest`], the core every job-starting FB shares.
 //!
-//! The seed has no parameter list for P_SND_RK ([CP 341] §2.2.3); the inputs here are the job's header
+//! The manual's chapter 2 has no parameter list for P_SND_RK; the inputs here are the job's header
 //! fields (address, coordination flag, length) and the outputs the usual DONE, ERROR, STATUS.
 //!
 //! - **R** cancels the running job at once ([`Station::cancel`]): the FB shows ERROR with

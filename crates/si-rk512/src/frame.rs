@@ -30,7 +30,7 @@
 //! - **FETCH carries no data (`[derived]`).** The examples (Fig. 2-15, 2-16) show a header only, so a
 //!   FETCH command is exactly 10 (or 4) bytes.
 //! - **Bytes 5–6.** For `'D'`/`'X'` they are DB number and DW number (Fig. 2-13: `0A 01` =
-//!   DB10, DW1); for the other types the seed says only "address part 1 / part 2", read here
+//!   DB10, DW1); for the other types the manual says only "address part 1 / part 2", read here
 //!   as one 16-bit big-endian start address (byte number for E/A/M, element number for T/Z),
 //!   as in the public RK 512 headers ([Public RK 512]). How a DW number becomes a byte
 //!   offset is a setting of the passive side ([`crate::config::DwUnit`]).

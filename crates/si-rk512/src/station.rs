@@ -125,7 +125,7 @@ pub enum Event {
     /// (060E), or our reaction could not be delivered (0612, after [`Event::ProcedureError`]).
     ServeAborted(Status),
     /// The 3964(R) link gave up on one of our telegrams (class 07H, the *first* error seen,
-    /// [CP 341] §2.2.1 of [CP 341 Diag]). The next event says what it cost: [`Event::Failed`] with
+    /// [CP 341 Diag], chained reports). The next event says what it cost: [`Event::Failed`] with
     /// 051A for a command telegram, [`Event::ServeAborted`] with 0612 for a reaction.
     ProcedureError(Status),
     /// The link reported a receive error (class 08H), or a reaction arrived that no job waits

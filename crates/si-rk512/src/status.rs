@@ -48,7 +48,7 @@ si_core::status_codes! {
     pub const COMMAND_NOT_SENT = 0x051A {
         meaning: "sending the command telegram failed; the 3964(R) error was reported just before",
         remedy: "look at the 07xxH code reported before this one; check line and partner",
-        source: "[CP 341 Diag] class 05H, row 051A [T]; [CP 341] §2.2.1 chained reports",
+        source: "[CP 341 Diag] class 05H, row 051A [T]; [CP 341 Diag] chained reports",
     }
     pub const HEADER_ID = 0x0601 {
         meaning: "partner's telegram: header byte 1 is neither 00H nor FFH",
@@ -138,7 +138,7 @@ si_core::status_codes! {
     pub const REACTION_NOT_SENT = 0x0612 {
         meaning: "sending our reaction telegram failed; the 3964(R) error was reported just before",
         remedy: "look at the 07xxH code reported before this one; the partner repeats its job",
-        source: "[CP 341 Diag] class 06H, row 0612 [M,T]; [CP 341] §2.2.1 chained reports",
+        source: "[CP 341 Diag] class 06H, row 0612 [M,T]; [CP 341 Diag] chained reports",
     }
     pub const PARTNER_NO_AREA = 0x0902 {
         meaning: "the partner reports that the memory area does not exist or may not be accessed",

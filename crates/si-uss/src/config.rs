@@ -5,9 +5,9 @@
 //!   priority, with the same structure each time.
 //! - WDH, permitted PKW repetitions 0…32 767 ([Modbus/USS] §3.7.6, Table 3-31, §3.7.8).
 //! - Baud rates: the module offers 110…38 400 ([Modbus/USS] §3.9) or 110…115 200 ([ET200S SI 2005]
-//!   [ET200S SI 2005] §3.8.10, Table 3-78); a host also meets drives at 187 500 bit/s ([USS spec] start-interval
+//!   [ET200S SI 2005] §3.8.10, Table 3-78); a host also meets drives at 187 500 bit/s ([USS spec] §5.1.2 start-interval
 //!   table), so [`USS_BAUD_RATES`] is the twelve manual rates plus 187 500.
-//! - Timing ([USS spec]): start interval 2 character times, response delay ≤ 20 ms,
+//! - Timing ([USS spec] §5.1.2, §5.2.1): start interval 2 character times, response delay ≤ 20 ms,
 //!   residual run time 1.5 × (n + 3) character times.
 
 use crate::frame::{PkwWords, MAX_ADDRESS, MAX_NET, MAX_PZD_WORDS};
@@ -19,7 +19,7 @@ pub const USS_BAUD_RATES: [u32; 13] = [
     110, 300, 600, 1_200, 2_400, 4_800, 9_600, 19_200, 38_400, 57_600, 76_800, 115_200, 187_500,
 ];
 
-/// USS character format: 8 data bits, even parity, 1 stop bit ([USS spec], 11 bits a
+/// USS character format: 8 data bits, even parity, 1 stop bit ([USS spec] §6.1, 11 bits a
 /// character) at `baud`, which must be one of [`USS_BAUD_RATES`].
 pub fn uss_settings(baud: u32) -> Result<SerialSettings, SettingsError> {
     SerialSettings::with_rates(baud, 8, Parity::Even, 1, &USS_BAUD_RATES)
@@ -27,7 +27,7 @@ pub fn uss_settings(baud: u32) -> Result<SerialSettings, SettingsError> {
 
 /// Most entries in the polling list (SANZ 1…31).
 pub const MAX_ENTRIES: usize = 31;
-/// Longest response delay the USS spec allows a slave ([USS spec]).
+/// Longest response delay the USS spec allows a slave ([USS spec] §5.2.1.1).
 pub const RESPONSE_DELAY_MAX: Duration = Duration::from_millis(20);
 
 /// One entry of the polling list: whom to poll and with which net-data structure.
@@ -96,7 +96,7 @@ pub(crate) fn check(
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PkwAfterJob {
-    /// Send AK 0 "no task" (PKE, IND and PWE all 0) once the job has ended ([USS spec]).
+    /// Send AK 0 "no task" (PKE, IND and PWE all 0) once the job has ended ([SINAMICS CU240S] p. 229).
     #[default]
     TaskZero,
     /// Send the last job's PKW area again in every poll of that slave until a new job is
@@ -114,7 +114,7 @@ pub struct MasterConfig {
     /// The polling list, in cycle order.
     pub polling_list: Vec<PollEntry>,
     /// How long to wait for the response's STX after the request's last character: the USS spec's
-    /// 20 ms ([USS spec], "node x does not transmit after 20 ms"). Longer values (up to
+    /// 20 ms ([USS spec] §5.2.2, "node x does not transmit after 20 ms"). Longer values (up to
     /// 10 s) are for converters and device servers that add latency.
     pub response_timeout: Duration,
     /// WDH, the permitted PKW **repetitions after the first telegram** (0…32 767,
@@ -235,7 +235,7 @@ impl MasterConfig {
         errors
     }
 
-    /// Start interval: 2 character times of silence before every STX ([USS spec]).
+    /// Start interval: 2 character times of silence before every STX ([USS spec] §5.1.2).
     pub fn start_interval(&self) -> Duration {
         start_interval(&self.settings)
     }
@@ -313,7 +313,7 @@ mod tests {
 
     #[test]
     fn timing_matches_the_uss_spec_table() {
-        // [USS spec]: start interval 9600: 2.30 ms; 19200: 1.15 ms; 38400: 0.58 ms; 187500: 0.12 ms.
+        // [USS spec] §5.1.2: start interval 9600: 2.30 ms; 19200: 1.15 ms; 38400: 0.58 ms; 187500: 0.12 ms.
         let ms = |baud| start_interval(&uss_settings(baud).unwrap()).as_micros();
         assert_eq!(ms(9_600), 2_292);
         assert_eq!(ms(19_200), 1_146);

@@ -29,7 +29,7 @@
 //! - SYPA and SLPA (start of the system and slave parameters in DBPA) are not inputs here: the
 //!   manual prints fixed DBPA offsets ([Modbus/USS] §3.7.8), which we use, i.e. SYPA = 2 and SLPA = 10.
 //! - The telegram monitoring time the FCs derive from the PLC cycle time (DBCP DBW6) is replaced
-//!   by the master's response timeout and residual run time ([USS spec]).
+//!   by the master's response timeout and residual run time ([USS spec] §5.2.1, §5.2.2).
 //! - Broadcast and mirror telegrams have no place in the FCs (TNU 0…31 only, [Modbus/USS] §3.7 `[derived]`); use
 //!   [`Master::broadcast`] and [`Master::mirror`] directly.
 

@@ -1,7 +1,7 @@
 //! The USS telegram: `STX LGE ADR net-data BCC`, pure encode and decode, no state, no allocation.
 //!
 //! Sources: [Modbus/USS] §3.7.1 (telegram parts, word order), [ET200S SI 2005]
-//! [ET200S SI 2005] §3.8.1, §3.8.3, and [USS spec] for what the manuals leave out (LGE rule, ADR bits, BCC, PKE layout,
+//! [ET200S SI 2005] §3.8.1, §3.8.3, and [USS spec] and [SINAMICS V20] p. 107 for what the manuals leave out (LGE rule, ADR bits, BCC, PKE layout,
 //! task and response IDs, error numbers).
 //!
 //! - **STX** = 02H.
@@ -300,7 +300,7 @@ pub fn decode_from(bytes: &[u8], expected: Adr) -> Result<Telegram<'_>, DecodeEr
     Ok(t)
 }
 
-/// How many words the PKW area has ([Modbus/USS] §3.7.6, Table 3-31: 0, 3 or 4; [USS spec]:
+/// How many words the PKW area has ([Modbus/USS] §3.7.6, Table 3-31: 0, 3 or 4; [MM 440]:
 /// P2013 also allows "variable", 127).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -349,7 +349,7 @@ impl PkwWords {
 }
 
 /// The parameter identifier PKE: AK in bits 12–15, SPM (toggle bit of change reports) in bit 11,
-/// PNU in bits 0–10 ([USS spec]; [Modbus/USS] §3.7.7 "PKE in the transmit buffer").
+/// PNU in bits 0–10 ([SINAMICS V20] p. 107; [Modbus/USS] §3.7.7 "PKE in the transmit buffer").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct Pke(pub u16);
 
@@ -565,7 +565,7 @@ impl NetData {
     }
 }
 
-/// Task IDs AK, master → slave ([USS spec]; [Modbus/USS] §3.7.7).
+/// Task IDs AK, master → slave ([SINAMICS V20] p. 107; [Modbus/USS] §3.7.7).
 pub mod task {
     /// No task (only PZD matter).
     pub const NONE: u8 = 0;
@@ -599,7 +599,7 @@ pub mod task {
     pub const TEXT: u8 = 15;
 }
 
-/// Response IDs AK, slave → master ([USS spec]; [Modbus/USS] §3.7.7).
+/// Response IDs AK, slave → master ([SINAMICS V20] p. 107; [Modbus/USS] §3.7.7).
 pub mod response {
     /// No response.
     pub const NONE: u8 = 0;
@@ -632,7 +632,7 @@ pub mod response {
         matches!(ak, VALUE_WORD | ARRAY_WORD | CHANGE_REPORT_WORD | 11)
     }
 
-    /// The response IDs that may answer task `ak` successfully ([USS spec] pairs; the
+    /// The response IDs that may answer task `ak` successfully ([SINAMICS V20] p. 107 pairs; the
     /// MICROMASTER table in [Modbus/USS] §3.7.7).
     pub const fn answers(ak: u8) -> &'static [u8] {
         match ak {

@@ -39,7 +39,7 @@
 //!
 //! # Bounds
 //!
-//! The USS timing ([USS spec]) bounds a poll only on a line that goes quiet: the master
+//! The USS timing ([USS spec] §5.2.1) bounds a poll only on a line that goes quiet: the master
 //! waits for a start interval of silence before every request, and a flood never leaves one.
 //! So the master adds host bounds derived from its configuration ([`config::MasterConfig`]):
 //!

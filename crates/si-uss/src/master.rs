@@ -2,7 +2,7 @@
 //!
 //! Sources: [Modbus/USS] §3.7.1 (cycle: "each slave must answer before the master
 //! addresses the next"), [Modbus/USS] §3.7.3 (one job per slave), §3.7.7 (comm status word, comm error word,
-//! KSTW), [Modbus/USS] §3.7.8 (polling list, WDH) and [USS spec] (timing, error handling, PKW rules).
+//! KSTW), [Modbus/USS] §3.7.8 (polling list, WDH) and [USS spec] (timing, error handling), [SINAMICS CU240S] p. 229 (PKW rules).
 //!
 //! # One poll
 //!
@@ -11,7 +11,7 @@
 //! 2. Send `STX LGE ADR PKW PZD BCC` to the entry's node: the PKW area carries the slave's current
 //!    parameter job (AK 0 "no task" when there is none) and the PZD area its control words
 //!    ([`Master::set_control`]).
-//! 3. Wait up to the **response timeout** (20 ms, [USS spec]) from the end of the request
+//! 3. Wait up to the **response timeout** (20 ms, [USS spec] §5.2.2) from the end of the request
 //!    for the response's STX, then up to the **residual run time** 1.5 × (n + 3) character times
 //!    for the rest of it.
 //! 4. Check STX, LGE, ADR, BCC and the net-data structure, update the slave's status word, error
@@ -23,7 +23,7 @@
 //!
 //! A parameter job ([`Master::request_parameter`]) is sent with every poll of its slave until a
 //! response with a matching response ID, PNU and IND (and, for writes, value) arrives
-//! ([USS spec] "master repeats request until matching response"). It ends with:
+//! ([SINAMICS CU240S] p. 229: "master repeats request until matching response"). It ends with:
 //!
 //! - response ID 7: [`status::PKW_ERROR`] (16#1503) and the drive's error number from PWE
 //!   ([Modbus/USS] §3.7.7 status bit 2);
@@ -113,7 +113,7 @@ pub mod comm_error {
 
 /// The diagnostic counters.
 ///
-/// [USS spec] names the USS spec's recommended counters (§5.2.3): ok and rejected
+/// [USS spec] §5.2.3 recommends these counters: ok and rejected
 /// telegrams, framing, overflow, parity, start not identified, residual time, BCC, length and
 /// monitoring time. It does not list sixteen, so we chose these sixteen: those ten, split and
 /// completed by what a master also needs to see (requests sent, address errors, BREAKs, PKW
@@ -1195,7 +1195,7 @@ enum Verdict {
     NotYet,
 }
 
-/// [USS spec]: the response matches when its ID answers the task and PNU, IND (and for
+/// [SINAMICS CU240S] p. 229: the response matches when its ID answers the task and PNU, IND (and for
 /// writes the value) are the request's; ID 7 with the request's PNU is the job's error.
 fn judge(request: &Pkw, reply: &Pkw) -> Verdict {
     let ak = reply.pke.ak();

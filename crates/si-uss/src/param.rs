@@ -1,5 +1,5 @@
 //! Parameter numbers and their page index: how a number above 1999 reaches the drive
-//! ([MM 420] p. 115, [G120 Fieldbus] §5.3; [USS spec] "PNU ≥ 2000 via IND high byte page").
+//! ([MM 420] p. 115, [G120 Fieldbus] §5.3: PNU ≥ 2000 through the page index in IND's high byte).
 //!
 //! PKE has room for PNU bits 0–10, of which a drive uses 0…1999. The rest of the number is the
 //! **page** p = number div 2000, carried in IND's high byte; IND's low byte is the sub-index.

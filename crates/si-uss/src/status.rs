@@ -48,7 +48,7 @@ si_core::status_codes! {
     pub const NO_ANSWER = 0x1408 {
         meaning: "node does not answer: telegram monitoring time exceeded (comm error word bit 7)",
         remedy: "check that the slave is on, addressed and set to the same baud rate",
-        source: "[Modbus/USS] §3.7.7, comm error word; [USS spec] (20 ms)",
+        source: "[Modbus/USS] §3.7.7, comm error word; [USS spec] §5.2.2 (20 ms)",
     }
     pub const RESIDUAL_TIME = 0x1409 {
         meaning: "residual run time 1.5 × (n + 3) character times exceeded while receiving (comm error word bit 7)",

@@ -6,7 +6,7 @@ use common::{si, stdout};
 
 #[test]
 fn encode_builds_the_whole_telegram_with_lge_and_bcc_including_stx() {
-    // [USS spec]: PKW 4 + PZD 2 → LGE 0EH, 16 bytes; BCC worked out in si-uss's golden tests.
+    // [SINAMICS CU240S] p. 178: PKW 4 + PZD 2 → LGE 0EH, 16 bytes; BCC worked out in si-uss's golden tests.
     let o = si(&[
         "frame",
         "encode",

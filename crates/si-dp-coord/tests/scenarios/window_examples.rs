@@ -1,5 +1,5 @@
 //! The manual's example tables ([ET200S SI 2005] §2.12.2–§2.12.6)
-//! as golden cycle-by-cycle tests, in the corrected readings of the extraction:
+//! as golden cycle-by-cycle tests, in our corrected readings `[derived]`:
 //!
 //! * Table 2-23 (send 22 characters, 8-byte window): the reconstruction of [ET200S SI 2005] §2.12.2, Table 2-23 (`[derived]`);
 //! * Table 2-24 (receive 6 bytes): the request is 20H, not the printed 10H (`[derived]`);

@@ -210,7 +210,7 @@ fn fetch_against_a_set_coordination_flag_060f_0909() {
     assert_eq!(fetch(&mut p, km), Ok(Bytes::from_static(&[0, 0])));
 }
 
-/// [CP 341] §2.2.1 chained reports through the FB: ERROR with 0703 in one call, ERROR with 051A in the
+/// [CP 341 Diag] chained reports through the FB: ERROR with 0703 in one call, ERROR with 051A in the
 /// next.
 #[test]
 fn send_fb_shows_0703_then_051a() {
@@ -237,7 +237,7 @@ fn send_fb_shows_0703_then_051a() {
     );
 }
 
-/// [CP 341] §2.2.1 chained reports on the passive side: our reaction cannot be delivered (the partner's
+/// [CP 341 Diag] chained reports on the passive side: our reaction cannot be delivered (the partner's
 /// receive buffer stays full, so it refuses our STX), so the link's 07xx comes first and then
 /// 0612, in the event stream and through S_RCV.
 #[test]

@@ -12,7 +12,7 @@ fn build(adr: Adr, net: &[u8]) -> Vec<u8> {
     buf[..n].to_vec()
 }
 
-/// [USS spec] "common fixed length": PKW 4 + PZD 2 words → LGE 0EH, 16 bytes. Slave 0,
+/// [SINAMICS CU240S] p. 178, "common fixed length": PKW 4 + PZD 2 words → LGE 0EH, 16 bytes. Slave 0,
 /// read P700 (AK 1, PKE 12BCH), STW 047EH, HSW 0.
 /// BCC: 02^0E = 0C; ^00 = 0C; ^12 = 1E; ^BC = A2; ^(zeros) = A2; ^04 = A6; ^7E = D8.
 const READ_P700: [u8; 16] = [

@@ -304,7 +304,7 @@ fn after_a_write(after: PkwAfterJob) -> (Vec<(u8, u16)>, usize) {
 
 #[test]
 fn after_a_job_the_pkw_area_carries_task_0_or_with_repeat_last_the_job_again() {
-    // [USS spec] (default): AK 0 once the job has ended.
+    // [SINAMICS CU240S] p. 229 (default): AK 0 once the job has ended.
     let (pkw, writes) = after_a_write(PkwAfterJob::TaskZero);
     assert_eq!(pkw, [(2, 1082), (0, 0), (0, 0), (0, 0)]);
     assert_eq!(writes, 1);

@@ -3,7 +3,7 @@
 //! longer than a 9600 bit/s packet) and finish a parameter job at 9600 and 19 200 bit/s,
 //! announced or learnt: the response timeout (20 ms) and the residual run time get the port's
 //! allowance. Without the adapter the master still starts its next request exactly one start
-//! interval after the response ([USS spec]).
+//! interval after the response ([USS spec] §5.1.2).
 
 use si_core::sim::{Simulator, StationId, TraceKind, UsbAdapter};
 use si_core::{Duration, Instant};

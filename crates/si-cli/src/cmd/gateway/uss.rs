@@ -1,5 +1,5 @@
 //! USS drives behind the gateway: each drive is a Modbus unit id, served from the
-//! USS master's cyclic polling ([Modbus/USS] §3.7, [USS spec]) rather than
+//! USS master's cyclic polling ([Modbus/USS] §3.7, [USS spec] §5.1) rather than
 //! forwarded, so a Modbus request never waits for the bus except to start a parameter job.
 //!
 //! The register map of one drive:
