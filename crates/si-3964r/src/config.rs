@@ -58,8 +58,8 @@ pub enum Priority {
 /// ([ET200S SI] §2.7, Fig. 2-15, Table 2-11).
 pub const BLOCK_WAIT: Duration = Duration::from_secs(4);
 
-/// Wait for a free receive buffer after STX, fixed at 400 ms ([ET200S SI] §2.7
-/// point 4, [ET200S SI] §2.7, Table 2-11).
+/// Wait for a free receive buffer after STX, fixed at 400 ms ([ET200S SI] §2.7,
+/// receiving: STX with no free buffer; Table 2-11).
 pub const BUFFER_WAIT: Duration = Duration::from_millis(400);
 
 /// Range of the character delay time in ms (Table 2-11).

@@ -172,7 +172,7 @@ enum DecodeState {
 
 /// A receiver of one block, fed one character at a time.
 ///
-/// Like the manual's receiver ([ET200S SI] §2.7 point 5, §2.7 `[derived]`) it does not stop at
+/// Like the manual's receiver ([ET200S SI] §2.7, receiving: cleardown and errors during reception, §2.7 `[derived]`) it does not stop at
 /// the first error: it keeps reading to the end sequence, remembers the first error, and reports
 /// the outcome once, when the block is complete. The payload buffer never grows beyond the
 /// maximum length.

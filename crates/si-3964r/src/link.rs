@@ -35,13 +35,13 @@
 //!   high). A low-priority side that yielded and then receives a lone `DLE` followed by silence
 //!   (the partner yielded too) counts a failed connection attempt with 070C (both low).
 //! - **NAK before the repetition.** Only where the manual says so: after other characters
-//!   interrupted our block (wait for quiet, NAK, repeat, [ET200S SI] §2.7 point 3) and when giving up
-//!   ([ET200S SI] §2.7 points 1 and 5). After a NAK or a QVZ expiry the sender repeats `STX` directly.
+//!   interrupted our block (wait for quiet, NAK, repeat, [ET200S SI] §2.7, sending: partner interrupts the send) and when giving up
+//!   ([ET200S SI] §2.7, sending: connection setup and retry limit). After a NAK or a QVZ expiry the sender repeats `STX` directly.
 //! - **ZVZ expiry while receiving.** NAK and report 0806 at once; the receiver starts no retry of
-//!   its own and goes to idle ([ET200S SI] §2.7 point 3, [CP 341] §2.2.2, Fig. 2-11/2-12 point 3). Errors that let the block run
+//!   its own and goes to idle ([ET200S SI] §2.7, receiving: character delay monitoring, [CP 341] §2.2.2, Fig. 2-11/2-12). Errors that let the block run
 //!   to its end (BCC, parity, framing, odd DLE, overlong) are answered with NAK and a 4 s wait for
-//!   the repetition, and reported only when the repetitions are used up or do not come ([ET200S SI] §2.7
-//!   point 5, [ET200S SI] §2.7), with the *first* error (`[derived]`).
+//!   the repetition, and reported only when the repetitions are used up or do not come ([ET200S SI] §2.7,
+//!   receiving: cleardown and errors during reception), with the *first* error (`[derived]`).
 //! - **No repetition within the 4 s block wait (`[derived]`, 0809H).** The first error is reported as
 //!   the state table says, and then 0809H "the number of repetitions must be set to the same
 //!   value on both partners": a partner with as many attempts as we have repeats until *our*
@@ -54,7 +54,7 @@
 //!   the rule of the ASCII driver's character delay time). At 300 bit/s a character takes
 //!   37 ms against a ZVZ minimum of 60 ms, so leaving the character time out gave false 0806
 //!   errors. After our DLE the first character gets one more character time, the
-//!   DLE's own. The quiet waits before a NAK ([ET200S SI] §2.7 point 3, §2.7 point 1) follow the same rule.
+//!   DLE's own. The quiet waits before a NAK ([ET200S SI] §2.7, sending: partner interrupts the send, §2.7, receiving: idle) follow the same rule.
 //! - **Receiver repetition limit (`[derived]`).** The configured transmission attempts.
 //! - **Zero-length block.** Acknowledged with `DLE`, not queued, reported as 0807 "not an error".
 //! - **Overlong block (`[derived]`).** Ended with NAK at the first byte too many (not received to its
@@ -65,10 +65,10 @@
 //!   [`Config::send_job_bound`] after [`Link::send`] ends then with its first error (or 0703H /
 //!   070BH), whatever the line is doing; [`crate::bound`] gives the formula and the reasons.
 //! - **A corrupted character in idle** is reported at once as 080C ([ET200S SI] §2.7); other characters in
-//!   idle are answered, once the line is quiet for ZVZ, with NAK and 0802 ([ET200S SI] §2.7 point 1). An `STX`
+//!   idle are answered, once the line is quiet for ZVZ, with NAK and 0802 ([ET200S SI] §2.7, receiving: idle). An `STX`
 //!   arriving during that wait is taken as a connection request (after reporting the 0802).
 //! - **BREAK** ends whatever runs at once, without retries: a send job fails with 080D, and 080D
-//!   is reported as a receive error ([ET200S SI] §2.7, [CP 341] §2.2.2, Fig. 2-10 point 4).
+//!   is reported as a receive error ([ET200S SI] §2.7, [CP 341] §2.2.2, Fig. 2-10).
 //! - **"DLE too early" (0706)** is not reported. A host sees its own transmission end only
 //!   through the driver's tx-done ([`Engine::handle_tx_done`]), which lags the wire by the OS
 //!   buffers and the timer granularity (a pseudo-terminal partner answers within microseconds,
@@ -249,7 +249,7 @@ impl fmt::Debug for Link {
 
 impl Link {
     /// A link with `config` on a line with `settings` (used to know how long our own bytes take
-    /// on the wire). Queues the startup NAK that puts the partner into idle ([ET200S SI] §2.7 point 6).
+    /// on the wire). Queues the startup NAK that puts the partner into idle ([ET200S SI] §2.7, receiving: startup NAK).
     /// Refuses parameters out of range, ZVZ and QVZ also below their minimum for the line's baud
     /// rate ([`Config::validate_for`]).
     pub fn new(config: Config, settings: SerialSettings) -> Result<Link, ConfigError> {
@@ -457,7 +457,7 @@ impl Link {
                 Attempt::Connection => self.final_status(first),
                 Attempt::Transmission => first,
             };
-            // Giving up: NAK to the partner ([ET200S SI] §2.7 points 1 and 5).
+            // Giving up: NAK to the partner ([ET200S SI] §2.7, sending: connection setup and retry limit).
             self.transmit_static(&[NAK]);
             self.finish_job(Err(status));
             self.enter_idle(now);
@@ -481,7 +481,7 @@ impl Link {
     }
 
     /// The job's bound has passed ([`crate::bound`]): end it whatever the line is doing. A job
-    /// that is on the line is given up with NAK ([ET200S SI] §2.7 point 5); a reception in progress, for
+    /// that is on the line is given up with NAK ([ET200S SI] §2.7, sending: retry limit); a reception in progress, for
     /// which the job was waiting, runs on.
     fn end_overdue_job(&mut self, now: Instant) {
         if self.job.as_ref().is_none_or(|j| now < j.deadline) {
@@ -541,7 +541,7 @@ impl Link {
         };
     }
 
-    /// The block is complete: acknowledge or reject it ([ET200S SI] §2.7 point 5, §2.7, Fig. 2-15).
+    /// The block is complete: acknowledge or reject it ([ET200S SI] §2.7, receiving: cleardown and errors during reception, §2.7, Fig. 2-15).
     fn end_of_block(&mut self, now: Instant, result: Result<(), FrameError>) {
         let error = match result {
             _ if self.rx_line_error => Some(status::TRANSMISSION_ERROR),
@@ -727,7 +727,7 @@ impl Link {
     }
 
     /// Characters from the partner while our block goes out: wait for quiet, then NAK and
-    /// repeat ([ET200S SI] §2.7 point 3).
+    /// repeat ([ET200S SI] §2.7, sending: partner interrupts the send).
     fn interrupted(&mut self, now: Instant, error: Status) {
         if let Some(job) = &mut self.job {
             job.first_err.get_or_insert(error);

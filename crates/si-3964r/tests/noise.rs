@@ -32,7 +32,7 @@ fn short(priority: Priority) -> Config {
 
 /// A partner that sends `DLE` for ever: after an `STX`, `DLE`-doubled data with no `DLE ETX`.
 /// Its `DLE`s also acknowledge our `STX` and our block when they come at the right moment
-/// ([ET200S SI] §2.7 points 1 and 4), so a job facing it may end with success; it must still end in time.
+/// ([ET200S SI] §2.7, sending: connection setup and cleardown), so a job facing it may end with success; it must still end in time.
 fn endless_dles() -> Pattern {
     Pattern {
         name: "DLE flood",

@@ -276,7 +276,7 @@ fn s5_3_other_characters_during_the_block_wait_zvz_then_nak_0704() {
             status: ABORTED_BY_PARTNER
         }]
     );
-    // The NAK goes out once the line has been quiet for ZVZ ([ET200S SI] §2.7 point 3).
+    // The NAK goes out once the line has been quiet for ZVZ ([ET200S SI] §2.7, sending: partner interrupts the send).
     let naks = tx_times(&sim, "A", NAK);
     assert_eq!(naks.len(), 2, "startup NAK and the quiet NAK");
     assert_eq!(naks[1], last_char + line().gap_limit(ZVZ));
@@ -560,7 +560,7 @@ fn overlong_block_is_cut_off_at_the_first_byte_too_many_with_nak_and_0850() {
     partner_sends(&mut sim, p, &encode(b"12345", Mode::BlockCheck));
     settle(&mut sim);
     // NAK at the fifth byte (si_3964r::bound); this scripted partner ignores the NAK and sends
-    // the rest of its block, which the idle link then answers as stray characters ([ET200S SI] §2.7 point 1).
+    // the rest of its block, which the idle link then answers as stray characters ([ET200S SI] §2.7, receiving: idle).
     assert_eq!(
         sim.take_events(a),
         vec![

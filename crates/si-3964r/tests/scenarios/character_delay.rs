@@ -1,4 +1,4 @@
-//! The character delay time ZVZ at low baud rates ([ET200S SI] §2.7 point 3, §2.7, Table 2-11:
+//! The character delay time ZVZ at low baud rates ([ET200S SI] §2.7, receiving: character delay monitoring, §2.7, Table 2-11:
 //! "longest gap between two received characters"). A partner that leaves gaps of
 //! exactly ZVZ between its characters is received; one microsecond more ends the reception
 //! with NAK and 0806H at the moment the gap is known to be too long. At 300 bit/s one
@@ -56,7 +56,7 @@ fn receive_with_gaps(
 }
 
 /// 0806H first; the partner's characters after it arrive in idle, where they are answered
-/// with NAK and 0802H once the line is quiet ([ET200S SI] §2.7 point 1).
+/// with NAK and 0802H once the line is quiet ([ET200S SI] §2.7, receiving: idle).
 fn zvz_expired(events: &[Event]) -> bool {
     events.first() == Some(&Event::ReceiveError(CHARACTER_DELAY))
         && events[1..]
