@@ -7,8 +7,8 @@
 //!   talking to the same slave (ours: tokio-modbus's RTU server only runs on a serial port).
 //! - 3964(R) block encode/decode of 256 bytes, USS telegram decode, the DP window send of a
 //!   224-byte frame, the decoders of complete records (RK 512 telegram, slave diagnosis, I&M0;
-//!   hand-written beside nom versions), and for every engine its receive path fed the whole frame at once and one
-//!   byte at a time (`*_bytewise`).
+//!   hand-written beside nom versions), and for every engine its receive path fed the whole frame
+//!   at once and one byte at a time (`*_bytewise`).
 //!
 //! Run: `cargo bench --bench codecs` (add `-- <group>` to pick one).
 
@@ -251,10 +251,10 @@ fn take_events(mut server: si_modbus::tokio::Slave<si_modbus::Tables>) {
 ///
 /// Both clients and the slave end frames by their predicted length (our
 /// `FrameEnd::Length`; tokio-modbus's RTU codec does so too), so no end-of-frame gap is waited
-/// for. Our master keeps to [Modbus/USS] §3.3.5 and holds a request until the line has been silent for the gap
-/// (1 ms) since the last response, which back-to-back `iter` would measure; so each iteration
-/// first leaves the line idle for longer than the gap (untimed) and then times one request
-/// until its response is decoded, the same loop for both implementations.
+/// for. Our master keeps to [Modbus/USS] §3.3.5 and holds a request until the line has been silent
+/// for the gap (1 ms) since the last response, which back-to-back `iter` would measure; so each
+/// iteration first leaves the line idle for longer than the gap (untimed) and then times one
+/// request until its response is decoded, the same loop for both implementations.
 fn modbus_roundtrip(c: &mut Criterion) {
     use si_modbus::tokio as handle;
     use si_modbus::{FrameEnd, Master, MasterConfig, Mode, Slave, SlaveConfig, Tables};

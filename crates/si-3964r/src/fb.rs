@@ -33,12 +33,13 @@
 //! ```
 //!
 //! Readings: R on S_SEND forgets the job and reports ERROR with 1E0DH; the block already handed
-//! to the link is still sent ([ET200S SI] §2.10, Table 2-13 "data the module has already received is still sent"). The
-//! manual's "EN_R = 0 aborts an active transfer" concerns the module-to-CPU copy of a block over
-//! the backplane; here a block moves from the link to the caller within one call, so there is
-//! never a transfer in flight to abort. A block longer than the destination area is taken from
-//! the receive buffer and reported with ERROR and 1E20H ([ET200S SI] §2.10, Table 2-14 "destination area too short",
-//! as the window module does; the ASCII driver leaves it in its buffer instead).
+//! to the link is still sent ([ET200S SI] §2.10, Table 2-13 "data the module has already received
+//! is still sent"). The manual's "EN_R = 0 aborts an active transfer" concerns the module-to-CPU
+//! copy of a block over the backplane; here a block moves from the link to the caller within one
+//! call, so there is never a transfer in flight to abort. A block longer than the destination area
+//! is taken from the receive buffer and reported with ERROR and 1E20H ([ET200S SI] §2.10, Table
+//! 2-14 "destination area too short", as the window module does; the ASCII driver leaves it in its
+//! buffer instead).
 
 use crate::link::Link;
 use bytes::Bytes;

@@ -20,12 +20,14 @@
 //! [ET200S SI] §2.7, Fig. 2-12 and [CP 341] §2.2.2 say the BCC is the XOR of
 //! every byte sent after `STX`, *both* DLEs of a doubled pair and the closing `DLE ETX` included;
 //! [ET200S SI 2005] §2.7.1 only says "XOR of all data bytes" (`[derived]`). We follow the
-//! two explicit manuals and [CP 440], [Public 3964R] (which agree): the wire form, doubled DLEs twice
-//! (they cancel), `DLE ETX` included, the BCC byte itself never doubled even when it equals `DLE`.
+//! two explicit manuals and [CP 440], [Public 3964R] (which agree): the wire form, doubled DLEs
+//! twice (they cancel), `DLE ETX` included, the BCC byte itself never doubled even when it equals
+//! `DLE`.
 
 use serde::{Deserialize, Serialize};
 
-/// Start of text: the connection request (02H, [CP 440], [Public 3964R]; the manuals give no value, `[derived]`).
+/// Start of text: the connection request (02H, [CP 440], [Public 3964R]; the manuals give no value,
+/// `[derived]`).
 pub const STX: u8 = 0x02;
 /// End of text, second half of the closing `DLE ETX` (03H).
 pub const ETX: u8 = 0x03;
@@ -172,10 +174,10 @@ enum DecodeState {
 
 /// A receiver of one block, fed one character at a time.
 ///
-/// Like the manual's receiver ([ET200S SI] §2.7, receiving: cleardown and errors during reception, §2.7 `[derived]`) it does not stop at
-/// the first error: it keeps reading to the end sequence, remembers the first error, and reports
-/// the outcome once, when the block is complete. The payload buffer never grows beyond the
-/// maximum length.
+/// Like the manual's receiver ([ET200S SI] §2.7, receiving: cleardown and errors during reception,
+/// §2.7 `[derived]`) it does not stop at the first error: it keeps reading to the end sequence,
+/// remembers the first error, and reports the outcome once, when the block is complete. The payload
+/// buffer never grows beyond the maximum length.
 #[derive(Debug, Clone)]
 pub struct Decoder {
     mode: Mode,

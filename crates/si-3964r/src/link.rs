@@ -1,6 +1,7 @@
 //! The 3964 / 3964(R) procedure as one Sans-IO engine that is both sender and receiver, as the
 //! module's driver is ([ET200S SI] §2.7 `[derived]`, [CP 341] §2.2.2, Fig. 2-10
-//! and the reconstruction of [CP 341] §2.2.2 `[derived]`, [ET200S SI 2005] §2.7.2–§2.7.4, Fig. 2-12, Fig. 2-15).
+//! and the reconstruction of [CP 341] §2.2.2 `[derived]`, [ET200S SI 2005] §2.7.2–§2.7.4, Fig.
+//! 2-12, Fig. 2-15).
 //!
 //! ```
 //! use si_3964r::{Config, Event, Link};
@@ -25,48 +26,53 @@
 //!
 //! - **Counting attempts (`[derived]`).** A failed `STX` (NAK, other character, QVZ expiry)
 //!   costs a *connection* attempt; the counter starts again at 1 for every transmission attempt
-//!   (Siemens practice, [ET200S SI] §2.7 `[derived]`). A block that went out and was not acknowledged with `DLE` (NAK or
-//!   other characters during or after it, QVZ expiry at the end) costs a *transmission* attempt.
-//!   Yielding in an initialization conflict costs nothing: the job stays pending and starts again
-//!   with fresh connection attempts once the partner's block is received ([ET200S SI] §2.7, Fig. 2-16).
+//!   (Siemens practice, [ET200S SI] §2.7 `[derived]`). A block that went out and was not
+//!   acknowledged with `DLE` (NAK or other characters during or after it, QVZ expiry at the end)
+//!   costs a *transmission* attempt. Yielding in an initialization conflict costs nothing: the job
+//!   stays pending and starts again with fresh connection attempts once the partner's block is
+//!   received ([ET200S SI] §2.7, Fig. 2-16).
 //! - **Initialization conflict, high priority (`[derived]`).** The high-priority side ignores the
-//!   partner's `STX` and keeps waiting for `DLE` ([CP 341] §2.2.2, [CP 440], [Public 3964R]). When its
-//!   connection attempts run out after such an `STX` was seen, the job fails with 070B (both
+//!   partner's `STX` and keeps waiting for `DLE` ([CP 341] §2.2.2, [CP 440], [Public 3964R]). When
+//!   its connection attempts run out after such an `STX` was seen, the job fails with 070B (both
 //!   high). A low-priority side that yielded and then receives a lone `DLE` followed by silence
 //!   (the partner yielded too) counts a failed connection attempt with 070C (both low).
 //! - **NAK before the repetition.** Only where the manual says so: after other characters
-//!   interrupted our block (wait for quiet, NAK, repeat, [ET200S SI] §2.7, sending: partner interrupts the send) and when giving up
-//!   ([ET200S SI] §2.7, sending: connection setup and retry limit). After a NAK or a QVZ expiry the sender repeats `STX` directly.
+//!   interrupted our block (wait for quiet, NAK, repeat, [ET200S SI] §2.7, sending: partner
+//!   interrupts the send) and when giving up ([ET200S SI] §2.7, sending: connection setup and retry
+//!   limit). After a NAK or a QVZ expiry the sender repeats `STX` directly.
 //! - **ZVZ expiry while receiving.** NAK and report 0806 at once; the receiver starts no retry of
-//!   its own and goes to idle ([ET200S SI] §2.7, receiving: character delay monitoring, [CP 341] §2.2.2, Fig. 2-11/2-12). Errors that let the block run
-//!   to its end (BCC, parity, framing, odd DLE, overlong) are answered with NAK and a 4 s wait for
-//!   the repetition, and reported only when the repetitions are used up or do not come ([ET200S SI] §2.7,
-//!   receiving: cleardown and errors during reception), with the *first* error (`[derived]`).
-//! - **No repetition within the 4 s block wait (`[derived]`, 0809H).** The first error is reported as
-//!   the state table says, and then 0809H "the number of repetitions must be set to the same
+//!   its own and goes to idle ([ET200S SI] §2.7, receiving: character delay monitoring, [CP 341]
+//!   §2.2.2, Fig. 2-11/2-12). Errors that let the block run to its end (BCC, parity, framing, odd
+//!   DLE, overlong) are answered with NAK and a 4 s wait for the repetition, and reported only when
+//!   the repetitions are used up or do not come ([ET200S SI] §2.7, receiving: cleardown and errors
+//!   during reception), with the *first* error (`[derived]`).
+//! - **No repetition within the 4 s block wait (`[derived]`, 0809H).** The first error is reported
+//!   as the state table says, and then 0809H "the number of repetitions must be set to the same
 //!   value on both partners": a partner with as many attempts as we have repeats until *our*
 //!   count runs out, so one that stops earlier has fewer (the CP 440 names 0809 "block-repeat
 //!   wait time expired", [CP 341 Diag]). S_RCV shows the two in two calls.
-//! - **Character delay time ZVZ** is the longest *gap* between two characters ([ET200S SI] §2.7, Table 2-11). A host
-//!   sees a character only when it is complete, so after a character completing at `t` the
-//!   next must complete by `t` + ZVZ + one character time; one microsecond later the gap was
-//!   longer than ZVZ and the reception ends with NAK and 0806 ([`SerialSettings::gap_limit`],
+//! - **Character delay time ZVZ** is the longest *gap* between two characters ([ET200S SI] §2.7,
+//!   Table 2-11). A host sees a character only when it is complete, so after a character completing
+//!   at `t` the next must complete by `t` + ZVZ + one character time; one microsecond later the gap
+//!   was longer than ZVZ and the reception ends with NAK and 0806 ([`SerialSettings::gap_limit`],
 //!   the rule of the ASCII driver's character delay time). At 300 bit/s a character takes
 //!   37 ms against a ZVZ minimum of 60 ms, so leaving the character time out gave false 0806
 //!   errors. After our DLE the first character gets one more character time, the
-//!   DLE's own. The quiet waits before a NAK ([ET200S SI] §2.7, sending: partner interrupts the send, §2.7, receiving: idle) follow the same rule.
+//!   DLE's own. The quiet waits before a NAK ([ET200S SI] §2.7, sending: partner interrupts the
+//!   send, §2.7, receiving: idle) follow the same rule.
 //! - **Receiver repetition limit (`[derived]`).** The configured transmission attempts.
 //! - **Zero-length block.** Acknowledged with `DLE`, not queued, reported as 0807 "not an error".
-//! - **Overlong block (`[derived]`).** Ended with NAK at the first byte too many (not received to its
-//!   end, so a partner that never sends `DLE ETX` cannot hold the line), then treated like a BCC
-//!   error (repetition awaited), reported as 0850 ([ET200S SI 2005] Table 2-29) unless
+//! - **Overlong block (`[derived]`).** Ended with NAK at the first byte too many (not received to
+//!   its end, so a partner that never sends `DLE ETX` cannot hold the line), then treated like a
+//!   BCC error (repetition awaited), reported as 0850 ([ET200S SI 2005] Table 2-29) unless
 //!   an earlier error of the block came first. See [`crate::bound`].
 //! - **A bound on every send job `[derived]`.** A job that has not ended by
 //!   [`Config::send_job_bound`] after [`Link::send`] ends then with its first error (or 0703H /
 //!   070BH), whatever the line is doing; [`crate::bound`] gives the formula and the reasons.
-//! - **A corrupted character in idle** is reported at once as 080C ([ET200S SI] §2.7); other characters in
-//!   idle are answered, once the line is quiet for ZVZ, with NAK and 0802 ([ET200S SI] §2.7, receiving: idle). An `STX`
-//!   arriving during that wait is taken as a connection request (after reporting the 0802).
+//! - **A corrupted character in idle** is reported at once as 080C ([ET200S SI] §2.7); other
+//!   characters in idle are answered, once the line is quiet for ZVZ, with NAK and 0802
+//!   ([ET200S SI] §2.7, receiving: idle). An `STX` arriving during that wait is taken as a
+//!   connection request (after reporting the 0802).
 //! - **BREAK** ends whatever runs at once, without retries: a send job fails with 080D, and 080D
 //!   is reported as a receive error ([ET200S SI] §2.7, [CP 341] §2.2.2, Fig. 2-10).
 //! - **"DLE too early" (0706)** is not reported. A host sees its own transmission end only
@@ -249,9 +255,9 @@ impl fmt::Debug for Link {
 
 impl Link {
     /// A link with `config` on a line with `settings` (used to know how long our own bytes take
-    /// on the wire). Queues the startup NAK that puts the partner into idle ([ET200S SI] §2.7, receiving: startup NAK).
-    /// Refuses parameters out of range, ZVZ and QVZ also below their minimum for the line's baud
-    /// rate ([`Config::validate_for`]).
+    /// on the wire). Queues the startup NAK that puts the partner into idle ([ET200S SI] §2.7,
+    /// receiving: startup NAK). Refuses parameters out of range, ZVZ and QVZ also below their
+    /// minimum for the line's baud rate ([`Config::validate_for`]).
     pub fn new(config: Config, settings: SerialSettings) -> Result<Link, ConfigError> {
         config.validate_for(&settings)?;
         let max = usize::from(config.max_block_len);
@@ -389,7 +395,8 @@ impl Link {
         self.received.len()
     }
 
-    /// True when more than 2/3 of the receive buffer is in use (S_RCV's warning 0B01, [ET200S SI] §2.10, Table 2-14).
+    /// True when more than 2/3 of the receive buffer is in use (S_RCV's warning 0B01, [ET200S SI]
+    /// §2.10, Table 2-14).
     pub fn buffer_two_thirds_full(&self) -> bool {
         self.received.len() * 3 > usize::from(self.config.receive_buffer_blocks) * 2
     }
@@ -457,7 +464,8 @@ impl Link {
                 Attempt::Connection => self.final_status(first),
                 Attempt::Transmission => first,
             };
-            // Giving up: NAK to the partner ([ET200S SI] §2.7, sending: connection setup and retry limit).
+            // Giving up: NAK to the partner ([ET200S SI] §2.7, sending: connection setup and retry
+            // limit).
             self.transmit_static(&[NAK]);
             self.finish_job(Err(status));
             self.enter_idle(now);
@@ -481,8 +489,8 @@ impl Link {
     }
 
     /// The job's bound has passed ([`crate::bound`]): end it whatever the line is doing. A job
-    /// that is on the line is given up with NAK ([ET200S SI] §2.7, sending: retry limit); a reception in progress, for
-    /// which the job was waiting, runs on.
+    /// that is on the line is given up with NAK ([ET200S SI] §2.7, sending: retry limit); a
+    /// reception in progress, for which the job was waiting, runs on.
     fn end_overdue_job(&mut self, now: Instant) {
         if self.job.as_ref().is_none_or(|j| now < j.deadline) {
             return;
@@ -541,7 +549,8 @@ impl Link {
         };
     }
 
-    /// The block is complete: acknowledge or reject it ([ET200S SI] §2.7, receiving: cleardown and errors during reception, §2.7, Fig. 2-15).
+    /// The block is complete: acknowledge or reject it ([ET200S SI] §2.7, receiving: cleardown and
+    /// errors during reception, §2.7, Fig. 2-15).
     fn end_of_block(&mut self, now: Instant, result: Result<(), FrameError>) {
         let error = match result {
             _ if self.rx_line_error => Some(status::TRANSMISSION_ERROR),
@@ -667,7 +676,8 @@ impl Link {
                         job.conflict_seen = true;
                     }
                     if self.config.priority == Priority::Low {
-                        // Yield: answer DLE and receive first; the job stays pending ([ET200S SI] §2.7, Fig. 2-16).
+                        // Yield: answer DLE and receive first; the job stays pending ([ET200S SI]
+                        // §2.7, Fig. 2-16).
                         self.rx_try = 0;
                         self.rx_first_err = None;
                         self.accept_stx(now, true);

@@ -46,7 +46,8 @@
 //! Reading chosen: a listener cannot tell a repeated connection attempt (same transmission
 //! attempt) from a new transmission attempt, so every STX from the station whose last STX or
 //! block failed counts as one **retry**; a block NAKed or unacknowledged marks the next STX of
-//! its sender a retry as well ([ET200S SI] §2.7 `[derived]` counts both kinds against their own limits).
+//! its sender a retry as well ([ET200S SI] §2.7 `[derived]` counts both kinds against their own
+//! limits).
 
 use crate::frame::{Decoder as BlockDecoder, FrameError, Mode, DLE, NAK, STX};
 use si_core::monitor::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
@@ -174,7 +175,8 @@ impl Monitor {
         }
     }
 
-    /// Flag the DLE record `r` if it came later than QVZ after `since` ([ET200S SI] §2.7, Table 2-11).
+    /// Flag the DLE record `r` if it came later than QVZ after `since` ([ET200S SI] §2.7, Table
+    /// 2-11).
     fn judge_qvz(&self, r: &mut Record, since: Instant) {
         let wait = r.start.saturating_since(since);
         if wait > self.p.qvz {
@@ -501,8 +503,8 @@ impl Decoder for Monitor {
                 self.state = State::Idle;
             }
             (State::Idle, NAK) => {
-                // A station sends NAK when it starts up or gives up a job ([ET200S SI] §2.7 [derived] "send NAK and
-                // fail"): worth seeing, not a fault of this exchange.
+                // A station sends NAK when it starts up or gives up a job ([ET200S SI] §2.7
+                // [derived] "send NAK and fail"): worth seeing, not a fault of this exchange.
                 self.counters.bump("NAKs");
                 let mut r = self.control(c, "NAK", "negative acknowledgement");
                 r.flags.push(Flag::note(

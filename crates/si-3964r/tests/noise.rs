@@ -32,7 +32,8 @@ fn short(priority: Priority) -> Config {
 
 /// A partner that sends `DLE` for ever: after an `STX`, `DLE`-doubled data with no `DLE ETX`.
 /// Its `DLE`s also acknowledge our `STX` and our block when they come at the right moment
-/// ([ET200S SI] §2.7, sending: connection setup and cleardown), so a job facing it may end with success; it must still end in time.
+/// ([ET200S SI] §2.7, sending: connection setup and cleardown), so a job facing it may end with
+/// success; it must still end in time.
 fn endless_dles() -> Pattern {
     Pattern {
         name: "DLE flood",
@@ -168,8 +169,8 @@ fn an_endless_frame_is_cut_off_at_the_maximum_length_with_0850() {
     assert_eq!(sim.engine(host).counters().blocks_rejected, 0);
     sim.run_until(Instant::ZERO + line().chars_time(67));
     assert_eq!(sim.engine(host).counters().blocks_rejected, 1);
-    // No STX follows, so no repetition comes within the 4 s block wait: 0850 ([ET200S SI] §2.7, Fig. 2-15), then
-    // 0809 for the repetition that never came ([derived]).
+    // No STX follows, so no repetition comes within the 4 s block wait: 0850 ([ET200S SI] §2.7,
+    // Fig. 2-15), then 0809 for the repetition that never came ([derived]).
     sim.run_for(Duration::from_millis(4_100));
     assert_eq!(
         sim.take_events(host),

@@ -24,7 +24,8 @@ fn take(sim: &mut si_core::sim::Simulator, s: si_core::sim::StationId<Link>) -> 
     sim.with(s, |l, now| l.take_block(now)).map(|b| b.to_vec())
 }
 
-// --- [ET200S SI] §2.7 / §2.7: clean exchanges ---------------------------------------------------------
+// --- [ET200S SI] §2.7 / §2.7: clean exchanges
+// ---------------------------------------------------------
 
 #[test]
 fn s5_3_send_low_priority_to_high_is_acknowledged_status_0000() {
@@ -74,7 +75,8 @@ fn s5_3_both_directions_one_after_the_other() {
     );
 }
 
-// --- [ET200S SI] §2.7, Fig. 2-16 initialization conflict -----------------------------------------------------------
+// --- [ET200S SI] §2.7, Fig. 2-16 initialization conflict
+// -----------------------------------------------------------
 
 fn conflict(a_prio: Priority, b_prio: Priority) -> (Vec<Event>, Vec<Event>, JobId, JobId) {
     let (mut sim, a, b) = pair(with_priority(a_prio), with_priority(b_prio));
@@ -149,7 +151,8 @@ fn s5_6_conflict_both_low_is_070c() {
     );
 }
 
-// --- [ET200S SI] §2.7 sender error paths (scripted partner) ---------------------------------------------
+// --- [ET200S SI] §2.7 sender error paths (scripted partner)
+// ---------------------------------------------
 
 #[test]
 fn s5_3_nak_to_stx_then_dle_succeeds_after_one_repetition() {
@@ -276,7 +279,8 @@ fn s5_3_other_characters_during_the_block_wait_zvz_then_nak_0704() {
             status: ABORTED_BY_PARTNER
         }]
     );
-    // The NAK goes out once the line has been quiet for ZVZ ([ET200S SI] §2.7, sending: partner interrupts the send).
+    // The NAK goes out once the line has been quiet for ZVZ ([ET200S SI] §2.7, sending: partner
+    // interrupts the send).
     let naks = tx_times(&sim, "A", NAK);
     assert_eq!(naks.len(), 2, "startup NAK and the quiet NAK");
     assert_eq!(naks[1], last_char + line().gap_limit(ZVZ));
@@ -380,7 +384,8 @@ fn s5_3_first_error_is_reported_not_the_last() {
     );
 }
 
-// --- [ET200S SI] §2.7 / §2.7, Fig. 2-15 receiver error paths --------------------------------------------------------
+// --- [ET200S SI] §2.7 / §2.7, Fig. 2-15 receiver error paths
+// --------------------------------------------------------
 
 /// The partner sends STX, waits for our DLE, then sends `block`.
 fn partner_sends(
@@ -560,7 +565,8 @@ fn overlong_block_is_cut_off_at_the_first_byte_too_many_with_nak_and_0850() {
     partner_sends(&mut sim, p, &encode(b"12345", Mode::BlockCheck));
     settle(&mut sim);
     // NAK at the fifth byte (si_3964r::bound); this scripted partner ignores the NAK and sends
-    // the rest of its block, which the idle link then answers as stray characters ([ET200S SI] §2.7, receiving: idle).
+    // the rest of its block, which the idle link then answers as stray characters ([ET200S SI]
+    // §2.7, receiving: idle).
     assert_eq!(
         sim.take_events(a),
         vec![

@@ -5,22 +5,23 @@
 //! the range and the value. Times are whole milliseconds, as in the manual's tables.
 //!
 //! Readings chosen where the texts disagree:
-//! - **Baud rates** ([ET200S SI] §2.9, Table 2-10 vs [ET200S SI 2005] Table 2-8): all twelve rates of the 2005
-//!   manual (110 … 115 200 bit/s) are accepted; the 2004 module stops at 19 200.
-//! - **Minimum character delay time** ([ET200S SI] §2.8, Table 2-9 vs 2005 Table 2-7): for 110 … 19 200 bit/s
-//!   the ET 200S SI table (364, 134, 68, 34, 18, 9, 4, 4 ms) applies; above 19 200 the 2005 table
-//!   gives 1 ms, and the parameter range starts at 4 ms (`[derived]`), so 4 ms is the minimum there.
+//! - **Baud rates** ([ET200S SI] §2.9, Table 2-10 vs [ET200S SI 2005] Table 2-8): all twelve rates
+//!   of the 2005 manual (110 … 115 200 bit/s) are accepted; the 2004 module stops at 19 200.
+//! - **Minimum character delay time** ([ET200S SI] §2.8, Table 2-9 vs 2005 Table 2-7): for 110 … 19
+//!   200 bit/s the ET 200S SI table (364, 134, 68, 34, 18, 9, 4, 4 ms) applies; above 19 200 the
+//!   2005 table gives 1 ms, and the parameter range starts at 4 ms (`[derived]`), so 4 ms is the
+//!   minimum there.
 //! - **Maximum frame length**: a setting, [`Config::max_frame_len`], 1 … 1024 bytes, with the
-//!   module presets of [`ModulePreset`]: 200 bytes for the ET 200S 1SI (the default, [ET200S SI] §2.10, Table 2-13, Table 2-14
-//!   Table 2-13/2-14 LEN 1 … 200, [ET200S SI] §2.14), 224 for the 2005 module ([ET200S SI 2005]
-//!   `[derived]`), 1024 for the CP 341 ([CP 341 Diag] 0517H "> 1 KB"). 1024 is also the
-//!   receive buffer ([ET200S SI] §2.8), which a frame must fit. The fixed receive length of
-//!   [`EndCriterion::FixedLength`] ranges up to it (2005 manual Table 2-8: 1 … 224; [CP 341] §2.3.3, Tables 2-7 to 2-11:
-//!   1 … 1024).
-//! - **Time steps** (`[derived]`): the flow-control times are counts of 10 ms on the wire, so values that
-//!   are not multiples of 10 ms are rejected rather than silently rounded.
-//! - **End-of-text characters** (`[derived]`): two characters form a *sequence* (char 1 then char 2,
-//!   as on the CP 340/341); char 2 = 0 means "unused".
+//!   module presets of [`ModulePreset`]: 200 bytes for the ET 200S 1SI (the default, [ET200S SI]
+//!   §2.10, Table 2-13, Table 2-14 Table 2-13/2-14 LEN 1 … 200, [ET200S SI] §2.14), 224 for the
+//!   2005 module ([ET200S SI 2005] `[derived]`), 1024 for the CP 341 ([CP 341 Diag] 0517H "> 1
+//!   KB"). 1024 is also the receive buffer ([ET200S SI] §2.8), which a frame must fit. The fixed
+//!   receive length of [`EndCriterion::FixedLength`] ranges up to it (2005 manual Table 2-8: 1 …
+//!   224; [CP 341] §2.3.3, Tables 2-7 to 2-11: 1 … 1024).
+//! - **Time steps** (`[derived]`): the flow-control times are counts of 10 ms on the wire, so
+//!   values that are not multiples of 10 ms are rejected rather than silently rounded.
+//! - **End-of-text characters** (`[derived]`): two characters form a *sequence* (char 1 then char
+//!   2, as on the CP 340/341); char 2 = 0 means "unused".
 
 use crate::status;
 use serde::{Deserialize, Serialize};
@@ -65,8 +66,8 @@ pub enum FlowControl {
     AutoV24,
 }
 
-/// How the receiver recognises the end of a frame ([ET200S SI] §2.8, Table 2-10 "Indicator for end of
-/// receive frame").
+/// How the receiver recognises the end of a frame ([ET200S SI] §2.8, Table 2-10 "Indicator for end
+/// of receive frame").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case", tag = "kind")]
 pub enum EndCriterion {
@@ -182,8 +183,8 @@ pub struct Config {
     /// Host-side, not a module parameter: characters handed to the driver at once while a flow
     /// control is active, 1 … 200 (default 16).
     ///
-    /// The module stops after the character on the line when XOFF or CTS = OFF arrives ([ET200S SI] §2.8).
-    /// A host cannot: the OS buffers what it writes, and each hand-over costs a timer tick
+    /// The module stops after the character on the line when XOFF or CTS = OFF arrives ([ET200S SI]
+    /// §2.8). A host cannot: the OS buffers what it writes, and each hand-over costs a timer tick
     /// (about 1 ms under tokio) that shows up as a gap between characters, which a partner
     /// monitoring its character delay time may take for a frame end. 16 characters keep the
     /// overrun well inside the partner's 50-character XOFF margin and the gaps rare. Use 1 in

@@ -21,12 +21,12 @@
 //! ```
 //!
 //! Readings: R on S_SEND with a job in progress ends it with ERROR and 1E0DH ("job aborted by …
-//! reset"), which is how [ET200S SI] §2.10, Table 2-13's "DONE and ERROR/STATUS are also updated when the FB is reset" is
-//! read; data already handed to the link are still sent ([ET200S SI] §2.10, Table 2-13). S_SEND waits while the link
-//! runs another caller's job and hands its frame over once the link is free. A frame longer
-//! than S_RCV's destination area gives ERROR with 1E20H and stays in the buffer. S_VSET and the
-//! parameter FBs complete in the call that sees the REQ edge, since the link applies them at
-//! once.
+//! reset"), which is how [ET200S SI] §2.10, Table 2-13's "DONE and ERROR/STATUS are also updated
+//! when the FB is reset" is read; data already handed to the link are still sent ([ET200S SI]
+//! §2.10, Table 2-13). S_SEND waits while the link runs another caller's job and hands its frame
+//! over once the link is free. A frame longer than S_RCV's destination area gives ERROR with 1E20H
+//! and stays in the buffer. S_VSET and the parameter FBs complete in the call that sees the REQ
+//! edge, since the link applies them at once.
 
 use crate::config::{AutoV24, RtsCts, XonXoff};
 use crate::link::{Link, Refused, SendError};
@@ -109,8 +109,8 @@ pub struct V24State {
     pub dcd_in: bool,
 }
 
-/// FB4 S_VSTAT: read the RS-232C signals ([ET200S SI] §2.10, Table 2-18). The states refresh on every call; a REQ edge
-/// gives DONE.
+/// FB4 S_VSTAT: read the RS-232C signals ([ET200S SI] §2.10, Table 2-18). The states refresh on
+/// every call; a REQ edge gives DONE.
 #[derive(Debug, Default)]
 pub struct SVstat {
     req: RisingEdge,
@@ -139,7 +139,8 @@ impl SVstat {
     }
 }
 
-/// FB5 S_VSET: set RTS and DTR ([ET200S SI] §2.10, Table 2-19). ERROR with 0502H where §2.8 forbids it.
+/// FB5 S_VSET: set RTS and DTR ([ET200S SI] §2.10, Table 2-19). ERROR with 0502H where §2.8 forbids
+/// it.
 #[derive(Debug, Default)]
 pub struct SVset {
     req: RisingEdge,

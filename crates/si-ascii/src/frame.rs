@@ -6,8 +6,9 @@
 //! the [link](crate::link), which owns the clock; this module has no state beyond the frame in
 //! progress, so it is easy to test exhaustively.
 //!
-//! The ASCII driver has no frame *encoding*: the user data are the frame ([ET200S SI] §2.8). Surplus bytes
-//! after an end criterion start the next frame ([CP 341] §2.2.4: "merged with the next frame").
+//! The ASCII driver has no frame *encoding*: the user data are the frame ([ET200S SI] §2.8).
+//! Surplus bytes after an end criterion start the next frame ([CP 341] §2.2.4: "merged with the
+//! next frame").
 
 use crate::config::{AutoV24, EndCriterion, RtsCts, XonXoff};
 

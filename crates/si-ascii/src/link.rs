@@ -17,44 +17,47 @@
 //!
 //! # Readings of the manual
 //!
-//! - **Character delay time** ([ET200S SI] §2.6, Fig. 2-10): "the longest gap allowed between two characters". The host
-//!   sees a character when it is complete, so the next character must *complete* within
-//!   CDT + one character time of the previous one; a gap of exactly the CDT keeps the frame whole,
-//!   one microsecond more ends it, and the frame end is reported at that microsecond.
-//! - **Inter-frame pause** ([ET200S SI] §2.8, Fig. 2-17): in CDT mode a frame starts only after *more than* one CDT since
-//!   the end of our previous frame (the 2005 manual's "a gap longer than the CDT"), so a partner
-//!   with the same CDT always sees two frames. Only in CDT mode, as the ET 200S manual says;
-//!   the CP 341 ([CP 341] §2.2.4) also pauses in fixed-length mode, switchably.
+//! - **Character delay time** ([ET200S SI] §2.6, Fig. 2-10): "the longest gap allowed between two
+//!   characters". The host sees a character when it is complete, so the next character must
+//!   *complete* within CDT + one character time of the previous one; a gap of exactly the CDT keeps
+//!   the frame whole, one microsecond more ends it, and the frame end is reported at that
+//!   microsecond.
+//! - **Inter-frame pause** ([ET200S SI] §2.8, Fig. 2-17): in CDT mode a frame starts only after
+//!   *more than* one CDT since the end of our previous frame (the 2005 manual's "a gap longer than
+//!   the CDT"), so a partner with the same CDT always sees two frames. Only in CDT mode, as the ET
+//!   200S manual says; the CP 341 ([CP 341] §2.2.4) also pauses in fixed-length mode, switchably.
 //! - **Surplus characters** after an end-of-text sequence or a fixed-length frame start the next
-//!   frame ([CP 341] §2.2.4, [CP 440], [CP 340]); if the CDT then runs out they are a fragment: 0806H.
+//!   frame ([CP 341] §2.2.4, [CP 440], [CP 340]); if the CDT then runs out they are a fragment:
+//!   0806H.
 //! - **Errors inside a frame** (parity, framing, overrun, BREAK, too long, no buffer): the frame is
 //!   discarded, the error reported once, and the rest of that frame skipped until the line is quiet
 //!   for the CDT (or, with end characters, until the end characters), so its tail never becomes a
 //!   frame of its own.
 //! - **Frame longer than the maximum** ([`Config::max_frame_len`], 200 bytes by default) in CDT
-//!   or end-character mode (`[derived]`): reported with 0850H ([ET200S SI 2005] Table 2-29, "received frame
-//!   longer than 224 bytes or than the configured length") and discarded; 050EH is class 05
-//!   "error executing a CPU job" and stays with the send side: a send job longer than the
-//!   maximum is refused with 050EH (Table 2-28 "invalid frame length", [ET200S SI] §2.12: the module rejects
-//!   a send longer than its maximum, `[derived]`), an empty one with 1E41H (the FB's LEN check). The
-//!   FB itself ([`crate::fb`]) checks LEN against 1 … maximum first and answers 1E41H, as
-//!   S_SEND does (Table 2-13).
-//! - **Buffer full** ([ET200S SI] §2.8): with dynamic frames and overwrite allowed the oldest frames make room
-//!   (reported with 080AH, the manual's "diagnostic interrupt"); with overwrite prevented the
-//!   newest frame is lost with 080AH, or with 0812H when we had already sent XOFF / RTS = OFF ([ET200S SI] §2.8).
-//!   Without dynamic frames one frame is stored (`[derived]`): prevent overwrite keeps it and loses the
-//!   new one (080AH); otherwise the new frame replaces it, the manual's "only the newest frame".
-//! - **XOFF threshold** (`[derived]`): XOFF / RTS = OFF when 50 bytes or fewer are free, or, without
-//!   dynamic frames, when the one frame the buffer holds is stored (the "configured number of
-//!   frames" is reached); XON / RTS = ON once a read makes room again.
-//! - **Automatic V.24** (`[derived]`): RTS = ON, then the data go out as soon as CTS = ON, and the send
-//!   fails with 0818H if CTS is still off when the data output wait time ends; RTS = OFF after the
-//!   RTS-off time from the last byte, and only then is the job done.
+//!   or end-character mode (`[derived]`): reported with 0850H ([ET200S SI 2005] Table 2-29,
+//!   "received frame longer than 224 bytes or than the configured length") and discarded; 050EH is
+//!   class 05 "error executing a CPU job" and stays with the send side: a send job longer than the
+//!   maximum is refused with 050EH (Table 2-28 "invalid frame length", [ET200S SI] §2.12: the
+//!   module rejects a send longer than its maximum, `[derived]`), an empty one with 1E41H (the FB's
+//!   LEN check). The FB itself ([`crate::fb`]) checks LEN against 1 … maximum first and answers
+//!   1E41H, as S_SEND does (Table 2-13).
+//! - **Buffer full** ([ET200S SI] §2.8): with dynamic frames and overwrite allowed the oldest
+//!   frames make room (reported with 080AH, the manual's "diagnostic interrupt"); with overwrite
+//!   prevented the newest frame is lost with 080AH, or with 0812H when we had already sent XOFF /
+//!   RTS = OFF ([ET200S SI] §2.8). Without dynamic frames one frame is stored (`[derived]`):
+//!   prevent overwrite keeps it and loses the new one (080AH); otherwise the new frame replaces it,
+//!   the manual's "only the newest frame".
+//! - **XOFF threshold** (`[derived]`): XOFF / RTS = OFF when 50 bytes or fewer are free, or,
+//!   without dynamic frames, when the one frame the buffer holds is stored (the "configured number
+//!   of frames" is reached); XON / RTS = ON once a read makes room again.
+//! - **Automatic V.24** (`[derived]`): RTS = ON, then the data go out as soon as CTS = ON, and the
+//!   send fails with 0818H if CTS is still off when the data output wait time ends; RTS = OFF after
+//!   the RTS-off time from the last byte, and only then is the job done.
 //! - **Character delay while holding the partner**: after XOFF / RTS = OFF the partner is
 //!   supposed to pause, possibly inside a frame, so the character delay time is not monitored
 //!   until XON / RTS = ON; then it starts again.
-//! - **Flow-control wait** ([ET200S SI] §2.8): the XON / CTS wait time runs from the moment sending is held
-//!   (XOFF or CTS = OFF while sending, or at the start of a send that finds it held).
+//! - **Flow-control wait** ([ET200S SI] §2.8): the XON / CTS wait time runs from the moment sending
+//!   is held (XOFF or CTS = OFF while sending, or at the start of a send that finds it held).
 //! - **Behind a USB adapter** (not in the manual): a port that hands received bytes
 //!   over in packets (declared with [`Engine::set_rx_latency`], or shown by a read of two or
 //!   more bytes, [`si_core::delivery`]) gets the port's allowance added to the character delay
@@ -140,7 +143,8 @@ pub enum SendError {
         /// The configured maximum.
         max: usize,
     },
-    /// With XON/XOFF, user data must not contain the XON or XOFF character ([ET200S SI] §2.8, Fig. 2-17).
+    /// With XON/XOFF, user data must not contain the XON or XOFF character ([ET200S SI] §2.8, Fig.
+    /// 2-17).
     #[error("frame contains the flow-control character {0:02X}H, not allowed with XON/XOFF")]
     FlowCharacter(u8),
 }
@@ -302,7 +306,8 @@ const RX_POOL_FRAMES: usize = 4;
 
 impl Link {
     /// A link with validated parameters, entering its flow-control mode as the module does at
-    /// startup ([ET200S SI] §2.8): XON is sent, or RTS = ON, or (automatic V.24) DTR = ON, RTS = OFF.
+    /// startup ([ET200S SI] §2.8): XON is sent, or RTS = ON, or (automatic V.24) DTR = ON, RTS =
+    /// OFF.
     pub fn new(config: Config) -> Result<Link, ConfigError> {
         config.validate()?;
         let mut link = Link {
@@ -349,8 +354,9 @@ impl Link {
         &self.cfg
     }
 
-    /// CPU STOP → RUN ([ET200S SI] §2.11): clear the receive buffer if so configured, and announce the
-    /// flow-control mode again. A send job in progress is completed ([ET200S SI] §2.11, "CPU STOP").
+    /// CPU STOP → RUN ([ET200S SI] §2.11): clear the receive buffer if so configured, and announce
+    /// the flow-control mode again. A send job in progress is completed ([ET200S SI] §2.11, "CPU
+    /// STOP").
     pub fn restart(&mut self, now: Instant) {
         if self.cfg.clear_at_startup {
             self.buffer.clear();
@@ -385,8 +391,8 @@ impl Link {
 
     /// Start a send job (S_SEND). The frame is the user data, 1 … [`Config::max_frame_len`]
     /// bytes (200 by default), including any start
-    /// and end characters the partner needs ([ET200S SI] §2.8, Fig. 2-17). Completion comes as [`Event::Sent`] or
-    /// [`Event::SendFailed`].
+    /// and end characters the partner needs ([ET200S SI] §2.8, Fig. 2-17). Completion comes as
+    /// [`Event::Sent`] or [`Event::SendFailed`].
     pub fn send(&mut self, now: Instant, frame: Bytes) -> Result<JobId, SendError> {
         if self.tx != Tx::Idle {
             return Err(SendError::Busy);
@@ -488,8 +494,8 @@ impl Link {
 
     fn start(&mut self, now: Instant, job: JobId, frame: Bytes) {
         if self.v24.is_some() {
-            // [ET200S SI] §2.8: RTS = ON, then the data go out at CTS = ON; while the partner is not
-            // ready (DSR = OFF) a send job is aborted.
+            // [ET200S SI] §2.8: RTS = ON, then the data go out at CTS = ON; while the partner is
+            // not ready (DSR = OFF) a send job is aborted.
             match self.v24_step(|v, out| v.begin(now, out)) {
                 Step::Abort => return self.fail_send(now, job, status::DSR_CTS_OFF),
                 Step::Send => {}
@@ -889,8 +895,9 @@ impl Link {
         }
     }
 
-    /// Set DTR and/or RTS by job (S_VSET, [ET200S SI] §2.10, Table 2-19). Refused with 0502H on RS-422/485, under
-    /// automatic V.24 operation, and for RTS under RTS/CTS flow control ([ET200S SI] §2.8).
+    /// Set DTR and/or RTS by job (S_VSET, [ET200S SI] §2.10, Table 2-19). Refused with 0502H on
+    /// RS-422/485, under automatic V.24 operation, and for RTS under RTS/CTS flow control
+    /// ([ET200S SI] §2.8).
     pub fn set_signals(&mut self, update: SignalUpdate) -> Result<(), Refused> {
         let refused = self.cfg.interface != Interface::Rs232
             || self.cfg.flow_control == FlowControl::AutoV24
@@ -930,8 +937,9 @@ impl Link {
         Ok(())
     }
 
-    /// Apply a Table 2-26 parameter block as job code 5 carries it ([ET200S SI] §2.12, Table 2-26): 0550H when it does
-    /// not match the configured flow control, 1E20H when a value is out of range.
+    /// Apply a Table 2-26 parameter block as job code 5 carries it ([ET200S SI] §2.12, Table 2-26):
+    /// 0550H when it does not match the configured flow control, 1E20H when a value is out of
+    /// range.
     pub fn apply_param_block(&mut self, block: crate::frame::ParamBlock) -> Result<(), Refused> {
         use crate::frame::ParamBlock;
         match block {
@@ -1104,7 +1112,8 @@ impl Link {
                     self.complete_frame(now)
                 }
                 Rx::Receiving => {
-                    // [ET200S SI] §2.8: the CDT ran out before the end criterion; fragment discarded.
+                    // [ET200S SI] §2.8: the CDT ran out before the end criterion; fragment
+                    // discarded.
                     self.buffer.discard_pending();
                     self.rx = Rx::Idle;
                     self.rx_fail(now, status::CHAR_DELAY_EXCEEDED);
@@ -1146,7 +1155,8 @@ impl Link {
                 let job = *job;
                 self.last_tx_end = Some(now);
                 if self.v24.is_some() {
-                    // [ET200S SI] §2.8: RTS = OFF after the RTS-off time, and only then is the job done.
+                    // [ET200S SI] §2.8: RTS = OFF after the RTS-off time, and only then is the job
+                    // done.
                     self.tx = Tx::RtsOff { job };
                     if self.v24_step(|v, out| v.sent(now, out)) == Step::Done {
                         self.finish_send(now, job);

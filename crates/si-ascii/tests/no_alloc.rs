@@ -69,8 +69,9 @@ fn steady_state_receive_and_send_do_not_allocate() {
     });
 }
 
-/// [ET200S SI] §2.10, Table 2-13 / §2.10, Table 2-14 with the FBs: an S_SEND job per frame (REQ edge, then calls until DONE), the
-/// received frame read by S_RCV or by `read_frame_bytes`, every 1 ms.
+/// [ET200S SI] §2.10, Table 2-13 / §2.10, Table 2-14 with the FBs: an S_SEND job per frame (REQ
+/// edge, then calls until DONE), the received frame read by S_RCV or by `read_frame_bytes`, every 1
+/// ms.
 fn steady_state_fb_jobs_and_pooled_reads_do_not_allocate() {
     let config = Config {
         end: EndCriterion::DEFAULT_END_CHARS,

@@ -1,6 +1,6 @@
 //! Helpers that give the FB equivalents the S7 call semantics ([ET200S SI] §2.10,
-//! [ET200S SI] §2.10 `[derived]`): REQ is edge-triggered, R resets, EN_R is a level, and DONE / NDR / ERROR / STATUS are
-//! valid for exactly one call.
+//! [ET200S SI] §2.10 `[derived]`): REQ is edge-triggered, R resets, EN_R is a level, and DONE / NDR
+//! / ERROR / STATUS are valid for exactly one call.
 //!
 //! ```
 //! use si_core::fb::{Pulse, RisingEdge};
@@ -140,8 +140,8 @@ impl JobRequest {
     }
 
     /// R: forgets the running job and cancels it on the port; 1E0DH ("aborted by reset") if a
-    /// job ran, for the DONE/ERROR/STATUS of this call ([ET200S SI] §2.10, Table 2-13: "also updated when the FB is
-    /// reset"). The next TRUE on REQ counts as an edge.
+    /// job ran, for the DONE/ERROR/STATUS of this call ([ET200S SI] §2.10, Table 2-13: "also
+    /// updated when the FB is reset"). The next TRUE on REQ counts as an edge.
     pub fn reset<P: JobPort>(&mut self, port: &mut P) -> Option<Status> {
         self.req.reset();
         let id = self.job.take()?;

@@ -16,8 +16,8 @@ pub enum Interface {
     Rs232,
     /// RS-422, four-wire: one partner, each direction on its own pair.
     Rs422,
-    /// RS-485, two-wire half duplex: no flow control ([ET200S SI] §2.8), turnaround after each frame; a
-    /// Modbus master recognises a response by a correctly received slave address
+    /// RS-485, two-wire half duplex: no flow control ([ET200S SI] §2.8), turnaround after each
+    /// frame; a Modbus master recognises a response by a correctly received slave address
     /// ([Modbus/USS] §3.4.1, §3.4.3).
     Rs485,
 }

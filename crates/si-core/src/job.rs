@@ -66,8 +66,9 @@ pub enum Reception {
 /// for it by id.
 pub trait JobPort {
     /// What one job asks for: the frame of S_SEND ([`Bytes`]) for the line links, the Modbus
-    /// master (the S_SEND source area of [Modbus/USS] §3.4.5–§3.4.16) and the window host (whose job type also has the
-    /// V.24 and parameter jobs); a SEND or FETCH request for the RK 512 station.
+    /// master (the S_SEND source area of [Modbus/USS] §3.4.5–§3.4.16) and the window host (whose
+    /// job type also has the V.24 and parameter jobs); a SEND or FETCH request for the RK 512
+    /// station.
     type Job;
     /// What a job gives back with DONE: `()` for a send, the fetched bytes for an RK 512 FETCH,
     /// the window's job outcome.
@@ -96,7 +97,8 @@ pub trait JobPort {
     }
 
     /// S_RCV's STATUS in a call with neither NDR nor ERROR: 0B01H while the receive buffer is
-    /// more than 2/3 full (a warning with ERROR = 0, [ET200S SI] §2.10, Table 2-14, `[derived]`), else 0000H.
+    /// more than 2/3 full (a warning with ERROR = 0, [ET200S SI] §2.10, Table 2-14, `[derived]`),
+    /// else 0000H.
     fn receive_warning(&self) -> Status {
         Status::OK
     }

@@ -81,7 +81,8 @@ impl Default for MemorySizes {
 /// memory no request reaches.
 pub const MAX_AREA_BYTES: u32 = 65_536;
 
-/// Most timers or counters: their numbers (ttttt, zzzzz) are WORDs 0…65535 as well ([Modbus/USS] §3.5.3, Table 3-19).
+/// Most timers or counters: their numbers (ttttt, zzzzz) are WORDs 0…65535 as well ([Modbus/USS]
+/// §3.5.3, Table 3-19).
 pub const MAX_ELEMENTS: u32 = 65_536;
 
 /// Largest data block, in bytes. Our reading (the manuals give no DB size): an S7 byte offset

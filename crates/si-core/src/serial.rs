@@ -130,7 +130,8 @@ impl From<SerialSettings> for RawSettings {
 }
 
 impl Default for SerialSettings {
-    /// 9600 bit/s, 8 data bits, even parity, 1 stop bit: the manuals' defaults ([ET200S SI 2005] §2.9.3, Table 2-9).
+    /// 9600 bit/s, 8 data bits, even parity, 1 stop bit: the manuals' defaults ([ET200S SI 2005]
+    /// §2.9.3, Table 2-9).
     fn default() -> Self {
         SerialSettings {
             baud: 9_600,

@@ -18,10 +18,11 @@
 //!   are sent", but also "if CTS does not come ON within that time, the job is aborted". We read
 //!   it as a timeout: the data go out as soon as CTS = ON, and the job fails if CTS is still OFF
 //!   when the time ends. A fixed delay would make CTS meaningless whenever it is ON early.
-//! - **A send job while DSR = OFF** is aborted at once (ASCII [ET200S SI] §2.8: "a send job is aborted",
-//!   [Modbus/USS] §3.2.2 item 7 for DSR dropping).
+//! - **A send job while DSR = OFF** is aborted at once (ASCII [ET200S SI] §2.8: "a send job is
+//!   aborted", [Modbus/USS] §3.2.2 item 7 for DSR dropping).
 //! - **Ranges** (0 … 655 350 ms in 10 ms steps, default 10 ms) are the ASCII driver's S_V24 block
-//!   (Table 2-26, block 22H); the Modbus manual gives none, [Modbus/USS] §3.2.2, so Modbus takes the same.
+//!   (Table 2-26, block 22H); the Modbus manual gives none, [Modbus/USS] §3.2.2, so Modbus takes
+//!   the same.
 //!
 //! The sequence is a small state machine that owns the RTS/DTR outputs and knows nothing of
 //! frames: an engine asks [`AutoV24::begin`] before it transmits, reports the end of its
@@ -197,7 +198,8 @@ impl AutoV24 {
     }
 
     /// The modem inputs changed. Returns the step for the send side and whether DSR went from
-    /// ON to OFF (which also aborts a running reception, [ET200S SI] §2.8 / [Modbus/USS] §3.2.2 item 7).
+    /// ON to OFF (which also aborts a running reception, [ET200S SI] §2.8 / [Modbus/USS] §3.2.2
+    /// item 7).
     pub fn on_signals<E>(
         &mut self,
         signals: ModemSignals,

@@ -18,10 +18,11 @@ pub const MAX_FRAME_LEN_LIMIT: usize = 4096;
 
 /// Default host job watchdog: 30 s.
 ///
-/// The manual defines no timeout for any window step (`[derived]`). A send job legitimately waits for
-/// the whole serial transmission before the end-of-job acknowledgement ([ET200S SI 2005] §2.12.1–§2.12.7 `[derived]`), including 3964(R)
-/// retries: 224 bytes at 1200 bit/s take 2.05 s per attempt, plus QVZ 2 s, times 6 attempts ≈ 25 s.
-/// 30 s covers that; slower lines or longer retry chains need a longer watchdog.
+/// The manual defines no timeout for any window step (`[derived]`). A send job legitimately waits
+/// for the whole serial transmission before the end-of-job acknowledgement ([ET200S SI 2005]
+/// §2.12.1–§2.12.7 `[derived]`), including 3964(R) retries: 224 bytes at 1200 bit/s take 2.05 s per
+/// attempt, plus QVZ 2 s, times 6 attempts ≈ 25 s. 30 s covers that; slower lines or longer retry
+/// chains need a longer watchdog.
 pub const DEFAULT_JOB_TIMEOUT: Duration = Duration::from_secs(30);
 
 /// A configuration value outside its range: every window parameter error is a range error,
@@ -58,8 +59,8 @@ pub struct HostConfig {
     pub auto_receive: bool,
     /// Where the V.24 bit field sits in the signal word (`[derived]`); default byte 2.
     pub v24_layout: V24Layout,
-    /// What follows execution number 7 (`[derived]`): 7 → 1 by default, or 7 → 0. Host and module must
-    /// use the same; see [`ExecWrap`] for what a disagreement looks like.
+    /// What follows execution number 7 (`[derived]`): 7 → 1 by default, or 7 → 0. Host and module
+    /// must use the same; see [`ExecWrap`] for what a disagreement looks like.
     #[serde(default)]
     pub exec_wrap: ExecWrap,
 }
@@ -172,7 +173,8 @@ pub struct ModuleConfig {
     pub window: WindowSize,
     /// Largest frame, 1 … [`MAX_FRAME_LEN_LIMIT`]; default 224. A longer send is refused with
     /// the end-of-job acknowledgement and 050EH right after the segment carrying the length word
-    /// ([ET200S SI 2005] §2.12.7 case 1; `[derived]`: the exec number of that 7xH is the one of that segment).
+    /// ([ET200S SI 2005] §2.12.7 case 1; `[derived]`: the exec number of that 7xH is the one of
+    /// that segment).
     pub max_frame_len: usize,
     /// Receive buffer in bytes, 1 … 65 536; default 1024 (the ASCII driver's buffer,
     /// [ET200S SI 2005] §2.8.3, Table 2-8). 0B01H is published above 2/3 of it.
@@ -188,8 +190,8 @@ pub struct ModuleConfig {
     pub flow_control: FlowControl,
     /// Where the V.24 bit field sits in the signal word (`[derived]`); default byte 2.
     pub v24_layout: V24Layout,
-    /// What follows execution number 7 (`[derived]`): 7 → 1 by default, or 7 → 0. Host and module must
-    /// use the same; see [`ExecWrap`] for what a disagreement looks like.
+    /// What follows execution number 7 (`[derived]`): 7 → 1 by default, or 7 → 0. Host and module
+    /// must use the same; see [`ExecWrap`] for what a disagreement looks like.
     #[serde(default)]
     pub exec_wrap: ExecWrap,
 }

@@ -20,7 +20,8 @@
 //! * **0807H "zero-length block received (not an error)"** ([ET200S SI] §2.13, Table 2-28) is
 //!   not buffered for the host: the window's receive job has no way to say "not an error" other
 //!   than 0101H, and an empty block carries nothing to fetch, so the module drops it. Every other
-//!   receive error is delivered to the next receive job as 20H + STATUS ([ET200S SI 2005] §2.12.7 case 2).
+//!   receive error is delivered to the next receive job as 20H + STATUS ([ET200S SI 2005] §2.12.7
+//!   case 2).
 //! * **Frames are taken out of the engine at the module's next cycle**, not when the engine
 //!   reports them: the engine's buffer (3964(R): 5 blocks, ASCII: 1024 bytes) then frees at the
 //!   rate the module runs, and the window module's own buffer (`ModuleConfig::rx_buffer_*`)

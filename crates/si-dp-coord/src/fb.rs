@@ -5,16 +5,17 @@
 //!
 //! Each FB is called once per user cycle, the host engine once per DP cycle; the FB submits its
 //! job to the host's arbiter and collects its own completion with [`Host::take_completion`], so
-//! several FBs share one host ([ET200S SI 2005] §2.12.1: one job owns byte 0 at a time). REQ is edge-triggered, R
-//! aborts, EN_R is a level, and DONE / NDR / ERROR / STATUS / LEN are valid for exactly the call
-//! that reports them ([ET200S SI 2005] §2.10). Do not also drain the host with `poll_event` or enable its
-//! `auto_receive` while FBs run on it: the FBs would miss their completions or their frames.
+//! several FBs share one host ([ET200S SI 2005] §2.12.1: one job owns byte 0 at a time). REQ is
+//! edge-triggered, R aborts, EN_R is a level, and DONE / NDR / ERROR / STATUS / LEN are valid for
+//! exactly the call that reports them ([ET200S SI 2005] §2.10). Do not also drain the host with
+//! `poll_event` or enable its `auto_receive` while FBs run on it: the FBs would miss their
+//! completions or their frames.
 //!
 //! Readings:
 //! * R with a job in progress ends it with ERROR and 1E0DH in that call ("DONE and ERROR/STATUS
-//!   are also output on RESET", [ET200S SI 2005] §2.10, Table 2-14); the host writes idle, which aborts the module's side. For
-//!   S_RCV, EN_R = 0 or R aborts a running transfer the same way; the module keeps the aborted
-//!   frame and offers it again ([ET200S SI 2005] §2.10, Table 2-15).
+//!   are also output on RESET", [ET200S SI 2005] §2.10, Table 2-14); the host writes idle, which
+//!   aborts the module's side. For S_RCV, EN_R = 0 or R aborts a running transfer the same way; the
+//!   module keeps the aborted frame and offers it again ([ET200S SI 2005] §2.10, Table 2-15).
 //! * S_RCV fetches a frame only while the idle status shows one (0001H/0B01H) and EN_R = 1; a frame
 //!   longer than the destination area is fetched and reported with ERROR and 1E20H (the window
 //!   protocol cannot leave it in the module once read).
@@ -51,8 +52,8 @@ impl JobPort for Host {
         self.take_completion(id)
     }
 
-    /// [`Host::abort`]: writing idle aborts the module's side ([ET200S SI 2005] §2.12.7); the 1E0DH completion is
-    /// taken here, the FB reports it itself.
+    /// [`Host::abort`]: writing idle aborts the module's side ([ET200S SI 2005] §2.12.7); the 1E0DH
+    /// completion is taken here, the FB reports it itself.
     fn cancel_job(&mut self, id: JobId) {
         self.abort(id);
         self.take_completion(id);
@@ -96,8 +97,8 @@ impl JobPort for Host {
         }
     }
 
-    /// EN_R = 0 and R both abort a running receive job ([ET200S SI 2005] §2.10, Table 2-15: the module keeps the frame and
-    /// offers it again).
+    /// EN_R = 0 and R both abort a running receive job ([ET200S SI 2005] §2.10, Table 2-15: the
+    /// module keeps the frame and offers it again).
     fn stop_receiving(&mut self, _reset: bool) -> bool {
         let Some(id) = self.fb_receive.take() else {
             return false;

@@ -2,42 +2,45 @@
 //! ET 200S serial module through its coordination-byte window.
 //!
 //! [ET200S SI 2005] §2.12.1 (rules for writing a job code), §2.12.7 (error handling)
-//! and [ET200S SI 2005] §2.12.1–§2.12.7 `[derived]` (host-side state machines). Call [`Host::cycle`] once per DP cycle (or host cycle)
-//! with the input window just read; write the returned output window back as one consistent
-//! block. Jobs are submitted with [`Host::submit`] and end in exactly one
-//! [`HostEvent::Completed`], taken with [`Host::poll_event`] (or, for one job, with
-//! [`Host::take_completion`]).
+//! and [ET200S SI 2005] §2.12.1–§2.12.7 `[derived]` (host-side state machines). Call
+//! [`Host::cycle`] once per DP cycle (or host cycle) with the input window just read; write the
+//! returned output window back as one consistent block. Jobs are submitted with [`Host::submit`]
+//! and end in exactly one [`HostEvent::Completed`], taken with [`Host::poll_event`] (or, for one
+//! job, with [`Host::take_completion`]).
 //!
 //! The engine reads no clock: `now` is only used by the job watchdog.
 //!
 //! # The arbiter
 //!
-//! Only one job owns byte 0 ([ET200S SI 2005] §2.12.1, derived in §2.12.1–§2.12.7 `[derived]`). A job code is written only in a cycle
-//! where the module shows idle (00H, no error bit) *and* the host's previous output byte 0 was
-//! 00H, so every job starts from a clean idle on both sides. A job that reads the acknowledgement
-//! of a foreign job code backs off (rule 3): it writes 00H, waits for idle, and starts again,
-//! reported as [`HostEvent::BackedOff`].
+//! Only one job owns byte 0 ([ET200S SI 2005] §2.12.1, derived in §2.12.1–§2.12.7 `[derived]`). A
+//! job code is written only in a cycle where the module shows idle (00H, no error bit) *and* the
+//! host's previous output byte 0 was 00H, so every job starts from a clean idle on both sides. A
+//! job that reads the acknowledgement of a foreign job code backs off (rule 3): it writes 00H,
+//! waits for idle, and starts again, reported as [`HostEvent::BackedOff`].
 //!
 //! # Readings chosen where the manual is unclear
 //!
 //! * A send or parameter job completes when the end-of-job acknowledgement 7xH arrives, with the
 //!   STATUS of bytes 1–2 (0000H = done); write V.24 completes on the 40H acknowledgement. The host
-//!   then writes 00H and waits for the module's idle before the next job ([ET200S SI 2005] §2.12.1–§2.12.7 `[derived]` `DONE`).
+//!   then writes 00H and waits for the module's idle before the next job ([ET200S SI 2005]
+//!   §2.12.1–§2.12.7 `[derived]` `DONE`).
 //! * A receive or read V.24 job completes when the module shows idle after the host's last echo.
-//!   The host holds the echo until then and writes 00H afterwards (`[derived]`; writing 00H earlier would
-//!   abort the transfer, [ET200S SI 2005] §2.12.7).
+//!   The host holds the echo until then and writes 00H afterwards (`[derived]`; writing 00H earlier
+//!   would abort the transfer, [ET200S SI 2005] §2.12.7).
 //! * A receive job answered with 20H and 0101H (or 0000H) completes with
-//!   [`Outcome::NoMessage`]; 20H with any other word is a failure with that STATUS ([ET200S SI 2005] §2.12.7).
+//!   [`Outcome::NoMessage`]; 20H with any other word is a failure with that STATUS
+//!   ([ET200S SI 2005] §2.12.7).
 //! * An out-of-order receive segment sets the error bit with the last valid number. The host then
 //!   accepts either answer: the segment after the last valid one (the general go-back rule) or
-//!   20H with a STATUS (Table 2-21: 0551H abort; the frame is offered again by a later job, `[derived]`).
+//!   20H with a STATUS (Table 2-21: 0551H abort; the frame is offered again by a later job,
+//!   `[derived]`).
 //! * The end-of-job acknowledgement is accepted with any exec number: the manual does not say
 //!   which number a 7xH carries when the module ends a job early (`[derived]`).
 //! * A received frame longer than [`HostConfig::max_frame_len`] is still read to its end (and
 //!   dropped, failing with 0850H): aborting instead would leave it first in the module's buffer
 //!   and every later receive job would meet it again.
-//! * Each job has a watchdog ([`HostConfig::job_timeout`], `[derived]`); on expiry the job fails with
-//!   [`HostConfig::watchdog_status`] and the host writes 00H, which aborts the module's side.
+//! * Each job has a watchdog ([`HostConfig::job_timeout`], `[derived]`); on expiry the job fails
+//!   with [`HostConfig::watchdog_status`] and the host writes 00H, which aborts the module's side.
 
 use crate::config::{ConfigError, HostConfig};
 use crate::coord::{CoordByte, JobCode};
@@ -318,8 +321,8 @@ impl Host {
     }
 
     /// Ends one job with 1E0DH ("aborted by reset"), queued or running: the R input of one FB.
-    /// A running job writes idle, which aborts the module's side ([ET200S SI 2005] §2.12.7). False if `id` is
-    /// neither queued nor running (already completed, or unknown).
+    /// A running job writes idle, which aborts the module's side ([ET200S SI 2005] §2.12.7). False
+    /// if `id` is neither queued nor running (already completed, or unknown).
     pub fn abort(&mut self, id: JobId) -> bool {
         if let Some(a) = self.active.take() {
             if a.id == id {
@@ -356,7 +359,8 @@ impl Host {
         }
     }
 
-    /// The receive status of the last idle window read (0000H, 0001H, 0B01H; [ET200S SI 2005] §2.12.1).
+    /// The receive status of the last idle window read (0000H, 0001H, 0B01H; [ET200S SI 2005]
+    /// §2.12.1).
     pub fn receive_status(&self) -> Option<RxStatus> {
         self.rx_status
     }
@@ -399,8 +403,8 @@ impl Host {
             self.out.clear();
             self.active = self.next_job(now);
         }
-        // [ET200S SI 2005] §2.12.1 rule 1, and our clean-start reading: a job code is written only after the
-        // module's idle was read while our own byte 0 was already idle.
+        // [ET200S SI 2005] §2.12.1 rule 1, and our clean-start reading: a job code is written only
+        // after the module's idle was read while our own byte 0 was already idle.
         if out_was_idle && c.is_idle() {
             if let Some(mut a) = self.active.take() {
                 if matches!(a.phase, Phase::WaitIdle) {
@@ -545,7 +549,8 @@ impl Host {
         }
     }
 
-    /// Send/parameters, request 10H/50H out: wait for the acceptance ([ET200S SI 2005] §2.12.1 rule 2).
+    /// Send/parameters, request 10H/50H out: wait for the acceptance ([ET200S SI 2005] §2.12.1 rule
+    /// 2).
     fn on_request(&mut self, job: &Job, c: CoordByte, word: u16) -> Next {
         let code = job.code();
         if c.job == JobCode::Idle || (c.job == code && c != CoordByte::new(code, 0)) {
@@ -559,7 +564,8 @@ impl Host {
                 in_error: None,
             }))
         } else if c.job == JobCode::EndOfJob {
-            // Refused before any segment ([ET200S SI 2005] §2.12.1–§2.12.7 [derived]: "7xH → rejected").
+            // Refused before any segment ([ET200S SI 2005] §2.12.1–§2.12.7 [derived]: "7xH →
+            // rejected").
             Next::Done(Err(status_or(word, NOT_POSSIBLE_IN_MODE)))
         } else {
             Next::BackOff
@@ -609,7 +615,8 @@ impl Host {
                 Err(NOT_POSSIBLE_IN_MODE)
             });
         } else {
-            // Another job code: cancel, wait for idle, repeat the whole job ([ET200S SI 2005] §2.12.7).
+            // Another job code: cancel, wait for idle, repeat the whole job ([ET200S SI 2005]
+            // §2.12.7).
             return Next::BackOff;
         }
         Next::Stay(Phase::Sending(SendState {

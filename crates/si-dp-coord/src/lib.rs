@@ -24,8 +24,8 @@
 //! * [`engines`]: si-3964r's and si-ascii's links as that serial side, so a simulated module runs
 //!   3964(R) or ASCII on its line.
 //! * [`modbus`]: si-modbus's master as that serial side: the module in Modbus master mode, the
-//!   S_SEND job layout ([Modbus/USS] §3.4.5–§3.4.16) in, the S_RCV response layout ([Modbus/USS] §3.4.5–§3.4.16) or
-//!   the job's STATUS out.
+//!   S_SEND job layout ([Modbus/USS] §3.4.5–§3.4.16) in, the S_RCV response layout ([Modbus/USS]
+//!   §3.4.5–§3.4.16) or the job's STATUS out.
 //! * [`sim`]: a host and a module joined by a seeded, lagging, fault-injecting DP exchange.
 //! * [`monitor`]: reads a recorded trace of DP windows window by window, coordination bytes
 //!   and what the data bytes mean for them.

@@ -15,22 +15,24 @@
 //! Readings:
 //! * **A failed job is reported twice**: with the end-of-job acknowledgement of the send job and
 //!   with the next receive job, as si-modbus's S_SEND and S_RCV both report it (Figure 3-7 labels
-//!   both ERROR lines; [Modbus/USS] §3.4.2 `[derived]`). The send job's 7xH therefore comes only when the master's job has
-//!   ended, after the response or the response time (default 2 s); the window's own rule that
-//!   7xH follows the transmission ([ET200S SI 2005] §2.12.1–§2.12.7 `[derived]`) is kept in the sense that the job's "transmission" is
-//!   the whole request–response exchange ([Modbus/USS] §3.4.2: S_SEND DONE with S_RCV NDR).
-//! * **Refused jobs** (a source area breaking [Modbus/USS] §3.4.5–§3.4.16: 0E40H–0E4AH, 1E41H) end the send job at once
-//!   with 7xH + that STATUS and reach neither the line nor the receive buffer.
-//! * **Frame limit 200 bytes** both ways ([Modbus/USS] §3.4.2 LEN 1…200, 050EH; `[derived]`): a longer send job is
-//!   refused with 050EH by the window module itself, and a response whose S_RCV layout is longer
-//!   than 200 bytes (FC03/04 above 100 registers, FC01/02 above 1600 bits, [Modbus/USS] §3.4.5–§3.4.16) is never cut:
-//!   si-modbus's job check may refuse such a read before the line (050EH, its reading of [Modbus/USS] §3.4.5–§3.4.16);
-//!   a longer response that still arrives is refused by the window module, and the receive job
-//!   gets 20H + 0850H.
+//!   both ERROR lines; [Modbus/USS] §3.4.2 `[derived]`). The send job's 7xH therefore comes only
+//!   when the master's job has ended, after the response or the response time (default 2 s); the
+//!   window's own rule that 7xH follows the transmission ([ET200S SI 2005] §2.12.1–§2.12.7
+//!   `[derived]`) is kept in the sense that the job's "transmission" is the whole request–response
+//!   exchange ([Modbus/USS] §3.4.2: S_SEND DONE with S_RCV NDR).
+//! * **Refused jobs** (a source area breaking [Modbus/USS] §3.4.5–§3.4.16: 0E40H–0E4AH, 1E41H) end
+//!   the send job at once with 7xH + that STATUS and reach neither the line nor the receive buffer.
+//! * **Frame limit 200 bytes** both ways ([Modbus/USS] §3.4.2 LEN 1…200, 050EH; `[derived]`): a
+//!   longer send job is refused with 050EH by the window module itself, and a response whose S_RCV
+//!   layout is longer than 200 bytes (FC03/04 above 100 registers, FC01/02 above 1600 bits,
+//!   [Modbus/USS] §3.4.5–§3.4.16) is never cut: si-modbus's job check may refuse such a read before
+//!   the line (050EH, its reading of [Modbus/USS] §3.4.5–§3.4.16); a longer response that still
+//!   arrives is refused by the window module, and the receive job gets 20H + 0850H.
 //! * The module's receive buffer holds the responses; the master runs one job at a time, and a
 //!   send job while one runs is refused with 0502H.
 //! * Parameter jobs are refused with 0550H (the Modbus module offers no flow-control block
-//!   through the window, [ET200S SI 2005] §2.12 `[derived]`); write V.24 sets RTS/DTR on the line directly.
+//!   through the window, [ET200S SI 2005] §2.12 `[derived]`); write V.24 sets RTS/DTR on the line
+//!   directly.
 //! * Line diagnostics outside a job ([`MasterEvent::Diagnostic`], the module's SYSTAT entries)
 //!   are not window content; they stay events of the station.
 //!
@@ -49,7 +51,8 @@ use si_core::status::common::NOT_POSSIBLE_IN_MODE;
 use si_core::{FramePool, Instant, Status};
 use si_modbus::master::{Master, MasterEvent};
 
-/// The Modbus module's frame limit through the window: 200 bytes ([Modbus/USS] §3.4.2, `[derived]`).
+/// The Modbus module's frame limit through the window: 200 bytes ([Modbus/USS] §3.4.2,
+/// `[derived]`).
 pub const MAX_FRAME_LEN: usize = si_modbus::fb::MAX_LEN;
 
 /// Room for the longest S_RCV layout a Modbus response can have: 2040 coils are 255 bytes,
@@ -69,7 +72,8 @@ fn master_send(master: &mut Master, now: Instant, job: &[u8]) -> Result<(), Stat
     master_send_bytes(master, now, Bytes::copy_from_slice(job))
 }
 
-/// Starts the job the S_SEND source area describes ([Modbus/USS] §3.4.5–§3.4.16), as si-modbus's S_SEND does.
+/// Starts the job the S_SEND source area describes ([Modbus/USS] §3.4.5–§3.4.16), as si-modbus's
+/// S_SEND does.
 fn master_send_bytes(master: &mut Master, now: Instant, job: Bytes) -> Result<(), Status> {
     match master.start_job(now, job) {
         Ok(_) => Ok(()),
@@ -86,7 +90,8 @@ fn master_classify(event: &MasterEvent) -> Option<LineEvent> {
     }
 }
 
-/// The response of the job that just ended in the S_RCV layout ([Modbus/USS] §3.4.5–§3.4.16), or its failure.
+/// The response of the job that just ended in the S_RCV layout ([Modbus/USS] §3.4.5–§3.4.16), or
+/// its failure.
 fn master_take(
     master: &mut Master,
     now: Instant,

@@ -1,41 +1,44 @@
 //! The module engine: the ET 200S SI module's side of the window protocol, for simulation, test
 //! doubles and gateways that play the module.
 //!
-//! [ET200S SI 2005] §2.12.1–§2.12.7 `[derived]` ("Module-side state machine", the mirror image of the
-//! host's) and [ET200S SI 2005] §2.12.7. Call [`Module::cycle`] once per DP cycle with the output window the master
-//! wrote; it returns the input window the master will read. The serial line sits behind the
-//! [`SerialSide`] trait, so any line engine (3964(R), ASCII, a loopback) can be plugged in
-//! through a small adapter; [`LoopbackSerial`] is the one the tests and simulations use.
+//! [ET200S SI 2005] §2.12.1–§2.12.7 `[derived]` ("Module-side state machine", the mirror image of
+//! the host's) and [ET200S SI 2005] §2.12.7. Call [`Module::cycle`] once per DP cycle with the
+//! output window the master wrote; it returns the input window the master will read. The serial
+//! line sits behind the [`SerialSide`] trait, so any line engine (3964(R), ASCII, a loopback) can
+//! be plugged in through a small adapter; [`LoopbackSerial`] is the one the tests and simulations
+//! use.
 //!
 //! # Behaviour, job by job
 //!
 //! * **Idle:** publishes 00H and the receive status in bytes 1–2: 0000H none, 0001H a frame (or a
-//!   receive error) waiting, 0B01H buffer more than 2/3 full ([ET200S SI 2005] §2.12.1). A job starts only from a
-//!   request byte (job code, no error bit, exec 0); anything else is ignored.
+//!   receive error) waiting, 0B01H buffer more than 2/3 full ([ET200S SI 2005] §2.12.1). A job
+//!   starts only from a request byte (job code, no error bit, exec 0); anything else is ignored.
 //! * **Send (1) / parameters (5):** accepts with the job code and exec 0 (status word = the
 //!   receive status), then checks each segment's exec number against last + 1 (after 7: 1, or 0
-//!   with [`ModuleConfig::exec_wrap`], `[derived]`): in order → echo; the same number again → ignore
-//!   (the host holds a segment until echoed); anything else → error bit with the last valid
+//!   with [`ModuleConfig::exec_wrap`], `[derived]`): in order → echo; the same number again →
+//!   ignore (the host holds a segment until echoed); anything else → error bit with the last valid
 //!   number ([ET200S SI 2005] §2.12.7). After the last segment a send frame goes to
 //!   the serial side and the module answers 7xH + STATUS only when it has been transmitted
-//!   ([ET200S SI 2005] §2.12.1–§2.12.7 `[derived]`); a parameter block is applied one cycle after its last echo (Table 2-28 shows 53H
-//!   before 73H). 7xH carries the exec number of the last segment. A length word of 0 or above
-//!   `max_frame_len` is answered at once after the segment carrying it with 7xH + 050EH ([ET200S SI 2005] §2.12.7
-//!   case 1, `[derived]`).
-//! * **Receive (2):** no frame → 20H + 0101H; a buffered receive error → 20H + its STATUS ([ET200S SI 2005] §2.12.7
-//!   cases 2–3); else segment 1 at once as 21H with the length word (`[derived]`), each further segment
-//!   after the host's echo, idle after the echo of the last one (the frame is then removed).
-//!   The host's error bit → [`ReceiveErrorPolicy`] (`[derived]`).
+//!   ([ET200S SI 2005] §2.12.1–§2.12.7 `[derived]`); a parameter block is applied one cycle after
+//!   its last echo (Table 2-28 shows 53H before 73H). 7xH carries the exec number of the last
+//!   segment. A length word of 0 or above `max_frame_len` is answered at once after the segment
+//!   carrying it with 7xH + 050EH ([ET200S SI 2005] §2.12.7 case 1, `[derived]`).
+//! * **Receive (2):** no frame → 20H + 0101H; a buffered receive error → 20H + its STATUS
+//!   ([ET200S SI 2005] §2.12.7 cases 2–3); else segment 1 at once as 21H with the length word
+//!   (`[derived]`), each further segment after the host's echo, idle after the echo of the last one
+//!   (the frame is then removed). The host's error bit → [`ReceiveErrorPolicy`] (`[derived]`).
 //! * **Read V.24 (3):** 31H + signal word, idle after the host's echo 31H (Table 2-25).
 //! * **Write V.24 (4):** the signal word rides in the request; answers 40H + STATUS and waits for
 //!   the host's 00H (Table 2-26, `[derived]`).
 //! * **Aborts:** idle (000) or 111 from the host during any job → idle, no error bit; a foreign job
-//!   code → ignored with its data ([ET200S SI 2005] §2.12.7). A frame already handed to the serial side is still
-//!   sent (`[derived]`); a frame being delivered stays in the buffer and is offered again.
+//!   code → ignored with its data ([ET200S SI 2005] §2.12.7). A frame already handed to the serial
+//!   side is still sent (`[derived]`); a frame being delivered stays in the buffer and is offered
+//!   again.
 //! * The 7xH / 20H / 40H answers are held until the host writes 00H (or 111).
 //! * No module-side timeout (the manual has none, `[derived]`): a DP master that stops makes the
 //!   module's outputs fail safe to 0, which is the idle code, so a half-done job is aborted by
-//!   the rule above; a host restart writes 00H first for the same effect ([ET200S SI 2005] §2.12.2, §2.12.3, §2.11).
+//!   the rule above; a host restart writes 00H first for the same effect ([ET200S SI 2005] §2.12.2,
+//!   §2.12.3, §2.11).
 
 use crate::config::{ConfigError, FlowControl, ModuleConfig, ReceiveErrorPolicy};
 use crate::coord::{CoordByte, ExecWrap, JobCode};

@@ -7,8 +7,8 @@
 //! to the other station (the first one exact, the rest a microsecond apart), and [`Monitor`]
 //! cuts them back into windows and reads each one: the coordination byte with what the data
 //! bytes mean for it (`10H send req, len 22`, `11H seg 1: abcde`, `71H done`). The error bit
-//! (a segment out of order, [ET200S SI 2005] §2.12.7) and a STATUS other than 0000H (and 0101H, "not an error")
-//! are errors.
+//! (a segment out of order, [ET200S SI 2005] §2.12.7) and a STATUS other than 0000H (and 0101H,
+//! "not an error") are errors.
 //!
 //! ```
 //! use si_dp_coord::monitor::Monitor;

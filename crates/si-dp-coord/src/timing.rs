@@ -43,14 +43,15 @@ pub fn processing_time(bytes: usize, cpu_cycle: Duration, io_cycle: Duration) ->
 ///
 /// The manual prints "10 ms + baud rate × number of characters", which is dimensionally wrong
 /// (`[derived]`); the Russian example's numbers fit characters × 8 bits / baud ([Modbus/USS]
-/// [Modbus/USS] §3.8.4 `[derived]`), which ignores start, parity and stop bits. We use the real character time of the
-/// configured format ([`SerialSettings::chars_time`]), which is what the line takes.
+/// [Modbus/USS] §3.8.4 `[derived]`), which ignores start, parity and stop bits. We use the real
+/// character time of the configured format ([`SerialSettings::chars_time`]), which is what the line
+/// takes.
 pub fn transmission_time(chars: u64, settings: &SerialSettings) -> Duration {
     MODULE_OVERHEAD + settings.chars_time(chars)
 }
 
-/// The terms of one master/slave transaction through the module ([ET200S SI 2005] §3.9.4, Table 3-85):
-/// t8 = t1 + … + t7.
+/// The terms of one master/slave transaction through the module ([ET200S SI 2005] §3.9.4, Table
+/// 3-85): t8 = t1 + … + t7.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Transaction {
     /// t1: master job processing (request bytes through the window).
@@ -95,7 +96,8 @@ impl Transaction {
         }
     }
 
-    /// t8, the sum (the manual's printed totals are off by 2 ms, [ET200S SI 2005] §3.9.4, Table 3-85 / [Modbus/USS] §3.8.4 `[derived]`).
+    /// t8, the sum (the manual's printed totals are off by 2 ms, [ET200S SI 2005] §3.9.4, Table
+    /// 3-85 / [Modbus/USS] §3.8.4 `[derived]`).
     pub fn total(&self) -> Duration {
         self.t1 + self.t2 + self.t3 + self.t4 + self.t5 + self.t6 + self.t7
     }
@@ -120,7 +122,8 @@ pub fn token_hold_time(data_bytes: u64, baud: u32) -> Duration {
 }
 
 /// Token rotation time with `masters` masters each sending `data_bytes` per token hold:
-/// T_rot = m × T_hold ([ET200S SI 2005] Tables 3-65 to 3-72). Tables 8-3/8-4 count masters in their "stations" columns (B-3).
+/// T_rot = m × T_hold ([ET200S SI 2005] Tables 3-65 to 3-72). Tables 8-3/8-4 count masters in their
+/// "stations" columns (B-3).
 pub fn token_rotation_time(masters: u64, data_bytes: u64, baud: u32) -> Duration {
     if baud == 0 {
         return Duration::ZERO;

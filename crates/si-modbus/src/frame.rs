@@ -2,8 +2,8 @@
 //!
 //! An RTU frame (ADU) is `address | function | data | CRC lo | CRC hi`
 //! ([Modbus/USS] §3.3.1, Table 3-9). The CRC is CRC-16 with polynomial
-//! x¹⁶ + x¹⁵ + x² + 1, sent **low byte first** ([Modbus/USS] §3.3.5); we use the `crc` crate's catalogued
-//! `CRC_16_MODBUS` (init 0xFFFF, reflected), table-driven.
+//! x¹⁶ + x¹⁵ + x² + 1, sent **low byte first** ([Modbus/USS] §3.3.5); we use the `crc` crate's
+//! catalogued `CRC_16_MODBUS` (init 0xFFFF, reflected), table-driven.
 //!
 //! Pure functions, no state, no allocation: requests and responses are views ([`Bits`],
 //! [`Registers`]) over the received bytes, and encoding writes into a caller's buffer
@@ -11,11 +11,11 @@
 //!
 //! # Quantity limits
 //!
-//! The module allows 1–2040 bits and 1–127 registers per job ([Modbus/USS] §3.3.6, Table 3-12, §3.4.5–§3.4.16, §3.5.6–§3.5.14),
-//! more than the Modbus specification's 2000/125 (read) and 1968/123 (write). We follow the
-//! manual so that frames the module sends and accepts round-trip here; the price is that an
-//! FC15 with 2040 bits is a 264-byte ADU, above the Modbus specification's 256. [`MAX_ADU`] is
-//! sized for the manual's limits.
+//! The module allows 1–2040 bits and 1–127 registers per job ([Modbus/USS] §3.3.6, Table 3-12,
+//! §3.4.5–§3.4.16, §3.5.6–§3.5.14), more than the Modbus specification's 2000/125 (read) and
+//! 1968/123 (write). We follow the manual so that frames the module sends and accepts round-trip
+//! here; the price is that an FC15 with 2040 bits is a 264-byte ADU, above the Modbus
+//! specification's 256. [`MAX_ADU`] is sized for the manual's limits.
 
 use core::fmt;
 
@@ -28,10 +28,12 @@ pub const MAX_ADU: usize = 264;
 /// Most bits one job may read or write ([Modbus/USS] §3.4.5–§3.4.16: 0E44H; §3.5.6–§3.5.14: 0832H).
 pub const MAX_BITS: u16 = 2040;
 
-/// Most registers one job may read or write ([Modbus/USS] §3.4.5–§3.4.16: 0E45H; §3.5.6–§3.5.14: 0832H).
+/// Most registers one job may read or write ([Modbus/USS] §3.4.5–§3.4.16: 0E45H; §3.5.6–§3.5.14:
+/// 0832H).
 pub const MAX_REGISTERS: u16 = 127;
 
-/// Most event bytes in an FC12 response (Modbus: 0–64 events; [Modbus/USS] §3.4.5–§3.4.16 and [Modbus/USS] §3.3.3, Table 3-10 `[derived]`).
+/// Most event bytes in an FC12 response (Modbus: 0–64 events; [Modbus/USS] §3.4.5–§3.4.16 and
+/// [Modbus/USS] §3.3.3, Table 3-10 `[derived]`).
 pub const MAX_EVENTS: usize = 64;
 
 /// The broadcast address ([Modbus/USS] §3.3.2): only FC05, 06, 15 and 16, never answered.
@@ -108,7 +110,8 @@ pub const COIL_ON: u16 = 0xFF00;
 /// FC05 value for OFF ([Modbus/USS] §3.4.5–§3.4.16).
 pub const COIL_OFF: u16 = 0x0000;
 
-/// A packed bit string, lowest address in bit 0 of the first byte (Modbus order; [Modbus/USS] §3.5.5–§3.5.19).
+/// A packed bit string, lowest address in bit 0 of the first byte (Modbus order; [Modbus/USS]
+/// §3.5.5–§3.5.19).
 ///
 /// Either a view over bytes from the line or over the caller's `bool`s, so neither side copies.
 #[derive(Clone, Copy)]
@@ -211,7 +214,8 @@ impl fmt::Debug for Bits<'_> {
     }
 }
 
-/// 16-bit registers, high byte first on the wire ([Modbus/USS] §3.5.5–§3.5.19: "Modbus register = S7 WORD, no swap").
+/// 16-bit registers, high byte first on the wire ([Modbus/USS] §3.5.5–§3.5.19: "Modbus register =
+/// S7 WORD, no swap").
 #[derive(Clone, Copy)]
 pub enum Registers<'a> {
     /// Big-endian pairs as on the wire.
@@ -328,7 +332,8 @@ pub enum Request<'a> {
     },
     /// 07: no data.
     ReadExceptionStatus,
-    /// 08 sub-function 0000 "return query data": the slave echoes `data` ([Modbus/USS] §3.5.6–§3.5.14, §3.3.3 `[derived]`).
+    /// 08 sub-function 0000 "return query data": the slave echoes `data` ([Modbus/USS]
+    /// §3.5.6–§3.5.14, §3.3.3 `[derived]`).
     Diagnostics {
         /// The test value.
         data: u16,
@@ -784,7 +789,8 @@ impl fmt::Display for FrameKind {
     }
 }
 
-/// What was wrong, so the engines can map it to the manual's STATUS ([Modbus/USS] §3.4.5–§3.4.16, §3.5.6–§3.5.14).
+/// What was wrong, so the engines can map it to the manual's STATUS ([Modbus/USS] §3.4.5–§3.4.16,
+/// §3.5.6–§3.5.14).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum DecodeErrorKind {
     /// Fewer bytes than the function needs (master 0E52H).
@@ -1012,7 +1018,8 @@ fn sub_function(r: &Reader<'_>, at: usize) -> Result<(), DecodeError> {
 ///
 /// Checks, in order, the length (≥ 4), the CRC, the function code, the field lengths, the
 /// quantities and byte counts, the FC05 value and the FC08 sub-function, which is the order
-/// in which the slave driver reports 0836H, 0831H, 0832H, 0833H, 0834H, 0835H ([Modbus/USS] §3.5.6–§3.5.14).
+/// in which the slave driver reports 0836H, 0831H, 0832H, 0833H, 0834H, 0835H ([Modbus/USS]
+/// §3.5.6–§3.5.14).
 pub fn decode_request(adu: &[u8]) -> Result<(u8, Request<'_>), DecodeError> {
     read_request(open(adu, FrameKind::Request)?)
 }
@@ -1383,8 +1390,9 @@ mod tests {
         assert_eq!(crc16(b"123456789"), crc::CRC_16_MODBUS.check);
     }
 
-    /// Golden request bytes for every function code ([Modbus/USS] §3.3.3, Table 3-10, §3.4.5–§3.4.16), CRC included. The CRCs are
-    /// those of the Modbus specification's examples and of common tools (modpoll, pymodbus).
+    /// Golden request bytes for every function code ([Modbus/USS] §3.3.3, Table 3-10,
+    /// §3.4.5–§3.4.16), CRC included. The CRCs are those of the Modbus specification's examples and
+    /// of common tools (modpoll, pymodbus).
     #[test]
     fn golden_requests_every_function_code() {
         let cases: &[(Request<'_>, &str)] = &[

@@ -1,11 +1,12 @@
 //! The Modbus master engine ([Modbus/USS] §3.3.2, §3.3.5–§3.4.3, Table 3-11, Table 3-17, §3.4).
 //!
 //! One request at a time. After the request has left the line the master waits "Response
-//! Time" (50–655 000 ms) for the **start** of a response ([Modbus/USS] §3.4.3, Table 3-17, 0830H); the response ends at
-//! the end-of-frame gap ([Modbus/USS] §3.3.5, Table 3-11) and is then checked in the order of §3.4.5–§3.4.16: address (0831H,
-//! Normal mode), CRC (0E57H), function code (0E51H, or an exception 0E61H–0E67H), lengths and
-//! byte counts (0E52H–0E55H), echoed fields (0E56H). A broadcast (address 0, FC05/06/15/16
-//! only, else 0E43H) completes after the turnaround delay without waiting for a reply.
+//! Time" (50–655 000 ms) for the **start** of a response ([Modbus/USS] §3.4.3, Table 3-17, 0830H);
+//! the response ends at the end-of-frame gap ([Modbus/USS] §3.3.5, Table 3-11) and is then checked
+//! in the order of §3.4.5–§3.4.16: address (0831H, Normal mode), CRC (0E57H), function code (0E51H,
+//! or an exception 0E61H–0E67H), lengths and byte counts (0E52H–0E55H), echoed fields (0E56H). A
+//! broadcast (address 0, FC05/06/15/16 only, else 0E43H) completes after the turnaround delay
+//! without waiting for a reply.
 //!
 //! Every job ends in exactly one [`MasterEvent::Completed`] or [`MasterEvent::Failed`], and
 //! within [`MasterConfig::job_bound`] whatever the line does (host bound; the
@@ -14,16 +15,17 @@
 //! come (a retry follows if configured); a request held for silence (`FrameEnd::Length`) goes
 //! out after that long even if the line never goes quiet; and whatever is left when the job's
 //! bound passes (a flood, a state that never moves) fails the job with 0830H. **Reading
-//! chosen** for the STATUS: 0830H "no response start within Response Time" ([Modbus/USS] §3.6) rather than
-//! a frame error, because noise that never forms a frame is no response at all, and a frame
-//! that does end is still judged by [Modbus/USS] §3.4.5–§3.4.16 (0831H, 0E57H, …) as before.
+//! chosen** for the STATUS: 0830H "no response start within Response Time" ([Modbus/USS] §3.6)
+//! rather than a frame error, because noise that never forms a frame is no response at all, and a
+//! frame that does end is still judged by [Modbus/USS] §3.4.5–§3.4.16 (0831H, 0E57H, …) as before.
 //!
 //! With [`FrameEnd::Length`] (a host extension, see there) a response also ends as soon as it
 //! has the length its function code and byte count predict and its CRC checks
 //! ([`crate::rx::response_len`]). The job then completes at once, but the line has not yet
-//! been silent for the gap: the module's master never starts a request before it has ([Modbus/USS] §3.3.5, Table 3-11,
-//! frames are separated by silence), so the next request waits until the gap has passed since
-//! the last character received, and other stations on an RS-485 line still see two frames.
+//! been silent for the gap: the module's master never starts a request before it has ([Modbus/USS]
+//! §3.3.5, Table 3-11, frames are separated by silence), so the next request waits until the gap
+//! has passed since the last character received, and other stations on an RS-485 line still see two
+//! frames.
 
 use crate::config::{FrameEnd, MasterConfig, Mode};
 use crate::fb::FbJobs;
@@ -138,7 +140,8 @@ impl RequestError {
 enum State {
     Idle,
     /// A job waits for the line to be silent for the gap since the last character received
-    /// ([`FrameEnd::Length`] only: a response ended by its length, [Modbus/USS] §3.3.5, Table 3-11).
+    /// ([`FrameEnd::Length`] only: a response ended by its length, [Modbus/USS] §3.3.5, Table
+    /// 3-11).
     Holding {
         until: Instant,
     },
@@ -204,17 +207,17 @@ impl Master {
     /// the module's [`FrameEnd::Gap`]).
     ///
     /// An engine option rather than a [`LineConfig`](crate::config::LineConfig) field:
-    /// `LineConfig` is the module's own parameter set ([Modbus/USS] §3.3.5–§3.9, Table 3-11, what si-dp-coord reads from
-    /// a parameter record), and this is not one of the module's parameters.
+    /// `LineConfig` is the module's own parameter set ([Modbus/USS] §3.3.5–§3.9, Table 3-11, what
+    /// si-dp-coord reads from a parameter record), and this is not one of the module's parameters.
     pub fn with_frame_end(mut self, frame_end: FrameEnd) -> Self {
         self.rx.set_frame_end(frame_end);
         self
     }
 
-    /// The physical interface ([Modbus/USS] §3.4.1, §3.4.3; RS-232C by default). On RS-485 the start of a response
-    /// is recognised by a correctly received slave address in Normal mode too: a turnaround
-    /// glitch before it is skipped instead of failing the job with 0831H. An engine option
-    /// like [`with_frame_end`](Self::with_frame_end), because [`LineConfig`] carries the
+    /// The physical interface ([Modbus/USS] §3.4.1, §3.4.3; RS-232C by default). On RS-485 the
+    /// start of a response is recognised by a correctly received slave address in Normal mode too:
+    /// a turnaround glitch before it is skipped instead of failing the job with 0831H. An engine
+    /// option like [`with_frame_end`](Self::with_frame_end), because [`LineConfig`] carries the
     /// protocol's parameters and the interface is the module's (si-dp-coord holds it).
     ///
     /// [`LineConfig`]: crate::config::LineConfig
@@ -268,9 +271,9 @@ impl Master {
         Ok(())
     }
 
-    /// The checks of [Modbus/USS] §3.4.5–§3.4.16 a job must pass before it is started (0E43H broadcast not allowed
-    /// for this function, 0E44H–0E46H counts), with the request as it would be sent. Pure, so
-    /// a caller can check a job without the engine at hand.
+    /// The checks of [Modbus/USS] §3.4.5–§3.4.16 a job must pass before it is started (0E43H
+    /// broadcast not allowed for this function, 0E44H–0E46H counts), with the request as it would
+    /// be sent. Pure, so a caller can check a job without the engine at hand.
     pub fn check_job(unit: u8, request: &Request<'_>) -> Result<Adu, RequestError> {
         let f = request.function();
         if unit == BROADCAST && !fc::broadcast_allowed(f) {
@@ -314,7 +317,8 @@ impl Master {
         self.on_gate(now, gate);
     }
 
-    /// What became of the request at the automatic V.24 gate ([Modbus/USS] §3.2.2; without it, always sent).
+    /// What became of the request at the automatic V.24 gate ([Modbus/USS] §3.2.2; without it,
+    /// always sent).
     fn on_gate(&mut self, now: Instant, gate: Gate) {
         match gate {
             Gate::Sent(len) => {
@@ -517,7 +521,8 @@ fn fault_status(fault: Fault) -> Status {
     }
 }
 
-/// Check a response against its request ([Modbus/USS] §3.4.5–§3.4.16; the address is already checked).
+/// Check a response against its request ([Modbus/USS] §3.4.5–§3.4.16; the address is already
+/// checked).
 ///
 /// The manual lists the checks but not their order. We check the structure (function code,
 /// lengths, byte count, echo) and the CRC, and when both fail we report the length error
@@ -643,8 +648,8 @@ impl Engine for Master {
     fn handle_tx_done(&mut self, now: Instant) {
         self.tick(now);
         self.sent(now);
-        // The RTS-off time of automatic V.24 ([Modbus/USS] §3.2.2 item 5) runs from the last byte actually
-        // leaving, which only the driver knows: not from the engine's estimate.
+        // The RTS-off time of automatic V.24 ([Modbus/USS] §3.2.2 item 5) runs from the last byte
+        // actually leaving, which only the driver knows: not from the engine's estimate.
         self.tx.sent(now, &mut self.out);
     }
 

@@ -53,8 +53,9 @@ pub fn refusal(kind: DecodeErrorKind) -> (ExceptionCode, Option<Status>) {
     }
 }
 
-/// Execute `request` on `store`. FC08 is answered without the store ([Modbus/USS] §3.5.6–§3.5.14); FC07, 11 and 12
-/// are refused with exception 01, as the module's slave has none of them ([Modbus/USS] §3.5.6–§3.5.14).
+/// Execute `request` on `store`. FC08 is answered without the store ([Modbus/USS] §3.5.6–§3.5.14);
+/// FC07, 11 and 12 are refused with exception 01, as the module's slave has none of them
+/// ([Modbus/USS] §3.5.6–§3.5.14).
 pub fn execute<'d, S: Store + ?Sized>(
     store: &mut S,
     request: &Request<'_>,

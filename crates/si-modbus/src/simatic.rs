@@ -15,8 +15,9 @@
 //!
 //! # Readings chosen where the manual is silent ([Modbus/USS] §3.5.3, §3.5.5–§3.5.19 `[derived]`)
 //!
-//! - The formulas for FC05/FC15 are printed swapped ([Modbus/USS] §3.5.5–§3.5.19 `[derived]`); we use the consistent ones
-//!   (M from aaaaa/uuuuu, Q from ccccc/ooooo), which reproduce every worked example.
+//! - The formulas for FC05/FC15 are printed swapped ([Modbus/USS] §3.5.5–§3.5.19 `[derived]`); we
+//!   use the consistent ones (M from aaaaa/uuuuu, Q from ccccc/ooooo), which reproduce every worked
+//!   example.
 //! - The whole span `[A, A + quantity − 1]` must lie in one from/to range, not only its start;
 //!   otherwise exception 02 (S_MODB ERROR_NR 11, "invalid start address").
 //! - A register span crossing a 512-register boundary continues in the next DB, as the
@@ -199,7 +200,8 @@ impl ConversionDb {
         ]
     }
 
-    /// Where Modbus bit address `a` of `function` (01, 02, 05, 15) lands ([Modbus/USS] §3.5.5–§3.5.19).
+    /// Where Modbus bit address `a` of `function` (01, 02, 05, 15) lands ([Modbus/USS]
+    /// §3.5.5–§3.5.19).
     pub fn bit_address(&self, function: u8, a: u16) -> Result<BitAddress, StoreError> {
         let within = |from: u16, to: u16| from <= a && a <= to;
         let bit = |area: Area, from: u16, byte: u16| {
@@ -377,7 +379,8 @@ pub struct SimaticStore {
     pub memory: Memory,
     /// The conversion DB.
     pub conversion: ConversionDb,
-    /// S_MODB initialised (START_OK); while false every request gets exception 04 ([Modbus/USS] §3.5.1, §3.5.2).
+    /// S_MODB initialised (START_OK); while false every request gets exception 04 ([Modbus/USS]
+    /// §3.5.1, §3.5.2).
     pub started: bool,
 }
 
@@ -741,7 +744,8 @@ mod tests {
                 "R = {r}"
             );
         }
-        // FC04 R = 02C0H (704) with its own base DB 900 → DB901.DBW384 ([Modbus/USS] §3.5.5–§3.5.19).
+        // FC04 R = 02C0H (704) with its own base DB 900 → DB901.DBW384 ([Modbus/USS]
+        // §3.5.5–§3.5.19).
         assert_eq!(
             db.register_address(fc::READ_INPUT_REGISTERS, 0x02C0)
                 .unwrap()
@@ -764,8 +768,8 @@ mod tests {
     }
 
     /// §3.5.14: FC16 at R = 0032H with base DB800 writes CD09H, DE1AH, EF2BH to DBW100/102/104;
-    /// §3.5.13: FC15 writes M1144.0…M1145.3 (12 bits; the text says 10 and 12, [Modbus/USS] §3.5.5–§3.5.19 `[derived]`) from
-    /// data bytes CDH, 09H.
+    /// §3.5.13: FC15 writes M1144.0…M1145.3 (12 bits; the text says 10 and 12, [Modbus/USS]
+    /// §3.5.5–§3.5.19 `[derived]`) from data bytes CDH, 09H.
     #[test]
     fn worked_write_examples() {
         let mut sizes = MemorySizes::default();
@@ -788,7 +792,8 @@ mod tests {
         assert_eq!(s.memory.bytes(Area::Flags).unwrap()[1145] & 0x0F, 0x09);
     }
 
-    /// [Modbus/USS] §3.5.17, §3.5.20: MAX = 0 disables writes; outside [MIN, MAX] is refused with ERROR_NR 22–27.
+    /// [Modbus/USS] §3.5.17, §3.5.20: MAX = 0 disables writes; outside [MIN, MAX] is refused with
+    /// ERROR_NR 22–27.
     #[test]
     fn write_limits() {
         let mut s = SimaticStore::example();

@@ -1,5 +1,5 @@
-//! The manual's STATUS codes for Modbus ([Modbus/USS] §3.3.6, Table 3-12, §3.4.5–§3.4.16, §3.5.6–§3.5.14, §3.6;
-//! [ET200S SI 2005] Tables 3-65 to 3-72).
+//! The manual's STATUS codes for Modbus ([Modbus/USS] §3.3.6, Table 3-12, §3.4.5–§3.4.16,
+//! §3.5.6–§3.5.14, §3.6; [ET200S SI 2005] Tables 3-65 to 3-72).
 //!
 //! Codes 0830H and 0831H mean one thing in the master and another in the slave (Table 3-65ff.):
 //! the master's meanings are in [`CATALOG`], the slave's in [`slave::CATALOG`]; the same number
@@ -11,17 +11,18 @@
 //! code in them is a code a user can meet. Two codes of [Modbus/USS] §3.6 are left out on purpose:
 //!
 //! - **0806H** "character delay time exceeded between two characters". In Modbus RTU the
-//!   character delay time tZVZ *is* the end-of-frame gap ([Modbus/USS] §3.3.5, Table 3-11: "character delay
-//!   time tZVZ_TAB"; tZVZ = tZVZ_TAB × fMUL): its expiry ends every frame, so it cannot be an
-//!   error by itself ([Modbus/USS] §3.3.5, Table 3-11 `[derived]`, [ET200S SI 2005] `[derived]`). A frame that the gap ended too early fails a
-//!   check the manual does name: in the master 0E52H "too few bytes", 0E54H/0E55H or 0E57H
-//!   ([Modbus/USS] §3.4.5–§3.4.16), in the slave 0836H (CRC). Reporting 0806H there instead would replace a code the
-//!   manual gives for exactly that case with one it does not tie to Modbus framing; the table
-//!   row reads as the shared receive-error table of the 3964(R)/ASCII modules (where 0806H is
-//!   their ZVZ). So it is not raised and not listed.
+//!   character delay time tZVZ *is* the end-of-frame gap ([Modbus/USS] §3.3.5, Table 3-11:
+//!   "character delay time tZVZ_TAB"; tZVZ = tZVZ_TAB × fMUL): its expiry ends every frame, so it
+//!   cannot be an error by itself ([Modbus/USS] §3.3.5, Table 3-11 `[derived]`, [ET200S SI 2005]
+//!   `[derived]`). A frame that the gap ended too early fails a check the manual does name: in the
+//!   master 0E52H "too few bytes", 0E54H/0E55H or 0E57H ([Modbus/USS] §3.4.5–§3.4.16), in the slave
+//!   0836H (CRC). Reporting 0806H there instead would replace a code the manual gives for exactly
+//!   that case with one it does not tie to Modbus framing; the table row reads as the shared
+//!   receive-error table of the 3964(R)/ASCII modules (where 0806H is their ZVZ). So it is not
+//!   raised and not listed.
 //! - **0812H** "characters received after the module set CTS = 0": the Modbus driver has no
-//!   receive flow control ([Modbus/USS] §3.2.2 offers only the automatic V.24 signals, where RTS belongs to
-//!   sending), so it never holds a partner off.
+//!   receive flow control ([Modbus/USS] §3.2.2 offers only the automatic V.24 signals, where RTS
+//!   belongs to sending), so it never holds a partner off.
 //!
 //! 0E22H "invalid operating mode" is raised where the manual says: when the mode parameter has
 //! a value other than Normal or Interference suppression ([`crate::config::Mode::from_name`],

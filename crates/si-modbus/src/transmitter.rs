@@ -38,7 +38,8 @@ pub(crate) struct Transmitter {
 }
 
 impl Transmitter {
-    /// Enters the V.24 mode at once (DTR = ON, RTS = OFF, [Modbus/USS] §3.2.2 item 1) when configured.
+    /// Enters the V.24 mode at once (DTR = ON, RTS = OFF, [Modbus/USS] §3.2.2 item 1) when
+    /// configured.
     pub(crate) fn new<E>(times: Option<AutoV24Times>, out: &mut VecDeque<Output<E>>) -> Self {
         let sequence = times.map(|t| {
             let mut s = AutoV24::new(t);

@@ -440,7 +440,8 @@ impl Handler for Misfits {
 }
 
 /// The client checks an answer's structure against its request as the RTU master does
-/// ([Modbus/USS] §3.4.5–§3.4.16): a short read and a wrong echo are errors with the master's STATUS, not values.
+/// ([Modbus/USS] §3.4.5–§3.4.16): a short read and a wrong echo are errors with the master's
+/// STATUS, not values.
 #[tokio::test]
 async fn an_answer_that_does_not_fit_its_request_is_refused() {
     let server = Server::with_handler("127.0.0.1:0", ServerConfig::default(), Misfits)

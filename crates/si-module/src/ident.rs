@@ -19,8 +19,8 @@
 //! # Readings
 //!
 //! - **Order number suffix.** The availability note prints "…-0AE0", the device-name field
-//!   "…-0AB0" (`[derived]`); the default device name uses the order numbers of [ET200S SI 2005] §2.1,
-//!   6ES7 138-4DF01-0AB0 and 6ES7 138-4DF11-0AB0.
+//!   "…-0AB0" (`[derived]`); the default device name uses the order numbers of [ET200S SI 2005]
+//!   §2.1, 6ES7 138-4DF01-0AB0 and 6ES7 138-4DF11-0AB0.
 //! - **Software revision** (4 bytes, "firmware version"): coded as in PROFIBUS I&M, a prefix
 //!   character ('V' released) and three numbers (functional, bug fix, internal).
 //! - **I&M version** is 00 00H as printed (a PROFIBUS I&M device would say 01 01H).

@@ -26,9 +26,11 @@
 //! - **How long SF stays lit after a communication error.** The manuals name the causes, not a
 //!   duration. We light SF while a communication error is *pending*: from the error until the CPU
 //!   has fetched it (the module keeps a receive error in its buffer until a receive job reports
-//!   it, [ET200S SI 2005] §2.12.7 case 2). The caller says so with [`ModuleState::communication_error`].
+//!   it, [ET200S SI 2005] §2.12.7 case 2). The caller says so with
+//!   [`ModuleState::communication_error`].
 //! - **Wire break** lights SF only where the module can see it: RS-422 with the receive-line
-//!   initial state R(A) 5 V / R(B) 0 V ([ET200S SI 2005] §2.1). The caller reports what the line shows.
+//!   initial state R(A) 5 V / R(B) 0 V ([ET200S SI 2005] §2.1). The caller reports what the line
+//!   shows.
 //! - **2 Hz flashing** is 250 ms on, 250 ms off, in phase from time zero, so the three LEDs of a
 //!   hardware fault flash together.
 //! - **STOP** by itself does not light SF; its causes (wire break, invalid parameters) do.

@@ -91,9 +91,10 @@
 //! # Readings
 //!
 //! - **Baud rates.** The 2005 manual lists twelve rates (110 … 115 200 bit/s) for every driver
-//!   ([ET200S SI 2005] Tables 2-8, 2-9, 3-18, 3-21; technical data, Tables 2-31, 3-86, 3-87); the 2004 Russian manuals stop at 19 200 (3964(R)/ASCII) and
-//!   38 400 (Modbus/USS). We accept the twelve of the 2005 manual, which describes the later
-//!   modules. USS's 187 500 bit/s is a drive rate, not a module rate, and is refused here.
+//!   ([ET200S SI 2005] Tables 2-8, 2-9, 3-18, 3-21; technical data, Tables 2-31, 3-86, 3-87); the
+//!   2004 Russian manuals stop at 19 200 (3964(R)/ASCII) and 38 400 (Modbus/USS). We accept the
+//!   twelve of the 2005 manual, which describes the later modules. USS's 187 500 bit/s is a drive
+//!   rate, not a module rate, and is refused here.
 //! - **Receive-line initial state.** RS-422 offers R(A) 5 V/R(B) 0 V (BREAK, the default),
 //!   R(A) 0 V/R(B) 5 V and inverted; RS-485 offers none and R(A) 0 V/R(B) 5 V (the default), as
 //!   in the 2005 tables (the Russian Modbus table gives R(A) 5 V/R(B) 0 V for both). The value is
@@ -106,7 +107,8 @@
 //!   RS-485 only (`[derived]`). We follow the parameter table. USS runs 8E1 ([USS spec] §6.1); the
 //!   tables have no data-bit, parity or stop-bit parameter, so the file has none.
 //! - **Maximum frame length of the simulated module**: the line engines' limits (ASCII 200
-//!   bytes, 3964(R) its `max_block_len`, default 200), and 200 for the Modbus/USS module (`[derived]`).
+//!   bytes, 3964(R) its `max_block_len`, default 200), and 200 for the Modbus/USS module
+//!   (`[derived]`).
 
 use crate::diag::Variant;
 use serde::{Deserialize, Serialize};
@@ -836,7 +838,8 @@ fn read_modbus_line(r: &mut Reader<'_>) -> (ModbusModule, LineConfig) {
     let errors_before_mode = r.errors.len();
     let mode = r.choice("mode", &Mode::NAMES, Mode::Normal);
     if let Some(e) = r.errors.get_mut(errors_before_mode) {
-        // [Modbus/USS] §3.4.3, §3.5.4, §3.6: the module refuses any other mode with 0E22H and is not ready.
+        // [Modbus/USS] §3.4.3, §3.5.4, §3.6: the module refuses any other mode with 0E22H and is
+        // not ready.
         e.text = format!("{} ({})", e.text, si_modbus::status::INVALID_MODE);
     }
     let line = LineConfig {
@@ -844,7 +847,8 @@ fn read_modbus_line(r: &mut Reader<'_>) -> (ModbusModule, LineConfig) {
         mode,
         char_delay_multiplier: r.uint("char_delay_multiplier", 1, 0xFF, "1…10") as u8,
         local_echo: r.bool("local_echo", false),
-        // [Modbus/USS] §3.2.2: the flow control's two times, with the ASCII driver's ranges (the Modbus manual gives none).
+        // [Modbus/USS] §3.2.2: the flow control's two times, with the ASCII driver's ranges (the
+        // Modbus manual gives none).
         auto_v24: (flow_control == FlowControl::AutoV24).then(|| {
             let d = si_core::v24::AutoV24Times::default();
             let step = "0 … 655350 ms in 10 ms steps";

@@ -8,11 +8,11 @@
 //!   (see [`si_3964r::bound`]: the attempts and timers of the procedure, an overlong received
 //!   block cut off with NAK, and a hard deadline per send job `[derived]`);
 //! - our telegram may wait in the station's queue behind one reaction of ours to a partner's
-//!   job, which is itself one 3964(R) send job (nesting depth 1, [CP 341] §2.2.3, Fig. 2-17: the queue holds one
-//!   command and one reaction);
+//!   job, which is itself one 3964(R) send job (nesting depth 1, [CP 341] §2.2.3, Fig. 2-17: the
+//!   queue holds one command and one reaction);
 //! - after the partner's `DLE` for our telegram the reaction must start within TRES (`[derived]`,
-//!   [CP 341] §2.2.3, Fig. 2-18/2-19); otherwise the job ends with 0A05H. TRES is judged on every input, not only on the
-//!   timer, so a line that never goes quiet cannot hold it off.
+//!   [CP 341] §2.2.3, Fig. 2-18/2-19); otherwise the job ends with 0A05H. TRES is judged on every
+//!   input, not only on the timer, so a line that never goes quiet cannot hold it off.
 //!
 //! ```text
 //! telegrams = ⌈len / 128⌉ (at least 1)

@@ -25,10 +25,10 @@
 //! - **DW number ([Public RK 512]).** Fig. 2-13/2-15 give DW1 as `01` and DW100 as `64H`:
 //!   byte 6 counts data words, so DBn.DWm starts at byte 2·m ([`DwUnit::Words`]). A Bosch
 //!   document shows "DW 64 = 80H", a byte offset; [`DwUnit::Bytes`] serves such partners.
-//! - **Counter letter (`[derived]`).** Our telegrams name counters `'Z'` (5AH); [`CounterLetter::C`]
-//!   sends `'C'` (43H) instead. Received telegrams may use either.
-//! - **Character frame.** RK 512 runs with 8 data bits ([CP 341] §2.2.3); this is the line's business
-//!   (`SerialSettings`), not checked here.
+//! - **Counter letter (`[derived]`).** Our telegrams name counters `'Z'` (5AH);
+//!   [`CounterLetter::C`] sends `'C'` (43H) instead. Received telegrams may use either.
+//! - **Character frame.** RK 512 runs with 8 data bits ([CP 341] §2.2.3); this is the line's
+//!   business (`SerialSettings`), not checked here.
 
 use crate::frame::MAX_TELEGRAM_LEN;
 use serde::{Deserialize, Serialize};

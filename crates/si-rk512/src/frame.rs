@@ -22,23 +22,23 @@
 //!
 //! # Readings where the texts disagree
 //!
-//! - **Counter letter (`[derived]`).** The table writes "'C' (5AH)"; 5AH is `'Z'` (German *Zähler*),
-//!   and the German letters `'E'`/`'A'` for inputs/outputs show the table speaks German
+//! - **Counter letter (`[derived]`).** The table writes "'C' (5AH)"; 5AH is `'Z'` (German
+//!   *Zähler*), and the German letters `'E'`/`'A'` for inputs/outputs show the table speaks German
 //!   letters. Counters are encoded as `'Z'` (5AH); the decoder also accepts `'C'` (43H) from a
 //!   partner that followed the translation, and a station sends `'C'` with
 //!   [`CounterLetter::C`](crate::config::CounterLetter::C).
-//! - **FETCH carries no data (`[derived]`).** The examples (Fig. 2-15, 2-16) show a header only, so a
-//!   FETCH command is exactly 10 (or 4) bytes.
+//! - **FETCH carries no data (`[derived]`).** The examples (Fig. 2-15, 2-16) show a header only, so
+//!   a FETCH command is exactly 10 (or 4) bytes.
 //! - **Bytes 5–6.** For `'D'`/`'X'` they are DB number and DW number (Fig. 2-13: `0A 01` =
 //!   DB10, DW1); for the other types the manual says only "address part 1 / part 2", read here
 //!   as one 16-bit big-endian start address (byte number for E/A/M, element number for T/Z),
 //!   as in the public RK 512 headers ([Public RK 512]). How a DW number becomes a byte
 //!   offset is a setting of the passive side ([`crate::config::DwUnit`]).
-//! - **Length unit.** Words for D, X, T and Z, bytes for E, A and M ([CP 341] §2.2.3, Table 2-1 "bytes or words
-//!   depending on the data type"; a timer or counter cell is one word).
-//! - **Byte 10 (`[derived]`).** Both nibbles are kept as sent: high nibble CPU number (1–4, `0` with a
-//!   flag but no CPU, `F` none), low nibble flag bit (`F` none). Fig. 2-13's `1F` shows a CPU
-//!   number without a flag.
+//! - **Length unit.** Words for D, X, T and Z, bytes for E, A and M ([CP 341] §2.2.3, Table 2-1
+//!   "bytes or words depending on the data type"; a timer or counter cell is one word).
+//! - **Byte 10 (`[derived]`).** Both nibbles are kept as sent: high nibble CPU number (1–4, `0`
+//!   with a flag but no CPU, `F` none), low nibble flag bit (`F` none). Fig. 2-13's `1F` shows a
+//!   CPU number without a flag.
 //!
 //! # Hand-written, not nom
 //!
@@ -279,7 +279,8 @@ impl Coordination {
         }
     }
 
-    /// Flag `byte.bit` (e.g. M 20.3) without a CPU number (high nibble 0, [CP 341] §2.2.3, Table 2-1).
+    /// Flag `byte.bit` (e.g. M 20.3) without a CPU number (high nibble 0, [CP 341] §2.2.3, Table
+    /// 2-1).
     pub const fn flag(byte: u8, bit: u8) -> Coordination {
         Coordination {
             flag_byte: byte,
@@ -622,8 +623,8 @@ mod tests {
         );
     }
 
-    /// Fig. 2-15: FETCH `00 00 45 44 <DB> 64 00 32 FF 1F` (DW100, 50 words); `[derived]`: the DB byte
-    /// is taken as 0AH (DB10) like the SEND example.
+    /// Fig. 2-15: FETCH `00 00 45 44 <DB> 64 00 32 FF 1F` (DW100, 50 words); `[derived]`: the DB
+    /// byte is taken as 0AH (DB10) like the SEND example.
     #[test]
     fn fig_2_15_fetch_header_and_reaction() {
         let bytes = [0x00, 0x00, 0x45, 0x44, 0x0A, 0x64, 0x00, 0x32, 0xFF, 0x1F];

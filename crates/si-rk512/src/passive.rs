@@ -21,16 +21,16 @@
 //!   The whole job's range is checked on the first telegram, so a long job is refused before
 //!   any byte is written. The reaction carries the error number of
 //!   [`ServeError::error_number`] (`[inferred]`, see [`crate::refusal`]).
-//! - **CPU number ([CP 341] §2.2.3, Table 2-1, byte 10 high nibble; `[derived]`).** 1 … 4 name a CPU, 0 "a flag but no CPU
-//!   number", FH "neither"; 5H … EH are refused with 060A. Every allowed number is served: a
-//!   host is one CPU, so it does not tell CPUs of a multi-CPU S5 rack apart.
-//! - **Coordination flag ([CP 341] §2.2.3).** A flag is named when byte 9 ≠ FFH; its bit (byte 10 low
-//!   nibble) must then be 0 … 7 and its byte inside the flag area, else 0609. A job naming a
+//! - **CPU number ([CP 341] §2.2.3, Table 2-1, byte 10 high nibble; `[derived]`).** 1 … 4 name a
+//!   CPU, 0 "a flag but no CPU number", FH "neither"; 5H … EH are refused with 060A. Every allowed
+//!   number is served: a host is one CPU, so it does not tell CPUs of a multi-CPU S5 rack apart.
+//! - **Coordination flag ([CP 341] §2.2.3).** A flag is named when byte 9 ≠ FFH; its bit (byte 10
+//!   low nibble) must then be 0 … 7 and its byte inside the flag area, else 0609. A job naming a
 //!   flag that is set is refused with 060F (32H); the flag is set once the job's *last*
 //!   telegram is served, and the CPU program resets it when it has dealt with the data.
-//!   **FETCH too:** [CP 341] §2.2.3 explains only the encoding and `[M]` names only "target DB locked"; the
-//!   reading chosen is the one public RK 512 partner manual that states it (VIPA CPU 21x
-//!   manual HB103E, "Coordination flags": "The coordination flag is set in the partner PLC …
+//!   **FETCH too:** [CP 341] §2.2.3 explains only the encoding and `[M]` names only "target DB
+//!   locked"; the reading chosen is the one public RK 512 partner manual that states it (VIPA CPU
+//!   21x manual HB103E, "Coordination flags": "The coordination flag is set in the partner PLC …
 //!   when a message is being received. This occurs for input as well as for output commands.
 //!   When the coordination flag has been set and a message with this flag is received, then
 //!   the respective data is not accepted (or transferred) and a reject message is sent (error
@@ -306,8 +306,8 @@ impl Server {
         Ok(self.after(job))
     }
 
-    /// The flag bytes 9/10 name ([CP 341] §2.2.3, Table 2-1): none for byte FFH; else bit 0 … 7 of a flag byte that
-    /// exists (0609 otherwise).
+    /// The flag bytes 9/10 name ([CP 341] §2.2.3, Table 2-1): none for byte FFH; else bit 0 … 7 of
+    /// a flag byte that exists (0609 otherwise).
     fn flag(&self, c: Coordination) -> Result<Option<(u8, u8)>, ServeError> {
         if c.flag_byte == 0xFF {
             return Ok(None);
@@ -406,8 +406,8 @@ impl Server {
         }
     }
 
-    /// The whole job's area ([CP 341] §2.2.3, Table 2-1 bytes 5–8): 0606 for a DB/DX that does not exist, 0607 for
-    /// a start beyond the area, 0608 for an end beyond it.
+    /// The whole job's area ([CP 341] §2.2.3, Table 2-1 bytes 5–8): 0606 for a DB/DX that does not
+    /// exist, 0607 for a start beyond the area, 0608 for an end beyond it.
     fn check_range(&self, p: Place, total: usize) -> Result<(), ServeError> {
         let memory = if p.dx { &self.dx } else { &self.memory };
         match p.area {

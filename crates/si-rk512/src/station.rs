@@ -42,7 +42,8 @@
 //!   first and continuation telegram, and on the passive side when our reaction that asks for a
 //!   continuation was acknowledged. Expiry ends our job with 0A05; on the passive side it
 //!   aborts the partner's job with 060E (`[derived]`: the tables have no row for it, and 060E is
-//!   what the partner's late continuation then meets) (`[derived]`, [CP 341] §2.2.3, Fig. 2-18/2-19).
+//!   what the partner's late continuation then meets) (`[derived]`, [CP 341] §2.2.3, Fig.
+//!   2-18/2-19).
 //! - **The STATUS classes** ([CP 341 Diag]; [`crate::status`] has the table): our
 //!   own request is checked first (0515 flag bit, 0516 CPU number); a reaction with an error
 //!   number ends our job with its 09xx; a faulty reaction with 0A01 (out of sequence), 0A02
@@ -62,9 +63,9 @@
 //! - **Cancel** ([`Station::cancel`], the FBs' R input): the station forgets the job at once,
 //!   and the next job can start in the same call. A command telegram still queued is dropped;
 //!   one already on the line cannot be called back (3964(R) sends what it has), so the next
-//!   reaction within its TRES is taken as that telegram's ([CP 341] §2.2.3, Fig. 2-17: the partner answers in order)
-//!   and reported as [`Event::ReceiveError`] with 0A01 instead of being read as the new
-//!   job's.
+//!   reaction within its TRES is taken as that telegram's ([CP 341] §2.2.3, Fig. 2-17: the partner
+//!   answers in order) and reported as [`Event::ReceiveError`] with 0A01 instead of being read as
+//!   the new job's.
 
 use crate::config::Config;
 use crate::frame::{
@@ -684,7 +685,8 @@ impl Station {
 
     fn on_reaction(&mut self, block: &[u8]) {
         if self.orphan.take().is_some() {
-            // The answer to a cancelled job's telegram ([CP 341] §2.2.3, Fig. 2-17: answers come in order).
+            // The answer to a cancelled job's telegram ([CP 341] §2.2.3, Fig. 2-17: answers come in
+            // order).
             self.event(Event::ReceiveError(status::REACTION_SEQUENCE));
             return;
         }
@@ -746,9 +748,9 @@ impl Station {
         );
         self.serve_deadline = None;
         self.reaction_in_flight_partial = served == Served::Partial;
-        // Nesting depth 1 ([CP 341] §2.2.3, Fig. 2-17): a partner that sends a new command before our reaction to the
-        // last one went out has given that one up, so its stale reaction is replaced. The
-        // queue therefore never holds more than one command and one reaction.
+        // Nesting depth 1 ([CP 341] §2.2.3, Fig. 2-17): a partner that sends a new command before
+        // our reaction to the last one went out has given that one up, so its stale reaction is
+        // replaced. The queue therefore never holds more than one command and one reaction.
         self.queue.retain(|(k, _)| *k != Kind::Reaction);
         let telegram = self.reaction_pool.cut(&reaction);
         self.queue.push_back((Kind::Reaction, telegram));

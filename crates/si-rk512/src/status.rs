@@ -258,9 +258,10 @@ pub fn for_error_byte(code: u8) -> Option<Status> {
     }
 }
 
-/// The error numbers of byte 4 this crate's passive side sends ([CP 341] §2.2.3, Table 2-2; which 06xx sends which is
-/// [`crate::refusal::ServeError::error_number`]). Each is a row of [`REACTION_ERRORS`], so a
-/// partner built like this crate reads them back as the 09xx code of that row.
+/// The error numbers of byte 4 this crate's passive side sends ([CP 341] §2.2.3, Table 2-2; which
+/// 06xx sends which is [`crate::refusal::ServeError::error_number`]). Each is a row of
+/// [`REACTION_ERRORS`], so a partner built like this crate reads them back as the 09xx code of that
+/// row.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ErrorNumber {
     /// 0AH: access refused (the command is not served here).

@@ -141,8 +141,9 @@ fn s4_5_send_and_fetch_of_1_128_129_and_max_bytes() {
     }));
 }
 
-/// [CP 341] §2.2.3 with line faults: bit flips and lost characters are repaired by 3964(R) repetitions;
-/// the job still ends with exactly one completion, and with the data intact when it is DONE.
+/// [CP 341] §2.2.3 with line faults: bit flips and lost characters are repaired by 3964(R)
+/// repetitions; the job still ends with exactly one completion, and with the data intact when it is
+/// DONE.
 #[test]
 fn s4_5_jobs_survive_line_faults() {
     let mut done = 0;
@@ -219,8 +220,8 @@ fn s4_2_every_data_type_is_served() {
     assert_eq!(p.fetch(Address::Outputs(5), 1).unwrap(), &[0x55][..]);
 }
 
-/// [CP 341] §2.2.3: a SEND naming a coordination flag sets it; the next SEND is refused with 32H (STATUS
-/// 0909) until the partner's program resets the flag.
+/// [CP 341] §2.2.3: a SEND naming a coordination flag sets it; the next SEND is refused with 32H
+/// (STATUS 0909) until the partner's program resets the flag.
 #[test]
 fn s4_8_coordination_flag_interlock_0909() {
     let mut p = pair(3);
@@ -266,8 +267,8 @@ fn s4_8_coordination_flag_interlock_0909() {
     );
 }
 
-/// [CP 341] §2.2.3, Table 2-2, [CP 341 Diag]: errors the passive side finds (06xx), read back by the
-/// active side as class 09H: 0606/0608 → 14H → 0903, 060D in STOP → 2AH → 090D, 060D not
+/// [CP 341] §2.2.3, Table 2-2, [CP 341 Diag]: errors the passive side finds (06xx), read back by
+/// the active side as class 09H: 0606/0608 → 14H → 0903, 060D in STOP → 2AH → 090D, 060D not
 /// served → 0AH → 0902.
 #[test]
 fn s4_3_partner_errors_reach_the_requester_as_class_09() {
@@ -361,8 +362,8 @@ impl Scripted {
     }
 }
 
-/// [CP 341] §2.2.3, Table 2-2 and Fig. 2-19: every error number the passive side sends, from a telegram that
-/// provokes it, with the 06xx it reports ([CP 341 Diag] class 06H; the byte per
+/// [CP 341] §2.2.3, Table 2-2 and Fig. 2-19: every error number the passive side sends, from a
+/// telegram that provokes it, with the 06xx it reports ([CP 341 Diag] class 06H; the byte per
 /// 06xx is the [inferred] reverse mapping of §2.1).
 #[test]
 fn s4_3_every_reaction_error_number_is_reachable() {
@@ -531,8 +532,9 @@ fn run_job(
     outcomes[0]
 }
 
-/// [CP 341] §2.2.3, Table 2-2, [CP 341 Diag] `[derived]`: each error number in a reaction ends the job with its
-/// class 09H STATUS, one job per row of the [inferred] table; unknown numbers with 090E.
+/// [CP 341] §2.2.3, Table 2-2, [CP 341 Diag] `[derived]`: each error number in a reaction ends the
+/// job with its class 09H STATUS, one job per row of the [inferred] table; unknown numbers with
+/// 090E.
 #[test]
 fn s4_3_reaction_error_numbers_map_to_their_status() {
     let at = Address::Db { db: 1, dw: 0 };
@@ -567,7 +569,8 @@ fn s4_3_reaction_error_numbers_map_to_their_status() {
     }
 }
 
-/// [CP 341] §2.2.3, Fig. 2-18/2-19, Fig. 2-18: no reaction within TRES (10 s) ends the job with 0A05.
+/// [CP 341] §2.2.3, Fig. 2-18/2-19, Fig. 2-18: no reaction within TRES (10 s) ends the job with
+/// 0A05.
 #[test]
 fn s4_7_no_reaction_within_tres_0a05() {
     let (mut sim, st, raw) = active_against_script(50);
@@ -750,8 +753,8 @@ fn fig_2_13_send_telegram_on_the_wire() {
     assert_eq!(&block[10..], &data[..]);
 }
 
-/// [CP 341] §2.2.3, Fig. 2-17 quasi-full-duplex: both stations serve and both start a multi-telegram job at once;
-/// telegrams interleave and both jobs complete.
+/// [CP 341] §2.2.3, Fig. 2-17 quasi-full-duplex: both stations serve and both start a
+/// multi-telegram job at once; telegrams interleave and both jobs complete.
 #[test]
 fn s4_6_both_sides_run_jobs_at_once() {
     let mut sim = Simulator::new(80);
@@ -841,8 +844,8 @@ fn s4_6_one_job_at_a_time_and_request_checks() {
     );
 }
 
-/// [CP 341] §2.2.2, §2.3.1 under §2.2.3, §2.3.2, [CP 341 Diag] "chained reports": when the partner never
-/// acknowledges, the link's 0703 is reported first and the job ends with 051A.
+/// [CP 341] §2.2.2, §2.3.1 under §2.2.3, §2.3.2, [CP 341 Diag] "chained reports": when the partner
+/// never acknowledges, the link's 0703 is reported first and the job ends with 051A.
 #[test]
 fn s4_1_link_failure_0703_then_051a() {
     let mut p = pair(100);

@@ -1,12 +1,12 @@
 //! Master and drive parameters with the manuals' ranges and defaults.
 //!
 //! - Polling list: 1…31 entries (SANZ, [Modbus/USS] §3.7.6, Table 3-31), each a node number 0…31
-//!   (TNU), PKW 0/3/4 words and PZD 0…16 words ([Modbus/USS] §3.7.8); a slave may appear several times to raise its
-//!   priority, with the same structure each time.
+//!   (TNU), PKW 0/3/4 words and PZD 0…16 words ([Modbus/USS] §3.7.8); a slave may appear several
+//!   times to raise its priority, with the same structure each time.
 //! - WDH, permitted PKW repetitions 0…32 767 ([Modbus/USS] §3.7.6, Table 3-31, §3.7.8).
 //! - Baud rates: the module offers 110…38 400 ([Modbus/USS] §3.9) or 110…115 200 ([ET200S SI 2005]
-//!   [ET200S SI 2005] §3.8.10, Table 3-78); a host also meets drives at 187 500 bit/s ([USS spec] §5.1.2 start-interval
-//!   table), so [`USS_BAUD_RATES`] is the twelve manual rates plus 187 500.
+//!   [ET200S SI 2005] §3.8.10, Table 3-78); a host also meets drives at 187 500 bit/s ([USS spec]
+//!   §5.1.2 start-interval table), so [`USS_BAUD_RATES`] is the twelve manual rates plus 187 500.
 //! - Timing ([USS spec] §5.1.2, §5.2.1): start interval 2 character times, response delay ≤ 20 ms,
 //!   residual run time 1.5 × (n + 3) character times.
 
@@ -96,7 +96,8 @@ pub(crate) fn check(
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PkwAfterJob {
-    /// Send AK 0 "no task" (PKE, IND and PWE all 0) once the job has ended ([SINAMICS CU240S] p. 229).
+    /// Send AK 0 "no task" (PKE, IND and PWE all 0) once the job has ended ([SINAMICS CU240S] p.
+    /// 229).
     #[default]
     TaskZero,
     /// Send the last job's PKW area again in every poll of that slave until a new job is
@@ -313,7 +314,8 @@ mod tests {
 
     #[test]
     fn timing_matches_the_uss_spec_table() {
-        // [USS spec] §5.1.2: start interval 9600: 2.30 ms; 19200: 1.15 ms; 38400: 0.58 ms; 187500: 0.12 ms.
+        // [USS spec] §5.1.2: start interval 9600: 2.30 ms; 19200: 1.15 ms; 38400: 0.58 ms; 187500:
+        // 0.12 ms.
         let ms = |baud| start_interval(&uss_settings(baud).unwrap()).as_micros();
         assert_eq!(ms(9_600), 2_292);
         assert_eq!(ms(19_200), 1_146);

@@ -1,10 +1,11 @@
 //! The ET 200S data model and the FC equivalents S_USSI (FC19), S_USST (FC17) and S_USSR (FC18).
 //!
 //! Sources: [Modbus/USS] §3.7.3–§3.7.9, [ET200S SI 2005] Tables 3-80, 3-82, Table 3-84,
-//! [ET200S SI 2005] §3.8–§3.8.10. A PLC program keeps each slave's data in the **net-data DB** (DBND), the polling
-//! list in the **parameter DB** (DBPA) and the telegram buffers in the **CP DB** (DBCP). Here the
-//! three DBs are byte images ([`Db`], S7 byte order: high byte first) and the line work is done by
-//! a [`Master`] engine, so a program written against the DB layout runs unchanged on a host:
+//! [ET200S SI 2005] §3.8–§3.8.10. A PLC program keeps each slave's data in the **net-data DB**
+//! (DBND), the polling list in the **parameter DB** (DBPA) and the telegram buffers in the **CP
+//! DB** (DBCP). Here the three DBs are byte images ([`Db`], S7 byte order: high byte first) and the
+//! line work is done by a [`Master`] engine, so a program written against the DB layout runs
+//! unchanged on a host:
 //!
 //! - [`s_ussi`] checks SANZ, TNU1, PKW, PZD and WDH, creates the DBs and presets DBPA (ANZ codes
 //!   in [`Anz`]); [`master_config`] turns a DBPA into the master's polling list;
@@ -15,10 +16,11 @@
 //!   word and — only when the group error bit 9 is 0 — the receive buffer into DBND, then moves
 //!   SLAV to the next entry.
 //!
-//! **Readings chosen** ([Modbus/USS] §3.7 `[derived]`, [ET200S SI 2005] §3.8 `[derived]` `[derived]`):
+//! **Readings chosen** ([Modbus/USS] §3.7 `[derived]`, [ET200S SI 2005] §3.8 `[derived]`
+//! `[derived]`):
 //! - Offsets for PKW < 4 or PZD < 16 are not printed; we use the derived general offsets of
-//!   [ET200S SI 2005] §3.8.8 ([`SlaveLayout`]), which reproduce the printed table for PKW 4 / PZD 16
-//!   and the word formula 2 × (PKW + PZD) + PKW + 6.
+//!   [ET200S SI 2005] §3.8.8 ([`SlaveLayout`]), which reproduce the printed table for PKW 4 / PZD
+//!   16 and the word formula 2 × (PKW + PZD) + PKW + 6.
 //! - S_USSI numbers the slaves TNU1, TNU1 + 1, … (ANZ 5 if that passes 31), and places their
 //!   blocks one after another from DBW2.
 //! - Pafe 1 is byte n+10 (written by S_USSR), Pafe 2 byte n+11 (S_USST), as the DBND table
@@ -27,11 +29,12 @@
 //!   no S_SEND/S_RCV hand-over: the [`Master`] keeps the telegram buffers itself and DBCP stays
 //!   zero.
 //! - SYPA and SLPA (start of the system and slave parameters in DBPA) are not inputs here: the
-//!   manual prints fixed DBPA offsets ([Modbus/USS] §3.7.8), which we use, i.e. SYPA = 2 and SLPA = 10.
+//!   manual prints fixed DBPA offsets ([Modbus/USS] §3.7.8), which we use, i.e. SYPA = 2 and SLPA =
+//!   10.
 //! - The telegram monitoring time the FCs derive from the PLC cycle time (DBCP DBW6) is replaced
 //!   by the master's response timeout and residual run time ([USS spec] §5.2.1, §5.2.2).
-//! - Broadcast and mirror telegrams have no place in the FCs (TNU 0…31 only, [Modbus/USS] §3.7 `[derived]`); use
-//!   [`Master::broadcast`] and [`Master::mirror`] directly.
+//! - Broadcast and mirror telegrams have no place in the FCs (TNU 0…31 only, [Modbus/USS] §3.7
+//!   `[derived]`); use [`Master::broadcast`] and [`Master::mirror`] directly.
 
 use crate::config::{MasterConfig, PollEntry};
 use crate::frame::{ParamAddress, PkwWords};

@@ -1,13 +1,14 @@
 //! The USS telegram: `STX LGE ADR net-data BCC`, pure encode and decode, no state, no allocation.
 //!
 //! Sources: [Modbus/USS] §3.7.1 (telegram parts, word order), [ET200S SI 2005]
-//! [ET200S SI 2005] §3.8.1, §3.8.3, and [USS spec] and [SINAMICS V20] p. 107 for what the manuals leave out (LGE rule, ADR bits, BCC, PKE layout,
-//! task and response IDs, error numbers).
+//! [ET200S SI 2005] §3.8.1, §3.8.3, and [USS spec] and [SINAMICS V20] p. 107 for what the manuals
+//! leave out (LGE rule, ADR bits, BCC, PKE layout, task and response IDs, error numbers).
 //!
 //! - **STX** = 02H.
 //! - **LGE** = n + 2: the net-data bytes plus ADR plus BCC; STX and LGE are not counted
 //!   ([USS spec] §4.2. 2 ≤ LGE ≤ 254, so n ≤ 252 and a telegram is at most 256 bytes.
-//!   The manuals say only "telegram length" ([Modbus/USS] §3.7 `[derived]`); we follow the USS spec.
+//!   The manuals say only "telegram length" ([Modbus/USS] §3.7 `[derived]`); we follow the USS
+//!   spec.
 //! - **ADR**: bits 0–4 slave address 0–31, bit 5 broadcast, bit 6 mirror, bit 7 special telegram
 //!   ([`Adr`]).
 //! - **BCC** = XOR of every byte from STX up to the last net byte, STX **included**; a receiver can

@@ -1,8 +1,9 @@
 //! The USS master: a Sans-IO engine that polls the slaves of its polling list cyclically.
 //!
 //! Sources: [Modbus/USS] §3.7.1 (cycle: "each slave must answer before the master
-//! addresses the next"), [Modbus/USS] §3.7.3 (one job per slave), §3.7.7 (comm status word, comm error word,
-//! KSTW), [Modbus/USS] §3.7.8 (polling list, WDH) and [USS spec] (timing, error handling), [SINAMICS CU240S] p. 229 (PKW rules).
+//! addresses the next"), [Modbus/USS] §3.7.3 (one job per slave), §3.7.7 (comm status word, comm
+//! error word, KSTW), [Modbus/USS] §3.7.8 (polling list, WDH) and [USS spec] (timing, error
+//! handling), [SINAMICS CU240S] p. 229 (PKW rules).
 //!
 //! # One poll
 //!
@@ -33,17 +34,17 @@
 //!   [`status::NO_ANSWER`] (16#1408, comm error word bit 7, the code a poll reports) when the
 //!   node did not answer a single telegram of the job, or the rejection code of its last
 //!   telegram (BCC, LGE, …) when it answered only with faulty ones; [`status::PKW_INTERFACE_ERROR`]
-//!   when it answered but never matched the job. Status bit 4 is set in each case, as [Modbus/USS] §3.7.7 says
-//!   ("did not acknowledge within WDH retries").
+//!   when it answered but never matched the job. Status bit 4 is set in each case, as [Modbus/USS]
+//!   §3.7.7 says ("did not acknowledge within WDH retries").
 //!
-//! **Reading chosen** for the absent node: [Modbus/USS] §3.7.7 folds it into status bit 4 with response ID 8;
-//! a user must tell a drive that is not there from a drive that refuses, so the job's STATUS
-//! names the telegram-level cause, as a poll does.
+//! **Reading chosen** for the absent node: [Modbus/USS] §3.7.7 folds it into status bit 4 with
+//! response ID 8; a user must tell a drive that is not there from a drive that refuses, so the
+//! job's STATUS names the telegram-level cause, as a poll does.
 //!
 //! After the job the PKW area carries AK 0 "no task" ([SINAMICS CU240S] p. 229, or, with
 //! [`PkwAfterJob::RepeatLast`], the last job again, as the module's FCs do ("sent to the slave
-//! again and again until the user enters a new job", [Modbus/USS] §3.7.7). See [`PkwAfterJob`] for why AK 0 is
-//! the default.
+//! again and again until the user enters a new job", [Modbus/USS] §3.7.7). See [`PkwAfterJob`] for
+//! why AK 0 is the default.
 //!
 //! # Ending a run
 //!
@@ -287,10 +288,10 @@ impl RequestError {
     ///   ([`si_core::status::common::PARAMETER_OUT_OF_RANGE`], [Modbus/USS] §3.6);
     /// - net data or a PZD list too long: a byte count the job cannot carry, 16#1E41
     ///   ([`si_core::status::common::INVALID_LEN`], [Modbus/USS] §3.6, "invalid byte count");
-    /// - a job still running for the node (one job per slave, [Modbus/USS] §3.7.3), a special telegram still
-    ///   waiting, or a stopped master: "job not possible in the current mode", 16#0502
-    ///   ([`si_core::status::common::NOT_POSSIBLE_IN_MODE`], [Modbus/USS] §3.6), as si-modbus reports a
-    ///   busy master.
+    /// - a job still running for the node (one job per slave, [Modbus/USS] §3.7.3), a special
+    ///   telegram still waiting, or a stopped master: "job not possible in the current mode",
+    ///   16#0502 ([`si_core::status::common::NOT_POSSIBLE_IN_MODE`], [Modbus/USS] §3.6), as
+    ///   si-modbus reports a busy master.
     pub fn status(&self) -> Status {
         use si_core::status::common;
         match self {
@@ -1195,8 +1196,8 @@ enum Verdict {
     NotYet,
 }
 
-/// [SINAMICS CU240S] p. 229: the response matches when its ID answers the task and PNU, IND (and for
-/// writes the value) are the request's; ID 7 with the request's PNU is the job's error.
+/// [SINAMICS CU240S] p. 229: the response matches when its ID answers the task and PNU, IND (and
+/// for writes the value) are the request's; ID 7 with the request's PNU is the job's error.
 fn judge(request: &Pkw, reply: &Pkw) -> Verdict {
     let ak = reply.pke.ak();
     let same_pnu = reply.pke.pnu() == request.pke.pnu();

@@ -5,8 +5,9 @@
 //! **page** p = number div 2000, carried in IND's high byte; IND's low byte is the sub-index.
 //! The MICROMASTER 4 rule (MM420 OI p.115) gives the page's bits 0–3 the unusual weights
 //! IND bit 15 = 1, bit 12 = 2, bit 13 = 4, bit 14 = 8; the SINAMICS G120 table (FM 04/2018
-//! [Modbus/USS] §3.5.4, Table 3-20) adds 60000 → 74H, which puts page bit 4 into IND bit 10. As one formula
-//! ([MM 420] p. 115, [G120 Fieldbus] §5.3, "Encoding rule [inferred from the two sources]"):
+//! [Modbus/USS] §3.5.4, Table 3-20) adds 60000 → 74H, which puts page bit 4 into IND bit 10. As one
+//! formula ([MM 420] p. 115, [G120 Fieldbus] §5.3, "Encoding rule
+//! [inferred from the two sources]"):
 //!
 //! ```text
 //! high byte = (p & 1) << 7 | ((p >> 1) & 7) << 4 | ((p >> 4) & 1) << 2

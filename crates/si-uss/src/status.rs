@@ -14,8 +14,8 @@
 //!   (bit 2 AK 7 → 1503H, bit 3 invalid task → 1504H, bit 4 PKW interface error → 1505H).
 //!
 //! A PKW job whose node never answered ends with 1408H, "node does not answer", as a poll
-//! does, although [Modbus/USS] §3.7.7 sets status bit 4 for it as well: 1505H stays for response ID 8 and for
-//! answers that never matched, so a refusal and an absent drive read differently
+//! does, although [Modbus/USS] §3.7.7 sets status bit 4 for it as well: 1505H stays for response ID
+//! 8 and for answers that never matched, so a refusal and an absent drive read differently
 //! (`crate::master`, "The PKW handshake").
 //!
 //! Classes 14H and 15H are not used by any table of the manuals (they use 01H–0EH and 1EH), so a

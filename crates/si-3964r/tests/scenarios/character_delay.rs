@@ -1,7 +1,7 @@
-//! The character delay time ZVZ at low baud rates ([ET200S SI] §2.7, receiving: character delay monitoring, §2.7, Table 2-11:
-//! "longest gap between two received characters"). A partner that leaves gaps of
-//! exactly ZVZ between its characters is received; one microsecond more ends the reception
-//! with NAK and 0806H at the moment the gap is known to be too long. At 300 bit/s one
+//! The character delay time ZVZ at low baud rates ([ET200S SI] §2.7, receiving: character delay
+//! monitoring, §2.7, Table 2-11: "longest gap between two received characters"). A partner that
+//! leaves gaps of exactly ZVZ between its characters is received; one microsecond more ends the
+//! reception with NAK and 0806H at the moment the gap is known to be too long. At 300 bit/s one
 //! character takes 36.7 ms against the 60 ms ZVZ minimum, at 110 bit/s 100 ms against 170 ms,
 //! so a deadline that leaves the character time out fails the first half of these tests.
 
@@ -13,7 +13,8 @@ use si_3964r::status::{CHARACTER_DELAY, IDLE_GARBAGE};
 use si_3964r::{Config, Event};
 use si_core::{Duration, Instant, Parity, SerialSettings};
 
-/// The slow rates with their ZVZ minimum ([CP 341] §2.2.2, §2.3.1, 110 bit/s derived; see si_3964r::config).
+/// The slow rates with their ZVZ minimum ([CP 341] §2.2.2, §2.3.1, 110 bit/s derived; see
+/// si_3964r::config).
 const SLOW: [(u32, u32); 2] = [(300, 60), (110, 170)];
 
 const US1: Duration = Duration::from_micros(1);

@@ -453,7 +453,8 @@ fn s6_4_with_xon_xoff_the_flow_characters_are_not_data() {
     b.partner_sends(b"ab\x11cd");
     b.run_for_ms(100);
     assert_eq!(b.frames(), vec![b"abcd".to_vec()]);
-    // Sending them is refused ([ET200S SI] §2.8, Fig. 2-17), also when a 7-bit line would strip the top bit.
+    // Sending them is refused ([ET200S SI] §2.8, Fig. 2-17), also when a 7-bit line would strip the
+    // top bit.
     let err = b.sim.with(b.link, |l, now| l.send(now, "x\x13".into()));
     assert_eq!(err, Err(si_ascii::SendError::FlowCharacter(0x13)));
     let c7 = Config {

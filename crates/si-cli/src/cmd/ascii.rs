@@ -1,8 +1,8 @@
 //! `si ascii`: the ASCII driver on a line (send, receive, monitor) and its simulator scenarios
 //! ([ET200S SI] §2.8).
 //!
-//! The ASCII driver has no frame encoding of its own (the user data are the frame, [ET200S SI] §2.8), so
-//! there is no `si frame encode|decode ascii`.
+//! The ASCII driver has no frame encoding of its own (the user data are the frame, [ET200S SI]
+//! §2.8), so there is no `si frame encode|decode ascii`.
 
 use crate::conn::Connection;
 use crate::error::CliError;

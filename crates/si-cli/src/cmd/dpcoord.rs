@@ -8,17 +8,17 @@
 //!   `signals HEX` (the signal word as the window carries it), then `done STATUS=XXXX` (exit 0)
 //!   or `error STATUS=XXXX` (exit 1). Standard output carries only these lines; logs go to
 //!   standard error. A receive job that finds nothing buffered ends `done STATUS=0101` (the
-//!   manual's "not an error", `[derived]`); the signal word is printed as bytes 1–2 of the window carry
-//!   it (`[derived]`: byte 1 = 00H, byte 2 = `DCD CTS RTS DSR DTR` in bits 4…0). The host's clock is the
-//!   time since the start, for its job watchdog (`--timeout-s`, STATUS 0502H).
+//!   manual's "not an error", `[derived]`); the signal word is printed as bytes 1–2 of the window
+//!   carry it (`[derived]`: byte 1 = 00H, byte 2 = `DCD CTS RTS DSR DTR` in bits 4…0). The host's
+//!   clock is the time since the start, for its job watchdog (`--timeout-s`, STATUS 0502H).
 //! * `si dp-coord module --window N --protocol ascii|3964r|modbus`: the mirror image — a
 //!   simulated ET 200S SI module whose line is the serial port (`--port`/`--tcp`): each line read
 //!   is the host's output window, each line written the module's input window. With `modbus` the
 //!   module is a Modbus master ([`si_dp_coord::modbus`]): a send job carries the S_SEND source
 //!   area (slave address, function code, address, quantity / data, [Modbus/USS]
-//!   [Modbus/USS] §3.4.5–§3.4.16), and the next receive job brings the response in the S_RCV layout ([Modbus/USS] §3.4.5–§3.4.16) or the
-//!   job's STATUS (0830H no response, 0E6xH exception). USS and Modbus slave mode are not
-//!   offered: their window layout is not documented (`[derived]`).
+//!   [Modbus/USS] §3.4.5–§3.4.16), and the next receive job brings the response in the S_RCV layout
+//!   ([Modbus/USS] §3.4.5–§3.4.16) or the job's STATUS (0830H no response, 0E6xH exception). USS
+//!   and Modbus slave mode are not offered: their window layout is not documented (`[derived]`).
 //! * `--exec-after-7 1|0` (host and module): what follows execution number 7 (`[derived]`), 1 by
 //!   default; both sides must agree ([`si_dp_coord::ExecWrap`]).
 //! * `si dp-coord trace FILE`: annotates a recorded window trace cycle by cycle

@@ -385,7 +385,8 @@ async fn open_line(
     conn: &Connection,
     l: &config::Line,
 ) -> Result<reopen::Opened<si_modbus::tokio::Master>, OpenError> {
-    // On RS-485 a response is recognised by its address, skipping a turnaround glitch ([Modbus/USS] §3.4.1, §3.4.3).
+    // On RS-485 a response is recognised by its address, skipping a turnaround glitch ([Modbus/USS]
+    // §3.4.1, §3.4.3).
     let interface = if l.rs485.is_some() {
         si_core::Interface::Rs485
     } else {

@@ -62,8 +62,9 @@ pub struct MasterOptions {
     timestamps: bool,
 }
 
-/// How received frames are recognised ([Modbus/USS] §3.3.5, Table 3-11, §3.4.3, §3.5.4): the same flags on the master's jobs and on
-/// `serve`, so whatever framing `si modbus read` can use, the slave side can too.
+/// How received frames are recognised ([Modbus/USS] §3.3.5, Table 3-11, §3.4.3, §3.5.4): the same
+/// flags on the master's jobs and on `serve`, so whatever framing `si modbus read` can use, the
+/// slave side can too.
 #[derive(Debug, Clone, Args)]
 pub struct FramingOptions {
     /// Operating mode (`serve`: overridden by the config file's `mode`).
@@ -79,8 +80,8 @@ pub struct FramingOptions {
     /// the config file's `frame_end`).
     #[arg(long, value_enum, default_value_t = FrameEndArg::Gap)]
     frame_end: FrameEndArg,
-    /// Data flow control "automatic use of the V.24 signals" ([Modbus/USS] §3.2.2; RS-232C only): RTS on
-    /// before each frame, send once CTS is on, RTS off after it. Default: none.
+    /// Data flow control "automatic use of the V.24 signals" ([Modbus/USS] §3.2.2; RS-232C only):
+    /// RTS on before each frame, send once CTS is on, RTS off after it. Default: none.
     #[arg(long)]
     auto_v24: bool,
     /// With --auto-v24: time from the last byte sent until RTS off, 0–655350 ms in 10 ms steps
@@ -116,7 +117,8 @@ impl FramingOptions {
 /// `--frame-end`.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum FrameEndArg {
-    /// The module's behaviour ([Modbus/USS] §3.3.5, Table 3-11): a frame ends after the line has been silent for the gap.
+    /// The module's behaviour ([Modbus/USS] §3.3.5, Table 3-11): a frame ends after the line has
+    /// been silent for the gap.
     Gap,
     /// Host extension: a frame also ends at the length its header predicts once its CRC
     /// checks (no wait for the gap; the master still leaves it before its next request).
@@ -443,7 +445,8 @@ fn reporter<'a>(out: &'a Output, o: &MasterOptions, base: u8) -> Report<'a> {
 
 async fn open_master(conn: &Connection, o: &MasterOptions) -> Result<handle::Master, CliError> {
     let config = master_config(conn, o)?;
-    // On RS-485 a response is recognised by its address, skipping a turnaround glitch ([Modbus/USS] §3.4.1, §3.4.3).
+    // On RS-485 a response is recognised by its address, skipping a turnaround glitch ([Modbus/USS]
+    // §3.4.1, §3.4.3).
     let interface = if conn.rs485.is_some() {
         si_core::Interface::Rs485
     } else {
@@ -643,7 +646,8 @@ fn print_slave_event(e: &SlaveEvent, out: &Output) {
                 (Some(s), _) => status_text(s),
                 (None, Some(e)) => format!("S_MODB ERROR_NR {} ERROR_INFO {}", e.error_nr, e.info),
                 // SlaveEvent::Exception: no STATUS and no store error is a request of the
-                // wrong length for its function ([Modbus/USS] §3.5.6–§3.5.14 lists no event for it).
+                // wrong length for its function ([Modbus/USS] §3.5.6–§3.5.14 lists no event for
+                // it).
                 (None, None) => format!(
                     "the request is too short or too long for FC{function:02} (no STATUS: \
                      [Modbus/USS] §3.5.6–§3.5.14 lists none)"

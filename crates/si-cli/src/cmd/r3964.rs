@@ -103,7 +103,8 @@ impl LinkArgs {
 }
 
 /// How long a command lets the line settle after opening it: the partner's startup NAK or
-/// stale bytes arrive while the link is idle, where they are harmless ([ET200S SI] §2.7, receiving: idle and startup NAK).
+/// stale bytes arrive while the link is idle, where they are harmless ([ET200S SI] §2.7, receiving:
+/// idle and startup NAK).
 const SETTLE: std::time::Duration = std::time::Duration::from_millis(100);
 
 impl Command {

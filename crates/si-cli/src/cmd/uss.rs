@@ -56,8 +56,8 @@ pub struct Structure {
     #[arg(long, default_value_t = 20)]
     retries: u16,
     /// After a parameter job, send its PKW task again in every poll until the next job, as the
-    /// module's FCs do ([Modbus/USS] §3.7.7). Default: PKW task 0 "no task" after a job (the USS rule), so a
-    /// drive does not execute a write again and again.
+    /// module's FCs do ([Modbus/USS] §3.7.7). Default: PKW task 0 "no task" after a job (the USS
+    /// rule), so a drive does not execute a write again and again.
     #[arg(long)]
     pkw_repeat: bool,
 }

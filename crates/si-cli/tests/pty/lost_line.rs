@@ -197,7 +197,8 @@ fn modbus_serve_logs_each_request_with_the_text_of_its_own_code() {
         ),
         "{log}"
     );
-    // No STATUS in [Modbus/USS] §3.5.6–§3.5.14 for a request of the wrong length: the log says what was wrong.
+    // No STATUS in [Modbus/USS] §3.5.6–§3.5.14 for a request of the wrong length: the log says what
+    // was wrong.
     assert!(
         lines[2].starts_with(
             "answered FC03 with exception 03 illegal data value: the request is too short or too long for FC03"

@@ -7,7 +7,8 @@
 //! the test with a message; with the environment variable `CI` set it fails instead.
 //!
 //! The line is 19200 baud, 8 data bits, no parity, 2 stop bits: the manual's 11-bit frame with
-//! parity "none" ([Modbus/USS] §3.4.3, §3.5.4, §3.9), and Linux pseudo-terminals refuse pyserial's even-parity setting.
+//! parity "none" ([Modbus/USS] §3.4.3, §3.5.4, §3.9), and Linux pseudo-terminals refuse pyserial's
+//! even-parity setting.
 
 use std::io::Write;
 use std::process::{Command, Output, Stdio};

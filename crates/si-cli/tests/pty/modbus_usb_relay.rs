@@ -17,8 +17,8 @@ use common::{exit_within, have_socat, pty_pair_ignoreeof, stderr, stdout, Kill, 
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-/// 19 200 bit/s 8N2: the manual's 11-bit character with parity "none" ([Modbus/USS] §3.4.3, §3.5.4, §3.9); pseudo-terminals
-/// refuse pyserial's even parity.
+/// 19 200 bit/s 8N2: the manual's 11-bit character with parity "none" ([Modbus/USS] §3.4.3, §3.5.4,
+/// §3.9); pseudo-terminals refuse pyserial's even parity.
 const LINE: &[&str] = &["--baud", "19200", "--parity", "none", "--stop-bits", "2"];
 
 /// Two socat pairs joined by the relay: the test's two ends are `.0.a` and `.1.b`.

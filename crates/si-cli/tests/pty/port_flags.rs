@@ -1,5 +1,6 @@
-//! The port flags for USB adapters and RS-485, without hardware: `--latency-timer`, `--rs485`, `--local-echo`
-//! parse, and a port that cannot do what they ask is refused with a message that says why.
+//! The port flags for USB adapters and RS-485, without hardware: `--latency-timer`, `--rs485`,
+//! `--local-echo` parse, and a port that cannot do what they ask is refused with a message that
+//! says why.
 
 use crate::common;
 

@@ -117,7 +117,8 @@ fn section_2_8_send_ended_with_a_status_prints_error_and_exits_1() {
 
 #[test]
 fn table_2_24_receive_prints_the_frame_before_done() {
-    // [derived]: the receive request is 20H. 6 bytes in a 4-byte window: 21H carries the length word.
+    // [derived]: the receive request is 20H. 6 bytes in a 4-byte window: 21H carries the length
+    // word.
     let out = host(
         &["--window", "4", "receive"],
         &[
@@ -329,7 +330,8 @@ fn json_lines_carry_the_same_windows_and_result() {
 fn sim_dp_coord_modbus_reads_registers_through_the_window() {
     let lines = sim_fb_scenario("dp-coord-modbus");
     let n = lines.len();
-    // FC03, registers 0 and 1 of slave 1: 1234H, 5678H in register order ([Modbus/USS] §3.4.5–§3.4.16).
+    // FC03, registers 0 and 1 of slave 1: 1234H, 5678H in register order ([Modbus/USS]
+    // §3.4.5–§3.4.16).
     assert!(
         lines[n - 1].ends_with("A S_RCV ndr=true error=false STATUS=0000 LEN=4 12 34 56 78"),
         "{lines:?}"

@@ -150,7 +150,8 @@ fn serve_takes_every_framing_flag_read_takes() {
     }
 }
 
-/// [Modbus/USS] §3.3.5, Table 3-11: fMUL is 1–10; 11 is refused with 0E21H before the port is opened.
+/// [Modbus/USS] §3.3.5, Table 3-11: fMUL is 1–10; 11 is refused with 0E21H before the port is
+/// opened.
 #[test]
 fn serve_refuses_a_char_delay_multiplier_out_of_range_with_0e21h() {
     let o = serve_on_null(&[], &["--char-delay-multiplier", "11"]);
@@ -179,7 +180,8 @@ fn serve_config_errors_name_the_file_and_field() {
     let o = serve_on_null(&[], &["--config", path.to_str().unwrap()]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("m_fromm"), "{}", stderr(&o));
-    // [Modbus/USS] §3.4.3, §3.5.4, §3.6: an operating mode other than the two is 0E22H, driver not ready.
+    // [Modbus/USS] §3.4.3, §3.5.4, §3.6: an operating mode other than the two is 0E22H, driver not
+    // ready.
     std::fs::write(&path, "mode = \"fast\"\n").unwrap();
     let o = serve_on_null(&[], &["--config", path.to_str().unwrap()]);
     assert!(!o.status.success());

@@ -184,7 +184,8 @@ fn parameter_fbs_match_the_configured_flow_control() {
     );
 }
 
-/// Several FBs on one host: the arbiter serializes their jobs ([ET200S SI 2005] §2.12.1), each gets its own result.
+/// Several FBs on one host: the arbiter serializes their jobs ([ET200S SI 2005] §2.12.1), each gets
+/// its own result.
 #[test]
 fn fbs_share_one_host() {
     for window in WindowSize::ALL {

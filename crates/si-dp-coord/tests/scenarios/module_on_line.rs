@@ -1,9 +1,9 @@
 //! The module as a station on the line simulator (si_core::sim), its serial side a line engine
 //! behind [`EngineSerial`]: a host's send job puts the frame on the line with baud-accurate
 //! timing, and the end-of-job acknowledgement comes only after the last character has left
-//! ([ET200S SI 2005] §2.12.1–§2.12.7 `[derived]`: "the module sends the end-of-job ack only after the
-//! frame has been transmitted to the partner"). A frame from the partner reaches the host through
-//! a receive job.
+//! ([ET200S SI 2005] §2.12.1–§2.12.7 `[derived]`: "the module sends the end-of-job ack only after
+//! the frame has been transmitted to the partner"). A frame from the partner reaches the host
+//! through a receive job.
 //!
 //! The line engine here is a minimal framer written for this test (frames end after a 4 ms gap,
 //! like the ASCII driver's character delay time): any engine plugs in through its [`LineHooks`].

@@ -306,7 +306,8 @@ fn host_signals_out_of_order_receive_segment() {
     assert_eq!(h.stats().errors_signalled, 1);
 }
 
-/// [ET200S SI 2005] §2.12.1 rule 3: the acknowledgement of another job code → write idle, wait for idle, repeat.
+/// [ET200S SI 2005] §2.12.1 rule 3: the acknowledgement of another job code → write idle, wait for
+/// idle, repeat.
 #[test]
 fn host_backs_off_on_a_foreign_acknowledgement() {
     let mut h = Host::new(HostConfig::new(WindowSize::Eight)).unwrap();

@@ -180,8 +180,8 @@ fn s3_5_extension_length_slave_answers_at_the_request_end_not_after_the_gap() {
 
 #[test]
 fn s3_5_extension_length_predicts_every_request_layout() {
-    // FC01–06 and 08: 8 bytes; FC07/11/12 (not served by the module's slave, [Modbus/USS] §3.5.6–§3.5.14: exception
-    // 01): 4; FC15/16: 9 + byte count. Each is answered at its own end.
+    // FC01–06 and 08: 8 bytes; FC07/11/12 (not served by the module's slave, [Modbus/USS]
+    // §3.5.6–§3.5.14: exception 01): 4; FC15/16: 9 + byte count. Each is answered at its own end.
     let requests: Vec<Vec<u8>> = vec![
         with_crc(vec![1, 0x01, 0, 0, 0, 8]),
         with_crc(vec![1, 0x02, 0, 0, 0, 8]),
@@ -529,7 +529,8 @@ fn s4_1_extension_length_on_an_rs485_bus_with_local_echo_polls_two_slaves() {
         }
     }
     // Every station sees silence of at least the gap between the end of an answer and the
-    // next request (measured as the module does, between received characters: [Modbus/USS] §3.3.5, Table 3-11).
+    // next request (measured as the module does, between received characters: [Modbus/USS] §3.3.5,
+    // Table 3-11).
     let heard = sim.trace().received("slave1");
     let mut quiet = 0;
     for w in heard.windows(2) {

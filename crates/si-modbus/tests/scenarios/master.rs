@@ -1,5 +1,6 @@
 //! Master scenarios on the line simulator, one per error path of [Modbus/USS]
-//! [Modbus/USS] §3.3.5–§3.4.3, Table 3-11, Table 3-17 and §3.4.5–§3.4.16, each asserting the manual's STATUS in virtual time.
+//! [Modbus/USS] §3.3.5–§3.4.3, Table 3-11, Table 3-17 and §3.4.5–§3.4.16, each asserting the
+//! manual's STATUS in virtual time.
 
 use si_core::sim::Simulator;
 use si_core::{Duration, Engine, Instant, Interface, LineError, Output, SerialSettings};
@@ -477,7 +478,8 @@ fn s4_3_job_checks_refuse_with_0e44h_0e45h_0e46h() {
     );
 }
 
-// --- [Modbus/USS] §3.4.1, §3.4.3 against §3.4.3, §3.5.4: a turnaround glitch on RS-485 ------------------------------------------
+// --- [Modbus/USS] §3.4.1, §3.4.3 against §3.4.3, §3.5.4: a turnaround glitch on RS-485
+// ------------------------------------------
 
 /// A Normal-mode master on `interface`: READ10 sent, then the partner answers with `glitch`
 /// (a byte, or a framing error) before a correct response.

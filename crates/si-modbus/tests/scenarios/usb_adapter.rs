@@ -1,7 +1,8 @@
 //! Master and slave through USB-serial adapters: with default configs, both behind a
 //! 16 ms / 62-byte adapter, a poll cycle of short and long reads completes at 9600 and 19 200
 //! bit/s, whether the host announces the adapter's latency or the engines have to learn it;
-//! and without an adapter the frames still end at the manual's gap ([Modbus/USS] §3.3.5, Table 3-11).
+//! and without an adapter the frames still end at the manual's gap ([Modbus/USS] §3.3.5, Table
+//! 3-11).
 
 use si_core::sim::{Simulator, StationId, TraceKind, UsbAdapter};
 use si_core::{Duration, Instant, Parity, SerialSettings};

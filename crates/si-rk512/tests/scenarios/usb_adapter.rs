@@ -1,8 +1,9 @@
 //! RK 512 through USB-serial adapters: with default configs, SEND and FETCH of 1024
-//! bytes (8 telegrams each way, [CP 341] §2.2.3) between a host and a serving PLC, both behind a 16 ms /
-//! 62-byte adapter, at 9600 and 19 200 bit/s, announced or learnt. The station forwards the
+//! bytes (8 telegrams each way, [CP 341] §2.2.3) between a host and a serving PLC, both behind a 16
+//! ms / 62-byte adapter, at 9600 and 19 200 bit/s, announced or learnt. The station forwards the
 //! port's latency to its 3964(R) link, whose ZVZ and QVZ get the allowance; without the
-//! adapter each telegram is still acknowledged the moment its BCC arrives (3964(R), [ET200S SI] §2.7).
+//! adapter each telegram is still acknowledged the moment its BCC arrives (3964(R), [ET200S SI]
+//! §2.7).
 
 use bytes::Bytes;
 use si_3964r::frame::DLE;

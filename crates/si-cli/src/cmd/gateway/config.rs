@@ -4,11 +4,11 @@
 //! Ranges and defaults: the response timeout is the module's "Response Time", 50–655 000 ms
 //! ([Modbus/USS] §3.4.3, Table 3-17, the range `si_modbus::MasterConfig::validate` checks);
 //! retries, the pause between requests, the connection limit and the idle timeout have no
-//! module counterpart (the module has no retries, [Modbus/USS] §3.4.3, Table 3-17) and follow mbusd, the gateway
-//! si is measured against (mbusd's `src/conn.h`: `DEFAULT_MAXTRY` 3 tries = 2 retries,
-//! `MAX_MAXTRY` 15, `DEFAULT_RQSTPAUSE` 100 ms, `MAX_RQSTPAUSE` 10 000 ms, `DEFAULT_RESPWAIT`
-//! 500 ms, `DEFAULT_MAXCONN` 32, `MAX_CONNTIMEOUT` 1000 s). mbusd's pause is 1–10 000 ms; we
-//! also allow 0 (no pause).
+//! module counterpart (the module has no retries, [Modbus/USS] §3.4.3, Table 3-17) and follow
+//! mbusd, the gateway si is measured against (mbusd's `src/conn.h`: `DEFAULT_MAXTRY` 3 tries = 2
+//! retries, `MAX_MAXTRY` 15, `DEFAULT_RQSTPAUSE` 100 ms, `MAX_RQSTPAUSE` 10 000 ms,
+//! `DEFAULT_RESPWAIT` 500 ms, `DEFAULT_MAXCONN` 32, `MAX_CONNTIMEOUT` 1000 s). mbusd's pause is
+//! 1–10 000 ms; we also allow 0 (no pause).
 
 use crate::conn::Rs485Mode;
 use serde::Deserialize;

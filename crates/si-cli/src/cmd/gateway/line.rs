@@ -30,7 +30,8 @@ pub const SLAVE_DEVICE_BUSY: u8 = ExceptionCode::SlaveDeviceBusy as u8;
 /// Exception 0AH: no line serves the unit, or its line is down (Modbus application protocol
 /// V1.1b3 §7, "gateway path unavailable").
 pub const GATEWAY_PATH_UNAVAILABLE: u8 = 0x0A;
-/// Exception 0BH: the slave did not answer (Modbus application protocol V1.1b3 §7, "gateway target device failed to respond").
+/// Exception 0BH: the slave did not answer (Modbus application protocol V1.1b3 §7, "gateway target
+/// device failed to respond").
 pub const GATEWAY_TARGET_FAILED: u8 = 0x0B;
 
 /// A request waiting for a line, with where its answer goes (`None`: a broadcast).
@@ -213,15 +214,16 @@ async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outc
             };
         }
         Err(Error::Failed(s)) => match s.code() {
-            // 0E61H–0E67H: the slave's exception 01H–07H ([Modbus/USS] §3.3.6, Table 3-12), passed through unchanged.
+            // 0E61H–0E67H: the slave's exception 01H–07H ([Modbus/USS] §3.3.6, Table 3-12), passed
+            // through unchanged.
             c @ 0x0E61..=0x0E67 => ((c - 0x0E60) as u8, Outcome::Exception),
             _ if s == status::RESPONSE_TIMEOUT => (GATEWAY_TARGET_FAILED, Outcome::Timeout),
             // Still corrupt after the retries (0E57H) or otherwise bad: 04H; the corrupt
             // answers are in `crc_errors`.
             _ => (SLAVE_DEVICE_FAILURE, Outcome::Other),
         },
-        // The master's own checks ([Modbus/USS] §3.4.5–§3.4.16): a function it does not know or that may not be
-        // broadcast is 01H, a quantity out of range 03H, as a slave would answer.
+        // The master's own checks ([Modbus/USS] §3.4.5–§3.4.16): a function it does not know or
+        // that may not be broadcast is 01H, a quantity out of range 03H, as a slave would answer.
         Err(Error::Refused(e)) => {
             let s = e.status();
             let function =

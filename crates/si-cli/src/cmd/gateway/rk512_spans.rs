@@ -168,7 +168,8 @@ fn register_spans(
 }
 
 /// The registers' `(DB, first byte, bytes)` runs, one per DB: a run crossing a 512-register
-/// boundary continues in the next DB (the conversion applied to each register, [Modbus/USS] §3.5.5–§3.5.19).
+/// boundary continues in the next DB (the conversion applied to each register, [Modbus/USS]
+/// §3.5.5–§3.5.19).
 fn db_runs(
     conversion: &ConversionDb,
     function: u8,

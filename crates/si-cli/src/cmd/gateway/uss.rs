@@ -247,7 +247,8 @@ impl UssDrives {
                         _ => 0,
                     };
                     // A refusal has its STATUS too (`RequestError::status`); a job whose port
-                    // closed under it ends as the module ends jobs at a reset (1E0DH, [Modbus/USS] §3.6).
+                    // closed under it ends as the module ends jobs at a reset (1E0DH, [Modbus/USS]
+                    // §3.6).
                     let status = e
                         .status()
                         .unwrap_or(si_core::status::common::ABORTED_BY_RESET)

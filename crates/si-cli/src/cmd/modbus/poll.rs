@@ -12,10 +12,10 @@
 //!   units, one line per unit and exit 1 if any failed.
 //!
 //! A failure's kind comes from its STATUS ([Modbus/USS]): 0830H is the response
-//! timeout ([Modbus/USS] §3.4.3, Table 3-17), 0E61H–0E67H an exception response (§3.3.6, Table 3-12); everything else on
-//! the line (0E57H CRC, 0831H wrong slave, 0E5xH malformed responses, 08xxH receive errors)
-//! counts as another error. A job the master refuses before sending (0E4xH) or a closed port
-//! ends the run: repeating it could only fail the same way.
+//! timeout ([Modbus/USS] §3.4.3, Table 3-17), 0E61H–0E67H an exception response (§3.3.6, Table
+//! 3-12); everything else on the line (0E57H CRC, 0831H wrong slave, 0E5xH malformed responses,
+//! 08xxH receive errors) counts as another error. A job the master refuses before sending (0E4xH)
+//! or a closed port ends the run: repeating it could only fail the same way.
 
 use super::explain::{failure, status_text};
 use super::report::Report;

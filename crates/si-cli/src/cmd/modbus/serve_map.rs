@@ -4,11 +4,13 @@
 //! The map follows S_MODB's conversion DB ([Modbus/USS] §3.5.3–§3.5.17, Tables 3-19/3-20,
 //! applied by `si_modbus::simatic`) over the simulated CPU's memory sizes: a Modbus range is
 //! listed as far as the memory behind it exists (beyond, the slave answers exception 04, area
-//! overrun). Registers are listed per DB: DB = base + (R >> 9), 512 registers a DB ([Modbus/USS] §3.5.5–§3.5.19).
+//! overrun). Registers are listed per DB: DB = base + (R >> 9), 512 registers a DB ([Modbus/USS]
+//! §3.5.5–§3.5.19).
 //!
 //! [`Explaining`] wraps the slave's store: when the store refuses a request, it prints the
 //! request's address and count and, from the map, why (outside every range the slave serves,
-//! or a write outside the write limits of [Modbus/USS] §3.5.17, §3.5.20) before the engine answers the exception.
+//! or a write outside the write limits of [Modbus/USS] §3.5.17, §3.5.20) before the engine answers
+//! the exception.
 
 use crate::output::Output;
 use serde_json::json;
