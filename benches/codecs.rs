@@ -1,5 +1,5 @@
-//! Codec and engine speed, ours beside the peers on identical inputs in the same run (issue 9,
-//! BENCHMARKS.md). Groups are named `<operation>/<implementation>`:
+//! Codec and engine speed, ours beside the peers on identical inputs in the same run
+//! (BENCHMARKS.md). Groups are named `<operation>/<implementation>`:
 //!
 //! - Modbus: CRC of a 256-byte frame, FC03 request decode, 125-register FC03 response decode
 //!   (to the register values), 100-register FC16 request encode, each against rmodbus; a whole
@@ -7,8 +7,8 @@
 //!   talking to the same slave (ours: tokio-modbus's RTU server only runs on a serial port).
 //! - 3964(R) block encode/decode of 256 bytes, USS telegram decode, the DP window send of a
 //!   224-byte frame, the decoders of complete records (RK 512 telegram, slave diagnosis, I&M0;
-//!   issue 17 compares them hand-written and with nom), and for every engine its receive path fed the whole frame at once and one
-//!   byte at a time (`*_bytewise`).
+//!   hand-written beside nom versions), and for every engine its receive path fed the whole frame
+//!   at once and one byte at a time (`*_bytewise`).
 //!
 //! Run: `cargo bench --bench codecs` (add `-- <group>` to pick one).
 
@@ -251,10 +251,10 @@ fn take_events(mut server: si_modbus::tokio::Slave<si_modbus::Tables>) {
 ///
 /// Both clients and the slave end frames by their predicted length (our
 /// `FrameEnd::Length`; tokio-modbus's RTU codec does so too), so no end-of-frame gap is waited
-/// for. Our master keeps to §3.5 and holds a request until the line has been silent for the gap
-/// (1 ms) since the last response, which back-to-back `iter` would measure; so each iteration
-/// first leaves the line idle for longer than the gap (untimed) and then times one request
-/// until its response is decoded, the same loop for both implementations.
+/// for. Our master keeps to [Modbus/USS] §3.3.5 and holds a request until the line has been silent
+/// for the gap (1 ms) since the last response, which back-to-back `iter` would measure; so each
+/// iteration first leaves the line idle for longer than the gap (untimed) and then times one
+/// request until its response is decoded, the same loop for both implementations.
 fn modbus_roundtrip(c: &mut Criterion) {
     use si_modbus::tokio as handle;
     use si_modbus::{FrameEnd, Master, MasterConfig, Mode, Slave, SlaveConfig, Tables};
@@ -579,7 +579,7 @@ fn decode_group<'a, T, E: std::fmt::Debug>(
 }
 
 /// Decoders of complete records: an RK 512 SEND telegram with 128 data bytes, a slave
-/// diagnosis with every part, an I&M0 record (issue 17: nom where it helps).
+/// diagnosis with every part, an I&M0 record (nom where it helps).
 fn records(c: &mut Criterion) {
     use si_module::diag::{
         ChannelDiagnosis, ErrorType, ModuleDiagnosis, ModuleStatus, SlaveDiagnosis, StationStatus,

@@ -1,4 +1,4 @@
-//! Many drivers in one process (issue 20, "Many lines in one process"; BENCHMARKS.md): the
+//! Many drivers in one process ("Many lines in one process"; BENCHMARKS.md): the
 //! tokio driver's precise timer is one thread for all of them, and a deadline fires as exactly
 //! with 1,000 drivers waiting as with one.
 //!

@@ -1,5 +1,5 @@
 //! How fast the line simulator runs virtual time, and how little a simulated link costs
-//! (issue 9, BENCHMARKS.md):
+//! (BENCHMARKS.md):
 //!
 //! - `sim_3964r_hour_19200`: an hour of a saturated 19200-baud 3964(R) link (200-byte blocks
 //!   back to back, the receiver taking each one);

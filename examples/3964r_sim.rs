@@ -12,7 +12,7 @@ use si_serial::sim::Simulator;
 fn main() {
     let line = SerialSettings::default(); // 9600 bit/s, 8 data bits, even parity, 1 stop bit
     let mut sim = Simulator::new(2024);
-    // The partners must have different priorities (et200s-si-3964r-ascii.md §5.6).
+    // The partners must have different priorities ([ET200S SI] §2.7, Fig. 2-16).
     let plc_config = Config {
         priority: Priority::High,
         ..Config::default()

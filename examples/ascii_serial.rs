@@ -1,5 +1,5 @@
 //! Receive CR LF-terminated lines with the ASCII driver and answer each with "OK\r\n"
-//! (et200s-si-3964r-ascii.md §6.3, two end-of-text characters), on a serial port or a serial
+//! ([ET200S SI] §2.8, two end-of-text characters), on a serial port or a serial
 //! device server (raw TCP). The port is opened from the driver's own settings
 //! (`si_core::port::open`):
 //!

@@ -1,6 +1,6 @@
 //! Two ASCII-driver stations on the simulated line, driven the way a PLC program drives the
 //! module: S_SEND on one side, S_RCV on the other, called once per 1 ms "cycle"
-//! (et200s-si-3964r-ascii.md §2 quick start, §8).
+//! ([ET200S SI] §2.2 quick start, §2.10).
 //!
 //! `cargo run --example ascii_sim`
 

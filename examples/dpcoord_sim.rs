@@ -1,7 +1,7 @@
 //! One user program, two transports: S_SEND and S_RCV (si-core's `job::Channel`) over any
 //! `JobPort`, run first directly on two 3964(R) links (a host with its own
 //! serial port), then through the DP windows of two simulated ET 200S SI modules that run
-//! 3964(R) on their line (et200s-si-2005-window-protocol.md §2, §5).
+//! 3964(R) on their line ([ET200S SI 2005] §2.12, §2.10).
 //!
 //! `cargo run --example dpcoord_sim`
 

@@ -2,7 +2,7 @@
 //! on its line) runs under the tokio driver on one end of an in-memory pipe, a plain 3964(R)
 //! link plays the serial partner on the other end, and a DP master task exchanges the 8-byte
 //! window every 5 ms. The user program calls S_SEND and S_RCV through the window
-//! (et200s-si-2005-window-protocol.md §2, §5). Replace the pipe with a serial port or a TCP
+//! ([ET200S SI 2005] §2.12, §2.10). Replace the pipe with a serial port or a TCP
 //! device server (any `si_core::driver::Transport`) and the module talks to real equipment; the
 //! `si dp-coord module` command does exactly that.
 //!

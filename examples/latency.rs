@@ -1,5 +1,5 @@
 //! FC03 turnaround of `si modbus serve` over a pseudo-terminal pair, beside pymodbus's serial
-//! server on the same kind of pair (issue 9, BENCHMARKS.md).
+//! server on the same kind of pair (BENCHMARKS.md).
 //!
 //! A client written here (blocking reads, no async runtime in the measured path) writes
 //! `01 03 00 00 00 0A C5 CD` and times until the 25-byte response is complete, a few thousand
@@ -8,7 +8,7 @@
 //! what is measured is the server's own turnaround.
 //!
 //! `si modbus serve` is measured twice: with `--frame-end gap`, the module's behaviour, it
-//! waits for the end-of-frame gap after the request (et200s-si-modbus-uss.md §3.5, Table 3-11:
+//! waits for the end-of-frame gap after the request ([Modbus/USS] §3.3.5, Table 3-11:
 //! 1 ms at 115200 baud); with `--frame-end length` (host extension) it answers as soon as the
 //! request has its predicted length and a good CRC, as pymodbus and libmodbus do.
 //!

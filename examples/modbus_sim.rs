@@ -1,6 +1,6 @@
 //! A Modbus master and an S_MODB slave on the deterministic line simulator: the slave maps
 //! registers to DB6 and coils to M500.0 through the manual's example conversion DB
-//! (et200s-si-modbus-uss.md Table 3-20); one write beyond DB_Max shows an exception.
+//! ([Modbus/USS] Table 3-20); one write beyond DB_Max shows an exception.
 //!
 //! `cargo run --example modbus_sim`
 

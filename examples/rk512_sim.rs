@@ -1,6 +1,6 @@
 //! A host and a PLC speak RK 512 on the deterministic line simulator: the host SENDs 200 bytes
 //! to DB10 (two telegrams), FETCHes them back, and then runs into the PLC's coordination flag
-//! (cp341-3964r-rk512-ascii.md §4.5, §4.8).
+//! ([CP 341] §2.2.3).
 //!
 //! ```text
 //! cargo run --example rk512_sim

@@ -1,4 +1,4 @@
-//! Every crate reports a parameter outside its range as si-core's one `RangeError` (issue 17):
+//! Every crate reports a parameter outside its range as si-core's one `RangeError`:
 //! a user reads the parameter, the range, the unit and the value the same way for 3964(R),
 //! RK 512, ASCII, Modbus, USS and the DP window.
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Load and resource probe for one Modbus TCP gateway (issue 20, BENCHMARKS.md).
+"""Load and resource probe for one Modbus TCP gateway (BENCHMARKS.md).
 
 Raw sockets, not pymodbus's TCP client, so that the client costs little per transaction and
 the same bytes go to every gateway. Each client owns one connection and sends FC03 (10

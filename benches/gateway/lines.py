@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Many lines in one `si gateway` process: threads, memory, idle CPU (issue 20, BENCHMARKS.md).
+"""Many lines in one `si gateway` process: threads, memory, idle CPU (BENCHMARKS.md).
 
 For each line count N: N pseudo-terminals from os.openpty (this process holds both ends, so no
 line sees an end of file), a gateway configuration with one Modbus RTU line per pty (19200 8N1,

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Many lines in one si gateway process: threads, memory per line, idle CPU, and the first and
-# last line answering (issue 20, BENCHMARKS.md "Lines per process"). The lines are pseudo-
+# last line answering (BENCHMARKS.md "Lines per process"). The lines are pseudo-
 # terminals from os.openpty held by benches/gateway/lines.py, which also simulates the RTU
 # slaves; si is built in release mode.
 #

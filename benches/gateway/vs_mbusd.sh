@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# si gateway beside mbusd on the same pty line, slave and client (issue 20, BENCHMARKS.md).
+# si gateway beside mbusd on the same pty line, slave and client (BENCHMARKS.md).
 #
 # For each gateway: a socat pty pair, a pymodbus RTU server (unit 1) on one end, the gateway
 # on the other end listening on 127.0.0.1, then benches/gateway/client.py: idle CPU for 5 s,

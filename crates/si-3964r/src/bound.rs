@@ -3,30 +3,32 @@
 //! The manual bounds every *step* of a send job: the partner answers `STX` within the
 //! acknowledgement delay time QVZ, gaps within a block are shorter than the character delay time
 //! ZVZ, and a job is given up after the configured connection and transmission attempts
-//! (et200s-si-3964r-ascii.md §5.3, §5.8, §5.9). It does not bound the *job*: a partner that
-//! never stops sending keeps the driver waiting for a quiet line (§5.3 point 3, §5.4 point 1) or
-//! receiving (a low-priority side yields to every `STX`, §5.6), and the job never starts or never
-//! ends. A host needs that bound (issue 21), so the link adds one where the manual has none:
+//! ([ET200S SI] §2.7, Table 2-11 `[derived]`). It does not bound the *job*: a partner that
+//! never stops sending keeps the driver waiting for a quiet line ([ET200S SI] §2.7, sending:
+//! partner interrupts the send, §2.7, receiving: idle) or receiving (a low-priority side yields to
+//! every `STX`, [ET200S SI] §2.7, Fig. 2-16), and the job never starts or never ends. A host needs
+//! that bound, so the link adds one where the manual has none:
 //!
-//! - **An overlong block ends at once** (`[derived]` from the receive buffer, §5.4 point 2 and
-//!   et200s-si-2005-window-protocol.md §6.1 "received frame longer than … the configured
-//!   length", 0850H). The manual lets a reception with an error run to the partner's
-//!   `DLE ETX` (§5.4 point 5), but a block longer than the maximum cannot be stored, so the
-//!   link answers NAK as soon as the first byte too many arrives, as a sender is answered whose
-//!   block the receiver cannot take (§5.3 point 3: a NAK during a send makes the partner abort
-//!   and repeat). A partner that sends `STX` and then data for ever, or `DLE`-doubled data with
-//!   no `ETX`, is thereby cut off after at most `2 × max + 3` characters.
+//! - **An overlong block ends at once** (`[derived]` from the receive buffer, [ET200S SI] §2.7,
+//!   receiving: STX with a free buffer and [ET200S SI 2005] Table 2-29 "received frame longer than
+//!   … the configured length", 0850H). The manual lets a reception with an error run to the
+//!   partner's `DLE ETX` ([ET200S SI] §2.7, receiving: cleardown and errors during reception), but
+//!   a block longer than the maximum cannot be stored, so the link answers NAK as soon as the first
+//!   byte too many arrives, as a sender is answered whose block the receiver cannot take
+//!   ([ET200S SI] §2.7, sending: partner interrupts the send: a NAK during a send makes the partner
+//!   abort and repeat). A partner that sends `STX` and then data for ever, or `DLE`-doubled data
+//!   with no `ETX`, is thereby cut off after at most `2 × max + 3` characters.
 //! - **Every send job ends by its deadline** (`[derived]`): [`Config::send_job_bound`] after
 //!   [`Link::send`](crate::Link::send). It is the longest the manual's own procedure takes on a
 //!   line that answers nothing, or answers wrongly, at every step:
 //!
 //!   ```text
-//!   per transmission attempt = Ncon × (t_char + QVZ)             connection attempts (§5.3 point 1)
+//!   per transmission attempt = Ncon × (t_char + QVZ)             connection attempts ([ET200S SI] §2.7, sending: connection setup)
 //!                            + t_block(len)                      our block: 2·len + 3 characters
-//!                            + QVZ                               end acknowledgement (§5.3 point 4)
-//!                            + gap(ZVZ) + t_char                 quiet wait and NAK (§5.3 point 3)
-//!   job bound                = Ntx × per transmission attempt    (§5.3 point 5)
-//!                            + t_block(max) + gap(ZVZ)           one yielded reception (§5.6)
+//!                            + QVZ                               end acknowledgement ([ET200S SI] §2.7, sending: cleardown)
+//!                            + gap(ZVZ) + t_char                 quiet wait and NAK ([ET200S SI] §2.7, sending: partner interrupts the send)
+//!   job bound                = Ntx × per transmission attempt    ([ET200S SI] §2.7, sending: retry limit)
+//!                            + t_block(max) + gap(ZVZ)           one yielded reception ([ET200S SI] §2.7, Fig. 2-16)
 //!   ```
 //!
 //!   `t_char` is one character time, `t_block(n)` the time of `2·n + 3` characters (every byte a
@@ -38,7 +40,8 @@
 //!   [`Event::SendFailed`](crate::Event::SendFailed) carrying the first error of the job, or
 //!   0703H (no connection set up within QVZ) when the line never let it get as far as an error,
 //!   070BH when it met a high-priority partner's `STX` at high priority; a job that was on the
-//!   line is given up with NAK (§5.3 point 5). A reception in progress runs on.
+//!   line is given up with NAK ([ET200S SI] §2.7, sending: retry limit). A reception in progress
+//!   runs on.
 //!
 //! At 9600 bit/s with the defaults (QVZ 2 s, ZVZ 220 ms, 6 and 6 attempts, 200-byte blocks) a
 //! send job of a maximum block ends within 88.83 s; a silent partner ends it after the six
@@ -59,7 +62,7 @@ use crate::config::Config;
 use si_core::{Duration, SerialSettings};
 
 /// Characters a block of `len` user-data bytes takes on the wire at most: every byte a doubled
-/// `DLE`, then `DLE ETX` and the BCC (§5.2).
+/// `DLE`, then `DLE ETX` and the BCC ([ET200S SI] §2.7, Fig. 2-12).
 pub const fn worst_wire_chars(len: usize) -> u64 {
     (len as u64).saturating_mul(2).saturating_add(3)
 }

@@ -1,6 +1,6 @@
 //! The 3964(R) parameters of Table 2-11 with the manual's defaults and ranges
-//! (et200s-si-3964r-ascii.md §5.8 and §7.2, et200s-si-2005-window-protocol.md §3.2,
-//! cp341-3964r-rk512-ascii.md §3.8).
+//! ([ET200S SI] §2.7, Table 2-11, §2.9, [ET200S SI 2005] §2.9.3, Table 2-9,
+//! [CP 341] §2.2.2, §2.3.1).
 //!
 //! A value outside its range is rejected with an error naming the parameter, the range and the
 //! value, both by [`Config::validate`] (called by [`Link::new`](crate::Link::new)) and when a
@@ -17,33 +17,36 @@
 //!
 //! # Readings
 //!
-//! - **QVZ range.** The ET 200S tables (et200s-si-3964r-ascii.md §5.8, window-protocol §3.2) give
-//!   10 … 655 350 ms, the CP 341 table (cp341 §3.8) 20 … 655 350 ms. This crate speaks for the
-//!   ET 200S module, so the minimum is 10 ms.
-//! - **10 ms steps.** The module stores times as counts of 10 ms (§5.8, derived; A-11); a host has
-//!   microsecond timers, so any whole millisecond in range is accepted and used as given.
+//! - **QVZ range.** The ET 200S tables ([ET200S SI] §2.7, Table 2-11, [ET200S SI 2005] §2.9.3,
+//!   Table 2-9) give 10 … 655 350 ms, the CP 341 table ([CP 341] §2.2.2, §2.3.1) 20 … 655 350 ms.
+//!   This crate speaks for the ET 200S module, so the minimum is 10 ms.
+//! - **10 ms steps.** The module stores times as counts of 10 ms ([ET200S SI] §2.7, Table 2-11,
+//!   derived); a host has microsecond timers, so any whole millisecond in range is accepted and
+//!   used as given.
 //! - **QVZ default without block check.** 550 ms (Table 2-11, cp341 Table 2-4), not the 500 ms of
-//!   the CP 341 flowchart (cp341 A-6). It is the default only when `ack_delay_ms` is not given
-//!   (A-28: a default, not a forced value).
+//!   the CP 341 flowchart ([CP 341] `[derived]`). It is the default only when `ack_delay_ms` is not
+//!   given (`[derived]`: a default, not a forced value).
 //! - **Baud-rate minimums.** The ET 200S manuals require a baud-rate-dependent minimum for ZVZ
-//!   and QVZ but give no 3964(R) table (A-15, H-21); Table 2-9 belongs to the ASCII driver. The
-//!   only 3964(R) table in the sources is the CP 341's (cp341 §3.8: 300 bit/s 60 ms, 600 bit/s
-//!   40 ms, 1200 bit/s 30 ms, 2400 … 76 800 bit/s 20 ms), so [`Link::new`](crate::Link::new)
-//!   applies it through [`Config::validate_for`] where it lies above the ET 200S range floors,
-//!   that is at 1200 bit/s and below. The CP 341 has no 110 bit/s; its 300 bit/s value scaled by
-//!   300/110 and rounded up to the 10 ms step gives 170 ms there (derived).
+//!   and QVZ but give no 3964(R) table (`[derived]`); Table 2-9 belongs to the ASCII driver. The
+//!   only 3964(R) table in the sources is the CP 341's ([CP 341] §2.2.2, §2.3.1: 300 bit/s 60 ms,
+//!   600 bit/s 40 ms, 1200 bit/s 30 ms, 2400 … 76 800 bit/s 20 ms), so
+//!   [`Link::new`](crate::Link::new) applies it through [`Config::validate_for`] where it lies
+//!   above the ET 200S range floors, that is at 1200 bit/s and below. The CP 341 has no 110 bit/s;
+//!   its 300 bit/s value scaled by 300/110 and rounded up to the 10 ms step gives 170 ms there
+//!   (derived).
 //! - **Clear receive buffer on startup.** "Clear SI receive buffer at startup", no/yes, default
-//!   yes (§7.2 Table 2-11; et200s-si-2005-window-protocol.md §3.2 Table 2-9). The timer table of
-//!   §5.8 leaves it out. It acts on CPU STOP → RUN (§10 "CPU startup … the receive buffer is
-//!   cleared if configured"), as for ASCII: [`Link::restart`](crate::Link::restart) drops the
-//!   blocks still waiting when it is set and keeps them (to be delivered again, §9.3 of the 2005
-//!   manual) when it is not.
+//!   yes ([ET200S SI] §2.9, Table 2-11; [ET200S SI 2005] §2.9.3, Table 2-9). The timer table of
+//!   [ET200S SI] §2.7, Table 2-11 leaves it out. It acts on CPU STOP → RUN (§2.11 "CPU startup …
+//!   the receive buffer is cleared if configured"), as for ASCII:
+//!   [`Link::restart`](crate::Link::restart) drops the blocks still waiting when it is set and
+//!   keeps them (to be delivered again, [ET200S SI] §2.12, Table 2-21 of the 2005 manual) when it
+//!   is not.
 
 use crate::frame::Mode;
 use serde::{Deserialize, Serialize};
 use si_core::{Duration, RangeError, SerialSettings};
 
-/// Which partner yields in an initialization conflict (et200s-si-3964r-ascii.md §5.6).
+/// Which partner yields in an initialization conflict ([ET200S SI] §2.7, Fig. 2-16).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Priority {
@@ -55,11 +58,11 @@ pub enum Priority {
 }
 
 /// Block wait time: how long the receiver waits for the repetition after its NAK, fixed at 4 s
-/// (et200s-si-3964r-ascii.md §5.5, §5.8).
+/// ([ET200S SI] §2.7, Fig. 2-15, Table 2-11).
 pub const BLOCK_WAIT: Duration = Duration::from_secs(4);
 
-/// Wait for a free receive buffer after STX, fixed at 400 ms (et200s-si-3964r-ascii.md §5.4
-/// point 4, §5.8).
+/// Wait for a free receive buffer after STX, fixed at 400 ms ([ET200S SI] §2.7,
+/// receiving: STX with no free buffer; Table 2-11).
 pub const BUFFER_WAIT: Duration = Duration::from_millis(400);
 
 /// Range of the character delay time in ms (Table 2-11).
@@ -69,13 +72,14 @@ pub const ACK_DELAY_RANGE: (u32, u32) = (10, 655_350);
 /// Range of both attempt counters (Table 2-11).
 pub const ATTEMPTS_RANGE: (u32, u32) = (1, 255);
 /// Range of the maximum block length: the ET 200S limit is 200 bytes (S_SEND LEN 1 … 200,
-/// §8.2); a host may go up to the 1024 bytes of S7 point-to-point blocks (public-facts.md §1).
+/// [ET200S SI] §2.10, Table 2-13); a host may go up to the 1024 bytes of S7 point-to-point blocks
+/// ([CP 440], [Public 3964R]).
 pub const MAX_BLOCK_RANGE: (u32, u32) = (1, 1024);
 /// Range of the receive buffer, in blocks.
 pub const RECEIVE_BUFFER_RANGE: (u32, u32) = (1, 255);
 
-/// The CP 341 minimum of ZVZ and QVZ per baud rate (cp341 §3.8), for the rates where it is
-/// above the ET 200S range floors; 110 bit/s is derived (see the module docs). Columns: baud,
+/// The CP 341 minimum of ZVZ and QVZ per baud rate ([CP 341] §2.2.2, §2.3.1), for the rates where
+/// it is above the ET 200S range floors; 110 bit/s is derived (see the module docs). Columns: baud,
 /// minimum in ms, and the two parameter names the error carries.
 const BAUD_MINIMUMS: [(u32, u32, &str, &str); 4] = [
     (
@@ -105,7 +109,7 @@ const BAUD_MINIMUMS: [(u32, u32, &str, &str); 4] = [
 ];
 
 /// A parameter outside its range: every 3964(R) parameter error is a range error, si-core's
-/// one [`RangeError`] (issue 17).
+/// one [`RangeError`].
 pub type ConfigError = RangeError;
 
 /// The 3964(R) parameters (Table 2-11), plus the two bounds a host needs: the longest block and
@@ -126,16 +130,17 @@ pub struct Config {
     /// Connection attempts (STX) per transmission attempt, 1 … 255, default 6.
     pub connection_attempts: u8,
     /// Transmission attempts of one block, the first included, 1 … 255, default 6; also the
-    /// receiver's limit of receptions of one block (A-17).
+    /// receiver's limit of receptions of one block (`[derived]`).
     pub transmission_attempts: u8,
-    /// Longest block in user-data bytes, sent or received, 1 … 1024, default 200 (§8.2).
+    /// Longest block in user-data bytes, sent or received, 1 … 1024, default 200 ([ET200S SI]
+    /// §2.10, Table 2-13).
     pub max_block_len: u16,
     /// Received blocks held until the application takes them, 1 … 255, default 5 (the module's
-    /// 1024-byte buffer holds five 200-byte blocks, A-42). When it is full, an STX starts the
-    /// 400 ms buffer wait.
+    /// 1024-byte buffer holds five 200-byte blocks, `[derived]`). When it is full, an STX starts
+    /// the 400 ms buffer wait.
     pub receive_buffer_blocks: u8,
     /// Clear the receive buffer at CPU startup (STOP → RUN, [`Link::restart`](crate::Link::restart));
-    /// default yes (§7.2 Table 2-11, et200s-si-2005-window-protocol.md §3.2 Table 2-9).
+    /// default yes ([ET200S SI] §2.9, Table 2-11, [ET200S SI 2005] §2.9.3, Table 2-9).
     pub clear_at_startup: bool,
 }
 
@@ -203,7 +208,7 @@ impl Config {
     }
 
     /// [`validate`](Self::validate), then ZVZ and QVZ against the minimum for the line's baud
-    /// rate (cp341 §3.8, see the module docs).
+    /// rate ([CP 341] §2.2.2, §2.3.1, see the module docs).
     ///
     /// ```
     /// use si_3964r::Config;
@@ -361,8 +366,8 @@ impl TryFrom<RawConfig> for Config {
 mod tests {
     use super::*;
 
-    /// cp341 §3.8: below 2400 bit/s ZVZ and QVZ have a per-baud minimum; at and above it the
-    /// ET 200S floors (ZVZ 20 ms, QVZ 10 ms) apply unchanged.
+    /// [CP 341] §2.2.2, §2.3.1: below 2400 bit/s ZVZ and QVZ have a per-baud minimum; at and above
+    /// it the ET 200S floors (ZVZ 20 ms, QVZ 10 ms) apply unchanged.
     #[test]
     fn baud_minimums_of_cp341_table_apply_below_2400() {
         use si_core::Parity;

@@ -1,5 +1,5 @@
 //! The 3964(R) link as a [`JobPort`], so si-core's S_SEND (FB3) and S_RCV (FB2) run on it with
-//! the S7 call semantics (et200s-si-3964r-ascii.md §8.1–§8.3, §8.9): the user program calls them
+//! the S7 call semantics ([ET200S SI] §2.10, Table 2-14 `[derived]`): the user program calls them
 //! once per "cycle"; REQ is edge-triggered, R resets, EN_R is a level, and DONE / NDR / ERROR /
 //! STATUS / LEN are valid for exactly one call.
 //!
@@ -33,12 +33,13 @@
 //! ```
 //!
 //! Readings: R on S_SEND forgets the job and reports ERROR with 1E0DH; the block already handed
-//! to the link is still sent (§8.2 "data the module has already received is still sent"). The
-//! manual's "EN_R = 0 aborts an active transfer" concerns the module-to-CPU copy of a block over
-//! the backplane; here a block moves from the link to the caller within one call, so there is
-//! never a transfer in flight to abort. A block longer than the destination area is taken from
-//! the receive buffer and reported with ERROR and 1E20H (§8.3 "destination area too short",
-//! as the window module does; the ASCII driver leaves it in its buffer instead).
+//! to the link is still sent ([ET200S SI] §2.10, Table 2-13 "data the module has already received
+//! is still sent"). The manual's "EN_R = 0 aborts an active transfer" concerns the module-to-CPU
+//! copy of a block over the backplane; here a block moves from the link to the caller within one
+//! call, so there is never a transfer in flight to abort. A block longer than the destination area
+//! is taken from the receive buffer and reported with ERROR and 1E20H ([ET200S SI] §2.10, Table
+//! 2-14 "destination area too short", as the window module does; the ASCII driver leaves it in its
+//! buffer instead).
 
 use crate::link::Link;
 use bytes::Bytes;
@@ -62,7 +63,7 @@ impl JobPort for Link {
         Link::job_outcome(self, id)
     }
 
-    /// The block is still sent (§8.2); nothing to do.
+    /// The block is still sent ([ET200S SI] §2.10, Table 2-13); nothing to do.
     fn cancel_job(&mut self, _id: JobId) {}
 
     /// The oldest receive error first (one per call, [`Link::take_receive_error`]), else the

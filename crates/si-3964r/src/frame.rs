@@ -3,13 +3,13 @@
 //!
 //! What this module calls a *block* is everything the sender puts on the line after the
 //! partner's `DLE` answered its `STX`: the user data with every `DLE` doubled, then `DLE ETX`,
-//! then (3964(R) only) the BCC (et200s-si-3964r-ascii.md §5.1–§5.2, cp341-3964r-rk512-ascii.md
-//! §3.2–§3.3, public-facts.md §1).
+//! then (3964(R) only) the BCC ([ET200S SI] §2.7, Fig. 2-12, [CP 341]
+//! [CP 341] §2.2.2, [CP 440], [Public 3964R]).
 //!
 //! ```
 //! use si_3964r::frame::{decode, encode, Mode};
 //!
-//! // The worked example of et200s-si-3964r-ascii.md §5.2: BCC = 53H.
+//! // The worked example of [ET200S SI] §2.7, Fig. 2-12: BCC = 53H.
 //! let block = encode(&[0x41, 0x42, 0x10, 0x43], Mode::BlockCheck);
 //! assert_eq!(block, [0x41, 0x42, 0x10, 0x10, 0x43, 0x10, 0x03, 0x53]);
 //! assert_eq!(decode(&block, Mode::BlockCheck, 200).unwrap(), [0x41, 0x42, 0x10, 0x43]);
@@ -17,21 +17,23 @@
 //!
 //! # BCC coverage (the texts disagree; our reading)
 //!
-//! et200s-si-3964r-ascii.md §5.2 and cp341-3964r-rk512-ascii.md §3.3 say the BCC is the XOR of
+//! [ET200S SI] §2.7, Fig. 2-12 and [CP 341] §2.2.2 say the BCC is the XOR of
 //! every byte sent after `STX`, *both* DLEs of a doubled pair and the closing `DLE ETX` included;
-//! et200s-si-2005-window-protocol.md §3.1 only says "XOR of all data bytes" (H-25). We follow the
-//! two explicit manuals and public-facts.md §1 (which agree): the wire form, doubled DLEs twice
-//! (they cancel), `DLE ETX` included, the BCC byte itself never doubled even when it equals `DLE`.
+//! [ET200S SI 2005] §2.7.1 only says "XOR of all data bytes" (`[derived]`). We follow the
+//! two explicit manuals and [CP 440], [Public 3964R] (which agree): the wire form, doubled DLEs
+//! twice (they cancel), `DLE ETX` included, the BCC byte itself never doubled even when it equals
+//! `DLE`.
 
 use serde::{Deserialize, Serialize};
 
-/// Start of text: the connection request (02H, public-facts.md §1; the manuals give no value, A-37).
+/// Start of text: the connection request (02H, [CP 440], [Public 3964R]; the manuals give no value,
+/// `[derived]`).
 pub const STX: u8 = 0x02;
 /// End of text, second half of the closing `DLE ETX` (03H).
 pub const ETX: u8 = 0x03;
 /// Data link escape: positive acknowledgement and first half of `DLE ETX` (10H).
 pub const DLE: u8 = 0x10;
-/// Negative acknowledgement (15H; cp341-3964r-rk512-ascii.md A-4: the figure's "10H" is a slip).
+/// Negative acknowledgement (15H; [CP 341] `[derived]`: the figure's "10H" is a slip).
 pub const NAK: u8 = 0x15;
 
 /// Protocol mode of Table 2-11: plain 3964 or 3964(R) with block check.
@@ -56,7 +58,7 @@ impl Mode {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum FrameError {
     /// A `DLE` was followed by something other than `DLE` or `ETX`: the partner did not double a
-    /// data DLE (STATUS 0805, et200s-si-3964r-ascii.md §11.3).
+    /// data DLE (STATUS 0805, [ET200S SI] §2.13, Table 2-28).
     #[error("odd DLE: DLE followed by {after:02X}H at block byte {at} (expected DLE or ETX)")]
     OddDle {
         /// The byte after the lone DLE.
@@ -96,7 +98,7 @@ pub enum FrameError {
 }
 
 /// XOR of `bytes`: the block check character of 3964(R) when `bytes` is the block as sent after
-/// `STX`, doubled DLEs and `DLE ETX` included (et200s-si-3964r-ascii.md §5.2).
+/// `STX`, doubled DLEs and `DLE ETX` included ([ET200S SI] §2.7, Fig. 2-12).
 pub fn bcc(bytes: &[u8]) -> u8 {
     bytes.iter().fold(0, |acc, b| acc ^ b)
 }
@@ -146,7 +148,7 @@ pub fn encode(payload: &[u8], mode: Mode) -> Vec<u8> {
 /// Decodes one whole block (what follows the receiver's `DLE`) into its user data.
 ///
 /// Returns the *first* error found, as the manual's receiver reports the first error
-/// (et200s-si-3964r-ascii.md §5.7, A-39).
+/// ([ET200S SI] §2.7, `[derived]`).
 pub fn decode(block: &[u8], mode: Mode, max_len: usize) -> Result<Vec<u8>, FrameError> {
     let mut decoder = Decoder::new(mode, max_len);
     match decoder.push_slice(block) {
@@ -172,10 +174,10 @@ enum DecodeState {
 
 /// A receiver of one block, fed one character at a time.
 ///
-/// Like the manual's receiver (et200s-si-3964r-ascii.md §5.4 point 5, §5.10) it does not stop at
-/// the first error: it keeps reading to the end sequence, remembers the first error, and reports
-/// the outcome once, when the block is complete. The payload buffer never grows beyond the
-/// maximum length.
+/// Like the manual's receiver ([ET200S SI] §2.7, receiving: cleardown and errors during reception,
+/// §2.7 `[derived]`) it does not stop at the first error: it keeps reading to the end sequence,
+/// remembers the first error, and reports the outcome once, when the block is complete. The payload
+/// buffer never grows beyond the maximum length.
 #[derive(Debug, Clone)]
 pub struct Decoder {
     mode: Mode,
@@ -391,7 +393,7 @@ mod tests {
 
     #[test]
     fn bcc_equal_to_dle_is_not_doubled() {
-        // 0x03 ^ 0x10 ^ 0x03 = 0x10: data 03 gives BCC 10H, sent once (public-facts.md §1).
+        // 0x03 ^ 0x10 ^ 0x03 = 0x10: data 03 gives BCC 10H, sent once ([CP 440], [Public 3964R]).
         let block = encode(&[0x03], Mode::BlockCheck);
         assert_eq!(block, [0x03, 0x10, 0x03, 0x10]);
         assert_eq!(decode(&block, Mode::BlockCheck, 200), Ok(vec![0x03]));
@@ -462,7 +464,7 @@ mod tests {
             proptest::prop_assert_eq!(fast.state, slow.state);
         }
 
-        /// The run-copying encoder is the byte-by-byte definition of §5.2.
+        /// The run-copying encoder is the byte-by-byte definition of [ET200S SI] §2.7, Fig. 2-12.
         #[test]
         fn encode_is_the_bytewise_definition(payload in dle_heavy(), bcc_mode: bool) {
             let mode = if bcc_mode { Mode::BlockCheck } else { Mode::NoBlockCheck };

@@ -2,7 +2,7 @@
 //!
 //! The 3964 and 3964(R) procedure of the SIMATIC ET 200S serial interface module (and the
 //! CP 341), for hosts: a PC, a gateway or a test tool talks to a module, a CP or any 3964(R)
-//! partner, or stands in for one (et200s-si-3964r-ascii.md §5, cp341-3964r-rk512-ascii.md §3).
+//! partner, or stands in for one ([ET200S SI] §2.7, [CP 341] §2.2.2, §2.3.1).
 //!
 //! - [`frame`]: the block on the wire (DLE doubling, `DLE ETX`, BCC) and a byte-by-byte decoder
 //!   that says exactly what is wrong;
@@ -13,7 +13,7 @@
 //! - [`monitor`]: the passive listener of a 3964(R) line, judging ZVZ and QVZ with the link's
 //!   own timers (and reading a layer's user data, RK 512 in `si_rk512::monitor`);
 //! - [`fb`]: S_SEND and S_RCV with the S7 call semantics;
-//! - [`bound`]: the longest a send job may take whatever the line does (issue 21), with the
+//! - [`bound`]: the longest a send job may take whatever the line does, with the
 //!   formula and an example at 9600 bit/s: 88.83 s for a 200-byte block with the defaults;
 //! - `tokio` (feature `tokio`): an async handle, `send(bytes).await` and `recv().await`.
 //!

@@ -1,6 +1,7 @@
 //! The 3964 / 3964(R) procedure as one Sans-IO engine that is both sender and receiver, as the
-//! module's driver is (et200s-si-3964r-ascii.md §5.3–§5.10, cp341-3964r-rk512-ascii.md §3.5–§3.7
-//! and the reconstruction of §3.12, et200s-si-2005-window-protocol.md §3.3–§3.5).
+//! module's driver is ([ET200S SI] §2.7 `[derived]`, [CP 341] §2.2.2, Fig. 2-10
+//! and the reconstruction of [CP 341] §2.2.2 `[derived]`, [ET200S SI 2005] §2.7.2–§2.7.4, Fig.
+//! 2-12, Fig. 2-15).
 //!
 //! ```
 //! use si_3964r::{Config, Event, Link};
@@ -23,57 +24,62 @@
 //!
 //! # Readings where the texts are silent or disagree
 //!
-//! - **Counting attempts (A-16, cp341 A-25).** A failed `STX` (NAK, other character, QVZ expiry)
+//! - **Counting attempts (`[derived]`).** A failed `STX` (NAK, other character, QVZ expiry)
 //!   costs a *connection* attempt; the counter starts again at 1 for every transmission attempt
-//!   (Siemens practice, §5.9). A block that went out and was not acknowledged with `DLE` (NAK or
-//!   other characters during or after it, QVZ expiry at the end) costs a *transmission* attempt.
-//!   Yielding in an initialization conflict costs nothing: the job stays pending and starts again
-//!   with fresh connection attempts once the partner's block is received (§5.6).
-//! - **Initialization conflict, high priority (A-18).** The high-priority side ignores the
-//!   partner's `STX` and keeps waiting for `DLE` (cp341 §3.4, public-facts.md §1). When its
-//!   connection attempts run out after such an `STX` was seen, the job fails with 070B (both
+//!   (Siemens practice, [ET200S SI] §2.7 `[derived]`). A block that went out and was not
+//!   acknowledged with `DLE` (NAK or other characters during or after it, QVZ expiry at the end)
+//!   costs a *transmission* attempt. Yielding in an initialization conflict costs nothing: the job
+//!   stays pending and starts again with fresh connection attempts once the partner's block is
+//!   received ([ET200S SI] §2.7, Fig. 2-16).
+//! - **Initialization conflict, high priority (`[derived]`).** The high-priority side ignores the
+//!   partner's `STX` and keeps waiting for `DLE` ([CP 341] §2.2.2, [CP 440], [Public 3964R]). When
+//!   its connection attempts run out after such an `STX` was seen, the job fails with 070B (both
 //!   high). A low-priority side that yielded and then receives a lone `DLE` followed by silence
 //!   (the partner yielded too) counts a failed connection attempt with 070C (both low).
 //! - **NAK before the repetition.** Only where the manual says so: after other characters
-//!   interrupted our block (wait for quiet, NAK, repeat, §5.3 point 3) and when giving up
-//!   (§5.3 points 1 and 5). After a NAK or a QVZ expiry the sender repeats `STX` directly.
+//!   interrupted our block (wait for quiet, NAK, repeat, [ET200S SI] §2.7, sending: partner
+//!   interrupts the send) and when giving up ([ET200S SI] §2.7, sending: connection setup and retry
+//!   limit). After a NAK or a QVZ expiry the sender repeats `STX` directly.
 //! - **ZVZ expiry while receiving.** NAK and report 0806 at once; the receiver starts no retry of
-//!   its own and goes to idle (§5.4 point 3, cp341 §3.6 point 3). Errors that let the block run
-//!   to its end (BCC, parity, framing, odd DLE, overlong) are answered with NAK and a 4 s wait for
-//!   the repetition, and reported only when the repetitions are used up or do not come (§5.4
-//!   point 5, §5.7), with the *first* error (A-39).
-//! - **No repetition within the 4 s block wait (A-19, 0809H).** The first error is reported as
-//!   the state table says, and then 0809H "the number of repetitions must be set to the same
+//!   its own and goes to idle ([ET200S SI] §2.7, receiving: character delay monitoring, [CP 341]
+//!   §2.2.2, Fig. 2-11/2-12). Errors that let the block run to its end (BCC, parity, framing, odd
+//!   DLE, overlong) are answered with NAK and a 4 s wait for the repetition, and reported only when
+//!   the repetitions are used up or do not come ([ET200S SI] §2.7, receiving: cleardown and errors
+//!   during reception), with the *first* error (`[derived]`).
+//! - **No repetition within the 4 s block wait (`[derived]`, 0809H).** The first error is reported
+//!   as the state table says, and then 0809H "the number of repetitions must be set to the same
 //!   value on both partners": a partner with as many attempts as we have repeats until *our*
 //!   count runs out, so one that stops earlier has fewer (the CP 440 names 0809 "block-repeat
-//!   wait time expired", cp341-event-classes.md). S_RCV shows the two in two calls: receive
-//!   errors wait in a queue, oldest first, one per call, at most [`RECEIVE_ERRORS`] of them
-//!   (the oldest is dropped beyond, as si-rk512 keeps its passive side's codes). `[derived]`
-//!   Table 2-28 (`[ET200S SI]` §2.13) gives the block's error and 0809H a row each, and S_RCV
-//!   shows one STATUS per call; the manual does not say how many codes wait, and a single slot
-//!   would hide every first error behind its 0809H.
-//! - **Character delay time ZVZ** is the longest *gap* between two characters (§5.8). A host
-//!   sees a character only when it is complete, so after a character completing at `t` the
-//!   next must complete by `t` + ZVZ + one character time; one microsecond later the gap was
-//!   longer than ZVZ and the reception ends with NAK and 0806 ([`SerialSettings::gap_limit`],
+//!   wait time expired", [CP 341 Diag]). S_RCV shows the two in two calls: receive errors wait
+//!   in a queue, oldest first, one per call, at most [`RECEIVE_ERRORS`] of them (the oldest is
+//!   dropped beyond, as si-rk512 keeps its passive side's codes). `[derived]` Table 2-28
+//!   ([ET200S SI] §2.13) gives the block's error and 0809H a row each, and S_RCV shows one
+//!   STATUS per call; the manual does not say how many codes wait, and a single slot would hide
+//!   every first error behind its 0809H.
+//! - **Character delay time ZVZ** is the longest *gap* between two characters ([ET200S SI] §2.7,
+//!   Table 2-11). A host sees a character only when it is complete, so after a character completing
+//!   at `t` the next must complete by `t` + ZVZ + one character time; one microsecond later the gap
+//!   was longer than ZVZ and the reception ends with NAK and 0806 ([`SerialSettings::gap_limit`],
 //!   the rule of the ASCII driver's character delay time). At 300 bit/s a character takes
 //!   37 ms against a ZVZ minimum of 60 ms, so leaving the character time out gave false 0806
-//!   errors (issue 18). After our DLE the first character gets one more character time, the
-//!   DLE's own. The quiet waits before a NAK (§5.3 point 3, §5.4 point 1) follow the same rule.
-//! - **Receiver repetition limit (A-17, cp341 A-20).** The configured transmission attempts.
+//!   errors. After our DLE the first character gets one more character time, the
+//!   DLE's own. The quiet waits before a NAK ([ET200S SI] §2.7, sending: partner interrupts the
+//!   send, §2.7, receiving: idle) follow the same rule.
+//! - **Receiver repetition limit (`[derived]`).** The configured transmission attempts.
 //! - **Zero-length block.** Acknowledged with `DLE`, not queued, reported as 0807 "not an error".
-//! - **Overlong block (A-20).** Ended with NAK at the first byte too many (not received to its
-//!   end, so a partner that never sends `DLE ETX` cannot hold the line), then treated like a BCC
-//!   error (repetition awaited), reported as 0850 (et200s-si-2005-window-protocol.md §6.1) unless
+//! - **Overlong block (`[derived]`).** Ended with NAK at the first byte too many (not received to
+//!   its end, so a partner that never sends `DLE ETX` cannot hold the line), then treated like a
+//!   BCC error (repetition awaited), reported as 0850 ([ET200S SI 2005] Table 2-29) unless
 //!   an earlier error of the block came first. See [`crate::bound`].
 //! - **A bound on every send job `[derived]`.** A job that has not ended by
 //!   [`Config::send_job_bound`] after [`Link::send`] ends then with its first error (or 0703H /
 //!   070BH), whatever the line is doing; [`crate::bound`] gives the formula and the reasons.
-//! - **A corrupted character in idle** is reported at once as 080C (§5.7); other characters in
-//!   idle are answered, once the line is quiet for ZVZ, with NAK and 0802 (§5.4 point 1). An `STX`
-//!   arriving during that wait is taken as a connection request (after reporting the 0802).
+//! - **A corrupted character in idle** is reported at once as 080C ([ET200S SI] §2.7); other
+//!   characters in idle are answered, once the line is quiet for ZVZ, with NAK and 0802
+//!   ([ET200S SI] §2.7, receiving: idle). An `STX` arriving during that wait is taken as a
+//!   connection request (after reporting the 0802).
 //! - **BREAK** ends whatever runs at once, without retries: a send job fails with 080D, and 080D
-//!   is reported as a receive error (§5.7, cp341 §3.5 point 4).
+//!   is reported as a receive error ([ET200S SI] §2.7, [CP 341] §2.2.2, Fig. 2-10).
 //! - **"DLE too early" (0706)** is not reported. A host sees its own transmission end only
 //!   through the driver's tx-done ([`Engine::handle_tx_done`]), which lags the wire by the OS
 //!   buffers and the timer granularity (a pseudo-terminal partner answers within microseconds,
@@ -114,7 +120,7 @@ pub enum Event {
     SendFailed {
         /// The job.
         job: JobId,
-        /// The first error of the job (§5.7, A-39).
+        /// The first error of the job ([ET200S SI] §2.7, `[derived]`).
         status: Status,
     },
     /// A block arrived intact and waits in the receive buffer; take it with
@@ -259,9 +265,9 @@ impl fmt::Debug for Link {
 
 impl Link {
     /// A link with `config` on a line with `settings` (used to know how long our own bytes take
-    /// on the wire). Queues the startup NAK that puts the partner into idle (§5.4 point 6).
-    /// Refuses parameters out of range, ZVZ and QVZ also below their minimum for the line's baud
-    /// rate ([`Config::validate_for`]).
+    /// on the wire). Queues the startup NAK that puts the partner into idle ([ET200S SI] §2.7,
+    /// receiving: startup NAK). Refuses parameters out of range, ZVZ and QVZ also below their
+    /// minimum for the line's baud rate ([`Config::validate_for`]).
     pub fn new(config: Config, settings: SerialSettings) -> Result<Link, ConfigError> {
         config.validate_for(&settings)?;
         let max = usize::from(config.max_block_len);
@@ -378,7 +384,7 @@ impl Link {
         Some(block)
     }
 
-    /// CPU STOP → RUN (et200s-si-3964r-ascii.md §10, et200s-si-2005-window-protocol.md §9.3):
+    /// CPU STOP → RUN ([ET200S SI] §2.11, [ET200S SI 2005] §2.11, §3.9):
     /// with [`Config::clear_at_startup`] the blocks waiting in the receive buffer are dropped, so
     /// only blocks received after the startup are delivered; without it they stay and are
     /// delivered again. The line procedure is the module's, not the CPU's: a job or a reception
@@ -399,7 +405,8 @@ impl Link {
         self.received.len()
     }
 
-    /// True when more than 2/3 of the receive buffer is in use (S_RCV's warning 0B01, §8.3).
+    /// True when more than 2/3 of the receive buffer is in use (S_RCV's warning 0B01, [ET200S SI]
+    /// §2.10, Table 2-14).
     pub fn buffer_two_thirds_full(&self) -> bool {
         self.received.len() * 3 > usize::from(self.config.receive_buffer_blocks) * 2
     }
@@ -441,7 +448,7 @@ impl Link {
         };
     }
 
-    /// One attempt failed with `error`; repeat or give up (§5.3, §5.9).
+    /// One attempt failed with `error`; repeat or give up ([ET200S SI] §2.7 `[derived]`).
     fn attempt_failed(&mut self, now: Instant, kind: Attempt, error: Status, nak_first: bool) {
         let (conn_max, tx_max) = (
             self.config.connection_attempts,
@@ -469,7 +476,8 @@ impl Link {
                 Attempt::Connection => self.final_status(first),
                 Attempt::Transmission => first,
             };
-            // Giving up: NAK to the partner (§5.3 points 1 and 5).
+            // Giving up: NAK to the partner ([ET200S SI] §2.7, sending: connection setup and retry
+            // limit).
             self.transmit_static(&[NAK]);
             self.finish_job(Err(status));
             self.enter_idle(now);
@@ -482,7 +490,7 @@ impl Link {
     }
 
     /// What a job that gives up while connecting reports: its first error, or 070B when a
-    /// high-priority side met the partner's `STX` (both high, §5.6).
+    /// high-priority side met the partner's `STX` (both high, [ET200S SI] §2.7, Fig. 2-16).
     fn final_status(&self, error: Status) -> Status {
         let Some(job) = &self.job else { return error };
         if job.conflict_seen && self.config.priority == Priority::High {
@@ -493,8 +501,8 @@ impl Link {
     }
 
     /// The job's bound has passed ([`crate::bound`]): end it whatever the line is doing. A job
-    /// that is on the line is given up with NAK (§5.3 point 5); a reception in progress, for
-    /// which the job was waiting, runs on.
+    /// that is on the line is given up with NAK ([ET200S SI] §2.7, sending: retry limit); a
+    /// reception in progress, for which the job was waiting, runs on.
     fn end_overdue_job(&mut self, now: Instant) {
         if self.job.as_ref().is_none_or(|j| now < j.deadline) {
             return;
@@ -553,7 +561,8 @@ impl Link {
         };
     }
 
-    /// The block is complete: acknowledge or reject it (§5.4 point 5, §5.5).
+    /// The block is complete: acknowledge or reject it ([ET200S SI] §2.7, receiving: cleardown and
+    /// errors during reception, §2.7, Fig. 2-15).
     fn end_of_block(&mut self, now: Instant, result: Result<(), FrameError>) {
         let error = match result {
             _ if self.rx_line_error => Some(status::TRANSMISSION_ERROR),
@@ -682,7 +691,8 @@ impl Link {
                         job.conflict_seen = true;
                     }
                     if self.config.priority == Priority::Low {
-                        // Yield: answer DLE and receive first; the job stays pending (§5.6).
+                        // Yield: answer DLE and receive first; the job stays pending ([ET200S SI]
+                        // §2.7, Fig. 2-16).
                         self.rx_try = 0;
                         self.rx_first_err = None;
                         self.accept_stx(now, true);
@@ -742,7 +752,7 @@ impl Link {
     }
 
     /// Characters from the partner while our block goes out: wait for quiet, then NAK and
-    /// repeat (§5.3 point 3).
+    /// repeat ([ET200S SI] §2.7, sending: partner interrupts the send).
     fn interrupted(&mut self, now: Instant, error: Status) {
         if let Some(job) = &mut self.job {
             job.first_err.get_or_insert(error);
@@ -779,7 +789,7 @@ impl Link {
         }
     }
 
-    /// BREAK: back to idle at once, no retries (§5.7).
+    /// BREAK: back to idle at once, no retries ([ET200S SI] §2.7).
     fn on_break(&mut self, now: Instant) {
         self.finish_job(Err(status::BREAK));
         self.rx_try = 0;

@@ -1,14 +1,14 @@
-//! Passive 3964(R) decoding (et200s-si-3964r-ascii.md §5): connection setup (STX → DLE),
+//! Passive 3964(R) decoding ([ET200S SI] §2.7): connection setup (STX → DLE),
 //! the block with its DLE doubling, `DLE ETX` and BCC, the acknowledgement (DLE or NAK), and
 //! the timers a listener can judge: the character delay time ZVZ between block characters and
-//! the acknowledgement delay time QVZ after STX and after the block (§5.8, Table 2-11).
+//! the acknowledgement delay time QVZ after STX and after the block ([ET200S SI] §2.7, Table 2-11).
 //!
 //! The timers are the link's own ([`Params::from_config`] takes them from a
 //! [`crate::Config`]: [`crate::Config::char_delay`] and [`crate::Config::ack_delay`]), so the
 //! monitor judges a line by the values the engine runs with.
 //!
 //! A layer that rides on 3964(R) blocks names a [`Payload`] decoder for the block's user data
-//! (`si_rk512::monitor` does so for RK 512 telegrams, cp341-3964r-rk512-ascii.md).
+//! (`si_rk512::monitor` does so for RK 512 telegrams, [CP 341]).
 //!
 //! ```
 //! use si_3964r::monitor::{Monitor, Params};
@@ -46,7 +46,8 @@
 //! Reading chosen: a listener cannot tell a repeated connection attempt (same transmission
 //! attempt) from a new transmission attempt, so every STX from the station whose last STX or
 //! block failed counts as one **retry**; a block NAKed or unacknowledged marks the next STX of
-//! its sender a retry as well (§5.9 counts both kinds against their own limits).
+//! its sender a retry as well ([ET200S SI] §2.7 `[derived]` counts both kinds against their own
+//! limits).
 
 use crate::frame::{Decoder as BlockDecoder, FrameError, Mode, DLE, NAK, STX};
 use si_core::monitor::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
@@ -92,7 +93,7 @@ pub struct Params {
 
 impl Params {
     /// The mode and timers a link with `config` runs with on a line with `line`'s character
-    /// format (et200s-si-3964r-ascii.md §7.2, Table 2-11): ZVZ [`crate::Config::char_delay`],
+    /// format ([ET200S SI] §2.9, Table 2-11): ZVZ [`crate::Config::char_delay`],
     /// QVZ [`crate::Config::ack_delay`]. The line is needed: ZVZ is judged with the character
     /// time, which at 300 bit/s is most of the minimum ZVZ.
     pub fn from_config(config: &crate::Config, line: SerialSettings) -> Params {
@@ -174,7 +175,8 @@ impl Monitor {
         }
     }
 
-    /// Flag the DLE record `r` if it came later than QVZ after `since` (§5.8).
+    /// Flag the DLE record `r` if it came later than QVZ after `since` ([ET200S SI] §2.7, Table
+    /// 2-11).
     fn judge_qvz(&self, r: &mut Record, since: Instant) {
         let wait = r.start.saturating_since(since);
         if wait > self.p.qvz {
@@ -501,8 +503,8 @@ impl Decoder for Monitor {
                 self.state = State::Idle;
             }
             (State::Idle, NAK) => {
-                // A station sends NAK when it starts up or gives up a job (§5.9 "send NAK and
-                // fail"): worth seeing, not a fault of this exchange.
+                // A station sends NAK when it starts up or gives up a job ([ET200S SI] §2.7
+                // [derived] "send NAK and fail"): worth seeing, not a fault of this exchange.
                 self.counters.bump("NAKs");
                 let mut r = self.control(c, "NAK", "negative acknowledgement");
                 r.flags.push(Flag::note(
@@ -605,7 +607,7 @@ mod tests {
             .any(|r| r.flags.iter().any(|f| f.text.contains("ZVZ"))));
     }
 
-    /// Issue 18: at 300 bit/s a character takes 36.7 ms; a partner leaving exactly ZVZ (60 ms)
+    /// At 300 bit/s a character takes 36.7 ms; a partner leaving exactly ZVZ (60 ms)
     /// of silence between characters is within the limit, one microsecond more is not.
     #[test]
     fn et200s_3964r_5_8_zvz_at_300_bit_s_counts_silence_not_character_distance() {

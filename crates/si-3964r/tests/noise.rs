@@ -1,4 +1,4 @@
-//! Issue 21, "A bound on every job": a 3964(R) send job ends with a non-zero STATUS within
+//! A bound on every job: a 3964(R) send job ends with a non-zero STATUS within
 //! [`Config::send_job_bound`] whatever the partner does: silence, random characters, an
 //! endless frame (`STX` then data for ever, `DLE`-doubled data with no `DLE ETX`), a flood, noise
 //! that stops. Virtual time on the line simulator; the noise peers are si-testkit's
@@ -32,7 +32,8 @@ fn short(priority: Priority) -> Config {
 
 /// A partner that sends `DLE` for ever: after an `STX`, `DLE`-doubled data with no `DLE ETX`.
 /// Its `DLE`s also acknowledge our `STX` and our block when they come at the right moment
-/// (§5.3 points 1 and 4), so a job facing it may end with success; it must still end in time.
+/// ([ET200S SI] §2.7, sending: connection setup and cleardown), so a job facing it may end with
+/// success; it must still end in time.
 fn endless_dles() -> Pattern {
     Pattern {
         name: "DLE flood",
@@ -41,7 +42,7 @@ fn endless_dles() -> Pattern {
     }
 }
 
-/// Every pattern of issue 21 (the STX flood is an endless frame: `STX`, then data for ever).
+/// Every noise pattern (the STX flood is an endless frame: `STX`, then data for ever).
 /// None holds a `DLE` that acknowledges at the right moment (the random ones by their seeds),
 /// so each must fail the job.
 fn patterns() -> Vec<Pattern> {
@@ -168,8 +169,8 @@ fn an_endless_frame_is_cut_off_at_the_maximum_length_with_0850() {
     assert_eq!(sim.engine(host).counters().blocks_rejected, 0);
     sim.run_until(Instant::ZERO + line().chars_time(67));
     assert_eq!(sim.engine(host).counters().blocks_rejected, 1);
-    // No STX follows, so no repetition comes within the 4 s block wait: 0850 (§5.5), then
-    // 0809 for the repetition that never came.
+    // No STX follows, so no repetition comes within the 4 s block wait: 0850 ([ET200S SI] §2.7,
+    // Fig. 2-15), then 0809 for the repetition that never came ([derived]).
     sim.run_for(Duration::from_millis(4_100));
     assert_eq!(
         sim.take_events(host),

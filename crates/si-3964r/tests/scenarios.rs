@@ -1,5 +1,5 @@
 //! One scenario per path of the manuals' flow descriptions, each named after its section and
-//! asserting the STATUS (et200s-si-3964r-ascii.md §5, cp341-3964r-rk512-ascii.md §3).
+//! asserting the STATUS ([ET200S SI] §2.7, [CP 341] §2.2.2, §2.3.1).
 
 #[path = "scenarios/character_delay.rs"]
 mod character_delay;
@@ -24,7 +24,8 @@ fn take(sim: &mut si_sim::Simulator, s: si_sim::StationId<Link>) -> Option<Vec<u
     sim.with(s, |l, now| l.take_block(now)).map(|b| b.to_vec())
 }
 
-// --- §5.3 / §5.4: clean exchanges ---------------------------------------------------------
+// --- [ET200S SI] §2.7 / §2.7: clean exchanges
+// ---------------------------------------------------------
 
 #[test]
 fn s5_3_send_low_priority_to_high_is_acknowledged_status_0000() {
@@ -37,7 +38,7 @@ fn s5_3_send_low_priority_to_high_is_acknowledged_status_0000() {
     assert_eq!(sim.engine(a).job_outcome(job), Some(Ok(())));
     assert_eq!(sim.take_events(b), vec![Event::Received { len: 4 }]);
     assert_eq!(take(&mut sim, b).unwrap(), [0x41, 0x42, 0x10, 0x43]);
-    // Startup NAK, STX, then the §5.2 worked example block.
+    // Startup NAK, STX, then the [ET200S SI] §2.7, Fig. 2-12 worked example block.
     assert_eq!(
         sent_bytes(&sim, "A"),
         [NAK, STX, 0x41, 0x42, 0x10, 0x10, 0x43, DLE, ETX, 0x53]
@@ -74,7 +75,8 @@ fn s5_3_both_directions_one_after_the_other() {
     );
 }
 
-// --- §5.6 initialization conflict -----------------------------------------------------------
+// --- [ET200S SI] §2.7, Fig. 2-16 initialization conflict
+// -----------------------------------------------------------
 
 fn conflict(a_prio: Priority, b_prio: Priority) -> (Vec<Event>, Vec<Event>, JobId, JobId) {
     let (mut sim, a, b) = pair(with_priority(a_prio), with_priority(b_prio));
@@ -149,7 +151,8 @@ fn s5_6_conflict_both_low_is_070c() {
     );
 }
 
-// --- §5.3 sender error paths (scripted partner) ---------------------------------------------
+// --- [ET200S SI] §2.7 sender error paths (scripted partner)
+// ---------------------------------------------
 
 #[test]
 fn s5_3_nak_to_stx_then_dle_succeeds_after_one_repetition() {
@@ -276,7 +279,8 @@ fn s5_3_other_characters_during_the_block_wait_zvz_then_nak_0704() {
             status: ABORTED_BY_PARTNER
         }]
     );
-    // The NAK goes out once the line has been quiet for ZVZ (§5.3 point 3).
+    // The NAK goes out once the line has been quiet for ZVZ ([ET200S SI] §2.7, sending: partner
+    // interrupts the send).
     let naks = tx_times(&sim, "A", NAK);
     assert_eq!(naks.len(), 2, "startup NAK and the quiet NAK");
     assert_eq!(naks[1], last_char + line().gap_limit(ZVZ));
@@ -343,7 +347,7 @@ fn s5_3_qvz_expires_after_the_block_0707() {
 
 #[test]
 fn s5_9_connection_attempts_start_again_for_each_transmission_attempt() {
-    // Reading of A-16: five refused STX, then the block is NAKed; the repetition may again use
+    // Our reading: five refused STX, then the block is NAKed; the repetition may again use
     // up to six STX. Eleven refused STX in all, and the job still succeeds.
     let (mut sim, a, p) = scripted(Config::default());
     let job = sim.with(a, |l, now| l.send(now, &b"x"[..]).unwrap());
@@ -380,7 +384,8 @@ fn s5_3_first_error_is_reported_not_the_last() {
     );
 }
 
-// --- §5.4 / §5.5 receiver error paths --------------------------------------------------------
+// --- [ET200S SI] §2.7 / §2.7, Fig. 2-15 receiver error paths
+// --------------------------------------------------------
 
 /// The partner sends STX, waits for our DLE, then sends `block`.
 fn partner_sends(sim: &mut si_sim::Simulator, p: si_sim::StationId<Partner>, block: &[u8]) {
@@ -459,7 +464,7 @@ fn s5_5_no_repetition_within_the_block_wait_0808_then_0809() {
     partner_sends(&mut sim, p, &bad);
     let nak_at = *tx_times(&sim, "A", NAK).last().unwrap();
     settle(&mut sim);
-    // The first error, then: the partner gave up before our attempts ran out.
+    // The first error, then: the partner gave up before our attempts ran out ([derived]).
     assert_eq!(
         sim.take_events(a),
         vec![
@@ -578,7 +583,8 @@ fn overlong_block_is_cut_off_at_the_first_byte_too_many_with_nak_and_0850() {
     partner_sends(&mut sim, p, &encode(b"12345", Mode::BlockCheck));
     settle(&mut sim);
     // NAK at the fifth byte (si_3964r::bound); this scripted partner ignores the NAK and sends
-    // the rest of its block, which the idle link then answers as stray characters (§5.4 point 1).
+    // the rest of its block, which the idle link then answers as stray characters ([ET200S SI]
+    // §2.7, receiving: idle).
     assert_eq!(
         sim.take_events(a),
         vec![

@@ -1,6 +1,6 @@
 //! Soak: two 3964(R) links on a faulty line (bit flips, lost characters, inserted garbage),
 //! both sending all the time, for an hour of virtual time in every test run and for a day at a
-//! higher fault rate (issue 9, ignored: `cargo test --release -p si-3964r --test soak --
+//! higher fault rate (ignored: `cargo test --release -p si-3964r --test soak --
 //! --ignored`). Every job ends exactly once (a failure with a STATUS of the manual), no block is
 //! delivered out of order or corrupted in a way the block check can see, a block is delivered
 //! again only after a repetition by its sender (its DLE was lost: 3964(R) cannot tell that from
@@ -14,7 +14,7 @@ use si_sim::{Faults, Simulator, StationId};
 use std::collections::HashSet;
 
 /// The payload of block `seq` from station `dir`: its own length and sequence number inside
-/// (et200s-si-2005-window-protocol.md §3.1: XOR cannot see a lost or added 00H, so the message
+/// ([ET200S SI 2005] §2.7.1: XOR cannot see a lost or added 00H, so the message
 /// carries its length), no 00H bytes, varying length, DLEs included.
 fn payload(dir: u8, seq: u32) -> Vec<u8> {
     let len = 6 + (seq % 24) as usize;

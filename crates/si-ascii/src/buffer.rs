@@ -1,5 +1,5 @@
 //! The receive frame buffer: a 1024-byte ring holding whole frames of different lengths, oldest
-//! first (et200s-si-3964r-ascii.md §6.6).
+//! first ([ET200S SI] §2.8).
 //!
 //! Received characters go straight into the ring behind the stored frames as a *pending* frame;
 //! when the end criterion completes it is *committed*, when it fails it is discarded. Nothing is
@@ -80,7 +80,7 @@ impl FrameBuffer {
         self.lens.front().map(|&l| usize::from(l))
     }
 
-    /// More than 2/3 of the buffer in use: S_RCV's warning 0B01H (§6.6).
+    /// More than 2/3 of the buffer in use: S_RCV's warning 0B01H ([ET200S SI] §2.8).
     pub fn above_two_thirds(&self) -> bool {
         self.fill() * 3 > self.capacity() * 2
     }

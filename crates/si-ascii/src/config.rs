@@ -1,26 +1,27 @@
 //! The ASCII driver's parameters with the manual's ranges and defaults
-//! (et200s-si-3964r-ascii.md §7.1 Table 2-10, §6.5 Table 2-9, §6.10 / §9.8 Table 2-26).
+//! ([ET200S SI] §2.9, Table 2-10, §6.5, Table 2-9, §6.10 / §2.12 Table 2-26).
 //!
 //! [`Config::validate`] rejects a value outside its range with an error naming the parameter,
 //! the range and the value. Times are whole milliseconds, as in the manual's tables.
 //!
 //! Readings chosen where the texts disagree:
-//! - **Baud rates** (§7.1 vs et200s-si-2005-window-protocol.md §4.6): all twelve rates of the 2005
-//!   manual (110 … 115 200 bit/s) are accepted; the 2004 module stops at 19 200.
-//! - **Minimum character delay time** (§6.5 Table 2-9 vs 2005 Table 2-7): for 110 … 19 200 bit/s
-//!   the ET 200S SI table (364, 134, 68, 34, 18, 9, 4, 4 ms) applies; above 19 200 the 2005 table
-//!   gives 1 ms, and the parameter range starts at 4 ms (H-22), so 4 ms is the minimum there.
+//! - **Baud rates** ([ET200S SI] §2.9, Table 2-10 vs [ET200S SI 2005] Table 2-8): all twelve rates
+//!   of the 2005 manual (110 … 115 200 bit/s) are accepted; the 2004 module stops at 19 200.
+//! - **Minimum character delay time** ([ET200S SI] §2.8, Table 2-9 vs 2005 Table 2-7): for 110 … 19
+//!   200 bit/s the ET 200S SI table (364, 134, 68, 34, 18, 9, 4, 4 ms) applies; above 19 200 the
+//!   2005 table gives 1 ms, and the parameter range starts at 4 ms (`[derived]`), so 4 ms is the
+//!   minimum there.
 //! - **Maximum frame length**: a setting, [`Config::max_frame_len`], 1 … 1024 bytes, with the
-//!   module presets of [`ModulePreset`]: 200 bytes for the ET 200S 1SI (the default, §8.2–§8.3
-//!   Table 2-13/2-14 LEN 1 … 200, §12), 224 for the 2005 module (et200s-si-2005-window-protocol.md
-//!   H-14), 1024 for the CP 341 (cp341-event-classes.md 0517H "> 1 KB"). 1024 is also the
-//!   receive buffer (§6.6), which a frame must fit. The fixed receive length of
-//!   [`EndCriterion::FixedLength`] ranges up to it (2005 manual Table 2-8: 1 … 224; cp341 §5.7:
-//!   1 … 1024).
-//! - **Time steps** (A-11): the flow-control times are counts of 10 ms on the wire, so values that
-//!   are not multiples of 10 ms are rejected rather than silently rounded.
-//! - **End-of-text characters** (A-30, H-29): two characters form a *sequence* (char 1 then char 2,
-//!   as on the CP 340/341); char 2 = 0 means "unused".
+//!   module presets of [`ModulePreset`]: 200 bytes for the ET 200S 1SI (the default, [ET200S SI]
+//!   §2.10, Table 2-13, Table 2-14 Table 2-13/2-14 LEN 1 … 200, [ET200S SI] §2.14), 224 for the
+//!   2005 module ([ET200S SI 2005] `[derived]`), 1024 for the CP 341 ([CP 341 Diag] 0517H "> 1
+//!   KB"). 1024 is also the receive buffer ([ET200S SI] §2.8), which a frame must fit. The fixed
+//!   receive length of [`EndCriterion::FixedLength`] ranges up to it (2005 manual Table 2-8: 1 …
+//!   224; [CP 341] §2.3.3, Tables 2-7 to 2-11: 1 … 1024).
+//! - **Time steps** (`[derived]`): the flow-control times are counts of 10 ms on the wire, so
+//!   values that are not multiples of 10 ms are rejected rather than silently rounded.
+//! - **End-of-text characters** (`[derived]`): two characters form a *sequence* (char 1 then char
+//!   2, as on the CP 340/341); char 2 = 0 means "unused".
 
 use crate::status;
 use serde::{Deserialize, Serialize};
@@ -29,7 +30,7 @@ use si_core::{
 };
 
 /// Longest frame of the ET 200S 1SI, the default of [`Config::max_frame_len`]
-/// (et200s-si-3964r-ascii.md §12: 200 bytes; [`ModulePreset::Et200s1Si`]).
+/// ([ET200S SI] §2.14: 200 bytes; [`ModulePreset::Et200s1Si`]).
 pub const MAX_FRAME_LEN: usize = ModulePreset::Et200s1Si.max_frame_len() as usize;
 
 /// The largest [`Config::max_frame_len`] allowed: 1024 bytes, the CP 341's limit
@@ -40,17 +41,17 @@ pub const MAX_FRAME_LEN_LIMIT: usize = RECEIVE_BUFFER_SIZE;
 /// more than one frame's worth of the driver's write buffer.
 const MAX_TX_CHUNK: usize = MAX_FRAME_LEN;
 
-/// Size of the receive ring buffer (et200s-si-3964r-ascii.md §6.6: 1024 bytes).
+/// Size of the receive ring buffer ([ET200S SI] §2.8: 1024 bytes).
 pub const RECEIVE_BUFFER_SIZE: usize = 1024;
 
 /// XOFF (or RTS = OFF) goes out when this many bytes or fewer are free in the receive buffer
-/// (et200s-si-3964r-ascii.md §6.9: "50 characters before the receive buffer is full").
+/// ([ET200S SI] §2.8: "50 characters before the receive buffer is full").
 pub const XOFF_MARGIN: usize = 50;
 
 /// The physical interface (Table 2-10 "Interface type"), shared with the other drivers.
 pub use si_core::Interface;
 
-/// Data flow control (Table 2-10 "Data flow control", §6.8, §6.9).
+/// Data flow control (Table 2-10 "Data flow control", [ET200S SI] §2.8).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FlowControl {
@@ -65,8 +66,8 @@ pub enum FlowControl {
     AutoV24,
 }
 
-/// How the receiver recognises the end of a frame (§6.3, Table 2-10 "Indicator for end of
-/// receive frame").
+/// How the receiver recognises the end of a frame ([ET200S SI] §2.8, Table 2-10 "Indicator for end
+/// of receive frame").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case", tag = "kind")]
 pub enum EndCriterion {
@@ -109,7 +110,7 @@ impl EndCriterion {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(default)]
 pub struct XonXoff {
-    /// XON character, default DC1 = 11H (A-9: the 0BH of Table 2-27 is a decimal slip).
+    /// XON character, default DC1 = 11H (`[derived]`: the 0BH of Table 2-27 is a decimal slip).
     pub xon: u8,
     /// XOFF character, default DC3 = 13H.
     pub xoff: u8,
@@ -182,8 +183,8 @@ pub struct Config {
     /// Host-side, not a module parameter: characters handed to the driver at once while a flow
     /// control is active, 1 … 200 (default 16).
     ///
-    /// The module stops after the character on the line when XOFF or CTS = OFF arrives (§6.9).
-    /// A host cannot: the OS buffers what it writes, and each hand-over costs a timer tick
+    /// The module stops after the character on the line when XOFF or CTS = OFF arrives ([ET200S SI]
+    /// §2.8). A host cannot: the OS buffers what it writes, and each hand-over costs a timer tick
     /// (about 1 ms under tokio) that shows up as a gap between characters, which a partner
     /// monitoring its character delay time may take for a frame end. 16 characters keep the
     /// overrun well inside the partner's 50-character XOFF margin and the gaps rare. Use 1 in
@@ -246,8 +247,8 @@ impl ConfigError {
     }
 }
 
-/// The smallest character delay time for `baud` (et200s-si-3964r-ascii.md §6.5, Table 2-9;
-/// above 19 200 bit/s et200s-si-2005-window-protocol.md §4.2 Table 2-7 raised to the 4 ms floor).
+/// The smallest character delay time for `baud` ([ET200S SI] §2.8, Table 2-9;
+/// above 19 200 bit/s [ET200S SI 2005] §2.8.3, §2.8.4, Table 2-7 raised to the 4 ms floor).
 pub const fn min_char_delay_ms(baud: u32) -> u32 {
     match baud {
         0..=110 => 364,
@@ -269,7 +270,7 @@ fn out_of_range(
     RangeError::new(parameter, range, unit, value).into()
 }
 
-/// A time in whole 10 ms steps within `min ..= 655 350` ms (Table 2-26, A-11).
+/// A time in whole 10 ms steps within `min ..= 655 350` ms (Table 2-26, `[derived]`).
 fn check_step_time(parameter: &'static str, ms: u32, min: u32) -> Result<(), ConfigError> {
     if ms < min || ms > 655_350 || (ms / 10) * 10 != ms {
         return Err(out_of_range(
@@ -337,7 +338,7 @@ fn first(errors: Vec<ConfigError>) -> Result<(), ConfigError> {
 }
 
 impl Config {
-    /// Check every parameter against Table 2-10 / Table 2-26 and the combinations §6.7–§6.9
+    /// Check every parameter against Table 2-10 / Table 2-26 and the combinations [ET200S SI] §2.8
     /// forbid; the first error found.
     pub fn validate(&self) -> Result<(), ConfigError> {
         first(self.validate_all())
@@ -411,13 +412,13 @@ impl Config {
             (_, Interface::Rs485) => errors.push(ConfigError::NotAllowed {
                 parameter: "flow control",
                 value: format!("{:?}", self.flow_control),
-                reason: "flow control is not possible on RS-485 (§6.9)",
+                reason: "flow control is not possible on RS-485 ([ET200S SI] §2.8)",
             }),
             (FlowControl::RtsCts | FlowControl::AutoV24, Interface::Rs422) => {
                 errors.push(ConfigError::NotAllowed {
                     parameter: "flow control",
                     value: format!("{:?}", self.flow_control),
-                    reason: "RTS/CTS and automatic V.24 operation need RS-232C (§6.9)",
+                    reason: "RTS/CTS and automatic V.24 operation need RS-232C ([ET200S SI] §2.8)",
                 })
             }
             _ => {}
@@ -440,7 +441,8 @@ impl Config {
                     errors.push(ConfigError::NotAllowed {
                         parameter: "end-of-text character",
                         value: format!("{first:02X}H/{second:02X}H"),
-                        reason: "it must differ from the XON and XOFF characters (§6.4)",
+                        reason:
+                            "it must differ from the XON and XOFF characters ([ET200S SI] §2.8)",
                     });
                 }
             }

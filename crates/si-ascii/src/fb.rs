@@ -1,8 +1,8 @@
-//! The ASCII driver's function blocks with S7 call semantics (et200s-si-3964r-ascii.md §8):
+//! The ASCII driver's function blocks with S7 call semantics ([ET200S SI] §2.10):
 //! S_SEND and S_RCV are si-core's, run on the [`Link`] as a [`JobPort`]; S_VSTAT, S_VSET, S_XON,
 //! S_RTS and S_V24 are this driver's own, called once per PLC-style cycle. REQ is
 //! edge-triggered, R resets, EN_R is a level, and DONE / NDR / ERROR / STATUS / LEN are valid
-//! for exactly the call that reports them (§8.9).
+//! for exactly the call that reports them ([ET200S SI] §2.10 `[derived]`).
 //!
 //! ```
 //! use si_ascii::fb::{SRcv, SSend};
@@ -21,12 +21,12 @@
 //! ```
 //!
 //! Readings: R on S_SEND with a job in progress ends it with ERROR and 1E0DH ("job aborted by …
-//! reset"), which is how §8.2's "DONE and ERROR/STATUS are also updated when the FB is reset" is
-//! read; data already handed to the link are still sent (§8.2). S_SEND waits while the link
-//! runs another caller's job and hands its frame over once the link is free. A frame longer
-//! than S_RCV's destination area gives ERROR with 1E20H and stays in the buffer. S_VSET and the
-//! parameter FBs complete in the call that sees the REQ edge, since the link applies them at
-//! once.
+//! reset"), which is how [ET200S SI] §2.10, Table 2-13's "DONE and ERROR/STATUS are also updated
+//! when the FB is reset" is read; data already handed to the link are still sent ([ET200S SI]
+//! §2.10, Table 2-13). S_SEND waits while the link runs another caller's job and hands its frame
+//! over once the link is free. A frame longer than S_RCV's destination area gives ERROR with 1E20H
+//! and stays in the buffer. S_VSET and the parameter FBs complete in the call that sees the REQ
+//! edge, since the link applies them at once.
 
 use crate::config::{AutoV24, RtsCts, XonXoff};
 use crate::link::{Link, Refused, SendError};
@@ -66,12 +66,12 @@ impl JobPort for Link {
         self.send_result(id)
     }
 
-    /// The frame is still sent (§8.2); nothing to do.
+    /// The frame is still sent ([ET200S SI] §2.10, Table 2-13); nothing to do.
     fn cancel_job(&mut self, _id: JobId) {}
 
     /// A receive error first (taken once), else the oldest frame if it fits `dest` (1E20H and
     /// the frame stays if not). The 0B01H warning with NDR is the buffer's state after the
-    /// read (§6.6: the warning shows while the buffer stays above 2/3).
+    /// read ([ET200S SI] §2.8: the warning shows while the buffer stays above 2/3).
     fn take_received(&mut self, now: Instant, dest: &mut [u8]) -> Option<Reception> {
         if let Some(status) = self.take_receive_error() {
             return Some(Reception::Error(status));
@@ -109,8 +109,8 @@ pub struct V24State {
     pub dcd_in: bool,
 }
 
-/// FB4 S_VSTAT: read the RS-232C signals (§8.7). The states refresh on every call; a REQ edge
-/// gives DONE.
+/// FB4 S_VSTAT: read the RS-232C signals ([ET200S SI] §2.10, Table 2-18). The states refresh on
+/// every call; a REQ edge gives DONE.
 #[derive(Debug, Default)]
 pub struct SVstat {
     req: RisingEdge,
@@ -139,7 +139,8 @@ impl SVstat {
     }
 }
 
-/// FB5 S_VSET: set RTS and DTR (§8.8). ERROR with 0502H where §6.7 forbids it.
+/// FB5 S_VSET: set RTS and DTR ([ET200S SI] §2.10, Table 2-19). ERROR with 0502H where §2.8 forbids
+/// it.
 #[derive(Debug, Default)]
 pub struct SVset {
     req: RisingEdge,
@@ -187,14 +188,14 @@ macro_rules! param_fb {
 }
 
 param_fb!(
-    /// FB6 S_XON: XON/XOFF characters and wait time (§8.4).
+    /// FB6 S_XON: XON/XOFF characters and wait time ([ET200S SI] §2.10, Table 2-15).
     SXon, XonXoff, set_xon_xoff
 );
 param_fb!(
-    /// FB7 S_RTS: wait time for CTS (§8.5).
+    /// FB7 S_RTS: wait time for CTS ([ET200S SI] §2.10, Table 2-16).
     SRts, RtsCts, set_rts_cts
 );
 param_fb!(
-    /// FB8 S_V24: RTS-off time and data output wait time (§8.6).
+    /// FB8 S_V24: RTS-off time and data output wait time ([ET200S SI] §2.10, Table 2-17).
     SV24, AutoV24, set_auto_v24
 );

@@ -1,13 +1,14 @@
 //! The pure part of receive framing: deciding, byte by byte, where a frame ends by the
 //! end-of-text or fixed-length criterion, and guarding the maximum length
-//! (et200s-si-3964r-ascii.md §6.3, cp341-3964r-rk512-ascii.md §5.3, public-facts.md §4).
+//! ([ET200S SI] §2.8, [CP 341] §2.2.4, [CP 440], [CP 340]).
 //!
 //! Time-based decisions (the character delay time as terminator or as monitoring time) belong to
 //! the [link](crate::link), which owns the clock; this module has no state beyond the frame in
 //! progress, so it is easy to test exhaustively.
 //!
-//! The ASCII driver has no frame *encoding*: the user data are the frame (§6.1). Surplus bytes
-//! after an end criterion start the next frame (cp341 §5.3: "merged with the next frame").
+//! The ASCII driver has no frame *encoding*: the user data are the frame ([ET200S SI] §2.8).
+//! Surplus bytes after an end criterion start the next frame ([CP 341] §2.2.4: "merged with the
+//! next frame").
 
 use crate::config::{AutoV24, EndCriterion, RtsCts, XonXoff};
 
@@ -142,8 +143,8 @@ impl<'a> Iterator for Split<'a> {
 }
 
 /// A flow-control parameter block as a non-S7 DP master sends it with job code 5
-/// (et200s-si-3964r-ascii.md §9.8, Table 2-26): block number, big-endian length of what
-/// follows, then the parameters; times are big-endian counts of 10 ms (A-11).
+/// ([ET200S SI] §2.12, Table 2-26): block number, big-endian length of what
+/// follows, then the parameters; times are big-endian counts of 10 ms (`[derived]`).
 ///
 /// ```
 /// use si_ascii::frame::ParamBlock;
@@ -323,7 +324,7 @@ mod tests {
     #[test]
     fn table_2_27_xon_xoff_job_stream_decodes() {
         // The three 3-byte segments of Table 2-27: 20 00 04 | 0B 0D 00 | C8. The example prints
-        // DC1/DC3 as 0BH/0DH (decimal 11/13, A-9); the block carries whatever bytes it holds.
+        // DC1/DC3 as 0BH/0DH (decimal 11/13, [derived]); the block carries whatever bytes it holds.
         let stream = [0x20, 0x00, 0x04, 0x0B, 0x0D, 0x00, 0xC8, 0xEE, 0xEE];
         assert_eq!(
             ParamBlock::decode(&stream),

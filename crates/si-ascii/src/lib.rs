@@ -1,7 +1,7 @@
 //! # si-ascii
 //!
-//! The ASCII driver of the SIMATIC ET 200S serial interface module (et200s-si-3964r-ascii.md §6,
-//! et200s-si-2005-window-protocol.md §4, cp341-3964r-rk512-ascii.md §5) for hosts: a Sans-IO
+//! The ASCII driver of the SIMATIC ET 200S serial interface module ([ET200S SI] §2.8,
+//! [ET200S SI 2005] §2.8, [CP 341] §2.2.4, §2.3.3) for hosts: a Sans-IO
 //! [`Link`] that cuts received bytes into frames by the manual's three end criteria (character
 //! delay time, one or two end-of-text characters, fixed length), keeps them in the module's
 //! 1024-byte ring buffer, sends frames with the inter-frame pause, and speaks XON/XOFF, RTS/CTS

@@ -1,4 +1,4 @@
-//! The ASCII driver as a Sans-IO engine (et200s-si-3964r-ascii.md §6): receive end criteria,
+//! The ASCII driver as a Sans-IO engine ([ET200S SI] §2.8): receive end criteria,
 //! the receive frame buffer, transmit with inter-frame pause, XON/XOFF and RTS/CTS flow control,
 //! automatic V.24 operation and RS-485 half duplex.
 //!
@@ -17,45 +17,48 @@
 //!
 //! # Readings of the manual
 //!
-//! - **Character delay time** (§4.3): "the longest gap allowed between two characters". The host
-//!   sees a character when it is complete, so the next character must *complete* within
-//!   CDT + one character time of the previous one; a gap of exactly the CDT keeps the frame whole,
-//!   one microsecond more ends it, and the frame end is reported at that microsecond.
-//! - **Inter-frame pause** (§6.2): in CDT mode a frame starts only after *more than* one CDT since
-//!   the end of our previous frame (the 2005 manual's "a gap longer than the CDT"), so a partner
-//!   with the same CDT always sees two frames. Only in CDT mode, as the ET 200S manual says;
-//!   the CP 341 (cp341-3964r-rk512-ascii.md §5.2) also pauses in fixed-length mode, switchably.
+//! - **Character delay time** ([ET200S SI] §2.6, Fig. 2-10): "the longest gap allowed between two
+//!   characters". The host sees a character when it is complete, so the next character must
+//!   *complete* within CDT + one character time of the previous one; a gap of exactly the CDT keeps
+//!   the frame whole, one microsecond more ends it, and the frame end is reported at that
+//!   microsecond.
+//! - **Inter-frame pause** ([ET200S SI] §2.8, Fig. 2-17): in CDT mode a frame starts only after
+//!   *more than* one CDT since the end of our previous frame (the 2005 manual's "a gap longer than
+//!   the CDT"), so a partner with the same CDT always sees two frames. Only in CDT mode, as the ET
+//!   200S manual says; the CP 341 ([CP 341] §2.2.4) also pauses in fixed-length mode, switchably.
 //! - **Surplus characters** after an end-of-text sequence or a fixed-length frame start the next
-//!   frame (cp341 §5.3, public-facts.md §4); if the CDT then runs out they are a fragment: 0806H.
+//!   frame ([CP 341] §2.2.4, [CP 440], [CP 340]); if the CDT then runs out they are a fragment:
+//!   0806H.
 //! - **Errors inside a frame** (parity, framing, overrun, BREAK, too long, no buffer): the frame is
 //!   discarded, the error reported once, and the rest of that frame skipped until the line is quiet
 //!   for the CDT (or, with end characters, until the end characters), so its tail never becomes a
 //!   frame of its own.
 //! - **Frame longer than the maximum** ([`Config::max_frame_len`], 200 bytes by default) in CDT
-//!   or end-character mode (A-20, A-29): reported with 0850H (2005 manual §6.1, "received frame
-//!   longer than 224 bytes or than the configured length") and discarded; 050EH is class 05
-//!   "error executing a CPU job" and stays with the send side: a send job longer than the
-//!   maximum is refused with 050EH (Table 2-28 "invalid frame length", §9.6: the module rejects
-//!   a send longer than its maximum, A-20), an empty one with 1E41H (the FB's LEN check). The
-//!   FB itself ([`crate::fb`]) checks LEN against 1 … maximum first and answers 1E41H, as
-//!   S_SEND does (Table 2-13).
-//! - **Buffer full** (§6.6): with dynamic frames and overwrite allowed the oldest frames make room
-//!   (reported with 080AH, the manual's "diagnostic interrupt"); with overwrite prevented the
-//!   newest frame is lost with 080AH, or with 0812H when we had already sent XOFF / RTS = OFF (§6.9).
-//!   Without dynamic frames one frame is stored (A-34): prevent overwrite keeps it and loses the
-//!   new one (080AH); otherwise the new frame replaces it, the manual's "only the newest frame".
-//! - **XOFF threshold** (A-12, A-33): XOFF / RTS = OFF when 50 bytes or fewer are free, or, without
-//!   dynamic frames, when the one frame the buffer holds is stored (the "configured number of
-//!   frames" is reached); XON / RTS = ON once a read makes room again.
-//! - **Automatic V.24** (A-31): RTS = ON, then the data go out as soon as CTS = ON, and the send
-//!   fails with 0818H if CTS is still off when the data output wait time ends; RTS = OFF after the
-//!   RTS-off time from the last byte, and only then is the job done.
+//!   or end-character mode (`[derived]`): reported with 0850H ([ET200S SI 2005] Table 2-29,
+//!   "received frame longer than 224 bytes or than the configured length") and discarded; 050EH is
+//!   class 05 "error executing a CPU job" and stays with the send side: a send job longer than the
+//!   maximum is refused with 050EH (Table 2-28 "invalid frame length", [ET200S SI] §2.12: the
+//!   module rejects a send longer than its maximum, `[derived]`), an empty one with 1E41H (the FB's
+//!   LEN check). The FB itself ([`crate::fb`]) checks LEN against 1 … maximum first and answers
+//!   1E41H, as S_SEND does (Table 2-13).
+//! - **Buffer full** ([ET200S SI] §2.8): with dynamic frames and overwrite allowed the oldest
+//!   frames make room (reported with 080AH, the manual's "diagnostic interrupt"); with overwrite
+//!   prevented the newest frame is lost with 080AH, or with 0812H when we had already sent XOFF /
+//!   RTS = OFF ([ET200S SI] §2.8). Without dynamic frames one frame is stored (`[derived]`):
+//!   prevent overwrite keeps it and loses the new one (080AH); otherwise the new frame replaces it,
+//!   the manual's "only the newest frame".
+//! - **XOFF threshold** (`[derived]`): XOFF / RTS = OFF when 50 bytes or fewer are free, or,
+//!   without dynamic frames, when the one frame the buffer holds is stored (the "configured number
+//!   of frames" is reached); XON / RTS = ON once a read makes room again.
+//! - **Automatic V.24** (`[derived]`): RTS = ON, then the data go out as soon as CTS = ON, and the
+//!   send fails with 0818H if CTS is still off when the data output wait time ends; RTS = OFF after
+//!   the RTS-off time from the last byte, and only then is the job done.
 //! - **Character delay while holding the partner**: after XOFF / RTS = OFF the partner is
 //!   supposed to pause, possibly inside a frame, so the character delay time is not monitored
 //!   until XON / RTS = ON; then it starts again.
-//! - **Flow-control wait** (§6.9): the XON / CTS wait time runs from the moment sending is held
-//!   (XOFF or CTS = OFF while sending, or at the start of a send that finds it held).
-//! - **Behind a USB adapter** (issue 16, not in the manual): a port that hands received bytes
+//! - **Flow-control wait** ([ET200S SI] §2.8): the XON / CTS wait time runs from the moment sending
+//!   is held (XOFF or CTS = OFF while sending, or at the start of a send that finds it held).
+//! - **Behind a USB adapter** (not in the manual): a port that hands received bytes
 //!   over in packets (declared with [`Engine::set_rx_latency`], or shown by a read of two or
 //!   more bytes, [`si_core::delivery`]) gets the port's allowance added to the character delay
 //!   time, so a hole between two packets of one frame does not end it (with end characters or
@@ -140,7 +143,8 @@ pub enum SendError {
         /// The configured maximum.
         max: usize,
     },
-    /// With XON/XOFF, user data must not contain the XON or XOFF character (§6.2).
+    /// With XON/XOFF, user data must not contain the XON or XOFF character ([ET200S SI] §2.8, Fig.
+    /// 2-17).
     #[error("frame contains the flow-control character {0:02X}H, not allowed with XON/XOFF")]
     FlowCharacter(u8),
 }
@@ -260,7 +264,7 @@ pub struct Link {
     /// XON/XOFF or RTS/CTS: the buffer's fill level can hold the partner ([`Link::check_stop`]).
     holds_partner: bool,
     /// No XOFF / RTS = OFF sent and no send job: the next deadline is the receive one alone, so
-    /// [`Engine::poll_output`] answers from `rx_deadline` directly (issue 9: it is polled after
+    /// [`Engine::poll_output`] answers from `rx_deadline` directly (it is polled after
     /// every byte). Recomputed by [`Link::settle_wait`] at the end of every input except the
     /// inline receive path, which changes neither (it only calls out to paths that settle).
     /// Only a send ([`Link::send`]) and XOFF / RTS = OFF ([`Link::stop_partner`]) can make it
@@ -276,7 +280,7 @@ pub struct Link {
     tx: Tx,
     /// Bytes handed out whose tx-done has not come yet.
     in_flight: bool,
-    /// RS-485 is half duplex (cp341-3964r-rk512-ascii.md §5.5): what is received while our
+    /// RS-485 is half duplex ([CP 341] §2.2.4): what is received while our
     /// bytes are in flight is our own (si-core's one echo filter, while-sending mode). `None`
     /// on RS-232 and RS-422.
     echo: Option<EchoFilter>,
@@ -302,7 +306,8 @@ const RX_POOL_FRAMES: usize = 4;
 
 impl Link {
     /// A link with validated parameters, entering its flow-control mode as the module does at
-    /// startup (§6.8, §6.9): XON is sent, or RTS = ON, or (automatic V.24) DTR = ON, RTS = OFF.
+    /// startup ([ET200S SI] §2.8): XON is sent, or RTS = ON, or (automatic V.24) DTR = ON, RTS =
+    /// OFF.
     pub fn new(config: Config) -> Result<Link, ConfigError> {
         config.validate()?;
         let mut link = Link {
@@ -349,8 +354,9 @@ impl Link {
         &self.cfg
     }
 
-    /// CPU STOP → RUN (§10): clear the receive buffer if so configured, and announce the
-    /// flow-control mode again. A send job in progress is completed (§10, "CPU STOP").
+    /// CPU STOP → RUN ([ET200S SI] §2.11): clear the receive buffer if so configured, and announce
+    /// the flow-control mode again. A send job in progress is completed ([ET200S SI] §2.11, "CPU
+    /// STOP").
     pub fn restart(&mut self, now: Instant) {
         if self.cfg.clear_at_startup {
             self.buffer.clear();
@@ -371,7 +377,7 @@ impl Link {
             FlowControl::None => {}
             FlowControl::XonXoff => self.transmit_flow_char(self.cfg.xon_xoff.xon),
             FlowControl::RtsCts => self.set_rts(true),
-            // RTS = OFF, unless a send job (which is completed, §10) holds it on.
+            // RTS = OFF, unless a send job (which is completed, [ET200S SI] §2.11) holds it on.
             FlowControl::AutoV24 => {
                 self.v24_step(|v, out| {
                     v.enter(out);
@@ -385,8 +391,8 @@ impl Link {
 
     /// Start a send job (S_SEND). The frame is the user data, 1 … [`Config::max_frame_len`]
     /// bytes (200 by default), including any start
-    /// and end characters the partner needs (§6.1, §6.2). Completion comes as [`Event::Sent`] or
-    /// [`Event::SendFailed`].
+    /// and end characters the partner needs ([ET200S SI] §2.8, Fig. 2-17). Completion comes as
+    /// [`Event::Sent`] or [`Event::SendFailed`].
     pub fn send(&mut self, now: Instant, frame: Bytes) -> Result<JobId, SendError> {
         if self.tx != Tx::Idle {
             return Err(SendError::Busy);
@@ -488,8 +494,8 @@ impl Link {
 
     fn start(&mut self, now: Instant, job: JobId, frame: Bytes) {
         if self.v24.is_some() {
-            // §6.8: RTS = ON, then the data go out at CTS = ON; while the partner is not
-            // ready (DSR = OFF) a send job is aborted.
+            // [ET200S SI] §2.8: RTS = ON, then the data go out at CTS = ON; while the partner is
+            // not ready (DSR = OFF) a send job is aborted.
             match self.v24_step(|v, out| v.begin(now, out)) {
                 Step::Abort => return self.fail_send(now, job, status::DSR_CTS_OFF),
                 Step::Send => {}
@@ -633,7 +639,7 @@ impl Link {
     }
 
     /// S_RCV's STATUS when there is no error: 0B01H while the buffer is more than 2/3 full,
-    /// else 0000H (§6.6, A-41).
+    /// else 0000H ([ET200S SI] §2.8, `[derived]`).
     pub fn receive_status(&self) -> Status {
         if self.buffer.above_two_thirds() {
             status::BUFFER_TWO_THIRDS_FULL
@@ -667,7 +673,7 @@ impl Link {
         }
     }
 
-    /// XOFF / RTS = OFF once the buffer reaches the threshold (A-12, A-33). Runs after every
+    /// XOFF / RTS = OFF once the buffer reaches the threshold (`[derived]`). Runs after every
     /// stored character, so the common "nothing to do" answer is a few comparisons inline.
     #[inline]
     fn check_stop(&mut self) {
@@ -713,7 +719,7 @@ impl Link {
     /// One received character. The common case, a character inside a frame that neither ends
     /// it, nor is a flow-control character, nor fills the buffer, is kept short and inline, so
     /// a host fed one byte per [`Engine::handle_rx`] pays little more than one fed whole
-    /// frames (issue 9); everything else goes through [`Link::on_byte_general`], which handles
+    /// frames; everything else goes through [`Link::on_byte_general`], which handles
     /// every case. `gap` is [`Link::gap_deadline`] of `now`, computed once per call.
     #[inline(always)]
     fn on_byte(&mut self, now: Instant, gap: Instant, byte: u8) {
@@ -777,7 +783,7 @@ impl Link {
             return; // half duplex: our own echo
         }
         if self.cfg.flow_control == FlowControl::AutoV24 && !self.inputs.dsr {
-            return; // §6.8: nothing is received while DSR = OFF
+            return; // [ET200S SI] §2.8: nothing is received while DSR = OFF
         }
         self.rx_deadline = Some(gap);
         match self.rx {
@@ -880,7 +886,7 @@ impl Link {
     // ------------------------------------------------------------------ signals
 
     /// The V.24 signals: our outputs DTR and RTS, the partner's DSR, CTS and DCD as last
-    /// reported (S_VSTAT, §8.7; always possible).
+    /// reported (S_VSTAT, [ET200S SI] §2.10, Table 2-18; always possible).
     pub fn signals(&self) -> ModemSignals {
         ModemSignals {
             dtr: self.dtr,
@@ -889,8 +895,9 @@ impl Link {
         }
     }
 
-    /// Set DTR and/or RTS by job (S_VSET, §8.8). Refused with 0502H on RS-422/485, under
-    /// automatic V.24 operation, and for RTS under RTS/CTS flow control (§6.7).
+    /// Set DTR and/or RTS by job (S_VSET, [ET200S SI] §2.10, Table 2-19). Refused with 0502H on
+    /// RS-422/485, under automatic V.24 operation, and for RTS under RTS/CTS flow control
+    /// ([ET200S SI] §2.8).
     pub fn set_signals(&mut self, update: SignalUpdate) -> Result<(), Refused> {
         let refused = self.cfg.interface != Interface::Rs232
             || self.cfg.flow_control == FlowControl::AutoV24
@@ -930,8 +937,9 @@ impl Link {
         Ok(())
     }
 
-    /// Apply a Table 2-26 parameter block as job code 5 carries it (§9.8): 0550H when it does
-    /// not match the configured flow control, 1E20H when a value is out of range.
+    /// Apply a Table 2-26 parameter block as job code 5 carries it ([ET200S SI] §2.12, Table 2-26):
+    /// 0550H when it does not match the configured flow control, 1E20H when a value is out of
+    /// range.
     pub fn apply_param_block(&mut self, block: crate::frame::ParamBlock) -> Result<(), Refused> {
         use crate::frame::ParamBlock;
         match block {
@@ -1048,7 +1056,7 @@ impl Link {
 impl Engine for Link {
     type Event = Event;
 
-    /// Inline, so a driver feeding single bytes pays no call for the common case (issue 9).
+    /// Inline, so a driver feeding single bytes pays no call for the common case.
     #[inline(always)]
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
         self.observe_read(bytes.len());
@@ -1104,7 +1112,8 @@ impl Link {
                     self.complete_frame(now)
                 }
                 Rx::Receiving => {
-                    // §6.3: the CDT ran out before the end criterion; fragment discarded.
+                    // [ET200S SI] §2.8: the CDT ran out before the end criterion; fragment
+                    // discarded.
                     self.buffer.discard_pending();
                     self.rx = Rx::Idle;
                     self.rx_fail(now, status::CHAR_DELAY_EXCEEDED);
@@ -1146,7 +1155,8 @@ impl Link {
                 let job = *job;
                 self.last_tx_end = Some(now);
                 if self.v24.is_some() {
-                    // §6.8: RTS = OFF after the RTS-off time, and only then is the job done.
+                    // [ET200S SI] §2.8: RTS = OFF after the RTS-off time, and only then is the job
+                    // done.
                     self.tx = Tx::RtsOff { job };
                     if self.v24_step(|v, out| v.sent(now, out)) == Step::Done {
                         self.finish_send(now, job);
@@ -1216,7 +1226,7 @@ impl Link {
                     _ => {}
                 }
                 if dsr_dropped && self.rx == Rx::Receiving {
-                    // §6.8: DSR ON → OFF aborts a reception too.
+                    // [ET200S SI] §2.8: DSR ON → OFF aborts a reception too.
                     self.skip_rest(None);
                     self.rx = Rx::Idle;
                     self.rx_deadline = None;

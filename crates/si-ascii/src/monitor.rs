@@ -1,4 +1,4 @@
-//! Passive ASCII-driver decoding (et200s-si-3964r-ascii.md §6.3, §6.4): frames end by the
+//! Passive ASCII-driver decoding ([ET200S SI] §2.8): frames end by the
 //! configured criterion — the character delay time (the default), end-of-text characters, or
 //! a fixed length (`crate::frame::Cutter` decides the last two) — and XON/XOFF characters
 //! are shown as control characters when flow control is on.
@@ -47,7 +47,7 @@ pub struct Params {
 
 impl Params {
     /// The criterion, character delay time and flow-control characters a link with `config`
-    /// runs with (et200s-si-3964r-ascii.md §7.1, Table 2-10).
+    /// runs with ([ET200S SI] §2.9, Table 2-10).
     pub fn from_config(config: &crate::Config) -> Params {
         Params {
             end: config.end,

@@ -69,8 +69,9 @@ fn steady_state_receive_and_send_do_not_allocate() {
     });
 }
 
-/// §8.2 / §8.3 with the FBs: an S_SEND job per frame (REQ edge, then calls until DONE), the
-/// received frame read by S_RCV or by `read_frame_bytes`, every 1 ms.
+/// [ET200S SI] §2.10, Table 2-13 / §2.10, Table 2-14 with the FBs: an S_SEND job per frame (REQ
+/// edge, then calls until DONE), the received frame read by S_RCV or by `read_frame_bytes`, every 1
+/// ms.
 fn steady_state_fb_jobs_and_pooled_reads_do_not_allocate() {
     let config = Config {
         end: EndCriterion::DEFAULT_END_CHARS,
@@ -119,7 +120,7 @@ fn steady_state_fb_jobs_and_pooled_reads_do_not_allocate() {
     });
 }
 
-/// The CP 341 preset's 1024-byte frames (issue 18): the receive pool is sized from the
+/// The CP 341 preset's 1024-byte frames: the receive pool is sized from the
 /// configured maximum at creation, so the longest frames are read without allocating either.
 fn cp341_frames_of_1_kb_do_not_allocate() {
     let config = Config {

@@ -1,6 +1,6 @@
 //! Properties: any byte stream cut by the fixed-length or the character-delay criterion
-//! reassembles to the original (et200s-si-3964r-ascii.md §6.3), and no input at any timing
-//! makes the engine panic, grow without bound, or break the 1024-byte buffer (§6.6).
+//! reassembles to the original ([ET200S SI] §2.8), and no input at any timing
+//! makes the engine panic, grow without bound, or break the 1024-byte buffer ([ET200S SI] §2.8).
 
 use proptest::prelude::*;
 use si_ascii::config::min_char_delay_ms;

@@ -1,7 +1,7 @@
-//! The ASCII driver's scenarios, one module per topic of the manual (et200s-si-3964r-ascii.md
-//! §6–§8, cp341-3964r-rk512-ascii.md §5): end criteria, flow control, the function blocks, line
-//! errors, the maximum frame length and its module presets, the receive buffer, the tokio
-//! handle and USB adapters.
+//! The ASCII driver's scenarios, one module per topic of the manual ([ET200S SI]
+//! [ET200S SI] §2.8–§2.10, [CP 341] §2.2.4, §2.3.3): end criteria, flow control, the function
+//! blocks, line errors, the maximum frame length and its module presets, the receive buffer, the
+//! tokio handle and USB adapters.
 
 mod common;
 #[path = "scenarios/end_criteria.rs"]

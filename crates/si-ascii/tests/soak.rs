@@ -1,8 +1,8 @@
-//! Soak (issue 9): two ASCII links (end characters CR LF) sending to each other all the time
+//! Soak: two ASCII links (end characters CR LF) sending to each other all the time
 //! on a faulty line (bit flips, lost and inserted characters) for a day of virtual
 //! time.
 //!
-//! The ASCII driver has no check sum and no repetition (et200s-si-3964r-ascii.md §6): a flipped
+//! The ASCII driver has no check sum and no repetition ([ET200S SI] §2.8): a flipped
 //! bit reaches the application, a lost CR LF joins two frames. What it does guarantee, asserted:
 //! every send job ends in exactly one event, done or failed with a STATUS of the manual; every
 //! receive error carries one; no frame is longer than the buffer allows; frames arrive in order

@@ -186,7 +186,7 @@ impl Connection {
     }
 
     /// The error of a command whose line closed under it: one line naming the port that hung
-    /// up or the TCP peer that closed the connection, exit 1 (issue 21: a lost line is an
+    /// up or the TCP peer that closed the connection, exit 1 (a lost line is an
     /// error, never a success).
     pub fn closed(&self) -> CliError {
         CliError::new(match (&self.port, &self.tcp) {

@@ -1,4 +1,4 @@
-//! How the command tree reads in `--help` (issue 19): the line options under their own heading
+//! How the command tree reads in `--help`: the line options under their own heading
 //! and only where a command uses them, and one hex rule written beside every byte argument.
 //!
 //! The line options stay `global` (so `si --port X modbus read` and `si modbus read --port X`

@@ -1,4 +1,4 @@
-//! The control characters of a simulated line trace by name (`si sim`, issue 19): `tx 02  STX`,
+//! The control characters of a simulated line trace by name (`si sim`): `tx 02  STX`,
 //! `rx 10  DLE`, a 3964(R) block's `DLE ETX BCC`, a USS telegram's `STX LGE ADR … BCC`, an ASCII
 //! frame's `CR LF`, `XON`/`XOFF`.
 //!
@@ -17,13 +17,13 @@ use std::collections::{HashMap, VecDeque};
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Naming {
     /// 3964(R) (also under RK 512): STX, DLE, NAK alone; a block's DLE ETX and BCC
-    /// (et200s-si-3964r-ascii.md §5.1 control characters, §5.2 BCC; a doubled DLE in the data
+    /// ([ET200S SI] §2.7 control characters, §2.7, Fig. 2-12 BCC; a doubled DLE in the data
     /// is data).
     R3964,
-    /// USS: STX, LGE, ADR and BCC of each telegram (et200s-si-modbus-uss.md §6.1).
+    /// USS: STX, LGE, ADR and BCC of each telegram ([Modbus/USS] §3.7.1).
     Uss,
     /// ASCII: every control character by its ASCII name, XON and XOFF for DC1 and DC3
-    /// (et200s-si-3964r-ascii.md §6.9 flow control).
+    /// ([ET200S SI] §2.8 flow control).
     Ascii,
 }
 
@@ -81,7 +81,7 @@ impl Naming {
 
 use si_3964r::frame::{DLE, ETX, NAK, STX};
 
-/// A 3964(R) control character sent alone (et200s-si-3964r-ascii.md §5.1).
+/// A 3964(R) control character sent alone ([ET200S SI] §2.7).
 fn r3964_control(b: u8) -> Option<&'static str> {
     match b {
         STX => Some("STX"),

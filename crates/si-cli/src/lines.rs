@@ -1,4 +1,4 @@
-//! Line-oriented input with a cap on a line's length (issue 21, "Bounded memory": `si dp-coord
+//! Line-oriented input with a cap on a line's length ("Bounded memory": `si dp-coord
 //! module` once read a 200 MB stdin line whole and reached 1.09 GB).
 //!
 //! [`CappedLines`] reads at most `cap` bytes of a line and its `\r\n` end; a longer line

@@ -1,5 +1,5 @@
 //! Named line profiles from a settings file: `--profile plc1` instead of typing `--port --baud
-//! --parity` every time (issue 19).
+//! --parity` every time.
 //!
 //! The file is TOML, read from `$SI_CONFIG` if set, else the platform's configuration
 //! directory: `$XDG_CONFIG_HOME/si/config.toml` or `~/.config/si/config.toml` (Linux and other

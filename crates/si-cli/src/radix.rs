@@ -1,5 +1,5 @@
 //! Numbers as the user types and reads them: one radix convention for every command that takes
-//! it (issue 18, "one radix convention on input and output").
+//! it ("one radix convention on input and output").
 //!
 //! - **Input:** decimal by default; hex after `0x` (`0x047F`) or in the manuals' notation
 //!   `16#047F`; a leading `-` where a value may be negative (`-5`, `-0x10`).

@@ -1,6 +1,6 @@
 //! Sequence diagrams of a decoded line as SVG: one lane per station, time running down,
 //! frames and control characters as labelled arrows, errors in red with their reason beside
-//! them — the kind of figure the manuals draw for 3964(R) (et200s-si-3964r-ascii.md §5, the
+//! them — the kind of figure the manuals draw for 3964(R) ([ET200S SI] §2.7, the
 //! STX/DLE/block/DLE exchange) and for the window protocol.
 //!
 //! Time is drawn as a sequence, not to scale: every record gets a row, its time at the left,
@@ -43,7 +43,7 @@ const TAIL: usize = 10;
 /// Records kept before a remark (the exchange it belongs to).
 const BEFORE: usize = 3;
 
-/// The diagram's rows, built as the records arrive, in bounded memory (issue 21: a live
+/// The diagram's rows, built as the records arrive, in bounded memory (a live
 /// monitor under a flood grew to 312 MB keeping every record for the figure).
 ///
 /// Up to [`MAX_ROWS`] records every record is drawn. Beyond, the figure keeps the first 30,
@@ -590,7 +590,7 @@ mod tests {
         }
     }
 
-    /// Issue 21: a flood of records, every tenth with a fault, holds a bounded number of
+    /// A flood of records, every tenth with a fault, holds a bounded number of
     /// records and rows, and still draws the budget's worth of remarks.
     #[test]
     fn a_flood_is_summarised_as_it_arrives() {

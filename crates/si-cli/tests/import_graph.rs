@@ -1,4 +1,4 @@
-//! One import direction inside si-cli (issue 17): no module imports, directly or through others,
+//! One import direction inside si-cli: no module imports, directly or through others,
 //! a module that imports it back.
 //!
 //! The test reads every file under `src/`, takes each `crate::…` path (in `use` lines, brace

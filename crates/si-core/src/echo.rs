@@ -17,7 +17,7 @@
 //! - **count** ([`EchoFilter::counting`], Modbus and USS with `local_echo`): the engine knows
 //!   its line echoes; it drops as many received characters as it sent, whatever they are.
 //! - **while sending** ([`EchoFilter::while_sending`], the ASCII driver on RS-485, which works
-//!   half duplex only, cp341-3964r-rk512-ascii.md §5.5): everything received from the first
+//!   half duplex only, [CP 341] §2.2.4): everything received from the first
 //!   byte sent until the engine learns the transmission has left the line is its own.
 //!
 //! Every mode is bounded: a counter, a flag, or at most [`ECHO_CAPACITY`] bytes.

@@ -1,6 +1,6 @@
-//! Helpers that give the FB equivalents the S7 call semantics (et200s-si-3964r-ascii.md §8.1,
-//! §8.9): REQ is edge-triggered, R resets, EN_R is a level, and DONE / NDR / ERROR / STATUS are
-//! valid for exactly one call.
+//! Helpers that give the FB equivalents the S7 call semantics ([ET200S SI] §2.10,
+//! [ET200S SI] §2.10 `[derived]`): REQ is edge-triggered, R resets, EN_R is a level, and DONE / NDR
+//! / ERROR / STATUS are valid for exactly one call.
 //!
 //! ```
 //! use si_core::fb::{Pulse, RisingEdge};
@@ -140,8 +140,8 @@ impl JobRequest {
     }
 
     /// R: forgets the running job and cancels it on the port; 1E0DH ("aborted by reset") if a
-    /// job ran, for the DONE/ERROR/STATUS of this call (§8.2: "also updated when the FB is
-    /// reset"). The next TRUE on REQ counts as an edge.
+    /// job ran, for the DONE/ERROR/STATUS of this call ([ET200S SI] §2.10, Table 2-13: "also
+    /// updated when the FB is reset"). The next TRUE on REQ counts as an edge.
     pub fn reset<P: JobPort>(&mut self, port: &mut P) -> Option<Status> {
         self.req.reset();
         let id = self.job.take()?;
@@ -206,8 +206,8 @@ impl<T> From<Option<Result<T, Status>>> for Done {
 /// driver's 200-byte maximum, room for a frame in flight and the next).
 const SEND_POOL: usize = 400;
 
-/// FB3 S_SEND over any [`JobPort`] (et200s-si-3964r-ascii.md §8.2, Table 2-13;
-/// et200s-si-2005-window-protocol.md §5.3; et200s-si-modbus-uss.md §4.2–§4.3 for the Modbus
+/// FB3 S_SEND over any [`JobPort`] ([ET200S SI] §2.10, Table 2-13;
+/// [ET200S SI 2005] §2.10, Table 2-14; [Modbus/USS] §3.4.2, §3.4.5–§3.4.16 for the Modbus
 /// master, whose source area is the job).
 ///
 /// A rising edge on REQ sends `data` (DB_NO/DBB_NO/LEN as a slice) as one job; DONE, or ERROR
@@ -279,7 +279,7 @@ pub struct Received {
     /// Length of the frame copied into the destination (with NDR), else 0.
     pub len: usize,
     /// The error with ERROR; otherwise 0B01H while the receive buffer is more than 2/3 full
-    /// (a warning with ERROR = 0, §8.3, A-41), else 0000H.
+    /// (a warning with ERROR = 0, [ET200S SI] §2.10, Table 2-14, `[derived]`), else 0000H.
     pub status: Status,
 }
 
@@ -295,13 +295,13 @@ impl Default for Received {
     }
 }
 
-/// FB2 S_RCV over any [`JobPort`] (et200s-si-3964r-ascii.md §8.3, Table 2-14;
-/// et200s-si-2005-window-protocol.md §5.4; et200s-si-modbus-uss.md §4.4 for the Modbus
+/// FB2 S_RCV over any [`JobPort`] ([ET200S SI] §2.10, Table 2-14;
+/// [ET200S SI 2005] §2.10, Table 2-15; [Modbus/USS] §3.4.5–§3.4.16 for the Modbus
 /// master, whose "received frame" is the response of the job S_SEND started).
 ///
 /// With EN_R statically TRUE each call copies at most one received frame into `dest` (NDR,
 /// LEN) or reports one receive error (ERROR, STATUS). EN_R = 0 or R = 1 takes nothing and
-/// shows NDR/ERROR/LEN 0 (A-24), except that a transfer in flight (the window's) is aborted
+/// shows NDR/ERROR/LEN 0 (`[derived]`), except that a transfer in flight (the window's) is aborted
 /// with ERROR and 1E0DH.
 #[derive(Debug, Default)]
 pub struct SRcv {

@@ -1,6 +1,6 @@
 //! One frame pool for every engine: frames handed out as [`Bytes`] without an allocation per
 //! frame in steady state. Mostly transmit frames handed to the driver (the transmit-buffer
-//! pool of issue 17); the 3964(R) and ASCII links cut the received frames they hand to the
+//! pool); the 3964(R) and ASCII links cut the received frames they hand to the
 //! application from one the same way.
 //!
 //! An engine writes a frame into the pool, which cuts it off as [`Bytes`]

@@ -1,10 +1,10 @@
 //! The job layer: one [`JobId`], and the [`JobPort`] trait through which an FB equivalent starts
 //! a job, takes its outcome and takes a received frame (ARCHITECTURE.md "FB equivalents";
-//! et200s-si-3964r-ascii.md §8.1–§8.3, §8.9; et200s-si-2005-window-protocol.md §5).
+//! [ET200S SI] §2.10, Table 2-14 `[derived]`; [ET200S SI 2005] §2.10).
 //!
 //! Every engine with send/receive jobs implements [`JobPort`]: the 3964(R) link, the ASCII link,
 //! the RK 512 station, the Modbus master (for the S_SEND/S_RCV layouts of
-//! et200s-si-modbus-uss.md §4.2–§4.4) and the window host of si-dp-coord. S_SEND and S_RCV are
+//! [Modbus/USS] §3.4.2, §3.4.5–§3.4.16) and the window host of si-dp-coord. S_SEND and S_RCV are
 //! written once, in [`crate::fb`], generic over it, so one user program drives an engine on the
 //! host's own port or a module through the DP window (see [`Channel`]).
 
@@ -66,8 +66,9 @@ pub enum Reception {
 /// for it by id.
 pub trait JobPort {
     /// What one job asks for: the frame of S_SEND ([`Bytes`]) for the line links, the Modbus
-    /// master (the S_SEND source area of §4.3) and the window host (whose job type also has the
-    /// V.24 and parameter jobs); a SEND or FETCH request for the RK 512 station.
+    /// master (the S_SEND source area of [Modbus/USS] §3.4.5–§3.4.16) and the window host (whose
+    /// job type also has the V.24 and parameter jobs); a SEND or FETCH request for the RK 512
+    /// station.
     type Job;
     /// What a job gives back with DONE: `()` for a send, the fetched bytes for an RK 512 FETCH,
     /// the window's job outcome.
@@ -83,7 +84,7 @@ pub trait JobPort {
 
     /// The FB's R input for job `id`: the FB reports 1E0DH and forgets the job. An engine whose
     /// protocol can abort (the window) aborts it; a line link keeps sending a block it already
-    /// has (et200s-si-3964r-ascii.md §8.2: "data the module has already received is still
+    /// has ([ET200S SI] §2.10, Table 2-13: "data the module has already received is still
     /// sent"), and the outcome is then nobody's.
     fn cancel_job(&mut self, id: JobId);
 
@@ -96,7 +97,8 @@ pub trait JobPort {
     }
 
     /// S_RCV's STATUS in a call with neither NDR nor ERROR: 0B01H while the receive buffer is
-    /// more than 2/3 full (a warning with ERROR = 0, §8.3, A-41), else 0000H.
+    /// more than 2/3 full (a warning with ERROR = 0, [ET200S SI] §2.10, Table 2-14, `[derived]`),
+    /// else 0000H.
     fn receive_warning(&self) -> Status {
         Status::OK
     }

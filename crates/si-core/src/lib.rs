@@ -37,6 +37,14 @@
 //!   text to those logs, through `tap`, a transport that shows a watcher what passes through it;
 //! - `port` (feature `serial`): opens a serial port from the engine's [`SerialSettings`], with
 //!   line errors, RS-485 and the USB adapter's latency timer.
+//!
+//! # Citations
+//!
+//! Doc comments in every `si` crate cite the Siemens manuals by a short tag and the manual's
+//! own section, table or figure, e.g. "[Modbus/USS] §3.3.5, Table 3-11"; `[derived]` marks
+//! our own inference where a manual is silent or garbled. `SOURCES.md` at the root of the `si`
+//! repository (and in the `si-serial` package) lists every tag with the document's title,
+//! edition and order number.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod delivery;

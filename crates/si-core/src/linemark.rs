@@ -24,7 +24,7 @@
 //!   caller names as the bad-character error: [`bad_char_error`] says `Parity` when the line has
 //!   a checked parity bit (a single flipped bit, the usual disturbance, shows as a parity error
 //!   first) and `Framing` when it has none (then a wrong stop bit is the only error the UART
-//!   can see). Both map to the same STATUS in 3964(R) (080C, et200s-si-3964r-ascii.md §11.3);
+//!   can see). Both map to the same STATUS in 3964(R) (080C, [ET200S SI] §2.13, Table 2-28);
 //!   the ASCII driver and Modbus tell 0810 (parity) from 0811 (framing) and get this best
 //!   guess.
 //! - **A bad 00H character or a BREAK?** Both read `FF 00 00`; it is reported as

@@ -1,6 +1,6 @@
 //! The SIMATIC memory model: data blocks (DB), bit memory (M), inputs (I), outputs (Q),
 //! timers (T) and counters (C) of an S7 CPU, for the protocols that read and write PLC memory
-//! by area and address (the Modbus slave through S_MODB, et200s-si-modbus-uss.md §5.4–§5.6;
+//! by area and address (the Modbus slave through S_MODB, [Modbus/USS] §3.5.3–§3.5.17, Table 3-19;
 //! the RK 512 passive side).
 //!
 //! Byte areas (I, Q, M, DB) are byte-addressed; a WORD is two bytes, high byte first (S7
@@ -75,18 +75,19 @@ impl Default for MemorySizes {
 }
 
 /// Largest I, Q or M area, in bytes: the conversion DB addresses bytes by WORD (uuuuu, ooooo,
-/// vvvvv, sssss are 0…65535, et200s-si-modbus-uss.md §5.4 "Value ranges"), so bytes 0…65535
+/// vvvvv, sssss are 0…65535, [Modbus/USS] §3.5.3, Table 3-19 "Value ranges"), so bytes 0…65535
 /// are all a module can reach. Area sizes otherwise "depend on the CPU type"
-/// (et200s-si-2005-window-protocol.md §7.8); more than the module addresses would only be
+/// ([ET200S SI 2005] §3.6.17, §3.6.20); more than the module addresses would only be
 /// memory no request reaches.
 pub const MAX_AREA_BYTES: u32 = 65_536;
 
-/// Most timers or counters: their numbers (ttttt, zzzzz) are WORDs 0…65535 as well (§5.4).
+/// Most timers or counters: their numbers (ttttt, zzzzz) are WORDs 0…65535 as well ([Modbus/USS]
+/// §3.5.3, Table 3-19).
 pub const MAX_ELEMENTS: u32 = 65_536;
 
 /// Largest data block, in bytes. Our reading (the manuals give no DB size): an S7 byte offset
 /// is a WORD, DBB0…DBB65535; the S_MODB conversion itself reaches only DBW0…DBW1022 of each
-/// DB (§5.5, `(R & 1FFH) × 2`).
+/// DB ([Modbus/USS] §3.5.5–§3.5.19, `(R & 1FFH) × 2`).
 pub const MAX_DB_BYTES: u32 = 65_536;
 
 /// Most memory in all areas together, in bytes (timers and counters count two bytes each): a

@@ -8,19 +8,19 @@
 //!
 //! | Preset | Module | Longest frame | Source |
 //! |---|---|---|---|
-//! | [`Et200s1Si`](ModulePreset::Et200s1Si) | ET 200S 1SI 3964(R)/ASCII (2004) | 200 bytes | et200s-si-3964r-ascii.md §8.2–§8.3 Table 2-13/2-14 (S_SEND/S_RCV LEN 1 … 200), §11.3 050EH "> 200 bytes", §12 |
-//! | [`Si2005`](ModulePreset::Si2005) | ET 200S 1SI of the 2005 manual | 224 bytes | et200s-si-2005-window-protocol.md H-14 (chapter 2: LEN, 050EH, 0850H, fixed length all 224) |
-//! | [`Cp341`](ModulePreset::Cp341) | CP 341 (S7-300 rack) | 1024 bytes | cp341-event-classes.md 0517H "length too large for the CP (> 1 KB)", cp341-3964r-rk512-ascii.md §5.7 (fixed length 1 … 1024) |
+//! | [`Et200s1Si`](ModulePreset::Et200s1Si) | ET 200S 1SI 3964(R)/ASCII (2004) | 200 bytes | [ET200S SI] §2.10, Tables 2-13/2-14 (S_SEND/S_RCV LEN 1 … 200), §2.13, Table 2-28 (050EH "> 200 bytes"), §2.14 |
+//! | [`Si2005`](ModulePreset::Si2005) | ET 200S 1SI of the 2005 manual | 224 bytes | [ET200S SI 2005] `[derived]` (chapter 2: LEN, 050EH, 0850H, fixed length all 224) |
+//! | [`Cp341`](ModulePreset::Cp341) | CP 341 (S7-300 rack) | 1024 bytes | [CP 341 Diag] 0517H "length too large for the CP (> 1 KB)", [CP 341] §2.3.3, Tables 2-7 to 2-11 (fixed length 1 … 1024) |
 //!
 //! # Readings
 //!
-//! - **2005 module: 224, not 200 or 256.** H-14: chapter 2 says 224 everywhere it gives a
+//! - **2005 module: 224, not 200 or 256.** `[derived]`: chapter 2 says 224 everywhere it gives a
 //!   number for the frame (LEN, 050EH, 0850H, fixed-length receive); the 1E41H text's "1 … 200"
 //!   and chapter 3's "256" belong to other tables (the FB's parameter check, the Modbus/USS
 //!   module). We take chapter 2's 224.
 //! - **CP 341 has no DP coordination window.** It sits in the S7-300 rack and talks to the CPU
-//!   over the backplane (cp341-3964r-rk512-ascii.md); the window protocol of
-//!   et200s-si-2005-window-protocol.md §2 belongs to the ET 200S modules only, so
+//!   over the backplane ([CP 341]); the window protocol of
+//!   [ET200S SI 2005] §2.12 belongs to the ET 200S modules only, so
 //!   [`ModulePreset::has_dp_window`] is false for it.
 
 use core::fmt;
@@ -30,15 +30,15 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ModulePreset {
-    /// ET 200S 1SI 3964(R)/ASCII as in et200s-si-3964r-ascii.md: 200-byte frames. The default,
+    /// ET 200S 1SI 3964(R)/ASCII as in [ET200S SI]: 200-byte frames. The default,
     /// the module this workspace models first.
     #[default]
     #[serde(rename = "et200s")]
     Et200s1Si,
-    /// ET 200S 1SI of the 2005 manual (et200s-si-2005-window-protocol.md): 224-byte frames.
+    /// ET 200S 1SI of the 2005 manual ([ET200S SI 2005]): 224-byte frames.
     #[serde(rename = "2005")]
     Si2005,
-    /// CP 341 (cp341-3964r-rk512-ascii.md): frames up to 1 KB.
+    /// CP 341 ([CP 341]): frames up to 1 KB.
     #[serde(rename = "cp341")]
     Cp341,
 }

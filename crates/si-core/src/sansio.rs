@@ -70,7 +70,7 @@ pub enum LineError {
     Break,
 }
 
-/// The RS-232 modem signals as the host's port sees them (et200s-si-3964r-ascii.md §6.7).
+/// The RS-232 modem signals as the host's port sees them ([ET200S SI] §2.8).
 ///
 /// DTR and RTS are the host's outputs, DSR, CTS and DCD its inputs.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]

@@ -1,10 +1,10 @@
 //! Serial character format and character timing.
 //!
-//! The ET 200S SI parameter tables (et200s-si-2005-window-protocol.md §3.2, Table 2-9) offer
+//! The ET 200S SI parameter tables ([ET200S SI 2005] §2.9.3, Table 2-9) offer
 //! 110 … 115 200 bit/s in twelve steps, 7 or 8 data bits, 1 or 2 stop bits and parity
 //! none/odd/even/"any". Each protocol crate narrows these lists where its manual does.
 //!
-//! Parity "any" (et200s-si-3964r-ascii.md §4.2): the bit is not checked on receive and always
+//! Parity "any" ([ET200S SI] §2.6): the bit is not checked on receive and always
 //! sent as 0, which on the wire is space parity; we model it as [`Parity::Space`] plus "don't
 //! check", and offer mark parity for partners that need it.
 
@@ -12,7 +12,7 @@ use crate::time::Duration;
 use core::fmt;
 use serde::{Deserialize, Serialize};
 
-/// The twelve baud rates of the ET 200S SI parameter table (§3.2 of the 2005 manual).
+/// The twelve baud rates of the ET 200S SI parameter table ([ET200S SI 2005] §2.9.3, Table 2-9).
 pub const BAUD_RATES: [u32; 12] = [
     110, 300, 600, 1_200, 2_400, 4_800, 9_600, 19_200, 38_400, 57_600, 76_800, 115_200,
 ];
@@ -93,7 +93,7 @@ pub enum SettingsError {
 }
 
 /// Character format and speed of a serial line: the "agreed conditions" both partners must share
-/// (et200s-si-3964r-ascii.md §4.1).
+/// ([ET200S SI] §2.6).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(try_from = "RawSettings", into = "RawSettings")]
 pub struct SerialSettings {
@@ -130,7 +130,8 @@ impl From<SerialSettings> for RawSettings {
 }
 
 impl Default for SerialSettings {
-    /// 9600 bit/s, 8 data bits, even parity, 1 stop bit: the manuals' defaults (§3.2, Table 2-9).
+    /// 9600 bit/s, 8 data bits, even parity, 1 stop bit: the manuals' defaults ([ET200S SI 2005]
+    /// §2.9.3, Table 2-9).
     fn default() -> Self {
         SerialSettings {
             baud: 9_600,
@@ -198,7 +199,7 @@ impl SerialSettings {
     }
 
     /// Bits one character occupies on the wire: 1 start + data + parity + stop
-    /// (§4.2: "10-bit or 11-bit frames", 9 … 12 in all combinations the tables allow).
+    /// ([ET200S SI] §2.6: "10-bit or 11-bit frames", 9 … 12 in all combinations the tables allow).
     pub const fn bits_per_char(&self) -> u32 {
         1 + self.data_bits as u32 + self.parity.bits() + self.stop_bits as u32
     }

@@ -1,6 +1,6 @@
 //! The 16-bit STATUS word of the S7 function blocks.
 //!
-//! et200s-si-3964r-ascii.md §11.2 (Fig. 2-25/2-26): bits 15–13 reserved, bits 12–8 event class,
+//! [ET200S SI] §2.13 (Fig. 2-25/2-26): bits 15–13 reserved, bits 12–8 event class,
 //! bits 7–0 event number; "the numbering is identical for all FBs". A PLC programmer reads it as
 //! `W#16#0708`; we print it as `16#0708` followed by the manual's text.
 //!
@@ -115,7 +115,7 @@ static OK_INFO: StatusInfo = StatusInfo {
     code: 0x0000,
     meaning: "no error",
     remedy: "-",
-    source: "et200s-si-3964r-ascii.md §11.3",
+    source: "[ET200S SI] §2.13, Table 2-28",
 };
 
 impl PartialEq for Status {
@@ -175,7 +175,7 @@ impl<'de> Deserialize<'de> for Status {
 ///     pub const XON_TIMEOUT = 0x0708 {
 ///         meaning: "wait for XON or CTS = ON timed out",
 ///         remedy: "check the partner",
-///         source: "et200s-si-3964r-ascii.md §11.3",
+///         source: "[ET200S SI] §2.13, Table 2-28",
 ///     }
 /// }
 /// assert_eq!(XON_TIMEOUT.code(), 0x0708);
@@ -207,7 +207,7 @@ macro_rules! status_codes {
 }
 
 /// Codes of class 1EH ("module–CPU communication errors"), 05H and 0BH that every driver shares
-/// (et200s-si-3964r-ascii.md §11.3, Table 2-28).
+/// ([ET200S SI] §2.13, Table 2-28).
 pub mod common {
     crate::status_codes! {
         /// Every code of this module, in table order.
@@ -215,27 +215,27 @@ pub mod common {
         pub const NOT_POSSIBLE_IN_MODE = 0x0502 {
             meaning: "job not possible in the module's current mode",
             remedy: "evaluate the diagnostic interrupt and fix the cause",
-            source: "et200s-si-3964r-ascii.md §11.3",
+            source: "[ET200S SI] §2.13, Table 2-28",
         }
         pub const BUFFER_TWO_THIRDS_FULL = 0x0B01 {
             meaning: "receive buffer more than 2/3 full",
             remedy: "none needed; call the receive FB more often",
-            source: "et200s-si-3964r-ascii.md §11.3",
+            source: "[ET200S SI] §2.13, Table 2-28",
         }
         pub const ABORTED_BY_RESET = 0x1E0D {
             meaning: "job aborted by a cold restart, warm restart or reset",
             remedy: "none needed; start the job again",
-            source: "et200s-si-3964r-ascii.md §11.3",
+            source: "[ET200S SI] §2.13, Table 2-28",
         }
         pub const PARAMETER_OUT_OF_RANGE = 0x1E20 {
             meaning: "FB parameter out of range",
             remedy: "bring the FB input within range",
-            source: "et200s-si-3964r-ascii.md §11.3",
+            source: "[ET200S SI] §2.13, Table 2-28",
         }
         pub const INVALID_LEN = 0x1E41 {
             meaning: "invalid number of bytes in the FB's LEN",
             remedy: "use 1 … 200",
-            source: "et200s-si-3964r-ascii.md §11.3",
+            source: "[ET200S SI] §2.13, Table 2-28",
         }
     }
 }
@@ -246,7 +246,7 @@ mod tests {
 
     #[test]
     fn class_and_number_follow_fig_2_25() {
-        // §11.2 example: W#16#1E0D = class 1EH, number 0DH.
+        // [ET200S SI] §2.13, Fig. 2-25/2-26 example: W#16#1E0D = class 1EH, number 0DH.
         let s = common::ABORTED_BY_RESET;
         assert_eq!(s.class(), 0x1E);
         assert_eq!(s.number(), 0x0D);

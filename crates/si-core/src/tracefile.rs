@@ -557,7 +557,7 @@ mod tests {
     }
 
     #[cfg(feature = "tracefile")]
-    /// Issue 21: a header with `baud` 0 is refused with a range error naming the field.
+    /// A header with `baud` 0 is refused with a range error naming the field.
     #[test]
     fn a_header_out_of_range_is_refused() {
         let header = |baud: u32, data_bits: u8| {

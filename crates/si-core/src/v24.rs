@@ -1,6 +1,6 @@
 //! Automatic use of the V.24 (RS-232C) secondary signals: one sequence for every driver that
-//! offers it, the ASCII driver (et200s-si-3964r-ascii.md §6.8) and Modbus
-//! (et200s-si-modbus-uss.md §2.2). Both manuals describe the same sequence:
+//! offers it, the ASCII driver ([ET200S SI] §2.8) and Modbus
+//! ([Modbus/USS] §3.2.2). Both manuals describe the same sequence:
 //!
 //! 1. On entering the mode the module sets **DTR = ON** and **RTS = OFF**.
 //! 2. A send job sets **RTS = ON** and starts the *data output wait time*; the data go out once
@@ -13,19 +13,20 @@
 //!
 //! # Readings
 //!
-//! - **Data output wait time** (A-31 in the ASCII extraction; the same sentence pair in the
-//!   Modbus manual §2.2 items 3 and 4): "when the wait time has expired and CTS = ON the data
+//! - **Data output wait time** (`[derived]`; [ET200S SI] §2.8, and the same sentence pair in
+//!   [Modbus/USS] §3.2.2 items 3 and 4): "when the wait time has expired and CTS = ON the data
 //!   are sent", but also "if CTS does not come ON within that time, the job is aborted". We read
 //!   it as a timeout: the data go out as soon as CTS = ON, and the job fails if CTS is still OFF
 //!   when the time ends. A fixed delay would make CTS meaningless whenever it is ON early.
-//! - **A send job while DSR = OFF** is aborted at once (ASCII §6.8: "a send job is aborted",
-//!   Modbus §2.2 item 7 for DSR dropping).
+//! - **A send job while DSR = OFF** is aborted at once (ASCII [ET200S SI] §2.8: "a send job is
+//!   aborted", [Modbus/USS] §3.2.2 item 7 for DSR dropping).
 //! - **DSR dropping during the RTS-off time** aborts the send job and drops RTS at once
-//!   (`[Modbus/USS]` §3.2.2 item 7, `[ET200S SI]` §2.8: "an active send job … aborted"). The
+//!   ([Modbus/USS] §3.2.2 item 7, [ET200S SI] §2.8: "an active send job … aborted"). The
 //!   manuals end the send job only when RTS is OFF (step 3), so it is still active then
 //!   `[derived]`. CTS dropping in that time aborts nothing: the module "does not wait for CTS".
 //! - **Ranges** (0 … 655 350 ms in 10 ms steps, default 10 ms) are the ASCII driver's S_V24 block
-//!   (Table 2-26, block 22H); the Modbus manual gives none (its §11.3), so Modbus takes the same.
+//!   (Table 2-26, block 22H); the Modbus manual gives none, [Modbus/USS] §3.2.2, so Modbus takes
+//!   the same.
 //!
 //! The sequence is a small state machine that owns the RTS/DTR outputs and knows nothing of
 //! frames: an engine asks [`AutoV24::begin`] before it transmits, reports the end of its
@@ -202,7 +203,8 @@ impl AutoV24 {
     }
 
     /// The modem inputs changed. Returns the step for the send side and whether DSR went from
-    /// ON to OFF (which also aborts a running reception, §6.8 / §2.2 item 7).
+    /// ON to OFF (which also aborts a running reception, [ET200S SI] §2.8 / [Modbus/USS] §3.2.2
+    /// item 7).
     pub fn on_signals<E>(
         &mut self,
         signals: ModemSignals,

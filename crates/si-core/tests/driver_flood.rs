@@ -1,4 +1,4 @@
-//! Issue 21: a driver flooded with input (reads always ready) still fires the engine's
+//! A driver flooded with input (reads always ready) still fires the engine's
 //! deadline. The engine arms a deadline at the first byte and the peer never stops sending;
 //! the timeout must come while the flood goes on, within a generous bound (a bound, not a
 //! timing claim: the driver checks the clock after every read, "Timing, honestly").

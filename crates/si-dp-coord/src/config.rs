@@ -1,5 +1,5 @@
 //! Parameters of the host and module engines, with the manual's values as defaults and the
-//! readings we chose where the manual is silent (et200s-si-2005-window-protocol.md §12.1).
+//! readings we chose where the manual is silent ([ET200S SI 2005] §2.12 `[derived]`).
 
 use crate::coord::ExecWrap;
 use crate::frame::{V24Layout, WindowSize};
@@ -9,7 +9,7 @@ use si_core::{Duration, ModulePreset, RangeError, Status};
 
 /// The largest frame of chapter 2 (S_SEND/S_RCV LEN, 050EH, 0850H): 224 bytes, the 2005
 /// module's ([`ModulePreset::Si2005`]). The 1E41H text says 1…200 and the Modbus/USS module uses
-/// 200 (H-14); [`HostConfig::for_module`] picks the limit by module type.
+/// 200 (`[derived]`); [`HostConfig::for_module`] picks the limit by module type.
 pub const MAX_FRAME_LEN: usize = ModulePreset::Si2005.max_frame_len() as usize;
 
 /// The upper bound any configuration may choose: the 16-bit length word could say 65 535, but a
@@ -18,14 +18,15 @@ pub const MAX_FRAME_LEN_LIMIT: usize = 4096;
 
 /// Default host job watchdog: 30 s.
 ///
-/// The manual defines no timeout for any window step (H-12). A send job legitimately waits for
-/// the whole serial transmission before the end-of-job acknowledgement (§2.9), including 3964(R)
-/// retries: 224 bytes at 1200 bit/s take 2.05 s per attempt, plus QVZ 2 s, times 6 attempts ≈ 25 s.
-/// 30 s covers that; slower lines or longer retry chains need a longer watchdog.
+/// The manual defines no timeout for any window step (`[derived]`). A send job legitimately waits
+/// for the whole serial transmission before the end-of-job acknowledgement ([ET200S SI 2005]
+/// §2.12.1–§2.12.7 `[derived]`), including 3964(R) retries: 224 bytes at 1200 bit/s take 2.05 s per
+/// attempt, plus QVZ 2 s, times 6 attempts ≈ 25 s. 30 s covers that; slower lines or longer retry
+/// chains need a longer watchdog.
 pub const DEFAULT_JOB_TIMEOUT: Duration = Duration::from_secs(30);
 
 /// A configuration value outside its range: every window parameter error is a range error,
-/// si-core's one [`RangeError`] (issue 17).
+/// si-core's one [`RangeError`].
 pub type ConfigError = RangeError;
 
 fn check(name: &'static str, value: usize, min: usize, max: usize) -> Result<(), ConfigError> {
@@ -36,30 +37,30 @@ fn check(name: &'static str, value: usize, min: usize, max: usize) -> Result<(),
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct HostConfig {
     /// The window size of the configured module variant (the host cannot learn it from the
-    /// module, H-70).
+    /// module, `[derived]`).
     pub window: WindowSize,
     /// Largest frame the host sends or accepts, 1 … [`MAX_FRAME_LEN_LIMIT`]; default 224, the
     /// 2005 module's; [`HostConfig::for_module`] takes it from the module type.
     /// Longer send jobs are refused with 1E41H before they touch the window (the FB's own
-    /// LEN check, et200s-si-2005-window-protocol.md §11.2).
+    /// LEN check, [ET200S SI 2005] `[derived]`).
     pub max_frame_len: usize,
     /// Watchdog per job, from the moment the job owns byte 0 until its completion; `None`
     /// disables it. Default [`DEFAULT_JOB_TIMEOUT`].
     pub job_timeout: Option<Duration>,
     /// The STATUS a job ends with when its watchdog expires. The manual has no such code; the
     /// default 0502H ("job not possible in the module's current mode") names the likely cause: a
-    /// module that is not in RUN or not parameterized does not process jobs (§8.2 of
-    /// et200s-si-modbus-uss.md).
+    /// module that is not in RUN or not parameterized does not process jobs
+    /// ([Modbus/USS] §3.8.2).
     pub watchdog_status: Status,
     /// Jobs waiting for the arbiter, 1 … 1024; default 16. Further submissions are refused.
     pub queue_capacity: usize,
     /// Start a receive job on its own whenever the idle status shows a waiting frame (what S_RCV
     /// does with EN_R = 1). Default off: receive jobs are submitted explicitly.
     pub auto_receive: bool,
-    /// Where the V.24 bit field sits in the signal word (H-9); default byte 2.
+    /// Where the V.24 bit field sits in the signal word (`[derived]`); default byte 2.
     pub v24_layout: V24Layout,
-    /// What follows execution number 7 (H-5): 7 → 1 by default, or 7 → 0. Host and module must
-    /// use the same; see [`ExecWrap`] for what a disagreement looks like.
+    /// What follows execution number 7 (`[derived]`): 7 → 1 by default, or 7 → 0. Host and module
+    /// must use the same; see [`ExecWrap`] for what a disagreement looks like.
     #[serde(default)]
     pub exec_wrap: ExecWrap,
 }
@@ -90,8 +91,8 @@ impl HostConfig {
 
     /// The defaults for a window size and the module type behind the window, whose longest
     /// frame becomes [`max_frame_len`](Self::max_frame_len): 200 bytes for the ET 200S 1SI
-    /// (et200s-si-3964r-ascii.md §9.6: "send job longer than 200 bytes"), 224 for the 2005
-    /// module (et200s-si-2005-window-protocol.md H-14).
+    /// ([ET200S SI] §2.12: "send job longer than 200 bytes"), 224 for the 2005
+    /// module ([ET200S SI 2005] `[derived]`).
     ///
     /// The coordination window is an ET 200S protocol: the CP 341 sits in the S7-300 rack and
     /// has no DP window, so [`ModulePreset::Cp341`] is refused with an error naming the module
@@ -127,7 +128,7 @@ impl HostConfig {
     }
 }
 
-/// What the module does when the host sets the error bit in a receive job (H-7).
+/// What the module does when the host sets the error bit in a receive job (`[derived]`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum ReceiveErrorPolicy {
     /// Table 2-21: abort the delivery, answer 20H with STATUS 0551H, wait for the host's idle
@@ -139,7 +140,7 @@ pub enum ReceiveErrorPolicy {
 }
 
 /// The flow control configured for the module (GSD/HW config). A parameter job must carry the
-/// matching block, else the module answers 0550H (§2.6).
+/// matching block, else the module answers 0550H ([ET200S SI 2005] §2.12.2–§2.12.6 `[derived]`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum FlowControl {
     /// No flow control: every parameter block is refused with 0550H.
@@ -172,24 +173,25 @@ pub struct ModuleConfig {
     pub window: WindowSize,
     /// Largest frame, 1 … [`MAX_FRAME_LEN_LIMIT`]; default 224. A longer send is refused with
     /// the end-of-job acknowledgement and 050EH right after the segment carrying the length word
-    /// (§2.8 case 1; H-10: the exec number of that 7xH is the one of that segment).
+    /// ([ET200S SI 2005] §2.12.7 case 1; `[derived]`: the exec number of that 7xH is the one of
+    /// that segment).
     pub max_frame_len: usize,
     /// Receive buffer in bytes, 1 … 65 536; default 1024 (the ASCII driver's buffer,
-    /// et200s-si-2005-window-protocol.md §4.3). 0B01H is published above 2/3 of it.
+    /// [ET200S SI 2005] §2.8.3, Table 2-8). 0B01H is published above 2/3 of it.
     pub rx_buffer_bytes: usize,
     /// Most frames (and receive errors) buffered, 1 … 1024; default 250. The manual bounds the
     /// buffer by bytes only; the count keeps a flood of 1-byte frames bounded too. When either
     /// limit is reached the newest frame is discarded ("prevent overwriting", the default of
-    /// §4.3) and the next receive job reports 080AH.
+    /// [ET200S SI 2005] §2.8.3, Table 2-8) and the next receive job reports 080AH.
     pub rx_buffer_frames: usize,
-    /// Reaction to the host's error bit in a receive job (H-7).
+    /// Reaction to the host's error bit in a receive job (`[derived]`).
     pub receive_error_policy: ReceiveErrorPolicy,
     /// The configured flow control, which decides the valid parameter block.
     pub flow_control: FlowControl,
-    /// Where the V.24 bit field sits in the signal word (H-9); default byte 2.
+    /// Where the V.24 bit field sits in the signal word (`[derived]`); default byte 2.
     pub v24_layout: V24Layout,
-    /// What follows execution number 7 (H-5): 7 → 1 by default, or 7 → 0. Host and module must
-    /// use the same; see [`ExecWrap`] for what a disagreement looks like.
+    /// What follows execution number 7 (`[derived]`): 7 → 1 by default, or 7 → 0. Host and module
+    /// must use the same; see [`ExecWrap`] for what a disagreement looks like.
     #[serde(default)]
     pub exec_wrap: ExecWrap,
 }

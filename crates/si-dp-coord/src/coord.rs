@@ -1,14 +1,14 @@
 //! The coordination byte (byte 0 of both windows), its job codes and execution numbers.
 //!
-//! et200s-si-2005-window-protocol.md §2.2 (Table 2-21) and §2.3 (Table 2-22):
+//! [ET200S SI 2005] §2.12.1 (Table 2-21) and §2.12.1 (Table 2-22):
 //!
 //! ```text
 //!  bit:   7        6   5   4        3         2   1   0
 //!       | res |  job code   | error | exec number |
 //! ```
 //!
-//! The layout is the same in both directions. The Russian extraction proves the field order
-//! from the example bytes 51H/52H/53H/73H (et200s-si-3964r-ascii.md §9.2).
+//! The layout is the same in both directions. The Russian manual's examples prove the field order
+//! from the example bytes 51H/52H/53H/73H ([ET200S SI] §2.12, Table 2-20).
 
 use core::fmt;
 use serde::{Deserialize, Serialize};
@@ -87,7 +87,8 @@ impl fmt::Display for JobCode {
 
 /// A decoded coordination byte.
 ///
-/// Decoding ignores bit 7 (reserved, §2.2); encoding always writes it as 0.
+/// Decoding ignores bit 7 (reserved, [ET200S SI 2005] §2.12.1, Table 2-21); encoding always writes
+/// it as 0.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct CoordByte {
     /// Bits 6–4.
@@ -111,7 +112,8 @@ impl CoordByte {
         }
     }
 
-    /// `job` with the error bit set and `last_valid` as the execution number (§2.8).
+    /// `job` with the error bit set and `last_valid` as the execution number ([ET200S SI 2005]
+    /// §2.12.7).
     pub const fn error(job: JobCode, last_valid: u8) -> CoordByte {
         CoordByte {
             job,
@@ -135,7 +137,7 @@ impl CoordByte {
     }
 
     /// Idle code without the error bit: the only byte after which the host may write a job
-    /// code (§2.4 rule 1).
+    /// code ([ET200S SI 2005] §2.12.1 rule 1).
     pub const fn is_idle(self) -> bool {
         matches!(self.job, JobCode::Idle) && !self.error
     }
@@ -153,9 +155,9 @@ impl fmt::Display for CoordByte {
     }
 }
 
-/// What follows execution number 7 (H-5, et200s-si-2005-window-protocol.md §2.2): a setting of
-/// both the host ([`HostConfig::exec_wrap`](crate::config::HostConfig::exec_wrap)) and the module
-/// ([`ModuleConfig::exec_wrap`](crate::config::ModuleConfig::exec_wrap)), which must agree.
+/// What follows execution number 7 (`[derived]`, [ET200S SI 2005] §2.12.1, Table 2-21): a setting
+/// of both the host ([`HostConfig::exec_wrap`](crate::config::HostConfig::exec_wrap)) and the
+/// module ([`ModuleConfig::exec_wrap`](crate::config::ModuleConfig::exec_wrap)), which must agree.
 ///
 /// The manual gives the range "1 to 7" and uses 0 only in the job request and acceptance
 /// (10H, 20H, 50H); it does not say what follows 7. Wrap-around is unavoidable (a 224-byte send
@@ -165,8 +167,8 @@ impl fmt::Display for CoordByte {
 /// a module that turns out to count 0…7 on hardware.
 ///
 /// When host and module disagree, the first segment after 7 is out of order for the receiver
-/// (§2.8): a module sets its error bit with the last valid number 7 and the host sends the same
-/// segment again, forever, so a send job ends only by the host's watchdog
+/// ([ET200S SI 2005] §2.12.7): a module sets its error bit with the last valid number 7 and the
+/// host sends the same segment again, forever, so a send job ends only by the host's watchdog
 /// ([`HostConfig::job_timeout`](crate::config::HostConfig::job_timeout), STATUS 0502H by
 /// default); in a receive job the host sets its error bit and the module aborts with 0551H
 /// (Table 2-21), or the host takes a 20H segment for the module's 20H + STATUS answer.
@@ -208,8 +210,8 @@ impl ExecWrap {
 
     /// The most recent segment at or before `k` whose execution number is `exec` (segment 0 is
     /// the acceptance, number 0): how a sender maps "last valid exec" back to a segment for
-    /// go-back (§2.8). Looks back at most one cycle less one segment (6 or 7), the largest
-    /// ambiguity-free distance. With 7 → 1, number 0 can only be the acceptance's.
+    /// go-back ([ET200S SI 2005] §2.12.7). Looks back at most one cycle less one segment (6 or 7),
+    /// the largest ambiguity-free distance. With 7 → 1, number 0 can only be the acceptance's.
     pub const fn segment_with(self, k: usize, exec: u8) -> Option<usize> {
         if matches!(self, ExecWrap::ToOne) && exec & 7 == 0 {
             return Some(0);

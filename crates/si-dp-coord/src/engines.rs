@@ -3,7 +3,7 @@
 //!
 //! si-dp-coord is the one protocol crate allowed to drive line engines (ARCHITECTURE.md): the
 //! module firmware does exactly this, with the window on one side and a line procedure on the
-//! other (et200s-si-2005-window-protocol.md §2.9: "the module sends the end-of-job ack only
+//! other ([ET200S SI 2005] §2.12.1–§2.12.7 `[derived]`: "the module sends the end-of-job ack only
 //! after the frame has been transmitted to the partner"). Each function wraps a configured
 //! engine in an [`EngineSerial`] with the engine's [`LineHooks`]:
 //!
@@ -17,10 +17,11 @@
 //! | parameters | refused, 0550H (3964(R) has no flow control) | `Link::apply_param_block` (0550H / 1E20H) |
 //!
 //! Readings:
-//! * **0807H "zero-length block received (not an error)"** (et200s-si-3964r-ascii.md §11.3) is
+//! * **0807H "zero-length block received (not an error)"** ([ET200S SI] §2.13, Table 2-28) is
 //!   not buffered for the host: the window's receive job has no way to say "not an error" other
 //!   than 0101H, and an empty block carries nothing to fetch, so the module drops it. Every other
-//!   receive error is delivered to the next receive job as 20H + STATUS (§2.8 case 2).
+//!   receive error is delivered to the next receive job as 20H + STATUS ([ET200S SI 2005] §2.12.7
+//!   case 2).
 //! * **Frames are taken out of the engine at the module's next cycle**, not when the engine
 //!   reports them: the engine's buffer (3964(R): 5 blocks, ASCII: 1024 bytes) then frees at the
 //!   rate the module runs, and the window module's own buffer (`ModuleConfig::rx_buffer_*`)
@@ -58,7 +59,7 @@ fn r3964r_send(link: &mut si_3964r::Link, now: Instant, frame: &[u8]) -> Result<
     r3964r_send_bytes(link, now, Bytes::copy_from_slice(frame))
 }
 
-/// The link keeps the frame for its repetitions (§5.3) until the job ends.
+/// The link keeps the frame for its repetitions ([ET200S SI] §2.7) until the job ends.
 fn r3964r_send_bytes(link: &mut si_3964r::Link, now: Instant, frame: Bytes) -> Result<(), Status> {
     link.send(now, frame)
         .map(|_| ())

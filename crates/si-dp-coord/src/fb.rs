@@ -1,25 +1,26 @@
-//! The FB equivalents over the window protocol (et200s-si-2005-window-protocol.md §5,
-//! et200s-si-3964r-ascii.md §8): the [`Host`] is a [`JobPort`], so si-core's S_SEND and S_RCV run
+//! The FB equivalents over the window protocol ([ET200S SI 2005] §2.10,
+//! [ET200S SI] §2.10): the [`Host`] is a [`JobPort`], so si-core's S_SEND and S_RCV run
 //! on it exactly as on a line engine; S_VSTAT, S_VSET, S_XON, S_RTS and S_V24 are the window's
 //! own, built on si-core's [`JobRequest`].
 //!
 //! Each FB is called once per user cycle, the host engine once per DP cycle; the FB submits its
 //! job to the host's arbiter and collects its own completion with [`Host::take_completion`], so
-//! several FBs share one host (§2.4: one job owns byte 0 at a time). REQ is edge-triggered, R
-//! aborts, EN_R is a level, and DONE / NDR / ERROR / STATUS / LEN are valid for exactly the call
-//! that reports them (§5.2). Do not also drain the host with `poll_event` or enable its
-//! `auto_receive` while FBs run on it: the FBs would miss their completions or their frames.
+//! several FBs share one host ([ET200S SI 2005] §2.12.1: one job owns byte 0 at a time). REQ is
+//! edge-triggered, R aborts, EN_R is a level, and DONE / NDR / ERROR / STATUS / LEN are valid for
+//! exactly the call that reports them ([ET200S SI 2005] §2.10). Do not also drain the host with
+//! `poll_event` or enable its `auto_receive` while FBs run on it: the FBs would miss their
+//! completions or their frames.
 //!
 //! Readings:
 //! * R with a job in progress ends it with ERROR and 1E0DH in that call ("DONE and ERROR/STATUS
-//!   are also output on RESET", §5.3); the host writes idle, which aborts the module's side. For
-//!   S_RCV, EN_R = 0 or R aborts a running transfer the same way; the module keeps the aborted
-//!   frame and offers it again (§5.4).
+//!   are also output on RESET", [ET200S SI 2005] §2.10, Table 2-14); the host writes idle, which
+//!   aborts the module's side. For S_RCV, EN_R = 0 or R aborts a running transfer the same way; the
+//!   module keeps the aborted frame and offers it again ([ET200S SI 2005] §2.10, Table 2-15).
 //! * S_RCV fetches a frame only while the idle status shows one (0001H/0B01H) and EN_R = 1; a frame
 //!   longer than the destination area is fetched and reported with ERROR and 1E20H (the window
 //!   protocol cannot leave it in the module once read).
 //! * S_VSTAT reads the signals with a read V.24 job on each REQ edge; the signal outputs keep the
-//!   last states read (the window has no other way to see them, H-63).
+//!   last states read (the window has no other way to see them, `[derived]`).
 //! * The TIME inputs of S_XON / S_RTS / S_V24 are rounded down to 10 ms, the unit of the window
 //!   (Table 2-27); values outside the manual's ranges give ERROR with 1E20H.
 
@@ -51,8 +52,8 @@ impl JobPort for Host {
         self.take_completion(id)
     }
 
-    /// [`Host::abort`]: writing idle aborts the module's side (§2.8); the 1E0DH completion is
-    /// taken here, the FB reports it itself.
+    /// [`Host::abort`]: writing idle aborts the module's side ([ET200S SI 2005] §2.12.7); the 1E0DH
+    /// completion is taken here, the FB reports it itself.
     fn cancel_job(&mut self, id: JobId) {
         self.abort(id);
         self.take_completion(id);
@@ -96,8 +97,8 @@ impl JobPort for Host {
         }
     }
 
-    /// EN_R = 0 and R both abort a running receive job (§5.4: the module keeps the frame and
-    /// offers it again).
+    /// EN_R = 0 and R both abort a running receive job ([ET200S SI 2005] §2.10, Table 2-15: the
+    /// module keeps the frame and offers it again).
     fn stop_receiving(&mut self, _reset: bool) -> bool {
         let Some(id) = self.fb_receive.take() else {
             return false;
@@ -127,7 +128,7 @@ pub struct V24State {
     pub signals: V24Signals,
 }
 
-/// FB4 S_VSTAT: reads the V.24 signals with a read V.24 job (§5.8).
+/// FB4 S_VSTAT: reads the V.24 signals with a read V.24 job ([ET200S SI 2005] §2.10, Table 2-19).
 #[derive(Debug, Default)]
 pub struct SVstat {
     t: JobRequest,
@@ -150,7 +151,7 @@ impl SVstat {
     }
 }
 
-/// FB5 S_VSET: sets RTS and DTR with a write V.24 job (§5.9).
+/// FB5 S_VSET: sets RTS and DTR with a write V.24 job ([ET200S SI 2005] §2.10, Table 2-20).
 #[derive(Debug, Default)]
 pub struct SVset {
     t: JobRequest,
@@ -172,7 +173,7 @@ fn ten_ms(time: Duration, min_ms: u64) -> Result<u16, Status> {
     u16::try_from(ms / 10).map_err(|_| PARAMETER_OUT_OF_RANGE)
 }
 
-/// FB6 S_XON: XON/XOFF parameters, block 20H (§5.5).
+/// FB6 S_XON: XON/XOFF parameters, block 20H ([ET200S SI 2005] §2.10, Table 2-16).
 #[derive(Debug, Default)]
 pub struct SXon {
     t: JobRequest,
@@ -199,7 +200,7 @@ impl SXon {
     }
 }
 
-/// FB7 S_RTS: RTS/CTS parameters, block 21H (§5.6).
+/// FB7 S_RTS: RTS/CTS parameters, block 21H ([ET200S SI 2005] §2.10, Table 2-17).
 #[derive(Debug, Default)]
 pub struct SRts {
     t: JobRequest,
@@ -216,7 +217,7 @@ impl SRts {
     }
 }
 
-/// FB8 S_V24: automatic V.24 control parameters, block 22H (§5.7).
+/// FB8 S_V24: automatic V.24 control parameters, block 22H ([ET200S SI 2005] §2.10, Table 2-18).
 #[derive(Debug, Default)]
 pub struct SV24 {
     t: JobRequest,

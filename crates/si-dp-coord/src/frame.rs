@@ -8,7 +8,7 @@ use crate::coord::CoordByte;
 use core::fmt;
 use serde::{Deserialize, Serialize};
 
-/// The configured window size (et200s-si-2005-window-protocol.md §2.1): 4, 8 or 32 bytes in each
+/// The configured window size ([ET200S SI 2005] §2.12.1, Fig. 2-23): 4, 8 or 32 bytes in each
 /// direction, chosen with the hardware-catalogue variant of the module.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 pub enum WindowSize {
@@ -17,7 +17,7 @@ pub enum WindowSize {
     /// 8-byte window: 7 data bytes per segment (the one of every manual example but Table 2-28).
     #[default]
     Eight,
-    /// 32-byte window: 31 data bytes per segment. No example exists (H-62).
+    /// 32-byte window: 31 data bytes per segment. No example exists (`[derived]`).
     ThirtyTwo,
 }
 
@@ -52,7 +52,8 @@ impl WindowSize {
     /// Number of segments a payload stream of `stream_len` bytes needs (at least 1).
     ///
     /// For a send of LEN bytes the stream is LEN + 2 (the length word), so LEN = 22 in the 8-byte
-    /// window needs 4 segments (5 + 7 + 7 + 3) and LEN = 6 needs 2 (5 + 1), §2.6.
+    /// window needs 4 segments (5 + 7 + 7 + 3) and LEN = 6 needs 2 (5 + 1), [ET200S SI 2005]
+    /// §2.12.2–§2.12.6 `[derived]`.
     pub const fn segments(self, stream_len: usize) -> usize {
         let n = self.payload();
         if stream_len == 0 {
@@ -121,7 +122,8 @@ impl Window {
         &self.bytes[1..self.size.bytes()]
     }
 
-    /// The 16-bit word in bytes 1–2, MSB first (status word, length word; §2.5).
+    /// The 16-bit word in bytes 1–2, MSB first (status word, length word; [ET200S SI 2005]
+    /// §2.12.1).
     pub const fn word(&self) -> u16 {
         u16::from_be_bytes([self.bytes[1], self.bytes[2]])
     }
@@ -134,7 +136,7 @@ impl Window {
     }
 
     /// Writes `coord` and segment `k` (1-based) of `stream` into the window; bytes after the end
-    /// of the stream are 00H (the manual's "xx", H-13: the receiver relies on the length).
+    /// of the stream are 00H (the manual's "xx", `[derived]`: the receiver relies on the length).
     pub fn set_segment(&mut self, coord: CoordByte, stream: &[u8], k: usize) {
         self.clear();
         self.bytes[0] = coord.encode();
@@ -170,9 +172,10 @@ impl fmt::Debug for Window {
     }
 }
 
-/// The payload stream of a send job: `[LEN_hi][LEN_lo][data …]` (§2.6, reading H1 of
-/// et200s-si-3964r-ascii.md §9.9, confirmed by the 2005 extraction's Table 2-23 with
-/// `11 00 16 'a'…`). Writes into `out` (cleared first) so the caller can reuse its buffer.
+/// The payload stream of a send job: `[LEN_hi][LEN_lo][data …]` ([ET200S SI 2005] §2.12.2–§2.12.6
+/// `[derived]`, the most likely reading of [ET200S SI] §2.12, Tables 2-22 to 2-25 `[derived]`,
+/// confirmed by the 2005 manual's Table 2-23 with `11 00 16 'a'…`). Writes into `out` (cleared
+/// first) so the caller can reuse its buffer.
 pub fn send_stream(data: &[u8], out: &mut Vec<u8>) {
     out.clear();
     let len = u16::try_from(data.len()).unwrap_or(u16::MAX);
@@ -180,12 +183,13 @@ pub fn send_stream(data: &[u8], out: &mut Vec<u8>) {
     out.extend_from_slice(&data[..usize::from(len)]);
 }
 
-/// The V.24 signal states of the read/write V.24 jobs (§2.6, Tables 2-25/2-26): a 16-bit word,
-/// high byte 00H, low byte `0 0 0 DCD CTS RTS DSR DTR`.
+/// The V.24 signal states of the read/write V.24 jobs ([ET200S SI 2005] §2.12.2–§2.12.6
+/// `[derived]`, Tables 2-25/2-26): a 16-bit word, high byte 00H, low byte
+/// `0 0 0 DCD CTS RTS DSR DTR`.
 ///
-/// The printed table has nine label cells over eight bits (H-9); we read the leading "00" as the
-/// high byte of the MSB-first word, so the bit field is in window byte 2. The byte position is
-/// configurable ([`V24Layout`]) should a module put it in byte 1.
+/// The printed table has nine label cells over eight bits (`[derived]`); we read the leading "00"
+/// as the high byte of the MSB-first word, so the bit field is in window byte 2. The byte position
+/// is configurable ([`V24Layout`]) should a module put it in byte 1.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct V24Signals {
     /// Data carrier detect (input), bit 4.
@@ -221,8 +225,9 @@ impl V24Signals {
         }
     }
 
-    /// Only the outputs a write V.24 job can set: RTS (bit 2) and DTR (bit 0) (§2.6, derived
-    /// from §2.10.5/§2.8.5; the other bits are inputs of the module and have no effect).
+    /// Only the outputs a write V.24 job can set: RTS (bit 2) and DTR (bit 0) ([ET200S SI 2005]
+    /// §2.12.2–§2.12.6, derived from §2.10.5/§2.8.5; the other bits are inputs of the module and
+    /// have no effect).
     pub const fn outputs(self) -> V24Signals {
         V24Signals {
             dcd: false,
@@ -246,7 +251,7 @@ impl From<si_core::ModemSignals> for V24Signals {
     }
 }
 
-/// Where the V.24 bit field sits in the 16-bit signal word (H-9).
+/// Where the V.24 bit field sits in the 16-bit signal word (`[derived]`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum V24Layout {
     /// Byte 1 = 00H, byte 2 = bit field (our reading: the word is MSB first and its high byte is
@@ -275,8 +280,9 @@ impl V24Layout {
     }
 }
 
-/// A flow-control parameter block of the parameter job (Table 2-27, §2.6). Times are raw counts
-/// of 10 ms, exactly as they cross the window (H-52): 200 = 2 s.
+/// A flow-control parameter block of the parameter job (Table 2-27, [ET200S SI 2005]
+/// §2.12.2–§2.12.6 `[derived]`). Times are raw counts of 10 ms, exactly as they cross the window
+/// (`[derived]`): 200 = 2 s.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum ParamBlock {
     /// Block 20H, XON/XOFF: XON and XOFF characters, wait time for XON after XOFF.
@@ -334,7 +340,7 @@ pub enum ParamError {
 impl ParamBlock {
     /// The XON/XOFF defaults of Table 2-27: DC1 = 11H, DC3 = 13H, 2 s. The example Table 2-28
     /// transmits 0BH/0DH (decimal 11/13) as "DC1/DC3"; §2.8.2 and ASCII say 11H/13H, which we use
-    /// (H-3).
+    /// (`[derived]`).
     pub const XON_XOFF_DEFAULT: ParamBlock = ParamBlock::XonXoff {
         xon: 0x11,
         xoff: 0x13,
@@ -437,8 +443,9 @@ impl ParamBlock {
     }
 }
 
-/// The receive status the module publishes in bytes 1–2 while idle (§2.5), plus 0101H, the
-/// answer to a receive job when nothing is there (§2.8, H-6).
+/// The receive status the module publishes in bytes 1–2 while idle ([ET200S SI 2005] §2.12.1), plus
+/// 0101H, the answer to a receive job when nothing is there ([ET200S SI 2005] §2.12.7,
+/// `[derived]`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum RxStatus {
     /// 0000H: no received frame.

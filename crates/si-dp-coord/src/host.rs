@@ -1,43 +1,46 @@
 //! The host engine: what a non-S7 DP master (PC card, gateway, test tool) runs to talk to an
 //! ET 200S serial module through its coordination-byte window.
 //!
-//! et200s-si-2005-window-protocol.md §2.4 (rules for writing a job code), §2.8 (error handling)
-//! and §2.9 (host-side state machines). Call [`Host::cycle`] once per DP cycle (or host cycle)
-//! with the input window just read; write the returned output window back as one consistent
-//! block. Jobs are submitted with [`Host::submit`] and end in exactly one
-//! [`HostEvent::Completed`], taken with [`Host::poll_event`] (or, for one job, with
-//! [`Host::take_completion`]).
+//! [ET200S SI 2005] §2.12.1 (rules for writing a job code), §2.12.7 (error handling)
+//! and [ET200S SI 2005] §2.12.1–§2.12.7 `[derived]` (host-side state machines). Call
+//! [`Host::cycle`] once per DP cycle (or host cycle) with the input window just read; write the
+//! returned output window back as one consistent block. Jobs are submitted with [`Host::submit`]
+//! and end in exactly one [`HostEvent::Completed`], taken with [`Host::poll_event`] (or, for one
+//! job, with [`Host::take_completion`]).
 //!
 //! The engine reads no clock: `now` is only used by the job watchdog.
 //!
 //! # The arbiter
 //!
-//! Only one job owns byte 0 (§2.4, derived in §2.9). A job code is written only in a cycle
-//! where the module shows idle (00H, no error bit) *and* the host's previous output byte 0 was
-//! 00H, so every job starts from a clean idle on both sides. A job that reads the acknowledgement
-//! of a foreign job code backs off (rule 3): it writes 00H, waits for idle, and starts again,
-//! reported as [`HostEvent::BackedOff`].
+//! Only one job owns byte 0 ([ET200S SI 2005] §2.12.1, derived in §2.12.1–§2.12.7 `[derived]`). A
+//! job code is written only in a cycle where the module shows idle (00H, no error bit) *and* the
+//! host's previous output byte 0 was 00H, so every job starts from a clean idle on both sides. A
+//! job that reads the acknowledgement of a foreign job code backs off (rule 3): it writes 00H,
+//! waits for idle, and starts again, reported as [`HostEvent::BackedOff`].
 //!
 //! # Readings chosen where the manual is unclear
 //!
 //! * A send or parameter job completes when the end-of-job acknowledgement 7xH arrives, with the
 //!   STATUS of bytes 1–2 (0000H = done); write V.24 completes on the 40H acknowledgement. The host
-//!   then writes 00H and waits for the module's idle before the next job (§2.9 `DONE`).
+//!   then writes 00H and waits for the module's idle before the next job ([ET200S SI 2005]
+//!   §2.12.1–§2.12.7 `[derived]` `DONE`).
 //! * A receive or read V.24 job completes when the module shows idle after the host's last echo.
-//!   The host holds the echo until then and writes 00H afterwards (H-11; writing 00H earlier would
-//!   abort the transfer, §2.8).
+//!   The host holds the echo until then and writes 00H afterwards (`[derived]`; writing 00H earlier
+//!   would abort the transfer, [ET200S SI 2005] §2.12.7).
 //! * A receive job answered with 20H and 0101H (or 0000H) completes with
-//!   [`Outcome::NoMessage`]; 20H with any other word is a failure with that STATUS (§2.8).
+//!   [`Outcome::NoMessage`]; 20H with any other word is a failure with that STATUS
+//!   ([ET200S SI 2005] §2.12.7).
 //! * An out-of-order receive segment sets the error bit with the last valid number. The host then
 //!   accepts either answer: the segment after the last valid one (the general go-back rule) or
-//!   20H with a STATUS (Table 2-21: 0551H abort; the frame is offered again by a later job, H-7).
+//!   20H with a STATUS (Table 2-21: 0551H abort; the frame is offered again by a later job,
+//!   `[derived]`).
 //! * The end-of-job acknowledgement is accepted with any exec number: the manual does not say
-//!   which number a 7xH carries when the module ends a job early (H-10).
+//!   which number a 7xH carries when the module ends a job early (`[derived]`).
 //! * A received frame longer than [`HostConfig::max_frame_len`] is still read to its end (and
 //!   dropped, failing with 0850H): aborting instead would leave it first in the module's buffer
 //!   and every later receive job would meet it again.
-//! * Each job has a watchdog ([`HostConfig::job_timeout`], H-12); on expiry the job fails with
-//!   [`HostConfig::watchdog_status`] and the host writes 00H, which aborts the module's side.
+//! * Each job has a watchdog ([`HostConfig::job_timeout`], `[derived]`); on expiry the job fails
+//!   with [`HostConfig::watchdog_status`] and the host writes 00H, which aborts the module's side.
 
 use crate::config::{ConfigError, HostConfig};
 use crate::coord::{CoordByte, JobCode};
@@ -98,11 +101,11 @@ impl Job {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Outcome {
     /// Send: the module acknowledged the end of the job with 0000H, i.e. the frame went to the
-    /// partner (§2.9).
+    /// partner ([ET200S SI 2005] §2.12.1–§2.12.7 `[derived]`).
     Sent,
     /// Receive: the complete frame.
     Received(Bytes),
-    /// Receive: the module had no frame (20H + 0101H, "not an error", §2.8).
+    /// Receive: the module had no frame (20H + 0101H, "not an error", [ET200S SI 2005] §2.12.7).
     NoMessage,
     /// Read V.24: the signal states.
     Signals(V24Signals),
@@ -125,7 +128,7 @@ pub enum HostEvent {
         result: Result<Outcome, Status>,
     },
     /// The job read a foreign job acknowledgement, wrote idle and will start again once the module
-    /// is idle (§2.4 rule 3, §2.8 "sender gets another job code").
+    /// is idle ([ET200S SI 2005] §2.12.1 rule 3, §2.12.7 "sender gets another job code").
     BackedOff {
         /// The job.
         id: JobId,
@@ -261,7 +264,7 @@ pub struct Host {
 
 impl Host {
     /// A host engine; its first output is idle (00H), and it waits for the module's idle before
-    /// the first job, as after any host restart (§2.10).
+    /// the first job, as after any host restart ([ET200S SI 2005] §2.12.2, §2.12.3, §2.11).
     pub fn new(cfg: HostConfig) -> Result<Host, ConfigError> {
         cfg.validate()?;
         Ok(Host {
@@ -318,8 +321,8 @@ impl Host {
     }
 
     /// Ends one job with 1E0DH ("aborted by reset"), queued or running: the R input of one FB.
-    /// A running job writes idle, which aborts the module's side (§2.8). False if `id` is
-    /// neither queued nor running (already completed, or unknown).
+    /// A running job writes idle, which aborts the module's side ([ET200S SI 2005] §2.12.7). False
+    /// if `id` is neither queued nor running (already completed, or unknown).
     pub fn abort(&mut self, id: JobId) -> bool {
         if let Some(a) = self.active.take() {
             if a.id == id {
@@ -356,7 +359,8 @@ impl Host {
         }
     }
 
-    /// The receive status of the last idle window read (0000H, 0001H, 0B01H; §2.5).
+    /// The receive status of the last idle window read (0000H, 0001H, 0B01H; [ET200S SI 2005]
+    /// §2.12.1).
     pub fn receive_status(&self) -> Option<RxStatus> {
         self.rx_status
     }
@@ -399,8 +403,8 @@ impl Host {
             self.out.clear();
             self.active = self.next_job(now);
         }
-        // §2.4 rule 1, and our clean-start reading: a job code is written only after the
-        // module's idle was read while our own byte 0 was already idle.
+        // [ET200S SI 2005] §2.12.1 rule 1, and our clean-start reading: a job code is written only
+        // after the module's idle was read while our own byte 0 was already idle.
         if out_was_idle && c.is_idle() {
             if let Some(mut a) = self.active.take() {
                 if matches!(a.phase, Phase::WaitIdle) {
@@ -434,7 +438,7 @@ impl Host {
             }
             Job::ReadV24 => Phase::ReadV24,
             Job::WriteV24 { rts, dtr } => {
-                // The only job whose request carries data (Table 2-26, H-8).
+                // The only job whose request carries data (Table 2-26, [derived]).
                 let signals = V24Signals {
                     rts: *rts,
                     dtr: *dtr,
@@ -496,7 +500,7 @@ impl Host {
         self.out.clear();
     }
 
-    /// Rule 3 / §2.8: cancel, write idle, wait for idle, repeat the whole job.
+    /// Rule 3 / [ET200S SI 2005] §2.12.7: cancel, write idle, wait for idle, repeat the whole job.
     fn back_off(&mut self, mut a: Active, seen: CoordByte) -> Option<Active> {
         self.stats.backoffs += 1;
         if self.events.len() < self.cfg.queue_capacity + EVENT_SLACK {
@@ -508,7 +512,7 @@ impl Host {
         Some(a)
     }
 
-    /// The execution number of segment `k` under the configured wrap (H-5).
+    /// The execution number of segment `k` under the configured wrap (`[derived]`).
     fn exec(&self, k: usize) -> u8 {
         self.cfg.exec_wrap.of_segment(k)
     }
@@ -545,7 +549,8 @@ impl Host {
         }
     }
 
-    /// Send/parameters, request 10H/50H out: wait for the acceptance (§2.4 rule 2).
+    /// Send/parameters, request 10H/50H out: wait for the acceptance ([ET200S SI 2005] §2.12.1 rule
+    /// 2).
     fn on_request(&mut self, job: &Job, c: CoordByte, word: u16) -> Next {
         let code = job.code();
         if c.job == JobCode::Idle || (c.job == code && c != CoordByte::new(code, 0)) {
@@ -559,7 +564,8 @@ impl Host {
                 in_error: None,
             }))
         } else if c.job == JobCode::EndOfJob {
-            // Refused before any segment (§2.9: "7xH → rejected").
+            // Refused before any segment ([ET200S SI 2005] §2.12.1–§2.12.7 [derived]: "7xH →
+            // rejected").
             Next::Done(Err(status_or(word, NOT_POSSIBLE_IN_MODE)))
         } else {
             Next::BackOff
@@ -567,7 +573,7 @@ impl Host {
     }
 
     /// Send/parameters, segment `k` of `last` shown: advance on the echo, go back on the error
-    /// bit, finish on 7xH (§2.8, §2.9).
+    /// bit, finish on 7xH ([ET200S SI 2005] §2.12.7, §2.12.1–§2.12.7 `[derived]`).
     fn on_sending(&mut self, job: &Job, c: CoordByte, word: u16, st: SendState) -> Next {
         let SendState {
             mut k,
@@ -609,7 +615,8 @@ impl Host {
                 Err(NOT_POSSIBLE_IN_MODE)
             });
         } else {
-            // Another job code: cancel, wait for idle, repeat the whole job (§2.8).
+            // Another job code: cancel, wait for idle, repeat the whole job ([ET200S SI 2005]
+            // §2.12.7).
             return Next::BackOff;
         }
         Next::Stay(Phase::Sending(SendState {
@@ -631,13 +638,13 @@ impl Host {
         } = st;
         let word = inw.word();
         let complete = k > 0 && got >= len;
-        // With 7 → 0 (H-5) number 0 is also a segment's: the next one or the last valid one
+        // With 7 → 0 ([derived]) number 0 is also a segment's: the next one or the last valid one
         // again. While our error bit is out, 20H is the module's abort answer (Table 2-21).
         let zero_is_segment = k > 0 && !error && (self.exec(k) == 0 || self.exec(k + 1) == 0);
         if c.job == JobCode::Receive && !c.error {
             if c.exec == 0 && !zero_is_segment {
                 // 20H + STATUS: nothing there, an erroneous frame, or the abort after our error
-                // bit (§2.8, Table 2-21).
+                // bit ([ET200S SI 2005] §2.12.7, Table 2-21).
                 return Next::Done(if word == 0x0101 || word == 0 {
                     if k == 0 && !error {
                         Ok(Outcome::NoMessage)
@@ -678,7 +685,7 @@ impl Host {
                     self.echo_receive(CoordByte::new(JobCode::Receive, self.exec(k)));
                 }
             } else {
-                // Out of order: error bit + last valid number (§2.8).
+                // Out of order: error bit + last valid number ([ET200S SI 2005] §2.12.7).
                 if !error {
                     self.stats.errors_signalled += 1;
                 }
@@ -696,14 +703,14 @@ impl Host {
                 Err(RECEIVED_FRAME_TOO_LONG)
             });
         } else if c.job == JobCode::EndOfJob {
-            // 111 during the transfer: aborted (§2.8).
+            // 111 during the transfer: aborted ([ET200S SI 2005] §2.12.7).
             return Next::Done(Err(TRANSFER_ERROR_TO_CPU));
         } else if k == 0 && !matches!(c.job, JobCode::Idle | JobCode::Receive) {
             // The module acknowledged someone else's job.
             return Next::BackOff;
         }
         // Otherwise (idle before the module saw the request, a foreign code mid-transfer, which
-        // the receiver ignores with its data, §2.8): hold.
+        // the receiver ignores with its data, [ET200S SI 2005] §2.12.7): hold.
         Next::Stay(Phase::Receiving(RecvState { k, len, got, error }))
     }
 

@@ -2,7 +2,7 @@
 //!
 //! The coordination-byte window protocol through which a non-S7 PROFIBUS-DP master (a PC card,
 //! a gateway, a test tool) talks to an ET 200S serial interface module
-//! (et200s-si-2005-window-protocol.md §2, the manual's §2.12 "reference data for DP masters other
+//! ([ET200S SI 2005] §2.12 "reference data for DP masters other
 //! than S7").
 //!
 //! Each DP cycle the master writes a 4-, 8- or 32-byte output window and reads the input window
@@ -24,8 +24,8 @@
 //! * [`engines`]: si-3964r's and si-ascii's links as that serial side, so a simulated module runs
 //!   3964(R) or ASCII on its line.
 //! * [`modbus`]: si-modbus's master as that serial side: the module in Modbus master mode, the
-//!   S_SEND job layout (et200s-si-modbus-uss.md §4.3) in, the S_RCV response layout (§4.4) or
-//!   the job's STATUS out.
+//!   S_SEND job layout ([Modbus/USS] §3.4.5–§3.4.16) in, the S_RCV response layout ([Modbus/USS]
+//!   §3.4.5–§3.4.16) or the job's STATUS out.
 //! * [`sim`]: a host and a module joined by a seeded, lagging, fault-injecting DP exchange.
 //! * [`monitor`]: reads a recorded trace of DP windows window by window, coordination bytes
 //!   and what the data bytes mean for them.
@@ -34,7 +34,7 @@
 //!
 //! **Not built:** the Modbus/USS module's USS master mode and Modbus slave mode through the
 //! window. What the Modbus slave driver hands S_MODB through S_RCV, and takes back through
-//! S_SEND, is not documented (et200s-si-2005-window-protocol.md H-56), and no USS job layout for
+//! S_SEND, is not documented ([ET200S SI 2005] `[derived]`), and no USS job layout for
 //! the window is given either; nothing is invented for them.
 //!
 //! What describes the module itself rather than the window (its parameter sets per driver, its
@@ -43,25 +43,25 @@
 //!
 //! # Readings chosen where the manual is unclear
 //!
-//! et200s-si-2005-window-protocol.md §12.1 lists the gaps; each reading is documented next to the
+//! [ET200S SI 2005] §2.12 `[derived]` lists the gaps; each reading is documented next to the
 //! code that depends on it. In short:
 //!
 //! | Gap | Reading | Configurable |
 //! |---|---|---|
-//! | H-1 Table 2-23 data shifted | the extraction's reconstruction (hold each segment until echoed) | — |
-//! | H-2 receive request printed 10H | 20H | — |
-//! | H-3 XON/XOFF 0BH/0DH in Table 2-28 | defaults DC1/DC3 = 11H/13H; any byte may be sent | values |
-//! | H-4 "LSB" label on the 00H byte | MSB first, as every 16-bit word (§2.5) | — |
-//! | H-5 exec number after 7 | 1 (0 would equal the request bytes 10H/20H); [`coord::ExecWrap`] | `exec_wrap` (7 → 1 or 7 → 0) |
-//! | H-6 0101H | the answer 20H + 0101H to a receive job with nothing buffered, "not an error" | — |
-//! | H-7 host error bit in a receive job | module aborts with 20H + 0551H and re-offers the frame | [`config::ReceiveErrorPolicy`] |
-//! | H-8 write V.24 | data in the request, answer 40H + STATUS, host writes 00H | — |
-//! | H-9 V.24 bit layout | byte 1 = 00H, byte 2 = `DCD CTS RTS DSR DTR` in bits 4…0 | [`frame::V24Layout`] |
-//! | H-10 LEN > maximum | 7xH (exec of the segment with the length) + 050EH right after it | `max_frame_len` |
-//! | H-11 end of receive / read V.24 | the host holds its last echo until the module is idle, then writes 00H | — |
-//! | H-12 no timeouts | host job watchdog, default 30 s, STATUS 0502H | [`HostConfig`] |
-//! | H-13 don't-care bytes | written as 00H, ignored when read | — |
-//! | H-14 224 vs 200 bytes | 224 (chapter 2); 200 for the Modbus/USS module ([`modbus::MAX_FRAME_LEN`]) | `max_frame_len` |
+//! | Table 2-23 data shifted | our reconstruction `[derived]` (hold each segment until echoed) | — |
+//! | receive request printed 10H | 20H | — |
+//! | XON/XOFF 0BH/0DH in Table 2-28 | defaults DC1/DC3 = 11H/13H; any byte may be sent | values |
+//! | "LSB" label on the 00H byte | MSB first, as every 16-bit word ([ET200S SI 2005] §2.12.1) | — |
+//! | exec number after 7 | 1 (0 would equal the request bytes 10H/20H); [`coord::ExecWrap`] | `exec_wrap` (7 → 1 or 7 → 0) |
+//! | 0101H | the answer 20H + 0101H to a receive job with nothing buffered, "not an error" | — |
+//! | host error bit in a receive job | module aborts with 20H + 0551H and re-offers the frame | [`config::ReceiveErrorPolicy`] |
+//! | write V.24 | data in the request, answer 40H + STATUS, host writes 00H | — |
+//! | V.24 bit layout | byte 1 = 00H, byte 2 = `DCD CTS RTS DSR DTR` in bits 4…0 | [`frame::V24Layout`] |
+//! | LEN > maximum | 7xH (exec of the segment with the length) + 050EH right after it | `max_frame_len` |
+//! | end of receive / read V.24 | the host holds its last echo until the module is idle, then writes 00H | — |
+//! | no timeouts | host job watchdog, default 30 s, STATUS 0502H | [`HostConfig`] |
+//! | don't-care bytes | written as 00H, ignored when read | — |
+//! | 224 vs 200 bytes | 224 (chapter 2); 200 for the Modbus/USS module ([`modbus::MAX_FRAME_LEN`]) | `max_frame_len` |
 //!
 //! ```
 //! use si_dp_coord::{host::{Host, Job, HostEvent, Outcome}, module::{Module, LoopbackSerial}};

@@ -2,41 +2,43 @@
 //! responses through the window.
 //!
 //! The Modbus/USS module's manual has no window chapter of its own; it uses the same S_SEND and
-//! S_RCV over the same window (et200s-si-2005-window-protocol.md §2.11, a derived reading), so the
-//! window carries exactly what those FBs move (et200s-si-modbus-uss.md §4.2–§4.4):
+//! S_RCV over the same window ([ET200S SI 2005] §2.12, a derived reading), so the
+//! window carries exactly what those FBs move ([Modbus/USS] §3.4.2, §3.4.5–§3.4.16):
 //!
 //! | Window | Content | Source |
 //! |---|---|---|
-//! | send job (10H …) | the S_SEND source area: slave address, function code, start / address, quantity / value, FC15/16 data (the module adds byte count and CRC) | M §4.3 |
-//! | 7xH + STATUS after the send | 0000H once the slave's response has arrived (or a broadcast's turnaround has passed); the job's failure otherwise | M §4.2 Fig. 3-7, §11.8 |
-//! | receive job (20H …) | the response in the S_RCV destination layout: read data only (FC01/02 first byte → low byte of the word), the echo for writes | M §4.4 |
-//! | receive job answered 20H + STATUS | the failure of the job: 0830H no response, 0E61H–0E67H exception, 0E50H–0E57H, 0831H response errors | M §4.4, §3.6, §7.3–§7.4 |
+//! | send job (10H …) | the S_SEND source area: slave address, function code, start / address, quantity / value, FC15/16 data (the module adds byte count and CRC) | [Modbus/USS] §3.4.5–§3.4.16 |
+//! | 7xH + STATUS after the send | 0000H once the slave's response has arrived (or a broadcast's turnaround has passed); the job's failure otherwise | [Modbus/USS] §3.4.2, Fig. 3-7 `[derived]` |
+//! | receive job (20H …) | the response in the S_RCV destination layout: read data only (FC01/02 first byte → low byte of the word), the echo for writes | [Modbus/USS] §3.4.5–§3.4.16 |
+//! | receive job answered 20H + STATUS | the failure of the job: 0830H no response, 0E61H–0E67H exception, 0E50H–0E57H, 0831H response errors | [Modbus/USS] §3.4.5–§3.4.16, §3.3.6, Table 3-12, §3.6 |
 //!
 //! Readings:
 //! * **A failed job is reported twice**: with the end-of-job acknowledgement of the send job and
 //!   with the next receive job, as si-modbus's S_SEND and S_RCV both report it (Figure 3-7 labels
-//!   both ERROR lines; §11.8). The send job's 7xH therefore comes only when the master's job has
-//!   ended, after the response or the response time (default 2 s); the window's own rule that
-//!   7xH follows the transmission (§2.9) is kept in the sense that the job's "transmission" is
-//!   the whole request–response exchange (M §4.2: S_SEND DONE with S_RCV NDR).
-//! * **Refused jobs** (a source area breaking §4.3: 0E40H–0E4AH, 1E41H) end the send job at once
-//!   with 7xH + that STATUS and reach neither the line nor the receive buffer.
-//! * **Frame limit 200 bytes** both ways (M §4.2 LEN 1…200, 050EH; H-14): a longer send job is
-//!   refused with 050EH by the window module itself, and a response whose S_RCV layout is longer
-//!   than 200 bytes (FC03/04 above 100 registers, FC01/02 above 1600 bits, §4.5) is never cut:
-//!   si-modbus's job check may refuse such a read before the line (050EH, its reading of §4.5);
-//!   a longer response that still arrives is refused by the window module, and the receive job
-//!   gets 20H + 0850H.
+//!   both ERROR lines; [Modbus/USS] §3.4.2 `[derived]`). The send job's 7xH therefore comes only
+//!   when the master's job has ended, after the response or the response time (default 2 s); the
+//!   window's own rule that 7xH follows the transmission ([ET200S SI 2005] §2.12.1–§2.12.7
+//!   `[derived]`) is kept in the sense that the job's "transmission" is the whole request–response
+//!   exchange ([Modbus/USS] §3.4.2: S_SEND DONE with S_RCV NDR).
+//! * **Refused jobs** (a source area breaking [Modbus/USS] §3.4.5–§3.4.16: 0E40H–0E4AH, 1E41H) end
+//!   the send job at once with 7xH + that STATUS and reach neither the line nor the receive buffer.
+//! * **Frame limit 200 bytes** both ways ([Modbus/USS] §3.4.2 LEN 1…200, 050EH; `[derived]`): a
+//!   longer send job is refused with 050EH by the window module itself, and a response whose S_RCV
+//!   layout is longer than 200 bytes (FC03/04 above 100 registers, FC01/02 above 1600 bits,
+//!   [Modbus/USS] §3.4.5–§3.4.16) is never cut: si-modbus's job check may refuse such a read before
+//!   the line (050EH, its reading of [Modbus/USS] §3.4.5–§3.4.16); a longer response that still
+//!   arrives is refused by the window module, and the receive job gets 20H + 0850H.
 //! * The module's receive buffer holds the responses; the master runs one job at a time, and a
 //!   send job while one runs is refused with 0502H.
 //! * Parameter jobs are refused with 0550H (the Modbus module offers no flow-control block
-//!   through the window, §2.11); write V.24 sets RTS/DTR on the line directly.
+//!   through the window, [ET200S SI 2005] §2.12 `[derived]`); write V.24 sets RTS/DTR on the line
+//!   directly.
 //! * Line diagnostics outside a job ([`MasterEvent::Diagnostic`], the module's SYSTAT entries)
 //!   are not window content; they stay events of the station.
 //!
 //! USS master and Modbus slave mode through the window are **not built**: the format of what
 //! the Modbus slave driver passes to S_MODB through S_RCV and back through S_SEND is not
-//! documented (H-56), nor is any USS job layout for the window.
+//! documented (`[derived]`), nor is any USS job layout for the window.
 
 use crate::config::{ConfigError, FlowControl, ModuleConfig};
 use crate::frame::WindowSize;
@@ -49,11 +51,12 @@ use si_core::status::common::NOT_POSSIBLE_IN_MODE;
 use si_core::{FramePool, Instant, Status};
 use si_modbus::master::{Master, MasterEvent};
 
-/// The Modbus module's frame limit through the window: 200 bytes (M §4.2, H-14).
+/// The Modbus module's frame limit through the window: 200 bytes ([Modbus/USS] §3.4.2,
+/// `[derived]`).
 pub const MAX_FRAME_LEN: usize = si_modbus::fb::MAX_LEN;
 
 /// Room for the longest S_RCV layout a Modbus response can have: 2040 coils are 255 bytes,
-/// stored as 128 words (M §4.4); 127 registers are 254 bytes.
+/// stored as 128 words ([Modbus/USS] §3.4.5–§3.4.16); 127 registers are 254 bytes.
 const RESPONSE_AREA: usize = 256;
 
 /// The hooks for a [`Master`].
@@ -69,7 +72,8 @@ fn master_send(master: &mut Master, now: Instant, job: &[u8]) -> Result<(), Stat
     master_send_bytes(master, now, Bytes::copy_from_slice(job))
 }
 
-/// Starts the job the S_SEND source area describes (M §4.3), as si-modbus's S_SEND does.
+/// Starts the job the S_SEND source area describes ([Modbus/USS] §3.4.5–§3.4.16), as si-modbus's
+/// S_SEND does.
 fn master_send_bytes(master: &mut Master, now: Instant, job: Bytes) -> Result<(), Status> {
     match master.start_job(now, job) {
         Ok(_) => Ok(()),
@@ -86,7 +90,8 @@ fn master_classify(event: &MasterEvent) -> Option<LineEvent> {
     }
 }
 
-/// The response of the job that just ended in the S_RCV layout (M §4.4), or its failure.
+/// The response of the job that just ended in the S_RCV layout ([Modbus/USS] §3.4.5–§3.4.16), or
+/// its failure.
 fn master_take(
     master: &mut Master,
     now: Instant,
@@ -135,7 +140,7 @@ mod tests {
     #[test]
     fn a_refused_source_area_ends_the_send_at_once() {
         let mut side = master(Master::new(MasterConfig::default()).unwrap());
-        // FC09 is not a function of the module: 0E42H (M §4.3).
+        // FC09 is not a function of the module: 0E42H ([Modbus/USS] §3.4.5–§3.4.16).
         let err = side
             .send(Instant::ZERO, &[0x05, 0x09, 0, 0, 0, 1])
             .unwrap_err();

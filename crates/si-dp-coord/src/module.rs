@@ -1,41 +1,44 @@
 //! The module engine: the ET 200S SI module's side of the window protocol, for simulation, test
 //! doubles and gateways that play the module.
 //!
-//! et200s-si-2005-window-protocol.md §2.9 ("Module-side state machine", the mirror image of the
-//! host's) and §2.8. Call [`Module::cycle`] once per DP cycle with the output window the master
-//! wrote; it returns the input window the master will read. The serial line sits behind the
-//! [`SerialSide`] trait, so any line engine (3964(R), ASCII, a loopback) can be plugged in
-//! through a small adapter; [`LoopbackSerial`] is the one the tests and simulations use.
+//! [ET200S SI 2005] §2.12.1–§2.12.7 `[derived]` ("Module-side state machine", the mirror image of
+//! the host's) and [ET200S SI 2005] §2.12.7. Call [`Module::cycle`] once per DP cycle with the
+//! output window the master wrote; it returns the input window the master will read. The serial
+//! line sits behind the [`SerialSide`] trait, so any line engine (3964(R), ASCII, a loopback) can
+//! be plugged in through a small adapter; [`LoopbackSerial`] is the one the tests and simulations
+//! use.
 //!
 //! # Behaviour, job by job
 //!
 //! * **Idle:** publishes 00H and the receive status in bytes 1–2: 0000H none, 0001H a frame (or a
-//!   receive error) waiting, 0B01H buffer more than 2/3 full (§2.5). A job starts only from a
-//!   request byte (job code, no error bit, exec 0); anything else is ignored.
+//!   receive error) waiting, 0B01H buffer more than 2/3 full ([ET200S SI 2005] §2.12.1). A job
+//!   starts only from a request byte (job code, no error bit, exec 0); anything else is ignored.
 //! * **Send (1) / parameters (5):** accepts with the job code and exec 0 (status word = the
 //!   receive status), then checks each segment's exec number against last + 1 (after 7: 1, or 0
-//!   with [`ModuleConfig::exec_wrap`], H-5): in order → echo; the same number again → ignore
-//!   (the host holds a segment until echoed); anything else → error bit with the last valid
-//!   number (§2.8). After the last segment a send frame goes to
+//!   with [`ModuleConfig::exec_wrap`], `[derived]`): in order → echo; the same number again →
+//!   ignore (the host holds a segment until echoed); anything else → error bit with the last valid
+//!   number ([ET200S SI 2005] §2.12.7). After the last segment a send frame goes to
 //!   the serial side and the module answers 7xH + STATUS only when it has been transmitted
-//!   (§2.9); a parameter block is applied one cycle after its last echo (Table 2-28 shows 53H
-//!   before 73H). 7xH carries the exec number of the last segment. A length word of 0 or above
-//!   `max_frame_len` is answered at once after the segment carrying it with 7xH + 050EH (§2.8
-//!   case 1, H-10).
-//! * **Receive (2):** no frame → 20H + 0101H; a buffered receive error → 20H + its STATUS (§2.8
-//!   cases 2–3); else segment 1 at once as 21H with the length word (H-66), each further segment
-//!   after the host's echo, idle after the echo of the last one (the frame is then removed).
-//!   The host's error bit → [`ReceiveErrorPolicy`] (H-7).
+//!   ([ET200S SI 2005] §2.12.1–§2.12.7 `[derived]`); a parameter block is applied one cycle after
+//!   its last echo (Table 2-28 shows 53H before 73H). 7xH carries the exec number of the last
+//!   segment. A length word of 0 or above `max_frame_len` is answered at once after the segment
+//!   carrying it with 7xH + 050EH ([ET200S SI 2005] §2.12.7 case 1, `[derived]`).
+//! * **Receive (2):** no frame → 20H + 0101H; a buffered receive error → 20H + its STATUS
+//!   ([ET200S SI 2005] §2.12.7 cases 2–3); else segment 1 at once as 21H with the length word
+//!   (`[derived]`), each further segment after the host's echo, idle after the echo of the last one
+//!   (the frame is then removed). The host's error bit → [`ReceiveErrorPolicy`] (`[derived]`).
 //! * **Read V.24 (3):** 31H + signal word, idle after the host's echo 31H (Table 2-25).
 //! * **Write V.24 (4):** the signal word rides in the request; answers 40H + STATUS and waits for
-//!   the host's 00H (Table 2-26, H-8).
+//!   the host's 00H (Table 2-26, `[derived]`).
 //! * **Aborts:** idle (000) or 111 from the host during any job → idle, no error bit; a foreign job
-//!   code → ignored with its data (§2.8). A frame already handed to the serial side is still
-//!   sent (H-60); a frame being delivered stays in the buffer and is offered again.
+//!   code → ignored with its data ([ET200S SI 2005] §2.12.7). A frame already handed to the serial
+//!   side is still sent (`[derived]`); a frame being delivered stays in the buffer and is offered
+//!   again.
 //! * The 7xH / 20H / 40H answers are held until the host writes 00H (or 111).
-//! * No module-side timeout (the manual has none, H-12): a DP master that stops makes the
+//! * No module-side timeout (the manual has none, `[derived]`): a DP master that stops makes the
 //!   module's outputs fail safe to 0, which is the idle code, so a half-done job is aborted by
-//!   the rule above; a host restart writes 00H first for the same effect (§2.10).
+//!   the rule above; a host restart writes 00H first for the same effect ([ET200S SI 2005] §2.12.2,
+//!   §2.12.3, §2.11).
 
 use crate::config::{ConfigError, FlowControl, ModuleConfig, ReceiveErrorPolicy};
 use crate::coord::{CoordByte, ExecWrap, JobCode};
@@ -55,7 +58,7 @@ pub enum SerialEvent {
     /// A complete frame arrived from the partner.
     Received(Bytes),
     /// A frame was received with an error; the STATUS is delivered to the next receive job
-    /// (20H + STATUS, §2.8 case 2).
+    /// (20H + STATUS, [ET200S SI 2005] §2.12.7 case 2).
     ReceiveFailed(Status),
     /// The frame handed over with [`SerialSide::send`] has been transmitted (or failed).
     SendDone(Result<(), Status>),
@@ -177,9 +180,9 @@ impl<S: SerialSide> Module<S> {
         Ok(m)
     }
 
-    /// A module restart or re-parameterization (et200s-si-modbus-uss.md §8.2, §8.4): the running
+    /// A module restart or re-parameterization ([Modbus/USS] §3.8.2, §3.8.4): the running
     /// job is dropped and the module shows idle; with `clear_receive_buffer` (the parameter
-    /// "clear receive buffer on startup", default yes, et200s-si-2005-window-protocol.md §4.3)
+    /// "clear receive buffer on startup", default yes, [ET200S SI 2005] §2.8.3, Table 2-8)
     /// the buffered frames are lost too. A frame already with the serial side still goes out.
     pub fn restart(&mut self, clear_receive_buffer: bool) {
         self.phase = Phase::Idle;
@@ -191,7 +194,7 @@ impl<S: SerialSide> Module<S> {
         self.publish_idle();
     }
 
-    /// Counts execution numbers past 7 this way (H-5; [`ModuleConfig::exec_wrap`]), for a
+    /// Counts execution numbers past 7 this way (`[derived]`; [`ModuleConfig::exec_wrap`]), for a
     /// module built by a constructor that takes no configuration (`engines::r3964r_module`, …).
     pub fn with_exec_wrap(mut self, wrap: ExecWrap) -> Self {
         self.cfg.exec_wrap = wrap;
@@ -279,7 +282,7 @@ impl<S: SerialSide> Module<S> {
                         || self.rx_bytes + frame.len() > self.cfg.rx_buffer_bytes
                     {
                         // "Prevent overwriting" (default yes): the newest frame is discarded
-                        // and the loss reported (et200s-si-2005-window-protocol.md §4.3).
+                        // and the loss reported ([ET200S SI 2005] §2.8.3, Table 2-8).
                         self.stats.frames_dropped += 1;
                         self.buffer_error(NO_FREE_RECEIVE_BUFFER);
                     } else {

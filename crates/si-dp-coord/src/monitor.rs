@@ -1,4 +1,4 @@
-//! The coordination-byte window protocol (et200s-si-2005-window-protocol.md §2): not a serial
+//! The coordination-byte window protocol ([ET200S SI 2005] §2.12): not a serial
 //! line but the DP process image the host and the module exchange every DP cycle.
 //!
 //! A window trace (`si sim dp-coord-send --record`, header protocol `dp-coord`) holds one `tx`
@@ -7,8 +7,8 @@
 //! to the other station (the first one exact, the rest a microsecond apart), and [`Monitor`]
 //! cuts them back into windows and reads each one: the coordination byte with what the data
 //! bytes mean for it (`10H send req, len 22`, `11H seg 1: abcde`, `71H done`). The error bit
-//! (a segment out of order, §2.8) and a STATUS other than 0000H (and 0101H, "not an error")
-//! are errors.
+//! (a segment out of order, [ET200S SI 2005] §2.12.7) and a STATUS other than 0000H (and 0101H,
+//! "not an error") are errors.
 //!
 //! ```
 //! use si_dp_coord::monitor::Monitor;

@@ -1,12 +1,13 @@
 //! A deterministic DP link between a [`Host`] and a [`Module`], for tests, demos and `si sim`.
 //!
 //! The host cycle, the module cycle and the DP exchange are asynchronous
-//! (et200s-si-2005-window-protocol.md §2.1, §2.10): each [`DpLink::step`] does one of the three,
-//! chosen by a seeded generator, so each side reads the other's window late by a random number of
-//! cycles, and an output written twice between two exchanges is never seen. Faults can be
-//! injected on the exchange ([`DpFaults`]): out-of-order segments in either direction (§2.8) and
-//! foreign job requests (§2.4 rule 3). The host's view of every cycle can be recorded as a
-//! [`DpRecord`] table, the shape of the manual's example tables.
+//! ([ET200S SI 2005] §2.12.1, Fig. 2-23, §2.12.2, §2.12.3, §2.11): each [`DpLink::step`] does one
+//! of the three, chosen by a seeded generator, so each side reads the other's window late by a
+//! random number of cycles, and an output written twice between two exchanges is never seen. Faults
+//! can be injected on the exchange ([`DpFaults`]): out-of-order segments in either direction
+//! ([ET200S SI 2005] §2.12.7) and foreign job requests ([ET200S SI 2005] §2.12.1 rule 3). The
+//! host's view of every cycle can be recorded as a [`DpRecord`] table, the shape of the manual's
+//! example tables.
 
 use crate::coord::{CoordByte, JobCode};
 use crate::frame::Window;

@@ -1,7 +1,7 @@
 //! The STATUS words that travel through the window (input bytes 1–2) or end a host job.
 //!
 //! The module puts STATUS codes of Table 2-29 into input bytes 1–2, MSB first
-//! (et200s-si-2005-window-protocol.md §2.5, §6.1). The codes shared by every driver (0502H,
+//! ([ET200S SI 2005] §2.12.1, Table 2-29). The codes shared by every driver (0502H,
 //! 0B01H, 1E0DH, 1E20H, 1E41H) live in [`si_core::status::common`]; this module declares the ones
 //! the window protocol itself produces, plus the receive-status words of the idle window.
 
@@ -16,37 +16,37 @@ si_core::status_codes! {
     pub const FRAME_PRESENT = 0x0001 {
         meaning: "a received frame is waiting in the module",
         remedy: "issue a receive job",
-        source: "et200s-si-2005-window-protocol.md §2.5",
+        source: "[ET200S SI 2005] §2.12.1",
     }
     pub const NO_MESSAGE = 0x0101 {
         meaning: "receive job issued but no received frame is available (not an error)",
         remedy: "none; poll the idle receive status for 0001H before the next receive job",
-        source: "et200s-si-2005-window-protocol.md §2.8 (§2.12.7)",
+        source: "[ET200S SI 2005] §2.12.7",
     }
     pub const INVALID_FRAME_LENGTH = 0x050E {
         meaning: "invalid frame length: send frame empty or longer than the module's maximum (224 bytes for the 2005 module's 3964(R)/ASCII, 200 for the ET 200S 1SI and in Modbus mode)",
         remedy: "use a shorter frame",
-        source: "[ET200S SI 2005] Table 2-29 (224 bytes); [ET200S SI] §2.12 and [Modbus/USS] §3.4.2 (LEN 1 … 200); the limit per module is HostConfig::max_frame_len",
+        source: "[ET200S SI 2005] §2.12.7, Table 2-29 (224 bytes); [ET200S SI] §2.12 and [Modbus/USS] §3.4.2 (LEN 1 … 200); the limit per module is HostConfig::max_frame_len",
     }
     pub const FLOW_CONTROL_MISMATCH = 0x0550 {
         meaning: "parameter job does not match the configured flow-control type",
         remedy: "send the parameter block of the configured flow control (XON/XOFF 20H, RTS/CTS 21H, automatic V.24 22H)",
-        source: "et200s-si-2005-window-protocol.md §2.6, §6.1",
+        source: "[ET200S SI 2005] §2.12.2–§2.12.6, Table 2-29 [derived]",
     }
     pub const TRANSFER_ERROR_TO_CPU = 0x0551 {
         meaning: "frame execution error between module and CPU while passing a received frame to the CPU",
         remedy: "both sides aborted; repeat the receive job, the module offers the frame again",
-        source: "et200s-si-2005-window-protocol.md §2.8, §6.1",
+        source: "[ET200S SI 2005] §2.12.7, Table 2-29",
     }
     pub const NO_FREE_RECEIVE_BUFFER = 0x080A {
         meaning: "no free receive buffer",
         remedy: "fetch received frames more often",
-        source: "et200s-si-2005-window-protocol.md §6.1",
+        source: "[ET200S SI 2005] Table 2-29",
     }
     pub const RECEIVED_FRAME_TOO_LONG = 0x0850 {
         meaning: "received frame longer than 224 bytes or than the configured length",
         remedy: "adjust the partner or raise the configured maximum",
-        source: "et200s-si-2005-window-protocol.md §6.1",
+        source: "[ET200S SI 2005] Table 2-29",
     }
 }
 

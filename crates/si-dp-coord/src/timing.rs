@@ -1,9 +1,9 @@
 //! Timing estimates the manuals give for the window exchange and for the bus around it.
 //!
 //! * The module's processing time per 7 bytes and the transaction total t8 of
-//!   et200s-si-2005-window-protocol.md §9.6 (manual §3.9.4, Table 3-85) and
-//!   et200s-si-modbus-uss.md §8.5.
-//! * The PPI token rotation time of s7-200-ppi-dp.md §6.2 (Fig. 8-8) and its Tables 8-3/8-4.
+//!   [ET200S SI 2005] §3.9.4, Table 3-85 and
+//!   [Modbus/USS] §3.8.4.
+//! * The PPI token rotation time of [S7-200] §8.4 (Fig. 8-8) and its Tables 8-3/8-4.
 //!
 //! All results are [`Duration`]s in microseconds, computed in integers and rounded up, so the
 //! helpers can size watchdogs and scheduler timeouts without floating point.
@@ -16,12 +16,12 @@ pub const MODULE_OVERHEAD: Duration = Duration::from_millis(10);
 /// Payload bytes per processing step in the manual's formula ("per 7 bytes", the 8-byte window).
 pub const BYTES_PER_STEP: usize = 7;
 
-/// Processing time for one step of 7 bytes (§9.6):
+/// Processing time for one step of 7 bytes ([ET200S SI 2005] §3.9.4, Table 3-85):
 /// 1 CPU cycle if the CPU cycle exceeds (I/O cycle + 10 ms), else 2 CPU cycles + 3 I/O cycles +
 /// 10 ms.
 ///
 /// The 2005 manual writes "CPU cycle ≫ (I/O cycle + 10 ms)", the Modbus/USS manual ">"
-/// (et200s-si-modbus-uss.md §8.5). "≫" is not a computable condition; we use ">", which also
+/// ([Modbus/USS] §3.8.4). "≫" is not a computable condition; we use ">", which also
 /// keeps the function continuous enough for sizing: at the boundary the two branches differ by
 /// at most one CPU cycle plus 3 I/O cycles.
 pub fn processing_per_step(cpu_cycle: Duration, io_cycle: Duration) -> Duration {
@@ -42,15 +42,16 @@ pub fn processing_time(bytes: usize, cpu_cycle: Duration, io_cycle: Duration) ->
 /// Transmission time of `chars` characters: 10 ms + characters × character time.
 ///
 /// The manual prints "10 ms + baud rate × number of characters", which is dimensionally wrong
-/// (H-48); the Russian example's numbers fit characters × 8 bits / baud (et200s-si-modbus-uss.md
-/// §11.17), which ignores start, parity and stop bits. We use the real character time of the
-/// configured format ([`SerialSettings::chars_time`]), which is what the line takes.
+/// (`[derived]`); the Russian example's numbers fit characters × 8 bits / baud ([Modbus/USS]
+/// [Modbus/USS] §3.8.4 `[derived]`), which ignores start, parity and stop bits. We use the real
+/// character time of the configured format ([`SerialSettings::chars_time`]), which is what the line
+/// takes.
 pub fn transmission_time(chars: u64, settings: &SerialSettings) -> Duration {
     MODULE_OVERHEAD + settings.chars_time(chars)
 }
 
-/// The terms of one master/slave transaction through the module (§9.6):
-/// t8 = t1 + … + t7.
+/// The terms of one master/slave transaction through the module ([ET200S SI 2005] §3.9.4, Table
+/// 3-85): t8 = t1 + … + t7.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Transaction {
     /// t1: master job processing (request bytes through the window).
@@ -95,7 +96,8 @@ impl Transaction {
         }
     }
 
-    /// t8, the sum (the manual's printed totals are off by 2 ms, §9.6 / §11.17).
+    /// t8, the sum (the manual's printed totals are off by 2 ms, [ET200S SI 2005] §3.9.4, Table
+    /// 3-85 / [Modbus/USS] §3.8.4 `[derived]`).
     pub fn total(&self) -> Duration {
         self.t1 + self.t2 + self.t3 + self.t4 + self.t5 + self.t6 + self.t7
     }
@@ -107,7 +109,7 @@ pub const PPI_BITS_PER_CHAR: u64 = 11;
 /// Overhead characters per token hold in the formula (an empirical constant, B-11).
 pub const PPI_OVERHEAD_CHARS: u64 = 128;
 
-/// Token hold time of one master sending `data_bytes` per message (s7-200-ppi-dp.md §6.2):
+/// Token hold time of one master sending `data_bytes` per message ([S7-200] §8.4, Fig. 8-8):
 /// (128 + n) × 11 bits / baud, rounded up to the microsecond. `baud` 0 gives [`Duration::ZERO`].
 pub fn token_hold_time(data_bytes: u64, baud: u32) -> Duration {
     if baud == 0 {
@@ -120,7 +122,8 @@ pub fn token_hold_time(data_bytes: u64, baud: u32) -> Duration {
 }
 
 /// Token rotation time with `masters` masters each sending `data_bytes` per token hold:
-/// T_rot = m × T_hold (§6.2). Tables 8-3/8-4 count masters in their "stations" columns (B-3).
+/// T_rot = m × T_hold ([ET200S SI 2005] Tables 3-65 to 3-72). Tables 8-3/8-4 count masters in their
+/// "stations" columns (B-3).
 pub fn token_rotation_time(masters: u64, data_bytes: u64, baud: u32) -> Duration {
     if baud == 0 {
         return Duration::ZERO;
@@ -172,7 +175,7 @@ mod tests {
 
     #[test]
     fn token_formula_worked_example() {
-        // (128 + 4) × 11 / 9600 = 151.25 ms; 6 masters → 907.5 ms (s7-200-ppi-dp.md §6.2).
+        // (128 + 4) × 11 / 9600 = 151.25 ms; 6 masters → 907.5 ms ([S7-200] §8.4, Fig. 8-8).
         assert_eq!(token_hold_time(4, 9600), Duration::from_micros(151_250));
         assert_eq!(
             token_rotation_time(6, 4, 9600),

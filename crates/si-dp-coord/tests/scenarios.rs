@@ -1,5 +1,5 @@
 //! The DP coordination window's scenarios, one module per topic
-//! (et200s-si-2005-window-protocol.md): the manual's window examples and §2.8 rules, host and
+//! ([ET200S SI 2005]): the manual's window examples and §2.12.7 rules, host and
 //! module together, the FBs over the window, modules on a line, end to end, the timing tables.
 
 mod common;

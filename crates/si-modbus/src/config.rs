@@ -1,15 +1,16 @@
 //! Parameters of the Modbus master and slave with the manual's ranges and defaults
-//! (et200s-si-modbus-uss.md §3.5, §3.7, §3.8, §4.6 Table 3-17, §5.3 Table 3-20).
+//! ([Modbus/USS] §3.3.5, Table 3-11, §3.4.3, §3.5.4, Table 3-17, §5.3, Table 3-20).
 
 use crate::status;
 use serde::{Deserialize, Serialize};
 use si_core::v24::AutoV24Times;
 use si_core::{Duration, RangeError, SerialSettings, Status};
 
-/// "Operating mode" (§3.7).
+/// "Operating mode" ([Modbus/USS] §3.4.3, §3.5.4).
 ///
 /// Read from a name ([`Mode::from_name`], also when deserialized); a name other than the two
-/// modes is the manual's 0E22H "invalid operating mode; driver not ready" (§3.7, §7.4).
+/// modes is the manual's 0E22H "invalid operating mode; driver not ready" ([Modbus/USS] §3.4.3,
+/// §3.5.4, §3.6).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case", try_from = "String")]
 pub enum Mode {
@@ -39,7 +40,7 @@ impl Mode {
     }
 
     /// The mode called `name`; any other value is refused with 0E22H, as the module refuses
-    /// an invalid operating mode and stays not ready (§3.7, §7.4).
+    /// an invalid operating mode and stays not ready ([Modbus/USS] §3.4.3, §3.5.4, §3.6).
     pub fn from_name(name: &str) -> Result<Mode, ConfigError> {
         Mode::NAMES
             .iter()
@@ -73,10 +74,10 @@ impl TryFrom<String> for Mode {
     }
 }
 
-/// How a received frame ends (§3.5, and a host extension).
+/// How a received frame ends ([Modbus/USS] §3.3.5, Table 3-11, and a host extension).
 ///
 /// The module ends every frame by silence: "a message is complete when no character arrives for
-/// 3.5 × character time" (et200s-si-modbus-uss.md §3.5, Table 3-11). That is [`FrameEnd::Gap`],
+/// 3.5 × character time" ([Modbus/USS] §3.3.5, Table 3-11). That is [`FrameEnd::Gap`],
 /// the default, and what this crate does unless told otherwise.
 ///
 /// [`FrameEnd::Length`] is a **host extension, not the manual**: a PC cannot time gaps below a
@@ -89,7 +90,8 @@ impl TryFrom<String> for Mode {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FrameEnd {
-    /// The module's behaviour (§3.5): a frame ends when the line has been silent for the gap.
+    /// The module's behaviour ([Modbus/USS] §3.3.5, Table 3-11): a frame ends when the line has
+    /// been silent for the gap.
     #[default]
     Gap,
     /// Host extension: a frame also ends as soon as it has the length its header predicts and
@@ -97,11 +99,11 @@ pub enum FrameEnd {
     Length,
 }
 
-/// The end-of-frame gap tZVZ_TAB for a baud rate (§3.5, Table 3-11).
+/// The end-of-frame gap tZVZ_TAB for a baud rate ([Modbus/USS] §3.3.5, Table 3-11).
 ///
 /// Table 3-11 of the Modbus/USS manual gives 4 ms at 9600–38 400 bit/s and 3.5 character
 /// times (rounded) below: 8, 16, 32, 64, 128 ms. It has no value for 110 bit/s; there we take
-/// 364 ms from the 2005 manual's table (et200s-si-2005-window-protocol.md §7.1, "115 (sic)").
+/// 364 ms from the 2005 manual's table ([ET200S SI 2005] §3.4, "115 (sic)").
 /// The 2005 table also lists 1 ms at 57 600–115 200 bit/s, rates this module does not offer;
 /// we use that value for them. Where the two tables disagree (19 200: 4 vs 2 ms; 38 400: 4 vs
 /// 1 ms; 600: 64 vs 65 ms; 300: 128 vs 130 ms) we follow the Modbus/USS module's own manual,
@@ -150,18 +152,20 @@ impl ConfigError {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LineConfig {
-    /// Character format; always 8 data bits (§3.9).
+    /// Character format; always 8 data bits ([Modbus/USS] §3.4.3, §3.5.4, §3.9).
     pub settings: SerialSettings,
-    /// Operating mode (§3.7).
+    /// Operating mode ([Modbus/USS] §3.4.3, §3.5.4).
     pub mode: Mode,
-    /// "Character Delay Multiple" fMUL, 1–10: the gap is tZVZ_TAB × fMUL (§3.5).
+    /// "Character Delay Multiple" fMUL, 1–10: the gap is tZVZ_TAB × fMUL ([Modbus/USS] §3.3.5,
+    /// Table 3-11).
     pub char_delay_multiplier: u8,
     /// Extension for RS-485 transceivers that hear their own transmission (and for the
     /// simulator's bus): drop as many received bytes as were sent. Off by default.
     pub local_echo: bool,
-    /// Automatic use of the V.24 signals (§2.2; RS-232C, half duplex): `None` (the default) is
-    /// "no data flow control". The sequence is si-core's ([`si_core::v24`]), shared with the
-    /// ASCII driver; the manual gives no ranges (§11.3), so the ASCII driver's apply.
+    /// Automatic use of the V.24 signals ([Modbus/USS] §3.2.2; RS-232C, half duplex): `None` (the
+    /// default) is "no data flow control". The sequence is si-core's ([`si_core::v24`]), shared
+    /// with the ASCII driver; the manual gives no ranges ([Modbus/USS] §3.2.2 `[derived]`), so the
+    /// ASCII driver's apply.
     pub auto_v24: Option<AutoV24Times>,
 }
 
@@ -178,17 +182,18 @@ impl Default for LineConfig {
 }
 
 impl LineConfig {
-    /// The end-of-frame gap tZVZ = tZVZ_TAB × fMUL (§3.5).
+    /// The end-of-frame gap tZVZ = tZVZ_TAB × fMUL ([Modbus/USS] §3.3.5, Table 3-11).
     pub fn gap(&self) -> Duration {
         gap_table(self.settings.baud()).saturating_mul(self.char_delay_multiplier.max(1) as u64)
     }
 
     /// Check data bits (0E20H) and the multiplier (0E21H).
     ///
-    /// The module runs with fMUL = 1 after reporting 0E21H (§3.5); a library should not
-    /// silently change a parameter, so we refuse the value and carry 0E21H in the error.
-    /// Parity and stop bits are not checked against the manual's "always 11 bits" rule
-    /// (§3.9, §11.6): its own parameter tables allow 10- and 12-bit frames, and so do we.
+    /// The module runs with fMUL = 1 after reporting 0E21H ([Modbus/USS] §3.3.5, Table 3-11); a
+    /// library should not silently change a parameter, so we refuse the value and carry 0E21H in
+    /// the error. Parity and stop bits are not checked against the manual's "always 11 bits" rule
+    /// ([Modbus/USS] §3.4.3, §3.5.4, §3.9 `[derived]`): its own parameter tables allow 10- and
+    /// 12-bit frames, and so do we.
     pub fn validate(&self) -> Result<(), ConfigError> {
         first(self.validate_all())
     }
@@ -215,8 +220,8 @@ impl LineConfig {
                 status::CHAR_DELAY_MULTIPLIER,
             ));
         }
-        // No parameter-assignment code for these times (§11.3): the FB's "parameter out of
-        // range".
+        // No parameter-assignment code for these times ([Modbus/USS] §3.2.2 [derived]): the FB's
+        // "parameter out of range".
         errors.extend(
             self.auto_v24
                 .iter()
@@ -237,7 +242,7 @@ fn first(errors: Vec<ConfigError>) -> Result<(), ConfigError> {
     }
 }
 
-/// Master parameters (§4.6, Table 3-17).
+/// Master parameters ([Modbus/USS] §3.4.3, Table 3-17).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MasterConfig {
@@ -245,14 +250,15 @@ pub struct MasterConfig {
     #[serde(flatten)]
     pub line: LineConfig,
     /// "Response Time" in ms, 50–655 000, default 2000: the wait for the *start* of a
-    /// response after the request has been sent (§3.8).
+    /// response after the request has been sent ([Modbus/USS] §3.4.3, Table 3-17).
     pub response_timeout_ms: u32,
-    /// Extension (not in the manual, which has no Modbus retries, §3.8): how often a request
-    /// that timed out or came back corrupt (CRC) is sent again before the job fails. Default 0.
+    /// Extension (not in the manual, which has no Modbus retries, [Modbus/USS] §3.4.3, Table 3-17):
+    /// how often a request that timed out or came back corrupt (CRC) is sent again before the job
+    /// fails. Default 0.
     pub retries: u8,
-    /// Extension for §11.19 (the manual does not say how long the master waits after a
-    /// broadcast): the turnaround delay in ms after the broadcast has left the line before the
-    /// job completes. Default 100 ms, the Modbus over serial line guide's lower bound.
+    /// Extension for [Modbus/USS] §3.4 `[derived]` (the manual does not say how long the master
+    /// waits after a broadcast): the turnaround delay in ms after the broadcast has left the line
+    /// before the job completes. Default 100 ms, the Modbus over serial line guide's lower bound.
     pub broadcast_turnaround_ms: u32,
 }
 
@@ -294,8 +300,9 @@ impl MasterConfig {
     }
 
     /// The wire time of the longest frame at this line's character time (start + data +
-    /// parity + stop bits, §3.9): [`MAX_ADU`](crate::frame::MAX_ADU) = 264 bytes, the
-    /// Modbus specification's 256 raised to what the manual's 2040-bit FC15 needs (§3.6).
+    /// parity + stop bits, [Modbus/USS] §3.4.3, §3.5.4, §3.9): [`MAX_ADU`](crate::frame::MAX_ADU) =
+    /// 264 bytes, the Modbus specification's 256 raised to what the manual's 2040-bit FC15 needs
+    /// ([Modbus/USS] §3.3.6, Table 3-12).
     pub fn max_frame_time(&self) -> Duration {
         self.line.settings.chars_time(crate::frame::MAX_ADU as u64)
     }
@@ -307,9 +314,10 @@ impl MasterConfig {
         si_core::delivery::MAX_LATENCY + self.line.settings.char_time()
     }
 
-    /// Host bound (issue 21; the manual's "Response Time" of §3.8 runs only to the **start**
-    /// of a response): how long one response may take once it has started, the longest frame's
-    /// wire time + the end-of-frame gap tZVZ (§3.5) + [`port_margin`](Self::port_margin):
+    /// Host bound (the manual's "Response Time" of [Modbus/USS] §3.4.3, Table 3-17 runs only to the
+    /// **start** of a response): how long one response may take once it has started, the longest
+    /// frame's wire time + the end-of-frame gap tZVZ ([Modbus/USS] §3.3.5, Table 3-11) +
+    /// [`port_margin`](Self::port_margin):
     ///
     /// `264 × t_char + tZVZ + (255 ms + t_char)`
     ///
@@ -322,11 +330,13 @@ impl MasterConfig {
     ///
     /// `hold + send + wait + response`, where
     /// - hold = [`max_response_duration`](Self::max_response_duration): the request waits for
-    ///   silence after a frame in progress (§3.5; [`FrameEnd::Length`] only) at most this long;
+    ///   silence after a frame in progress ([Modbus/USS] §3.3.5, Table 3-11; [`FrameEnd::Length`]
+    ///   only) at most this long;
     /// - send = [`max_frame_time`](Self::max_frame_time) + the data output wait time of
-    ///   automatic V.24 (§2.2) if configured;
-    /// - wait = the response time (§3.8) + [`port_margin`](Self::port_margin) (the first byte
-    ///   may reach us a port latency late), or the broadcast turnaround if that is longer;
+    ///   automatic V.24 ([Modbus/USS] §3.2.2) if configured;
+    /// - wait = the response time ([Modbus/USS] §3.4.3, Table 3-17) +
+    ///   [`port_margin`](Self::port_margin) (the first byte may reach us a port latency late), or
+    ///   the broadcast turnaround if that is longer;
     /// - response = [`max_response_duration`](Self::max_response_duration).
     pub fn attempt_bound(&self) -> Duration {
         let cts = self.line.auto_v24.map_or(Duration::ZERO, |t| {
@@ -350,7 +360,7 @@ impl MasterConfig {
     }
 }
 
-/// Slave parameters (§5.3, Table 3-20).
+/// Slave parameters ([Modbus/USS] §3.5.4, Table 3-20).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SlaveConfig {
@@ -359,9 +369,9 @@ pub struct SlaveConfig {
     pub line: LineConfig,
     /// "Slave address", 1–255, default 222 as printed in Table 3-20.
     ///
-    /// The Modbus/USS manual allows 1–255 (§3.2), the 2005 manual's table 1–247 (§11.4). We
-    /// accept 1–255 because the module does; 248–255 are reserved in standard Modbus and a
-    /// standard master may refuse to address them.
+    /// The Modbus/USS manual allows 1–255 ([Modbus/USS] §3.3.2), the 2005 manual's table 1–247
+    /// ([Modbus/USS] §3.5.4, Table 3-20 `[derived]`). We accept 1–255 because the module does;
+    /// 248–255 are reserved in standard Modbus and a standard master may refuse to address them.
     pub address: u8,
 }
 
@@ -450,8 +460,8 @@ mod tests {
         assert_eq!(MasterConfig::default().response_timeout_ms, 2_000);
     }
 
-    /// §3.7/§7.4: only the two modes; any other value is 0E22H, from a name and when a
-    /// configuration is deserialized.
+    /// [Modbus/USS] §3.4.3, §3.5.4/§3.6: only the two modes; any other value is 0E22H, from a name
+    /// and when a configuration is deserialized.
     #[test]
     fn an_invalid_operating_mode_is_0e22h() {
         for (name, mode) in Mode::NAMES {

@@ -1,5 +1,5 @@
-//! The FB equivalents (et200s-si-modbus-uss.md §4.2–§4.4, §5.1–§5.2, §5.8;
-//! et200s-si-2005-window-protocol.md §6.5, §7.4): master jobs through S_SEND/S_RCV with the
+//! The FB equivalents ([Modbus/USS] §3.4.2, §3.4.5–§3.4.16, §3.5.1–§3.5.2, §3.6.4, §3.6.5;
+//! [ET200S SI 2005] Tables 3-74 to 3-77, §3.5.5–§3.5.16): master jobs through S_SEND/S_RCV with the
 //! manual's job and response layouts, and S_MODB for the slave with its ERROR_NR table.
 //!
 //! The FBs are plain structs called once per PLC cycle with S7 semantics: REQ is
@@ -8,7 +8,7 @@
 //! S_RCV are si-core's, over the [`Master`] as a [`JobPort`]; S_MODB is this crate's own, and
 //! the application hands the slave's events to [`SModb::on_event`].
 //!
-//! # Readings chosen (§11.8, §11.9, §11.10, §11.11)
+//! # Readings chosen ([Modbus/USS] §3.4.2, §3.4.5–§3.4.16, §3.3.3, Table 3-10 `[derived]`)
 //!
 //! - A failed job (timeout, exception, response error) is reported by **both** blocks: S_SEND
 //!   ERROR and S_RCV ERROR with the same STATUS (Figure 3-7 labels both ERROR lines). S_SEND
@@ -16,25 +16,27 @@
 //!   turnaround), and S_RCV NDR at the same time with the data.
 //! - FC15 source data are sent in S7 memory order (DBB6, DBB7, …), as the Modbus/USS manual
 //!   §3.4.15 says; the 2005 manual's example comment suggests the opposite byte order in each
-//!   word (§7.4 there), which we do not follow.
+//!   word ([ET200S SI 2005] §3.5.5–§3.5.16), which we do not follow.
 //! - FC01/02 responses are stored word by word with the first received byte in the **low**
-//!   byte of `data[1]` (S7 offset +1), as §4.4 says literally and its examples show
-//!   (W#16#1701 for 01, 17). So reading coils and writing the same DB back with FC15 swaps byte
-//!   pairs; that asymmetry is the manual's.
+//!   byte of `data[1]` (S7 offset +1), as [Modbus/USS] §3.4.5–§3.4.16 says literally and its
+//!   examples show (W#16#1701 for 01, 17). So reading coils and writing the same DB back with FC15
+//!   swaps byte pairs; that asymmetry is the manual's.
 //! - FC07 writes only the high byte of `data[1]` (offset +0), LEN = 1.
 //! - FC12 always stores 70 bytes; a shorter event log is padded with 00H.
 //! - LEN is checked against 1…200 (1E41H) as the FBs' transfer limit; the Modbus limits
-//!   (2040 bits, 127 registers) are checked as well, so the practical maxima of §4.5 apply.
+//!   (2040 bits, 127 registers) are checked as well, so the practical maxima of [Modbus/USS]
+//!   §3.4.5–§3.4.16 apply.
 //! - A read job whose result would not fit S_RCV's 200 bytes (FC01/02 over 1600 bits, FC03/04
-//!   over 100 registers: §4.5's practical maxima) ends with **050EH** "illegal frame length:
-//!   more than 200 bytes" (§7.2), the manual's code for a frame beyond the 200-byte limit
-//!   between module and CPU. The manual does not say when the module finds out (§11.11); we
-//!   check before sending, like the other job checks of §4.3, so no request goes on the line
-//!   and no slave is read for a result that could not be delivered. The range checks of §4.3
-//!   come first: 2041 bits is still 0E44H, 128 registers 0E45H. S_RCV LEN is never above 200.
-//!   (The 2005 manual's chapter 3 gives LEN 1…256 and 050EH above 256 bytes instead,
-//!   et200s-si-2005-window-protocol.md §6.2, H-14; like [`MAX_LEN`] we follow the Modbus/USS
-//!   module's own manual, §4.2 and §7.5.)
+//!   over 100 registers: [Modbus/USS] §3.4.5–§3.4.16's practical maxima) ends with **050EH**
+//!   "illegal frame length: more than 200 bytes" ([Modbus/USS] §3.6), the manual's code for a frame
+//!   beyond the 200-byte limit between module and CPU. The manual does not say when the module
+//!   finds out ([Modbus/USS] §3.4.5–§3.4.16 `[derived]`); we check before sending, like the other
+//!   job checks of [Modbus/USS] §3.4.5–§3.4.16, so no request goes on the line and no slave is read
+//!   for a result that could not be delivered. The range checks of [Modbus/USS] §3.4.5–§3.4.16 come
+//!   first: 2041 bits is still 0E44H, 128 registers 0E45H. S_RCV LEN is never above 200. (The 2005
+//!   manual's chapter 3 gives LEN 1…256 and 050EH above 256 bytes instead, [ET200S SI 2005] Tables
+//!   3-65 to 3-72, `[derived]`; like [`MAX_LEN`] we follow the Modbus/USS module's own manual,
+//!   [Modbus/USS] §3.4.2 and §3.6.)
 
 use crate::frame::{fc, Bits, Registers, Request, Response};
 use crate::master::{Completion, Master, MasterEvent, RequestError};
@@ -50,12 +52,12 @@ use si_core::{Instant, Status};
 
 pub use si_core::fb::{Done, Received, SRcv, SSend};
 
-/// The most bytes S_SEND and S_RCV move (LEN 1…200, §4.2).
+/// The most bytes S_SEND and S_RCV move (LEN 1…200, [Modbus/USS] §3.4.2).
 pub const MAX_LEN: usize = 200;
 
-/// Read a master job from the S_SEND source area (§4.3): `(unit, request)`, or the STATUS
-/// the module reports (0E40H–0E4AH, 1E41H; 050EH for a read whose result exceeds
-/// [`MAX_LEN`], §4.5).
+/// Read a master job from the S_SEND source area ([Modbus/USS] §3.4.5–§3.4.16): `(unit, request)`,
+/// or the STATUS the module reports (0E40H–0E4AH, 1E41H; 050EH for a read whose result exceeds
+/// [`MAX_LEN`], [Modbus/USS] §3.4.5–§3.4.16).
 pub fn parse_job(source: &[u8]) -> Result<(u8, Request<'_>), Status> {
     let len = source.len();
     if len > MAX_LEN {
@@ -99,7 +101,8 @@ pub fn parse_job(source: &[u8]) -> Result<(u8, Request<'_>), Status> {
             Ok((unit, r))
         }
     };
-    // §4.5: the result of a read goes to S_RCV, which takes at most MAX_LEN bytes.
+    // [Modbus/USS] §3.4.5–§3.4.16: the result of a read goes to S_RCV, which takes at most MAX_LEN
+    // bytes.
     let fits_s_rcv = |result_len: usize| {
         if result_len > MAX_LEN {
             Err(status::FRAME_TOO_LONG)
@@ -202,13 +205,13 @@ pub fn parse_job(source: &[u8]) -> Result<(u8, Request<'_>), Status> {
 }
 
 /// S_RCV LEN of FC01/02 data of `bytes` bytes: stored word by word, so an odd count gets the
-/// high byte of its last word as well (§4.4).
+/// high byte of its last word as well ([Modbus/USS] §3.4.5–§3.4.16).
 const fn bits_result_len(bytes: usize) -> usize {
     bytes + bytes % 2
 }
 
-/// Write a completed job's response into the S_RCV destination area (§4.4); returns LEN.
-/// `dest` must hold at least [`MAX_LEN`] bytes … or as many as the response needs. The
+/// Write a completed job's response into the S_RCV destination area ([Modbus/USS] §3.4.5–§3.4.16);
+/// returns LEN. `dest` must hold at least [`MAX_LEN`] bytes … or as many as the response needs. The
 /// response of a job [`parse_job`] accepted never needs more than [`MAX_LEN`].
 pub fn store_response(completion: &Completion, dest: &mut [u8]) -> usize {
     let Some(response) = completion.response() else {
@@ -332,9 +335,10 @@ impl FbJobs {
     }
 }
 
-/// FB3 S_SEND and FB2 S_RCV for Modbus master jobs (§4.2, Figure 3-7) are si-core's, over the
-/// [`Master`] as a [`JobPort`]: the job is the S_SEND source area (§4.3), the "received frame"
-/// the response of the job in the S_RCV destination layout (§4.4).
+/// FB3 S_SEND and FB2 S_RCV for Modbus master jobs ([Modbus/USS] §3.4.2, Figure 3-7) are si-core's,
+/// over the [`Master`] as a [`JobPort`]: the job is the S_SEND source area ([Modbus/USS]
+/// §3.4.5–§3.4.16), the "received frame" the response of the job in the S_RCV destination layout
+/// ([Modbus/USS] §3.4.5–§3.4.16).
 impl JobPort for Master {
     type Job = Bytes;
     type Output = ();
@@ -367,8 +371,8 @@ impl JobPort for Master {
         self.fb.slot.forget(id);
     }
 
-    /// The response of the last job, stored as §4.4 lays it out, or its failure: a failed job
-    /// is reported by both blocks with the same STATUS (Figure 3-7).
+    /// The response of the last job, stored as [Modbus/USS] §3.4.5–§3.4.16 lays it out, or its
+    /// failure: a failed job is reported by both blocks with the same STATUS (Figure 3-7).
     fn take_received(&mut self, _now: Instant, dest: &mut [u8]) -> Option<Reception> {
         Some(match self.fb.reception.take()? {
             Ok(c) => Reception::Frame {
@@ -388,7 +392,8 @@ impl JobPort for Master {
     }
 }
 
-/// S_MODB's ERROR_NR table (§5.8; 2005 manual §6.5): number, meaning, remedy.
+/// S_MODB's ERROR_NR table ([Modbus/USS] §3.6.4, §3.6.5; [ET200S SI 2005] Tables 3-74 to 3-77):
+/// number, meaning, remedy.
 pub const ERROR_NR: &[(u16, &str, &str)] = &[
     (0, "no error", "-"),
     (
@@ -483,13 +488,13 @@ pub struct SModbOutputs {
     pub start_ok: bool,
     /// Initialisation failed (level).
     pub start_error: bool,
-    /// Error number (§5.8), held until the next START edge.
+    /// Error number ([Modbus/USS] §3.6.4, §3.6.5), held until the next START edge.
     pub error_nr: u16,
     /// Additional information.
     pub error_info: u16,
 }
 
-/// FB81 S_MODB over a [`Slave`] with a [`SimaticStore`] (§5.1, §5.2).
+/// FB81 S_MODB over a [`Slave`] with a [`SimaticStore`] ([Modbus/USS] §3.5.1, §3.5.2).
 ///
 /// A rising edge on START reads the conversion DB `DB_NO` from the CPU memory into the store,
 /// clears ERROR_NR/ERROR_INFO and sets START_OK; until then every request gets exception 04.
@@ -571,7 +576,8 @@ mod tests {
         si_core::hex::parse(s).unwrap()
     }
 
-    /// §4.3 job examples of the 2005 manual (§7.4 there) and every refusal code.
+    /// [Modbus/USS] §3.4.5–§3.4.16 job examples of the 2005 manual ([ET200S SI 2005]
+    /// §3.5.5–§3.5.16) and every refusal code.
     #[test]
     fn send_area_jobs_and_their_refusals() {
         let j1 = hex("05 01 00 40 00 10");
@@ -630,7 +636,7 @@ mod tests {
             ("05 05 00 00 12 34", 0x0E48),
             ("05 08 00 01 00 00", 0x0E49),
             ("05 03 00 00 00 01 00", 0x0E4A),
-            // §4.5: results beyond S_RCV's 200 bytes.
+            // [Modbus/USS] §3.4.5–§3.4.16: results beyond S_RCV's 200 bytes.
             ("05 01 00 00 06 41", 0x050E),
             ("05 02 00 00 07 F8", 0x050E),
             ("05 03 00 00 00 65", 0x050E),
@@ -663,8 +669,8 @@ mod tests {
         }
     }
 
-    /// §4.4's examples: FC01 16 bits 01, 17 → W#16#1701; FC02 24 bits 04, 26, 48 →
-    /// W#16#2604, W#16#0048; FC03 2123, 2527; FC07 3Exx; FC11 FEDC, 0108.
+    /// [Modbus/USS] §3.4.5–§3.4.16's examples: FC01 16 bits 01, 17 → W#16#1701; FC02 24 bits 04,
+    /// 26, 48 → W#16#2604, W#16#0048; FC03 2123, 2527; FC07 3Exx; FC11 FEDC, 0108.
     #[test]
     fn rcv_area_layouts_of_section_4_4() {
         let mut dest = [0xAAu8; 80];

@@ -1,9 +1,9 @@
 //! Modbus RTU frames: ADU encode/decode with CRC-16, request and response PDUs.
 //!
 //! An RTU frame (ADU) is `address | function | data | CRC lo | CRC hi`
-//! (et200s-si-modbus-uss.md §3.1, Table 3-9). The CRC is CRC-16 with polynomial
-//! x¹⁶ + x¹⁵ + x² + 1, sent **low byte first** (§3.4); we use the `crc` crate's catalogued
-//! `CRC_16_MODBUS` (init 0xFFFF, reflected), table-driven.
+//! ([Modbus/USS] §3.3.1, Table 3-9). The CRC is CRC-16 with polynomial
+//! x¹⁶ + x¹⁵ + x² + 1, sent **low byte first** ([Modbus/USS] §3.3.5); we use the `crc` crate's
+//! catalogued `CRC_16_MODBUS` (init 0xFFFF, reflected), table-driven.
 //!
 //! Pure functions, no state, no allocation: requests and responses are views ([`Bits`],
 //! [`Registers`]) over the received bytes, and encoding writes into a caller's buffer
@@ -11,11 +11,11 @@
 //!
 //! # Quantity limits
 //!
-//! The module allows 1–2040 bits and 1–127 registers per job (§3.6 Table 3-12, §4.3, §5.7),
-//! more than the Modbus specification's 2000/125 (read) and 1968/123 (write). We follow the
-//! manual so that frames the module sends and accepts round-trip here; the price is that an
-//! FC15 with 2040 bits is a 264-byte ADU, above the Modbus specification's 256. [`MAX_ADU`] is
-//! sized for the manual's limits.
+//! The module allows 1–2040 bits and 1–127 registers per job ([Modbus/USS] §3.3.6, Table 3-12,
+//! §3.4.5–§3.4.16, §3.5.6–§3.5.14), more than the Modbus specification's 2000/125 (read) and
+//! 1968/123 (write). We follow the manual so that frames the module sends and accepts round-trip
+//! here; the price is that an FC15 with 2040 bits is a 264-byte ADU, above the Modbus
+//! specification's 256. [`MAX_ADU`] is sized for the manual's limits.
 
 use core::fmt;
 
@@ -25,16 +25,18 @@ mod text;
 /// address + FC + start + quantity + byte count + 255 data bytes + CRC = 264 bytes.
 pub const MAX_ADU: usize = 264;
 
-/// Most bits one job may read or write (§4.3: 0E44H; §5.7: 0832H).
+/// Most bits one job may read or write ([Modbus/USS] §3.4.5–§3.4.16: 0E44H; §3.5.6–§3.5.14: 0832H).
 pub const MAX_BITS: u16 = 2040;
 
-/// Most registers one job may read or write (§4.3: 0E45H; §5.7: 0832H).
+/// Most registers one job may read or write ([Modbus/USS] §3.4.5–§3.4.16: 0E45H; §3.5.6–§3.5.14:
+/// 0832H).
 pub const MAX_REGISTERS: u16 = 127;
 
-/// Most event bytes in an FC12 response (Modbus: 0–64 events; §4.4 and §11.10).
+/// Most event bytes in an FC12 response (Modbus: 0–64 events; [Modbus/USS] §3.4.5–§3.4.16 and
+/// [Modbus/USS] §3.3.3, Table 3-10 `[derived]`).
 pub const MAX_EVENTS: usize = 64;
 
-/// The broadcast address (§3.2): only FC05, 06, 15 and 16, never answered.
+/// The broadcast address ([Modbus/USS] §3.3.2): only FC05, 06, 15 and 16, never answered.
 pub const BROADCAST: u8 = 0;
 
 /// Slice-by-16 tables (8 KiB, built at compile time) for short frames.
@@ -46,7 +48,7 @@ const CRC: crc::Crc<u16, crc::Table<16>> =
 /// about 30 ns) and half as fast at 256 bytes (2.2 against 4.8 GiB/s; BENCHMARKS.md).
 const FOLDING_FROM: usize = 64;
 
-/// CRC-16/MODBUS of `bytes` (§3.4); on the wire the low byte goes first.
+/// CRC-16/MODBUS of `bytes` ([Modbus/USS] §3.3.5); on the wire the low byte goes first.
 ///
 /// Short frames (every request but FC15/16) use the `crc` crate's slice-by-16 tables; long ones
 /// (register and coil data) the `crc-fast` crate's carry-less-multiply folding, which falls back
@@ -54,7 +56,7 @@ const FOLDING_FROM: usize = 64;
 /// at every length up to a full frame.
 ///
 /// ```
-/// // et200s-si-modbus-uss.md §3.4, the frame the brief names: 01 03 00 00 00 0A C5 CD
+/// // [Modbus/USS] §3.3.5, the frame the brief names: 01 03 00 00 00 0A C5 CD
 /// assert_eq!(si_modbus::frame::crc16(&[0x01, 0x03, 0x00, 0x00, 0x00, 0x0A]), 0xCDC5);
 /// ```
 pub fn crc16(bytes: &[u8]) -> u16 {
@@ -65,7 +67,7 @@ pub fn crc16(bytes: &[u8]) -> u16 {
     }
 }
 
-/// Function codes the module speaks (§3.3, Table 3-10).
+/// Function codes the module speaks ([Modbus/USS] §3.3.3, Table 3-10).
 pub mod fc {
     /// 01 read coils.
     pub const READ_COILS: u8 = 0x01;
@@ -97,18 +99,19 @@ pub mod fc {
         matches!(code, 0x01..=0x08 | 0x0B | 0x0C | 0x0F | 0x10)
     }
 
-    /// True for the functions a broadcast may carry (§3.2).
+    /// True for the functions a broadcast may carry ([Modbus/USS] §3.3.2).
     pub const fn broadcast_allowed(code: u8) -> bool {
         matches!(code, 0x05 | 0x06 | 0x0F | 0x10)
     }
 }
 
-/// FC05 value for ON (§4.3).
+/// FC05 value for ON ([Modbus/USS] §3.4.5–§3.4.16).
 pub const COIL_ON: u16 = 0xFF00;
-/// FC05 value for OFF (§4.3).
+/// FC05 value for OFF ([Modbus/USS] §3.4.5–§3.4.16).
 pub const COIL_OFF: u16 = 0x0000;
 
-/// A packed bit string, lowest address in bit 0 of the first byte (Modbus order; §5.5).
+/// A packed bit string, lowest address in bit 0 of the first byte (Modbus order; [Modbus/USS]
+/// §3.5.5–§3.5.19).
 ///
 /// Either a view over bytes from the line or over the caller's `bool`s, so neither side copies.
 #[derive(Clone, Copy)]
@@ -211,7 +214,8 @@ impl fmt::Debug for Bits<'_> {
     }
 }
 
-/// 16-bit registers, high byte first on the wire (§5.5: "Modbus register = S7 WORD, no swap").
+/// 16-bit registers, high byte first on the wire ([Modbus/USS] §3.5.5–§3.5.19: "Modbus register =
+/// S7 WORD, no swap").
 #[derive(Clone, Copy)]
 pub enum Registers<'a> {
     /// Big-endian pairs as on the wire.
@@ -277,7 +281,7 @@ impl fmt::Debug for Registers<'_> {
     }
 }
 
-/// A request PDU (§3.3, §4.3, §5.7).
+/// A request PDU ([Modbus/USS] §3.3.3, Table 3-10, §3.4.5–§3.4.16, §3.5.6–§3.5.14).
 ///
 /// Serializes (for JSON output) as `{"pdu": "read_holding_registers", "fields": {"address": 0,
 /// "quantity": 10}}`: the variant's name in snake case, its fields by name.
@@ -286,7 +290,7 @@ impl fmt::Debug for Registers<'_> {
 pub enum Request<'a> {
     /// 01: `start`, `quantity` 1–2040.
     ReadCoils {
-        /// First coil (0-based wire address, §3.3).
+        /// First coil (0-based wire address, [Modbus/USS] §3.3.3, Table 3-10).
         address: u16,
         /// Number of coils.
         quantity: u16,
@@ -328,7 +332,8 @@ pub enum Request<'a> {
     },
     /// 07: no data.
     ReadExceptionStatus,
-    /// 08 sub-function 0000 "return query data": the slave echoes `data` (§5.7, §11.22).
+    /// 08 sub-function 0000 "return query data": the slave echoes `data` ([Modbus/USS]
+    /// §3.5.6–§3.5.14, §3.3.3 `[derived]`).
     Diagnostics {
         /// The test value.
         data: u16,
@@ -337,7 +342,7 @@ pub enum Request<'a> {
     GetCommEventCounter,
     /// 12: no data.
     GetCommEventLog,
-    /// 15: byte count derived from the bit count (§4.3).
+    /// 15: byte count derived from the bit count ([Modbus/USS] §3.4.5–§3.4.16).
     WriteMultipleCoils {
         /// First coil.
         address: u16,
@@ -353,7 +358,7 @@ pub enum Request<'a> {
     },
 }
 
-/// Exception codes (§3.6, Table 3-12): 01–07 decoded, 01–04 sent by the slave.
+/// Exception codes ([Modbus/USS] §3.3.6, Table 3-12): 01–07 decoded, 01–04 sent by the slave.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[repr(u8)]
 pub enum ExceptionCode {
@@ -416,7 +421,7 @@ impl fmt::Display for ExceptionCode {
     }
 }
 
-/// A response PDU (§4.4, §5.7).
+/// A response PDU ([Modbus/USS] §3.4.5–§3.4.16, §3.5.6–§3.5.14).
 ///
 /// Serializes like [`Request`]: `{"pdu": "read_holding_registers", "fields": [1, 2]}`, bits as
 /// booleans, registers as numbers, an exception code as its byte.
@@ -484,7 +489,7 @@ pub enum Response<'a> {
         /// Number written.
         quantity: u16,
     },
-    /// Function code with MSB set and one exception byte (§3.6).
+    /// Function code with MSB set and one exception byte ([Modbus/USS] §3.3.6, Table 3-12).
     Exception {
         /// The function code of the request (MSB clear).
         function: u8,
@@ -512,7 +517,7 @@ impl Request<'_> {
         }
     }
 
-    /// Check the manual's limits (§4.3) before encoding.
+    /// Check the manual's limits ([Modbus/USS] §3.4.5–§3.4.16) before encoding.
     pub fn validate(&self) -> Result<(), EncodeError> {
         match *self {
             Request::ReadCoils { quantity, .. } | Request::ReadDiscreteInputs { quantity, .. } => {
@@ -702,7 +707,7 @@ impl Response<'_> {
     }
 }
 
-/// Append the CRC of `buf[..len]` (§3.4, low byte first); returns the new length.
+/// Append the CRC of `buf[..len]` ([Modbus/USS] §3.3.5, low byte first); returns the new length.
 fn append_crc(buf: &mut [u8], len: usize) -> Result<usize, EncodeError> {
     let mut w = Writer { buf, len };
     let [lo, hi] = crc16(&w.buf[..len]).to_le_bytes();
@@ -784,7 +789,8 @@ impl fmt::Display for FrameKind {
     }
 }
 
-/// What was wrong, so the engines can map it to the manual's STATUS (§4.4, §5.7).
+/// What was wrong, so the engines can map it to the manual's STATUS ([Modbus/USS] §3.4.5–§3.4.16,
+/// §3.5.6–§3.5.14).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum DecodeErrorKind {
     /// Fewer bytes than the function needs (master 0E52H).
@@ -1012,7 +1018,8 @@ fn sub_function(r: &Reader<'_>, at: usize) -> Result<(), DecodeError> {
 ///
 /// Checks, in order, the length (≥ 4), the CRC, the function code, the field lengths, the
 /// quantities and byte counts, the FC05 value and the FC08 sub-function, which is the order
-/// in which the slave driver reports 0836H, 0831H, 0832H, 0833H, 0834H, 0835H (§5.7).
+/// in which the slave driver reports 0836H, 0831H, 0832H, 0833H, 0834H, 0835H ([Modbus/USS]
+/// §3.5.6–§3.5.14).
 pub fn decode_request(adu: &[u8]) -> Result<(u8, Request<'_>), DecodeError> {
     read_request(open(adu, FrameKind::Request)?)
 }
@@ -1383,8 +1390,9 @@ mod tests {
         assert_eq!(crc16(b"123456789"), crc::CRC_16_MODBUS.check);
     }
 
-    /// Golden request bytes for every function code (§3.3, §4.3), CRC included. The CRCs are
-    /// those of the Modbus specification's examples and of common tools (modpoll, pymodbus).
+    /// Golden request bytes for every function code ([Modbus/USS] §3.3.3, Table 3-10,
+    /// §3.4.5–§3.4.16), CRC included. The CRCs are those of the Modbus specification's examples and
+    /// of common tools (modpoll, pymodbus).
     #[test]
     fn golden_requests_every_function_code() {
         let cases: &[(Request<'_>, &str)] = &[
@@ -1535,7 +1543,7 @@ mod tests {
         }
     }
 
-    /// §3.6: "05 85 02 CRClo CRChi", and every code 01–07 decodes.
+    /// [Modbus/USS] §3.3.6, Table 3-12: "05 85 02 CRClo CRChi", and every code 01–07 decodes.
     #[test]
     fn golden_exceptions_every_code() {
         let e = Response::Exception {

@@ -1,29 +1,31 @@
-//! The Modbus master engine (et200s-si-modbus-uss.md §3.2, §3.5–§3.8, §4).
+//! The Modbus master engine ([Modbus/USS] §3.3.2, §3.3.5–§3.4.3, Table 3-11, Table 3-17, §3.4).
 //!
 //! One request at a time. After the request has left the line the master waits "Response
-//! Time" (50–655 000 ms) for the **start** of a response (§3.8, 0830H); the response ends at
-//! the end-of-frame gap (§3.5) and is then checked in the order of §4.4: address (0831H,
-//! Normal mode), CRC (0E57H), function code (0E51H, or an exception 0E61H–0E67H), lengths and
-//! byte counts (0E52H–0E55H), echoed fields (0E56H). A broadcast (address 0, FC05/06/15/16
-//! only, else 0E43H) completes after the turnaround delay without waiting for a reply.
+//! Time" (50–655 000 ms) for the **start** of a response ([Modbus/USS] §3.4.3, Table 3-17, 0830H);
+//! the response ends at the end-of-frame gap ([Modbus/USS] §3.3.5, Table 3-11) and is then checked
+//! in the order of §3.4.5–§3.4.16: address (0831H, Normal mode), CRC (0E57H), function code (0E51H,
+//! or an exception 0E61H–0E67H), lengths and byte counts (0E52H–0E55H), echoed fields (0E56H). A
+//! broadcast (address 0, FC05/06/15/16 only, else 0E43H) completes after the turnaround delay
+//! without waiting for a reply.
 //!
 //! Every job ends in exactly one [`MasterEvent::Completed`] or [`MasterEvent::Failed`], and
-//! within [`MasterConfig::job_bound`] whatever the line does (host bound, issue 21; the
+//! within [`MasterConfig::job_bound`] whatever the line does (host bound; the
 //! crate docs, "Bounds"): a response that has started must be whole within
 //! [`MasterConfig::max_response_duration`], else the attempt ends with 0830H as if nothing had
 //! come (a retry follows if configured); a request held for silence (`FrameEnd::Length`) goes
 //! out after that long even if the line never goes quiet; and whatever is left when the job's
 //! bound passes (a flood, a state that never moves) fails the job with 0830H. **Reading
-//! chosen** for the STATUS: 0830H "no response start within Response Time" (§7.3) rather than
-//! a frame error, because noise that never forms a frame is no response at all, and a frame
-//! that does end is still judged by §4.4 (0831H, 0E57H, …) as before.
+//! chosen** for the STATUS: 0830H "no response start within Response Time" ([Modbus/USS] §3.6)
+//! rather than a frame error, because noise that never forms a frame is no response at all, and a
+//! frame that does end is still judged by [Modbus/USS] §3.4.5–§3.4.16 (0831H, 0E57H, …) as before.
 //!
 //! With [`FrameEnd::Length`] (a host extension, see there) a response also ends as soon as it
 //! has the length its function code and byte count predict and its CRC checks
 //! ([`crate::rx::response_len`]). The job then completes at once, but the line has not yet
-//! been silent for the gap: the module's master never starts a request before it has (§3.5,
-//! frames are separated by silence), so the next request waits until the gap has passed since
-//! the last character received, and other stations on an RS-485 line still see two frames.
+//! been silent for the gap: the module's master never starts a request before it has ([Modbus/USS]
+//! §3.3.5, Table 3-11, frames are separated by silence), so the next request waits until the gap
+//! has passed since the last character received, and other stations on an RS-485 line still see two
+//! frames.
 
 use crate::config::{FrameEnd, MasterConfig, Mode};
 use crate::fb::FbJobs;
@@ -76,17 +78,17 @@ impl Completion {
     }
 }
 
-/// What the attempts of one job met (a host extension, issue 20): a job whose first response
+/// What the attempts of one job met (a host extension): a job whose first response
 /// was corrupt and whose retry was answered completes like any other, and a gateway that counts
 /// CRC errors per line must still see the corrupt answer. Counts saturate at 255; a job has at
-/// most 16 attempts (retries 0–15, §3.8).
+/// most 16 attempts (retries 0–15, [Modbus/USS] §3.4.3, Table 3-17).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Attempts {
     /// Requests put on the line (1 + the retries used).
     pub sent: u8,
-    /// Attempts ended by a response whose CRC was wrong (0E57H, §4.4).
+    /// Attempts ended by a response whose CRC was wrong (0E57H, [Modbus/USS] §3.4.5–§3.4.16).
     pub crc_errors: u8,
-    /// Attempts ended without a response (0830H, §3.8).
+    /// Attempts ended without a response (0830H, [Modbus/USS] §3.4.3, Table 3-17).
     pub timeouts: u8,
 }
 
@@ -116,10 +118,10 @@ pub enum MasterEvent {
 /// Why [`Master::request`] refused a job.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum RequestError {
-    /// A job is running; one at a time (§4.2).
+    /// A job is running; one at a time ([Modbus/USS] §3.4.2).
     #[error("a job is already running")]
     Busy,
-    /// The job breaks a rule of §4.3 (0E42H–0E4AH).
+    /// The job breaks a rule of [Modbus/USS] §3.4.5–§3.4.16 (0E42H–0E4AH).
     #[error("job refused: {0}")]
     Invalid(Status),
 }
@@ -138,7 +140,8 @@ impl RequestError {
 enum State {
     Idle,
     /// A job waits for the line to be silent for the gap since the last character received
-    /// ([`FrameEnd::Length`] only: a response ended by its length, §3.5).
+    /// ([`FrameEnd::Length`] only: a response ended by its length, [Modbus/USS] §3.3.5, Table
+    /// 3-11).
     Holding {
         until: Instant,
     },
@@ -152,7 +155,7 @@ enum State {
         deadline: Instant,
         limit: Instant,
     },
-    /// Automatic V.24 (§2.2): RTS is on, the request waits for CTS = ON.
+    /// Automatic V.24 ([Modbus/USS] §3.2.2): RTS is on, the request waits for CTS = ON.
     WaitCts,
     /// After a broadcast, until the turnaround delay is over.
     Turnaround {
@@ -174,7 +177,7 @@ pub struct Master {
     /// The current attempt's request goes out by then even if the line is never quiet.
     hold_limit: Instant,
     out: VecDeque<Output<MasterEvent>>,
-    /// Frames out, with automatic V.24 operation (§2.2) around each if configured.
+    /// Frames out, with automatic V.24 operation ([Modbus/USS] §3.2.2) around each if configured.
     tx: Transmitter,
     /// The jobs S_SEND started and the response S_RCV takes (the [`JobPort`](si_core::JobPort)
     /// impl in [`crate::fb`]).
@@ -204,17 +207,17 @@ impl Master {
     /// the module's [`FrameEnd::Gap`]).
     ///
     /// An engine option rather than a [`LineConfig`](crate::config::LineConfig) field:
-    /// `LineConfig` is the module's own parameter set (§3.5–§3.9, what si-dp-coord reads from
-    /// a parameter record), and this is not one of the module's parameters.
+    /// `LineConfig` is the module's own parameter set ([Modbus/USS] §3.3.5–§3.9, Table 3-11, what
+    /// si-dp-coord reads from a parameter record), and this is not one of the module's parameters.
     pub fn with_frame_end(mut self, frame_end: FrameEnd) -> Self {
         self.rx.set_frame_end(frame_end);
         self
     }
 
-    /// The physical interface (§2.5; RS-232C by default). On RS-485 the start of a response
-    /// is recognised by a correctly received slave address in Normal mode too: a turnaround
-    /// glitch before it is skipped instead of failing the job with 0831H. An engine option
-    /// like [`with_frame_end`](Self::with_frame_end), because [`LineConfig`] carries the
+    /// The physical interface ([Modbus/USS] §3.4.1, §3.4.3; RS-232C by default). On RS-485 the
+    /// start of a response is recognised by a correctly received slave address in Normal mode too:
+    /// a turnaround glitch before it is skipped instead of failing the job with 0831H. An engine
+    /// option like [`with_frame_end`](Self::with_frame_end), because [`LineConfig`] carries the
     /// protocol's parameters and the interface is the module's (si-dp-coord holds it).
     ///
     /// [`LineConfig`]: crate::config::LineConfig
@@ -250,7 +253,7 @@ impl Master {
     }
 
     /// Start a job: send `request` to `unit` (0 = broadcast). Refused with the manual's STATUS
-    /// when it breaks §4.3, or when a job is running.
+    /// when it breaks [Modbus/USS] §3.4.5–§3.4.16, or when a job is running.
     pub fn request(
         &mut self,
         now: Instant,
@@ -268,9 +271,9 @@ impl Master {
         Ok(())
     }
 
-    /// The checks of §4.3 a job must pass before it is started (0E43H broadcast not allowed
-    /// for this function, 0E44H–0E46H counts), with the request as it would be sent. Pure, so
-    /// a caller can check a job without the engine at hand.
+    /// The checks of [Modbus/USS] §3.4.5–§3.4.16 a job must pass before it is started (0E43H
+    /// broadcast not allowed for this function, 0E44H–0E46H counts), with the request as it would
+    /// be sent. Pure, so a caller can check a job without the engine at hand.
     pub fn check_job(unit: u8, request: &Request<'_>) -> Result<Adu, RequestError> {
         let f = request.function();
         if unit == BROADCAST && !fc::broadcast_allowed(f) {
@@ -314,7 +317,8 @@ impl Master {
         self.on_gate(now, gate);
     }
 
-    /// What became of the request at the automatic V.24 gate (§2.2; without it, always sent).
+    /// What became of the request at the automatic V.24 gate ([Modbus/USS] §3.2.2; without it,
+    /// always sent).
     fn on_gate(&mut self, now: Instant, gate: Gate) {
         match gate {
             Gate::Sent(len) => {
@@ -517,7 +521,8 @@ fn fault_status(fault: Fault) -> Status {
     }
 }
 
-/// Check a response against its request (§4.4; the address is already checked).
+/// Check a response against its request ([Modbus/USS] §3.4.5–§3.4.16; the address is already
+/// checked).
 ///
 /// The manual lists the checks but not their order. We check the structure (function code,
 /// lengths, byte count, echo) and the CRC, and when both fail we report the length error
@@ -545,7 +550,7 @@ pub fn check_response(request: &[u8], response: &[u8]) -> Result<(), Status> {
 }
 
 /// The structure of a response (`unit | PDU`, no CRC: RTU and Modbus TCP alike) against its
-/// request's: function code, lengths, byte count, echo (§4.4).
+/// request's: function code, lengths, byte count, echo ([Modbus/USS] §3.4.5–§3.4.16).
 pub(crate) fn check_structure(request: &[u8], response: &[u8]) -> Result<(), Status> {
     let f = request[1];
     let body = response.len();
@@ -616,7 +621,7 @@ impl Engine for Master {
         self.rx.observe_read(bytes.len());
         self.tick(now);
         if !self.tx.may_receive() {
-            return; // §2.2 item 6: nothing is received while DSR = OFF
+            return; // [Modbus/USS] §3.2.2 item 6: nothing is received while DSR = OFF
         }
         while !bytes.is_empty() {
             let unit = self.job.map(|(a, _)| a.unit());
@@ -643,8 +648,8 @@ impl Engine for Master {
     fn handle_tx_done(&mut self, now: Instant) {
         self.tick(now);
         self.sent(now);
-        // The RTS-off time of automatic V.24 (§2.2 item 5) runs from the last byte actually
-        // leaving, which only the driver knows: not from the engine's estimate.
+        // The RTS-off time of automatic V.24 ([Modbus/USS] §3.2.2 item 5) runs from the last byte
+        // actually leaving, which only the driver knows: not from the engine's estimate.
         self.tx.sent(now, &mut self.out);
     }
 
@@ -664,7 +669,7 @@ impl Engine for Master {
         if !dsr_dropped {
             return;
         }
-        // `[Modbus/USS]` §3.2.2 item 7: DSR ON → OFF aborts "an active send job and any active
+        // [Modbus/USS] §3.2.2 item 7: DSR ON → OFF aborts "an active send job and any active
         // reception". A running job is aborted at once in every phase, not only while the
         // request waits for CTS or is sent (the gate above) or a response is arriving: also
         // during the RTS-off time, between the request's last byte and the response's first,

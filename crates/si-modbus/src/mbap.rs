@@ -30,7 +30,7 @@
 //!   next frame: the length field is the only delimiter. The guide names no resynchronisation;
 //!   the [`Decoder`] stays failed until [`Decoder::reset`], and the connection should be closed,
 //!   as mbusd does ("header is damaged, drop connection", `conn_loop` in the copy at
-//!   `shared/peers/mbusd/src/conn.c`). Our server closes it.
+//!   mbusd's `src/conn.c`). Our server closes it.
 //!
 //! No allocation: an ADU is held inline ([`TcpAdu`]), the decoder owns one.
 //!

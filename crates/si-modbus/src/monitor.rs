@@ -1,12 +1,13 @@
-//! Passive Modbus RTU decoding (et200s-si-modbus-uss.md §3.5–§3.6, §4): frames end at the
-//! end-of-frame gap tZVZ_TAB of Table 3-11 (`crate::config::gap_table`), the CRC is
+//! Passive Modbus RTU decoding ([Modbus/USS] §3.3.5–§3.3.6, Table 3-11, Table 3-12, §3.4): frames
+//! end at the end-of-frame gap tZVZ_TAB of Table 3-11 (`crate::config::gap_table`), the CRC is
 //! checked, requests and responses are decoded with si-modbus' own decoders, exception
 //! responses are named, and a request without a response within the response timeout is
 //! flagged.
 //!
 //! Counters follow the Modbus serial-line diagnostic counters a master or a bus analyser keeps
 //! (bus messages, bus communication errors = CRC, exception responses, slave messages, no
-//! response, broadcasts); the ET 200S slave itself keeps none (§4, "no event counters").
+//! response, broadcasts); the ET 200S slave itself keeps none ([Modbus/USS] §3.4, "no event
+//! counters").
 //!
 //! Reading chosen: a frame is a **request** if no request is waiting for its response, or if
 //! it comes from the station that sent the waiting request (that request then went unanswered);
@@ -55,7 +56,7 @@ pub struct Params {
 
 impl Params {
     /// The character format, end-of-frame gap and response timeout a master with `config`
-    /// runs with (§3.5 Table 3-11, §4.6 Table 3-17).
+    /// runs with ([Modbus/USS] §3.3.5, Table 3-11, §3.4.3, Table 3-17).
     pub fn from_config(config: &crate::config::MasterConfig) -> Params {
         Params {
             settings: config.line.settings,

@@ -1,4 +1,4 @@
-//! Frame detection by silence (et200s-si-modbus-uss.md §3.5, §3.7, Table 3-11), and by
+//! Frame detection by silence ([Modbus/USS] §3.3.5, §3.4.3, §3.5.4, Table 3-11), and by
 //! predicted length as a host extension ([`FrameEnd::Length`]).
 //!
 //! A Modbus RTU receiver of the module does not predict frame lengths: a frame ends when the
@@ -9,21 +9,22 @@
 //!
 //! The gap is measured the way a UART lets a receiver measure it: from the moment one
 //! character has been received to the moment the next one has (its end), as the module's
-//! character delay time tZVZ is defined "between two characters" (§7.3, 0806H). The silence
-//! on the wire is therefore one character time shorter than the time measured.
+//! character delay time tZVZ is defined "between two characters" ([Modbus/USS] §3.6, 0806H). The
+//! silence on the wire is therefore one character time shorter than the time measured.
 //!
-//! Operating mode (§3.7): in **Normal** mode a frame carrying a UART error or BREAK is handed
-//! up as faulty so the engine reports it. In **interference suppression** mode such frames are
-//! dropped silently, leading bytes before a correctly received slave address are skipped, and
-//! errors after a complete frame (valid CRC) are ignored.
+//! Operating mode ([Modbus/USS] §3.4.3, §3.5.4): in **Normal** mode a frame carrying a UART error
+//! or BREAK is handed up as faulty so the engine reports it. In **interference suppression** mode
+//! such frames are dropped silently, leading bytes before a correctly received slave address are
+//! skipped, and errors after a complete frame (valid CRC) are ignored.
 //!
-//! Interface (§2.5): on **RS-485** the start of a message is recognised by a correctly received
-//! slave address in either mode, so leading bytes before it (a turnaround glitch as the bus
-//! changes direction) are skipped, and a UART error or BREAK before the message starts is
-//! ignored, as interference suppression does. On RS-232C and RS-422 Normal mode hands them up,
-//! and the master reports 0831H. (Reading chosen: §2.5 also says RS-485 ignores "all detected
-//! transmission errors"; we apply that to errors before a message only, so a character error
-//! inside a response is still reported in Normal mode as §3.7 describes.)
+//! Interface ([Modbus/USS] §3.4.1, §3.4.3): on **RS-485** the start of a message is recognised by a
+//! correctly received slave address in either mode, so leading bytes before it (a turnaround glitch
+//! as the bus changes direction) are skipped, and a UART error or BREAK before the message starts
+//! is ignored, as interference suppression does. On RS-232C and RS-422 Normal mode hands them up,
+//! and the master reports 0831H. (Reading chosen: [Modbus/USS] §3.4.1, §3.4.3 also says RS-485
+//! ignores "all detected transmission errors"; we apply that to errors before a message only, so a
+//! character error inside a response is still reported in Normal mode as [Modbus/USS] §3.4.3,
+//! §3.5.4 describes.)
 //!
 //! # Behind a port that delivers in packets (a USB adapter)
 //!
@@ -69,7 +70,7 @@ pub enum Expect {
 
 /// The length (CRC included) of the request that starts with `head`, as far as `head` tells.
 ///
-/// The request layouts of et200s-si-modbus-uss.md §4.5/§5.7 (Modbus application protocol
+/// The request layouts of [Modbus/USS] §3.4.5–§3.4.16, §3.5.6–§3.5.14 (Modbus application protocol
 /// for FC07, FC11, FC12): FC01–06 and FC08 are 8 bytes (address, function, two 16-bit
 /// fields, CRC); FC07, 11, 12 are 4 (address, function, CRC); FC15 and FC16 are 9 + the byte
 /// count at offset 6. Any other function code has no prediction.
@@ -93,11 +94,12 @@ pub fn request_len(head: &[u8]) -> Prediction {
 /// The length (CRC included) of the response to a request with function code `request_fc`
 /// that starts with `head`, as far as `head` tells.
 ///
-/// The response layouts of §4.5 (and the Modbus application protocol for FC07, 11, 12):
-/// FC01–04 are 5 + the byte count at offset 2; FC05, 06, 08, 15, 16 echo 4 bytes (8 in all);
-/// FC07 is 5; FC11 is 8; FC12 is 5 + its byte count; an exception (function | 80H, §3.6) is 5.
-/// A function code that is neither the request's nor its exception has no prediction: the
-/// frame ends at the gap and the master reports it (0E51H) as the module would.
+/// The response layouts of [Modbus/USS] §3.4.5–§3.4.16 (and the Modbus application protocol for
+/// FC07, 11, 12): FC01–04 are 5 + the byte count at offset 2; FC05, 06, 08, 15, 16 echo 4 bytes (8
+/// in all); FC07 is 5; FC11 is 8; FC12 is 5 + its byte count; an exception (function | 80H,
+/// [Modbus/USS] §3.3.6, Table 3-12) is 5. A function code that is neither the request's nor its
+/// exception has no prediction: the frame ends at the gap and the master reports it (0E51H) as the
+/// module would.
 pub fn response_len(request_fc: u8, head: &[u8]) -> Prediction {
     let Some(&f) = head.get(1) else {
         return Prediction::NeedMore(2);
@@ -195,7 +197,7 @@ pub struct Receiver {
     counters: Counters,
     /// How late the port hands bytes over; its allowance lengthens the gap.
     delivery: Delivery,
-    /// RS-485 recognises a message by its address (§2.5).
+    /// RS-485 recognises a message by its address ([Modbus/USS] §3.4.1, §3.4.3).
     interface: Interface,
     /// The frame's header predicts more bytes than it holds: on a packetising port a hole is
     /// then waited out up to the longest latency a port can have.
@@ -259,7 +261,8 @@ impl Receiver {
         self.frame_end == FrameEnd::Length || self.delivery.packetises()
     }
 
-    /// The physical interface (§2.5): on RS-485 leading garbage is skipped in every mode.
+    /// The physical interface ([Modbus/USS] §3.4.1, §3.4.3): on RS-485 leading garbage is skipped
+    /// in every mode.
     pub fn set_interface(&mut self, interface: Interface) {
         self.interface = interface;
     }
@@ -269,8 +272,8 @@ impl Receiver {
         self.interface
     }
 
-    /// A message starts at a correctly received address: interference suppression (§3.7), or
-    /// any mode on RS-485 (§2.5).
+    /// A message starts at a correctly received address: interference suppression ([Modbus/USS]
+    /// §3.4.3, §3.5.4), or any mode on RS-485 ([Modbus/USS] §3.4.1, §3.4.3).
     fn starts_at_address(&self) -> bool {
         self.mode == Mode::InterferenceSuppression || self.interface == Interface::Rs485
     }
@@ -325,9 +328,9 @@ impl Receiver {
     }
 
     /// With [`FrameEnd::Length`]: when the line will have been silent for the gap since the
-    /// last character received, the earliest a master may start its next request (§3.5:
-    /// frames are separated by silence). `None` with [`FrameEnd::Gap`], where every frame
-    /// already ends at that moment.
+    /// last character received, the earliest a master may start its next request ([Modbus/USS]
+    /// §3.3.5, Table 3-11: frames are separated by silence). `None` with [`FrameEnd::Gap`], where
+    /// every frame already ends at that moment.
     pub fn quiet_at(&self) -> Option<Instant> {
         if !self.ends_by_length() {
             return None;
@@ -488,8 +491,8 @@ impl Receiver {
         }
     }
 
-    /// Throw away the frame being received (DSR dropped under automatic V.24, §2.2 item 7):
-    /// it never becomes a frame, and counts as discarded.
+    /// Throw away the frame being received (DSR dropped under automatic V.24, [Modbus/USS] §3.2.2
+    /// item 7): it never becomes a frame, and counts as discarded.
     pub fn discard(&mut self) {
         if self.last.take().is_some() {
             self.len = 0;
@@ -509,7 +512,8 @@ impl Receiver {
             && self.len >= 4
             && crc_ok(&self.buf[..self.len])
         {
-            // §3.7: errors after the end of a message (after the CRC) are ignored.
+            // [Modbus/USS] §3.4.3, §3.5.4: errors after the end of a message (after the CRC) are
+            // ignored.
             return;
         }
         if self.complete {
@@ -517,7 +521,8 @@ impl Receiver {
             return;
         }
         if self.interface == Interface::Rs485 && self.last.is_none() {
-            // §2.5: before a message starts (a turnaround glitch, BREAK between messages).
+            // [Modbus/USS] §3.4.1, §3.4.3: before a message starts (a turnaround glitch, BREAK
+            // between messages).
             return;
         }
         self.last = Some(now);

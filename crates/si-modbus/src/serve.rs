@@ -1,7 +1,7 @@
 //! One decoded request executed against a [`Store`]: the part of the slave that does not
 //! depend on the line, shared by the RTU slave engine ([`crate::slave`]) and the Modbus TCP
 //! server ([`crate::tokio::tcp`]), so that both answer a request identically
-//! (et200s-si-modbus-uss.md §5.7, Table 3-12).
+//! ([Modbus/USS] §3.5.6–§3.5.14, Table 3-12).
 
 use crate::frame::{fc, Bits, DecodeErrorKind, ExceptionCode, Registers, Request, Response};
 use crate::slave::{Store, StoreError};
@@ -36,7 +36,7 @@ pub enum Outcome<'d> {
 }
 
 /// The exception and driver event for a request that failed to decode for any reason but its
-/// CRC (§5.7: 0831H → exception 01; 0832H–0835H → exception 03).
+/// CRC ([Modbus/USS] §3.5.6–§3.5.14: 0831H → exception 01; 0832H–0835H → exception 03).
 pub fn refusal(kind: DecodeErrorKind) -> (ExceptionCode, Option<Status>) {
     match kind {
         DecodeErrorKind::Function => (
@@ -53,8 +53,9 @@ pub fn refusal(kind: DecodeErrorKind) -> (ExceptionCode, Option<Status>) {
     }
 }
 
-/// Execute `request` on `store`. FC08 is answered without the store (§5.7); FC07, 11 and 12
-/// are refused with exception 01, as the module's slave has none of them (§5.7).
+/// Execute `request` on `store`. FC08 is answered without the store ([Modbus/USS] §3.5.6–§3.5.14);
+/// FC07, 11 and 12 are refused with exception 01, as the module's slave has none of them
+/// ([Modbus/USS] §3.5.6–§3.5.14).
 pub fn execute<'d, S: Store + ?Sized>(
     store: &mut S,
     request: &Request<'_>,

@@ -1,6 +1,6 @@
 //! S_MODB's address conversion: Modbus addresses to SIMATIC memory through the conversion DB
-//! (et200s-si-modbus-uss.md §5.4–§5.6, Tables 3-19/3-20/3-22–3-25;
-//! et200s-si-2005-window-protocol.md §7.6–§7.8).
+//! ([Modbus/USS] §3.5.3–§3.5.17, Tables 3-19/3-20/3-22–3-25;
+//! [ET200S SI 2005] Table 3-20, §3.6.17, §3.6.20).
 //!
 //! [`ConversionDb`] is the 26-word DB passed to S_MODB as `DB_NO`; [`SimaticStore`] is a
 //! [`Store`] over a [`Memory`] that applies it:
@@ -11,12 +11,13 @@
 //! - FC02: M bits (kkkkk…lllll from MBvvvvv.0, read only) and inputs (nnnnn…rrrrr from Isssss.0);
 //! - FC03/06/16 and FC04 (read only): DB = base + (R >> 9), DBW = (R & 1FFH) × 2;
 //! - writes only inside [MIN, MAX] of the DB numbers, M bytes and Q bytes; MAX = 0 disables
-//!   the area (§5.6).
+//!   the area ([Modbus/USS] §3.5.17, §3.5.20).
 //!
-//! # Readings chosen where the manual is silent (§11.12, §11.13, §11.15)
+//! # Readings chosen where the manual is silent ([Modbus/USS] §3.5.3, §3.5.5–§3.5.19 `[derived]`)
 //!
-//! - The formulas for FC05/FC15 are printed swapped (§11.15); we use the consistent ones
-//!   (M from aaaaa/uuuuu, Q from ccccc/ooooo), which reproduce every worked example.
+//! - The formulas for FC05/FC15 are printed swapped ([Modbus/USS] §3.5.5–§3.5.19 `[derived]`); we
+//!   use the consistent ones (M from aaaaa/uuuuu, Q from ccccc/ooooo), which reproduce every worked
+//!   example.
 //! - The whole span `[A, A + quantity − 1]` must lie in one from/to range, not only its start;
 //!   otherwise exception 02 (S_MODB ERROR_NR 11, "invalid start address").
 //! - A register span crossing a 512-register boundary continues in the next DB, as the
@@ -199,7 +200,8 @@ impl ConversionDb {
         ]
     }
 
-    /// Where Modbus bit address `a` of `function` (01, 02, 05, 15) lands (§5.5).
+    /// Where Modbus bit address `a` of `function` (01, 02, 05, 15) lands ([Modbus/USS]
+    /// §3.5.5–§3.5.19).
     pub fn bit_address(&self, function: u8, a: u16) -> Result<BitAddress, StoreError> {
         let within = |from: u16, to: u16| from <= a && a <= to;
         let bit = |area: Area, from: u16, byte: u16| {
@@ -273,7 +275,7 @@ impl ConversionDb {
     }
 
     /// Where register `r` lands for `function` (03/06/16 or 04): DB base + (R >> 9),
-    /// DBW (R & 1FFH) × 2 (§5.5, Tables 3-24/3-25).
+    /// DBW (R & 1FFH) × 2 ([Modbus/USS] §3.5.5–§3.5.19, Tables 3-24/3-25).
     pub fn register_address(&self, function: u8, r: u16) -> Result<RegisterAddress, StoreError> {
         let base = if function == fc::READ_INPUT_REGISTERS {
             self.db_fc04
@@ -377,7 +379,8 @@ pub struct SimaticStore {
     pub memory: Memory,
     /// The conversion DB.
     pub conversion: ConversionDb,
-    /// S_MODB initialised (START_OK); while false every request gets exception 04 (§5.1).
+    /// S_MODB initialised (START_OK); while false every request gets exception 04 ([Modbus/USS]
+    /// §3.5.1, §3.5.2).
     pub started: bool,
 }
 
@@ -494,7 +497,7 @@ impl SimaticStore {
     }
 }
 
-/// S_MODB's errors 14–17, 20, 21 (§5.8): exception 04.
+/// S_MODB's errors 14–17, 20, 21 ([Modbus/USS] §3.6.4, §3.6.5): exception 04.
 fn memory_error(e: MemoryError) -> StoreError {
     let (nr, info) = match e {
         MemoryError::OutOfRange { area, end, .. } => (
@@ -741,7 +744,8 @@ mod tests {
                 "R = {r}"
             );
         }
-        // FC04 R = 02C0H (704) with its own base DB 900 → DB901.DBW384 (§5.5).
+        // FC04 R = 02C0H (704) with its own base DB 900 → DB901.DBW384 ([Modbus/USS]
+        // §3.5.5–§3.5.19).
         assert_eq!(
             db.register_address(fc::READ_INPUT_REGISTERS, 0x02C0)
                 .unwrap()
@@ -764,8 +768,8 @@ mod tests {
     }
 
     /// §3.5.14: FC16 at R = 0032H with base DB800 writes CD09H, DE1AH, EF2BH to DBW100/102/104;
-    /// §3.5.13: FC15 writes M1144.0…M1145.3 (12 bits; the text says 10 and 12, §11.15) from
-    /// data bytes CDH, 09H.
+    /// §3.5.13: FC15 writes M1144.0…M1145.3 (12 bits; the text says 10 and 12, [Modbus/USS]
+    /// §3.5.5–§3.5.19 `[derived]`) from data bytes CDH, 09H.
     #[test]
     fn worked_write_examples() {
         let mut sizes = MemorySizes::default();
@@ -788,7 +792,8 @@ mod tests {
         assert_eq!(s.memory.bytes(Area::Flags).unwrap()[1145] & 0x0F, 0x09);
     }
 
-    /// §5.6: MAX = 0 disables writes; outside [MIN, MAX] is refused with ERROR_NR 22–27.
+    /// [Modbus/USS] §3.5.17, §3.5.20: MAX = 0 disables writes; outside [MIN, MAX] is refused with
+    /// ERROR_NR 22–27.
     #[test]
     fn write_limits() {
         let mut s = SimaticStore::example();

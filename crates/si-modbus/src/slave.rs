@@ -1,15 +1,17 @@
-//! The Modbus slave engine (et200s-si-modbus-uss.md §3.2, §3.3, §3.6, §5.1, §5.7).
+//! The Modbus slave engine ([Modbus/USS] §3.3.2, §3.3.3, Table 3-10, §3.3.6, Table 3-12, §3.5.1,
+//! §3.5.2, §3.5.6–§3.5.14).
 //!
 //! The module's slave driver checks every request and S_MODB executes it against the CPU; here
 //! the engine does the driver's part and a [`Store`] does S_MODB's. The engine:
 //!
-//! - answers only its own address (1–255, §3.2); frames for other addresses are neither
-//!   interpreted nor answered; a broadcast (address 0) is executed for FC05/06/15/16 and never
-//!   answered, any other broadcast is logged as 0830H;
+//! - answers only its own address (1–255, [Modbus/USS] §3.3.2); frames for other addresses are
+//!   neither interpreted nor answered; a broadcast (address 0) is executed for FC05/06/15/16 and
+//!   never answered, any other broadcast is logged as 0830H;
 //! - checks the CRC (0836H, no answer), the function code (0831H, exception 01), quantities
 //!   (0832H), FC15/16 byte counts (0833H), the FC05 value (0834H), the FC08 sub-function
 //!   (0835H), all answered with exception 03 (Table 3-12);
-//! - answers FC08 (sub-function 0000) itself, without touching the store (§5.7);
+//! - answers FC08 (sub-function 0000) itself, without touching the store ([Modbus/USS]
+//!   §3.5.6–§3.5.14);
 //! - reports a request that arrives while its previous response is still on the line as
 //!   0837H (sequence error) and drops it.
 //!
@@ -38,7 +40,7 @@ pub struct StoreError {
     pub exception: ExceptionCode,
     /// The driver event to log, if the manual names one (0832H for T/C not in 16-bit steps).
     pub status: Option<Status>,
-    /// S_MODB ERROR_NR (§5.8), 0 if none applies.
+    /// S_MODB ERROR_NR ([Modbus/USS] §3.6.4, §3.6.5), 0 if none applies.
     pub error_nr: u16,
     /// S_MODB ERROR_INFO.
     pub info: u16,
@@ -217,7 +219,7 @@ pub enum SlaveEvent {
         /// Number of bits or registers (1 for FC05/06/08).
         quantity: u16,
     },
-    /// A broadcast write was executed (no answer, §3.2).
+    /// A broadcast write was executed (no answer, [Modbus/USS] §3.3.2).
     Broadcast {
         /// Function code.
         function: u8,
@@ -234,8 +236,8 @@ pub enum SlaveEvent {
         /// The exception sent.
         code: ExceptionCode,
         /// The driver event (0831H–0835H), if the driver rejected it. `None` with no `error`
-        /// when the request is too short or too long for its function code: §5.7 lists no
-        /// event for that, the answer is exception 03.
+        /// when the request is too short or too long for its function code: [Modbus/USS]
+        /// §3.5.6–§3.5.14 lists no event for that, the answer is exception 03.
         status: Option<Status>,
         /// The store's refusal, if the store rejected it.
         error: Option<StoreError>,
@@ -252,7 +254,7 @@ pub struct Slave<S> {
     rx: Receiver,
     store: S,
     out: VecDeque<Output<SlaveEvent>>,
-    /// Frames out, with automatic V.24 operation (§2.2) around each if configured.
+    /// Frames out, with automatic V.24 operation ([Modbus/USS] §3.2.2) around each if configured.
     tx: Transmitter,
     /// Our response is on the line until then.
     busy_until: Option<Instant>,
@@ -280,8 +282,8 @@ impl<S: Store> Slave<S> {
     /// the module's [`FrameEnd::Gap`]).
     ///
     /// An engine option rather than a [`LineConfig`](crate::config::LineConfig) field:
-    /// `LineConfig` is the module's own parameter set (§3.5–§3.9, what si-dp-coord reads from
-    /// a parameter record), and this is not one of the module's parameters.
+    /// `LineConfig` is the module's own parameter set ([Modbus/USS] §3.3.5–§3.9, Table 3-11, what
+    /// si-dp-coord reads from a parameter record), and this is not one of the module's parameters.
     pub fn with_frame_end(mut self, frame_end: FrameEnd) -> Self {
         self.rx.set_frame_end(frame_end);
         self
@@ -321,7 +323,8 @@ impl<S: Store> Slave<S> {
         self.on_gate(now, gate);
     }
 
-    /// What became of the response at the automatic V.24 gate (§2.2; without it, always sent).
+    /// What became of the response at the automatic V.24 gate ([Modbus/USS] §3.2.2; without it,
+    /// always sent).
     fn on_gate(&mut self, now: Instant, gate: Gate) {
         match gate {
             Gate::Sent(len) => {
@@ -366,8 +369,8 @@ impl<S: Store> Slave<S> {
         let bytes = frame.adu.as_bytes();
         let unit = bytes[0];
         if unit != self.config.address && unit != BROADCAST {
-            // §3.2: not interpreted, not answered; counted as garbage unless it is a good
-            // frame for another slave.
+            // [Modbus/USS] §3.3.2: not interpreted, not answered; counted as garbage unless it is a
+            // good frame for another slave.
             if !frame::crc_ok(bytes) {
                 self.rx.count_discarded();
             }
@@ -494,7 +497,7 @@ impl<S: Store> Engine for Slave<S> {
         self.rx.observe_read(bytes.len());
         self.tick(now);
         if !self.tx.may_receive() {
-            return; // §2.2 item 6: nothing is received while DSR = OFF
+            return; // [Modbus/USS] §3.2.2 item 6: nothing is received while DSR = OFF
         }
         let own = self.config.address;
         while !bytes.is_empty() {
@@ -519,8 +522,8 @@ impl<S: Store> Engine for Slave<S> {
     fn handle_tx_done(&mut self, now: Instant) {
         self.tick(now);
         self.busy_until = None;
-        // The RTS-off time of automatic V.24 (§2.2 item 5) runs from the last byte actually
-        // leaving, which only the driver knows: not from the engine's estimate.
+        // The RTS-off time of automatic V.24 ([Modbus/USS] §3.2.2 item 5) runs from the last byte
+        // actually leaving, which only the driver knows: not from the engine's estimate.
         self.tx.sent(now, &mut self.out);
     }
 
@@ -538,7 +541,7 @@ impl<S: Store> Engine for Slave<S> {
         let (gate, dsr_dropped) = self.tx.on_signals(signals, &mut self.out);
         self.on_gate(now, gate);
         if dsr_dropped && self.rx.is_receiving() {
-            // §2.2 item 7: DSR ON → OFF aborts a reception.
+            // [Modbus/USS] §3.2.2 item 7: DSR ON → OFF aborts a reception.
             self.rx.discard();
             self.event(SlaveEvent::Error(status::DSR_CTS_OFF));
         }

@@ -62,8 +62,9 @@ impl Error {
 }
 
 /// A completed job whose response is not the one its request calls for (a broadcast has none):
-/// the engine's checks (§4.4) make this unreachable for a unicast job, so it is reported as
-/// the manual's "wrong function code in the response" rather than as an invented value.
+/// the engine's checks ([Modbus/USS] §3.4.5–§3.4.16) make this unreachable for a unicast job, so it
+/// is reported as the manual's "wrong function code in the response" rather than as an invented
+/// value.
 fn unexpected() -> Error {
     Error::Failed(crate::status::WRONG_FUNCTION)
 }
@@ -81,7 +82,8 @@ pub struct CommEventLog {
     pub events: Vec<u8>,
 }
 
-/// An async Modbus master over one line: one job at a time (§4.2), each `await` is one job.
+/// An async Modbus master over one line: one job at a time ([Modbus/USS] §3.4.2), each `await` is
+/// one job.
 pub struct Master {
     driver: driver::Handle<master::Master>,
     task: JoinHandle<std::io::Result<()>>,
@@ -154,7 +156,8 @@ impl Master {
     /// [`request`](Self::request), and what the job's attempts met ([`Attempts`]): a job that
     /// completed after a retry still shows the corrupt answer or the timeout before it. A job
     /// refused before it started met nothing. The attempts are read from the engine once the
-    /// job has ended, before this handle can start another (one job at a time, §4.2).
+    /// job has ended, before this handle can start another (one job at a time, [Modbus/USS]
+    /// §3.4.2).
     pub async fn request_with_attempts(
         &mut self,
         unit: u8,

@@ -1,6 +1,6 @@
 //! The transmit side the Modbus master and slave share: frames cut from one kept buffer (no
 //! allocation per frame in steady state), and automatic use of the V.24 signals around each
-//! transmission (et200s-si-modbus-uss.md §2.2). The sequence is si-core's ([`si_core::v24`],
+//! transmission ([Modbus/USS] §3.2.2). The sequence is si-core's ([`si_core::v24`],
 //! shared with the ASCII driver); this holds the one frame that waits for CTS.
 //!
 //! Without the option every call passes straight through: a frame goes out at once, every byte
@@ -38,7 +38,8 @@ pub(crate) struct Transmitter {
 }
 
 impl Transmitter {
-    /// Enters the V.24 mode at once (DTR = ON, RTS = OFF, §2.2 item 1) when configured.
+    /// Enters the V.24 mode at once (DTR = ON, RTS = OFF, [Modbus/USS] §3.2.2 item 1) when
+    /// configured.
     pub(crate) fn new<E>(times: Option<AutoV24Times>, out: &mut VecDeque<Output<E>>) -> Self {
         let sequence = times.map(|t| {
             let mut s = AutoV24::new(t);
@@ -52,7 +53,7 @@ impl Transmitter {
         }
     }
 
-    /// Transmit `bytes` now, or once CTS = ON (§2.2 item 3).
+    /// Transmit `bytes` now, or once CTS = ON ([Modbus/USS] §3.2.2 item 3).
     pub(crate) fn transmit<E>(
         &mut self,
         now: Instant,

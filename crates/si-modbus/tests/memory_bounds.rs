@@ -1,4 +1,4 @@
-//! Issue 21, "Bounded memory": a slave's SIMATIC memory of absurd size is refused with a range
+//! Bounded memory: a slave's SIMATIC memory of absurd size is refused with a range
 //! error before anything is allocated (si_core::memory::MemorySizes::check), and the largest
 //! sizes it accepts stay within the documented total.
 //!

@@ -1,4 +1,4 @@
-//! A bound on every master job under noise (issue 21; the crate docs, "Bounds"): against a
+//! A bound on every master job under noise (the crate docs, "Bounds"): against a
 //! partner that never sends a valid response (silent, random bytes, 01H every 2 ms, an endless
 //! frame, a flood, noise that stops), every job — read, write, diagnostics — ends with a
 //! non-zero STATUS within [`MasterConfig::job_bound`], in virtual time, through S_SEND too.

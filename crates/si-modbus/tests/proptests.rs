@@ -271,7 +271,7 @@ fn exchange(unit: u8, request: &Request<'_>) -> Completion {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(512))]
 
-    /// et200s-si-modbus-uss.md §4.3–§4.5, §7.2: a read job (FC01–04) is accepted exactly when
+    /// [Modbus/USS] §3.4.5–§3.4.16, §3.6: a read job (FC01–04) is accepted exactly when
     /// its count is in the manual's range and its result fits S_RCV's 200 bytes; a result that
     /// would not fit is 050EH; an accepted job's stored LEN is its result's size, never above
     /// 200.

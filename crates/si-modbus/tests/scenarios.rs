@@ -1,4 +1,4 @@
-//! Modbus RTU scenarios, one module per topic (et200s-si-modbus-uss.md §2–§5): the master, the
+//! Modbus RTU scenarios, one module per topic ([Modbus/USS] §3.2–§3.5): the master, the
 //! slave, the automatic V.24 signals, frames ended by length, USB adapters, and read jobs
 //! through S_SEND/S_RCV at the 200-byte limit.
 

@@ -1,4 +1,4 @@
-//! Soak (issue 9): a master and a slave on a faulty line (bit flips, lost and inserted
+//! Soak: a master and a slave on a faulty line (bit flips, lost and inserted
 //! characters) for a day of virtual time, the master alternating an FC16 write of a sequence
 //! number into 10 registers with an FC03 read of them.
 //!

@@ -87,7 +87,7 @@ async fn exceptions_pass_as_they_are() {
         e.exception_code(),
         Some(ExceptionCode::IllegalDataAddress.code())
     );
-    // FC07: the module's slave has none (§5.7), exception 01.
+    // FC07: the module's slave has none ([Modbus/USS] §3.5.6–§3.5.14), exception 01.
     let e = c
         .request(1, &Request::ReadExceptionStatus)
         .await
@@ -440,7 +440,8 @@ impl Handler for Misfits {
 }
 
 /// The client checks an answer's structure against its request as the RTU master does
-/// (§4.4): a short read and a wrong echo are errors with the master's STATUS, not values.
+/// ([Modbus/USS] §3.4.5–§3.4.16): a short read and a wrong echo are errors with the master's
+/// STATUS, not values.
 #[tokio::test]
 async fn an_answer_that_does_not_fit_its_request_is_refused() {
     let server = Server::with_handler("127.0.0.1:0", ServerConfig::default(), Misfits)

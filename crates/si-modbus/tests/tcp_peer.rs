@@ -1,5 +1,5 @@
 //! A [`Handler`] learns which connection asks ([`Peer`]) and when connections come and go:
-//! what a gateway needs for per-client counters and fair queueing (issue 20).
+//! what a gateway needs for per-client counters and fair queueing.
 #![cfg(feature = "tokio")]
 
 use std::sync::{Arc, Mutex};

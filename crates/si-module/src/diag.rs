@@ -1,7 +1,7 @@
 //! PROFIBUS slave diagnosis of an ET 200S station with an SI module: decode and encode.
 //!
-//! et200s-si-2005-window-protocol.md §6.4 (Tables 2-30 and 3-73), et200s-si-3964r-ascii.md §11.4
-//! (Table 2-29) and et200s-si-modbus-uss.md §7.6 (Table 3-28): "the slave diagnosis follows
+//! [ET200S SI 2005] Tables 2-30, 3-73 (Tables 2-30 and 3-73), [ET200S SI] §2.13, Table 2-29
+//! (Table 2-29) and [Modbus/USS] §3.6.3 (Table 3-28): "the slave diagnosis follows
 //! EN 50170 vol. 2. It contains module diagnosis, module status and channel-specific diagnosis;
 //! the channel-specific part comes after the module status." The manuals refer to the ET 200S
 //! system manual for the byte layout; this module decodes that layout:
@@ -60,7 +60,7 @@
 //!
 //! # Hand-written, not nom
 //!
-//! Hand-written because a nom version (issue 17; commit 303f045 in the history) was longer and
+//! Hand-written because a nom version (commit 303f045 in the history) was longer and
 //! slower: the parts are ordered and may each be absent, every error names its part and offset,
 //! so the loop and its checks stay as they are and nom only replaced the slicing, through a
 //! 17-line helper mapping its errors to [`DiagError::Truncated`] (521 → 536 code lines;
@@ -89,7 +89,7 @@ pub enum Variant {
     ModbusUss,
 }
 
-/// The 5-bit channel error type of Tables 2-30 and 3-73 (et200s-si-2005-window-protocol.md §6.4).
+/// The 5-bit channel error type of Tables 2-30 and 3-73 ([ET200S SI 2005] Tables 2-30, 3-73).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ErrorType {

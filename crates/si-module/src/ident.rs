@@ -1,6 +1,6 @@
 //! Identification data I&M0 (DS 231) and I&M1 (DS 232): the 64-byte records of the SI module.
 //!
-//! et200s-si-2005-window-protocol.md §9.1 (Tables 2-10/2-11; chapter 3 refers to the same
+//! [ET200S SI 2005] §2.9.4 (Tables 2-10/2-11; chapter 3 refers to the same
 //! pages): "all ID data records are 64 bytes long". Each record is a 10-byte header and 54 bytes
 //! of identification data:
 //!
@@ -19,15 +19,15 @@
 //! # Readings
 //!
 //! - **Order number suffix.** The availability note prints "…-0AE0", the device-name field
-//!   "…-0AB0" (H-57); the default device name uses the order numbers of §1.1,
-//!   6ES7 138-4DF01-0AB0 and 6ES7 138-4DF11-0AB0.
+//!   "…-0AB0" (`[derived]`); the default device name uses the order numbers of [ET200S SI 2005]
+//!   §2.1, 6ES7 138-4DF01-0AB0 and 6ES7 138-4DF11-0AB0.
 //! - **Software revision** (4 bytes, "firmware version"): coded as in PROFIBUS I&M, a prefix
 //!   character ('V' released) and three numbers (functional, bug fix, internal).
 //! - **I&M version** is 00 00H as printed (a PROFIBUS I&M device would say 01 01H).
 //!
 //! # Hand-written, not nom
 //!
-//! Hand-written because a nom version (issue 17; commit 261d487 in the history) was longer and
+//! Hand-written because a nom version (commit 261d487 in the history) was longer and
 //! no faster: a record is checked to be 64 bytes first, so the fields are read at the offsets
 //! the table gives and no read can fail; nom's field tuples hid those offsets, which the text
 //! errors report, and needed an error mapping that cannot happen (293 → 306 code lines;

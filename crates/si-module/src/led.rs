@@ -1,8 +1,8 @@
 //! The module's three LEDs, SF (red), TX and RX (green), as a pure function of the module's
 //! state and the time.
 //!
-//! et200s-si-2005-window-protocol.md §1.6 and §9.2–§9.3, et200s-si-3964r-ascii.md §1.4,
-//! et200s-si-modbus-uss.md §1 (Table 3-2):
+//! [ET200S SI 2005] §2.1, §2.9.5–§2.11, Table 2-12, [ET200S SI] §2.1, §2.13,
+//! [Modbus/USS] §3.1 (Table 3-2):
 //!
 //! * **SF** (group fault) lights for a hardware fault, a firmware error, a parameter error, a
 //!   wire break or loose cable, a communication error (parity, framing, buffer overflow), and
@@ -26,9 +26,11 @@
 //! - **How long SF stays lit after a communication error.** The manuals name the causes, not a
 //!   duration. We light SF while a communication error is *pending*: from the error until the CPU
 //!   has fetched it (the module keeps a receive error in its buffer until a receive job reports
-//!   it, §2.8 case 2). The caller says so with [`ModuleState::communication_error`].
+//!   it, [ET200S SI 2005] §2.12.7 case 2). The caller says so with
+//!   [`ModuleState::communication_error`].
 //! - **Wire break** lights SF only where the module can see it: RS-422 with the receive-line
-//!   initial state R(A) 5 V / R(B) 0 V (§1.6). The caller reports what the line shows.
+//!   initial state R(A) 5 V / R(B) 0 V ([ET200S SI 2005] §2.1). The caller reports what the line
+//!   shows.
 //! - **2 Hz flashing** is 250 ms on, 250 ms off, in phase from time zero, so the three LEDs of a
 //!   hardware fault flash together.
 //! - **STOP** by itself does not light SF; its causes (wire break, invalid parameters) do.
@@ -94,7 +96,7 @@ impl Leds {
     }
 }
 
-/// The module's operating mode (§9.3).
+/// The module's operating mode ([ET200S SI 2005] §2.11, §3.9).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum OperatingMode {
@@ -107,7 +109,7 @@ pub enum OperatingMode {
     Run,
 }
 
-/// The firmware's state (§9.2, Table 2-12).
+/// The firmware's state ([ET200S SI 2005] §2.9.5, Table 2-12).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Firmware {
@@ -243,7 +245,7 @@ pub const fn leds(state: &ModuleState) -> Leds {
                 || state.wire_break
                 || state.communication_error
                 || matches!(state.mode, OperatingMode::Parameterizing);
-            // Nothing is sent or received outside RUN (§9.3).
+            // Nothing is sent or received outside RUN ([ET200S SI 2005] §2.11, §3.9).
             let run = matches!(state.mode, OperatingMode::Run);
             Leds {
                 sf: Light::from(sf),

@@ -3,11 +3,11 @@
 //!
 //! | Driver | Structure | Tables |
 //! |---|---|---|
-//! | ASCII | [`AsciiParams`] | et200s-si-2005-window-protocol.md §4.6 (Table 2-8), et200s-si-3964r-ascii.md §7.1 (Table 2-10) |
-//! | 3964(R) | [`R3964Params`] | et200s-si-2005-window-protocol.md §3.2 (Table 2-9), et200s-si-3964r-ascii.md §7.2 (Table 2-11) |
-//! | Modbus master | [`ModbusMasterParams`] | et200s-si-2005-window-protocol.md §7.9 (Table 3-18), et200s-si-modbus-uss.md §4.6 (Table 3-17) |
-//! | Modbus slave | [`ModbusSlaveParams`] | et200s-si-2005-window-protocol.md §7.9 (Table 3-21), et200s-si-modbus-uss.md §5.3 (Table 3-20) |
-//! | USS master | [`UssMasterParams`] | et200s-si-2005-window-protocol.md §8 (Table 3-78), et200s-si-modbus-uss.md §6.2, §6.6 |
+//! | ASCII | [`AsciiParams`] | [ET200S SI 2005] (Table 2-8), [ET200S SI] §2.9 (Table 2-10) |
+//! | 3964(R) | [`R3964Params`] | [ET200S SI 2005] §2.9.3 (Table 2-9), [ET200S SI] §2.9 (Table 2-11) |
+//! | Modbus master | [`ModbusMasterParams`] | [ET200S SI 2005] Tables 3-18, 3-21 (Table 3-18), [Modbus/USS] §3.4.3 (Table 3-17) |
+//! | Modbus slave | [`ModbusSlaveParams`] | [ET200S SI 2005] Tables 3-18, 3-21 (Table 3-21), [Modbus/USS] §3.5.4 (Table 3-20) |
+//! | USS master | [`UssMasterParams`] | [ET200S SI 2005] §3.8 (Table 3-78), [Modbus/USS] §3.7.2, §3.7.6, Table 3-31 |
 //!
 //! The protocol parameters are the protocol crates' own configuration types
 //! ([`si_ascii::Config`], [`si_3964r::Config`], [`si_modbus::config::MasterConfig`] and
@@ -64,7 +64,7 @@
 //! | `char_delay_multiplier` | Modbus | 1 … 10 | 1 |
 //! | `response_timeout_ms` | Modbus master | 50 … 655 000 | 2000 |
 //! | `retries`, `broadcast_turnaround_ms` | Modbus master (*host*) | 0 … 255, ms | 0, 100 |
-//! | `address` | Modbus slave | 1 … 255 | 222 (as printed, H-32) |
+//! | `address` | Modbus slave | 1 … 255 | 222 (as printed, `[derived]`) |
 //! | `local_echo` | Modbus, USS (*host*) | true/false | false |
 //! | `polling_list` | USS | 1 … 31 tables `{ address = 0…31, pkw = 0/3/4/127, pzd = 0…16 }` | node 1, PKW 4, PZD 2 |
 //! | `pkw_retries` | USS (WDH) | 0 … 32 767 | 20 |
@@ -91,9 +91,10 @@
 //! # Readings
 //!
 //! - **Baud rates.** The 2005 manual lists twelve rates (110 … 115 200 bit/s) for every driver
-//!   (§3.2, §4.6, §7.9, §9.4); the 2004 Russian manuals stop at 19 200 (3964(R)/ASCII) and
-//!   38 400 (Modbus/USS). We accept the twelve of the 2005 manual, which describes the later
-//!   modules. USS's 187 500 bit/s is a drive rate, not a module rate, and is refused here.
+//!   ([ET200S SI 2005] Tables 2-8, 2-9, 3-18, 3-21; technical data, Tables 2-31, 3-86, 3-87); the
+//!   2004 Russian manuals stop at 19 200 (3964(R)/ASCII) and 38 400 (Modbus/USS). We accept the
+//!   twelve of the 2005 manual, which describes the later modules. USS's 187 500 bit/s is a drive
+//!   rate, not a module rate, and is refused here.
 //! - **Receive-line initial state.** RS-422 offers R(A) 5 V/R(B) 0 V (BREAK, the default),
 //!   R(A) 0 V/R(B) 5 V and inverted; RS-485 offers none and R(A) 0 V/R(B) 5 V (the default), as
 //!   in the 2005 tables (the Russian Modbus table gives R(A) 5 V/R(B) 0 V for both). The value is
@@ -101,12 +102,13 @@
 //! - **Modbus slave interface.** Table 3-21 leaves it out; Table 3-20 of the Russian manual lists
 //!   it with the master's values, which we use.
 //! - **Modbus parity.** none/odd/even as in the parameter tables; "any" of the technical data
-//!   (H-34) is refused.
+//!   (`[derived]`) is refused.
 //! - **USS interface.** Table 3-78 offers RS-232C and RS-485 (default RS-485); Table 3-1 says
-//!   RS-485 only (H-49). We follow the parameter table. USS runs 8E1 (public-facts.md §3); the
+//!   RS-485 only (`[derived]`). We follow the parameter table. USS runs 8E1 ([USS spec] §6.1); the
 //!   tables have no data-bit, parity or stop-bit parameter, so the file has none.
 //! - **Maximum frame length of the simulated module**: the line engines' limits (ASCII 200
-//!   bytes, 3964(R) its `max_block_len`, default 200), and 200 for the Modbus/USS module (H-14).
+//!   bytes, 3964(R) its `max_block_len`, default 200), and 200 for the Modbus/USS module
+//!   (`[derived]`).
 
 use crate::diag::Variant;
 use serde::{Deserialize, Serialize};
@@ -305,7 +307,7 @@ pub struct ModbusSlaveParams {
     pub config: SlaveConfig,
 }
 
-/// USS master (Table 3-78; polling list and WDH of S_USSI, et200s-si-modbus-uss.md §6.6).
+/// USS master (Table 3-78; polling list and WDH of S_USSI, [Modbus/USS] §3.7.6, Table 3-31).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct UssMasterParams {
     /// Diagnostic interrupt; default no.
@@ -318,7 +320,7 @@ pub struct UssMasterParams {
 
 impl Default for UssMasterParams {
     /// One drive, node 1, PKW 4 words and PZD 2 words (the common fixed-length telegram,
-    /// public-facts.md §3).
+    /// [SINAMICS CU240S] p. 178).
     fn default() -> Self {
         UssMasterParams {
             diagnostic_interrupt: false,
@@ -489,7 +491,7 @@ impl<'a> Reader<'a> {
             return default;
         };
         // Numeric options (baud, data and stop bits) take numbers, named ones strings: a
-        // quoted `baud = "9600"` is a type error (issue 21), not a baud rate.
+        // quoted `baud = "9600"` is a type error, not a baud rate.
         let numeric = options.iter().all(|(n, _)| n.parse::<u64>().is_ok());
         let found = match v {
             Value::String(s) if !numeric => options.iter().find(|(n, _)| n == s),
@@ -836,7 +838,8 @@ fn read_modbus_line(r: &mut Reader<'_>) -> (ModbusModule, LineConfig) {
     let errors_before_mode = r.errors.len();
     let mode = r.choice("mode", &Mode::NAMES, Mode::Normal);
     if let Some(e) = r.errors.get_mut(errors_before_mode) {
-        // §3.7, §7.4: the module refuses any other mode with 0E22H and is not ready.
+        // [Modbus/USS] §3.4.3, §3.5.4, §3.6: the module refuses any other mode with 0E22H and is
+        // not ready.
         e.text = format!("{} ({})", e.text, si_modbus::status::INVALID_MODE);
     }
     let line = LineConfig {
@@ -844,7 +847,8 @@ fn read_modbus_line(r: &mut Reader<'_>) -> (ModbusModule, LineConfig) {
         mode,
         char_delay_multiplier: r.uint("char_delay_multiplier", 1, 0xFF, "1…10") as u8,
         local_echo: r.bool("local_echo", false),
-        // §2.2: the flow control's two times, with the ASCII driver's ranges (§11.3).
+        // [Modbus/USS] §3.2.2: the flow control's two times, with the ASCII driver's ranges (the
+        // Modbus manual gives none).
         auto_v24: (flow_control == FlowControl::AutoV24).then(|| {
             let d = si_core::v24::AutoV24Times::default();
             let step = "0 … 655350 ms in 10 ms steps";
@@ -1189,7 +1193,7 @@ impl DriverParams {
     ///
     /// ASCII and 3964(R) take the configuration [`si_dp_coord::engines`] gives their line engines
     /// (frame limit, receive buffer, flow control); the Modbus/USS module has a 200-byte frame
-    /// limit (H-14) and accepts the automatic V.24 parameter block when that flow control is
+    /// limit (`[derived]`) and accepts the automatic V.24 parameter block when that flow control is
     /// configured.
     pub fn module_config(&self, window: WindowSize) -> ModuleConfig {
         match self {

@@ -1,18 +1,18 @@
 //! # Bounds: the longest an RK 512 job may take, whatever the line does
 //!
 //! An RK 512 job (SEND or FETCH) is a chain of telegrams, each a 3964(R) send job followed by
-//! the wait for the partner's reaction (cp341-3964r-rk512-ascii.md §4.5–§4.7). Each part is
+//! the wait for the partner's reaction ([CP 341] §2.2.3, Fig. 2-18/2-19). Each part is
 //! bounded, so the job is:
 //!
 //! - each telegram ends within the 3964(R) link's bound, [`si_3964r::Config::send_job_bound`]
 //!   (see [`si_3964r::bound`]: the attempts and timers of the procedure, an overlong received
 //!   block cut off with NAK, and a hard deadline per send job `[derived]`);
 //! - our telegram may wait in the station's queue behind one reaction of ours to a partner's
-//!   job, which is itself one 3964(R) send job (nesting depth 1, §4.6: the queue holds one
-//!   command and one reaction);
-//! - after the partner's `DLE` for our telegram the reaction must start within TRES (A-12,
-//!   §4.7); otherwise the job ends with 0A05H. TRES is judged on every input, not only on the
-//!   timer, so a line that never goes quiet cannot hold it off.
+//!   job, which is itself one 3964(R) send job (nesting depth 1, [CP 341] §2.2.3, Fig. 2-17: the
+//!   queue holds one command and one reaction);
+//! - after the partner's `DLE` for our telegram the reaction must start within TRES (`[derived]`,
+//!   [CP 341] §2.2.3, Fig. 2-18/2-19); otherwise the job ends with 0A05H. TRES is judged on every
+//!   input, not only on the timer, so a line that never goes quiet cannot hold it off.
 //!
 //! ```text
 //! telegrams = ⌈len / 128⌉ (at least 1)
@@ -42,7 +42,7 @@ use crate::frame::{MAX_DATA_PER_TELEGRAM, MAX_TELEGRAM_LEN};
 use si_core::{Duration, SerialSettings};
 
 impl Config {
-    /// Telegrams of a job of `len` bytes: 128 data bytes each, at least one (§4.5).
+    /// Telegrams of a job of `len` bytes: 128 data bytes each, at least one ([CP 341] §2.2.3).
     pub fn telegrams(len: usize) -> u64 {
         len.div_ceil(MAX_DATA_PER_TELEGRAM).max(1) as u64
     }

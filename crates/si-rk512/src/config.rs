@@ -1,5 +1,5 @@
 //! RK 512 parameters: the 3964(R) link underneath, the response monitoring time TRES, the job
-//! length limit and the DW-number convention (cp341-3964r-rk512-ascii.md §4.7–§4.9, §3.8).
+//! length limit and the DW-number convention ([CP 341] §2.2.3, Fig. 2-18/2-19, §2.2.2, §2.3.1).
 //!
 //! ```
 //! use si_rk512::Config;
@@ -13,22 +13,22 @@
 //!
 //! # Readings
 //!
-//! - **TRES (A-12).** The prose says 10 s for every rate from 300 to 76 800 bit/s; the
+//! - **TRES (`[derived]`).** The prose says 10 s for every rate from 300 to 76 800 bit/s; the
 //!   flowcharts say 5, 7 or 10 s "depending on the rate" without breakpoints. The default is the
 //!   prose's 10 s, which is never shorter than the flowchart values; it is a setting
 //!   (10 … 655 350 ms, the 3964(R) timer range) for partners that expect the shorter values.
 //!   TRES runs from the partner's `DLE` for our telegram, so 3964(R) repetitions do not eat it.
-//! - **Job length (§4.9).** The seed gives no maximum. A job is limited to
+//! - **Job length ([CP 341] §2.2.3).** The manual gives no maximum. A job is limited to
 //!   [`Config::max_job_len`] bytes (default 1024, the S7 point-to-point block limit of
-//!   public-facts.md §1; at most 65 534, what fits the header's 16-bit length without
+//!   [CP 440], [Public 3964R]; at most 65 534, what fits the header's 16-bit length without
 //!   overflowing a host buffer needlessly).
-//! - **DW number (public-facts.md §2).** Fig. 2-13/2-15 give DW1 as `01` and DW100 as `64H`:
+//! - **DW number ([Public RK 512]).** Fig. 2-13/2-15 give DW1 as `01` and DW100 as `64H`:
 //!   byte 6 counts data words, so DBn.DWm starts at byte 2·m ([`DwUnit::Words`]). A Bosch
 //!   document shows "DW 64 = 80H", a byte offset; [`DwUnit::Bytes`] serves such partners.
-//! - **Counter letter (A-10).** Our telegrams name counters `'Z'` (5AH); [`CounterLetter::C`]
-//!   sends `'C'` (43H) instead. Received telegrams may use either.
-//! - **Character frame.** RK 512 runs with 8 data bits (§4.9); this is the line's business
-//!   (`SerialSettings`), not checked here.
+//! - **Counter letter (`[derived]`).** Our telegrams name counters `'Z'` (5AH);
+//!   [`CounterLetter::C`] sends `'C'` (43H) instead. Received telegrams may use either.
+//! - **Character frame.** RK 512 runs with 8 data bits ([CP 341] §2.2.3); this is the line's
+//!   business (`SerialSettings`), not checked here.
 
 use crate::frame::MAX_TELEGRAM_LEN;
 use serde::{Deserialize, Serialize};
@@ -47,7 +47,7 @@ pub enum DwUnit {
     /// Byte 6 counts data words: byte offset = 2 × DW (Fig. 2-13, 2-15; the default).
     #[default]
     Words,
-    /// Byte 6 is a byte offset (the Bosch example of public-facts.md §2).
+    /// Byte 6 is a byte offset (the Bosch example of [Public RK 512]).
     Bytes,
 }
 
@@ -61,7 +61,7 @@ impl DwUnit {
     }
 }
 
-/// The letter our command telegrams use for counters (A-10).
+/// The letter our command telegrams use for counters (`[derived]`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum CounterLetter {
@@ -89,7 +89,7 @@ pub struct Config {
     /// The 3964(R) procedure underneath; its `max_block_len` must hold a full telegram
     /// (10 + 128 bytes).
     pub link: si_3964r::Config,
-    /// Response monitoring time TRES in ms, 10 … 655 350, default 10 000 (A-12).
+    /// Response monitoring time TRES in ms, 10 … 655 350, default 10 000 (`[derived]`).
     pub response_timeout_ms: u32,
     /// Longest job in bytes (SEND data or FETCH result), 2 … 65 534, default 1024.
     pub max_job_len: u32,

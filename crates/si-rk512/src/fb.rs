@@ -1,16 +1,16 @@
 //! FB equivalents for RK 512 jobs in the style of the CP 341's P_SND_RK (SEND and FETCH
-//! requests; cp341-3964r-rk512-ascii.md §6), with the S7 call semantics of
+//! requests; [CP 341] §2.2.3), with the S7 call semantics of
 //! [`si_core::fb`]: REQ is edge-triggered, R resets, DONE / ERROR / STATUS are valid for
 //! exactly one call. The [`Station`] is a [`JobPort`] whose jobs are [`Rk512Job`]s; both FBs
 //! run on si-core's [`JobRequest`], the core every job-starting FB shares.
 //!
-//! The seed has no parameter list for P_SND_RK (§6); the inputs here are the job's header
+//! The manual's chapter 2 has no parameter list for P_SND_RK; the inputs here are the job's header
 //! fields (address, coordination flag, length) and the outputs the usual DONE, ERROR, STATUS.
 //!
 //! - **R** cancels the running job at once ([`Station::cancel`]): the FB shows ERROR with
 //!   1E0DH in that call, as every si-core FB does, the station forgets the job, and a REQ
 //!   edge in a later call starts a new one (no 0502H while the old telegram's TRES runs).
-//! - **Chained STATUS** (cp341-event-classes.md §2): a job whose command telegram the 3964(R)
+//! - **Chained STATUS** ([CP 341 Diag]): a job whose command telegram the 3964(R)
 //!   link could not send shows ERROR with the link's 07xxH in one call and ERROR with 051AH in
 //!   the next, "the procedure-level error placed in STATUS just before".
 //! - **S_RCV** over the station ([`si_core::fb::SRcv`]) shows the passive side's 06xxH (and
@@ -109,7 +109,7 @@ impl JobPort for Station {
     }
 
     /// [`Station::cancel`]: the station forgets the job too (a telegram already handed to the
-    /// 3964(R) link is still sent, et200s-si-3964r-ascii.md §8.2, and its late reaction is
+    /// 3964(R) link is still sent, [ET200S SI] §2.10, Table 2-13, and its late reaction is
     /// reported as 0A01H).
     fn cancel_job(&mut self, id: JobId) {
         self.cancel(id);

@@ -1,6 +1,6 @@
 //! RK 512 telegrams: the 10-byte command header, the 4-byte continuation header and the 4-byte
 //! reaction (response) header, pure encode and decode without state
-//! (cp341-3964r-rk512-ascii.md §4.2–§4.4, §4.9; public-facts.md §2).
+//! ([CP 341] §2.2.3, Table 2-1, Fig. 2-13 to 2-16; [Public RK 512]).
 //!
 //! Every telegram travels as the payload of one 3964(R) block. The first byte tells first
 //! (`00H`) from continuation (`FFH`) telegrams; the third byte tells commands (`'A'`, `'O'`,
@@ -22,27 +22,27 @@
 //!
 //! # Readings where the texts disagree
 //!
-//! - **Counter letter (A-10).** The table writes "'C' (5AH)"; 5AH is `'Z'` (German *Zähler*),
-//!   and the German letters `'E'`/`'A'` for inputs/outputs show the table speaks German
+//! - **Counter letter (`[derived]`).** The table writes "'C' (5AH)"; 5AH is `'Z'` (German
+//!   *Zähler*), and the German letters `'E'`/`'A'` for inputs/outputs show the table speaks German
 //!   letters. Counters are encoded as `'Z'` (5AH); the decoder also accepts `'C'` (43H) from a
 //!   partner that followed the translation, and a station sends `'C'` with
 //!   [`CounterLetter::C`](crate::config::CounterLetter::C).
-//! - **FETCH carries no data (A-9).** The examples (Fig. 2-15, 2-16) show a header only, so a
-//!   FETCH command is exactly 10 (or 4) bytes.
+//! - **FETCH carries no data (`[derived]`).** The examples (Fig. 2-15, 2-16) show a header only, so
+//!   a FETCH command is exactly 10 (or 4) bytes.
 //! - **Bytes 5–6.** For `'D'`/`'X'` they are DB number and DW number (Fig. 2-13: `0A 01` =
-//!   DB10, DW1); for the other types the seed says only "address part 1 / part 2", read here
+//!   DB10, DW1); for the other types the manual says only "address part 1 / part 2", read here
 //!   as one 16-bit big-endian start address (byte number for E/A/M, element number for T/Z),
-//!   as in the public RK 512 headers (public-facts.md §2). How a DW number becomes a byte
+//!   as in the public RK 512 headers ([Public RK 512]). How a DW number becomes a byte
 //!   offset is a setting of the passive side ([`crate::config::DwUnit`]).
-//! - **Length unit.** Words for D, X, T and Z, bytes for E, A and M (§4.2 "bytes or words
-//!   depending on the data type"; a timer or counter cell is one word).
-//! - **Byte 10 (A-13).** Both nibbles are kept as sent: high nibble CPU number (1–4, `0` with a
-//!   flag but no CPU, `F` none), low nibble flag bit (`F` none). Fig. 2-13's `1F` shows a CPU
-//!   number without a flag.
+//! - **Length unit.** Words for D, X, T and Z, bytes for E, A and M ([CP 341] §2.2.3, Table 2-1
+//!   "bytes or words depending on the data type"; a timer or counter cell is one word).
+//! - **Byte 10 (`[derived]`).** Both nibbles are kept as sent: high nibble CPU number (1–4, `0`
+//!   with a flag but no CPU, `F` none), low nibble flag bit (`F` none). Fig. 2-13's `1F` shows a
+//!   CPU number without a flag.
 //!
 //! # Hand-written, not nom
 //!
-//! Hand-written because a nom version (issue 17; commit 5bedae2 in the history) was longer and
+//! Hand-written because a nom version (commit 5bedae2 in the history) was longer and
 //! slower: the errors name the offset and what the manual allows there, and the 4 identifying
 //! bytes are checked before the 10-byte length, so nom needed its own error type, a context per
 //! byte and a mapping back to [`DecodeError`] (403 → 450 code lines), and the
@@ -58,7 +58,7 @@ pub const CONTINUATION: u8 = 0xFF;
 pub const COMMAND_HEADER_LEN: usize = 10;
 /// Length of a continuation command header and of every reaction header.
 pub const SHORT_HEADER_LEN: usize = 4;
-/// User data per telegram (§4.9): more is carried by continuation telegrams.
+/// User data per telegram ([CP 341] §2.2.3): more is carried by continuation telegrams.
 pub const MAX_DATA_PER_TELEGRAM: usize = 128;
 /// The longest telegram: a 10-byte header and 128 data bytes.
 pub const MAX_TELEGRAM_LEN: usize = COMMAND_HEADER_LEN + MAX_DATA_PER_TELEGRAM;
@@ -115,12 +115,12 @@ pub enum DataType {
     Flags,
     /// `'T'` (54H): timer cells.
     Timers,
-    /// `'Z'` (5AH): counter cells (A-10).
+    /// `'Z'` (5AH): counter cells (`[derived]`).
     Counters,
 }
 
 impl DataType {
-    /// The ASCII letter on the wire (`'Z'` for counters, A-10).
+    /// The ASCII letter on the wire (`'Z'` for counters, `[derived]`).
     pub const fn letter(self) -> u8 {
         match self {
             DataType::Db => b'D',
@@ -133,7 +133,7 @@ impl DataType {
         }
     }
 
-    /// The data type for a letter; `'C'` is accepted for counters (A-10).
+    /// The data type for a letter; `'C'` is accepted for counters (`[derived]`).
     pub const fn from_letter(letter: u8) -> Option<DataType> {
         match letter {
             b'D' => Some(DataType::Db),
@@ -251,7 +251,7 @@ impl fmt::Display for Address {
 }
 
 /// Header bytes 9 and 10: coordination flag (interprocessor-communication flag, "KM") and CPU
-/// number (§4.2, §4.8). Kept as sent, so decoding and encoding are exact inverses.
+/// number ([CP 341] §2.2.3, Table 2-1). Kept as sent, so decoding and encoding are exact inverses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Coordination {
     /// Flag byte number (byte 9); `FFH` when no flag is defined.
@@ -279,7 +279,8 @@ impl Coordination {
         }
     }
 
-    /// Flag `byte.bit` (e.g. M 20.3) without a CPU number (high nibble 0, §4.2).
+    /// Flag `byte.bit` (e.g. M 20.3) without a CPU number (high nibble 0, [CP 341] §2.2.3, Table
+    /// 2-1).
     pub const fn flag(byte: u8, bit: u8) -> Coordination {
         Coordination {
             flag_byte: byte,
@@ -476,7 +477,7 @@ impl<'a> Telegram<'a> {
     pub fn decode(bytes: &'a [u8]) -> Result<Telegram<'a>, DecodeError> {
         need(bytes, SHORT_HEADER_LEN)?;
         if bytes[2] == 0x00 {
-            // A FETCH reaction carries at most 128 data bytes as well (§4.9).
+            // A FETCH reaction carries at most 128 data bytes as well ([CP 341] §2.2.3).
             let h = ReactionHeader::decode(bytes)?;
             let data = &bytes[SHORT_HEADER_LEN..];
             check_data_len(data.len(), SHORT_HEADER_LEN)?;
@@ -575,7 +576,7 @@ pub enum DecodeError {
         /// The byte found.
         found: u8,
     },
-    /// More than 128 data bytes in one telegram (§4.9).
+    /// More than 128 data bytes in one telegram ([CP 341] §2.2.3).
     #[error("at offset {offset}: expected at most 128 data bytes per telegram, found {len}")]
     TooMuchData {
         /// Offset of the first byte beyond the limit.
@@ -622,8 +623,8 @@ mod tests {
         );
     }
 
-    /// Fig. 2-15: FETCH `00 00 45 44 <DB> 64 00 32 FF 1F` (DW100, 50 words); A-11: the DB byte
-    /// is taken as 0AH (DB10) like the SEND example.
+    /// Fig. 2-15: FETCH `00 00 45 44 <DB> 64 00 32 FF 1F` (DW100, 50 words); `[derived]`: the DB
+    /// byte is taken as 0AH (DB10) like the SEND example.
     #[test]
     fn fig_2_15_fetch_header_and_reaction() {
         let bytes = [0x00, 0x00, 0x45, 0x44, 0x0A, 0x64, 0x00, 0x32, 0xFF, 0x1F];
@@ -700,7 +701,7 @@ mod tests {
         );
     }
 
-    /// Issue 21: a reaction of 59,996 data bytes is refused like a command of 129 (§4.9).
+    /// A reaction of 59,996 data bytes is refused like a command of 129 ([CP 341] §2.2.3).
     #[test]
     fn a_reaction_with_more_than_128_data_bytes_is_refused() {
         let mut reaction = vec![0, 0, 0, 0];

@@ -1,7 +1,7 @@
 //! # si-rk512
 //!
 //! The RK 512 computer link on top of 3964(R), as the CP 341 and the S5/S7 partners speak it
-//! (cp341-3964r-rk512-ascii.md §4, public-facts.md §2): SEND and FETCH jobs of any length,
+//! ([CP 341] §2.2.3, §2.3.2, [Public RK 512]): SEND and FETCH jobs of any length,
 //! split into telegrams of 128 data bytes and reassembled, each answered by a reaction
 //! telegram that says whether the partner took the data or had them.
 //!
@@ -15,7 +15,7 @@
 //!   ([`si_core::memory`]), with coordination flags and the CPU number;
 //! - [`refusal`]: why the passive side refused a partner's telegram (class 06H) and the error
 //!   number its reaction carries;
-//! - [`status`]: the STATUS codes as the CP 341 reports them (cp341-event-classes.md), by the
+//! - [`status`]: the STATUS codes as the CP 341 reports them ([CP 341 Diag]), by the
 //!   side that raises them:
 //!   - **05H** (requester, our job): 0515/0516 for our own flag bit and CPU number, refused
 //!     at once; 051A when our command telegram could not be sent, after the 3964(R) 07xx;
@@ -27,7 +27,7 @@
 //!   - **0AH** (requester): the partner's reaction is faulty (0A01 … 0A04) or missing (0A05).
 //! - [`monitor`]: the passive listener, the 3964(R) monitor reading RK 512 telegrams;
 //! - [`fb`]: send and fetch FB equivalents with REQ / DONE / ERROR / STATUS;
-//! - [`bound`]: the longest a job may take whatever the line does (issue 21): per telegram two
+//! - [`bound`]: the longest a job may take whatever the line does: per telegram two
 //!   3964(R) send jobs and TRES; 185.95 s for up to 128 bytes at 9600 bit/s with the defaults;
 //! - `tokio` (feature `tokio`): an async handle, `send(..).await` and `fetch(..).await`.
 //!

@@ -1,5 +1,5 @@
 //! Passive RK 512 decoding: the 3964(R) monitor ([`si_3964r::monitor`]) with every block's user
-//! data read as an RK 512 telegram (cp341-3964r-rk512-ascii.md §4: command, continuation and
+//! data read as an RK 512 telegram ([CP 341] §2.2.3, §2.3.2: command, continuation and
 //! reaction telegrams), decoded by this crate's own [`crate::frame::Telegram::decode`].
 //!
 //! The timers are those of the 3964(R) link under the station ([`Config::link`]).

@@ -1,5 +1,5 @@
 //! The passive side: a partner's SEND and FETCH jobs served from the SIMATIC memory model
-//! (cp341-3964r-rk512-ascii.md §4.5, §4.7 Fig. 2-19, §4.8).
+//! ([CP 341] §2.2.3, Fig. 2-18/2-19, Fig. 2-19, §4.8).
 //!
 //! [`Server`] turns one command telegram into one reaction telegram; the
 //! [`Station`](crate::Station) engine carries both over the 3964(R) link and runs TRES while a
@@ -11,29 +11,29 @@
 //!   Z → counters of [`si_core::memory::Memory`]; X (the S5 extended data blocks, which an S7
 //!   memory lacks) → the data blocks of a second `Memory` ([`Server::dx`]).
 //! - **SEND only to D and X** (Table 2-1 footnote "when sending, only 'D' is possible" and
-//!   A-26: 'O' sends to X): `'A'` must name `'D'`, `'O'` must name `'X'`, else 0604.
+//!   `[derived]`: 'O' sends to X): `'A'` must name `'D'`, `'O'` must name `'X'`, else 0604.
 //!   FETCH reads every type.
-//! - **Refusals** are the CP 341's class 06H rows ([`ServeError`], cp341-event-classes.md §1),
+//! - **Refusals** are the CP 341's class 06H rows ([`ServeError`], [CP 341 Diag]),
 //!   checked in this order: the header's structure (0610, 0611, 0601, 0602, 0604), CPU in STOP
 //!   or command not served (060D), command/type pair (0604), CPU number (060A), coordination
 //!   flag (0609), length against the job limit (0608), data in the telegram (060B, 060C), the
 //!   area (0606 DB missing, 0607 start beyond the area, 0608 end beyond it), flag set (060F).
-//!   0611, "actual frame length and header length disagree" (`[CP 341 Diag]` §8.1), is
+//!   0611, "actual frame length and header length disagree" ([CP 341 Diag] §8.1), is
 //!   raised only for a telegram of more than 128 data bytes `[derived]`: the other
 //!   disagreements are 060B and 060C, which name them exactly ([`ServeError::FrameLength`]).
 //!   The whole job's range is checked on the first telegram, so a long job is refused before
 //!   any byte is written. The reaction carries the error number of
 //!   [`ServeError::error_number`] (`[inferred]`, see [`crate::refusal`]).
-//! - **CPU number (§4.2, byte 10 high nibble; A-13).** 1 … 4 name a CPU, 0 "a flag but no CPU
-//!   number", FH "neither"; 5H … EH are refused with 060A. Every allowed number is served: a
-//!   host is one CPU, so it does not tell CPUs of a multi-CPU S5 rack apart.
-//! - **Coordination flag (§4.8).** A flag is named when byte 9 ≠ FFH; its bit (byte 10 low
-//!   nibble) must then be 0 … 7 and its byte inside the flag area, else 0609. A job naming a
+//! - **CPU number ([CP 341] §2.2.3, Table 2-1, byte 10 high nibble; `[derived]`).** 1 … 4 name a
+//!   CPU, 0 "a flag but no CPU number", FH "neither"; 5H … EH are refused with 060A. Every allowed
+//!   number is served: a host is one CPU, so it does not tell CPUs of a multi-CPU S5 rack apart.
+//! - **Coordination flag ([CP 341] §2.2.3).** A flag is named when byte 9 ≠ FFH; its bit (byte 10
+//!   low nibble) must then be 0 … 7 and its byte inside the flag area, else 0609. A job naming a
 //!   flag that is set is refused with 060F (32H); the flag is set once the job's *last*
 //!   telegram is served, and the CPU program resets it when it has dealt with the data.
-//!   **FETCH too:** §4.8 explains only the encoding and `[M]` names only "target DB locked"; the
-//!   reading chosen is the one public RK 512 partner manual that states it (VIPA CPU 21x
-//!   manual HB103E, "Coordination flags": "The coordination flag is set in the partner PLC …
+//!   **FETCH too:** [CP 341] §2.2.3 explains only the encoding and `[M]` names only "target DB
+//!   locked"; the reading chosen is the one public RK 512 partner manual that states it (VIPA CPU
+//!   21x manual HB103E, "Coordination flags": "The coordination flag is set in the partner PLC …
 //!   when a message is being received. This occurs for input as well as for output commands.
 //!   When the coordination flag has been set and a message with this flag is received, then
 //!   the respective data is not accepted (or transferred) and a reject message is sent (error
@@ -309,8 +309,8 @@ impl Server {
         Ok(self.after(job))
     }
 
-    /// The flag bytes 9/10 name (§4.2): none for byte FFH; else bit 0 … 7 of a flag byte that
-    /// exists (0609 otherwise).
+    /// The flag bytes 9/10 name ([CP 341] §2.2.3, Table 2-1): none for byte FFH; else bit 0 … 7 of
+    /// a flag byte that exists (0609 otherwise).
     fn flag(&self, c: Coordination) -> Result<Option<(u8, u8)>, ServeError> {
         if c.flag_byte == 0xFF {
             return Ok(None);
@@ -399,7 +399,7 @@ impl Server {
         }
         if let Some((byte, bit)) = job.header.coordination.flag_address() {
             // Checked on the first telegram; the flag is set once the whole job is served
-            // (§4.8, SEND and FETCH alike: see the module docs).
+            // ([CP 341] §2.2.3, SEND and FETCH alike: see the module docs).
             let _ = self.memory.set_bit(Area::Flags, byte.into(), bit, true);
         }
         Served::Complete {
@@ -409,8 +409,8 @@ impl Server {
         }
     }
 
-    /// The whole job's area (§4.2 bytes 5–8): 0606 for a DB/DX that does not exist, 0607 for
-    /// a start beyond the area, 0608 for an end beyond it.
+    /// The whole job's area ([CP 341] §2.2.3, Table 2-1 bytes 5–8): 0606 for a DB/DX that does not
+    /// exist, 0607 for a start beyond the area, 0608 for an end beyond it.
     fn check_range(&self, p: Place, total: usize) -> Result<(), ServeError> {
         let memory = if p.dx { &self.dx } else { &self.memory };
         match p.area {

@@ -1,10 +1,10 @@
 //! Why the passive side refused a partner's telegram: one class 06H STATUS each
-//! (cp341-event-classes.md §1 class 06H), and the error number its reaction carries.
+//! ([CP 341 Diag] class 06H), and the error number its reaction carries.
 //!
 //! # The error number sent for each 06xx: **`[inferred]`**
 //!
 //! No source says which byte 4 the CP 341 sends when it finds a 06xx error as responder
-//! (cp341-event-classes.md §2.1, last paragraph). The numbers here are the symmetric choice that
+//! ([CP 341 Diag] `[derived]`, last paragraph). The numbers here are the symmetric choice that
 //! paragraph suggests, so a requester built to §2.1 reads back the matching 09xx:
 //!
 //! | 06xx | byte 4 | the requester reads |
@@ -64,11 +64,11 @@ pub enum ServeError {
     TooShort,
     /// 0611: more than 128 data bytes in one telegram.
     ///
-    /// `[CP 341 Diag]` §8.1 row 0611 reads "actual frame length and header length disagree".
+    /// [CP 341 Diag] §8.1 row 0611 reads "actual frame length and header length disagree".
     /// `[derived]` The narrower reading: a SEND telegram whose data disagree with its header's
     /// length is 060B ([`ServeError::DataAmount`]) and a FETCH command with data 060C
     /// ([`ServeError::FetchWithData`]), rows of their own; 0611 is left with the telegram no
-    /// header can announce, one with more than 128 data bytes (`[CP 341]` §2.2.3, at most 128 per
+    /// header can announce, one with more than 128 data bytes ([CP 341] §2.2.3, at most 128 per
     /// telegram).
     FrameLength,
 }

@@ -1,6 +1,6 @@
 //! The RK 512 station: one Sans-IO engine that runs the active side (our SEND and FETCH jobs)
 //! and the passive side (the partner's jobs, served from memory) over one 3964(R)
-//! [`Link`] (cp341-3964r-rk512-ascii.md §4.1, §4.5–§4.7).
+//! [`Link`] ([CP 341] §2.2.3, Fig. 2-18/2-19).
 //!
 //! ```
 //! use si_rk512::frame::{Address, Coordination};
@@ -32,7 +32,7 @@
 //!
 //! # How it works, and the readings chosen
 //!
-//! - **One job at a time** (§4.6 "nesting depth is 1"): [`Station::send`] and
+//! - **One job at a time** ([CP 341] §2.2.3, Fig. 2-17 "nesting depth is 1"): [`Station::send`] and
 //!   [`Station::fetch`] refuse a second job with [`RequestError::Busy`]. The passive side runs
 //!   at most one partner job; both may run at once (quasi-full-duplex).
 //! - **Telegram order (Fig. 2-17).** Telegrams wait in a FIFO of two (one command, one
@@ -42,8 +42,9 @@
 //!   first and continuation telegram, and on the passive side when our reaction that asks for a
 //!   continuation was acknowledged. Expiry ends our job with 0A05; on the passive side it
 //!   aborts the partner's job with 060E (`[derived]`: the tables have no row for it, and 060E is
-//!   what the partner's late continuation then meets) (A-12, §4.7).
-//! - **The STATUS classes** (cp341-event-classes.md §2; [`crate::status`] has the table): our
+//!   what the partner's late continuation then meets) (`[derived]`, [CP 341] §2.2.3, Fig.
+//!   2-18/2-19).
+//! - **The STATUS classes** ([CP 341 Diag]; [`crate::status`] has the table): our
 //!   own request is checked first (0515 flag bit, 0516 CPU number); a reaction with an error
 //!   number ends our job with its 09xx; a faulty reaction with 0A01 (out of sequence), 0A02
 //!   (header), 0A03 (FETCH data amount) or 0A04 (SEND reaction with data). A partner's
@@ -51,7 +52,7 @@
 //! - **Chained codes.** When the 3964(R) link gives up on our command telegram, the station
 //!   emits [`Event::ProcedureError`] with the link's 07xx and then [`Event::Failed`] with 051A;
 //!   when it gives up on our reaction, [`Event::ProcedureError`] and then
-//!   [`Event::ServeAborted`] with 0612 (cp341-event-classes.md §2 "Chained reports").
+//!   [`Event::ServeAborted`] with 0612 ([CP 341 Diag] "Chained reports").
 //! - **S_RCV** ([`JobPort::take_received`](si_core::job::JobPort::take_received)) reports the
 //!   passive side's STATUS as the CP's P_RCV_RK does: every 06xx, the 07xx before a 0612, and
 //!   the link's receive errors (08xx), one per call, oldest first, at most
@@ -62,9 +63,9 @@
 //! - **Cancel** ([`Station::cancel`], the FBs' R input): the station forgets the job at once,
 //!   and the next job can start in the same call. A command telegram still queued is dropped;
 //!   one already on the line cannot be called back (3964(R) sends what it has), so the next
-//!   reaction within its TRES is taken as that telegram's (§4.6: the partner answers in order)
-//!   and reported as [`Event::ReceiveError`] with 0A01 instead of being read as the new
-//!   job's.
+//!   reaction within its TRES is taken as that telegram's ([CP 341] §2.2.3, Fig. 2-17: the partner
+//!   answers in order) and reported as [`Event::ReceiveError`] with 0A01 instead of being read as
+//!   the new job's.
 
 use crate::config::Config;
 use crate::frame::{
@@ -125,7 +126,7 @@ pub enum Event {
     /// (060E), or our reaction could not be delivered (0612, after [`Event::ProcedureError`]).
     ServeAborted(Status),
     /// The 3964(R) link gave up on one of our telegrams (class 07H, the *first* error seen,
-    /// §2 of cp341-event-classes.md). The next event says what it cost: [`Event::Failed`] with
+    /// [CP 341 Diag], chained reports). The next event says what it cost: [`Event::Failed`] with
     /// 051A for a command telegram, [`Event::ServeAborted`] with 0612 for a reaction.
     ProcedureError(Status),
     /// The link reported a receive error (class 08H), or a reaction arrived that no job waits
@@ -173,7 +174,7 @@ impl fmt::Debug for Event {
 /// Why a job was refused before it started.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum RequestError {
-    /// A job is still running (§4.6: one job at a time).
+    /// A job is still running ([CP 341] §2.2.3, Fig. 2-17: one job at a time).
     #[error("an RK 512 job is still running")]
     Busy,
     /// Zero bytes, more than the configured maximum, or an odd count for a word-counted type.
@@ -198,7 +199,7 @@ pub enum RequestError {
 impl RequestError {
     /// The STATUS an FB would show for this refusal: 0502 when busy, 1E41 for the length,
     /// 1E20 (parameter out of range) for a data type SEND cannot use, 0515 for the flag bit,
-    /// 0516 for the CPU number (cp341-event-classes.md §1 class 05H).
+    /// 0516 for the CPU number ([CP 341 Diag] class 05H).
     pub fn status(self) -> Status {
         match self {
             RequestError::Busy => common::NOT_POSSIBLE_IN_MODE,
@@ -521,7 +522,7 @@ impl Station {
             );
         }
         if job.header.address.data_type() == DataType::Counters {
-            // Byte 4, the data type: the configured counter letter (A-10).
+            // Byte 4, the data type: the configured counter letter ([derived]).
             self.buf[3] = self.config.counter_letter.byte();
         }
         if job.header.command.is_send() {
@@ -684,7 +685,8 @@ impl Station {
 
     fn on_reaction(&mut self, block: &[u8]) {
         if self.orphan.take().is_some() {
-            // The answer to a cancelled job's telegram (§4.6: answers come in order).
+            // The answer to a cancelled job's telegram ([CP 341] §2.2.3, Fig. 2-17: answers come in
+            // order).
             self.event(Event::ReceiveError(status::REACTION_SEQUENCE));
             return;
         }
@@ -746,9 +748,9 @@ impl Station {
         );
         self.serve_deadline = None;
         self.reaction_in_flight_partial = served == Served::Partial;
-        // Nesting depth 1 (§4.6): a partner that sends a new command before our reaction to the
-        // last one went out has given that one up, so its stale reaction is replaced. The
-        // queue therefore never holds more than one command and one reaction.
+        // Nesting depth 1 ([CP 341] §2.2.3, Fig. 2-17): a partner that sends a new command before
+        // our reaction to the last one went out has given that one up, so its stale reaction is
+        // replaced. The queue therefore never holds more than one command and one reaction.
         self.queue.retain(|(k, _)| *k != Kind::Reaction);
         let telegram = self.reaction_pool.cut(&reaction);
         self.queue.push_back((Kind::Reaction, telegram));

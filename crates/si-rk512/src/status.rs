@@ -1,5 +1,5 @@
-//! RK 512 STATUS codes as the CP 341 reports them (cp341-event-classes.md §1, §2), and the
-//! error numbers of byte 4 of a reaction telegram (cp341-3964r-rk512-ascii.md §4.3).
+//! RK 512 STATUS codes as the CP 341 reports them ([CP 341 Diag]), and the
+//! error numbers of byte 4 of a reaction telegram ([CP 341] §2.2.3, Table 2-2).
 //!
 //! # Which side raises which class
 //!
@@ -12,10 +12,10 @@
 //! | 0AH | the requester | the partner's reaction is itself faulty, or none came within TRES |
 //!
 //! Every code below cites its row: `[M]` = the CP 341 manual 09/2008, `[T]` = the TIA Portal
-//! help, as cp341-event-classes.md §0 names them. A code marked `[derived]` is one where the
+//! help, as [CP 341 Diag] names them. A code marked `[derived]` is one where the
 //! table is silent and the number was chosen here.
 //!
-//! # Chained codes (cp341-event-classes.md §2 "Chained reports")
+//! # Chained codes ([CP 341 Diag] "Chained reports")
 //!
 //! 051A and 0612 follow the procedure error that caused them, which "was placed in STATUS just
 //! before". The station emits the 3964(R) code as [`Event::ProcedureError`](crate::Event)
@@ -31,8 +31,8 @@
 //!
 //! | Case | si-rk512 reports (ET 200S link) | CP 341 row |
 //! |---|---|---|
-//! | the partner repeats fewer times than we wait for | 0809H (`[ET200S SI]` §2.13, Table 2-28) | 0815H "different numbers of transmission attempts" (`[CP 341 Diag]` §8.1, `[T]`) |
-//! | a received block longer than the maximum | 0850H (`[ET200S SI 2005]` Table 2-29) | 0816H "received frame longer than the allowed maximum" (`[CP 341 Diag]` §8.1, `[T]`) |
+//! | the partner repeats fewer times than we wait for | 0809H ([ET200S SI] §2.13, Table 2-28) | 0815H "different numbers of transmission attempts" ([CP 341 Diag] §8.1, `[T]`) |
+//! | a received block longer than the maximum | 0850H ([ET200S SI 2005] Table 2-29) | 0816H "received frame longer than the allowed maximum" ([CP 341 Diag] §8.1, `[T]`) |
 //!
 //! `[derived]` Passed on, not mapped: one link gives one event one number, whether RK 512 runs
 //! on it or not, so a program or a log that reads si-3964r's codes reads the same codes here,
@@ -45,11 +45,11 @@
 //! (the request's own address and length are refused with the FB codes 1E20/1E41 before a
 //! telegram exists) are left out of the catalog rather than listed unused. So are:
 //!
-//! - **0501H** "job aborted because the CP restarted" (`[CP 341 Diag]` §8.1, class 05H, `[T]`).
+//! - **0501H** "job aborted because the CP restarted" ([CP 341 Diag] §8.1, class 05H, `[T]`).
 //!   A station has no restart of its own under a running job: the engine starts once, and a
 //!   job ends only with its outcome, with R on its FB (1E0DH, as every si-core FB reports a
 //!   reset) or when the station is dropped (the async handle's `Stopped`).
-//! - **0815H** and **0816H** (`[CP 341 Diag]` §8.1, class 08H, `[T]`): the link reports these
+//! - **0815H** and **0816H** ([CP 341 Diag] §8.1, class 08H, `[T]`): the link reports these
 //!   cases as 0809H and 0850H ("Link codes under RK 512" above).
 
 use si_core::status::common;
@@ -61,97 +61,97 @@ si_core::status_codes! {
     pub const FLAG_BIT_OUT_OF_RANGE = 0x0515 {
         meaning: "coordination-flag bit number of the job out of 0 … 7",
         remedy: "give a flag bit 0 … 7, or no flag (byte FFH, bit FH)",
-        source: "cp341-event-classes.md §1 class 05H, row 0515 [T]",
+        source: "[CP 341 Diag] class 05H, row 0515 [T]",
     }
     pub const CPU_NUMBER_OUT_OF_RANGE = 0x0516 {
         meaning: "partner CPU number of the job too high (allowed: none, 0 … 4)",
         remedy: "give CPU 1 … 4, 0 (flag without CPU) or none (FH)",
-        source: "cp341-event-classes.md §1 class 05H, row 0516 [T]",
+        source: "[CP 341 Diag] class 05H, row 0516 [T]",
     }
     pub const COMMAND_NOT_SENT = 0x051A {
         meaning: "sending the command telegram failed; the 3964(R) error was reported just before",
         remedy: "look at the 07xxH code reported before this one; check line and partner",
-        source: "cp341-event-classes.md §1 class 05H, row 051A [T]; §2 chained reports",
+        source: "[CP 341 Diag] class 05H, row 051A [T]; [CP 341 Diag] chained reports",
     }
     pub const HEADER_ID = 0x0601 {
         meaning: "partner's telegram: header byte 1 is neither 00H nor FFH",
         remedy: "check the partner's telegram framing",
-        source: "cp341-event-classes.md §1 class 06H, row 0601 [M,T]",
+        source: "[CP 341 Diag] class 06H, row 0601 [M,T]",
     }
     pub const BAD_COMMAND = 0x0602 {
         meaning: "partner's telegram: header byte 3 (command) is not 'A', 'O' or 'E'",
         remedy: "the partner may only SEND ('A', 'O') or FETCH ('E')",
-        source: "cp341-event-classes.md §1 class 06H, row 0602 [M,T] (the [M] reading)",
+        source: "[CP 341 Diag] class 06H, row 0602 [M,T] (the [M] reading)",
     }
     pub const CONTINUATION_COMMAND = 0x0603 {
         meaning: "partner's continuation telegram: byte 3 differs from its first telegram",
         remedy: "check the partner's continuation telegrams",
-        source: "cp341-event-classes.md §1 class 06H, row 0603 [M,T]",
+        source: "[CP 341 Diag] class 06H, row 0603 [M,T]",
     }
     pub const BAD_DATA_TYPE = 0x0604 {
         meaning: "partner's telegram: byte 4 (data type) wrong, or a command/type combination that is not supported",
         remedy: "SEND 'A' only to 'D', SEND 'O' only to 'X'; FETCH from D, X, E, A, M, T, Z",
-        source: "cp341-event-classes.md §1 class 06H, row 0604 [M,T]",
+        source: "[CP 341 Diag] class 06H, row 0604 [M,T]",
     }
     pub const CONTINUATION_DATA_TYPE = 0x0605 {
         meaning: "partner's continuation telegram: byte 4 differs from its first telegram",
         remedy: "check the partner's continuation telegrams",
-        source: "cp341-event-classes.md §1 class 06H, row 0605 [M,T]",
+        source: "[CP 341 Diag] class 06H, row 0605 [M,T]",
     }
     pub const BAD_DB_NUMBER = 0x0606 {
         meaning: "partner's telegram: byte 5, the DB/DX number, names a block that does not exist here",
         remedy: "create the block, or correct the partner's DB number",
-        source: "cp341-event-classes.md §1 class 06H, row 0606 [M,T]",
+        source: "[CP 341 Diag] class 06H, row 0606 [M,T]",
     }
     pub const START_TOO_HIGH = 0x0607 {
         meaning: "partner's telegram: bytes 5/6, the start address, lie beyond the area",
         remedy: "correct the partner's start address or enlarge the area",
-        source: "cp341-event-classes.md §1 class 06H, row 0607 [M,T]",
+        source: "[CP 341 Diag] class 06H, row 0607 [M,T]",
     }
     pub const BAD_LENGTH = 0x0608 {
         meaning: "partner's telegram: bytes 7/8, the length, are 0, over the job limit, or run past the end of the area",
         remedy: "correct the partner's length or enlarge the area",
-        source: "cp341-event-classes.md §1 class 06H, row 0608 [M,T]",
+        source: "[CP 341 Diag] class 06H, row 0608 [M,T]",
     }
     pub const BAD_FLAG = 0x0609 {
         meaning: "partner's telegram: bytes 9/10, the coordination flag, name a bit above 7 or a flag byte that does not exist",
         remedy: "give a flag M byte.bit with bit 0 … 7 inside the flag area, or FF FF for none",
-        source: "cp341-event-classes.md §1 class 06H, row 0609 [T]",
+        source: "[CP 341 Diag] class 06H, row 0609 [T]",
     }
     pub const BAD_CPU_NUMBER = 0x060A {
         meaning: "partner's telegram: byte 10 high nibble, the CPU number, is not 0 … 4 or FH",
         remedy: "the partner must give CPU 1 … 4, 0 (flag without CPU) or FH (none)",
-        source: "cp341-event-classes.md §1 class 06H, row 060A [T]; cp341-3964r-rk512-ascii.md §4.2",
+        source: "[CP 341 Diag] class 06H, row 060A [T]; [CP 341] §2.2.3, Table 2-1",
     }
     pub const DATA_AMOUNT = 0x060B {
         meaning: "partner's SEND telegram carried more or less data than its header announced",
         remedy: "check the partner's length field and data",
-        source: "cp341-event-classes.md §1 class 06H, row 060B [T]",
+        source: "[CP 341 Diag] class 06H, row 060B [T]",
     }
     pub const FETCH_WITH_DATA = 0x060C {
         meaning: "partner's FETCH command telegram carried user data",
-        remedy: "a FETCH command is the header only (cp341-3964r-rk512-ascii.md A-9)",
-        source: "cp341-event-classes.md §1 class 06H, row 060C [T]",
+        remedy: "a FETCH command is the header only ([CP 341] [derived])",
+        source: "[CP 341 Diag] class 06H, row 060C [T]",
     }
     pub const NOT_READY = 0x060D {
         meaning: "partner's telegram arrived while this side could not take it: CPU in STOP, or the command is not served here",
         remedy: "put the CPU into RUN, or open SEND/FETCH on this side",
-        source: "cp341-event-classes.md §1 class 06H, row 060D [T]",
+        source: "[CP 341 Diag] class 06H, row 060D [T]",
     }
     pub const SEQUENCE = 0x060E {
         meaning: "partner's telegram out of sequence: a continuation without a running job, a first telegram while a continuation was due, or the continuation did not come within TRES",
         remedy: "none needed after a restart; else repeat the job",
-        source: "cp341-event-classes.md §1 class 06H, row 060E [M,T]; the TRES case [derived]",
+        source: "[CP 341 Diag] class 06H, row 060E [M,T]; the TRES case [derived]",
     }
     pub const DB_LOCKED = 0x060F {
         meaning: "the partner's job names a coordination flag that is still set: the area is locked",
         remedy: "the CPU program resets the flag once it has processed the data; the partner repeats",
-        source: "cp341-event-classes.md §1 class 06H, row 060F [M,T]",
+        source: "[CP 341 Diag] class 06H, row 060F [M,T]",
     }
     pub const TOO_SHORT = 0x0610 {
         meaning: "partner's telegram too short (< 4 bytes, or < 10 bytes for a command telegram)",
         remedy: "check the partner's telegram framing",
-        source: "cp341-event-classes.md §1 class 06H, row 0610 [M,T]",
+        source: "[CP 341 Diag] class 06H, row 0610 [M,T]",
     }
     pub const FRAME_LENGTH = 0x0611 {
         meaning: "partner's telegram longer than any RK 512 telegram may be (more than 128 data bytes)",
@@ -161,82 +161,82 @@ si_core::status_codes! {
     pub const REACTION_NOT_SENT = 0x0612 {
         meaning: "sending our reaction telegram failed; the 3964(R) error was reported just before",
         remedy: "look at the 07xxH code reported before this one; the partner repeats its job",
-        source: "cp341-event-classes.md §1 class 06H, row 0612 [M,T]; §2 chained reports",
+        source: "[CP 341 Diag] class 06H, row 0612 [M,T]; [CP 341 Diag] chained reports",
     }
     pub const PARTNER_NO_AREA = 0x0902 {
         meaning: "the partner reports that the memory area does not exist or may not be accessed",
         remedy: "check the area and the partner's access rights",
-        source: "cp341-event-classes.md §1 class 09H, row 0902 [T]",
+        source: "[CP 341 Diag] class 09H, row 0902 [T]",
     }
     pub const PARTNER_NO_SUCH_DB = 0x0903 {
         meaning: "the partner reports the DB/DX missing or too short, or a number not allowed",
         remedy: "check DB number, start address and length against the partner's memory",
-        source: "cp341-event-classes.md §1 class 09H, row 0903 [T]",
+        source: "[CP 341 Diag] class 09H, row 0903 [T]",
     }
     pub const PARTNER_CANNOT_SERVE = 0x0905 {
         meaning: "the partner cannot serve the job: data type not allowed, memory fault or internal fault",
         remedy: "check the data type the partner accepts",
-        source: "cp341-event-classes.md §1 class 09H, row 0905 [T]",
+        source: "[CP 341 Diag] class 09H, row 0905 [T]",
     }
     pub const PARTNER_SEQUENCE = 0x0908 {
         meaning: "the partner found a sequence (synchronisation) error; normal after a restart",
         remedy: "repeat the job",
-        source: "cp341-event-classes.md §1 class 09H, row 0908 [M,T]",
+        source: "[CP 341 Diag] class 09H, row 0908 [M,T]",
     }
     pub const PARTNER_LOCKED = 0x0909 {
         meaning: "target DB/DX locked at the partner by a coordination flag",
         remedy: "the partner program must reset the flag after processing the data; then repeat the job",
-        source: "cp341-event-classes.md §1 class 09H, row 0909 [M,T]",
+        source: "[CP 341 Diag] class 09H, row 0909 [M,T]",
     }
     pub const PARTNER_BAD_COMMAND = 0x090A {
         meaning: "the partner found header byte 3 (command) wrong",
         remedy: "use SEND 'A', SEND DX 'O' or FETCH 'E'",
-        source: "cp341-event-classes.md §1 class 09H, row 090A [M,T]",
+        source: "[CP 341 Diag] class 09H, row 090A [M,T]",
     }
     pub const PARTNER_BAD_HEADER = 0x090B {
         meaning: "the partner found header byte 1 or 4 (telegram id or data type) wrong",
         remedy: "check the data type: SEND only to D (or X with 'O')",
-        source: "cp341-event-classes.md §1 class 09H, row 090B [M,T]",
+        source: "[CP 341 Diag] class 09H, row 090B [M,T]",
     }
     pub const PARTNER_BAD_LENGTH = 0x090C {
         meaning: "the partner found the total telegram length wrong",
         remedy: "check the job length and the partner's telegram limits",
-        source: "cp341-event-classes.md §1 class 09H, row 090C [M,T]",
+        source: "[CP 341 Diag] class 09H, row 090C [M,T]",
     }
     pub const PARTNER_NOT_RUNNING = 0x090D {
         meaning: "the partner has not restarted yet (its CPU or CP is not in RUN)",
         remedy: "start the partner, then repeat the job",
-        source: "cp341-event-classes.md §1 class 09H, row 090D [M,T]",
+        source: "[CP 341 Diag] class 09H, row 090D [M,T]",
     }
     pub const PARTNER_ERROR_UNKNOWN = 0x090E {
         meaning: "the reaction carried an error number this side does not know",
         remedy: "look the error number up in the partner's documentation",
-        source: "cp341-event-classes.md §1 class 09H, row 090E [M,T]",
+        source: "[CP 341 Diag] class 09H, row 090E [M,T]",
     }
     pub const REACTION_SEQUENCE = 0x0A01 {
         meaning: "reaction out of sequence: a reaction without a request, a first reaction where a continuation reaction was due, or the reverse",
         remedy: "none needed after a restart or a reset job; else repeat the job",
-        source: "cp341-event-classes.md §1 class 0AH, row 0A01 [M,T]",
+        source: "[CP 341 Diag] class 0AH, row 0A01 [M,T]",
     }
     pub const REACTION_HEADER = 0x0A02 {
         meaning: "reaction header faulty: byte 1 neither 00H nor FFH (also byte 2 not 00H, or under 4 bytes)",
         remedy: "check the partner; compare its telegrams with `si frame decode rk512`",
-        source: "cp341-event-classes.md §1 class 0AH, row 0A02 [M,T]; byte 2 and short reactions [derived]",
+        source: "[CP 341 Diag] class 0AH, row 0A02 [M,T]; byte 2 and short reactions [derived]",
     }
     pub const REACTION_DATA_AMOUNT = 0x0A03 {
         meaning: "FETCH reaction with too much or too little data",
         remedy: "check the partner's length handling",
-        source: "cp341-event-classes.md §1 class 0AH, row 0A03 [M,T]",
+        source: "[CP 341 Diag] class 0AH, row 0A03 [M,T]",
     }
     pub const SEND_REACTION_WITH_DATA = 0x0A04 {
         meaning: "the reaction to a SEND carried data",
         remedy: "check the partner",
-        source: "cp341-event-classes.md §1 class 0AH, row 0A04 [M,T]",
+        source: "[CP 341 Diag] class 0AH, row 0A04 [M,T]",
     }
     pub const NO_REACTION = 0x0A05 {
         meaning: "no reaction (or continuation reaction) within the response monitoring time TRES",
         remedy: "look for receive errors (08xxH) before it; check that the partner runs RK 512 and is in RUN; raise TRES for slow partners",
-        source: "cp341-event-classes.md §1 class 0AH, row 0A05 [M,T]",
+        source: "[CP 341 Diag] class 0AH, row 0A05 [M,T]",
     }
 }
 
@@ -249,7 +249,7 @@ pub fn lookup(code: u16) -> Status {
 }
 
 /// Reaction byte 4 → class 09H, **`[inferred]`**: no source gives this table
-/// (cp341-event-classes.md §2.1 "mapping NOT FOUND"); these are the candidates of its §2.1
+/// ([CP 341 Diag] `[derived]` "mapping NOT FOUND"); these are the candidates of its §2.1
 /// table, from the WinCC OA RK 512 driver and the Elster gas-lab Q1 manual. Where §2.1 offers
 /// two: 0CH → 0905 (WinCC OA's "invalid data type", the driver whose numbering every other row
 /// follows; Elster reads it as 0903), 2AH → 090D ("PLC stopped" = "not restarted yet", an `[M]`
@@ -281,9 +281,10 @@ pub fn for_error_byte(code: u8) -> Option<Status> {
     }
 }
 
-/// The error numbers of byte 4 this crate's passive side sends (§4.3; which 06xx sends which is
-/// [`crate::refusal::ServeError::error_number`]). Each is a row of [`REACTION_ERRORS`], so a
-/// partner built like this crate reads them back as the 09xx code of that row.
+/// The error numbers of byte 4 this crate's passive side sends ([CP 341] §2.2.3, Table 2-2; which
+/// 06xx sends which is [`crate::refusal::ServeError::error_number`]). Each is a row of
+/// [`REACTION_ERRORS`], so a partner built like this crate reads them back as the 09xx code of that
+/// row.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ErrorNumber {
     /// 0AH: access refused (the command is not served here).

@@ -27,8 +27,8 @@
 //! ```
 //!
 //! Jobs are queued in the driver and run one after the other (one job outstanding at a time,
-//! §4.6); each call resolves with its own job's outcome (the driver's job routing,
-//! `si_core::driver`). What the passive side did comes out of [`Handle::next_event`]; a
+//! [CP 341] §2.2.3, Fig. 2-17); each call resolves with its own job's outcome (the driver's job
+//! routing, `si_core::driver`). What the passive side did comes out of [`Handle::next_event`]; a
 //! station that nobody asks drops such news beyond the driver's event capacity rather than
 //! stalling the line.
 

@@ -1,4 +1,4 @@
-//! Issue 21, "A bound on every job": an RK 512 FETCH or SEND ends with a non-zero STATUS within
+//! A bound on every job: an RK 512 FETCH or SEND ends with a non-zero STATUS within
 //! [`Config::job_bound`] whatever the partner does: silence, random characters, an endless
 //! 3964(R) frame, a flood, noise that stops. Virtual time on the line simulator; the noise peer
 //! is si-testkit's.
@@ -55,7 +55,7 @@ impl Job {
     }
 }
 
-/// Issue 21's patterns (si-testkit's; the STX flood is an endless 3964(R) frame) and a `DLE`
+/// The noise patterns (si-testkit's; the STX flood is an endless 3964(R) frame) and a `DLE`
 /// flood (after an `STX`, `DLE`-doubled data with no end).
 fn patterns() -> Vec<Pattern> {
     let mut all = issue_patterns(line().char_time());

@@ -1,5 +1,5 @@
 //! Property tests: header round trips, and decoders and engines never panic on arbitrary
-//! bytes and timing (cp341-3964r-rk512-ascii.md §4.2–§4.3).
+//! bytes and timing ([CP 341] §2.2.3, Table 2-1, Table 2-2).
 
 use proptest::prelude::*;
 use si_core::{Duration, Engine, Instant, LineError, Output, SerialSettings};

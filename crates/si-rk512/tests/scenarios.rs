@@ -1,5 +1,5 @@
 //! RK 512 scenarios on the line simulator, named after the sections of
-//! cp341-3964r-rk512-ascii.md §4 they show, each asserting the STATUS the job ends with.
+//! [CP 341] §2.2.3, §2.3.2 they show, each asserting the STATUS the job ends with.
 
 #[path = "scenarios/usb_adapter.rs"]
 mod usb_adapter;
@@ -98,7 +98,7 @@ fn pattern(len: usize, seed: u8) -> Vec<u8> {
     (0..len).map(|i| (i as u8).wrapping_mul(7) ^ seed).collect()
 }
 
-/// §4.1, §4.5, §4.9: SEND and FETCH of 1, 128, 129 and the maximum (1024) bytes, split into
+/// [CP 341] §2.2.3: SEND and FETCH of 1, 128, 129 and the maximum (1024) bytes, split into
 /// telegrams of 128 bytes and reassembled. SEND counts words (D), so its odd sizes round up to
 /// the next word; FETCH of flag bytes (M) shows the odd sizes.
 #[test]
@@ -141,8 +141,9 @@ fn s4_5_send_and_fetch_of_1_128_129_and_max_bytes() {
     }));
 }
 
-/// §4.5 with line faults: bit flips and lost characters are repaired by 3964(R) repetitions;
-/// the job still ends with exactly one completion, and with the data intact when it is DONE.
+/// [CP 341] §2.2.3 with line faults: bit flips and lost characters are repaired by 3964(R)
+/// repetitions; the job still ends with exactly one completion, and with the data intact when it is
+/// DONE.
 #[test]
 fn s4_5_jobs_survive_line_faults() {
     let mut done = 0;
@@ -167,7 +168,7 @@ fn s4_5_jobs_survive_line_faults() {
     assert!(done >= 8, "most jobs get through: {done}/12");
 }
 
-/// §4.5 with line faults, for every size: 1 word, 128, 130 and 1024 bytes each way.
+/// [CP 341] §2.2.3 with line faults, for every size: 1 word, 128, 130 and 1024 bytes each way.
 #[test]
 fn s4_5_every_size_with_line_faults() {
     let faults = Faults {
@@ -219,8 +220,8 @@ fn s4_2_every_data_type_is_served() {
     assert_eq!(p.fetch(Address::Outputs(5), 1).unwrap(), &[0x55][..]);
 }
 
-/// §4.8: a SEND naming a coordination flag sets it; the next SEND is refused with 32H (STATUS
-/// 0909) until the partner's program resets the flag.
+/// [CP 341] §2.2.3: a SEND naming a coordination flag sets it; the next SEND is refused with 32H
+/// (STATUS 0909) until the partner's program resets the flag.
 #[test]
 fn s4_8_coordination_flag_interlock_0909() {
     let mut p = pair(3);
@@ -266,8 +267,8 @@ fn s4_8_coordination_flag_interlock_0909() {
     );
 }
 
-/// §4.3, cp341-event-classes.md §1: errors the passive side finds (06xx), read back by the
-/// active side as class 09H: 0606/0608 → 14H → 0903, 060D in STOP → 2AH → 090D, 060D not
+/// [CP 341] §2.2.3, Table 2-2, [CP 341 Diag]: errors the passive side finds (06xx), read back by
+/// the active side as class 09H: 0606/0608 → 14H → 0903, 060D in STOP → 2AH → 090D, 060D not
 /// served → 0AH → 0902.
 #[test]
 fn s4_3_partner_errors_reach_the_requester_as_class_09() {
@@ -361,8 +362,8 @@ impl Scripted {
     }
 }
 
-/// §4.3 and Fig. 2-19: every error number the passive side sends, from a telegram that
-/// provokes it, with the 06xx it reports (cp341-event-classes.md §1 class 06H; the byte per
+/// [CP 341] §2.2.3, Table 2-2 and Fig. 2-19: every error number the passive side sends, from a
+/// telegram that provokes it, with the 06xx it reports ([CP 341 Diag] class 06H; the byte per
 /// 06xx is the [inferred] reverse mapping of §2.1).
 #[test]
 fn s4_3_every_reaction_error_number_is_reachable() {
@@ -385,7 +386,7 @@ fn s4_3_every_reaction_error_number_is_reachable() {
         [0, 0, 0, 0x16]
     );
     // 34H: 060B length 2 words but 3 data bytes; 0610 a header cut short; 060C FETCH with
-    // data.
+    // data ([derived]).
     assert_eq!(s.exchange(&send_db10(2, 3)), [0, 0, 0, 0x34]);
     assert_eq!(s.exchange(&[0, 0, b'E', b'D', 10]), [0, 0, 0, 0x34]);
     assert_eq!(
@@ -453,7 +454,7 @@ fn s4_3_every_reaction_error_number_is_reachable() {
 }
 
 /// Fig. 2-19: the passive side waits TRES for the continuation; when none comes the job is
-/// aborted (060E, [derived]) and a late continuation is answered with 36H (060E).
+/// aborted (060E, `[derived]`) and a late continuation is answered with 36H (060E).
 #[test]
 fn s4_7_passive_side_gives_up_after_tres_060e() {
     let mut s = scripted(8);
@@ -531,8 +532,9 @@ fn run_job(
     outcomes[0]
 }
 
-/// §4.3, cp341-event-classes.md §2.1: each error number in a reaction ends the job with its
-/// class 09H STATUS, one job per row of the [inferred] table; unknown numbers with 090E.
+/// [CP 341] §2.2.3, Table 2-2, [CP 341 Diag] `[derived]`: each error number in a reaction ends the
+/// job with its class 09H STATUS, one job per row of the [inferred] table; unknown numbers with
+/// 090E.
 #[test]
 fn s4_3_reaction_error_numbers_map_to_their_status() {
     let at = Address::Db { db: 1, dw: 0 };
@@ -567,7 +569,8 @@ fn s4_3_reaction_error_numbers_map_to_their_status() {
     }
 }
 
-/// §4.7, Fig. 2-18: no reaction within TRES (10 s) ends the job with 0A05.
+/// [CP 341] §2.2.3, Fig. 2-18/2-19, Fig. 2-18: no reaction within TRES (10 s) ends the job with
+/// 0A05.
 #[test]
 fn s4_7_no_reaction_within_tres_0a05() {
     let (mut sim, st, raw) = active_against_script(50);
@@ -623,7 +626,7 @@ fn s4_7_tres_is_a_setting() {
     }));
 }
 
-/// counters go out as 'Z' by default and as 'C' with `CounterLetter::C`; the passive
+/// `[derived]`: counters go out as 'Z' by default and as 'C' with `CounterLetter::C`; the passive
 /// side serves both.
 #[test]
 fn a10_counter_letter_z_by_default_c_as_a_setting() {
@@ -661,7 +664,7 @@ fn a10_counter_letter_z_by_default_c_as_a_setting() {
     }
 }
 
-/// public-facts.md §2: a partner whose byte 6 is a byte offset ("DW 64 = 80H") is served with
+/// [Public RK 512]: a partner whose byte 6 is a byte offset ("DW 64 = 80H") is served with
 /// `DwUnit::Bytes`.
 #[test]
 fn s4_2_dw_number_as_byte_offset_setting() {
@@ -680,7 +683,7 @@ fn s4_2_dw_number_as_byte_offset_setting() {
     assert_eq!(m.word(Area::Db(10), 256).unwrap(), 0);
 }
 
-/// Fig. 2-18, cp341-event-classes.md §1 class 0AH: a first reaction where the continuation
+/// Fig. 2-18, [CP 341 Diag] class 0AH: a first reaction where the continuation
 /// reaction was due ends the job with 0A01; byte 1 neither 00H nor FFH with 0A02; a FETCH
 /// reaction with missing data with 0A03; a SEND reaction with data with 0A04.
 #[test]
@@ -750,8 +753,8 @@ fn fig_2_13_send_telegram_on_the_wire() {
     assert_eq!(&block[10..], &data[..]);
 }
 
-/// §4.6 quasi-full-duplex: both stations serve and both start a multi-telegram job at once;
-/// telegrams interleave and both jobs complete.
+/// [CP 341] §2.2.3, Fig. 2-17 quasi-full-duplex: both stations serve and both start a
+/// multi-telegram job at once; telegrams interleave and both jobs complete.
 #[test]
 fn s4_6_both_sides_run_jobs_at_once() {
     let mut sim = Simulator::new(80);
@@ -805,7 +808,7 @@ fn s4_6_both_sides_run_jobs_at_once() {
     );
 }
 
-/// §4.6: one job at a time; bad requests are refused with their FB STATUS.
+/// [CP 341] §2.2.3, Fig. 2-17: one job at a time; bad requests are refused with their FB STATUS.
 #[test]
 fn s4_6_one_job_at_a_time_and_request_checks() {
     let mut p = pair(90);
@@ -841,8 +844,8 @@ fn s4_6_one_job_at_a_time_and_request_checks() {
     );
 }
 
-/// §3 under §4, cp341-event-classes.md §2 "chained reports": when the partner never
-/// acknowledges, the link's 0703 is reported first and the job ends with 051A.
+/// [CP 341] §2.2.2, §2.3.1 under §2.2.3, §2.3.2, [CP 341 Diag] "chained reports": when the partner
+/// never acknowledges, the link's 0703 is reported first and the job ends with 051A.
 #[test]
 fn s4_1_link_failure_0703_then_051a() {
     let mut p = pair(100);

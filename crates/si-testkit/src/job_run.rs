@@ -1,4 +1,4 @@
-//! Step the line simulator while a job runs and fail when it outlives its bound (issue 21, "A
+//! Step the line simulator while a job runs and fail when it outlives its bound ("A
 //! bound on every job"), for tests that run an engine against a [`NoisePeer`](crate::noise::NoisePeer)
 //! on [`Simulator`].
 

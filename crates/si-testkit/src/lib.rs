@@ -4,7 +4,7 @@
 //!
 //! - [`alloc`]: the counting global allocator of the `no_alloc` tests, which prove the si-core
 //!   contract "no allocation per frame in steady state" (ARCHITECTURE.md).
-//! - [`noise`]: noise peers and a noise driver for the "bound on every job" tests (issue 21).
+//! - [`noise`]: noise peers and a noise driver for the "bound on every job" tests.
 //! - [`job_run`]: step the line simulator while a job runs, failing past its bound.
 //! - [`peers`]: external test peers (socat, pymodbus, mbpoll): skip without one, fail under
 //!   `CI`; a child process killed when the test ends.

@@ -1,4 +1,4 @@
-//! Noise peers for the "bound on every job" tests (issue 21): a line that never carries a valid
+//! Noise peers for the "bound on every job" tests: a line that never carries a valid
 //! answer, in the patterns the issue probed (silent, random bytes, one byte repeated, an
 //! endless frame, a flood, noise that stops), and a direct driver that feeds an engine an
 //! arbitrary noise stream in virtual time and says when its job ended.
@@ -149,7 +149,7 @@ pub struct Pattern {
     pub until: Option<Instant>,
 }
 
-/// The patterns issue 21 probed, for a line with this character time: silent, random bytes
+/// The noise patterns, for a line with this character time: silent, random bytes
 /// every 2 ms, 01H every 2 ms, an endless frame (a byte every two character times, never a
 /// gap), a random, a 01H and a 02H (STX) flood, a flood that stops after 300 ms, and 01H every 2 ms for 5 s.
 pub fn issue_patterns(char_time: Duration) -> Vec<Pattern> {

@@ -1,13 +1,13 @@
 //! Master and drive parameters with the manuals' ranges and defaults.
 //!
-//! - Polling list: 1…31 entries (SANZ, et200s-si-modbus-uss.md §6.6), each a node number 0…31
-//!   (TNU), PKW 0/3/4 words and PZD 0…16 words (§6.8); a slave may appear several times to raise its
-//!   priority, with the same structure each time.
-//! - WDH, permitted PKW repetitions 0…32 767 (§6.6, §6.8).
-//! - Baud rates: the module offers 110…38 400 (§9) or 110…115 200 (et200s-si-2005-window-protocol.md
-//!   §8.5, Table 3-78); a host also meets drives at 187 500 bit/s (public-facts.md §3 start-interval
-//!   table), so [`USS_BAUD_RATES`] is the twelve manual rates plus 187 500.
-//! - Timing (public-facts.md §3): start interval 2 character times, response delay ≤ 20 ms,
+//! - Polling list: 1…31 entries (SANZ, [Modbus/USS] §3.7.6, Table 3-31), each a node number 0…31
+//!   (TNU), PKW 0/3/4 words and PZD 0…16 words ([Modbus/USS] §3.7.8); a slave may appear several
+//!   times to raise its priority, with the same structure each time.
+//! - WDH, permitted PKW repetitions 0…32 767 ([Modbus/USS] §3.7.6, Table 3-31, §3.7.8).
+//! - Baud rates: the module offers 110…38 400 ([Modbus/USS] §3.9) or 110…115 200 ([ET200S SI 2005]
+//!   [ET200S SI 2005] §3.8.10, Table 3-78); a host also meets drives at 187 500 bit/s ([USS spec]
+//!   §5.1.2 start-interval table), so [`USS_BAUD_RATES`] is the twelve manual rates plus 187 500.
+//! - Timing ([USS spec] §5.1.2, §5.2.1): start interval 2 character times, response delay ≤ 20 ms,
 //!   residual run time 1.5 × (n + 3) character times.
 
 use crate::frame::{PkwWords, MAX_ADDRESS, MAX_NET, MAX_PZD_WORDS};
@@ -19,7 +19,7 @@ pub const USS_BAUD_RATES: [u32; 13] = [
     110, 300, 600, 1_200, 2_400, 4_800, 9_600, 19_200, 38_400, 57_600, 76_800, 115_200, 187_500,
 ];
 
-/// USS character format: 8 data bits, even parity, 1 stop bit (public-facts.md §3, 11 bits a
+/// USS character format: 8 data bits, even parity, 1 stop bit ([USS spec] §6.1, 11 bits a
 /// character) at `baud`, which must be one of [`USS_BAUD_RATES`].
 pub fn uss_settings(baud: u32) -> Result<SerialSettings, SettingsError> {
     SerialSettings::with_rates(baud, 8, Parity::Even, 1, &USS_BAUD_RATES)
@@ -27,7 +27,7 @@ pub fn uss_settings(baud: u32) -> Result<SerialSettings, SettingsError> {
 
 /// Most entries in the polling list (SANZ 1…31).
 pub const MAX_ENTRIES: usize = 31;
-/// Longest response delay the USS spec allows a slave (public-facts.md §3).
+/// Longest response delay the USS spec allows a slave ([USS spec] §5.2.1.1).
 pub const RESPONSE_DELAY_MAX: Duration = Duration::from_millis(20);
 
 /// One entry of the polling list: whom to poll and with which net-data structure.
@@ -87,20 +87,21 @@ pub(crate) fn check(
 
 /// What the master sends in a slave's PKW area after a parameter job has ended.
 ///
-/// et200s-si-modbus-uss.md §6.7: with the module's FCs "the last PKW job stays in the transmit
+/// [Modbus/USS] §3.7.7: with the module's FCs "the last PKW job stays in the transmit
 /// interface after it has been processed and is sent to the slave again and again until the user
-/// enters a new job". The USS rule of public-facts.md §3 (CU240S p.229) is to send AK 0 "no
+/// enters a new job". The USS rule of [SINAMICS CU240S] p. 229 is to send AK 0 "no
 /// request" when only the PZD matter. Both are offered; the USS rule is the default because a
 /// repeated write makes the drive execute it again on every poll (and, with an EEPROM task,
 /// wears its EEPROM).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PkwAfterJob {
-    /// Send AK 0 "no task" (PKE, IND and PWE all 0) once the job has ended (public-facts.md §3).
+    /// Send AK 0 "no task" (PKE, IND and PWE all 0) once the job has ended ([SINAMICS CU240S] p.
+    /// 229).
     #[default]
     TaskZero,
     /// Send the last job's PKW area again in every poll of that slave until a new job is
-    /// entered, as the module's S_USST does (et200s-si-modbus-uss.md §6.7). Responses to the
+    /// entered, as the module's S_USST does ([Modbus/USS] §3.7.7). Responses to the
     /// repetitions end no job. A drive that sends its parameter change reports only in answer
     /// to AK 0 (as this crate's simulated drive does) cannot report while the task repeats.
     RepeatLast,
@@ -114,11 +115,11 @@ pub struct MasterConfig {
     /// The polling list, in cycle order.
     pub polling_list: Vec<PollEntry>,
     /// How long to wait for the response's STX after the request's last character: the USS spec's
-    /// 20 ms (public-facts.md §3, "node x does not transmit after 20 ms"). Longer values (up to
+    /// 20 ms ([USS spec] §5.2.2, "node x does not transmit after 20 ms"). Longer values (up to
     /// 10 s) are for converters and device servers that add latency.
     pub response_timeout: Duration,
     /// WDH, the permitted PKW **repetitions after the first telegram** (0…32 767,
-    /// et200s-si-modbus-uss.md §6.6, §6.8): a job goes out at most `1 + pkw_retries` times;
+    /// [Modbus/USS] §3.7.6, Table 3-31, §3.7.8): a job goes out at most `1 + pkw_retries` times;
     /// when the last of them brings no matching response the job fails, with "node does not
     /// answer" (16#1408) if the node never answered during the job, else with the PKW
     /// interface error (16#1505). WDH = 2 therefore puts at most 3 telegrams of one job to a
@@ -235,7 +236,7 @@ impl MasterConfig {
         errors
     }
 
-    /// Start interval: 2 character times of silence before every STX (public-facts.md §3).
+    /// Start interval: 2 character times of silence before every STX ([USS spec] §5.1.2).
     pub fn start_interval(&self) -> Duration {
         start_interval(&self.settings)
     }
@@ -247,14 +248,14 @@ impl MasterConfig {
         si_core::delivery::MAX_LATENCY + self.settings.char_time()
     }
 
-    /// Host bound (issue 21): the longest a telegram may occupy the line, its STX and the
+    /// Host bound: the longest a telegram may occupy the line, its STX and the
     /// residual run time of the longest net data, 1 + 1.5 × (252 + 3) character times
-    /// (public-facts.md §3, USS spec §5.2.1.2), plus [`port_margin`](Self::port_margin).
+    /// ([USS spec] §5.2.1.2, plus [`port_margin`](Self::port_margin).
     pub fn max_telegram_duration(&self) -> Duration {
         self.settings.char_time() + residual_run_time(&self.settings, MAX_NET) + self.port_margin()
     }
 
-    /// Host bound (issue 21): how long a poll waits for the start interval of silence before
+    /// Host bound: how long a poll waits for the start interval of silence before
     /// it sends anyway, [`start_interval`](Self::start_interval) +
     /// [`max_telegram_duration`](Self::max_telegram_duration). Any telegram on the line has
     /// ended by then; a line still busy carries noise, which a master would wait out forever.
@@ -286,7 +287,7 @@ impl MasterConfig {
 
     /// Host bound on a parameter job, from [`Master::request_parameter`] to its end:
     /// `(WDH + 2) ×` [`cycle_bound`](Self::cycle_bound). The job goes out with its slave's next
-    /// poll (within one cycle) and at most 1 + WDH times, once per cycle (§6.8).
+    /// poll (within one cycle) and at most 1 + WDH times, once per cycle ([Modbus/USS] §3.7.8).
     ///
     /// [`Master::request_parameter`]: crate::master::Master::request_parameter
     pub fn job_bound(&self) -> Duration {
@@ -295,13 +296,13 @@ impl MasterConfig {
     }
 }
 
-/// Start interval of a line: 2 character times (public-facts.md §3, USS spec §5.1.2).
+/// Start interval of a line: 2 character times ([USS spec] §5.1.2.
 pub fn start_interval(settings: &SerialSettings) -> Duration {
     settings.chars_time(2)
 }
 
 /// Residual run time for `n` net bytes: 1.5 × (n + 3) character times, counted from the end of STX
-/// (public-facts.md §3, USS spec §5.2.1.2), rounded up to a microsecond.
+/// ([USS spec] §5.2.1.2, rounded up to a microsecond.
 pub fn residual_run_time(settings: &SerialSettings, n: usize) -> Duration {
     let three_halves = settings.chars_time(3 * (n as u64 + 3)).as_micros();
     Duration::from_micros(three_halves.div_ceil(2))
@@ -313,7 +314,8 @@ mod tests {
 
     #[test]
     fn timing_matches_the_uss_spec_table() {
-        // public-facts.md §3: start interval 9600: 2.30 ms; 19200: 1.15 ms; 38400: 0.58 ms; 187500: 0.12 ms.
+        // [USS spec] §5.1.2: start interval 9600: 2.30 ms; 19200: 1.15 ms; 38400: 0.58 ms; 187500:
+        // 0.12 ms.
         let ms = |baud| start_interval(&uss_settings(baud).unwrap()).as_micros();
         assert_eq!(ms(9_600), 2_292);
         assert_eq!(ms(19_200), 1_146);

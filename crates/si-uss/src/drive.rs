@@ -1,9 +1,10 @@
 //! A simulated USS slave: a drive with parameters and process data, for tests, examples and
 //! `si sim` / `si uss sim-slave`.
 //!
-//! What it does (public-facts.md §3 unless noted):
+//! What it does ([USS spec], [SINAMICS V20] p. 107 and [SINAMICS CU240S] p. 229 unless
+//! noted):
 //! - receives telegrams with the start-interval and residual-run-time rules, discards any with a
-//!   character error, wrong LGE or wrong BCC and does **not** answer them (USS spec §5.2.2);
+//!   character error, wrong LGE or wrong BCC and does **not** answer them ([USS spec] §5.2.2);
 //! - answers a normal telegram to its address after its response delay (≥ start interval,
 //!   ≤ 20 ms), with its PKW response and PZD (ZSW, HIW, then zeros);
 //! - takes a broadcast's PZD (control word, setpoint) without answering; sends a mirror telegram
@@ -176,7 +177,7 @@ pub struct DriveConfig {
     /// Parameters.
     pub parameters: Vec<Parameter>,
     /// The master has no PKW rights here: every task other than AK 0 is answered with response
-    /// ID 8, "no master control / no PKW rights" (public-facts.md §3), as a drive whose PKW
+    /// ID 8, "no master control / no PKW rights" ([SINAMICS V20] p. 107), as a drive whose PKW
     /// channel belongs to another interface answers.
     #[serde(default)]
     pub no_pkw_rights: bool,

@@ -1,10 +1,11 @@
 //! The ET 200S data model and the FC equivalents S_USSI (FC19), S_USST (FC17) and S_USSR (FC18).
 //!
-//! Sources: et200s-si-modbus-uss.md §6.3–§6.9, et200s-si-2005-window-protocol.md §5.11, §5.12,
-//! §8.2–§8.5. A PLC program keeps each slave's data in the **net-data DB** (DBND), the polling
-//! list in the **parameter DB** (DBPA) and the telegram buffers in the **CP DB** (DBCP). Here the
-//! three DBs are byte images ([`Db`], S7 byte order: high byte first) and the line work is done by
-//! a [`Master`] engine, so a program written against the DB layout runs unchanged on a host:
+//! Sources: [Modbus/USS] §3.7.3–§3.7.9, [ET200S SI 2005] Tables 3-80, 3-82, Table 3-84,
+//! [ET200S SI 2005] §3.8–§3.8.10. A PLC program keeps each slave's data in the **net-data DB**
+//! (DBND), the polling list in the **parameter DB** (DBPA) and the telegram buffers in the **CP
+//! DB** (DBCP). Here the three DBs are byte images ([`Db`], S7 byte order: high byte first) and the
+//! line work is done by a [`Master`] engine, so a program written against the DB layout runs
+//! unchanged on a host:
 //!
 //! - [`s_ussi`] checks SANZ, TNU1, PKW, PZD and WDH, creates the DBs and presets DBPA (ANZ codes
 //!   in [`Anz`]); [`master_config`] turns a DBPA into the master's polling list;
@@ -15,10 +16,11 @@
 //!   word and — only when the group error bit 9 is 0 — the receive buffer into DBND, then moves
 //!   SLAV to the next entry.
 //!
-//! **Readings chosen** (et200s-si-modbus-uss.md §11.20, window-protocol §12.5 H-51):
+//! **Readings chosen** ([Modbus/USS] §3.7 `[derived]`, [ET200S SI 2005] §3.8 `[derived]`
+//! `[derived]`):
 //! - Offsets for PKW < 4 or PZD < 16 are not printed; we use the derived general offsets of
-//!   window-protocol §8.3 ([`SlaveLayout`]), which reproduce the printed table for PKW 4 / PZD 16
-//!   and the word formula 2 × (PKW + PZD) + PKW + 6.
+//!   [ET200S SI 2005] §3.8.8 ([`SlaveLayout`]), which reproduce the printed table for PKW 4 / PZD
+//!   16 and the word formula 2 × (PKW + PZD) + PKW + 6.
 //! - S_USSI numbers the slaves TNU1, TNU1 + 1, … (ANZ 5 if that passes 31), and places their
 //!   blocks one after another from DBW2.
 //! - Pafe 1 is byte n+10 (written by S_USSR), Pafe 2 byte n+11 (S_USST), as the DBND table
@@ -27,11 +29,12 @@
 //!   no S_SEND/S_RCV hand-over: the [`Master`] keeps the telegram buffers itself and DBCP stays
 //!   zero.
 //! - SYPA and SLPA (start of the system and slave parameters in DBPA) are not inputs here: the
-//!   manual prints fixed DBPA offsets (§6.8), which we use, i.e. SYPA = 2 and SLPA = 10.
+//!   manual prints fixed DBPA offsets ([Modbus/USS] §3.7.8), which we use, i.e. SYPA = 2 and SLPA =
+//!   10.
 //! - The telegram monitoring time the FCs derive from the PLC cycle time (DBCP DBW6) is replaced
-//!   by the master's response timeout and residual run time (public-facts.md §3).
-//! - Broadcast and mirror telegrams have no place in the FCs (TNU 0…31 only, §11.20); use
-//!   [`Master::broadcast`] and [`Master::mirror`] directly.
+//!   by the master's response timeout and residual run time ([USS spec] §5.2.1, §5.2.2).
+//! - Broadcast and mirror telegrams have no place in the FCs (TNU 0…31 only, [Modbus/USS] §3.7
+//!   `[derived]`); use [`Master::broadcast`] and [`Master::mirror`] directly.
 
 use crate::config::{MasterConfig, PollEntry};
 use crate::frame::{ParamAddress, PkwWords};
@@ -78,7 +81,7 @@ impl Db {
 }
 
 /// Byte offsets inside one slave's DBND block, relative to its start `n`
-/// (et200s-si-modbus-uss.md §6.7; general form window-protocol §8.3).
+/// ([Modbus/USS] §3.7.7; general form [ET200S SI 2005] §3.8.8).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SlaveLayout {
     /// PKW words: 0, 3 or 4.
@@ -135,7 +138,7 @@ impl SlaveLayout {
     }
 }
 
-/// S_USSI's error byte ANZ (et200s-si-modbus-uss.md §6.6).
+/// S_USSI's error byte ANZ ([Modbus/USS] §3.7.6, Table 3-31).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum Anz {
     /// 1: too many slaves (SANZ outside 1…31).
@@ -161,7 +164,7 @@ pub enum Anz {
     RetryCounter = 8,
 }
 
-/// S_USSI's inputs (et200s-si-modbus-uss.md §6.6, Table 3-31).
+/// S_USSI's inputs ([Modbus/USS] §3.7.6, Table 3-31).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct UssiParams {
     /// SANZ: number of slaves, 1…31.
@@ -193,7 +196,7 @@ pub struct UssDbs {
     pub dbcp: Db,
 }
 
-/// DBPA word offsets (et200s-si-modbus-uss.md §6.8).
+/// DBPA word offsets ([Modbus/USS] §3.7.8).
 pub mod dbpa {
     /// DBW2: CP DB number.
     pub const DBCP: usize = 2;
@@ -463,7 +466,7 @@ mod tests {
             (20, 28, 60, 68)
         );
         assert_eq!(l.words(), 50);
-        // §6.7 example: PKW 3, PZD 2 → 19 words.
+        // [Modbus/USS] §3.7.7 example: PKW 3, PZD 2 → 19 words.
         assert_eq!(SlaveLayout { pkw: 3, pzd: 2 }.words(), 19);
     }
 

@@ -1,24 +1,25 @@
 //! The USS telegram: `STX LGE ADR net-data BCC`, pure encode and decode, no state, no allocation.
 //!
-//! Sources: et200s-si-modbus-uss.md §6.1 (telegram parts, word order), et200s-si-2005-window-protocol.md
-//! §8.1, and public-facts.md §3 for what the manuals leave out (LGE rule, ADR bits, BCC, PKE layout,
-//! task and response IDs, error numbers).
+//! Sources: [Modbus/USS] §3.7.1 (telegram parts, word order), [ET200S SI 2005]
+//! [ET200S SI 2005] §3.8.1, §3.8.3, and [USS spec] and [SINAMICS V20] p. 107 for what the manuals
+//! leave out (LGE rule, ADR bits, BCC, PKE layout, task and response IDs, error numbers).
 //!
 //! - **STX** = 02H.
 //! - **LGE** = n + 2: the net-data bytes plus ADR plus BCC; STX and LGE are not counted
-//!   (public-facts.md §3, USS spec §4.2). 2 ≤ LGE ≤ 254, so n ≤ 252 and a telegram is at most 256 bytes.
-//!   The manuals say only "telegram length" (et200s-si-modbus-uss.md §11.20); we follow the USS spec.
+//!   ([USS spec] §4.2. 2 ≤ LGE ≤ 254, so n ≤ 252 and a telegram is at most 256 bytes.
+//!   The manuals say only "telegram length" ([Modbus/USS] §3.7 `[derived]`); we follow the USS
+//!   spec.
 //! - **ADR**: bits 0–4 slave address 0–31, bit 5 broadcast, bit 6 mirror, bit 7 special telegram
 //!   ([`Adr`]).
 //! - **BCC** = XOR of every byte from STX up to the last net byte, STX **included**; a receiver can
-//!   check that the XOR of the whole telegram is 0 (public-facts.md §3, USS spec §4.4). A BCC computed
+//!   check that the XOR of the whole telegram is 0 ([USS spec] §4.4. A BCC computed
 //!   without STX differs by exactly 02H and is rejected.
 //! - Net data: the PKW area (0, 3, 4 words or variable) followed by the PZD area (0–16 words), words
-//!   high byte first, double words high word first (et200s-si-modbus-uss.md §6.1).
+//!   high byte first, double words high word first ([Modbus/USS] §3.7.1).
 //!
 //! ```
 //! use si_uss::frame::{self, Adr};
-//! // Public-facts.md §3's "common fixed length": PKW 4 words + PZD 2 words gives LGE 0EH, 16 bytes.
+//! // The "common fixed length" of [SINAMICS CU240S] p. 178: PKW 4 words + PZD 2 words gives LGE 0EH, 16 bytes.
 //! let mut buf = [0u8; frame::MAX_TELEGRAM];
 //! let len = frame::encode(Adr::slave(1).unwrap(), &[0; 12], &mut buf).unwrap();
 //! assert_eq!(len, 16);
@@ -29,7 +30,7 @@
 //!
 //! # Hand-written, not nom
 //!
-//! Hand-written because a nom version (issue 17; commit ff29b82 in the history) was longer and
+//! Hand-written because a nom version (commit ff29b82 in the history) was longer and
 //! slower: [`decode`] checks the whole telegram's length against LGE and XORs it for the BCC,
 //! which nom can only express through an error type carrying [`DecodeError`] and `consumed`
 //! (36 → 59 lines), and [`NetData::parse`] reads words whose count it has already checked
@@ -48,7 +49,7 @@ pub const STX: u8 = 0x02;
 pub const MAX_NET: usize = 252;
 /// Longest telegram: STX + LGE + ADR + 252 net bytes + BCC.
 pub const MAX_TELEGRAM: usize = MAX_NET + 4;
-/// Most PZD words (et200s-si-modbus-uss.md §6.6: PZD 0…16).
+/// Most PZD words ([Modbus/USS] §3.7.6, Table 3-31: PZD 0…16).
 pub const MAX_PZD_WORDS: usize = 16;
 /// Most PWE words in a variable-length PKW area: 126 net words minus PKE and IND.
 pub const MAX_PWE_WORDS: usize = MAX_NET / 2 - 2;
@@ -65,7 +66,7 @@ pub fn bcc(bytes: &[u8]) -> u8 {
     bytes.iter().fold(0, |acc, b| acc ^ b)
 }
 
-/// The ADR byte: slave address and telegram type (public-facts.md §3, USS spec §4.3).
+/// The ADR byte: slave address and telegram type ([USS spec] §4.3.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct Adr(pub u8);
 
@@ -300,7 +301,7 @@ pub fn decode_from(bytes: &[u8], expected: Adr) -> Result<Telegram<'_>, DecodeEr
     Ok(t)
 }
 
-/// How many words the PKW area has (et200s-si-modbus-uss.md §6.6: 0, 3 or 4; public-facts.md §3:
+/// How many words the PKW area has ([Modbus/USS] §3.7.6, Table 3-31: 0, 3 or 4; [MM 440]:
 /// P2013 also allows "variable", 127).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -349,7 +350,7 @@ impl PkwWords {
 }
 
 /// The parameter identifier PKE: AK in bits 12–15, SPM (toggle bit of change reports) in bit 11,
-/// PNU in bits 0–10 (public-facts.md §3; et200s-si-modbus-uss.md §6.7 "PKE in the transmit buffer").
+/// PNU in bits 0–10 ([SINAMICS V20] p. 107; [Modbus/USS] §3.7.7 "PKE in the transmit buffer").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct Pke(pub u16);
 
@@ -403,7 +404,7 @@ impl Pkw {
     }
 
     /// The value: one PWE word, or PWE1:PWE2 as a double word (high word first,
-    /// et200s-si-modbus-uss.md §6.1). In a 4-word area a word value sits in PWE2.
+    /// [Modbus/USS] §3.7.1). In a 4-word area a word value sits in PWE2.
     pub fn value(&self) -> u32 {
         match self.pwe() {
             [] => 0,
@@ -565,7 +566,7 @@ impl NetData {
     }
 }
 
-/// Task IDs AK, master → slave (public-facts.md §3; et200s-si-modbus-uss.md §6.7).
+/// Task IDs AK, master → slave ([SINAMICS V20] p. 107; [Modbus/USS] §3.7.7).
 pub mod task {
     /// No task (only PZD matter).
     pub const NONE: u8 = 0;
@@ -577,7 +578,7 @@ pub mod task {
     pub const WRITE_DWORD: u8 = 3;
     /// Request descriptive element (with IND = 255 invalid for the ET 200S FCs, status bit 3).
     pub const READ_DESCRIPTION: u8 = 4;
-    /// Change descriptive element (not in public-facts.md's list; MICROMASTER table).
+    /// Change descriptive element (not in the [SINAMICS V20] list; MICROMASTER table).
     pub const WRITE_DESCRIPTION: u8 = 5;
     /// Request parameter value, array.
     pub const READ_ARRAY: u8 = 6;
@@ -599,7 +600,7 @@ pub mod task {
     pub const TEXT: u8 = 15;
 }
 
-/// Response IDs AK, slave → master (public-facts.md §3; et200s-si-modbus-uss.md §6.7).
+/// Response IDs AK, slave → master ([SINAMICS V20] p. 107; [Modbus/USS] §3.7.7).
 pub mod response {
     /// No response.
     pub const NONE: u8 = 0;
@@ -632,8 +633,8 @@ pub mod response {
         matches!(ak, VALUE_WORD | ARRAY_WORD | CHANGE_REPORT_WORD | 11)
     }
 
-    /// The response IDs that may answer task `ak` successfully (public-facts.md §3 pairs; the
-    /// MICROMASTER table in et200s-si-modbus-uss.md §6.7).
+    /// The response IDs that may answer task `ak` successfully ([SINAMICS V20] p. 107 pairs; the
+    /// MICROMASTER table in [Modbus/USS] §3.7.7).
     pub const fn answers(ak: u8) -> &'static [u8] {
         match ak {
             super::task::NONE => &[NONE],
@@ -653,7 +654,7 @@ pub mod response {
     }
 }
 
-/// AK 7 error numbers (public-facts.md §3, SINAMICS V20 OI p.107), for messages.
+/// AK 7 error numbers ([SINAMICS V20] p. 107, for messages.
 pub fn pkw_error_text(number: u16) -> &'static str {
     match number {
         0 => "illegal parameter number",

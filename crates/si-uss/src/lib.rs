@@ -1,7 +1,7 @@
 //! # si-uss
 //!
-//! The USS master of the ET 200S SI Modbus/USS module, for hosts (et200s-si-modbus-uss.md §6,
-//! et200s-si-2005-window-protocol.md §5.11–§5.12 and §8, public-facts.md §3):
+//! The USS master of the ET 200S SI Modbus/USS module, for hosts ([Modbus/USS] §3.7,
+//! [ET200S SI 2005] Tables 3-80, 3-82, Table 3-84, §3.8, [USS spec]):
 //!
 //! - [`frame`]: the telegram `STX LGE ADR net-data BCC`, PKW and PZD areas, task and response IDs;
 //! - [`param`]: parameter numbers up to 61 999 through the page index in IND's high byte;
@@ -39,10 +39,9 @@
 //!
 //! # Bounds
 //!
-//! The USS timing (public-facts.md §3) bounds a poll only on a line that goes quiet: the master
+//! The USS timing ([USS spec] §5.2.1) bounds a poll only on a line that goes quiet: the master
 //! waits for a start interval of silence before every request, and a flood never leaves one.
-//! So the master adds host bounds derived from its configuration ([`config::MasterConfig`],
-//! issue 21):
+//! So the master adds host bounds derived from its configuration ([`config::MasterConfig`]):
 //!
 //! - **wait for silence**: a due poll goes out after at most
 //!   `max_wait_for_silence = 2 × t_char + t_char + 1.5 × (252 + 3) × t_char + (255 ms + t_char)`,

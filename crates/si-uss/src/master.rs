@@ -1,8 +1,9 @@
 //! The USS master: a Sans-IO engine that polls the slaves of its polling list cyclically.
 //!
-//! Sources: et200s-si-modbus-uss.md §6.1 (cycle: "each slave must answer before the master
-//! addresses the next"), §6.3 (one job per slave), §6.7 (comm status word, comm error word,
-//! KSTW), §6.8 (polling list, WDH) and public-facts.md §3 (timing, error handling, PKW rules).
+//! Sources: [Modbus/USS] §3.7.1 (cycle: "each slave must answer before the master
+//! addresses the next"), [Modbus/USS] §3.7.3 (one job per slave), §3.7.7 (comm status word, comm
+//! error word, KSTW), [Modbus/USS] §3.7.8 (polling list, WDH) and [USS spec] (timing, error
+//! handling), [SINAMICS CU240S] p. 229 (PKW rules).
 //!
 //! # One poll
 //!
@@ -11,39 +12,39 @@
 //! 2. Send `STX LGE ADR PKW PZD BCC` to the entry's node: the PKW area carries the slave's current
 //!    parameter job (AK 0 "no task" when there is none) and the PZD area its control words
 //!    ([`Master::set_control`]).
-//! 3. Wait up to the **response timeout** (20 ms, public-facts.md §3) from the end of the request
+//! 3. Wait up to the **response timeout** (20 ms, [USS spec] §5.2.2) from the end of the request
 //!    for the response's STX, then up to the **residual run time** 1.5 × (n + 3) character times
 //!    for the rest of it.
 //! 4. Check STX, LGE, ADR, BCC and the net-data structure, update the slave's status word, error
 //!    word and received PZD, and report [`Event::Response`]; or report "node x does not answer"
 //!    ([`Event::NoAnswer`]) or the rejection ([`Event::Rejected`]) and **go on with the cycle**
-//!    (public-facts.md §3, USS spec §5.2.2).
+//!    ([USS spec] §5.2.2.
 //!
 //! # The PKW handshake
 //!
 //! A parameter job ([`Master::request_parameter`]) is sent with every poll of its slave until a
 //! response with a matching response ID, PNU and IND (and, for writes, value) arrives
-//! (public-facts.md §3 "master repeats request until matching response"). It ends with:
+//! ([SINAMICS CU240S] p. 229: "master repeats request until matching response"). It ends with:
 //!
 //! - response ID 7: [`status::PKW_ERROR`] (16#1503) and the drive's error number from PWE
-//!   (et200s-si-modbus-uss.md §6.7 status bit 2);
+//!   ([Modbus/USS] §3.7.7 status bit 2);
 //! - response ID 8, "no master control / no PKW rights": [`status::PKW_INTERFACE_ERROR`]
 //!   (16#1505, status bit 4);
 //! - WDH repetitions after the first telegram used up ([`MasterConfig::pkw_retries`]):
 //!   [`status::NO_ANSWER`] (16#1408, comm error word bit 7, the code a poll reports) when the
 //!   node did not answer a single telegram of the job, or the rejection code of its last
 //!   telegram (BCC, LGE, …) when it answered only with faulty ones; [`status::PKW_INTERFACE_ERROR`]
-//!   when it answered but never matched the job. Status bit 4 is set in each case, as §6.7 says
-//!   ("did not acknowledge within WDH retries").
+//!   when it answered but never matched the job. Status bit 4 is set in each case, as [Modbus/USS]
+//!   §3.7.7 says ("did not acknowledge within WDH retries").
 //!
-//! **Reading chosen** for the absent node: §6.7 folds it into status bit 4 with response ID 8;
-//! a user must tell a drive that is not there from a drive that refuses, so the job's STATUS
-//! names the telegram-level cause, as a poll does.
+//! **Reading chosen** for the absent node: [Modbus/USS] §3.7.7 folds it into status bit 4 with
+//! response ID 8; a user must tell a drive that is not there from a drive that refuses, so the
+//! job's STATUS names the telegram-level cause, as a poll does.
 //!
-//! After the job the PKW area carries AK 0 "no task" (public-facts.md §3, CU240S p.229), or, with
+//! After the job the PKW area carries AK 0 "no task" ([SINAMICS CU240S] p. 229, or, with
 //! [`PkwAfterJob::RepeatLast`], the last job again, as the module's FCs do ("sent to the slave
-//! again and again until the user enters a new job", §6.7). See [`PkwAfterJob`] for why AK 0 is
-//! the default.
+//! again and again until the user enters a new job", [Modbus/USS] §3.7.7). See [`PkwAfterJob`] for
+//! why AK 0 is the default.
 //!
 //! # Ending a run
 //!
@@ -73,7 +74,7 @@ use std::collections::VecDeque;
 /// completion event.
 pub use si_core::JobId;
 
-/// Comm status word bits (et200s-si-modbus-uss.md §6.7).
+/// Comm status word bits ([Modbus/USS] §3.7.7).
 pub mod comm_status {
     /// Bit 0: PKW job in progress.
     pub const PKW_BUSY: u16 = 1 << 0;
@@ -97,7 +98,7 @@ pub mod comm_status {
     pub const GROUP_ERROR: u16 = 1 << 9;
 }
 
-/// Comm error word bits (et200s-si-modbus-uss.md §6.7).
+/// Comm error word bits ([Modbus/USS] §3.7.7).
 pub mod comm_error {
     /// Bit 0: address (ADR) error.
     pub const ADDRESS: u16 = 1 << 0;
@@ -113,7 +114,7 @@ pub mod comm_error {
 
 /// The diagnostic counters.
 ///
-/// public-facts.md §3 names the USS spec's recommended counters (§5.2.3): ok and rejected
+/// [USS spec] §5.2.3 recommends these counters: ok and rejected
 /// telegrams, framing, overflow, parity, start not identified, residual time, BCC, length and
 /// monitoring time. It does not list sixteen, so we chose these sixteen: those ten, split and
 /// completed by what a master also needs to see (requests sent, address errors, BREAKs, PKW
@@ -239,7 +240,7 @@ pub enum RequestError {
     /// The node's structure has no PKW area.
     #[error("node {0} has no PKW area (PKW = 0)")]
     NoPkwArea(u8),
-    /// A PKW job for this node is still running (one job per slave, et200s-si-modbus-uss.md §6.3).
+    /// A PKW job for this node is still running (one job per slave, [Modbus/USS] §3.7.3).
     #[error("a PKW job for node {0} is still in progress")]
     Busy(u8),
     /// The task is invalid (status bit 3): 15, 4 with index 255 (the manual's two), and, as
@@ -253,7 +254,7 @@ pub enum RequestError {
         task: u8,
     },
     /// The parameter number is above [`crate::param::MAX_NUMBER`] (61 999): the page index
-    /// cannot address it (uss-parameter-pages.md).
+    /// cannot address it ([MM 420] p. 115, [G120 Fieldbus] §5.3).
     #[error("parameter number {number} for node {address} is out of range: 0 … 61999")]
     ParameterNumber {
         /// The node.
@@ -277,21 +278,21 @@ impl RequestError {
     /// status register, a gateway's parameter window) never has to invent one.
     ///
     /// **Reading chosen:** the manual's USS FCs refuse nothing with a STATUS of their own
-    /// (et200s-si-modbus-uss.md §6.7 flags bits instead), so each refusal takes the code whose
+    /// ([Modbus/USS] §3.7.7 flags bits instead), so each refusal takes the code whose
     /// meaning fits it:
     ///
     /// - an invalid task ([`RequestError::InvalidTask`]) sets comm status bit 3, and a job for
     ///   a node without a PKW area is a task its PKW area cannot carry: 16#1504
-    ///   ([`status::PKW_INVALID_TASK`], §6.7 comm status word bit 3);
+    ///   ([`status::PKW_INVALID_TASK`], [Modbus/USS] §3.7.7 comm status word bit 3);
     /// - a node outside the polling list, or a parameter number the page index cannot address
-    ///   (uss-parameter-pages.md): an input out of range, 16#1E20
-    ///   ([`si_core::status::common::PARAMETER_OUT_OF_RANGE`], §7.5);
+    ///   ([MM 420] p. 115, [G120 Fieldbus] §5.3): an input out of range, 16#1E20
+    ///   ([`si_core::status::common::PARAMETER_OUT_OF_RANGE`], [Modbus/USS] §3.6);
     /// - net data or a PZD list too long: a byte count the job cannot carry, 16#1E41
-    ///   ([`si_core::status::common::INVALID_LEN`], §7.5, "invalid byte count");
-    /// - a job still running for the node (one job per slave, §6.3), a special telegram still
-    ///   waiting, or a stopped master: "job not possible in the current mode", 16#0502
-    ///   ([`si_core::status::common::NOT_POSSIBLE_IN_MODE`], §7.2), as si-modbus reports a
-    ///   busy master.
+    ///   ([`si_core::status::common::INVALID_LEN`], [Modbus/USS] §3.6, "invalid byte count");
+    /// - a job still running for the node (one job per slave, [Modbus/USS] §3.7.3), a special
+    ///   telegram still waiting, or a stopped master: "job not possible in the current mode",
+    ///   16#0502 ([`si_core::status::common::NOT_POSSIBLE_IN_MODE`], [Modbus/USS] §3.6), as
+    ///   si-modbus reports a busy master.
     pub fn status(&self) -> Status {
         use si_core::status::common;
         match self {
@@ -689,7 +690,7 @@ impl Master {
     /// The user has seen the parameter change report of `address`: comm status bit 5 is reset
     /// and the next requests carry the report's toggle bit (PKE bit 11, SPM) back to the slave,
     /// which acknowledges it; the slave then sends its next report or resumes normal answers
-    /// (KSTW bit 1, et200s-si-modbus-uss.md §6.7).
+    /// (KSTW bit 1, [Modbus/USS] §3.7.7).
     ///
     /// **Reading chosen:** the manual says only that the FC "acknowledges the report to the
     /// slave" and masks bit 11 from the user; we acknowledge by mirroring the report's toggle bit
@@ -812,7 +813,7 @@ impl Master {
     }
 
     /// The next telegram is due at `at`: it waits for the start interval of silence at most
-    /// [`MasterConfig::max_wait_for_silence`] (host bound, issue 21; module docs, "Bounds").
+    /// [`MasterConfig::max_wait_for_silence`] (host bound; module docs, "Bounds").
     fn idle(&mut self, at: Instant) {
         self.phase = Phase::Idle {
             at,
@@ -1196,8 +1197,8 @@ enum Verdict {
     NotYet,
 }
 
-/// public-facts.md §3: the response matches when its ID answers the task and PNU, IND (and for
-/// writes the value) are the request's; ID 7 with the request's PNU is the job's error.
+/// [SINAMICS CU240S] p. 229: the response matches when its ID answers the task and PNU, IND (and
+/// for writes the value) are the request's; ID 7 with the request's PNU is the job's error.
 fn judge(request: &Pkw, reply: &Pkw) -> Verdict {
     let ak = reply.pke.ak();
     let same_pnu = reply.pke.pnu() == request.pke.pnu();
@@ -1224,11 +1225,11 @@ fn judge(request: &Pkw, reply: &Pkw) -> Verdict {
 }
 
 /// Lay a request out in a PKW area of `words`; `None` if the task is invalid there
-/// (et200s-si-modbus-uss.md §6.7 status bit 3).
+/// ([Modbus/USS] §3.7.7 status bit 3).
 fn build_request(words: PkwWords, r: &ParamRequest) -> Option<Pkw> {
-    // `[Modbus/USS]` §3.7.7, comm status word bit 3, names two invalid request IDs: 15, and 4
+    // [Modbus/USS] §3.7.7, comm status word bit 3, names two invalid request IDs: 15, and 4
     // with index 255. `[derived]` 10 is refused too: the USS task-ID table reserves it
-    // (`[USS]`, `[MM420]`), so no drive serves it, and a refusal here says so at once instead
+    // ([USS spec], [MM 420]), so no drive serves it, and a refusal here says so at once instead
     // of a drive's error response. Above 15 the ID does not fit PKE's four bits.
     if r.task > 15 || r.task == task::TEXT || r.task == 10 {
         return None;

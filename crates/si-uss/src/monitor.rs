@@ -1,4 +1,4 @@
-//! Passive USS decoding (public-facts.md §3, USS spec §4–§6; et200s-si-modbus-uss.md §7):
+//! Passive USS decoding ([USS spec] §4–§6; [Modbus/USS] §3.6):
 //! a telegram starts with STX after a start interval of at least two character times and is
 //! `LGE + 2` characters long; the BCC is checked, the residual run time `1.5 × (n + 3)`
 //! character times from STX is judged, and the slave's response delay must stay within 20 ms.
@@ -6,10 +6,10 @@
 //! The timers are the engine's: [`crate::config::start_interval`],
 //! [`crate::config::residual_run_time`] (rounded up to a microsecond, as the master's receiver
 //! sets its deadline) and [`crate::config::RESPONSE_DELAY_MAX`]. A telegram the master accepts
-//! is never flagged here (before issue 17 the monitor rounded the residual run time down and
+//! is never flagged here (an earlier version of the monitor rounded the residual run time down and
 //! flagged telegrams that ended in the last microsecond).
 //!
-//! Counters are the USS specification's recommended diagnostic counters (USS spec §5.2.3):
+//! Counters are the USS specification's recommended diagnostic counters ([USS spec] §5.2.3):
 //! telegrams ok, telegrams rejected, framing, overrun and parity errors, start not identified,
 //! residual run time exceeded, BCC errors, length errors, monitoring time (no answer). A
 //! listener cannot see "overflow" of a receiver's buffer and counts overrun only when the UART
@@ -50,7 +50,7 @@ use si_core::monitor::exchange::{Exchange, Request};
 use si_core::monitor::{ms, Counters, Decoder, Flag, Kind, LineChar, Record};
 use si_core::{Duration, Instant, LineError, SerialSettings};
 
-/// The slave's longest response delay (USS spec §5.2.1.1), the engine's own constant.
+/// The slave's longest response delay ([USS spec] §5.2.1.1), the engine's own constant.
 pub const RESPONSE_DELAY: Duration = RESPONSE_DELAY_MAX;
 
 struct Telegram {
@@ -479,7 +479,7 @@ mod tests {
 
     #[test]
     fn uss_5_2_1_2_monitor_and_master_agree_on_the_residual_run_time() {
-        // Issue 17: the monitor rounded 1.5 × (n + 3) character times down while the engine
+        // An earlier monitor rounded 1.5 × (n + 3) character times down while the engine
         // rounds up, so a telegram ending in the engine's last microsecond was flagged. Now a
         // telegram ending exactly at the master receiver's deadline passes, one a microsecond
         // later is flagged, at every USS baud rate and telegram length.

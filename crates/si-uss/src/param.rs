@@ -1,12 +1,13 @@
 //! Parameter numbers and their page index: how a number above 1999 reaches the drive
-//! (uss-parameter-pages.md; public-facts.md §3 "PNU ≥ 2000 via IND high byte page").
+//! ([MM 420] p. 115, [G120 Fieldbus] §5.3: PNU ≥ 2000 through the page index in IND's high byte).
 //!
 //! PKE has room for PNU bits 0–10, of which a drive uses 0…1999. The rest of the number is the
 //! **page** p = number div 2000, carried in IND's high byte; IND's low byte is the sub-index.
 //! The MICROMASTER 4 rule (MM420 OI p.115) gives the page's bits 0–3 the unusual weights
 //! IND bit 15 = 1, bit 12 = 2, bit 13 = 4, bit 14 = 8; the SINAMICS G120 table (FM 04/2018
-//! §5.3) adds 60000 → 74H, which puts page bit 4 into IND bit 10. As one formula
-//! (uss-parameter-pages.md, "Encoding rule [inferred from the two sources]"):
+//! [Modbus/USS] §3.5.4, Table 3-20) adds 60000 → 74H, which puts page bit 4 into IND bit 10. As one
+//! formula ([MM 420] p. 115, [G120 Fieldbus] §5.3, "Encoding rule
+//! [inferred from the two sources]"):
 //!
 //! ```text
 //! high byte = (p & 1) << 7 | ((p >> 1) & 7) << 4 | ((p >> 4) & 1) << 2
@@ -32,7 +33,7 @@
 //!
 //! ```
 //! use si_uss::param::ParamAddress;
-//! // uss-parameter-pages.md's worked example: p2029[5] → PNU 29 (PKE 01DH with AK), IND 8005H.
+//! // [MM 420] p. 115, [G120 Fieldbus] §5.3 worked example: p2029[5] → PNU 29 (PKE 01DH with AK), IND 8005H.
 //! let (pnu, ind) = ParamAddress::new(2029, 5).unwrap().split().unwrap();
 //! assert_eq!((pnu, ind), (0x01D, 0x8005));
 //! assert_eq!(ParamAddress::join(pnu, ind), ParamAddress { number: 2029, index: 5 });
@@ -45,7 +46,7 @@ use si_core::RangeError;
 /// How many parameter numbers one page holds (PNU 0…1999 of PKE).
 pub const PAGE_SIZE: u16 = 2000;
 /// The highest parameter number we address: the end of the 60000–61999 row of
-/// uss-parameter-pages.md (see "Range chosen" in the module docs).
+/// [MM 420] p. 115, [G120 Fieldbus] §5.3 (see "Range chosen" in the module docs).
 pub const MAX_NUMBER: u16 = 61_999;
 
 /// The IND high byte for page `page` (0…31; higher bits are ignored).
@@ -111,7 +112,7 @@ impl fmt::Display for ParamAddress {
 mod tests {
     use super::*;
 
-    /// uss-parameter-pages.md's table: first number of the range, page, IND high byte.
+    /// [MM 420] p. 115, [G120 Fieldbus] §5.3 table: first number of the range, page, IND high byte.
     const TABLE: [(u16, u8, u8); 9] = [
         (0, 0, 0x00),
         (2000, 1, 0x80),

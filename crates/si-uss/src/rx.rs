@@ -1,6 +1,6 @@
 //! Telegram reception shared by master and drive: start interval, LGE, residual run time.
 //!
-//! public-facts.md §3 (USS spec §5.1.2, §5.2.1.2, §5.2.2, §6.3):
+//! [USS spec] §5.1.2, §5.2.1.2, §5.2.2, §6.3:
 //! - only an STX after a start interval (≥ 2 character times of silence) starts a telegram; any
 //!   other character there is "start not identified" and the receiver waits for silence again;
 //! - after STX comes LGE, which fixes the length (n + 4 bytes in all); LGE outside 2…254 is a

@@ -1,4 +1,4 @@
-//! A bound on every USS master job under noise (issue 21; the crate docs, "Bounds"): against a
+//! A bound on every USS master job under noise (the crate docs, "Bounds"): against a
 //! line that never carries a valid response (silent, random bytes, 01H every 2 ms, an endless
 //! frame, floods, noise that stops), a parameter job (`uss read-param`) ends with a failure
 //! within [`MasterConfig::job_bound`] and a cycle (`uss poll --cycles 1`) within

@@ -1,5 +1,5 @@
 //! Scenario tests on the line simulator, named after the manual section they prove
-//! (et200s-si-modbus-uss.md §6, public-facts.md §3).
+//! ([Modbus/USS] §3.7, [USS spec]).
 
 #[path = "scenarios/fb.rs"]
 mod fb;

@@ -1,4 +1,4 @@
-//! Soak (issue 9): the USS master polling a drive on a faulty line (bit flips, lost and
+//! Soak: the USS master polling a drive on a faulty line (bit flips, lost and
 //! inserted characters) for a day of virtual time, with parameter jobs alternating a write of
 //! a sequence number into P2000 and a read of it.
 //!
@@ -6,7 +6,7 @@
 //! failed with a STATUS of the manual; nothing goes back in time (a read returns the last
 //! acknowledged write or a later attempted one: a write whose answer was lost may still have
 //! been executed); the polling cycle goes on; and the line stays usable. The BCC is an XOR
-//! (et200s-si-modbus-uss.md §6): two flips of the same bit in one telegram, or a lost and an
+//! ([Modbus/USS] §3.7): two flips of the same bit in one telegram, or a lost and an
 //! inserted character, pass it. The simulator's flips keep the parity bit right (a worst case:
 //! a real UART's parity check catches every single flip), so a value outside the window is
 //! counted as an undetectable corruption, and those must stay rare. The short test runs in every `cargo test`; the day runs with

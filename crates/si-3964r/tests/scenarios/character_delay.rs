@@ -1,7 +1,7 @@
-//! The character delay time ZVZ at low baud rates (et200s-si-3964r-ascii.md §5.4 point 3, §5.8:
-//! "longest gap between two received characters"; issue 18). A partner that leaves gaps of
-//! exactly ZVZ between its characters is received; one microsecond more ends the reception
-//! with NAK and 0806H at the moment the gap is known to be too long. At 300 bit/s one
+//! The character delay time ZVZ at low baud rates ([ET200S SI] §2.7, receiving: character delay
+//! monitoring, §2.7, Table 2-11: "longest gap between two received characters"). A partner that
+//! leaves gaps of exactly ZVZ between its characters is received; one microsecond more ends the
+//! reception with NAK and 0806H at the moment the gap is known to be too long. At 300 bit/s one
 //! character takes 36.7 ms against the 60 ms ZVZ minimum, at 110 bit/s 100 ms against 170 ms,
 //! so a deadline that leaves the character time out fails the first half of these tests.
 
@@ -13,7 +13,8 @@ use si_3964r::status::{CHARACTER_DELAY, IDLE_GARBAGE};
 use si_3964r::{Config, Event};
 use si_core::{Duration, Instant, Parity, SerialSettings};
 
-/// The slow rates with their ZVZ minimum (cp341 §3.8, 110 bit/s derived; see si_3964r::config).
+/// The slow rates with their ZVZ minimum ([CP 341] §2.2.2, §2.3.1, 110 bit/s derived; see
+/// si_3964r::config).
 const SLOW: [(u32, u32); 2] = [(300, 60), (110, 170)];
 
 const US1: Duration = Duration::from_micros(1);
@@ -56,7 +57,7 @@ fn receive_with_gaps(
 }
 
 /// 0806H first; the partner's characters after it arrive in idle, where they are answered
-/// with NAK and 0802H once the line is quiet (§5.4 point 1).
+/// with NAK and 0802H once the line is quiet ([ET200S SI] §2.7, receiving: idle).
 fn zvz_expired(events: &[Event]) -> bool {
     events.first() == Some(&Event::ReceiveError(CHARACTER_DELAY))
         && events[1..]

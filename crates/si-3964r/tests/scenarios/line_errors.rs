@@ -1,7 +1,7 @@
 //! A parity error on a simulated 3964(R) line reaches S_RCV as the manual's 080C
-//! (et200s-si-3964r-ascii.md §11.3: "transmission error (parity, stop-bit or overrun error)";
-//! §5 state table: in idle reported at once, while receiving the block is marked bad and
-//! repeated).
+//! ([ET200S SI] §2.13, Table 2-28: "transmission error (parity, stop-bit or overrun error)";
+//! [ET200S SI] §2.7 state table: in idle reported at once, while receiving the block is marked bad
+//! and repeated).
 //!
 //! The path is the one a real Linux port takes: the UART finds the bad parity, the kernel
 //! marks the character in the stream (`FF 00 x`, si_core::linemark), and the driver's receive
@@ -114,8 +114,8 @@ fn a_flipped_parity_bit_inside_a_block_is_refused_and_repeated() {
     settle(&mut sim);
     assert_eq!(sim.take_events(a), vec![Event::Sent { job }]);
     let events = sim.take_events(b);
-    // §5.5: a block received with a character error is answered with NAK; the repetition is
-    // taken, and S_RCV sees only the good block.
+    // [ET200S SI] §2.7, Fig. 2-15: a block received with a character error is answered with NAK;
+    // the repetition is taken, and S_RCV sees only the good block.
     assert_eq!(events, vec![Event::Received { len: 5 }]);
     assert_eq!(
         sim.with(b, |port, now| port.link.take_block(now).map(|b| b.to_vec())),

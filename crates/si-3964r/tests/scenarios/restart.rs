@@ -1,6 +1,6 @@
-//! "Clear SI receive buffer at startup" for 3964(R) (et200s-si-3964r-ascii.md §7.2 Table 2-11
-//! and §10, et200s-si-2005-window-protocol.md §3.2 Table 2-9: no/yes, default yes; window
-//! manual §9.3: with "no", buffered frames are delivered again after the CPU's STOP → RUN), as
+//! "Clear SI receive buffer at startup" for 3964(R) ([ET200S SI] §2.9, Table 2-11
+//! and §2.11, [ET200S SI 2005] §2.9.3, Table 2-9: no/yes, default yes; [ET200S SI 2005]
+//! §2.11: with "no", buffered frames are delivered again after the CPU's STOP → RUN), as
 //! the ASCII driver's `clear_at_startup` (its receive_buffer tests).
 
 use crate::common;

@@ -1,8 +1,8 @@
-//! 3964(R) through USB-serial adapters (issue 16): with default configs both links behind a
+//! 3964(R) through USB-serial adapters: with default configs both links behind a
 //! 16 ms / 62-byte adapter exchange blocks longer than a packet both ways at 9600 and 19 200
-//! bit/s, announced or learnt. The procedure's own timers (ZVZ 220 ms, QVZ 2000 ms, §5.3) are
-//! far above 16 ms, and get the port's allowance on top; without the adapter the receiver
-//! still acknowledges the block the moment its BCC arrives (§5.4).
+//! bit/s, announced or learnt. The procedure's own timers (ZVZ 220 ms, QVZ 2000 ms, [ET200S SI]
+//! §2.7) are far above 16 ms, and get the port's allowance on top; without the adapter the receiver
+//! still acknowledges the block the moment its BCC arrives ([ET200S SI] §2.7).
 
 use crate::common;
 

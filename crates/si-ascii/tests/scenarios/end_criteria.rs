@@ -1,4 +1,4 @@
-//! et200s-si-3964r-ascii.md §6.3 / §6.5: the three receive end criteria on the simulator, at
+//! [ET200S SI] §2.8, Table 2-9: the three receive end criteria on the simulator, at
 //! several baud rates, with frames cut at exactly the right byte and the right time.
 
 use crate::common;

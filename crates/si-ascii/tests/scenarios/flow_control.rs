@@ -1,4 +1,4 @@
-//! et200s-si-3964r-ascii.md §6.9 (XON/XOFF, RTS/CTS) and §6.8 (automatic V.24) on the
+//! [ET200S SI] §2.8 (XON/XOFF, RTS/CTS) and §2.8 (automatic V.24) on the
 //! simulator: a fast sender is stopped and resumed without losing a byte, and the wait-time
 //! expiries end the send job with the manual's STATUS.
 
@@ -453,7 +453,8 @@ fn s6_4_with_xon_xoff_the_flow_characters_are_not_data() {
     b.partner_sends(b"ab\x11cd");
     b.run_for_ms(100);
     assert_eq!(b.frames(), vec![b"abcd".to_vec()]);
-    // Sending them is refused (§6.2), also when a 7-bit line would strip the top bit.
+    // Sending them is refused ([ET200S SI] §2.8, Fig. 2-17), also when a 7-bit line would strip the
+    // top bit.
     let err = b.sim.with(b.link, |l, now| l.send(now, "x\x13".into()));
     assert_eq!(err, Err(si_ascii::SendError::FlowCharacter(0x13)));
     let c7 = Config {

@@ -1,4 +1,4 @@
-//! et200s-si-3964r-ascii.md §8: S_SEND and S_RCV called cycle by cycle on the simulator, with the
+//! [ET200S SI] §2.10: S_SEND and S_RCV called cycle by cycle on the simulator, with the
 //! S7 semantics: REQ edge, DONE / ERROR / STATUS valid for one call, R resets.
 
 use crate::common;
@@ -101,7 +101,7 @@ fn s8_2_s_send_reports_the_send_error_0708() {
 
 #[test]
 fn quick_start_s2_two_modules_s_send_to_s_rcv() {
-    // §2: 4800 bit/s 8N1, CDT 10 ms, no flow control; 24 characters arrive as LEN 24.
+    // [ET200S SI] §2.2: 4800 bit/s 8N1, CDT 10 ms, no flow control; 24 characters arrive as LEN 24.
     let c = Config {
         settings: si_core::SerialSettings::new(4_800, 8, si_core::Parity::None, 1).unwrap(),
         char_delay_ms: 10,

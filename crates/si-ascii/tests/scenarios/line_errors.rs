@@ -1,4 +1,4 @@
-//! et200s-si-3964r-ascii.md §11.3: character errors are reported with the ASCII driver's codes
+//! [ET200S SI] §2.13, Table 2-28: character errors are reported with the ASCII driver's codes
 //! (0810H parity, 0811H character frame, 080CH overrun, 080DH BREAK), the broken frame is
 //! discarded and the next one is clean; RS-485 half duplex on the simulator's bus.
 

@@ -1,6 +1,6 @@
-//! The maximum frame length as a setting with module presets (issue 18): ET 200S 1SI 200 bytes
-//! (et200s-si-3964r-ascii.md Table 2-13/2-14), 2005 module 224 bytes (window manual H-14),
-//! CP 341 1024 bytes (cp341-event-classes.md 0517H). Received frames longer than the setting are
+//! The maximum frame length as a setting with module presets: ET 200S 1SI 200 bytes
+//! ([ET200S SI] Table 2-13/2-14), 2005 module 224 bytes ([ET200S SI 2005] `[derived]`),
+//! CP 341 1024 bytes ([CP 341 Diag] 0517H). Received frames longer than the setting are
 //! discarded with 0850H; send jobs longer than it are refused with 050EH by the link and with
 //! 1E41H by S_SEND's LEN check.
 

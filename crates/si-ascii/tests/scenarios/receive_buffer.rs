@@ -1,4 +1,4 @@
-//! et200s-si-3964r-ascii.md §6.6: the 1024-byte receive frame buffer and its options
+//! [ET200S SI] §2.8: the 1024-byte receive frame buffer and its options
 //! (dynamic frames, prevent overwrite, clear at startup, the 2/3-full warning, overflow).
 
 use crate::common;
@@ -128,7 +128,7 @@ fn s6_6_warning_while_idle_and_after_the_read_that_leaves_it_above() {
     let first = b
         .sim
         .with(b.link, |l, now| rcv.call(l, now, true, false, &mut db));
-    // 700 bytes remain: still above 2/3, so NDR comes with the warning, ERROR stays 0.
+    // 700 bytes remain: still above 2/3, so NDR comes with the warning, ERROR stays 0 ([derived]).
     assert!(first.ndr && !first.error);
     assert_eq!(first.status, status::BUFFER_TWO_THIRDS_FULL);
     let second = b

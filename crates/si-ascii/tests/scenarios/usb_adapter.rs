@@ -1,6 +1,6 @@
-//! The ASCII driver behind a USB-serial adapter (issue 16): with default configs and each end
-//! criterion (§6.3: character delay time, end character, fixed length), frames longer than one
-//! adapter packet arrive whole through a 16 ms / 62-byte adapter at 9600 and 19 200 bit/s,
+//! The ASCII driver behind a USB-serial adapter: with default configs and each end
+//! criterion ([ET200S SI] §2.8: character delay time, end character, fixed length), frames longer
+//! than one adapter packet arrive whole through a 16 ms / 62-byte adapter at 9600 and 19 200 bit/s,
 //! announced or learnt; and without the adapter the character delay time still ends a frame at
 //! the manual's instant.
 

@@ -1,8 +1,8 @@
 //! `si ascii`: the ASCII driver on a line (send, receive, monitor) and its simulator scenarios
-//! (et200s-si-3964r-ascii.md §6).
+//! ([ET200S SI] §2.8).
 //!
-//! The ASCII driver has no frame encoding of its own (the user data are the frame, §6.1), so
-//! there is no `si frame encode|decode ascii`.
+//! The ASCII driver has no frame encoding of its own (the user data are the frame, [ET200S SI]
+//! §2.8), so there is no `si frame encode|decode ascii`.
 
 use crate::conn::Connection;
 use crate::error::CliError;
@@ -87,7 +87,7 @@ impl DriverArgs {
         let settings = conn.settings()?;
         // RTS/CTS and automatic V.24 drive RTS for flow control; RS-485 direction control
         // drives it (or its file) for the transmitter: the two cannot share it, and RS-485 has
-        // no V.24 signals (et200s-si-3964r-ascii.md §1.2, Table 2-1: RS-232C only).
+        // no V.24 signals ([ET200S SI] §2.1, Table 2-1: RS-232C only).
         if conn.rs485.is_some() && matches!(self.flow, Flow::RtsCts | Flow::AutoV24) {
             return Err(CliError::usage(
                 "--flow rts-cts and auto-v24 need RS-232C: RS-485 has no V.24 signals; leave out --rs485",

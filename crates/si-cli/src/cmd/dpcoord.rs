@@ -1,4 +1,4 @@
-//! `si dp-coord`: the coordination-byte window protocol (et200s-si-2005-window-protocol.md §2)
+//! `si dp-coord`: the coordination-byte window protocol ([ET200S SI 2005] §2.12)
 //! from the command line.
 //!
 //! * `si dp-coord host --window N JOB`: be the DP master's side of one job. The DP exchange is
@@ -8,18 +8,18 @@
 //!   `signals HEX` (the signal word as the window carries it), then `done STATUS=XXXX` (exit 0)
 //!   or `error STATUS=XXXX` (exit 1). Standard output carries only these lines; logs go to
 //!   standard error. A receive job that finds nothing buffered ends `done STATUS=0101` (the
-//!   manual's "not an error", H-6); the signal word is printed as bytes 1–2 of the window carry
-//!   it (H-9: byte 1 = 00H, byte 2 = `DCD CTS RTS DSR DTR` in bits 4…0). The host's clock is the
-//!   time since the start, for its job watchdog (`--timeout-s`, STATUS 0502H).
+//!   manual's "not an error", `[derived]`); the signal word is printed as bytes 1–2 of the window
+//!   carry it (`[derived]`: byte 1 = 00H, byte 2 = `DCD CTS RTS DSR DTR` in bits 4…0). The host's
+//!   clock is the time since the start, for its job watchdog (`--timeout-s`, STATUS 0502H).
 //! * `si dp-coord module --window N --protocol ascii|3964r|modbus`: the mirror image — a
 //!   simulated ET 200S SI module whose line is the serial port (`--port`/`--tcp`): each line read
 //!   is the host's output window, each line written the module's input window. With `modbus` the
 //!   module is a Modbus master ([`si_dp_coord::modbus`]): a send job carries the S_SEND source
-//!   area (slave address, function code, address, quantity / data, et200s-si-modbus-uss.md
-//!   §4.3), and the next receive job brings the response in the S_RCV layout (§4.4) or the
-//!   job's STATUS (0830H no response, 0E6xH exception). USS and Modbus slave mode are not
-//!   offered: their window layout is not documented (H-56).
-//! * `--exec-after-7 1|0` (host and module): what follows execution number 7 (H-5), 1 by
+//!   area (slave address, function code, address, quantity / data, [Modbus/USS]
+//!   [Modbus/USS] §3.4.5–§3.4.16), and the next receive job brings the response in the S_RCV layout
+//!   ([Modbus/USS] §3.4.5–§3.4.16) or the job's STATUS (0830H no response, 0E6xH exception). USS
+//!   and Modbus slave mode are not offered: their window layout is not documented (`[derived]`).
+//! * `--exec-after-7 1|0` (host and module): what follows execution number 7 (`[derived]`), 1 by
 //!   default; both sides must agree ([`si_dp_coord::ExecWrap`]).
 //! * `si dp-coord trace FILE`: annotates a recorded window trace cycle by cycle
 //!   ([`si_dp_coord::frame::describe`]).
@@ -76,7 +76,7 @@ impl Command {
     }
 }
 
-/// The window size of the module variant: 4, 8 or 32 bytes (§2.2).
+/// The window size of the module variant: 4, 8 or 32 bytes ([ET200S SI 2005] §2.12.1, Fig. 2-23).
 fn window_size(text: &str) -> Result<WindowSize, String> {
     text.parse::<usize>()
         .ok()
@@ -84,7 +84,7 @@ fn window_size(text: &str) -> Result<WindowSize, String> {
         .ok_or_else(|| format!("{text:?} is not a window size: 4, 8 or 32"))
 }
 
-/// What follows execution number 7 (H-5): `1` (the default) or `0`.
+/// What follows execution number 7 (`[derived]`): `1` (the default) or `0`.
 fn exec_after_7(text: &str) -> Result<ExecWrap, String> {
     match text {
         "1" => Ok(ExecWrap::ToOne),
@@ -117,7 +117,7 @@ pub struct HostArgs {
     /// Give up on the job after this many seconds without its end (STATUS 0502H).
     #[arg(long, default_value_t = 30)]
     timeout_s: u64,
-    /// The execution number after 7: 1 or 0 (H-5); the module must count the same way.
+    /// The execution number after 7: 1 or 0 (`[derived]`); the module must count the same way.
     #[arg(long, default_value = "1", value_parser = exec_after_7)]
     exec_after_7: ExecWrap,
     /// The module behind the window, whose maximum frame length applies: `et200s` (ET 200S 1SI,
@@ -294,7 +294,7 @@ fn finish(result: Result<Outcome, Status>, out: &Output) -> Result<(), CliError>
 
 /// A window STATUS with its text: the window's own catalogs, then those of the drivers behind
 /// the module (3964(R), ASCII); a code none of them has says so instead of standing bare
-/// (issue 21: dp-coord host printed 16#49D1 with no text).
+/// (a bare 16#49D1 tells the user nothing).
 fn described(status: Status) -> String {
     if status.info().is_some() {
         return status.to_string();
@@ -330,7 +330,7 @@ impl HostArgs {
             .map_err(|e| CliError::new(e.to_string()))?;
         let start = std::time::Instant::now();
         // Stdin is read on its own thread, so the job's watchdog holds while no line comes
-        // (issue 21: `--timeout-s 2` waited until stdin closed). The host's own watchdog runs
+        // (`--timeout-s 2` waited until stdin closed). The host's own watchdog runs
         // in its cycles, and without one every 100 ms while stdin is silent; before the first
         // window (the job not started) the limit counts from here, with the same STATUS.
         let limit = std::time::Duration::from_secs(self.timeout_s);
@@ -423,7 +423,7 @@ pub struct ModuleArgs {
     #[arg(long, value_enum, default_value = "low")]
     priority: Priority,
     /// ASCII: the configured flow control, which decides the parameter block a params job may
-    /// carry (§2.6; any other block is refused with 0550H).
+    /// carry ([ET200S SI 2005] §2.12.2–§2.12.6 `[derived]`; any other block is refused with 0550H).
     #[arg(long, value_enum, default_value = "none")]
     flow_control: FlowControlArg,
     /// ASCII: character delay time in ms (the end of a frame; 4 … 65 535).
@@ -432,7 +432,7 @@ pub struct ModuleArgs {
     /// Modbus: the response time in ms, 50 … 655 000 (STATUS 0830H when no response starts).
     #[arg(long, default_value_t = 2_000)]
     response_ms: u32,
-    /// The execution number after 7: 1 or 0 (H-5); the host must count the same way.
+    /// The execution number after 7: 1 or 0 (`[derived]`); the host must count the same way.
     #[arg(long, default_value = "1", value_parser = exec_after_7)]
     exec_after_7: ExecWrap,
 }
@@ -561,8 +561,8 @@ where
             event = handle.next_event() => match event {
                 // The driver logs each event at DEBUG (-vv); -v shows the frames themselves.
                 Some(_) => {}
-                // The driver stopped while stdin still has cycles: the line closed (issue 21,
-                // a lost line is an error). Stdin's end is the module's normal end.
+                // The driver stopped while stdin still has cycles: the line closed
+                // (a lost line is an error). Stdin's end is the module's normal end.
                 None => return Err(conn.closed()),
             },
         }
@@ -679,7 +679,7 @@ pub const SCENARIOS: &[Scenario] = &[
     },
 ];
 
-/// Table 2-23 (et200s-si-2005-window-protocol.md §2.7.1, reconstructed, H-1): 22 characters
+/// Table 2-23 ([ET200S SI 2005] §2.12.2, Table 2-23, reconstructed, `[derived]`): 22 characters
 /// through an 8-byte window, the module one DP cycle behind the host as in the manual's table.
 ///
 /// The windows are also a trace for `--record`/`--svg` ([`record_trace`], protocol `dp-coord`):
@@ -838,7 +838,7 @@ fn print_fb_results(
     Ok(())
 }
 
-/// The module in Modbus master mode (et200s-si-modbus-uss.md §4.2–§4.4): the user program's
+/// The module in Modbus master mode ([Modbus/USS] §3.4.2, §3.4.5–§3.4.16): the user program's
 /// S_SEND carries an FC03 job (slave 1, registers 0 and 1) through module A's window, the module's
 /// master asks a Modbus slave on the simulated line, and S_RCV on the same module gets the two
 /// registers (0x1234, 0x5678) in the S_RCV layout.

@@ -1,5 +1,5 @@
 //! `si gateway`: Modbus TCP clients served by Modbus RTU lines, as mbusd does, several lines
-//! in one process (issue 20), and by USS, RK 512 and 3964(R) lines.
+//! in one process, and by USS, RK 512 and 3964(R) lines.
 //!
 //! Requests are routed by unit id to a line ([`router`]); a Modbus RTU or RK 512 line has a
 //! bounded queue served in round-robin order between clients ([`queue`]) by a task driving the
@@ -385,7 +385,8 @@ async fn open_line(
     conn: &Connection,
     l: &config::Line,
 ) -> Result<reopen::Opened<si_modbus::tokio::Master>, OpenError> {
-    // On RS-485 a response is recognised by its address, skipping a turnaround glitch (§2.5).
+    // On RS-485 a response is recognised by its address, skipping a turnaround glitch ([Modbus/USS]
+    // §3.4.1, §3.4.3).
     let interface = if l.rs485.is_some() {
         si_core::Interface::Rs485
     } else {

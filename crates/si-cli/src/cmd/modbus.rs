@@ -1,5 +1,5 @@
 //! `si modbus`: Modbus RTU master jobs, a slave serving simulated SIMATIC memory, offline
-//! frames, and simulator scenarios (et200s-si-modbus-uss.md §3–§5).
+//! frames, and simulator scenarios ([Modbus/USS] §3.3–§3.5).
 //!
 //! The master's jobs run on the serial line or to a Modbus TCP server (`--modbus-tcp`,
 //! [`tcp`]), once or as a poll over one or several units ([`poll`]), with
@@ -42,7 +42,7 @@ use si_sim::Simulator;
 #[derive(Debug, Clone, Args)]
 pub struct MasterOptions {
     /// Slave address 1–255, 0 = broadcast (FC05/06/15/16 only); several as `1,2,5` or
-    /// repeated `--unit`, asked in turn, each line labelled with its unit (§3.2).
+    /// repeated `--unit`, asked in turn, each line labelled with its unit ([Modbus/USS] §3.3.2).
     #[arg(long = "unit", short = 'u', required = true, value_delimiter = ',',
           value_name = "UNIT", value_parser = parse_unit)]
     units: Vec<u8>,
@@ -62,8 +62,9 @@ pub struct MasterOptions {
     timestamps: bool,
 }
 
-/// How received frames are recognised (§3.5, §3.7): the same flags on the master's jobs and on
-/// `serve`, so whatever framing `si modbus read` can use, the slave side can too.
+/// How received frames are recognised ([Modbus/USS] §3.3.5, Table 3-11, §3.4.3, §3.5.4): the same
+/// flags on the master's jobs and on `serve`, so whatever framing `si modbus read` can use, the
+/// slave side can too.
 #[derive(Debug, Clone, Args)]
 pub struct FramingOptions {
     /// Operating mode (`serve`: overridden by the config file's `mode`).
@@ -79,8 +80,8 @@ pub struct FramingOptions {
     /// the config file's `frame_end`).
     #[arg(long, value_enum, default_value_t = FrameEndArg::Gap)]
     frame_end: FrameEndArg,
-    /// Data flow control "automatic use of the V.24 signals" (§2.2; RS-232C only): RTS on
-    /// before each frame, send once CTS is on, RTS off after it. Default: none.
+    /// Data flow control "automatic use of the V.24 signals" ([Modbus/USS] §3.2.2; RS-232C only):
+    /// RTS on before each frame, send once CTS is on, RTS off after it. Default: none.
     #[arg(long)]
     auto_v24: bool,
     /// With --auto-v24: time from the last byte sent until RTS off, 0–655350 ms in 10 ms steps
@@ -95,14 +96,14 @@ pub struct FramingOptions {
 
 impl FramingOptions {
     /// The automatic V.24 times, when `--auto-v24` is given (ranges checked with the config).
-    /// RS-485 has no V.24 signals (§2.2: "none possible on RS-485"): a usage error.
+    /// RS-485 has no V.24 signals ([Modbus/USS] §3.2.2: "none possible on RS-485"): a usage error.
     fn auto_v24(&self, conn: &Connection) -> Result<Option<AutoV24Times>, CliError> {
         if !self.auto_v24 {
             return Ok(None);
         }
         if conn.rs485.is_some() {
             return Err(CliError::usage(
-                "--auto-v24 needs RS-232C: RS-485 has no V.24 signals (§2.2); leave out --rs485",
+                "--auto-v24 needs RS-232C: RS-485 has no V.24 signals ([Modbus/USS] §3.2.2); leave out --rs485",
             ));
         }
         let d = AutoV24Times::default();
@@ -116,7 +117,8 @@ impl FramingOptions {
 /// `--frame-end`.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum FrameEndArg {
-    /// The module's behaviour (§3.5): a frame ends after the line has been silent for the gap.
+    /// The module's behaviour ([Modbus/USS] §3.3.5, Table 3-11): a frame ends after the line has
+    /// been silent for the gap.
     Gap,
     /// Host extension: a frame also ends at the length its header predicts once its CRC
     /// checks (no wait for the gap; the master still leaves it before its next request).
@@ -443,7 +445,8 @@ fn reporter<'a>(out: &'a Output, o: &MasterOptions, base: u8) -> Report<'a> {
 
 async fn open_master(conn: &Connection, o: &MasterOptions) -> Result<handle::Master, CliError> {
     let config = master_config(conn, o)?;
-    // On RS-485 a response is recognised by its address, skipping a turnaround glitch (§2.5).
+    // On RS-485 a response is recognised by its address, skipping a turnaround glitch ([Modbus/USS]
+    // §3.4.1, §3.4.3).
     let interface = if conn.rs485.is_some() {
         si_core::Interface::Rs485
     } else {
@@ -643,10 +646,11 @@ fn print_slave_event(e: &SlaveEvent, out: &Output) {
                 (Some(s), _) => status_text(s),
                 (None, Some(e)) => format!("S_MODB ERROR_NR {} ERROR_INFO {}", e.error_nr, e.info),
                 // SlaveEvent::Exception: no STATUS and no store error is a request of the
-                // wrong length for its function (§5.7 lists no event for it).
+                // wrong length for its function ([Modbus/USS] §3.5.6–§3.5.14 lists no event for
+                // it).
                 (None, None) => format!(
                     "the request is too short or too long for FC{function:02} (no STATUS: \
-                     et200s-si-modbus-uss.md §5.7 lists none)"
+                     [Modbus/USS] §3.5.6–§3.5.14 lists none)"
                 ),
             };
             out.line(

@@ -1,10 +1,10 @@
 //! `si diag`, `si im`, `si params`: the SI module's own data, offline.
 //!
 //! - `si diag decode HEX`: a PROFIBUS slave diagnosis with the channel errors' meaning and action
-//!   (et200s-si-2005-window-protocol.md §6.4, [`si_module::diag`]); parts the SI module's
+//!   ([ET200S SI 2005] Tables 2-30, 3-73, [`si_module::diag`]); parts the SI module's
 //!   tables do not describe (other modules' channel errors, interrupts) are shown raw;
 //! - `si im decode HEX` / `si im encode --hid TEXT --location TEXT`: the 64-byte identification
-//!   records DS 231 / DS 232 (§9.1, [`si_module::ident`]);
+//!   records DS 231 / DS 232 ([ET200S SI 2005] §2.9.4, Tables 2-10/2-11, [`si_module::ident`]);
 //! - `si params check FILE`: a TOML or JSON parameter file against the manual's tables; prints
 //!   the checked set, or every wrong value at once ([`si_module::params`]); `si params default
 //!   DRIVER` prints a file with the manual's defaults to start from.

@@ -1,5 +1,5 @@
 //! `si ports`: the serial ports the OS knows, with USB identity and the adapter's latency
-//! timer (Linux), which decides how late received bytes reach the host (issue 16).
+//! timer (Linux), which decides how late received bytes reach the host.
 
 use crate::conn::Connection;
 use crate::error::CliError;

@@ -1,5 +1,5 @@
 //! `si 3964r send|recv`, `si frame encode|decode 3964r`, and the 3964(R) scenarios of `si sim`
-//! (et200s-si-3964r-ascii.md §5, cp341-3964r-rk512-ascii.md §3).
+//! ([ET200S SI] §2.7, [CP 341] §2.2.2, §2.3.1).
 
 use crate::conn::Connection;
 use crate::error::CliError;
@@ -103,7 +103,8 @@ impl LinkArgs {
 }
 
 /// How long a command lets the line settle after opening it: the partner's startup NAK or
-/// stale bytes arrive while the link is idle, where they are harmless (§5.4 points 1 and 6).
+/// stale bytes arrive while the link is idle, where they are harmless ([ET200S SI] §2.7, receiving:
+/// idle and startup NAK).
 const SETTLE: std::time::Duration = std::time::Duration::from_millis(100);
 
 impl Command {

@@ -1,5 +1,5 @@
 //! `si rk512 send|fetch|serve`, `si frame decode rk512`, and the RK 512 scenarios of `si sim`
-//! (cp341-3964r-rk512-ascii.md §4, public-facts.md §2).
+//! ([CP 341] §2.2.3, §2.3.2, [Public RK 512]).
 
 use crate::conn::Connection;
 use crate::error::CliError;
@@ -68,7 +68,7 @@ pub struct Target {
     #[arg(long, default_value_t = 0)]
     start: u16,
     /// Coordination flag at the partner, as BYTE.BIT (e.g. 20.3); a SEND or FETCH is refused
-    /// while it is set (16#0909) and sets it when served (cp341 §4.8).
+    /// while it is set (16#0909) and sets it when served ([CP 341] §2.2.3).
     #[arg(long, value_name = "BYTE.BIT")]
     flag: Option<String>,
     /// CPU number 1 … 4 in header byte 10 (multi-CPU partners).
@@ -154,15 +154,15 @@ pub struct LinkArgs {
     #[arg(long, value_name = "MS")]
     qvz_ms: Option<u32>,
     /// Header byte 6 is a byte offset rather than a data-word number (some non-Siemens
-    /// partners; public-facts.md §2).
+    /// partners; [Public RK 512]).
     #[arg(long)]
     dw_bytes: bool,
-    /// Letter for counters in our telegrams: z (5AH, default) or c (43H) (cp341 A-10).
+    /// Letter for counters in our telegrams: z (5AH, default) or c (43H) ([CP 341] `[derived]`).
     #[arg(long, value_enum, default_value = "z")]
     counter_letter: CounterArg,
 }
 
-/// The counter letter (cp341 A-10).
+/// The counter letter ([CP 341] `[derived]`).
 #[derive(Debug, Clone, Copy, ValueEnum)]
 enum CounterArg {
     /// 'Z' (5AH).
@@ -254,7 +254,7 @@ impl Command {
 
 /// Start the job on an offline station first: what the station refuses before sending
 /// (1E41H for a length outside 1 … `max_job_len` or odd for a word type, 0515H, 0516H) is a
-/// usage error naming the limit and the value, and no port is opened (issue 21: 1E41 names
+/// usage error naming the limit and the value, and no port is opened (1E41 names
 /// the limit it broke).
 fn refused_offline(
     config: Config,
@@ -272,7 +272,7 @@ fn refused_offline(
 }
 
 /// The job's STATUS; a 051A names the 3964(R) error reported just before it
-/// (cp341-event-classes.md §2 "chained reports"), on the same line.
+/// ([CP 341 Diag] "chained reports"), on the same line.
 async fn failed(station: &Handle, what: &str, e: StationError) -> CliError {
     let Some(s) = e.status() else {
         return CliError::new(format!("{what} failed: {e}"));

@@ -1,5 +1,5 @@
 //! `si uss`: the USS master on a line (poll drives, read and write parameters), a simulated drive,
-//! offline telegrams and the USS simulator scenarios (et200s-si-modbus-uss.md §6, public-facts.md §3).
+//! offline telegrams and the USS simulator scenarios ([Modbus/USS] §3.7, [USS spec]).
 //!
 //! Numbers follow `crate::radix`: decimal by default, `0x…` or `16#…` for hex, `-` where a value
 //! may be negative; output is decimal unless `--hex` is given. STATUS codes always print as
@@ -56,8 +56,8 @@ pub struct Structure {
     #[arg(long, default_value_t = 20)]
     retries: u16,
     /// After a parameter job, send its PKW task again in every poll until the next job, as the
-    /// module's FCs do (M §6.7). Default: PKW task 0 "no task" after a job (the USS rule), so a
-    /// drive does not execute a write again and again.
+    /// module's FCs do ([Modbus/USS] §3.7.7). Default: PKW task 0 "no task" after a job (the USS
+    /// rule), so a drive does not execute a write again and again.
     #[arg(long)]
     pkw_repeat: bool,
 }

@@ -1,4 +1,4 @@
-//! The noise peer of the pty noise tests (issue 21, "a noise test per role"): a thread writing
+//! The noise peer of the pty noise tests ("a noise test per role"): a thread writing
 //! a pattern to the far end of a socat pty pair.
 //!
 //! Writes are non-blocking: a write blocked on a full pty holds its write lock, and socat,

@@ -1,4 +1,4 @@
-//! CRC errors a retry cured are counted (issue 20): a slave on a socat pty pair that corrupts
+//! CRC errors a retry cured are counted: a slave on a socat pty pair that corrupts
 //! the CRC of its first answer, and of every answer for register 99. Skips without socat
 //! (fails with `CI` set).
 

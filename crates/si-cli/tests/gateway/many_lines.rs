@@ -1,4 +1,4 @@
-//! Many lines in one gateway (issue 20): a hundred Modbus RTU lines on pseudo-terminals run on
+//! Many lines in one gateway: a hundred Modbus RTU lines on pseudo-terminals run on
 //! the threads of one, a line with its own `listen` address routes its own unit ids, and the
 //! open-file limit is raised at start (or named when even the hard limit is too low).
 //!
@@ -153,7 +153,7 @@ fn a_hundred_lines_run_on_the_threads_of_one_and_each_address_routes_its_own_uni
     assert_eq!(ask(&many.top, 100), [0x83, 0x0A]);
     let threads_many = many.proc("status", "Threads:");
     // The runtime's thread and the shared precise-timer thread, whatever the line count
-    // (a thread per line before issue 20); one more for tokio's blocking pool at most.
+    // (once a thread per line); one more for tokio's blocking pool at most.
     assert!(
         threads_many <= threads_one + 1 && threads_many <= 4,
         "{threads_one} threads with 2 lines, {threads_many} with 100"

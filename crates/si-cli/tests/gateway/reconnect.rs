@@ -1,4 +1,4 @@
-//! A line whose port goes away and comes back (issue 20): socat's pty pair behind symbolic
+//! A line whose port goes away and comes back: socat's pty pair behind symbolic
 //! links stands for a USB adapter's device node; killing socat closes both ends, as pulling
 //! the adapter does, and a new socat on the same links is the adapter plugged in again.
 //! Skips without socat or pymodbus (fails with `CI` set).

@@ -1,4 +1,4 @@
-//! `kind = "rk512"` lines whose port goes away and comes back (issue 20), as
+//! `kind = "rk512"` lines whose port goes away and comes back, as
 //! `reconnect.rs` does for a Modbus RTU line: socat's pty pair behind symbolic links is the
 //! adapter; killing socat pulls it, a new socat on the same links plugs it in again. An active
 //! line answers 0AH while down and serves the new partner after; a passive line's memory (the

@@ -1,4 +1,4 @@
-//! A gateway line's RS-485 direction control (issue 20, as mbusd's `-t`, `-r`, `-y`, `-Y`):
+//! A gateway line's RS-485 direction control (as mbusd's `-t`, `-r`, `-y`, `-Y`):
 //! the `rs485` names and `rs485_file` are checked before anything opens, naming the key and
 //! the value; and a Modbus TCP request forwarded to `si modbus serve` on a pty pair (socat; a
 //! skip with a message when missing, a failure with `CI` set) writes '1' into the line's

@@ -1,4 +1,4 @@
-//! A bounded soak (issue 20): 32 clients at once, mixing valid requests, requests to a unit
+//! A bounded soak: 32 clients at once, mixing valid requests, requests to a unit
 //! that never answers, malformed and oversize MBAP headers, and disconnects in the middle of a
 //! request, against a queue small enough to overflow. Every answer a client gets is for its
 //! own request (its transaction id, and the register it asked for), and the gateway serves a

@@ -1,5 +1,5 @@
 //! `si ascii` over a Linux pseudo-terminal pair made by socat: `si ascii recv --end chars 0D,0A`
-//! receives the lines `si ascii send` writes (et200s-si-3964r-ascii.md §6.3, two end-of-text
+//! receives the lines `si ascii send` writes ([ET200S SI] §2.8, two end-of-text
 //! characters). Skips with a message when socat is not installed (`apt-get install socat`); with
 //! the environment variable `CI` set it fails instead (`common::pty_pair`).
 

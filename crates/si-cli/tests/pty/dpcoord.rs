@@ -1,9 +1,9 @@
 //! `si dp-coord module --protocol ascii` over a Linux pseudo-terminal pair made by socat: the test
 //! is the DP master (it writes the host's output windows to the module's stdin and reads the
 //! input windows back) and the serial partner (the other end of the pair). A send job puts the
-//! frame on the line and ends with 7xH only after that (et200s-si-2005-window-protocol.md §2.9);
-//! a frame from the partner is offered (0001H) and fetched with a receive job (Table 2-24).
-//! The 3964(R) module is checked against `si 3964r send|recv` as the partner.
+//! frame on the line and ends with 7xH only after that ([ET200S SI 2005] §2.12.1–§2.12.7
+//! `[derived]`); a frame from the partner is offered (0001H) and fetched with a receive job (Table
+//! 2-24). The 3964(R) module is checked against `si 3964r send|recv` as the partner.
 //! Skips with a message when socat is not installed (`apt-get install socat`); with the
 //! environment variable `CI` set it fails instead (`common::pty_pair`).
 
@@ -302,10 +302,10 @@ fn host_and_module_processes_joined_by_the_test_deliver_a_block_to_si_3964r_recv
 }
 
 /// `si dp-coord module --protocol modbus`, the test as the Modbus slave on the other end: the
-/// send job's S_SEND source area (et200s-si-modbus-uss.md §4.3) leaves as an RTU request, the
+/// send job's S_SEND source area ([Modbus/USS] §3.4.5–§3.4.16) leaves as an RTU request, the
 /// end-of-job acknowledgement comes once the response is in, and the receive job brings the
-/// registers (§4.4). A request nobody answers ends with 7xH + 0830H after the response time, and
-/// the receive job reports the same (20H + 0830H).
+/// registers ([Modbus/USS] §3.4.5–§3.4.16). A request nobody answers ends with 7xH + 0830H after
+/// the response time, and the receive job reports the same (20H + 0830H).
 #[test]
 fn module_modbus_asks_the_slave_and_offers_the_response() {
     let Some(pair) = pty_pair() else { return };

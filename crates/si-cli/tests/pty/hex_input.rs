@@ -1,4 +1,4 @@
-//! One hex rule for every command that takes bytes (issue 19, `crate::hex` in si-cli): the bytes
+//! One hex rule for every command that takes bytes (`crate::hex` in si-cli): the bytes
 //! as separate words, mixed with a quoted group and `0x`, reach the partner over a
 //! pseudo-terminal pair made by socat (`apt-get install socat`; a skip with a message when it is
 //! missing, a failure with `CI` set).

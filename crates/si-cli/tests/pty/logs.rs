@@ -1,4 +1,4 @@
-//! `-v`/`-vv` on a real exchange (issue 19): `si modbus read` against `si modbus serve` over a
+//! `-v`/`-vv` on a real exchange: `si modbus read` against `si modbus serve` over a
 //! pseudo-terminal pair. The logs go to stderr, each line with its wall-clock time; without
 //! `-v` nothing is logged, and stderr (a pipe here) never gets a colour escape.
 

@@ -1,4 +1,4 @@
-//! A lost line is an error (issue 21): every long-running role (`modbus serve`, `uss
+//! A lost line is an error: every long-running role (`modbus serve`, `uss
 //! sim-slave`, `monitor`, `3964r recv`, `rk512 serve`, `ascii recv`, `dp-coord module`) exits 1 with one line
 //! naming what closed when its pseudo-terminal hangs up (socat killed) or its TCP peer closes
 //! the connection; Ctrl-C exits 130. `modbus serve` logs each request with the text of its own
@@ -197,7 +197,8 @@ fn modbus_serve_logs_each_request_with_the_text_of_its_own_code() {
         ),
         "{log}"
     );
-    // No STATUS in §5.7 for a request of the wrong length: the log says what was wrong.
+    // No STATUS in [Modbus/USS] §3.5.6–§3.5.14 for a request of the wrong length: the log says what
+    // was wrong.
     assert!(
         lines[2].starts_with(
             "answered FC03 with exception 03 illegal data value: the request is too short or too long for FC03"

@@ -1,5 +1,5 @@
 //! Modbus RTU interop with independent implementations over Linux pseudo-terminal pairs
-//! (et200s-si-modbus-uss.md §3–§5): pymodbus as client against `si modbus serve` and as
+//! ([Modbus/USS] §3.3–§3.5): pymodbus as client against `si modbus serve` and as
 //! server against `si modbus read/write`, and mbpoll (libmodbus) against `si modbus serve`,
 //! covering FC 01–06, 15, 16 and an exception.
 //!
@@ -7,7 +7,8 @@
 //! the test with a message; with the environment variable `CI` set it fails instead.
 //!
 //! The line is 19200 baud, 8 data bits, no parity, 2 stop bits: the manual's 11-bit frame with
-//! parity "none" (§3.9), and Linux pseudo-terminals refuse pyserial's even-parity setting.
+//! parity "none" ([Modbus/USS] §3.4.3, §3.5.4, §3.9), and Linux pseudo-terminals refuse pyserial's
+//! even-parity setting.
 
 use std::io::Write;
 use std::process::{Command, Output, Stdio};

@@ -1,4 +1,4 @@
-//! `si modbus read` as mbpoll users expect (issue 19), over pseudo-terminal pairs: a poll
+//! `si modbus read` as mbpoll users expect, over pseudo-terminal pairs: a poll
 //! that survives a stopped slave and resumes when it returns, with counters at the end;
 //! registers shown as f32 in either word order; addresses in hex and Modicon numbering;
 //! several units in one poll.

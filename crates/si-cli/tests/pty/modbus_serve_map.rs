@@ -1,4 +1,4 @@
-//! `si modbus serve` says what it serves (issue 19): the address map after the banner, and for a
+//! `si modbus serve` says what it serves: the address map after the banner, and for a
 //! refused request the address, count and why. Over a pseudo-terminal pair made by socat
 //! (`apt-get install socat`; a skip with a message when it is missing, a failure with `CI` set).
 

@@ -1,4 +1,4 @@
-//! `si modbus read|write|diag --modbus-tcp HOST:PORT` (issue 20): the master's jobs to a Modbus
+//! `si modbus read|write|diag --modbus-tcp HOST:PORT`: the master's jobs to a Modbus
 //! TCP server on loopback, with the output, counters and STATUS texts of the RTU master.
 //!
 //! Peers: pymodbus's TCP server (`pip install pymodbus`) for FC03, FC16, FC08, an exception and

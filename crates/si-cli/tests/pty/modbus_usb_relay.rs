@@ -1,8 +1,8 @@
-//! Modbus through a pacing, chunking relay that behaves like a USB-serial adapter (issue 16):
+//! Modbus through a pacing, chunking relay that behaves like a USB-serial adapter:
 //! with default settings, `si modbus read` against pymodbus's serial server, and pymodbus's
 //! client against `si modbus serve`, each with a 16 ms / 62-byte adapter in the line. At
 //! 19 200 bit/s a 205-byte response reaches the host in about eight packets with 16 ms holes,
-//! four times the 4 ms end-of-frame gap (et200s-si-modbus-uss.md §3.5): the engines must not
+//! four times the 4 ms end-of-frame gap ([Modbus/USS] §3.3.5, Table 3-11): the engines must not
 //! take a hole for the end of the frame.
 //!
 //! Peers as in modbus_interop.rs (`pip install pymodbus pyserial`, `apt-get install socat`); a
@@ -17,8 +17,8 @@ use common::{exit_within, have_socat, pty_pair_ignoreeof, stderr, stdout, Kill, 
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-/// 19 200 bit/s 8N2: the manual's 11-bit character with parity "none" (§3.9); pseudo-terminals
-/// refuse pyserial's even parity.
+/// 19 200 bit/s 8N2: the manual's 11-bit character with parity "none" ([Modbus/USS] §3.4.3, §3.5.4,
+/// §3.9); pseudo-terminals refuse pyserial's even parity.
 const LINE: &[&str] = &["--baud", "19200", "--parity", "none", "--stop-bits", "2"];
 
 /// Two socat pairs joined by the relay: the test's two ends are `.0.a` and `.1.b`.

@@ -1,4 +1,4 @@
-//! Issue 21, "Must show": `si monitor --svg` on a live port stays below 64 MB RSS under a 20 s
+//! Bounded memory: `si monitor --svg` on a live port stays below 64 MB RSS under a 20 s
 //! flood (it grew from 12 MB to 312 MB in 25 s, keeping every record for the diagram). The
 //! diagram now summarises as the records arrive (si-cli's `svg::Diagram`); this test floods a
 //! pty with noise and samples the monitor's `VmRSS` from `/proc`. Skips without socat (fails

@@ -1,4 +1,4 @@
-//! Issue 21, "A noise test per role": `si 3964r send` and `si rk512 fetch` against a noise peer
+//! A noise test per role: `si 3964r send` and `si rk512 fetch` against a noise peer
 //! (a thread writing to the other end of a socat pty pair, every pattern of `common::noise`)
 //! exit with code 1 and a STATUS on stderr within twice their documented bound
 //! (si_3964r::bound, si_rk512::bound; the runner is `common::noise::each_pattern_within`).

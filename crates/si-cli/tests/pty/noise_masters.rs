@@ -1,4 +1,4 @@
-//! Issue 21: every master command ends with a non-zero exit within its documented bound when
+//! Every master command ends with a non-zero exit within its documented bound when
 //! the line carries only noise (si_modbus and si_uss crate docs, "Bounds"). The noise peer is a
 //! thread writing to the far end of a socat pty pair: silence, random bytes every 2 ms, 01H
 //! every 2 ms, a flood, and random bytes for 1 s then silence. Each command must exit with

@@ -1,5 +1,6 @@
-//! The port flags of issue 16 without hardware: `--latency-timer`, `--rs485`, `--local-echo`
-//! parse, and a port that cannot do what they ask is refused with a message that says why.
+//! The port flags for USB adapters and RS-485, without hardware: `--latency-timer`, `--rs485`,
+//! `--local-echo` parse, and a port that cannot do what they ask is refused with a message that
+//! says why.
 
 use crate::common;
 
@@ -167,7 +168,7 @@ fn modbus_auto_v24_checks_its_times_and_needs_rs232() {
         "{}",
         text(&o)
     );
-    // RS-485 has no V.24 signals (§2.2).
+    // RS-485 has no V.24 signals ([Modbus/USS] §3.2.2).
     let o = modbus_auto_v24(&["--rs485", "rts"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(

@@ -1,4 +1,4 @@
-//! A profile supplies the port settings (issue 19): `si modbus read --profile plc1` reads from
+//! A profile supplies the port settings: `si modbus read --profile plc1` reads from
 //! `si modbus serve` over a pseudo-terminal pair (socat: `apt-get install socat`; a skip with a
 //! message when it is missing, a failure with `CI` set) with the port and line given only by the
 //! profile in `SI_CONFIG`, and records them in its trace header.

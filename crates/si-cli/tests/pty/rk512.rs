@@ -1,5 +1,5 @@
 //! `si rk512 fetch` against `si rk512 serve` over a pseudo-terminal pair returns what
-//! `si rk512 send` wrote (cp341-3964r-rk512-ascii.md §4.5); socat makes the pair
+//! `si rk512 send` wrote ([CP 341] §2.2.3); socat makes the pair
 //! (`apt-get install socat`); the test skips with a message when socat is missing (fails with
 //! `CI` set).
 
@@ -91,7 +91,7 @@ fn fetch_without_a_partner_fails_with_the_3964r_status() {
     ]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    // cp341-event-classes.md §2: the link's 0703, then the job's 051A, on one line.
+    // [CP 341 Diag]: the link's 0703, then the job's 051A, on one line.
     let at = |code: &str| err.find(code).unwrap_or_else(|| panic!("{code} in {err}"));
     assert!(at("16#0703") < at("16#051A"), "{err}");
     assert_eq!(err.lines().count(), 1, "{err}");

@@ -1,4 +1,4 @@
-//! RS-485 direction control through a sysfs-style file (issue 20, mbusd's `-y`/`-Y`): a
+//! RS-485 direction control through a sysfs-style file (mbusd's `-y`/`-Y`): a
 //! Modbus request from `si modbus read --rs485 sysfs --rs485-file F` to `si modbus serve` on a
 //! pseudo-terminal pair (socat; a skip with a message when it is missing, a failure with `CI`
 //! set) writes '1' before the request and '0' after it. A FIFO read by the test gives the exact

@@ -1,4 +1,4 @@
-//! Issue 21, "A noise test per role": servers are flooded, then answer a valid request. Each
+//! A noise test per role: servers are flooded, then answer a valid request. Each
 //! server role (`si modbus serve`, `si uss sim-slave`, `si rk512 serve`) runs on one end of a
 //! socat pty pair; a client stores known data, the noise peer floods the client's end with 01H
 //! for about 2 s and stops, and after a pause to settle the same client reads the data back:
@@ -146,7 +146,7 @@ fn rk512_serve_answers_after_a_flood() {
     assert_eq!(line["hex"], hex, "{out}");
     assert_still_running(&mut serve, "si rk512 serve");
     // The flood reached the server: 01H in idle is a connection setup error
-    // (cp341-event-classes.md §1, class 08H: 16#0802), reported on stderr.
+    // ([CP 341 Diag], class 08H: 16#0802), reported on stderr.
     let errors = std::fs::read_to_string(&errors).unwrap();
     assert!(errors.contains("16#0802"), "{errors}");
 }

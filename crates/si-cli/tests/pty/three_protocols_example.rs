@@ -1,4 +1,4 @@
-//! The `three_protocols` example (root package, feature `serial`): issue 17's user program of
+//! The `three_protocols` example (root package, feature `serial`): a user program of
 //! 15 lines sends a block over 3964(R), reads a Modbus holding register and reads a USS
 //! parameter through three alike handles, against `si` serving each partner over its own socat
 //! pty pair (`si 3964r recv`, `si modbus serve`, `si uss sim-slave`). The test checks what the

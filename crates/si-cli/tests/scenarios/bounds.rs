@@ -1,4 +1,4 @@
-//! Issue 21, "Bounded memory" and "Smaller gaps": sizes a user gives are checked against a
+//! Bounded memory and smaller gaps: sizes a user gives are checked against a
 //! documented maximum before anything is allocated, stdin lines are capped, and the decoders
 //! and readers refuse what is out of range with the value, the range and where it was.
 
@@ -86,8 +86,8 @@ fn dp_coord_host_refuses_an_overlong_stdin_line() {
     );
 }
 
-/// §4.9: at most 128 data bytes per telegram, reactions included (a 59,996-byte reaction was
-/// accepted).
+/// [CP 341] §2.2.3: at most 128 data bytes per telegram, reactions included (a 59,996-byte reaction
+/// was accepted).
 #[test]
 fn frame_decode_rk512_refuses_a_reaction_beyond_128_data_bytes() {
     let ok = format!("00 00 00 00{}", " 11".repeat(128));

@@ -1,5 +1,5 @@
 //! `si dp-coord host|trace` and the dp-coord scenarios of `si sim`, run as the built binary with
-//! the test playing the module through a pipe (et200s-si-2005-window-protocol.md §2.7: the
+//! the test playing the module through a pipe ([ET200S SI 2005] §2.12.2–§2.12.6: the
 //! manual's example tables give the input windows; `xx` bytes are written as 00).
 
 use std::io::Write;
@@ -38,7 +38,7 @@ fn stdout_lines(out: &Output) -> Vec<String> {
         .collect()
 }
 
-/// Table 2-23 (reconstructed, H-1): the IN column.
+/// Table 2-23 (reconstructed, `[derived]`): the IN column.
 const TABLE_2_23_IN: &[&str] = &[
     "00 00 00 00 00 00 00 00",
     "00 00 00 00 00 00 00 00",
@@ -117,7 +117,8 @@ fn section_2_8_send_ended_with_a_status_prints_error_and_exits_1() {
 
 #[test]
 fn table_2_24_receive_prints_the_frame_before_done() {
-    // H-2: the receive request is 20H. 6 bytes in a 4-byte window: 21H carries the length word.
+    // [derived]: the receive request is 20H. 6 bytes in a 4-byte window: 21H carries the length
+    // word.
     let out = host(
         &["--window", "4", "receive"],
         &[
@@ -182,7 +183,7 @@ fn table_2_26_write_v24_carries_rts_and_dtr_in_the_request() {
         &["00 00 00 00", "40 00 00 00"],
     );
     assert!(out.status.success(), "{out:?}");
-    // H-9: DCD CTS RTS DSR DTR in bits 4…0 of byte 2: RTS + DTR = 05H.
+    // [derived]: DCD CTS RTS DSR DTR in bits 4…0 of byte 2: RTS + DTR = 05H.
     assert_eq!(
         stdout_lines(&out),
         ["40 00 05 00", "00 00 00 00", "done STATUS=0000"]
@@ -329,7 +330,8 @@ fn json_lines_carry_the_same_windows_and_result() {
 fn sim_dp_coord_modbus_reads_registers_through_the_window() {
     let lines = sim_fb_scenario("dp-coord-modbus");
     let n = lines.len();
-    // FC03, registers 0 and 1 of slave 1: 1234H, 5678H in register order (§4.4).
+    // FC03, registers 0 and 1 of slave 1: 1234H, 5678H in register order ([Modbus/USS]
+    // §3.4.5–§3.4.16).
     assert!(
         lines[n - 1].ends_with("A S_RCV ndr=true error=false STATUS=0000 LEN=4 12 34 56 78"),
         "{lines:?}"
@@ -343,7 +345,7 @@ fn sim_dp_coord_modbus_reads_registers_through_the_window() {
     assert_eq!(request, ["01", "03", "00", "00", "00", "02", "C4", "0B"]);
 }
 
-/// H-5: with `--exec-after-7 0` the 8th segment of a send through the 4-byte window carries
+/// `[derived]`: with `--exec-after-7 0` the 8th segment of a send through the 4-byte window carries
 /// number 0 (10H) instead of 1 (11H).
 #[test]
 fn host_exec_after_7_sets_the_number_of_the_8th_segment() {
@@ -375,7 +377,7 @@ fn host_exec_after_7_sets_the_number_of_the_8th_segment() {
 #[test]
 fn host_max_frame_follows_the_module_type_and_max_frame_overrides_it() {
     let frame = |n: usize| "61".repeat(n);
-    // ET 200S 1SI: 200 bytes (§9.6); one more is the FB's LEN error before any window.
+    // ET 200S 1SI: 200 bytes ([ET200S SI] §2.12); one more is the FB's LEN error before any window.
     let out = host(&["--module", "et200s", "send", &frame(201)], &[]);
     assert_eq!(out.status.code(), Some(1), "{out:?}");
     assert!(out.stdout.is_empty());
@@ -446,7 +448,7 @@ fn host_times_out_on_silent_stdin_after(lines: &[&str]) {
 
 #[test]
 fn host_ends_at_its_timeout_while_stdin_stays_open_and_silent() {
-    // Issue 21: `--timeout-s 2` waited until stdin closed. No window ever comes: the job never
+    // `--timeout-s 2` once waited until stdin closed. No window ever comes: the job never
     // started, and the limit counts from the start.
     host_times_out_on_silent_stdin_after(&[]);
 }

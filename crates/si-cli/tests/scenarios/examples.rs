@@ -1,4 +1,4 @@
-//! The root package's examples that need no hardware (issue 19): each runs to its end and
+//! The root package's examples that need no hardware: each runs to its end and
 //! prints what its doc comment promises. They are the binaries `cargo test --workspace
 //! --all-features` builds beside `si` (common::example); the serial ones have their pty tests
 //! (pty/modbus_serial_example.rs, pty/three_protocols_example.rs), and `latency` is a
@@ -45,7 +45,7 @@ const PROMISES: &[(&str, &[&str])] = &[
         ],
     ),
     // Register 512 is beyond DB_Max: exception 02, decoded by the master as STATUS 16#0E62
-    // (et200s-si-modbus-uss.md §3.6, Table 3-12).
+    // ([Modbus/USS] §3.3.6, Table 3-12).
     (
         "modbus_sim",
         &[

@@ -1,4 +1,4 @@
-//! The exit codes `si --help` documents (issue 21): 0 done, 1 protocol or I/O failure, 2 usage,
+//! The exit codes `si --help` documents: 0 done, 1 protocol or I/O failure, 2 usage,
 //! 130 interrupted. Usage errors found by si's own checks exit 2 like clap's, before any port
 //! is opened: every command here names a port that does not exist, so reaching it would be
 //! exit 1 ("cannot open"). Ctrl-C (130) and a closed line (1) are in tests/pty/lost_line.rs.

@@ -1,4 +1,4 @@
-//! Help that reads well (issue 19): the line options under their own heading where a command
+//! Help that reads well: the line options under their own heading where a command
 //! opens a line and hidden where it opens none, one hex rule beside every byte argument, and
 //! `si completions`.
 

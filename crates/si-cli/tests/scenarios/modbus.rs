@@ -1,5 +1,5 @@
 //! `si frame encode|decode modbus` and the Modbus `si sim` scenarios, offline
-//! (et200s-si-modbus-uss.md §3.1, §3.4, §3.8, §4.4).
+//! ([Modbus/USS] §3.3.1, Table 3-9, §3.3.5, §3.4.3, Table 3-17, §3.4.5–§3.4.16).
 
 use crate::common;
 
@@ -121,7 +121,7 @@ fn flags(sub: &str) -> Vec<String> {
     v
 }
 
-/// Issue 16: every framing option `si modbus read` takes is also a flag on `serve`.
+/// Every framing option `si modbus read` takes is also a flag on `serve`.
 #[test]
 fn serve_takes_every_framing_flag_read_takes() {
     let (read, serve) = (flags("read"), flags("serve"));
@@ -150,7 +150,8 @@ fn serve_takes_every_framing_flag_read_takes() {
     }
 }
 
-/// §3.5: fMUL is 1–10; 11 is refused with 0E21H before the port is opened.
+/// [Modbus/USS] §3.3.5, Table 3-11: fMUL is 1–10; 11 is refused with 0E21H before the port is
+/// opened.
 #[test]
 fn serve_refuses_a_char_delay_multiplier_out_of_range_with_0e21h() {
     let o = serve_on_null(&[], &["--char-delay-multiplier", "11"]);
@@ -159,7 +160,7 @@ fn serve_refuses_a_char_delay_multiplier_out_of_range_with_0e21h() {
     assert!(err.contains("16#0E21") && err.contains("11"), "{err}");
 }
 
-/// §3.5: tZVZ = tZVZ_TAB × fMUL; at 9600 bit/s 4 ms × 3 = 12 ms.
+/// [Modbus/USS] §3.3.5, Table 3-11: tZVZ = tZVZ_TAB × fMUL; at 9600 bit/s 4 ms × 3 = 12 ms.
 #[test]
 fn serve_char_delay_multiplier_sets_the_gap() {
     let Some(pair) = common::pty_pair() else {
@@ -179,7 +180,8 @@ fn serve_config_errors_name_the_file_and_field() {
     let o = serve_on_null(&[], &["--config", path.to_str().unwrap()]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("m_fromm"), "{}", stderr(&o));
-    // §3.7, §7.4: an operating mode other than the two is 0E22H, driver not ready.
+    // [Modbus/USS] §3.4.3, §3.5.4, §3.6: an operating mode other than the two is 0E22H, driver not
+    // ready.
     std::fs::write(&path, "mode = \"fast\"\n").unwrap();
     let o = serve_on_null(&[], &["--config", path.to_str().unwrap()]);
     assert!(!o.status.success());
@@ -191,7 +193,7 @@ fn serve_config_errors_name_the_file_and_field() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Issue 19: `read`'s usage errors name the value, and come before any port is opened (none
+/// `read`'s usage errors name the value, and come before any port is opened (none
 /// is given here).
 #[test]
 fn read_usage_errors_name_the_value() {

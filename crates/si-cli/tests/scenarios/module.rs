@@ -1,5 +1,5 @@
-//! `si diag`, `si im`, `si params` as a user runs them (et200s-si-2005-window-protocol.md §6.4,
-//! §9.1; parameter tables §3.2, §4.6, §7.9).
+//! `si diag`, `si im`, `si params` as a user runs them ([ET200S SI 2005] Tables 2-30, 3-73,
+//! [ET200S SI 2005] §2.9.4, Tables 2-10/2-11; parameter Tables 2-8, 2-9, 3-18, 3-21).
 
 use crate::common;
 

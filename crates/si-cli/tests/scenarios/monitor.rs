@@ -165,7 +165,7 @@ fn et200s_3964r_receive_buffer_full_nak_after_400_ms_then_retry() {
         .unwrap();
     let nak = records.iter().find(|r| r["label"] == "NAK").unwrap();
     let nak_at = nak["at_us"].as_u64().unwrap();
-    // Buffer wait 400 ms (et200s-si-3964r-ascii.md §5.8), plus the NAK's own character time.
+    // Buffer wait 400 ms ([ET200S SI] §2.7, Table 2-11), plus the NAK's own character time.
     assert_eq!(nak_at - stx, 400_000 + 1_146);
     assert!(errors(nak)[0].contains("16#0702"));
     assert_eq!(counters["retries"], 1);

@@ -1,4 +1,5 @@
-//! `si frame decode rk512` and `si sim rk512` without a line (cp341-3964r-rk512-ascii.md §4.2–§4.4).
+//! `si frame decode rk512` and `si sim rk512` without a line ([CP 341] §2.2.3, Table 2-1, Fig. 2-13
+//! to 2-16).
 
 use crate::common;
 

@@ -1,4 +1,4 @@
-//! Structured output (issue 19): `frame decode --json` gives the decoded fields, not Rust Debug
+//! Structured output: `frame decode --json` gives the decoded fields, not Rust Debug
 //! text; RK 512 names the job; `si sim` names the control characters of its line trace.
 
 use crate::common;

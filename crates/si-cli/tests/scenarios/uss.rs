@@ -6,7 +6,8 @@ use common::{si, stdout};
 
 #[test]
 fn encode_builds_the_whole_telegram_with_lge_and_bcc_including_stx() {
-    // public-facts.md §3: PKW 4 + PZD 2 → LGE 0EH, 16 bytes; BCC worked out in si-uss's golden tests.
+    // [SINAMICS CU240S] p. 178: PKW 4 + PZD 2 → LGE 0EH, 16 bytes; BCC worked out in si-uss's
+    // golden tests.
     let o = si(&[
         "frame",
         "encode",
@@ -72,7 +73,8 @@ fn sim_uss_cycle_goes_on_past_the_silent_drive() {
 
 #[test]
 fn decode_shows_the_full_parameter_number_from_the_page_index() {
-    // uss-parameter-pages.md: p2029[5] → PKE 101DH (AK 1), IND 8005H; P60000 → IND 74xxH.
+    // [MM 420] p. 115, [G120 Fieldbus] §5.3: p2029[5] → PKE 101DH (AK 1), IND 8005H; P60000 → IND
+    // 74xxH.
     for (net, want) in [
         (
             [0x10, 0x1D, 0x80, 0x05, 0, 0, 0, 0],

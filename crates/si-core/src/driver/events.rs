@@ -7,7 +7,7 @@
 //! and a Modbus master's event (a completion holding its request and response ADUs) is about
 //! 540 bytes, so every driver held 17 KiB for events that, on a gateway line, never come (job
 //! outcomes go to their jobs): two thirds of an idle line's memory with 1,000 lines in one
-//! process (issue 20, BENCHMARKS.md "Lines per process"). This queue takes room as events
+//! process (BENCHMARKS.md "Lines per process"). This queue takes room as events
 //! wait. Once it has grown it keeps its room, so a steady flow of events allocates nothing per
 //! event; it never holds more than the capacity.
 

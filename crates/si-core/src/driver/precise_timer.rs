@@ -5,8 +5,8 @@
 //! there the driver arms this service, whose thread blocks on a condition variable with a
 //! timeout (the kernel's high-resolution timers) until the earliest deadline armed by any
 //! driver, and wakes that driver's task through its own [`Notify`]. A driver's wait therefore
-//! costs a slot in a table, not a thread: 1,000 lines in a gateway share one thread (issue 20,
-//! "Many lines in one process"), where there used to be one per driver.
+//! costs a slot in a table, not a thread: 1,000 lines in a gateway share one thread
+//! (BENCHMARKS.md, "Many lines in one process"), where there used to be one per driver.
 //!
 //! - **Life:** the thread starts when the first driver arms it and ends when the last driver
 //!   using it is dropped (drivers that never wait a short deadline never start it); the next

@@ -1,5 +1,5 @@
 //! What the machine knows about its serial ports: USB identity and the adapter's latency
-//! timer (issue 16: a USB adapter hands received bytes over in packets, at the latest when its
+//! timer (a USB adapter hands received bytes over in packets, at the latest when its
 //! latency timer runs out, 16 ms by default on FTDI chips).
 
 use crate::time::Duration;

@@ -54,7 +54,7 @@ fn count_completions(events: &[HostEvent], into: &mut HashMap<JobId, usize>) {
     }
 }
 
-/// Either reading of what follows execution number 7 (H-5).
+/// Either reading of what follows execution number 7 (`[derived]`).
 fn exec_wrap() -> impl Strategy<Value = si_dp_coord::ExecWrap> {
     prop_oneof![
         Just(si_dp_coord::ExecWrap::ToOne),

@@ -1,8 +1,9 @@
 //! End to end on the simulators: a user program calls S_SEND through the window of module A, the
 //! module runs a real line engine (si-3964r or si-ascii) on a simulated line to module B, and a
 //! second user program calls S_RCV through module B's window
-//! (et200s-si-2005-window-protocol.md §2.9: the module answers the send job only after the frame
-//! has left; §2.8: receive errors reach the next receive job as 20H + STATUS; §5 the FBs).
+//! ([ET200S SI 2005] §2.12.1–§2.12.7 `[derived]`: the module answers the send job only after the
+//! frame has left; [ET200S SI 2005] §2.12.7: receive errors reach the next receive job as 20H +
+//! STATUS; §2.10 the FBs).
 //!
 //! Each DP cycle (2 ms of virtual time) every user program calls its FBs once, each host engine
 //! runs one cycle and its module one cycle; then the line simulator runs for the rest of the
@@ -141,7 +142,8 @@ fn assert_delivered_once(seen: &Seen, data: &[u8], last_char_at_b: Instant) {
     let (done_at, d) = seen.sends[0];
     assert!(d.done && !d.error, "{d:?}");
     assert_eq!(d.status, Status::OK);
-    // §2.9: the end-of-job acknowledgement only after the frame has left.
+    // [ET200S SI 2005] §2.12.1–§2.12.7 [derived]: the end-of-job acknowledgement only after the
+    // frame has left.
     assert!(done_at >= last_char_at_b, "{done_at} < {last_char_at_b}");
     assert_eq!(seen.receives.len(), 1, "{:?}", seen.receives);
     let (_, r, bytes) = &seen.receives[0];
@@ -178,7 +180,8 @@ fn section_2_9_s_send_module_a_3964r_module_b_s_rcv_every_window_size() {
 fn section_2_9_s_send_module_a_ascii_module_b_s_rcv_every_window_size() {
     for window in WindowSize::ALL {
         let (mut sim, mut a, mut b) = ascii_pair(window);
-        // No XON/XOFF characters in the user data (§6.2 forbids them under XON/XOFF).
+        // No XON/XOFF characters in the user data ([ET200S SI 2005] Tables 3-65 to 3-72 forbids
+        // them under XON/XOFF).
         let data: Vec<u8> = (0..150u8).map(|i| b'0' + i % 64).collect();
         let seen = send_and_receive(&mut sim, &mut a, &mut b, &data, 1_000);
         let line = sim.trace().received("B");
@@ -278,7 +281,8 @@ fn section_2_6_s_xon_and_s_vset_through_the_window_reach_the_ascii_engine() {
         if d.done || d.error {
             xon_done.push(d);
         }
-        // Only RS-422/485 and automatic V.24 refuse S_VSET (§6.7): RTS and DTR go on the line.
+        // Only RS-422/485 and automatic V.24 refuse S_VSET ([ET200S SI] §2.8): RTS and DTR go on
+        // the line.
         let v = s_vset.call(&mut b.host, true, false, true, true);
         if v.done || v.error {
             vset_done.push(v);
@@ -473,8 +477,9 @@ fn channel_same_user_program_on_ascii_directly_and_through_the_window() {
     assert_eq!((&pa, &pb), (&wa, &wb));
 }
 
-/// §2.8 case 2 with a frame: frames and receive errors reach S_RCV in the order the line engine
-/// reported them (the frame is taken out of the engine at the module's next cycle, in turn).
+/// [ET200S SI 2005] §2.12.7 case 2 with a frame: frames and receive errors reach S_RCV in the order
+/// the line engine reported them (the frame is taken out of the engine at the module's next cycle,
+/// in turn).
 #[test]
 fn section_2_8_frames_and_receive_errors_keep_their_order() {
     for break_first in [false, true] {
@@ -524,8 +529,8 @@ fn section_2_8_frames_and_receive_errors_keep_their_order() {
     }
 }
 
-/// §6.7 of the ASCII driver through the window: under automatic V.24 control the driver owns RTS
-/// and DTR, so S_VSET ends with ERROR and 0502H (40H + 0502H in the window, Table 2-26).
+/// [ET200S SI] §2.8 (the ASCII driver) through the window: under automatic V.24 control the driver
+/// owns RTS and DTR, so S_VSET ends with ERROR and 0502H (40H + 0502H in the window, Table 2-26).
 #[test]
 fn write_v24_refused_by_the_ascii_engine_under_automatic_v24_is_0502h() {
     let config = si_ascii::Config {

@@ -1,8 +1,8 @@
-//! The execution number after 7 (H-5, et200s-si-2005-window-protocol.md §2.2): 7 → 1 by default
-//! or 7 → 0, a setting of both the host and the module. Jobs long enough to wrap (a 224-byte
-//! frame is 76 segments in the 4-byte window) succeed when both sides agree, and show what the
-//! host reports when they do not (§2.8: the receiver flags the first segment after 7 as out of
-//! order).
+//! The execution number after 7 (`[derived]`, [ET200S SI 2005] §2.12.1, Table 2-21): 7 → 1 by
+//! default or 7 → 0, a setting of both the host and the module. Jobs long enough to wrap (a
+//! 224-byte frame is 76 segments in the 4-byte window) succeed when both sides agree, and show what
+//! the host reports when they do not ([ET200S SI 2005] §2.12.7: the receiver flags the first
+//! segment after 7 as out of order).
 
 use crate::common;
 
@@ -74,8 +74,8 @@ fn matching_settings_send_and_receive_the_longest_frame() {
 
 /// Host 7 → 1, module 7 → 0: the module expects 10H after 17H, gets 11H and shows its error bit
 /// with the last valid number 7 (1FH). The host resends segment 8 as 11H again and again (the
-/// §2.8 go-back rule cannot make progress), nothing reaches the line, and the job ends by the
-/// host's watchdog with 0502H.
+/// [ET200S SI 2005] §2.12.7 go-back rule cannot make progress), nothing reaches the line, and the
+/// job ends by the host's watchdog with 0502H.
 #[test]
 fn host_7_to_1_against_module_7_to_0_ends_a_send_by_the_watchdog() {
     let mut l = link(ExecWrap::ToOne, ExecWrap::ToZero);
@@ -150,8 +150,9 @@ fn host_7_to_1_against_module_7_to_0_misreads_segment_8_as_a_status() {
 
 /// Why 7 → 1 is the default: with 7 → 0 the host's echo of an 8th segment is 20H, the receive
 /// request itself. A module that has just finished the delivery and still reads that held echo
-/// (the host writes 00H only after it has seen the module idle, H-11) starts a new receive job.
-/// Here nothing more is buffered, so it answers 20H + 0101H ("no message") until the host's idle.
+/// (the host writes 00H only after it has seen the module idle, `[derived]`) starts a new receive
+/// job. Here nothing more is buffered, so it answers 20H + 0101H ("no message") until the host's
+/// idle.
 #[test]
 fn with_7_to_0_a_held_echo_of_segment_8_reads_as_a_new_receive_request() {
     use si_core::Instant;

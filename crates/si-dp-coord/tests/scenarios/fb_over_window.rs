@@ -1,4 +1,4 @@
-//! The FB equivalents (et200s-si-2005-window-protocol.md §5) running over the window protocol
+//! The FB equivalents ([ET200S SI 2005] §2.10) running over the window protocol
 //! against a simulated module: S7 call semantics (REQ edge, R, EN_R, outputs valid one call),
 //! several FBs sharing one host.
 
@@ -184,7 +184,8 @@ fn parameter_fbs_match_the_configured_flow_control() {
     );
 }
 
-/// Several FBs on one host: the arbiter serializes their jobs (§2.4), each gets its own result.
+/// Several FBs on one host: the arbiter serializes their jobs ([ET200S SI 2005] §2.12.1), each gets
+/// its own result.
 #[test]
 fn fbs_share_one_host() {
     for window in WindowSize::ALL {

@@ -1,6 +1,7 @@
 //! Host against module with seeded random DP-cycle lag on both sides, in the 4-, 8- and 32-byte
-//! windows (et200s-si-2005-window-protocol.md §2.9, §2.8, §2.10: the DP cycle and the host cycle
-//! are asynchronous, so each side sees the other late by a random number of cycles).
+//! windows ([ET200S SI 2005] §2.12.1–§2.12.7, §2.12.7, §2.12.2, §2.12.3, §2.11 `[derived]`: the DP
+//! cycle and the host cycle are asynchronous, so each side sees the other late by a random number
+//! of cycles).
 
 use crate::common;
 
@@ -66,8 +67,8 @@ fn auto_receive_fetches_every_line_frame_in_order() {
     }
 }
 
-/// §2.8: a send segment arriving out of order makes the module set the error bit with the last
-/// valid number; the host resends from the next one and the frame arrives intact.
+/// [ET200S SI 2005] §2.12.7: a send segment arriving out of order makes the module set the error
+/// bit with the last valid number; the host resends from the next one and the frame arrives intact.
 #[test]
 fn section_2_8_out_of_order_send_segments_recover_through_the_error_bit() {
     for window in WindowSize::ALL {
@@ -92,9 +93,9 @@ fn section_2_8_out_of_order_send_segments_recover_through_the_error_bit() {
     }
 }
 
-/// §2.8 / Table 2-21 (default reading of H-7): a receive segment out of order makes the host set
-/// the error bit; the module aborts with 0551H and offers the frame again, which the automatic
-/// receive then fetches intact.
+/// [ET200S SI 2005] §2.12.7 / Table 2-21 (default reading): a receive segment out of order makes
+/// the host set the error bit; the module aborts with 0551H and offers the frame again, which the
+/// automatic receive then fetches intact.
 #[test]
 fn section_2_8_out_of_order_receive_segments_abort_with_0551_and_reoffer() {
     for window in WindowSize::ALL {
@@ -123,7 +124,7 @@ fn section_2_8_out_of_order_receive_segments_abort_with_0551_and_reoffer() {
     }
 }
 
-/// The alternative reading of H-7 (the general go-back rule in the receive direction): no job
+/// The alternative reading (the general go-back rule in the receive direction): no job
 /// fails, the module resends from the segment after the last valid one.
 #[test]
 fn section_2_8_receive_go_back_policy_recovers_without_failures() {
@@ -152,8 +153,8 @@ fn section_2_8_receive_go_back_policy_recovers_without_failures() {
     }
 }
 
-/// §2.4 rule 3: a job that reads the acknowledgement of another job code writes idle, waits for
-/// idle and repeats; every job still completes exactly once with the right result.
+/// [ET200S SI 2005] §2.12.1 rule 3: a job that reads the acknowledgement of another job code writes
+/// idle, waits for idle and repeats; every job still completes exactly once with the right result.
 #[test]
 fn section_2_4_conflicting_job_codes_back_off() {
     for window in WindowSize::ALL {
@@ -196,9 +197,9 @@ fn section_2_4_conflicting_job_codes_back_off() {
     }
 }
 
-/// §2.8 case 1: a send longer than the maximum is refused by the module with the end-of-job
-/// acknowledgement and 050EH (the host's own LEN check is relaxed to get it there). With the
-/// default host the FB-level check refuses it first with 1E41H.
+/// [ET200S SI 2005] §2.12.7 case 1: a send longer than the maximum is refused by the module with
+/// the end-of-job acknowledgement and 050EH (the host's own LEN check is relaxed to get it there).
+/// With the default host the FB-level check refuses it first with 1E41H.
 #[test]
 fn section_2_8_frame_over_the_maximum_is_refused_with_050e() {
     for window in WindowSize::ALL {
@@ -227,8 +228,8 @@ fn section_2_8_frame_over_the_maximum_is_refused_with_050e() {
     }
 }
 
-/// §2.8 case 3: a receive job with nothing buffered is answered 20H + 0101H, "not an error".
-/// Case 2: a buffered receive error is delivered as 20H + its STATUS.
+/// [ET200S SI 2005] §2.12.7 case 3: a receive job with nothing buffered is answered 20H + 0101H,
+/// "not an error". Case 2: a buffered receive error is delivered as 20H + its STATUS.
 #[test]
 fn section_2_8_receive_without_message_and_with_erroneous_frame() {
     for window in WindowSize::ALL {
@@ -265,7 +266,8 @@ fn section_2_7_write_then_read_v24() {
     }
 }
 
-/// Table 2-27 / §2.6: a block of another flow-control type than configured gets 0550H.
+/// Table 2-27 / [ET200S SI 2005] §2.12.2–§2.12.6 `[derived]`: a block of another flow-control type
+/// than configured gets 0550H.
 #[test]
 fn section_2_6_parameter_block_mismatch_is_0550() {
     let mut l = link(WindowSize::Eight, 5);

@@ -1,7 +1,8 @@
-//! The module in Modbus master mode through the window (issue 18): the host's send job carries
-//! the S_SEND source area of et200s-si-modbus-uss.md §4.3, the module runs si-modbus's master on
+//! The module in Modbus master mode through the window: the host's send job carries
+//! the S_SEND source area of [Modbus/USS] §3.4.5–§3.4.16, the module runs si-modbus's master on
 //! a simulated line to si-modbus's slave, and the receive job brings back the response in the
-//! S_RCV layout of §4.4, or the job's STATUS (0E6xH exception, 0830H no response).
+//! S_RCV layout of [Modbus/USS] §3.4.5–§3.4.16, or the job's STATUS (0E6xH exception, 0830H no
+//! response).
 //!
 //! Each DP cycle (2 ms of virtual time) the host engine runs one cycle, then the module, then the
 //! line simulator runs for the rest of the cycle. The first tests drive the host's jobs directly
@@ -118,7 +119,7 @@ fn received(bytes: &[u8]) -> Result<Outcome, Status> {
 
 /// FC03 in every window size: the request leaves as the golden ADU, the send job ends once the
 /// response is in, the idle window shows 0001H, and the receive job brings the registers in
-/// register order (§4.4).
+/// register order ([Modbus/USS] §3.4.5–§3.4.16).
 #[test]
 fn m_4_3_fc03_read_through_the_window_in_every_size() {
     for window in WindowSize::ALL {
@@ -140,7 +141,8 @@ fn m_4_3_fc03_read_through_the_window_in_every_size() {
 }
 
 /// FC16 and FC06: the slave's registers change, and the receive job brings the echo (address,
-/// FC, start, count / value, §4.4); a broadcast FC06 leaves nothing to receive.
+/// FC, start, count / value, [Modbus/USS] §3.4.5–§3.4.16); a broadcast FC06 leaves nothing to
+/// receive.
 #[test]
 fn m_4_3_fc16_and_fc06_writes_through_the_window() {
     let mut b = Bench::new(WindowSize::Four);
@@ -174,7 +176,8 @@ fn m_4_3_fc16_and_fc06_writes_through_the_window() {
 }
 
 /// An exception response (register 1000 does not exist: exception 02) ends the send job with
-/// 7xH + 0E62H and the next receive job with 20H + 0E62H (§3.6, §11.8).
+/// 7xH + 0E62H and the next receive job with 20H + 0E62H ([Modbus/USS] §3.3.6, Table 3-12, §3.4.2
+/// `[derived]`).
 #[test]
 fn m_3_6_exception_reaches_the_send_and_the_receive_job_as_0e6xh() {
     let mut b = Bench::new(WindowSize::Eight);
@@ -188,8 +191,8 @@ fn m_3_6_exception_reaches_the_send_and_the_receive_job_as_0e6xh() {
     assert_eq!(b.run(Job::Receive), Ok(Outcome::NoMessage));
 }
 
-/// A slave that does not answer: the send job ends after the response time (2 s, §3.8) with
-/// 0830H, and so does the next receive job.
+/// A slave that does not answer: the send job ends after the response time (2 s, [Modbus/USS]
+/// §3.4.3, Table 3-17) with 0830H, and so does the next receive job.
 #[test]
 fn m_3_8_silent_slave_is_0830h_for_the_send_and_the_receive_job() {
     let mut b = Bench::new(WindowSize::Eight);
@@ -203,9 +206,9 @@ fn m_3_8_silent_slave_is_0830h_for_the_send_and_the_receive_job() {
     assert_eq!(b.run(Job::Receive), Err(status::RESPONSE_TIMEOUT));
 }
 
-/// A source area breaking §4.3 ends the send job at once with its 0E4xH and puts nothing on the
-/// line or in the receive buffer; a job longer than 200 bytes is 050EH from the window module
-/// (H-14).
+/// A source area breaking [Modbus/USS] §3.4.5–§3.4.16 ends the send job at once with its 0E4xH and
+/// puts nothing on the line or in the receive buffer; a job longer than 200 bytes is 050EH from the
+/// window module (`[derived]`).
 #[test]
 fn m_4_3_refused_jobs_end_at_once_and_reach_neither_line_nor_buffer() {
     let mut b = Bench::new(WindowSize::Eight);
@@ -220,10 +223,11 @@ fn m_4_3_refused_jobs_end_at_once_and_reach_neither_line_nor_buffer() {
     assert_eq!(b.send(&[0u8; 201]), Err(INVALID_FRAME_LENGTH));
 }
 
-/// §4.5: a read whose result exceeds 200 bytes (FC03, 101 registers = 202 bytes) never reaches
-/// the host cut short. Either si-modbus's job check refuses it with 050EH before the line (its
-/// reading of §4.5), or the response arrives and the window module refuses the frame (0850H) so
-/// that the receive job gets the error instead of a frame.
+/// [Modbus/USS] §3.4.5–§3.4.16: a read whose result exceeds 200 bytes (FC03, 101 registers = 202
+/// bytes) never reaches the host cut short. Either si-modbus's job check refuses it with 050EH
+/// before the line (its reading of [Modbus/USS] §3.4.5–§3.4.16 `[derived]`), or the response
+/// arrives and the window module refuses the frame (0850H) so that the receive job gets the error
+/// instead of a frame.
 #[test]
 fn m_4_5_a_read_over_200_bytes_is_an_error_not_a_cut_frame() {
     let mut b = Bench::new(WindowSize::ThirtyTwo);

@@ -1,9 +1,9 @@
 //! The module as a station on the line simulator (si_sim), its serial side a line engine
 //! behind [`EngineSerial`]: a host's send job puts the frame on the line with baud-accurate
 //! timing, and the end-of-job acknowledgement comes only after the last character has left
-//! (et200s-si-2005-window-protocol.md §2.9: "the module sends the end-of-job ack only after the
-//! frame has been transmitted to the partner"). A frame from the partner reaches the host through
-//! a receive job.
+//! ([ET200S SI 2005] §2.12.1–§2.12.7 `[derived]`: "the module sends the end-of-job ack only after
+//! the frame has been transmitted to the partner"). A frame from the partner reaches the host
+//! through a receive job.
 //!
 //! The line engine here is a minimal framer written for this test (frames end after a 4 ms gap,
 //! like the ASCII driver's character delay time): any engine plugs in through its [`LineHooks`].
@@ -193,7 +193,7 @@ fn write_v24_reaches_the_line_as_signal_change() {
     assert!(!s.cts && !s.dsr);
 }
 
-/// Issue 16: the module as a line station hands the port's latency (here a USB adapter's,
+/// The module as a line station hands the port's latency (here a USB adapter's,
 /// announced by the simulator) to its line engine, whose timers judge the line's silences.
 #[test]
 fn the_module_forwards_the_ports_latency_to_its_line_engine() {

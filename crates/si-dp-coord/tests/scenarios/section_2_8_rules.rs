@@ -1,4 +1,4 @@
-//! The rules of et200s-si-2005-window-protocol.md §2.4 and §2.8 (manual §2.12.1, §2.12.7) byte by
+//! The rules of [ET200S SI 2005] §2.12.1, §2.12.7 byte by
 //! byte, one side at a time: error bit and go-back, aborts on 000/111, foreign codes, back-off,
 //! the watchdog, reset and restart.
 
@@ -178,7 +178,7 @@ fn host_goes_back_after_the_modules_error_bit() {
     assert_eq!(h.stats().resends, 2);
 }
 
-/// Execution numbers wrap 7 → 1 (H-5): the 8th segment of a send is 11H again.
+/// Execution numbers wrap 7 → 1 (`[derived]`): the 8th segment of a send is 11H again.
 #[test]
 fn exec_numbers_wrap_from_7_to_1() {
     let data: Vec<u8> = (0..60).collect();
@@ -243,7 +243,7 @@ fn module_starts_jobs_only_from_request_bytes() {
     assert_eq!(m.stats().jobs, 0);
 }
 
-/// Table 2-21 (default reading of H-7): the host's error bit in a receive job makes the module
+/// Table 2-21 (default reading): the host's error bit in a receive job makes the module
 /// abort with 20H + 0551H, wait for idle, and offer the same frame again from segment 1.
 #[test]
 fn module_aborts_delivery_with_0551_and_reoffers_the_frame() {
@@ -306,7 +306,8 @@ fn host_signals_out_of_order_receive_segment() {
     assert_eq!(h.stats().errors_signalled, 1);
 }
 
-/// §2.4 rule 3: the acknowledgement of another job code → write idle, wait for idle, repeat.
+/// [ET200S SI 2005] §2.12.1 rule 3: the acknowledgement of another job code → write idle, wait for
+/// idle, repeat.
 #[test]
 fn host_backs_off_on_a_foreign_acknowledgement() {
     let mut h = Host::new(HostConfig::new(WindowSize::Eight)).unwrap();
@@ -348,7 +349,7 @@ fn host_backs_off_on_a_foreign_acknowledgement() {
         "10 00 00 xx xx xx xx xx",
         "11 00 01 'x' xx xx xx xx",
     );
-    // A foreign code mid-transfer: cancel and repeat the whole job (§2.8).
+    // A foreign code mid-transfer: cancel and repeat the whole job ([ET200S SI 2005] §2.12.7).
     step_host(
         &mut h,
         5,
@@ -384,7 +385,7 @@ fn host_backs_off_on_a_foreign_acknowledgement() {
     assert_eq!(h.stats().backoffs, 2);
 }
 
-/// H-12: the manual has no timeout; the host's watchdog (default 30 s) ends a job the module
+/// `[derived]`: the manual has no timeout; the host's watchdog (default 30 s) ends a job the module
 /// never answers, with the configured STATUS (default 0502H), and the next job runs.
 #[test]
 fn host_watchdog_ends_an_unanswered_job_once() {
@@ -488,7 +489,7 @@ fn wrong_window_lengths_are_ignored() {
 }
 
 /// The host as receiver: the module going idle, or showing 111, before the frame is complete
-/// aborts the receive job (§2.8) with 0551H, and the host writes idle.
+/// aborts the receive job ([ET200S SI 2005] §2.12.7) with 0551H, and the host writes idle.
 #[test]
 fn host_receive_aborted_by_idle_or_111() {
     for abort in ["00 00 01 xx", "71 00 00 xx"] {

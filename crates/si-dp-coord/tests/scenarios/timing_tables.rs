@@ -1,6 +1,7 @@
-//! s7-200-ppi-dp.md §6.3: Tables 8-3 (19 200 bit/s) and 8-4 (9 600 bit/s), token rotation time in
-//! seconds by bytes per message (rows 1…16) and number of masters (columns 2…10), reproduced
-//! cell by cell (in hundredths of a second) and checked against the formula of §6.2.
+//! [S7-200] §8.4, Tables 8-3/8-4: Tables 8-3 (19 200 bit/s) and 8-4 (9 600 bit/s), token rotation
+//! time in seconds by bytes per message (rows 1…16) and number of masters (columns 2…10),
+//! reproduced cell by cell (in hundredths of a second) and checked against the formula of
+//! [ET200S SI 2005] Tables 3-65 to 3-72.
 
 use si_dp_coord::timing::token_rotation_time;
 

@@ -1,9 +1,11 @@
-//! The manual's example tables (et200s-si-2005-window-protocol.md §2.7, manual §2.12.2–§2.12.6)
-//! as golden cycle-by-cycle tests, in the corrected readings of the extraction:
+//! The manual's example tables ([ET200S SI 2005] §2.12.2–§2.12.6)
+//! as golden cycle-by-cycle tests, in our corrected readings `[derived]`:
 //!
-//! * Table 2-23 (send 22 characters, 8-byte window): the reconstruction of §2.7.1 (H-1);
-//! * Table 2-24 (receive 6 bytes): the request is 20H, not the printed 10H (H-2);
-//! * Table 2-28 (XON/XOFF parameters, 4-byte window): XON/XOFF 11H/13H (H-3), byte 3 = MSB (H-4).
+//! * Table 2-23 (send 22 characters, 8-byte window): the reconstruction of [ET200S SI 2005]
+//!   §2.12.2, Table 2-23 (`[derived]`);
+//! * Table 2-24 (receive 6 bytes): the request is 20H, not the printed 10H (`[derived]`);
+//! * Table 2-28 (XON/XOFF parameters, 4-byte window): XON/XOFF 11H/13H (`[derived]`), byte 3 = MSB
+//!   (`[derived]`).
 //!
 //! Each table is played twice: the host against the table's IN column (checking its OUT column),
 //! and the module against the table's OUT column (checking its IN column). `xx`/`nn` are bytes the
@@ -49,8 +51,8 @@ fn completed(events: &[HostEvent]) -> Vec<(JobCode, Result<Outcome, si_core::Sta
 
 const ALPHABET: &[u8] = b"abcdefghijklmnopqrstuv";
 
-/// §2.7.1, Table 2-23 reconstructed: DP cycle ≈ CPU cycle, so the echo lags one cycle and the
-/// host holds each segment until it is echoed.
+/// [ET200S SI 2005] §2.12.2, Table 2-23 reconstructed: DP cycle ≈ CPU cycle, so the echo lags one
+/// cycle and the host holds each segment until it is echoed.
 #[test]
 fn table_2_23_send_22_characters_host() {
     let mut host = Host::new(HostConfig::new(WindowSize::Eight)).unwrap();
@@ -105,8 +107,8 @@ fn table_2_23_send_22_characters_module() {
     assert_eq!(sent, [Bytes::from_static(ALPHABET)]);
 }
 
-/// §2.7.2, Table 2-24: the host polls idle until 0001H, requests with 20H (H-2), echoes 21H and
-/// 22H, and the module returns to idle.
+/// [ET200S SI 2005] §2.12.2–§2.12.6, Table 2-24: the host polls idle until 0001H, requests with 20H
+/// (`[derived]`), echoes 21H and 22H, and the module returns to idle.
 #[test]
 fn table_2_24_receive_6_bytes_host() {
     let mut host = Host::new(HostConfig::new(WindowSize::Eight)).unwrap();
@@ -157,8 +159,8 @@ fn table_2_24_receive_6_bytes_module() {
     assert_eq!(module.stats().frames_delivered, 1);
 }
 
-/// §2.7.3, Table 2-25: read V.24 answers 31H, 00H, signal bits (DCD 4, CTS 3, RTS 2, DSR 1,
-/// DTR 0); the host echoes 31H; the module goes idle.
+/// [ET200S SI 2005] §2.12.2–§2.12.6, Table 2-25: read V.24 answers 31H, 00H, signal bits (DCD 4,
+/// CTS 3, RTS 2, DSR 1, DTR 0); the host echoes 31H; the module goes idle.
 #[test]
 fn table_2_25_read_v24_host() {
     let mut host = Host::new(HostConfig::new(WindowSize::Eight)).unwrap();
@@ -209,8 +211,8 @@ fn table_2_25_read_v24_module() {
     );
 }
 
-/// §2.7.4, Table 2-26: write V.24 carries 40H, 00H, signal bits (RTS bit 2, DTR bit 0) in the
-/// request; the module answers 40H + STATUS; the host writes idle.
+/// [ET200S SI 2005] §2.12.2–§2.12.6, Table 2-26: write V.24 carries 40H, 00H, signal bits (RTS bit
+/// 2, DTR bit 0) in the request; the module answers 40H + STATUS; the host writes idle.
 #[test]
 fn table_2_26_write_v24_host() {
     let mut host = Host::new(HostConfig::new(WindowSize::Eight)).unwrap();
@@ -250,8 +252,9 @@ fn table_2_26_write_v24_module() {
     assert!(s.rts && !s.dtr);
 }
 
-/// §2.7.5, Table 2-28, 4-byte window: block 20H, length 0004H, XON, XOFF, wait time 00C8H in
-/// three segments; the end-of-job acknowledgement 73H carries the last exec number.
+/// [ET200S SI 2005] §2.12.2–§2.12.6, Table 2-28, 4-byte window: block 20H, length 0004H, XON, XOFF,
+/// wait time 00C8H in three segments; the end-of-job acknowledgement 73H carries the last exec
+/// number.
 #[test]
 fn table_2_28_xon_xoff_parameters_host() {
     let mut host = Host::new(HostConfig::new(WindowSize::Four)).unwrap();
@@ -275,8 +278,8 @@ fn table_2_28_xon_xoff_parameters_host() {
     );
 }
 
-/// The bytes exactly as printed (0BH/0DH, H-3) are still a well-formed block: the characters
-/// are free values, only their meaning as DC1/DC3 is wrong.
+/// The bytes exactly as printed (0BH/0DH, `[derived]`) are still a well-formed block: the
+/// characters are free values, only their meaning as DC1/DC3 is wrong.
 #[test]
 fn table_2_28_as_printed_bytes() {
     let mut host = Host::new(HostConfig::new(WindowSize::Four)).unwrap();
@@ -319,7 +322,8 @@ fn table_2_28_xon_xoff_parameters_module() {
     );
 }
 
-/// The three blocks of Table 2-27 in the 8-byte window fit one segment each (§2.6).
+/// The three blocks of Table 2-27 in the 8-byte window fit one segment each ([ET200S SI 2005]
+/// §2.12.2–§2.12.6 `[derived]`).
 #[test]
 fn table_2_27_blocks_in_one_8_byte_segment() {
     for (block, seg) in [
@@ -340,7 +344,7 @@ fn table_2_27_blocks_in_one_8_byte_segment() {
     }
 }
 
-/// Idle shows 0B01H when more than 2/3 of the receive buffer is used (§2.5).
+/// Idle shows 0B01H when more than 2/3 of the receive buffer is used ([ET200S SI 2005] §2.12.1).
 #[test]
 fn section_2_5_idle_status_two_thirds_full() {
     let cfg = ModuleConfig {

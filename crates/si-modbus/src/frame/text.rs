@@ -3,9 +3,9 @@
 //! line monitor and the frame log (`-v`); `Debug` stays the Rust form.
 //!
 //! Addresses are the PDU's (0-based, as on the wire), quantities and addresses decimal, data
-//! hexadecimal as the manual prints register contents (§5.7). The alternate form (`{:#}`)
-//! leaves out the leading `FCnn `, for a place that shows the function code already (the
-//! monitor's label).
+//! hexadecimal as the manual prints register contents ([Modbus/USS] §3.5.6–§3.5.14). The alternate
+//! form (`{:#}`) leaves out the leading `FCnn `, for a place that shows the function code already
+//! (the monitor's label).
 
 use super::{Bits, Registers, Request, Response};
 use core::fmt;

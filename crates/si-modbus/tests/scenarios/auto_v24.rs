@@ -1,4 +1,4 @@
-//! Automatic use of the V.24 signals (et200s-si-modbus-uss.md §2.2) around the master's requests
+//! Automatic use of the V.24 signals ([Modbus/USS] §3.2.2) around the master's requests
 //! and the slave's responses: DTR = ON and RTS = OFF on entering the mode, RTS = ON and the data
 //! at CTS = ON, 0818H when CTS does not come within the data output wait time, RTS = OFF after the
 //! RTS-off time, and nothing received while DSR = OFF. The engines are driven by hand so every

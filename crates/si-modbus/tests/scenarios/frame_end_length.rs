@@ -1,5 +1,5 @@
 //! Ending frames at their predicted length (`FrameEnd::Length`, a host extension next to the
-//! module's silence-based framing of et200s-si-modbus-uss.md §3.5), on the line simulator in
+//! module's silence-based framing of [Modbus/USS] §3.3.5, Table 3-11), on the line simulator in
 //! virtual time: when a frame ends, what happens to frames that do not fit the prediction, the
 //! master's silence before its next request, and interoperation with `FrameEnd::Gap`.
 //!
@@ -43,7 +43,7 @@ const GAP: u64 = 4_000;
 /// 8 and 25 characters of 11 bits at 9600 bit/s, rounded up as the simulator does.
 const CHARS_8: u64 = 9_167;
 const CHARS_25: u64 = 28_646;
-/// `01 03 00 00 00 0A C5 CD`: FC03, 10 registers from 0 (§4.5).
+/// `01 03 00 00 00 0A C5 CD`: FC03, 10 registers from 0 ([Modbus/USS] §3.4.5–§3.4.16).
 const READ10: Request<'static> = Request::ReadHoldingRegisters {
     address: 0,
     quantity: 10,
@@ -180,8 +180,8 @@ fn s3_5_extension_length_slave_answers_at_the_request_end_not_after_the_gap() {
 
 #[test]
 fn s3_5_extension_length_predicts_every_request_layout() {
-    // FC01–06 and 08: 8 bytes; FC07/11/12 (not served by the module's slave, §5.7: exception
-    // 01): 4; FC15/16: 9 + byte count. Each is answered at its own end.
+    // FC01–06 and 08: 8 bytes; FC07/11/12 (not served by the module's slave, [Modbus/USS]
+    // §3.5.6–§3.5.14: exception 01): 4; FC15/16: 9 + byte count. Each is answered at its own end.
     let requests: Vec<Vec<u8>> = vec![
         with_crc(vec![1, 0x01, 0, 0, 0, 8]),
         with_crc(vec![1, 0x02, 0, 0, 0, 8]),
@@ -221,7 +221,10 @@ fn s3_5_extension_length_request_with_a_bad_crc_ends_at_the_gap_and_is_discarded
     bad[7] ^= 0x01;
     sim.transmit(p, &bad);
     sim.run_until_quiet(LIMIT);
-    assert!(transmissions(&sim, "slave").is_empty(), "no answer (§5.7)");
+    assert!(
+        transmissions(&sim, "slave").is_empty(),
+        "no answer ([Modbus/USS] §3.5.6–§3.5.14)"
+    );
     // 0836H, reported when the gap ends the frame, as with FrameEnd::Gap.
     let events = event_times(&sim, "slave");
     assert_eq!(events.len(), 1, "{events:?}");
@@ -326,7 +329,7 @@ fn s3_5_extension_master_completes_at_the_response_end_and_holds_the_next_reques
         assert_eq!(done_at, at(completed), "{frame_end:?}");
 
         // A second job at once: it leaves only when the line has been silent for the gap
-        // since the answer's last character (§3.5), in both modes.
+        // since the answer's last character ([Modbus/USS] §3.3.5, Table 3-11), in both modes.
         let (e, _) = run_job(&mut sim, m, 1, &READ10, Some(sl));
         assert!(matches!(e, MasterEvent::Completed(_)), "{e:?}");
         let tx = transmissions(&sim, "master");
@@ -526,7 +529,8 @@ fn s4_1_extension_length_on_an_rs485_bus_with_local_echo_polls_two_slaves() {
         }
     }
     // Every station sees silence of at least the gap between the end of an answer and the
-    // next request (measured as the module does, between received characters: §3.5).
+    // next request (measured as the module does, between received characters: [Modbus/USS] §3.3.5,
+    // Table 3-11).
     let heard = sim.trace().received("slave1");
     let mut quiet = 0;
     for w in heard.windows(2) {

@@ -1,5 +1,6 @@
-//! Master scenarios on the line simulator, one per error path of et200s-si-modbus-uss.md
-//! §3.5–§3.8 and §4.4, each asserting the manual's STATUS in virtual time.
+//! Master scenarios on the line simulator, one per error path of [Modbus/USS]
+//! [Modbus/USS] §3.3.5–§3.4.3, Table 3-11, Table 3-17 and §3.4.5–§3.4.16, each asserting the
+//! manual's STATUS in virtual time.
 
 use si_core::{Duration, Engine, Instant, Interface, LineError, Output, SerialSettings};
 use si_modbus::frame::{crc16, Registers, Request, Response};
@@ -136,7 +137,7 @@ fn s3_8_extension_retries_resend_before_failing() {
 }
 
 /// A corrupt first answer and a good retry: the job completes, and its attempts still show
-/// the CRC error (`Attempts`, issue 20), which the next job starts over from.
+/// the CRC error (`Attempts`), which the next job starts over from.
 #[test]
 fn s4_4_a_crc_error_cured_by_a_retry_is_counted_in_the_attempts() {
     let config = MasterConfig {
@@ -477,7 +478,8 @@ fn s4_3_job_checks_refuse_with_0e44h_0e45h_0e46h() {
     );
 }
 
-// --- §2.5 against §3.7: a turnaround glitch on RS-485 ------------------------------------------
+// --- [Modbus/USS] §3.4.1, §3.4.3 against §3.4.3, §3.5.4: a turnaround glitch on RS-485
+// ------------------------------------------
 
 /// A Normal-mode master on `interface`: READ10 sent, then the partner answers with `glitch`
 /// (a byte, or a framing error) before a correct response.

@@ -1,6 +1,7 @@
-//! Read jobs through S_SEND/S_RCV at the 200-byte limit (et200s-si-modbus-uss.md §4.2 LEN
-//! 1…200, §4.5 practical maxima, §7.2 050EH): a result that fits is delivered whole with LEN
-//! up to 200; one that would not fit ends with 050EH before any request goes on the line.
+//! Read jobs through S_SEND/S_RCV at the 200-byte limit ([Modbus/USS] §3.4.2 LEN
+//! 1…200, [Modbus/USS] §3.4.5–§3.4.16 practical maxima, §3.6 050EH): a result that fits is
+//! delivered whole with LEN up to 200; one that would not fit ends with 050EH before any request
+//! goes on the line.
 
 use si_core::{Duration, SerialSettings, Status};
 use si_modbus::fb::{Done, Received, SRcv, SSend, MAX_LEN};
@@ -97,12 +98,13 @@ fn s4_5_fc03_fc04_read_100_registers_and_refuse_101_with_050eh() {
     for function in [3, 4] {
         let o = read_job(function, 100);
         assert_delivered(&o, 200);
-        // Register n = 1000H + n, high byte first (§4.4); the last one is 1063H.
+        // Register n = 1000H + n, high byte first ([Modbus/USS] §3.4.5–§3.4.16); the last one is
+        // 1063H.
         assert_eq!(o.dest[..4], [0x10, 0x00, 0x10, 0x01]);
         assert_eq!(o.dest[198..200], [0x10, 0x63]);
         assert_eq!(o.dest[200], 0xEE, "nothing past LEN");
         assert_refused(&read_job(function, 101));
-        // The range check of §4.3 still comes first.
+        // The range check of [Modbus/USS] §3.4.5–§3.4.16 still comes first.
         assert_eq!(read_job(function, 128).send.status.code(), 0x0E45);
     }
 }

@@ -1,5 +1,6 @@
-//! Slave scenarios on the line simulator (et200s-si-modbus-uss.md §3.2, §3.5, §3.6, §5.5–§5.7):
-//! a scripted master sends raw frames, the slave's answers and events are asserted.
+//! Slave scenarios on the line simulator ([Modbus/USS] §3.3.2, §3.3.5, Table 3-11, §3.3.6, Table
+//! 3-12, §3.5.5–§3.5.19, §3.5.6–§3.5.14): a scripted master sends raw frames, the slave's answers
+//! and events are asserted.
 
 use si_core::memory::Area;
 use si_core::{Duration, Engine, Instant, Output, SerialSettings};
@@ -396,9 +397,9 @@ fn s5_1_s_modb_not_started_answers_exception_04() {
     );
 }
 
-/// §3.7 interference suppression: leading garbage before the slave address is skipped, a
-/// request with a BREAK in it is ignored without a word, and a BREAK after a complete request
-/// does not spoil it.
+/// [Modbus/USS] §3.4.3, §3.5.4 interference suppression: leading garbage before the slave address
+/// is skipped, a request with a BREAK in it is ignored without a word, and a BREAK after a complete
+/// request does not spoil it.
 #[test]
 fn s3_7_interference_suppression_on_the_slave() {
     let mut sim = Simulator::new(5);
@@ -452,7 +453,8 @@ fn s3_7_interference_suppression_on_the_slave() {
     assert_eq!(sim.engine(slave).counters().suppressed, 1);
 }
 
-/// §3.7 Normal mode: the same BREAK inside a request is reported (080DH) and not answered.
+/// [Modbus/USS] §3.4.3, §3.5.4 Normal mode: the same BREAK inside a request is reported (080DH) and
+/// not answered.
 #[test]
 fn s3_7_normal_mode_reports_a_break_in_a_request() {
     let mut rig = Rig::new();

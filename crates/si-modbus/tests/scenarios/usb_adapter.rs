@@ -1,7 +1,8 @@
-//! Master and slave through USB-serial adapters (issue 16): with default configs, both behind a
+//! Master and slave through USB-serial adapters: with default configs, both behind a
 //! 16 ms / 62-byte adapter, a poll cycle of short and long reads completes at 9600 and 19 200
 //! bit/s, whether the host announces the adapter's latency or the engines have to learn it;
-//! and without an adapter the frames still end at the manual's gap (§3.5, Table 3-11).
+//! and without an adapter the frames still end at the manual's gap ([Modbus/USS] §3.3.5, Table
+//! 3-11).
 
 use si_core::{Duration, Instant, Parity, SerialSettings};
 use si_modbus::config::LineConfig;
@@ -156,7 +157,7 @@ fn behind_an_adapter_a_response_ends_by_its_length_not_gap_plus_latency() {
 
 #[test]
 fn without_an_adapter_frames_end_at_the_manuals_gap() {
-    // §3.5, Table 3-11: tZVZ = 4 ms at 9600 and at 19 200 bit/s.
+    // [Modbus/USS] §3.3.5, Table 3-11: tZVZ = 4 ms at 9600 and at 19 200 bit/s.
     for baud in [9_600, 19_200] {
         let (mut sim, m, _) = rig(baud, None);
         let s = line(baud).settings;

@@ -1,5 +1,5 @@
-//! Slave diagnosis of the SI module (et200s-si-2005-window-protocol.md §6.4, Tables 2-30 and
-//! 3-73; et200s-si-3964r-ascii.md §11.4; et200s-si-modbus-uss.md §7.6).
+//! Slave diagnosis of the SI module ([ET200S SI 2005] Tables 2-30, 3-73, Tables 2-30 and
+//! 3-73; [ET200S SI] §2.13, Table 2-29; [Modbus/USS] §3.6.3, Table 3-28).
 
 use proptest::prelude::*;
 use si_module::diag::{

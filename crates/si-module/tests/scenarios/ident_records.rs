@@ -1,4 +1,4 @@
-//! Identification data DS 231 (I&M0) and DS 232 (I&M1), et200s-si-2005-window-protocol.md §9.1
+//! Identification data DS 231 (I&M0) and DS 232 (I&M1), [ET200S SI 2005] §2.9.4, Tables 2-10/2-11
 //! (Tables 2-10 and 2-11).
 
 use proptest::prelude::*;

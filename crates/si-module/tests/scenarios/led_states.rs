@@ -1,4 +1,4 @@
-//! The SF, TX and RX LEDs (et200s-si-2005-window-protocol.md §1.6, §9.2 Table 2-12, §9.3).
+//! The SF, TX and RX LEDs ([ET200S SI 2005] §2.1, §2.9.5, Table 2-12, §9.3).
 
 use proptest::prelude::*;
 use si_core::Instant;

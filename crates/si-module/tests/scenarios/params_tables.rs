@@ -1,8 +1,8 @@
 //! Module parameters per driver: every limit of the manual's parameter tables at and beyond both
 //! ends, defaults, TOML/JSON round trips, and all errors of a file in one run.
 //!
-//! Tables: et200s-si-2005-window-protocol.md §3.2 (Table 2-9, 3964(R)), §4.6 (Table 2-8,
-//! ASCII), §7.9 (Tables 3-18/3-21, Modbus), §8 / et200s-si-modbus-uss.md §6.6 (USS).
+//! Tables: [ET200S SI 2005] §2.9.3 (Table 2-9, 3964(R)), Table 2-8 (ASCII),
+//! Tables 3-18/3-21 (Modbus), §3.8 / [Modbus/USS] §3.7.6, Table 3-31 (USS).
 
 use si_dp_coord::config::FlowControl as WindowFlow;
 use si_dp_coord::frame::WindowSize;
@@ -21,7 +21,7 @@ type Limit = (
 
 const LIMITS: &[Limit] = &[
     // ASCII, Table 2-8 / 2-10.
-    // At 110 bit/s the default ZVZ of 4 ms is below the Table 2-7 minimum (H-22).
+    // At 110 bit/s the default ZVZ of 4 ms is below the Table 2-7 minimum ([derived]).
     (
         "ascii",
         "char_delay_ms = 400",
@@ -348,7 +348,7 @@ fn receive_line_initial_state_depends_on_the_interface() {
     assert!(e.to_string().contains("none, odd, even"), "{e}");
 }
 
-/// et200s-si-modbus-uss.md §3.7, §7.4: a mode other than Normal or Interference suppression is
+/// [Modbus/USS] §3.4.3, §3.5.4, §3.6: a mode other than Normal or Interference suppression is
 /// 0E22H, "driver not ready".
 #[test]
 fn an_invalid_modbus_mode_names_0e22h() {
@@ -589,7 +589,7 @@ fn modbus_auto_v24_carries_its_two_times_to_the_engine_config() {
     assert!(e.to_string().contains("time_rts_off_ms"), "{e}");
 }
 
-/// Issue 21: a quoted number is a type error naming the key and its line, not a baud rate; an
+/// A quoted number is a type error naming the key and its line, not a baud rate; an
 /// integer beyond 64 bits (which TOML itself refuses) names its line too.
 #[test]
 fn type_errors_and_oversized_integers_name_their_line() {

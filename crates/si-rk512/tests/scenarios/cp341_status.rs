@@ -1,4 +1,4 @@
-//! The STATUS codes as the CP 341 reports them (cp341-event-classes.md §1, §2), one scenario
+//! The STATUS codes as the CP 341 reports them ([CP 341 Diag]), one scenario
 //! per code or chain: the requester's own checks (0515, 0516), the responder's refusals
 //! (060A CPU number, 0603 … 0611, 060F for a FETCH against a set coordination flag), the
 //! chained reports (0703 → 051A, 07xx → 0612) through events, the FBs and S_RCV, and R
@@ -79,8 +79,8 @@ fn own_flag_bit_0515_and_cpu_number_0516() {
     }
 }
 
-/// §4.2 byte 10, class 06H row 060A: the passive side serves CPU numbers 0 … 4 and FH, and
-/// refuses 5H … EH with 060A (error number 14H).
+/// [CP 341] §2.2.3, Table 2-1 byte 10, class 06H row 060A: the passive side serves CPU numbers 0 …
+/// 4 and FH, and refuses 5H … EH with 060A (error number 14H).
 #[test]
 fn passive_cpu_number_accepted_0_to_4_and_none_else_060a() {
     let mut s = scripted(301);
@@ -171,8 +171,8 @@ fn s_rcv_shows_060c_for_a_fetch_with_data() {
     assert!(!r.error, "R dropped it");
 }
 
-/// §4.8 read for FETCH (passive.rs docs): a FETCH naming flag M20.3 sets it once served; the
-/// next FETCH with the flag is refused with 060F (32H, the requester reads 0909) until the CPU
+/// [CP 341] §2.2.3 read for FETCH (passive.rs docs): a FETCH naming flag M20.3 sets it once served;
+/// the next FETCH with the flag is refused with 060F (32H, the requester reads 0909) until the CPU
 /// program resets the flag; a FETCH without the flag is not affected.
 #[test]
 fn fetch_against_a_set_coordination_flag_060f_0909() {
@@ -210,8 +210,8 @@ fn fetch_against_a_set_coordination_flag_060f_0909() {
     assert_eq!(fetch(&mut p, km), Ok(Bytes::from_static(&[0, 0])));
 }
 
-/// §2 chained reports through the FB: ERROR with 0703 in one call, ERROR with 051A in the
-/// next.
+/// [CP 341 Diag] chained reports through the FB: ERROR with 0703 in one call, ERROR with 051A in
+/// the next.
 #[test]
 fn send_fb_shows_0703_then_051a() {
     let mut p = pair(305);
@@ -237,9 +237,9 @@ fn send_fb_shows_0703_then_051a() {
     );
 }
 
-/// §2 chained reports on the passive side: our reaction cannot be delivered (the partner's
-/// receive buffer stays full, so it refuses our STX), so the link's 07xx comes first and then
-/// 0612, in the event stream and through S_RCV.
+/// [CP 341 Diag] chained reports on the passive side: our reaction cannot be delivered (the
+/// partner's receive buffer stays full, so it refuses our STX), so the link's 07xx comes first and
+/// then 0612, in the event stream and through S_RCV.
 #[test]
 fn failed_reaction_send_07xx_then_0612() {
     let mut sim = Simulator::new(306);

@@ -1,8 +1,9 @@
-//! RK 512 through USB-serial adapters (issue 16): with default configs, SEND and FETCH of 1024
-//! bytes (8 telegrams each way, §4.5) between a host and a serving PLC, both behind a 16 ms /
-//! 62-byte adapter, at 9600 and 19 200 bit/s, announced or learnt. The station forwards the
+//! RK 512 through USB-serial adapters: with default configs, SEND and FETCH of 1024
+//! bytes (8 telegrams each way, [CP 341] §2.2.3) between a host and a serving PLC, both behind a 16
+//! ms / 62-byte adapter, at 9600 and 19 200 bit/s, announced or learnt. The station forwards the
 //! port's latency to its 3964(R) link, whose ZVZ and QVZ get the allowance; without the
-//! adapter each telegram is still acknowledged the moment its BCC arrives (3964(R) §5.4).
+//! adapter each telegram is still acknowledged the moment its BCC arrives (3964(R), [ET200S SI]
+//! §2.7).
 
 use bytes::Bytes;
 use si_3964r::frame::DLE;
@@ -136,7 +137,7 @@ fn without_an_adapter_each_telegram_is_acknowledged_as_its_bcc_arrives() {
     }
 }
 
-/// A host with the shortest QVZ (10 ms, et200s-si-3964r-ascii.md §5.8) behind `adapter`, the
+/// A host with the shortest QVZ (10 ms, [ET200S SI] §2.7, Table 2-11) behind `adapter`, the
 /// serving PLC on the line directly: the outcome of one SEND.
 fn send_with_short_qvz(adapter: UsbAdapter) -> Result<Bytes, Status> {
     let mut r = rig_with(

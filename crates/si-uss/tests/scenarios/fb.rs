@@ -1,5 +1,5 @@
 //! The FC equivalents S_USSI / S_USST / S_USSR over a simulated bus, called once per "PLC cycle"
-//! in the mandatory order (et200s-si-modbus-uss.md §6.3–§6.8).
+//! in the mandatory order ([Modbus/USS] §3.7.3–§3.7.8).
 
 use si_core::Duration;
 use si_sim::{Simulator, StationId};

@@ -1,5 +1,6 @@
-//! Golden telegrams built by hand from the USS rules (public-facts.md §3, et200s-si-modbus-uss.md
-//! §6.1), with their BCC worked out byte by byte, and anti-tests for the usual mistakes.
+//! Golden telegrams built by hand from the USS rules ([USS spec], [Modbus/USS]
+//! [Modbus/USS] §3.7.1), with their BCC worked out byte by byte, and anti-tests for the usual
+//! mistakes.
 
 use si_uss::frame::{
     self, bcc, decode, decode_from, encode, Adr, DecodeError, NetData, ParamAddress, Pke, Pkw,
@@ -12,8 +13,8 @@ fn build(adr: Adr, net: &[u8]) -> Vec<u8> {
     buf[..n].to_vec()
 }
 
-/// public-facts.md §3 "common fixed length": PKW 4 + PZD 2 words → LGE 0EH, 16 bytes. Slave 0,
-/// read P700 (AK 1, PKE 12BCH), STW 047EH, HSW 0.
+/// [SINAMICS CU240S] p. 178, "common fixed length": PKW 4 + PZD 2 words → LGE 0EH, 16 bytes. Slave
+/// 0, read P700 (AK 1, PKE 12BCH), STW 047EH, HSW 0.
 /// BCC: 02^0E = 0C; ^00 = 0C; ^12 = 1E; ^BC = A2; ^(zeros) = A2; ^04 = A6; ^7E = D8.
 const READ_P700: [u8; 16] = [
     0x02, 0x0E, 0x00, 0x12, 0xBC, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x04, 0x7E, 0x00, 0x00, 0xD8,

@@ -1,6 +1,6 @@
-//! Issue 18, "USS": how parameter jobs end and what the line carries around them, counted on
-//! the simulated line (et200s-si-modbus-uss.md §6.7, §6.8; public-facts.md §3;
-//! uss-parameter-pages.md).
+//! USS: how parameter jobs end and what the line carries around them, counted on
+//! the simulated line ([Modbus/USS] §3.7.7, §3.7.8; [USS spec];
+//! [MM 420] p. 115, [G120 Fieldbus] §5.3).
 
 use super::{bus, master_config, pair, run_to, s9600};
 use si_core::Instant;
@@ -85,7 +85,11 @@ fn an_absent_drive_ends_the_job_with_node_does_not_answer_after_1_plus_wdh_teleg
     assert_eq!(tx.len(), 3, "{tx:02X?}");
     assert!(tx.iter().all(|t| pkw_of(t) == (1, 700, 0)), "{tx:02X?}");
     let s = sim.engine(m).slave(1).unwrap();
-    assert_ne!(s.comm_status & comm_status::PKW_INTERFACE, 0, "§6.7 bit 4");
+    assert_ne!(
+        s.comm_status & comm_status::PKW_INTERFACE,
+        0,
+        "[Modbus/USS] §3.7.7 bit 4"
+    );
 }
 
 #[test]
@@ -160,7 +164,7 @@ fn parameters_above_1999_go_through_the_page_index() {
     let Event::ParameterDone { response, .. } = end else {
         panic!("{end:?}")
     };
-    // uss-parameter-pages.md: 20000–21999 → page index 50H, PNU 1.
+    // [MM 420] p. 115, [G120 Fieldbus] §5.3: 20000–21999 → page index 50H, PNU 1.
     assert_eq!(pkw_of(&sent(&sim)[0]), (2, 1, 0x5000));
     assert_eq!((response.pke.pnu(), response.ind), (1, 0x5000));
     assert_eq!(sim.engine(d).parameter(20001, 0), Some(4242));
@@ -189,13 +193,13 @@ fn every_refused_job_has_a_status() {
     // A PNU the page index cannot address, and a node outside the polling list: 16#1E20.
     assert_eq!(refuse(&mut sim, 1, ParamRequest::read(62_000, 0)), 0x1E20);
     assert_eq!(refuse(&mut sim, 9, ParamRequest::read(700, 0)), 0x1E20);
-    // Task 15 (§6.7 comm status bit 3): 16#1504.
+    // Task 15 ([Modbus/USS] §3.7.7 comm status bit 3): 16#1504.
     let text = ParamRequest {
         task: 15,
         ..ParamRequest::read(700, 0)
     };
     assert_eq!(refuse(&mut sim, 1, text), 0x1504);
-    // A second job while the node's first runs (one job per slave, §6.3): 16#0502.
+    // A second job while the node's first runs (one job per slave, [Modbus/USS] §3.7.3): 16#0502.
     sim.with(m, |m, now| {
         m.request_parameter(now, 1, ParamRequest::read(700, 0))
     })
@@ -300,11 +304,11 @@ fn after_a_write(after: PkwAfterJob) -> (Vec<(u8, u16)>, usize) {
 
 #[test]
 fn after_a_job_the_pkw_area_carries_task_0_or_with_repeat_last_the_job_again() {
-    // public-facts.md §3 (default): AK 0 once the job has ended.
+    // [SINAMICS CU240S] p. 229 (default): AK 0 once the job has ended.
     let (pkw, writes) = after_a_write(PkwAfterJob::TaskZero);
     assert_eq!(pkw, [(2, 1082), (0, 0), (0, 0), (0, 0)]);
     assert_eq!(writes, 1);
-    // et200s-si-modbus-uss.md §6.7 (the module's FCs): the last job again and again; the drive
+    // [Modbus/USS] §3.7.7 (the module's FCs): the last job again and again; the drive
     // answers the repetitions without executing them again.
     let (pkw, writes) = after_a_write(PkwAfterJob::RepeatLast);
     assert_eq!(pkw, [(2, 1082); 4]);

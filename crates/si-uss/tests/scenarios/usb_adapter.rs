@@ -1,9 +1,9 @@
-//! The USS polling cycle through USB-serial adapters (issue 16): with default configs a master
+//! The USS polling cycle through USB-serial adapters: with default configs a master
 //! and a drive, both behind a 16 ms / 62-byte adapter, keep polling (telegrams of 16 bytes,
 //! longer than a 9600 bit/s packet) and finish a parameter job at 9600 and 19 200 bit/s,
 //! announced or learnt: the response timeout (20 ms) and the residual run time get the port's
 //! allowance. Without the adapter the master still starts its next request exactly one start
-//! interval after the response (public-facts.md §3).
+//! interval after the response ([USS spec] §5.1.2).
 
 use si_core::{Duration, Instant};
 use si_sim::{Simulator, StationId, TraceKind, UsbAdapter};

@@ -2,13 +2,13 @@
 //! line), checked into [`Gateway`] with every value in range.
 //!
 //! Ranges and defaults: the response timeout is the module's "Response Time", 50–655 000 ms
-//! (et200s-si-modbus-uss.md §3.8, the range `si_modbus::MasterConfig::validate` checks);
+//! ([Modbus/USS] §3.4.3, Table 3-17, the range `si_modbus::MasterConfig::validate` checks);
 //! retries, the pause between requests, the connection limit and the idle timeout have no
-//! module counterpart (the module has no retries, §3.8) and follow mbusd, the gateway issue 20
-//! measures against (`shared/peers/mbusd/src/conn.h`: `DEFAULT_MAXTRY` 3 tries = 2 retries,
-//! `MAX_MAXTRY` 15, `DEFAULT_RQSTPAUSE` 100 ms, `MAX_RQSTPAUSE` 10 000 ms, `DEFAULT_RESPWAIT`
-//! 500 ms, `DEFAULT_MAXCONN` 32, `MAX_CONNTIMEOUT` 1000 s). mbusd's pause is 1–10 000 ms; we
-//! also allow 0 (no pause).
+//! module counterpart (the module has no retries, [Modbus/USS] §3.4.3, Table 3-17) and follow
+//! mbusd, the gateway si is measured against (mbusd's `src/conn.h`: `DEFAULT_MAXTRY` 3 tries = 2
+//! retries, `MAX_MAXTRY` 15, `DEFAULT_RQSTPAUSE` 100 ms, `MAX_RQSTPAUSE` 10 000 ms,
+//! `DEFAULT_RESPWAIT` 500 ms, `DEFAULT_MAXCONN` 32, `MAX_CONNTIMEOUT` 1000 s). mbusd's pause is
+//! 1–10 000 ms; we also allow 0 (no pause).
 
 use crate::conn::Rs485Mode;
 use serde::Deserialize;
@@ -98,7 +98,7 @@ pub struct LineFile {
     /// Requests waiting for this line at most; one more is refused with exception 06.
     pub queue: Option<usize>,
     /// `modbus-rtu`: the character delay multiplier 1–10, end-of-frame gap = table value × it
-    /// (et200s-si-modbus-uss.md §3.5; default 1).
+    /// ([Modbus/USS] §3.3.5, Table 3-11; default 1).
     pub char_delay_multiplier: Option<u8>,
     /// `modbus-rtu`: `gap` (the module's: an answer ends after the end-of-frame gap, the
     /// default) or `length` (host extension: also at the length its header predicts, once its
@@ -204,7 +204,7 @@ pub struct Line {
 /// How a Modbus RTU line's master recognises the end of an answer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RtuFraming {
-    /// fMUL 1–10 (§3.5).
+    /// fMUL 1–10 ([Modbus/USS] §3.3.5, Table 3-11).
     pub char_delay_multiplier: u8,
     /// At the gap, or also at the predicted length.
     pub frame_end: si_modbus::FrameEnd,

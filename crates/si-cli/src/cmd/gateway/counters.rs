@@ -24,7 +24,7 @@
 //! client's broadcast goes to every line that allows them, and a full queue on one of them
 //! counts busy for the client once per line. CRC
 //! errors count the line's corrupt answers instead, several for one request when its retries
-//! met them too (issue 20: a retry that cures a CRC error must not hide it).
+//! met them too (a retry that cures a CRC error must not hide it).
 //!
 //! Any other function code on the diagnostic unit is answered with exception 01H, registers
 //! past the last block with 02H, and a quantity outside 1–125 with 03H.

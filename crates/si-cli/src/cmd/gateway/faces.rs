@@ -5,7 +5,7 @@
 //! most 255 slaves, and mbusd serves one line per process and TCP port. A line with its own
 //! address is reached there (mbusd's arrangement, one port per line, in one process), and its
 //! unit ids need to be unique only among the lines on that address; lines naming the same
-//! address share it. So 1,000 lines fit in one process (issue 20). Every face answers the
+//! address share it. So 1,000 lines fit in one process. Every face answers the
 //! diagnostic unit; a unit no line of the face serves is 0AH there, even if a line on another
 //! face serves it (the client asked this address).
 //!

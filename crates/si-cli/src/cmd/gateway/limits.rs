@@ -1,4 +1,4 @@
-//! The open-file limit of a gateway with many lines (issue 20: 1,000 lines in one process).
+//! The open-file limit of a gateway with many lines (1,000 lines in one process).
 //!
 //! Every line holds a descriptor (its serial port, or the socket to its device server), every
 //! listening address one, and every client connection one. Most Linux systems start a process

@@ -1,5 +1,5 @@
 //! One Modbus RTU line behind the gateway: its queue, and the task that takes requests from it
-//! one at a time (the master has one job at a time, et200s-si-modbus-uss.md §4.2), sends each
+//! one at a time (the master has one job at a time, [Modbus/USS] §3.4.2), sends each
 //! through si-modbus's RTU master with the line's retries, and hands the answer back; while
 //! the line's port is closed, the task answers 0AH and reopens it ([`super::reopen`]).
 
@@ -23,14 +23,15 @@ pub const ILLEGAL_DATA_ADDRESS: u8 = ExceptionCode::IllegalDataAddress as u8;
 /// Exception 03H: a value (quantity, command, length) out of range.
 pub const ILLEGAL_DATA_VALUE: u8 = ExceptionCode::IllegalDataValue as u8;
 /// Exception 04H: what mbusd answers for a corrupt answer after its retries (`MB_EX_CRC` in
-/// `shared/peers/mbusd/src/modbus.h`); we also use it for any other malformed answer.
+/// mbusd's `src/modbus.h`); we also use it for any other malformed answer.
 pub const SLAVE_DEVICE_FAILURE: u8 = ExceptionCode::SlaveDeviceFailure as u8;
 /// Exception 06H: the line's queue is full.
 pub const SLAVE_DEVICE_BUSY: u8 = ExceptionCode::SlaveDeviceBusy as u8;
 /// Exception 0AH: no line serves the unit, or its line is down (Modbus application protocol
 /// V1.1b3 §7, "gateway path unavailable").
 pub const GATEWAY_PATH_UNAVAILABLE: u8 = 0x0A;
-/// Exception 0BH: the slave did not answer (§7, "gateway target device failed to respond").
+/// Exception 0BH: the slave did not answer (Modbus application protocol V1.1b3 §7, "gateway target
+/// device failed to respond").
 pub const GATEWAY_TARGET_FAILED: u8 = 0x0B;
 
 /// A request waiting for a line, with where its answer goes (`None`: a broadcast).
@@ -135,7 +136,7 @@ async fn serve(
 }
 
 /// While the line is down: every request it takes is answered with 0AH, "gateway path
-/// unavailable" (§7), at once. Every queued line kind (RTU, RK 512) refuses so.
+/// unavailable" ([Modbus/USS] §3.6), at once. Every queued line kind (RTU, RK 512) refuses so.
 pub async fn refuse(index: usize, queue: Arc<LineQueue>, stats: Arc<Mutex<Stats>>) -> Infallible {
     loop {
         let (client, job, depth) = queue.pop().await;
@@ -213,15 +214,16 @@ async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outc
             };
         }
         Err(Error::Failed(s)) => match s.code() {
-            // 0E61H–0E67H: the slave's exception 01H–07H (§3.6), passed through unchanged.
+            // 0E61H–0E67H: the slave's exception 01H–07H ([Modbus/USS] §3.3.6, Table 3-12), passed
+            // through unchanged.
             c @ 0x0E61..=0x0E67 => ((c - 0x0E60) as u8, Outcome::Exception),
             _ if s == status::RESPONSE_TIMEOUT => (GATEWAY_TARGET_FAILED, Outcome::Timeout),
             // Still corrupt after the retries (0E57H) or otherwise bad: 04H; the corrupt
             // answers are in `crc_errors`.
             _ => (SLAVE_DEVICE_FAILURE, Outcome::Other),
         },
-        // The master's own checks (§4.3): a function it does not know or that may not be
-        // broadcast is 01H, a quantity out of range 03H, as a slave would answer.
+        // The master's own checks ([Modbus/USS] §3.4.5–§3.4.16): a function it does not know or
+        // that may not be broadcast is 01H, a quantity out of range 03H, as a slave would answer.
         Err(Error::Refused(e)) => {
             let s = e.status();
             let function =

@@ -19,7 +19,7 @@ pub struct FairQueue<T> {
 impl<T> FairQueue<T> {
     /// An empty queue holding at most `capacity` requests. Room is taken as requests wait,
     /// not up front: a gateway line's job is ~300 bytes, so the default 32 slots reserved per
-    /// line were 9.5 KiB of each idle line's memory (issue 20, BENCHMARKS.md "Lines per
+    /// line were 9.5 KiB of each idle line's memory (BENCHMARKS.md "Lines per
     /// process"); `push` keeps the bound.
     pub fn new(capacity: usize) -> Self {
         FairQueue {

@@ -1,5 +1,5 @@
-//! A plain 3964(R) partner behind the gateway (issue 20, "RK 512 / 3964(R) partners"): the
-//! procedure carries blocks without addresses (et200s-si-3964r-ascii.md §5), so the unit id is
+//! A plain 3964(R) partner behind the gateway ("RK 512 / 3964(R) partners"): the
+//! procedure carries blocks without addresses ([ET200S SI] §2.7), so the unit id is
 //! the partner and its blocks are registers.
 //!
 //! | registers | table | meaning |

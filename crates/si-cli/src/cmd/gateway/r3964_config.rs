@@ -1,6 +1,6 @@
 //! The keys of a `kind = "3964r"` line: the 3964(R) link only (`priority`, default `high`;
 //! `block_check`, default `true`; `qvz_ms`, 10 … 655 350, default 2000 or 550 without block
-//! check: et200s-si-3964r-ascii.md §5.6, Table 2-11), with the port keys every line has. The
+//! check: [ET200S SI] §2.7, Fig. 2-16, Table 2-11), with the port keys every line has. The
 //! link's own bounds (block length 200 bytes, attempts) keep the manual's defaults.
 
 use super::config::{refuse_keys, Device, Kind, Line, LineFile};

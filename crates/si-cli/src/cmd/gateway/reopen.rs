@@ -1,4 +1,4 @@
-//! Lines that die and come back (issue 20): a USB adapter pulled and plugged in again, a device
+//! Lines that die and come back: a USB adapter pulled and plugged in again, a device
 //! server restarted, a pseudo-terminal closed and made again.
 //!
 //! Every line kind is served the same way by [`supervise`]: its link (an RTU master, a USS

@@ -1,4 +1,4 @@
-//! RK 512 partners behind the gateway (issue 20): a Modbus unit id is an S7 CPU reached over
+//! RK 512 partners behind the gateway: a Modbus unit id is an S7 CPU reached over
 //! RK 512, whose memory a Modbus client sees through S_MODB's conversion DB exactly as it
 //! would see that CPU's through S_MODB (registers → DB words, bits → M/Q/I/T/C; the mapping
 //! and its readings in [`si_modbus::simatic`], what RK 512 can address in
@@ -7,7 +7,7 @@
 //! # Active role: the partner's memory
 //!
 //! One job at a time, from the line's fair queue ([`LineQueue`]), as the RK 512 requester has
-//! one job outstanding (cp341-3964r-rk512-ascii.md §4.6):
+//! one job outstanding ([CP 341] §2.2.3, Fig. 2-17):
 //!
 //! - **Read (FC01–04):** the request is first checked against a local mirror of the partner's
 //!   memory ([`SimaticStore`]), so a request S_MODB would refuse costs no job; then each span

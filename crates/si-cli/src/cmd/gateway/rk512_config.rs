@@ -4,16 +4,16 @@
 //!
 //! | key | range | default | source |
 //! |---|---|---|---|
-//! | `role` | `active`, `passive` | `active` | issue 20 |
-//! | `priority` | `high`, `low` | `high` active, `low` passive (the partners must differ) | et200s-si-3964r-ascii.md §5.6 |
-//! | `block_check` | bool | `true` (3964R; `false`: plain 3964, QVZ default 550 ms) | §5, Table 2-11 |
+//! | `role` | `active`, `passive` | `active` | si's own |
+//! | `priority` | `high`, `low` | `high` active, `low` passive (the partners must differ) | [ET200S SI] §2.7, Fig. 2-16 |
+//! | `block_check` | bool | `true` (3964R; `false`: plain 3964, QVZ default 550 ms) | [ET200S SI] §2.7, Table 2-11 |
 //! | `qvz_ms` | 10 … 655 350 | 2000 (550 without block check) | Table 2-11 |
-//! | `response_timeout_ms` | 10 … 655 350 | 10 000: TRES | cp341-3964r-rk512-ascii.md A-12 |
-//! | `cpu` | 1 … 4 | none (byte 10 high nibble FH) | cp341 §4.2, A-13 |
-//! | `dw_unit` | `words`, `bytes` | `words` | public-facts.md §2 |
-//! | `[line.conversion]` | `ConversionDb` fields | Table 3-20's example | et200s-si-modbus-uss.md §5.4 |
-//! | `refresh_ms` | 0 … 3 600 000 | 0 (FETCH on demand) | issue 20 |
-//! | `refresh` | up to 32 areas | none | issue 20 |
+//! | `response_timeout_ms` | 10 … 655 350 | 10 000: TRES | [CP 341] `[derived]` |
+//! | `cpu` | 1 … 4 | none (byte 10 high nibble FH) | [CP 341] §2.2.3, Table 2-1, `[derived]` |
+//! | `dw_unit` | `words`, `bytes` | `words` | [Public RK 512] |
+//! | `[line.conversion]` | `ConversionDb` fields | Table 3-20's example | [Modbus/USS] §3.5.3, Table 3-19 |
+//! | `refresh_ms` | 0 … 3 600 000 | 0 (FETCH on demand) | si's own |
+//! | `refresh` | up to 32 areas | none | si's own |
 //! | `[line.memory]` | `MemorySizes` (passive only) | DB1–DB6 of 1024 bytes, MB0–1255 | `SimaticStore::example` |
 //! | `queue`, `pause_ms` | as for Modbus RTU lines | 32, 0 | |
 //!

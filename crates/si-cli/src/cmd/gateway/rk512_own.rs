@@ -1,4 +1,4 @@
-//! The passive RK 512 role behind the gateway (issue 20): the gateway's station is a passive
+//! The passive RK 512 role behind the gateway: the gateway's station is a passive
 //! partner ([`si_rk512::Station::serving`]): a CP 341 or PLC SENDs into its memory and FETCHes
 //! from it, and Modbus TCP clients read and write that same memory through S_MODB's
 //! conversion DB ([`super::rk512`] has the mapping), answered from memory without line traffic.

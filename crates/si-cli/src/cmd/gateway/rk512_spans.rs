@@ -2,9 +2,9 @@
 //! addresses: one [`Span`] per FETCH or SEND the gateway runs for the request.
 //!
 //! The conversion is si-modbus's ([`ConversionDb::bit_address`],
-//! [`ConversionDb::register_address`]; et200s-si-modbus-uss.md §5.5), so a Modbus client
+//! [`ConversionDb::register_address`]; [Modbus/USS] §3.5.5–§3.5.19), so a Modbus client
 //! sees the RK 512 partner's memory as it would see that CPU's through S_MODB. What RK 512
-//! adds (cp341-3964r-rk512-ascii.md §4.2, Table 2-1):
+//! adds ([CP 341] §2.2.3, Table 2-1):
 //!
 //! - **A register span crossing a 512-register boundary** continues in the next DB (the
 //!   conversion formula per register): one span, so one SEND or FETCH, per DB.
@@ -30,7 +30,7 @@ use si_rk512::config::DwUnit;
 use si_rk512::frame::Address;
 
 /// The bytes of a data block the mirror holds: DBW 0 … 1022, all S_MODB's conversion reaches
-/// ((R & 1FFH) × 2, §5.5).
+/// ((R & 1FFH) × 2, [Modbus/USS] §3.5.5–§3.5.19).
 pub const DB_BYTES: u32 = 1024;
 
 /// One RK 512 job's worth of S7 memory.
@@ -168,7 +168,8 @@ fn register_spans(
 }
 
 /// The registers' `(DB, first byte, bytes)` runs, one per DB: a run crossing a 512-register
-/// boundary continues in the next DB (the conversion applied to each register, §5.5).
+/// boundary continues in the next DB (the conversion applied to each register, [Modbus/USS]
+/// §3.5.5–§3.5.19).
 fn db_runs(
     conversion: &ConversionDb,
     function: u8,

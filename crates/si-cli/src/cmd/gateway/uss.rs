@@ -1,5 +1,5 @@
-//! USS drives behind the gateway (issue 20): each drive is a Modbus unit id, served from the
-//! USS master's cyclic polling (et200s-si-modbus-uss.md §6, public-facts.md §3) rather than
+//! USS drives behind the gateway: each drive is a Modbus unit id, served from the
+//! USS master's cyclic polling ([Modbus/USS] §3.7, [USS spec] §5.1) rather than
 //! forwarded, so a Modbus request never waits for the bus except to start a parameter job.
 //!
 //! The register map of one drive:
@@ -247,7 +247,8 @@ impl UssDrives {
                         _ => 0,
                     };
                     // A refusal has its STATUS too (`RequestError::status`); a job whose port
-                    // closed under it ends as the module ends jobs at a reset (1E0DH, §7.5).
+                    // closed under it ends as the module ends jobs at a reset (1E0DH, [Modbus/USS]
+                    // §3.6).
                     let status = e
                         .status()
                         .unwrap_or(si_core::status::common::ABORTED_BY_RESET)

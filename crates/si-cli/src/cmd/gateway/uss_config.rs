@@ -1,7 +1,7 @@
 //! The keys of a `kind = "uss"` line: its drives and their net-data structure, checked into a
 //! si-uss master configuration.
 //!
-//! Ranges from the USS master (et200s-si-modbus-uss.md §6.6, public-facts.md §3): bus addresses
+//! Ranges from the USS master ([Modbus/USS] §3.7.6, Table 3-31, [USS spec] §4.3): bus addresses
 //! 0–31, 0–16 PZD words, 0/3/4/variable PKW words, WDH 0–32 767 PKW repetitions (`retries`,
 //! default 20), response timeout 1 ms–10 s (default the USS spec's 20 ms). Every other
 //! `si_uss::config::MasterConfig::validate` finding is reported under its own name.
@@ -11,9 +11,9 @@ use si_core::RangeError;
 use si_uss::config::{ConfigError, MasterConfig, PollEntry, RESPONSE_DELAY_MAX, USS_BAUD_RATES};
 use si_uss::frame::PkwWords;
 
-/// Highest USS bus address (public-facts.md §3).
+/// Highest USS bus address ([USS spec] §4.3).
 pub const MAX_ADDRESS: u8 = 31;
-/// Most PZD words of a drive (et200s-si-modbus-uss.md §6.6).
+/// Most PZD words of a drive ([Modbus/USS] §3.7.6, Table 3-31).
 pub const MAX_PZD_WORDS: u8 = 16;
 
 /// A checked USS line: which unit id is which drive, and the master that polls them.

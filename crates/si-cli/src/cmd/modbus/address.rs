@@ -17,7 +17,7 @@ pub fn parse_u16(text: &str) -> Result<u16, CliError> {
         .map_err(CliError::usage)
 }
 
-/// A slave address for `--unit` (0 broadcast, 1–255, et200s-si-modbus-uss.md §3.2).
+/// A slave address for `--unit` (0 broadcast, 1–255, [Modbus/USS] §3.3.2).
 pub fn parse_unit(text: &str) -> Result<u8, String> {
     parse_number(text, u8::MAX.into()).map(|v| v as u8)
 }

@@ -1,7 +1,7 @@
 //! How register values are shown (`si modbus read --format … --word-order …`): pure functions
 //! from the registers on the wire to the values a user reads.
 //!
-//! Modbus moves 16-bit registers, high byte first (et200s-si-modbus-uss.md §4.3, S7 WORDs are
+//! Modbus moves 16-bit registers, high byte first ([Modbus/USS] §3.4.5–§3.4.16, S7 WORDs are
 //! big-endian); what two registers mean together is left to the devices. The common convention
 //! (Modicon, and mbpoll's default) puts the high word first: `--word-order big`. Many devices
 //! send the low word first: `--word-order swapped` (mbpoll's `-B` names the other choice).

@@ -1,5 +1,5 @@
-//! Running a master job once or as a poll, over one or several units, as mbpoll users expect
-//! (issue 19): a poll keeps going after timeouts, exceptions and CRC errors, prints one line
+//! Running a master job once or as a poll, over one or several units, as mbpoll users expect:
+//! a poll keeps going after timeouts, exceptions and CRC errors, prints one line
 //! per outcome, and ends with counters per unit.
 //!
 //! Exit status, one rule however the run ends:
@@ -11,11 +11,11 @@
 //! - one job without `--poll`: its line, or its failure as the error (exit 1); with several
 //!   units, one line per unit and exit 1 if any failed.
 //!
-//! A failure's kind comes from its STATUS (et200s-si-modbus-uss.md): 0830H is the response
-//! timeout (§3.8), 0E61H–0E67H an exception response (§3.6, Table 3-12); everything else on
-//! the line (0E57H CRC, 0831H wrong slave, 0E5xH malformed responses, 08xxH receive errors)
-//! counts as another error. A job the master refuses before sending (0E4xH) or a closed port
-//! ends the run: repeating it could only fail the same way.
+//! A failure's kind comes from its STATUS ([Modbus/USS]): 0830H is the response
+//! timeout ([Modbus/USS] §3.4.3, Table 3-17), 0E61H–0E67H an exception response (§3.3.6, Table
+//! 3-12); everything else on the line (0E57H CRC, 0831H wrong slave, 0E5xH malformed responses,
+//! 08xxH receive errors) counts as another error. A job the master refuses before sending (0E4xH)
+//! or a closed port ends the run: repeating it could only fail the same way.
 
 use super::explain::{failure, status_text};
 use super::report::Report;
@@ -67,9 +67,9 @@ pub struct Counters {
 /// How a failed job is counted.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
-    /// An exception response (§3.6).
+    /// An exception response ([Modbus/USS] §3.3.6, Table 3-12).
     Exception,
-    /// The response timeout (§3.8).
+    /// The response timeout ([Modbus/USS] §3.4.3, Table 3-17).
     Timeout,
     /// Anything else on the line.
     Other,

@@ -1,14 +1,16 @@
-//! What `si modbus serve` serves (issue 19): the address map printed at start-up, and for a
+//! What `si modbus serve` serves: the address map printed at start-up, and for a
 //! refused request the address and why.
 //!
-//! The map follows S_MODB's conversion DB (et200s-si-modbus-uss.md §5.4–§5.6, Tables 3-19/3-20,
+//! The map follows S_MODB's conversion DB ([Modbus/USS] §3.5.3–§3.5.17, Tables 3-19/3-20,
 //! applied by `si_modbus::simatic`) over the simulated CPU's memory sizes: a Modbus range is
 //! listed as far as the memory behind it exists (beyond, the slave answers exception 04, area
-//! overrun). Registers are listed per DB: DB = base + (R >> 9), 512 registers a DB (§5.5).
+//! overrun). Registers are listed per DB: DB = base + (R >> 9), 512 registers a DB ([Modbus/USS]
+//! §3.5.5–§3.5.19).
 //!
 //! [`Explaining`] wraps the slave's store: when the store refuses a request, it prints the
 //! request's address and count and, from the map, why (outside every range the slave serves,
-//! or a write outside the write limits of §5.6) before the engine answers the exception.
+//! or a write outside the write limits of [Modbus/USS] §3.5.17, §3.5.20) before the engine answers
+//! the exception.
 
 use crate::output::Output;
 use serde_json::json;
@@ -70,7 +72,7 @@ pub struct ServeMap {
     ranges: Vec<Range>,
 }
 
-/// The write limit of a byte area (§5.6: MAX = 0 disables writes).
+/// The write limit of a byte area ([Modbus/USS] §3.5.17, §3.5.20: MAX = 0 disables writes).
 fn byte_writes(area: Area, min: u16, max: u16) -> Option<String> {
     Some(if max == 0 {
         format!("no writes ({area}_Max = 0)")

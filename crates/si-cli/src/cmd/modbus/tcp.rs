@@ -1,13 +1,13 @@
 //! `--modbus-tcp HOST:PORT`: the master's jobs (`read`, `write`, `diag`, …) to a Modbus TCP
 //! server instead of an RTU slave, with the same output, formats, `--poll`, counters and
-//! STATUS texts (issue 20). Each `--unit` travels as the MBAP unit id; the PDU is the RTU
+//! STATUS texts. Each `--unit` travels as the MBAP unit id; the PDU is the RTU
 //! one ([`si_modbus::tokio::tcp::Client`]).
 //!
 //! What is the module's and what is not: a job is checked before sending as the module's
-//! master checks it (§4.3, 0E43H–0E46H); a failure the module has a STATUS for reads as on a
-//! serial line (exceptions 01–07 as 0E61H–0E67H, no answer within `--timeout` as 0830H, an
-//! answer for another function as 0E51H; see [`Error::status`]). Gateway exceptions 0AH and
-//! 0BH have no STATUS: they are counted as exceptions and shown with the exception's name.
+//! master checks it ([Modbus/USS] §3.4.5–§3.4.16, 0E43H–0E46H); a failure the module has a STATUS
+//! for reads as on a serial line (exceptions 01–07 as 0E61H–0E67H, no answer within `--timeout` as
+//! 0830H, an answer for another function as 0E51H; see [`Error::status`]). Gateway exceptions 0AH
+//! and 0BH have no STATUS: they are counted as exceptions and shown with the exception's name.
 //! Reading chosen for unit 0: Modbus TCP has no broadcast (the MBAP unit id 0 addresses the
 //! server itself), so a job to unit 0 waits for its answer like any other.
 
@@ -119,7 +119,8 @@ impl Line for TcpLine {
         request: &Request<'_>,
         report: &Report<'_>,
     ) -> Result<(), JobError> {
-        // The module's checks on counts (§4.3); unit 0 is not a broadcast on TCP (see above).
+        // The module's checks on counts ([Modbus/USS] §3.4.5–§3.4.16); unit 0 is not a broadcast on
+        // TCP (see above).
         Master::check_job(unit.max(1), request)
             .map_err(|e| JobError::Fatal(CliError::new(status_text(e.status()))))?;
         let client = match &mut self.client {

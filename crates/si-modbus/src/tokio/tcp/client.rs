@@ -10,7 +10,7 @@ use crate::mbap::{Decoder, HeaderError, TcpAdu};
 
 /// How long [`Client::request`] waits for an answer unless told otherwise
 /// ([`Client::with_timeout`]): the module's default Modbus "Response Time", 2 s
-/// (et200s-si-modbus-uss.md §3.8, [`MasterConfig`](crate::MasterConfig)'s default; a test
+/// ([Modbus/USS] §3.4.3, Table 3-17, [`MasterConfig`](crate::MasterConfig)'s default; a test
 /// keeps the two equal).
 pub const DEFAULT_TIMEOUT: Duration = Duration::from_secs(2);
 
@@ -50,7 +50,8 @@ pub enum Error {
         found: u8,
     },
     /// The answer has the request's function code but does not fit the request (a wrong
-    /// byte count, length or echo), with the RTU master's STATUS for it (0E52H–0E56H, §4.4).
+    /// byte count, length or echo), with the RTU master's STATUS for it (0E52H–0E56H, [Modbus/USS]
+    /// §3.4.5–§3.4.16).
     #[error("the answer does not fit the request: {0}")]
     Response(si_core::Status),
     /// The server answered with an exception, passed as it is.
@@ -85,9 +86,9 @@ impl Error {
     }
 
     /// The module's master STATUS for the failures it has one for, so a TCP job reports like
-    /// an RTU job: exceptions 01–07 as 0E61H–0E67H (§3.6), no answer as 0830H (§4.4), a
-    /// response for another function as 0E51H. Connection failures, header and PDU errors and
-    /// gateway exceptions (0AH, 0BH) have none.
+    /// an RTU job: exceptions 01–07 as 0E61H–0E67H ([Modbus/USS] §3.3.6, Table 3-12), no answer as
+    /// 0830H (§3.4.5–§3.4.16), a response for another function as 0E51H. Connection failures,
+    /// header and PDU errors and gateway exceptions (0AH, 0BH) have none.
     pub fn status(&self) -> Option<si_core::Status> {
         match self {
             Error::Exception { code, .. } => {

@@ -16,13 +16,13 @@ use crate::serve::{self, Outcome, ResponseData};
 use crate::slave::Store;
 
 /// Connections served at once unless configured otherwise: mbusd's default (its `-C maxconn`,
-/// `DEFAULT_MAXCONN` 32 in `shared/peers/mbusd/src/conn.h`), the gateway issue 20 measures
+/// `DEFAULT_MAXCONN` 32 in mbusd's `src/conn.h`), the gateway si is measured
 /// against.
 pub const DEFAULT_MAX_CONNECTIONS: usize = 32;
 
 /// How long a connection may stay silent before the server closes it, unless configured
 /// otherwise: mbusd's default (`-T`, `DEFAULT_CONNTIMEOUT` 60 s in
-/// `shared/peers/mbusd/src/conn.h`), so idle clients cannot hold every slot for ever.
+/// mbusd's `src/conn.h`), so idle clients cannot hold every slot for ever.
 pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(60);
 
 /// The pause after a failed accept (no file descriptors left) before the next.
@@ -81,12 +81,12 @@ impl std::fmt::Debug for Units {
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ServerConfig {
     /// Connections served at once; one more is accepted and closed at once, as mbusd does
-    /// (`conn_open` in `shared/peers/mbusd/src/conn.c`), so a client sees a clear refusal
+    /// (`conn_open` in mbusd's `src/conn.c`), so a client sees a clear refusal
     /// instead of a hang.
     pub max_connections: usize,
     /// The unit ids answered. A request for any other unit id is not answered, as a serial
-    /// slave does not answer another address (et200s-si-modbus-uss.md §3.2); a gateway that
-    /// should answer exception 0AH for it is issue 20's `si gateway`, not this server.
+    /// slave does not answer another address ([Modbus/USS] §3.3.2); a gateway that
+    /// should answer exception 0AH for it is `si gateway`, not this server.
     pub units: Units,
     /// A connection that sends nothing for this long is closed (`None`: never).
     pub idle_timeout: Option<Duration>,
