@@ -10,11 +10,11 @@
 //!   jobs (job codes 3, 4 and 5) run over several DP cycles, so DONE or ERROR comes in a later
 //!   call.
 //!
-//! The call semantics are the manual's (`[ET200S SI]` §2.10, the edge and validity summary):
-//! REQ is edge-triggered and starts at most one job per FB at a time; DONE / ERROR / STATUS are
-//! valid for exactly the call that reports them; R forgets the running job, cancels it on the
-//! port and reports ERROR with 1E0DH in that call ("DONE and ERROR/STATUS are also output on
-//! RESET"); while R is TRUE no job starts.
+//! The call semantics are the manual's (`[ET200S SI]` §2.10): REQ is edge-triggered and starts
+//! at most one job per FB at a time; DONE / ERROR / STATUS are valid for exactly the call that
+//! reports them. R forgets the running job, cancels it on the port and reports ERROR with 1E0DH
+//! in that call, as S_SEND does ("DONE and ERROR/STATUS are also updated when the FB is reset",
+//! Table 2-13; read for the whole family `[derived]`); while R is TRUE no job starts.
 //!
 //! The TIME inputs of S_XON, S_RTS and S_V24 become the blocks' counts of 10 ms through
 //! [`ten_ms_count`]; a time outside the FB's range or off the 10 ms grid gives ERROR with 1E20H
@@ -430,7 +430,10 @@ mod tests {
         let out = vset.call(&mut port, true, true, true, false);
         assert_eq!(out, Done::failed(common::ABORTED_BY_RESET));
         assert_eq!(port.cancelled.len(), 1);
-        assert_eq!(vset.call(&mut port, true, true, true, false), Done::default());
+        assert_eq!(
+            vset.call(&mut port, true, true, true, false),
+            Done::default()
+        );
         // After R the held REQ counts as a new edge.
         vset.call(&mut port, true, false, true, false);
         assert_eq!(port.jobs.len(), 2);
@@ -444,7 +447,13 @@ mod tests {
             SXon::default().call(&mut port, true, false, 0x11, 0x13, ms(10)),
             SRts::default().call(&mut port, true, false, ms(655_360)),
             SV24::default().call(&mut port, true, false, ms(5), ms(10)),
-            SV24::default().call(&mut port, true, false, ms(10), std::time::Duration::from_secs(700)),
+            SV24::default().call(
+                &mut port,
+                true,
+                false,
+                ms(10),
+                std::time::Duration::from_secs(700),
+            ),
         ];
         for out in bad {
             assert_eq!(out, Done::failed(common::PARAMETER_OUT_OF_RANGE));

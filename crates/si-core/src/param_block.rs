@@ -57,7 +57,7 @@ pub fn ten_ms_count(
     let step = TEN_MS.as_micros();
     let count = u16::try_from(us / step).ok();
     match count {
-        Some(count) if time >= min && time <= MAX_TIME && us % step == 0 => Ok(count),
+        Some(count) if time >= min && time <= MAX_TIME && us.is_multiple_of(step) => Ok(count),
         _ => Err(RangeError::new(
             parameter,
             format!(

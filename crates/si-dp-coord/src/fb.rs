@@ -33,7 +33,7 @@ use si_core::job::{JobPort, NotStarted, Reception};
 use si_core::{Instant, ModemSignals, Status};
 
 pub use si_core::fb::{Done, Received, SRcv, SSend};
-pub use si_core::fb_v24::{SRts, SV24, SVset, SVstat, SXon, V24State};
+pub use si_core::fb_v24::{SRts, SVset, SVstat, SXon, V24State, SV24};
 
 impl JobPort for Host {
     type Job = Job;

@@ -306,11 +306,9 @@ fn s8_4_s_xon_changes_the_characters_and_is_0550_under_other_flow_control() {
     );
 
     let mut b = Bench::new(config(FlowControl::None));
-    let out = b
-        .sim
-        .with(b.link, |l, _| {
-            SXon::default().call(l, true, false, 0x01, 0x02, wait)
-        });
+    let out = b.sim.with(b.link, |l, _| {
+        SXon::default().call(l, true, false, 0x01, 0x02, wait)
+    });
     assert_eq!(
         (out.error, out.status),
         (true, status::FLOW_PARAMETERS_MISMATCH)
@@ -571,9 +569,9 @@ fn s8_6_s_v24_sets_the_rts_off_time() {
         data_wait_time_ms: 20,
     };
     let (rts_off, data_wait) = (Duration::from_millis(50), Duration::from_millis(20));
-    let out = b
-        .sim
-        .with(b.link, |l, _| s_v24.call(l, true, false, rts_off, data_wait));
+    let out = b.sim.with(b.link, |l, _| {
+        s_v24.call(l, true, false, rts_off, data_wait)
+    });
     assert!(out.done && !out.error);
     let job = b
         .sim

@@ -3,8 +3,8 @@
 //! ASCII driver inside a simulated module through the coordination window, and both see the same
 //! results (`[ET200S SI]` §2.10; `[ET200S SI 2005]` §2.12.4–§2.12.6).
 
-use si_core::fb_v24::{SRts, SV24, SVset, SVstat, SXon, V24Port};
 use si_core::fb::Done;
+use si_core::fb_v24::{SRts, SVset, SVstat, SXon, V24Port, SV24};
 use si_core::sim::{Simulator, StationId};
 use si_core::{Duration, ModemSignals, Status};
 use si_dp_coord::engines;
