@@ -23,7 +23,8 @@ fuzz_target!(|data: &[u8]| {
     let max = si_core::ModulePreset::ALL[usize::from(head >> 6) % 3].max_frame_len();
     let _ = split(end, usize::from(max), bytes).count();
     if let Ok(block) = ParamBlock::decode(bytes) {
-        let encoded = block.encode();
-        assert_eq!(ParamBlock::decode(&encoded[..block.len()]), Ok(block));
+        let (encoded, len) = block.encode();
+        assert_eq!(ParamBlock::decode(&encoded[..len]), Ok(block));
+        let _ = block.check();
     }
 });

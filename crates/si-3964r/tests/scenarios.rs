@@ -485,7 +485,7 @@ fn s5_5_s_rcv_shows_the_first_error_and_then_0809_in_two_calls() {
     *bad.last_mut().unwrap() ^= 0x01;
     partner_sends(&mut sim, p, &bad);
     settle(&mut sim);
-    // S_RCV called only now, after both codes were raised (A-19: both are to be seen).
+    // S_RCV called only now, after both codes were raised (both are to be seen, the reading in si-3964r link.rs).
     let mut s_rcv = SRcv::default();
     let mut db = [0u8; 16];
     let mut shown = Vec::new();

@@ -1,6 +1,8 @@
 //! The ASCII driver's function blocks with S7 call semantics ([ET200S SI] §2.10):
 //! S_SEND and S_RCV are si-core's, run on the [`Link`] as a [`JobPort`]; S_VSTAT, S_VSET, S_XON,
-//! S_RTS and S_V24 are this driver's own, called once per PLC-style cycle. REQ is
+//! S_RTS and S_V24 are si-core's too ([`si_core::fb_v24`]), run on the link as a [`V24Port`],
+//! the same code that drives them through the coordination window. Each is called once per
+//! PLC-style cycle. REQ is
 //! edge-triggered, R resets, EN_R is a level, and DONE / NDR / ERROR / STATUS / LEN are valid
 //! for exactly the call that reports them ([ET200S SI] §2.10 `[derived]`).
 //!
@@ -21,30 +23,24 @@
 //! ```
 //!
 //! Readings: R on S_SEND with a job in progress ends it with ERROR and 1E0DH ("job aborted by …
-//! reset"), which is how [ET200S SI] §2.10, Table 2-13's "DONE and ERROR/STATUS are also updated
-//! when the FB is reset" is read; data already handed to the link are still sent ([ET200S SI]
-//! §2.10, Table 2-13). S_SEND waits while the link runs another caller's job and hands its frame
-//! over once the link is free. A frame longer than S_RCV's destination area gives ERROR with 1E20H
-//! and stays in the buffer. S_VSET and the parameter FBs complete in the call that sees the REQ
-//! edge, since the link applies them at once.
+//! reset"), which is how [ET200S SI] §2.10, Table 2-13's "DONE and ERROR/STATUS are also updated when the FB is reset" is
+//! read; data already handed to the link are still sent ([ET200S SI]
+//! §2.10, Table 2-13). S_SEND waits while the link
+//! runs another caller's job and hands its frame over once the link is free. A frame longer
+//! than S_RCV's destination area gives ERROR with 1E20H and stays in the buffer. S_VSTAT, S_VSET and
+//! the parameter FBs complete in the call that sees the REQ edge, since the link applies them at
+//! once; their TIME inputs go through the parameter blocks' counts of 10 ms, so a time off the
+//! 10 ms grid is 1E20H.
 
-use crate::config::{AutoV24, RtsCts, XonXoff};
-use crate::link::{Link, Refused, SendError};
+use crate::link::{Link, SendError};
 use crate::status;
 use bytes::Bytes;
-use si_core::fb::RisingEdge;
+use si_core::fb_v24::{V24Job, V24Port, V24Start};
 use si_core::job::{JobId, JobPort, NotStarted, Reception};
-use si_core::{Instant, SignalUpdate, Status};
+use si_core::{Instant, ModemSignals, SignalUpdate, Status};
 
 pub use si_core::fb::{Done, Received, SRcv, SSend};
-
-/// DONE or ERROR for a job the link applied (or refused) at once.
-fn done_from(r: Result<(), Refused>) -> Done {
-    match r {
-        Ok(()) => Done::ok(),
-        Err(e) => Done::failed(e.status),
-    }
-}
+pub use si_core::fb_v24::{SRts, SVset, SVstat, SXon, V24State, SV24};
 
 impl JobPort for Link {
     type Job = Bytes;
@@ -92,110 +88,32 @@ impl JobPort for Link {
     }
 }
 
-/// The outputs of S_VSTAT.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct V24State {
-    /// DONE / ERROR / STATUS.
-    pub result: Done,
-    /// DTR (module output).
-    pub dtr_out: bool,
-    /// DSR (input).
-    pub dsr_in: bool,
-    /// RTS (module output).
-    pub rts_out: bool,
-    /// CTS (input).
-    pub cts_in: bool,
-    /// DCD (input).
-    pub dcd_in: bool,
-}
-
-/// FB4 S_VSTAT: read the RS-232C signals ([ET200S SI] §2.10, Table 2-18). The states refresh on
-/// every call; a REQ edge gives DONE.
-#[derive(Debug, Default)]
-pub struct SVstat {
-    req: RisingEdge,
-}
-
-impl SVstat {
-    /// One call.
-    pub fn call(&mut self, link: &Link, req: bool, r: bool) -> V24State {
-        if r {
-            self.req.reset();
-        }
-        let s = link.signals();
-        let result = if !r && self.req.update(req) {
-            Done::ok()
-        } else {
-            Done::default()
+impl V24Port for Link {
+    /// The link applies every V.24 job at once, so DONE or ERROR comes in the call with the
+    /// REQ edge: S_VSTAT reads [`Link::signals`], S_VSET is [`Link::set_signals`] (0502H where
+    /// [ET200S SI] §2.8 forbids it), S_XON / S_RTS / S_V24 are [`Link::apply_param_block`] (0550H under
+    /// another flow control, 1E20H out of range).
+    fn start_v24(&mut self, job: V24Job) -> V24Start {
+        let applied = match job {
+            V24Job::ReadSignals => return V24Start::Done(Ok(Some(self.signals()))),
+            V24Job::WriteSignals { rts, dtr } => self.set_signals(SignalUpdate {
+                rts: Some(rts),
+                dtr: Some(dtr),
+            }),
+            V24Job::Parameters(block) => self.apply_param_block(block),
         };
-        V24State {
-            result,
-            dtr_out: s.dtr,
-            dsr_in: s.dsr,
-            rts_out: s.rts,
-            cts_in: s.cts,
-            dcd_in: s.dcd,
-        }
+        V24Start::Done(applied.map(|()| None).map_err(|e| e.status))
+    }
+
+    /// No job of the link outlives its start.
+    fn v24_outcome(&mut self, _id: JobId) -> Option<Result<Option<ModemSignals>, Status>> {
+        None
+    }
+
+    fn cancel_v24(&mut self, _id: JobId) {}
+
+    /// The link sees its signals at all times: S_VSTAT refreshes them on every call ([ET200S SI] §2.10, Table 2-18).
+    fn signals_now(&self) -> Option<ModemSignals> {
+        Some(self.signals())
     }
 }
-
-/// FB5 S_VSET: set RTS and DTR ([ET200S SI] §2.10, Table 2-19). ERROR with 0502H where §2.8 forbids
-/// it.
-#[derive(Debug, Default)]
-pub struct SVset {
-    req: RisingEdge,
-}
-
-impl SVset {
-    /// One call.
-    pub fn call(&mut self, link: &mut Link, req: bool, r: bool, rts: bool, dtr: bool) -> Done {
-        if r {
-            self.req.reset();
-            return Done::default();
-        }
-        if !self.req.update(req) {
-            return Done::default();
-        }
-        done_from(link.set_signals(SignalUpdate {
-            rts: Some(rts),
-            dtr: Some(dtr),
-        }))
-    }
-}
-
-macro_rules! param_fb {
-    ($(#[$m:meta])* $name:ident, $params:ty, $setter:ident) => {
-        $(#[$m])*
-        #[derive(Debug, Default)]
-        pub struct $name {
-            req: RisingEdge,
-        }
-
-        impl $name {
-            /// One call; 0550H if the configured flow control differs, 1E20H if out of range.
-            pub fn call(&mut self, link: &mut Link, req: bool, r: bool, params: $params) -> Done {
-                if r {
-                    self.req.reset();
-                    return Done::default();
-                }
-                if !self.req.update(req) {
-                    return Done::default();
-                }
-                done_from(link.$setter(params))
-            }
-        }
-    };
-}
-
-param_fb!(
-    /// FB6 S_XON: XON/XOFF characters and wait time ([ET200S SI] §2.10, Table 2-15).
-    SXon, XonXoff, set_xon_xoff
-);
-param_fb!(
-    /// FB7 S_RTS: wait time for CTS ([ET200S SI] §2.10, Table 2-16).
-    SRts, RtsCts, set_rts_cts
-);
-param_fb!(
-    /// FB8 S_V24: RTS-off time and data output wait time ([ET200S SI] §2.10, Table 2-17).
-    SV24, AutoV24, set_auto_v24
-);

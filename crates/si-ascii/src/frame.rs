@@ -10,7 +10,7 @@
 //! Surplus bytes after an end criterion start the next frame ([CP 341] §2.2.4: "merged with the
 //! next frame").
 
-use crate::config::{AutoV24, EndCriterion, RtsCts, XonXoff};
+use crate::config::EndCriterion;
 
 /// What one more byte means for the frame in progress.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -142,131 +142,10 @@ impl<'a> Iterator for Split<'a> {
     }
 }
 
-/// A flow-control parameter block as a non-S7 DP master sends it with job code 5
-/// ([ET200S SI] §2.12, Table 2-26): block number, big-endian length of what
-/// follows, then the parameters; times are big-endian counts of 10 ms (`[derived]`).
-///
-/// ```
-/// use si_ascii::frame::ParamBlock;
-/// use si_ascii::XonXoff;
-///
-/// let block = ParamBlock::XonXoff(XonXoff::default());
-/// assert_eq!(block.encode(), [0x20, 0x00, 0x04, 0x11, 0x13, 0x00, 0xC8]);
-/// assert_eq!(ParamBlock::decode(&block.encode()), Ok(block));
-/// ```
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ParamBlock {
-    /// Block 20H: XON, XOFF, wait time for XON (S_XON).
-    XonXoff(XonXoff),
-    /// Block 21H: wait time for CTS = ON (S_RTS).
-    RtsCts(RtsCts),
-    /// Block 22H: RTS-off time, data output wait time (S_V24).
-    AutoV24(AutoV24),
-}
-
-/// Why a parameter block could not be read.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum ParamBlockError {
-    /// Fewer bytes than the block needs.
-    #[error("parameter block too short: {0} bytes")]
-    TooShort(usize),
-    /// A block number other than 20H, 21H, 22H.
-    #[error("unknown parameter block number {0:02X}H: 20H, 21H or 22H")]
-    UnknownBlock(u8),
-    /// The length field does not match the block (0004H, 0002H, 0004H).
-    #[error("parameter block {block:02X}H has length {length:04X}H, expected {expected:04X}H")]
-    Length {
-        /// Block number.
-        block: u8,
-        /// Length found.
-        length: u16,
-        /// Length the block has.
-        expected: u16,
-    },
-}
-
-fn ms_to_count(ms: u32) -> [u8; 2] {
-    u16::try_from(ms / 10).unwrap_or(u16::MAX).to_be_bytes()
-}
-
-fn count_to_ms(hi: u8, lo: u8) -> u32 {
-    u32::from(u16::from_be_bytes([hi, lo])) * 10
-}
-
-impl ParamBlock {
-    /// The block's bytes: 7 for 20H and 22H, 5 for 21H (returned as 7 with the valid length
-    /// in [`ParamBlock::len`]; unused bytes are zero).
-    pub fn encode(&self) -> [u8; 7] {
-        match *self {
-            ParamBlock::XonXoff(p) => {
-                let [h, l] = ms_to_count(p.wait_for_xon_ms);
-                [0x20, 0x00, 0x04, p.xon, p.xoff, h, l]
-            }
-            ParamBlock::RtsCts(p) => {
-                let [h, l] = ms_to_count(p.wait_for_cts_ms);
-                [0x21, 0x00, 0x02, h, l, 0, 0]
-            }
-            ParamBlock::AutoV24(p) => {
-                let [a, b] = ms_to_count(p.time_rts_off_ms);
-                let [c, d] = ms_to_count(p.data_wait_time_ms);
-                [0x22, 0x00, 0x04, a, b, c, d]
-            }
-        }
-    }
-
-    /// Bytes of the encoded block (7 or 5).
-    pub fn len(&self) -> usize {
-        match self {
-            ParamBlock::RtsCts(_) => 5,
-            _ => 7,
-        }
-    }
-
-    /// Never empty; here for clippy's `len` convention.
-    pub fn is_empty(&self) -> bool {
-        false
-    }
-
-    /// Read a block from the start of `bytes` (trailing bytes, such as segment padding, are
-    /// ignored). Ranges are checked where the block is applied ([`crate::Link::set_xon_xoff`]
-    /// and friends), which reports 1E20H.
-    pub fn decode(bytes: &[u8]) -> Result<ParamBlock, ParamBlockError> {
-        let [block, lh, ll, ..] = *bytes else {
-            return Err(ParamBlockError::TooShort(bytes.len()));
-        };
-        let length = u16::from_be_bytes([lh, ll]);
-        let expected = match block {
-            0x20 | 0x22 => 4,
-            0x21 => 2,
-            other => return Err(ParamBlockError::UnknownBlock(other)),
-        };
-        if length != expected {
-            return Err(ParamBlockError::Length {
-                block,
-                length,
-                expected,
-            });
-        }
-        let body = bytes
-            .get(3..3 + usize::from(expected))
-            .ok_or(ParamBlockError::TooShort(bytes.len()))?;
-        Ok(match (block, body) {
-            (0x20, &[xon, xoff, h, l]) => ParamBlock::XonXoff(XonXoff {
-                xon,
-                xoff,
-                wait_for_xon_ms: count_to_ms(h, l),
-            }),
-            (0x21, &[h, l]) => ParamBlock::RtsCts(RtsCts {
-                wait_for_cts_ms: count_to_ms(h, l),
-            }),
-            (_, &[a, b, c, d]) => ParamBlock::AutoV24(AutoV24 {
-                time_rts_off_ms: count_to_ms(a, b),
-                data_wait_time_ms: count_to_ms(c, d),
-            }),
-            _ => return Err(ParamBlockError::TooShort(bytes.len())),
-        })
-    }
-}
+/// The flow-control parameter blocks 20H–22H a non-S7 DP master sends with job code 5
+/// (`[ET200S SI]` §2.12, Tables 2-26 and 2-27): one codec for the link and the coordination
+/// window, in si-core; [`Link::apply_param_block`](crate::Link::apply_param_block) applies one.
+pub use si_core::param_block::{ParamBlock, ParamError};
 
 #[cfg(test)]
 mod tests {
@@ -322,57 +201,6 @@ mod tests {
     }
 
     #[test]
-    fn table_2_27_xon_xoff_job_stream_decodes() {
-        // The three 3-byte segments of Table 2-27: 20 00 04 | 0B 0D 00 | C8. The example prints
-        // DC1/DC3 as 0BH/0DH (decimal 11/13, [derived]); the block carries whatever bytes it holds.
-        let stream = [0x20, 0x00, 0x04, 0x0B, 0x0D, 0x00, 0xC8, 0xEE, 0xEE];
-        assert_eq!(
-            ParamBlock::decode(&stream),
-            Ok(ParamBlock::XonXoff(XonXoff {
-                xon: 0x0B,
-                xoff: 0x0D,
-                wait_for_xon_ms: 2_000
-            }))
-        );
-    }
-
-    #[test]
-    fn table_2_26_blocks_round_trip_with_defaults() {
-        for block in [
-            ParamBlock::XonXoff(XonXoff::default()),
-            ParamBlock::RtsCts(RtsCts::default()),
-            ParamBlock::AutoV24(AutoV24::default()),
-        ] {
-            let bytes = block.encode();
-            assert_eq!(ParamBlock::decode(&bytes[..block.len()]), Ok(block));
-        }
-        assert_eq!(
-            ParamBlock::RtsCts(RtsCts::default()).encode()[..5],
-            [0x21, 0x00, 0x02, 0x00, 0xC8]
-        );
-        assert_eq!(
-            ParamBlock::AutoV24(AutoV24::default()).encode(),
-            [0x22, 0x00, 0x04, 0x00, 0x01, 0x00, 0x01]
-        );
-        assert_eq!(
-            ParamBlock::decode(&[0x23, 0, 4]),
-            Err(ParamBlockError::UnknownBlock(0x23))
-        );
-        assert_eq!(
-            ParamBlock::decode(&[0x21, 0, 4, 0, 0, 0, 0]),
-            Err(ParamBlockError::Length {
-                block: 0x21,
-                length: 4,
-                expected: 2
-            })
-        );
-        assert_eq!(
-            ParamBlock::decode(&[0x20, 0, 4, 1]),
-            Err(ParamBlockError::TooShort(4))
-        );
-    }
-
-    #[test]
     fn the_byte_after_the_maximum_is_too_long() {
         for max in [MAX_FRAME_LEN, 224, 1024] {
             let mut c = Cutter::new(EndCriterion::CharDelay, max);
@@ -393,11 +221,6 @@ mod tests {
             for (f, complete) in &parts {
                 if *complete { prop_assert_eq!(f.len(), usize::from(len)); }
             }
-        }
-
-        #[test]
-        fn param_block_decode_never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..12)) {
-            let _ = ParamBlock::decode(&bytes);
         }
 
         #[test]

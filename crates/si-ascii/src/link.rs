@@ -82,6 +82,7 @@ use crate::status;
 use bytes::Bytes;
 use si_core::delivery::Delivery;
 use si_core::echo::EchoFilter;
+use si_core::param_block::{ten_ms_time, ParamBlock};
 use si_core::v24::{AutoV24 as AutoV24Sequence, Step};
 use si_core::{
     Duration, Engine, FramePool, Instant, LineError, ModemSignals, Output, SignalUpdate, Status,
@@ -937,15 +938,32 @@ impl Link {
         Ok(())
     }
 
-    /// Apply a Table 2-26 parameter block as job code 5 carries it ([ET200S SI] §2.12, Table 2-26):
-    /// 0550H when it does not match the configured flow control, 1E20H when a value is out of
-    /// range.
-    pub fn apply_param_block(&mut self, block: crate::frame::ParamBlock) -> Result<(), Refused> {
-        use crate::frame::ParamBlock;
+    /// Apply a Table 2-26 parameter block as job code 5 carries it ([ET200S SI] §2.12,
+    /// Table 2-26), its counts of 10 ms
+    /// converted by si-core's one conversion: 0550H when it does not match the configured flow
+    /// control, 1E20H when a value is out of range.
+    pub fn apply_param_block(&mut self, block: ParamBlock) -> Result<(), Refused> {
+        let ms = |count: u16| u32::try_from(ten_ms_time(count).as_millis()).unwrap_or(u32::MAX);
         match block {
-            ParamBlock::XonXoff(p) => self.set_xon_xoff(p),
-            ParamBlock::RtsCts(p) => self.set_rts_cts(p),
-            ParamBlock::AutoV24(p) => self.set_auto_v24(p),
+            ParamBlock::XonXoff {
+                xon,
+                xoff,
+                xon_wait,
+            } => self.set_xon_xoff(XonXoff {
+                xon,
+                xoff,
+                wait_for_xon_ms: ms(xon_wait),
+            }),
+            ParamBlock::RtsCts { cts_wait } => self.set_rts_cts(RtsCts {
+                wait_for_cts_ms: ms(cts_wait),
+            }),
+            ParamBlock::AutoV24 {
+                rts_off_delay,
+                cts_wait,
+            } => self.set_auto_v24(AutoV24 {
+                time_rts_off_ms: ms(rts_off_delay),
+                data_wait_time_ms: ms(cts_wait),
+            }),
         }
     }
 

@@ -13,6 +13,10 @@
 //! - [`job`]: the job layer: [`JobId`], the [`JobPort`] trait every engine with jobs implements,
 //!   and [`job::Channel`] (one S_SEND and one S_RCV);
 //! - [`fb`]: edge detection, one-call pulses, and S_SEND / S_RCV written once over [`JobPort`];
+//! - [`fb_v24`]: S_VSTAT, S_VSET, S_XON, S_RTS and S_V24 written once over a [`fb_v24::V24Port`]
+//!   (the ASCII link and the coordination window's host);
+//! - [`param_block`]: the flow-control parameter blocks 20H–22H and the one conversion between
+//!   a TIME and their counts of 10 ms;
 //! - [`RangeError`]: a configuration value outside the manual's range, the same for every crate;
 //! - [`ModulePreset`]: the module types (ET 200S 1SI, 2005 module, CP 341) and their longest
 //!   frame, shared by the ASCII driver and the coordination window;
@@ -50,6 +54,7 @@
 pub mod delivery;
 pub mod echo;
 pub mod fb;
+pub mod fb_v24;
 pub mod frame_pool;
 pub mod hex;
 pub mod interface;
@@ -58,6 +63,7 @@ pub mod linemark;
 pub mod memory;
 pub mod module_preset;
 pub mod monitor;
+pub mod param_block;
 pub mod port_facts;
 pub mod range;
 pub mod rx_path;

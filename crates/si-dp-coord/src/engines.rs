@@ -153,38 +153,13 @@ fn ascii_set_signals(
     link.set_signals(update).map_err(|r| r.status)
 }
 
-/// 10 ms units of the window's parameter blocks (Table 2-27) to the engine's milliseconds.
-fn ms(units: u16) -> u32 {
-    u32::from(units) * 10
-}
-
+/// The window's parameter block, applied by the link (which converts its counts of 10 ms with
+/// si-core's one conversion).
 fn ascii_flow_control(
     link: &mut si_ascii::Link,
     _now: Instant,
     block: ParamBlock,
 ) -> Result<(), Status> {
-    use si_ascii::frame::ParamBlock as P;
-    let block = match block {
-        ParamBlock::XonXoff {
-            xon,
-            xoff,
-            xon_wait,
-        } => P::XonXoff(si_ascii::XonXoff {
-            xon,
-            xoff,
-            wait_for_xon_ms: ms(xon_wait),
-        }),
-        ParamBlock::RtsCts { cts_wait } => P::RtsCts(si_ascii::RtsCts {
-            wait_for_cts_ms: ms(cts_wait),
-        }),
-        ParamBlock::AutoV24 {
-            rts_off_delay,
-            cts_wait,
-        } => P::AutoV24(si_ascii::AutoV24 {
-            time_rts_off_ms: ms(rts_off_delay),
-            data_wait_time_ms: ms(cts_wait),
-        }),
-    };
     link.apply_param_block(block).map_err(|r| r.status)
 }
 

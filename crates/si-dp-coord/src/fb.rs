@@ -1,7 +1,8 @@
 //! The FB equivalents over the window protocol ([ET200S SI 2005] §2.10,
 //! [ET200S SI] §2.10): the [`Host`] is a [`JobPort`], so si-core's S_SEND and S_RCV run
-//! on it exactly as on a line engine; S_VSTAT, S_VSET, S_XON, S_RTS and S_V24 are the window's
-//! own, built on si-core's [`JobRequest`].
+//! on it exactly as on a line engine; S_VSTAT, S_VSET, S_XON, S_RTS and S_V24 are si-core's
+//! too ([`si_core::fb_v24`]), run on the host as a [`V24Port`]: the same code that drives them
+//! on the ASCII link.
 //!
 //! Each FB is called once per user cycle, the host engine once per DP cycle; the FB submits its
 //! job to the host's arbiter and collects its own completion with [`Host::take_completion`], so
@@ -21,21 +22,19 @@
 //!   protocol cannot leave it in the module once read).
 //! * S_VSTAT reads the signals with a read V.24 job on each REQ edge; the signal outputs keep the
 //!   last states read (the window has no other way to see them, `[derived]`).
-//! * The TIME inputs of S_XON / S_RTS / S_V24 are rounded down to 10 ms, the unit of the window
-//!   (Table 2-27); values outside the manual's ranges give ERROR with 1E20H.
+//! * The TIME inputs of S_XON / S_RTS / S_V24 become counts of 10 ms, the unit of the window
+//!   (Table 2-27), through si-core's one conversion; values outside the manual's ranges or off
+//!   the 10 ms grid give ERROR with 1E20H and nothing is sent.
 
-use crate::frame::{ParamBlock, RxStatus, V24Signals};
+use crate::frame::RxStatus;
 use crate::host::{Host, Job, JobId, Outcome};
 use crate::status::{BUFFER_TWO_THIRDS_FULL, PARAMETER_OUT_OF_RANGE};
-use si_core::fb::JobRequest;
+use si_core::fb_v24::{V24Job, V24Port, V24Start};
 use si_core::job::{JobPort, NotStarted, Reception};
-use si_core::{Duration, Instant, Status};
+use si_core::{Instant, ModemSignals, Status};
 
 pub use si_core::fb::{Done, Received, SRcv, SSend};
-
-/// The window host's jobs take no start time: the host runs them in its DP cycles
-/// ([`Host::cycle`] carries the time).
-const NO_START_TIME: Instant = Instant::ZERO;
+pub use si_core::fb_v24::{SRts, SVset, SVstat, SXon, V24State, SV24};
 
 impl JobPort for Host {
     type Job = Job;
@@ -108,137 +107,32 @@ impl JobPort for Host {
     }
 }
 
-/// The common call of the FBs whose result is DONE/ERROR only.
-fn done_only(
-    t: &mut JobRequest,
-    host: &mut Host,
-    req: bool,
-    r: bool,
-    job: impl FnOnce() -> Result<Job, Status>,
-) -> Done {
-    t.call(host, NO_START_TIME, req, r, job).into()
-}
-
-/// The outputs of S_VSTAT.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct V24State {
-    /// DONE / ERROR / STATUS.
-    pub result: Done,
-    /// The signal states last read (DTR_OUT, DSR_IN, RTS_OUT, CTS_IN, DCD_IN).
-    pub signals: V24Signals,
-}
-
-/// FB4 S_VSTAT: reads the V.24 signals with a read V.24 job ([ET200S SI 2005] §2.10, Table 2-19).
-#[derive(Debug, Default)]
-pub struct SVstat {
-    t: JobRequest,
-    signals: V24Signals,
-}
-
-impl SVstat {
-    /// One call; a REQ edge starts a read.
-    pub fn call(&mut self, host: &mut Host, req: bool, r: bool) -> V24State {
-        let outcome = self
-            .t
-            .call(host, NO_START_TIME, req, r, || Ok(Job::ReadV24));
-        if let Some(Ok(Outcome::Signals(s))) = outcome {
-            self.signals = s;
-        }
-        V24State {
-            result: outcome.into(),
-            signals: self.signals,
+impl V24Port for Host {
+    /// A read V.24, write V.24 or parameter job (job codes 3, 4, 5) through
+    /// [`Host::submit`]; it runs over several DP cycles. 0502H when the job queue is full.
+    fn start_v24(&mut self, job: V24Job) -> V24Start {
+        let job = match job {
+            V24Job::ReadSignals => Job::ReadV24,
+            V24Job::WriteSignals { rts, dtr } => Job::WriteV24 { rts, dtr },
+            V24Job::Parameters(block) => Job::Parameters(block),
+        };
+        match self.submit(job) {
+            Ok(id) => V24Start::Running(id),
+            Err(e) => V24Start::Done(Err(e.status())),
         }
     }
-}
 
-/// FB5 S_VSET: sets RTS and DTR with a write V.24 job ([ET200S SI 2005] §2.10, Table 2-20).
-#[derive(Debug, Default)]
-pub struct SVset {
-    t: JobRequest,
-}
-
-impl SVset {
-    /// One call; a REQ edge writes `rts` and `dtr`.
-    pub fn call(&mut self, host: &mut Host, req: bool, r: bool, rts: bool, dtr: bool) -> Done {
-        done_only(&mut self.t, host, req, r, || Ok(Job::WriteV24 { rts, dtr }))
+    /// [`Host::take_completion`]: the signals read for a read V.24 job.
+    fn v24_outcome(&mut self, id: JobId) -> Option<Result<Option<ModemSignals>, Status>> {
+        let outcome = self.take_completion(id)?;
+        Some(outcome.map(|o| match o {
+            Outcome::Signals(s) => Some(s.into()),
+            _ => None,
+        }))
     }
-}
 
-/// A TIME input as a count of 10 ms within `min ..= 655 350 ms` (10 min 55 s 350 ms).
-fn ten_ms(time: Duration, min_ms: u64) -> Result<u16, Status> {
-    let ms = time.as_millis();
-    if ms < min_ms || ms > 655_350 {
-        return Err(PARAMETER_OUT_OF_RANGE);
-    }
-    u16::try_from(ms / 10).map_err(|_| PARAMETER_OUT_OF_RANGE)
-}
-
-/// FB6 S_XON: XON/XOFF parameters, block 20H ([ET200S SI 2005] §2.10, Table 2-16).
-#[derive(Debug, Default)]
-pub struct SXon {
-    t: JobRequest,
-}
-
-impl SXon {
-    /// One call; a REQ edge sends XON, XOFF and WAIT_FOR_XON (20 ms … 655 350 ms, default 2 s).
-    pub fn call(
-        &mut self,
-        host: &mut Host,
-        req: bool,
-        r: bool,
-        xon: u8,
-        xoff: u8,
-        wait_for_xon: Duration,
-    ) -> Done {
-        done_only(&mut self.t, host, req, r, || {
-            Ok(Job::Parameters(ParamBlock::XonXoff {
-                xon,
-                xoff,
-                xon_wait: ten_ms(wait_for_xon, 20)?,
-            }))
-        })
-    }
-}
-
-/// FB7 S_RTS: RTS/CTS parameters, block 21H ([ET200S SI 2005] §2.10, Table 2-17).
-#[derive(Debug, Default)]
-pub struct SRts {
-    t: JobRequest,
-}
-
-impl SRts {
-    /// One call; a REQ edge sends WAIT_FOR_CTS (20 ms … 655 350 ms, default 2 s).
-    pub fn call(&mut self, host: &mut Host, req: bool, r: bool, wait_for_cts: Duration) -> Done {
-        done_only(&mut self.t, host, req, r, || {
-            Ok(Job::Parameters(ParamBlock::RtsCts {
-                cts_wait: ten_ms(wait_for_cts, 20)?,
-            }))
-        })
-    }
-}
-
-/// FB8 S_V24: automatic V.24 control parameters, block 22H ([ET200S SI 2005] §2.10, Table 2-18).
-#[derive(Debug, Default)]
-pub struct SV24 {
-    t: JobRequest,
-}
-
-impl SV24 {
-    /// One call; a REQ edge sends TIME_RTS_OFF and DATA_WAIT_TIME (0 … 655 350 ms each, default
-    /// 10 ms).
-    pub fn call(
-        &mut self,
-        host: &mut Host,
-        req: bool,
-        r: bool,
-        time_rts_off: Duration,
-        data_wait_time: Duration,
-    ) -> Done {
-        done_only(&mut self.t, host, req, r, || {
-            Ok(Job::Parameters(ParamBlock::AutoV24 {
-                rts_off_delay: ten_ms(time_rts_off, 0)?,
-                cts_wait: ten_ms(data_wait_time, 0)?,
-            }))
-        })
+    /// [`Host::abort`], as for S_SEND (§2.8).
+    fn cancel_v24(&mut self, id: JobId) {
+        JobPort::cancel_job(self, id);
     }
 }

@@ -239,6 +239,19 @@ impl V24Signals {
     }
 }
 
+impl From<V24Signals> for si_core::ModemSignals {
+    /// The signal word as S_VSTAT shows it.
+    fn from(s: V24Signals) -> si_core::ModemSignals {
+        si_core::ModemSignals {
+            dtr: s.dtr,
+            dsr: s.dsr,
+            rts: s.rts,
+            cts: s.cts,
+            dcd: s.dcd,
+        }
+    }
+}
+
 impl From<si_core::ModemSignals> for V24Signals {
     fn from(s: si_core::ModemSignals) -> V24Signals {
         V24Signals {
@@ -280,168 +293,10 @@ impl V24Layout {
     }
 }
 
-/// A flow-control parameter block of the parameter job (Table 2-27, [ET200S SI 2005]
-/// §2.12.2–§2.12.6 `[derived]`). Times are raw counts of 10 ms, exactly as they cross the window
-/// (`[derived]`): 200 = 2 s.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum ParamBlock {
-    /// Block 20H, XON/XOFF: XON and XOFF characters, wait time for XON after XOFF.
-    XonXoff {
-        /// XON character, default DC1 = 11H.
-        xon: u8,
-        /// XOFF character, default DC3 = 13H.
-        xoff: u8,
-        /// Wait for XON after XOFF, 10 ms units, 2 … 65535 (default 200 = 2 s).
-        xon_wait: u16,
-    },
-    /// Block 21H, RTS/CTS: wait time for CTS = ON.
-    RtsCts {
-        /// Wait for CTS = ON, 10 ms units, 2 … 65535 (default 200 = 2 s).
-        cts_wait: u16,
-    },
-    /// Block 22H, automatic V.24 control.
-    AutoV24 {
-        /// Time until RTS = OFF after the transmission, 10 ms units, 0 … 65535 (default 1).
-        rts_off_delay: u16,
-        /// Wait for CTS = ON after RTS = ON, 10 ms units, 0 … 65535 (default 1).
-        cts_wait: u16,
-    },
-}
-
-/// Why a parameter stream is not a valid block.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum ParamError {
-    /// The stream ends before the block does.
-    #[error("parameter block truncated: {0} bytes")]
-    Truncated(usize),
-    /// Not 20H, 21H or 22H.
-    #[error("unknown parameter block {0:02X}H (expected 20H, 21H or 22H)")]
-    UnknownBlock(u8),
-    /// The length word does not match the block's fixed length.
-    #[error("parameter block {block:02X}H has length {len}, expected {expected}")]
-    Length {
-        /// Block number.
-        block: u8,
-        /// Length word received.
-        len: u16,
-        /// The block's fixed length.
-        expected: u16,
-    },
-    /// A time below its minimum (XON and CTS waits: 2 × 10 ms).
-    #[error("parameter block {block:02X}H: time {value} × 10 ms below the minimum 2 (20 ms)")]
-    OutOfRange {
-        /// Block number.
-        block: u8,
-        /// The raw value.
-        value: u16,
-    },
-}
-
-impl ParamBlock {
-    /// The XON/XOFF defaults of Table 2-27: DC1 = 11H, DC3 = 13H, 2 s. The example Table 2-28
-    /// transmits 0BH/0DH (decimal 11/13) as "DC1/DC3"; §2.8.2 and ASCII say 11H/13H, which we use
-    /// (`[derived]`).
-    pub const XON_XOFF_DEFAULT: ParamBlock = ParamBlock::XonXoff {
-        xon: 0x11,
-        xoff: 0x13,
-        xon_wait: 200,
-    };
-    /// The RTS/CTS default: wait for CTS 2 s.
-    pub const RTS_CTS_DEFAULT: ParamBlock = ParamBlock::RtsCts { cts_wait: 200 };
-    /// The automatic V.24 default: 10 ms and 10 ms.
-    pub const AUTO_V24_DEFAULT: ParamBlock = ParamBlock::AutoV24 {
-        rts_off_delay: 1,
-        cts_wait: 1,
-    };
-
-    /// Block number 20H/21H/22H.
-    pub const fn number(&self) -> u8 {
-        match self {
-            ParamBlock::XonXoff { .. } => 0x20,
-            ParamBlock::RtsCts { .. } => 0x21,
-            ParamBlock::AutoV24 { .. } => 0x22,
-        }
-    }
-
-    /// The fixed length word of a block number (bytes after the length field).
-    pub const fn length_of(block: u8) -> Option<u16> {
-        match block {
-            0x20 | 0x22 => Some(4),
-            0x21 => Some(2),
-            _ => None,
-        }
-    }
-
-    /// The parameter stream `[block][LEN_hi][LEN_lo][params …]` and its length (5 or 7 bytes).
-    pub fn encode(&self) -> ([u8; 7], usize) {
-        match *self {
-            ParamBlock::XonXoff {
-                xon,
-                xoff,
-                xon_wait,
-            } => {
-                let [hi, lo] = xon_wait.to_be_bytes();
-                ([0x20, 0, 4, xon, xoff, hi, lo], 7)
-            }
-            ParamBlock::RtsCts { cts_wait } => {
-                let [hi, lo] = cts_wait.to_be_bytes();
-                ([0x21, 0, 2, hi, lo, 0, 0], 5)
-            }
-            ParamBlock::AutoV24 {
-                rts_off_delay,
-                cts_wait,
-            } => {
-                let [a, b] = rts_off_delay.to_be_bytes();
-                let [c, d] = cts_wait.to_be_bytes();
-                ([0x22, 0, 4, a, b, c, d], 7)
-            }
-        }
-    }
-
-    /// Decodes a parameter stream and checks the ranges of Table 2-27.
-    pub fn decode(stream: &[u8]) -> Result<ParamBlock, ParamError> {
-        let [block, lh, ll, rest @ ..] = stream else {
-            return Err(ParamError::Truncated(stream.len()));
-        };
-        let expected = ParamBlock::length_of(*block).ok_or(ParamError::UnknownBlock(*block))?;
-        let len = u16::from_be_bytes([*lh, *ll]);
-        if len != expected {
-            return Err(ParamError::Length {
-                block: *block,
-                len,
-                expected,
-            });
-        }
-        if rest.len() < usize::from(len) {
-            return Err(ParamError::Truncated(stream.len()));
-        }
-        let w = |i: usize| u16::from_be_bytes([rest[i], rest[i + 1]]);
-        let min2 = |value: u16| {
-            if value < 2 {
-                Err(ParamError::OutOfRange {
-                    block: *block,
-                    value,
-                })
-            } else {
-                Ok(value)
-            }
-        };
-        Ok(match block {
-            0x20 => ParamBlock::XonXoff {
-                xon: rest[0],
-                xoff: rest[1],
-                xon_wait: min2(w(2))?,
-            },
-            0x21 => ParamBlock::RtsCts {
-                cts_wait: min2(w(0))?,
-            },
-            _ => ParamBlock::AutoV24 {
-                rts_off_delay: w(0),
-                cts_wait: w(2),
-            },
-        })
-    }
-}
+/// The flow-control parameter blocks of the parameter job (`[ET200S SI 2005]` §2.12.6, Table
+/// 2-28): one codec for the window and the ASCII link, in si-core. Times are raw counts of
+/// 10 ms, exactly as they cross the window: 200 = 2 s.
+pub use si_core::param_block::{ParamBlock, ParamError};
 
 /// The receive status the module publishes in bytes 1–2 while idle ([ET200S SI 2005] §2.12.1), plus
 /// 0101H, the answer to a receive job when nothing is there ([ET200S SI 2005] §2.12.7,
@@ -598,49 +453,6 @@ mod tests {
             }
         }
         assert_eq!(s.outputs().bits(), 0b0_0101);
-    }
-
-    #[test]
-    fn parameter_blocks_of_table_2_27() {
-        let (b, n) = ParamBlock::XON_XOFF_DEFAULT.encode();
-        assert_eq!(&b[..n], [0x20, 0x00, 0x04, 0x11, 0x13, 0x00, 0xC8]);
-        let (b, n) = ParamBlock::RTS_CTS_DEFAULT.encode();
-        assert_eq!(&b[..n], [0x21, 0x00, 0x02, 0x00, 0xC8]);
-        let (b, n) = ParamBlock::AUTO_V24_DEFAULT.encode();
-        assert_eq!(&b[..n], [0x22, 0x00, 0x04, 0x00, 0x01, 0x00, 0x01]);
-        for block in [
-            ParamBlock::XON_XOFF_DEFAULT,
-            ParamBlock::RTS_CTS_DEFAULT,
-            ParamBlock::AUTO_V24_DEFAULT,
-        ] {
-            let (b, n) = block.encode();
-            assert_eq!(ParamBlock::decode(&b[..n]), Ok(block));
-        }
-        // Table 2-28 as printed (0BH/0DH) still decodes: the characters are free values.
-        assert_eq!(
-            ParamBlock::decode(&[0x20, 0, 4, 0x0B, 0x0D, 0, 0xC8]),
-            Ok(ParamBlock::XonXoff {
-                xon: 0x0B,
-                xoff: 0x0D,
-                xon_wait: 200
-            })
-        );
-        assert_eq!(
-            ParamBlock::decode(&[0x23, 0, 4]),
-            Err(ParamError::UnknownBlock(0x23))
-        );
-        assert!(matches!(
-            ParamBlock::decode(&[0x21, 0, 4, 0, 0xC8, 0, 0]),
-            Err(ParamError::Length { .. })
-        ));
-        assert!(matches!(
-            ParamBlock::decode(&[0x21, 0, 2, 0, 1]),
-            Err(ParamError::OutOfRange { value: 1, .. })
-        ));
-        assert_eq!(
-            ParamBlock::decode(&[0x20, 0]),
-            Err(ParamError::Truncated(2))
-        );
     }
 
     #[test]

@@ -21,12 +21,17 @@
 //!   trait, for simulations and tests (and gateways that play the module).
 //! * [`mod@line`]: [`line::EngineSerial`] makes any Sans-IO line engine the module's serial side, and
 //!   the module itself a station of the line simulator.
-//! * [`engines`]: si-3964r's and si-ascii's links as that serial side, so a simulated module runs
-//!   3964(R) or ASCII on its line.
-//! * [`modbus`]: si-modbus's master as that serial side: the module in Modbus master mode, the
-//!   S_SEND job layout ([Modbus/USS] §3.4.5–§3.4.16) in, the S_RCV response layout ([Modbus/USS]
+//! * `engines` (feature `module-sim`): si-3964r's and si-ascii's links as that serial side, so a
+//!   simulated module runs 3964(R) or ASCII on its line.
+//! * `modbus` (feature `module-sim`): si-modbus's master as that serial side: the module in
+//!   Modbus master mode, the S_SEND job layout ([Modbus/USS] §3.4.5–§3.4.16) in, the S_RCV
+//!   response layout ([Modbus/USS]
 //!   §3.4.5–§3.4.16) or the job's STATUS out.
-//! * [`sim`]: a host and a module joined by a seeded, lagging, fault-injecting DP exchange.
+//! * `sim` (feature `module-sim`): a host and a module joined by a seeded, lagging,
+//!   fault-injecting DP exchange.
+//!
+//! Without `module-sim` (the default) the crate is the host side, the module's engine and the
+//! monitor, and builds none of the other protocol crates.
 //! * [`monitor`]: reads a recorded trace of DP windows window by window, coordination bytes
 //!   and what the data bytes mean for them.
 //! * [`timing`]: the manual's processing-time estimate and the PPI token rotation formula.
@@ -61,7 +66,7 @@
 //! | end of receive / read V.24 | the host holds its last echo until the module is idle, then writes 00H | — |
 //! | no timeouts | host job watchdog, default 30 s, STATUS 0502H | [`HostConfig`] |
 //! | don't-care bytes | written as 00H, ignored when read | — |
-//! | 224 vs 200 bytes | 224 (chapter 2); 200 for the Modbus/USS module ([`modbus::MAX_FRAME_LEN`]) | `max_frame_len` |
+//! | 224 vs 200 bytes | 224 (chapter 2); 200 for the Modbus/USS module (`modbus::MAX_FRAME_LEN`) | `max_frame_len` |
 //!
 //! ```
 //! use si_dp_coord::{host::{Host, Job, HostEvent, Outcome}, module::{Module, LoopbackSerial}};
@@ -88,14 +93,20 @@
 
 pub mod config;
 pub mod coord;
+#[cfg(feature = "module-sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "module-sim")))]
 pub mod engines;
 pub mod fb;
 pub mod frame;
 pub mod host;
 pub mod line;
+#[cfg(feature = "module-sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "module-sim")))]
 pub mod modbus;
 pub mod module;
 pub mod monitor;
+#[cfg(feature = "module-sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "module-sim")))]
 pub mod sim;
 pub mod status;
 pub mod timing;

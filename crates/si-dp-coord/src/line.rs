@@ -11,9 +11,9 @@
 //! simulator or the tokio driver runs it like any engine while the DP side is driven with
 //! [`Module::cycle`] (from `Simulator::with` or `Handle::call`).
 //!
-//! The hooks for the finished line engines are in [`crate::engines`]: [`crate::engines::r3964r`]
-//! and [`crate::engines::ascii`] make a simulated module that runs 3964(R) or ASCII on its line,
-//! [`crate::modbus::master`] one in Modbus master mode.
+//! The hooks for the finished line engines are in `engines` (feature `module-sim`):
+//! `engines::r3964r` and `engines::ascii` make a simulated module that runs 3964(R) or ASCII on
+//! its line, `modbus::master` one in Modbus master mode.
 
 use crate::frame::{ParamBlock, V24Signals};
 use crate::module::{Module, SerialEvent, SerialSide};

@@ -549,7 +549,8 @@ impl<S: SerialSide> Module<S> {
         if self.cfg.flow_control.block() != Some(block_no) {
             return FLOW_CONTROL_MISMATCH.code();
         }
-        match ParamBlock::decode(&self.stream) {
+        let block = ParamBlock::decode(&self.stream).and_then(|b| b.check().map(|()| b));
+        match block {
             Ok(block) => match self.serial.set_flow_control(now, block) {
                 Ok(()) => 0,
                 Err(status) => status.code(),

@@ -15,6 +15,8 @@ mod host_module;
 mod modbus_master;
 #[path = "scenarios/module_on_line.rs"]
 mod module_on_line;
+#[path = "scenarios/one_v24_program.rs"]
+mod one_v24_program;
 #[path = "scenarios/section_2_8_rules.rs"]
 mod section_2_8_rules;
 #[path = "scenarios/timing_tables.rs"]

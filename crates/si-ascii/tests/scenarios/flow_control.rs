@@ -6,8 +6,9 @@ use crate::common;
 
 use common::{errors, settings, Bench, Partner};
 use si_ascii::fb::{SRts, SVset, SVstat, SXon};
-use si_ascii::{status, Config, EndCriterion, Event, FlowControl, Link, RtsCts, XonXoff};
+use si_ascii::{status, Config, EndCriterion, Event, FlowControl, Link, XonXoff};
 use si_core::{Duration, Instant, SerialSettings, SignalUpdate};
+use si_sim::{Simulator, StationId, TraceKind};
 use si_sim::{Simulator, StationId, TraceKind};
 
 const FRAMES: u8 = 20;
@@ -221,14 +222,7 @@ fn s6_9_no_cts_within_the_wait_time_is_0708_with_the_time_set_by_s_rts() {
     // S_RTS: wait time for CTS 500 ms.
     let mut s_rts = SRts::default();
     let out = b.sim.with(b.link, |l, _| {
-        s_rts.call(
-            l,
-            true,
-            false,
-            RtsCts {
-                wait_for_cts_ms: 500,
-            },
-        )
+        s_rts.call(l, true, false, Duration::from_millis(500))
     });
     assert!(out.done && !out.error);
     let t0 = b.sim.now();
@@ -282,36 +276,40 @@ fn s6_9_entering_flow_control_sends_xon_or_sets_rts() {
 fn s8_4_s_xon_changes_the_characters_and_is_0550_under_other_flow_control() {
     let mut b = Bench::new(config(FlowControl::XonXoff));
     let mut s_xon = SXon::default();
-    let params = XonXoff {
-        xon: 0x01,
-        xoff: 0x02,
-        wait_for_xon_ms: 100,
-    };
+    let wait = Duration::from_millis(100);
     let out = b
         .sim
-        .with(b.link, |l, _| s_xon.call(l, true, false, params));
+        .with(b.link, |l, _| s_xon.call(l, true, false, 0x01, 0x02, wait));
     assert!(out.done);
+    assert_eq!(
+        b.sim.engine(b.link).config().xon_xoff,
+        XonXoff {
+            xon: 0x01,
+            xoff: 0x02,
+            wait_for_xon_ms: 100,
+        }
+    );
     // Only the edge counts.
     let again = b
         .sim
-        .with(b.link, |l, _| s_xon.call(l, true, false, params));
+        .with(b.link, |l, _| s_xon.call(l, true, false, 0x01, 0x02, wait));
     assert!(!again.done && !again.error);
     // Out of range: 1E20H.
-    let bad = XonXoff {
-        wait_for_xon_ms: 5,
-        ..params
-    };
-    b.sim.with(b.link, |l, _| s_xon.call(l, false, false, bad));
-    let out = b.sim.with(b.link, |l, _| s_xon.call(l, true, false, bad));
+    let bad = Duration::from_millis(5);
+    b.sim
+        .with(b.link, |l, _| s_xon.call(l, false, false, 0x01, 0x02, bad));
+    let out = b
+        .sim
+        .with(b.link, |l, _| s_xon.call(l, true, false, 0x01, 0x02, bad));
     assert_eq!(
         (out.error, out.status),
         (true, status::PARAMETER_OUT_OF_RANGE)
     );
 
     let mut b = Bench::new(config(FlowControl::None));
-    let out = b
-        .sim
-        .with(b.link, |l, _| SXon::default().call(l, true, false, params));
+    let out = b.sim.with(b.link, |l, _| {
+        SXon::default().call(l, true, false, 0x01, 0x02, wait)
+    });
     assert_eq!(
         (out.error, out.status),
         (true, status::FLOW_PARAMETERS_MISMATCH)
@@ -614,9 +612,10 @@ fn s8_6_s_v24_sets_the_rts_off_time() {
         time_rts_off_ms: 50,
         data_wait_time_ms: 20,
     };
-    let out = b
-        .sim
-        .with(b.link, |l, _| s_v24.call(l, true, false, params));
+    let (rts_off, data_wait) = (Duration::from_millis(50), Duration::from_millis(20));
+    let out = b.sim.with(b.link, |l, _| {
+        s_v24.call(l, true, false, rts_off, data_wait)
+    });
     assert!(out.done && !out.error);
     let job = b
         .sim
@@ -632,12 +631,12 @@ fn s8_6_s_v24_sets_the_rts_off_time() {
         }]
     );
     // 5 ms is not a multiple of 10 ms: 1E20H, and the old value stays.
-    let bad = AutoV24 {
-        time_rts_off_ms: 5,
-        ..params
-    };
-    b.sim.with(b.link, |l, _| s_v24.call(l, false, false, bad));
-    let out = b.sim.with(b.link, |l, _| s_v24.call(l, true, false, bad));
+    let bad = Duration::from_millis(5);
+    b.sim
+        .with(b.link, |l, _| s_v24.call(l, false, false, bad, data_wait));
+    let out = b
+        .sim
+        .with(b.link, |l, _| s_v24.call(l, true, false, bad, data_wait));
     assert_eq!(out.status, status::PARAMETER_OUT_OF_RANGE);
     assert_eq!(b.sim.engine(b.link).config().auto_v24, params);
 }

@@ -192,14 +192,12 @@ pub enum ParamsArg {
     },
 }
 
-/// Milliseconds to the window's 10 ms units (Table 2-27), rounded down, within `min` … 655 350.
-fn ten_ms(name: &str, value: u32, min: u32) -> Result<u16, CliError> {
-    if !(min..=655_350).contains(&value) {
-        return Err(CliError::new(format!(
-            "{name} = {value} ms is outside {min} … 655350 ms"
-        )));
-    }
-    u16::try_from(value / 10).map_err(|_| CliError::new(format!("{name} = {value} ms too large")))
+/// A `--…-ms` flag as the window's count of 10 ms, through si-core's one conversion (range
+/// `min` … 655 350 ms in 10 ms steps); the error names the flag, the range and the value.
+fn ten_ms(name: &'static str, value: u32, min_ms: u64) -> Result<u16, CliError> {
+    let time = si_core::Duration::from_millis(u64::from(value));
+    si_core::param_block::ten_ms_count(name, time, si_core::Duration::from_millis(min_ms))
+        .map_err(|e| CliError::new(e.to_string()))
 }
 
 impl JobArg {

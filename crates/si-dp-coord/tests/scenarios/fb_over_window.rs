@@ -138,7 +138,7 @@ fn s_vset_then_s_vstat() {
     for _ in 0..300 {
         let out = stat.call(&mut l.host, true, false);
         if out.result.done {
-            last = Some(out.signals);
+            last = Some(out.signals());
         }
         run(&mut l);
     }
