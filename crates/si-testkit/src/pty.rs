@@ -15,12 +15,13 @@ pub struct PtyPair {
     _socat: Kill,
 }
 
-/// A raw pty pair (`socat -d -d pty,raw,echo=0 pty,raw,echo=0`), or `None` without socat.
+/// A raw pty pair (`socat -d -d pty,rawer pty,rawer`: no echo, no line discipline, so bytes
+/// written to one end by a plain file write arrive unchanged), or `None` without socat.
 pub fn pty_pair() -> Option<PtyPair> {
     if !have_socat() {
         return None;
     }
-    let end = "pty,raw,echo=0";
+    let end = "pty,rawer";
     let child = Command::new("socat")
         .args(["-d", "-d", end, end])
         .stderr(Stdio::piped())
