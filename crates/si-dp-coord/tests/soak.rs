@@ -182,7 +182,7 @@ fn soak(span: Duration, seed: u64, rate: f64) {
             s.parity_pending += 1;
         }
         s.fetch_all();
-        if seq % 30 == 0 {
+        if seq.is_multiple_of(30) {
             let rts = s.rng.chance(0.5);
             let faults = s.link.injected();
             let written = s.run(Job::WriteV24 { rts, dtr: true });

@@ -103,7 +103,7 @@ impl Side {
 
 fn start_job(sim: &mut Simulator, me: &mut Side) {
     let at = me.at;
-    me.running = Some(if me.next_seq % 2 == 0 {
+    me.running = Some(if me.next_seq.is_multiple_of(2) {
         me.next_seq += 1;
         let (seq, data) = (me.next_seq, record(me.dir, me.next_seq));
         let job = sim.with(me.id, |s, now| s.send(now, at, Coordination::NONE, data));
