@@ -28,6 +28,13 @@ async fn the_handle_receives_raw_lines_and_sends_bytes_exactly_on_a_pty() {
     };
     let line = port::open(&pair.a, &config.settings, &PortOptions::default()).unwrap();
     let mut handle = Handle::spawn(config, line).unwrap();
+    // The raw end in raw mode now (socat may set its own termios a moment after naming the
+    // pty): no CR before LF added to what the test writes.
+    let stty = std::process::Command::new("stty")
+        .args(["-F", &pair.b, "raw", "-echo"])
+        .status()
+        .expect("run stty");
+    assert!(stty.success(), "stty raw on {}", pair.b);
     let mut raw = std::fs::OpenOptions::new()
         .read(true)
         .write(true)
