@@ -11,7 +11,7 @@ use si_3964r::{Config, Event, JobId, Link, Priority};
 use si_core::{Duration, Instant, SerialSettings, Status};
 use si_sim::{Simulator, StationId};
 use si_testkit::job_run::run_while;
-use si_testkit::noise::{issue_patterns, Noise, NoisePeer, Pattern, Source};
+use si_testkit::noise::{facing, issue_patterns, Facing, Noise, Pattern, Source, SILENT};
 
 fn line() -> SerialSettings {
     SerialSettings::default()
@@ -58,14 +58,11 @@ fn send_into(
     at: Duration,
     len: usize,
 ) -> (Duration, Result<(), Status>, Vec<Event>) {
-    let mut sim = Simulator::new(seed).without_trace();
-    let host = sim.add_station("host", line(), Link::new(config, line()).unwrap());
-    let peer = sim.add_station(
-        "noise",
-        line(),
-        NoisePeer::new(pattern.noise, pattern.until),
-    );
-    sim.connect(host, peer);
+    let Facing {
+        mut sim,
+        engine: host,
+        ..
+    } = facing(seed, line(), Link::new(config, line()).unwrap(), pattern);
     sim.run_for(at);
     let start = sim.now();
     let job = sim
@@ -157,10 +154,11 @@ fn the_defaults_hold_their_documented_bound_against_a_flood_and_an_endless_frame
 #[test]
 fn an_endless_frame_is_cut_off_at_the_maximum_length_with_0850() {
     let config = short(Priority::Low);
-    let mut sim = Simulator::new(5).without_trace();
-    let host = sim.add_station("host", line(), Link::new(config, line()).unwrap());
-    let peer = sim.add_station("noise", line(), NoisePeer::new(Noise::Silent, None));
-    sim.connect(host, peer);
+    let Facing {
+        mut sim,
+        engine: host,
+        peer,
+    } = facing(5, line(), Link::new(config, line()).unwrap(), SILENT);
     let mut frame = vec![STX];
     frame.extend([b'A'; 1_000]);
     sim.transmit(peer, &frame);
@@ -196,10 +194,8 @@ proptest! {
         len in 1usize..64,
     ) {
         let config = short(if high { Priority::High } else { Priority::Low });
-        let mut sim = Simulator::new(9).without_trace();
-        let host = sim.add_station("host", line(), Link::new(config, line()).unwrap());
-        let peer = sim.add_station("noise", line(), NoisePeer::new(Noise::Silent, None));
-        sim.connect(host, peer);
+        let Facing { mut sim, engine: host, peer } =
+            facing(9, line(), Link::new(config, line()).unwrap(), SILENT);
         let job = sim.with(host, |l, now| l.send(now, vec![0xAA; len])).unwrap();
         let limit = Instant::ZERO + config.send_job_bound(&line(), len);
         let mut end = None;

@@ -90,9 +90,9 @@ impl JobPort for Link {
 
 impl V24Port for Link {
     /// The link applies every V.24 job at once, so DONE or ERROR comes in the call with the
-    /// REQ edge: S_VSTAT reads [`Link::signals`], S_VSET is [`Link::set_signals`] (0502H where
-    /// [ET200S SI] §2.8 forbids it), S_XON / S_RTS / S_V24 are [`Link::apply_param_block`] (0550H under
-    /// another flow control, 1E20H out of range).
+    /// REQ edge: S_VSTAT reads [`Link::signals`], S_VSET is [`Link::set_signals`] (0502H
+    /// where [ET200S SI] §2.8 forbids it), S_XON / S_RTS / S_V24 are
+    /// [`Link::apply_param_block`] (0550H under another flow control, 1E20H out of range).
     fn start_v24(&mut self, job: V24Job) -> V24Start {
         let applied = match job {
             V24Job::ReadSignals => return V24Start::Done(Ok(Some(self.signals()))),
@@ -112,7 +112,8 @@ impl V24Port for Link {
 
     fn cancel_v24(&mut self, _id: JobId) {}
 
-    /// The link sees its signals at all times: S_VSTAT refreshes them on every call ([ET200S SI] §2.10, Table 2-18).
+    /// The link sees its signals at all times: S_VSTAT refreshes them on every call
+    /// ([ET200S SI] §2.10, Table 2-18).
     fn signals_now(&self) -> Option<ModemSignals> {
         Some(self.signals())
     }

@@ -8,8 +8,8 @@ use si_core::{Duration, Instant, SerialSettings};
 use si_modbus::frame::{Registers, Request};
 use si_modbus::master::{Master, MasterEvent};
 use si_modbus::{status, FrameEnd, MasterConfig, Mode};
-use si_sim::{Simulator, UsbAdapter};
-use si_testkit::noise::{drive, issue_patterns, NoisePeer, Pattern};
+use si_sim::UsbAdapter;
+use si_testkit::noise::{drive, facing, issue_patterns, Facing, Pattern};
 
 const WORDS: [u16; 2] = [1, 2];
 
@@ -60,14 +60,13 @@ fn assert_bounded(
     frame_end: FrameEnd,
     adapter: bool,
     job: &Request<'_>,
-    Pattern { name, noise, until }: Pattern,
+    pattern: Pattern,
 ) {
-    let mut sim = Simulator::new(1).without_trace();
-    let s = SerialSettings::default();
+    let name = pattern.name;
     let master = Master::new(config).unwrap().with_frame_end(frame_end);
-    let m = sim.add_station("master", s, master);
-    let p = sim.add_station("noise", s, NoisePeer::new(noise, until));
-    sim.connect(m, p);
+    let Facing {
+        mut sim, engine: m, ..
+    } = facing(1, SerialSettings::default(), master, pattern);
     if adapter {
         sim.set_adapter(m, UsbAdapter::FTDI_DEFAULT.unannounced())
             .unwrap();
@@ -123,10 +122,9 @@ fn an_s_send_job_ends_with_error_within_the_bound_under_every_noise() {
     };
     let s = SerialSettings::default();
     for pattern in issue_patterns(s.char_time()) {
-        let mut sim = Simulator::new(1).without_trace();
-        let m = sim.add_station("master", s, Master::new(config).unwrap());
-        let p = sim.add_station("noise", s, NoisePeer::new(pattern.noise, pattern.until));
-        sim.connect(m, p);
+        let Facing {
+            mut sim, engine: m, ..
+        } = facing(1, s, Master::new(config).unwrap(), pattern);
         sim.run_until(Instant::from_micros(50_000));
         let start = sim.now();
         let job = [0x01, 0x03, 0x00, 0x00, 0x00, 0x01];
@@ -150,15 +148,14 @@ fn a_silent_partner_gives_0830h_after_the_response_time() {
         response_timeout_ms: 500,
         ..MasterConfig::default()
     };
-    let mut sim = Simulator::new(1).without_trace();
-    let s = SerialSettings::default();
-    let m = sim.add_station("master", s, Master::new(config).unwrap());
-    let p = sim.add_station(
-        "noise",
-        s,
-        NoisePeer::new(si_testkit::noise::Noise::Silent, None),
+    let Facing {
+        mut sim, engine: m, ..
+    } = facing(
+        1,
+        SerialSettings::default(),
+        Master::new(config).unwrap(),
+        si_testkit::noise::SILENT,
     );
-    sim.connect(m, p);
     sim.with(m, |e, now| e.request(now, 1, &jobs()[0])).unwrap();
     // 8 request bytes (9.2 ms) + 500 ms.
     sim.run_until(Instant::from_micros(509_000));

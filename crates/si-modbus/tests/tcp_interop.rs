@@ -16,15 +16,7 @@ use std::time::Duration;
 use si_modbus::slave::Tables;
 use si_modbus::tokio::tcp::{Client, Server, ServerConfig};
 
-use si_testkit::peers::{have_mbpoll, mbpoll_values, peer, Kill};
-
-fn have_pymodbus() -> bool {
-    peer(
-        "pymodbus",
-        Command::new("python3").args(["-c", "import pymodbus"]),
-        "pip install pymodbus==3.16.1",
-    )
-}
+use si_testkit::peers::{have_mbpoll, have_pymodbus, mbpoll_values, Kill};
 
 /// Our server on a free loopback port, on a runtime of its own (the peers run as blocking
 /// child processes).

@@ -11,7 +11,7 @@ use si_rk512::frame::{Address, Coordination};
 use si_rk512::{status, Config, Event, JobId, Station};
 use si_sim::{Simulator, StationId};
 use si_testkit::job_run::run_while;
-use si_testkit::noise::{issue_patterns, Noise, NoisePeer, Pattern, Source};
+use si_testkit::noise::{facing, issue_patterns, Facing, Noise, Pattern, Source};
 
 fn line() -> SerialSettings {
     SerialSettings::default()
@@ -76,10 +76,11 @@ fn run_job(
     at: Duration,
     job: Job,
 ) -> (Duration, Status, Vec<Event>) {
-    let mut sim = Simulator::new(seed).without_trace();
-    let host = sim.add_station("host", line(), Station::new(config, line()).unwrap());
-    let peer = sim.add_station("noise", line(), NoisePeer::new(noise.noise, noise.until));
-    sim.connect(host, peer);
+    let Facing {
+        mut sim,
+        engine: host,
+        ..
+    } = facing(seed, line(), Station::new(config, line()).unwrap(), noise);
     sim.run_for(at);
     let start = sim.now();
     let id = sim.with(host, |s, now| job.start(s, now));

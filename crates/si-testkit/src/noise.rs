@@ -4,9 +4,12 @@
 //! arbitrary noise stream in virtual time and says when its job ended.
 //!
 //! Both are Sans-IO: time is passed in, nothing sleeps, so a bound is asserted exactly.
+//! [`facing`] is the set-up every engine crate's noise test starts from: its engine and a
+//! noise peer wired point to point on the line simulator.
 
 use bytes::Bytes;
-use si_core::{Duration, Engine, Instant, Output};
+use si_core::{Duration, Engine, Instant, Output, SerialSettings};
+use si_sim::{Simulator, StationId};
 
 /// Where a noise peer's bytes come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -188,6 +191,44 @@ pub fn issue_patterns(char_time: Duration) -> Vec<Pattern> {
         ),
     ]
 }
+
+/// An engine facing a [`NoisePeer`] on the line simulator (see [`facing`]).
+pub struct Facing<E> {
+    /// The simulator, without a trace (hours of noise would fill memory), at instant zero.
+    pub sim: Simulator,
+    /// The engine under test, station "engine".
+    pub engine: StationId<E>,
+    /// The noise peer, station "noise"; [`Simulator::transmit`] on it puts chosen bytes on the
+    /// line besides the pattern's.
+    pub peer: StationId<NoisePeer>,
+}
+
+/// `engine` and a noise peer making `pattern`, both with `settings`, wired point to point on a
+/// simulator seeded with `seed`, no time run yet. The noise tests of every engine crate start
+/// here, so they face the same line: the peer starts at instant zero and hears nothing.
+pub fn facing<E>(seed: u64, settings: SerialSettings, engine: E, pattern: Pattern) -> Facing<E>
+where
+    E: Engine + 'static,
+    E::Event: 'static,
+{
+    let mut sim = Simulator::new(seed).without_trace();
+    let engine = sim.add_station("engine", settings, engine);
+    let peer = sim.add_station(
+        "noise",
+        settings,
+        NoisePeer::new(pattern.noise, pattern.until),
+    );
+    sim.connect(engine, peer);
+    Facing { sim, engine, peer }
+}
+
+/// A [`Pattern`] that puts nothing on the line, for tests that transmit chosen bytes through
+/// [`Facing::peer`].
+pub const SILENT: Pattern = Pattern {
+    name: "silent",
+    noise: Noise::Silent,
+    until: None,
+};
 
 /// Wake-ups at one instant after which [`drive`] calls the engine a busy loop.
 pub const MAX_STEPS_AT_ONE_INSTANT: u32 = 10_000;

@@ -25,6 +25,33 @@ pub fn peer(name: &str, check: &mut Command, install: &str) -> bool {
     false
 }
 
+/// Is `socat` (the pseudo-terminal pairs of the pty tests) installed?
+pub fn have_socat() -> bool {
+    peer(
+        "socat",
+        Command::new("socat").arg("-V"),
+        "apt-get install socat",
+    )
+}
+
+/// Is pymodbus importable by `python3` (Modbus TCP peers)?
+pub fn have_pymodbus() -> bool {
+    peer(
+        "pymodbus",
+        Command::new("python3").args(["-c", "import pymodbus"]),
+        "pip install pymodbus==3.16.1",
+    )
+}
+
+/// Are pymodbus and pyserial importable by `python3` (Modbus RTU peers on a serial port)?
+pub fn have_pymodbus_serial() -> bool {
+    peer(
+        "pymodbus",
+        Command::new("python3").args(["-c", "import pymodbus, serial"]),
+        "pip install pymodbus==3.16.1 pyserial==3.5",
+    )
+}
+
 /// Is `mbpoll` (libmodbus's command-line master) installed?
 pub fn have_mbpoll() -> bool {
     peer(

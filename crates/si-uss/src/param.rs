@@ -154,13 +154,6 @@ mod tests {
     }
 
     #[test]
-    fn p2029_index_5_is_pke_01d_and_ind_8005() {
-        let (pnu, ind) = ParamAddress::new(2029, 5).unwrap().split().unwrap();
-        assert_eq!(crate::frame::Pke::new(1, false, pnu).0, 0x101D);
-        assert_eq!(ind, 0x8005);
-    }
-
-    #[test]
     fn every_number_in_range_round_trips_and_beyond_is_a_range_error() {
         for number in 0..=MAX_NUMBER {
             let a = ParamAddress { number, index: 255 };

@@ -7,7 +7,7 @@
 use proptest::prelude::*;
 use si_core::{Duration, Instant};
 use si_sim::{Simulator, StationId};
-use si_testkit::noise::{drive, issue_patterns, NoisePeer, Pattern};
+use si_testkit::noise::{drive, facing, issue_patterns, Facing, Pattern};
 use si_uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_uss::frame::PkwWords;
 use si_uss::master::{Event, Master, ParamRequest};
@@ -21,11 +21,14 @@ fn config(retries: u16) -> MasterConfig {
 
 /// A master on a line with `pattern` as its only partner, after 50 ms of it.
 fn on_noise(config: &MasterConfig, pattern: Pattern) -> (Simulator, StationId<Master>) {
-    let mut sim = Simulator::new(2).without_trace();
-    let s = config.settings;
-    let m = sim.add_station("master", s, Master::new(config.clone()).unwrap());
-    let p = sim.add_station("noise", s, NoisePeer::new(pattern.noise, pattern.until));
-    sim.connect(m, p);
+    let Facing {
+        mut sim, engine: m, ..
+    } = facing(
+        2,
+        config.settings,
+        Master::new(config.clone()).unwrap(),
+        pattern,
+    );
     sim.run_until(Instant::from_micros(50_000));
     (sim, m)
 }

@@ -5,6 +5,8 @@
 mod fb;
 #[path = "scenarios/frame_golden.rs"]
 mod frame_golden;
+#[path = "scenarios/param_pke.rs"]
+mod param_pke;
 #[path = "scenarios/pkw_jobs.rs"]
 mod pkw_jobs;
 #[path = "scenarios/tokio_duplex.rs"]

@@ -9,7 +9,6 @@ use si_ascii::fb::{SRts, SVset, SVstat, SXon};
 use si_ascii::{status, Config, EndCriterion, Event, FlowControl, Link, XonXoff};
 use si_core::{Duration, Instant, SerialSettings, SignalUpdate};
 use si_sim::{Simulator, StationId, TraceKind};
-use si_sim::{Simulator, StationId, TraceKind};
 
 const FRAMES: u8 = 20;
 

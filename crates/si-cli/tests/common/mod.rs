@@ -94,13 +94,7 @@ pub fn exit_within(
 }
 
 /// Is socat installed? A skip with a message if not, a failure with `CI` set (see [`peer`]).
-pub fn have_socat() -> bool {
-    peer(
-        "socat",
-        Command::new("socat").arg("-V"),
-        "apt-get install socat",
-    )
-}
+pub use si_testkit::peers::have_socat;
 
 /// Two connected pseudo-terminals made by socat; socat is killed when the pair is dropped,
 /// which closes both ends.

@@ -24,13 +24,7 @@ pub fn pymodbus_client_ok(script: &str, arg: &str) {
 }
 
 /// pymodbus and pyserial are importable (else a skip message, or a failure under CI).
-pub fn have_pymodbus() -> bool {
-    peer(
-        "pymodbus",
-        Command::new("python3").args(["-c", "import pymodbus, serial"]),
-        "pip install pymodbus pyserial",
-    )
-}
+pub use si_testkit::peers::have_pymodbus_serial as have_pymodbus;
 
 pub use si_testkit::peers::have_mbpoll;
 

@@ -220,7 +220,7 @@ pub async fn run(
                 Err(JobError::Line(f)) if one_job => return Err(CliError::new(f.text)),
                 Err(JobError::Line(f)) => {
                     counters[i].failed(f.kind);
-                    report.failed(unit, function, &f);
+                    report.failed(unit, function, f.kind.name(), f.status, &f.text);
                 }
                 Err(JobError::Fatal(e)) => {
                     summary(units, &counters, polling, report, End::Fatal);

@@ -2,7 +2,6 @@
 //! the wall clock: always in JSON (`timestamp`), in text with `--timestamps`.
 
 use super::format::{show, ValueFormat, WordOrder};
-use super::poll::LineFailure;
 use crate::output::Output;
 use serde_json::{json, Value as Json};
 use si_core::tracefile::rfc3339_millis;
@@ -44,14 +43,15 @@ impl Report<'_> {
         u32::from(pdu) + u32::from(self.base)
     }
 
-    /// A job that failed on the line, as one line: what the poll counts it as and the STATUS
-    /// with its text (`status` is null for a failure the module has no STATUS for, a Modbus
-    /// TCP gateway exception).
-    pub fn failed(&self, unit: u8, function: u8, failure: &LineFailure) {
+    /// A job that failed on the line, as one line: what the poll counts it as (`kind`) and the
+    /// STATUS with its text (`status` is null for a failure the module has no STATUS for, a
+    /// Modbus TCP gateway exception). The poll passes its failure's fields, so this file does
+    /// not import the poll that imports it.
+    pub fn failed(&self, unit: u8, function: u8, kind: &str, status: Option<Status>, text: &str) {
         self.emit(
-            &format!("unit {unit} FC{function:02} failed: {}", failure.text),
-            json!({"unit": unit, "function": function, "failed": failure.kind.name(),
-                   "status": failure.status.map(Status::code), "error": failure.text}),
+            &format!("unit {unit} FC{function:02} failed: {text}"),
+            json!({"unit": unit, "function": function, "failed": kind,
+                   "status": status.map(Status::code), "error": text}),
         );
     }
 
