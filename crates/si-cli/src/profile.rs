@@ -27,11 +27,12 @@
 //! the profile, which wins over the default. A `--port` or `--tcp` flag replaces both of the
 //! profile's `port` and `tcp`: a line is chosen as a whole.
 
-use crate::conn::{Connection, Rs485Mode};
+use crate::conn::Connection;
 use crate::error::CliError;
 use clap::parser::ValueSource;
 use clap::ArgMatches;
 use serde::Deserialize;
+use si_core::port::Rs485Mode;
 use si_core::{Parity, SerialSettings};
 use std::collections::BTreeMap;
 use std::path::PathBuf;

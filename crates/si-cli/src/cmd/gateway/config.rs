@@ -10,8 +10,8 @@
 //! 500 ms, `DEFAULT_MAXCONN` 32, `MAX_CONNTIMEOUT` 1000 s). mbusd's pause is 1–10 000 ms; we
 //! also allow 0 (no pause).
 
-use crate::conn::Rs485Mode;
 use serde::Deserialize;
+use si_core::port::Rs485Mode;
 use si_core::RangeError;
 use std::fmt;
 
@@ -511,8 +511,8 @@ impl LineFile {
             )?;
         }
         let mode = match self.rs485.as_deref() {
-            Some(name) => Some(Rs485Mode::from_name(name).ok_or_else(|| {
-                RangeError::new("rs485", Rs485Mode::names(), "", format!("{name:?}"))
+            Some(name) => Some(name.parse::<Rs485Mode>().map_err(|_| {
+                RangeError::new("rs485", Rs485Mode::NAMES, "", format!("{name:?}"))
             })?),
             None => None,
         };
