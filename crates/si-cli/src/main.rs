@@ -7,6 +7,7 @@
 //! prints its STATUS.
 
 mod cmd;
+mod config_file;
 mod conn;
 mod error;
 mod help;

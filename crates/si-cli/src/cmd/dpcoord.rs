@@ -597,8 +597,7 @@ fn print_window(out: &Output, cycle: usize, window: &Window, dir: Direction) {
 
 impl TraceArgs {
     fn run(self, out: &Output) -> Result<(), CliError> {
-        let text = std::fs::read_to_string(&self.file)
-            .map_err(|e| CliError::new(format!("{}: {e}", self.file.display())))?;
+        let text = crate::config_file::read(&self.file)?;
         let mut cycle = 0;
         let mut next_in = true;
         let mut size = None;

@@ -113,11 +113,7 @@ impl GatewayArgs {
     /// The checked configuration: the file with the top-level flags over it, or the flag form.
     fn gateway(&self, conn: &Connection) -> Result<Gateway, CliError> {
         let mut file = match &self.config {
-            Some(path) => {
-                let text = std::fs::read_to_string(path)
-                    .map_err(|e| CliError::new(format!("cannot read {}: {e}", path.display())))?;
-                File::from_toml(&text).map_err(CliError::new)?
-            }
+            Some(path) => crate::config_file::read_toml::<File>(path)?,
             None => File {
                 listen: None,
                 max_connections: None,

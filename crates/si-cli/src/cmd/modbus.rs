@@ -548,14 +548,10 @@ async fn serve(
     path: Option<std::path::PathBuf>,
     framing: &FramingOptions,
 ) -> Result<(), CliError> {
-    let file: ServeFile = match &path {
-        Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .map_err(|e| CliError::new(format!("cannot read {}: {e}", p.display())))?;
-            toml::from_str(&text)
-                .map_err(|e| CliError::new(format!("{}: {}", p.display(), e.message())))?
-        }
-        None => ServeFile::default(),
+    let text = path.as_deref().map(crate::config_file::read).transpose()?;
+    let file: ServeFile = match (&path, &text) {
+        (Some(p), Some(text)) => crate::config_file::parse_toml(p, text)?,
+        _ => ServeFile::default(),
     };
     let memory = file.memory.unwrap_or_default();
     let sizes = MemorySizes {
@@ -570,9 +566,12 @@ async fn serve(
     let map = serve_map::ServeMap::new(&conversion, &sizes);
     // Every size is checked against its maximum before anything is allocated
     // (si_core::memory::MAX_AREA_BYTES and the others).
-    let memory = Memory::checked(&sizes).map_err(|e| match &path {
-        Some(p) => CliError::new(format!("{}: {e}", p.display())),
-        None => e.into(),
+    let memory = Memory::checked(&sizes).map_err(|e| match (&path, &text) {
+        (Some(p), Some(text)) => match crate::config_file::key_span(text, e.parameter) {
+            Some(span) => crate::config_file::placed(p, text, span, Some(e.parameter), &e),
+            None => CliError::new(format!("{}: {e}", p.display())),
+        },
+        _ => e.into(),
     })?;
     let store =
         serve_map::Explaining::new(SimaticStore::new(memory, conversion), map.clone(), *out);

@@ -477,12 +477,7 @@ impl ServeArgs {
     async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         let file = match &self.config {
             None => ServeFile::default(),
-            Some(path) => {
-                let text = std::fs::read_to_string(path)
-                    .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
-                toml::from_str(&text)
-                    .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?
-            }
+            Some(path) => crate::config_file::read_toml(path)?,
         };
         let server = file.server_config()?;
         let config = self.link.config(Priority::Low)?;

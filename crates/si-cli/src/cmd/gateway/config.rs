@@ -275,7 +275,9 @@ impl fmt::Display for ConfigError {
 impl std::error::Error for ConfigError {}
 
 impl File {
-    /// Parse TOML text.
+    /// Parse TOML text (the tests' shortcut; `si gateway` reads its file through
+    /// `crate::config_file`, whose errors name the file, line and key).
+    #[cfg(test)]
     pub fn from_toml(text: &str) -> Result<File, String> {
         toml::from_str(text).map_err(|e| format!("gateway config: {e}"))
     }
