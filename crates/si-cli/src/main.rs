@@ -20,7 +20,6 @@ mod preset;
 mod profile;
 mod radix;
 mod scenario;
-mod svg;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use error::CliError;

@@ -18,6 +18,7 @@
 //!   timers need for it;
 //! - [`sim`]: a deterministic discrete-event line simulator with seeded faults;
 //! - [`monitor`]: what a passive listener sees and reports, shared by the protocols' monitors;
+//!   [`diagram`] draws its analysis as an SVG sequence diagram;
 //! - [`tracefile`]: the JSON-lines trace file the simulator, the driver and `si monitor` share;
 //! - [`linemark`], [`echo`], [`rx_path`], [`port_facts`]: what a real port needs between the
 //!   line and an engine (marked line errors, local echo, RS-485 direction), Sans-IO;
@@ -29,6 +30,7 @@
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod delivery;
+pub mod diagram;
 pub mod echo;
 pub mod fb;
 pub mod frame_pool;

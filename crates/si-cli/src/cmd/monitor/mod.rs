@@ -11,7 +11,7 @@
 //! delay) and keeps counters. A trace of DP windows (`--protocol dp-coord`,
 //! `si_dp_coord::monitor`) is read window by window with its coordination bytes. This command
 //! only chooses the monitor, feeds it and prints: every record as it is decoded, the counters
-//! at the end; `--svg` draws the sequence diagram ([`crate::svg`]).
+//! at the end; `--svg` draws the sequence diagram ([`si_core::diagram`]).
 
 use crate::conn::Connection;
 use crate::error::CliError;
@@ -341,8 +341,8 @@ impl MonitorArgs {
             .duration
             .map(|s| origin + std::time::Duration::from_secs_f64(s.max(0.0)));
         // The diagram summarises as the records arrive: a monitor left running for days, or
-        // flooded, holds a bounded number of them (crate::svg::Diagram).
-        let mut diagram = self.svg.as_ref().map(|_| crate::svg::Diagram::new());
+        // flooded, holds a bounded number of them (si_core::diagram::Diagram).
+        let mut diagram = self.svg.as_ref().map(|_| si_core::diagram::Diagram::new());
         let mut buf = [0u8; 512];
         let mut buf2 = [0u8; 512];
         let mut last = Instant::ZERO;
@@ -405,7 +405,9 @@ impl MonitorArgs {
         if let Some(d) = &mut diagram {
             records.into_iter().for_each(|r| d.push(r));
         }
-        let first = diagram.as_ref().and_then(crate::svg::Diagram::first_start);
+        let first = diagram
+            .as_ref()
+            .and_then(si_core::diagram::Diagram::first_start);
         let analysis = Analysis {
             protocol: protocol.name().to_owned(),
             stations,
@@ -545,7 +547,7 @@ pub fn print_counters(a: &Analysis, out: &Output) {
 }
 
 fn write_svg(path: &std::path::Path, a: &Analysis) -> Result<(), CliError> {
-    write_file(path, crate::svg::render(a))
+    write_file(path, si_core::diagram::render(a))
 }
 
 fn write_file(path: &std::path::Path, svg: String) -> Result<(), CliError> {
@@ -635,7 +637,7 @@ mod tests {
                     counters: d.counters().clone(),
                     span: (Instant::ZERO, end),
                 };
-                let svg = crate::svg::render(&analysis);
+                let svg = si_core::diagram::render(&analysis);
                 assert!(svg.ends_with("</svg>\n"));
             }
         }

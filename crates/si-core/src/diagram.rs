@@ -1,6 +1,6 @@
 //! Sequence diagrams of a decoded line as SVG: one lane per station, time running down,
 //! frames and control characters as labelled arrows, errors in red with their reason beside
-//! them — the kind of figure the manuals draw for 3964(R) (et200s-si-3964r-ascii.md §5, the
+//! them — the kind of figure the manuals draw for 3964(R) ([ET200S SI] §2.7, the
 //! STX/DLE/block/DLE exchange) and for the window protocol.
 //!
 //! Time is drawn as a sequence, not to scale: every record gets a row, its time at the left,
@@ -10,8 +10,8 @@
 //! a little context, and each run of uneventful records between them becomes one row that says
 //! how many frames passed and over what time; the counters close the figure.
 
-use si_core::monitor::{Analysis, Kind, Record, Severity};
-use si_core::{Duration, Instant};
+use crate::monitor::{Analysis, Kind, Record, Severity};
+use crate::{Duration, Instant};
 use std::fmt::Write;
 
 /// Most rows drawn before the diagram is summarised.
@@ -43,7 +43,7 @@ const TAIL: usize = 10;
 /// Records kept before a remark (the exchange it belongs to).
 const BEFORE: usize = 3;
 
-/// The diagram's rows, built as the records arrive, in bounded memory (issue 21: a live
+/// The diagram's rows, built as the records arrive, in bounded memory (a live
 /// monitor under a flood grew to 312 MB keeping every record for the figure).
 ///
 /// Up to [`MAX_ROWS`] records every record is drawn. Beyond, the figure keeps the first 30,
@@ -554,7 +554,7 @@ mod tests {
         r.text = "a decoded text the diagram does not draw".repeat(4);
         r.bytes = vec![0x55; 256];
         if faulty {
-            r.flags.push(si_core::monitor::Flag::error("CRC wrong"));
+            r.flags.push(crate::monitor::Flag::error("CRC wrong"));
         }
         r
     }
