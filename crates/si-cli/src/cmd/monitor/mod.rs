@@ -17,10 +17,14 @@ use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::{Args, ValueEnum};
-use si_core::monitor::{decode_all, line, Analysis, Decoder, Kind, LineChar, Record};
+use si_core::monitor::{self, decode_all, line, Analysis, Decoder, Kind, Record};
 use si_core::tracefile::{self, TraceFile};
 use si_core::{Duration, Instant, SerialSettings};
 use std::path::PathBuf;
+
+/// Baud rates a trace or a monitored line may use: the widest list, the manuals' twelve and
+/// USS's 187 500 (si-uss's own list).
+const TRACE_RATES: [u32; 13] = si_uss::config::USS_BAUD_RATES;
 
 /// The protocols the monitor decodes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -261,7 +265,11 @@ impl MonitorArgs {
         let protocol = match (self.protocol, named) {
             (Protocol::Auto, Some(p)) => p,
             (Protocol::Auto, None) => {
-                guess(&line.chars, |p| self.decoder(p, settings, one_sided), end)
+                // ASCII explains every line trivially: only when nothing else does.
+                let candidates = [Protocol::P3964r, Protocol::Modbus, Protocol::Uss];
+                monitor::best_fit(&line.chars, end, &candidates, Protocol::Ascii, |p| {
+                    self.decoder(p, settings, one_sided)
+                })
             }
             (p, _) => p,
         };
@@ -446,45 +454,6 @@ pub fn line_decoder(protocol: &str, settings: SerialSettings) -> Option<Box<dyn 
     Some(defaults.decoder(protocol, settings, false))
 }
 
-/// Baud rates a trace or a monitored line may use: the manuals' twelve and USS's 187 500.
-pub static TRACE_RATES: [u32; 13] = [
-    110, 300, 600, 1_200, 2_400, 4_800, 9_600, 19_200, 38_400, 57_600, 76_800, 115_200, 187_500,
-];
-
-/// Pick the decoder that explains the characters best: most decoded frames without errors,
-/// fewest errors.
-fn guess(
-    chars: &[LineChar],
-    make: impl Fn(Protocol) -> Box<dyn Decoder>,
-    end: Instant,
-) -> Protocol {
-    let mut best = (Protocol::Ascii, i64::MIN);
-    for p in [
-        Protocol::P3964r,
-        Protocol::Modbus,
-        Protocol::Uss,
-        Protocol::Ascii,
-    ] {
-        let mut d = make(p);
-        let records = decode_all(d.as_mut(), chars, end);
-        let good = records
-            .iter()
-            .filter(|r| r.kind != Kind::Note && !r.has_error())
-            .count() as i64;
-        let bad = records.iter().filter(|r| r.has_error()).count() as i64;
-        // ASCII explains everything trivially: it only wins when nothing else does.
-        let score = if p == Protocol::Ascii {
-            0
-        } else {
-            good * 2 - bad * 3
-        };
-        if score > best.1 {
-            best = (p, score);
-        }
-    }
-    best.0
-}
-
 fn station(stations: &[String], i: Option<usize>) -> &str {
     i.and_then(|i| stations.get(i)).map_or("?", String::as_str)
 }
@@ -559,6 +528,7 @@ fn write_file(path: &std::path::Path, svg: String) -> Result<(), CliError> {
 mod tests {
     use super::*;
     use clap::FromArgMatches;
+    use si_core::monitor::LineChar;
     use si_core::sim::{SplitMix64, Trace, TraceEntry, TraceKind};
     use si_core::LineError;
 
