@@ -563,7 +563,7 @@ async fn serve(
         dbs: memory.dbs.iter().map(|d| (d.number, d.length)).collect(),
     };
     let conversion = file.conversion.unwrap_or(ConversionDb::EXAMPLE);
-    let map = serve_map::ServeMap::new(&conversion, &sizes);
+    let map = si_modbus::serve_map::ServeMap::new(&conversion, &sizes);
     // Every size is checked against its maximum before anything is allocated
     // (si_core::memory::MAX_AREA_BYTES and the others).
     let memory = Memory::checked(&sizes).map_err(|e| match (&path, &text) {
@@ -606,7 +606,7 @@ async fn serve(
                "gap_us": config.line.gap().as_micros(),
                "frame_end": match frame_end { FrameEnd::Gap => "gap", FrameEnd::Length => "length" }}),
     );
-    map.print(unit, out);
+    serve_map::print(&map, unit, out);
     // Serves until Ctrl-C (exit 130, main's runtime) or until the line closes (exit 1).
     while let Some(e) = server.next_event().await {
         print_slave_event(&e, out);
