@@ -1201,6 +1201,24 @@ pub fn decode_response(adu: &[u8]) -> Result<(u8, Response<'_>), DecodeError> {
     read_response(open(adu, FrameKind::Response)?)
 }
 
+/// How an ADU with a good CRC reads, as `si frame decode modbus` says it: `("request", "unit 1
+/// FC03 read …")`, `"response"`, or `"request and response (an echo reads the same both
+/// ways)"` for a frame both decode to alike (FC05, FC06 and their echoes); `None` when it is
+/// neither.
+pub fn reading(adu: &[u8]) -> Option<(&'static str, String)> {
+    let req = decode_request(adu).ok();
+    let resp = decode_response(adu).ok();
+    match (req, resp) {
+        (Some((u, r)), Some((_, p))) if format!("{r:?}") == format!("{p:?}") => Some((
+            "request and response (an echo reads the same both ways)",
+            format!("unit {u} {r}"),
+        )),
+        (Some((u, r)), _) => Some(("request", format!("unit {u} {r}"))),
+        (None, Some((u, p))) => Some(("response", format!("unit {u} {p}"))),
+        (None, None) => None,
+    }
+}
+
 /// Read `unit | PDU` without a CRC (Modbus TCP) as a response; see
 /// [`decode_unit_pdu_request`].
 pub fn decode_unit_pdu_response(bytes: &[u8]) -> Result<(u8, Response<'_>), DecodeError> {

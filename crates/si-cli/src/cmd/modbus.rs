@@ -689,28 +689,13 @@ impl EncodeArgs {
         let crc = frame::crc16(&body);
         let mut adu = body.clone();
         adu.extend_from_slice(&crc.to_le_bytes());
-        let reading = reading(&adu);
+        let reading = frame::reading(&adu);
         out.line(
             &si_core::hex::format(&adu),
             json!({"adu": si_core::hex::format(&adu), "crc": format!("{crc:04X}"),
                    "reading": reading.map(|r| r.0)}),
         );
         Ok(())
-    }
-}
-
-/// How an ADU with a good CRC reads: `("request" | "response" | "request and response", text)`.
-fn reading(adu: &[u8]) -> Option<(&'static str, String)> {
-    let req = frame::decode_request(adu).ok();
-    let resp = frame::decode_response(adu).ok();
-    match (req, resp) {
-        (Some((u, r)), Some((_, p))) if format!("{r:?}") == format!("{p:?}") => Some((
-            "request and response (an echo reads the same both ways)",
-            format!("unit {u} {r}"),
-        )),
-        (Some((u, r)), _) => Some(("request", format!("unit {u} {r}"))),
-        (None, Some((u, p))) => Some(("response", format!("unit {u} {p}"))),
-        (None, None) => None,
     }
 }
 
@@ -739,7 +724,7 @@ impl DecodeArgs {
             }
             _ => {}
         }
-        let (reading, text) = reading(&adu).unwrap_or(("?", String::new()));
+        let (reading, text) = frame::reading(&adu).unwrap_or(("?", String::new()));
         let crc = u16::from_le_bytes([adu[adu.len() - 2], adu[adu.len() - 1]]);
         out.line(
             &format!("{reading}: {text}, CRC {crc:04X} ok"),
