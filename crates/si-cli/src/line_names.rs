@@ -1,4 +1,4 @@
-//! The control characters of a simulated line trace by name (`si sim`, issue 19): `tx 02  STX`,
+//! The control characters of a simulated line trace by name (`si sim`): `tx 02  STX`,
 //! `rx 10  DLE`, a 3964(R) block's `DLE ETX BCC`, a USS telegram's `STX LGE ADR … BCC`, an ASCII
 //! frame's `CR LF`, `XON`/`XOFF`.
 //!
@@ -13,17 +13,14 @@
 use si_core::sim::{Trace, TraceEntry, TraceKind};
 use std::collections::{HashMap, VecDeque};
 
-/// How a protocol's bytes are named.
+/// How a protocol's bytes are named: by the protocol crate's frame module.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Naming {
-    /// 3964(R) (also under RK 512): STX, DLE, NAK alone; a block's DLE ETX and BCC
-    /// (et200s-si-3964r-ascii.md §5.1 control characters, §5.2 BCC; a doubled DLE in the data
-    /// is data).
+    /// 3964(R), also under RK 512 ([`si_3964r::frame::byte_names`]).
     R3964,
-    /// USS: STX, LGE, ADR and BCC of each telegram (et200s-si-modbus-uss.md §6.1).
+    /// USS ([`si_uss::frame::byte_name`]).
     Uss,
-    /// ASCII: every control character by its ASCII name, XON and XOFF for DC1 and DC3
-    /// (et200s-si-3964r-ascii.md §6.9 flow control).
+    /// ASCII ([`si_ascii::frame::control_name`]).
     Ascii,
 }
 

@@ -293,25 +293,17 @@ fn finish(result: Result<Outcome, Status>, out: &Output) -> Result<(), CliError>
 }
 
 /// A window STATUS with its text: the window's own catalogs, then those of the drivers behind
-/// the module (3964(R), ASCII); a code none of them has says so instead of standing bare
-/// (issue 21: dp-coord host printed 16#49D1 with no text).
+/// the module (3964(R), ASCII); a code none of them has says so instead of standing bare.
 fn described(status: Status) -> String {
-    if status.info().is_some() {
-        return status.to_string();
-    }
-    let catalogs: [fn(u16) -> Status; 3] = [
+    let lookups: [fn(u16) -> Status; 3] = [
         si_dp_coord::status::lookup,
         si_3964r::status::lookup,
         si_ascii::status::lookup,
     ];
-    catalogs
-        .iter()
-        .map(|lookup| lookup(status.code()))
-        .find(|s| s.info().is_some())
-        .map_or_else(
-            || format!("{status} (not in the catalog)"),
-            |s| s.to_string(),
-        )
+    match (lookups.iter().map(|l| status.described_by(l))).find(|s| s.info().is_some()) {
+        Some(s) => s.to_string(),
+        None => format!("{status} (not in the catalog)"),
+    }
 }
 
 impl HostArgs {

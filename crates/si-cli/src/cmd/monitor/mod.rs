@@ -27,7 +27,7 @@ use std::path::PathBuf;
 const TRACE_RATES: [u32; 13] = si_uss::config::USS_BAUD_RATES;
 
 /// The protocols the monitor decodes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
 pub enum Protocol {
     /// 3964(R) with block check (BCC).
     #[value(name = "3964r")]
@@ -47,6 +47,7 @@ pub enum Protocol {
     #[value(name = "dp-coord")]
     DpCoord,
     /// The trace header's protocol, else the decoder that explains the line best.
+    #[default]
     Auto,
 }
 
@@ -79,7 +80,7 @@ impl Protocol {
 }
 
 /// `si monitor`.
-#[derive(Debug, Args)]
+#[derive(Debug, Default, Args)]
 pub struct MonitorArgs {
     /// Protocol to decode.
     #[arg(long, value_enum, default_value_t = Protocol::Auto)]
@@ -437,18 +438,7 @@ pub fn line_decoder(protocol: &str, settings: SerialSettings) -> Option<Box<dyn 
     let protocol = Protocol::from_name(protocol).filter(|p| *p != Protocol::DpCoord)?;
     let defaults = MonitorArgs {
         protocol,
-        trace: None,
-        svg: None,
-        tap: None,
-        duration: None,
-        zvz: None,
-        qvz: None,
-        timeout: None,
-        char_delay: None,
-        end_char: None,
-        fixed_length: None,
-        events: false,
-        no_xon_xoff: false,
+        ..MonitorArgs::default()
     };
     // Both directions are known: what we write and what we read.
     Some(defaults.decoder(protocol, settings, false))
