@@ -49,7 +49,7 @@ const BEFORE: usize = 3;
 /// Up to [`MAX_ROWS`] records every record is drawn. Beyond, the figure keeps the first 30,
 /// the last 10, and every record with an error or remark together with the three before it
 /// and the one after, as long as the [`MAX_ROWS`] budget lasts (first remarks first); each run
-/// of the others becomes one summary row. A record's fate is decided when it is [`TAIL`]
+/// of the others becomes one summary row. A record's fate is decided when it is `TAIL` (10)
 /// records old, so at most `MAX_ROWS + TAIL` records are held, plus the kept rows.
 pub struct Diagram {
     /// Records seen.
