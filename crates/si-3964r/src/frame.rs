@@ -368,6 +368,55 @@ impl Decoder {
     }
 }
 
+/// The name of a control character sent alone ([`STX`], [`DLE`], [`NAK`]), as a trace or a
+/// sequence diagram labels it; `None` for any other byte ([ET200S SI] §2.7, control
+/// characters).
+pub const fn control_name(byte: u8) -> Option<&'static str> {
+    match byte {
+        STX => Some("STX"),
+        DLE => Some("DLE"),
+        NAK => Some("NAK"),
+        _ => None,
+    }
+}
+
+/// The name of each byte of one transmission, `None` for data: a control character sent alone
+/// ([`control_name`]), or a block's closing `DLE ETX` and the `BCC` after it. A byte is named by
+/// its place, not its value: a doubled `DLE` in the data and a data byte 02H are data
+/// ([ET200S SI] §2.7; Fig. 2-12).
+///
+/// ```
+/// use si_3964r::frame::byte_names;
+/// let names: Vec<_> = byte_names(&[0x41, 0x10, 0x10, 0x10, 0x03, 0x41]).collect();
+/// assert_eq!(names, [None, None, None, Some("DLE"), Some("ETX"), Some("BCC")]);
+/// ```
+pub fn byte_names(transmission: &[u8]) -> impl Iterator<Item = Option<&'static str>> + '_ {
+    let alone = match transmission {
+        [b] => control_name(*b),
+        _ => None,
+    };
+    // The closing DLE ETX: the first DLE followed by ETX once doubled DLEs are skipped.
+    let mut end = None;
+    let mut i = 0;
+    while transmission.len() > 1 && i + 1 < transmission.len() {
+        match (transmission[i], transmission[i + 1]) {
+            (DLE, DLE) => i += 2,
+            (DLE, ETX) => {
+                end = Some(i);
+                break;
+            }
+            _ => i += 1,
+        }
+    }
+    (0..transmission.len()).map(move |k| match end {
+        _ if transmission.len() == 1 => alone,
+        Some(e) if k == e => Some("DLE"),
+        Some(e) if k == e + 1 => Some("ETX"),
+        Some(e) if k == e + 2 => Some("BCC"),
+        _ => None,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -489,5 +538,25 @@ mod tests {
             decode(&[0x10, 0x03, 0x13], Mode::BlockCheck, 200),
             Ok(vec![])
         );
+    }
+
+    #[test]
+    fn a_block_names_dle_etx_and_bcc_and_leaves_its_data_unnamed() {
+        let names: Vec<_> = byte_names(&[0x02, 0x10, 0x10, 0x41, 0x10, 0x03, 0x55]).collect();
+        let want = [
+            None,
+            None,
+            None,
+            None,
+            Some("DLE"),
+            Some("ETX"),
+            Some("BCC"),
+        ];
+        assert_eq!(names, want);
+        assert_eq!(byte_names(&[NAK]).collect::<Vec<_>>(), [Some("NAK")]);
+        assert_eq!(byte_names(&[0x41]).collect::<Vec<_>>(), [None]);
+        assert_eq!(byte_names(&[]).count(), 0);
+        let plain: Vec<_> = byte_names(&[0x41, DLE, ETX]).collect();
+        assert_eq!(plain, [None, Some("DLE"), Some("ETX")]);
     }
 }

@@ -147,6 +147,21 @@ impl<'a> Iterator for Split<'a> {
 /// window, in si-core; [`Link::apply_param_block`](crate::Link::apply_param_block) applies one.
 pub use si_core::param_block::{ParamBlock, ParamError};
 
+/// The ASCII name of a control character (`CR`, `LF`, `NUL` … `US`, `DEL`), with DC1 and DC3
+/// by their flow-control names `XON` and `XOFF` ([ET200S SI] §2.8, flow control: the
+/// default XON/XOFF characters); `None` for a printable character or a byte above 7FH.
+pub fn control_name(byte: u8) -> Option<&'static str> {
+    const C0: [&str; 32] = [
+        "NUL", "SOH", "STX", "ETX", "EOT", "ENQ", "ACK", "BEL", "BS", "HT", "LF", "VT", "FF", "CR",
+        "SO", "SI", "DLE", "XON", "DC2", "XOFF", "DC4", "NAK", "SYN", "ETB", "CAN", "EM", "SUB",
+        "ESC", "FS", "GS", "RS", "US",
+    ];
+    match byte {
+        0x7F => Some("DEL"),
+        _ => C0.get(usize::from(byte)).copied(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -229,5 +244,25 @@ mod tests {
             let joined: Vec<u8> = split(end, MAX_FRAME_LEN, &stream).flat_map(|(f, _)| f.iter().copied()).collect();
             prop_assert_eq!(joined, stream);
         }
+    }
+
+    #[test]
+    fn control_names_are_ascii_with_xon_and_xoff() {
+        let names: Vec<_> = [0x48, 0x0D, 0x0A, 0x11, 0x13, 0x7F, 0x80]
+            .into_iter()
+            .map(control_name)
+            .collect();
+        assert_eq!(
+            names,
+            [
+                None,
+                Some("CR"),
+                Some("LF"),
+                Some("XON"),
+                Some("XOFF"),
+                Some("DEL"),
+                None
+            ]
+        );
     }
 }

@@ -2,11 +2,11 @@
 
 use crate::error::CliError;
 use clap::Args;
-use si_core::driver::{PortFacts, RtsToggle, Transport, WithFacts};
+use si_core::driver::{PortFacts, Transport, WithFacts};
 use si_core::frame_log::Frames;
 use si_core::linemark::Marked;
 use si_core::monitor::Decoder;
-use si_core::port::{self, PortOptions, Rs485, TxEnable};
+use si_core::port::{self, PortOptions, Rs485Mode, Rs485ModeError};
 use si_core::tap::{Tap, Watch};
 use si_core::trace::TraceKind;
 use si_core::tracefile::{Header, Recorder};
@@ -55,7 +55,13 @@ pub struct Connection {
     /// to transmit), `rts-inverted` (RTS off to transmit), `sysfs` ('1' written to
     /// --rs485-file to transmit, '0' to receive) or `sysfs-inverted` ('0' to transmit), as
     /// mbusd's -t, -r, -y and -Y.
-    #[arg(long, global = true, help_heading = LINE_OPTIONS, value_enum, value_name = "HOW")]
+    #[arg(
+        long,
+        global = true,
+        help_heading = LINE_OPTIONS,
+        value_name = "HOW",
+        value_parser = rs485_mode_parser()
+    )]
     pub rs485: Option<Rs485Mode>,
     /// With --rs485 sysfs or sysfs-inverted: the file written, e.g. a GPIO's
     /// /sys/class/gpio/gpio17/value (exported and set to output beforehand).
@@ -213,14 +219,15 @@ impl Connection {
         }
         let rs485 = match self.rs485 {
             None => None,
-            Some(Rs485Mode::Kernel) => Some(Rs485::Kernel {
-                delay_before: before,
-                delay_after: after,
-            }),
-            Some(mode) => Some(Rs485::Driver {
-                toggle: RtsToggle { before, after },
-                output: mode.output(self.rs485_file.as_deref())?,
-            }),
+            Some(mode) => Some(
+                mode.control(self.rs485_file.clone(), before, after)
+                    .map_err(|e| match e {
+                        Rs485ModeError::MissingFile(mode) => CliError::usage(format!(
+                            "--rs485 {mode} needs --rs485-file PATH (the file to write '1'/'0' to)"
+                        )),
+                        other => CliError::usage(other.to_string()),
+                    })?,
+            ),
         };
         Ok(PortOptions {
             latency_timer: self.latency_timer.map(Duration::from_millis),
@@ -292,68 +299,29 @@ impl Watch for Recording {
     }
 }
 
-/// `--rs485`: who switches the transceiver, and how. The same names in a profile's and a
-/// gateway line's `rs485` key.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Rs485Mode {
-    /// The kernel's RS-485 mode (Linux TIOCSRS485, where the port's driver has it).
-    Kernel,
-    /// This program raises RTS before each transmission and drops it after (mbusd -t).
-    Rts,
-    /// This program drops RTS to transmit and raises it after (mbusd -r).
-    RtsInverted,
-    /// This program writes '1' to --rs485-file to transmit and '0' after (mbusd -y).
-    Sysfs,
-    /// This program writes '0' to --rs485-file to transmit and '1' after (mbusd -Y).
-    SysfsInverted,
-}
-
-impl Rs485Mode {
-    /// The name as typed (`rts-inverted`).
-    pub fn name(self) -> String {
-        clap::ValueEnum::to_possible_value(&self)
-            .map(|v| v.get_name().to_owned())
-            .unwrap_or_default()
-    }
-
-    /// The mode named `name`, as the flag spells it.
-    pub fn from_name(name: &str) -> Option<Rs485Mode> {
-        clap::ValueEnum::from_str(name, false).ok()
-    }
-
-    /// Every name, for an error that lists them: `kernel, rts, …`.
-    pub fn names() -> String {
-        let names: Vec<String> = <Rs485Mode as clap::ValueEnum>::value_variants()
-            .iter()
-            .map(|m| m.name())
-            .collect();
-        names.join(", ")
-    }
-
-    /// Whether this mode writes a file (`--rs485-file` needed).
-    pub fn needs_file(self) -> bool {
-        matches!(self, Rs485Mode::Sysfs | Rs485Mode::SysfsInverted)
-    }
-
-    /// The transmitter's enable output for a driver-switched mode; a sysfs mode needs `file`.
-    /// (`kernel` has none: the UART switches; it maps to RTS, unused.)
-    fn output(self, file: Option<&std::path::Path>) -> Result<TxEnable, CliError> {
-        let file = || {
-            file.map(std::path::Path::to_path_buf).ok_or_else(|| {
-                CliError::usage(format!(
-                    "--rs485 {} needs --rs485-file PATH (the file to write '1'/'0' to)",
-                    self.name()
-                ))
-            })
-        };
-        Ok(match self {
-            Rs485Mode::Kernel | Rs485Mode::Rts => TxEnable::Rts,
-            Rs485Mode::RtsInverted => TxEnable::RtsInverted,
-            Rs485Mode::Sysfs => TxEnable::File(file()?),
-            Rs485Mode::SysfsInverted => TxEnable::FileInverted(file()?),
-        })
-    }
+/// `--rs485`'s parser: si-core's names, listed as clap's possible values with what this
+/// program does for each (help and errors name them), parsed with [`Rs485Mode`]'s `FromStr`.
+fn rs485_mode_parser() -> impl clap::builder::TypedValueParser<Value = Rs485Mode> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    let help = |mode| match mode {
+        Rs485Mode::Kernel => {
+            "The kernel's RS-485 mode (Linux TIOCSRS485, where the port's driver has it)"
+        }
+        Rs485Mode::Rts => {
+            "This program raises RTS before each transmission and drops it after (mbusd -t)"
+        }
+        Rs485Mode::RtsInverted => {
+            "This program drops RTS to transmit and raises it after (mbusd -r)"
+        }
+        Rs485Mode::Sysfs => {
+            "This program writes '1' to --rs485-file to transmit and '0' after (mbusd -y)"
+        }
+        Rs485Mode::SysfsInverted => {
+            "This program writes '0' to --rs485-file to transmit and '1' after (mbusd -Y)"
+        }
+    };
+    PossibleValuesParser::new(Rs485Mode::ALL.map(|m| PossibleValue::new(m.name()).help(help(m))))
+        .try_map(|name| name.parse::<Rs485Mode>())
 }
 
 /// The longest wait for a serial device server to accept the connection (an unreachable host

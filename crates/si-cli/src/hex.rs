@@ -6,7 +6,7 @@
 //! The rule ([`HEX_HELP`]): the bytes may be given as separate words (`01 02 10 03`), as one
 //! quoted string (`"01 02 10 03"`, `"01021003"`) or mixed; words are joined with spaces and read
 //! by [`si_core::hex::parse`], so `,` `:` `-` also separate and each group may carry `0x` (or the
-//! manuals' `16#`, as the numbers of the issue-18 radix convention do). A group
+//! manuals' `16#`, as the numbers of the radix convention do). A group
 //! needs an even number of digits (`0203` is two bytes, `2` is an error, not `02`).
 
 use crate::error::CliError;
@@ -17,31 +17,10 @@ pub const HEX_HELP: &str = "Hex as separate words (01 02 10 03) or one quoted st
      (\"01021003\"); , : - also separate, 0x or 16# may lead a group, each group an even \
      number of digits";
 
-/// Parse the user's hex argument, turning a mistake into a one-line error. A group may carry the
-/// manuals' `16#` prefix as well as `0x`.
+/// Parse the user's hex argument (`0x` and the manuals' `16#` may lead a group), turning a
+/// mistake into a one-line error.
 pub fn parse_hex(text: &str) -> Result<Vec<u8>, CliError> {
-    si_core::hex::parse(&without_16_prefix(text))
-        .map_err(|e| CliError::new(format!("bad hex {text:?}: {e}")))
-}
-
-/// `text` with each group's `16#` (the SIMATIC notation, `16#0A`) blanked out: spaces in its
-/// place, so an error still names the position in what the user typed.
-fn without_16_prefix(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    let mut group_start = true;
-    let mut rest = text;
-    while let Some(c) = rest.chars().next() {
-        if group_start && rest.starts_with("16#") {
-            out.push_str("   ");
-            rest = &rest[3..];
-            group_start = false;
-            continue;
-        }
-        group_start = c.is_whitespace() || matches!(c, ',' | ':' | '-');
-        out.push(c);
-        rest = &rest[c.len_utf8()..];
-    }
-    out
+    si_core::hex::parse(text).map_err(|e| CliError::new(format!("bad hex {text:?}: {e}")))
 }
 
 /// Parse hex given as several command-line words (`01 02 10 03`, or one quoted string), the

@@ -13,17 +13,14 @@
 use si_sim::{Trace, TraceEntry, TraceKind};
 use std::collections::{HashMap, VecDeque};
 
-/// How a protocol's bytes are named.
+/// How a protocol's bytes are named: by the protocol crate's frame module.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Naming {
-    /// 3964(R) (also under RK 512): STX, DLE, NAK alone; a block's DLE ETX and BCC
-    /// ([ET200S SI] §2.7 control characters, §2.7, Fig. 2-12 BCC; a doubled DLE in the data
-    /// is data).
+    /// 3964(R), also under RK 512 ([`si_3964r::frame::byte_names`]).
     R3964,
-    /// USS: STX, LGE, ADR and BCC of each telegram ([Modbus/USS] §3.7.1).
+    /// USS ([`si_uss::frame::byte_name`]).
     Uss,
-    /// ASCII: every control character by its ASCII name, XON and XOFF for DC1 and DC3
-    /// ([ET200S SI] §2.8 flow control).
+    /// ASCII ([`si_ascii::frame::control_name`]).
     Ascii,
 }
 
@@ -39,68 +36,19 @@ impl Naming {
         }
     }
 
-    /// The name of each byte of one transmission (`None`: data).
+    /// The name of each byte of one transmission (`None`: data), from the protocol crate's
+    /// frame module.
     fn transmission(self, bytes: &[u8]) -> Vec<Option<&'static str>> {
-        let mut names = vec![None; bytes.len()];
         match self {
-            Naming::R3964 if bytes.len() == 1 => names[0] = r3964_control(bytes[0]),
-            Naming::R3964 => {
-                // Stuffed data up to DLE ETX, then the BCC (3964R) if there is one more byte.
-                let mut i = 0;
-                while i + 1 < bytes.len() {
-                    match (bytes[i], bytes[i + 1]) {
-                        (DLE, DLE) => i += 2,
-                        (DLE, ETX) => {
-                            names[i] = Some("DLE");
-                            names[i + 1] = Some("ETX");
-                            if let Some(n) = names.get_mut(i + 2) {
-                                *n = Some("BCC");
-                            }
-                            break;
-                        }
-                        _ => i += 1,
-                    }
-                }
-            }
-            Naming::Uss if bytes.len() >= 4 && bytes[0] == STX => {
-                names[0] = Some("STX");
-                names[1] = Some("LGE");
-                names[2] = Some("ADR");
-                names[bytes.len() - 1] = Some("BCC");
-            }
-            Naming::Uss => {}
-            Naming::Ascii => {
-                for (n, &b) in names.iter_mut().zip(bytes) {
-                    *n = ascii_control(b);
-                }
-            }
+            Naming::R3964 => si_3964r::frame::byte_names(bytes).collect(),
+            Naming::Uss => (0..bytes.len())
+                .map(|i| si_uss::frame::byte_name(bytes, i))
+                .collect(),
+            Naming::Ascii => bytes
+                .iter()
+                .map(|&b| si_ascii::frame::control_name(b))
+                .collect(),
         }
-        names
-    }
-}
-
-use si_3964r::frame::{DLE, ETX, NAK, STX};
-
-/// A 3964(R) control character sent alone ([ET200S SI] §2.7).
-fn r3964_control(b: u8) -> Option<&'static str> {
-    match b {
-        STX => Some("STX"),
-        DLE => Some("DLE"),
-        NAK => Some("NAK"),
-        _ => None,
-    }
-}
-
-/// The ASCII name of a control character; DC1 and DC3 by their flow-control names.
-fn ascii_control(b: u8) -> Option<&'static str> {
-    const C0: [&str; 32] = [
-        "NUL", "SOH", "STX", "ETX", "EOT", "ENQ", "ACK", "BEL", "BS", "HT", "LF", "VT", "FF", "CR",
-        "SO", "SI", "DLE", "XON", "DC2", "XOFF", "DC4", "NAK", "SYN", "ETB", "CAN", "EM", "SUB",
-        "ESC", "FS", "GS", "RS", "US",
-    ];
-    match b {
-        0x7F => Some("DEL"),
-        _ => C0.get(usize::from(b)).copied(),
     }
 }
 

@@ -7,6 +7,7 @@
 //! prints its STATUS.
 
 mod cmd;
+mod config_file;
 mod conn;
 mod error;
 mod help;
@@ -19,7 +20,6 @@ mod preset;
 mod profile;
 mod radix;
 mod scenario;
-mod svg;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use error::CliError;

@@ -18,7 +18,9 @@
 //!
 //! Also `tcp`, `latency_timer`, `rs485` (`kernel`, `rts`, `rts-inverted`, `sysfs`,
 //! `sysfs-inverted`), `rs485_file`, `rs485_delay_before`, `rs485_delay_after`, `local_echo`,
-//! `no_line_errors`. An unknown key is refused with its line;
+//! `no_line_errors`. The file is read through [`crate::config_file`] (at most 4 MiB). An
+//! unknown key is refused with its line, and so are `port` and `tcp` together (a line is one
+//! or the other);
 //! baud, data bits, parity and stop bits are checked with the same errors as the flags
 //! ([`SerialSettings`]), naming the file, line and key. The baud rate is checked against the
 //! widest list (USS adds 187 500 bit/s); the command then checks its own list, as for the flag.
@@ -27,11 +29,13 @@
 //! the profile, which wins over the default. A `--port` or `--tcp` flag replaces both of the
 //! profile's `port` and `tcp`: a line is chosen as a whole.
 
-use crate::conn::{Connection, Rs485Mode};
+use crate::config_file;
+use crate::conn::Connection;
 use crate::error::CliError;
 use clap::parser::ValueSource;
 use clap::ArgMatches;
 use serde::Deserialize;
+use si_core::port::Rs485Mode;
 use si_core::{Parity, SerialSettings};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -50,8 +54,8 @@ struct SettingsFile {
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Profile {
-    port: Option<String>,
-    tcp: Option<String>,
+    port: Option<Spanned<String>>,
+    tcp: Option<Spanned<String>>,
     baud: Option<Spanned<u32>>,
     data_bits: Option<Spanned<u8>>,
     parity: Option<Spanned<String>>,
@@ -98,17 +102,9 @@ pub fn apply(conn: &mut Connection, matches: &ArgMatches) -> Result<(), CliError
     };
     let path = settings_path()
         .ok_or_else(|| CliError::new("--profile: no settings file: set SI_CONFIG or HOME"))?;
-    let text = std::fs::read_to_string(&path).map_err(|e| {
-        CliError::new(format!(
-            "--profile {name}: cannot read {}: {e}",
-            path.display()
-        ))
-    })?;
-    let line_of = |offset: usize| text[..offset.min(text.len())].matches('\n').count() + 1;
-    let mut file: SettingsFile = toml::from_str(&text).map_err(|e| {
-        let line = e.span().map_or(1, |s| line_of(s.start));
-        CliError::new(format!("{}:{line}: {}", path.display(), e.message()))
-    })?;
+    let text = config_file::read(&path)
+        .map_err(|e| CliError::new(format!("--profile {name}: {}", e.text())))?;
+    let mut file: SettingsFile = config_file::parse_toml(&path, &text)?;
     let profile = file.profile.remove(&name).ok_or_else(|| {
         let names: Vec<_> = file.profile.keys().map(String::as_str).collect();
         CliError::new(format!(
@@ -117,13 +113,17 @@ pub fn apply(conn: &mut Connection, matches: &ArgMatches) -> Result<(), CliError
             names.join(", ")
         ))
     })?;
+    let table = format!("[profile.{name}]");
     let at = |key: &str, span: std::ops::Range<usize>, e: &dyn std::fmt::Display| {
-        CliError::new(format!(
-            "{}:{}: [profile.{name}] {key}: {e}",
-            path.display(),
-            line_of(span.start)
-        ))
+        config_file::placed(&path, &text, span, Some(&format!("{table} {key}")), e)
     };
+    config_file::refuse_together(
+        &path,
+        &text,
+        &table,
+        ("port", profile.port.as_ref().map(Spanned::span)),
+        ("tcp", profile.tcp.as_ref().map(Spanned::span)),
+    )?;
     profile.check(&at)?;
     profile.fill(conn, |id| explicit(matches, id));
     Ok(())
@@ -178,8 +178,8 @@ impl Profile {
         }
         let line_given = explicit("port") || explicit("tcp");
         if !line_given && (self.port.is_some() || self.tcp.is_some()) {
-            conn.port = self.port;
-            conn.tcp = self.tcp;
+            conn.port = self.port.map(Spanned::into_inner);
+            conn.tcp = self.tcp.map(Spanned::into_inner);
         }
         set(
             &mut conn.baud,

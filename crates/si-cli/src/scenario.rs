@@ -123,7 +123,7 @@ fn save(sink: &Sink, trace: &Trace) -> Result<(), String> {
         let analysis = args
             .analyse(&file, sink.settings)
             .map_err(|e| format!("{e:?}"))?;
-        std::fs::write(path, crate::svg::render(&analysis))
+        std::fs::write(path, si_core::diagram::render(&analysis))
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }
     Ok(())

@@ -6,7 +6,7 @@
 //! exists, and looks for a circle in the graph of modules. The crate root (`main.rs`) and every
 //! `mod.rs` declare their children, so they count as depending on each of them: a child that
 //! imports from its parent closes a circle. Leaf modules (`error`, `output`, `hex`, `preset`,
-//! `scenario`, `svg`, `conn`) take what several commands share.
+//! `scenario`, `conn`, `config_file`) take what several commands share.
 
 #[path = "import_graph/pairs.rs"]
 mod pairs;

@@ -6,6 +6,8 @@ mod bounds;
 #[path = "scenarios/cli.rs"]
 mod cli;
 mod common;
+#[path = "scenarios/config_files.rs"]
+mod config_files;
 #[path = "scenarios/dpcoord.rs"]
 mod dpcoord;
 #[path = "scenarios/examples.rs"]

@@ -29,7 +29,8 @@ pub enum HexError {
 }
 
 /// Parse bytes from hex. Whitespace, `,`, `:` and `-` separate groups; a group may carry a `0x`
-/// prefix; each group needs an even number of digits (`020E` is two bytes).
+/// prefix or the manuals' `16#` (the SIMATIC notation, `16#0A`); each group needs an even
+/// number of digits (`020E` is two bytes). Error positions count in the text as given.
 pub fn parse(text: &str) -> Result<Vec<u8>, HexError> {
     let mut out = Vec::with_capacity(text.len() / 2);
     let chars: Vec<char> = text.chars().collect();
@@ -43,6 +44,8 @@ pub fn parse(text: &str) -> Result<Vec<u8>, HexError> {
         // One group: optional 0x, then hex digits up to a separator.
         if c == '0' && matches!(chars.get(i + 1), Some('x' | 'X')) {
             i += 2;
+        } else if chars[i..].starts_with(&['1', '6', '#']) {
+            i += 3;
         }
         let mut high: Option<u8> = None;
         while i < chars.len() && !(chars[i].is_whitespace() || matches!(chars[i], ',' | ':' | '-'))
@@ -115,5 +118,17 @@ mod tests {
         fn parse_never_panics(text in ".{0,40}") {
             let _ = parse(&text);
         }
+    }
+
+    #[test]
+    fn a_group_may_lead_with_16_hash_as_the_manuals_write_it() {
+        assert_eq!(parse("16#01 16#0210,03").unwrap(), [0x01, 0x02, 0x10, 0x03]);
+        let e = parse("16#0G").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "invalid hex digit 'G' at position 5 (1-based)"
+        );
+        // Inside a group `16#` is no prefix.
+        assert!(parse("0116#02").is_err());
     }
 }

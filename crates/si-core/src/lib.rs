@@ -27,6 +27,7 @@
 //! - [`trace`]: the timestamped record of a line ([`trace::Trace`], [`trace::TraceKind`]) that
 //!   the simulator, the driver, the monitors and the module's LEDs share;
 //! - [`monitor`]: what a passive listener sees and reports, shared by the protocols' monitors;
+//!   [`diagram`] draws its analysis as an SVG sequence diagram;
 //! - [`tracefile`]: the trace file's header and line format; reading and writing the JSON lines
 //!   (`tracefile::read`, `write`, `Recorder`) need feature `tracefile`;
 //! - [`linemark`], [`echo`], [`rx_path`], [`port_facts`]: what a real port needs between the
@@ -52,6 +53,7 @@
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
 pub mod delivery;
+pub mod diagram;
 pub mod echo;
 pub mod fb;
 pub mod fb_v24;

@@ -105,6 +105,20 @@ impl Status {
         }
     }
 
+    /// This STATUS with its text: itself when it has one, else what `lookup` (a protocol
+    /// crate's catalog lookup) says for its code, keeping the remedy given for this occurrence
+    /// ([`Status::with_remedy`]). For a STATUS that lost its text on the way, as a bare code
+    /// read back from JSON.
+    pub fn described_by(self, lookup: impl FnOnce(u16) -> Status) -> Status {
+        if self.info.is_some() {
+            return self;
+        }
+        Status {
+            remedy: self.remedy,
+            ..lookup(self.code)
+        }
+    }
+
     /// What the user should do: the remedy given for this occurrence, else the manual's.
     pub fn remedy(self) -> Option<&'static str> {
         self.remedy.or(self.info.map(|i| i.remedy))
@@ -279,5 +293,28 @@ mod tests {
         assert_eq!(s.info().unwrap().remedy, "use 1 … 200");
         assert_eq!(s, Status::from_code(0x1E41));
         assert!(Status::lookup(0x7777, &[common::CATALOG]).info().is_none());
+    }
+
+    #[test]
+    fn described_by_fills_in_the_text_and_keeps_the_occurrences_remedy() {
+        let lookup = |code| Status::lookup(code, &[common::CATALOG]);
+        let known = common::BUFFER_TWO_THIRDS_FULL;
+        let bare = Status::from_code(known.code()).with_remedy("read faster");
+        let described = bare.described_by(lookup);
+        assert_eq!(described.info(), known.info());
+        assert_eq!(described.remedy(), Some("read faster"));
+        assert_eq!(
+            Status::from_code(known.code())
+                .described_by(lookup)
+                .remedy(),
+            known.remedy()
+        );
+        // A STATUS with its text is kept as it is; an unknown code stays bare.
+        let never = |_| panic!("not looked up");
+        assert_eq!(known.described_by(never).info(), known.info());
+        assert!(Status::from_code(0x7777)
+            .described_by(lookup)
+            .info()
+            .is_none());
     }
 }

@@ -358,30 +358,58 @@ pub enum Request<'a> {
     },
 }
 
-/// Exception codes ([Modbus/USS] §3.3.6, Table 3-12): 01–07 decoded, 01–04 sent by the slave.
+/// Exception codes: 01–07 as the module's manual lists them ([Modbus/USS] §3.3.6, Table 3-12;
+/// the slave sends 01–04), 08, 0AH and 0BH from the Modbus application protocol ([Modbus AP] §7),
+/// which gateways and other slaves send, and [`ExceptionCode::Custom`] for any other byte, so a
+/// response never fails to decode for its exception code alone.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-#[repr(u8)]
 pub enum ExceptionCode {
     /// 01: function not supported.
-    IllegalFunction = 1,
+    IllegalFunction,
     /// 02: SIMATIC area not enabled, outside the conversion areas or limits.
-    IllegalDataAddress = 2,
+    IllegalDataAddress,
     /// 03: length over 2040 bits / 127 registers, FC05 value, FC08 sub-code.
-    IllegalDataValue = 3,
+    IllegalDataValue,
     /// 04: FB not initialised or reporting an error, CPU transfer error.
-    SlaveDeviceFailure = 4,
+    SlaveDeviceFailure,
     /// 05: acknowledge.
-    Acknowledge = 5,
+    Acknowledge,
     /// 06: busy, request rejected.
-    SlaveDeviceBusy = 6,
+    SlaveDeviceBusy,
     /// 07: negative acknowledge.
-    NegativeAcknowledge = 7,
+    NegativeAcknowledge,
+    /// 08: memory parity error (Modbus application protocol V1.1b3 §7; FC20/21 only).
+    MemoryParityError,
+    /// 0AH: gateway path unavailable: the gateway has no path to the addressed unit
+    /// (Modbus application protocol V1.1b3 §7).
+    GatewayPathUnavailable,
+    /// 0BH: gateway target device failed to respond (Modbus application protocol V1.1b3 §7).
+    GatewayTargetFailed,
+    /// Any other code, kept as its byte (a code neither the module's manual nor the Modbus
+    /// application protocol names; 00 and 09 included).
+    Custom(u8),
 }
 
 impl ExceptionCode {
-    /// The code from its byte, for 1–7.
+    /// The code from its byte, for the seven codes of [Modbus/USS] §3.6, Table 3-12 (01–07),
+    /// the ones the module maps to a STATUS (0E61H–0E67H); `None` for any other byte. Use
+    /// [`ExceptionCode::from_byte`] to name every byte.
     pub const fn from_u8(code: u8) -> Option<Self> {
-        Some(match code {
+        match Self::from_byte(code) {
+            c @ (ExceptionCode::IllegalFunction
+            | ExceptionCode::IllegalDataAddress
+            | ExceptionCode::IllegalDataValue
+            | ExceptionCode::SlaveDeviceFailure
+            | ExceptionCode::Acknowledge
+            | ExceptionCode::SlaveDeviceBusy
+            | ExceptionCode::NegativeAcknowledge) => Some(c),
+            _ => None,
+        }
+    }
+
+    /// The code for any byte: a named code where one exists, [`ExceptionCode::Custom`] otherwise.
+    pub const fn from_byte(code: u8) -> Self {
+        match code {
             1 => ExceptionCode::IllegalFunction,
             2 => ExceptionCode::IllegalDataAddress,
             3 => ExceptionCode::IllegalDataValue,
@@ -389,26 +417,34 @@ impl ExceptionCode {
             5 => ExceptionCode::Acknowledge,
             6 => ExceptionCode::SlaveDeviceBusy,
             7 => ExceptionCode::NegativeAcknowledge,
-            _ => return None,
-        })
+            8 => ExceptionCode::MemoryParityError,
+            0x0A => ExceptionCode::GatewayPathUnavailable,
+            0x0B => ExceptionCode::GatewayTargetFailed,
+            other => ExceptionCode::Custom(other),
+        }
     }
 
     /// The byte on the wire.
     pub const fn code(self) -> u8 {
-        self as u8
+        match self {
+            ExceptionCode::IllegalFunction => 1,
+            ExceptionCode::IllegalDataAddress => 2,
+            ExceptionCode::IllegalDataValue => 3,
+            ExceptionCode::SlaveDeviceFailure => 4,
+            ExceptionCode::Acknowledge => 5,
+            ExceptionCode::SlaveDeviceBusy => 6,
+            ExceptionCode::NegativeAcknowledge => 7,
+            ExceptionCode::MemoryParityError => 8,
+            ExceptionCode::GatewayPathUnavailable => 0x0A,
+            ExceptionCode::GatewayTargetFailed => 0x0B,
+            ExceptionCode::Custom(code) => code,
+        }
     }
-}
 
-/// The byte on the wire (01–07).
-impl serde::Serialize for ExceptionCode {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_u8(self.code())
-    }
-}
-
-impl fmt::Display for ExceptionCode {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let text = match self {
+    /// The code's name as the Modbus application protocol gives it; `None` for
+    /// [`ExceptionCode::Custom`].
+    pub const fn name(self) -> Option<&'static str> {
+        Some(match self {
             ExceptionCode::IllegalFunction => "illegal function",
             ExceptionCode::IllegalDataAddress => "illegal data address",
             ExceptionCode::IllegalDataValue => "illegal data value",
@@ -416,8 +452,41 @@ impl fmt::Display for ExceptionCode {
             ExceptionCode::Acknowledge => "acknowledge",
             ExceptionCode::SlaveDeviceBusy => "slave device busy",
             ExceptionCode::NegativeAcknowledge => "negative acknowledge",
-        };
-        write!(f, "exception {:02} {text}", self.code())
+            ExceptionCode::MemoryParityError => "memory parity error",
+            ExceptionCode::GatewayPathUnavailable => "gateway path unavailable",
+            ExceptionCode::GatewayTargetFailed => "gateway target device failed to respond",
+            ExceptionCode::Custom(_) => return None,
+        })
+    }
+}
+
+impl From<u8> for ExceptionCode {
+    fn from(code: u8) -> Self {
+        ExceptionCode::from_byte(code)
+    }
+}
+
+impl From<ExceptionCode> for u8 {
+    fn from(code: ExceptionCode) -> Self {
+        code.code()
+    }
+}
+
+/// The byte on the wire.
+impl serde::Serialize for ExceptionCode {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_u8(self.code())
+    }
+}
+
+/// "exception 02 illegal data address", "exception 0A gateway path unavailable",
+/// "exception 0C (not a named code)": the code in hexadecimal, as the manuals write it.
+impl fmt::Display for ExceptionCode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.name() {
+            Some(text) => write!(f, "exception {:02X} {text}", self.code()),
+            None => write!(f, "exception {:02X} (not a named code)", self.code()),
+        }
     }
 }
 
@@ -810,8 +879,6 @@ pub enum DecodeErrorKind {
     CoilValue,
     /// FC08 sub-function not 0000H (slave 0835H / exception 03).
     SubFunction,
-    /// Exception code outside 01–07.
-    ExceptionCode,
 }
 
 /// Where the expected value lies.
@@ -1141,6 +1208,24 @@ pub fn decode_response(adu: &[u8]) -> Result<(u8, Response<'_>), DecodeError> {
     read_response(open(adu, FrameKind::Response)?)
 }
 
+/// How an ADU with a good CRC reads, as `si frame decode modbus` says it: `("request", "unit 1
+/// FC03 read …")`, `"response"`, or `"request and response (an echo reads the same both
+/// ways)"` for a frame both decode to alike (FC05, FC06 and their echoes); `None` when it is
+/// neither.
+pub fn reading(adu: &[u8]) -> Option<(&'static str, String)> {
+    let req = decode_request(adu).ok();
+    let resp = decode_response(adu).ok();
+    match (req, resp) {
+        (Some((u, r)), Some((_, p))) if format!("{r:?}") == format!("{p:?}") => Some((
+            "request and response (an echo reads the same both ways)",
+            format!("unit {u} {r}"),
+        )),
+        (Some((u, r)), _) => Some(("request", format!("unit {u} {r}"))),
+        (None, Some((u, p))) => Some(("response", format!("unit {u} {p}"))),
+        (None, None) => None,
+    }
+}
+
 /// Read `unit | PDU` without a CRC (Modbus TCP) as a response; see
 /// [`decode_unit_pdu_request`].
 pub fn decode_unit_pdu_response(bytes: &[u8]) -> Result<(u8, Response<'_>), DecodeError> {
@@ -1153,15 +1238,7 @@ fn read_response(r: Reader<'_>) -> Result<(u8, Response<'_>), DecodeError> {
     let function = adu[1];
     if function & 0x80 != 0 && fc::is_supported(function & 0x7F) {
         r.exact(3)?;
-        let code = ExceptionCode::from_u8(adu[2]).ok_or_else(|| {
-            r.err(
-                2,
-                "exception code",
-                DecodeErrorKind::ExceptionCode,
-                Expected::Range(1, 7),
-                adu[2] as u32,
-            )
-        })?;
+        let code = ExceptionCode::from_byte(adu[2]);
         return Ok((
             unit,
             Response::Exception {
@@ -1565,12 +1642,56 @@ mod tests {
             assert_eq!(resp(1, e), hex(bytes), "{code}");
             assert_eq!(decode_response(&hex(bytes)).unwrap(), (1, e));
         }
-        let mut v = vec![1, 0x81, 8];
-        let c = crc16(&v).to_le_bytes();
-        v.extend_from_slice(&c);
-        let err = decode_response(&v).unwrap_err();
-        assert_eq!(err.kind, DecodeErrorKind::ExceptionCode);
-        assert_eq!(err.offset, 2);
+        let named = [
+            (
+                8,
+                ExceptionCode::MemoryParityError,
+                "exception 08 memory parity error",
+            ),
+            (
+                0x0A,
+                ExceptionCode::GatewayPathUnavailable,
+                "exception 0A gateway path unavailable",
+            ),
+            (
+                0x0B,
+                ExceptionCode::GatewayTargetFailed,
+                "exception 0B gateway target device failed to respond",
+            ),
+            (
+                0x0C,
+                ExceptionCode::Custom(0x0C),
+                "exception 0C (not a named code)",
+            ),
+            (
+                0,
+                ExceptionCode::Custom(0),
+                "exception 00 (not a named code)",
+            ),
+        ];
+        for (byte, code, text) in named {
+            let mut v = vec![1, 0x81, byte];
+            let c = crc16(&v).to_le_bytes();
+            v.extend_from_slice(&c);
+            let e = Response::Exception { function: 1, code };
+            assert_eq!(decode_response(&v).unwrap(), (1, e), "{byte:02X}");
+            assert_eq!(code.to_string(), text);
+            assert_eq!(code.code(), byte);
+            assert_eq!(resp(1, e), v);
+        }
+    }
+
+    #[test]
+    fn every_exception_byte_round_trips_and_only_01_to_07_have_a_status() {
+        for byte in 0..=u8::MAX {
+            let code = ExceptionCode::from_byte(byte);
+            assert_eq!(code.code(), byte);
+            assert_eq!(ExceptionCode::from(byte), code);
+            assert_eq!(
+                ExceptionCode::from_u8(byte).is_some(),
+                (1..=7).contains(&byte)
+            );
+        }
     }
 
     #[test]

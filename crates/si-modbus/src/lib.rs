@@ -13,7 +13,8 @@
 //!   timeout;
 //! - [`fb`]: S_SEND/S_RCV master jobs and S_MODB as the PLC programmer sees them;
 //! - [`serve`]: one decoded request executed on a [`slave::Store`], shared by the RTU slave and
-//!   the Modbus TCP server so both answer alike;
+//!   the Modbus TCP server so both answer alike; [`serve_map`] says what a slave over a
+//!   conversion DB serves and why it refused a request;
 //! - [`mbap`]: Modbus TCP framing (MBAP header, streaming decoder), Sans-IO, over the same PDU
 //!   codec as RTU;
 //! - `tokio` (feature `tokio`): an async master handle and a slave server task, and
@@ -106,6 +107,7 @@ pub mod mbap;
 pub mod monitor;
 pub mod rx;
 pub mod serve;
+pub mod serve_map;
 pub mod simatic;
 pub mod slave;
 pub mod status;

@@ -189,7 +189,7 @@ impl Monitor {
                     r.text = format!("slave {unit}: {resp:#}");
                     if let Response::Exception { function, code } = resp {
                         self.counters.bump("exception responses");
-                        r.label = format!("FC{:02} exception {:02}", function, code as u8);
+                        r.label = format!("FC{:02} exception {:02X}", function, code.code());
                         r.flags.push(Flag::error(code.to_string()));
                     }
                     if let Some(pd) = pd {

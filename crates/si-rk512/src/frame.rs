@@ -98,6 +98,15 @@ impl Command {
     pub const fn is_send(self) -> bool {
         !matches!(self, Command::Fetch)
     }
+
+    /// The job's name as the manual writes it: `SEND`, `SEND DX`, `FETCH`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Command::Send => "SEND",
+            Command::SendDx => "SEND DX",
+            Command::Fetch => "FETCH",
+        }
+    }
 }
 
 /// The data type letter in byte 4 (Table 2-1).
@@ -144,6 +153,19 @@ impl DataType {
             b'T' => Some(DataType::Timers),
             b'Z' | b'C' => Some(DataType::Counters),
             _ => None,
+        }
+    }
+
+    /// What the type addresses, in words: `data block`, `input bytes`, `timer cells`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            DataType::Db => "data block",
+            DataType::Dx => "extended data block",
+            DataType::Inputs => "input bytes",
+            DataType::Outputs => "output bytes",
+            DataType::Flags => "flag bytes",
+            DataType::Timers => "timer cells",
+            DataType::Counters => "counter cells",
         }
     }
 

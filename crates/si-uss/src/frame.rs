@@ -677,6 +677,29 @@ pub fn pkw_error_text(number: u16) -> &'static str {
     }
 }
 
+/// The name of byte `index` of a telegram as a trace labels it: `STX`, `LGE`, `ADR` and the
+/// closing `BCC` ([Modbus/USS] §3.7.1, the telegram); `None` for net data, and for every
+/// byte of something that does not start with [`STX`] or is shorter than a telegram's 4 bytes.
+///
+/// ```
+/// use si_uss::frame::byte_name;
+/// let telegram = [0x02, 0x03, 0x01, 0x00, 0x00];
+/// let names: Vec<_> = (0..telegram.len()).map(|i| byte_name(&telegram, i)).collect();
+/// assert_eq!(names, [Some("STX"), Some("LGE"), Some("ADR"), None, Some("BCC")]);
+/// ```
+pub fn byte_name(telegram: &[u8], index: usize) -> Option<&'static str> {
+    if telegram.len() < 4 || telegram[0] != STX {
+        return None;
+    }
+    match index {
+        0 => Some("STX"),
+        1 => Some("LGE"),
+        2 => Some("ADR"),
+        i if i + 1 == telegram.len() => Some("BCC"),
+        _ => None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -698,5 +721,17 @@ mod tests {
         assert_eq!(p.0, 0x2000 | 1082);
         assert_eq!((p.ak(), p.spm(), p.pnu()), (2, false, 1082));
         assert!(Pke(0x1800).spm());
+    }
+
+    #[test]
+    fn byte_names_mark_the_telegram_frame_only() {
+        let t = [0x02, 0x03, 0x01, 0x00, 0x00];
+        let names: Vec<_> = (0..t.len()).map(|i| byte_name(&t, i)).collect();
+        assert_eq!(
+            names,
+            [Some("STX"), Some("LGE"), Some("ADR"), None, Some("BCC")]
+        );
+        assert_eq!(byte_name(&[0x02, 0x02, 0x01], 0), None);
+        assert_eq!(byte_name(&[0x03, 0x02, 0x01, 0x00], 0), None);
     }
 }

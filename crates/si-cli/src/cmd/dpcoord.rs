@@ -294,22 +294,15 @@ fn finish(result: Result<Outcome, Status>, out: &Output) -> Result<(), CliError>
 /// the module (3964(R), ASCII); a code none of them has says so instead of standing bare
 /// (a bare 16#49D1 tells the user nothing).
 fn described(status: Status) -> String {
-    if status.info().is_some() {
-        return status.to_string();
-    }
-    let catalogs: [fn(u16) -> Status; 3] = [
+    let lookups: [fn(u16) -> Status; 3] = [
         si_dp_coord::status::lookup,
         si_3964r::status::lookup,
         si_ascii::status::lookup,
     ];
-    catalogs
-        .iter()
-        .map(|lookup| lookup(status.code()))
-        .find(|s| s.info().is_some())
-        .map_or_else(
-            || format!("{status} (not in the catalog)"),
-            |s| s.to_string(),
-        )
+    match (lookups.iter().map(|l| status.described_by(l))).find(|s| s.info().is_some()) {
+        Some(s) => s.to_string(),
+        None => format!("{status} (not in the catalog)"),
+    }
 }
 
 impl HostArgs {
@@ -595,8 +588,7 @@ fn print_window(out: &Output, cycle: usize, window: &Window, dir: Direction) {
 
 impl TraceArgs {
     fn run(self, out: &Output) -> Result<(), CliError> {
-        let text = std::fs::read_to_string(&self.file)
-            .map_err(|e| CliError::new(format!("{}: {e}", self.file.display())))?;
+        let text = crate::config_file::read(&self.file)?;
         let mut cycle = 0;
         let mut next_in = true;
         let mut size = None;

@@ -36,7 +36,7 @@ mod router;
 mod uss;
 mod uss_config;
 
-use crate::conn::{Connection, Rs485Mode};
+use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::Args;
@@ -113,11 +113,7 @@ impl GatewayArgs {
     /// The checked configuration: the file with the top-level flags over it, or the flag form.
     fn gateway(&self, conn: &Connection) -> Result<Gateway, CliError> {
         let mut file = match &self.config {
-            Some(path) => {
-                let text = std::fs::read_to_string(path)
-                    .map_err(|e| CliError::new(format!("cannot read {}: {e}", path.display())))?;
-                File::from_toml(&text).map_err(CliError::new)?
-            }
+            Some(path) => crate::config_file::read_toml::<File>(path)?,
             None => File {
                 listen: None,
                 max_connections: None,
@@ -152,7 +148,7 @@ impl GatewayArgs {
             data_bits: Some(conn.data_bits),
             parity: Some(conn.parity.clone()),
             stop_bits: Some(conn.stop_bits),
-            rs485: conn.rs485.map(Rs485Mode::name),
+            rs485: conn.rs485.map(|m| m.name().to_owned()),
             rs485_file: conn.rs485_file.clone(),
             rs485_delay_before_ms: Some(conn.rs485_delay_before),
             rs485_delay_after_ms: Some(conn.rs485_delay_after),
@@ -276,7 +272,7 @@ fn line_connection(conn: &Connection, l: &config::Line, protocol: &'static str) 
     c.parity = l.parity.clone();
     c.stop_bits = l.stop_bits;
     // Names checked with the file (`LineFile::check_rs485`).
-    c.rs485 = l.rs485.as_deref().and_then(Rs485Mode::from_name);
+    c.rs485 = l.rs485.as_deref().and_then(|name| name.parse().ok());
     c.rs485_file = l.rs485_file.clone();
     (c.rs485_delay_before, c.rs485_delay_after) = l.rs485_delays_ms;
     c.local_echo = l.local_echo;

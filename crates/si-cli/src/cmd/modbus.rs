@@ -551,14 +551,10 @@ async fn serve(
     path: Option<std::path::PathBuf>,
     framing: &FramingOptions,
 ) -> Result<(), CliError> {
-    let file: ServeFile = match &path {
-        Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .map_err(|e| CliError::new(format!("cannot read {}: {e}", p.display())))?;
-            toml::from_str(&text)
-                .map_err(|e| CliError::new(format!("{}: {}", p.display(), e.message())))?
-        }
-        None => ServeFile::default(),
+    let text = path.as_deref().map(crate::config_file::read).transpose()?;
+    let file: ServeFile = match (&path, &text) {
+        (Some(p), Some(text)) => crate::config_file::parse_toml(p, text)?,
+        _ => ServeFile::default(),
     };
     let memory = file.memory.unwrap_or_default();
     let sizes = MemorySizes {
@@ -570,12 +566,15 @@ async fn serve(
         dbs: memory.dbs.iter().map(|d| (d.number, d.length)).collect(),
     };
     let conversion = file.conversion.unwrap_or(ConversionDb::EXAMPLE);
-    let map = serve_map::ServeMap::new(&conversion, &sizes);
+    let map = si_modbus::serve_map::ServeMap::new(&conversion, &sizes);
     // Every size is checked against its maximum before anything is allocated
     // (si_core::memory::MAX_AREA_BYTES and the others).
-    let memory = Memory::checked(&sizes).map_err(|e| match &path {
-        Some(p) => CliError::new(format!("{}: {e}", p.display())),
-        None => e.into(),
+    let memory = Memory::checked(&sizes).map_err(|e| match (&path, &text) {
+        (Some(p), Some(text)) => match crate::config_file::key_span(text, e.parameter) {
+            Some(span) => crate::config_file::placed(p, text, span, Some(e.parameter), &e),
+            None => CliError::new(format!("{}: {e}", p.display())),
+        },
+        _ => e.into(),
     })?;
     let store =
         serve_map::Explaining::new(SimaticStore::new(memory, conversion), map.clone(), *out);
@@ -610,7 +609,7 @@ async fn serve(
                "gap_us": config.line.gap().as_micros(),
                "frame_end": match frame_end { FrameEnd::Gap => "gap", FrameEnd::Length => "length" }}),
     );
-    map.print(unit, out);
+    serve_map::print(&map, unit, out);
     // Serves until Ctrl-C (exit 130, main's runtime) or until the line closes (exit 1).
     while let Some(e) = server.next_event().await {
         print_slave_event(&e, out);
@@ -694,28 +693,13 @@ impl EncodeArgs {
         let crc = frame::crc16(&body);
         let mut adu = body.clone();
         adu.extend_from_slice(&crc.to_le_bytes());
-        let reading = reading(&adu);
+        let reading = frame::reading(&adu);
         out.line(
             &si_core::hex::format(&adu),
             json!({"adu": si_core::hex::format(&adu), "crc": format!("{crc:04X}"),
                    "reading": reading.map(|r| r.0)}),
         );
         Ok(())
-    }
-}
-
-/// How an ADU with a good CRC reads: `("request" | "response" | "request and response", text)`.
-fn reading(adu: &[u8]) -> Option<(&'static str, String)> {
-    let req = frame::decode_request(adu).ok();
-    let resp = frame::decode_response(adu).ok();
-    match (req, resp) {
-        (Some((u, r)), Some((_, p))) if format!("{r:?}") == format!("{p:?}") => Some((
-            "request and response (an echo reads the same both ways)",
-            format!("unit {u} {r}"),
-        )),
-        (Some((u, r)), _) => Some(("request", format!("unit {u} {r}"))),
-        (None, Some((u, p))) => Some(("response", format!("unit {u} {p}"))),
-        (None, None) => None,
     }
 }
 
@@ -744,7 +728,7 @@ impl DecodeArgs {
             }
             _ => {}
         }
-        let (reading, text) = reading(&adu).unwrap_or(("?", String::new()));
+        let (reading, text) = frame::reading(&adu).unwrap_or(("?", String::new()));
         let crc = u16::from_le_bytes([adu[adu.len() - 2], adu[adu.len() - 1]]);
         out.line(
             &format!("{reading}: {text}, CRC {crc:04X} ok"),

@@ -301,8 +301,7 @@ impl ParamsCommand {
 impl ParamsCheckArgs {
     fn run(&self, out: &Output) -> Result<(), CliError> {
         let name = self.file.display();
-        let text = std::fs::read_to_string(&self.file)
-            .map_err(|e| CliError::new(format!("cannot read {name}: {e}")))?;
+        let text = crate::config_file::read(&self.file)?;
         let json_file = self
             .file
             .extension()

@@ -11,7 +11,7 @@ use serde_json::json;
 use si_3964r::Priority;
 use si_core::memory::{Area, MemorySizes};
 use si_core::{Duration, Instant, Status};
-use si_rk512::frame::{Address, Coordination, DataType, Telegram};
+use si_rk512::frame::{Address, Coordination, Telegram};
 use si_rk512::passive::ServerConfig;
 use si_rk512::status;
 use si_rk512::tokio::{Error as StationError, Handle};
@@ -477,12 +477,7 @@ impl ServeArgs {
     async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         let file = match &self.config {
             None => ServeFile::default(),
-            Some(path) => {
-                let text = std::fs::read_to_string(path)
-                    .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
-                toml::from_str(&text)
-                    .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?
-            }
+            Some(path) => crate::config_file::read_toml(path)?,
         };
         let server = file.server_config()?;
         let config = self.link.config(Priority::Low)?;
@@ -538,26 +533,6 @@ pub struct DecodeArgs {
     hex: Vec<String>,
 }
 
-fn type_name(t: DataType) -> &'static str {
-    match t {
-        DataType::Db => "data block",
-        DataType::Dx => "extended data block",
-        DataType::Inputs => "input bytes",
-        DataType::Outputs => "output bytes",
-        DataType::Flags => "flag bytes",
-        DataType::Timers => "timer cells",
-        DataType::Counters => "counter cells",
-    }
-}
-
-fn command_name(c: si_rk512::Command) -> &'static str {
-    match c {
-        si_rk512::Command::Send => "SEND",
-        si_rk512::Command::SendDx => "SEND DX",
-        si_rk512::Command::Fetch => "FETCH",
-    }
-}
-
 impl DecodeArgs {
     /// Print the header fields (and the data, if any); fail naming offset, expected and found.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
@@ -583,16 +558,16 @@ impl DecodeArgs {
                 (
                     format!(
                         "command telegram: {} ('{letter}') {} {} ('{}'), {} {unit} ({} bytes), {flag}, {cpu}",
-                        command_name(h.command),
+                        h.command.name(),
                         h.address,
-                        type_name(h.address.data_type()),
+                        h.address.data_type().name(),
                         h.address.data_type().letter() as char,
                         h.length,
                         h.data_len(),
                     ),
                     json!({
                         "telegram": "command",
-                        "job": command_name(h.command),
+                        "job": h.command.name(),
                         "command": letter.to_string(),
                         "data_type": (h.address.data_type().letter() as char).to_string(),
                         "address": h.address.to_string(),
@@ -608,14 +583,14 @@ impl DecodeArgs {
             Telegram::Continuation(h, data) => (
                 format!(
                     "continuation command telegram: {} ('{}') {} ('{}')",
-                    command_name(h.command),
+                    h.command.name(),
                     h.command.letter() as char,
-                    type_name(h.data_type),
+                    h.data_type.name(),
                     h.data_type.letter() as char,
                 ),
                 json!({
                     "telegram": "continuation",
-                    "job": command_name(h.command),
+                    "job": h.command.name(),
                     "command": (h.command.letter() as char).to_string(),
                     "data_type": (h.data_type.letter() as char).to_string(),
                 }),
@@ -730,11 +705,8 @@ fn report(out: &Output, name: &str, events: Vec<Event>) {
                 address,
                 len,
             } => (
-                format!(
-                    "{name}: served {} {address}, {len} bytes",
-                    command_name(command)
-                ),
-                json!({"station": name, "served": command_name(command), "address": address.to_string(), "len": len}),
+                format!("{name}: served {} {address}, {len} bytes", command.name()),
+                json!({"station": name, "served": command.name(), "address": address.to_string(), "len": len}),
             ),
             Event::Refused { error } => (
                 format!(

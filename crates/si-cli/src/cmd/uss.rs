@@ -239,11 +239,8 @@ fn show_value(r: &Pkw, signed: bool, hex: bool) -> (String, i64) {
 }
 
 fn status_text(status: Status) -> String {
-    if status.info().is_some() {
-        status.to_string()
-    } else {
-        Status::lookup(status.code(), &[si_uss::status::CATALOG]).to_string()
-    }
+    let catalog = |code| Status::lookup(code, &[si_uss::status::CATALOG]);
+    status.described_by(catalog).to_string()
 }
 
 /// A failed job's line: the node, the STATUS and, for response ID 7, the drive's error number.

@@ -246,6 +246,46 @@ pub struct Analysis {
     pub span: (Instant, Instant),
 }
 
+/// How well `records` explain a line: two points for each frame or control character decoded
+/// without an error, minus three for each record with one; notes count nothing. `[derived]`:
+/// an error weighs more than a success, so a decoder that sees a few plausible frames in a
+/// line full of errors loses to one that sees fewer frames and no errors.
+pub fn fit(records: &[Record]) -> i64 {
+    let good = records
+        .iter()
+        .filter(|r| r.kind != Kind::Note && !r.has_error())
+        .count() as i64;
+    let bad = records.iter().filter(|r| r.has_error()).count() as i64;
+    good * 2 - bad * 3
+}
+
+/// Which protocol a recording without a header looks like: of `candidates`, the one whose
+/// decoder (`make`) explains `chars` best by [`fit`] (the first on a tie), or `fallback` when
+/// every candidate scores below zero. The fallback is the protocol that explains every line
+/// trivially (ASCII: any bytes are a frame), so it only wins when nothing else does.
+pub fn best_fit<P: Copy>(
+    chars: &[LineChar],
+    end: Instant,
+    candidates: &[P],
+    fallback: P,
+    mut make: impl FnMut(P) -> Box<dyn Decoder>,
+) -> P {
+    let mut best = (fallback, 0);
+    let mut first = true;
+    for &p in candidates {
+        let score = fit(&decode_all(make(p).as_mut(), chars, end));
+        if first || score > best.1 {
+            best = (p, score);
+            first = false;
+        }
+    }
+    if best.1 < 0 {
+        fallback
+    } else {
+        best.0
+    }
+}
+
 /// Feed every character, then finish at `end`; the records in time order.
 pub fn decode_all(decoder: &mut dyn Decoder, chars: &[LineChar], end: Instant) -> Vec<Record> {
     let mut records = Vec::new();
@@ -255,4 +295,58 @@ pub fn decode_all(decoder: &mut dyn Decoder, chars: &[LineChar], end: Instant) -
     decoder.finish(end, &mut records);
     records.sort_by_key(|r| r.start);
     records
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A decoder that turns every character into one record, with an error for `bad` ones.
+    struct Judge(Counters, fn(u8) -> bool);
+    impl Decoder for Judge {
+        fn push(&mut self, c: &LineChar, out: &mut Vec<Record>) {
+            let mut r = Record::new(Kind::Frame, c.at, c.at, c.from);
+            if c.item.as_ref().is_ok_and(|b| (self.1)(*b)) {
+                r.flags.push(Flag::error("bad"));
+            }
+            out.push(r);
+        }
+        fn idle(&mut self, _now: Instant, _out: &mut Vec<Record>) {}
+        fn counters(&self) -> &Counters {
+            &self.0
+        }
+    }
+
+    fn chars(bytes: &[u8]) -> Vec<LineChar> {
+        let at = |k: usize| Instant::from_micros(1_000 * k as u64);
+        (bytes.iter().enumerate())
+            .map(|(k, &b)| LineChar {
+                at: at(k),
+                from: Some(0),
+                to: None,
+                item: Ok(b),
+                exact: true,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_best_fit_wins_and_the_fallback_only_when_every_candidate_scores_below_zero() {
+        let line = chars(&[1, 2, 3]);
+        let end = Instant::from_micros(10_000);
+        let make = |p: u8| -> Box<dyn Decoder> {
+            match p {
+                0 => Box::new(Judge(Counters::default(), |_| true)), // all errors: -9
+                1 => Box::new(Judge(Counters::default(), |b| b == 3)), // 2 + 2 - 3 = 1
+                _ => Box::new(Judge(Counters::default(), |_| false)), // 6
+            }
+        };
+        assert_eq!(best_fit(&line, end, &[0, 1, 2], 9, make), 2);
+        assert_eq!(best_fit(&line, end, &[0, 1], 9, make), 1);
+        assert_eq!(best_fit(&line, end, &[0], 9, make), 9);
+        // A tie keeps the first; an empty line scores zero and the first candidate wins.
+        assert_eq!(best_fit(&line, end, &[2, 2], 9, make), 2);
+        assert_eq!(best_fit(&[], end, &[1, 2], 9, make), 1);
+        assert_eq!(best_fit(&line, end, &[], 9, make), 9);
+    }
 }

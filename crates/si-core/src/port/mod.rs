@@ -43,16 +43,18 @@
 mod info;
 #[cfg(target_os = "linux")]
 mod linux;
+mod rs485;
 mod stream;
 mod tx_enable;
 
 pub use info::{
     describe, latency_timer, list, set_latency_timer, PortInfo, UsbIds, LATENCY_TIMER_MS,
 };
+pub use rs485::{Rs485, Rs485Mode, Rs485ModeError};
 pub use stream::SerialPort;
 pub use tx_enable::{TxEnable, TxEnableOutput};
 
-use crate::driver::{PortFacts, RtsToggle, Transport};
+use crate::driver::{PortFacts, Transport};
 use crate::linemark::bad_char_error;
 use crate::serial::{Parity, SerialSettings};
 use crate::time::Duration;
@@ -77,29 +79,6 @@ pub struct PortOptions {
     /// Do not put the port in line-error marking mode (Linux): bad characters then arrive
     /// as plain bytes, as on other platforms.
     pub no_line_errors: bool,
-}
-
-/// Who switches an RS-485 transceiver between sending and receiving.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Rs485 {
-    /// The kernel's RS-485 mode (Linux `TIOCSRS485`): the UART driver raises RTS for each
-    /// transmission, with these delays in whole milliseconds (the kernel's unit).
-    Kernel {
-        /// RTS on this long before the first bit.
-        delay_before: Duration,
-        /// RTS kept on this long after the last bit.
-        delay_after: Duration,
-    },
-    /// The driver switches the transceiver itself around each write ([`RtsToggle`]): for
-    /// adapters and kernels without RS-485 mode. Less exact (user-space timing, "Timing,
-    /// honestly" in the driver docs).
-    Driver {
-        /// The waits before the first byte and after tx-done.
-        toggle: RtsToggle,
-        /// The output that enables the transmitter: RTS either polarity or a file such as
-        /// a GPIO's sysfs `value` (mbusd's `-t`, `-r`, `-y`, `-Y`).
-        output: TxEnable,
-    },
 }
 
 /// Open `path` (`/dev/ttyUSB0`, `/dev/serial/by-id/…`, `COM3`) with the line format `settings`

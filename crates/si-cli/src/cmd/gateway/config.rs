@@ -10,8 +10,8 @@
 //! `DEFAULT_RESPWAIT` 500 ms, `DEFAULT_MAXCONN` 32, `MAX_CONNTIMEOUT` 1000 s). mbusd's pause is
 //! 1–10 000 ms; we also allow 0 (no pause).
 
-use crate::conn::Rs485Mode;
 use serde::Deserialize;
+use si_core::port::Rs485Mode;
 use si_core::RangeError;
 use std::fmt;
 
@@ -275,7 +275,9 @@ impl fmt::Display for ConfigError {
 impl std::error::Error for ConfigError {}
 
 impl File {
-    /// Parse TOML text.
+    /// Parse TOML text (the tests' shortcut; `si gateway` reads its file through
+    /// `crate::config_file`, whose errors name the file, line and key).
+    #[cfg(test)]
     pub fn from_toml(text: &str) -> Result<File, String> {
         toml::from_str(text).map_err(|e| format!("gateway config: {e}"))
     }
@@ -511,8 +513,8 @@ impl LineFile {
             )?;
         }
         let mode = match self.rs485.as_deref() {
-            Some(name) => Some(Rs485Mode::from_name(name).ok_or_else(|| {
-                RangeError::new("rs485", Rs485Mode::names(), "", format!("{name:?}"))
+            Some(name) => Some(name.parse::<Rs485Mode>().map_err(|_| {
+                RangeError::new("rs485", Rs485Mode::NAMES, "", format!("{name:?}"))
             })?),
             None => None,
         };

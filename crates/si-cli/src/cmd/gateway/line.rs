@@ -17,22 +17,21 @@ use std::time::Duration;
 use tokio::sync::{oneshot, Notify};
 
 /// Exception 01H: a function the line or its image does not serve.
-pub const ILLEGAL_FUNCTION: u8 = ExceptionCode::IllegalFunction as u8;
+pub const ILLEGAL_FUNCTION: u8 = ExceptionCode::IllegalFunction.code();
 /// Exception 02H: registers outside the line's map.
-pub const ILLEGAL_DATA_ADDRESS: u8 = ExceptionCode::IllegalDataAddress as u8;
+pub const ILLEGAL_DATA_ADDRESS: u8 = ExceptionCode::IllegalDataAddress.code();
 /// Exception 03H: a value (quantity, command, length) out of range.
-pub const ILLEGAL_DATA_VALUE: u8 = ExceptionCode::IllegalDataValue as u8;
+pub const ILLEGAL_DATA_VALUE: u8 = ExceptionCode::IllegalDataValue.code();
 /// Exception 04H: what mbusd answers for a corrupt answer after its retries (`MB_EX_CRC` in
 /// mbusd's `src/modbus.h`); we also use it for any other malformed answer.
-pub const SLAVE_DEVICE_FAILURE: u8 = ExceptionCode::SlaveDeviceFailure as u8;
+pub const SLAVE_DEVICE_FAILURE: u8 = ExceptionCode::SlaveDeviceFailure.code();
 /// Exception 06H: the line's queue is full.
-pub const SLAVE_DEVICE_BUSY: u8 = ExceptionCode::SlaveDeviceBusy as u8;
+pub const SLAVE_DEVICE_BUSY: u8 = ExceptionCode::SlaveDeviceBusy.code();
 /// Exception 0AH: no line serves the unit, or its line is down (Modbus application protocol
 /// V1.1b3 §7, "gateway path unavailable").
-pub const GATEWAY_PATH_UNAVAILABLE: u8 = 0x0A;
-/// Exception 0BH: the slave did not answer (Modbus application protocol V1.1b3 §7, "gateway target
-/// device failed to respond").
-pub const GATEWAY_TARGET_FAILED: u8 = 0x0B;
+pub const GATEWAY_PATH_UNAVAILABLE: u8 = ExceptionCode::GatewayPathUnavailable.code();
+/// Exception 0BH: the slave did not answer ([Modbus AP] §7, "gateway target device failed to respond").
+pub const GATEWAY_TARGET_FAILED: u8 = ExceptionCode::GatewayTargetFailed.code();
 
 /// A request waiting for a line, with where its answer goes (`None`: a broadcast).
 pub struct Job {

@@ -142,16 +142,16 @@ impl Router {
     fn diagnostics(&self, id: u64, request: &TcpAdu) -> TcpAdu {
         let pdu = request.unit_pdu();
         if request.function() != 0x04 || pdu.len() != 6 {
-            return exception(request, 0x01);
+            return exception(request, line::ILLEGAL_FUNCTION);
         }
         let start = u16::from_be_bytes([pdu[2], pdu[3]]) as usize;
         let quantity = u16::from_be_bytes([pdu[4], pdu[5]]) as usize;
         if !(1..=125).contains(&quantity) {
-            return exception(request, 0x03);
+            return exception(request, line::ILLEGAL_DATA_VALUE);
         }
         let registers = line::lock(&self.stats).registers(id);
         let Some(values) = registers.get(start..start + quantity) else {
-            return exception(request, 0x02);
+            return exception(request, line::ILLEGAL_DATA_ADDRESS);
         };
         let mut answer = Vec::with_capacity(3 + 2 * quantity);
         answer.extend_from_slice(&[request.unit(), 0x04, (2 * quantity) as u8]);

@@ -15,16 +15,7 @@ pub fn failure(e: ModbusError) -> CliError {
 /// The STATUS with its text and remedy: the remedy the engine gave this occurrence (a USB
 /// adapter's latency, [`si_core::delivery::ADAPTER_REMEDY`]) or else the manual's.
 pub fn status_text(s: Status) -> String {
-    let s = match s.info() {
-        Some(_) => s,
-        None => {
-            let looked_up = si_modbus::status::lookup(s.code());
-            match s.remedy() {
-                Some(r) => looked_up.with_remedy(r),
-                None => looked_up,
-            }
-        }
-    };
+    let s = s.described_by(si_modbus::status::lookup);
     match s.remedy() {
         Some(remedy) => format!("{s} (remedy: {remedy})"),
         None => s.to_string(),

@@ -11,19 +11,23 @@
 //! delay) and keeps counters. A trace of DP windows (`--protocol dp-coord`,
 //! `si_dp_coord::monitor`) is read window by window with its coordination bytes. This command
 //! only chooses the monitor, feeds it and prints: every record as it is decoded, the counters
-//! at the end; `--svg` draws the sequence diagram ([`crate::svg`]).
+//! at the end; `--svg` draws the sequence diagram ([`si_core::diagram`]).
 
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::{Args, ValueEnum};
-use si_core::monitor::{decode_all, line, Analysis, Decoder, Kind, LineChar, Record};
+use si_core::monitor::{self, decode_all, line, Analysis, Decoder, Kind, Record};
 use si_core::tracefile::{self, TraceFile};
 use si_core::{Duration, Instant, SerialSettings};
 use std::path::PathBuf;
 
+/// Baud rates a trace or a monitored line may use: the widest list, the manuals' twelve and
+/// USS's 187 500 (si-uss's own list).
+const TRACE_RATES: [u32; 13] = si_uss::config::USS_BAUD_RATES;
+
 /// The protocols the monitor decodes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
 pub enum Protocol {
     /// 3964(R) with block check (BCC).
     #[value(name = "3964r")]
@@ -43,6 +47,7 @@ pub enum Protocol {
     #[value(name = "dp-coord")]
     DpCoord,
     /// The trace header's protocol, else the decoder that explains the line best.
+    #[default]
     Auto,
 }
 
@@ -75,7 +80,7 @@ impl Protocol {
 }
 
 /// `si monitor`.
-#[derive(Debug, Args)]
+#[derive(Debug, Default, Args)]
 pub struct MonitorArgs {
     /// Protocol to decode.
     #[arg(long, value_enum, default_value_t = Protocol::Auto)]
@@ -261,7 +266,11 @@ impl MonitorArgs {
         let protocol = match (self.protocol, named) {
             (Protocol::Auto, Some(p)) => p,
             (Protocol::Auto, None) => {
-                guess(&line.chars, |p| self.decoder(p, settings, one_sided), end)
+                // ASCII explains every line trivially: only when nothing else does.
+                let candidates = [Protocol::P3964r, Protocol::Modbus, Protocol::Uss];
+                monitor::best_fit(&line.chars, end, &candidates, Protocol::Ascii, |p| {
+                    self.decoder(p, settings, one_sided)
+                })
             }
             (p, _) => p,
         };
@@ -341,8 +350,8 @@ impl MonitorArgs {
             .duration
             .map(|s| origin + std::time::Duration::from_secs_f64(s.max(0.0)));
         // The diagram summarises as the records arrive: a monitor left running for days, or
-        // flooded, holds a bounded number of them (crate::svg::Diagram).
-        let mut diagram = self.svg.as_ref().map(|_| crate::svg::Diagram::new());
+        // flooded, holds a bounded number of them (si_core::diagram::Diagram).
+        let mut diagram = self.svg.as_ref().map(|_| si_core::diagram::Diagram::new());
         let mut buf = [0u8; 512];
         let mut buf2 = [0u8; 512];
         let mut last = Instant::ZERO;
@@ -405,7 +414,9 @@ impl MonitorArgs {
         if let Some(d) = &mut diagram {
             records.into_iter().for_each(|r| d.push(r));
         }
-        let first = diagram.as_ref().and_then(crate::svg::Diagram::first_start);
+        let first = diagram
+            .as_ref()
+            .and_then(si_core::diagram::Diagram::first_start);
         let analysis = Analysis {
             protocol: protocol.name().to_owned(),
             stations,
@@ -427,60 +438,10 @@ pub fn line_decoder(protocol: &str, settings: SerialSettings) -> Option<Box<dyn 
     let protocol = Protocol::from_name(protocol).filter(|p| *p != Protocol::DpCoord)?;
     let defaults = MonitorArgs {
         protocol,
-        trace: None,
-        svg: None,
-        tap: None,
-        duration: None,
-        zvz: None,
-        qvz: None,
-        timeout: None,
-        char_delay: None,
-        end_char: None,
-        fixed_length: None,
-        events: false,
-        no_xon_xoff: false,
+        ..MonitorArgs::default()
     };
     // Both directions are known: what we write and what we read.
     Some(defaults.decoder(protocol, settings, false))
-}
-
-/// Baud rates a trace or a monitored line may use: the manuals' twelve and USS's 187 500.
-pub static TRACE_RATES: [u32; 13] = [
-    110, 300, 600, 1_200, 2_400, 4_800, 9_600, 19_200, 38_400, 57_600, 76_800, 115_200, 187_500,
-];
-
-/// Pick the decoder that explains the characters best: most decoded frames without errors,
-/// fewest errors.
-fn guess(
-    chars: &[LineChar],
-    make: impl Fn(Protocol) -> Box<dyn Decoder>,
-    end: Instant,
-) -> Protocol {
-    let mut best = (Protocol::Ascii, i64::MIN);
-    for p in [
-        Protocol::P3964r,
-        Protocol::Modbus,
-        Protocol::Uss,
-        Protocol::Ascii,
-    ] {
-        let mut d = make(p);
-        let records = decode_all(d.as_mut(), chars, end);
-        let good = records
-            .iter()
-            .filter(|r| r.kind != Kind::Note && !r.has_error())
-            .count() as i64;
-        let bad = records.iter().filter(|r| r.has_error()).count() as i64;
-        // ASCII explains everything trivially: it only wins when nothing else does.
-        let score = if p == Protocol::Ascii {
-            0
-        } else {
-            good * 2 - bad * 3
-        };
-        if score > best.1 {
-            best = (p, score);
-        }
-    }
-    best.0
 }
 
 fn station(stations: &[String], i: Option<usize>) -> &str {
@@ -545,7 +506,7 @@ pub fn print_counters(a: &Analysis, out: &Output) {
 }
 
 fn write_svg(path: &std::path::Path, a: &Analysis) -> Result<(), CliError> {
-    write_file(path, crate::svg::render(a))
+    write_file(path, si_core::diagram::render(a))
 }
 
 fn write_file(path: &std::path::Path, svg: String) -> Result<(), CliError> {
@@ -557,6 +518,7 @@ fn write_file(path: &std::path::Path, svg: String) -> Result<(), CliError> {
 mod tests {
     use super::*;
     use clap::FromArgMatches;
+    use si_core::monitor::LineChar;
     use si_core::LineError;
     use si_sim::{SplitMix64, Trace, TraceEntry, TraceKind};
 
@@ -635,7 +597,7 @@ mod tests {
                     counters: d.counters().clone(),
                     span: (Instant::ZERO, end),
                 };
-                let svg = crate::svg::render(&analysis);
+                let svg = si_core::diagram::render(&analysis);
                 assert!(svg.ends_with("</svg>\n"));
             }
         }

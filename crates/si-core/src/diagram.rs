@@ -10,8 +10,8 @@
 //! a little context, and each run of uneventful records between them becomes one row that says
 //! how many frames passed and over what time; the counters close the figure.
 
-use si_core::monitor::{Analysis, Kind, Record, Severity};
-use si_core::{Duration, Instant};
+use crate::monitor::{Analysis, Kind, Record, Severity};
+use crate::{Duration, Instant};
 use std::fmt::Write;
 
 /// Most rows drawn before the diagram is summarised.
@@ -49,7 +49,7 @@ const BEFORE: usize = 3;
 /// Up to [`MAX_ROWS`] records every record is drawn. Beyond, the figure keeps the first 30,
 /// the last 10, and every record with an error or remark together with the three before it
 /// and the one after, as long as the [`MAX_ROWS`] budget lasts (first remarks first); each run
-/// of the others becomes one summary row. A record's fate is decided when it is [`TAIL`]
+/// of the others becomes one summary row. A record's fate is decided when it is `TAIL` (10)
 /// records old, so at most `MAX_ROWS + TAIL` records are held, plus the kept rows.
 pub struct Diagram {
     /// Records seen.
@@ -554,7 +554,7 @@ mod tests {
         r.text = "a decoded text the diagram does not draw".repeat(4);
         r.bytes = vec![0x55; 256];
         if faulty {
-            r.flags.push(si_core::monitor::Flag::error("CRC wrong"));
+            r.flags.push(crate::monitor::Flag::error("CRC wrong"));
         }
         r
     }
