@@ -33,7 +33,7 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let mut port = Handle::spawn(config, line.transport)?;
     loop {
-        match port.next().await? {
+        match port.recv_timed().await? {
             Incoming::Frame { data, at } => {
                 println!("{at}: {:?}", String::from_utf8_lossy(&data));
                 port.send(&b"OK\r\n"[..]).await?;

@@ -137,11 +137,15 @@ pub struct Config {
     /// Clear the receive buffer at CPU startup (STOP → RUN, [`Link::restart`](crate::Link::restart));
     /// default yes (§7.2 Table 2-11, et200s-si-2005-window-protocol.md §3.2 Table 2-9).
     pub clear_at_startup: bool,
+    /// The line's character format: what the async handle's opener opens the port with and
+    /// what the driver times tx-done by. Default 9600 bit/s 8E1, the module's default
+    /// ([ET200S SI] §2.9, Table 2-11).
+    pub settings: SerialSettings,
 }
 
 impl Default for Config {
     /// 3964(R), low priority, ZVZ 220 ms, QVZ 2000 ms, 6 and 6 attempts, 200-byte blocks,
-    /// receive buffer cleared at startup.
+    /// receive buffer cleared at startup, 9600 bit/s 8E1.
     fn default() -> Self {
         Config {
             block_check: true,
@@ -153,6 +157,7 @@ impl Default for Config {
             max_block_len: 200,
             receive_buffer_blocks: 5,
             clear_at_startup: true,
+            settings: SerialSettings::default(),
         }
     }
 }
@@ -307,6 +312,7 @@ struct RawConfig {
     max_block_len: Option<u64>,
     receive_buffer_blocks: Option<u64>,
     clear_at_startup: Option<bool>,
+    settings: Option<SerialSettings>,
 }
 
 impl TryFrom<RawConfig> for Config {
@@ -351,6 +357,7 @@ impl TryFrom<RawConfig> for Config {
             max_block_len: max as u16,
             receive_buffer_blocks: buf as u8,
             clear_at_startup: r.clear_at_startup.unwrap_or(base.clear_at_startup),
+            settings: r.settings.unwrap_or(base.settings),
         };
         config.validate()?;
         Ok(config)

@@ -807,6 +807,7 @@ fn read_3964r(r: &mut Reader<'_>) -> R3964Params {
             "1 … 255 blocks",
         ) as u8,
         clear_at_startup: r.bool("clear_at_startup", base.clear_at_startup),
+        settings,
     };
     R3964Params {
         diagnostic_interrupt,

@@ -178,6 +178,18 @@ impl Counters {
     }
 }
 
+/// How wide a parameter value written is: it picks the task ID (AK 2 or 3, for an array
+/// element AK 7 or 8) ([Modbus/USS] §3.7.7; the task IDs are the USS protocol's, [USS]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Width {
+    /// A 16-bit value (AK 2, AK 7).
+    #[default]
+    Word,
+    /// A 32-bit value (AK 3, AK 8).
+    DoubleWord,
+}
+
 /// A parameter job for [`Master::request_parameter`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ParamRequest {
@@ -206,23 +218,21 @@ impl ParamRequest {
         }
     }
     /// Write an array element: a word (AK 7) or a double word (AK 8).
-    pub fn write_array(number: u16, index: u8, value: u32, dword: bool) -> Self {
+    pub fn write_array(number: u16, index: u8, value: u32, width: Width) -> Self {
         ParamRequest {
-            task: if dword {
-                task::WRITE_ARRAY_DWORD
-            } else {
-                task::WRITE_ARRAY_WORD
+            task: match width {
+                Width::Word => task::WRITE_ARRAY_WORD,
+                Width::DoubleWord => task::WRITE_ARRAY_DWORD,
             },
-            ..Self::write(number, index, value, dword)
+            ..Self::write(number, index, value, width)
         }
     }
     /// Write a word (AK 2) or a double word (AK 3).
-    pub fn write(number: u16, index: u8, value: u32, dword: bool) -> Self {
+    pub fn write(number: u16, index: u8, value: u32, width: Width) -> Self {
         ParamRequest {
-            task: if dword {
-                task::WRITE_DWORD
-            } else {
-                task::WRITE_WORD
+            task: match width {
+                Width::Word => task::WRITE_WORD,
+                Width::DoubleWord => task::WRITE_DWORD,
             },
             param: ParamAddress { number, index },
             value,

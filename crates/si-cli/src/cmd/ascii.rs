@@ -246,9 +246,9 @@ fn status_error(status: Status) -> CliError {
 
 fn ascii_error(e: AsciiError) -> CliError {
     match e {
-        AsciiError::Status(s) => status_error(s),
+        AsciiError::Failed { status } => status_error(status),
         // A refused send names the STATUS too (1E41H, 050EH, 0502H).
-        AsciiError::Send(e) => CliError::new(format!(
+        AsciiError::Refused(e) => CliError::new(format!(
             "{e} ({})",
             si_ascii::status::lookup(e.status().code())
         )),
@@ -320,7 +320,10 @@ async fn recv(a: RecvArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
     let frames = async {
         let mut got = 0;
         while a.count.is_none_or(|n| got < n) {
-            let incoming = port.next().await.map_err(|e| received_error(e, conn))?;
+            let incoming = port
+                .recv_timed()
+                .await
+                .map_err(|e| received_error(e, conn))?;
             print_incoming(out, &incoming, false);
             if matches!(incoming, Incoming::Frame { .. }) {
                 got += 1;
@@ -349,7 +352,10 @@ async fn monitor(a: MonitorArgs, conn: &Connection, out: &Output) -> Result<(), 
     let mut got = 0;
     let limit = a.count.unwrap_or(u64::MAX);
     while got < limit {
-        let incoming = port.next().await.map_err(|e| received_error(e, conn))?;
+        let incoming = port
+            .recv_timed()
+            .await
+            .map_err(|e| received_error(e, conn))?;
         print_incoming(out, &incoming, true);
         if matches!(incoming, Incoming::Frame { .. }) {
             got += 1;

@@ -123,10 +123,12 @@ impl SendArgs {
             (hex, None) if !hex.is_empty() => crate::hex::parse_hex_args(hex)?,
             _ => return Err(CliError::usage("give the block as HEX or --text")),
         };
-        let config = self.link.config()?;
-        let settings = conn.settings()?;
+        let config = si_3964r::Config {
+            settings: conn.settings()?,
+            ..self.link.config()?
+        };
         let transport = conn.open().await?;
-        let link = Handle::spawn(config, settings, transport)?;
+        let link = Handle::spawn(config, transport)?;
         tokio::time::sleep(SETTLE).await;
         let len = data.len();
         match link.send(data).await {
@@ -137,7 +139,7 @@ impl SendArgs {
                 );
                 Ok(())
             }
-            Err(LinkError::Status(status)) => {
+            Err(LinkError::Failed { status }) => {
                 Err(CliError::new(format!("send failed: {}", described(status))))
             }
             Err(e) => Err(e.into()),
@@ -147,14 +149,16 @@ impl SendArgs {
 
 impl RecvArgs {
     async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
-        let config = self.link.config()?;
-        let settings = conn.settings()?;
+        let config = si_3964r::Config {
+            settings: conn.settings()?,
+            ..self.link.config()?
+        };
         let transport = conn.open().await?;
-        let mut link = Handle::spawn(config, settings, transport)?;
+        let mut link = Handle::spawn(config, transport)?;
         let mut received = 0u64;
         while self.count.is_none_or(|n| received < n) {
-            match link.next().await {
-                Some(Ok(block)) => {
+            match link.recv().await {
+                Ok(block) => {
                     received += 1;
                     out.line(
                         &si_core::hex::format(&block),
@@ -165,10 +169,11 @@ impl RecvArgs {
                         }),
                     );
                 }
-                Some(Err(status)) => {
+                Err(LinkError::Failed { status }) => {
                     eprintln!("si: receive error {}", described(status));
                 }
-                None => return Err(conn.closed()),
+                Err(LinkError::Stopped(_)) => return Err(conn.closed()),
+                Err(e) => return Err(e.into()),
             }
         }
         // Our DLE for the last block is already written; give the port a moment to drain it.

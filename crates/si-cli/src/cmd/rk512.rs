@@ -303,7 +303,9 @@ impl SendArgs {
             s.send(Instant::ZERO, address, coordination, data.clone())
         })?;
         let transport = conn.open().await?;
-        let station = Handle::spawn(config, settings, transport)?;
+        let mut config = config;
+        config.link.settings = settings;
+        let station = Handle::spawn(config, transport)?;
         tokio::time::sleep(SETTLE).await;
         let len = data.len();
         if let Err(e) = station.send(address, coordination, data).await {
@@ -334,7 +336,9 @@ impl FetchArgs {
             s.fetch(Instant::ZERO, address, coordination, len)
         })?;
         let transport = conn.open().await?;
-        let station = Handle::spawn(config, settings, transport)?;
+        let mut config = config;
+        config.link.settings = settings;
+        let station = Handle::spawn(config, transport)?;
         tokio::time::sleep(SETTLE).await;
         let data = match station.fetch(address, coordination, len).await {
             Ok(data) => data,

@@ -20,7 +20,7 @@ use si_uss::drive::{stw, Drive, DriveConfig, DriveEvent};
 use si_uss::frame::{
     self, pkw_error_text, Adr, NetData, ParamAddress, Pkw, PkwWords, MAX_TELEGRAM,
 };
-use si_uss::master::{Event, Master, ParamRequest};
+use si_uss::master::{Event, Master, ParamRequest, Width};
 use si_uss::tokio::Handle;
 
 /// The protocol's subcommands.
@@ -171,6 +171,17 @@ pub struct WriteArgs {
 }
 
 /// `si uss sim-slave`.
+impl WriteArgs {
+    /// The value's width (`--dword`).
+    fn width(&self) -> Width {
+        if self.dword {
+            Width::DoubleWord
+        } else {
+            Width::Word
+        }
+    }
+}
+
 #[derive(Debug, Args)]
 pub struct SimSlaveArgs {
     /// Bus address 0…31.
@@ -283,9 +294,9 @@ impl Command {
                 let param = parse_param(&a.param, a.index)?;
                 let value = parse_value(&a.value, a.dword)?;
                 let request = if a.array {
-                    ParamRequest::write_array(param.number, param.index, value, a.dword)
+                    ParamRequest::write_array(param.number, param.index, value, a.width())
                 } else {
-                    ParamRequest::write(param.number, param.index, value, a.dword)
+                    ParamRequest::write(param.number, param.index, value, a.width())
                 };
                 let r = last_job(conn, &a.structure, a.slave, request).await?;
                 let signed = a.value.trim_start().starts_with('-');
@@ -748,9 +759,9 @@ fn uss_param(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     sim.with(m, |m, now| m.start(now));
     let jobs = [
         ParamRequest::read(1082, 0),
-        ParamRequest::write(1082, 0, 120, false),
+        ParamRequest::write(1082, 0, 120, Width::Word),
         ParamRequest::read(1082, 0),
-        ParamRequest::write(1082, 0, 1000, false),
+        ParamRequest::write(1082, 0, 1000, Width::Word),
     ];
     let mut results = Vec::new();
     for job in jobs {
