@@ -87,3 +87,20 @@ async fn a_uss_parameter_job_to_a_silent_node_ends_after_its_repetitions() {
     assert!(took < Duration::from(StdDuration::from_secs(1)), "{took}");
     println!("USS silent node: {took} (bound {bound})");
 }
+
+/// Modbus RTU: the master waits the "Response Time" (2 s) for the start of a response, once
+/// (no retries by default), then the job fails with 0830H.
+#[cfg(feature = "modbus")]
+#[tokio::test(start_paused = true)]
+async fn a_modbus_request_to_a_silent_unit_ends_after_the_response_time() {
+    use si_serial::modbus;
+    let config = modbus::MasterConfig::default();
+    let (ours, _theirs) = silent_line();
+    // A place, so the request works whether the master's methods take `&self` or `&mut self`.
+    let plc = &mut modbus::tokio::Master::spawn(config, ours).unwrap();
+    let start = Instant::now();
+    let e = plc.read_holding_registers(1, 0, 1).await.unwrap_err();
+    let took = elapsed_since(start);
+    assert_eq!(e.status(), Some(modbus::status::RESPONSE_TIMEOUT));
+    assert_eq!(took.as_millis() / 100, 20, "{took}");
+}
