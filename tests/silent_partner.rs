@@ -38,7 +38,7 @@ async fn a_3964r_send_to_a_silent_partner_ends_after_the_connection_attempts() {
     let took = elapsed_since(start);
     assert_eq!(e.status(), Some(r3964::status::SETUP_TIMEOUT));
     let attempts = u64::from(config.connection_attempts);
-    let per_attempt = config.ack_delay() + config.settings.char_time();
+    let per_attempt = config.ack_delay + config.settings.char_time();
     assert!(took >= per_attempt.saturating_mul(attempts), "{took}");
     assert!(
         took < per_attempt.saturating_mul(attempts) + Duration::from_millis(50),

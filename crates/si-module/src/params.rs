@@ -770,18 +770,18 @@ fn read_3964r(r: &mut Reader<'_>) -> R3964Params {
             ],
             base.priority,
         ),
-        char_delay_ms: r.uint(
+        char_delay: si_core::Duration::from_millis(r.uint(
             "char_delay_ms",
-            base.char_delay_ms.into(),
+            base.char_delay.as_millis(),
             u32::MAX.into(),
             "20 … 655350 ms",
-        ) as u32,
-        ack_delay_ms: r.uint(
+        )),
+        ack_delay: si_core::Duration::from_millis(r.uint(
             "ack_delay_ms",
-            base.ack_delay_ms.into(),
+            base.ack_delay.as_millis(),
             u32::MAX.into(),
             "10 … 655350 ms",
-        ) as u32,
+        )),
         connection_attempts: r.uint(
             "connection_attempts",
             base.connection_attempts.into(),
@@ -1284,8 +1284,8 @@ impl DriverParams {
                     }
                     .into(),
                 );
-                put("char_delay_ms", c.char_delay_ms.into());
-                put("ack_delay_ms", c.ack_delay_ms.into());
+                put("char_delay_ms", c.char_delay.as_millis().into());
+                put("ack_delay_ms", c.ack_delay.as_millis().into());
                 put("connection_attempts", c.connection_attempts.into());
                 put("transmission_attempts", c.transmission_attempts.into());
                 put("max_block_len", c.max_block_len.into());

@@ -66,10 +66,10 @@ pub struct LinkArgs {
     no_bcc: bool,
     /// Character delay time ZVZ in ms (20 … 655350, default 220).
     #[arg(long, value_name = "MS")]
-    zvz_ms: Option<u64>,
+    char_delay_ms: Option<u64>,
     /// Acknowledgement delay time QVZ in ms (10 … 655350, default 2000, 550 with --no-bcc).
     #[arg(long, value_name = "MS")]
-    qvz_ms: Option<u64>,
+    ack_delay_ms: Option<u64>,
     /// Connection attempts (1 … 255, default 6).
     #[arg(long, value_name = "N")]
     connection_attempts: Option<u64>,
@@ -89,8 +89,8 @@ impl LinkArgs {
             },
         });
         for (key, value) in [
-            ("char_delay_ms", self.zvz_ms),
-            ("ack_delay_ms", self.qvz_ms),
+            ("char_delay_ms", self.char_delay_ms),
+            ("ack_delay_ms", self.ack_delay_ms),
             ("connection_attempts", self.connection_attempts),
             ("transmission_attempts", self.transmission_attempts),
         ] {
