@@ -29,7 +29,7 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     let line = common::open(&target, &config.settings, &PortOptions::default()).await?;
     if line.network {
         // A device server adds latency between characters: be generous.
-        config.char_delay_ms = 200;
+        config.char_delay = si_serial::core::Duration::from_millis(200);
     }
     let mut port = Handle::spawn(config, line.transport)?;
     loop {

@@ -73,7 +73,7 @@ async fn a_uss_parameter_job_to_a_silent_node_ends_after_its_repetitions() {
     let bound = config.job_bound();
     let floor = config
         .response_timeout
-        .saturating_mul(u64::from(config.pkw_retries) + 1);
+        .saturating_mul(u64::from(config.retries) + 1);
     let (ours, _theirs) = silent_line();
     let drives = uss::tokio::Handle::spawn(config, ours).unwrap();
     let start = Instant::now();

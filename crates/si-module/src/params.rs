@@ -700,7 +700,7 @@ fn read_ascii(r: &mut Reader<'_>) -> AsciiParams {
         interface,
         flow_control,
         end,
-        char_delay_ms,
+        char_delay: si_core::Duration::from_millis(char_delay_ms.into()),
         dynamic_frames: r.bool("dynamic_frames", dc.dynamic_frames),
         prevent_overwrite: r.bool("prevent_overwrite", dc.prevent_overwrite),
         clear_at_startup: r.bool("clear_at_startup", dc.clear_at_startup),
@@ -964,7 +964,7 @@ fn read_uss(r: &mut Reader<'_>) -> UssMasterParams {
         settings: si_uss::config::uss_settings(baud).unwrap_or(d.config.settings),
         polling_list,
         response_timeout: ms(r.uint("response_timeout_ms", 20, u32::MAX.into(), "1 ms … 10 s")),
-        pkw_retries: r.uint("pkw_retries", 20, u16::MAX.into(), "0…32767") as u16,
+        retries: r.uint("pkw_retries", 20, u16::MAX.into(), "0…32767") as u16,
         cycle_pause: ms(r.uint("cycle_pause_ms", 0, u32::MAX.into(), "0 … 60 s")),
         local_echo: r.bool("local_echo", false),
         pkw_after_job: d.config.pkw_after_job,
@@ -1256,7 +1256,7 @@ impl DriverParams {
                         put("frame_length", len.into());
                     }
                 }
-                put("char_delay_ms", c.char_delay_ms.into());
+                put("char_delay_ms", c.char_delay.as_millis().into());
                 put("dynamic_frames", c.dynamic_frames.into());
                 put("prevent_overwrite", c.prevent_overwrite.into());
                 put("clear_at_startup", c.clear_at_startup.into());
@@ -1338,7 +1338,7 @@ impl DriverParams {
                     "response_timeout_ms",
                     (c.response_timeout.as_micros() / 1000).into(),
                 );
-                put("pkw_retries", c.pkw_retries.into());
+                put("pkw_retries", c.retries.into());
                 put("cycle_pause_ms", (c.cycle_pause.as_micros() / 1000).into());
                 put("local_echo", c.local_echo.into());
                 let list: Vec<Value> = c

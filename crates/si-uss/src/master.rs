@@ -29,7 +29,7 @@
 //!   (et200s-si-modbus-uss.md §6.7 status bit 2);
 //! - response ID 8, "no master control / no PKW rights": [`status::PKW_INTERFACE_ERROR`]
 //!   (16#1505, status bit 4);
-//! - WDH repetitions after the first telegram used up ([`MasterConfig::pkw_retries`]):
+//! - WDH repetitions after the first telegram used up ([`MasterConfig::retries`]):
 //!   [`status::NO_ANSWER`] (16#1408, comm error word bit 7, the code a poll reports) when the
 //!   node did not answer a single telegram of the job, or the rejection code of its last
 //!   telegram (BCC, LGE, …) when it answered only with faulty ones; [`status::PKW_INTERFACE_ERROR`]
@@ -1123,7 +1123,7 @@ impl Master {
         let Some(job) = s.job else {
             return;
         };
-        if job.sent > self.config.pkw_retries {
+        if job.sent > self.config.retries {
             s.job = None;
             s.comm_status = (s.comm_status & !comm_status::PKW_BUSY) | comm_status::PKW_INTERFACE;
             let address = s.address;

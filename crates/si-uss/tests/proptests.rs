@@ -120,7 +120,7 @@ proptest! {
         let settings = uss_settings(19_200).unwrap();
         let mut cfg = MasterConfig::new(vec![PollEntry::new(1, PkwWords::Four, 2), PollEntry::new(2, PkwWords::Four, 2)]);
         cfg.settings = settings;
-        cfg.pkw_retries = 3;
+        cfg.retries = 3;
         cfg.local_echo = true;
         let mut sim = Simulator::new(seed).without_trace();
         let m = sim.add_station("master", settings, Master::new(cfg).unwrap());

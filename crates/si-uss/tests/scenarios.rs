@@ -341,7 +341,7 @@ fn s6_8_wdh_repetitions_exceeded_is_a_pkw_interface_error() {
     let settings = s9600();
     let mut sim = Simulator::new(1);
     let mut cfg = master_config(settings, &[1], false);
-    cfg.pkw_retries = 2;
+    cfg.retries = 2;
     let m = sim.add_station("master", settings, Master::new(cfg).unwrap());
     let d = sim.add_station(
         "drive1",

@@ -62,7 +62,7 @@ pub struct DriverArgs {
     end: Vec<String>,
     /// Character delay time in ms (default: the manual's minimum for the baud rate, ≥ 4 ms).
     #[arg(long, value_name = "MS")]
-    cdt: Option<u32>,
+    char_delay_ms: Option<u32>,
     /// Flow control.
     #[arg(long, value_enum, default_value = "none")]
     flow: Flow,
@@ -71,7 +71,7 @@ pub struct DriverArgs {
     interface: Iface,
     /// Wait time for XON or CTS = ON in ms (20 … 655350, 10 ms steps; default 2000).
     #[arg(long, value_name = "MS")]
-    flow_wait: Option<u32>,
+    flow_wait_ms: Option<u32>,
     /// The module whose maximum frame length applies: `et200s` (ET 200S 1SI, 200 bytes),
     /// `2005` (the 2005 module, 224 bytes) or `cp341` (CP 341, 1024 bytes).
     #[arg(long, value_name = "TYPE", default_value = "et200s", value_parser = module_preset)]
@@ -97,9 +97,11 @@ impl DriverArgs {
         let mut c = Config {
             settings,
             end,
-            char_delay_ms: self
-                .cdt
-                .unwrap_or_else(|| min_char_delay_ms(settings.baud())),
+            char_delay: si_core::Duration::from_millis(
+                self.char_delay_ms
+                    .unwrap_or_else(|| min_char_delay_ms(settings.baud()))
+                    .into(),
+            ),
             flow_control: match self.flow {
                 Flow::None => FlowControl::None,
                 Flow::XonXoff => FlowControl::XonXoff,
@@ -116,7 +118,7 @@ impl DriverArgs {
         if let Some(n) = self.max_frame {
             c.max_frame_len = n;
         }
-        if let Some(ms) = self.flow_wait {
+        if let Some(ms) = self.flow_wait_ms {
             c.xon_xoff.wait_for_xon_ms = ms;
             c.rts_cts.wait_for_cts_ms = ms;
         }
@@ -393,7 +395,7 @@ fn scenario_end_chars(o: &SimOptions, out: &Output) -> Result<(), CliError> {
             first: 0x0D,
             second: 0x0A,
         },
-        char_delay_ms: min_char_delay_ms(o.settings.baud()),
+        char_delay: si_ascii::config::min_char_delay(o.settings.baud()),
         ..Config::default()
     };
     let mut sim = Simulator::new(o.seed);
@@ -419,7 +421,7 @@ fn scenario_xon_xoff(o: &SimOptions, out: &Output) -> Result<(), CliError> {
         settings: o.settings,
         end: EndCriterion::FixedLength { len: 100 },
         flow_control: FlowControl::XonXoff,
-        char_delay_ms: min_char_delay_ms(o.settings.baud()),
+        char_delay: si_ascii::config::min_char_delay(o.settings.baud()),
         ..Config::default()
     };
     let (xon, xoff) = (config.xon_xoff.xon, config.xon_xoff.xoff);

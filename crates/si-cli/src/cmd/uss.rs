@@ -49,7 +49,7 @@ pub struct Structure {
     pzd_words: u8,
     /// Response timeout in ms (the USS spec's 20 ms; more for converters and device servers).
     #[arg(long, default_value_t = 20)]
-    response_timeout: u64,
+    response_timeout_ms: u64,
     /// WDH: PKW repetitions after the first telegram (0…32767). A job goes out at most 1 + N
     /// times; then it fails with 16#1408 if the node never answered, 16#1505 if it answered
     /// without a matching response.
@@ -77,8 +77,8 @@ impl Structure {
                 .collect(),
         );
         c.settings = settings;
-        c.response_timeout = Duration::from_millis(self.response_timeout);
-        c.pkw_retries = self.retries;
+        c.response_timeout = Duration::from_millis(self.response_timeout_ms);
+        c.retries = self.retries;
         c.pkw_after_job = if self.pkw_repeat {
             PkwAfterJob::RepeatLast
         } else {

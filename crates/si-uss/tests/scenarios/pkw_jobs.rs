@@ -38,7 +38,7 @@ fn pair_with(
     let settings = s9600();
     let mut sim = Simulator::new(5);
     let mut cfg = master_config(settings, &[1], false);
-    cfg.pkw_retries = retries;
+    cfg.retries = retries;
     cfg.pkw_after_job = after;
     let m = sim.add_station("master", settings, Master::new(cfg).unwrap());
     let mut dc = DriveConfig::new(settings, 1);
