@@ -1,4 +1,4 @@
-//! Three protocols, three handles that look alike (issue 17's user program): send one block
+//! Three protocols, three handles that look alike: send one block
 //! over 3964(R), read one Modbus holding register from unit 1, read parameter P700 of USS
 //! drive 3, all at 9600 bit/s 8E1 (every config's default), every error propagated with `?`.
 //!

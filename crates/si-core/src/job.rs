@@ -145,8 +145,11 @@ pub trait JobEnd: crate::Engine {
     ) -> Result<JobId, NotStarted<Self::Refusal>>;
 
     /// The job `event` ends, with its outcome; `None` for an event that ends no job.
-    fn job_end(event: &Self::Event) -> Option<(JobId, Result<Self::Output, Self::Failure>)>;
+    fn job_end(event: &Self::Event) -> Option<JobEnded<Self>>;
 }
+
+/// What [`JobEnd::job_end`] recognises: the job that ended and its outcome.
+pub type JobEnded<E> = (JobId, Result<<E as JobEnd>::Output, <E as JobEnd>::Failure>);
 
 /// A [`JobPort`] whose jobs include sending a frame: what S_SEND needs (every port but the
 /// RK 512 station, whose jobs carry an address). Implemented for every such port; a user

@@ -179,7 +179,7 @@ impl Counters {
 }
 
 /// How wide a parameter value written is: it picks the task ID (AK 2 or 3, for an array
-/// element AK 7 or 8) ([Modbus/USS] §3.7.7; the task IDs are the USS protocol's, [USS]).
+/// element AK 7 or 8) ([Modbus/USS] §3.7.7; the task IDs are the USS protocol's, \[USS\]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Width {
