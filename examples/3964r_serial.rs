@@ -12,7 +12,6 @@
 mod common;
 
 use si_serial::core::port::PortOptions;
-use si_serial::core::SerialSettings;
 use si_serial::r3964::tokio::Handle;
 use si_serial::r3964::{Config, Priority};
 
@@ -22,13 +21,13 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (Some(path), Some(text)) = (args.next(), args.next()) else {
         return Err("usage: 3964r_serial PORT|HOST:PORT TEXT".into());
     };
-    let line = SerialSettings::default(); // 9600 8E1: set once, for the port and the link
-    let serial = common::open(&path, &line, &PortOptions::default()).await?;
+    // 9600 8E1 (`config.settings`): set once, for the port and the link.
     let config = Config {
         priority: Priority::High,
         ..Config::default()
     };
-    let mut link = Handle::spawn(config, line, serial.transport)?;
+    let serial = common::open(&path, &config.settings, &PortOptions::default()).await?;
+    let mut link = Handle::spawn(config, serial.transport)?;
     link.send(text.into_bytes()).await?;
     println!("sent, the partner acknowledged with DLE");
     println!("waiting for a block from the partner (Ctrl-C to stop)…");

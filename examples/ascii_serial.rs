@@ -29,11 +29,11 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     let line = common::open(&target, &config.settings, &PortOptions::default()).await?;
     if line.network {
         // A device server adds latency between characters: be generous.
-        config.char_delay_ms = 200;
+        config.char_delay = si_serial::core::Duration::from_millis(200);
     }
     let mut port = Handle::spawn(config, line.transport)?;
     loop {
-        match port.next().await? {
+        match port.recv_timed().await? {
             Incoming::Frame { data, at } => {
                 println!("{at}: {:?}", String::from_utf8_lossy(&data));
                 port.send(&b"OK\r\n"[..]).await?;

@@ -14,7 +14,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let config = Config {
         settings: SerialSettings::new(4_800, 8, Parity::None, 1)?,
         end: EndCriterion::DEFAULT_END_CHARS,
-        char_delay_ms: 10,
+        char_delay: si_serial::core::Duration::from_millis(10),
         ..Config::default()
     };
     let mut sim = Simulator::new(1);

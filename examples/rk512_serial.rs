@@ -11,7 +11,6 @@
 mod common;
 
 use si_serial::core::port::PortOptions;
-use si_serial::core::SerialSettings;
 use si_serial::r3964::Priority;
 use si_serial::rk512::frame::{Address, Coordination};
 use si_serial::rk512::tokio::Handle;
@@ -22,11 +21,10 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     let target = std::env::args()
         .nth(1)
         .ok_or("usage: rk512_serial PORT|HOST:PORT")?;
-    let settings = SerialSettings::default(); // 9600 8E1: set once, for the port and the engine
-    let mut config = Config::default();
+    let mut config = Config::default(); // 9600 8E1 (config.link.settings): for port and engine
     config.link.priority = Priority::High; // the PLC side usually keeps the default, low
-    let line = common::open(&target, &settings, &PortOptions::default()).await?;
-    let station = Handle::spawn(config, settings, line.transport)?;
+    let line = common::open(&target, &config.link.settings, &PortOptions::default()).await?;
+    let station = Handle::spawn(config, line.transport)?;
 
     let db10 = Address::Db { db: 10, dw: 0 };
     match station

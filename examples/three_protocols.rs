@@ -6,14 +6,13 @@
 //! cargo run --example three_protocols --features serial -- /dev/ttyS0 /dev/ttyS1 /dev/ttyS2
 //! ```
 //!
-//! Each handle is spawned from a config and a port, and its verbs return
-//! `Result<_, si_xxx::tokio::Error>`, which converts into `Box<dyn Error>` (a failed job's
-//! error shows the manual's STATUS with its text). 3964(R)'s config has no line settings of
-//! its own, so its `spawn` takes them beside the config. `crates/si-cli/tests/pty/
-//! three_protocols_example.rs` runs this program against `si` serving the three partners.
+//! Each handle is opened from its config and a path (the port takes the config's own line
+//! settings), and its verbs return `Result<_, si_xxx::tokio::Error>`, which converts into
+//! `Box<dyn Error>` (a failed job's error shows the manual's STATUS with its text).
+//! `crates/si-cli/tests/pty/three_protocols_example.rs` runs this program against `si`
+//! serving the three partners.
 
 use si_serial::core::port::{open, PortOptions};
-use si_serial::core::SerialSettings;
 use si_serial::uss::config::{MasterConfig as UssConfig, PollEntry};
 use si_serial::{modbus, r3964, uss};
 use std::error::Error;
@@ -23,12 +22,12 @@ const USAGE: &str = "usage: three_protocols PORT_3964R PORT_MODBUS PORT_USS";
 #[tokio::main(flavor = "current_thread")]
 async fn main() -> Result<(), Box<dyn Error>> {
     let port = |i: usize| std::env::args().nth(i).ok_or(USAGE);
-    let (line, o) = (SerialSettings::default(), PortOptions::default());
     let mb = modbus::MasterConfig::default();
     let uss = UssConfig::new(vec![PollEntry::new(3, uss::frame::PkwWords::Four, 2)]);
-    let link = r3964::tokio::Handle::spawn(Default::default(), line, open(&port(1)?, &line, &o)?)?;
-    let mut plc = modbus::tokio::Master::spawn(mb, open(&port(2)?, &mb.line.settings, &o)?)?;
-    let drives = uss::tokio::Handle::spawn(uss.clone(), open(&port(3)?, &uss.settings, &o)?)?;
+    let link = r3964::tokio::Handle::open(Default::default(), &port(1)?)?;
+    let serial = open(&port(2)?, &mb.line.settings, &PortOptions::default())?;
+    let mut plc = modbus::tokio::Master::spawn(mb, serial)?;
+    let drives = uss::tokio::Handle::open(uss, &port(3)?)?;
     link.send(&b"hello"[..]).await?;
     println!("3964(R): sent 5 bytes");
     let register = plc.read_holding_registers(1, 0, 1).await?[0];

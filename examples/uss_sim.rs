@@ -8,7 +8,7 @@ use si_serial::sim::Simulator;
 use si_serial::uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_serial::uss::drive::{stw, Drive, DriveConfig};
 use si_serial::uss::frame::PkwWords;
-use si_serial::uss::master::{Event, Master, ParamRequest};
+use si_serial::uss::master::{Event, Master, ParamRequest, Width};
 
 fn main() {
     let settings = uss_settings(9_600).expect("9600 8E1 is a USS format");
@@ -48,7 +48,7 @@ fn main() {
     sim.with(master, |m, now| {
         m.start(now);
         m.set_control(1, &[stw::RUN, 1500]).unwrap();
-        m.request_parameter(now, 3, ParamRequest::write(1082, 0, 120, false))
+        m.request_parameter(now, 3, ParamRequest::write(1082, 0, 120, Width::Word))
             .unwrap();
     });
     sim.run_for(Duration::from_millis(500));

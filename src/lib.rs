@@ -23,8 +23,16 @@
 //!
 //! Every engine is Sans-IO: it is fed bytes and time and says what to transmit and when to wake
 //! it, so the same code runs under tokio, in the deterministic simulator, and in tests.
+//!
+//! The modules are the crates themselves, inlined (`#[doc(inline)]`): each has its own pages
+//! here. With feature `tokio`, each protocol's `tokio` module has the same handle: `spawn(config,
+//! transport)`, `open(config, path)` (feature `serial`, the port opened with the config's own
+//! line settings), the protocol's jobs on `&self`, `recv()`, `next_event()`, `close().await`
+//! (returns once the port is released) and `closed()`, and one `Error` with the variants
+//! `Refused`, `Failed { status, .. }`, `Config`, `Stopped` and `Io`.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
+#[doc(inline)]
 pub use si_core as core;
 
 #[cfg(feature = "sim")]
@@ -33,30 +41,37 @@ pub use si_sim as sim;
 
 #[cfg(feature = "3964r")]
 #[cfg_attr(docsrs, doc(cfg(feature = "3964r")))]
+#[doc(inline)]
 pub use si_3964r as r3964;
 
 #[cfg(feature = "rk512")]
 #[cfg_attr(docsrs, doc(cfg(feature = "rk512")))]
+#[doc(inline)]
 pub use si_rk512 as rk512;
 
 #[cfg(feature = "ascii")]
 #[cfg_attr(docsrs, doc(cfg(feature = "ascii")))]
+#[doc(inline)]
 pub use si_ascii as ascii;
 
 #[cfg(feature = "modbus")]
 #[cfg_attr(docsrs, doc(cfg(feature = "modbus")))]
+#[doc(inline)]
 pub use si_modbus as modbus;
 
 #[cfg(feature = "uss")]
 #[cfg_attr(docsrs, doc(cfg(feature = "uss")))]
+#[doc(inline)]
 pub use si_uss as uss;
 
 #[cfg(feature = "dp-coord")]
 #[cfg_attr(docsrs, doc(cfg(feature = "dp-coord")))]
+#[doc(inline)]
 pub use si_dp_coord as dp_coord;
 
 #[cfg(feature = "module")]
 #[cfg_attr(docsrs, doc(cfg(feature = "module")))]
+#[doc(inline)]
 pub use si_module as module;
 /// The README, compiled as doc-tests: a snippet there that stops compiling fails
 /// `cargo test --doc`. Its Rust blocks use the simulator, 3964(R), Modbus and a serial port,

@@ -21,7 +21,7 @@ fn reads_alike(e: &RangeError, parameter: &str, value: &str) {
 #[test]
 fn every_config_names_parameter_range_unit_and_value_the_same_way() {
     let e = r3964::Config {
-        char_delay_ms: 5,
+        char_delay: si_core::Duration::from_millis(5),
         ..r3964::Config::default()
     }
     .validate()

@@ -54,7 +54,7 @@
 //! let line = SerialSettings::default(); // 9600 8E1: 1146 µs per character
 //! let bound = Config::default().send_job_bound(&line, 200);
 //! assert_eq!(bound, Duration::from_micros(88_828_558));
-//! let short = Config { ack_delay_ms: 200, connection_attempts: 2, transmission_attempts: 2, ..Config::default() };
+//! let short = Config { ack_delay: si_core::Duration::from_millis(200), connection_attempts: 2, transmission_attempts: 2, ..Config::default() };
 //! assert_eq!(short.send_job_bound(&line, 1).as_millis(), 2_343);
 //! ```
 
@@ -82,8 +82,8 @@ impl Config {
         allowance: Duration,
     ) -> Duration {
         let t_char = settings.char_time();
-        let qvz = self.ack_delay() + allowance;
-        let zvz_gap = settings.gap_limit(self.char_delay() + allowance);
+        let qvz = self.ack_delay + allowance;
+        let zvz_gap = settings.gap_limit(self.char_delay + allowance);
         let connection = (t_char + qvz).saturating_mul(self.connection_attempts.into());
         let block = settings.chars_time(worst_wire_chars(len));
         let attempt = connection + block + qvz + zvz_gap + t_char;
@@ -103,11 +103,11 @@ mod tests {
         let b = base.send_job_bound(&line, 10);
         for bigger in [
             Config {
-                ack_delay_ms: 2010,
+                ack_delay: si_core::Duration::from_millis(2010),
                 ..base
             },
             Config {
-                char_delay_ms: 230,
+                char_delay: si_core::Duration::from_millis(230),
                 ..base
             },
             Config {

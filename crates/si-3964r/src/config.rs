@@ -10,7 +10,7 @@
 //! use si_3964r::Config;
 //!
 //! let c: Config = serde_json::from_str(r#"{"block_check": false}"#).unwrap();
-//! assert_eq!(c.ack_delay_ms, 550); // the manual's QVZ default without block check
+//! assert_eq!(c.ack_delay.as_millis(), 550); // the manual's QVZ default without block check
 //! let e = serde_json::from_str::<Config>(r#"{"char_delay_ms": 5}"#).unwrap_err();
 //! assert!(e.to_string().contains("character delay time (ZVZ) = 5 ms is out of range: 20 … 655350 ms"));
 //! ```
@@ -121,12 +121,15 @@ pub struct Config {
     pub block_check: bool,
     /// Priority in an initialization conflict; the partners must differ. Default low.
     pub priority: Priority,
-    /// Character delay time ZVZ in ms: the longest gap between two received characters.
-    /// 20 … 655 350, default 220.
-    pub char_delay_ms: u32,
+    /// Character delay time ZVZ: the longest gap between two received characters.
+    /// 20 … 655 350 ms, default 220 ms. In files `char_delay_ms`.
+    #[serde(rename = "char_delay_ms", with = "si_core::time::millis")]
+    pub char_delay: Duration,
     /// Acknowledgement delay time QVZ in ms: the longest wait for the partner's DLE after STX and
-    /// after DLE ETX. 10 … 655 350, default 2000 (550 without block check).
-    pub ack_delay_ms: u32,
+    /// after DLE ETX. 10 … 655 350 ms, default 2000 ms (550 ms without block check). In files
+    /// `ack_delay_ms`.
+    #[serde(rename = "ack_delay_ms", with = "si_core::time::millis")]
+    pub ack_delay: Duration,
     /// Connection attempts (STX) per transmission attempt, 1 … 255, default 6.
     pub connection_attempts: u8,
     /// Transmission attempts of one block, the first included, 1 … 255, default 6; also the
@@ -142,22 +145,27 @@ pub struct Config {
     /// Clear the receive buffer at CPU startup (STOP → RUN, [`Link::restart`](crate::Link::restart));
     /// default yes ([ET200S SI] §2.9, Table 2-11, [ET200S SI 2005] §2.9.3, Table 2-9).
     pub clear_at_startup: bool,
+    /// The line's character format: what the async handle's opener opens the port with and
+    /// what the driver times tx-done by. Default 9600 bit/s 8E1, the module's default
+    /// ([ET200S SI] §2.9, Table 2-11).
+    pub settings: SerialSettings,
 }
 
 impl Default for Config {
     /// 3964(R), low priority, ZVZ 220 ms, QVZ 2000 ms, 6 and 6 attempts, 200-byte blocks,
-    /// receive buffer cleared at startup.
+    /// receive buffer cleared at startup, 9600 bit/s 8E1.
     fn default() -> Self {
         Config {
             block_check: true,
             priority: Priority::Low,
-            char_delay_ms: 220,
-            ack_delay_ms: 2000,
+            char_delay: Duration::from_millis(220),
+            ack_delay: Duration::from_millis(2000),
             connection_attempts: 6,
             transmission_attempts: 6,
             max_block_len: 200,
             receive_buffer_blocks: 5,
             clear_at_startup: true,
+            settings: SerialSettings::default(),
         }
     }
 }
@@ -167,7 +175,7 @@ impl Config {
     pub fn without_block_check() -> Self {
         Config {
             block_check: false,
-            ack_delay_ms: 550,
+            ack_delay: Duration::from_millis(550),
             ..Config::default()
         }
     }
@@ -189,16 +197,6 @@ impl Config {
         }
     }
 
-    /// ZVZ as a duration.
-    pub fn char_delay(&self) -> Duration {
-        Duration::from_millis(u64::from(self.char_delay_ms))
-    }
-
-    /// QVZ as a duration.
-    pub fn ack_delay(&self) -> Duration {
-        Duration::from_millis(u64::from(self.ack_delay_ms))
-    }
-
     /// Checks every parameter against its range; the first error found.
     pub fn validate(&self) -> Result<(), ConfigError> {
         match self.validate_all().into_iter().next() {
@@ -215,7 +213,7 @@ impl Config {
     /// use si_core::{Parity, SerialSettings};
     ///
     /// let slow = SerialSettings::new(300, 8, Parity::Even, 1).unwrap();
-    /// let c = Config { char_delay_ms: 40, ..Config::default() };
+    /// let c = Config { char_delay: si_core::Duration::from_millis(40), ..Config::default() };
     /// assert_eq!(
     ///     c.validate_for(&slow).unwrap_err().to_string(),
     ///     "character delay time (ZVZ) at 300 bit/s = 40 ms is out of range: 60 … 655350 ms"
@@ -228,12 +226,13 @@ impl Config {
         else {
             return Ok(());
         };
-        for (parameter, value) in [(zvz, self.char_delay_ms), (qvz, self.ack_delay_ms)] {
-            if value < min {
+        let (char_delay, ack_delay) = (self.char_delay.as_millis(), self.ack_delay.as_millis());
+        for (parameter, value) in [(zvz, char_delay), (qvz, ack_delay)] {
+            if value < u64::from(min) {
                 return Err(RangeError::between(
                     parameter,
-                    min,
-                    CHAR_DELAY_RANGE.1,
+                    u64::from(min),
+                    u64::from(CHAR_DELAY_RANGE.1),
                     " ms",
                     value,
                 ));
@@ -250,13 +249,13 @@ impl Config {
                 "character delay time (ZVZ)",
                 CHAR_DELAY_RANGE,
                 " ms",
-                self.char_delay_ms.into(),
+                self.char_delay.as_millis(),
             ),
             check(
                 "acknowledgement delay time (QVZ)",
                 ACK_DELAY_RANGE,
                 " ms",
-                self.ack_delay_ms.into(),
+                self.ack_delay.as_millis(),
             ),
             check(
                 "connection attempts",
@@ -312,6 +311,7 @@ struct RawConfig {
     max_block_len: Option<u64>,
     receive_buffer_blocks: Option<u64>,
     clear_at_startup: Option<bool>,
+    settings: Option<SerialSettings>,
 }
 
 impl TryFrom<RawConfig> for Config {
@@ -322,8 +322,8 @@ impl TryFrom<RawConfig> for Config {
         } else {
             Config::without_block_check()
         };
-        let zvz = r.char_delay_ms.unwrap_or(base.char_delay_ms.into());
-        let qvz = r.ack_delay_ms.unwrap_or(base.ack_delay_ms.into());
+        let zvz = r.char_delay_ms.unwrap_or(base.char_delay.as_millis());
+        let qvz = r.ack_delay_ms.unwrap_or(base.ack_delay.as_millis());
         let con = r
             .connection_attempts
             .unwrap_or(base.connection_attempts.into());
@@ -349,13 +349,14 @@ impl TryFrom<RawConfig> for Config {
         let config = Config {
             block_check: base.block_check,
             priority: r.priority.unwrap_or(base.priority),
-            char_delay_ms: zvz as u32,
-            ack_delay_ms: qvz as u32,
+            char_delay: Duration::from_millis(zvz),
+            ack_delay: Duration::from_millis(qvz),
             connection_attempts: con as u8,
             transmission_attempts: tx as u8,
             max_block_len: max as u16,
             receive_buffer_blocks: buf as u8,
             clear_at_startup: r.clear_at_startup.unwrap_or(base.clear_at_startup),
+            settings: r.settings.unwrap_or(base.settings),
         };
         config.validate()?;
         Ok(config)
@@ -373,8 +374,8 @@ mod tests {
         use si_core::Parity;
         let at = |baud| SerialSettings::new(baud, 8, Parity::Even, 1).unwrap();
         let c = |zvz, qvz| Config {
-            char_delay_ms: zvz,
-            ack_delay_ms: qvz,
+            char_delay: Duration::from_millis(zvz),
+            ack_delay: Duration::from_millis(qvz),
             ..Config::default()
         };
         assert!(c(170, 170).validate_for(&at(110)).is_ok());
@@ -397,13 +398,16 @@ mod tests {
     #[test]
     fn defaults_are_table_2_11() {
         let c = Config::default();
-        assert_eq!(c.char_delay(), Duration::from_millis(220));
-        assert_eq!(c.ack_delay(), Duration::from_millis(2000));
+        assert_eq!(c.char_delay, Duration::from_millis(220));
+        assert_eq!(c.ack_delay, Duration::from_millis(2000));
         assert_eq!((c.connection_attempts, c.transmission_attempts), (6, 6));
         assert_eq!(c.priority, Priority::Low);
         assert!(c.clear_at_startup, "Table 2-11: default yes");
         assert_eq!(c.mode(), Mode::BlockCheck);
-        assert_eq!(Config::without_block_check().ack_delay_ms, 550);
+        assert_eq!(
+            Config::without_block_check().ack_delay,
+            Duration::from_millis(550)
+        );
         assert_eq!(
             Config::for_mode(Mode::NoBlockCheck).mode(),
             Mode::NoBlockCheck
@@ -414,7 +418,7 @@ mod tests {
     #[test]
     fn out_of_range_names_parameter_range_and_value() {
         let c = Config {
-            char_delay_ms: 19,
+            char_delay: Duration::from_millis(19),
             ..Config::default()
         };
         assert_eq!(
@@ -422,7 +426,7 @@ mod tests {
             "character delay time (ZVZ) = 19 ms is out of range: 20 … 655350 ms"
         );
         let c = Config {
-            ack_delay_ms: 655_351,
+            ack_delay: Duration::from_millis(655_351),
             ..Config::default()
         };
         assert!(c.validate().unwrap_err().to_string().contains("(QVZ)"));
@@ -440,7 +444,7 @@ mod tests {
     fn validate_all_reports_every_error() {
         assert!(Config::default().validate_all().is_empty());
         let c = Config {
-            char_delay_ms: 19,
+            char_delay: Duration::from_millis(19),
             connection_attempts: 0,
             max_block_len: 0,
             ..Config::default()
@@ -470,7 +474,7 @@ mod tests {
         )
         .unwrap();
         assert_eq!(
-            (c.priority, c.ack_delay_ms, c.clear_at_startup),
+            (c.priority, c.ack_delay.as_millis(), c.clear_at_startup),
             (Priority::High, 10, false)
         );
         let back: Config = serde_json::from_str(&serde_json::to_string(&c).unwrap()).unwrap();

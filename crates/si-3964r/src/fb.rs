@@ -41,9 +41,9 @@
 //! 2-14 "destination area too short", as the window module does; the ASCII driver leaves it in its
 //! buffer instead).
 
-use crate::link::Link;
+use crate::link::{Event, Link, SendError};
 use bytes::Bytes;
-use si_core::job::{JobId, JobPort, NotStarted, Reception};
+use si_core::job::{JobEnd, JobId, JobPort, NotStarted, Reception};
 use si_core::status::common;
 use si_core::{Instant, Status};
 
@@ -90,6 +90,30 @@ impl JobPort for Link {
             common::BUFFER_TWO_THIRDS_FULL
         } else {
             Status::OK
+        }
+    }
+}
+
+/// A send job ends with [`Event::Sent`] (the partner's DLE) or [`Event::SendFailed`]. A busy
+/// link is [`NotStarted::Busy`] here (the async driver queues the job), where S_SEND shows 0502H.
+impl JobEnd for Link {
+    type Job = Bytes;
+    type Output = ();
+    type Refusal = SendError;
+    type Failure = Status;
+
+    fn begin_job(&mut self, now: Instant, frame: Bytes) -> Result<JobId, NotStarted<SendError>> {
+        self.send(now, frame).map_err(|e| match e {
+            SendError::Busy => NotStarted::Busy,
+            e => NotStarted::Refused(e),
+        })
+    }
+
+    fn job_end(event: &Event) -> Option<(JobId, Result<(), Status>)> {
+        match *event {
+            Event::Sent { job } => Some((job, Ok(()))),
+            Event::SendFailed { job, status } => Some((job, Err(status))),
+            Event::Received { .. } | Event::ReceiveError(_) => None,
         }
     }
 }

@@ -640,7 +640,7 @@ impl Link {
     /// byte by byte; see [`si_core::delivery`]): a partner's next character may reach us up to
     /// the port's latency late.
     fn char_delay(&self) -> Duration {
-        self.config.char_delay() + self.delivery.allowance()
+        self.config.char_delay + self.delivery.allowance()
     }
 
     /// When the gap after a character that completed at `now` is longer than ZVZ: the next
@@ -652,7 +652,7 @@ impl Link {
 
     /// The acknowledgement delay time QVZ, plus the port's allowance (as [`Self::char_delay`]).
     fn ack_delay(&self) -> Duration {
-        self.config.ack_delay() + self.delivery.allowance()
+        self.config.ack_delay + self.delivery.allowance()
     }
 
     // --- input dispatch ------------------------------------------------------------------

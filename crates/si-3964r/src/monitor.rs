@@ -99,8 +99,8 @@ impl Params {
     pub fn from_config(config: &crate::Config, line: SerialSettings) -> Params {
         Params {
             mode: config.mode(),
-            zvz: config.char_delay(),
-            qvz: config.ack_delay(),
+            zvz: config.char_delay,
+            qvz: config.ack_delay,
             line,
             payload: None,
         }

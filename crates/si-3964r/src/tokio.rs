@@ -6,17 +6,19 @@
 //! # async fn main() {
 //! use si_3964r::tokio::Handle;
 //! use si_3964r::{Config, Priority};
-//! use si_core::SerialSettings;
 //!
 //! let (left, right) = tokio::io::duplex(1024);
-//! let line = SerialSettings::default();
 //! let high = Config { priority: Priority::High, ..Config::default() };
-//! let a = Handle::spawn(high, line, left).unwrap();
-//! let mut b = Handle::spawn(Config::default(), line, right).unwrap();
+//! let a = Handle::spawn(high, left).unwrap();
+//! let mut b = Handle::spawn(Config::default(), right).unwrap();
 //! a.send(&b"over the pipe"[..]).await.unwrap();
 //! assert_eq!(b.recv().await.unwrap(), &b"over the pipe"[..]);
+//! a.close().await; // returns once the port is released
 //! # }
 //! ```
+//!
+//! On a serial port, [`Handle::open`] (feature `serial`) opens the port with the config's own
+//! line settings ([`Config::settings`]) and spawns the link in one call.
 //!
 //! Sends are queued in the driver and run one after the other (one S_SEND job at a time); each
 //! `send` resolves with its own job's outcome (the driver's job routing, `si_core::driver`). Received blocks stay in the link's bounded receive buffer until
@@ -31,46 +33,69 @@
 use crate::config::{Config, ConfigError};
 use crate::link::{Event, Link, SendError};
 use bytes::Bytes;
-use si_core::driver::{self, Caller, DriverOptions, DriverStopped, Start, Transport};
-use si_core::{Instant, SerialSettings, Status};
-use std::ops::ControlFlow::{Break, Continue};
+use si_core::driver::{self, Caller, DriverOptions, DriverStopped, IoError, JobError, Transport};
+use si_core::{Instant, Status};
 
 /// Why a call on a [`Handle`] failed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum Error {
-    /// The job was refused (1E41H for an empty or overlong block) or failed on the line
-    /// (class 07H), or a reception failed (class 08H): the manual's STATUS.
-    #[error("{0}")]
-    Status(Status),
+    /// The link refused the job: an empty or overlong block (1E41H).
+    #[error("the 3964(R) link refused the block: {0}")]
+    Refused(SendError),
+    /// The job failed on the line (class 07H), or a reception failed (class 08H): the
+    /// manual's STATUS.
+    #[error("{status}")]
+    Failed {
+        /// The STATUS.
+        status: Status,
+    },
     /// The parameters are out of range.
     #[error(transparent)]
     Config(#[from] ConfigError),
-    /// The driver has stopped (the port closed or failed).
+    /// The driver has stopped (the port closed or failed, or the handle was closed).
     #[error(transparent)]
     Stopped(#[from] DriverStopped),
+    /// The port could not be opened ([`Handle::open`]).
+    #[error("{0}")]
+    Io(#[from] IoError),
 }
 
 impl Error {
-    /// The STATUS for this error, if it has one.
+    /// The STATUS for this error, if it has one: a failed job's or reception's, or the one an
+    /// FB would show for a refused job.
     pub fn status(&self) -> Option<Status> {
         match self {
-            Error::Status(s) => Some(*s),
-            Error::Config(_) | Error::Stopped(_) => None,
+            Error::Refused(e) => Some(e.status()),
+            Error::Failed { status } => Some(*status),
+            Error::Config(_) | Error::Stopped(_) | Error::Io(_) => None,
         }
     }
 }
 
-/// A running 3964(R) link: send blocks, receive blocks.
+impl From<JobError<SendError, Status>> for Error {
+    fn from(e: JobError<SendError, Status>) -> Self {
+        match e {
+            JobError::Refused(e) => Error::Refused(e),
+            JobError::Failed(status) => Error::Failed { status },
+            JobError::Stopped => Error::Stopped(DriverStopped),
+        }
+    }
+}
+
+/// A running 3964(R) link: send blocks, receive blocks. Dropping it stops the driver, which
+/// then releases the port; [`close`](Self::close) waits for that.
 pub struct Handle {
     driver: driver::Handle<Link>,
 }
 
-/// The old name of [`Handle`].
-#[deprecated(note = "renamed to si_3964r::tokio::Handle")]
-pub type Link3964r = Handle;
+impl Drop for Handle {
+    fn drop(&mut self) {
+        self.driver.stop();
+    }
+}
 
 /// The sending half of a [`Handle`]: cheap to clone, so several tasks can send while one
-/// receives.
+/// receives. Its sends end with [`Error::Stopped`] once the handle is dropped or closed.
 #[derive(Clone)]
 pub struct Sender {
     caller: Caller<Link>,
@@ -78,33 +103,34 @@ pub struct Sender {
 
 impl Sender {
     /// Send `data` as one block and wait for its outcome: `Ok` when the partner acknowledged it
-    /// with DLE, or the manual's STATUS (class 07H …; 1E41 for an empty or overlong block).
+    /// with DLE, else the manual's STATUS (class 07H …) or the refusal (1E41H for an empty or
+    /// overlong block).
     pub async fn send(&self, data: impl Into<Bytes>) -> Result<(), Error> {
-        let data = data.into();
-        let start = move |link: &mut Link, now| match link.send(now, data.clone()) {
-            Ok(job) => Start::Running(job),
-            Err(SendError::Busy) => Start::Busy,
-            Err(e) => Start::Ended(Err(e.status())),
-        };
-        let done = |job: &_, event| match event {
-            Event::Sent { job: j } if j == *job => Break(Ok(())),
-            Event::SendFailed { job: j, status } if j == *job => Break(Err(status)),
-            other => Continue(other),
-        };
-        self.caller.job(start, done).await?.map_err(Error::Status)
+        Ok(self.caller.run_job(data.into()).await?)
     }
 }
 
 impl Handle {
-    /// Start a link with `config` over `transport` (whose line runs at `settings`). Call it
-    /// inside a tokio runtime: it spawns the driver (and panics otherwise, as `tokio::spawn`
-    /// does).
-    pub fn spawn<T: Transport>(
-        config: Config,
-        settings: SerialSettings,
-        transport: T,
-    ) -> Result<Handle, Error> {
-        Ok(Self::spawn_engine(Link::new(config, settings)?, transport))
+    /// Start a link with `config` over `transport`, whose line runs at `config.settings`. Call
+    /// it inside a tokio runtime: it spawns the driver (and panics otherwise, as
+    /// `tokio::spawn` does).
+    pub fn spawn<T: Transport>(config: Config, transport: T) -> Result<Handle, Error> {
+        Ok(Self::spawn_engine(
+            Link::new(config, config.settings)?,
+            transport,
+        ))
+    }
+
+    /// Open the serial port at `path` with the config's line settings and start a link on it
+    /// (feature `serial`). A port another handle or program holds is reported as
+    /// [`Error::Io`] with kind `ResourceBusy`.
+    #[cfg(feature = "serial")]
+    #[cfg_attr(docsrs, doc(cfg(feature = "serial")))]
+    pub fn open(config: Config, path: &str) -> Result<Handle, Error> {
+        let link = Link::new(config, config.settings)?;
+        let options = si_core::port::PortOptions::default();
+        let port = si_core::port::open(path, &config.settings, &options).map_err(IoError::from)?;
+        Ok(Self::spawn_engine(link, port))
     }
 
     /// Start a link built by the caller on `transport`.
@@ -133,33 +159,44 @@ impl Handle {
         }
     }
 
-    /// The next block received intact; a receive error (class 08H) is returned as
-    /// [`Error::Status`], a stopped link as [`Error::Stopped`].
+    /// The next block received intact, receive errors already reported first: a receive
+    /// error (class 08H) is returned as [`Error::Failed`], a stopped link as
+    /// [`Error::Stopped`]. Blocks stay in the link's receive buffer until asked for here;
+    /// receive errors beyond the driver's event capacity are dropped.
     pub async fn recv(&mut self) -> Result<Bytes, Error> {
-        match self.next().await {
-            Some(Ok(block)) => Ok(block),
-            Some(Err(status)) => Err(Error::Status(status)),
-            None => Err(Error::Stopped(DriverStopped)),
-        }
-    }
-
-    /// The next received block or receive error (class 08H), errors already reported first;
-    /// `None` once the link has stopped. Blocks stay in the link's receive buffer until asked
-    /// for here; receive errors beyond the driver's event capacity are dropped.
-    pub async fn next(&mut self) -> Option<Result<Bytes, Status>> {
         loop {
             while let Some(event) = self.driver.try_next_event() {
                 if let Event::ReceiveError(status) = event {
-                    return Some(Err(status));
+                    return Err(Error::Failed { status });
                 }
             }
-            if let Some(block) = self.driver.call(|l, now| l.take_block(now)).await.ok()? {
-                return Some(Ok(block));
+            if let Some(block) = self.driver.call(|l, now| l.take_block(now)).await? {
+                return Ok(block);
             }
-            if let Event::ReceiveError(status) = self.driver.next_event().await? {
-                return Some(Err(status));
+            match self.driver.next_event().await {
+                Some(Event::ReceiveError(status)) => return Err(Error::Failed { status }),
+                Some(_) => {}
+                None => return Err(Error::Stopped(DriverStopped)),
             }
         }
+    }
+
+    /// The next event no job took ([`Event::Received`] announcing a block that
+    /// [`recv`](Self::recv) takes, [`Event::ReceiveError`]); `None` once the link has stopped.
+    /// A program reads blocks with `recv` or events here, not both.
+    pub async fn next_event(&mut self) -> Option<Event> {
+        self.driver.next_event().await
+    }
+
+    /// Wait until the link has stopped (the port closed or failed) and released its port.
+    pub async fn closed(&self) {
+        self.driver.closed().await
+    }
+
+    /// Stop the link and return once its port is released, so it may be opened again at once.
+    /// Sends still waiting end with [`Error::Stopped`].
+    pub async fn close(self) {
+        self.driver.close().await
     }
 
     /// CPU STOP → RUN ([`Link::restart`]): with [`Config::clear_at_startup`] (the default) the
@@ -186,14 +223,13 @@ mod tests {
 
     fn pair() -> (Handle, Handle) {
         let (left, right) = tokio::io::duplex(4096);
-        let line = SerialSettings::default();
         let high = Config {
             priority: Priority::High,
             ..Config::default()
         };
         (
-            Handle::spawn(high, line, left).unwrap(),
-            Handle::spawn(Config::default(), line, right).unwrap(),
+            Handle::spawn(high, left).unwrap(),
+            Handle::spawn(Config::default(), right).unwrap(),
         )
     }
 
@@ -218,14 +254,15 @@ mod tests {
     #[tokio::test(start_paused = true)]
     async fn a_send_nobody_answers_fails_with_0703_and_bad_lengths_with_1e41() {
         let (left, _right) = tokio::io::duplex(4096);
-        let link = Handle::spawn(Config::default(), SerialSettings::default(), left).unwrap();
-        assert_eq!(
-            link.send(Vec::new()).await,
-            Err(Error::Status(common::INVALID_LEN))
-        );
+        let link = Handle::spawn(Config::default(), left).unwrap();
+        let refused = link.send(Vec::new()).await.unwrap_err();
+        assert_eq!(refused, Error::Refused(SendError::Empty));
+        assert_eq!(refused.status(), Some(common::INVALID_LEN));
         assert_eq!(
             link.send(vec![1]).await,
-            Err(Error::Status(status::SETUP_TIMEOUT))
+            Err(Error::Failed {
+                status: status::SETUP_TIMEOUT
+            })
         );
     }
 
@@ -233,7 +270,6 @@ mod tests {
     async fn restart_drops_waiting_blocks_only_when_clearing_is_set() {
         for clear in [true, false] {
             let (left, right) = tokio::io::duplex(4096);
-            let line = SerialSettings::default();
             let high = Config {
                 priority: Priority::High,
                 ..Config::default()
@@ -242,8 +278,8 @@ mod tests {
                 clear_at_startup: clear,
                 ..Config::default()
             };
-            let a = Handle::spawn(high, line, left).unwrap();
-            let mut b = Handle::spawn(receiver, line, right).unwrap();
+            let a = Handle::spawn(high, left).unwrap();
+            let mut b = Handle::spawn(receiver, right).unwrap();
             // Acknowledged with DLE: the block waits in B's receive buffer.
             a.send(&b"before"[..]).await.unwrap();
             b.restart().await.unwrap();
@@ -257,9 +293,43 @@ mod tests {
     #[tokio::test(start_paused = true)]
     async fn a_closed_port_ends_the_link() {
         let (left, right) = tokio::io::duplex(4096);
-        let mut link = Handle::spawn(Config::default(), SerialSettings::default(), left).unwrap();
+        let mut link = Handle::spawn(Config::default(), left).unwrap();
         drop(right);
-        assert_eq!(link.next().await, None);
+        assert_eq!(link.next_event().await, None);
+        assert_eq!(link.recv().await, Err(Error::Stopped(DriverStopped)));
         assert_eq!(link.send(vec![1]).await, Err(Error::Stopped(DriverStopped)));
+        link.closed().await;
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn close_returns_once_the_transport_is_dropped_and_ends_waiting_sends() {
+        let (left, mut right) = tokio::io::duplex(4096);
+        let link = Handle::spawn(Config::default(), left).unwrap();
+        let sender = link.sender();
+        link.close().await;
+        // The driver dropped its end of the pipe: the partner reads to its end at once.
+        let mut rest = Vec::new();
+        tokio::io::AsyncReadExt::read_to_end(&mut right, &mut rest)
+            .await
+            .unwrap();
+        assert_eq!(
+            sender.send(vec![1]).await,
+            Err(Error::Stopped(DriverStopped))
+        );
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn dropping_the_handle_releases_the_transport() {
+        let (left, mut right) = tokio::io::duplex(4096);
+        let link = Handle::spawn(Config::default(), left).unwrap();
+        drop(link);
+        // Ends only once the driver has dropped its end of the pipe (the clock is paused, so
+        // the minute passes at once if it never does).
+        let mut rest = Vec::new();
+        let eof = tokio::io::AsyncReadExt::read_to_end(&mut right, &mut rest);
+        tokio::time::timeout(std::time::Duration::from_secs(60), eof)
+            .await
+            .expect("the port is still held after the handle was dropped")
+            .unwrap();
     }
 }

@@ -21,8 +21,8 @@ fn line() -> SerialSettings {
 fn short(priority: Priority) -> Config {
     Config {
         priority,
-        ack_delay_ms: 200,
-        char_delay_ms: 50,
+        ack_delay: si_core::Duration::from_millis(200),
+        char_delay: si_core::Duration::from_millis(50),
         connection_attempts: 3,
         transmission_attempts: 3,
         max_block_len: 64,

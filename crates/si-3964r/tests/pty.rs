@@ -10,19 +10,15 @@ use std::time::Duration;
 
 use si_3964r::tokio::Handle;
 use si_3964r::{Config, Priority};
-use si_core::port::{self, PortOptions};
-use si_core::SerialSettings;
 use si_testkit::pty::pty_pair;
 use tokio::time::timeout;
 
 fn open(path: &str, priority: Priority) -> Handle {
-    let settings = SerialSettings::default();
-    let line = port::open(path, &settings, &PortOptions::default()).unwrap();
     let config = Config {
         priority,
         ..Config::default()
     };
-    Handle::spawn(config, settings, line).unwrap()
+    Handle::open(config, path).unwrap()
 }
 
 #[tokio::test]

@@ -162,8 +162,9 @@ pub struct Config {
     pub end: EndCriterion,
     /// Character delay time, 4 … 65 535 ms and at least the Table 2-9 minimum for the baud rate;
     /// default 4 ms. Also the monitoring time of the other two criteria and the transmit
-    /// inter-frame pause.
-    pub char_delay_ms: u32,
+    /// inter-frame pause. In files `char_delay_ms`.
+    #[serde(rename = "char_delay_ms", with = "si_core::time::millis")]
+    pub char_delay: Duration,
     /// Buffer several frames of different lengths (true, the Table 2-10 default) or one.
     pub dynamic_frames: bool,
     /// Do not overwrite stored frames when the buffer is full (default yes).
@@ -199,7 +200,7 @@ impl Default for Config {
             interface: Interface::Rs232,
             flow_control: FlowControl::None,
             end: EndCriterion::CharDelay,
-            char_delay_ms: 4,
+            char_delay: Duration::from_millis(4),
             dynamic_frames: true,
             prevent_overwrite: true,
             clear_at_startup: true,
@@ -259,6 +260,11 @@ pub const fn min_char_delay_ms(baud: u32) -> u32 {
         2_401..=4_800 => 9,
         _ => 4,
     }
+}
+
+/// [`min_char_delay_ms`] as a [`Duration`], for [`Config::char_delay`].
+pub const fn min_char_delay(baud: u32) -> Duration {
+    Duration::from_millis(min_char_delay_ms(baud) as u64)
 }
 
 fn out_of_range(
@@ -359,10 +365,11 @@ impl Config {
             errors.push(e.into());
         }
         let min = min_char_delay_ms(s.baud());
-        if self.char_delay_ms < min || self.char_delay_ms > 65_535 {
+        let char_delay = self.char_delay.as_millis();
+        if char_delay < u64::from(min) || char_delay > 65_535 {
             errors.push(out_of_range(
                 "character delay time",
-                self.char_delay_ms,
+                char_delay,
                 " ms",
                 format!("{min} … 65535 ms at {} bit/s", s.baud()),
             ));
@@ -470,11 +477,6 @@ impl Config {
     pub fn max_frame(&self) -> usize {
         usize::from(self.max_frame_len)
     }
-
-    /// The character delay time.
-    pub fn char_delay(&self) -> Duration {
-        Duration::from_millis(u64::from(self.char_delay_ms))
-    }
 }
 
 #[cfg(test)]
@@ -487,7 +489,7 @@ mod tests {
         let c = Config::default();
         assert_eq!(c.settings.to_string(), "9600 8E1");
         assert_eq!(c.end, EndCriterion::CharDelay);
-        assert_eq!(c.char_delay_ms, 4);
+        assert_eq!(c.char_delay, Duration::from_millis(4));
         assert!(c.dynamic_frames && c.prevent_overwrite && c.clear_at_startup);
         assert_eq!((c.xon_xoff.xon, c.xon_xoff.xoff), (0x11, 0x13));
         assert_eq!(c.xon_xoff.wait_for_xon_ms, 2_000);
@@ -519,11 +521,11 @@ mod tests {
             assert_eq!(min_char_delay_ms(baud), min, "{baud}");
             let mut c = Config {
                 settings: SerialSettings::new(baud, 8, Parity::Even, 1).unwrap(),
-                char_delay_ms: min,
+                char_delay: Duration::from_millis(min.into()),
                 ..Config::default()
             };
             c.validate().unwrap();
-            c.char_delay_ms = min - 1;
+            c.char_delay = Duration::from_millis((min - 1).into());
             let e = c.validate().unwrap_err();
             assert_eq!(
                 e.to_string(),
@@ -652,7 +654,7 @@ mod tests {
     fn validate_all_reports_every_error() {
         assert!(Config::default().validate_all().is_empty());
         let mut c = Config {
-            char_delay_ms: 3,
+            char_delay: Duration::from_millis(3),
             end: EndCriterion::FixedLength { len: 0 },
             interface: Interface::Rs485,
             flow_control: FlowControl::XonXoff,

@@ -37,6 +37,7 @@ pub mod buffer;
 pub mod config;
 pub mod fb;
 pub mod frame;
+pub mod job_end;
 pub mod link;
 pub mod monitor;
 pub mod status;

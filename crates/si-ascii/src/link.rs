@@ -313,8 +313,8 @@ impl Link {
         config.validate()?;
         let mut link = Link {
             cfg: config,
-            cdt: config.char_delay(),
-            gap: config.settings.gap_limit(config.char_delay()),
+            cdt: config.char_delay,
+            gap: config.settings.gap_limit(config.char_delay),
             delivery: Delivery::new(&config.settings),
             mask: config.settings.data_mask(),
             plain_rx: matches!(config.flow_control, FlowControl::None | FlowControl::RtsCts)

@@ -51,7 +51,7 @@ impl Params {
     pub fn from_config(config: &crate::Config) -> Params {
         Params {
             end: config.end,
-            char_delay: config.char_delay(),
+            char_delay: config.char_delay,
             xon_xoff: (config.flow_control == FlowControl::XonXoff)
                 .then_some((config.xon_xoff.xon, config.xon_xoff.xoff)),
             max_frame_len: config.max_frame(),

@@ -7,9 +7,10 @@
 //!
 //! let (ours, _theirs) = tokio::io::duplex(256);
 //! let config = Config { end: EndCriterion::EndChars { first: b'\r', second: b'\n' }, ..Config::default() };
-//! let mut port = Handle::spawn(config, ours)?;
+//! let mut port = Handle::spawn(config, ours)?; // or Handle::open(config, "/dev/ttyUSB0")?
 //! port.send(&b"hello\r\n"[..]).await?;
 //! let line = port.recv().await?;
+//! port.close().await; // returns once the port is released
 //! # Ok(()) }
 //! ```
 
@@ -22,58 +23,84 @@
 use crate::config::{Config, ConfigError};
 use crate::link::{Event, Link, Refused, SendError};
 use bytes::Bytes;
-use si_core::driver::{self, DriverOptions, DriverStopped, Start, Transport};
+use si_core::driver::{self, DriverOptions, DriverStopped, IoError, JobError, Transport};
 use si_core::{Instant, ModemSignals, SignalUpdate, Status};
-use std::ops::ControlFlow::{Break, Continue};
+
+/// Why the link refused a job: a frame it cannot send, or a signal or parameter job the
+/// configuration does not allow.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum Refusal {
+    /// The frame was refused (1E41H empty, 050EH too long, 0502H a flow-control character).
+    #[error(transparent)]
+    Send(#[from] SendError),
+    /// A signal or parameter job was refused.
+    #[error(transparent)]
+    Job(#[from] Refused),
+}
+
+impl Refusal {
+    /// The STATUS an FB shows for it.
+    pub fn status(&self) -> Status {
+        match self {
+            Refusal::Send(e) => e.status(),
+            Refusal::Job(e) => e.status,
+        }
+    }
+}
 
 /// Why a call on a [`Handle`] failed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum Error {
-    /// The link refused the frame.
-    #[error(transparent)]
-    Send(#[from] SendError),
-    /// The protocol reported a STATUS (send failed, or a receive error).
-    #[error("{0}")]
-    Status(Status),
-    /// A signal or parameter job was refused.
-    #[error(transparent)]
-    Refused(#[from] Refused),
-    /// The driver stopped (port closed or failed).
-    #[error(transparent)]
-    Stopped(#[from] DriverStopped),
+    /// The link refused the job.
+    #[error("the ASCII link refused the job: {0}")]
+    Refused(Refusal),
+    /// A send failed (0708H, 0818H) or a reception failed (08xxH): the manual's STATUS.
+    #[error("{status}")]
+    Failed {
+        /// The STATUS.
+        status: Status,
+    },
     /// The parameters are out of range.
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// The driver stopped (the port closed or failed, or the handle was closed).
+    #[error(transparent)]
+    Stopped(#[from] DriverStopped),
+    /// The port could not be opened ([`Handle::open`]).
+    #[error("{0}")]
+    Io(#[from] IoError),
 }
 
 impl Error {
     /// The STATUS for this error, if it has one.
     pub fn status(&self) -> Option<Status> {
         match self {
-            Error::Send(e) => Some(e.status()),
-            Error::Status(s) => Some(*s),
-            Error::Refused(e) => Some(e.status),
+            Error::Refused(e) => Some(e.status()),
+            Error::Failed { status } => Some(*status),
             Error::Config(e) => Some(e.status()),
-            Error::Stopped(_) => None,
+            Error::Stopped(_) | Error::Io(_) => None,
         }
     }
 }
 
-/// The old name of [`Error`].
-#[deprecated(note = "renamed to si_ascii::tokio::Error")]
-pub type AsciiError = Error;
+impl From<JobError<SendError, Status>> for Error {
+    fn from(e: JobError<SendError, Status>) -> Self {
+        match e {
+            JobError::Refused(e) => Error::Refused(Refusal::Send(e)),
+            JobError::Failed(status) => Error::Failed { status },
+            JobError::Stopped => Error::Stopped(DriverStopped),
+        }
+    }
+}
 
-/// The old name of [`Handle`].
-#[deprecated(note = "renamed to si_ascii::tokio::Handle")]
-pub type AsciiHandle = Handle;
-
-/// A frame or a receive error, in arrival order.
+/// A frame or a receive error, in arrival order, with the time the link saw it
+/// ([`Handle::recv_timed`]).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Incoming {
     /// A received frame and when it was cut (driver time).
     Frame {
         /// The bytes.
-        data: Vec<u8>,
+        data: Bytes,
         /// When the end criterion was met.
         at: Instant,
     },
@@ -86,15 +113,36 @@ pub enum Incoming {
     },
 }
 
-/// The application's side of a running ASCII link.
+/// The application's side of a running ASCII link. Dropping it stops the driver, which then
+/// releases the port; [`close`](Self::close) waits for that.
 pub struct Handle {
     driver: driver::Handle<Link>,
 }
 
+impl Drop for Handle {
+    fn drop(&mut self) {
+        self.driver.stop();
+    }
+}
+
 impl Handle {
-    /// Validate `config`, start a driver task over `transport`, and return the handle.
+    /// Validate `config`, start a driver task over `transport` (whose line runs at
+    /// `config.settings`), and return the handle. Call it inside a tokio runtime.
     pub fn spawn<T: Transport>(config: Config, transport: T) -> Result<Self, Error> {
         Ok(Self::spawn_engine(Link::new(config)?, transport))
+    }
+
+    /// Open the serial port at `path` with the config's line settings and start a link on it
+    /// (feature `serial`). A port another handle or program holds is reported as
+    /// [`Error::Io`] with kind `ResourceBusy`.
+    #[cfg(feature = "serial")]
+    #[cfg_attr(docsrs, doc(cfg(feature = "serial")))]
+    pub fn open(config: Config, path: &str) -> Result<Self, Error> {
+        let settings = config.settings;
+        let link = Link::new(config)?;
+        let options = si_core::port::PortOptions::default();
+        let port = si_core::port::open(path, &settings, &options).map_err(IoError::from)?;
+        Ok(Self::spawn_engine(link, port))
     }
 
     /// Start a link built by the caller on `transport`.
@@ -112,29 +160,16 @@ impl Handle {
     /// Send one frame and wait until it has left (or failed with 0708H / 0818H). Sends from
     /// several callers queue in the driver.
     pub async fn send(&self, frame: impl Into<Bytes>) -> Result<(), Error> {
-        let frame = frame.into();
-        let start = move |l: &mut Link, now| match l.send(now, frame.clone()) {
-            Ok(job) => Start::Running(job),
-            Err(SendError::Busy) => Start::Busy,
-            Err(e) => Start::Ended(Err(Error::Send(e))),
-        };
-        let done = |job: &_, event| match event {
-            Event::Sent { job: j, .. } if j == *job => Break(Ok(())),
-            Event::SendFailed { job: j, status, .. } if j == *job => {
-                Break(Err(Error::Status(status)))
-            }
-            other => Continue(other),
-        };
-        self.driver.job(start, done).await?
+        Ok(self.driver.run_job(frame.into()).await?)
     }
 
-    /// The next received frame or receive error.
-    pub async fn next(&mut self) -> Result<Incoming, Error> {
+    /// The next received frame or receive error, with the time the link saw it.
+    pub async fn recv_timed(&mut self) -> Result<Incoming, Error> {
         loop {
             let event = self.driver.next_event().await.ok_or(DriverStopped)?;
             match event {
                 Event::Received { at, .. } => {
-                    if let Some(data) = self.driver.call(|l, now| l.read_frame_vec(now)).await? {
+                    if let Some(data) = self.driver.call(|l, now| l.read_frame_bytes(now)).await? {
                         return Ok(Incoming::Frame { data, at });
                     }
                 }
@@ -144,12 +179,31 @@ impl Handle {
         }
     }
 
-    /// The next received frame; a receive error is returned as [`Error::Status`].
-    pub async fn recv(&mut self) -> Result<Vec<u8>, Error> {
-        match self.next().await? {
+    /// The next received frame; a receive error is returned as [`Error::Failed`], a stopped
+    /// link as [`Error::Stopped`].
+    pub async fn recv(&mut self) -> Result<Bytes, Error> {
+        match self.recv_timed().await? {
             Incoming::Frame { data, .. } => Ok(data),
-            Incoming::Error { status, .. } => Err(Error::Status(status)),
+            Incoming::Error { status, .. } => Err(Error::Failed { status }),
         }
+    }
+
+    /// The next event no job took ([`Event::Received`] announcing a frame that stays in the
+    /// link's buffer, [`Event::ReceiveError`]); `None` once the link has stopped. A program
+    /// reads frames with [`recv`](Self::recv) or events here, not both.
+    pub async fn next_event(&mut self) -> Option<Event> {
+        self.driver.next_event().await
+    }
+
+    /// Wait until the link has stopped (the port closed or failed) and released its port.
+    pub async fn closed(&self) {
+        self.driver.closed().await
+    }
+
+    /// Stop the link and return once its port is released, so it may be opened again at once.
+    /// Sends still waiting end with [`Error::Stopped`].
+    pub async fn close(self) {
+        self.driver.close().await
     }
 
     /// The V.24 signals (S_VSTAT).
@@ -159,10 +213,10 @@ impl Handle {
 
     /// Set RTS/DTR by job (S_VSET).
     pub async fn set_signals(&self, update: SignalUpdate) -> Result<(), Error> {
-        Ok(self
-            .driver
+        self.driver
             .call(move |l, _| l.set_signals(update))
-            .await??)
+            .await?
+            .map_err(|e| Error::Refused(Refusal::Job(e)))
     }
 
     /// CPU STOP → RUN ([`Link::restart`]): with [`Config::clear_at_startup`] (the default) the

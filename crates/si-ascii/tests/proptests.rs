@@ -99,7 +99,7 @@ proptest! {
         let settings = SerialSettings::new(baud, 8, Parity::Even, 1).unwrap();
         let cdt_ms = min_char_delay_ms(baud);
         let cdt = Duration::from_millis(u64::from(cdt_ms));
-        let config = Config { settings, char_delay_ms: cdt_ms, ..Config::default() };
+        let config = Config { settings, char_delay: si_core::Duration::from_millis(cdt_ms.into()), ..Config::default() };
         let mut d = Driver::new(Link::new(config).unwrap());
         let ct = settings.char_time();
         let mut t = Instant::from_micros(1_000);
@@ -131,7 +131,7 @@ proptest! {
         let cdt = Duration::from_millis(u64::from(cdt_ms));
         let config = Config {
             settings,
-            char_delay_ms: cdt_ms,
+            char_delay: si_core::Duration::from_millis(cdt_ms.into()),
             end: EndCriterion::FixedLength { len },
             ..Config::default()
         };
@@ -214,7 +214,7 @@ fn config() -> impl Strategy<Value = Config> {
                 ][end];
                 Config {
                     settings: SerialSettings::new(baud, 8, Parity::Even, 1).unwrap(),
-                    char_delay_ms: min_char_delay_ms(baud),
+                    char_delay: si_core::Duration::from_millis(min_char_delay_ms(baud).into()),
                     flow_control,
                     interface,
                     end,

@@ -62,8 +62,8 @@ async fn the_handle_receives_raw_lines_and_sends_bytes_exactly_on_a_pty() {
         .await
         .expect("a frame")
         .unwrap();
-    assert_eq!(one, b"first\r\n");
-    assert_eq!(two, b"second line\r\n");
+    assert_eq!(&one[..], b"first\r\n");
+    assert_eq!(&two[..], b"second line\r\n");
 
     // 200 bytes, the maximum frame, every value but XON and XOFF among them.
     let frame: Vec<u8> = (0..=255u8)

@@ -4,15 +4,17 @@
 //! `tokio-serial` stream with feature `serial`, a TCP stream to a serial device server, a
 //! `tokio::io::duplex` pipe) into a task and gives back a [`Handle`]: commands go in with
 //! [`Caller::call`] (a [`Handle`] is a [`Caller`]), events come out of
-//! [`Handle::next_event`], and a job that ends with an event is awaited with [`Caller::job`]
-//! (see "Job routing").
+//! [`Handle::next_event`], and a job is run to its end with [`Caller::run_job`] (see "Job
+//! routing"). [`Handle::close`] stops the driver and returns once the transport is dropped (the
+//! port released); [`Handle::closed`] waits for the driver to end on its own.
 //!
 //! # Job routing
 //!
-//! Every protocol handle waits for its jobs the same way, written once here: [`Caller::job`]
-//! starts a job inside the driver and registers what ends it (a matcher on the engine's events,
-//! keyed by the engine's [`JobId`](crate::job::JobId) or, for one-job engines, by "the running
-//! job"). The driver offers each event to the waiting jobs before the application's event
+//! Every protocol handle waits for its jobs the same way, written once here:
+//! [`Caller::run_job`] starts a job inside the driver with the engine's
+//! [`JobEnd::begin_job`] and routes to it the event its [`JobEnd::job_end`] recognises as the
+//! job's end, keyed by the engine's [`JobId`]. (An engine without [`JobEnd`] can still register
+//! its own start and matcher with [`Caller::job`].) The driver offers each event to the waiting jobs before the application's event
 //! queue, so a job's outcome reaches exactly the caller that started it, even when an earlier
 //! caller has stopped waiting (its outcome is then dropped, not handed to the next). A start
 //! the engine refuses as busy ([`Start::Busy`]) waits in the driver, in call order, and is
@@ -96,6 +98,7 @@
 //! timer thread). Frames are INFO only through a [`FrameLog`](crate::frame_log::FrameLog)
 //! around the transport: the driver moves bytes for any engine and cannot name a frame.
 
+use crate::job::{JobEnd, JobId, NotStarted};
 use crate::linemark::Marked;
 pub use crate::port_facts::{PortFacts, RtsToggle};
 use crate::rx_path::RxPath;
@@ -245,6 +248,9 @@ enum Command<E: Engine> {
     Run(Run<E>),
     /// Start a job and route its outcome ([`Caller::job`]).
     Job(Attempt<E>),
+    /// End the driver: it drops the transport (releasing the port) and every job waiting
+    /// ends with [`DriverStopped`] ([`Handle::close`]).
+    Stop,
 }
 
 /// The jobs the driver routes: those waiting for their end, those waiting to start.
@@ -314,6 +320,8 @@ impl<E: Engine> Clone for Caller<E> {
 pub struct Handle<E: Engine> {
     caller: Caller<E>,
     events: events::Receiver<E::Event>,
+    /// Set once the driver task has ended and dropped its transport.
+    released: tokio::sync::watch::Receiver<bool>,
 }
 
 impl<E: Engine> std::ops::Deref for Handle<E> {
@@ -327,6 +335,54 @@ impl<E: Engine> std::ops::Deref for Handle<E> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 #[error("the driver has stopped: the port was closed or failed")]
 pub struct DriverStopped;
+
+/// An I/O error (opening a port) that the handles' error enums can clone and compare: equal
+/// when kind and message are.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("{0}")]
+pub struct IoError(pub std::sync::Arc<io::Error>);
+
+impl IoError {
+    /// The error's kind: `ResourceBusy` for a port another handle or program holds, `NotFound`
+    /// for a path that does not exist.
+    pub fn kind(&self) -> io::ErrorKind {
+        self.0.kind()
+    }
+}
+
+impl PartialEq for IoError {
+    fn eq(&self, other: &Self) -> bool {
+        self.kind() == other.kind() && self.0.to_string() == other.0.to_string()
+    }
+}
+
+impl Eq for IoError {}
+
+impl From<io::Error> for IoError {
+    fn from(e: io::Error) -> Self {
+        IoError(std::sync::Arc::new(e))
+    }
+}
+
+/// Why [`Caller::run_job`] gave no output: the engine refused the job (`R`, its
+/// [`JobEnd::Refusal`]), the job ended badly (`F`, its [`JobEnd::Failure`]), or the driver
+/// stopped. Each protocol's handle turns it into its own error's `Refused`, `Failed` and
+/// `Stopped`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum JobError<R, F> {
+    /// The engine refused to start the job.
+    Refused(R),
+    /// The job ran and ended with this failure.
+    Failed(F),
+    /// The driver has stopped.
+    Stopped,
+}
+
+impl<R, F> From<DriverStopped> for JobError<R, F> {
+    fn from(_: DriverStopped) -> Self {
+        JobError::Stopped
+    }
+}
 
 impl<E: Engine> Caller<E> {
     /// Run `f` on the engine inside the driver at the current time (a command such as `send`),
@@ -405,7 +461,61 @@ impl<E: Engine> Caller<E> {
     }
 }
 
+impl<E: JobEnd> Caller<E>
+where
+    E::Job: Send + 'static,
+    E::Output: Send + 'static,
+    E::Refusal: Send + 'static,
+    E::Failure: Send + 'static,
+    E::Event: 'static,
+{
+    /// Run `job` to its end: started with [`JobEnd::begin_job`] inside the driver (queued
+    /// there, in call order, while the engine is busy) and ended by the event
+    /// [`JobEnd::job_end`] recognises as its own. Every protocol handle runs its jobs
+    /// through this one method.
+    ///
+    /// Dropping the future does not cancel the job: the engine runs it to its end and the
+    /// driver drops the outcome.
+    pub async fn run_job(
+        &self,
+        job: E::Job,
+    ) -> Result<E::Output, JobError<E::Refusal, E::Failure>> {
+        let start = move |engine: &mut E, now| match engine.begin_job(now, job.clone()) {
+            Ok(id) => Start::Running(id),
+            Err(NotStarted::Busy) => Start::Busy,
+            Err(NotStarted::Refused(why)) => Start::Ended(Err(JobError::Refused(why))),
+        };
+        let done = |id: &JobId, event: E::Event| match E::job_end(&event) {
+            Some((ended, outcome)) if ended == *id => {
+                ControlFlow::Break(outcome.map_err(JobError::Failed))
+            }
+            _ => ControlFlow::Continue(event),
+        };
+        self.job(start, done).await?
+    }
+}
+
 impl<E: Engine> Handle<E> {
+    /// Stop the driver without waiting: it drops the transport as soon as its task runs, and
+    /// every caller's job ends with [`DriverStopped`]. For a handle's `Drop`.
+    pub fn stop(&self) {
+        let _ = self.caller.commands.send(Command::Stop);
+    }
+
+    /// Stop the driver and return once it has dropped the transport: the port is released
+    /// and may be opened again at once.
+    pub async fn close(&self) {
+        self.stop();
+        self.closed().await;
+    }
+
+    /// Wait until the driver has stopped (the port closed or failed, or [`close`](Self::close)
+    /// was called) and released the transport.
+    pub async fn closed(&self) {
+        let mut released = self.released.clone();
+        let _ = released.wait_for(|done| *done).await;
+    }
+
     /// A clonable commanding side.
     pub fn caller(&self) -> Caller<E> {
         self.caller.clone()
@@ -437,8 +547,11 @@ where
 {
     let (command_tx, command_rx) = mpsc::unbounded_channel();
     let (event_tx, event_rx) = events::channel(options.event_capacity);
+    let (released_tx, released) = tokio::sync::watch::channel(false);
     let task = tokio::spawn(async move {
+        // `run` owns the transport: once it returns, the port is closed.
         let ended = run(engine, transport, options, command_rx, event_tx).await;
+        released_tx.send_replace(true);
         // The application sees only that the driver stopped (DriverStopped): say why here,
         // e.g. an adapter unplugged, or a port that cannot set RTS (a pseudo-terminal).
         match &ended {
@@ -456,6 +569,7 @@ where
                 commands: command_tx,
             },
             events: event_rx,
+            released,
         },
         task,
     )
@@ -667,6 +781,7 @@ where
                     match command {
                         Command::Run(f) => f(&mut engine, now),
                         Command::Job(attempt) => jobs.start(&mut engine, now, attempt),
+                        Command::Stop => return Ok(()),
                     }
                 }
                 None => return Ok(()),
@@ -1023,6 +1138,89 @@ mod tests {
         assert_eq!(handle.call(|e, _| e.started).await, Ok(2));
         drop(theirs);
         assert_eq!(one_job(handle.caller()).await, Err(DriverStopped));
+    }
+
+    /// Jobs written once through [`JobEnd`]: a job sends its byte and ends when the partner
+    /// echoes it back (a zero byte back fails it with that byte as the failure); one job runs
+    /// at a time; a 0xFF job is refused.
+    #[derive(Default)]
+    struct Echoed {
+        next: u64,
+        running: Option<(JobId, u8)>,
+        tx: Option<u8>,
+        events: std::collections::VecDeque<(JobId, Result<u8, u8>)>,
+    }
+    impl Engine for Echoed {
+        type Event = (JobId, Result<u8, u8>);
+        fn handle_rx(&mut self, _: Instant, bytes: &[u8]) {
+            for &b in bytes {
+                if let Some((id, _)) = self.running.take() {
+                    self.events
+                        .push_back((id, if b == 0 { Err(b) } else { Ok(b) }));
+                }
+            }
+        }
+        fn handle_timeout(&mut self, _: Instant) {}
+        fn poll_output(&mut self) -> Output<Self::Event> {
+            if let Some(b) = self.tx.take() {
+                return Output::Transmit(vec![b].into());
+            }
+            self.events
+                .pop_front()
+                .map_or(Output::Wait(None), Output::Event)
+        }
+    }
+    impl JobEnd for Echoed {
+        type Job = u8;
+        type Output = u8;
+        type Refusal = &'static str;
+        type Failure = u8;
+        fn begin_job(&mut self, _: Instant, byte: u8) -> Result<JobId, NotStarted<&'static str>> {
+            if byte == 0xFF {
+                return Err(NotStarted::Refused("0xFF is not sent"));
+            }
+            if self.running.is_some() {
+                return Err(NotStarted::Busy);
+            }
+            self.next += 1;
+            let id = JobId(self.next);
+            self.running = Some((id, byte));
+            self.tx = Some(byte);
+            Ok(id)
+        }
+        fn job_end(event: &Self::Event) -> Option<(JobId, Result<u8, u8>)> {
+            Some(*event)
+        }
+    }
+
+    #[tokio::test]
+    async fn run_job_queues_busy_starts_and_routes_each_end_to_its_caller() {
+        let (ours, mut theirs) = tokio::io::duplex(64);
+        let (handle, _task) = spawn(Echoed::default(), ours, DriverOptions::default());
+        let (a, b) = (handle.caller(), handle.caller());
+        let first = tokio::spawn(async move { a.run_job(7).await });
+        let second = tokio::spawn(async move { b.run_job(8).await });
+        let mut sent = [0u8; 1];
+        theirs.read_exact(&mut sent).await.unwrap();
+        theirs.write_all(&sent).await.unwrap();
+        let mut next = [0u8; 1];
+        theirs.read_exact(&mut next).await.unwrap();
+        theirs.write_all(&[0]).await.unwrap();
+        let (first, second) = (first.await.unwrap(), second.await.unwrap());
+        // Whichever started first got the echo; the other, queued while busy, the failure.
+        let mut outcomes = [first, second];
+        outcomes.sort_by_key(|o| o.is_err());
+        assert_eq!(outcomes[0], Ok(sent[0]));
+        assert_eq!(outcomes[1], Err(JobError::Failed(0)));
+        assert_eq!(
+            handle.run_job(0xFF).await,
+            Err(JobError::Refused("0xFF is not sent"))
+        );
+        handle.close().await;
+        assert_eq!(handle.run_job(1).await, Err(JobError::Stopped));
+        // The transport was dropped: the partner reads end of file.
+        let mut rest = Vec::new();
+        theirs.read_to_end(&mut rest).await.unwrap();
     }
 
     /// Reports what reaches it: data runs and line errors, in order.

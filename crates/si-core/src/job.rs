@@ -25,14 +25,17 @@ impl fmt::Display for JobId {
     }
 }
 
-/// Why [`JobPort::start_job`] did not start a job.
+/// Why [`JobPort::start_job`] (refusal `R` = the STATUS the FB shows) or
+/// [`JobEnd::begin_job`] (refusal `R` = the engine's own refusal, which names the bad
+/// argument) did not start a job.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum NotStarted {
+pub enum NotStarted<R = Status> {
     /// The port runs another caller's job and takes this one once it is free: the FB keeps the
-    /// job and offers it again on its next call (the ASCII link's reading of S_SEND).
+    /// job and offers it again on its next call (the ASCII link's reading of S_SEND); the
+    /// async driver keeps it and offers it again after the engine's next event.
     Busy,
-    /// Refused, with the STATUS the FB shows at once (1E41H for a bad LEN, 0502H, 0E4xH, …).
-    Refused(Status),
+    /// Refused: for an FB the STATUS it shows at once (1E41H for a bad LEN, 0502H, 0E4xH, …).
+    Refused(R),
 }
 
 impl From<Status> for NotStarted {
@@ -112,6 +115,43 @@ pub trait JobPort {
         false
     }
 }
+
+/// An engine whose events say when its jobs end: the one place where a job's end is
+/// recognised, so that every async handle runs a job the same way (the tokio driver's
+/// `Caller::run_job`, written once for all protocols) instead of matching events itself.
+///
+/// Implemented by each engine beside its [`JobPort`] impl (the 3964(R) link, the ASCII link,
+/// the RK 512 station), and by the USS master, whose parameter jobs have no FB. The start is
+/// its own method rather than [`JobPort::start_job`] because the two callers read "busy"
+/// differently: S_SEND on a 3964(R) link shows 0502H at once, while the driver queues a job
+/// that finds the engine busy and offers it again after the engine's next event.
+pub trait JobEnd: crate::Engine {
+    /// What one job asks for. Cloned for every start attempt, so cheap to clone ([`Bytes`],
+    /// an address and a length).
+    type Job: Clone;
+    /// What a job gives back when it ends well: `()` for a sent frame, the fetched bytes, the
+    /// USS response's PKW area.
+    type Output;
+    /// Why a job was not started: the engine's refusal, naming the argument it refused.
+    type Refusal;
+    /// What a job that ended badly carries: its STATUS, and whatever else the protocol
+    /// reports with it (the USS error number).
+    type Failure;
+
+    /// Starts `job` at `now`: its id, [`NotStarted::Busy`] while another job runs (the caller
+    /// offers it again later), or the refusal.
+    fn begin_job(
+        &mut self,
+        now: Instant,
+        job: Self::Job,
+    ) -> Result<JobId, NotStarted<Self::Refusal>>;
+
+    /// The job `event` ends, with its outcome; `None` for an event that ends no job.
+    fn job_end(event: &Self::Event) -> Option<JobEnded<Self>>;
+}
+
+/// What [`JobEnd::job_end`] recognises: the job that ended and its outcome.
+pub type JobEnded<E> = (JobId, Result<<E as JobEnd>::Output, <E as JobEnd>::Failure>);
 
 /// A [`JobPort`] whose jobs include sending a frame: what S_SEND needs (every port but the
 /// RK 512 station, whose jobs carry an address). Implemented for every such port; a user

@@ -5,6 +5,22 @@
 //! started, the simulator uses virtual time zero). Microseconds are fine enough for the shortest
 //! interval the manuals name (one character at 115 200 bit/s is 95.5 µs) and a `u64` of them lasts
 //! 584 000 years, so arithmetic saturates instead of wrapping and never panics.
+//!
+//! # Times and attempts: one naming scheme
+//!
+//! Every protocol names its times and counts alike, in its config, its CLI flags, its profile
+//! keys and the gateway's file:
+//!
+//! - A time is a [`Duration`] field named by the manual's term in snake case, without a unit:
+//!   `ack_delay` (3964(R) QVZ), `char_delay` (ZVZ), `response_timeout` (Modbus, USS, RK 512
+//!   TRES), `wait_for_xon`. Setters and handle options take `impl Into<Duration>`, so a
+//!   `std::time::Duration` works too.
+//! - In files (TOML, JSON) and on the command line the same time is a whole number of
+//!   milliseconds named `<name>_ms` / `--<name>-ms` (`ack_delay_ms`, `--response-timeout-ms`);
+//!   [`millis`] maps a field to that key.
+//! - `retries` counts repetitions after the first try (Modbus, USS PKW); `*_attempts` counts
+//!   tries including the first, where the manual counts attempts (3964(R) connection and
+//!   transmission attempts).
 
 use core::fmt;
 use core::ops::{Add, AddAssign, Sub};
@@ -157,6 +173,24 @@ impl Add for Duration {
     type Output = Duration;
     fn add(self, rhs: Duration) -> Duration {
         Duration(self.0.saturating_add(rhs.0))
+    }
+}
+
+/// Serde for a [`Duration`] kept in files as a whole number of milliseconds (the `<name>_ms`
+/// keys of the naming scheme in the [module docs](self)): `#[serde(rename = "ack_delay_ms",
+/// with = "si_core::time::millis")]`. Writing rounds down to the millisecond.
+pub mod millis {
+    use super::Duration;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// Writes `d` as its whole milliseconds.
+    pub fn serialize<S: Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_u64(d.as_millis())
+    }
+
+    /// Reads a whole number of milliseconds.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Duration, D::Error> {
+        u64::deserialize(d).map(Duration::from_millis)
     }
 }
 

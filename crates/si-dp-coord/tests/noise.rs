@@ -38,8 +38,8 @@ fn line() -> SerialSettings {
 /// 3964(R) with short timers, so each case runs seconds of virtual time.
 fn r3964r() -> si_3964r::Config {
     si_3964r::Config {
-        ack_delay_ms: 200,
-        char_delay_ms: 50,
+        ack_delay: Duration::from_millis(200),
+        char_delay: Duration::from_millis(50),
         connection_attempts: 3,
         transmission_attempts: 3,
         max_block_len: 64,

@@ -702,7 +702,7 @@ fn read_ascii(r: &mut Reader<'_>) -> AsciiParams {
         interface,
         flow_control,
         end,
-        char_delay_ms,
+        char_delay: si_core::Duration::from_millis(char_delay_ms.into()),
         dynamic_frames: r.bool("dynamic_frames", dc.dynamic_frames),
         prevent_overwrite: r.bool("prevent_overwrite", dc.prevent_overwrite),
         clear_at_startup: r.bool("clear_at_startup", dc.clear_at_startup),
@@ -772,18 +772,18 @@ fn read_3964r(r: &mut Reader<'_>) -> R3964Params {
             ],
             base.priority,
         ),
-        char_delay_ms: r.uint(
+        char_delay: si_core::Duration::from_millis(r.uint(
             "char_delay_ms",
-            base.char_delay_ms.into(),
+            base.char_delay.as_millis(),
             u32::MAX.into(),
             "20 … 655350 ms",
-        ) as u32,
-        ack_delay_ms: r.uint(
+        )),
+        ack_delay: si_core::Duration::from_millis(r.uint(
             "ack_delay_ms",
-            base.ack_delay_ms.into(),
+            base.ack_delay.as_millis(),
             u32::MAX.into(),
             "10 … 655350 ms",
-        ) as u32,
+        )),
         connection_attempts: r.uint(
             "connection_attempts",
             base.connection_attempts.into(),
@@ -809,6 +809,7 @@ fn read_3964r(r: &mut Reader<'_>) -> R3964Params {
             "1 … 255 blocks",
         ) as u8,
         clear_at_startup: r.bool("clear_at_startup", base.clear_at_startup),
+        settings,
     };
     R3964Params {
         diagnostic_interrupt,
@@ -967,7 +968,7 @@ fn read_uss(r: &mut Reader<'_>) -> UssMasterParams {
         settings: si_uss::config::uss_settings(baud).unwrap_or(d.config.settings),
         polling_list,
         response_timeout: ms(r.uint("response_timeout_ms", 20, u32::MAX.into(), "1 ms … 10 s")),
-        pkw_retries: r.uint("pkw_retries", 20, u16::MAX.into(), "0…32767") as u16,
+        retries: r.uint("pkw_retries", 20, u16::MAX.into(), "0…32767") as u16,
         cycle_pause: ms(r.uint("cycle_pause_ms", 0, u32::MAX.into(), "0 … 60 s")),
         local_echo: r.bool("local_echo", false),
         pkw_after_job: d.config.pkw_after_job,
@@ -1259,7 +1260,7 @@ impl DriverParams {
                         put("frame_length", len.into());
                     }
                 }
-                put("char_delay_ms", c.char_delay_ms.into());
+                put("char_delay_ms", c.char_delay.as_millis().into());
                 put("dynamic_frames", c.dynamic_frames.into());
                 put("prevent_overwrite", c.prevent_overwrite.into());
                 put("clear_at_startup", c.clear_at_startup.into());
@@ -1287,8 +1288,8 @@ impl DriverParams {
                     }
                     .into(),
                 );
-                put("char_delay_ms", c.char_delay_ms.into());
-                put("ack_delay_ms", c.ack_delay_ms.into());
+                put("char_delay_ms", c.char_delay.as_millis().into());
+                put("ack_delay_ms", c.ack_delay.as_millis().into());
                 put("connection_attempts", c.connection_attempts.into());
                 put("transmission_attempts", c.transmission_attempts.into());
                 put("max_block_len", c.max_block_len.into());
@@ -1341,7 +1342,7 @@ impl DriverParams {
                     "response_timeout_ms",
                     (c.response_timeout.as_micros() / 1000).into(),
                 );
-                put("pkw_retries", c.pkw_retries.into());
+                put("pkw_retries", c.retries.into());
                 put("cycle_pause_ms", (c.cycle_pause.as_micros() / 1000).into());
                 put("local_echo", c.local_echo.into());
                 let list: Vec<Value> = c

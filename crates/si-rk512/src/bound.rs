@@ -30,8 +30,8 @@
 //! let line = SerialSettings::default();
 //! assert_eq!(Config::default().job_bound(&line, 128), Duration::from_micros(185_952_120));
 //! assert_eq!(Config::default().job_bound(&line, 129), Duration::from_micros(2 * 185_952_120));
-//! let mut short = Config { response_timeout_ms: 1_000, ..Config::default() };
-//! short.link.ack_delay_ms = 200;
+//! let mut short = Config { response_timeout: Duration::from_millis(1_000), ..Config::default() };
+//! short.link.ack_delay = Duration::from_millis(200);
 //! short.link.connection_attempts = 2;
 //! short.link.transmission_attempts = 2;
 //! assert_eq!(short.job_bound(&line, 10).as_millis(), 6_942);
@@ -51,7 +51,7 @@ impl Config {
     /// whatever the line does (formula and readings in [`crate::bound`]).
     pub fn job_bound(&self, settings: &SerialSettings, len: usize) -> Duration {
         let telegram = self.link.send_job_bound(settings, MAX_TELEGRAM_LEN);
-        let per_telegram = telegram.saturating_mul(2) + self.response_timeout();
+        let per_telegram = telegram.saturating_mul(2) + self.response_timeout;
         per_telegram.saturating_mul(Config::telegrams(len))
     }
 }

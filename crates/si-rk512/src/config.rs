@@ -5,9 +5,9 @@
 //! use si_rk512::Config;
 //!
 //! let c: Config = serde_json::from_str(r#"{"response_timeout_ms": 5000}"#).unwrap();
-//! assert_eq!(c.response_timeout_ms, 5000);
+//! assert_eq!(c.response_timeout.as_millis(), 5000);
 //! assert_eq!(c.link.max_block_len, 200);
-//! let bad = Config { response_timeout_ms: 1, ..Config::default() };
+//! let bad = Config { response_timeout: si_core::Duration::from_millis(1), ..Config::default() };
 //! assert!(bad.validate().unwrap_err().to_string().contains("response monitoring time (TRES)"));
 //! ```
 //!
@@ -89,8 +89,10 @@ pub struct Config {
     /// The 3964(R) procedure underneath; its `max_block_len` must hold a full telegram
     /// (10 + 128 bytes).
     pub link: si_3964r::Config,
-    /// Response monitoring time TRES in ms, 10 … 655 350, default 10 000 (`[derived]`).
-    pub response_timeout_ms: u32,
+    /// Response monitoring time TRES, 10 … 655 350 ms, default 10 000 ms (`[derived]`). In files
+    /// `response_timeout_ms`.
+    #[serde(rename = "response_timeout_ms", with = "si_core::time::millis")]
+    pub response_timeout: Duration,
     /// Longest job in bytes (SEND data or FETCH result), 2 … 65 534, default 1024.
     pub max_job_len: u32,
     /// How the passive side reads header byte 6 of D/X jobs.
@@ -104,7 +106,7 @@ impl Default for Config {
     fn default() -> Self {
         Config {
             link: si_3964r::Config::default(),
-            response_timeout_ms: 10_000,
+            response_timeout: Duration::from_millis(10_000),
             max_job_len: 1024,
             dw_unit: DwUnit::Words,
             counter_letter: CounterLetter::Z,
@@ -113,11 +115,6 @@ impl Default for Config {
 }
 
 impl Config {
-    /// TRES as a duration.
-    pub fn response_timeout(&self) -> Duration {
-        Duration::from_millis(self.response_timeout_ms.into())
-    }
-
     /// Check every parameter against its range; the error names parameter, range and value.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.link.validate()?;
@@ -125,7 +122,7 @@ impl Config {
             "response monitoring time (TRES)",
             RESPONSE_TIMEOUT_RANGE,
             " ms",
-            self.response_timeout_ms,
+            u32::try_from(self.response_timeout.as_millis()).unwrap_or(u32::MAX),
         )?;
         check(
             "maximum job length",

@@ -52,10 +52,10 @@
 //! ```
 
 use crate::frame::{Address, Coordination};
-use crate::station::{JobId, Station};
+use crate::station::{Event, JobId, RequestError, Station};
 use bytes::Bytes;
 use si_core::fb::{JobRequest, Pulse};
-use si_core::job::{JobPort, NotStarted, Reception};
+use si_core::job::{JobEnd, JobPort, NotStarted, Reception};
 use si_core::{Instant, Status};
 
 /// One RK 512 job as an FB starts it.
@@ -241,6 +241,47 @@ impl FetchFb {
                 len,
             })
             .into()
+    }
+}
+
+/// A job ends with [`Event::Done`] (its FETCH data, empty for a SEND) or [`Event::Failed`]. A
+/// busy station is [`NotStarted::Busy`] here (the async driver queues the job), where the FBs
+/// show 0502H.
+impl JobEnd for Station {
+    type Job = Rk512Job;
+    type Output = Bytes;
+    type Refusal = RequestError;
+    type Failure = Status;
+
+    fn begin_job(
+        &mut self,
+        now: Instant,
+        job: Rk512Job,
+    ) -> Result<JobId, NotStarted<RequestError>> {
+        match job {
+            Rk512Job::Send {
+                address,
+                coordination,
+                data,
+            } => self.send(now, address, coordination, data),
+            Rk512Job::Fetch {
+                address,
+                coordination,
+                len,
+            } => self.fetch(now, address, coordination, len),
+        }
+        .map_err(|e| match e {
+            RequestError::Busy => NotStarted::Busy,
+            e => NotStarted::Refused(e),
+        })
+    }
+
+    fn job_end(event: &Event) -> Option<(JobId, Result<Bytes, Status>)> {
+        match event {
+            Event::Done { job, data } => Some((*job, Ok(data.clone()))),
+            Event::Failed { job, status } => Some((*job, Err(*status))),
+            _ => None,
+        }
     }
 }
 

@@ -656,7 +656,7 @@ impl Station {
     }
 
     fn telegram_sent(&mut self, kind: Kind, id: si_3964r::JobId) {
-        let tres = self.now + self.config.response_timeout();
+        let tres = self.now + self.config.response_timeout;
         match kind {
             Kind::Command => match &mut self.job {
                 Some(job) if job.phase == Phase::Sending(Some(id)) => {

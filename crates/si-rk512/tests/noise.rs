@@ -20,12 +20,12 @@ fn line() -> SerialSettings {
 /// Short timers so each case runs seconds of virtual time; the bound scales with them.
 fn short(priority: Priority) -> Config {
     let mut c = Config {
-        response_timeout_ms: 1_000,
+        response_timeout: Duration::from_millis(1_000),
         ..Config::default()
     };
     c.link.priority = priority;
-    c.link.ack_delay_ms = 200;
-    c.link.char_delay_ms = 50;
+    c.link.ack_delay = si_core::Duration::from_millis(200);
+    c.link.char_delay = si_core::Duration::from_millis(50);
     c.link.connection_attempts = 2;
     c.link.transmission_attempts = 2;
     c
@@ -215,7 +215,7 @@ fn tres_ends_the_job_on_input_alone_when_the_timer_never_fires() {
     events_of(&mut station);
     station.handle_rx(acked + Duration::from_millis(20), &[DLE]); // telegram acknowledged
     assert!(events_of(&mut station).is_empty());
-    let tres = acked + Duration::from_millis(20) + config.response_timeout();
+    let tres = acked + Duration::from_millis(20) + config.response_timeout;
     station.handle_rx(tres, &[0x01]);
     assert_eq!(
         events_of(&mut station),

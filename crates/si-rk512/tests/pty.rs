@@ -37,8 +37,7 @@ async fn send_then_fetch_through_a_serving_station_on_a_pty() {
 
     let mut config = Config::default();
     config.link.priority = Priority::High;
-    let line = port::open(&pair.a, &settings, &PortOptions::default()).unwrap();
-    let us = Handle::spawn(config, settings, line).unwrap();
+    let us = Handle::open(config, &pair.a).unwrap();
     // Both links send a NAK when they start (the module's startup); a job started at once
     // meets the partner's startup NAK as the answer to its STX. Let the startups pass first.
     tokio::time::sleep(Duration::from_millis(200)).await;

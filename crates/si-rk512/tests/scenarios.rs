@@ -607,7 +607,7 @@ fn s4_7_no_reaction_within_tres_0a05() {
 fn s4_7_tres_is_a_setting() {
     let mut sim = Simulator::new(51);
     let mut c = high();
-    c.response_timeout_ms = 5000;
+    c.response_timeout = si_core::Duration::from_millis(5000);
     let st = sim.add_station("station", line(), Station::new(c, line()).unwrap());
     let raw = sim.add_station(
         "raw",

@@ -117,9 +117,10 @@ pub struct MasterConfig {
     /// How long to wait for the response's STX after the request's last character: the USS spec's
     /// 20 ms ([USS spec] §5.2.2, "node x does not transmit after 20 ms"). Longer values (up to
     /// 10 s) are for converters and device servers that add latency.
+    #[serde(rename = "response_timeout_ms", with = "si_core::time::millis")]
     pub response_timeout: Duration,
     /// WDH, the permitted PKW **repetitions after the first telegram** (0…32 767,
-    /// [Modbus/USS] §3.7.6, Table 3-31, §3.7.8): a job goes out at most `1 + pkw_retries` times;
+    /// [Modbus/USS] §3.7.6, Table 3-31, §3.7.8): a job goes out at most `1 + retries` times;
     /// when the last of them brings no matching response the job fails, with "node does not
     /// answer" (16#1408) if the node never answered during the job, else with the PKW
     /// interface error (16#1505). WDH = 2 therefore puts at most 3 telegrams of one job to a
@@ -127,12 +128,13 @@ pub struct MasterConfig {
     ///
     /// **Reading chosen:** the manual says "permitted PKW job retries"; we count retries the
     /// way the word says, as telegrams after the first one.
-    pub pkw_retries: u16,
+    pub retries: u16,
     /// What the PKW area carries once a job has ended: AK 0 "no task" (the default) or the last
     /// job again, as the module's FCs do ([`PkwAfterJob`]).
     #[serde(default)]
     pub pkw_after_job: PkwAfterJob,
     /// Extra pause after each complete cycle (0 = poll back to back).
+    #[serde(rename = "cycle_pause_ms", with = "si_core::time::millis")]
     pub cycle_pause: Duration,
     /// The transceiver hears our own transmission (an RS-485 bus, the simulator's bus): discard
     /// as many received characters as we sent before looking for the response.
@@ -147,7 +149,7 @@ impl MasterConfig {
             settings: SerialSettings::default(),
             polling_list,
             response_timeout: RESPONSE_DELAY_MAX,
-            pkw_retries: 20,
+            retries: 20,
             pkw_after_job: PkwAfterJob::TaskZero,
             cycle_pause: Duration::ZERO,
             local_echo: false,
@@ -218,9 +220,9 @@ impl MasterConfig {
                     "1 ms … 10 s",
                 ),
                 check(
-                    self.pkw_retries <= 32_767,
+                    self.retries <= 32_767,
                     "WDH (PKW repetitions)",
-                    self.pkw_retries,
+                    self.retries,
                     "0…32767",
                 ),
                 check(
@@ -292,7 +294,7 @@ impl MasterConfig {
     /// [`Master::request_parameter`]: crate::master::Master::request_parameter
     pub fn job_bound(&self) -> Duration {
         self.cycle_bound()
-            .saturating_mul(u64::from(self.pkw_retries) + 2)
+            .saturating_mul(u64::from(self.retries) + 2)
     }
 }
 
@@ -355,7 +357,7 @@ mod tests {
             PollEntry::new(32, PkwWords::Four, 2),
             PollEntry::new(3, PkwWords::Four, 17),
         ]);
-        c.pkw_retries = 40_000;
+        c.retries = 40_000;
         let all: Vec<String> = c.validate_all().iter().map(|e| e.to_string()).collect();
         assert_eq!(all.len(), 3, "{all:?}");
         assert!(all[0].starts_with("TNU"));

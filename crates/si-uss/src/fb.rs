@@ -326,7 +326,7 @@ pub fn master_config(dbpa_db: &Db) -> MasterConfig {
         })
         .collect();
     let mut c = MasterConfig::new(list);
-    c.pkw_retries = dbpa_db.word(dbpa::WDH).min(32_767);
+    c.retries = dbpa_db.word(dbpa::WDH).min(32_767);
     c
 }
 

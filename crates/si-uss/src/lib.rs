@@ -65,6 +65,7 @@ pub mod config;
 pub mod drive;
 pub mod fb;
 pub mod frame;
+pub mod job_end;
 pub mod master;
 pub mod monitor;
 pub mod param;
@@ -76,4 +77,4 @@ pub mod tokio;
 
 pub use config::{MasterConfig, PollEntry};
 pub use frame::{Adr, NetData, ParamAddress, Pke, Pkw, PkwWords, Pzd};
-pub use master::{Event, JobId, Master, ParamRequest};
+pub use master::{Event, JobId, Master, ParamRequest, Width};

@@ -30,7 +30,7 @@
 //!   ([Modbus/USS] §3.7.7 status bit 2);
 //! - response ID 8, "no master control / no PKW rights": [`status::PKW_INTERFACE_ERROR`]
 //!   (16#1505, status bit 4);
-//! - WDH repetitions after the first telegram used up ([`MasterConfig::pkw_retries`]):
+//! - WDH repetitions after the first telegram used up ([`MasterConfig::retries`]):
 //!   [`status::NO_ANSWER`] (16#1408, comm error word bit 7, the code a poll reports) when the
 //!   node did not answer a single telegram of the job, or the rejection code of its last
 //!   telegram (BCC, LGE, …) when it answered only with faulty ones; [`status::PKW_INTERFACE_ERROR`]
@@ -179,6 +179,18 @@ impl Counters {
     }
 }
 
+/// How wide a parameter value written is: it picks the task ID (AK 2 or 3, for an array
+/// element AK 7 or 8) ([Modbus/USS] §3.7.7; the task IDs are the USS protocol's, \[USS\]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Width {
+    /// A 16-bit value (AK 2, AK 7).
+    #[default]
+    Word,
+    /// A 32-bit value (AK 3, AK 8).
+    DoubleWord,
+}
+
 /// A parameter job for [`Master::request_parameter`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ParamRequest {
@@ -207,23 +219,21 @@ impl ParamRequest {
         }
     }
     /// Write an array element: a word (AK 7) or a double word (AK 8).
-    pub fn write_array(number: u16, index: u8, value: u32, dword: bool) -> Self {
+    pub fn write_array(number: u16, index: u8, value: u32, width: Width) -> Self {
         ParamRequest {
-            task: if dword {
-                task::WRITE_ARRAY_DWORD
-            } else {
-                task::WRITE_ARRAY_WORD
+            task: match width {
+                Width::Word => task::WRITE_ARRAY_WORD,
+                Width::DoubleWord => task::WRITE_ARRAY_DWORD,
             },
-            ..Self::write(number, index, value, dword)
+            ..Self::write(number, index, value, width)
         }
     }
     /// Write a word (AK 2) or a double word (AK 3).
-    pub fn write(number: u16, index: u8, value: u32, dword: bool) -> Self {
+    pub fn write(number: u16, index: u8, value: u32, width: Width) -> Self {
         ParamRequest {
-            task: if dword {
-                task::WRITE_DWORD
-            } else {
-                task::WRITE_WORD
+            task: match width {
+                Width::Word => task::WRITE_WORD,
+                Width::DoubleWord => task::WRITE_DWORD,
             },
             param: ParamAddress { number, index },
             value,
@@ -1115,7 +1125,7 @@ impl Master {
         let Some(job) = s.job else {
             return;
         };
-        if job.sent > self.config.pkw_retries {
+        if job.sent > self.config.retries {
             s.job = None;
             s.comm_status = (s.comm_status & !comm_status::PKW_BUSY) | comm_status::PKW_INTERFACE;
             let address = s.address;

@@ -9,63 +9,102 @@
 
 use crate::config::{ConfigError, MasterConfig};
 use crate::frame::Pkw;
-use crate::master::{Event, Master, ParamRequest, RequestError};
-use si_core::driver::{self, DriverOptions, DriverStopped, Start, Transport};
+use crate::job_end::{ParamJob, PkwFailure};
+use crate::master::{Event, Master, ParamRequest, RequestError, Width};
+use si_core::driver::{self, DriverOptions, DriverStopped, IoError, JobError, Transport};
 use si_core::{Instant, Status};
-use std::ops::ControlFlow::{Break, Continue};
 
 /// Why a call on a [`Handle`] failed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum Error {
-    /// The master refused the command.
+    /// The master refused the command (the error names the node and, where it is at fault,
+    /// the task or parameter number).
     #[error(transparent)]
     Refused(#[from] RequestError),
-    /// The job ran and failed with this STATUS (and AK 7 error number).
-    #[error("{status}{}", .error_number.map(|n| format!(", error number {n}: {}", crate::frame::pkw_error_text(n))).unwrap_or_default())]
+    /// The parameter job for parameter `number` of node `address` ran and failed with this
+    /// STATUS (and AK 7 error number).
+    #[error("node {address}, parameter {number}: {status}{}", .error_number.map(|n| format!(", error number {n}: {}", crate::frame::pkw_error_text(n))).unwrap_or_default())]
     Failed {
         /// The job's STATUS.
         status: Status,
         /// The AK 7 error number.
         error_number: Option<u16>,
+        /// The node (USS address).
+        address: u8,
+        /// The parameter number (PNU).
+        number: u16,
     },
     /// The parameters are out of range.
     #[error(transparent)]
     Config(#[from] ConfigError),
-    /// The driver has stopped (port closed).
+    /// The driver has stopped (the port closed or failed, or the handle was closed).
     #[error(transparent)]
     Stopped(#[from] DriverStopped),
+    /// The port could not be opened ([`Handle::open`]).
+    #[error("{0}")]
+    Io(#[from] IoError),
 }
 
 impl Error {
     /// The STATUS for this error, if it has one: a failed job's, or a refused command's
-    /// ([`RequestError::status`]). A stopped driver and a configuration error have none.
+    /// ([`RequestError::status`]). A stopped driver, a configuration error and a port that
+    /// did not open have none.
     pub fn status(&self) -> Option<Status> {
         match self {
             Error::Failed { status, .. } => Some(*status),
             Error::Refused(e) => Some(e.status()),
-            Error::Config(_) | Error::Stopped(_) => None,
+            Error::Config(_) | Error::Stopped(_) | Error::Io(_) => None,
+        }
+    }
+
+    fn from_job(e: JobError<RequestError, PkwFailure>, job: ParamJob) -> Self {
+        match e {
+            JobError::Refused(e) => Error::Refused(e),
+            JobError::Failed(PkwFailure {
+                status,
+                error_number,
+            }) => Error::Failed {
+                status,
+                error_number,
+                address: job.address,
+                number: job.request.param.number,
+            },
+            JobError::Stopped => Error::Stopped(DriverStopped),
         }
     }
 }
 
-/// The old name of [`Error`].
-#[deprecated(note = "renamed to si_uss::tokio::Error")]
-pub type UssError = Error;
-
-/// The old name of [`Handle`].
-#[deprecated(note = "renamed to si_uss::tokio::Handle")]
-pub type UssMaster = Handle;
-
 /// An async USS master: polls cyclically in the background; parameter jobs are awaited.
+/// Dropping it stops the driver, which then releases the port; [`close`](Self::close) waits
+/// for that.
 pub struct Handle {
     driver: driver::Handle<Master>,
 }
 
+impl Drop for Handle {
+    fn drop(&mut self) {
+        self.driver.stop();
+    }
+}
+
 impl Handle {
-    /// Start a master with `config` over `transport` and begin polling. Call it inside a tokio
-    /// runtime.
+    /// Start a master with `config` over `transport` (whose line runs at `config.settings`)
+    /// and begin polling. Call it inside a tokio runtime.
     pub fn spawn<T: Transport>(config: MasterConfig, transport: T) -> Result<Handle, Error> {
         Ok(Self::spawn_engine(Master::new(config)?, transport))
+    }
+
+    /// Open the serial port at `path` with the config's line settings, start a master on it
+    /// and begin polling (feature `serial`). A port another handle or program holds is
+    /// reported as [`Error::Io`] with kind `ResourceBusy`.
+    #[cfg(feature = "serial")]
+    #[cfg_attr(docsrs, doc(cfg(feature = "serial")))]
+    pub fn open(config: MasterConfig, path: &str) -> Result<Handle, Error> {
+        let settings = config.settings;
+        let master = Master::new(config)?;
+        let options = si_core::port::PortOptions::default();
+        let port = si_core::port::open(path, &settings, &options).map_err(IoError::from)?;
+        Ok(Self::spawn_engine(master, port))
     }
 
     /// Start a master built by the caller on `transport` and begin polling. The driver reports
@@ -96,27 +135,11 @@ impl Handle {
     /// previous job still runs wait in the driver; other events stay for
     /// [`next_event`](Self::next_event).
     pub async fn parameter(&self, address: u8, request: ParamRequest) -> Result<Pkw, Error> {
-        let start = move |m: &mut Master, now| match m.request_parameter(now, address, request) {
-            Ok(job) => Start::Running(job),
-            Err(RequestError::Busy(_)) => Start::Busy,
-            Err(e) => Start::Ended(Err(Error::Refused(e))),
-        };
-        let done = |job: &_, event| match event {
-            Event::ParameterDone {
-                job: j, response, ..
-            } if j == *job => Break(Ok(response)),
-            Event::ParameterFailed {
-                job: j,
-                status,
-                error_number,
-                ..
-            } if j == *job => Break(Err(Error::Failed {
-                status,
-                error_number,
-            })),
-            other => Continue(other),
-        };
-        self.driver.job(start, done).await?
+        let job = ParamJob { address, request };
+        self.driver
+            .run_job(job)
+            .await
+            .map_err(|e| Error::from_job(e, job))
     }
 
     /// Read parameter `number` (sub-index `index`) of node `address` (AK 1): its value.
@@ -128,16 +151,16 @@ impl Handle {
     }
 
     /// Write `value` to parameter `number` (sub-index `index`) of node `address` as a word
-    /// (AK 2) or, with `dword`, a double word (AK 3): the value the drive reports back.
+    /// (AK 2) or a double word (AK 3), as `width` says: the value the drive reports back.
     pub async fn write_parameter(
         &self,
         address: u8,
         number: u16,
         index: u8,
         value: u32,
-        dword: bool,
+        width: Width,
     ) -> Result<u32, Error> {
-        let request = ParamRequest::write(number, index, value, dword);
+        let request = ParamRequest::write(number, index, value, width);
         Ok(self.parameter(address, request).await?.value())
     }
 
@@ -145,6 +168,17 @@ impl Handle {
     /// stopped. Beyond the driver's event capacity, unread events are dropped.
     pub async fn next_event(&mut self) -> Option<Event> {
         self.driver.next_event().await
+    }
+
+    /// Wait until the master has stopped (the port closed or failed) and released its port.
+    pub async fn closed(&self) {
+        self.driver.closed().await
+    }
+
+    /// Stop the master and return once its port is released, so it may be opened again at
+    /// once. Jobs still waiting end with [`Error::Stopped`].
+    pub async fn close(self) {
+        self.driver.close().await
     }
 
     /// Run `f` on the master inside the driver (counters, slave state, special telegrams).

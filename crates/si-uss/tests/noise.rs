@@ -15,7 +15,7 @@ use si_uss::master::{Event, Master, ParamRequest};
 fn config(retries: u16) -> MasterConfig {
     let mut c = MasterConfig::new(vec![PollEntry::new(1, PkwWords::Four, 2)]);
     c.settings = uss_settings(9_600).unwrap();
-    c.pkw_retries = retries;
+    c.retries = retries;
     c
 }
 

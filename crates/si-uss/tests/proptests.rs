@@ -5,7 +5,7 @@ use si_core::{Engine, Instant, LineError, Output};
 use si_uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_uss::drive::{Drive, DriveConfig};
 use si_uss::frame::{decode, encode, Adr, NetData, Pke, Pkw, PkwWords, Pzd, MAX_TELEGRAM};
-use si_uss::master::{Master, ParamRequest};
+use si_uss::master::{Master, ParamRequest, Width};
 
 fn pkw_words() -> impl Strategy<Value = PkwWords> {
     prop_oneof![
@@ -120,7 +120,7 @@ proptest! {
         let settings = uss_settings(19_200).unwrap();
         let mut cfg = MasterConfig::new(vec![PollEntry::new(1, PkwWords::Four, 2), PollEntry::new(2, PkwWords::Four, 2)]);
         cfg.settings = settings;
-        cfg.pkw_retries = 3;
+        cfg.retries = 3;
         cfg.local_echo = true;
         let mut sim = Simulator::new(seed).without_trace();
         let m = sim.add_station("master", settings, Master::new(cfg).unwrap());
@@ -137,7 +137,7 @@ proptest! {
         let mut ended = Vec::new();
         for round in 0..20u16 {
             for a in [1u8, 2] {
-                let r = sim.with(m, |m, now| m.request_parameter(now, a, ParamRequest::write(1082, 0, u32::from(round), false)));
+                let r = sim.with(m, |m, now| m.request_parameter(now, a, ParamRequest::write(1082, 0, u32::from(round), Width::Word)));
                 if let Ok(j) = r { jobs.push(j); }
             }
             run_without_spinning(&mut sim, si_core::Duration::from_millis(100));

@@ -36,7 +36,10 @@ async fn the_master_reads_and_writes_parameters_of_a_simulated_drive_on_a_pty() 
     let master = Handle::spawn(config, line).unwrap();
     assert_eq!(master.read_parameter(4, 700, 0).await.unwrap(), 5);
     assert_eq!(
-        master.write_parameter(4, 1082, 0, 77, false).await.unwrap(),
+        master
+            .write_parameter(4, 1082, 0, 77, si_uss::Width::Word)
+            .await
+            .unwrap(),
         77
     );
     assert_eq!(master.read_parameter(4, 1082, 0).await.unwrap(), 77);

@@ -19,7 +19,7 @@ use si_sim::{Simulator, StationId, TraceKind};
 use si_uss::config::{residual_run_time, start_interval, uss_settings, MasterConfig, PollEntry};
 use si_uss::drive::{stw, zsw, Drive, DriveConfig, DriveEvent};
 use si_uss::frame::{self, Adr, DecodeError, PkwWords, MAX_TELEGRAM};
-use si_uss::master::{comm_error, comm_status, Event, Master, ParamRequest};
+use si_uss::master::{comm_error, comm_status, Event, Master, ParamRequest, Width};
 use si_uss::status;
 
 type M = StationId<Master>;
@@ -238,7 +238,7 @@ fn s6_7_pkw_read_and_write_complete_with_matching_responses() {
     assert_eq!(s.comm_status & 0x7, comm_status::PKW_DONE);
 
     sim.with(m, |m, now| {
-        m.request_parameter(now, 1, ParamRequest::write(1082, 0, 100, false))
+        m.request_parameter(now, 1, ParamRequest::write(1082, 0, 100, Width::Word))
     })
     .unwrap();
     let (e, _) = run_to(&mut sim, m, |e| matches!(e, Event::ParameterDone { .. }));
@@ -247,7 +247,11 @@ fn s6_7_pkw_read_and_write_complete_with_matching_responses() {
 
     // Double word above 2000: page bits in IND.
     sim.with(m, |m, now| {
-        m.request_parameter(now, 1, ParamRequest::write(2000, 0, 123_456, true))
+        m.request_parameter(
+            now,
+            1,
+            ParamRequest::write(2000, 0, 123_456, Width::DoubleWord),
+        )
     })
     .unwrap();
     let (e, _) = run_to(&mut sim, m, |e| matches!(e, Event::ParameterDone { .. }));
@@ -284,10 +288,10 @@ fn s6_7_pkw_read_and_write_complete_with_matching_responses() {
 fn s6_7_ak7_errors_carry_their_numbers_and_set_status_bit_2() {
     let (mut sim, m, d) = pair(s9600());
     for (request, number) in [
-        (ParamRequest::write(1082, 0, 1000, false), 2), // limit
-        (ParamRequest::read(999, 0), 0),                // no such parameter
-        (ParamRequest::write(964, 0, 1, false), 1),     // read-only
-        (ParamRequest::read_array(700, 0), 4),          // no array
+        (ParamRequest::write(1082, 0, 1000, Width::Word), 2), // limit
+        (ParamRequest::read(999, 0), 0),                      // no such parameter
+        (ParamRequest::write(964, 0, 1, Width::Word), 1),     // read-only
+        (ParamRequest::read_array(700, 0), 4),                // no array
     ] {
         sim.with(m, |m, now| m.request_parameter(now, 1, request))
             .unwrap();
@@ -374,7 +378,7 @@ fn s6_8_wdh_repetitions_exceeded_is_a_pkw_interface_error() {
     let settings = s9600();
     let mut sim = Simulator::new(1);
     let mut cfg = master_config(settings, &[1], false);
-    cfg.pkw_retries = 2;
+    cfg.retries = 2;
     let m = sim.add_station("master", settings, Master::new(cfg).unwrap());
     let d = sim.add_station(
         "drive1",

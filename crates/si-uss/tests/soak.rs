@@ -17,6 +17,7 @@ use si_sim::{Faults, Simulator};
 use si_uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_uss::drive::{Drive, DriveConfig};
 use si_uss::frame::PkwWords;
+use si_uss::master::Width;
 use si_uss::{Event, JobId, Master, ParamRequest};
 
 struct Outcome {
@@ -67,7 +68,7 @@ fn soak(span: Duration, seed: u64) -> Outcome {
             let request = if writing {
                 seq += 1;
                 attempted = seq;
-                ParamRequest::write(2000, 0, seq, true)
+                ParamRequest::write(2000, 0, seq, Width::DoubleWord)
             } else {
                 ParamRequest::read(2000, 0)
             };

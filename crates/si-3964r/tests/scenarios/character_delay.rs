@@ -29,8 +29,8 @@ fn receive_with_gaps(
 ) -> (Vec<Event>, Option<Instant>, Vec<Instant>) {
     let line = SerialSettings::new(baud, 8, Parity::Even, 1).unwrap();
     let config = Config {
-        char_delay_ms: zvz_ms,
-        ack_delay_ms: zvz_ms.max(2000),
+        char_delay: Duration::from_millis(zvz_ms.into()),
+        ack_delay: Duration::from_millis(zvz_ms.max(2000).into()),
         transmission_attempts: 1,
         ..Config::default()
     };

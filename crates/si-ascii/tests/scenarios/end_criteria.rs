@@ -17,13 +17,13 @@ fn config(baud: u32, end: EndCriterion) -> Config {
     Config {
         settings: settings(baud),
         end,
-        char_delay_ms: min_char_delay_ms(baud),
+        char_delay: Duration::from_millis(min_char_delay_ms(baud).into()),
         ..Config::default()
     }
 }
 
 fn cdt(c: &Config) -> Duration {
-    Duration::from_millis(u64::from(c.char_delay_ms))
+    c.char_delay
 }
 
 #[test]

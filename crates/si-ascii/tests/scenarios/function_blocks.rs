@@ -104,7 +104,7 @@ fn quick_start_s2_two_modules_s_send_to_s_rcv() {
     // [ET200S SI] §2.2: 4800 bit/s 8N1, CDT 10 ms, no flow control; 24 characters arrive as LEN 24.
     let c = Config {
         settings: si_core::SerialSettings::new(4_800, 8, si_core::Parity::None, 1).unwrap(),
-        char_delay_ms: 10,
+        char_delay: si_core::Duration::from_millis(10),
         dynamic_frames: false,
         ..Config::default()
     };

@@ -2,7 +2,7 @@
 //! cut by CR LF, and a refused frame comes back as a typed error.
 #![cfg(feature = "tokio")]
 
-use si_ascii::tokio::{Error, Handle, Incoming};
+use si_ascii::tokio::{Error, Handle, Incoming, Refusal};
 use si_ascii::{Config, EndCriterion, SendError};
 
 fn config() -> Config {
@@ -22,18 +22,21 @@ async fn two_handles_exchange_lines_over_a_duplex_pipe() {
     let mut b = Handle::spawn(config(), right).unwrap();
     a.send(&b"first\r\n"[..]).await.unwrap();
     a.send(&b"second\r\n"[..]).await.unwrap();
-    assert_eq!(b.recv().await.unwrap(), b"first\r\n");
-    match b.next().await.unwrap() {
-        Incoming::Frame { data, .. } => assert_eq!(data, b"second\r\n"),
+    assert_eq!(b.recv().await.unwrap(), &b"first\r\n"[..]);
+    match b.recv_timed().await.unwrap() {
+        Incoming::Frame { data, .. } => assert_eq!(data, &b"second\r\n"[..]),
         other => panic!("{other:?}"),
     }
     // And back.
     b.send(&b"ack\r\n"[..]).await.unwrap();
-    assert_eq!(a.recv().await.unwrap(), b"ack\r\n");
+    assert_eq!(a.recv().await.unwrap(), &b"ack\r\n"[..]);
     // A frame over 200 bytes is refused before anything is sent.
     assert_eq!(
         a.send(vec![0u8; 201]).await,
-        Err(Error::Send(SendError::TooLong { len: 201, max: 200 }))
+        Err(Error::Refused(Refusal::Send(SendError::TooLong {
+            len: 201,
+            max: 200
+        })))
     );
 }
 

@@ -80,7 +80,7 @@ fn without_an_adapter_the_char_delay_time_ends_the_frame_at_the_manuals_instant(
         b.partner_sends(&frame(EndCriterion::CharDelay));
         b.run_for_ms(1_000);
         let last = *b.arrivals().last().unwrap();
-        let cdt = Duration::from_millis(u64::from(config.char_delay_ms));
+        let cdt = config.char_delay;
         let end = last + cdt + config.settings.char_time() + Duration::from_micros(1);
         assert_eq!(received(&b.events()), vec![(100, end)], "{baud} bit/s");
     }

@@ -62,7 +62,7 @@ pub struct DriverArgs {
     end: Vec<String>,
     /// Character delay time in ms (default: the manual's minimum for the baud rate, ≥ 4 ms).
     #[arg(long, value_name = "MS")]
-    cdt: Option<u32>,
+    char_delay_ms: Option<u32>,
     /// Flow control.
     #[arg(long, value_enum, default_value = "none")]
     flow: Flow,
@@ -71,7 +71,7 @@ pub struct DriverArgs {
     interface: Iface,
     /// Wait time for XON or CTS = ON in ms (20 … 655350, 10 ms steps; default 2000).
     #[arg(long, value_name = "MS")]
-    flow_wait: Option<u32>,
+    flow_wait_ms: Option<u32>,
     /// The module whose maximum frame length applies: `et200s` (ET 200S 1SI, 200 bytes),
     /// `2005` (the 2005 module, 224 bytes) or `cp341` (CP 341, 1024 bytes).
     #[arg(long, value_name = "TYPE", default_value = "et200s", value_parser = module_preset)]
@@ -97,9 +97,11 @@ impl DriverArgs {
         let mut c = Config {
             settings,
             end,
-            char_delay_ms: self
-                .cdt
-                .unwrap_or_else(|| min_char_delay_ms(settings.baud())),
+            char_delay: si_core::Duration::from_millis(
+                self.char_delay_ms
+                    .unwrap_or_else(|| min_char_delay_ms(settings.baud()))
+                    .into(),
+            ),
             flow_control: match self.flow {
                 Flow::None => FlowControl::None,
                 Flow::XonXoff => FlowControl::XonXoff,
@@ -116,7 +118,7 @@ impl DriverArgs {
         if let Some(n) = self.max_frame {
             c.max_frame_len = n;
         }
-        if let Some(ms) = self.flow_wait {
+        if let Some(ms) = self.flow_wait_ms {
             c.xon_xoff.wait_for_xon_ms = ms;
             c.rts_cts.wait_for_cts_ms = ms;
         }
@@ -246,9 +248,9 @@ fn status_error(status: Status) -> CliError {
 
 fn ascii_error(e: AsciiError) -> CliError {
     match e {
-        AsciiError::Status(s) => status_error(s),
+        AsciiError::Failed { status } => status_error(status),
         // A refused send names the STATUS too (1E41H, 050EH, 0502H).
-        AsciiError::Send(e) => CliError::new(format!(
+        AsciiError::Refused(e) => CliError::new(format!(
             "{e} ({})",
             si_ascii::status::lookup(e.status().code())
         )),
@@ -320,7 +322,10 @@ async fn recv(a: RecvArgs, conn: &Connection, out: &Output) -> Result<(), CliErr
     let frames = async {
         let mut got = 0;
         while a.count.is_none_or(|n| got < n) {
-            let incoming = port.next().await.map_err(|e| received_error(e, conn))?;
+            let incoming = port
+                .recv_timed()
+                .await
+                .map_err(|e| received_error(e, conn))?;
             print_incoming(out, &incoming, false);
             if matches!(incoming, Incoming::Frame { .. }) {
                 got += 1;
@@ -349,7 +354,10 @@ async fn monitor(a: MonitorArgs, conn: &Connection, out: &Output) -> Result<(), 
     let mut got = 0;
     let limit = a.count.unwrap_or(u64::MAX);
     while got < limit {
-        let incoming = port.next().await.map_err(|e| received_error(e, conn))?;
+        let incoming = port
+            .recv_timed()
+            .await
+            .map_err(|e| received_error(e, conn))?;
         print_incoming(out, &incoming, true);
         if matches!(incoming, Incoming::Frame { .. }) {
             got += 1;
@@ -387,7 +395,7 @@ fn scenario_end_chars(o: &SimOptions, out: &Output) -> Result<(), CliError> {
             first: 0x0D,
             second: 0x0A,
         },
-        char_delay_ms: min_char_delay_ms(o.settings.baud()),
+        char_delay: si_ascii::config::min_char_delay(o.settings.baud()),
         ..Config::default()
     };
     let mut sim = Simulator::new(o.seed);
@@ -413,7 +421,7 @@ fn scenario_xon_xoff(o: &SimOptions, out: &Output) -> Result<(), CliError> {
         settings: o.settings,
         end: EndCriterion::FixedLength { len: 100 },
         flow_control: FlowControl::XonXoff,
-        char_delay_ms: min_char_delay_ms(o.settings.baud()),
+        char_delay: si_ascii::config::min_char_delay(o.settings.baud()),
         ..Config::default()
     };
     let (xon, xoff) = (config.xon_xoff.xon, config.xon_xoff.xoff);

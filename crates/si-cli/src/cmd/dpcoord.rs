@@ -477,7 +477,7 @@ impl ModuleArgs {
                         FlowControlArg::RtsCts => si_ascii::FlowControl::RtsCts,
                         FlowControlArg::AutoV24 => si_ascii::FlowControl::AutoV24,
                     },
-                    char_delay_ms: self.char_delay_ms,
+                    char_delay: si_core::Duration::from_millis(self.char_delay_ms.into()),
                     ..si_ascii::Config::default()
                 };
                 let link = si_ascii::Link::new(config)?;

@@ -66,10 +66,10 @@ pub struct LinkArgs {
     no_bcc: bool,
     /// Character delay time ZVZ in ms (20 … 655350, default 220).
     #[arg(long, value_name = "MS")]
-    zvz_ms: Option<u64>,
+    char_delay_ms: Option<u64>,
     /// Acknowledgement delay time QVZ in ms (10 … 655350, default 2000, 550 with --no-bcc).
     #[arg(long, value_name = "MS")]
-    qvz_ms: Option<u64>,
+    ack_delay_ms: Option<u64>,
     /// Connection attempts (1 … 255, default 6).
     #[arg(long, value_name = "N")]
     connection_attempts: Option<u64>,
@@ -89,8 +89,8 @@ impl LinkArgs {
             },
         });
         for (key, value) in [
-            ("char_delay_ms", self.zvz_ms),
-            ("ack_delay_ms", self.qvz_ms),
+            ("char_delay_ms", self.char_delay_ms),
+            ("ack_delay_ms", self.ack_delay_ms),
             ("connection_attempts", self.connection_attempts),
             ("transmission_attempts", self.transmission_attempts),
         ] {
@@ -124,10 +124,12 @@ impl SendArgs {
             (hex, None) if !hex.is_empty() => crate::hex::parse_hex_args(hex)?,
             _ => return Err(CliError::usage("give the block as HEX or --text")),
         };
-        let config = self.link.config()?;
-        let settings = conn.settings()?;
+        let config = si_3964r::Config {
+            settings: conn.settings()?,
+            ..self.link.config()?
+        };
         let transport = conn.open().await?;
-        let link = Handle::spawn(config, settings, transport)?;
+        let link = Handle::spawn(config, transport)?;
         tokio::time::sleep(SETTLE).await;
         let len = data.len();
         match link.send(data).await {
@@ -138,7 +140,7 @@ impl SendArgs {
                 );
                 Ok(())
             }
-            Err(LinkError::Status(status)) => {
+            Err(LinkError::Failed { status }) => {
                 Err(CliError::new(format!("send failed: {}", described(status))))
             }
             Err(e) => Err(e.into()),
@@ -148,14 +150,16 @@ impl SendArgs {
 
 impl RecvArgs {
     async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
-        let config = self.link.config()?;
-        let settings = conn.settings()?;
+        let config = si_3964r::Config {
+            settings: conn.settings()?,
+            ..self.link.config()?
+        };
         let transport = conn.open().await?;
-        let mut link = Handle::spawn(config, settings, transport)?;
+        let mut link = Handle::spawn(config, transport)?;
         let mut received = 0u64;
         while self.count.is_none_or(|n| received < n) {
-            match link.next().await {
-                Some(Ok(block)) => {
+            match link.recv().await {
+                Ok(block) => {
                     received += 1;
                     out.line(
                         &si_core::hex::format(&block),
@@ -166,10 +170,11 @@ impl RecvArgs {
                         }),
                     );
                 }
-                Some(Err(status)) => {
+                Err(LinkError::Failed { status }) => {
                     eprintln!("si: receive error {}", described(status));
                 }
-                None => return Err(conn.closed()),
+                Err(LinkError::Stopped(_)) => return Err(conn.closed()),
+                Err(e) => return Err(e.into()),
             }
         }
         // Our DLE for the last block is already written; give the port a moment to drain it.

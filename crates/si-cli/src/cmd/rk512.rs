@@ -149,10 +149,10 @@ pub struct LinkArgs {
     no_bcc: bool,
     /// Response monitoring time TRES in ms (10 … 655350, default 10000).
     #[arg(long, value_name = "MS")]
-    tres_ms: Option<u32>,
+    response_timeout_ms: Option<u32>,
     /// Acknowledgement delay time QVZ in ms (3964(R); default 2000, 550 with --no-bcc).
     #[arg(long, value_name = "MS")]
-    qvz_ms: Option<u32>,
+    ack_delay_ms: Option<u32>,
     /// Header byte 6 is a byte offset rather than a data-word number (some non-Siemens
     /// partners; [Public RK 512]).
     #[arg(long)]
@@ -182,11 +182,11 @@ impl LinkArgs {
             Some(PriorityArg::Low) => Priority::Low,
             Some(PriorityArg::High) => Priority::High,
         };
-        if let Some(q) = self.qvz_ms {
-            c.link.ack_delay_ms = q;
+        if let Some(q) = self.ack_delay_ms {
+            c.link.ack_delay = si_core::Duration::from_millis(q.into());
         }
-        if let Some(t) = self.tres_ms {
-            c.response_timeout_ms = t;
+        if let Some(t) = self.response_timeout_ms {
+            c.response_timeout = si_core::Duration::from_millis(t.into());
         }
         if self.dw_bytes {
             c.dw_unit = DwUnit::Bytes;
@@ -303,7 +303,9 @@ impl SendArgs {
             s.send(Instant::ZERO, address, coordination, data.clone())
         })?;
         let transport = conn.open().await?;
-        let station = Handle::spawn(config, settings, transport)?;
+        let mut config = config;
+        config.link.settings = settings;
+        let station = Handle::spawn(config, transport)?;
         tokio::time::sleep(SETTLE).await;
         let len = data.len();
         if let Err(e) = station.send(address, coordination, data).await {
@@ -334,7 +336,9 @@ impl FetchArgs {
             s.fetch(Instant::ZERO, address, coordination, len)
         })?;
         let transport = conn.open().await?;
-        let station = Handle::spawn(config, settings, transport)?;
+        let mut config = config;
+        config.link.settings = settings;
+        let station = Handle::spawn(config, transport)?;
         tokio::time::sleep(SETTLE).await;
         let data = match station.fetch(address, coordination, len).await {
             Ok(data) => data,

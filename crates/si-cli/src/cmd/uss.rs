@@ -20,7 +20,7 @@ use si_uss::drive::{stw, Drive, DriveConfig, DriveEvent};
 use si_uss::frame::{
     self, pkw_error_text, Adr, NetData, ParamAddress, Pkw, PkwWords, MAX_TELEGRAM,
 };
-use si_uss::master::{Event, Master, ParamRequest};
+use si_uss::master::{Event, Master, ParamRequest, Width};
 use si_uss::tokio::Handle;
 
 /// The protocol's subcommands.
@@ -49,7 +49,7 @@ pub struct Structure {
     pzd_words: u8,
     /// Response timeout in ms (the USS spec's 20 ms; more for converters and device servers).
     #[arg(long, default_value_t = 20)]
-    response_timeout: u64,
+    response_timeout_ms: u64,
     /// WDH: PKW repetitions after the first telegram (0…32767). A job goes out at most 1 + N
     /// times; then it fails with 16#1408 if the node never answered, 16#1505 if it answered
     /// without a matching response.
@@ -77,8 +77,8 @@ impl Structure {
                 .collect(),
         );
         c.settings = settings;
-        c.response_timeout = Duration::from_millis(self.response_timeout);
-        c.pkw_retries = self.retries;
+        c.response_timeout = Duration::from_millis(self.response_timeout_ms);
+        c.retries = self.retries;
         c.pkw_after_job = if self.pkw_repeat {
             PkwAfterJob::RepeatLast
         } else {
@@ -171,6 +171,17 @@ pub struct WriteArgs {
 }
 
 /// `si uss sim-slave`.
+impl WriteArgs {
+    /// The value's width (`--dword`).
+    fn width(&self) -> Width {
+        if self.dword {
+            Width::DoubleWord
+        } else {
+            Width::Word
+        }
+    }
+}
+
 #[derive(Debug, Args)]
 pub struct SimSlaveArgs {
     /// Bus address 0…31.
@@ -280,9 +291,9 @@ impl Command {
                 let param = parse_param(&a.param, a.index)?;
                 let value = parse_value(&a.value, a.dword)?;
                 let request = if a.array {
-                    ParamRequest::write_array(param.number, param.index, value, a.dword)
+                    ParamRequest::write_array(param.number, param.index, value, a.width())
                 } else {
-                    ParamRequest::write(param.number, param.index, value, a.dword)
+                    ParamRequest::write(param.number, param.index, value, a.width())
                 };
                 let r = last_job(conn, &a.structure, a.slave, request).await?;
                 let signed = a.value.trim_start().starts_with('-');
@@ -745,9 +756,9 @@ fn uss_param(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     sim.with(m, |m, now| m.start(now));
     let jobs = [
         ParamRequest::read(1082, 0),
-        ParamRequest::write(1082, 0, 120, false),
+        ParamRequest::write(1082, 0, 120, Width::Word),
         ParamRequest::read(1082, 0),
-        ParamRequest::write(1082, 0, 1000, false),
+        ParamRequest::write(1082, 0, 1000, Width::Word),
     ];
     let mut results = Vec::new();
     for job in jobs {

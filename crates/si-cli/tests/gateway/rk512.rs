@@ -72,7 +72,7 @@ fn a_partner_db_is_written_by_send_and_read_by_fetch() {
             "silent",
             &dead,
             2,
-            "qvz_ms = 50\nresponse_timeout_ms = 200\n"
+            "ack_delay_ms = 50\nresponse_timeout_ms = 200\n"
         ),
         rk512_line(
             "image",

@@ -112,7 +112,14 @@ fn bad_end_criterion_is_one_clear_line() {
     );
     let out = si_command()
         .args([
-            "--baud", "1200", "ascii", "recv", "--port", "/x", "--cdt", "10",
+            "--baud",
+            "1200",
+            "ascii",
+            "recv",
+            "--port",
+            "/x",
+            "--char-delay-ms",
+            "10",
         ])
         .output()
         .expect("run si");
@@ -272,7 +279,7 @@ fn char_delay_criterion_over_a_pty_cuts_one_frame_per_send() {
     // A generous CDT: a pseudo-terminal and the OS scheduler add jitter the module never sees.
     let lines = recv_while_sending(
         &pair,
-        &["--end", "delay", "--cdt", "100", "--count", "2"],
+        &["--end", "delay", "--char-delay-ms", "100", "--count", "2"],
         &[&["01 02 03"], &["04 05"]],
     );
     let frames: Vec<String> = lines.iter().map(|l| frame_of(l)).collect();
@@ -289,7 +296,15 @@ fn xon_xoff_on_both_sides_still_delivers_the_line() {
     let lines = recv_while_sending(
         &pair,
         &[
-            "--end", "chars", "0D,0A", "--cdt", "200", "--flow", "xon-xoff", "--count", "1",
+            "--end",
+            "chars",
+            "0D,0A",
+            "--char-delay-ms",
+            "200",
+            "--flow",
+            "xon-xoff",
+            "--count",
+            "1",
         ],
         &[&["--flow", "xon-xoff", "--text", r"flow controlled\r\n"]],
     );

@@ -28,8 +28,8 @@ fn allowance_ms() -> u32 {
 #[test]
 fn send_3964r_ends_non_zero_within_its_bound_against_noise() {
     let config = si_3964r::Config {
-        ack_delay_ms: 100 + allowance_ms(),
-        char_delay_ms: 50 + allowance_ms(),
+        ack_delay: si_core::Duration::from_millis((100 + allowance_ms()).into()),
+        char_delay: si_core::Duration::from_millis((50 + allowance_ms()).into()),
         connection_attempts: 2,
         transmission_attempts: 2,
         ..si_3964r::Config::default()
@@ -38,9 +38,9 @@ fn send_3964r_ends_non_zero_within_its_bound_against_noise() {
         "3964r",
         "send",
         "01",
-        "--qvz-ms",
+        "--ack-delay-ms",
         "100",
-        "--zvz-ms",
+        "--char-delay-ms",
         "50",
         "--connection-attempts",
         "2",
@@ -54,12 +54,13 @@ fn send_3964r_ends_non_zero_within_its_bound_against_noise() {
 #[test]
 fn fetch_rk512_ends_non_zero_within_its_bound_against_noise() {
     let mut config = si_rk512::Config {
-        response_timeout_ms: 200,
+        response_timeout: si_core::Duration::from_millis(200),
         ..si_rk512::Config::default()
     };
     config.link.priority = si_3964r::Priority::High;
-    config.link.ack_delay_ms = 100 + allowance_ms();
-    config.link.char_delay_ms += allowance_ms();
+    config.link.ack_delay = si_core::Duration::from_millis((100 + allowance_ms()).into());
+    config.link.char_delay =
+        config.link.char_delay + si_core::Duration::from_millis(allowance_ms().into());
     let args = [
         "rk512",
         "fetch",
@@ -67,9 +68,9 @@ fn fetch_rk512_ends_non_zero_within_its_bound_against_noise() {
         "10",
         "--count",
         "2",
-        "--qvz-ms",
+        "--ack-delay-ms",
         "100",
-        "--tres-ms",
+        "--response-timeout-ms",
         "200",
     ];
     // A word count of 2 is 4 bytes: one telegram, like 2 bytes.

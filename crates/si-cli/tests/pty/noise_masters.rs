@@ -37,7 +37,7 @@ fn uss_config() -> si_uss::config::MasterConfig {
     use si_uss::frame::PkwWords;
     // `si uss`'s defaults: 9600 8E1, PKW 4 words, PZD 2 words, 20 ms.
     let mut c = si_uss::config::MasterConfig::new(vec![PollEntry::new(1, PkwWords::Four, 2)]);
-    c.pkw_retries = 0;
+    c.retries = 0;
     c
 }
 

@@ -64,7 +64,7 @@ fn send_without_a_partner_fails_with_0703() {
     };
     let a = &pair.a;
     let o = si_command()
-        .args(["--port", a, "3964r", "send", "01", "--qvz-ms", "50"])
+        .args(["--port", a, "3964r", "send", "01", "--ack-delay-ms", "50"])
         .args(["--connection-attempts", "2"])
         .output()
         .expect("run send");

@@ -87,7 +87,16 @@ fn fetch_without_a_partner_fails_with_the_3964r_status() {
     };
     let a = &pair.a;
     let o = si(&[
-        "--port", a, "rk512", "fetch", "--area", "m", "--count", "1", "--qvz-ms", "50",
+        "--port",
+        a,
+        "rk512",
+        "fetch",
+        "--area",
+        "m",
+        "--count",
+        "1",
+        "--ack-delay-ms",
+        "50",
     ]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);

@@ -69,12 +69,19 @@ fn modbus_serve_answers_after_a_flood() {
     assert!(log.contains("request not answered"), "{log}");
 }
 
-/// `si uss <args…> --slave 5 --response-timeout 500 --port <port>`, run to its end.
+/// `si uss <args…> --slave 5 --response-timeout-ms 500 --port <port>`, run to its end.
 fn uss_job(port: &str, args: &[&str]) -> Output {
     si_command()
         .arg("uss")
         .args(args)
-        .args(["--slave", "5", "--response-timeout", "500", "--port", port])
+        .args([
+            "--slave",
+            "5",
+            "--response-timeout-ms",
+            "500",
+            "--port",
+            port,
+        ])
         .output()
         .expect("run si uss")
 }

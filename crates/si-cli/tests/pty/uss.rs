@@ -23,7 +23,7 @@ fn drive(port: &str, address: &str, extra: &[&str]) -> Kill {
     slave
 }
 
-/// `si uss <args…> --slave <address> --response-timeout 500 --port <port>`: success, stdout
+/// `si uss <args…> --slave <address> --response-timeout-ms 500 --port <port>`: success, stdout
 /// and stderr, trimmed.
 fn job(port: &str, address: &str, args: &[&str]) -> (bool, String, String) {
     let o = si_command()
@@ -32,7 +32,7 @@ fn job(port: &str, address: &str, args: &[&str]) -> (bool, String, String) {
         .args([
             "--slave",
             address,
-            "--response-timeout",
+            "--response-timeout-ms",
             "500",
             "--port",
             port,
@@ -65,7 +65,7 @@ fn poll_shows_changing_status_words_from_a_simulated_drive() {
             "2000",
             "--cycles",
             "40",
-            "--response-timeout",
+            "--response-timeout-ms",
             "500",
             "--port",
             a,
@@ -255,7 +255,7 @@ fn poll_with_a_read_sends_task_0_after_it_or_with_pkw_repeat_the_read_again() {
             "4",
             "--read-param",
             "700",
-            "--response-timeout",
+            "--response-timeout-ms",
             "500",
         ]);
         if repeat {
@@ -279,7 +279,7 @@ fn poll_with_a_read_sends_task_0_after_it_or_with_pkw_repeat_the_read_again() {
         .args([
             "--port", a, "uss", "poll", "--slaves", "7,8", "--cycles", "2",
         ])
-        .args(["--response-timeout", "500"])
+        .args(["--response-timeout-ms", "500"])
         .output()
         .expect("run poll");
     assert_eq!(o.status.code(), Some(1));

@@ -131,9 +131,9 @@ fn other_argument_checks_are_usage_errors() {
         // Values a library refuses: the baud rate list, the manual's parameter ranges.
         "--baud 1234 3964r recv",
         "--parity sometimes ascii recv",
-        "--baud 1200 ascii recv --cdt 10",
-        "3964r recv --zvz-ms 0",
-        "rk512 fetch --db 1 --count 1 --tres-ms 0",
+        "--baud 1200 ascii recv --char-delay-ms 10",
+        "3964r recv --char-delay-ms 0",
+        "rk512 fetch --db 1 --count 1 --response-timeout-ms 0",
         "modbus read holding --unit 1 --addr 0 --count 1 --timeout 1",
     ] {
         let args: Vec<&str> = line.split_whitespace().collect();

@@ -57,7 +57,7 @@ fn out_of_range_timer_names_parameter_range_and_value() {
         "3964r",
         "send",
         "01",
-        "--zvz-ms",
+        "--char-delay-ms",
         "5",
     ]);
     assert!(!o.status.success());

@@ -40,6 +40,7 @@
 //!   the latency is unknown to the driver (Windows sets it in the FTDI driver's port
 //!   properties).
 
+mod busy;
 mod info;
 #[cfg(target_os = "linux")]
 mod linux;
@@ -214,6 +215,9 @@ fn open_stream(
     #[cfg(target_os = "linux")]
     let builder = builder.exclusive(false);
     builder.open_native_async().map_err(|e| {
+        if busy::is_lock_failure(&e.description) {
+            return busy::already_open(path);
+        }
         io::Error::new(
             io::Error::from(e.clone()).kind(),
             format!("cannot open {path}: {e}"),

@@ -120,3 +120,24 @@ async fn mark_and_space_parity_are_set_with_cmspar_or_refused_with_the_reason() 
         }
     }
 }
+
+/// A port this program holds is reported as busy, naming the holder, not as "not found"; once
+/// the driver that held it has closed (`Handle::close` returns after the transport is
+/// dropped), it opens again at once.
+#[tokio::test]
+async fn a_port_still_open_is_busy_and_free_again_once_its_driver_has_closed() {
+    let (_master, path) = pty();
+    let settings = SerialSettings::default();
+    let options = PortOptions::default();
+    let first = port::open(&path, &settings, &options).unwrap();
+    let (handle, _task) = spawn(Rx::default(), first, DriverOptions::default());
+    let e = port::open(&path, &settings, &options).unwrap_err();
+    assert_eq!(e.kind(), std::io::ErrorKind::ResourceBusy, "{e}");
+    assert!(
+        e.to_string().contains("port already open by this program"),
+        "{e}"
+    );
+    handle.close().await;
+    let again = port::open(&path, &settings, &options);
+    assert!(again.is_ok(), "{:?}", again.err());
+}

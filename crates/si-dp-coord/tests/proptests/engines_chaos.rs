@@ -148,8 +148,8 @@ proptest! {
         let line = SerialSettings::default();
         let config = |priority| si_3964r::Config {
             priority,
-            char_delay_ms: 20,
-            ack_delay_ms: 50,
+            char_delay: si_core::Duration::from_millis(20),
+            ack_delay: si_core::Duration::from_millis(50),
             ..si_3964r::Config::default()
         };
         let mut sim = Simulator::new(seed).without_trace();

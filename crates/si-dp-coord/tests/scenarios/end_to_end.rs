@@ -205,7 +205,7 @@ fn both_directions_in_turn_3964r() {
 fn section_2_8_partner_transmit_wire_cut_s_send_error_carries_the_3964r_status() {
     let settings = SerialSettings::default();
     let config = si_3964r::Config {
-        ack_delay_ms: 100,
+        ack_delay: si_core::Duration::from_millis(100),
         connection_attempts: 2,
         ..si_3964r::Config::default()
     };

@@ -291,10 +291,11 @@ fn defaults_are_the_manuals() {
     let p = DriverParams::from_toml_str("driver = \"3964r\"\nblock_check = false").unwrap();
     let DriverParams::R3964(r) = &p else { panic!() };
     assert_eq!(
-        r.config.ack_delay_ms, 550,
+        r.config.ack_delay.as_millis(),
+        550,
         "QVZ default without block check"
     );
-    assert_eq!(r.config.char_delay_ms, 220);
+    assert_eq!(r.config.char_delay.as_millis(), 220);
     assert!(r.config.clear_at_startup);
 
     let p = DriverParams::from_toml_str("driver = \"modbus-slave\"").unwrap();

@@ -142,7 +142,7 @@ fn without_an_adapter_each_telegram_is_acknowledged_as_its_bcc_arrives() {
 fn send_with_short_qvz(adapter: UsbAdapter) -> Result<Bytes, Status> {
     let mut r = rig_with(
         SerialSettings::default(),
-        |c| c.link.ack_delay_ms = 10,
+        |c| c.link.ack_delay = si_core::Duration::from_millis(10),
         Some(adapter),
         None,
     );

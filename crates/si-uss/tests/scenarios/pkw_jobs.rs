@@ -8,7 +8,7 @@ use si_sim::{Simulator, StationId, TraceKind};
 use si_uss::config::PkwAfterJob;
 use si_uss::drive::{Drive, DriveConfig, DriveEvent, Parameter};
 use si_uss::frame::{NetData, PkwWords};
-use si_uss::master::{comm_status, Event, Master, ParamRequest, RequestError};
+use si_uss::master::{comm_status, Event, Master, ParamRequest, RequestError, Width};
 use si_uss::status;
 
 /// The master's telegrams on the line, in order.
@@ -38,7 +38,7 @@ fn pair_with(
     let settings = s9600();
     let mut sim = Simulator::new(5);
     let mut cfg = master_config(settings, &[1], false);
-    cfg.pkw_retries = retries;
+    cfg.retries = retries;
     cfg.pkw_after_job = after;
     let m = sim.add_station("master", settings, Master::new(cfg).unwrap());
     let mut dc = DriveConfig::new(settings, 1);
@@ -95,7 +95,7 @@ fn an_absent_drive_ends_the_job_with_node_does_not_answer_after_1_plus_wdh_teleg
 #[test]
 fn response_id_8_is_a_refusal_with_its_own_code_not_an_absent_node() {
     let (mut sim, m, _) = pair_with(20, PkwAfterJob::TaskZero, |d| d.no_pkw_rights = true);
-    let end = last_job(&mut sim, m, ParamRequest::write(1082, 0, 100, false));
+    let end = last_job(&mut sim, m, ParamRequest::write(1082, 0, 100, Width::Word));
     assert!(
         matches!(end, Event::ParameterFailed { status: s, error_number: None, .. } if s == status::PKW_INTERFACE_ERROR),
         "{end:?}"
@@ -107,7 +107,7 @@ fn response_id_8_is_a_refusal_with_its_own_code_not_an_absent_node() {
 #[test]
 fn response_id_7_carries_the_drives_error_number() {
     let (mut sim, m, _) = pair_with(20, PkwAfterJob::TaskZero, |_| {});
-    let end = last_job(&mut sim, m, ParamRequest::write(964, 0, 1, false));
+    let end = last_job(&mut sim, m, ParamRequest::write(964, 0, 1, Width::Word));
     assert!(
         matches!(end, Event::ParameterFailed { status: s, error_number: Some(1), .. } if s == status::PKW_ERROR),
         "{end:?}"
@@ -160,7 +160,11 @@ fn a_last_job_to_a_present_drive_is_one_telegram() {
 #[test]
 fn parameters_above_1999_go_through_the_page_index() {
     let (mut sim, m, d) = pair_with(20, PkwAfterJob::TaskZero, |_| {});
-    let end = last_job(&mut sim, m, ParamRequest::write(20001, 0, 4242, false));
+    let end = last_job(
+        &mut sim,
+        m,
+        ParamRequest::write(20001, 0, 4242, Width::Word),
+    );
     let Event::ParameterDone { response, .. } = end else {
         panic!("{end:?}")
     };
@@ -217,8 +221,12 @@ fn array_writes_use_task_ids_7_and_8() {
             .push(Parameter::dword(2050, 0).array(&[0, 0, 0]));
     });
     for (request, task, reply) in [
-        (ParamRequest::write_array(2010, 1, 3, false), 7, 4),
-        (ParamRequest::write_array(2050, 2, 70_000, true), 8, 5),
+        (ParamRequest::write_array(2010, 1, 3, Width::Word), 7, 4),
+        (
+            ParamRequest::write_array(2050, 2, 70_000, Width::DoubleWord),
+            8,
+            5,
+        ),
     ] {
         assert_eq!(request.task, task);
         sim.with(m, |m, now| m.request_parameter(now, 1, request))
@@ -244,7 +252,7 @@ fn signed_words_are_written_and_read_as_twos_complement() {
     let (mut sim, m, d) = pair(s9600());
     let minus5 = u32::from((-5i16) as u16);
     sim.with(m, |m, now| {
-        m.request_parameter(now, 1, ParamRequest::write(1120, 0, minus5, false))
+        m.request_parameter(now, 1, ParamRequest::write(1120, 0, minus5, Width::Word))
     })
     .unwrap();
     run_to(&mut sim, m, |e| matches!(e, Event::ParameterDone { .. }));
@@ -263,7 +271,7 @@ fn signed_words_are_written_and_read_as_twos_complement() {
         m.request_parameter(
             now,
             1,
-            ParamRequest::write(1120, 0, u32::from((-2000i16) as u16), false),
+            ParamRequest::write(1120, 0, u32::from((-2000i16) as u16), Width::Word),
         )
     })
     .unwrap();
@@ -281,7 +289,7 @@ fn signed_words_are_written_and_read_as_twos_complement() {
 fn after_a_write(after: PkwAfterJob) -> (Vec<(u8, u16)>, usize) {
     let (mut sim, m, d) = pair_with(20, after, |_| {});
     sim.with(m, |m, now| {
-        m.request_parameter(now, 1, ParamRequest::write(1082, 0, 120, false))
+        m.request_parameter(now, 1, ParamRequest::write(1082, 0, 120, Width::Word))
     })
     .unwrap();
     run_to(&mut sim, m, |e| matches!(e, Event::ParameterDone { .. }));

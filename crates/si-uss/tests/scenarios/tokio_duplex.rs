@@ -6,7 +6,7 @@ use si_core::driver::{spawn, DriverOptions};
 use si_uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_uss::drive::{Drive, DriveConfig};
 use si_uss::frame::PkwWords;
-use si_uss::master::{Event, ParamRequest};
+use si_uss::master::{Event, ParamRequest, Width};
 use si_uss::status;
 use si_uss::tokio::{Error, Handle};
 
@@ -30,16 +30,23 @@ async fn parameters_and_pzd_over_a_duplex_pipe() {
     let mut m = Handle::spawn(config, a).unwrap();
 
     assert_eq!(m.read_parameter(4, 700, 0).await.unwrap(), 5);
-    assert_eq!(m.write_parameter(4, 1082, 0, 77, false).await.unwrap(), 77);
+    assert_eq!(
+        m.write_parameter(4, 1082, 0, 77, Width::Word)
+            .await
+            .unwrap(),
+        77
+    );
     let e = m
-        .parameter(4, ParamRequest::write(964, 0, 1, false))
+        .parameter(4, ParamRequest::write(964, 0, 1, Width::Word))
         .await
         .unwrap_err();
     assert_eq!(
         e,
         Error::Failed {
             status: status::PKW_ERROR,
-            error_number: Some(1)
+            error_number: Some(1),
+            address: 4,
+            number: 964
         }
     );
     assert!(e.to_string().contains("error number 1"), "{e}");

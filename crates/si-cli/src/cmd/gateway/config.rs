@@ -122,7 +122,7 @@ pub struct LineFile {
     /// `rk512`, `3964r`: 3964R with block check (default), or plain 3964.
     pub block_check: Option<bool>,
     /// `rk512`, `3964r`: acknowledgement delay time QVZ (ms).
-    pub qvz_ms: Option<u32>,
+    pub ack_delay_ms: Option<u32>,
     /// `rk512`: the partner's CPU number 1–4 (header byte 10).
     pub cpu: Option<u8>,
     /// `rk512`: header byte 6 counts `words` (default) or `bytes`.

@@ -113,13 +113,13 @@ impl BlockLine {
                 let words: Vec<u16> = values.iter().collect();
                 let block = block(&words, self.max_block_len)?;
                 if let Err(e) = sender.send(block).await {
-                    return Err(match e {
-                        Error::Status(s) => {
+                    return Err(match e.status() {
+                        Some(s) if !matches!(e, Error::Stopped(_)) => {
                             let s = si_3964r::status::lookup(s.code());
                             tracing::debug!("3964(R) send: {s}");
                             status_exception(s.code())
                         }
-                        Error::Config(_) | Error::Stopped(_) => GATEWAY_PATH_UNAVAILABLE,
+                        _ => GATEWAY_PATH_UNAVAILABLE,
                     });
                 }
                 let quantity = words.len() as u16;
@@ -159,18 +159,18 @@ async fn serve_until_closed(
         tokio::select! {
             biased;
             why = &mut closed => break why,
-            received = link.next() => match received {
-                Some(Ok(block)) => {
+            received = link.recv() => match received {
+                Ok(block) => {
                     let mut l = lock(&latest);
                     l.count = l.count.wrapping_add(1);
                     l.block = block.to_vec();
                 }
-                Some(Err(s)) => {
-                    let s = si_3964r::status::lookup(s.code());
+                Err(Error::Failed { status }) => {
+                    let s = si_3964r::status::lookup(status.code());
                     tracing::debug!("3964(R) reception: {s}");
                 }
                 // The link stopped: its port is closing.
-                None => break (&mut closed).await,
+                Err(_) => break (&mut closed).await,
             },
         }
     };
@@ -195,7 +195,6 @@ fn block(words: &[u16], max_block_len: usize) -> Result<Vec<u8>, u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use si_core::SerialSettings;
 
     #[test]
     fn the_length_word_cuts_the_block() {
@@ -229,18 +228,17 @@ mod tests {
     #[tokio::test]
     async fn blocks_are_input_registers_and_a_register_write_sends_one() {
         let (a, b) = tokio::io::duplex(4096);
-        let settings = SerialSettings::default();
         let high = high();
         let line = BlockLine::new(200);
         let (port, closed) = reopen::watch(Box::new(a));
         let first = Opened {
-            link: Handle::spawn(high, settings, port).unwrap(),
+            link: Handle::spawn(high, port).unwrap(),
             closed,
         };
         let never = async || Err(CliError::new("an in-memory pipe"));
         tokio::spawn(line.supervise(LineLog::test(1), Ok(first), never));
         until_up(&line, true).await;
-        let mut partner = Handle::spawn(si_3964r::Config::default(), settings, b).unwrap();
+        let mut partner = Handle::spawn(si_3964r::Config::default(), b).unwrap();
         // Nothing yet: count and length 0.
         assert_eq!(
             ask(&line, &[1, 0x04, 0, 0, 0, 2]).await,
@@ -276,11 +274,10 @@ mod tests {
     /// the first second of backoff, and the latest block and its count are still there.
     #[tokio::test(start_paused = true)]
     async fn a_reopened_line_keeps_the_latest_block() {
-        let settings = SerialSettings::default();
         let (a, b) = tokio::io::duplex(4096);
         let (port, closed) = reopen::watch(Box::new(a));
         let first = Opened {
-            link: Handle::spawn(high(), settings, port).unwrap(),
+            link: Handle::spawn(high(), port).unwrap(),
             closed,
         };
         let (ends, mut partner_ends) = tokio::sync::mpsc::unbounded_channel();
@@ -288,15 +285,14 @@ mod tests {
             let (a, b) = tokio::io::duplex(4096);
             let (port, closed) = reopen::watch(Box::new(a));
             let _ = ends.send(b);
-            let link =
-                Handle::spawn(high(), settings, port).map_err(|e| CliError::new(e.to_string()))?;
+            let link = Handle::spawn(high(), port).map_err(|e| CliError::new(e.to_string()))?;
             Ok(Opened { link, closed })
         };
         let line = BlockLine::new(200);
         let log = LineLog::test(1);
         let stats = Arc::clone(&log.stats);
         tokio::spawn(line.supervise(log, Ok(first), open));
-        let partner = Handle::spawn(si_3964r::Config::default(), settings, b).unwrap();
+        let partner = Handle::spawn(si_3964r::Config::default(), b).unwrap();
         until_up(&line, true).await;
         partner.send(vec![7, 8]).await.unwrap();
         let latest = [0x04, 6, 0, 1, 0, 2, 7, 8];
@@ -312,7 +308,7 @@ mod tests {
         assert_eq!(ask(&line, &write).await, [0x90, 0x0A]);
 
         let b = partner_ends.recv().await.expect("reopened");
-        let mut partner = Handle::spawn(si_3964r::Config::default(), settings, b).unwrap();
+        let mut partner = Handle::spawn(si_3964r::Config::default(), b).unwrap();
         until_up(&line, true).await;
         assert_eq!(ask(&line, &read).await, latest, "kept across the reopening");
         assert_eq!(ask(&line, &write).await, [0x10, 0, 0, 0, 2]);

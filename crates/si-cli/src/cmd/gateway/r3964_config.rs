@@ -1,6 +1,6 @@
 //! The keys of a `kind = "3964r"` line: the 3964(R) link only (`priority`, default `high`;
-//! `block_check`, default `true`; `qvz_ms`, 10 … 655 350, default 2000 or 550 without block
-//! check: [ET200S SI] §2.7, Fig. 2-16, Table 2-11), with the port keys every line has. The
+//! `block_check`, default `true`; `ack_delay_ms`, 10 … 655 350, default 2000 or 550 without
+//! block check: [ET200S SI] §2.7, Fig. 2-16, Table 2-11), with the port keys every line has. The
 //! link's own bounds (block length 200 bytes, attempts) keep the manual's defaults.
 
 use super::config::{refuse_keys, Device, Kind, Line, LineFile};
@@ -48,13 +48,13 @@ mod tests {
         let c = check("").unwrap();
         assert_eq!(c.priority, si_3964r::Priority::High);
         assert!(c.block_check);
-        let c = check("priority = \"low\"\nblock_check = false\nqvz_ms = 300\n").unwrap();
+        let c = check("priority = \"low\"\nblock_check = false\nack_delay_ms = 300\n").unwrap();
         assert_eq!(
-            (c.priority, c.block_check, c.ack_delay_ms),
+            (c.priority, c.block_check, c.ack_delay.as_millis()),
             (si_3964r::Priority::Low, false, 300)
         );
         for (keys, want) in [
-            ("qvz_ms = 1\n", "(QVZ) = 1 ms"),
+            ("ack_delay_ms = 1\n", "(QVZ) = 1 ms"),
             (
                 "cpu = 1\n",
                 "cpu = set on a 3964r line is out of range: a key of rk512 lines",
@@ -68,14 +68,14 @@ mod tests {
             let e = check(keys).unwrap_err();
             assert!(e.contains(want), "{keys}: {e}");
         }
-        let e = File::from_toml("[[line]]\ndevice = \"x\"\nunits = \"1\"\nqvz_ms = 100\n")
+        let e = File::from_toml("[[line]]\ndevice = \"x\"\nunits = \"1\"\nack_delay_ms = 100\n")
             .unwrap()
             .check()
             .unwrap_err()
             .to_string();
         assert!(
             e.contains(
-                "qvz_ms = set on a modbus-rtu line is out of range: a key of rk512 and 3964r lines"
+                "ack_delay_ms = set on a modbus-rtu line is out of range: a key of rk512 and 3964r lines"
             ),
             "{e}"
         );

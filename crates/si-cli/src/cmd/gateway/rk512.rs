@@ -366,7 +366,7 @@ pub(super) mod tests {
         memory.memory.dbs.insert(6, db6);
         let serving = Station::serving(Config::default(), settings, &memory).unwrap();
         let serving = Handle::spawn_engine(serving, b);
-        (Handle::spawn(high, settings, a).unwrap(), serving)
+        (Handle::spawn(high, a).unwrap(), serving)
     }
 
     /// A gateway station and a partner with DB6 (64 bytes).

@@ -7,7 +7,7 @@
 //! | `role` | `active`, `passive` | `active` | si's own |
 //! | `priority` | `high`, `low` | `high` active, `low` passive (the partners must differ) | [ET200S SI] §2.7, Fig. 2-16 |
 //! | `block_check` | bool | `true` (3964R; `false`: plain 3964, QVZ default 550 ms) | [ET200S SI] §2.7, Table 2-11 |
-//! | `qvz_ms` | 10 … 655 350 | 2000 (550 without block check) | Table 2-11 |
+//! | `ack_delay_ms` | 10 … 655 350 | 2000 (550 without block check) | Table 2-11 |
 //! | `response_timeout_ms` | 10 … 655 350 | 10 000: TRES | [CP 341] `[derived]` |
 //! | `cpu` | 1 … 4 | none (byte 10 high nibble FH) | [CP 341] §2.2.3, Table 2-1, `[derived]` |
 //! | `dw_unit` | `words`, `bytes` | `words` | [Public RK 512] |
@@ -102,7 +102,7 @@ impl LineFile {
             &[
                 ("priority", self.priority.is_some()),
                 ("block_check", self.block_check.is_some()),
-                ("qvz_ms", self.qvz_ms.is_some()),
+                ("ack_delay_ms", self.ack_delay_ms.is_some()),
             ],
             "a key of rk512 and 3964r lines",
             value,
@@ -122,7 +122,7 @@ impl LineFile {
     }
 
     /// The 3964(R) link of an `rk512` or `3964r` line: `priority` (default `default`),
-    /// `block_check`, `qvz_ms` (checked with the rest of the configuration).
+    /// `block_check`, `ack_delay_ms` (checked with the rest of the configuration).
     pub(super) fn link(&self, default: si_3964r::Priority) -> Result<si_3964r::Config, RangeError> {
         let mut link = si_3964r::Config::default();
         if self.block_check == Some(false) {
@@ -134,8 +134,8 @@ impl LineFile {
             Some("high") => si_3964r::Priority::High,
             Some(other) => return Err(RangeError::new("priority", "high or low", "", other)),
         };
-        if let Some(q) = self.qvz_ms {
-            link.ack_delay_ms = q;
+        if let Some(q) = self.ack_delay_ms {
+            link.ack_delay = si_core::Duration::from_millis(q.into());
         }
         Ok(link)
     }
@@ -165,7 +165,7 @@ impl LineFile {
             ..Config::default()
         };
         if let Some(t) = self.response_timeout_ms {
-            config.response_timeout_ms = t;
+            config.response_timeout = si_core::Duration::from_millis(t.into());
         }
         config.dw_unit = match self.dw_unit.as_deref() {
             None | Some("words") => DwUnit::Words,
@@ -246,7 +246,8 @@ impl LineFile {
             memory,
         }));
         Ok(Line {
-            response_timeout_ms: config.response_timeout_ms,
+            response_timeout_ms: u32::try_from(config.response_timeout.as_millis())
+                .unwrap_or(u32::MAX),
             queue,
             pause: Duration::from_millis(pause_ms),
             ..self.port_line(name, device, units, kind)
@@ -341,7 +342,7 @@ mod tests {
         assert_eq!(r.role, Role::Active);
         assert_eq!(r.config.link.priority, si_3964r::Priority::High);
         assert!(r.config.link.block_check);
-        assert_eq!(r.config.response_timeout_ms, 10_000);
+        assert_eq!(r.config.response_timeout.as_millis(), 10_000);
         assert_eq!(r.conversion, ConversionDb::EXAMPLE);
         assert_eq!((r.refresh_every, r.refresh.len()), (None, 0));
         assert_eq!(r.coordination, Coordination::NONE);
@@ -350,15 +351,15 @@ mod tests {
     #[test]
     fn keys_are_read_into_the_station_and_the_image() {
         let r = check(
-            "priority = \"low\"\nblock_check = false\nqvz_ms = 100\nresponse_timeout_ms = 500\n\
+            "priority = \"low\"\nblock_check = false\nack_delay_ms = 100\nresponse_timeout_ms = 500\n\
              cpu = 2\nrefresh_ms = 250\nrefresh = [\"DB6:0-99\", \"MB500-531\", \"T40-41\"]\n\
              [line.conversion]\ndb_fc03_06_16 = 10\n",
         )
         .unwrap();
         assert_eq!(r.config.link.priority, si_3964r::Priority::Low);
         assert!(!r.config.link.block_check);
-        assert_eq!(r.config.link.ack_delay_ms, 100);
-        assert_eq!(r.config.response_timeout_ms, 500);
+        assert_eq!(r.config.link.ack_delay.as_millis(), 100);
+        assert_eq!(r.config.response_timeout.as_millis(), 500);
         assert_eq!(r.coordination, Coordination::cpu_only(2));
         assert_eq!(r.conversion.db_fc03_06_16, 10);
         assert_eq!(r.conversion.db_max, 0, "a given table starts from zeros");
@@ -387,7 +388,7 @@ mod tests {
                 "role = both is out of range: active or passive",
             ),
             ("priority = \"mid\"\n", "priority = mid"),
-            ("qvz_ms = 5\n", "(QVZ) = 5 ms"),
+            ("ack_delay_ms = 5\n", "(QVZ) = 5 ms"),
             ("response_timeout_ms = 1\n", "(TRES) = 1 ms"),
             ("cpu = 5\n", "cpu = 5 is out of range: 1 … 4"),
             ("dw_unit = \"bits\"\n", "dw_unit = bits"),

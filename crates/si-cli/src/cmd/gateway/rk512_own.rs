@@ -218,7 +218,7 @@ mod tests {
     fn cp(end: tokio::io::DuplexStream) -> Handle {
         let mut high = si_rk512::Config::default();
         high.link.priority = si_3964r::Priority::High;
-        Handle::spawn(high, si_core::SerialSettings::default(), end).unwrap()
+        Handle::spawn(high, end).unwrap()
     }
 
     /// `request` through the line's queue: the answer's PDU.

@@ -34,7 +34,7 @@ use crate::error::CliError;
 use si_modbus::frame::Request;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::serve;
-use si_uss::master::ParamRequest;
+use si_uss::master::{ParamRequest, Width};
 use si_uss::tokio::{Error, Handle};
 use std::future::Future;
 use std::sync::{Arc, Mutex};
@@ -277,12 +277,12 @@ fn job(window: &[u16; WINDOW_LEN]) -> Option<ParamRequest> {
     let index = u8::try_from(index).ok()?;
     match command {
         1 => Some(ParamRequest::read(pnu, index)),
-        2 => Some(ParamRequest::write(pnu, index, u32::from(low), false)),
+        2 => Some(ParamRequest::write(pnu, index, u32::from(low), Width::Word)),
         3 => Some(ParamRequest::write(
             pnu,
             index,
             u32::from(high) << 16 | u32::from(low),
-            true,
+            Width::DoubleWord,
         )),
         _ => None,
     }
@@ -309,9 +309,12 @@ mod tests {
         let read = job(&[700, 0, 0, 0, 1, 0, 0, 0]).unwrap();
         assert_eq!(read, ParamRequest::read(700, 0));
         let word = job(&[1082, 2, 9, 120, 2, 0, 0, 0]).unwrap();
-        assert_eq!(word, ParamRequest::write(1082, 2, 120, false));
+        assert_eq!(word, ParamRequest::write(1082, 2, 120, Width::Word));
         let dword = job(&[1082, 0, 1, 2, 3, 0, 0, 0]).unwrap();
-        assert_eq!(dword, ParamRequest::write(1082, 0, 0x0001_0002, true));
+        assert_eq!(
+            dword,
+            ParamRequest::write(1082, 0, 0x0001_0002, Width::DoubleWord)
+        );
         assert_eq!(job(&[700, 0, 0, 0, 4, 0, 0, 0]), None);
         assert_eq!(job(&[700, 256, 0, 0, 1, 0, 0, 0]), None);
     }

@@ -76,7 +76,7 @@ impl LineFile {
             .unwrap_or(RESPONSE_DELAY_MAX.as_millis() as u32);
         RangeError::check("response_timeout_ms", (1, 10_000), " ms", timeout_ms)?;
         master.response_timeout = si_core::Duration::from_millis(timeout_ms.into());
-        master.pkw_retries = self.retries.map_or(20, u16::from);
+        master.retries = self.retries.map_or(20, u16::from);
         // `local_echo` is the port's (the line opens with it and drops our own bytes there);
         // the master dropping them again would eat the first bytes of each answer.
         master.local_echo = false;

@@ -186,7 +186,7 @@ impl MonitorArgs {
                     settings,
                     end,
                     // The smallest delay the link accepts at this rate (Table 2-9, 4 ms floor).
-                    char_delay_ms: si_ascii::config::min_char_delay_ms(settings.baud()),
+                    char_delay: si_ascii::config::min_char_delay(settings.baud()),
                     flow_control: if self.no_xon_xoff {
                         FlowControl::None
                     } else {
