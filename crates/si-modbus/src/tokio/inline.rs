@@ -1,0 +1,240 @@
+//! [`InlineMaster`]: the RTU master engine driven in the caller's own future, for a
+//! request/response client that owns its port. No task, no channel: a job writes the request,
+//! reads the response and fires the engine's timers inside the `await` that asked for it.
+//!
+//! What it leaves out, compared with the driver-backed [`Master`](super::Master): the driver's
+//! precise timer (deadlines wait on tokio's timer, which fires up to about 2 ms late, so with
+//! the module's [`FrameEnd::Gap`](crate::FrameEnd) a response is recognised that much later;
+//! [`FrameEnd::Length`](crate::FrameEnd) ends it at once), RS-485 direction control by RTS,
+//! local-echo suppression and decoding of `PARMRK` line-error marks (it never calls
+//! [`Transport::attach`]), and events between jobs (nothing reads the port while no job runs:
+//! what arrived meanwhile is read, and reported as 0E50H, at the next job). Use it on pipes, TCP
+//! device servers and ports that switch their transceiver themselves; use the driver-backed
+//! master where the line needs the rest.
+
+use super::client::{unexpected, Client};
+use super::error::{Error, Job};
+use super::master::Diagnostics;
+use crate::config::MasterConfig;
+use crate::frame::{Request, Response};
+use crate::master::{self, Attempts, Completion, MasterEvent};
+use si_core::driver::Transport;
+use si_core::{Engine, Instant, Output, Status};
+use std::future::Future;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::sync::Mutex;
+
+/// Bytes read from the port at once: more than the longest ADU (264 bytes).
+const RX_CHUNK: usize = 512;
+
+/// An RTU master whose engine runs in the caller's future. See the [module docs](self).
+///
+/// Methods take `&self`; one job at a time ([Modbus/USS] §4.2): concurrent calls wait for the
+/// port's lock. A job whose future is dropped before it ended is run to its end (its outcome
+/// dropped) by the next call, before that call's own request goes out.
+pub struct InlineMaster<T: Transport> {
+    inner: Mutex<Inner<T>>,
+}
+
+struct Inner<T> {
+    engine: master::Master,
+    port: T,
+    /// The engine's time zero.
+    origin: tokio::time::Instant,
+    rx: [u8; RX_CHUNK],
+    /// When to report tx-done: the write has completed and the bytes' character time has
+    /// passed since it began (a UART still shifts bytes out when `write` returns).
+    tx_done: Option<Instant>,
+    diagnostics: Diagnostics,
+    /// The port failed or closed: every later job fails with [`Error::Stopped`].
+    stopped: bool,
+}
+
+impl<T: Transport> InlineMaster<T> {
+    /// A master on `transport`.
+    pub fn new(config: MasterConfig, transport: T) -> Result<Self, Error> {
+        Ok(Self::with_engine(master::Master::new(config)?, transport))
+    }
+
+    /// A master with an engine built by the caller (for options beyond [`MasterConfig`], such
+    /// as [`master::Master::with_frame_end`]).
+    pub fn with_engine(engine: master::Master, transport: T) -> Self {
+        InlineMaster {
+            inner: Mutex::new(Inner {
+                engine,
+                port: transport,
+                origin: tokio::time::Instant::now(),
+                rx: [0; RX_CHUNK],
+                tx_done: None,
+                diagnostics: Diagnostics::default(),
+                stopped: false,
+            }),
+        }
+    }
+
+    /// Send any request and wait for its completion (a broadcast completes after the
+    /// turnaround delay with no response).
+    pub async fn request(&self, unit: u8, request: &Request<'_>) -> Result<Completion, Error> {
+        self.inner.lock().await.run(unit, request).await
+    }
+
+    /// [`request`](Self::request), and what the job's attempts met ([`Attempts`]).
+    pub async fn request_with_attempts(
+        &self,
+        unit: u8,
+        request: &Request<'_>,
+    ) -> (Result<Completion, Error>, Attempts) {
+        let mut inner = self.inner.lock().await;
+        let result = inner.run(unit, request).await;
+        let attempts = match result {
+            Err(Error::Refused { .. } | Error::Stopped) => Attempts::default(),
+            _ => inner.engine.attempts(),
+        };
+        (result, attempts)
+    }
+
+    /// Line diagnostics met during jobs outside their responses (0E50H, line errors), oldest
+    /// first; taking them empties the list.
+    pub async fn take_diagnostics(&self) -> Vec<Status> {
+        self.inner.lock().await.diagnostics.take()
+    }
+
+    /// Look at the engine (counters, state) between jobs.
+    pub async fn with_engine_ref<R>(&self, f: impl FnOnce(&master::Master) -> R) -> R {
+        f(&self.inner.lock().await.engine)
+    }
+
+    /// Shut the port down and give it up; the port is released when this returns.
+    pub async fn close(self) -> Result<(), Error> {
+        let mut inner = self.inner.into_inner();
+        inner.port.shutdown().await?;
+        Ok(())
+    }
+}
+
+impl<T: Transport> Inner<T> {
+    fn now(&self) -> Instant {
+        let elapsed = self.origin.elapsed();
+        Instant::from_micros(u64::try_from(elapsed.as_micros()).unwrap_or(u64::MAX))
+    }
+
+    fn at(&self, instant: Instant) -> tokio::time::Instant {
+        self.origin + std::time::Duration::from_micros(instant.as_micros())
+    }
+
+    async fn run(&mut self, unit: u8, request: &Request<'_>) -> Result<Completion, Error> {
+        let job = Job::of(unit, request);
+        if self.stopped {
+            return Err(Error::Stopped);
+        }
+        // A job abandoned by a dropped future runs to its end first (its outcome is nobody's).
+        while self.engine.is_busy() {
+            let _abandoned = self.drive(None).await?;
+        }
+        let now = self.now();
+        let id = self
+            .engine
+            .request(now, unit, request)
+            .map_err(|reason| Error::Refused { job, reason })?;
+        match self.drive(Some(id)).await? {
+            Ok(c) => Ok(c),
+            Err(status) => Err(Error::failed(job, status)),
+        }
+    }
+
+    /// Run the engine until the running job ends: its outcome (`Ok(Err(status))` for a failed
+    /// job); `Err` if the port failed.
+    async fn drive(
+        &mut self,
+        id: Option<si_core::job::JobId>,
+    ) -> Result<Result<Completion, Status>, Error> {
+        let result = self.drive_inner(id).await;
+        if matches!(result, Err(Error::Stopped | Error::Io(_))) {
+            self.stopped = true;
+        }
+        result
+    }
+
+    async fn drive_inner(
+        &mut self,
+        id: Option<si_core::job::JobId>,
+    ) -> Result<Result<Completion, Status>, Error> {
+        let sleep = tokio::time::sleep_until(self.origin);
+        tokio::pin!(sleep);
+        loop {
+            let wait = loop {
+                match self.engine.poll_output() {
+                    Output::Transmit(bytes) => {
+                        let start = self.now();
+                        self.port.write_all(&bytes).await?;
+                        let settings = self.engine.config().line.settings;
+                        self.tx_done = Some(start + settings.chars_time(bytes.len() as u64));
+                    }
+                    Output::SetSignals(update) => self.port.set_signals(update)?,
+                    Output::Event(MasterEvent::Diagnostic(s)) => self.diagnostics.keep(s),
+                    Output::Event(MasterEvent::Completed(c)) => {
+                        if id.is_none_or(|id| self.engine.outcome(id).is_some()) {
+                            return Ok(Ok(c));
+                        }
+                    }
+                    Output::Event(MasterEvent::Failed { status, .. }) => {
+                        if id.is_none_or(|id| self.engine.outcome(id).is_some()) {
+                            return Ok(Err(status));
+                        }
+                    }
+                    Output::Wait(deadline) => break deadline,
+                }
+            };
+            let now = self.now();
+            if self.tx_done.is_some_and(|t| t <= now) {
+                self.tx_done = None;
+                self.engine.handle_tx_done(now);
+                continue;
+            }
+            if wait.is_some_and(|d| d <= now) {
+                self.engine.handle_timeout(now);
+                continue;
+            }
+            let next = Instant::earliest(wait, self.tx_done);
+            if let Some(next) = next {
+                let at = self.at(next);
+                sleep.as_mut().reset(at);
+            }
+            tokio::select! {
+                biased;
+                read = self.port.read(&mut self.rx) => {
+                    let n = read?;
+                    if n == 0 {
+                        return Err(Error::Stopped);
+                    }
+                    let now = self.now();
+                    self.engine.handle_rx(now, &self.rx[..n]);
+                }
+                () = &mut sleep, if next.is_some() => {
+                    let now = self.now();
+                    if self.tx_done.is_some_and(|t| t <= now) {
+                        self.tx_done = None;
+                        self.engine.handle_tx_done(now);
+                    } else {
+                        self.engine.handle_timeout(now);
+                    }
+                }
+            }
+        }
+    }
+}
+
+impl<T: Transport> Client for InlineMaster<T> {
+    fn exchange<R: Send>(
+        &self,
+        unit: u8,
+        request: &Request<'_>,
+        pick: impl FnOnce(Option<Response<'_>>) -> Option<R> + Send,
+    ) -> impl Future<Output = Result<R, Error>> + Send {
+        async move {
+            let c = self.request(unit, request).await?;
+            pick(c.response()).ok_or_else(|| unexpected(unit, request))
+        }
+    }
+}
+
