@@ -15,6 +15,7 @@
 use si_serial::core::port::{open, PortOptions};
 use si_serial::core::SerialSettings;
 use si_serial::uss::config::{MasterConfig as UssConfig, PollEntry};
+use si_serial::modbus::tokio::Client as _; // Modbus function codes (RTU and TCP alike)
 use si_serial::{modbus, r3964, uss};
 use std::error::Error;
 
@@ -27,7 +28,7 @@ async fn main() -> Result<(), Box<dyn Error>> {
     let mb = modbus::MasterConfig::default();
     let uss = UssConfig::new(vec![PollEntry::new(3, uss::frame::PkwWords::Four, 2)]);
     let link = r3964::tokio::Handle::spawn(Default::default(), line, open(&port(1)?, &line, &o)?)?;
-    let mut plc = modbus::tokio::Master::spawn(mb, open(&port(2)?, &mb.line.settings, &o)?)?;
+    let plc = modbus::tokio::Master::spawn(mb, open(&port(2)?, &mb.line.settings, &o)?)?;
     let drives = uss::tokio::Handle::spawn(uss.clone(), open(&port(3)?, &uss.settings, &o)?)?;
     link.send(&b"hello"[..]).await?;
     println!("3964(R): sent 5 bytes");

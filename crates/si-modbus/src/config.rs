@@ -285,8 +285,9 @@ impl MasterConfig {
             errors.push(ConfigError::new(
                 "response time",
                 "50 … 655000 ms",
-                "",
-                self.response_timeout,
+                " ms",
+                // "49" or "49.500": Duration's Display without its unit.
+                self.response_timeout.to_string().trim_end_matches(" ms"),
                 status::INVALID_TIMEOUT_OR_ADDRESS,
             ));
         }

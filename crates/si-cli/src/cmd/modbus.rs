@@ -278,7 +278,7 @@ fn master_config(conn: &Connection, o: &MasterOptions) -> Result<MasterConfig, C
             o.framing.char_delay_multiplier,
             &o.framing,
         )?,
-        response_timeout_ms: o.timeout,
+        response_timeout: si_core::Duration::from_millis(o.timeout.into()),
         retries: o.retries,
         ..MasterConfig::default()
     };
@@ -787,7 +787,7 @@ fn rig(o: &SimOptions, timeout_ms: u32) -> Result<Rig, CliError> {
     let mut sim = Simulator::new(o.seed);
     let master = Master::new(MasterConfig {
         line,
-        response_timeout_ms: timeout_ms,
+        response_timeout: si_core::Duration::from_millis(timeout_ms.into()),
         ..MasterConfig::default()
     })?;
     let slave = Slave::new(SlaveConfig { line, address: 1 }, SimaticStore::example())?;

@@ -26,7 +26,7 @@ fn ends_within(args: &[&str], bound: Duration) {
 
 fn modbus_bound() -> Duration {
     let config = si_modbus::MasterConfig {
-        response_timeout_ms: 500,
+        response_timeout: si_core::Duration::from_millis(500),
         ..si_modbus::MasterConfig::default()
     };
     Duration::from_micros(config.job_bound().as_micros())

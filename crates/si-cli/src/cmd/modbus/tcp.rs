@@ -19,7 +19,8 @@ use crate::error::CliError;
 use clap::Args;
 use si_modbus::frame::Request;
 use si_modbus::master::Master;
-use si_modbus::tokio::tcp::{Client, Error};
+use si_modbus::tokio::tcp::{Client, ClientConfig};
+use si_modbus::tokio::Error;
 use std::time::Duration;
 
 /// `--modbus-tcp`.
@@ -50,7 +51,9 @@ impl ModbusTcp {
         };
         refuse_serial_line(conn);
         let timeout = Duration::from_millis(u64::from(timeout_ms));
-        let client = open(server, timeout).await.map_err(CliError::new)?;
+        let client = open(server, timeout, retries)
+            .await
+            .map_err(CliError::new)?;
         Ok(Some(TcpLine {
             client: Some(client),
             retries,
@@ -61,14 +64,18 @@ impl ModbusTcp {
     }
 }
 
-/// Connect to `server` within `timeout`; the error says why, naming the server.
-async fn open(server: &str, timeout: Duration) -> Result<Client, String> {
+/// Connect to `server` within `timeout`; the error says why, naming the server. Each answer is
+/// waited for `timeout`, and a request without one is sent again `retries` times.
+async fn open(server: &str, timeout: Duration, retries: u8) -> Result<Client, String> {
     let cannot = |why: String| format!("cannot connect to {server}: {why}");
-    let client = tokio::time::timeout(timeout, Client::connect(server))
+    let config = ClientConfig {
+        response_timeout: timeout.into(),
+        retries,
+    };
+    tokio::time::timeout(timeout, Client::connect_with(config, server))
         .await
         .map_err(|_| cannot(format!("no connection within {timeout:?}")))?
-        .map_err(|e| cannot(e.to_string()))?;
-    Ok(client.with_timeout(timeout))
+        .map_err(|e| cannot(e.to_string()))
 }
 
 /// The usage error (exit 2) for `--modbus-tcp` with a serial line or a line recording. Clap's
@@ -125,7 +132,9 @@ impl Line for TcpLine {
         let client = match &mut self.client {
             Some(client) => client,
             None => {
-                let client = open(&self.server, self.timeout).await.map_err(|why| {
+                let client = open(&self.server, self.timeout, self.retries)
+                    .await
+                    .map_err(|why| {
                     JobError::Line(LineFailure {
                         kind: Kind::Other,
                         status: None,
@@ -135,16 +144,13 @@ impl Line for TcpLine {
                 self.client.insert(client)
             }
         };
-        let mut retries = self.retries;
-        let answer = loop {
-            match client.request(unit, request).await {
-                Err(Error::Timeout(_)) if retries > 0 => retries -= 1,
-                result => break result,
-            }
-        };
+        let answer = client.request_adu(unit, request).await;
         let adu = answer.map_err(|e| self.failed(e))?;
-        // `request` checked that the answer decodes.
-        let (_, response) = adu.decode_response().map_err(|e| self.failed(e.into()))?;
+        // `request_adu` checked that the answer decodes.
+        let job = si_modbus::tokio::Job::of(unit, request);
+        let (_, response) = adu
+            .decode_response()
+            .map_err(|source| self.failed(Error::Decode { job, source }))?;
         report.answer(unit, *request, Some(response));
         Ok(())
     }
@@ -156,9 +162,13 @@ impl TcpLine {
     /// the next job connects again.
     fn failed(&mut self, e: Error) -> JobError {
         let kind = match e {
-            Error::Exception { .. } => Kind::Exception,
-            Error::Timeout(_) => Kind::Timeout,
-            Error::Mismatch { .. } | Error::Decode(_) | Error::Response(_) => Kind::Other,
+            Error::Failed {
+                exception: Some(_), ..
+            } => Kind::Exception,
+            Error::Failed { status, .. } if status == si_modbus::status::RESPONSE_TIMEOUT => {
+                Kind::Timeout
+            }
+            Error::Failed { .. } | Error::Decode { .. } => Kind::Other,
             _ if self.reconnect => {
                 self.client = None;
                 return JobError::Line(LineFailure {
@@ -172,7 +182,11 @@ impl TcpLine {
             }
             _ => return JobError::Fatal(CliError::new(format!("{}: {e}", self.server))),
         };
-        let status = e.status();
+        // A gateway exception (0AH, 0BH) has no STATUS of the module's: shown by its name.
+        let gateway = e
+            .exception_code()
+            .is_some_and(|c| si_modbus::ExceptionCode::from_u8(c).is_none());
+        let status = e.status().filter(|_| !gateway);
         JobError::Line(LineFailure {
             kind,
             status,
