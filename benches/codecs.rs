@@ -377,7 +377,11 @@ fn modbus_roundtrip_on(c: &mut Criterion, group: &str, rt: &tokio::runtime::Runt
             bench.iter_custom(|iters| {
                 timed(rt, iters, || async {
                     let mut ctx = ctx.borrow_mut();
-                    ctx.read_holding_registers(0, 10).await.unwrap().unwrap().len()
+                    ctx.read_holding_registers(0, 10)
+                        .await
+                        .unwrap()
+                        .unwrap()
+                        .len()
                 })
             })
         });

@@ -14,8 +14,8 @@
 
 use si_serial::core::port::{open, PortOptions};
 use si_serial::core::SerialSettings;
-use si_serial::uss::config::{MasterConfig as UssConfig, PollEntry};
 use si_serial::modbus::tokio::Client as _; // Modbus function codes (RTU and TCP alike)
+use si_serial::uss::config::{MasterConfig as UssConfig, PollEntry};
 use si_serial::{modbus, r3964, uss};
 use std::error::Error;
 

@@ -185,8 +185,14 @@ mod tests {
         let d: Duration = core::time::Duration::from_micros(1_500).into();
         assert_eq!(d, Duration::from_micros(1_500));
         assert_eq!(core::time::Duration::from(d).as_micros(), 1_500);
-        assert_eq!(Duration::from(core::time::Duration::from_nanos(999)), Duration::ZERO);
-        assert_eq!(Duration::from(core::time::Duration::MAX).as_micros(), u64::MAX);
+        assert_eq!(
+            Duration::from(core::time::Duration::from_nanos(999)),
+            Duration::ZERO
+        );
+        assert_eq!(
+            Duration::from(core::time::Duration::MAX).as_micros(),
+            u64::MAX
+        );
     }
 
     #[test]

@@ -16,8 +16,10 @@
 //!   the Modbus TCP server so both answer alike;
 //! - [`mbap`]: Modbus TCP framing (MBAP header, streaming decoder), Sans-IO, over the same PDU
 //!   codec as RTU;
-//! - `tokio` (feature `tokio`): an async master handle and a slave server task, and
-//!   `tokio::tcp`, a Modbus TCP client and server.
+//! - `tokio` (feature `tokio`): the `Client` trait, one method per function code, implemented
+//!   by the RTU master handle (engine in a driver task), the inline master (engine in the
+//!   caller's future) and `tokio::tcp`'s Modbus TCP client; a slave handle and a Modbus TCP
+//!   server; one `Error` for all of them.
 //!
 //! ```
 //! use si_modbus::frame::{Adu, Request};
@@ -112,3 +114,8 @@ pub use frame::{Adu, Bits, ExceptionCode, Registers, Request, Response};
 pub use master::{Master, MasterEvent};
 pub use simatic::{ConversionDb, SimaticStore};
 pub use slave::{Slave, SlaveEvent, Store, StoreError, Tables};
+
+/// The one trait of Modbus clients, RTU and TCP ([`tokio::Client`]).
+#[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
+pub use crate::tokio::Client;

@@ -361,8 +361,7 @@ impl Master {
                 }
             } else {
                 // The response's first byte may reach us up to the port's latency late.
-                let deadline =
-                    now + self.config.response_timeout + self.rx.delivery().allowance();
+                let deadline = now + self.config.response_timeout + self.rx.delivery().allowance();
                 State::Waiting {
                     deadline,
                     limit: deadline + self.config.max_response_duration(),

@@ -96,7 +96,13 @@ async fn the_inline_master_runs_every_function_code() {
     m.write_single_register(7, 0, 1).await.unwrap();
     assert_eq!(m.diagnostics(7, 0xA537).await.unwrap(), 0xA537);
     let reply = m
-        .request(7, &Request::ReadHoldingRegisters { address: 0, quantity: 1 })
+        .request(
+            7,
+            &Request::ReadHoldingRegisters {
+                address: 0,
+                quantity: 1,
+            },
+        )
         .await
         .unwrap();
     assert_eq!(reply.response_bytes().map(<[u8]>::len), Some(7));
@@ -135,12 +141,21 @@ async fn an_inline_job_to_a_silent_unit_times_out_with_0830h() {
     let (port, _slave) = rtu_line();
     let m = InlineMaster::new(MasterConfig::default(), port).unwrap();
     let (result, attempts) = m
-        .request_with_attempts(9, &Request::ReadCoils { address: 4, quantity: 1 })
+        .request_with_attempts(
+            9,
+            &Request::ReadCoils {
+                address: 4,
+                quantity: 1,
+            },
+        )
         .await;
     let e = result.unwrap_err();
     assert_eq!(e.status(), Some(si_modbus::status::RESPONSE_TIMEOUT));
     assert_eq!(e.exception_code(), None);
-    assert!(e.to_string().starts_with("unit 9 FC01 address 4: 16#0830"), "{e}");
+    assert!(
+        e.to_string().starts_with("unit 9 FC01 address 4: 16#0830"),
+        "{e}"
+    );
     assert_eq!((attempts.sent, attempts.timeouts), (1, 1));
 }
 

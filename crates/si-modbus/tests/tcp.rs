@@ -126,10 +126,17 @@ async fn a_unit_not_served_gets_no_answer() {
         ..ServerConfig::default()
     };
     let (addr, _) = start(config).await;
-    let c = Client::connect(addr).await.unwrap().with_response_timeout(SHORT);
+    let c = Client::connect(addr)
+        .await
+        .unwrap()
+        .with_response_timeout(SHORT);
     assert!(c.read_holding_registers(17, 0, 1).await.is_ok());
     let e = c.read_holding_registers(2, 0, 1).await.unwrap_err();
-    assert_eq!(e.status(), Some(si_modbus::status::RESPONSE_TIMEOUT), "{e:?}");
+    assert_eq!(
+        e.status(),
+        Some(si_modbus::status::RESPONSE_TIMEOUT),
+        "{e:?}"
+    );
     assert!(c.read_holding_registers(1, 0, 1).await.is_ok());
 }
 
@@ -157,9 +164,16 @@ async fn a_server_that_never_answers_times_out_and_a_late_answer_is_discarded() 
         let mut rest = Vec::new();
         let _ = s.read_to_end(&mut rest).await;
     });
-    let c = Client::connect(addr).await.unwrap().with_response_timeout(SHORT);
+    let c = Client::connect(addr)
+        .await
+        .unwrap()
+        .with_response_timeout(SHORT);
     let e = c.read_holding_registers(1, 0, 1).await.unwrap_err();
-    assert_eq!(e.status(), Some(si_modbus::status::RESPONSE_TIMEOUT), "{e:?}");
+    assert_eq!(
+        e.status(),
+        Some(si_modbus::status::RESPONSE_TIMEOUT),
+        "{e:?}"
+    );
     let c = c.with_response_timeout(Duration::from_secs(10));
     assert_eq!(c.read_holding_registers(1, 0, 1).await.unwrap(), [0x0042]);
     drop(c);
@@ -451,7 +465,10 @@ async fn an_answer_that_does_not_fit_its_request_is_refused() {
         .unwrap();
     let addr = server.local_addr().unwrap();
     tokio::spawn(server.run());
-    let c = Client::connect(addr).await.unwrap().with_response_timeout(SHORT);
+    let c = Client::connect(addr)
+        .await
+        .unwrap()
+        .with_response_timeout(SHORT);
     let e = c.read_holding_registers(1, 0, 3).await.unwrap_err();
     assert_eq!(
         e.status(),
@@ -460,4 +477,48 @@ async fn an_answer_that_does_not_fit_its_request_is_refused() {
     );
     let e = c.write_single_register(1, 5, 7).await.unwrap_err();
     assert_eq!(e.status(), Some(si_modbus::status::ECHO_WRONG), "{e}");
+}
+
+/// `ClientConfig::retries`: a request that got no answer in time is sent again with a new
+/// transaction id, and the answer to the repetition completes the job; without retries the same
+/// silence fails the job with 0830H.
+#[tokio::test]
+async fn a_request_without_answer_is_repeated_as_configured() {
+    use si_modbus::tokio::tcp::ClientConfig;
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    let peer = tokio::spawn(async move {
+        let (mut s, _) = listener.accept().await.unwrap();
+        let mut ids = Vec::new();
+        // Ignore the first request; answer the second.
+        for answer in [false, true] {
+            let mut request = [0u8; 12];
+            s.read_exact(&mut request).await.unwrap();
+            ids.push(u16::from_be_bytes([request[0], request[1]]));
+            if answer {
+                let reply = TcpAdu::response(
+                    ids[1],
+                    request[6],
+                    &si_modbus::frame::Response::ReadHoldingRegisters(Registers::Words(&[7])),
+                )
+                .unwrap();
+                s.write_all(reply.as_bytes()).await.unwrap();
+            }
+        }
+        let mut rest = Vec::new();
+        let _ = s.read_to_end(&mut rest).await;
+        ids
+    });
+    let config = ClientConfig {
+        response_timeout: SHORT.into(),
+        retries: 1,
+    };
+    let c = Client::connect_with(config, addr).await.unwrap();
+    assert_eq!(c.read_holding_registers(1, 0, 1).await.unwrap(), [7]);
+    drop(c);
+    assert_eq!(
+        peer.await.unwrap(),
+        [1, 2],
+        "a new transaction id each time"
+    );
 }

@@ -90,7 +90,9 @@ pub trait Client: Sync {
     ) -> impl Future<Output = Result<Reply, Error>> + Send {
         self.exchange(unit, request, move |r| {
             let mut buf = [0u8; crate::frame::MAX_ADU];
-            let n = r.map_or(Ok(0), |r| r.encode_unit_pdu(unit, &mut buf)).ok()?;
+            let n = r
+                .map_or(Ok(0), |r| r.encode_unit_pdu(unit, &mut buf))
+                .ok()?;
             Some(Reply {
                 unit_pdu: buf[..n].to_vec(),
             })

@@ -237,7 +237,10 @@ mod tests {
         );
         let gateway = Error::exception(job, 0x0B);
         assert_eq!(gateway.exception_code(), Some(0x0B));
-        assert!(gateway.to_string().contains("0BH gateway target"), "{gateway}");
+        assert!(
+            gateway.to_string().contains("0BH gateway target"),
+            "{gateway}"
+        );
         let timeout = Error::failed(job, crate::status::RESPONSE_TIMEOUT);
         assert_eq!(timeout.exception_code(), None);
     }

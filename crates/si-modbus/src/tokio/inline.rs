@@ -237,4 +237,3 @@ impl<T: Transport> Client for InlineMaster<T> {
         }
     }
 }
-

@@ -135,12 +135,12 @@ impl Line for TcpLine {
                 let client = open(&self.server, self.timeout, self.retries)
                     .await
                     .map_err(|why| {
-                    JobError::Line(LineFailure {
-                        kind: Kind::Other,
-                        status: None,
-                        text: why,
-                    })
-                })?;
+                        JobError::Line(LineFailure {
+                            kind: Kind::Other,
+                            status: None,
+                            text: why,
+                        })
+                    })?;
                 self.client.insert(client)
             }
         };

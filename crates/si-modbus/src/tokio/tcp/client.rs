@@ -158,7 +158,12 @@ impl Connection {
         self.attempt(job, unit, request).await
     }
 
-    async fn attempt(&mut self, job: Job, unit: u8, request: &Request<'_>) -> Result<TcpAdu, Error> {
+    async fn attempt(
+        &mut self,
+        job: Job,
+        unit: u8,
+        request: &Request<'_>,
+    ) -> Result<TcpAdu, Error> {
         if self.broken {
             return Err(Error::Broken);
         }
@@ -267,7 +272,13 @@ mod tests {
 
     #[test]
     fn statuses_are_the_rtu_masters() {
-        let job = Job::of(1, &Request::ReadHoldingRegisters { address: 0, quantity: 1 });
+        let job = Job::of(
+            1,
+            &Request::ReadHoldingRegisters {
+                address: 0,
+                quantity: 1,
+            },
+        );
         let e = Error::exception(job, 2);
         assert_eq!(e.status().map(|s| s.code()), Some(0x0E62));
         let gateway = Error::exception(job, 0x0B);
