@@ -20,7 +20,6 @@ use crate::frame::{Request, Response};
 use crate::master::{self, Attempts, Completion, MasterEvent};
 use si_core::driver::Transport;
 use si_core::{Engine, Instant, Output, Status};
-use std::future::Future;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::sync::Mutex;
 
@@ -225,15 +224,13 @@ impl<T: Transport> Inner<T> {
 }
 
 impl<T: Transport> Client for InlineMaster<T> {
-    fn exchange<R: Send>(
+    async fn exchange<R: Send>(
         &self,
         unit: u8,
         request: &Request<'_>,
         pick: impl FnOnce(Option<Response<'_>>) -> Option<R> + Send,
-    ) -> impl Future<Output = Result<R, Error>> + Send {
-        async move {
-            let c = self.request(unit, request).await?;
-            pick(c.response()).ok_or_else(|| unexpected(unit, request))
-        }
+    ) -> Result<R, Error> {
+        let c = self.request(unit, request).await?;
+        pick(c.response()).ok_or_else(|| unexpected(unit, request))
     }
 }

@@ -10,7 +10,6 @@ use crate::master::{self, Attempts, Completion, MasterEvent, RequestError};
 use si_core::driver::{self, Caller, DriverOptions, Start, Transport};
 use si_core::{Instant, Status};
 use std::collections::VecDeque;
-use std::future::Future;
 use std::ops::ControlFlow::{Break, Continue};
 use std::sync::Mutex;
 
@@ -205,15 +204,13 @@ impl Master {
 }
 
 impl Client for Master {
-    fn exchange<T: Send>(
+    async fn exchange<T: Send>(
         &self,
         unit: u8,
         request: &Request<'_>,
         pick: impl FnOnce(Option<Response<'_>>) -> Option<T> + Send,
-    ) -> impl Future<Output = Result<T, Error>> + Send {
-        async move {
-            let c = self.request(unit, request).await?;
-            pick(c.response()).ok_or_else(|| unexpected(unit, request))
-        }
+    ) -> Result<T, Error> {
+        let c = self.request(unit, request).await?;
+        pick(c.response()).ok_or_else(|| unexpected(unit, request))
     }
 }

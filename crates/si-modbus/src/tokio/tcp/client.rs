@@ -1,7 +1,5 @@
 //! The Modbus TCP client: one request at a time on one connection.
 
-use std::future::Future;
-
 use serde::{Deserialize, Serialize};
 use si_core::Duration;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -229,17 +227,15 @@ fn refused(job: Job, _: EncodeError) -> Error {
 }
 
 impl ModbusClient for Client {
-    fn exchange<T: Send>(
+    async fn exchange<T: Send>(
         &self,
         unit: u8,
         request: &Request<'_>,
         pick: impl FnOnce(Option<Response<'_>>) -> Option<T> + Send,
-    ) -> impl Future<Output = Result<T, Error>> + Send {
-        async move {
-            let reply = self.request_adu(unit, request).await?;
-            let response = reply.decode_response().ok().map(|(_, r)| r);
-            pick(response).ok_or_else(|| unexpected(unit, request))
-        }
+    ) -> Result<T, Error> {
+        let reply = self.request_adu(unit, request).await?;
+        let response = reply.decode_response().ok().map(|(_, r)| r);
+        pick(response).ok_or_else(|| unexpected(unit, request))
     }
 }
 
