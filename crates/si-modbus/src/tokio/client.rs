@@ -1,25 +1,4 @@
-//! [`Client`]: one trait for every Modbus client of this crate, so a program is written once for
-//! an RTU line and a Modbus TCP connection.
-//!
-//! An implementor provides one method, [`Client::exchange`]: send a request and pick the typed
-//! result out of the checked response. Every function code the module's master supports
-//! (FC01–08, 11, 12, 15, 16, [Modbus/USS] §3.4) is a provided method over it. Implemented by
-//! the RTU [`Master`](super::Master) (engine in a driver task), the
-//! [`InlineMaster`](super::InlineMaster) (engine in the caller's future) and the Modbus TCP
-//! [`tcp::Client`](super::tcp::Client).
-//!
-//! ```
-//! use si_modbus::tokio::{Client, Error};
-//!
-//! /// Reads one holding register from unit 1, over whatever line `client` is.
-//! async fn poll(client: &impl Client) -> Result<u16, Error> {
-//!     Ok(client.read_holding_registers(1, 0, 1).await?[0])
-//! }
-//! ```
-//!
-//! FC22 (mask write) and FC23 (read/write multiple registers) are not among the module's
-//! function codes (§3.4), so neither the codec nor this trait has them; a raw
-//! [`Client::request`] carries any request the codec encodes.
+//! The [`Client`] trait: one program for an RTU line and a Modbus TCP connection.
 
 use super::error::{Error, Job};
 use crate::frame::{Bits, Registers, Request, Response};
@@ -65,8 +44,28 @@ impl Reply {
     }
 }
 
-/// A Modbus client: the RTU master handles and the Modbus TCP client. See the
-/// [module docs](self).
+/// One trait for every Modbus client of this crate, so a program is written once for
+/// an RTU line and a Modbus TCP connection.
+///
+/// An implementor provides one method, [`Client::exchange`]: send a request and pick the typed
+/// result out of the checked response. Every function code the module's master supports
+/// (FC01–08, 11, 12, 15, 16, [Modbus/USS] §3.4) is a provided method over it. Implemented by
+/// the RTU [`Master`](super::Master) (engine in a driver task), the
+/// [`InlineMaster`](super::InlineMaster) (engine in the caller's future) and the Modbus TCP
+/// [`tcp::Client`](super::tcp::Client).
+///
+/// ```
+/// use si_modbus::tokio::{Client, Error};
+///
+/// /// Reads one holding register from unit 1, over whatever line `client` is.
+/// async fn poll(client: &impl Client) -> Result<u16, Error> {
+///     Ok(client.read_holding_registers(1, 0, 1).await?[0])
+/// }
+/// ```
+///
+/// FC22 (mask write) and FC23 (read/write multiple registers) are not among the module's
+/// function codes (§3.4), so neither the codec nor this trait has them; a raw
+/// [`Client::request`] carries any request the codec encodes.
 ///
 /// Every method takes `&self`; a client runs one job at a time on its line ([Modbus/USS] §4.2),
 /// so concurrent calls wait for each other.

@@ -1,16 +1,4 @@
-//! [`InlineMaster`]: the RTU master engine driven in the caller's own future, for a
-//! request/response client that owns its port. No task, no channel: a job writes the request,
-//! reads the response and fires the engine's timers inside the `await` that asked for it.
-//!
-//! What it leaves out, compared with the driver-backed [`Master`](super::Master): the driver's
-//! precise timer (deadlines wait on tokio's timer, which fires up to about 2 ms late, so with
-//! the module's [`FrameEnd::Gap`](crate::FrameEnd) a response is recognised that much later;
-//! [`FrameEnd::Length`](crate::FrameEnd) ends it at once), RS-485 direction control by RTS,
-//! local-echo suppression and decoding of `PARMRK` line-error marks (it never calls
-//! [`Transport::attach`]), and events between jobs (nothing reads the port while no job runs:
-//! what arrived meanwhile is read, and reported as 0E50H, at the next job). Use it on pipes, TCP
-//! device servers and ports that switch their transceiver themselves; use the driver-backed
-//! master where the line needs the rest.
+//! [`InlineMaster`]: the RTU master engine driven in the caller's own future.
 
 use super::client::{unexpected, Client};
 use super::error::{Error, Job};
@@ -26,7 +14,19 @@ use tokio::sync::Mutex;
 /// Bytes read from the port at once: more than the longest ADU (264 bytes).
 const RX_CHUNK: usize = 512;
 
-/// An RTU master whose engine runs in the caller's future. See the [module docs](self).
+/// The RTU master engine driven in the caller's own future, for a
+/// request/response client that owns its port. No task, no channel: a job writes the request,
+/// reads the response and fires the engine's timers inside the `await` that asked for it.
+///
+/// What it leaves out, compared with the driver-backed [`Master`](super::Master): the driver's
+/// precise timer (deadlines wait on tokio's timer, which fires up to about 2 ms late, so with
+/// the module's [`FrameEnd::Gap`](crate::FrameEnd) a response is recognised that much later;
+/// [`FrameEnd::Length`](crate::FrameEnd) ends it at once), RS-485 direction control by RTS,
+/// local-echo suppression and decoding of `PARMRK` line-error marks (it never calls
+/// [`Transport::attach`]), and events between jobs (nothing reads the port while no job runs:
+/// what arrived meanwhile is read, and reported as 0E50H, at the next job). Use it on pipes, TCP
+/// device servers and ports that switch their transceiver themselves; use the driver-backed
+/// master where the line needs the rest.
 ///
 /// Methods take `&self`; one job at a time ([Modbus/USS] §4.2): concurrent calls wait for the
 /// port's lock. A job whose future is dropped before it ended is run to its end (its outcome
