@@ -275,14 +275,72 @@ fn modbus_roundtrip(c: &mut Criterion) {
         .build()
         .unwrap();
     modbus_roundtrip_on(c, "modbus_roundtrip_duplex_mt", &multi);
+    if std::env::var_os("SI_BENCH_INTERLEAVED").is_some() {
+        modbus_roundtrip_interleaved("current-thread", &current);
+        modbus_roundtrip_interleaved("multi-thread", &multi);
+    }
 }
 
-fn modbus_roundtrip_on(c: &mut Criterion, group: &str, rt: &tokio::runtime::Runtime) {
+/// `SI_BENCH_INTERLEAVED=1`: the same round trips, the three clients taking turns request by
+/// request (si, si-inline, tokio-modbus, si, …), each request timed from an idle line as in
+/// the criterion groups; printed as each client's median per request. On a loaded machine the
+/// criterion groups, which run one client after the other, see different loads; taking turns,
+/// every client sees the same.
+fn modbus_roundtrip_interleaved(runtime: &str, rt: &tokio::runtime::Runtime) {
     use si_modbus::tokio::{self as handle, Client as _};
-    use si_modbus::{FrameEnd, Master, MasterConfig, Mode, Slave, SlaveConfig, Tables};
     use std::time::Duration as StdDuration;
     use tokio_modbus::client::Reader;
+    const REQUESTS: usize = 2_000;
+    let (slave, master) = roundtrip_engines();
+    let _guard = rt.enter();
+    let (a, b) = tokio::io::duplex(1024);
+    take_events(handle::Slave::spawn_engine(slave(), b));
+    let driven = handle::Master::spawn_engine(master(), a);
+    let (a, b) = tokio::io::duplex(1024);
+    take_events(handle::Slave::spawn_engine(slave(), b));
+    let inline = handle::InlineMaster::from_engine(master(), a);
+    let (a, b) = tokio::io::duplex(1024);
+    take_events(handle::Slave::spawn_engine(slave(), b));
+    let mut ctx = tokio_modbus::client::rtu::attach_slave(a, tokio_modbus::Slave(1));
+    let mut times = [Vec::new(), Vec::new(), Vec::new()];
+    for _ in 0..REQUESTS {
+        for (which, t) in times.iter_mut().enumerate() {
+            roundtrip_idle();
+            let start = std::time::Instant::now();
+            let n = rt.block_on(async {
+                match which {
+                    0 => driven.read_holding_registers(1, 0, 10).await.unwrap().len(),
+                    1 => inline.read_holding_registers(1, 0, 10).await.unwrap().len(),
+                    _ => ctx
+                        .read_holding_registers(0, 10)
+                        .await
+                        .unwrap()
+                        .unwrap()
+                        .len(),
+                }
+            });
+            t.push(start.elapsed());
+            assert_eq!(n, 10);
+        }
+    }
+    let median = |t: &mut Vec<StdDuration>| {
+        t.sort();
+        t[t.len() / 2]
+    };
+    let [si, inline, theirs] = times.each_mut().map(median);
+    println!(
+        "modbus_roundtrip_interleaved ({runtime}): si {si:?}, si-inline {inline:?}, \
+         tokio-modbus {theirs:?}: tokio-modbus / si-inline = {:.2}x",
+        theirs.as_secs_f64() / inline.as_secs_f64()
+    );
+}
 
+/// The slave and master engines of the round-trip groups (see [`modbus_roundtrip`]).
+fn roundtrip_engines() -> (
+    impl Fn() -> si_modbus::Slave<si_modbus::Tables>,
+    impl Fn() -> si_modbus::Master,
+) {
+    use si_modbus::{FrameEnd, Master, MasterConfig, Mode, Slave, SlaveConfig, Tables};
     // A pipe moves bytes at once, a line does not: at 115200 baud the slave would still be
     // sending its 25-byte answer (2.2 ms) when a client that got it at once sends the next
     // request, and the slave rightly refuses that overlap (0837H). At a nominal 1 Gbaud the
@@ -299,28 +357,38 @@ fn modbus_roundtrip_on(c: &mut Criterion, group: &str, rt: &tokio::runtime::Runt
             ..SlaveConfig::default().line
         },
     };
-    let slave = || {
+    let slave = move || {
         Slave::new(slave_config, Tables::new(0, 0, 100, 0))
             .unwrap()
             .with_frame_end(FrameEnd::Length)
     };
-    let master = || {
+    let master = move || {
         let mut config = MasterConfig::default();
         config.line.settings = settings;
         Master::new(config)
             .unwrap()
             .with_frame_end(FrameEnd::Length)
     };
-    // Longer than the 1 ms gap, so our master's hold never delays the timed request.
-    const IDLE: StdDuration = StdDuration::from_micros(1_300);
-    // Waited by spinning, not sleeping: a thread woken from sleep runs its first microseconds
-    // on a cold, down-clocked core, which would be measured instead of the code.
-    fn idle(span: StdDuration) {
-        let start = std::time::Instant::now();
-        while start.elapsed() < span {
-            std::hint::spin_loop();
-        }
+    (slave, master)
+}
+
+/// Leave the line idle for longer than the 1 ms gap, so our master's hold never delays the
+/// timed request. Waited by spinning, not sleeping: a thread woken from sleep runs its first
+/// microseconds on a cold, down-clocked core, which would be measured instead of the code.
+fn roundtrip_idle() {
+    const IDLE: std::time::Duration = std::time::Duration::from_micros(1_300);
+    let start = std::time::Instant::now();
+    while start.elapsed() < IDLE {
+        std::hint::spin_loop();
     }
+}
+
+fn modbus_roundtrip_on(c: &mut Criterion, group: &str, rt: &tokio::runtime::Runtime) {
+    use si_modbus::tokio::{self as handle, Client as _};
+    use std::time::Duration as StdDuration;
+    use tokio_modbus::client::Reader;
+
+    let (slave, master) = roundtrip_engines();
     /// Time `one` request per iteration from an idle line, the same loop for every client.
     fn timed<F: std::future::Future<Output = usize>>(
         rt: &tokio::runtime::Runtime,
@@ -329,7 +397,7 @@ fn modbus_roundtrip_on(c: &mut Criterion, group: &str, rt: &tokio::runtime::Runt
     ) -> StdDuration {
         let mut timed = StdDuration::ZERO;
         for _ in 0..iters {
-            idle(IDLE);
+            roundtrip_idle();
             let start = std::time::Instant::now();
             let n = rt.block_on(one());
             timed += start.elapsed();
@@ -356,7 +424,7 @@ fn modbus_roundtrip_on(c: &mut Criterion, group: &str, rt: &tokio::runtime::Runt
         let _guard = rt.enter();
         let (a, b) = tokio::io::duplex(1024);
         take_events(handle::Slave::spawn_engine(slave(), b));
-        let master = handle::InlineMaster::with_engine(master(), a);
+        let master = handle::InlineMaster::from_engine(master(), a);
         g.bench_function("si-inline", |bench| {
             bench.iter_custom(|iters| {
                 timed(rt, iters, || async {
@@ -375,7 +443,7 @@ fn modbus_roundtrip_on(c: &mut Criterion, group: &str, rt: &tokio::runtime::Runt
             bench.iter_custom(|iters| {
                 let mut timed = StdDuration::ZERO;
                 for _ in 0..iters {
-                    idle(IDLE);
+                    roundtrip_idle();
                     let start = std::time::Instant::now();
                     let n = rt.block_on(async {
                         ctx.read_holding_registers(0, 10)

@@ -52,12 +52,12 @@ struct Inner<T> {
 impl<T: Transport> InlineMaster<T> {
     /// A master on `transport`.
     pub fn new(config: MasterConfig, transport: T) -> Result<Self, Error> {
-        Ok(Self::with_engine(master::Master::new(config)?, transport))
+        Ok(Self::from_engine(master::Master::new(config)?, transport))
     }
 
     /// A master with an engine built by the caller (for options beyond [`MasterConfig`], such
     /// as [`master::Master::with_frame_end`]).
-    pub fn with_engine(engine: master::Master, transport: T) -> Self {
+    pub fn from_engine(engine: master::Master, transport: T) -> Self {
         InlineMaster {
             inner: Mutex::new(Inner {
                 engine,
@@ -98,9 +98,12 @@ impl<T: Transport> InlineMaster<T> {
         self.inner.lock().await.diagnostics.take()
     }
 
-    /// Look at the engine (counters, state) between jobs.
-    pub async fn with_engine_ref<R>(&self, f: impl FnOnce(&master::Master) -> R) -> R {
-        f(&self.inner.lock().await.engine)
+    /// Run `f` on the engine between jobs (counters, state), as the driver-backed
+    /// [`Master::call`](super::Master::call) does.
+    pub async fn call<R>(&self, f: impl FnOnce(&mut master::Master, Instant) -> R) -> R {
+        let mut inner = self.inner.lock().await;
+        let now = inner.now();
+        f(&mut inner.engine, now)
     }
 
     /// Shut the port down and give it up; the port is released when this returns.
@@ -108,6 +111,21 @@ impl<T: Transport> InlineMaster<T> {
         let mut inner = self.inner.into_inner();
         inner.port.shutdown().await?;
         Ok(())
+    }
+}
+
+#[cfg(feature = "serial")]
+#[cfg_attr(docsrs, doc(cfg(feature = "serial")))]
+impl InlineMaster<si_core::port::SerialPort> {
+    /// Open the serial port at `path` with the config's own line settings (feature `serial`).
+    pub fn open(config: MasterConfig, path: &str) -> Result<Self, Error> {
+        let engine = master::Master::new(config)?;
+        let port = si_core::port::open(
+            path,
+            &config.line.settings,
+            &si_core::port::PortOptions::default(),
+        )?;
+        Ok(Self::from_engine(engine, port))
     }
 }
 
