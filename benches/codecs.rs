@@ -290,7 +290,11 @@ fn modbus_roundtrip_interleaved(runtime: &str, rt: &tokio::runtime::Runtime) {
     use si_modbus::tokio::{self as handle, Client as _};
     use std::time::Duration as StdDuration;
     use tokio_modbus::client::Reader;
-    const REQUESTS: usize = 2_000;
+    // `SI_BENCH_INTERLEAVED=<n>`: n requests per client (2000 unless a number is given).
+    let requests: usize = std::env::var("SI_BENCH_INTERLEAVED")
+        .ok()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(2_000);
     let (slave, master) = roundtrip_engines();
     let _guard = rt.enter();
     let (a, b) = tokio::io::duplex(1024);
@@ -303,7 +307,7 @@ fn modbus_roundtrip_interleaved(runtime: &str, rt: &tokio::runtime::Runtime) {
     take_events(handle::Slave::spawn_engine(slave(), b));
     let mut ctx = tokio_modbus::client::rtu::attach_slave(a, tokio_modbus::Slave(1));
     let mut times = [Vec::new(), Vec::new(), Vec::new()];
-    for _ in 0..REQUESTS {
+    for _ in 0..requests {
         for (which, t) in times.iter_mut().enumerate() {
             roundtrip_idle();
             let start = std::time::Instant::now();

@@ -8,6 +8,9 @@ use crate::frame::{Request, Response};
 use crate::master::{self, Attempts, Completion, MasterEvent};
 use si_core::driver::Transport;
 use si_core::{Engine, Instant, Output, Status};
+use std::future::Future;
+use std::pin::Pin;
+use std::task::Poll;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::sync::Mutex;
 
@@ -148,10 +151,9 @@ impl<T: Transport> Inner<T> {
         while self.engine.is_busy() {
             let _abandoned = self.drive(None).await?;
         }
-        let now = self.now();
         let id = self
             .engine
-            .request(now, unit, request)
+            .request(self.now(), unit, request)
             .map_err(|reason| Error::Refused { job, reason })?;
         match self.drive(Some(id)).await? {
             Ok(c) => Ok(c),
@@ -176,33 +178,41 @@ impl<T: Transport> Inner<T> {
         &mut self,
         id: Option<si_core::job::JobId>,
     ) -> Result<Result<Completion, Status>, Error> {
-        let sleep = tokio::time::sleep_until(self.origin);
-        tokio::pin!(sleep);
+        // The engine's next deadline, armed only when a wait is not over after one yield: on
+        // a pipe or a busy runtime the answer is usually there by then, and a timer armed and
+        // disarmed per request would cost more than the exchange itself.
+        let mut sleep: Option<Pin<Box<tokio::time::Sleep>>> = None;
+        let mut armed: Option<Instant> = None;
+        let mut yielded = false;
         loop {
+            // One clock read per turn: the engine's outputs, the write and the deadline checks
+            // below take microseconds at most.
+            let now = self.now();
             let wait = loop {
                 match self.engine.poll_output() {
                     Output::Transmit(bytes) => {
-                        let start = self.now();
+                        let start = now;
                         self.port.write_all(&bytes).await?;
                         let settings = self.engine.config().line.settings;
                         self.tx_done = Some(start + settings.chars_time(bytes.len() as u64));
                     }
                     Output::SetSignals(update) => self.port.set_signals(update)?,
                     Output::Event(MasterEvent::Diagnostic(s)) => self.diagnostics.keep(s),
+                    // The job's end: one job at a time, so once it is no longer the running
+                    // one, this event ended it ([`master::Master::outcome`] has it by id).
                     Output::Event(MasterEvent::Completed(c)) => {
-                        if id.is_none_or(|id| self.engine.outcome(id).is_some()) {
+                        if self.engine.running_job().is_none_or(|r| Some(r) != id) {
                             return Ok(Ok(c));
                         }
                     }
                     Output::Event(MasterEvent::Failed { status, .. }) => {
-                        if id.is_none_or(|id| self.engine.outcome(id).is_some()) {
+                        if self.engine.running_job().is_none_or(|r| Some(r) != id) {
                             return Ok(Err(status));
                         }
                     }
                     Output::Wait(deadline) => break deadline,
                 }
             };
-            let now = self.now();
             if self.tx_done.is_some_and(|t| t <= now) {
                 self.tx_done = None;
                 self.engine.handle_tx_done(now);
@@ -213,13 +223,24 @@ impl<T: Transport> Inner<T> {
                 continue;
             }
             let next = Instant::earliest(wait, self.tx_done);
-            if let Some(next) = next {
-                let at = self.at(next);
-                sleep.as_mut().reset(at);
+            if yielded && next != armed {
+                if let Some(next) = next {
+                    let at = self.at(next);
+                    match sleep.as_mut() {
+                        Some(s) => s.as_mut().reset(at),
+                        None => sleep = Some(Box::pin(tokio::time::sleep_until(at))),
+                    }
+                }
+                armed = next;
             }
+            let timer = std::future::poll_fn(|cx| match (armed, sleep.as_mut()) {
+                (Some(_), Some(s)) => s.as_mut().poll(cx),
+                _ => Poll::Pending,
+            });
             tokio::select! {
                 biased;
                 read = self.port.read(&mut self.rx) => {
+                    yielded = false;
                     let n = read?;
                     if n == 0 {
                         return Err(Error::Stopped);
@@ -227,7 +248,9 @@ impl<T: Transport> Inner<T> {
                     let now = self.now();
                     self.engine.handle_rx(now, &self.rx[..n]);
                 }
-                () = &mut sleep, if next.is_some() => {
+                () = tokio::task::yield_now(), if !yielded => yielded = true,
+                () = timer => {
+                    armed = None;
                     let now = self.now();
                     if self.tx_done.is_some_and(|t| t <= now) {
                         self.tx_done = None;
