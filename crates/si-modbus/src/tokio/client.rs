@@ -108,7 +108,7 @@ pub trait Client: Sync {
         let request = Request::ReadCoils { address, quantity };
         async move {
             self.exchange(unit, &request, |r| match r? {
-                Response::ReadCoils(b) => Some(b.truncate(quantity).iter().collect()),
+                Response::ReadCoils(b) => Some(bools(b.truncate(quantity))),
                 _ => None,
             })
             .await
@@ -125,7 +125,7 @@ pub trait Client: Sync {
         let request = Request::ReadDiscreteInputs { address, quantity };
         async move {
             self.exchange(unit, &request, |r| match r? {
-                Response::ReadDiscreteInputs(b) => Some(b.truncate(quantity).iter().collect()),
+                Response::ReadDiscreteInputs(b) => Some(bools(b.truncate(quantity))),
                 _ => None,
             })
             .await
@@ -142,7 +142,7 @@ pub trait Client: Sync {
         let request = Request::ReadHoldingRegisters { address, quantity };
         async move {
             self.exchange(unit, &request, |r| match r? {
-                Response::ReadHoldingRegisters(w) => Some(w.iter().collect()),
+                Response::ReadHoldingRegisters(w) => Some(words(w)),
                 _ => None,
             })
             .await
@@ -159,7 +159,7 @@ pub trait Client: Sync {
         let request = Request::ReadInputRegisters { address, quantity };
         async move {
             self.exchange(unit, &request, |r| match r? {
-                Response::ReadInputRegisters(w) => Some(w.iter().collect()),
+                Response::ReadInputRegisters(w) => Some(words(w)),
                 _ => None,
             })
             .await
@@ -278,6 +278,21 @@ pub trait Client: Sync {
         };
         async move { self.exchange(unit, &request, |_| Some(())).await }
     }
+}
+
+/// The registers as numbers, allocated once at their count (collecting the iterator, whose
+/// length is not known in advance, would grow the vector as it goes).
+fn words(w: Registers<'_>) -> Vec<u16> {
+    let mut v = Vec::with_capacity(w.len());
+    v.extend(w.iter());
+    v
+}
+
+/// The bits as booleans, allocated once (see [`words`]).
+fn bools(b: Bits<'_>) -> Vec<bool> {
+    let mut v = Vec::with_capacity(b.len());
+    v.extend(b.iter());
+    v
 }
 
 /// The error for a response `pick` did not accept.
