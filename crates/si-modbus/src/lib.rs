@@ -85,7 +85,7 @@
 //! - **the job**: `job_bound = (retries + 1) × attempt_bound`; whatever is still running then
 //!   fails with 0830H.
 //!
-//! Example: `si modbus read --timeout 500` at 9600 bit/s 8E1 (t_char = 1.146 ms, tZVZ = 4 ms,
+//! Example: `si modbus read --response-timeout-ms 500` at 9600 bit/s 8E1 (t_char = 1.146 ms, tZVZ = 4 ms,
 //! no retries): max_response_duration = 302.5 + 4 + 256.1 = 562.6 ms, and the job ends within
 //! 562.6 + 302.5 + 756.1 + 562.6 = **2184 ms**, under the 2.5 s issue 21 asks for. Against a
 //! silent partner it still ends at the Response Time (0830H, 509 ms here), and a frame that

@@ -172,7 +172,7 @@ fn a_silent_partner_gives_0830h_after_the_response_time() {
 
 #[test]
 fn the_issue_s_example_is_under_2_5_s() {
-    // `modbus read --timeout 500` at 9600 bit/s (8E1), no retries.
+    // `modbus read --response-timeout-ms 500` at 9600 bit/s (8E1), no retries.
     let config = MasterConfig {
         response_timeout: si_core::Duration::from_millis(500),
         ..MasterConfig::default()

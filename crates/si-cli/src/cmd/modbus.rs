@@ -46,8 +46,13 @@ pub struct MasterOptions {
     #[arg(long = "unit", short = 'u', required = true, value_delimiter = ',',
           value_name = "UNIT", value_parser = parse_unit)]
     units: Vec<u8>,
-    /// Response time in ms (50–655000): the wait for the start of the response.
-    #[arg(long, default_value_t = 2000)]
+    /// Response time in ms (50–655000): the wait for the start of the response (the
+    /// config's `response_timeout`, `response_timeout_ms` in files).
+    #[arg(
+        long = "response-timeout-ms",
+        value_name = "MS",
+        default_value_t = 2000
+    )]
     timeout: u32,
     /// Extension: send again this many times after a timeout or CRC error.
     #[arg(long, default_value_t = 0)]
@@ -470,7 +475,7 @@ async fn jobs(
     // Each unit once, in the order given.
     let mut seen = std::collections::BTreeSet::new();
     units.retain(|u| seen.insert(*u));
-    // --timeout and --retries in the module's ranges, whichever way the jobs go.
+    // --response-timeout-ms and --retries in the module's ranges, whichever way the jobs go.
     master_config(conn, o)?;
     if let Some(mut server) = o
         .modbus_tcp

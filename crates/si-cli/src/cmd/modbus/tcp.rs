@@ -5,7 +5,7 @@
 //!
 //! What is the module's and what is not: a job is checked before sending as the module's
 //! master checks it (§4.3, 0E43H–0E46H); a failure the module has a STATUS for reads as on a
-//! serial line (exceptions 01–07 as 0E61H–0E67H, no answer within `--timeout` as 0830H, an
+//! serial line (exceptions 01–07 as 0E61H–0E67H, no answer within `--response-timeout-ms` as 0830H, an
 //! answer for another function as 0E51H; see [`Error::status`]). Gateway exceptions 0AH and
 //! 0BH have no STATUS: they are counted as exceptions and shown with the exception's name.
 //! Reading chosen for unit 0: Modbus TCP has no broadcast (the MBAP unit id 0 addresses the
@@ -28,7 +28,7 @@ use std::time::Duration;
 pub struct ModbusTcp {
     /// Modbus TCP server, e.g. 192.0.2.20:502: the jobs go in MBAP frames, each --unit as the
     /// unit id, instead of RTU over --port or --tcp (a raw serial device server; a port
-    /// from SI_PORT or --profile is not used). --timeout is the wait for each answer (and for the connection);
+    /// from SI_PORT or --profile is not used). --response-timeout-ms is the wait for each answer (and for the connection);
     /// --retries sends again after a timeout; the serial framing options do not apply. Unit 0
     /// addresses the server itself and is answered (no broadcast on TCP).
     #[arg(long = "modbus-tcp", value_name = "HOST:PORT",
