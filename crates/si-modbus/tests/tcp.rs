@@ -301,7 +301,7 @@ async fn a_gateway_exception_code_from_a_handler_passes_as_it_is() {
     );
     assert_eq!(
         e.to_string(),
-        "unit 5 FC03 address 0: exception 0BH gateway target device failed to respond"
+        "unit 5 FC03 address 0: exception 0BH (gateway target device failed to respond)"
     );
 }
 

@@ -131,8 +131,8 @@ fn failure_text(status: Status, exception: Option<u8>) -> String {
 /// The gateway exception codes of the Modbus application protocol, which the module never sends.
 fn gateway_text(code: u8) -> &'static str {
     match code {
-        0x0A => " gateway path unavailable",
-        0x0B => " gateway target device failed to respond",
+        0x0A => " (gateway path unavailable)",
+        0x0B => " (gateway target device failed to respond)",
         _ => "",
     }
 }
@@ -238,7 +238,9 @@ mod tests {
         let gateway = Error::exception(job, 0x0B);
         assert_eq!(gateway.exception_code(), Some(0x0B));
         assert!(
-            gateway.to_string().contains("0BH gateway target"),
+            gateway
+                .to_string()
+                .ends_with("exception 0BH (gateway target device failed to respond)"),
             "{gateway}"
         );
         let timeout = Error::failed(job, crate::status::RESPONSE_TIMEOUT);
