@@ -3,8 +3,9 @@
 //!
 //! - Modbus: CRC of a 256-byte frame, FC03 request decode, 125-register FC03 response decode
 //!   (to the register values), 100-register FC16 request encode, each against rmodbus; a whole
-//!   FC03 round trip over `tokio::io::duplex`, our master against tokio-modbus's client, both
-//!   talking to the same slave (ours: tokio-modbus's RTU server only runs on a serial port).
+//!   FC03 round trip over `tokio::io::duplex`, our masters (driver-backed and inline) against
+//!   tokio-modbus's client, all talking to the same slave (ours: tokio-modbus's RTU server only
+//!   runs on a serial port), on a current-thread and on a multi-threaded runtime.
 //! - 3964(R) block encode/decode of 256 bytes, USS telegram decode, the DP window send of a
 //!   224-byte frame, the decoders of complete records (RK 512 telegram, slave diagnosis, I&M0;
 //!   hand-written beside nom versions), and for every engine its receive path fed the whole frame
@@ -246,25 +247,104 @@ fn take_events(mut server: si_modbus::tokio::Slave<si_modbus::Tables>) {
     tokio::spawn(async move { while server.next_event().await.is_some() {} });
 }
 
-/// FC03 of 10 registers over `tokio::io::duplex`: our master and tokio-modbus's RTU client,
-/// each against our slave, all on one current-thread runtime.
+/// FC03 of 10 registers over `tokio::io::duplex`: our masters and tokio-modbus's RTU client,
+/// each against our slave, side by side in one run, on a current-thread runtime
+/// (`modbus_roundtrip_duplex`) and on a multi-threaded one (`modbus_roundtrip_duplex_mt`, two
+/// workers: noisier on a loaded machine).
+///
+/// - `si`: the driver-backed [`handle::Master`], the engine in a driver task;
+/// - `si-inline`: the [`handle::InlineMaster`], the engine in the caller's future, as
+///   tokio-modbus runs its codec;
+/// - `tokio-modbus`: its RTU client context.
 ///
 /// Both clients and the slave end frames by their predicted length (our
 /// `FrameEnd::Length`; tokio-modbus's RTU codec does so too), so no end-of-frame gap is waited
 /// for. Our master keeps to [Modbus/USS] §3.3.5 and holds a request until the line has been silent
 /// for the gap (1 ms) since the last response, which back-to-back `iter` would measure; so each
 /// iteration first leaves the line idle for longer than the gap (untimed) and then times one
-/// request until its response is decoded, the same loop for both implementations.
+/// request until its response is decoded, the same loop for every implementation.
 fn modbus_roundtrip(c: &mut Criterion) {
-    use si_modbus::tokio as handle;
-    use si_modbus::{FrameEnd, Master, MasterConfig, Mode, Slave, SlaveConfig, Tables};
-    use std::time::Duration as StdDuration;
-    use tokio_modbus::client::Reader;
-
-    let rt = tokio::runtime::Builder::new_current_thread()
+    let current = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
         .unwrap();
+    modbus_roundtrip_on(c, "modbus_roundtrip_duplex", &current);
+    let multi = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .unwrap();
+    modbus_roundtrip_on(c, "modbus_roundtrip_duplex_mt", &multi);
+    if std::env::var_os("SI_BENCH_INTERLEAVED").is_some() {
+        modbus_roundtrip_interleaved("current-thread", &current);
+        modbus_roundtrip_interleaved("multi-thread", &multi);
+    }
+}
+
+/// `SI_BENCH_INTERLEAVED=1`: the same round trips, the three clients taking turns request by
+/// request (si, si-inline, tokio-modbus, si, …), each request timed from an idle line as in
+/// the criterion groups; printed as each client's median per request. On a loaded machine the
+/// criterion groups, which run one client after the other, see different loads; taking turns,
+/// every client sees the same.
+fn modbus_roundtrip_interleaved(runtime: &str, rt: &tokio::runtime::Runtime) {
+    use si_modbus::tokio::{self as handle, Client as _};
+    use std::time::Duration as StdDuration;
+    use tokio_modbus::client::Reader;
+    // `SI_BENCH_INTERLEAVED=<n>`: n requests per client (2000 unless a number is given).
+    let requests: usize = std::env::var("SI_BENCH_INTERLEAVED")
+        .ok()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(2_000);
+    let (slave, master) = roundtrip_engines();
+    let _guard = rt.enter();
+    let (a, b) = tokio::io::duplex(1024);
+    take_events(handle::Slave::spawn_engine(slave(), b));
+    let driven = handle::Master::spawn_engine(master(), a);
+    let (a, b) = tokio::io::duplex(1024);
+    take_events(handle::Slave::spawn_engine(slave(), b));
+    let inline = handle::InlineMaster::from_engine(master(), a);
+    let (a, b) = tokio::io::duplex(1024);
+    take_events(handle::Slave::spawn_engine(slave(), b));
+    let mut ctx = tokio_modbus::client::rtu::attach_slave(a, tokio_modbus::Slave(1));
+    let mut times = [Vec::new(), Vec::new(), Vec::new()];
+    for _ in 0..requests {
+        for (which, t) in times.iter_mut().enumerate() {
+            roundtrip_idle();
+            let start = std::time::Instant::now();
+            let n = rt.block_on(async {
+                match which {
+                    0 => driven.read_holding_registers(1, 0, 10).await.unwrap().len(),
+                    1 => inline.read_holding_registers(1, 0, 10).await.unwrap().len(),
+                    _ => ctx
+                        .read_holding_registers(0, 10)
+                        .await
+                        .unwrap()
+                        .unwrap()
+                        .len(),
+                }
+            });
+            t.push(start.elapsed());
+            assert_eq!(n, 10);
+        }
+    }
+    let median = |t: &mut Vec<StdDuration>| {
+        t.sort();
+        t[t.len() / 2]
+    };
+    let [si, inline, theirs] = times.each_mut().map(median);
+    println!(
+        "modbus_roundtrip_interleaved ({runtime}): si {si:?}, si-inline {inline:?}, \
+         tokio-modbus {theirs:?}: tokio-modbus / si-inline = {:.2}x",
+        theirs.as_secs_f64() / inline.as_secs_f64()
+    );
+}
+
+/// The slave and master engines of the round-trip groups (see [`modbus_roundtrip`]).
+fn roundtrip_engines() -> (
+    impl Fn() -> si_modbus::Slave<si_modbus::Tables>,
+    impl Fn() -> si_modbus::Master,
+) {
+    use si_modbus::{FrameEnd, Master, MasterConfig, Mode, Slave, SlaveConfig, Tables};
     // A pipe moves bytes at once, a line does not: at 115200 baud the slave would still be
     // sending its 25-byte answer (2.2 ms) when a client that got it at once sends the next
     // request, and the slave rightly refuses that overlap (0837H). At a nominal 1 Gbaud the
@@ -281,46 +361,79 @@ fn modbus_roundtrip(c: &mut Criterion) {
             ..SlaveConfig::default().line
         },
     };
-    let slave = || {
+    let slave = move || {
         Slave::new(slave_config, Tables::new(0, 0, 100, 0))
             .unwrap()
             .with_frame_end(FrameEnd::Length)
     };
-    // Longer than the 1 ms gap, so our master's hold never delays the timed request.
-    const IDLE: StdDuration = StdDuration::from_micros(1_300);
-    // Waited by spinning, not sleeping: a thread woken from sleep runs its first microseconds
-    // on a cold, down-clocked core, which would be measured instead of the code.
-    fn idle(span: StdDuration) {
-        let start = std::time::Instant::now();
-        while start.elapsed() < span {
-            std::hint::spin_loop();
-        }
+    let master = move || {
+        let mut config = MasterConfig::default();
+        config.line.settings = settings;
+        Master::new(config)
+            .unwrap()
+            .with_frame_end(FrameEnd::Length)
+    };
+    (slave, master)
+}
+
+/// Leave the line idle for longer than the 1 ms gap, so our master's hold never delays the
+/// timed request. Waited by spinning, not sleeping: a thread woken from sleep runs its first
+/// microseconds on a cold, down-clocked core, which would be measured instead of the code.
+fn roundtrip_idle() {
+    const IDLE: std::time::Duration = std::time::Duration::from_micros(1_300);
+    let start = std::time::Instant::now();
+    while start.elapsed() < IDLE {
+        std::hint::spin_loop();
     }
-    let mut g = c.benchmark_group("modbus_roundtrip_duplex");
+}
+
+fn modbus_roundtrip_on(c: &mut Criterion, group: &str, rt: &tokio::runtime::Runtime) {
+    use si_modbus::tokio::{self as handle, Client as _};
+    use std::time::Duration as StdDuration;
+    use tokio_modbus::client::Reader;
+
+    let (slave, master) = roundtrip_engines();
+    /// Time `one` request per iteration from an idle line, the same loop for every client.
+    fn timed<F: std::future::Future<Output = usize>>(
+        rt: &tokio::runtime::Runtime,
+        iters: u64,
+        mut one: impl FnMut() -> F,
+    ) -> StdDuration {
+        let mut timed = StdDuration::ZERO;
+        for _ in 0..iters {
+            roundtrip_idle();
+            let start = std::time::Instant::now();
+            let n = rt.block_on(one());
+            timed += start.elapsed();
+            assert_eq!(n, 10);
+        }
+        timed
+    }
+    let mut g = c.benchmark_group(group);
     g.sample_size(30);
     {
         let _guard = rt.enter();
         let (a, b) = tokio::io::duplex(1024);
         take_events(handle::Slave::spawn_engine(slave(), b));
-        let mut config = MasterConfig::default();
-        config.line.settings = settings;
-        let master = Master::new(config)
-            .unwrap()
-            .with_frame_end(FrameEnd::Length);
-        let mut master = handle::Master::spawn_engine(master, a);
+        let master = handle::Master::spawn_engine(master(), a);
         g.bench_function("si", |bench| {
             bench.iter_custom(|iters| {
-                let mut timed = StdDuration::ZERO;
-                for _ in 0..iters {
-                    idle(IDLE);
-                    let start = std::time::Instant::now();
-                    rt.block_on(async {
-                        let regs = master.read_holding_registers(1, 0, 10).await.unwrap();
-                        assert_eq!(regs.len(), 10);
-                    });
-                    timed += start.elapsed();
-                }
-                timed
+                timed(rt, iters, || async {
+                    master.read_holding_registers(1, 0, 10).await.unwrap().len()
+                })
+            })
+        });
+    }
+    {
+        let _guard = rt.enter();
+        let (a, b) = tokio::io::duplex(1024);
+        take_events(handle::Slave::spawn_engine(slave(), b));
+        let master = handle::InlineMaster::from_engine(master(), a);
+        g.bench_function("si-inline", |bench| {
+            bench.iter_custom(|iters| {
+                timed(rt, iters, || async {
+                    master.read_holding_registers(1, 0, 10).await.unwrap().len()
+                })
             })
         });
     }
@@ -330,16 +443,21 @@ fn modbus_roundtrip(c: &mut Criterion) {
         take_events(handle::Slave::spawn_engine(slave(), b));
         let mut ctx = tokio_modbus::client::rtu::attach_slave(a, tokio_modbus::Slave(1));
         g.bench_function("tokio-modbus", |bench| {
+            // `timed`'s loop written out: the context is borrowed mutably by each request.
             bench.iter_custom(|iters| {
                 let mut timed = StdDuration::ZERO;
                 for _ in 0..iters {
-                    idle(IDLE);
+                    roundtrip_idle();
                     let start = std::time::Instant::now();
-                    rt.block_on(async {
-                        let regs = ctx.read_holding_registers(0, 10).await.unwrap().unwrap();
-                        assert_eq!(regs.len(), 10);
+                    let n = rt.block_on(async {
+                        ctx.read_holding_registers(0, 10)
+                            .await
+                            .unwrap()
+                            .unwrap()
+                            .len()
                     });
                     timed += start.elapsed();
+                    assert_eq!(n, 10);
                 }
                 timed
             })

@@ -13,7 +13,7 @@
 mod common;
 
 use si_serial::core::port::PortOptions;
-use si_serial::modbus::tokio::Master;
+use si_serial::modbus::tokio::{Client as _, Master};
 use si_serial::modbus::MasterConfig;
 
 #[tokio::main(flavor = "current_thread")]
@@ -26,7 +26,7 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let config = MasterConfig::default(); // 9600 8E1, the module's defaults
     let line = common::open(&target, &config.line.settings, &PortOptions::default()).await?;
-    let mut master = Master::spawn(config, line.transport)?;
+    let master = Master::spawn(config, line.transport)?;
     master.write_single_register(unit, 0, 0x1234).await?;
     let regs = master.read_holding_registers(unit, 0, 4).await?;
     println!("holding 0…3: {regs:04X?}");

@@ -12,7 +12,7 @@
 //! `crates/si-cli/tests/pty/three_protocols_example.rs` runs this program against `si`
 //! serving the three partners.
 
-use si_serial::core::port::{open, PortOptions};
+use si_serial::modbus::tokio::Client as _; // Modbus function codes (RTU and TCP alike)
 use si_serial::uss::config::{MasterConfig as UssConfig, PollEntry};
 use si_serial::{modbus, r3964, uss};
 use std::error::Error;
@@ -22,11 +22,9 @@ const USAGE: &str = "usage: three_protocols PORT_3964R PORT_MODBUS PORT_USS";
 #[tokio::main(flavor = "current_thread")]
 async fn main() -> Result<(), Box<dyn Error>> {
     let port = |i: usize| std::env::args().nth(i).ok_or(USAGE);
-    let mb = modbus::MasterConfig::default();
     let uss = UssConfig::new(vec![PollEntry::new(3, uss::frame::PkwWords::Four, 2)]);
     let link = r3964::tokio::Handle::open(Default::default(), &port(1)?)?;
-    let serial = open(&port(2)?, &mb.line.settings, &PortOptions::default())?;
-    let mut plc = modbus::tokio::Master::spawn(mb, serial)?;
+    let plc = modbus::tokio::Master::open(Default::default(), &port(2)?)?;
     let drives = uss::tokio::Handle::open(uss, &port(3)?)?;
     link.send(&b"hello"[..]).await?;
     println!("3964(R): sent 5 bytes");

@@ -47,7 +47,7 @@ fn every_config_names_parameter_range_unit_and_value_the_same_way() {
     reads_alike(&e, "transmit chunk", "0");
 
     let e = modbus::config::MasterConfig {
-        response_timeout_ms: 49,
+        response_timeout: si_serial::core::Duration::from_millis(49),
         ..Default::default()
     }
     .validate()

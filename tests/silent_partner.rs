@@ -93,11 +93,10 @@ async fn a_uss_parameter_job_to_a_silent_node_ends_after_its_repetitions() {
 #[cfg(feature = "modbus")]
 #[tokio::test(start_paused = true)]
 async fn a_modbus_request_to_a_silent_unit_ends_after_the_response_time() {
-    use si_serial::modbus;
+    use si_serial::modbus::{self, Client as _};
     let config = modbus::MasterConfig::default();
     let (ours, _theirs) = silent_line();
-    // A place, so the request works whether the master's methods take `&self` or `&mut self`.
-    let plc = &mut modbus::tokio::Master::spawn(config, ours).unwrap();
+    let plc = modbus::tokio::Master::spawn(config, ours).unwrap();
     let start = Instant::now();
     let e = plc.read_holding_registers(1, 0, 1).await.unwrap_err();
     let took = elapsed_since(start);

@@ -264,8 +264,6 @@ const KNOWN_PAIRS: &[(&str, &str, &str)] = &[
     ("si-core", "fb.rs", "job.rs"),
     // Helper "handles" owns the ports: the Linux RS-485 control type and the termios mode.
     ("si-core", "port/linux.rs", "port/stream.rs"),
-    // Helper "modbus": the engine keeps FbJobs because Master::request returns no JobId.
-    ("si-modbus", "fb.rs", "master.rs"),
     // Helper "modbus": the slave's store and the request execution call each other.
     ("si-modbus", "serve.rs", "slave.rs"),
     // The gateway moves out in a later issue.

@@ -249,26 +249,30 @@ pub struct MasterConfig {
     /// Line parameters.
     #[serde(flatten)]
     pub line: LineConfig,
-    /// "Response Time" in ms, 50–655 000, default 2000: the wait for the *start* of a
-    /// response after the request has been sent ([Modbus/USS] §3.4.3, Table 3-17).
-    pub response_timeout_ms: u32,
-    /// Extension (not in the manual, which has no Modbus retries, [Modbus/USS] §3.4.3, Table 3-17):
-    /// how often a request that timed out or came back corrupt (CRC) is sent again before the job
-    /// fails. Default 0.
+    /// "Response Time", 50 ms … 655 000 ms, default 2000 ms: the wait for the *start* of a
+    /// response after the request has been sent ([Modbus/USS] §3.4.3, Table 3-17). In files:
+    /// `response_timeout_ms`, an integer of milliseconds.
+    #[serde(rename = "response_timeout_ms", with = "millis")]
+    pub response_timeout: Duration,
+    /// Extension (not in the manual, which has no Modbus retries,
+    /// [Modbus/USS] §3.4.3, Table 3-17): how often a request
+    /// that timed out or came back corrupt (CRC) is sent again before the job fails. Default 0.
     pub retries: u8,
-    /// Extension for [Modbus/USS] §3.4 `[derived]` (the manual does not say how long the master
-    /// waits after a broadcast): the turnaround delay in ms after the broadcast has left the line
-    /// before the job completes. Default 100 ms, the Modbus over serial line guide's lower bound.
-    pub broadcast_turnaround_ms: u32,
+    /// Extension for [Modbus/USS] §3.4 `[derived]` (the manual does not say how long the master waits after a
+    /// broadcast): the turnaround delay in ms after the broadcast has left the line before the
+    /// job completes. Default 100 ms, the Modbus over serial line guide's lower bound. In
+    /// files: `broadcast_turnaround_ms`.
+    #[serde(rename = "broadcast_turnaround_ms", with = "millis")]
+    pub broadcast_turnaround: Duration,
 }
 
 impl Default for MasterConfig {
     fn default() -> Self {
         MasterConfig {
             line: LineConfig::default(),
-            response_timeout_ms: 2_000,
+            response_timeout: Duration::from_millis(2_000),
             retries: 0,
-            broadcast_turnaround_ms: 100,
+            broadcast_turnaround: Duration::from_millis(100),
         }
     }
 }
@@ -282,21 +286,18 @@ impl MasterConfig {
     /// Like [`validate`](Self::validate), but every error.
     pub fn validate_all(&self) -> Vec<ConfigError> {
         let mut errors = self.line.validate_all();
-        if !(50..=655_000).contains(&self.response_timeout_ms) {
+        let range = Duration::from_millis(50)..=Duration::from_millis(655_000);
+        if !range.contains(&self.response_timeout) {
             errors.push(ConfigError::new(
                 "response time",
                 "50 … 655000 ms",
                 " ms",
-                self.response_timeout_ms,
+                // "49" or "49.500": Duration's Display without its unit.
+                self.response_timeout.to_string().trim_end_matches(" ms"),
                 status::INVALID_TIMEOUT_OR_ADDRESS,
             ));
         }
         errors
-    }
-
-    /// The response timeout as a [`Duration`].
-    pub fn response_timeout(&self) -> Duration {
-        Duration::from_millis(self.response_timeout_ms as u64)
     }
 
     /// The wire time of the longest frame at this line's character time (start + data +
@@ -342,8 +343,7 @@ impl MasterConfig {
         let cts = self.line.auto_v24.map_or(Duration::ZERO, |t| {
             Duration::from_millis(t.data_wait_time_ms as u64)
         });
-        let wait = (self.response_timeout() + self.port_margin())
-            .max(Duration::from_millis(self.broadcast_turnaround_ms as u64));
+        let wait = (self.response_timeout + self.port_margin()).max(self.broadcast_turnaround);
         self.max_response_duration()
             + self.max_frame_time()
             + cts
@@ -406,6 +406,21 @@ impl SlaveConfig {
     }
 }
 
+/// A time in files: an integer of milliseconds (`response_timeout_ms = 500`), the key named
+/// `<name>_ms` while the Rust field is a [`Duration`] named by the manual's term.
+pub(crate) mod millis {
+    use serde::{Deserialize, Deserializer, Serializer};
+    use si_core::Duration;
+
+    pub(crate) fn serialize<S: Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_u64(d.as_millis())
+    }
+
+    pub(crate) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Duration, D::Error> {
+        u64::deserialize(d).map(Duration::from_millis)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -438,7 +453,7 @@ mod tests {
     #[test]
     fn ranges_name_parameter_and_status() {
         let c = MasterConfig {
-            response_timeout_ms: 49,
+            response_timeout: Duration::from_millis(49),
             ..MasterConfig::default()
         };
         let e = c.validate().unwrap_err();
@@ -457,7 +472,10 @@ mod tests {
         };
         assert_eq!(seven.validate().unwrap_err().status.code(), 0x0E20);
         assert_eq!(SlaveConfig::default().address, 222);
-        assert_eq!(MasterConfig::default().response_timeout_ms, 2_000);
+        assert_eq!(
+            MasterConfig::default().response_timeout,
+            Duration::from_millis(2_000)
+        );
     }
 
     /// [Modbus/USS] §3.4.3, §3.5.4/§3.6: only the two modes; any other value is 0E22H, from a name
@@ -480,6 +498,11 @@ mod tests {
         let c: MasterConfig =
             serde_json::from_str(r#"{"mode": "interference-suppression"}"#).unwrap();
         assert_eq!(c.line.mode, Mode::InterferenceSuppression);
+        let c: MasterConfig = serde_json::from_str(r#"{"response_timeout_ms": 500}"#).unwrap();
+        assert_eq!(c.response_timeout, Duration::from_millis(500));
+        let v = serde_json::to_value(c).unwrap();
+        assert_eq!(v["response_timeout_ms"], 500);
+        assert_eq!(v["broadcast_turnaround_ms"], 100);
         assert_eq!(
             serde_json::to_value(Mode::InterferenceSuppression).unwrap(),
             "interference-suppression"
@@ -494,7 +517,7 @@ mod tests {
                 char_delay_multiplier: 0,
                 ..LineConfig::default()
             },
-            response_timeout_ms: 655_001,
+            response_timeout: Duration::from_millis(655_001),
             ..MasterConfig::default()
         };
         let codes: Vec<u16> = c.validate_all().iter().map(|e| e.status.code()).collect();

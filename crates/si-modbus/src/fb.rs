@@ -39,13 +39,13 @@
 //!   [Modbus/USS] §3.4.2 and §3.6.)
 
 use crate::frame::{fc, Bits, Registers, Request, Response};
-use crate::master::{Completion, Master, MasterEvent, RequestError};
+use crate::master::{Completion, Master, RequestError};
 use crate::simatic::{ConversionDb, SimaticStore};
 use crate::slave::{Slave, SlaveEvent};
 use crate::status;
 use bytes::Bytes;
 use si_core::fb::{Pulse, RisingEdge};
-use si_core::job::{JobId, JobPort, JobSlot, NotStarted, Reception};
+use si_core::job::{JobId, JobPort, NotStarted, Reception};
 use si_core::memory::Area;
 use si_core::status::common;
 use si_core::{Instant, Status};
@@ -309,29 +309,30 @@ pub fn store_response(completion: &Completion, dest: &mut [u8]) -> usize {
     }
 }
 
-/// What the master keeps for the FBs: the job S_SEND started, its outcome, and the response
-/// (or failure) S_RCV has not taken yet. Only jobs started through [`JobPort::start_job`] are
-/// tracked; jobs the application starts with [`Master::request`] never reach the FBs.
-#[derive(Debug, Default)]
-pub(crate) struct FbJobs {
-    slot: JobSlot<()>,
-    reception: Option<Result<Completion, Status>>,
-}
-
-impl FbJobs {
-    /// The master's job ended with `event`: the outcome for S_SEND, the response or the failure
-    /// for S_RCV (a broadcast has no response, so S_RCV shows nothing for it).
-    pub(crate) fn finished(&mut self, event: &MasterEvent) {
-        let (outcome, reception) = match event {
-            MasterEvent::Completed(c) => (Ok(()), c.response().is_some().then_some(Ok(*c))),
-            MasterEvent::Failed { status, .. } => (Err(*status), Some(Err(*status))),
-            MasterEvent::Diagnostic(_) => return,
-        };
-        if self.slot.finish(outcome).is_some() {
-            if let Some(r) = reception {
-                self.reception = Some(r);
-            }
-        }
+/// The FBs' bookkeeping on the master: once the job S_SEND started has ended, its outcome
+/// becomes S_RCV's reception (the response, or the failure; a broadcast has no response, so
+/// S_RCV shows nothing for it). Only jobs started through [`JobPort::start_job`] are tracked;
+/// jobs the application starts with [`Master::request`] never reach the FBs.
+///
+/// The master keeps the last job's outcome by its [`JobId`] ([`Master::outcome`]) until the
+/// next job ends, and the FBs are called every cycle, so the outcome is collected here on
+/// their next call. **Reading chosen** [derived]: a program that also starts its own jobs on
+/// the engine between two FB calls may replace the outcome before S_RCV sees it; the module
+/// has no such second job source.
+fn collect(master: &mut Master) {
+    let Some(id) = master.fb_job else {
+        return;
+    };
+    let Some(outcome) = master.outcome(id) else {
+        return;
+    };
+    master.fb_job = None;
+    let reception = match outcome {
+        Ok(c) => c.response().is_some().then_some(Ok(c)),
+        Err(status) => Some(Err(status)),
+    };
+    if reception.is_some() {
+        master.fb_reception = reception;
     }
 }
 
@@ -350,31 +351,32 @@ impl JobPort for Master {
         if self.is_busy() {
             return Err(RequestError::Busy.status().into());
         }
-        // Tracked before it starts: the automatic V.24 gate can end it within `request`.
-        let id = self.fb.slot.start();
-        match self.request(now, unit, &request) {
-            Ok(()) => Ok(id),
-            Err(e) => {
-                self.fb.slot.forget(id);
-                Err(e.status().into())
-            }
-        }
+        collect(self);
+        // Ended within `request` already (the automatic V.24 gate)? Then its outcome is the
+        // master's last one, and `collect` finds it by this id.
+        let id = self.request(now, unit, &request).map_err(|e| e.status())?;
+        self.fb_job = Some(id);
+        Ok(id)
     }
 
     fn job_outcome(&mut self, id: JobId) -> Option<Result<(), Status>> {
-        self.fb.slot.outcome(id)
+        collect(self);
+        self.outcome(id).map(|r| r.map(|_| ()))
     }
 
     /// R on S_SEND: the request already on the line runs to its end, but neither S_SEND nor
     /// S_RCV reports it.
     fn cancel_job(&mut self, id: JobId) {
-        self.fb.slot.forget(id);
+        if self.fb_job == Some(id) {
+            self.fb_job = None;
+        }
     }
 
     /// The response of the last job, stored as [Modbus/USS] §3.4.5–§3.4.16 lays it out, or its
     /// failure: a failed job is reported by both blocks with the same STATUS (Figure 3-7).
     fn take_received(&mut self, _now: Instant, dest: &mut [u8]) -> Option<Reception> {
-        Some(match self.fb.reception.take()? {
+        collect(self);
+        Some(match self.fb_reception.take()? {
             Ok(c) => Reception::Frame {
                 len: store_response(&c, dest),
                 status: Status::OK,
@@ -385,8 +387,9 @@ impl JobPort for Master {
 
     /// R on S_RCV drops a response not yet taken; EN_R = 0 keeps it.
     fn stop_receiving(&mut self, reset: bool) -> bool {
+        collect(self);
         if reset {
-            self.fb.reception = None;
+            self.fb_reception = None;
         }
         false
     }
@@ -662,7 +665,7 @@ mod tests {
         m.handle_timeout(Instant::from_micros(30_000));
         loop {
             match m.poll_output() {
-                Output::Event(MasterEvent::Completed(c)) => return c,
+                Output::Event(crate::MasterEvent::Completed(c)) => return c,
                 Output::Wait(_) => panic!("no completion"),
                 _ => {}
             }

@@ -17,8 +17,10 @@
 //!   conversion DB serves and why it refused a request;
 //! - [`mbap`]: Modbus TCP framing (MBAP header, streaming decoder), Sans-IO, over the same PDU
 //!   codec as RTU;
-//! - `tokio` (feature `tokio`): an async master handle and a slave server task, and
-//!   `tokio::tcp`, a Modbus TCP client and server.
+//! - `tokio` (feature `tokio`): the `Client` trait, one method per function code, implemented
+//!   by the RTU master handle (engine in a driver task), the inline master (engine in the
+//!   caller's future) and `tokio::tcp`'s Modbus TCP client; a slave handle and a Modbus TCP
+//!   server; one `Error` for all of them.
 //!
 //! ```
 //! use si_modbus::frame::{Adu, Request};
@@ -92,7 +94,7 @@
 //! - **the job**: `job_bound = (retries + 1) × attempt_bound`; whatever is still running then
 //!   fails with 0830H.
 //!
-//! Example: `si modbus read --timeout 500` at 9600 bit/s 8E1 (t_char = 1.146 ms, tZVZ = 4 ms,
+//! Example: `si modbus read --response-timeout-ms 500` at 9600 bit/s 8E1 (t_char = 1.146 ms, tZVZ = 4 ms,
 //! no retries): max_response_duration = 302.5 + 4 + 256.1 = 562.6 ms, and the job ends within
 //! 562.6 + 302.5 + 756.1 + 562.6 = **2184 ms**, under the 2.5 s a host may wait. Against a
 //! silent partner it still ends at the Response Time (0830H, 509 ms here), and a frame that
@@ -122,3 +124,8 @@ pub use frame::{Adu, Bits, ExceptionCode, Registers, Request, Response};
 pub use master::{Master, MasterEvent};
 pub use simatic::{ConversionDb, SimaticStore};
 pub use slave::{Slave, SlaveEvent, Store, StoreError, Tables};
+
+/// The one trait of Modbus clients, RTU and TCP ([`tokio::Client`]).
+#[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
+pub use crate::tokio::Client;

@@ -28,11 +28,11 @@
 //! frames.
 
 use crate::config::{FrameEnd, MasterConfig, Mode};
-use crate::fb::FbJobs;
 use crate::frame::{self, fc, Adu, Request, Response, BROADCAST};
 use crate::rx::{Counters, Expect, Fault, Received, Receiver};
 use crate::status;
 use crate::transmitter::{Gate, Transmitter};
+use si_core::job::{JobId, JobSlot};
 use si_core::{Duration, Engine, Instant, Interface, LineError, ModemSignals, Output, Status};
 use std::collections::VecDeque;
 
@@ -179,9 +179,16 @@ pub struct Master {
     out: VecDeque<Output<MasterEvent>>,
     /// Frames out, with automatic V.24 operation ([Modbus/USS] §3.2.2) around each if configured.
     tx: Transmitter,
-    /// The jobs S_SEND started and the response S_RCV takes (the [`JobPort`](si_core::JobPort)
-    /// impl in [`crate::fb`]).
-    pub(crate) fb: FbJobs,
+    /// The running job's id and the last job's outcome: every job, whoever started it, gets a
+    /// [`JobId`] from [`Master::request`], and its outcome stays readable by that id
+    /// ([`Master::outcome`]) until the next job ends.
+    jobs: JobSlot<Completion>,
+    /// The job S_SEND started and S_RCV's reception not yet taken: kept here for the FB
+    /// equivalents, whose `JobPort` impl (the `fb` module) alone reads and writes them; the
+    /// engine never looks at them.
+    pub(crate) fb_job: Option<JobId>,
+    /// See `fb_job`.
+    pub(crate) fb_reception: Option<Result<Completion, Status>>,
 }
 
 impl Master {
@@ -199,7 +206,9 @@ impl Master {
             job_deadline: None,
             hold_limit: Instant::ZERO,
             out,
-            fb: FbJobs::default(),
+            jobs: JobSlot::default(),
+            fb_job: None,
+            fb_reception: None,
         })
     }
 
@@ -253,22 +262,39 @@ impl Master {
     }
 
     /// Start a job: send `request` to `unit` (0 = broadcast). Refused with the manual's STATUS
-    /// when it breaks [Modbus/USS] §3.4.5–§3.4.16, or when a job is running.
+    /// when it breaks [Modbus/USS]
+    /// §3.4.5–§3.4.16, or when a job is running.
+    ///
+    /// The job's [`JobId`] names its outcome: the job ends in exactly one
+    /// [`MasterEvent::Completed`] or [`MasterEvent::Failed`], and [`outcome`](Self::outcome)
+    /// gives it by id until the next job ends.
     pub fn request(
         &mut self,
         now: Instant,
         unit: u8,
         request: &Request<'_>,
-    ) -> Result<(), RequestError> {
+    ) -> Result<JobId, RequestError> {
         if self.job.is_some() {
             return Err(RequestError::Busy);
         }
         let adu = Self::check_job(unit, request)?;
+        let id = self.jobs.start();
         self.job = Some((adu, 1 + self.config.retries));
         self.attempts = Attempts::default();
         self.job_deadline = Some(now + self.config.job_bound());
         self.attempt(now);
-        Ok(())
+        Ok(id)
+    }
+
+    /// The outcome of job `id` once it has ended: the completion, or the failure's STATUS.
+    /// `None` while it runs, and once a later job has ended (the engine keeps one outcome).
+    pub fn outcome(&self, id: JobId) -> Option<Result<Completion, Status>> {
+        self.jobs.outcome(id)
+    }
+
+    /// The job that is running, if any.
+    pub fn running_job(&self) -> Option<JobId> {
+        self.jobs.running()
     }
 
     /// The checks of [Modbus/USS] §3.4.5–§3.4.16 a job must pass before it is started (0E43H
@@ -336,12 +362,11 @@ impl Master {
             let broadcast = self.job.is_some_and(|(a, _)| a.unit() == BROADCAST);
             self.state = if broadcast {
                 State::Turnaround {
-                    until: now + Duration::from_millis(self.config.broadcast_turnaround_ms as u64),
+                    until: now + self.config.broadcast_turnaround,
                 }
             } else {
                 // The response's first byte may reach us up to the port's latency late.
-                let deadline =
-                    now + self.config.response_timeout() + self.rx.delivery().allowance();
+                let deadline = now + self.config.response_timeout + self.rx.delivery().allowance();
                 State::Waiting {
                     deadline,
                     limit: deadline + self.config.max_response_duration(),
@@ -354,7 +379,11 @@ impl Master {
         self.job = None;
         self.job_deadline = None;
         self.state = State::Idle;
-        self.fb.finished(&event);
+        match &event {
+            MasterEvent::Completed(c) => self.jobs.finish(Ok(*c)),
+            MasterEvent::Failed { status, .. } => self.jobs.finish(Err(*status)),
+            MasterEvent::Diagnostic(_) => None,
+        };
         self.out.push_back(Output::Event(event));
     }
 

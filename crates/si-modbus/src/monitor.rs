@@ -61,7 +61,7 @@ impl Params {
         Params {
             settings: config.line.settings,
             end_gap: config.line.gap(),
-            timeout: config.response_timeout(),
+            timeout: config.response_timeout,
         }
     }
 }

@@ -42,7 +42,7 @@ fn configs() -> Vec<(MasterConfig, FrameEnd)> {
         for retries in [0, 2] {
             for frame_end in [FrameEnd::Gap, FrameEnd::Length] {
                 let mut c = MasterConfig {
-                    response_timeout_ms: 500,
+                    response_timeout: si_core::Duration::from_millis(500),
                     retries,
                     ..MasterConfig::default()
                 };
@@ -105,7 +105,7 @@ fn every_job_ends_with_a_status_within_its_bound_under_every_noise() {
 #[test]
 fn behind_a_usb_adapter_too() {
     let config = MasterConfig {
-        response_timeout_ms: 500,
+        response_timeout: si_core::Duration::from_millis(500),
         ..MasterConfig::default()
     };
     for pattern in issue_patterns(SerialSettings::default().char_time()) {
@@ -117,7 +117,7 @@ fn behind_a_usb_adapter_too() {
 fn an_s_send_job_ends_with_error_within_the_bound_under_every_noise() {
     // The FB layer (S_SEND over the master, si_core::fb) inherits the master's bound.
     let config = MasterConfig {
-        response_timeout_ms: 500,
+        response_timeout: si_core::Duration::from_millis(500),
         ..MasterConfig::default()
     };
     let s = SerialSettings::default();
@@ -145,7 +145,7 @@ fn an_s_send_job_ends_with_error_within_the_bound_under_every_noise() {
 fn a_silent_partner_gives_0830h_after_the_response_time() {
     // The bound does not change the manual's timing: silence is 0830H at the response time.
     let config = MasterConfig {
-        response_timeout_ms: 500,
+        response_timeout: si_core::Duration::from_millis(500),
         ..MasterConfig::default()
     };
     let Facing {
@@ -169,9 +169,9 @@ fn a_silent_partner_gives_0830h_after_the_response_time() {
 
 #[test]
 fn the_issue_s_example_is_under_2_5_s() {
-    // `modbus read --timeout 500` at 9600 bit/s (8E1), no retries.
+    // `modbus read --response-timeout-ms 500` at 9600 bit/s (8E1), no retries.
     let config = MasterConfig {
-        response_timeout_ms: 500,
+        response_timeout: si_core::Duration::from_millis(500),
         ..MasterConfig::default()
     };
     assert!(config.job_bound() < ms(2_500), "{:?}", config.job_bound());
@@ -206,7 +206,7 @@ proptest! {
         job in 0usize..4,
     ) {
         let mut config = MasterConfig {
-            response_timeout_ms: timeout,
+            response_timeout: si_core::Duration::from_millis(timeout.into()),
             retries,
             ..MasterConfig::default()
         };

@@ -11,7 +11,7 @@ use std::process::{Command, Stdio};
 
 use si_core::port::{self, PortOptions};
 use si_core::{Parity, SerialSettings};
-use si_modbus::tokio::{Error, Master};
+use si_modbus::tokio::{Client as _, Error, Master};
 use si_modbus::MasterConfig;
 use si_testkit::peers::{have_pymodbus_serial, Kill};
 use si_testkit::pty::pty_pair;
@@ -53,13 +53,13 @@ async fn the_rtu_master_reads_and_writes_a_pymodbus_slave_on_a_pty() {
     let Some(pair) = pty_pair() else { return };
     let _slave = slave(&pair.b);
     let mut config = MasterConfig {
-        response_timeout_ms: 1_000,
+        response_timeout: si_core::Duration::from_millis(1_000),
         retries: 2,
         ..MasterConfig::default()
     };
     config.line.settings = SerialSettings::new(19_200, 8, Parity::None, 2).unwrap();
     let line = port::open(&pair.a, &config.line.settings, &PortOptions::default()).unwrap();
-    let mut master = Master::spawn(config, line).unwrap();
+    let master = Master::spawn(config, line).unwrap();
     // pymodbus needs a moment after "ready" before it reads the port; the retries cover it.
     assert_eq!(
         master.read_holding_registers(1, 0, 4).await.unwrap(),
@@ -80,7 +80,7 @@ async fn the_rtu_master_reads_and_writes_a_pymodbus_slave_on_a_pty() {
     );
     // Beyond the 100 registers: pymodbus answers exception 02 (illegal data address).
     let e = master.read_holding_registers(1, 200, 1).await.unwrap_err();
-    assert!(matches!(e, Error::Failed(_)), "{e:?}");
+    assert!(matches!(e, Error::Failed { .. }), "{e:?}");
     assert_eq!(
         e.status().map(|s| s.code()),
         Some(si_modbus::status::EXCEPTION_ILLEGAL_DATA_ADDRESS.code()),

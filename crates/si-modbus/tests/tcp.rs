@@ -8,7 +8,8 @@ use std::time::Duration;
 use si_modbus::frame::{ExceptionCode, Registers, Request};
 use si_modbus::mbap::TcpAdu;
 use si_modbus::slave::Tables;
-use si_modbus::tokio::tcp::{Client, Error, Handler, Server, ServerConfig, Units};
+use si_modbus::tokio::tcp::{Client, Handler, Server, ServerConfig, Units};
+use si_modbus::tokio::{Client as _, Error, Job};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
 
@@ -39,7 +40,7 @@ async fn every_function_code_between_our_client_and_server() {
         s.discrete_inputs[9] = true;
         s.input_registers[5] = 0xBEEF;
     }
-    let mut c = Client::connect(addr).await.unwrap();
+    let c = Client::connect(addr).await.unwrap();
     c.write_single_coil(1, 2, true).await.unwrap(); // FC05
     c.write_multiple_coils(1, 8, &[true, false, true])
         .await
@@ -70,15 +71,16 @@ async fn every_function_code_between_our_client_and_server() {
 #[tokio::test]
 async fn exceptions_pass_as_they_are() {
     let (addr, _) = start(ServerConfig::default()).await;
-    let mut c = Client::connect(addr).await.unwrap();
+    let c = Client::connect(addr).await.unwrap();
     // Past the 200 holding registers: the store's exception 02.
     let e = c.read_holding_registers(1, 199, 2).await.unwrap_err();
     assert!(
         matches!(
             e,
-            Error::Exception {
-                function: 3,
-                code: 2
+            Error::Failed {
+                job: Job { function: 3, .. },
+                exception: Some(2),
+                ..
             }
         ),
         "{e:?}"
@@ -124,10 +126,17 @@ async fn a_unit_not_served_gets_no_answer() {
         ..ServerConfig::default()
     };
     let (addr, _) = start(config).await;
-    let mut c = Client::connect(addr).await.unwrap().with_timeout(SHORT);
+    let c = Client::connect(addr)
+        .await
+        .unwrap()
+        .with_response_timeout(SHORT);
     assert!(c.read_holding_registers(17, 0, 1).await.is_ok());
     let e = c.read_holding_registers(2, 0, 1).await.unwrap_err();
-    assert!(matches!(e, Error::Timeout(_)), "{e:?}");
+    assert_eq!(
+        e.status(),
+        Some(si_modbus::status::RESPONSE_TIMEOUT),
+        "{e:?}"
+    );
     assert!(c.read_holding_registers(1, 0, 1).await.is_ok());
 }
 
@@ -155,10 +164,17 @@ async fn a_server_that_never_answers_times_out_and_a_late_answer_is_discarded() 
         let mut rest = Vec::new();
         let _ = s.read_to_end(&mut rest).await;
     });
-    let mut c = Client::connect(addr).await.unwrap().with_timeout(SHORT);
+    let c = Client::connect(addr)
+        .await
+        .unwrap()
+        .with_response_timeout(SHORT);
     let e = c.read_holding_registers(1, 0, 1).await.unwrap_err();
-    assert!(matches!(e, Error::Timeout(_)), "{e:?}");
-    let mut c = c.with_timeout(Duration::from_secs(10));
+    assert_eq!(
+        e.status(),
+        Some(si_modbus::status::RESPONSE_TIMEOUT),
+        "{e:?}"
+    );
+    let c = c.with_response_timeout(Duration::from_secs(10));
     assert_eq!(c.read_holding_registers(1, 0, 1).await.unwrap(), [0x0042]);
     drop(c);
     peer.await.unwrap();
@@ -170,14 +186,14 @@ async fn a_server_that_never_answers_times_out_and_a_late_answer_is_discarded() 
 async fn two_clients_at_once_with_interleaved_transaction_ids() {
     let (addr, _) = start(ServerConfig::default()).await;
     let run = |base: u16| async move {
-        let mut c = Client::connect(addr).await.unwrap();
+        let c = Client::connect(addr).await.unwrap();
         for i in 0..50u16 {
             let value = base + i;
             let at = base / 1000;
             c.write_single_register(1, at, value).await.unwrap();
             assert_eq!(c.read_holding_registers(1, at, 1).await.unwrap(), [value]);
         }
-        c.next_transaction_id()
+        c.next_transaction_id().await
     };
     let (a, b) = tokio::join!(tokio::spawn(run(1000)), tokio::spawn(run(2000)));
     assert_eq!((a.unwrap(), b.unwrap()), (101, 101));
@@ -232,20 +248,20 @@ async fn connections_over_the_limit_are_closed() {
         ..ServerConfig::default()
     };
     let (addr, _) = start(config).await;
-    let mut first = Client::connect(addr).await.unwrap();
+    let first = Client::connect(addr).await.unwrap();
     first.read_coils(1, 0, 1).await.unwrap();
-    let mut second = Client::connect(addr).await.unwrap();
+    let second = Client::connect(addr).await.unwrap();
     let e = second.read_coils(1, 0, 1).await.unwrap_err();
-    assert!(matches!(e, Error::Closed | Error::Io(_)), "{e:?}");
+    assert!(matches!(e, Error::Stopped | Error::Io(_)), "{e:?}");
     first.read_coils(1, 0, 1).await.unwrap();
     drop(first);
     // The slot is free once the server has seen the first connection close.
     for attempt in 0.. {
-        let mut third = Client::connect(addr).await.unwrap();
+        let third = Client::connect(addr).await.unwrap();
         match third.read_coils(1, 0, 1).await {
             Ok(_) => break,
             Err(e) if attempt < 50 => {
-                assert!(matches!(e, Error::Closed | Error::Io(_)), "{e:?}");
+                assert!(matches!(e, Error::Stopped | Error::Io(_)), "{e:?}");
                 tokio::task::yield_now().await;
             }
             Err(e) => panic!("the slot was never freed: {e}"),
@@ -270,21 +286,22 @@ async fn a_gateway_exception_code_from_a_handler_passes_as_it_is() {
         .unwrap();
     let addr = server.local_addr().unwrap();
     tokio::spawn(server.run());
-    let mut c = Client::connect(addr).await.unwrap();
+    let c = Client::connect(addr).await.unwrap();
     let e = c.read_holding_registers(5, 0, 1).await.unwrap_err();
     assert!(
         matches!(
             e,
-            Error::Exception {
-                function: 3,
-                code: 0x0B
+            Error::Failed {
+                job: Job { function: 3, .. },
+                exception: Some(0x0B),
+                ..
             }
         ),
         "{e:?}"
     );
     assert_eq!(
         e.to_string(),
-        "function 03H answered with exception 0BH (gateway target device failed to respond)"
+        "unit 5 FC03 address 0: exception 0BH (gateway target device failed to respond)"
     );
 }
 
@@ -306,7 +323,7 @@ async fn tcp_and_rtu_answer_every_request_alike() {
     let (addr, _) = start(ServerConfig::default()).await;
     {
         // start() serves Tables::new(64, 64, 200, 64); give it the same contents.
-        let mut c = Client::connect(addr).await.unwrap();
+        let c = Client::connect(addr).await.unwrap();
         c.write_single_register(1, 1, 0x1234).await.unwrap();
         c.write_single_coil(1, 3, true).await.unwrap();
     }
@@ -375,7 +392,7 @@ async fn a_silent_connection_is_closed_after_the_idle_timeout() {
     let mut rest = Vec::new();
     let closed = tokio::time::timeout(Duration::from_secs(10), silent.read_to_end(&mut rest)).await;
     assert!(matches!(closed, Ok(Ok(0))), "{closed:?}");
-    let mut c = Client::connect(addr).await.unwrap();
+    let c = Client::connect(addr).await.unwrap();
     c.read_coils(1, 0, 1).await.unwrap();
 }
 
@@ -449,7 +466,10 @@ async fn an_answer_that_does_not_fit_its_request_is_refused() {
         .unwrap();
     let addr = server.local_addr().unwrap();
     tokio::spawn(server.run());
-    let mut c = Client::connect(addr).await.unwrap().with_timeout(SHORT);
+    let c = Client::connect(addr)
+        .await
+        .unwrap()
+        .with_response_timeout(SHORT);
     let e = c.read_holding_registers(1, 0, 3).await.unwrap_err();
     assert_eq!(
         e.status(),
@@ -458,4 +478,48 @@ async fn an_answer_that_does_not_fit_its_request_is_refused() {
     );
     let e = c.write_single_register(1, 5, 7).await.unwrap_err();
     assert_eq!(e.status(), Some(si_modbus::status::ECHO_WRONG), "{e}");
+}
+
+/// `ClientConfig::retries`: a request that got no answer in time is sent again with a new
+/// transaction id, and the answer to the repetition completes the job; without retries the same
+/// silence fails the job with 0830H.
+#[tokio::test]
+async fn a_request_without_answer_is_repeated_as_configured() {
+    use si_modbus::tokio::tcp::ClientConfig;
+    let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = listener.local_addr().unwrap();
+    let peer = tokio::spawn(async move {
+        let (mut s, _) = listener.accept().await.unwrap();
+        let mut ids = Vec::new();
+        // Ignore the first request; answer the second.
+        for answer in [false, true] {
+            let mut request = [0u8; 12];
+            s.read_exact(&mut request).await.unwrap();
+            ids.push(u16::from_be_bytes([request[0], request[1]]));
+            if answer {
+                let reply = TcpAdu::response(
+                    ids[1],
+                    request[6],
+                    &si_modbus::frame::Response::ReadHoldingRegisters(Registers::Words(&[7])),
+                )
+                .unwrap();
+                s.write_all(reply.as_bytes()).await.unwrap();
+            }
+        }
+        let mut rest = Vec::new();
+        let _ = s.read_to_end(&mut rest).await;
+        ids
+    });
+    let config = ClientConfig {
+        response_timeout: SHORT.into(),
+        retries: 1,
+    };
+    let c = Client::connect_with(config, addr).await.unwrap();
+    assert_eq!(c.read_holding_registers(1, 0, 1).await.unwrap(), [7]);
+    drop(c);
+    assert_eq!(
+        peer.await.unwrap(),
+        [1, 2],
+        "a new transaction id each time"
+    );
 }

@@ -15,6 +15,7 @@ use std::time::Duration;
 
 use si_modbus::slave::Tables;
 use si_modbus::tokio::tcp::{Client, Server, ServerConfig};
+use si_modbus::tokio::Client as _;
 
 use si_testkit::peers::{have_mbpoll, have_pymodbus, mbpoll_values, Kill};
 
@@ -153,7 +154,7 @@ fn our_client_against_pymodbus_tcp_server() {
             }
             tokio::time::sleep(Duration::from_millis(100)).await;
         }
-        let mut c = c.expect("pymodbus server listening");
+        let c = c.expect("pymodbus server listening");
         assert_eq!(
             c.read_holding_registers(1, 0, 5).await.unwrap(),
             [0, 1, 2, 3, 4]

@@ -7,6 +7,7 @@ use std::time::Duration;
 
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::tcp::{Client, Handler, Peer, Server, ServerConfig};
+use si_modbus::tokio::Client as _;
 
 /// Answers every request with its connection number in a register, and logs the connections.
 #[derive(Default)]
@@ -43,8 +44,8 @@ async fn each_connection_has_its_own_number_and_is_announced() {
         .unwrap();
     let addr = server.local_addr().unwrap();
     tokio::spawn(server.run());
-    let mut a = Client::connect(addr).await.unwrap();
-    let mut b = Client::connect(addr).await.unwrap();
+    let a = Client::connect(addr).await.unwrap();
+    let b = Client::connect(addr).await.unwrap();
     assert_eq!(a.read_holding_registers(1, 0, 1).await.unwrap(), [1]);
     assert_eq!(b.read_holding_registers(1, 0, 1).await.unwrap(), [2]);
     assert_eq!(a.read_holding_registers(1, 0, 1).await.unwrap(), [1]);

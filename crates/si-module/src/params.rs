@@ -887,19 +887,19 @@ fn read_modbus_master(r: &mut Reader<'_>) -> ModbusMasterParams {
         module,
         config: ModbusMaster {
             line,
-            response_timeout_ms: r.uint(
+            response_timeout: si_core::Duration::from_millis(r.uint(
                 "response_timeout_ms",
-                d.response_timeout_ms.into(),
+                d.response_timeout.as_millis(),
                 u32::MAX.into(),
                 "50…655000",
-            ) as u32,
+            )),
             retries: r.uint("retries", d.retries.into(), 0xFF, "0 … 255") as u8,
-            broadcast_turnaround_ms: r.uint(
+            broadcast_turnaround: si_core::Duration::from_millis(r.uint(
                 "broadcast_turnaround_ms",
-                d.broadcast_turnaround_ms.into(),
+                d.broadcast_turnaround.as_millis(),
                 u32::MAX.into(),
                 "0 … 4294967295 ms",
-            ) as u32,
+            )),
         },
     }
 }
@@ -1322,11 +1322,14 @@ impl DriverParams {
                 }
                 match self {
                     DriverParams::ModbusMaster(p) => {
-                        put("response_timeout_ms", p.config.response_timeout_ms.into());
+                        put(
+                            "response_timeout_ms",
+                            p.config.response_timeout.as_millis().into(),
+                        );
                         put("retries", p.config.retries.into());
                         put(
                             "broadcast_turnaround_ms",
-                            p.config.broadcast_turnaround_ms.into(),
+                            p.config.broadcast_turnaround.as_millis().into(),
                         );
                     }
                     DriverParams::ModbusSlave(p) => put("address", p.config.address.into()),

@@ -491,7 +491,7 @@ impl ModuleArgs {
                         settings,
                         ..si_modbus::config::LineConfig::default()
                     },
-                    response_timeout_ms: self.response_ms,
+                    response_timeout: si_core::Duration::from_millis(self.response_ms.into()),
                     ..si_modbus::MasterConfig::default()
                 };
                 let master = si_modbus::Master::new(config)?;

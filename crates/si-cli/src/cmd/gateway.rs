@@ -397,7 +397,7 @@ async fn open_line(
                 local_echo: false,
                 auto_v24: None,
             },
-            response_timeout_ms: l.response_timeout_ms,
+            response_timeout: si_core::Duration::from_millis(l.response_timeout_ms.into()),
             retries: l.retries,
             ..MasterConfig::default()
         };

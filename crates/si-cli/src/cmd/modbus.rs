@@ -46,8 +46,13 @@ pub struct MasterOptions {
     #[arg(long = "unit", short = 'u', required = true, value_delimiter = ',',
           value_name = "UNIT", value_parser = parse_unit)]
     units: Vec<u8>,
-    /// Response time in ms (50–655000): the wait for the start of the response.
-    #[arg(long, default_value_t = 2000)]
+    /// Response time in ms (50–655000): the wait for the start of the response (the
+    /// config's `response_timeout`, `response_timeout_ms` in files).
+    #[arg(
+        long = "response-timeout-ms",
+        value_name = "MS",
+        default_value_t = 2000
+    )]
     timeout: u32,
     /// Extension: send again this many times after a timeout or CRC error.
     #[arg(long, default_value_t = 0)]
@@ -280,7 +285,7 @@ fn master_config(conn: &Connection, o: &MasterOptions) -> Result<MasterConfig, C
             o.framing.char_delay_multiplier,
             &o.framing,
         )?,
-        response_timeout_ms: o.timeout,
+        response_timeout: si_core::Duration::from_millis(o.timeout.into()),
         retries: o.retries,
         ..MasterConfig::default()
     };
@@ -473,7 +478,7 @@ async fn jobs(
     // Each unit once, in the order given.
     let mut seen = std::collections::BTreeSet::new();
     units.retain(|u| seen.insert(*u));
-    // --timeout and --retries in the module's ranges, whichever way the jobs go.
+    // --response-timeout-ms and --retries in the module's ranges, whichever way the jobs go.
     master_config(conn, o)?;
     if let Some(mut server) = o
         .modbus_tcp
@@ -775,7 +780,7 @@ fn rig(o: &SimOptions, timeout_ms: u32) -> Result<Rig, CliError> {
     let mut sim = Simulator::new(o.seed);
     let master = Master::new(MasterConfig {
         line,
-        response_timeout_ms: timeout_ms,
+        response_timeout: si_core::Duration::from_millis(timeout_ms.into()),
         ..MasterConfig::default()
     })?;
     let slave = Slave::new(SlaveConfig { line, address: 1 }, SimaticStore::example())?;

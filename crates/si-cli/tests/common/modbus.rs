@@ -119,7 +119,14 @@ pub fn wait_for_echo(port: &str, line: &[&str], extra: &[&str]) {
     let start = std::time::Instant::now();
     loop {
         let args = [
-            &["modbus", "diag", "--unit", "1", "--timeout", "500"][..],
+            &[
+                "modbus",
+                "diag",
+                "--unit",
+                "1",
+                "--response-timeout-ms",
+                "500",
+            ][..],
             extra,
         ]
         .concat();

@@ -48,7 +48,7 @@ fn spawn_poll(port: &str, timeout: &str, poll: &str) -> Kill {
             .args(["--port", port])
             .args(LINE)
             .args(["modbus", "read", "holding", "--unit", "1", "--count", "2"])
-            .args(["--timeout", timeout, "--poll", poll])
+            .args(["--response-timeout-ms", timeout, "--poll", poll])
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
@@ -278,7 +278,7 @@ fn several_units_in_one_poll_with_counters_per_unit() {
             "3",
             "--count",
             "2",
-            "--timeout",
+            "--response-timeout-ms",
             "100",
             "--poll",
             "10",

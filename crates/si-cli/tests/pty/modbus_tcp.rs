@@ -74,7 +74,7 @@ fn json_lines(o: &Output) -> Vec<Value> {
 fn wait_for_echo(server: &str) {
     let start = Instant::now();
     loop {
-        let o = si_to(server, "modbus diag --unit 1 --timeout 500");
+        let o = si_to(server, "modbus diag --unit 1 --response-timeout-ms 500");
         if o.status.success() {
             assert_eq!(stdout(&o).trim(), "unit 1 diagnostics echo 0xA537"); // FC08
             return;
@@ -175,11 +175,14 @@ fn serve_one(stream: &mut TcpStream, reply: fn(&[u8]) -> Option<Vec<u8>>) {
 #[test]
 fn modbus_tcp_no_answer_is_the_response_timeout() {
     let server = fake_server(|_| None);
-    let o = si_to(&server, "modbus read holding -u 1 --timeout 200");
+    let o = si_to(
+        &server,
+        "modbus read holding -u 1 --response-timeout-ms 200",
+    );
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(stderr(&o).contains("16#0830"), "{}", text(&o));
     // In a poll each timeout is counted, and the poll goes on.
-    let poll = "modbus read holding -u 1 --timeout 100 --poll 1 --cycles 2";
+    let poll = "modbus read holding -u 1 --response-timeout-ms 100 --poll 1 --cycles 2";
     let o = si_to(&server, poll);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let out = stdout(&o);
@@ -258,7 +261,7 @@ fn modbus_tcp_poll_connects_again_after_the_server_drops_the_connection() {
             let _ = stream.write_all(&answer);
         }
     });
-    let poll = "--json modbus read holding -u 1 --timeout 1000 --poll 10 --cycles 4";
+    let poll = "--json modbus read holding -u 1 --response-timeout-ms 1000 --poll 10 --cycles 4";
     let o = si_to(&server, poll);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     let lines = json_lines(&o);

@@ -26,7 +26,7 @@ fn ends_within(args: &[&str], bound: Duration) {
 
 fn modbus_bound() -> Duration {
     let config = si_modbus::MasterConfig {
-        response_timeout_ms: 500,
+        response_timeout: si_core::Duration::from_millis(500),
         ..si_modbus::MasterConfig::default()
     };
     Duration::from_micros(config.job_bound().as_micros())
@@ -52,7 +52,7 @@ fn modbus_read_ends_within_its_bound_under_noise() {
             "holding",
             "--unit",
             "1",
-            "--timeout",
+            "--response-timeout-ms",
             "500",
         ],
         modbus_bound(),
@@ -68,7 +68,7 @@ fn modbus_write_ends_within_its_bound_under_noise() {
             "register",
             "--unit",
             "1",
-            "--timeout",
+            "--response-timeout-ms",
             "500",
             "7",
         ],
@@ -79,7 +79,14 @@ fn modbus_write_ends_within_its_bound_under_noise() {
 #[test]
 fn modbus_diag_ends_within_its_bound_under_noise() {
     ends_within(
-        &["modbus", "diag", "--unit", "1", "--timeout", "500"],
+        &[
+            "modbus",
+            "diag",
+            "--unit",
+            "1",
+            "--response-timeout-ms",
+            "500",
+        ],
         modbus_bound(),
     );
 }

@@ -151,7 +151,15 @@ fn modbus_auto_v24(args: &[&str]) -> std::process::Output {
     let Some(pair) = pty_pair() else {
         panic!("no pty pair")
     };
-    let read = ["modbus", "read", "holding", "-u", "1", "--timeout", "200"];
+    let read = [
+        "modbus",
+        "read",
+        "holding",
+        "-u",
+        "1",
+        "--response-timeout-ms",
+        "200",
+    ];
     si(&[&["--port", &pair.a][..], &read, &["--auto-v24"], args].concat())
 }
 

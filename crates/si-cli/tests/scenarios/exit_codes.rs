@@ -134,7 +134,7 @@ fn other_argument_checks_are_usage_errors() {
         "--baud 1200 ascii recv --char-delay-ms 10",
         "3964r recv --char-delay-ms 0",
         "rk512 fetch --db 1 --count 1 --response-timeout-ms 0",
-        "modbus read holding --unit 1 --addr 0 --count 1 --timeout 1",
+        "modbus read holding --unit 1 --addr 0 --count 1 --response-timeout-ms 1",
     ] {
         let args: Vec<&str> = line.split_whitespace().collect();
         let (code, err) = run(&args);

@@ -130,7 +130,7 @@ fn serve_takes_every_framing_flag_read_takes() {
     let master_only = [
         "--unit",
         "--modbus-tcp",
-        "--timeout",
+        "--response-timeout-ms",
         "--retries",
         "--poll",
         "--cycles",

@@ -198,7 +198,7 @@ fn si_words(port_env: bool, args: &str) -> Output {
 }
 
 /// A Modbus read; nothing listens on loopback port 1, so it fails connecting there.
-const READ: &str = "modbus read holding -u 1 --timeout 200";
+const READ: &str = "modbus read holding -u 1 --response-timeout-ms 200";
 
 #[test]
 fn si_port_or_the_profiles_port_yields_to_a_typed_tcp_line_or_modbus_tcp() {

@@ -292,7 +292,7 @@ proptest! {
         plan in proptest::collection::vec((0usize..1_500, modbus_job()), 1..12),
     ) {
         let line = SerialSettings::default();
-        let config = si_modbus::MasterConfig { response_timeout_ms: 200, ..si_modbus::MasterConfig::default() };
+        let config = si_modbus::MasterConfig { response_timeout: si_core::Duration::from_millis(200), ..si_modbus::MasterConfig::default() };
         let module = si_dp_coord::modbus::master_module(window, si_modbus::Master::new(config).unwrap()).unwrap();
         let mut sim = Simulator::new(seed).without_trace();
         let mut side = Side::new(&mut sim, "module", line, module);

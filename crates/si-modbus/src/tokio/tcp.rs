@@ -8,13 +8,16 @@
 //! ([`crate::frame`]); the server executes requests with the RTU slave's code
 //! ([`crate::serve`]), so a store answers the same over TCP as on a serial line. Exceptions
 //! pass as they are: the client returns any exception code the server sends
-//! ([`Error::Exception`]), including gateway codes 0AH/0BH that the serial module never sends.
+//! ([`Error::exception_code`](crate::tokio::Error::exception_code)), including gateway codes
+//! 0AH/0BH that the serial module never sends. The client's function codes are the
+//! [`Client`](crate::tokio::Client) trait's, as on an RTU line.
 //!
 //! ```
 //! # #[tokio::main(flavor = "current_thread")]
 //! # async fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! use si_modbus::slave::Tables;
 //! use si_modbus::tokio::tcp::{Client, Server, ServerConfig};
+//! use si_modbus::tokio::Client as _; // the function codes
 //!
 //! // Port 0: the system picks a free loopback port.
 //! let server = Server::bind("127.0.0.1:0", ServerConfig::default(), Tables::new(16, 16, 16, 16)).await?;
@@ -22,7 +25,7 @@
 //! let store = server.store();
 //! let task = tokio::spawn(server.run());
 //!
-//! let mut client = Client::connect(addr).await?;
+//! let client = Client::connect(addr).await?;
 //! client.write_multiple_registers(1, 2, &[0xAAAA, 0x5555]).await?;
 //! assert_eq!(client.read_holding_registers(1, 1, 3).await?, [0, 0xAAAA, 0x5555]);
 //! assert_eq!(store.lock().unwrap().holding_registers[3], 0x5555);
@@ -36,7 +39,7 @@
 mod client;
 mod server;
 
-pub use client::{Client, Error, DEFAULT_TIMEOUT};
+pub use client::{Client, ClientConfig, DEFAULT_RESPONSE_TIMEOUT};
 pub use server::{
     Handler, Peer, Server, ServerConfig, StoreHandler, Units, DEFAULT_IDLE_TIMEOUT,
     DEFAULT_MAX_CONNECTIONS,

@@ -631,7 +631,7 @@ proptest! {
         suppression in any::<bool>(),
         echo in any::<bool>(),
     ) {
-        let mut config = MasterConfig { retries: 1, response_timeout_ms: 100, ..MasterConfig::default() };
+        let mut config = MasterConfig { retries: 1, response_timeout: si_core::Duration::from_millis(100), ..MasterConfig::default() };
         if suppression { config.line.mode = Mode::InterferenceSuppression; }
         config.line.local_echo = echo;
         let end = if length { FrameEnd::Length } else { FrameEnd::Gap };
@@ -729,7 +729,7 @@ proptest! {
         let ends = |l: bool| if l { FrameEnd::Length } else { FrameEnd::Gap };
         let mut sim = Simulator::new(seed).without_trace();
         let s = SerialSettings::new(115_200, 8, si_core::Parity::Even, 1).unwrap();
-        let mut mc = MasterConfig { response_timeout_ms: 50, ..MasterConfig::default() };
+        let mut mc = MasterConfig { response_timeout: si_core::Duration::from_millis(50), ..MasterConfig::default() };
         mc.line.settings = s;
         let m = sim.add_station("master", s, Master::new(mc).unwrap().with_frame_end(ends(master_length)));
         let mut sc = SlaveConfig { address: 1, ..SlaveConfig::default() };

@@ -109,7 +109,7 @@ fn s3_8_response_timeout_is_0830h_after_the_response_time() {
 fn s3_8_extension_retries_resend_before_failing() {
     let config = MasterConfig {
         retries: 2,
-        response_timeout_ms: 100,
+        response_timeout: si_core::Duration::from_millis(100),
         ..MasterConfig::default()
     };
     let (mut sim, m, sl) = master_with_slave(config);

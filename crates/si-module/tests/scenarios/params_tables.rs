@@ -307,7 +307,7 @@ fn defaults_are_the_manuals() {
     let DriverParams::ModbusMaster(m) = &p else {
         panic!()
     };
-    assert_eq!(m.config.response_timeout_ms, 2_000);
+    assert_eq!(m.config.response_timeout.as_millis(), 2_000);
     assert_eq!(m.config.line.char_delay_multiplier, 1);
 
     let p = DriverParams::from_toml_str("driver = \"uss-master\"").unwrap();

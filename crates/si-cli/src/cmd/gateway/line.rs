@@ -212,25 +212,29 @@ async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outc
                 ),
             };
         }
-        Err(Error::Failed(s)) => match s.code() {
-            // 0E61H–0E67H: the slave's exception 01H–07H ([Modbus/USS] §3.3.6, Table 3-12), passed
-            // through unchanged.
-            c @ 0x0E61..=0x0E67 => ((c - 0x0E60) as u8, Outcome::Exception),
+        Err(Error::Failed {
+            exception: Some(code),
+            ..
+        }) => {
+            // The slave's exception ([Modbus/USS] §3.3.6, Table 3-12), passed through unchanged.
+            (code, Outcome::Exception)
+        }
+        Err(Error::Failed { status: s, .. }) => match s {
             _ if s == status::RESPONSE_TIMEOUT => (GATEWAY_TARGET_FAILED, Outcome::Timeout),
             // Still corrupt after the retries (0E57H) or otherwise bad: 04H; the corrupt
             // answers are in `crc_errors`.
             _ => (SLAVE_DEVICE_FAILURE, Outcome::Other),
         },
-        // The master's own checks ([Modbus/USS] §3.4.5–§3.4.16): a function it does not know or
-        // that may not be broadcast is 01H, a quantity out of range 03H, as a slave would answer.
-        Err(Error::Refused(e)) => {
-            let s = e.status();
+        // The master's own checks ([Modbus/USS] §3.4.5–§3.4.16): a function it does not know or that may not be
+        // broadcast is 01H, a quantity out of range 03H, as a slave would answer.
+        Err(Error::Refused { reason, .. }) => {
+            let s = reason.status();
             let function =
                 s == status::INVALID_FUNCTION || s == status::BROADCAST_NOT_ALLOWED_FOR_FC;
             (if function { 0x01 } else { 0x03 }, Outcome::Other)
         }
         // The port closed under the job: the line is going down ([`super::reopen`]).
-        Err(Error::Stopped(_) | Error::Config(_)) => (GATEWAY_PATH_UNAVAILABLE, Outcome::Other),
+        Err(_) => (GATEWAY_PATH_UNAVAILABLE, Outcome::Other),
     };
     if broadcast {
         return (None, outcome, crc_errors);

@@ -211,7 +211,7 @@ mod tests {
         };
         let slave = Slave::spawn(slave_config, tables, b).unwrap();
         let master_config = MasterConfig {
-            response_timeout_ms: 50,
+            response_timeout: si_core::Duration::from_millis(50),
             retries: 1,
             ..MasterConfig::default()
         };

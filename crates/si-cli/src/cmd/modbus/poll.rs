@@ -178,7 +178,7 @@ impl Line for Master {
                 report.completion(&c);
                 Ok(())
             }
-            Err(ModbusError::Failed(status)) => Err(JobError::Line(LineFailure::of(status))),
+            Err(ModbusError::Failed { status, .. }) => Err(JobError::Line(LineFailure::of(status))),
             Err(e) => Err(JobError::Fatal(failure(e))),
         }
     }

@@ -4,10 +4,10 @@
 //! one ([`si_modbus::tokio::tcp::Client`]).
 //!
 //! What is the module's and what is not: a job is checked before sending as the module's
-//! master checks it ([Modbus/USS] §3.4.5–§3.4.16, 0E43H–0E46H); a failure the module has a STATUS
-//! for reads as on a serial line (exceptions 01–07 as 0E61H–0E67H, no answer within `--timeout` as
-//! 0830H, an answer for another function as 0E51H; see [`Error::status`]). Gateway exceptions 0AH
-//! and 0BH have no STATUS: they are counted as exceptions and shown with the exception's name.
+//! master checks it ([Modbus/USS] §3.4.5–§3.4.16, 0E43H–0E46H); a failure the module has a STATUS for reads as on a
+//! serial line (exceptions 01–07 as 0E61H–0E67H, no answer within `--response-timeout-ms` as 0830H, an
+//! answer for another function as 0E51H; see [`Error::status`]). Gateway exceptions 0AH and
+//! 0BH have no STATUS: they are counted as exceptions and shown with the exception's name.
 //! Reading chosen for unit 0: Modbus TCP has no broadcast (the MBAP unit id 0 addresses the
 //! server itself), so a job to unit 0 waits for its answer like any other.
 
@@ -19,7 +19,8 @@ use crate::error::CliError;
 use clap::Args;
 use si_modbus::frame::Request;
 use si_modbus::master::Master;
-use si_modbus::tokio::tcp::{Client, Error};
+use si_modbus::tokio::tcp::{Client, ClientConfig};
+use si_modbus::tokio::Error;
 use std::time::Duration;
 
 /// `--modbus-tcp`.
@@ -27,7 +28,7 @@ use std::time::Duration;
 pub struct ModbusTcp {
     /// Modbus TCP server, e.g. 192.0.2.20:502: the jobs go in MBAP frames, each --unit as the
     /// unit id, instead of RTU over --port or --tcp (a raw serial device server; a port
-    /// from SI_PORT or --profile is not used). --timeout is the wait for each answer (and for the connection);
+    /// from SI_PORT or --profile is not used). --response-timeout-ms is the wait for each answer (and for the connection);
     /// --retries sends again after a timeout; the serial framing options do not apply. Unit 0
     /// addresses the server itself and is answered (no broadcast on TCP).
     #[arg(long = "modbus-tcp", value_name = "HOST:PORT",
@@ -50,7 +51,9 @@ impl ModbusTcp {
         };
         refuse_serial_line(conn);
         let timeout = Duration::from_millis(u64::from(timeout_ms));
-        let client = open(server, timeout).await.map_err(CliError::new)?;
+        let client = open(server, timeout, retries)
+            .await
+            .map_err(CliError::new)?;
         Ok(Some(TcpLine {
             client: Some(client),
             retries,
@@ -61,14 +64,18 @@ impl ModbusTcp {
     }
 }
 
-/// Connect to `server` within `timeout`; the error says why, naming the server.
-async fn open(server: &str, timeout: Duration) -> Result<Client, String> {
+/// Connect to `server` within `timeout`; the error says why, naming the server. Each answer is
+/// waited for `timeout`, and a request without one is sent again `retries` times.
+async fn open(server: &str, timeout: Duration, retries: u8) -> Result<Client, String> {
     let cannot = |why: String| format!("cannot connect to {server}: {why}");
-    let client = tokio::time::timeout(timeout, Client::connect(server))
+    let config = ClientConfig {
+        response_timeout: timeout.into(),
+        retries,
+    };
+    tokio::time::timeout(timeout, Client::connect_with(config, server))
         .await
         .map_err(|_| cannot(format!("no connection within {timeout:?}")))?
-        .map_err(|e| cannot(e.to_string()))?;
-    Ok(client.with_timeout(timeout))
+        .map_err(|e| cannot(e.to_string()))
 }
 
 /// The usage error (exit 2) for `--modbus-tcp` with a serial line or a line recording. Clap's
@@ -126,26 +133,25 @@ impl Line for TcpLine {
         let client = match &mut self.client {
             Some(client) => client,
             None => {
-                let client = open(&self.server, self.timeout).await.map_err(|why| {
-                    JobError::Line(LineFailure {
-                        kind: Kind::Other,
-                        status: None,
-                        text: why,
-                    })
-                })?;
+                let client = open(&self.server, self.timeout, self.retries)
+                    .await
+                    .map_err(|why| {
+                        JobError::Line(LineFailure {
+                            kind: Kind::Other,
+                            status: None,
+                            text: why,
+                        })
+                    })?;
                 self.client.insert(client)
             }
         };
-        let mut retries = self.retries;
-        let answer = loop {
-            match client.request(unit, request).await {
-                Err(Error::Timeout(_)) if retries > 0 => retries -= 1,
-                result => break result,
-            }
-        };
+        let answer = client.request_adu(unit, request).await;
         let adu = answer.map_err(|e| self.failed(e))?;
-        // `request` checked that the answer decodes.
-        let (_, response) = adu.decode_response().map_err(|e| self.failed(e.into()))?;
+        // `request_adu` checked that the answer decodes.
+        let job = si_modbus::tokio::Job::of(unit, request);
+        let (_, response) = adu
+            .decode_response()
+            .map_err(|source| self.failed(Error::Decode { job, source }))?;
         report.answer(unit, *request, Some(response));
         Ok(())
     }
@@ -157,9 +163,13 @@ impl TcpLine {
     /// the next job connects again.
     fn failed(&mut self, e: Error) -> JobError {
         let kind = match e {
-            Error::Exception { .. } => Kind::Exception,
-            Error::Timeout(_) => Kind::Timeout,
-            Error::Mismatch { .. } | Error::Decode(_) | Error::Response(_) => Kind::Other,
+            Error::Failed {
+                exception: Some(_), ..
+            } => Kind::Exception,
+            Error::Failed { status, .. } if status == si_modbus::status::RESPONSE_TIMEOUT => {
+                Kind::Timeout
+            }
+            Error::Failed { .. } | Error::Decode { .. } => Kind::Other,
             _ if self.reconnect => {
                 self.client = None;
                 return JobError::Line(LineFailure {
@@ -173,7 +183,11 @@ impl TcpLine {
             }
             _ => return JobError::Fatal(CliError::new(format!("{}: {e}", self.server))),
         };
-        let status = e.status();
+        // A gateway exception (0AH, 0BH) has no STATUS of the module's: shown by its name.
+        let gateway = e
+            .exception_code()
+            .is_some_and(|c| si_modbus::ExceptionCode::from_u8(c).is_none());
+        let status = e.status().filter(|_| !gateway);
         JobError::Line(LineFailure {
             kind,
             status,

@@ -1,0 +1,277 @@
+//! [`InlineMaster`]: the RTU master engine driven in the caller's own future.
+
+use super::client::{unexpected, Client};
+use super::error::{Error, Job};
+use super::master::Diagnostics;
+use crate::config::MasterConfig;
+use crate::frame::{Request, Response};
+use crate::master::{self, Attempts, Completion, MasterEvent};
+use si_core::driver::Transport;
+use si_core::{Engine, Instant, Output, Status};
+use std::future::Future;
+use std::pin::Pin;
+use std::task::Poll;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::sync::Mutex;
+
+/// Bytes read from the port at once: more than the longest ADU (264 bytes).
+const RX_CHUNK: usize = 512;
+
+/// The RTU master engine driven in the caller's own future, for a
+/// request/response client that owns its port. No task, no channel: a job writes the request,
+/// reads the response and fires the engine's timers inside the `await` that asked for it.
+///
+/// What it leaves out, compared with the driver-backed [`Master`](super::Master): the driver's
+/// precise timer (deadlines wait on tokio's timer, which fires up to about 2 ms late, so with
+/// the module's [`FrameEnd::Gap`](crate::FrameEnd) a response is recognised that much later;
+/// [`FrameEnd::Length`](crate::FrameEnd) ends it at once), RS-485 direction control by RTS,
+/// local-echo suppression and decoding of `PARMRK` line-error marks (it never calls
+/// [`Transport::attach`]), and events between jobs (nothing reads the port while no job runs:
+/// what arrived meanwhile is read, and reported as 0E50H, at the next job). Use it on pipes, TCP
+/// device servers and ports that switch their transceiver themselves; use the driver-backed
+/// master where the line needs the rest.
+///
+/// Methods take `&self`; one job at a time ([Modbus/USS] §4.2): concurrent calls wait for the
+/// port's lock. A job whose future is dropped before it ended is run to its end (its outcome
+/// dropped) by the next call, before that call's own request goes out.
+pub struct InlineMaster<T: Transport> {
+    inner: Mutex<Inner<T>>,
+}
+
+struct Inner<T> {
+    engine: master::Master,
+    port: T,
+    /// The engine's time zero.
+    origin: tokio::time::Instant,
+    rx: [u8; RX_CHUNK],
+    /// When to report tx-done: the write has completed and the bytes' character time has
+    /// passed since it began (a UART still shifts bytes out when `write` returns).
+    tx_done: Option<Instant>,
+    diagnostics: Diagnostics,
+    /// The port failed or closed: every later job fails with [`Error::Stopped`].
+    stopped: bool,
+}
+
+impl<T: Transport> InlineMaster<T> {
+    /// A master on `transport`.
+    pub fn new(config: MasterConfig, transport: T) -> Result<Self, Error> {
+        Ok(Self::from_engine(master::Master::new(config)?, transport))
+    }
+
+    /// A master with an engine built by the caller (for options beyond [`MasterConfig`], such
+    /// as [`master::Master::with_frame_end`]).
+    pub fn from_engine(engine: master::Master, transport: T) -> Self {
+        InlineMaster {
+            inner: Mutex::new(Inner {
+                engine,
+                port: transport,
+                origin: tokio::time::Instant::now(),
+                rx: [0; RX_CHUNK],
+                tx_done: None,
+                diagnostics: Diagnostics::default(),
+                stopped: false,
+            }),
+        }
+    }
+
+    /// Send any request and wait for its completion (a broadcast completes after the
+    /// turnaround delay with no response).
+    pub async fn request(&self, unit: u8, request: &Request<'_>) -> Result<Completion, Error> {
+        self.inner.lock().await.run(unit, request).await
+    }
+
+    /// [`request`](Self::request), and what the job's attempts met ([`Attempts`]).
+    pub async fn request_with_attempts(
+        &self,
+        unit: u8,
+        request: &Request<'_>,
+    ) -> (Result<Completion, Error>, Attempts) {
+        let mut inner = self.inner.lock().await;
+        let result = inner.run(unit, request).await;
+        let attempts = match result {
+            Err(Error::Refused { .. } | Error::Stopped) => Attempts::default(),
+            _ => inner.engine.attempts(),
+        };
+        (result, attempts)
+    }
+
+    /// Line diagnostics met during jobs outside their responses (0E50H, line errors), oldest
+    /// first; taking them empties the list.
+    pub async fn take_diagnostics(&self) -> Vec<Status> {
+        self.inner.lock().await.diagnostics.take()
+    }
+
+    /// Run `f` on the engine between jobs (counters, state), as the driver-backed
+    /// [`Master::call`](super::Master::call) does.
+    pub async fn call<R>(&self, f: impl FnOnce(&mut master::Master, Instant) -> R) -> R {
+        let mut inner = self.inner.lock().await;
+        let now = inner.now();
+        f(&mut inner.engine, now)
+    }
+
+    /// Shut the port down and give it up; the port is released when this returns.
+    pub async fn close(self) -> Result<(), Error> {
+        let mut inner = self.inner.into_inner();
+        inner.port.shutdown().await?;
+        Ok(())
+    }
+}
+
+#[cfg(feature = "serial")]
+#[cfg_attr(docsrs, doc(cfg(feature = "serial")))]
+impl InlineMaster<si_core::port::SerialPort> {
+    /// Open the serial port at `path` with the config's own line settings (feature `serial`).
+    pub fn open(config: MasterConfig, path: &str) -> Result<Self, Error> {
+        let engine = master::Master::new(config)?;
+        let port = si_core::port::open(
+            path,
+            &config.line.settings,
+            &si_core::port::PortOptions::default(),
+        )?;
+        Ok(Self::from_engine(engine, port))
+    }
+}
+
+impl<T: Transport> Inner<T> {
+    fn now(&self) -> Instant {
+        let elapsed = self.origin.elapsed();
+        Instant::from_micros(u64::try_from(elapsed.as_micros()).unwrap_or(u64::MAX))
+    }
+
+    fn at(&self, instant: Instant) -> tokio::time::Instant {
+        self.origin + std::time::Duration::from_micros(instant.as_micros())
+    }
+
+    async fn run(&mut self, unit: u8, request: &Request<'_>) -> Result<Completion, Error> {
+        let job = Job::of(unit, request);
+        if self.stopped {
+            return Err(Error::Stopped);
+        }
+        // A job abandoned by a dropped future runs to its end first (its outcome is nobody's).
+        while self.engine.is_busy() {
+            let _abandoned = self.drive(None).await?;
+        }
+        let id = self
+            .engine
+            .request(self.now(), unit, request)
+            .map_err(|reason| Error::Refused { job, reason })?;
+        match self.drive(Some(id)).await? {
+            Ok(c) => Ok(c),
+            Err(status) => Err(Error::failed(job, status)),
+        }
+    }
+
+    /// Run the engine until the running job ends: its outcome (`Ok(Err(status))` for a failed
+    /// job); `Err` if the port failed.
+    async fn drive(
+        &mut self,
+        id: Option<si_core::job::JobId>,
+    ) -> Result<Result<Completion, Status>, Error> {
+        let result = self.drive_inner(id).await;
+        if matches!(result, Err(Error::Stopped | Error::Io(_))) {
+            self.stopped = true;
+        }
+        result
+    }
+
+    async fn drive_inner(
+        &mut self,
+        id: Option<si_core::job::JobId>,
+    ) -> Result<Result<Completion, Status>, Error> {
+        // The engine's next deadline, armed only when a wait is not over after one yield: on
+        // a pipe or a busy runtime the answer is usually there by then, and a timer armed and
+        // disarmed per request would cost more than the exchange itself.
+        let mut sleep: Option<Pin<Box<tokio::time::Sleep>>> = None;
+        let mut armed: Option<Instant> = None;
+        let mut yielded = false;
+        loop {
+            // One clock read per turn: the engine's outputs, the write and the deadline checks
+            // below take microseconds at most.
+            let now = self.now();
+            let wait = loop {
+                match self.engine.poll_output() {
+                    Output::Transmit(bytes) => {
+                        let start = now;
+                        self.port.write_all(&bytes).await?;
+                        let settings = self.engine.config().line.settings;
+                        self.tx_done = Some(start + settings.chars_time(bytes.len() as u64));
+                    }
+                    Output::SetSignals(update) => self.port.set_signals(update)?,
+                    Output::Event(MasterEvent::Diagnostic(s)) => self.diagnostics.keep(s),
+                    // The job's end: one job at a time, so once it is no longer the running
+                    // one, this event ended it ([`master::Master::outcome`] has it by id).
+                    Output::Event(MasterEvent::Completed(c)) => {
+                        if self.engine.running_job().is_none_or(|r| Some(r) != id) {
+                            return Ok(Ok(c));
+                        }
+                    }
+                    Output::Event(MasterEvent::Failed { status, .. }) => {
+                        if self.engine.running_job().is_none_or(|r| Some(r) != id) {
+                            return Ok(Err(status));
+                        }
+                    }
+                    Output::Wait(deadline) => break deadline,
+                }
+            };
+            if self.tx_done.is_some_and(|t| t <= now) {
+                self.tx_done = None;
+                self.engine.handle_tx_done(now);
+                continue;
+            }
+            if wait.is_some_and(|d| d <= now) {
+                self.engine.handle_timeout(now);
+                continue;
+            }
+            let next = Instant::earliest(wait, self.tx_done);
+            if yielded && next != armed {
+                if let Some(next) = next {
+                    let at = self.at(next);
+                    match sleep.as_mut() {
+                        Some(s) => s.as_mut().reset(at),
+                        None => sleep = Some(Box::pin(tokio::time::sleep_until(at))),
+                    }
+                }
+                armed = next;
+            }
+            let timer = std::future::poll_fn(|cx| match (armed, sleep.as_mut()) {
+                (Some(_), Some(s)) => s.as_mut().poll(cx),
+                _ => Poll::Pending,
+            });
+            tokio::select! {
+                biased;
+                read = self.port.read(&mut self.rx) => {
+                    yielded = false;
+                    let n = read?;
+                    if n == 0 {
+                        return Err(Error::Stopped);
+                    }
+                    let now = self.now();
+                    self.engine.handle_rx(now, &self.rx[..n]);
+                }
+                () = tokio::task::yield_now(), if !yielded => yielded = true,
+                () = timer => {
+                    armed = None;
+                    let now = self.now();
+                    if self.tx_done.is_some_and(|t| t <= now) {
+                        self.tx_done = None;
+                        self.engine.handle_tx_done(now);
+                    } else {
+                        self.engine.handle_timeout(now);
+                    }
+                }
+            }
+        }
+    }
+}
+
+impl<T: Transport> Client for InlineMaster<T> {
+    async fn exchange<R: Send>(
+        &self,
+        unit: u8,
+        request: &Request<'_>,
+        pick: impl FnOnce(Option<Response<'_>>) -> Option<R> + Send,
+    ) -> Result<R, Error> {
+        let c = self.request(unit, request).await?;
+        pick(c.response()).ok_or_else(|| unexpected(unit, request))
+    }
+}
