@@ -104,7 +104,13 @@ impl Captured {
     }
 }
 
+/// One capture at a time: tracing caches each call site's interest and the global level hint
+/// from the dispatchers alive when it looks, so two tests with subscribers of different levels
+/// on two threads at once can leave a TRACE call site disabled for the TRACE one.
+static ONE_SUBSCRIBER_AT_A_TIME: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
+
 async fn exchange(level: tracing::Level) -> Captured {
+    let _alone = ONE_SUBSCRIBER_AT_A_TIME.lock().await;
     let captured = Captured::default();
     let writer = captured.clone();
     let _subscriber = tracing_subscriber::fmt()
