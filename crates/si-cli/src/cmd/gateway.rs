@@ -24,6 +24,7 @@ mod counters;
 mod faces;
 mod limits;
 mod line;
+mod quantities;
 mod queue;
 mod r3964;
 mod r3964_config;
@@ -100,7 +101,9 @@ pub struct GatewayArgs {
     /// Unit id answering the counters as input registers (README "si gateway").
     #[arg(long, value_name = "UNIT")]
     diagnostic_unit: Option<u8>,
-    /// Print the counters every S seconds (always once at exit).
+    /// Print the counters every S seconds (always once at exit, after SIGINT or SIGTERM alike).
+    /// The gateway outlives its stdout: if stdout cannot be written (a closed pipe or FIFO),
+    /// that is said once on stderr and it goes on serving.
     #[arg(long, value_name = "S")]
     status_every: Option<u64>,
     /// A line whose device cannot be opened at start starts down (0AH) and is reopened like
@@ -111,29 +114,42 @@ pub struct GatewayArgs {
 
 impl GatewayArgs {
     /// The checked configuration: the file with the top-level flags over it, or the flag form.
+    /// An error in the file names the file, then where in it (the TOML line and column, or the
+    /// `[[line]]`) and the key, on a line of at most [`config::MAX_ERROR_LINE`] characters.
     fn gateway(&self, conn: &Connection) -> Result<Gateway, CliError> {
-        let mut file = match &self.config {
+        match &self.config {
             Some(path) => {
                 let text = std::fs::read_to_string(path)
                     .map_err(|e| CliError::new(format!("cannot read {}: {e}", path.display())))?;
-                File::from_toml(&text).map_err(CliError::new)?
+                let in_file = |e: String| CliError::new(format!("{}: {e}", path.display()));
+                let file = File::from_toml(&text).map_err(in_file)?;
+                self.over(file)
+                    .map_err(|e| in_file(config::cut(&e.to_string())))
             }
-            None => File {
-                listen: None,
-                max_connections: None,
-                idle_timeout_s: None,
-                diagnostic_unit: None,
-                reply_on_broadcast: false,
-                allow_down_at_start: false,
-                lines: vec![self.flag_line(conn)?],
-            },
-        };
+            None => {
+                let file = File {
+                    listen: None,
+                    max_connections: None,
+                    idle_timeout_s: None,
+                    diagnostic_unit: None,
+                    reply_on_broadcast: false,
+                    allow_down_at_start: false,
+                    lines: vec![self.flag_line(conn)?],
+                };
+                self.over(file)
+                    .map_err(|e| CliError::new(config::cut(&e.to_string())))
+            }
+        }
+    }
+
+    /// `file` with the top-level flags over it, checked.
+    fn over(&self, mut file: File) -> Result<Gateway, config::ConfigError> {
         file.listen = self.listen.clone().or(file.listen);
         file.max_connections = self.max_connections.or(file.max_connections);
         file.diagnostic_unit = self.diagnostic_unit.or(file.diagnostic_unit);
         file.reply_on_broadcast |= self.reply_on_broadcast;
         file.allow_down_at_start |= self.allow_down_at_start;
-        Ok(file.check()?)
+        file.check()
     }
 
     /// The line of the flag form, with the global serial flags.
@@ -171,6 +187,7 @@ impl GatewayArgs {
     /// Open every line, listen, and serve until Ctrl-C.
     pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         let gw = self.gateway(conn)?;
+        crate::output::outlive_stdout();
         let listeners = faces::faces(&gw).len();
         limits::raise_open_files(limits::descriptors_needed(&gw, listeners))?;
         let stats = Arc::new(Mutex::new(Stats::new(gw.lines.len())));
@@ -243,6 +260,7 @@ impl GatewayArgs {
             .status_every
             .filter(|&s| s > 0)
             .map(Duration::from_secs);
+        let mut terminate = terminate_signal()?;
         let result = loop {
             let tick = async {
                 match every {
@@ -252,6 +270,7 @@ impl GatewayArgs {
             };
             tokio::select! {
                 _ = tokio::signal::ctrl_c() => break Err(CliError::interrupted()),
+                () = terminate.recv() => break Err(CliError::interrupted()),
                 ended = &mut server => break match ended {
                     Ok(Err(e)) => Err(CliError::new(format!("gateway stopped: {e}"))),
                     _ => Err(CliError::new("gateway stopped")),
@@ -262,6 +281,35 @@ impl GatewayArgs {
         print_status(&gw, &stats, out);
         result
     }
+}
+
+/// SIGTERM, what a service manager stops the gateway with: it ends the gateway as SIGINT does,
+/// with the final counters and exit code 130 (without a handler the process would die
+/// silently).
+struct Terminate {
+    #[cfg(unix)]
+    signal: tokio::signal::unix::Signal,
+}
+
+impl Terminate {
+    /// The next SIGTERM (never, where there is none).
+    async fn recv(&mut self) {
+        #[cfg(unix)]
+        {
+            self.signal.recv().await;
+        }
+        #[cfg(not(unix))]
+        std::future::pending::<()>().await
+    }
+}
+
+/// Watch SIGTERM from now on.
+fn terminate_signal() -> Result<Terminate, CliError> {
+    Ok(Terminate {
+        #[cfg(unix)]
+        signal: tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+            .map_err(|e| CliError::new(format!("cannot watch SIGTERM: {e}")))?,
+    })
 }
 
 /// The connection options of line `l`: the common ones (trace, monitor) with the line's port.

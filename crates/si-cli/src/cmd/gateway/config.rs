@@ -263,6 +263,38 @@ pub struct ConfigError {
     pub range: RangeError,
 }
 
+/// `, key NAME` when the line of `text` holding byte `at` is a `NAME = value` line: toml's
+/// messages about a value (an integer too large, a wrong type) do not name its key.
+fn key_of(text: &str, at: usize) -> String {
+    let start = text
+        .get(..at)
+        .and_then(|t| t.rfind('\n'))
+        .map_or(0, |n| n + 1);
+    let line = text.get(start..).unwrap_or("");
+    let key = line.split_once('=').map_or("", |(k, _)| k.trim());
+    let bare = |c: char| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.');
+    if key.is_empty() || key.len() > 64 || !key.chars().all(bare) {
+        return String::new();
+    }
+    format!(", key {key}")
+}
+
+/// The longest line of a configuration error, in characters: a line's worth of text, enough
+/// for the key, its range and the start of its value. `[derived]`: our choice.
+pub const MAX_ERROR_LINE: usize = 300;
+
+/// `text` with each line cut to [`MAX_ERROR_LINE`] characters, marked with `…`: a value of
+/// any size gives an error of a line's worth.
+pub fn cut(text: &str) -> String {
+    text.lines()
+        .map(|line| match line.char_indices().nth(MAX_ERROR_LINE) {
+            Some((end, _)) => format!("{}…", &line[..end]),
+            None => line.to_owned(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 impl fmt::Display for ConfigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match &self.line {
@@ -276,8 +308,27 @@ impl std::error::Error for ConfigError {}
 
 impl File {
     /// Parse TOML text.
+    ///
+    /// The error names the place (line and column of the file) and the key toml names, on one
+    /// line cut to [`MAX_ERROR_LINE`] characters: toml's own text quotes the whole offending
+    /// line of the file, which for a 50 MB value is a 50 MB message.
     pub fn from_toml(text: &str) -> Result<File, String> {
-        toml::from_str(text).map_err(|e| format!("gateway config: {e}"))
+        toml::from_str(text).map_err(|e| {
+            let at = match e.span() {
+                Some(span) => {
+                    let before = text.get(..span.start).unwrap_or(text);
+                    let line = before.matches('\n').count() + 1;
+                    let column = before.len() - before.rfind('\n').map_or(0, |n| n + 1) + 1;
+                    format!(
+                        " at line {line}, column {column}{}",
+                        key_of(text, before.len())
+                    )
+                }
+                None => String::new(),
+            };
+            let message = e.message().trim().replace('\n', " ");
+            cut(&format!("gateway config{at}: {message}"))
+        })
     }
 
     /// Check every value and fill in the defaults.
@@ -345,6 +396,14 @@ impl File {
                     )));
                 }
                 owner[u as usize] = Some(i);
+            }
+            if lines.iter().any(|other| other.name == line.name) {
+                return Err(err(RangeError::new(
+                    "name",
+                    "a name no other [[line]] has",
+                    "",
+                    format!("{:?}", line.name),
+                )));
             }
             lines.push(line);
         }

@@ -4,6 +4,7 @@
 //! the line's port is closed, the task answers 0AH and reopens it ([`super::reopen`]).
 
 use super::counters::{Outcome, Stats};
+use super::quantities;
 use super::queue::FairQueue;
 use super::reopen::{self, Closed, LineLog, Opened};
 use crate::error::CliError;
@@ -188,6 +189,10 @@ pub fn answered(
 /// attempts met ([`si_modbus::master::Attempts`]), counted even when a retry cured them.
 async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outcome, u8) {
     let broadcast = request.unit() == 0;
+    if quantities::out_of_range(request.unit_pdu()) {
+        let answer = (!broadcast).then(|| exception(request, ILLEGAL_DATA_VALUE));
+        return (answer, Outcome::Other, 0);
+    }
     let (result, attempts) = match request.decode_request() {
         Ok((unit, r)) => master.request_with_attempts(unit, &r).await,
         Err(e) => {

@@ -1,0 +1,150 @@
+//! The faults a hostile-input probe found, each fixed: a gateway whose stdout closes keeps
+//! serving, SIGTERM ends it with the final counters as SIGINT does, and quantities outside the
+//! Modbus application protocol's ranges are answered 03H without reaching the line.
+
+use super::harness::{launch, read_holding, stop_with, Client, Rig};
+use crate::common::fifo::mkfifo;
+use crate::common::modbus::{have_pymodbus, pymodbus_server, RTU_SERVER_19200};
+use crate::common::{have_socat, pty_pair, si_command, test_dir, Kill};
+use std::io::{BufRead, BufReader, Read};
+use std::process::Stdio;
+use std::sync::mpsc;
+use std::time::Duration;
+
+#[test]
+fn sigterm_ends_the_gateway_with_its_final_counters() {
+    let Some(rig) = Rig::start("", "response_timeout_ms = 100\nretries = 0\npause_ms = 0") else {
+        return;
+    };
+    let mut c = Client::connect(&rig.addr);
+    assert_eq!(c.ask(1, &read_holding(3, 1)), [0x03, 2, 0, 3]);
+    let status = stop_with(&rig, "-TERM");
+    assert_eq!(status["lines"][0]["answers"], 1, "{status}");
+}
+
+#[test]
+fn a_closed_stdout_leaves_the_gateway_serving() {
+    if !(have_socat() && have_pymodbus()) {
+        return;
+    }
+    let pair = pty_pair().unwrap();
+    let _slave = pymodbus_server(RTU_SERVER_19200, &pair.b);
+    let dir = test_dir("gateway-stdout");
+    let toml = dir.join("gw.toml");
+    std::fs::write(
+        &toml,
+        format!(
+            "listen = \"127.0.0.1:0\"\n[[line]]\ndevice = \"{}\"\nunits = \"1\"\nbaud = 19200\n\
+             parity = \"none\"\nstop_bits = 2\nresponse_timeout_ms = 300\npause_ms = 0\n",
+            pair.a
+        ),
+    )
+    .unwrap();
+    let fifo = dir.join("out");
+    mkfifo(&fifo);
+    // The reader takes the first line (the listening address) and goes away.
+    let (tx, first) = mpsc::channel();
+    let path = fifo.clone();
+    let reader = std::thread::spawn(move || {
+        let f = std::fs::File::open(&path).expect("open the FIFO");
+        let mut line = String::new();
+        BufReader::new(f).read_line(&mut line).expect("read");
+        tx.send(line).unwrap();
+    });
+    let gateway = si_command()
+        .args(["--json", "gateway", "--status-every", "1", "--config"])
+        .arg(&toml)
+        // Opening the FIFO's write end waits for the reader above.
+        .stdout(std::fs::OpenOptions::new().write(true).open(&fifo).unwrap())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn si gateway");
+    let mut gateway = Kill(gateway);
+    let line = first
+        .recv_timeout(Duration::from_secs(20))
+        .expect("listening");
+    reader.join().unwrap();
+    let v: serde_json::Value = serde_json::from_str(&line).expect(&line);
+    let addr = v["addr"].as_str().expect("addr").to_owned();
+    // Two status ticks with nobody reading: the first write fails.
+    std::thread::sleep(Duration::from_millis(2500));
+    assert!(
+        gateway.0.try_wait().unwrap().is_none(),
+        "the gateway stopped when its stdout closed"
+    );
+    let mut c = Client::connect(&addr);
+    assert_eq!(c.ask(1, &read_holding(3, 1)), [0x03, 2, 0, 3]);
+    let _ = gateway.0.kill();
+    let mut err = String::new();
+    gateway
+        .0
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    assert_eq!(err.matches("cannot write to stdout").count(), 1, "{err}");
+}
+
+#[test]
+fn quantities_over_the_limit_are_answered_03h_and_never_reach_the_line() {
+    if !have_socat() {
+        return;
+    }
+    let pair = pty_pair().unwrap();
+    let toml = format!(
+        "listen = \"127.0.0.1:0\"\n[[line]]\ndevice = \"{}\"\nunits = \"1\"\nbaud = 19200\n\
+         response_timeout_ms = 50\nretries = 0\npause_ms = 0\n",
+        pair.a
+    );
+    // The slave's end: everything the line carries, as it comes.
+    let mut slave = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(&pair.b)
+        .expect("open the slave's end");
+    let (tx, heard) = mpsc::channel();
+    std::thread::spawn(move || {
+        let mut buf = [0u8; 512];
+        while let Ok(n) = slave.read(&mut buf) {
+            if n == 0 || tx.send(buf[..n].to_vec()).is_err() {
+                break;
+            }
+        }
+    });
+    let (addr, log, gateway) = launch(&toml, &pair.a);
+    let mut c = Client::connect(&addr);
+    let quantity = |fc: u8, q: u16| {
+        let [hi, lo] = q.to_be_bytes();
+        vec![fc, 0, 0, hi, lo]
+    };
+    for (fc, q) in [(3, 126), (4, 126), (1, 2001), (2, 2001), (3, 0)] {
+        assert_eq!(
+            c.ask(1, &quantity(fc, q)),
+            [fc | 0x80, 0x03],
+            "FC{fc:02X} of {q}"
+        );
+    }
+    // FC15 of 1969 coils fits a PDU (247 data bytes); FC16 of 124 registers would not, so its
+    // byte count stays short (the quantity is checked first).
+    let mut fc15 = vec![0x0F, 0, 0, 0x07, 0xB1, 247];
+    fc15.extend(std::iter::repeat_n(0, 247));
+    assert_eq!(c.ask(1, &fc15), [0x8F, 0x03], "FC15 of 1969");
+    assert_eq!(
+        c.ask(1, &[0x10, 0, 0, 0, 124, 2, 0, 0]),
+        [0x90, 0x03],
+        "FC16 of 124"
+    );
+    // A request in range does go out (nobody answers: 0BH); it is the first thing on the line.
+    assert_eq!(c.ask(1, &quantity(3, 125)), [0x83, 0x0B]);
+    let mut on_line = Vec::new();
+    while on_line.len() < 8 {
+        on_line.extend(
+            heard
+                .recv_timeout(Duration::from_secs(10))
+                .expect("bytes on the line"),
+        );
+    }
+    assert_eq!(on_line[..6], [1, 3, 0, 0, 0, 125], "{on_line:02X?}");
+    drop((log, gateway));
+}
