@@ -30,6 +30,7 @@
 use crate::config::{FrameEnd, MasterConfig, Mode};
 use crate::fb::FbJobs;
 use crate::frame::{self, fc, Adu, Request, Response, BROADCAST};
+use crate::quiet_guard::QuietGuard;
 use crate::rx::{Counters, Expect, Fault, Received, Receiver};
 use crate::status;
 use crate::transmitter::{Gate, Transmitter};
@@ -177,6 +178,8 @@ pub struct Master {
     /// The current attempt's request goes out by then even if the line is never quiet.
     hold_limit: Instant,
     out: VecDeque<Output<MasterEvent>>,
+    /// Silence kept after a timeout before the next request ([`crate::quiet_guard`]).
+    guard: QuietGuard,
     /// Frames out, with automatic V.24 operation ([Modbus/USS] §3.2.2) around each if configured.
     tx: Transmitter,
     /// The jobs S_SEND started and the response S_RCV takes (the [`JobPort`](si_core::JobPort)
@@ -198,6 +201,7 @@ impl Master {
             attempts: Attempts::default(),
             job_deadline: None,
             hold_limit: Instant::ZERO,
+            guard: QuietGuard::default(),
             out,
             fb: FbJobs::default(),
         })
@@ -223,6 +227,14 @@ impl Master {
     /// [`LineConfig`]: crate::config::LineConfig
     pub fn with_interface(mut self, interface: Interface) -> Self {
         self.rx.set_interface(interface);
+        self
+    }
+
+    /// After a job that ended without an answer (0830H), hold the next request until the line
+    /// has been silent for `quiet`, discarding what arrives meanwhile (a host extension, off by
+    /// default and with zero; the rule, its bound and why in [`crate::quiet_guard`]).
+    pub fn with_quiet_after_timeout(mut self, quiet: impl Into<Duration>) -> Self {
+        self.guard = QuietGuard::new(quiet.into());
         self
     }
 
@@ -266,7 +278,12 @@ impl Master {
         let adu = Self::check_job(unit, request)?;
         self.job = Some((adu, 1 + self.config.retries));
         self.attempts = Attempts::default();
-        self.job_deadline = Some(now + self.config.job_bound());
+        // A request the quiet guard holds has its bound counted from the guard's end.
+        let held = self
+            .guard
+            .bound(self.config.max_response_duration())
+            .map_or(Duration::ZERO, |b| b.saturating_since(now));
+        self.job_deadline = Some(now + held + self.config.job_bound());
         self.attempt(now);
         Ok(())
     }
@@ -298,16 +315,20 @@ impl Master {
 
     /// Send the job's request, or hold it while the line has not been silent for the gap.
     fn send(&mut self, now: Instant) {
-        if let Some(until) = self
+        let gap = self
             .rx
             .quiet_at()
             .filter(|&q| now < q && now < self.hold_limit)
-        {
-            self.state = State::Holding {
-                until: until.min(self.hold_limit),
-            };
+            .map(|q| q.min(self.hold_limit));
+        let guard = self
+            .guard
+            .until(self.rx.last_activity(), self.config.max_response_duration())
+            .filter(|&g| now < g);
+        if let Some(until) = gap.max(guard) {
+            self.state = State::Holding { until };
             return;
         }
+        self.guard.clear();
         let Some((adu, attempts)) = self.job.as_mut() else {
             return;
         };
@@ -377,6 +398,9 @@ impl Master {
         if retry {
             self.attempt(now);
         } else {
+            if status == status::RESPONSE_TIMEOUT {
+                self.guard.arm(now);
+            }
             self.fail(status);
         }
     }
@@ -449,6 +473,7 @@ impl Master {
             // The job's bound: whatever the line still does, the job is over (module docs).
             self.rx.discard();
             self.count_attempt(status::RESPONSE_TIMEOUT);
+            self.guard.arm(now);
             self.fail(status::RESPONSE_TIMEOUT);
             return;
         }

@@ -327,6 +327,11 @@ impl Receiver {
         })
     }
 
+    /// When the last character (or line error) was received, in any frame-end mode.
+    pub fn last_activity(&self) -> Option<Instant> {
+        self.last_activity
+    }
+
     /// With [`FrameEnd::Length`]: when the line will have been silent for the gap since the
     /// last character received, the earliest a master may start its next request ([Modbus/USS]
     /// §3.3.5, Table 3-11: frames are separated by silence). `None` with [`FrameEnd::Gap`], where

@@ -453,8 +453,16 @@ async fn open_line(
             retries: l.retries,
             ..MasterConfig::default()
         };
-        si_modbus::Master::new(config)
-            .map(|m| m.with_interface(interface).with_frame_end(l.rtu.frame_end))
+        // A late answer never reaches the next request (si-modbus's quiet guard).
+        let quiet = l
+            .rtu
+            .quiet_after_timeout_ms
+            .unwrap_or(l.response_timeout_ms);
+        si_modbus::Master::new(config).map(|m| {
+            m.with_interface(interface)
+                .with_frame_end(l.rtu.frame_end)
+                .with_quiet_after_timeout(Duration::from_millis(quiet.into()))
+        })
     })
     .await
     .map(|o| o.spawn(si_modbus::tokio::Master::spawn_engine))

@@ -148,3 +148,72 @@ fn quantities_over_the_limit_are_answered_03h_and_never_reach_the_line() {
     assert_eq!(on_line[..6], [1, 3, 0, 0, 0, 125], "{on_line:02X?}");
     drop((log, gateway));
 }
+
+/// Unit 1's answer to a one-register FC03 read: the register's own address as its value.
+fn own_address_answer(request: &[u8]) -> Vec<u8> {
+    let mut v = vec![1, 3, 2, request[2], request[3]];
+    let crc = si_modbus::frame::crc16(&v).to_le_bytes();
+    v.extend_from_slice(&crc);
+    v
+}
+
+#[test]
+fn a_late_answer_never_reaches_another_clients_request() {
+    if !have_socat() {
+        return;
+    }
+    let pair = pty_pair().unwrap();
+    let toml = format!(
+        "listen = \"127.0.0.1:0\"\n[[line]]\ndevice = \"{}\"\nunits = \"1\"\nbaud = 19200\n\
+         response_timeout_ms = 500\nretries = 0\npause_ms = 0\n",
+        pair.a
+    );
+    // A slave whose register N holds N, answering HR 10 only after 0.7 s, one request at a
+    // time as a real slave does.
+    let slave = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(&pair.b)
+        .expect("open the slave's end");
+    std::thread::spawn(move || {
+        use std::io::Write;
+        let (mut rx, mut tx) = (slave.try_clone().unwrap(), slave);
+        let mut pending = Vec::new();
+        let mut buf = [0u8; 256];
+        while let Ok(n) = rx.read(&mut buf) {
+            if n == 0 {
+                break;
+            }
+            pending.extend_from_slice(&buf[..n]);
+            while pending.len() >= 8 {
+                let request: Vec<u8> = pending.drain(..8).collect();
+                if request[3] == 10 {
+                    std::thread::sleep(Duration::from_millis(700));
+                }
+                if tx.write_all(&own_address_answer(&request)).is_err() {
+                    return;
+                }
+            }
+        }
+    });
+    let (addr, _log, _gateway) = launch(&toml, &pair.a);
+    let clients: Vec<_> = [(10u16, 0u64), (20, 50), (30, 100)]
+        .into_iter()
+        .map(|(register, delay)| {
+            let addr = addr.clone();
+            std::thread::spawn(move || {
+                let mut c = Client::connect(&addr);
+                std::thread::sleep(Duration::from_millis(delay));
+                (register, c.ask(1, &read_holding(register, 1)))
+            })
+        })
+        .collect();
+    for client in clients {
+        let (register, answer) = client.join().unwrap();
+        let [hi, lo] = register.to_be_bytes();
+        assert!(
+            answer == [0x03, 2, hi, lo] || answer[0] == 0x83,
+            "HR {register}: its own value or an exception, got {answer:02X?}"
+        );
+    }
+}

@@ -104,6 +104,11 @@ pub struct LineFile {
     /// default) or `length` (host extension: also at the length its header predicts, once its
     /// CRC checks).
     pub frame_end: Option<String>,
+    /// `modbus-rtu`: after a slave did not answer, the next request waits until the line has
+    /// been silent this long, 0–655000 ms (default: the line's response timeout; 0: off), and
+    /// what arrives meanwhile is discarded and counted, so a late answer never reaches another
+    /// request (si-modbus's quiet guard, bounded by this + the longest response).
+    pub quiet_after_timeout_ms: Option<u32>,
     /// A listening address of its own (`[[line]]`s naming the same address share it): this
     /// line's units are reached there and not on the top-level `listen`, and need to be
     /// unique only among the lines on that address ([`super::faces`]).
@@ -208,6 +213,9 @@ pub struct RtuFraming {
     pub char_delay_multiplier: u8,
     /// At the gap, or also at the predicted length.
     pub frame_end: si_modbus::FrameEnd,
+    /// Silence kept after a timeout before the next request, in ms (`None`: the line's
+    /// response timeout).
+    pub quiet_after_timeout_ms: Option<u32>,
 }
 
 impl Default for RtuFraming {
@@ -215,6 +223,7 @@ impl Default for RtuFraming {
         RtuFraming {
             char_delay_multiplier: 1,
             frame_end: si_modbus::FrameEnd::Gap,
+            quiet_after_timeout_ms: None,
         }
     }
 }
@@ -443,6 +452,10 @@ impl LineFile {
                         self.char_delay_multiplier.is_some(),
                     ),
                     ("frame_end", self.frame_end.is_some()),
+                    (
+                        "quiet_after_timeout_ms",
+                        self.quiet_after_timeout_ms.is_some(),
+                    ),
                 ],
                 "a key of modbus-rtu lines",
                 format!("set on a {kind} line"),
@@ -544,9 +557,13 @@ impl LineFile {
             Some("length") => si_modbus::FrameEnd::Length,
             Some(other) => return Err(RangeError::new("frame_end", "gap or length", "", other)),
         };
+        if let Some(q) = self.quiet_after_timeout_ms {
+            RangeError::check("quiet_after_timeout_ms", (0, 655_000), " ms", q)?;
+        }
         Ok(RtuFraming {
             char_delay_multiplier,
             frame_end,
+            quiet_after_timeout_ms: self.quiet_after_timeout_ms,
         })
     }
 
@@ -706,6 +723,13 @@ pub(super) mod tests {
         let e = check(&format!("{base}char_delay_multiplier = 11\n")).unwrap_err();
         assert!(
             e.contains("char_delay_multiplier = 11 is out of range: 1 … 10"),
+            "{e}"
+        );
+        let q = check(&format!("{base}quiet_after_timeout_ms = 0\n")).unwrap();
+        assert_eq!(q.lines[0].rtu.quiet_after_timeout_ms, Some(0));
+        let e = check(&format!("{base}quiet_after_timeout_ms = 700000\n")).unwrap_err();
+        assert!(
+            e.contains("quiet_after_timeout_ms = 700000 ms is out of range: 0 … 655000"),
             "{e}"
         );
         let e = check(&format!("{base}frame_end = \"predicted\"\n")).unwrap_err();
