@@ -14,7 +14,9 @@
 //! [`MasterConfig::max_response_duration`], else the attempt ends with 0830H as if nothing had
 //! come (a retry follows if configured); a request held for silence (`FrameEnd::Length`) goes
 //! out after that long even if the line never goes quiet; and whatever is left when the job's
-//! bound passes (a flood, a state that never moves) fails the job with 0830H. **Reading
+//! bound passes (a flood, a state that never moves) fails the job with 0830H; a job started
+//! while the quiet guard after a timeout holds the line ([`crate::quiet_guard`], off unless
+//! set) has that guard's bound added. **Reading
 //! chosen** for the STATUS: 0830H "no response start within Response Time" ([Modbus/USS] §3.6)
 //! rather than a frame error, because noise that never forms a frame is no response at all, and a
 //! frame that does end is still judged by [Modbus/USS] §3.4.5–§3.4.16 (0831H, 0E57H, …) as before.
