@@ -278,6 +278,33 @@ impl Master {
             return Err(RequestError::Busy);
         }
         let adu = Self::check_job(unit, request)?;
+        self.start(now, adu);
+        Ok(())
+    }
+
+    /// Start a job for a function code this crate does not know, passed through as it is (a
+    /// host extension, for a gateway that forwards every function as mbusd does): `unit_pdu`
+    /// is the request's unit id and PDU, without CRC, 2–254 bytes, unit 1–255. The answer ends
+    /// by the gap (a function's length cannot be predicted without knowing it; an exception
+    /// answer ends by its length, [Modbus serial] §2.5.1 `[derived]`) and is checked for its
+    /// address, CRC, and function code: the request's (any length), or the request's + 80H
+    /// with an exception code 01–07 (0E61H–0E67H). [`Completion::response_bytes`] holds it.
+    /// A function this crate knows is checked as [`request`](Self::request) checks it.
+    pub fn request_pass_through(
+        &mut self,
+        now: Instant,
+        unit_pdu: &[u8],
+    ) -> Result<(), RequestError> {
+        if self.job.is_some() {
+            return Err(RequestError::Busy);
+        }
+        let adu = pass_through_adu(unit_pdu)?;
+        self.start(now, adu);
+        Ok(())
+    }
+
+    /// Start the job of request `adu` at `now`.
+    fn start(&mut self, now: Instant, adu: Adu) {
         self.job = Some((adu, 1 + self.config.retries));
         self.attempts = Attempts::default();
         // A request the quiet guard holds has its bound counted from the guard's end.
@@ -287,7 +314,6 @@ impl Master {
             .map_or(Duration::ZERO, |b| b.saturating_since(now));
         self.job_deadline = Some(now + held + self.config.job_bound());
         self.attempt(now);
-        Ok(())
     }
 
     /// The checks of [Modbus/USS] §3.4.5–§3.4.16 a job must pass before it is started (0E43H
@@ -538,6 +564,32 @@ impl Master {
     }
 }
 
+/// The longest RTU frame, CRC included ([Modbus serial] §2.5.1): a passed-through request
+/// keeps to it (the codec's own limit is the module's, longer).
+const PASS_THROUGH_MAX: usize = 256;
+
+/// The ADU of a passed-through request ([`Master::request_pass_through`]): `unit_pdu` and its
+/// CRC; refused with 0E42H (invalid function) when it is shorter than unit + function code,
+/// with 0E43H for a broadcast (whether the function may be broadcast is unknown), and with
+/// 0E46H when it would not fit an RTU frame of [`PASS_THROUGH_MAX`] bytes.
+fn pass_through_adu(unit_pdu: &[u8]) -> Result<Adu, RequestError> {
+    match unit_pdu {
+        [] | [_] => Err(RequestError::Invalid(status::INVALID_FUNCTION)),
+        [BROADCAST, ..] => Err(RequestError::Invalid(status::BROADCAST_NOT_ALLOWED_FOR_FC)),
+        _ if unit_pdu.len() > PASS_THROUGH_MAX - 2 => {
+            Err(RequestError::Invalid(status::WRITE_COUNT))
+        }
+        _ => {
+            let mut bytes = [0u8; frame::MAX_ADU];
+            bytes[..unit_pdu.len()].copy_from_slice(unit_pdu);
+            let crc = frame::crc16(unit_pdu).to_le_bytes();
+            bytes[unit_pdu.len()..unit_pdu.len() + 2].copy_from_slice(&crc);
+            Adu::from_slice(&bytes[..unit_pdu.len() + 2])
+                .ok_or(RequestError::Invalid(status::WRITE_COUNT))
+        }
+    }
+}
+
 fn fault_status(fault: Fault) -> Status {
     match fault {
         Fault::Overflow => status::RECEIVE_BUFFER_OVERFLOW,
@@ -571,6 +623,10 @@ pub fn check_response(request: &[u8], response: &[u8]) -> Result<(), Status> {
         };
     }
     structure?;
+    if !fc::is_supported(request[1]) {
+        // A function passed through: its answer's structure is the slave's business.
+        return Ok(());
+    }
     frame::decode_response(response)
         .map(|_| ())
         .map_err(|_| status::BYTE_COUNT_WRONG)
@@ -636,6 +692,8 @@ pub(crate) fn check_structure(request: &[u8], response: &[u8]) -> Result<(), Sta
         fc::READ_EXCEPTION_STATUS => exact(3)?,
         fc::GET_COMM_EVENT_COUNTER => exact(6)?,
         fc::GET_COMM_EVENT_LOG => byte_counted(6, 6 + frame::MAX_EVENTS)?,
+        // Passed through ([`Master::request_pass_through`]): the function code matches.
+        _ if !fc::is_supported(f) => {}
         _ => return Err(status::WRONG_FUNCTION),
     }
     Ok(())

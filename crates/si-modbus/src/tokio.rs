@@ -171,6 +171,39 @@ impl Master {
         (result, attempts)
     }
 
+    /// Pass a request of a function this crate does not know through to the slave, as it is
+    /// (`unit | PDU` without CRC; [`master::Master::request_pass_through`]), and wait for its
+    /// completion, with what its attempts met as [`request_with_attempts`] gives.
+    ///
+    /// [`request_with_attempts`]: Self::request_with_attempts
+    pub async fn request_pass_through(
+        &mut self,
+        unit_pdu: &[u8],
+    ) -> (Result<Completion, Error>, Attempts) {
+        self.keep_diagnostics();
+        let unit_pdu = unit_pdu.to_vec();
+        let start = move |m: &mut master::Master, now| match m.request_pass_through(now, &unit_pdu)
+        {
+            Ok(()) => Start::Running(()),
+            Err(RequestError::Busy) => Start::Busy,
+            Err(e) => Start::Ended(Err(Error::Refused(e))),
+        };
+        let done = |_: &(), event| match event {
+            MasterEvent::Completed(c) => Break(Ok(c)),
+            MasterEvent::Failed { status, .. } => Break(Err(Error::Failed(status))),
+            other @ MasterEvent::Diagnostic(_) => Continue(other),
+        };
+        let result = match self.driver.job(start, done).await {
+            Ok(r) => r,
+            Err(e) => Err(e.into()),
+        };
+        if matches!(result, Err(Error::Refused(_) | Error::Stopped(_))) {
+            return (result, Attempts::default());
+        }
+        let attempts = self.call(|m, _| m.attempts()).await.unwrap_or_default();
+        (result, attempts)
+    }
+
     /// Move the diagnostics the driver has reported into the kept list.
     fn keep_diagnostics(&mut self) {
         while let Some(event) = self.driver.try_next_event() {

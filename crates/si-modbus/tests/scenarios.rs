@@ -8,6 +8,8 @@ mod auto_v24;
 mod frame_end_length;
 #[path = "scenarios/master.rs"]
 mod master;
+#[path = "scenarios/pass_through.rs"]
+mod pass_through;
 #[path = "scenarios/quiet_guard.rs"]
 mod quiet_guard;
 #[path = "scenarios/s_send_read_limit.rs"]
