@@ -104,7 +104,7 @@ pub mod frame;
 pub mod master;
 pub mod mbap;
 pub mod monitor;
-mod quiet_guard;
+pub mod quiet_guard;
 pub mod rx;
 pub mod serve;
 pub mod simatic;
