@@ -17,5 +17,8 @@ fn mbusds_integration_tests_pass_against_si_gateway() {
         .expect("run python3");
     let text = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{text}");
-    assert!(text.contains("Ran 6 tests") && text.contains("\nOK"), "{text}");
+    assert!(
+        text.contains("Ran 6 tests") && text.contains("\nOK"),
+        "{text}"
+    );
 }
