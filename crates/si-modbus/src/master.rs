@@ -240,6 +240,16 @@ impl Master {
         self
     }
 
+    /// End received frames, and keep the silence before each request, at `gap` instead of the
+    /// module's end-of-frame gap ([Modbus/USS] §3.3.5, Table 3-11 × fMUL): a host extension for
+    /// a master among other makers' slaves, which keep the Modbus specification's t3.5
+    /// ([Modbus serial] §2.5.1.1). The bounds that contain a gap
+    /// ([`MasterConfig::max_response_duration`]) keep the table's.
+    pub fn with_gap(mut self, gap: impl Into<Duration>) -> Self {
+        self.rx.set_gap(gap.into());
+        self
+    }
+
     /// How received frames end.
     pub fn frame_end(&self) -> FrameEnd {
         self.rx.frame_end()

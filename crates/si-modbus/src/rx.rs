@@ -327,6 +327,11 @@ impl Receiver {
         })
     }
 
+    /// End frames at `gap` instead of the line's Table 3-11 gap ([`crate::Master::with_gap`]).
+    pub fn set_gap(&mut self, gap: Duration) {
+        self.gap = gap;
+    }
+
     /// When the last character (or line error) was received, in any frame-end mode.
     pub fn last_activity(&self) -> Option<Instant> {
         self.last_activity

@@ -16,5 +16,7 @@ mod quiet_guard;
 mod s_send_read_limit;
 #[path = "scenarios/slave.rs"]
 mod slave;
+#[path = "scenarios/spec_gap.rs"]
+mod spec_gap;
 #[path = "scenarios/usb_adapter.rs"]
 mod usb_adapter;

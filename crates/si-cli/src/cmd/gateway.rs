@@ -441,6 +441,7 @@ async fn open_line(
         si_core::Interface::Rs232
     };
     open_engine(conn, l, "modbus", None, |settings| {
+        let gap = spec_gap(&settings);
         let config = MasterConfig {
             line: LineConfig {
                 settings,
@@ -459,13 +460,31 @@ async fn open_line(
             .quiet_after_timeout_ms
             .unwrap_or(l.response_timeout_ms);
         si_modbus::Master::new(config).map(|m| {
-            m.with_interface(interface)
+            let m = m
+                .with_interface(interface)
                 .with_frame_end(l.rtu.frame_end)
-                .with_quiet_after_timeout(Duration::from_millis(quiet.into()))
+                .with_quiet_after_timeout(Duration::from_millis(quiet.into()));
+            if l.rtu.spec_gap {
+                m.with_gap(gap)
+            } else {
+                m
+            }
         })
     })
     .await
     .map(|o| o.spawn(si_modbus::tokio::Master::spawn_engine))
+}
+
+/// The Modbus specification's inter-frame silence t3.5 ([Modbus serial] §2.5.1.1): 3.5
+/// character times below 19200 bit/s, a fixed 1.75 ms at and above, where the character time
+/// would make it too short for a host to time.
+fn spec_gap(settings: &si_core::SerialSettings) -> si_core::Duration {
+    if settings.baud() >= 19_200 {
+        si_core::Duration::from_micros(1_750)
+    } else {
+        let seven_halves = settings.chars_time(7).as_micros();
+        si_core::Duration::from_micros(seven_halves.div_ceil(2))
+    }
 }
 
 /// Build line `l`'s engine for its serial settings (the protocol's baud rates, `rates`, where
@@ -537,4 +556,19 @@ fn print_status(gw: &Gateway, stats: &Mutex<Stats>, out: &Output) {
         &format!("status: {text}; {} client(s)", clients.len()),
         serde_json::json!({"event": "status", "lines": lines, "clients": clients}),
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::spec_gap;
+    use si_core::{Parity, SerialSettings};
+
+    #[test]
+    fn the_spec_gap_is_t35_below_19200_and_1_75_ms_from_there() {
+        let at = |baud| SerialSettings::new(baud, 8, Parity::Even, 1).unwrap();
+        // 9600 8E1: 11 bits a character, 3.5 × 1145.8 µs.
+        assert_eq!(spec_gap(&at(9600)).as_micros(), 4011);
+        assert_eq!(spec_gap(&at(19_200)).as_micros(), 1750);
+        assert_eq!(spec_gap(&at(115_200)).as_micros(), 1750);
+    }
 }
