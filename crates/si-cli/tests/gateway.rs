@@ -16,6 +16,12 @@ mod forwarding;
 mod harness;
 #[path = "gateway/many_lines.rs"]
 mod many_lines;
+#[path = "gateway/mbusd_itests.rs"]
+mod mbusd_itests;
+#[path = "gateway/pass_through.rs"]
+mod pass_through;
+#[path = "gateway/probe.rs"]
+mod probe;
 #[path = "gateway/queueing.rs"]
 mod queueing;
 #[path = "gateway/reconnect.rs"]

@@ -107,6 +107,7 @@ pub mod frame;
 pub mod master;
 pub mod mbap;
 pub mod monitor;
+pub mod quiet_guard;
 pub mod rx;
 pub mod serve;
 pub mod serve_map;

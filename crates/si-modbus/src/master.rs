@@ -14,7 +14,9 @@
 //! [`MasterConfig::max_response_duration`], else the attempt ends with 0830H as if nothing had
 //! come (a retry follows if configured); a request held for silence (`FrameEnd::Length`) goes
 //! out after that long even if the line never goes quiet; and whatever is left when the job's
-//! bound passes (a flood, a state that never moves) fails the job with 0830H. **Reading
+//! bound passes (a flood, a state that never moves) fails the job with 0830H; a job started
+//! while the quiet guard after a timeout holds the line ([`crate::quiet_guard`], off unless
+//! set) has that guard's bound added. **Reading
 //! chosen** for the STATUS: 0830H "no response start within Response Time" ([Modbus/USS] §3.6)
 //! rather than a frame error, because noise that never forms a frame is no response at all, and a
 //! frame that does end is still judged by [Modbus/USS] §3.4.5–§3.4.16 (0831H, 0E57H, …) as before.
@@ -29,6 +31,7 @@
 
 use crate::config::{FrameEnd, MasterConfig, Mode};
 use crate::frame::{self, fc, Adu, Request, Response, BROADCAST};
+use crate::quiet_guard::QuietGuard;
 use crate::rx::{Counters, Expect, Fault, Received, Receiver};
 use crate::status;
 use crate::transmitter::{Gate, Transmitter};
@@ -177,6 +180,8 @@ pub struct Master {
     /// The current attempt's request goes out by then even if the line is never quiet.
     hold_limit: Instant,
     out: VecDeque<Output<MasterEvent>>,
+    /// Silence kept after a timeout before the next request ([`crate::quiet_guard`]).
+    guard: QuietGuard,
     /// Frames out, with automatic V.24 operation ([Modbus/USS] §3.2.2) around each if configured.
     tx: Transmitter,
     /// The running job's id and the last job's outcome: every job, whoever started it, gets a
@@ -205,6 +210,7 @@ impl Master {
             attempts: Attempts::default(),
             job_deadline: None,
             hold_limit: Instant::ZERO,
+            guard: QuietGuard::default(),
             out,
             jobs: JobSlot::default(),
             fb_job: None,
@@ -232,6 +238,24 @@ impl Master {
     /// [`LineConfig`]: crate::config::LineConfig
     pub fn with_interface(mut self, interface: Interface) -> Self {
         self.rx.set_interface(interface);
+        self
+    }
+
+    /// After a job that ended without an answer (0830H), hold the next request until the line
+    /// has been silent for `quiet`, discarding what arrives meanwhile (a host extension, off by
+    /// default and with zero; the rule, its bound and why in [`crate::quiet_guard`]).
+    pub fn with_quiet_after_timeout(mut self, quiet: impl Into<Duration>) -> Self {
+        self.guard = QuietGuard::new(quiet.into());
+        self
+    }
+
+    /// End received frames, and keep the silence before each request, at `gap` instead of the
+    /// module's end-of-frame gap ([Modbus/USS] §3.3.5, Table 3-11 × fMUL): a host extension for
+    /// a master among other makers' slaves, which keep the Modbus specification's t3.5
+    /// ([Modbus serial] §2.5.1.1). The bounds that contain a gap
+    /// ([`MasterConfig::max_response_duration`]) keep the table's.
+    pub fn with_gap(mut self, gap: impl Into<Duration>) -> Self {
+        self.rx.set_gap(gap.into());
         self
     }
 
@@ -279,10 +303,29 @@ impl Master {
         }
         let adu = Self::check_job(unit, request)?;
         let id = self.jobs.start();
-        self.job = Some((adu, 1 + self.config.retries));
-        self.attempts = Attempts::default();
-        self.job_deadline = Some(now + self.config.job_bound());
-        self.attempt(now);
+        self.start(now, adu);
+        Ok(id)
+    }
+
+    /// Start a job for a function code this crate does not know, passed through as it is (a
+    /// host extension, for a gateway that forwards every function as mbusd does): `unit_pdu`
+    /// is the request's unit id and PDU, without CRC, 2–254 bytes, unit 1–255. The answer ends
+    /// by the gap (a function's length cannot be predicted without knowing it; an exception
+    /// answer ends by its length, [Modbus serial] §2.5.1 `[derived]`) and is checked for its
+    /// address, CRC, and function code: the request's (any length), or the request's + 80H
+    /// with an exception code 01–07 (0E61H–0E67H). [`Completion::response_bytes`] holds it.
+    /// A function this crate knows is checked as [`request`](Self::request) checks it.
+    pub fn request_pass_through(
+        &mut self,
+        now: Instant,
+        unit_pdu: &[u8],
+    ) -> Result<JobId, RequestError> {
+        if self.job.is_some() {
+            return Err(RequestError::Busy);
+        }
+        let adu = pass_through_adu(unit_pdu)?;
+        let id = self.jobs.start();
+        self.start(now, adu);
         Ok(id)
     }
 
@@ -295,6 +338,19 @@ impl Master {
     /// The job that is running, if any.
     pub fn running_job(&self) -> Option<JobId> {
         self.jobs.running()
+    }
+
+    /// Start the job of request `adu` at `now`.
+    fn start(&mut self, now: Instant, adu: Adu) {
+        self.job = Some((adu, 1 + self.config.retries));
+        self.attempts = Attempts::default();
+        // A request the quiet guard holds has its bound counted from the guard's end.
+        let held = self
+            .guard
+            .bound(self.config.max_response_duration())
+            .map_or(Duration::ZERO, |b| b.saturating_since(now));
+        self.job_deadline = Some(now + held + self.config.job_bound());
+        self.attempt(now);
     }
 
     /// The checks of [Modbus/USS] §3.4.5–§3.4.16 a job must pass before it is started (0E43H
@@ -324,16 +380,20 @@ impl Master {
 
     /// Send the job's request, or hold it while the line has not been silent for the gap.
     fn send(&mut self, now: Instant) {
-        if let Some(until) = self
+        let gap = self
             .rx
             .quiet_at()
             .filter(|&q| now < q && now < self.hold_limit)
-        {
-            self.state = State::Holding {
-                until: until.min(self.hold_limit),
-            };
+            .map(|q| q.min(self.hold_limit));
+        let guard = self
+            .guard
+            .until(self.rx.last_activity(), self.config.max_response_duration())
+            .filter(|&g| now < g);
+        if let Some(until) = gap.max(guard) {
+            self.state = State::Holding { until };
             return;
         }
+        self.guard.clear();
         let Some((adu, attempts)) = self.job.as_mut() else {
             return;
         };
@@ -406,6 +466,9 @@ impl Master {
         if retry {
             self.attempt(now);
         } else {
+            if status == status::RESPONSE_TIMEOUT {
+                self.guard.arm(now);
+            }
             self.fail(status);
         }
     }
@@ -478,6 +541,7 @@ impl Master {
             // The job's bound: whatever the line still does, the job is over (module docs).
             self.rx.discard();
             self.count_attempt(status::RESPONSE_TIMEOUT);
+            self.guard.arm(now);
             self.fail(status::RESPONSE_TIMEOUT);
             return;
         }
@@ -540,6 +604,32 @@ impl Master {
     }
 }
 
+/// The longest RTU frame, CRC included ([Modbus serial] §2.5.1): a passed-through request
+/// keeps to it (the codec's own limit is the module's, longer).
+const PASS_THROUGH_MAX: usize = 256;
+
+/// The ADU of a passed-through request ([`Master::request_pass_through`]): `unit_pdu` and its
+/// CRC; refused with 0E42H (invalid function) when it is shorter than unit + function code,
+/// with 0E43H for a broadcast (whether the function may be broadcast is unknown), and with
+/// 0E46H when it would not fit an RTU frame of [`PASS_THROUGH_MAX`] bytes.
+fn pass_through_adu(unit_pdu: &[u8]) -> Result<Adu, RequestError> {
+    match unit_pdu {
+        [] | [_] => Err(RequestError::Invalid(status::INVALID_FUNCTION)),
+        [BROADCAST, ..] => Err(RequestError::Invalid(status::BROADCAST_NOT_ALLOWED_FOR_FC)),
+        _ if unit_pdu.len() > PASS_THROUGH_MAX - 2 => {
+            Err(RequestError::Invalid(status::WRITE_COUNT))
+        }
+        _ => {
+            let mut bytes = [0u8; frame::MAX_ADU];
+            bytes[..unit_pdu.len()].copy_from_slice(unit_pdu);
+            let crc = frame::crc16(unit_pdu).to_le_bytes();
+            bytes[unit_pdu.len()..unit_pdu.len() + 2].copy_from_slice(&crc);
+            Adu::from_slice(&bytes[..unit_pdu.len() + 2])
+                .ok_or(RequestError::Invalid(status::WRITE_COUNT))
+        }
+    }
+}
+
 fn fault_status(fault: Fault) -> Status {
     match fault {
         Fault::Overflow => status::RECEIVE_BUFFER_OVERFLOW,
@@ -573,6 +663,10 @@ pub fn check_response(request: &[u8], response: &[u8]) -> Result<(), Status> {
         };
     }
     structure?;
+    if !fc::is_supported(request[1]) {
+        // A function passed through: its answer's structure is the slave's business.
+        return Ok(());
+    }
     frame::decode_response(response)
         .map(|_| ())
         .map_err(|_| status::BYTE_COUNT_WRONG)
@@ -638,6 +732,8 @@ pub(crate) fn check_structure(request: &[u8], response: &[u8]) -> Result<(), Sta
         fc::READ_EXCEPTION_STATUS => exact(3)?,
         fc::GET_COMM_EVENT_COUNTER => exact(6)?,
         fc::GET_COMM_EVENT_LOG => byte_counted(6, 6 + frame::MAX_EVENTS)?,
+        // Passed through ([`Master::request_pass_through`]): the function code matches.
+        _ if !fc::is_supported(f) => {}
         _ => return Err(status::WRONG_FUNCTION),
     }
     Ok(())

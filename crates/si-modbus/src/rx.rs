@@ -327,6 +327,16 @@ impl Receiver {
         })
     }
 
+    /// End frames at `gap` instead of the line's Table 3-11 gap ([`crate::Master::with_gap`]).
+    pub fn set_gap(&mut self, gap: Duration) {
+        self.gap = gap;
+    }
+
+    /// When the last character (or line error) was received, in any frame-end mode.
+    pub fn last_activity(&self) -> Option<Instant> {
+        self.last_activity
+    }
+
     /// With [`FrameEnd::Length`]: when the line will have been silent for the gap since the
     /// last character received, the earliest a master may start its next request ([Modbus/USS]
     /// §3.3.5, Table 3-11: frames are separated by silence). `None` with [`FrameEnd::Gap`], where

@@ -8,9 +8,15 @@ mod auto_v24;
 mod frame_end_length;
 #[path = "scenarios/master.rs"]
 mod master;
+#[path = "scenarios/pass_through.rs"]
+mod pass_through;
+#[path = "scenarios/quiet_guard.rs"]
+mod quiet_guard;
 #[path = "scenarios/s_send_read_limit.rs"]
 mod s_send_read_limit;
 #[path = "scenarios/slave.rs"]
 mod slave;
+#[path = "scenarios/spec_gap.rs"]
+mod spec_gap;
 #[path = "scenarios/usb_adapter.rs"]
 mod usb_adapter;

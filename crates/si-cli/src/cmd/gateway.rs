@@ -24,6 +24,7 @@ mod counters;
 mod faces;
 mod limits;
 mod line;
+mod quantities;
 mod queue;
 mod r3964;
 mod r3964_config;
@@ -100,7 +101,9 @@ pub struct GatewayArgs {
     /// Unit id answering the counters as input registers (README "si gateway").
     #[arg(long, value_name = "UNIT")]
     diagnostic_unit: Option<u8>,
-    /// Print the counters every S seconds (always once at exit).
+    /// Print the counters every S seconds (always once at exit, after SIGINT or SIGTERM alike).
+    /// The gateway outlives its stdout: if stdout cannot be written (a closed pipe or FIFO),
+    /// that is said once on stderr and it goes on serving.
     #[arg(long, value_name = "S")]
     status_every: Option<u64>,
     /// A line whose device cannot be opened at start starts down (0AH) and is reopened like
@@ -111,25 +114,44 @@ pub struct GatewayArgs {
 
 impl GatewayArgs {
     /// The checked configuration: the file with the top-level flags over it, or the flag form.
+    /// An error in the file names the file, then where in it (the TOML line and column, or the
+    /// `[[line]]`) and the key, on a line of at most [`config::MAX_ERROR_LINE`] characters.
     fn gateway(&self, conn: &Connection) -> Result<Gateway, CliError> {
-        let mut file = match &self.config {
-            Some(path) => crate::config_file::read_toml::<File>(path)?,
-            None => File {
-                listen: None,
-                max_connections: None,
-                idle_timeout_s: None,
-                diagnostic_unit: None,
-                reply_on_broadcast: false,
-                allow_down_at_start: false,
-                lines: vec![self.flag_line(conn)?],
-            },
-        };
+        match &self.config {
+            Some(path) => {
+                let file = crate::config_file::read_toml::<File>(path)?;
+                self.over(file).map_err(|e| {
+                    CliError::new(format!(
+                        "{}: {}",
+                        path.display(),
+                        config::cut(&e.to_string())
+                    ))
+                })
+            }
+            None => {
+                let file = File {
+                    listen: None,
+                    max_connections: None,
+                    idle_timeout_s: None,
+                    diagnostic_unit: None,
+                    reply_on_broadcast: false,
+                    allow_down_at_start: false,
+                    lines: vec![self.flag_line(conn)?],
+                };
+                self.over(file)
+                    .map_err(|e| CliError::new(config::cut(&e.to_string())))
+            }
+        }
+    }
+
+    /// `file` with the top-level flags over it, checked.
+    fn over(&self, mut file: File) -> Result<Gateway, config::ConfigError> {
         file.listen = self.listen.clone().or(file.listen);
         file.max_connections = self.max_connections.or(file.max_connections);
         file.diagnostic_unit = self.diagnostic_unit.or(file.diagnostic_unit);
         file.reply_on_broadcast |= self.reply_on_broadcast;
         file.allow_down_at_start |= self.allow_down_at_start;
-        Ok(file.check()?)
+        file.check()
     }
 
     /// The line of the flag form, with the global serial flags.
@@ -167,6 +189,7 @@ impl GatewayArgs {
     /// Open every line, listen, and serve until Ctrl-C.
     pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         let gw = self.gateway(conn)?;
+        crate::output::outlive_stdout();
         let listeners = faces::faces(&gw).len();
         limits::raise_open_files(limits::descriptors_needed(&gw, listeners))?;
         let stats = Arc::new(Mutex::new(Stats::new(gw.lines.len())));
@@ -239,6 +262,7 @@ impl GatewayArgs {
             .status_every
             .filter(|&s| s > 0)
             .map(Duration::from_secs);
+        let mut terminate = terminate_signal()?;
         let result = loop {
             let tick = async {
                 match every {
@@ -248,6 +272,7 @@ impl GatewayArgs {
             };
             tokio::select! {
                 _ = tokio::signal::ctrl_c() => break Err(CliError::interrupted()),
+                () = terminate.recv() => break Err(CliError::interrupted()),
                 ended = &mut server => break match ended {
                     Ok(Err(e)) => Err(CliError::new(format!("gateway stopped: {e}"))),
                     _ => Err(CliError::new("gateway stopped")),
@@ -258,6 +283,35 @@ impl GatewayArgs {
         print_status(&gw, &stats, out);
         result
     }
+}
+
+/// SIGTERM, what a service manager stops the gateway with: it ends the gateway as SIGINT does,
+/// with the final counters and exit code 130 (without a handler the process would die
+/// silently).
+struct Terminate {
+    #[cfg(unix)]
+    signal: tokio::signal::unix::Signal,
+}
+
+impl Terminate {
+    /// The next SIGTERM (never, where there is none).
+    async fn recv(&mut self) {
+        #[cfg(unix)]
+        {
+            self.signal.recv().await;
+        }
+        #[cfg(not(unix))]
+        std::future::pending::<()>().await
+    }
+}
+
+/// Watch SIGTERM from now on.
+fn terminate_signal() -> Result<Terminate, CliError> {
+    Ok(Terminate {
+        #[cfg(unix)]
+        signal: tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+            .map_err(|e| CliError::new(format!("cannot watch SIGTERM: {e}")))?,
+    })
 }
 
 /// The connection options of line `l`: the common ones (trace, monitor) with the line's port.
@@ -389,6 +443,7 @@ async fn open_line(
         si_core::Interface::Rs232
     };
     open_engine(conn, l, "modbus", None, |settings| {
+        let gap = spec_gap(&settings);
         let config = MasterConfig {
             line: LineConfig {
                 settings,
@@ -401,11 +456,37 @@ async fn open_line(
             retries: l.retries,
             ..MasterConfig::default()
         };
-        si_modbus::Master::new(config)
-            .map(|m| m.with_interface(interface).with_frame_end(l.rtu.frame_end))
+        // A late answer never reaches the next request (si-modbus's quiet guard).
+        let quiet = l
+            .rtu
+            .quiet_after_timeout_ms
+            .unwrap_or(l.response_timeout_ms);
+        si_modbus::Master::new(config).map(|m| {
+            let m = m
+                .with_interface(interface)
+                .with_frame_end(l.rtu.frame_end)
+                .with_quiet_after_timeout(Duration::from_millis(quiet.into()));
+            if l.rtu.spec_gap {
+                m.with_gap(gap)
+            } else {
+                m
+            }
+        })
     })
     .await
     .map(|o| o.spawn(si_modbus::tokio::Master::spawn_engine))
+}
+
+/// The Modbus specification's inter-frame silence t3.5 ([Modbus serial] §2.5.1.1): 3.5
+/// character times below 19200 bit/s, a fixed 1.75 ms at and above, where the character time
+/// would make it too short for a host to time.
+fn spec_gap(settings: &si_core::SerialSettings) -> si_core::Duration {
+    if settings.baud() >= 19_200 {
+        si_core::Duration::from_micros(1_750)
+    } else {
+        let seven_halves = settings.chars_time(7).as_micros();
+        si_core::Duration::from_micros(seven_halves.div_ceil(2))
+    }
 }
 
 /// Build line `l`'s engine for its serial settings (the protocol's baud rates, `rates`, where
@@ -477,4 +558,19 @@ fn print_status(gw: &Gateway, stats: &Mutex<Stats>, out: &Output) {
         &format!("status: {text}; {} client(s)", clients.len()),
         serde_json::json!({"event": "status", "lines": lines, "clients": clients}),
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::spec_gap;
+    use si_core::{Parity, SerialSettings};
+
+    #[test]
+    fn the_spec_gap_is_t35_below_19200_and_1_75_ms_from_there() {
+        let at = |baud| SerialSettings::new(baud, 8, Parity::Even, 1).unwrap();
+        // 9600 8E1: 11 bits a character, 3.5 × 1145.8 µs.
+        assert_eq!(spec_gap(&at(9600)).as_micros(), 4011);
+        assert_eq!(spec_gap(&at(19_200)).as_micros(), 1750);
+        assert_eq!(spec_gap(&at(115_200)).as_micros(), 1750);
+    }
 }

@@ -41,3 +41,70 @@ fn a_bad_flag_names_key_and_value() {
         stderr(&o)
     );
 }
+
+#[test]
+fn a_50_mb_bad_value_gives_a_short_error_naming_the_file_and_the_key() {
+    let path = test_dir("gateway-config").join("huge.toml");
+    // 50 MB: over the cap of every file si reads, refused before parsing, naming the file.
+    // 3 MB: within the cap, parsed, and the bad value's excerpt cut to a line's worth.
+    for (size, names) in [(50 << 20, "4 MiB"), (3 << 20, "")] {
+        let huge = "9".repeat(size);
+        for (key, value) in [("units", format!("\"{huge}\"")), ("pause_ms", huge.clone())] {
+            std::fs::write(
+                &path,
+                format!(
+                    "[[line]]\nname = \"m\"\ndevice = \"/dev/null\"\nunits = \"1\"\n{key} = {value}\n"
+                )
+                .replace("units = \"1\"\nunits", "units"),
+            )
+            .unwrap();
+            let o = si(&["gateway", "--config", path.to_str().unwrap()]);
+            assert!(!o.status.success());
+            let e = stderr(&o);
+            assert!(e.len() < 1000, "{key}: a {} byte message", e.len());
+            assert!(
+                e.contains(path.to_str().unwrap()),
+                "{key}: names the file: {e}"
+            );
+            let named = if names.is_empty() { key } else { names };
+            assert!(
+                e.contains(named),
+                "{key} of {size} bytes: names {named}: {e}"
+            );
+        }
+    }
+}
+
+#[test]
+fn two_lines_of_one_name_are_refused_naming_file_line_and_key() {
+    let path = test_dir("gateway-config").join("twice.toml");
+    std::fs::write(
+        &path,
+        "[[line]]\nname = \"meters\"\ndevice = \"/dev/null\"\nunits = \"1\"\n\
+         [[line]]\nname = \"meters\"\ndevice = \"/dev/null\"\nunits = \"2\"\n",
+    )
+    .unwrap();
+    let o = si(&["gateway", "--config", path.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains(path.to_str().unwrap()), "{e}");
+    assert!(
+        e.contains("line 2 (meters): name = \"meters\""),
+        "the second line, its key and value: {e}"
+    );
+}
+
+#[test]
+fn a_toml_error_names_the_file_and_where_in_it() {
+    let path = test_dir("gateway-config").join("syntax.toml");
+    std::fs::write(
+        &path,
+        "[[line]]\nname = \"m\"\ndevice = \"/dev/null\"\nunits = \"1\"\nspeed = 1\n",
+    )
+    .unwrap();
+    let o = si(&["gateway", "--config", path.to_str().unwrap()]);
+    let e = stderr(&o);
+    assert!(e.contains(path.to_str().unwrap()), "{e}");
+    let at_line_5 = format!("{}:5", path.display());
+    assert!(e.contains(&at_line_5) && e.contains("speed"), "{e}");
+}

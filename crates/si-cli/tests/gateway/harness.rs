@@ -54,14 +54,24 @@ impl Rig {
     }
 }
 
+/// Stop `rig`'s gateway with `signal` (`-INT`, `-TERM`) and return its last status line.
+pub fn stop_with(rig: &Rig, signal: &str) -> serde_json::Value {
+    signalled(&rig.gateway, &rig.log, signal)
+}
+
 /// Stop `gateway` with SIGINT (as Ctrl-C) and return the last status line of its `log`.
 pub fn stop(gateway: &Kill, log: &Receiver<String>) -> serde_json::Value {
+    signalled(gateway, log, "-INT")
+}
+
+/// Send `signal` to `gateway` and return the last status line of its `log`.
+fn signalled(gateway: &Kill, log: &Receiver<String>, signal: &str) -> serde_json::Value {
     let pid = gateway.0.id().to_string();
     let ok = std::process::Command::new("kill")
-        .args(["-INT", &pid])
+        .args([signal, &pid])
         .status()
         .is_ok_and(|s| s.success());
-    assert!(ok, "kill -INT {pid}");
+    assert!(ok, "kill {signal} {pid}");
     let mut last = None;
     while let Ok(line) = log.recv_timeout(Duration::from_secs(10)) {
         last = Some(line);

@@ -147,6 +147,44 @@ impl Master {
         (result, attempts)
     }
 
+    /// Pass a request of a function this crate does not know through to the slave, as it is
+    /// (`unit | PDU` without CRC; [`master::Master::request_pass_through`]), and wait for its
+    /// completion, with what its attempts met as [`request_with_attempts`] gives.
+    ///
+    /// [`request_with_attempts`]: Self::request_with_attempts
+    pub async fn request_pass_through(
+        &self,
+        unit_pdu: &[u8],
+    ) -> (Result<Completion, Error>, Attempts) {
+        let job = Job {
+            unit: unit_pdu.first().copied().unwrap_or(0),
+            function: unit_pdu.get(1).copied().unwrap_or(0),
+            address: None,
+        };
+        self.keep_diagnostics();
+        let unit_pdu = unit_pdu.to_vec();
+        let start = move |m: &mut master::Master, now| match m.request_pass_through(now, &unit_pdu)
+        {
+            Ok(id) => Start::Running(id),
+            Err(RequestError::Busy) => Start::Busy,
+            Err(reason) => Start::Ended(Err(Error::Refused { job, reason })),
+        };
+        let done = move |_: &_, event| match event {
+            MasterEvent::Completed(c) => Break(Ok(c)),
+            MasterEvent::Failed { status, .. } => Break(Err(Error::failed(job, status))),
+            other @ MasterEvent::Diagnostic(_) => Continue(other),
+        };
+        let result = match self.caller.job(start, done).await {
+            Ok(r) => r,
+            Err(e) => Err(e.into()),
+        };
+        if matches!(result, Err(Error::Refused { .. } | Error::Stopped)) {
+            return (result, Attempts::default());
+        }
+        let attempts = self.call(|m, _| m.attempts()).await.unwrap_or_default();
+        (result, attempts)
+    }
+
     /// Move the diagnostics the driver has reported into the kept list.
     fn keep_diagnostics(&self) {
         let mut events = self.events.lock().unwrap_or_else(|e| e.into_inner());

@@ -104,6 +104,16 @@ pub struct LineFile {
     /// default) or `length` (host extension: also at the length its header predicts, once its
     /// CRC checks).
     pub frame_end: Option<String>,
+    /// `modbus-rtu`: the silence that ends a frame and precedes a request: `spec` (the Modbus
+    /// specification's t3.5, 1.75 ms at 19200 bit/s and above, [Modbus serial] §2.5.1.1; the
+    /// default) or `module` (the module's Table 3-11 gap × `char_delay_multiplier`,
+    /// [Modbus/USS] §3.3.5; the default when `char_delay_multiplier` is given).
+    pub frame_gap: Option<String>,
+    /// `modbus-rtu`: after a slave did not answer, the next request waits until the line has
+    /// been silent this long, 0–655000 ms (default: the line's response timeout; 0: off), and
+    /// what arrives meanwhile is discarded and counted, so a late answer never reaches another
+    /// request (si-modbus's quiet guard, bounded by this + the longest response).
+    pub quiet_after_timeout_ms: Option<u32>,
     /// A listening address of its own (`[[line]]`s naming the same address share it): this
     /// line's units are reached there and not on the top-level `listen`, and need to be
     /// unique only among the lines on that address ([`super::faces`]).
@@ -208,6 +218,11 @@ pub struct RtuFraming {
     pub char_delay_multiplier: u8,
     /// At the gap, or also at the predicted length.
     pub frame_end: si_modbus::FrameEnd,
+    /// The specification's t3.5 (`true`) or the module's gap.
+    pub spec_gap: bool,
+    /// Silence kept after a timeout before the next request, in ms (`None`: the line's
+    /// response timeout).
+    pub quiet_after_timeout_ms: Option<u32>,
 }
 
 impl Default for RtuFraming {
@@ -215,6 +230,8 @@ impl Default for RtuFraming {
         RtuFraming {
             char_delay_multiplier: 1,
             frame_end: si_modbus::FrameEnd::Gap,
+            spec_gap: true,
+            quiet_after_timeout_ms: None,
         }
     }
 }
@@ -261,6 +278,22 @@ pub struct ConfigError {
     pub line: Option<String>,
     /// The key, its range and the value given.
     pub range: RangeError,
+}
+
+/// The longest line of a configuration error, in characters: a line's worth of text, enough
+/// for the key, its range and the start of its value. `[derived]`: our choice.
+pub const MAX_ERROR_LINE: usize = 300;
+
+/// `text` with each line cut to [`MAX_ERROR_LINE`] characters, marked with `…`: a value of
+/// any size gives an error of a line's worth.
+pub fn cut(text: &str) -> String {
+    text.lines()
+        .map(|line| match line.char_indices().nth(MAX_ERROR_LINE) {
+            Some((end, _)) => format!("{}…", &line[..end]),
+            None => line.to_owned(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 impl fmt::Display for ConfigError {
@@ -348,6 +381,14 @@ impl File {
                 }
                 owner[u as usize] = Some(i);
             }
+            if lines.iter().any(|other| other.name == line.name) {
+                return Err(err(RangeError::new(
+                    "name",
+                    "a name no other [[line]] has",
+                    "",
+                    format!("{:?}", line.name),
+                )));
+            }
             lines.push(line);
         }
         Ok(Gateway {
@@ -386,6 +427,11 @@ impl LineFile {
                         self.char_delay_multiplier.is_some(),
                     ),
                     ("frame_end", self.frame_end.is_some()),
+                    ("frame_gap", self.frame_gap.is_some()),
+                    (
+                        "quiet_after_timeout_ms",
+                        self.quiet_after_timeout_ms.is_some(),
+                    ),
                 ],
                 "a key of modbus-rtu lines",
                 format!("set on a {kind} line"),
@@ -487,9 +533,29 @@ impl LineFile {
             Some("length") => si_modbus::FrameEnd::Length,
             Some(other) => return Err(RangeError::new("frame_end", "gap or length", "", other)),
         };
+        let spec_gap = match (self.frame_gap.as_deref(), self.char_delay_multiplier) {
+            (None, None) | (Some("spec"), None) => true,
+            (None | Some("module"), _) => false,
+            (Some("spec"), Some(_)) => {
+                return Err(RangeError::new(
+                    "frame_gap",
+                    "module where char_delay_multiplier is given",
+                    "",
+                    "spec",
+                ))
+            }
+            (Some(other), _) => {
+                return Err(RangeError::new("frame_gap", "spec or module", "", other))
+            }
+        };
+        if let Some(q) = self.quiet_after_timeout_ms {
+            RangeError::check("quiet_after_timeout_ms", (0, 655_000), " ms", q)?;
+        }
         Ok(RtuFraming {
             char_delay_multiplier,
             frame_end,
+            spec_gap,
+            quiet_after_timeout_ms: self.quiet_after_timeout_ms,
         })
     }
 
@@ -581,6 +647,12 @@ pub(super) mod tests {
         File::from_toml(text)?.check().map_err(|e| e.to_string())
     }
 
+    /// Whether a line with `char_delay_multiplier = 2` keeps the specification's gap.
+    fn g_multiplied(base: &str) -> bool {
+        let g = check(&format!("{base}char_delay_multiplier = 2\n")).unwrap();
+        g.lines[0].rtu.spec_gap
+    }
+
     #[test]
     fn a_full_file_is_read_with_defaults_filled_in() {
         let g = check(
@@ -649,6 +721,36 @@ pub(super) mod tests {
         let e = check(&format!("{base}char_delay_multiplier = 11\n")).unwrap_err();
         assert!(
             e.contains("char_delay_multiplier = 11 is out of range: 1 … 10"),
+            "{e}"
+        );
+        assert!(
+            check(base).unwrap().lines[0].rtu.spec_gap,
+            "t3.5 by default"
+        );
+        let module = check(&format!("{base}frame_gap = \"module\"\n")).unwrap();
+        assert!(!module.lines[0].rtu.spec_gap);
+        assert!(
+            !g_multiplied(base),
+            "a multiplier asks for the module's gap"
+        );
+        let e = check(&format!(
+            "{base}frame_gap = \"spec\"\nchar_delay_multiplier = 2\n"
+        ))
+        .unwrap_err();
+        assert!(
+            e.contains("frame_gap = spec is out of range: module where"),
+            "{e}"
+        );
+        let e = check(&format!("{base}frame_gap = \"t35\"\n")).unwrap_err();
+        assert!(
+            e.contains("frame_gap = t35 is out of range: spec or module"),
+            "{e}"
+        );
+        let q = check(&format!("{base}quiet_after_timeout_ms = 0\n")).unwrap();
+        assert_eq!(q.lines[0].rtu.quiet_after_timeout_ms, Some(0));
+        let e = check(&format!("{base}quiet_after_timeout_ms = 700000\n")).unwrap_err();
+        assert!(
+            e.contains("quiet_after_timeout_ms = 700000 ms is out of range: 0 … 655000"),
             "{e}"
         );
         let e = check(&format!("{base}frame_end = \"predicted\"\n")).unwrap_err();

@@ -4,10 +4,11 @@
 //! the line's port is closed, the task answers 0AH and reopens it ([`super::reopen`]).
 
 use super::counters::{Outcome, Stats};
+use super::quantities;
 use super::queue::FairQueue;
 use super::reopen::{self, Closed, LineLog, Opened};
 use crate::error::CliError;
-use si_modbus::frame::ExceptionCode;
+use si_modbus::frame::{DecodeErrorKind, ExceptionCode};
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::{Error, Master};
 use si_modbus::{serve, status};
@@ -187,8 +188,17 @@ pub fn answered(
 /// attempts met ([`si_modbus::master::Attempts`]), counted even when a retry cured them.
 async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outcome, u8) {
     let broadcast = request.unit() == 0;
+    if quantities::out_of_range(request.unit_pdu()) {
+        let answer = (!broadcast).then(|| exception(request, ILLEGAL_DATA_VALUE));
+        return (answer, Outcome::Other, 0);
+    }
     let (result, attempts) = match request.decode_request() {
         Ok((unit, r)) => master.request_with_attempts(unit, &r).await,
+        // A function code the RTU master does not know passes through to the slave as it is,
+        // as mbusd does since 0.5.3: its answer ends by the gap, an exception by its length.
+        Err(e) if e.kind == DecodeErrorKind::Function && !broadcast => {
+            master.request_pass_through(request.unit_pdu()).await
+        }
         Err(e) => {
             let code = serve::refusal(e.kind).0.code();
             return (Some(exception(request, code)), Outcome::Other, 0);
