@@ -734,25 +734,32 @@ impl Sinks<'_> {
 /// the frames with (`si_core::frame_log`). `None` for a protocol without a line monitor.
 pub fn line_decoder(protocol: &str, settings: SerialSettings) -> Option<Box<dyn Decoder + Send>> {
     let protocol = Protocol::from_name(protocol).filter(|p| *p != Protocol::DpCoord)?;
-    let defaults = MonitorArgs {
-        protocol,
-        trace: None,
-        from_pcap: None,
-        pcap: None,
-        svg: None,
-        tap: None,
-        duration: None,
-        zvz: None,
-        qvz: None,
-        timeout: None,
-        char_delay: None,
-        end_char: None,
-        fixed_length: None,
-        events: false,
-        no_xon_xoff: false,
-    };
+    let defaults = MonitorArgs::quiet(protocol);
     // Both directions are known: what we write and what we read.
     Some(defaults.decoder(protocol, settings, false))
+}
+
+impl MonitorArgs {
+    /// The monitor of `protocol` with the engines' default timers and no output options.
+    pub fn quiet(protocol: Protocol) -> MonitorArgs {
+        MonitorArgs {
+            protocol,
+            trace: None,
+            from_pcap: None,
+            pcap: None,
+            svg: None,
+            tap: None,
+            duration: None,
+            zvz: None,
+            qvz: None,
+            timeout: None,
+            char_delay: None,
+            end_char: None,
+            fixed_length: None,
+            events: false,
+            no_xon_xoff: false,
+        }
+    }
 }
 
 /// Baud rates a trace or a monitored line may use: the manuals' twelve and USS's 187 500.
