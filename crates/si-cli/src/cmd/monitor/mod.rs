@@ -563,6 +563,25 @@ impl MonitorArgs {
         // The diagram summarises as the records arrive: a monitor left running for days, or
         // flooded, holds a bounded number of them (crate::svg::Diagram).
         let mut diagram = self.svg.as_ref().map(|_| crate::svg::Diagram::new());
+        // The capture's times are wall-clock: its start is the monitor's clock origin.
+        let mut pcap = match &self.pcap {
+            Some(path) => {
+                let header = Header::new("port")
+                    .protocol(protocol.name())
+                    .settings(settings)
+                    .stations(&stations)
+                    .started(std::time::SystemTime::now());
+                Some(
+                    pcap_out::PcapOut::create(path, protocol.name(), &header).map_err(|e| {
+                        CliError::new(format!("cannot write {}: {e}", path.display()))
+                    })?,
+                )
+            }
+            None => None,
+        };
+        let pcap_error = |p: &pcap_out::PcapOut, e: std::io::Error| {
+            CliError::new(format!("cannot write {}: {e}", p.path().display()))
+        };
         let mut buf = [0u8; 512];
         let mut buf2 = [0u8; 512];
         let mut last = Instant::ZERO;
@@ -612,6 +631,9 @@ impl MonitorArgs {
             }
             for r in &records {
                 print_record(r, &stations, out);
+                if let Some(p) = &mut pcap {
+                    p.record(r, &stations).map_err(|e| pcap_error(p, e))?;
+                }
             }
             if let Some(d) = &mut diagram {
                 records.into_iter().for_each(|r| d.push(r));
@@ -621,6 +643,14 @@ impl MonitorArgs {
         decoder.finish(now(), &mut records);
         for r in &records {
             print_record(r, &stations, out);
+            if let Some(p) = &mut pcap {
+                p.record(r, &stations).map_err(|e| pcap_error(p, e))?;
+            }
+        }
+        if let Some(p) = pcap {
+            let path = p.path().to_owned();
+            p.finish(&stations)
+                .map_err(|e| CliError::new(format!("cannot write {}: {e}", path.display())))?;
         }
         if let Some(d) = &mut diagram {
             records.into_iter().for_each(|r| d.push(r));
