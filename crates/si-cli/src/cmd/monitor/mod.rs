@@ -375,8 +375,7 @@ impl MonitorArgs {
         conn: &Connection,
         out: &Output,
     ) -> Result<(), CliError> {
-        let (mut input, first, first_at, first_iface) =
-            pcap_in::PcapIn::open(path).map_err(CliError::new)?;
+        let (mut input, first) = pcap_in::PcapIn::open(path).map_err(CliError::new)?;
         let header = input.header.clone();
         let settings = header
             .as_ref()
@@ -384,6 +383,8 @@ impl MonitorArgs {
             .and_then(|f| f.settings())
             .map_or_else(|| conn.settings_for(&TRACE_RATES), Ok)?;
         input.set_settings(settings);
+        input.windows = header.as_ref().and_then(|h| h.protocol.as_deref()) == Some("dp-coord")
+            || self.protocol == Protocol::DpCoord;
         let named = header
             .as_ref()
             .and_then(|h| h.protocol.as_deref())
@@ -424,7 +425,7 @@ impl MonitorArgs {
             .settings(settings);
         sinks.open_pcap(protocol.name(), &described)?;
         let mut chars = Vec::new();
-        let mut packet = (first_iface != u32::MAX).then_some((first_iface, first_at, first, None));
+        let mut packet = first;
         let mut end = Instant::ZERO;
         while let Some((iface, at, data, comment)) = packet {
             input.chars(iface, at, &data, comment.as_deref(), &mut chars);
@@ -439,6 +440,7 @@ impl MonitorArgs {
                 .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
         }
         let stations = input.stations.clone();
+        let end = input.end.unwrap_or(end).max(end);
         decoding.finish(end, &mut |r| sinks.record(r, &stations))?;
         let analysis = Analysis {
             protocol: protocol.name().to_owned(),
@@ -649,7 +651,7 @@ impl MonitorArgs {
         }
         if let Some(p) = pcap {
             let path = p.path().to_owned();
-            p.finish(&stations)
+            p.finish(&stations, now())
                 .map_err(|e| CliError::new(format!("cannot write {}: {e}", path.display())))?;
         }
         if let Some(d) = &mut diagram {
@@ -753,7 +755,7 @@ impl Sinks<'_> {
         }
         if let Some(p) = self.pcap {
             let path = p.path().to_owned();
-            p.finish(&analysis.stations)
+            p.finish(&analysis.stations, analysis.span.1)
                 .map_err(|e| Self::pcap_error(&path, e))?;
         }
         Ok(())

@@ -36,6 +36,10 @@ pub struct PcapIn {
     origin: Option<u64>,
     settings: SerialSettings,
     last: Instant,
+    /// DP windows: a window's bytes are written at once, a microsecond apart.
+    pub windows: bool,
+    /// The end of the recording, if the capture marks it.
+    pub end: Option<Instant>,
 }
 
 fn read_error(path: &std::path::Path, e: ReadError) -> String {
@@ -43,8 +47,12 @@ fn read_error(path: &std::path::Path, e: ReadError) -> String {
 }
 
 impl PcapIn {
-    /// Open `path` and read up to its first packet (the header, the interfaces).
-    pub fn open(path: &std::path::Path) -> Result<(Self, Vec<u8>, u64, u32), String> {
+    /// Open `path` and read up to its first packet (the header, the interfaces); that packet
+    /// is handed back to be fed once the decoder is chosen.
+    #[allow(clippy::type_complexity)]
+    pub fn open(
+        path: &std::path::Path,
+    ) -> Result<(Self, Option<(u32, u64, Vec<u8>, Option<String>)>), String> {
         let file = std::fs::File::open(path)
             .map_err(|e| format!("cannot open {}: {e}", path.display()))?;
         let reader = Reader::new(BufReader::new(file)).map_err(|e| read_error(path, e))?;
@@ -57,11 +65,13 @@ impl PcapIn {
             origin: None,
             settings: SerialSettings::default(),
             last: Instant::ZERO,
+            windows: false,
+            end: None,
         };
         // The first packet, kept for the caller to feed after it chose the decoder.
         loop {
             match me.reader.next_block().map_err(|e| read_error(path, e))? {
-                None => return Ok((me, Vec::new(), 0, u32::MAX)),
+                None => return Ok((me, None)),
                 Some(Block::Section { comment }) => {
                     me.linktypes.clear();
                     me.header = comment
@@ -81,7 +91,7 @@ impl PcapIn {
                     interface,
                     at_us,
                     data,
-                    ..
+                    comment,
                 }) => {
                     let data = data.to_vec();
                     if me.linktypes.get(interface as usize) == Some(&upper_pdu::LINKTYPE) {
@@ -89,7 +99,7 @@ impl PcapIn {
                             me.dissector = p.dissector.map(str::to_owned);
                         }
                     }
-                    return Ok((me, data, at_us, interface));
+                    return Ok((me, Some((interface, at_us, data, comment))));
                 }
             }
         }
@@ -103,6 +113,14 @@ impl PcapIn {
     /// The link type of the first interface (what kind of capture it is).
     pub fn first_linktype(&self) -> Option<u16> {
         self.linktypes.first().copied()
+    }
+
+    /// Sender and receiver from a packet comment `from → to` (`?` unknown, `*` everyone).
+    #[allow(clippy::type_complexity)]
+    fn route(&mut self, comment: Option<&str>) -> Option<(Option<usize>, Option<usize>)> {
+        let (from, to) = comment?.split_once(" → ")?;
+        let mut index = |name: &str| (name != "?" && name != "*").then(|| self.station(name));
+        Some((index(from), index(to)))
     }
 
     fn station(&mut self, name: &str) -> usize {
@@ -127,14 +145,18 @@ impl PcapIn {
         let origin = *self.origin.get_or_insert(at_us);
         let at = Instant::from_micros(at_us.saturating_sub(origin));
         let linktype = self.linktypes.get(interface as usize).copied();
-        let (from, payload): (usize, &[u8]) = match linktype {
+        let mut to = None;
+        let (from, payload): (Option<usize>, &[u8]) = match linktype {
             Some(upper_pdu::LINKTYPE) => {
                 let Ok(p) = upper_pdu::decode(data) else {
                     return;
                 };
-                let from = match comment {
-                    Some(name) if !name.is_empty() => self.station(name),
-                    _ => {
+                let from = match self.route(comment) {
+                    Some((from, receiver)) => {
+                        to = Some(receiver);
+                        from
+                    }
+                    _ => Some({
                         let name = match p.direction {
                             Some(upper_pdu::Direction::Received) => "B",
                             _ => "A",
@@ -145,7 +167,7 @@ impl PcapIn {
                         } else {
                             self.station(name)
                         }
-                    }
+                    }),
                 };
                 (from, p.payload)
             }
@@ -153,6 +175,10 @@ impl PcapIn {
                 let Some((h, payload)) = rtac::Header::parse(data) else {
                     return;
                 };
+                if comment == Some(crate::cmd::monitor::pcap_out::END_COMMENT) {
+                    self.end = Some(at);
+                    return;
+                }
                 let error = match h.event {
                     rtac::Event::Framing => Some(LineError::Framing),
                     rtac::Event::Parity => Some(LineError::Parity),
@@ -160,27 +186,32 @@ impl PcapIn {
                     rtac::Event::Overflow => Some(LineError::Overrun),
                     _ => None,
                 };
-                let from = match (comment, h.event) {
-                    (Some(name), _) if !name.is_empty() => Some(self.station(name)),
-                    (_, rtac::Event::TxStart | rtac::Event::TxEnd) => Some(self.station("tx")),
-                    (_, rtac::Event::RxStart | rtac::Event::RxEnd) => Some(self.station("rx")),
-                    _ => None,
+                let (from, receiver) = match (self.route(comment), h.event) {
+                    (Some(route), _) => route,
+                    (_, rtac::Event::TxStart | rtac::Event::TxEnd) => (Some(self.station("tx")), None),
+                    (_, rtac::Event::RxStart | rtac::Event::RxEnd) => (Some(self.station("rx")), None),
+                    _ => (None, None),
                 };
                 if let Some(e) = error {
-                    self.emit(at, from, Err(e), true, out);
+                    self.emit(at, from, Some(receiver), Err(e), true, out);
+                    return;
                 }
-                match from {
-                    Some(f) if error.is_none() => (f, payload),
-                    _ => return,
-                }
+                (from, payload)
             }
-            Some(LINKTYPE_USER0) => (self.station("line"), data),
+            Some(LINKTYPE_USER0) => (Some(self.station("line")), data),
             _ => return,
         };
-        let ct = self.settings.char_time();
         for (k, &b) in payload.iter().enumerate() {
-            let t = at + Duration::from_micros(ct.as_micros() * k as u64);
-            self.emit(t, Some(from), Ok(b), true, out);
+            // `chars_time` of k characters, not k rounded character times: the simulator's
+            // lines keep the exact pace, and 15 rounded times can shorten the silence after
+            // a frame by the microseconds a start interval is judged by.
+            let t = if self.windows {
+                at + Duration::from_micros(k as u64)
+            } else {
+                at + self.settings.chars_time(k as u64)
+            };
+            let exact = !self.windows || k == 0;
+            self.emit(t, from, to, Ok(b), exact, out);
         }
     }
 
@@ -188,16 +219,18 @@ impl PcapIn {
         &mut self,
         at: Instant,
         from: Option<usize>,
+        to: Option<Option<usize>>,
         item: Result<u8, LineError>,
         exact: bool,
         out: &mut Vec<LineChar>,
     ) {
         let at = at.max(self.last);
         self.last = at;
-        let to = match (from, self.stations.len()) {
+        // The packet comment names the receiver; without it, point to point is assumed.
+        let to = to.unwrap_or(match (from, self.stations.len()) {
             (Some(f), 2) if f < 2 => Some(1 - f),
             _ => None,
-        };
+        });
         out.push(LineChar {
             at,
             from,

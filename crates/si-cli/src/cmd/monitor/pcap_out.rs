@@ -5,12 +5,16 @@
 //!   exactly) is one packet at its first character's time, naming the dissector
 //!   ([`dissector`]: Wireshark's own `mbrtu` for Modbus RTU, `contrib/wireshark/si.lua` for
 //!   ours) and its direction: sent for the first station, received for the second. The packet
-//!   comment names the sending station, so a bus of more stations reads back.
+//!   comment names the sending and the receiving station (`master → drive1`, `*` for everyone
+//!   on a bus), so a bus of more stations reads back.
 //! - **Interface 1, RTAC serial** (`LINKTYPE_RTAC_SERIAL`, 250): what is not a frame: a line
 //!   error (framing, parity, BREAK, overrun) as its event with no payload, and a change of the
 //!   modem lines as event 00 with the new DTR/RTS levels in the control-lines byte. We chose
 //!   records over comments so a display filter (`rtacser.event_type`) finds them, and they keep
 //!   their own time in the packet list.
+//! - **The end of the recording** is an RTAC record with event 00 and the comment
+//!   [`END_COMMENT`]: a trace ends when its recorder stopped, not at its last character, and
+//!   the monitor judges the timers still running then (a slave that never answered).
 //! - **The section comment** is the trace's header line (`si-trace` JSON: protocol, line
 //!   settings, stations, wall-clock start), so `si monitor --from-pcap` decodes the capture as
 //!   the trace was decoded.
@@ -85,6 +89,16 @@ pub fn epoch_micros(text: &str) -> Option<u64> {
     Some(((days * 86_400 + h * 3600 + min * 60 + s) * 1_000_000) + micros)
 }
 
+/// The comment of the packet that marks the end of the recording.
+pub const END_COMMENT: &str = "end of recording";
+
+/// A packet's comment `from → to`: station names, `?` for an unknown sender, `*` for
+/// everyone on a bus.
+fn route(from: Option<usize>, to: Option<usize>, stations: &[String]) -> String {
+    let name = |i: Option<usize>, none| i.and_then(|i| stations.get(i)).map_or(none, String::as_str);
+    format!("{} → {}", name(from, "?"), name(to, "*"))
+}
+
 /// The capture being written.
 pub struct PcapOut {
     w: Writer<BufWriter<std::fs::File>>,
@@ -92,7 +106,7 @@ pub struct PcapOut {
     origin: u64,
     /// Line errors not yet written: they go in before the first record that starts after
     /// them, so the capture stays in time order.
-    errors: VecDeque<(Instant, Option<usize>, LineError)>,
+    errors: VecDeque<(Instant, Option<usize>, Option<usize>, LineError)>,
     scratch: Vec<u8>,
     path: std::path::PathBuf,
 }
@@ -127,12 +141,12 @@ impl PcapOut {
     /// A character the monitor was fed: a line error becomes an RTAC record.
     pub fn char(&mut self, c: &LineChar) {
         if let Err(e) = c.item {
-            self.errors.push_back((c.at, c.from, e));
+            self.errors.push_back((c.at, c.from, c.to, e));
         }
     }
 
     fn flush_errors(&mut self, until: Option<Instant>, stations: &[String]) -> std::io::Result<()> {
-        while let Some(&(at, from, e)) = self.errors.front() {
+        while let Some(&(at, from, to, e)) = self.errors.front() {
             if until.is_some_and(|u| at > u) {
                 break;
             }
@@ -143,9 +157,9 @@ impl PcapOut {
                 lines: 0,
                 footer: 0,
             };
-            let name = from.and_then(|i| stations.get(i)).map(String::as_str);
+            let comment = route(from, to, stations);
             self.w
-                .packet(1, header.at_us, &header.bytes(), name)?;
+                .packet(1, header.at_us, &header.bytes(), Some(&comment))?;
         }
         Ok(())
     }
@@ -163,12 +177,12 @@ impl PcapOut {
         };
         self.scratch.clear();
         upper_pdu::encode_into(&mut self.scratch, self.dissector, direction, &r.bytes);
-        let name = r.from.and_then(|i| stations.get(i)).map(String::as_str);
+        let comment = route(r.from, r.to, stations);
         self.w.packet(
             0,
             self.origin + r.start.as_micros(),
             &self.scratch,
-            name,
+            Some(&comment),
         )
     }
 
@@ -183,9 +197,17 @@ impl PcapOut {
         self.w.packet(1, header.at_us, &header.bytes(), Some(station))
     }
 
-    /// Write what is held and close the file.
-    pub fn finish(mut self, stations: &[String]) -> std::io::Result<()> {
+    /// Write what is held, mark the recording's `end`, and close the file.
+    pub fn finish(mut self, stations: &[String], end: Instant) -> std::io::Result<()> {
         self.flush_errors(None, stations)?;
+        let header = rtac::Header {
+            at_us: self.origin + end.as_micros(),
+            event: rtac::Event::Other(0),
+            lines: 0,
+            footer: 0,
+        };
+        self.w
+            .packet(1, header.at_us, &header.bytes(), Some(END_COMMENT))?;
         self.w.finish().map(drop)
     }
 }
