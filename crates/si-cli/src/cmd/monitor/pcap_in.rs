@@ -202,13 +202,17 @@ impl PcapIn {
             _ => return,
         };
         for (k, &b) in payload.iter().enumerate() {
-            // `chars_time` of k characters, not k rounded character times: the simulator's
-            // lines keep the exact pace, and 15 rounded times can shorten the silence after
-            // a frame by the microseconds a start interval is judged by.
+            // Counted from the frame's start as a transmitter paces it (`chars_time` of k + 1
+            // characters less the first's), not k rounded character times: 15 rounded times
+            // can shorten the silence after a frame by the microseconds a start interval is
+            // judged by.
             let t = if self.windows {
                 at + Duration::from_micros(k as u64)
             } else {
-                at + self.settings.chars_time(k as u64)
+                let since_start = self.settings.chars_time(k as u64 + 1);
+                at + Duration::from_micros(
+                    since_start.as_micros() - self.settings.chars_time(1).as_micros(),
+                )
             };
             let exact = !self.windows || k == 0;
             self.emit(t, from, to, Ok(b), exact, out);
