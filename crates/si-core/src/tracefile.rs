@@ -352,6 +352,11 @@ fn parse_line(text: &str, line: usize) -> Result<Item, TraceFileError> {
         line,
         message: e.to_string(),
     };
+    // Entries straight into their type (most lines, one parse); only a line that could be a
+    // header goes through a JSON value first.
+    if !text.contains("\"format\"") {
+        return Ok(Item::Entry(serde_json::from_str(text).map_err(syntax)?));
+    }
     let value: serde_json::Value = serde_json::from_str(text).map_err(syntax)?;
     if value.get("format").and_then(|f| f.as_str()) == Some(FORMAT) {
         let header: Header = serde_json::from_value(value).map_err(syntax)?;
