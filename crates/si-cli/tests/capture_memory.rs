@@ -26,7 +26,11 @@ fn crc16(bytes: &[u8]) -> [u8; 2] {
     for &b in bytes {
         crc ^= u16::from(b);
         for _ in 0..8 {
-            crc = if crc & 1 != 0 { (crc >> 1) ^ 0xA001 } else { crc >> 1 };
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ 0xA001
+            } else {
+                crc >> 1
+            };
         }
     }
     crc.to_le_bytes()
@@ -52,7 +56,11 @@ fn write_trace(path: &std::path::Path, pairs: u64) {
     .unwrap();
     let mut at = 0u64;
     for _ in 0..pairs {
-        writeln!(f, r#"{{"at":{at},"station":"si","kind":"tx","bytes":{req}}}"#).unwrap();
+        writeln!(
+            f,
+            r#"{{"at":{at},"station":"si","kind":"tx","bytes":{req}}}"#
+        )
+        .unwrap();
         writeln!(
             f,
             r#"{{"at":{},"station":"si","kind":"event","text":"Sent"}}"#,
@@ -60,7 +68,11 @@ fn write_trace(path: &std::path::Path, pairs: u64) {
         )
         .unwrap();
         at += 10_000;
-        writeln!(f, r#"{{"at":{at},"station":"si","kind":"rx_chunk","bytes":{resp}}}"#).unwrap();
+        writeln!(
+            f,
+            r#"{{"at":{at},"station":"si","kind":"rx_chunk","bytes":{resp}}}"#
+        )
+        .unwrap();
         writeln!(
             f,
             r#"{{"at":{},"station":"si","kind":"event","text":"Response {{ registers: [4660, 22136] }}"}}"#,
@@ -107,7 +119,12 @@ fn a_million_frames_stream_through_monitor_export_and_import_in_bounded_memory()
     let size = std::fs::metadata(&trace).unwrap().len();
     assert!(size > 100_000_000, "the trace is {size} bytes");
 
-    let counters = run_counting(&["--json".as_ref(), "monitor".as_ref(), "--trace".as_ref(), trace.as_os_str()]);
+    let counters = run_counting(&[
+        "--json".as_ref(),
+        "monitor".as_ref(),
+        "--trace".as_ref(),
+        trace.as_os_str(),
+    ]);
     assert!(counters.contains("\"bus messages\":1000000"), "{counters}");
     let peak = children_peak();
     assert!(
@@ -115,7 +132,10 @@ fn a_million_frames_stream_through_monitor_export_and_import_in_bounded_memory()
         "si monitor --trace on a {size}-byte trace peaked at {} MB resident (limit 64 MB)",
         peak >> 20
     );
-    eprintln!("si monitor --trace, {size} bytes: peak {} MB resident", peak >> 20);
+    eprintln!(
+        "si monitor --trace, {size} bytes: peak {} MB resident",
+        peak >> 20
+    );
 
     let o = si_command()
         .args(["trace", "export"])
@@ -132,7 +152,12 @@ fn a_million_frames_stream_through_monitor_export_and_import_in_bounded_memory()
         peak >> 20
     );
 
-    let counters = run_counting(&["--json".as_ref(), "monitor".as_ref(), "--from-pcap".as_ref(), pcap.as_os_str()]);
+    let counters = run_counting(&[
+        "--json".as_ref(),
+        "monitor".as_ref(),
+        "--from-pcap".as_ref(),
+        pcap.as_os_str(),
+    ]);
     assert!(counters.contains("\"bus messages\":1000000"), "{counters}");
     let peak = children_peak();
     assert!(

@@ -111,7 +111,12 @@ pub fn lua_tables() -> String {
         .map(|(n, text)| (n, text.to_owned()))
         .collect();
     let jobs: Vec<(u32, String)> = (0u8..8)
-        .map(|b| (u32::from(b), format!("{:?}", si_dp_coord::JobCode::from_bits(b))))
+        .map(|b| {
+            (
+                u32::from(b),
+                format!("{:?}", si_dp_coord::JobCode::from_bits(b)),
+            )
+        })
         .collect();
     let mut s = String::from(LUA_BEGIN);
     s.push_str(&lua_table("rk512_commands", &commands, true));
@@ -129,7 +134,10 @@ mod tests {
     /// The dissectors' tables are the decoders' tables: regenerate with `si trace lua-tables`.
     #[test]
     fn si_lua_holds_the_generated_tables() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../contrib/wireshark/si.lua");
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../contrib/wireshark/si.lua"
+        );
         let lua = std::fs::read_to_string(path).expect("contrib/wireshark/si.lua");
         let start = lua.find(LUA_BEGIN).expect("the BEGIN marker");
         let end = lua.find(LUA_END).expect("the END marker") + LUA_END.len();

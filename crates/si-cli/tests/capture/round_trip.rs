@@ -80,7 +80,12 @@ fn every_scenario_reads_back_from_its_capture_with_the_same_report() {
 fn a_flagged_frame_keeps_its_raw_bytes_in_the_capture() {
     let dir = test_dir("si-capture-raw");
     let (trace, pcap) = recorded(&dir, "modbus-crc-error");
-    let report = run(&["--json".as_ref(), "monitor".as_ref(), "--trace".as_ref(), trace.as_os_str()]);
+    let report = run(&[
+        "--json".as_ref(),
+        "monitor".as_ref(),
+        "--trace".as_ref(),
+        trace.as_os_str(),
+    ]);
     let bad = report
         .lines()
         .find(|l| l.contains("CRC error"))

@@ -90,7 +90,11 @@ fn tshark_decodes_every_modbus_frame_as_si_frame_decode_does() {
         assert!(o.status.success(), "{}", text(&o));
         let decoded: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
         let fields: Vec<&str> = line.split(';').collect();
-        assert_eq!(fields[0], decoded["unit"].to_string(), "unit of {hex}: {line}");
+        assert_eq!(
+            fields[0],
+            decoded["unit"].to_string(),
+            "unit of {hex}: {line}"
+        );
         // Wireshark shows an exception response's function code without its 80H bit.
         let function = decoded["function"].as_u64().unwrap();
         assert_eq!(
@@ -112,15 +116,35 @@ fn tshark_decodes_every_modbus_frame_as_si_frame_decode_does() {
             assert_eq!(tshark_values, values, "registers of {hex}: {line}");
         }
     }
-    assert!(with_registers >= 2, "register values compared: {with_registers}");
+    assert!(
+        with_registers >= 2,
+        "register values compared: {with_registers}"
+    );
 }
 
 /// `tshark -X lua_script:contrib/wireshark/si.lua -r FILE -T fields -e …`, one `Vec` per
 /// packet of the line (the RTAC interface's end-of-recording mark left out).
 fn lua_fields(file: &std::path::Path, fields: &[&str]) -> Vec<Vec<String>> {
-    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/../../contrib/wireshark/si.lua");
+    let script = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../contrib/wireshark/si.lua"
+    );
     let mut args = vec!["-X".to_owned(), format!("lua_script:{script}")];
-    args.extend(["-Y", "exported_pdu", "-T", "fields", "-E", "separator=;", "-E", "occurrence=a", "-E", "aggregator=|"].map(str::to_owned));
+    args.extend(
+        [
+            "-Y",
+            "exported_pdu",
+            "-T",
+            "fields",
+            "-E",
+            "separator=;",
+            "-E",
+            "occurrence=a",
+            "-E",
+            "aggregator=|",
+        ]
+        .map(str::to_owned),
+    );
     for f in fields {
         args.push("-e".into());
         args.push((*f).to_owned());
@@ -148,9 +172,10 @@ fn line_records(trace: &std::path::Path) -> Vec<serde_json::Value> {
 }
 
 fn flagged(r: &serde_json::Value, what: &str) -> bool {
-    r["flags"]
-        .as_array()
-        .is_some_and(|f| f.iter().any(|f| f["text"].as_str().unwrap_or("").contains(what)))
+    r["flags"].as_array().is_some_and(|f| {
+        f.iter()
+            .any(|f| f["text"].as_str().unwrap_or("").contains(what))
+    })
 }
 
 /// The first number after `prefix` in `label`.
@@ -172,7 +197,13 @@ fn the_lua_dissectors_show_what_the_monitor_shows_for_3964r_and_rk512() {
     let mut naks = 0;
     let mut retries = 0;
     let mut telegrams = 0;
-    for scenario in ["3964r-bcc-error", "3964r-nak-retry", "3964r", "rk512", "rk512-locked"] {
+    for scenario in [
+        "3964r-bcc-error",
+        "3964r-nak-retry",
+        "3964r",
+        "rk512",
+        "rk512-locked",
+    ] {
         let (trace, pcap) = recorded(&dir, scenario);
         let records = line_records(&trace);
         let shown = lua_fields(
@@ -213,19 +244,33 @@ fn the_lua_dissectors_show_what_the_monitor_shows_for_3964r_and_rk512() {
                 assert!(f[3].contains("NAK: block rejected"), "{what}");
                 naks += 1;
             }
-            if r["flags"].as_array().is_some_and(|fl| fl.iter().any(|x| x["text"] == "retry")) {
+            if r["flags"]
+                .as_array()
+                .is_some_and(|fl| fl.iter().any(|x| x["text"] == "retry"))
+            {
                 assert!(f[3].contains("Retry"), "{what}");
                 retries += 1;
             }
             if let (Some(db), Some(dw)) = (number_after(label, " DB"), number_after(label, ".DW")) {
-                let letter = if label.starts_with("Send") { "0x41" } else { "0x45" };
+                let letter = if label.starts_with("Send") {
+                    "0x41"
+                } else {
+                    "0x45"
+                };
                 assert_eq!(f[4], letter, "{what}");
-                assert_eq!((f[5].as_str(), f[6].as_str()), (db.to_string().as_str(), dw.to_string().as_str()), "{what}");
+                assert_eq!(
+                    (f[5].as_str(), f[6].as_str()),
+                    (db.to_string().as_str(), dw.to_string().as_str()),
+                    "{what}"
+                );
                 telegrams += 1;
             }
         }
     }
-    assert!(bcc_errors >= 1 && naks >= 2 && retries >= 1 && telegrams >= 2, "BCC errors {bcc_errors}, NAKs {naks}, retries {retries}, telegrams {telegrams}");
+    assert!(
+        bcc_errors >= 1 && naks >= 2 && retries >= 1 && telegrams >= 2,
+        "BCC errors {bcc_errors}, NAKs {naks}, retries {retries}, telegrams {telegrams}"
+    );
 }
 
 /// USS: address and net length of every telegram; DP windows: every coordination byte.
@@ -239,7 +284,10 @@ fn the_lua_dissectors_show_what_the_monitor_shows_for_uss_and_windows() {
     for scenario in ["uss-param", "uss-cycle"] {
         let (trace, pcap) = recorded(&dir, scenario);
         let records = line_records(&trace);
-        let shown = lua_fields(&pcap, &["si_uss.adr.address", "si_uss.lge", "si_uss.bcc_ok"]);
+        let shown = lua_fields(
+            &pcap,
+            &["si_uss.adr.address", "si_uss.lge", "si_uss.bcc_ok"],
+        );
         assert_eq!(shown.len(), records.len(), "{scenario}: {shown:?}");
         for (r, f) in records.iter().zip(&shown) {
             let label = r["label"].as_str().unwrap();
@@ -263,7 +311,11 @@ fn the_lua_dissectors_show_what_the_monitor_shows_for_uss_and_windows() {
         assert_eq!(shown.len(), records.len(), "{scenario}");
         for (r, f) in records.iter().zip(&shown) {
             let first = &r["bytes"].as_str().unwrap()[..2];
-            assert_eq!(f[0], format!("0x{}", first.to_ascii_lowercase()), "{scenario}: {r} ↔ {f:?}");
+            assert_eq!(
+                f[0],
+                format!("0x{}", first.to_ascii_lowercase()),
+                "{scenario}: {r} ↔ {f:?}"
+            );
         }
     }
 }

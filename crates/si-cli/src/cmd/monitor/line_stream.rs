@@ -213,7 +213,8 @@ impl LineStream {
         }
         match &e.kind {
             TraceKind::Tx { bytes } => {
-                let start = e.at.max(self.free.get(&s).copied().unwrap_or(Instant::ZERO));
+                let start =
+                    e.at.max(self.free.get(&s).copied().unwrap_or(Instant::ZERO));
                 let end = start + self.settings.chars_time(bytes.len() as u64);
                 self.free.insert(s, end);
                 self.windows.push_back(Window {

@@ -12,6 +12,10 @@
 //! `si_dp_coord::monitor`) is read window by window with its coordination bytes. This command
 //! only chooses the monitor, feeds it and prints: every record as it is decoded, the counters
 //! at the end; `--svg` draws the sequence diagram ([`crate::svg`]).
+//!
+//! A trace is read record by record ([`line_stream`], [`ordered`]): memory holds a minute of
+//! line, not the file. `--pcap` also writes the records as a Wireshark capture ([`pcap_out`]),
+//! `--from-pcap` reads one instead of a trace ([`pcap_in`]).
 
 pub mod line_stream;
 pub mod ordered;
@@ -23,8 +27,8 @@ use crate::error::CliError;
 use crate::output::Output;
 use clap::{Args, ValueEnum};
 use si_core::monitor::{decode_all, line, Analysis, Decoder, Kind, LineChar, Record};
-use si_core::tracefile::{self, Header, Item, TraceFile};
 use si_core::trace::TraceEntry;
+use si_core::tracefile::{self, Header, Item, TraceFile};
 use si_core::{Duration, Instant, SerialSettings};
 use std::path::PathBuf;
 
@@ -719,8 +723,15 @@ impl Sinks<'_> {
     ) -> Result<(), CliError> {
         use si_capture::rtac::lines;
         if let Some(p) = &mut self.pcap {
-            let bits = if update.dtr == Some(true) { lines::DTR } else { 0 }
-                | if update.rts == Some(true) { lines::RTS } else { 0 };
+            let bits = if update.dtr == Some(true) {
+                lines::DTR
+            } else {
+                0
+            } | if update.rts == Some(true) {
+                lines::RTS
+            } else {
+                0
+            };
             p.signals(at, bits, station)
                 .map_err(|e| Self::pcap_error(p.path(), e))?;
         }
@@ -746,7 +757,11 @@ impl Sinks<'_> {
     }
 
     /// The end: counters printed, the diagram and the capture written.
-    pub fn finish(self, analysis: &Analysis, svg: Option<&std::path::Path>) -> Result<(), CliError> {
+    pub fn finish(
+        self,
+        analysis: &Analysis,
+        svg: Option<&std::path::Path>,
+    ) -> Result<(), CliError> {
         if let Some(out) = self.out {
             print_counters(analysis, out);
         }
@@ -1094,12 +1109,7 @@ mod tests {
                 trace: Trace { entries },
             };
             let path = dir.join("t.trace");
-            tracefile::write(
-                std::fs::File::create(&path).unwrap(),
-                &header,
-                &file.trace,
-            )
-            .unwrap();
+            tracefile::write(std::fs::File::create(&path).unwrap(), &header, &file.trace).unwrap();
             let a = args(&["--events"]);
             let whole = a.analyse(&file, SerialSettings::default()).unwrap();
             let mut sinks = Sinks {

@@ -188,8 +188,12 @@ impl PcapIn {
                 };
                 let (from, receiver) = match (self.route(comment), h.event) {
                     (Some(route), _) => route,
-                    (_, rtac::Event::TxStart | rtac::Event::TxEnd) => (Some(self.station("tx")), None),
-                    (_, rtac::Event::RxStart | rtac::Event::RxEnd) => (Some(self.station("rx")), None),
+                    (_, rtac::Event::TxStart | rtac::Event::TxEnd) => {
+                        (Some(self.station("tx")), None)
+                    }
+                    (_, rtac::Event::RxStart | rtac::Event::RxEnd) => {
+                        (Some(self.station("rx")), None)
+                    }
                     _ => (None, None),
                 };
                 if let Some(e) = error {

@@ -80,7 +80,11 @@ pub fn epoch_micros(text: &str) -> Option<u64> {
     let digits = frac.len().min(6);
     let micros = num(&frac[..digits])? * 10u64.pow((6 - digits) as u32);
     // Howard Hinnant's days_from_civil, for dates from 1970 on.
-    let (y, m) = if m <= 2 { (y.checked_sub(1)?, m + 9) } else { (y, m - 3) };
+    let (y, m) = if m <= 2 {
+        (y.checked_sub(1)?, m + 9)
+    } else {
+        (y, m - 3)
+    };
     let era = y / 400;
     let yoe = y - era * 400;
     let doy = (153 * m + 2) / 5 + day.checked_sub(1)?;
@@ -95,7 +99,8 @@ pub const END_COMMENT: &str = "end of recording";
 /// A packet's comment `from → to`: station names, `?` for an unknown sender, `*` for
 /// everyone on a bus.
 fn route(from: Option<usize>, to: Option<usize>, stations: &[String]) -> String {
-    let name = |i: Option<usize>, none| i.and_then(|i| stations.get(i)).map_or(none, String::as_str);
+    let name =
+        |i: Option<usize>, none| i.and_then(|i| stations.get(i)).map_or(none, String::as_str);
     format!("{} → {}", name(from, "?"), name(to, "*"))
 }
 
@@ -113,7 +118,11 @@ pub struct PcapOut {
 
 impl PcapOut {
     /// Create `path` for a line decoded as `protocol`, described by `header`.
-    pub fn create(path: &std::path::Path, protocol: &str, header: &Header) -> std::io::Result<Self> {
+    pub fn create(
+        path: &std::path::Path,
+        protocol: &str,
+        header: &Header,
+    ) -> std::io::Result<Self> {
         let file = std::fs::File::create(path)?;
         let comment = serde_json::to_string(header).unwrap_or_default();
         let mut w = Writer::new(
@@ -194,7 +203,8 @@ impl PcapOut {
             lines,
             footer: 0,
         };
-        self.w.packet(1, header.at_us, &header.bytes(), Some(station))
+        self.w
+            .packet(1, header.at_us, &header.bytes(), Some(station))
     }
 
     /// Write what is held, mark the recording's `end`, and close the file.
@@ -223,7 +233,10 @@ mod tests {
             epoch_micros("2026-11-25T16:18:25.123456Z"),
             Some(1_795_623_505_123_456)
         );
-        assert_eq!(epoch_micros("2000-02-29T12:34:56.007Z"), Some(951_827_696_007_000));
+        assert_eq!(
+            epoch_micros("2000-02-29T12:34:56.007Z"),
+            Some(951_827_696_007_000)
+        );
         assert_eq!(epoch_micros("yesterday"), None);
     }
 
