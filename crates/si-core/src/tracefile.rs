@@ -239,6 +239,139 @@ pub enum TraceFileError {
     /// A header with a format version this reader does not know.
     #[error("trace format version {0} is newer than this reader (version {VERSION})")]
     Version(u32),
+    /// A line longer than [`MAX_LINE`] (no recorder writes one: it would be a frame of
+    /// over 200,000 bytes), or a file that is not lines at all, such as `/dev/zero`.
+    #[error("trace line {line}: longer than {max} bytes")]
+    TooLong {
+        /// 1-based line number.
+        line: usize,
+        /// [`MAX_LINE`].
+        max: usize,
+    },
+}
+
+#[cfg(feature = "tracefile")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
+/// The longest trace line a reader accepts: 1 MiB, an entry of about 250,000 bytes written as
+/// JSON numbers, far beyond any frame of the protocols (the longest, an RK 512 or 3964(R)
+/// block, is 1 KiB). A streaming reader holds one line at a time, so this bounds its memory.
+pub const MAX_LINE: usize = 1 << 20;
+
+#[cfg(feature = "tracefile")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
+/// One line of a trace file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Item {
+    /// A header line.
+    Header(Header),
+    /// An entry.
+    Entry(TraceEntry),
+}
+
+#[cfg(feature = "tracefile")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
+/// Reads a trace file line by line, in memory bounded by [`MAX_LINE`], not by the file: what
+/// `si monitor --trace` and `si trace export` use for recordings of days.
+#[derive(Debug)]
+pub struct Stream<R: BufRead> {
+    input: R,
+    line: Vec<u8>,
+    number: usize,
+}
+
+#[cfg(feature = "tracefile")]
+impl<R: BufRead> Stream<R> {
+    /// A reader of `input`.
+    pub fn new(input: R) -> Self {
+        Stream {
+            input,
+            line: Vec::new(),
+            number: 0,
+        }
+    }
+
+    /// The 1-based number of the line last read.
+    pub fn line_number(&self) -> usize {
+        self.number
+    }
+
+    /// The next header or entry (blank lines skipped), `None` at the end.
+    pub fn next_item(&mut self) -> Result<Option<Item>, TraceFileError> {
+        loop {
+            if !self.next_line()? {
+                return Ok(None);
+            }
+            let line = self.number;
+            let text = String::from_utf8_lossy(&self.line);
+            let text = text.trim();
+            if text.is_empty() {
+                continue;
+            }
+            return parse_line(text, line).map(Some);
+        }
+    }
+
+    /// Read one line into `self.line`, refusing it past [`MAX_LINE`] before holding more.
+    fn next_line(&mut self) -> Result<bool, TraceFileError> {
+        self.line.clear();
+        self.number += 1;
+        let mut any = false;
+        loop {
+            let buf = match self.input.fill_buf() {
+                Ok(b) => b,
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e.into()),
+            };
+            if buf.is_empty() {
+                return Ok(any);
+            }
+            any = true;
+            let (take, done) = match buf.iter().position(|&b| b == b'\n') {
+                Some(i) => (i, true),
+                None => (buf.len(), false),
+            };
+            if self.line.len() + take > MAX_LINE {
+                return Err(TraceFileError::TooLong {
+                    line: self.number,
+                    max: MAX_LINE,
+                });
+            }
+            self.line.extend_from_slice(&buf[..take]);
+            self.input.consume(take + usize::from(done));
+            if done {
+                return Ok(true);
+            }
+        }
+    }
+}
+
+#[cfg(feature = "tracefile")]
+/// A header or an entry from one non-blank line, `line` its number for errors.
+fn parse_line(text: &str, line: usize) -> Result<Item, TraceFileError> {
+    let syntax = |e: serde_json::Error| TraceFileError::Syntax {
+        line,
+        message: e.to_string(),
+    };
+    // Entries straight into their type (most lines, one parse); only a line that could be a
+    // header goes through a JSON value first.
+    if !text.contains("\"format\"") {
+        return Ok(Item::Entry(serde_json::from_str(text).map_err(syntax)?));
+    }
+    let value: serde_json::Value = serde_json::from_str(text).map_err(syntax)?;
+    if value.get("format").and_then(|f| f.as_str()) == Some(FORMAT) {
+        let header: Header = serde_json::from_value(value).map_err(syntax)?;
+        if header.version > VERSION {
+            return Err(TraceFileError::Version(header.version));
+        }
+        if let Some(format) = &header.settings {
+            format
+                .check()
+                .map_err(|error| TraceFileError::Range { line, error })?;
+        }
+        Ok(Item::Header(header))
+    } else {
+        Ok(Item::Entry(serde_json::from_value(value).map_err(syntax)?))
+    }
 }
 
 #[cfg(feature = "tracefile")]
@@ -262,34 +395,15 @@ pub fn write<W: Write>(mut out: W, header: &Header, trace: &Trace) -> io::Result
 
 #[cfg(feature = "tracefile")]
 #[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
-/// Read a trace file: an optional header line, then entries. Blank lines are skipped.
+/// Read a trace file: an optional header line, then entries. Blank lines are skipped. This
+/// holds the whole trace; [`Stream`] reads one line at a time.
 pub fn read<R: BufRead>(input: R) -> Result<TraceFile, TraceFileError> {
     let mut file = TraceFile::default();
-    for (k, line) in input.lines().enumerate() {
-        let line = line?;
-        let text = line.trim();
-        if text.is_empty() {
-            continue;
-        }
-        let syntax = |e: serde_json::Error| TraceFileError::Syntax {
-            line: k + 1,
-            message: e.to_string(),
-        };
-        let value: serde_json::Value = serde_json::from_str(text).map_err(syntax)?;
-        if value.get("format").and_then(|f| f.as_str()) == Some(FORMAT) {
-            let header: Header = serde_json::from_value(value).map_err(syntax)?;
-            if header.version > VERSION {
-                return Err(TraceFileError::Version(header.version));
-            }
-            if let Some(format) = &header.settings {
-                format
-                    .check()
-                    .map_err(|error| TraceFileError::Range { line: k + 1, error })?;
-            }
-            file.header = Some(header);
-        } else {
-            let entry: TraceEntry = serde_json::from_value(value).map_err(syntax)?;
-            file.trace.entries.push(entry);
+    let mut stream = Stream::new(input);
+    while let Some(item) = stream.next_item()? {
+        match item {
+            Item::Header(h) => file.header = Some(h),
+            Item::Entry(e) => file.trace.entries.push(e),
         }
     }
     Ok(file)
@@ -582,6 +696,25 @@ mod tests {
             "trace line 1: data_bits = 9 is out of range: 7 or 8"
         );
         assert!(read(header(9600, 7).as_bytes()).is_ok());
+    }
+
+    #[cfg(feature = "tracefile")]
+    #[test]
+    fn a_line_past_the_limit_is_refused_with_its_number() {
+        let mut text = String::from("{\"at\":0,\"station\":\"A\",\"kind\":\"tx\",\"bytes\":[2]}\n");
+        text.push_str(&"0".repeat(MAX_LINE + 1));
+        match read(text.as_bytes()) {
+            Err(e @ TraceFileError::TooLong { line: 2, .. }) => {
+                assert_eq!(e.to_string(), "trace line 2: longer than 1048576 bytes")
+            }
+            other => panic!("expected a line too long, got {other:?}"),
+        }
+        // Endless input without a newline: refused, not read into memory.
+        let zero = io::BufReader::new(io::repeat(0));
+        assert!(matches!(
+            Stream::new(zero).next_item(),
+            Err(TraceFileError::TooLong { line: 1, .. })
+        ));
     }
 
     #[cfg(feature = "tracefile")]

@@ -12,13 +12,23 @@
 //! `si_dp_coord::monitor`) is read window by window with its coordination bytes. This command
 //! only chooses the monitor, feeds it and prints: every record as it is decoded, the counters
 //! at the end; `--svg` draws the sequence diagram ([`si_core::diagram`]).
+//!
+//! A trace is read record by record ([`line_stream`], [`ordered`]): memory holds a minute of
+//! line, not the file. `--pcap` also writes the records as a Wireshark capture ([`pcap_out`]),
+//! `--from-pcap` reads one instead of a trace ([`pcap_in`]).
+
+pub mod line_stream;
+pub mod ordered;
+pub mod pcap_in;
+pub mod pcap_out;
 
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::{Args, ValueEnum};
-use si_core::monitor::{self, decode_all, line, Analysis, Decoder, Kind, Record};
-use si_core::tracefile::{self, TraceFile};
+use si_core::monitor::{self, decode_all, line, Analysis, Decoder, Kind, LineChar, Record};
+use si_core::trace::TraceEntry;
+use si_core::tracefile::{self, Header, Item, TraceFile};
 use si_core::{Duration, Instant, SerialSettings};
 use std::path::PathBuf;
 
@@ -85,9 +95,17 @@ pub struct MonitorArgs {
     /// Protocol to decode.
     #[arg(long, value_enum, default_value_t = Protocol::Auto)]
     pub protocol: Protocol,
-    /// Read this recorded trace instead of a port.
-    #[arg(long, value_name = "FILE")]
+    /// Read this recorded trace instead of a port (record by record: any length).
+    #[arg(long, value_name = "FILE", conflicts_with = "from_pcap")]
     pub trace: Option<PathBuf>,
+    /// Read this capture instead of a port: one written by --pcap or `si trace export`, or an
+    /// RTAC serial (link type 250) or USER0 (147) capture of Modbus RTU from another sniffer.
+    #[arg(long, value_name = "FILE")]
+    pub from_pcap: Option<PathBuf>,
+    /// Also write the frames as a pcapng capture for Wireshark (exported PDUs naming the
+    /// dissector; line errors and modem lines as RTAC serial records).
+    #[arg(long, value_name = "FILE")]
+    pub pcap: Option<PathBuf>,
     /// Also draw the exchange as an SVG sequence diagram.
     #[arg(long, value_name = "FILE")]
     pub svg: Option<PathBuf>,
@@ -128,9 +146,10 @@ pub struct MonitorArgs {
 impl MonitorArgs {
     /// Run it: decode a trace, or watch the port.
     pub async fn run(&self, conn: &Connection, out: &Output) -> Result<(), CliError> {
-        match &self.trace {
-            Some(path) => self.run_trace(path, conn, out),
-            None => self.run_live(conn, out).await,
+        match (&self.trace, &self.from_pcap) {
+            (Some(path), _) => self.run_trace(path, conn, out),
+            (None, Some(path)) => self.run_pcap(path, conn, out),
+            (None, None) => self.run_live(conn, out).await,
         }
     }
 
@@ -207,32 +226,243 @@ impl MonitorArgs {
         conn: &Connection,
         out: &Output,
     ) -> Result<(), CliError> {
+        let mut sinks = Sinks {
+            out: Some(out),
+            diagram: self.svg.as_ref().map(|_| si_core::diagram::Diagram::new()),
+            pcap: None,
+            pcap_path: self.pcap.clone(),
+            kept: None,
+        };
+        let analysis = self.stream_trace(path, conn, &mut sinks)?;
+        sinks.finish(&analysis, self.svg.as_deref())
+    }
+
+    /// Decode the trace at `path` record by record, handing every record to `sinks`: memory
+    /// bounded by a minute of line ([`ordered::HORIZON`]) and the longest trace line, not by
+    /// the file. The records come in the order [`analyse`](Self::analyse) gives them.
+    pub fn stream_trace(
+        &self,
+        path: &std::path::Path,
+        conn: &Connection,
+        sinks: &mut Sinks<'_>,
+    ) -> Result<Analysis, CliError> {
         let file = std::fs::File::open(path)
             .map_err(|e| CliError::new(format!("cannot open {}: {e}", path.display())))?;
-        let file = tracefile::read(std::io::BufReader::new(file))
-            .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
-        let settings = file
-            .header
+        let mut stream = tracefile::Stream::new(std::io::BufReader::new(file));
+        let bad = |e: tracefile::TraceFileError| CliError::new(format!("{}: {e}", path.display()));
+        let mut header: Option<Header> = None;
+        let mut prefix: Vec<TraceEntry> = Vec::new();
+        let mut more = true;
+        while prefix.len() < line_stream::LOOKAHEAD {
+            match stream.next_item().map_err(bad)? {
+                Some(Item::Header(h)) => header = Some(h),
+                Some(Item::Entry(e)) => prefix.push(e),
+                None => {
+                    more = false;
+                    break;
+                }
+            }
+        }
+        let settings = header
             .as_ref()
             .and_then(|h| h.settings)
             .and_then(|f| f.settings())
             .map_or_else(|| conn.settings_for(&TRACE_RATES), Ok)?;
-        let analysis = self.analyse(&file, settings)?;
+        let named = header
+            .as_ref()
+            .and_then(|h| h.protocol.as_deref())
+            .and_then(Protocol::from_name);
+        let windows = match (self.protocol, named) {
+            (Protocol::Auto, named) => named == Some(Protocol::DpCoord),
+            (p, _) => p == Protocol::DpCoord,
+        };
+        // The first entries decide the kind of line and, unnamed, the protocol.
+        let mut probe = line_stream::LineStream::plan(header.as_ref(), &prefix, settings, windows);
+        let mut probe_chars = Vec::new();
+        for e in &prefix {
+            probe.push(e, &mut probe_chars);
+        }
+        probe.finish(&mut probe_chars);
+        let one_sided = probe.stations().len() < 2;
+        let protocol = match (self.protocol, named) {
+            (Protocol::Auto, Some(p)) => p,
+            (Protocol::Auto, None) => {
+                let end = probe
+                    .end
+                    .max(probe_chars.last().map(|c| c.at).unwrap_or_default());
+                // ASCII explains every line trivially: only when nothing else does.
+                let candidates = [Protocol::P3964r, Protocol::Modbus, Protocol::Uss];
+                monitor::best_fit(&probe_chars, end, &candidates, Protocol::Ascii, |p| {
+                    self.decoder(p, settings, one_sided)
+                })
+            }
+            (p, _) => p,
+        };
+        drop(probe_chars);
+        let decoder: Box<dyn Decoder + Send> = if windows {
+            Box::new(si_dp_coord::monitor::Monitor::new(
+                si_dp_coord::monitor::module_index(probe.stations()),
+            ))
+        } else {
+            self.decoder(protocol, settings, one_sided)
+        };
+        let mut decoding = ordered::Ordered::new(decoder);
+        let mut line = line_stream::LineStream::plan(header.as_ref(), &prefix, settings, windows);
+        let start = header.as_ref().and_then(|h| h.start.clone());
         // Record times count from the recording's start; say when that was. Text only: a JSON
         // reader has the header itself, and every JSON line stays a record.
-        if let Some(start) = file.header.as_ref().and_then(|h| h.start.as_deref()) {
+        if let (Some(start), Some(out)) = (&start, sinks.out) {
             if !out.json {
                 crate::output::write_stdout(format_args!("recorded from {start}\n"));
             }
         }
-        for r in &analysis.records {
-            print_record(r, &analysis.stations, out);
+        let described = header
+            .clone()
+            .unwrap_or_else(|| Header::new("trace"))
+            .protocol(protocol.name())
+            .settings(settings)
+            .stations(probe.stations());
+        sinks.open_pcap(protocol.name(), &described)?;
+        let mut stations = line.stations().to_vec();
+        let mut chars = Vec::new();
+        let mut feed = |e: &TraceEntry,
+                        line: &mut line_stream::LineStream,
+                        decoding: &mut ordered::Ordered,
+                        stations: &mut Vec<String>,
+                        sinks: &mut Sinks<'_>|
+         -> Result<(), CliError> {
+            line.push(e, &mut chars);
+            if line.stations().len() != stations.len() {
+                *stations = line.stations().to_vec();
+            }
+            if let si_core::trace::TraceKind::Signals { update } = &e.kind {
+                sinks.signals(e.at, update, &e.station)?;
+            }
+            for c in chars.drain(..) {
+                sinks.char(&c);
+                decoding.push(&c, &mut |r| sinks.record(r, stations))?;
+            }
+            if self.events {
+                if let si_core::trace::TraceKind::Event { text } = &e.kind {
+                    let from = stations.iter().position(|s| s == &e.station);
+                    let mut r = Record::new(Kind::Event, e.at, e.at, from);
+                    r.label = text.clone();
+                    decoding.event(r);
+                }
+            }
+            Ok(())
+        };
+        for e in &prefix {
+            feed(e, &mut line, &mut decoding, &mut stations, sinks)?;
         }
-        print_counters(&analysis, out);
-        if let Some(svg) = &self.svg {
-            write_svg(svg, &analysis)?;
+        drop(prefix);
+        while more {
+            match stream.next_item().map_err(bad)? {
+                Some(Item::Entry(e)) => feed(&e, &mut line, &mut decoding, &mut stations, sinks)?,
+                Some(Item::Header(_)) => {}
+                None => more = false,
+            }
         }
-        Ok(())
+        let mut rest = Vec::new();
+        line.finish(&mut rest);
+        stations = line.stations().to_vec();
+        for c in &rest {
+            sinks.char(c);
+            decoding.push(c, &mut |r| sinks.record(r, &stations))?;
+        }
+        let end = line.end.max(decoding.last);
+        decoding.finish(end, &mut |r| sinks.record(r, &stations))?;
+        Ok(Analysis {
+            protocol: protocol.name().to_owned(),
+            stations,
+            records: Vec::new(),
+            counters: decoding.decoder.counters().clone(),
+            span: (decoding.first.unwrap_or_default(), end),
+        })
+    }
+
+    /// `--from-pcap`: decode a capture packet by packet.
+    fn run_pcap(
+        &self,
+        path: &std::path::Path,
+        conn: &Connection,
+        out: &Output,
+    ) -> Result<(), CliError> {
+        let (mut input, first) = pcap_in::PcapIn::open(path).map_err(CliError::new)?;
+        let header = input.header.clone();
+        let settings = header
+            .as_ref()
+            .and_then(|h| h.settings)
+            .and_then(|f| f.settings())
+            .map_or_else(|| conn.settings_for(&TRACE_RATES), Ok)?;
+        input.set_settings(settings);
+        input.windows = header.as_ref().and_then(|h| h.protocol.as_deref()) == Some("dp-coord")
+            || self.protocol == Protocol::DpCoord;
+        let named = header
+            .as_ref()
+            .and_then(|h| h.protocol.as_deref())
+            .or_else(|| input.dissector.as_deref().and_then(pcap_out::protocol_of))
+            .and_then(Protocol::from_name);
+        // Another sniffer's raw serial capture: Modbus RTU, unless --protocol says otherwise.
+        let protocol = match (self.protocol, named) {
+            (Protocol::Auto, Some(p)) => p,
+            (Protocol::Auto, None) => Protocol::Modbus,
+            (p, _) => p,
+        };
+        let one_sided = input.first_linktype() == Some(pcap_in::LINKTYPE_USER0)
+            || header.as_ref().is_some_and(|h| h.stations.len() < 2);
+        let decoder: Box<dyn Decoder + Send> = if protocol == Protocol::DpCoord {
+            Box::new(si_dp_coord::monitor::Monitor::new(
+                si_dp_coord::monitor::module_index(&input.stations),
+            ))
+        } else {
+            self.decoder(protocol, settings, one_sided)
+        };
+        let mut decoding = ordered::Ordered::new(decoder);
+        let mut sinks = Sinks {
+            out: Some(out),
+            diagram: self.svg.as_ref().map(|_| si_core::diagram::Diagram::new()),
+            pcap: None,
+            pcap_path: self.pcap.clone(),
+            kept: None,
+        };
+        if let Some(start) = header.as_ref().and_then(|h| h.start.as_deref()) {
+            if !out.json {
+                crate::output::write_stdout(format_args!("recorded from {start}\n"));
+            }
+        }
+        let described = header
+            .clone()
+            .unwrap_or_else(|| Header::new("pcap"))
+            .protocol(protocol.name())
+            .settings(settings);
+        sinks.open_pcap(protocol.name(), &described)?;
+        let mut chars = Vec::new();
+        let mut packet = first;
+        let mut end = Instant::ZERO;
+        while let Some((iface, at, data, comment)) = packet {
+            input.chars(iface, at, &data, comment.as_deref(), &mut chars);
+            let stations = input.stations.clone();
+            for c in chars.drain(..) {
+                end = end.max(c.at);
+                sinks.char(&c);
+                decoding.push(&c, &mut |r| sinks.record(r, &stations))?;
+            }
+            packet = input
+                .next_packet()
+                .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
+        }
+        let stations = input.stations.clone();
+        let end = input.end.unwrap_or(end).max(end);
+        decoding.finish(end, &mut |r| sinks.record(r, &stations))?;
+        let analysis = Analysis {
+            protocol: protocol.name().to_owned(),
+            stations,
+            records: Vec::new(),
+            counters: decoding.decoder.counters().clone(),
+            span: (decoding.first.unwrap_or_default(), end),
+        };
+        sinks.finish(&analysis, self.svg.as_deref())
     }
 
     /// Decode a trace file.
@@ -352,6 +582,25 @@ impl MonitorArgs {
         // The diagram summarises as the records arrive: a monitor left running for days, or
         // flooded, holds a bounded number of them (si_core::diagram::Diagram).
         let mut diagram = self.svg.as_ref().map(|_| si_core::diagram::Diagram::new());
+        // The capture's times are wall-clock: its start is the monitor's clock origin.
+        let mut pcap = match &self.pcap {
+            Some(path) => {
+                let header = Header::new("port")
+                    .protocol(protocol.name())
+                    .settings(settings)
+                    .stations(&stations)
+                    .started(std::time::SystemTime::now());
+                Some(
+                    pcap_out::PcapOut::create(path, protocol.name(), &header).map_err(|e| {
+                        CliError::new(format!("cannot write {}: {e}", path.display()))
+                    })?,
+                )
+            }
+            None => None,
+        };
+        let pcap_error = |p: &pcap_out::PcapOut, e: std::io::Error| {
+            CliError::new(format!("cannot write {}: {e}", p.path().display()))
+        };
         let mut buf = [0u8; 512];
         let mut buf2 = [0u8; 512];
         let mut last = Instant::ZERO;
@@ -401,6 +650,9 @@ impl MonitorArgs {
             }
             for r in &records {
                 print_record(r, &stations, out);
+                if let Some(p) = &mut pcap {
+                    p.record(r, &stations).map_err(|e| pcap_error(p, e))?;
+                }
             }
             if let Some(d) = &mut diagram {
                 records.into_iter().for_each(|r| d.push(r));
@@ -410,6 +662,14 @@ impl MonitorArgs {
         decoder.finish(now(), &mut records);
         for r in &records {
             print_record(r, &stations, out);
+            if let Some(p) = &mut pcap {
+                p.record(r, &stations).map_err(|e| pcap_error(p, e))?;
+            }
+        }
+        if let Some(p) = pcap {
+            let path = p.path().to_owned();
+            p.finish(&stations, now())
+                .map_err(|e| CliError::new(format!("cannot write {}: {e}", path.display())))?;
         }
         if let Some(d) = &mut diagram {
             records.into_iter().for_each(|r| d.push(r));
@@ -432,16 +692,136 @@ impl MonitorArgs {
     }
 }
 
+/// Where a streamed analysis sends what it decoded: the printer, the diagram, the capture.
+pub struct Sinks<'a> {
+    /// Print each record (None: export only).
+    pub out: Option<&'a Output>,
+    /// The SVG diagram, summarised as records arrive.
+    pub diagram: Option<si_core::diagram::Diagram>,
+    /// The capture being written.
+    pub pcap: Option<pcap_out::PcapOut>,
+    /// Where to write the capture (opened once the protocol is known).
+    pub pcap_path: Option<PathBuf>,
+    /// Keep every record (tests compare the streamed analysis with the whole-trace one).
+    pub kept: Option<Vec<Record>>,
+}
+
+impl Sinks<'_> {
+    fn pcap_error(path: &std::path::Path, e: std::io::Error) -> CliError {
+        CliError::new(format!("cannot write {}: {e}", path.display()))
+    }
+
+    /// Create the capture, if one was asked for, for a line described by `header`.
+    pub fn open_pcap(&mut self, protocol: &str, header: &Header) -> Result<(), CliError> {
+        if let Some(path) = &self.pcap_path {
+            self.pcap = Some(
+                pcap_out::PcapOut::create(path, protocol, header)
+                    .map_err(|e| Self::pcap_error(path, e))?,
+            );
+        }
+        Ok(())
+    }
+
+    /// A character as the monitor is fed it.
+    pub fn char(&mut self, c: &LineChar) {
+        if let Some(p) = &mut self.pcap {
+            p.char(c);
+        }
+    }
+
+    /// A change of a station's modem lines.
+    pub fn signals(
+        &mut self,
+        at: Instant,
+        update: &si_core::SignalUpdate,
+        station: &str,
+    ) -> Result<(), CliError> {
+        use si_capture::rtac::lines;
+        if let Some(p) = &mut self.pcap {
+            let bits = if update.dtr == Some(true) {
+                lines::DTR
+            } else {
+                0
+            } | if update.rts == Some(true) {
+                lines::RTS
+            } else {
+                0
+            };
+            p.signals(at, bits, station)
+                .map_err(|e| Self::pcap_error(p.path(), e))?;
+        }
+        Ok(())
+    }
+
+    /// A decoded record, in start order.
+    pub fn record(&mut self, r: Record, stations: &[String]) -> Result<(), CliError> {
+        if let Some(out) = self.out {
+            print_record(&r, stations, out);
+        }
+        if let Some(p) = &mut self.pcap {
+            p.record(&r, stations)
+                .map_err(|e| Self::pcap_error(p.path(), e))?;
+        }
+        if let Some(kept) = &mut self.kept {
+            kept.push(r.clone());
+        }
+        if let Some(d) = &mut self.diagram {
+            d.push(r);
+        }
+        Ok(())
+    }
+
+    /// The end: counters printed, the diagram and the capture written.
+    pub fn finish(
+        self,
+        analysis: &Analysis,
+        svg: Option<&std::path::Path>,
+    ) -> Result<(), CliError> {
+        if let Some(out) = self.out {
+            print_counters(analysis, out);
+        }
+        if let (Some(path), Some(d)) = (svg, self.diagram) {
+            write_file(path, d.render(analysis))?;
+        }
+        if let Some(p) = self.pcap {
+            let path = p.path().to_owned();
+            p.finish(&analysis.stations, analysis.span.1)
+                .map_err(|e| Self::pcap_error(&path, e))?;
+        }
+        Ok(())
+    }
+}
+
 /// The monitor for a command's own line, with the engines' default timers: what `si -v` logs
 /// the frames with (`si_core::frame_log`). `None` for a protocol without a line monitor.
 pub fn line_decoder(protocol: &str, settings: SerialSettings) -> Option<Box<dyn Decoder + Send>> {
     let protocol = Protocol::from_name(protocol).filter(|p| *p != Protocol::DpCoord)?;
-    let defaults = MonitorArgs {
-        protocol,
-        ..MonitorArgs::default()
-    };
+    let defaults = MonitorArgs::quiet(protocol);
     // Both directions are known: what we write and what we read.
     Some(defaults.decoder(protocol, settings, false))
+}
+
+impl MonitorArgs {
+    /// The monitor of `protocol` with the engines' default timers and no output options.
+    pub fn quiet(protocol: Protocol) -> MonitorArgs {
+        MonitorArgs {
+            protocol,
+            trace: None,
+            from_pcap: None,
+            pcap: None,
+            svg: None,
+            tap: None,
+            duration: None,
+            zvz: None,
+            qvz: None,
+            timeout: None,
+            char_delay: None,
+            end_char: None,
+            fixed_length: None,
+            events: false,
+            no_xon_xoff: false,
+        }
+    }
 }
 
 fn station(stations: &[String], i: Option<usize>) -> &str {
@@ -503,10 +883,6 @@ pub fn print_counters(a: &Analysis, out: &Output) {
         &format!("{} counters:\n{}", a.protocol, text.join("\n")),
         serde_json::json!({"protocol": a.protocol, "counters": a.counters.0}),
     );
-}
-
-fn write_svg(path: &std::path::Path, a: &Analysis) -> Result<(), CliError> {
-    write_file(path, si_core::diagram::render(a))
 }
 
 fn write_file(path: &std::path::Path, svg: String) -> Result<(), CliError> {
@@ -646,6 +1022,88 @@ mod tests {
             // And the whole analysis, with protocol guessing, never fails.
             assert!(args(&[]).analyse(&file, SerialSettings::default()).is_ok());
         }
+    }
+
+    /// The streamed analysis (record by record) gives what the whole-trace one gives: the
+    /// same records in the same order, the same counters, for traces of every kind of line.
+    #[test]
+    fn streaming_a_trace_gives_the_whole_trace_analysis() {
+        let mut rng = SplitMix64::new(29);
+        let dir = std::env::temp_dir().join(format!("si-stream-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let conn = {
+            let cmd = <Connection as clap::Args>::augment_args(clap::Command::new("c"));
+            Connection::from_arg_matches(&cmd.get_matches_from(["c"])).unwrap()
+        };
+        for round in 0..150 {
+            let names = ["A", "B", "C", "si"];
+            let stations = 1 + round % 4;
+            let mut at = 0;
+            let entries: Vec<TraceEntry> = (0..rng.below(300))
+                .map(|_| {
+                    at += rng.below(20_000);
+                    let station = names[rng.below(stations as u64) as usize].to_owned();
+                    let bytes: Vec<u8> = (0..1 + rng.below(6)).map(|_| byte(&mut rng)).collect();
+                    let kind = match (round / 4) % 3 {
+                        // A simulator's trace: writes and exact receptions.
+                        0 => match rng.below(4) {
+                            0 => TraceKind::Tx { bytes },
+                            1 => TraceKind::RxError {
+                                error: LineError::Parity,
+                            },
+                            2 => TraceKind::Event { text: "e".into() },
+                            _ => TraceKind::Rx { byte: bytes[0] },
+                        },
+                        // A real port's: writes and chunks.
+                        1 => match rng.below(2) {
+                            0 => TraceKind::Tx { bytes },
+                            _ => TraceKind::RxChunk { bytes },
+                        },
+                        _ => match rng.below(5) {
+                            0 => TraceKind::Tx { bytes },
+                            1 => TraceKind::Rx { byte: bytes[0] },
+                            2 => TraceKind::RxChunk { bytes },
+                            3 => TraceKind::RxError {
+                                error: LineError::Framing,
+                            },
+                            _ => TraceKind::Event { text: "x".into() },
+                        },
+                    };
+                    TraceEntry {
+                        at: Instant::from_micros(at),
+                        station,
+                        kind,
+                    }
+                })
+                .collect();
+            let protocol = ["3964r", "modbus", "uss", "ascii", "dp-coord", "rk512"][round % 6];
+            let header = tracefile::Header::new("sim")
+                .protocol(protocol)
+                .settings(SerialSettings::default())
+                .stations(&names[..stations.min(2)]);
+            let file = TraceFile {
+                header: Some(header.clone()),
+                trace: Trace { entries },
+            };
+            let path = dir.join("t.trace");
+            tracefile::write(std::fs::File::create(&path).unwrap(), &header, &file.trace).unwrap();
+            let a = args(&["--events"]);
+            let whole = a.analyse(&file, SerialSettings::default()).unwrap();
+            let mut sinks = Sinks {
+                out: None,
+                diagram: None,
+                pcap: None,
+                pcap_path: None,
+                kept: Some(Vec::new()),
+            };
+            let streamed = a.stream_trace(&path, &conn, &mut sinks).unwrap();
+            let kept = sinks.kept.unwrap();
+            assert_eq!(kept, whole.records, "round {round} ({protocol})");
+            assert_eq!(streamed.counters, whole.counters, "round {round}");
+            assert_eq!(streamed.stations, whole.stations, "round {round}");
+            assert_eq!(streamed.span, whole.span, "round {round}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -1,0 +1,9 @@
+//! Capture file formats for serial line traces: what Wireshark (and other sniffers' files)
+//! read and write, so a line recorded by `si` opens in the engineer's own tools.
+//!
+//! Each module is one format and does no I/O of its own beyond the `Read`/`Write` it is given;
+//! every reader is bounded by the largest record it accepts, never by the file.
+
+pub mod pcapng;
+pub mod rtac;
+pub mod upper_pdu;
