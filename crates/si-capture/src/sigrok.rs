@@ -29,11 +29,7 @@ pub const MAX_CHANNELS: usize = 64;
 /// libsigrok's spelling of a sample rate (`sr_samplerate_string`): the largest of GHz, MHz,
 /// kHz that divides it, else Hz.
 pub fn samplerate_string(rate: u64) -> String {
-    for (unit, name) in [
-        (1_000_000_000, "GHz"),
-        (1_000_000, "MHz"),
-        (1_000, "kHz"),
-    ] {
+    for (unit, name) in [(1_000_000_000, "GHz"), (1_000_000, "MHz"), (1_000, "kHz")] {
         if rate >= unit && rate % unit == 0 {
             return format!("{} {name}", rate / unit);
         }

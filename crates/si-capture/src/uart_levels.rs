@@ -28,6 +28,11 @@ pub fn sample_rate(settings: &SerialSettings) -> u64 {
     u64::from(settings.baud()) * SAMPLES_PER_BIT
 }
 
+/// Idle line before trace time 0, in character times: a decoder finds a start bit only after a
+/// falling edge, so a character at time 0 needs quiet line before it. Sample 0 of a waveform is
+/// this much before the trace's time 0.
+pub const LEAD_IN_CHARS: u64 = 2;
+
 /// One thing on the line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LineItem {
@@ -64,7 +69,7 @@ impl LineItem {
 /// A level change of one channel at one sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Edge {
-    /// Sample index (0 is trace time 0).
+    /// Sample index (0 is [`LEAD_IN_CHARS`] character times before trace time 0).
     pub sample: u64,
     /// The channel.
     pub channel: usize,
@@ -151,10 +156,17 @@ impl Levels {
         }
     }
 
-    /// Sample index of instant `at` (rounded down).
+    /// Samples of idle line before trace time 0 ([`LEAD_IN_CHARS`]).
+    pub fn lead_in(&self) -> u64 {
+        LEAD_IN_CHARS * u64::from(self.settings.bits_per_char()) * SAMPLES_PER_BIT
+    }
+
+    /// Sample index of instant `at` (rounded down), after the lead-in.
     pub fn sample_of(&self, at: Instant) -> u64 {
         let s = u128::from(at.as_micros()) * u128::from(self.rate) / 1_000_000;
-        u64::try_from(s).unwrap_or(u64::MAX)
+        u64::try_from(s)
+            .unwrap_or(u64::MAX)
+            .saturating_add(self.lead_in())
     }
 
     /// Take one item; edges that can no longer be preceded by a later item go to `out`.
@@ -275,7 +287,8 @@ mod tests {
 
     #[test]
     fn edges_fall_on_bit_boundaries_at_sixteen_samples_per_bit() {
-        // 1 ms at 153 600 Hz is sample 153 (153.6 rounded down).
+        // 1 ms at 153 600 Hz is sample 153 (153.6 rounded down), after the lead-in of two
+        // 11-bit characters (352 samples).
         let (v, end) = edges(
             &[LineItem::Char {
                 start: Instant::from_micros(1000),
@@ -291,11 +304,17 @@ mod tests {
         };
         // start low at 153, data bit 0 = 1 high at 169, bits 1..7 low at 185, parity 1 at
         // 153 + 9·16, stop stays high.
+        let l = 352;
         assert_eq!(
             v,
-            vec![e(153, false), e(169, true), e(185, false), e(297, true)]
+            vec![
+                e(l + 153, false),
+                e(l + 169, true),
+                e(l + 185, false),
+                e(l + 297, true)
+            ]
         );
-        assert_eq!(end, 153 + 11 * 16);
+        assert_eq!(end, l + 153 + 11 * 16);
     }
 
     #[test]
@@ -313,7 +332,7 @@ mod tests {
             .filter(|e| e.channel == 0 && !e.high)
             .map(|e| e.sample)
             .collect();
-        assert_eq!(ch0, vec![0, 176]);
+        assert_eq!(ch0, vec![352, 352 + 176]);
         assert!(v.iter().any(|e| e.channel == 1));
     }
 
@@ -330,7 +349,7 @@ mod tests {
         assert_eq!(
             v,
             vec![Edge {
-                sample: 76,
+                sample: 352 + 76,
                 channel: 0,
                 high: false
             }]

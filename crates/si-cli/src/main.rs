@@ -56,6 +56,9 @@ enum Command {
     Frame(cmd::frame::FrameCommand),
     /// Watch a line (receive only) or a recorded trace and decode the frames with their timing.
     Monitor(cmd::monitor::MonitorArgs),
+    /// Work on recorded trace files: export them for PulseView and GTKWave.
+    #[command(subcommand)]
+    Trace(cmd::trace::TraceCommand),
     /// Decode a module's PROFIBUS slave diagnosis.
     #[command(subcommand)]
     Diag(cmd::module::DiagCommand),
@@ -118,6 +121,7 @@ fn main() -> ExitCode {
             Command::Monitor(a) => {
                 runtime().and_then(|rt| rt.block_on(a.run(&cli.connection, &out)))
             }
+            Command::Trace(c) => c.run(&cli.connection),
             Command::Diag(c) => c.run(&out),
             Command::Im(c) => c.run(&out),
             Command::Params(c) => c.run(&out),

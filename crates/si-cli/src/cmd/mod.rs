@@ -25,4 +25,5 @@ pub mod ports;
 pub mod r3964;
 pub mod rk512;
 pub mod sim;
+pub mod trace;
 pub mod uss;
