@@ -48,7 +48,9 @@ class Decoder(srd.Decoder):
     def reset(self):
         # Per direction: 'idle', 'stx' (sent STX, waiting for the partner's DLE), 'block'.
         self.state = ['idle', 'idle']
-        self.block = [None, None]   # (ss, raw bytes, data bytes, pending DLE)
+        # Per direction: (ss, raw bytes, data bytes, pending DLE: its ss, or 'end' after
+        # DLE ETX, or None).
+        self.block = [None, None]
 
     def start(self):
         self.out_ann = self.register(srd.OUTPUT_ANN)
@@ -101,7 +103,7 @@ class Decoder(srd.Decoder):
             self.control(ss, es, rxtx, b)
             return
         if self.block[rxtx] is None:
-            self.block[rxtx] = (ss, [], [], False)
+            self.block[rxtx] = (ss, [], [], None)
         bss, raw, dat, dle = self.block[rxtx]
         raw.append(b)
         if dle == 'end':
@@ -112,26 +114,27 @@ class Decoder(srd.Decoder):
             self.ann(ss, es, rxtx, 'data', ['BCC %02X' % b, 'BCC'])
             self.end_block(es, rxtx, bcc == b)
             return
-        if dle:
+        if dle is not None:
+            # The DLE before is annotated together with what follows it.
+            dss = dle
             if b == DLE:
                 dat.append(DLE)
-                self.ann(ss, es, rxtx, 'data', ['DLE (doubled)', '%02X' % b])
-                self.block[rxtx] = (bss, raw, dat, False)
+                self.ann(dss, es, rxtx, 'data', ['DLE DLE (data 10)', '10'])
+                self.block[rxtx] = (bss, raw, dat, None)
             elif b == ETX:
-                self.ann(ss, es, rxtx, 'data', ['ETX', 'E'])
+                self.ann(dss, es, rxtx, 'data', ['DLE ETX (block end)', 'DLE ETX'])
                 if self.options['bcc'] == 'yes':
                     self.block[rxtx] = (bss, raw, dat, 'end')
                 else:
                     self.end_block(es, rxtx, None)
             else:
-                self.put(ss, es, self.out_ann,
+                self.put(dss, es, self.out_ann,
                          [6, ['DLE followed by %02X inside a block' % b, 'DLE?']])
                 self.state[rxtx] = 'idle'
                 self.block[rxtx] = None
             return
         if b == DLE:
-            self.ann(ss, es, rxtx, 'data', ['DLE', 'D'])
-            self.block[rxtx] = (bss, raw, dat, True)
+            self.block[rxtx] = (bss, raw, dat, ss)
         else:
             dat.append(b)
             self.ann(ss, es, rxtx, 'data', ['%02X' % b])

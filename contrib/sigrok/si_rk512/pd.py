@@ -49,10 +49,7 @@ class Decoder(srd.Decoder):
         cont = d[0] == 0xFF
         if d[2] == 0x00:
             name = 'continuation reaction' if cont else 'reaction'
-            text = '%s, error %02XH' % (name, d[3])
-            if len(d) > 4:
-                text += ', %d B data' % (len(d) - 4)
-            return text
+            return '%s, error %02XH, %d B data' % (name, d[3], len(d) - 4)
         cmd = COMMANDS.get(d[2])
         if cmd is None:
             return None
@@ -64,11 +61,8 @@ class Decoder(srd.Decoder):
         length = d[6] << 8 | d[7]
         flag = 'no flag' if d[8] == 0xFF else 'flag M%d.%d' % (d[8], d[9] & 0x0F)
         cpu = d[9] >> 4
-        text = '%s %s%d from DW%d, length %d, %s, CPU %s' % (
-            cmd, area, d[4], d[5], length, flag, '-' if cpu == 0xF else cpu)
-        if len(d) > 10:
-            text += ', %d B data' % (len(d) - 10)
-        return text
+        return '%s %s%d from DW%d, length %d, %s, CPU %s, %d B data' % (
+            cmd, area, d[4], d[5], length, flag, '-' if cpu == 0xF else cpu, len(d) - 10)
 
     def decode(self, ss, es, data):
         ptype, rxtx, pdata = data
