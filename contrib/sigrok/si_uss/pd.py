@@ -69,9 +69,9 @@ class Decoder(srd.Decoder):
                 ak, spm, pnu = w >> 12, (w >> 11) & 1, w & 0x7FF
                 self.field(rxtx, a[0], b[1],
                            ['PKE %04X: AK %d, SPM %d, PNU %d' % (w, ak, spm, pnu),
-                            'PKE %04X' % w])
+                            'AK %d PNU %d' % (ak, pnu), '%04X' % w])
             else:
-                self.field(rxtx, a[0], b[1], ['%s %04X' % (name, w)])
+                self.field(rxtx, a[0], b[1], ['%s %04X' % (name, w), '%04X' % w])
 
     def finish(self, rxtx):
         t = self.tel[rxtx]
@@ -83,8 +83,8 @@ class Decoder(srd.Decoder):
         ok = bcc == raw[-1]
         adr = raw[2]
         net = raw[3:-1]
-        self.field(rxtx, t[0][0], t[0][1], ['STX'])
-        self.field(rxtx, t[1][0], t[1][1], ['LGE %d' % raw[1]])
+        self.field(rxtx, t[0][0], t[0][1], ['STX', 'S'])
+        self.field(rxtx, t[1][0], t[1][1], ['LGE %d' % raw[1], '%d' % raw[1]])
         kind = []
         if adr & 0x20:
             kind.append('broadcast')
@@ -95,7 +95,7 @@ class Decoder(srd.Decoder):
         self.field(rxtx, t[2][0], t[2][1],
                    ['ADR %02X: slave %d%s' % (adr, adr & 0x1F,
                                               ''.join(', ' + k for k in kind)),
-                    'ADR %d' % (adr & 0x1F)])
+                    'ADR %d' % (adr & 0x1F), '%d' % (adr & 0x1F)])
         body = t[3:-1]
         pkw = self.options['pkw'] * 2
         if len(body) >= pkw and len(body) % 2 == 0:
@@ -104,7 +104,8 @@ class Decoder(srd.Decoder):
             self.words(rxtx, body[pkw:],
                        ['PZD%d' % k for k in range(1, (len(body) - pkw) // 2 + 1)])
         self.field(rxtx, t[-1][0], t[-1][1],
-                   ['BCC %02X %s' % (raw[-1], 'ok' if ok else 'error (expected %02X)' % bcc)])
+                   ['BCC %02X %s' % (raw[-1], 'ok' if ok else 'error (expected %02X)' % bcc),
+                    'BCC %s' % ('ok' if ok else 'error'), 'ok' if ok else 'err'])
         text = 'ADR %02XH, net %s' % (adr, ' '.join('%02X' % x for x in net))
         self.put(ss, es, self.out_ann, [1 if rxtx == RX else 3,
                  ['%s%s' % (text, '' if ok else ' BCC error'),
