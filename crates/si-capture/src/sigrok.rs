@@ -30,7 +30,7 @@ pub const MAX_CHANNELS: usize = 64;
 /// kHz that divides it, else Hz.
 pub fn samplerate_string(rate: u64) -> String {
     for (unit, name) in [(1_000_000_000, "GHz"), (1_000_000, "MHz"), (1_000, "kHz")] {
-        if rate >= unit && rate % unit == 0 {
+        if rate >= unit && rate.is_multiple_of(unit) {
             return format!("{} {name}", rate / unit);
         }
     }

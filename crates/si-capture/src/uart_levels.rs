@@ -248,6 +248,8 @@ mod tests {
         SerialSettings::new(9600, 8, parity, 1).unwrap()
     }
 
+    // The literals are grouped by field (stop, parity, data, start), not by nibble.
+    #[allow(clippy::unusual_byte_groupings)]
     #[test]
     fn a_character_is_start_data_lsb_first_parity_stop() {
         // 'A' = 41H = 0100_0001: two ones, even parity bit 0.

@@ -308,7 +308,7 @@ fn uart_read(changes: &[(u64, bool)]) -> Vec<u8> {
             .iter()
             .take_while(|c| c.0 as f64 <= t)
             .last()
-            .map_or(true, |c| c.1)
+            .is_none_or(|c| c.1)
     };
     let mut out = Vec::new();
     let mut t = 0.0;
