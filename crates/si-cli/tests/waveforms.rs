@@ -36,9 +36,10 @@ fn decoders_dir() -> PathBuf {
 }
 
 /// `si sim <scenario> --record`, then `si trace export` to `.sr` and `.vcd`; returns the
-/// trace and the two exports.
-fn export(scenario: &str) -> (PathBuf, PathBuf, PathBuf) {
-    let trace = tmp(&format!("{scenario}.trace"));
+/// trace and the two exports. `test` names the files apart from those of tests running
+/// alongside with the same scenario.
+fn export(test: &str, scenario: &str) -> (PathBuf, PathBuf, PathBuf) {
+    let trace = tmp(&format!("{test}-{scenario}.trace"));
     let o = si_command()
         .args(["sim", scenario, "--record"])
         .arg(&trace)
@@ -49,8 +50,8 @@ fn export(scenario: &str) -> (PathBuf, PathBuf, PathBuf) {
         "si sim {scenario}: {}",
         common::text(&o)
     );
-    let sr = tmp(&format!("{scenario}.sr"));
-    let vcd = tmp(&format!("{scenario}.vcd"));
+    let sr = tmp(&format!("{test}-{scenario}.sr"));
+    let vcd = tmp(&format!("{test}-{scenario}.vcd"));
     let o = si_command()
         .args(["trace", "export"])
         .arg(&trace)
@@ -129,7 +130,7 @@ fn sigrok_modbus_decodes_the_frames_the_monitor_decodes() {
         return;
     }
     for scenario in ["modbus", "modbus-crc-error"] {
-        let (trace, sr, _) = export(scenario);
+        let (trace, sr, _) = export("modbus", scenario);
         // Per frame: unit, function code (an exception's without its 80H bit), CRC verdict.
         let expected: Vec<(u8, u8, bool)> = monitor(&trace)
             .iter()
@@ -181,7 +182,7 @@ fn si_3964r_decoder_gives_the_monitors_records_bcc_error_and_nak_included() {
         return;
     }
     for scenario in ["3964r-bcc-error", "3964r-nak-retry", "3964r"] {
-        let (trace, sr, _) = export(scenario);
+        let (trace, sr, _) = export("3964r", scenario);
         let expected: Vec<(String, String)> = monitor(&trace)
             .iter()
             .map(|r| {
@@ -221,7 +222,7 @@ fn si_uss_decoder_gives_the_monitors_telegrams() {
     if !have_sigrok_cli() {
         return;
     }
-    let (trace, sr, _) = export("uss-param");
+    let (trace, sr, _) = export("uss", "uss-param");
     let expected: Vec<(String, String)> = monitor(&trace)
         .iter()
         .filter(|r| r["kind"] == "frame")
@@ -255,7 +256,7 @@ fn si_rk512_decoder_finds_the_monitors_telegrams() {
     if !have_sigrok_cli() {
         return;
     }
-    let (trace, sr, _) = export("rk512");
+    let (trace, sr, _) = export("rk512", "rk512");
     // Per telegram: its side and how many data bytes it carries.
     let expected: Vec<(String, String)> = monitor(&trace)
         .iter()
@@ -350,7 +351,7 @@ fn uart_read(changes: &[(u64, bool)]) -> Vec<u8> {
 #[test]
 fn the_vcd_holds_the_traces_characters_at_their_bit_times() {
     // No external tool: the VCD is read back here.
-    let (trace, _, vcd) = export("modbus");
+    let (trace, _, vcd) = export("vcd", "modbus");
     let signals = vcd_changes(&vcd);
     let names: Vec<&str> = signals.iter().map(|s| s.0.as_str()).collect();
     assert_eq!(names, ["master_TxD", "slave_TxD"]);
