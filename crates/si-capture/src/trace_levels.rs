@@ -6,8 +6,8 @@
 //! what `si monitor` decodes. A character starts one character time before it ended.
 
 use crate::uart_levels::LineItem;
-use si_core::monitor::line;
-use si_core::trace::TraceKind;
+use si_core::monitor::{line, LineChar};
+use si_core::trace::{TraceEntry, TraceKind};
 use si_core::tracefile::TraceFile;
 use si_core::{Instant, SerialSettings};
 
@@ -27,68 +27,115 @@ pub struct Waveform {
     pub items: Vec<LineItem>,
 }
 
-/// The waveform of `file` with character format `settings`.
-pub fn waveform(file: &TraceFile, settings: SerialSettings) -> Waveform {
-    let line = line::from_trace(file, settings);
-    let char_time = settings.char_time();
-    let mut w = Waveform::default();
-    let mut tx: Vec<Option<usize>> = vec![None; line.stations.len()];
-    let mut unknown: Option<usize> = None;
-    for c in &line.chars {
-        let slot = match c.from {
-            Some(s) if s < tx.len() => &mut tx[s],
-            _ => &mut unknown,
-        };
-        let channel = *slot.get_or_insert_with(|| {
-            let name = match c.from.and_then(|s| line.stations.get(s)) {
-                Some(station) => format!("{station}_TxD"),
-                None => UNKNOWN_SENDER.to_owned(),
-            };
-            w.channels.push(name);
-            w.initial |= 1 << (w.channels.len() - 1).min(63);
-            w.channels.len() - 1
-        });
-        w.items.push(LineItem::Char {
-            start: Instant::from_micros(c.at.as_micros().saturating_sub(char_time.as_micros())),
-            channel,
-            item: c.item,
-        });
+/// Assigns channels as characters and signal changes come, one at a time: what a streaming
+/// reader of the line view feeds (a first pass learns the channels for the files' headers, a
+/// second writes the samples), and what [`waveform`] uses for a whole trace.
+#[derive(Debug, Clone, Default)]
+pub struct Lanes {
+    /// Channel names so far.
+    pub channels: Vec<String>,
+    /// Levels at time 0 (bit k: channel k).
+    pub initial: u64,
+    /// Transmit channel of each station index (`None` slot: unknown sender).
+    tx: Vec<(Option<usize>, usize)>,
+    /// RTS channel of each station name.
+    rts: Vec<(String, usize)>,
+}
+
+impl Lanes {
+    fn add(&mut self, name: String, high: bool) -> usize {
+        self.channels.push(name);
+        let k = self.channels.len() - 1;
+        if high && k < 64 {
+            self.initial |= 1 << k;
+        }
+        k
     }
-    let mut rts: Vec<(String, usize)> = Vec::new();
-    for e in &file.trace.entries {
-        let TraceKind::Signals { update } = &e.kind else {
-            continue;
-        };
-        let Some(high) = update.rts else {
-            continue;
-        };
-        let channel = match rts.iter().find(|(s, _)| s == &e.station) {
-            Some((_, k)) => *k,
+
+    /// The item of one character of the line view: on its sender's transmit channel, starting
+    /// one character time before its stop bit ended. `stations` is the line view's list.
+    pub fn char_item(
+        &mut self,
+        c: &LineChar,
+        stations: &[String],
+        settings: &SerialSettings,
+    ) -> LineItem {
+        let sender = c.from.filter(|&s| s < stations.len());
+        let channel = match self.tx.iter().find(|(s, _)| *s == sender) {
+            Some(&(_, k)) => k,
             None => {
-                w.channels.push(format!("{}_RTS", e.station));
-                rts.push((e.station.clone(), w.channels.len() - 1));
-                w.channels.len() - 1
+                let name = match sender {
+                    Some(s) => format!("{}_TxD", stations[s]),
+                    None => UNKNOWN_SENDER.to_owned(),
+                };
+                let k = self.add(name, true);
+                self.tx.push((sender, k));
+                k
             }
         };
-        w.items.push(LineItem::Level {
+        let char_time = settings.char_time().as_micros();
+        LineItem::Char {
+            start: Instant::from_micros(c.at.as_micros().saturating_sub(char_time)),
+            channel,
+            item: c.item,
+        }
+    }
+
+    /// The item of a trace entry that sets RTS, on its station's RTS channel; `None` for any
+    /// other entry.
+    pub fn entry_item(&mut self, e: &TraceEntry) -> Option<LineItem> {
+        let TraceKind::Signals { update } = &e.kind else {
+            return None;
+        };
+        let high = update.rts?;
+        let channel = match self.rts.iter().find(|(s, _)| s == &e.station) {
+            Some((_, k)) => *k,
+            None => {
+                let k = self.add(format!("{}_RTS", e.station), false);
+                self.rts.push((e.station.clone(), k));
+                k
+            }
+        };
+        Some(LineItem::Level {
             at: e.at,
             channel,
             high,
-        });
+        })
     }
+}
+
+/// The waveform of a whole trace `file` with character format `settings`.
+pub fn waveform(file: &TraceFile, settings: SerialSettings) -> Waveform {
+    let line = line::from_trace(file, settings);
+    let mut lanes = Lanes::default();
+    let mut items: Vec<LineItem> = line
+        .chars
+        .iter()
+        .map(|c| lanes.char_item(c, &line.stations, &settings))
+        .collect();
+    items.extend(
+        file.trace
+            .entries
+            .iter()
+            .filter_map(|e| lanes.entry_item(e)),
+    );
     // Stable: characters keep their order among themselves, RTS changes theirs.
-    w.items.sort_by_key(|i| match *i {
+    items.sort_by_key(|i| match *i {
         LineItem::Char { start, .. } => start,
         LineItem::Level { at, .. } => at,
     });
-    w
+    Waveform {
+        channels: lanes.channels,
+        initial: lanes.initial,
+        items,
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use si_core::sansio::SignalUpdate;
-    use si_core::trace::{Trace, TraceEntry};
+    use si_core::trace::Trace;
 
     fn entry(at: u64, station: &str, kind: TraceKind) -> TraceEntry {
         TraceEntry {
