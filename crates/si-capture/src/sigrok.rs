@@ -62,8 +62,8 @@ impl<W: Write> core::fmt::Debug for SrWriter<W> {
 
 impl<W: Write> SrWriter<W> {
     /// Start a file with these channel names (1 … [`MAX_CHANNELS`]), `rate` samples per second
-    /// and the channels' levels at sample 0 (bit k: channel k).
-    pub fn new(out: W, channels: &[String], rate: u64, initial: u64) -> io::Result<Self> {
+    /// and the channels' levels at sample 0 (`initial[k]`: channel k; missing ones low).
+    pub fn new(out: W, channels: &[String], rate: u64, initial: &[bool]) -> io::Result<Self> {
         if channels.is_empty() || channels.len() > MAX_CHANNELS {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidInput,
@@ -99,7 +99,11 @@ impl<W: Write> SrWriter<W> {
             chunk: Vec::with_capacity(CHUNK_SIZE - CHUNK_SIZE % unitsize),
             next_chunk: 1,
             cursor: 0,
-            levels: initial,
+            levels: initial
+                .iter()
+                .take(MAX_CHANNELS)
+                .enumerate()
+                .fold(0, |m, (k, &high)| m | u64::from(high) << k),
         })
     }
 
@@ -194,7 +198,7 @@ mod tests {
     #[test]
     fn metadata_and_samples_are_as_srzip_writes_them() {
         let names = vec!["A TxD".to_owned(), "B TxD".to_owned()];
-        let mut w = SrWriter::new(Vec::new(), &names, 153_600, 0b11).unwrap();
+        let mut w = SrWriter::new(Vec::new(), &names, 153_600, &[true, true]).unwrap();
         let e = |sample, channel, high| Edge {
             sample,
             channel,
@@ -219,7 +223,7 @@ mod tests {
     #[test]
     fn long_captures_are_split_into_chunks_of_libsigroks_size() {
         let names = vec!["x".to_owned()];
-        let w = SrWriter::new(Vec::new(), &names, 1000, 1).unwrap();
+        let w = SrWriter::new(Vec::new(), &names, 1000, &[true]).unwrap();
         let b = w.finish(CHUNK_SIZE as u64 * 2 + 10).unwrap();
         let files = entries(&b);
         let chunks: Vec<(&str, usize)> = files[2..]
@@ -238,7 +242,7 @@ mod tests {
 
     #[test]
     fn channel_counts_out_of_range_are_refused_by_name() {
-        let e = SrWriter::new(Vec::new(), &[], 1000, 0).unwrap_err();
+        let e = SrWriter::new(Vec::new(), &[], 1000, &[]).unwrap_err();
         assert!(e.to_string().contains("1 … 64 allowed, 0 given"), "{e}");
     }
 }

@@ -20,9 +20,9 @@ pub const UNKNOWN_SENDER: &str = "line";
 pub struct Waveform {
     /// Channel names, `<station>_TxD` and `<station>_RTS`.
     pub channels: Vec<String>,
-    /// Level of each channel at time 0 (bit k: channel k): transmit lines idle high, RTS low
-    /// until the trace sets it (`[derived]`: a port opens with RTS off unless told otherwise).
-    pub initial: u64,
+    /// Level of each channel at time 0: transmit lines idle high, RTS low until the trace sets
+    /// it (`[derived]`: a port opens with RTS off unless told otherwise).
+    pub initial: Vec<bool>,
     /// The items, in time order.
     pub items: Vec<LineItem>,
 }
@@ -34,8 +34,8 @@ pub struct Waveform {
 pub struct Lanes {
     /// Channel names so far.
     pub channels: Vec<String>,
-    /// Levels at time 0 (bit k: channel k).
-    pub initial: u64,
+    /// Levels at time 0, one per channel.
+    pub initial: Vec<bool>,
     /// Transmit channel of each station index (`None` slot: unknown sender).
     tx: Vec<(Option<usize>, usize)>,
     /// RTS channel of each station name.
@@ -45,11 +45,8 @@ pub struct Lanes {
 impl Lanes {
     fn add(&mut self, name: String, high: bool) -> usize {
         self.channels.push(name);
-        let k = self.channels.len() - 1;
-        if high && k < 64 {
-            self.initial |= 1 << k;
-        }
-        k
+        self.initial.push(high);
+        self.channels.len() - 1
     }
 
     /// The item of one character of the line view: on its sender's transmit channel, starting
@@ -170,7 +167,7 @@ mod tests {
         };
         let w = waveform(&file, SerialSettings::default());
         assert_eq!(w.channels, vec!["A_TxD", "B_TxD", "A_RTS"]);
-        assert_eq!(w.initial, 0b011);
+        assert_eq!(w.initial, [true, true, false]);
         // 9600 8E1: 1146 µs per character; A's STX started at 0, B's DLE at 1146.
         assert_eq!(
             w.items,

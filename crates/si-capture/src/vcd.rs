@@ -47,13 +47,13 @@ fn reference(name: &str) -> String {
 
 impl<W: Write> VcdWriter<W> {
     /// Start a dump of these signals, sampled at `rate` per second, with their levels at time 0
-    /// (bit k: signal k). `module` names the scope.
+    /// (`initial[k]`: signal k; missing ones low). `module` names the scope.
     pub fn new(
         mut out: W,
         module: &str,
         signals: &[String],
         rate: u64,
-        initial: u64,
+        initial: &[bool],
     ) -> io::Result<Self> {
         if rate == 0 {
             return Err(io::Error::new(
@@ -73,7 +73,8 @@ impl<W: Write> VcdWriter<W> {
         writeln!(out, "#0")?;
         writeln!(out, "$dumpvars")?;
         for (k, code) in codes.iter().enumerate() {
-            writeln!(out, "{}{code}", initial >> k & 1)?;
+            let high = initial.get(k).copied().unwrap_or(false);
+            writeln!(out, "{}{code}", u8::from(high))?;
         }
         writeln!(out, "$end")?;
         Ok(VcdWriter {
@@ -132,7 +133,7 @@ mod tests {
     #[test]
     fn value_changes_are_written_at_their_nanosecond() {
         let names = vec!["A TxD".to_owned(), "B RTS".to_owned()];
-        let mut w = VcdWriter::new(Vec::new(), "line", &names, 153_600, 0b01).unwrap();
+        let mut w = VcdWriter::new(Vec::new(), "line", &names, 153_600, &[true, false]).unwrap();
         w.edge(Edge {
             sample: 16,
             channel: 0,

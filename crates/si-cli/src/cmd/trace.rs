@@ -104,23 +104,20 @@ impl ExportArgs {
         let mut sinks = Sinks {
             sr: match &self.sr {
                 Some(p) => Some(
-                    SrWriter::new(create(p)?, &wave.channels, rate, wave.initial)
+                    SrWriter::new(create(p)?, &wave.channels, rate, &wave.initial)
                         .map_err(|e| failed(p, e))?,
                 ),
                 None => None,
             },
             vcd: match &self.vcd {
                 Some(p) => Some(
-                    VcdWriter::new(create(p)?, "si", &wave.channels, rate, wave.initial)
+                    VcdWriter::new(create(p)?, "si", &wave.channels, rate, &wave.initial)
                         .map_err(|e| failed(p, e))?,
                 ),
                 None => None,
             },
         };
-        let initial = (0..wave.channels.len())
-            .map(|k| wave.initial >> k.min(63) & 1 == 1)
-            .collect();
-        let mut levels = Levels::new(settings, initial);
+        let mut levels = Levels::new(settings, wave.initial);
         let mut result = Ok(());
         let mut sink = |e: Edge| {
             if result.is_ok() {
