@@ -1,9 +1,15 @@
-//! Capture file formats for serial line traces: what Wireshark (and other sniffers' files)
-//! read and write, so a line recorded by `si` opens in the engineer's own tools.
+//! Capture file formats for serial line traces: what Wireshark, PulseView and GTKWave (and other
+//! sniffers' files) read and write, so a line recorded by `si` opens in the engineer's own tools.
 //!
 //! Each module is one format and does no I/O of its own beyond the `Read`/`Write` it is given;
-//! every reader is bounded by the largest record it accepts, never by the file.
+//! every reader is bounded by the largest record it accepts, never by the file, and the waveform
+//! writers hold one bounded chunk of samples, never the whole capture.
 
 pub mod pcapng;
 pub mod rtac;
+pub mod sigrok;
+pub mod trace_levels;
+pub mod uart_levels;
 pub mod upper_pdu;
+pub mod vcd;
+pub mod zip;

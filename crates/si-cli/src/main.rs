@@ -56,7 +56,7 @@ enum Command {
     Frame(cmd::frame::FrameCommand),
     /// Watch a line (receive only) or a recorded trace and decode the frames with their timing.
     Monitor(cmd::monitor::MonitorArgs),
-    /// Work on recorded trace files: export them for Wireshark.
+    /// Work on recorded trace files: export them for Wireshark, PulseView and GTKWave.
     #[command(subcommand)]
     Trace(cmd::trace::TraceCommand),
     /// Decode a module's PROFIBUS slave diagnosis.

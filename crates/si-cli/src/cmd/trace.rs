@@ -1,8 +1,9 @@
 //! `si trace`: work on recorded trace files without watching a line.
 //!
 //! `si trace export FILE.trace --pcap OUT.pcapng` decodes the trace as `si monitor --trace`
-//! does (record by record, in bounded memory) and writes what it delimited in another tool's
-//! format: one match arm per format in [`ExportArgs::run`].
+//! does (record by record, in bounded memory) and writes what it delimited for Wireshark;
+//! `--sr OUT.sr` and `--vcd OUT.vcd` rebuild the line's UART levels for PulseView and GTKWave
+//! ([`waves`]). Any of the three may be given together.
 //!
 //! `si trace lua-tables` prints the value tables of the Wireshark dissectors
 //! (`contrib/wireshark/si.lua`, between its GENERATED markers) from the Rust decoders' own
@@ -14,10 +15,13 @@ use crate::error::CliError;
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
+mod waves;
+
 /// `si trace …`.
 #[derive(Debug, Subcommand)]
 pub enum TraceCommand {
-    /// Write a recorded trace in another tool's format (Wireshark: --pcap).
+    /// Write a recorded trace in other tools' formats (Wireshark: --pcap, PulseView: --sr,
+    /// GTKWave: --vcd).
     Export(ExportArgs),
     /// Print the value tables of contrib/wireshark/si.lua from the Rust decoders.
     LuaTables,
@@ -45,31 +49,44 @@ pub struct ExportArgs {
     /// Write a pcapng capture for Wireshark: each frame the monitor delimits as an exported PDU
     /// naming its dissector (mbrtu, si_3964r, si_rk512, si_uss, si_dpcoord), line errors and
     /// modem lines as RTAC serial records.
-    #[arg(long, value_name = "OUT", required = true)]
+    #[arg(long, value_name = "OUT")]
     pub pcap: Option<PathBuf>,
+    /// Write a sigrok session file for PulseView and `sigrok-cli -i`: one logic channel per
+    /// sender (`<station>_TxD`) and per recorded RTS (`<station>_RTS`), 16 samples per bit.
+    #[arg(long, value_name = "OUT")]
+    pub sr: Option<PathBuf>,
+    /// Write the same levels as a VCD (value changes, 1 ns timescale) for GTKWave.
+    #[arg(long, value_name = "OUT")]
+    pub vcd: Option<PathBuf>,
     /// Protocol to decode the trace as (default: the trace header's).
     #[arg(long, value_enum, default_value_t = Protocol::Auto)]
     pub protocol: Protocol,
 }
 
 impl ExportArgs {
-    /// Decode the trace and write the chosen format.
+    /// Read the trace and write the chosen formats.
     pub fn run(&self, conn: &Connection) -> Result<(), CliError> {
-        let monitor = MonitorArgs::quiet(self.protocol);
-        match &self.pcap {
-            Some(out) => {
-                let mut sinks = Sinks {
-                    out: None,
-                    diagram: None,
-                    pcap: None,
-                    pcap_path: Some(out.clone()),
-                    kept: None,
-                };
-                let analysis = monitor.stream_trace(&self.trace, conn, &mut sinks)?;
-                sinks.finish(&analysis, None)
-            }
-            None => Err(CliError::new("name a format: --pcap OUT")),
+        if self.pcap.is_none() && self.sr.is_none() && self.vcd.is_none() {
+            return Err(CliError::new(
+                "name a format: --pcap OUT, --sr OUT or --vcd OUT",
+            ));
         }
+        if let Some(out) = &self.pcap {
+            let monitor = MonitorArgs::quiet(self.protocol);
+            let mut sinks = Sinks {
+                out: None,
+                diagram: None,
+                pcap: None,
+                pcap_path: Some(out.clone()),
+                kept: None,
+            };
+            let analysis = monitor.stream_trace(&self.trace, conn, &mut sinks)?;
+            sinks.finish(&analysis, None)?;
+        }
+        if self.sr.is_some() || self.vcd.is_some() {
+            waves::export(&self.trace, self.sr.as_deref(), self.vcd.as_deref(), conn)?;
+        }
+        Ok(())
     }
 }
 
