@@ -249,6 +249,20 @@ impl Delivery {
         }
     }
 
+    /// The allowance for a frame that only its own content can end and that nothing else on
+    /// the line can follow (an ASCII frame with end characters or a fixed length): the longest
+    /// hold any port has, [`MAX_LATENCY`] plus one character time, on a packetising port, so
+    /// host scheduling on top of the port's holes never cuts it; zero on a byte-by-byte port.
+    /// Where a fragment could swallow the next frame (a Modbus or USS bus) the engines use
+    /// [`patience`](Self::patience) instead.
+    pub fn longest_patience(&self) -> Duration {
+        if self.packetises() {
+            MAX_LATENCY + self.char_time
+        } else {
+            Duration::ZERO
+        }
+    }
+
     /// `status` as the engine reports a framing failure (a frame cut short, a CRC or length
     /// error, a character delay exceeded): with [`ADAPTER_REMEDY`] once reads have shown bytes
     /// arriving faster than the wire could carry them, unchanged otherwise. The STATUS code

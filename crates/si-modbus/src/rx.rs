@@ -231,9 +231,9 @@ impl Receiver {
         self.delivery.declare(latency);
     }
 
-    /// The engine got `n` bytes in one read: two or more prove a packetising port.
-    pub fn observe_read(&mut self, n: usize) {
-        self.delivery.observe(n);
+    /// The engine got `n` bytes in one read at `now` ([`Delivery::observe`]).
+    pub fn observe_read(&mut self, now: Instant, n: usize) {
+        self.delivery.observe(now, n);
     }
 
     /// What the receiver knows about the port's delivery.
@@ -541,9 +541,17 @@ mod tests {
         Instant::from_micros(us)
     }
 
+    /// A receiver on a port declared byte by byte (as a driver that knows it does): the
+    /// manual's timing exactly.
+    fn exact(line: &LineConfig) -> Receiver {
+        let mut rx = Receiver::new(line);
+        rx.set_rx_latency(Duration::ZERO);
+        rx
+    }
+
     #[test]
     fn frame_ends_after_the_gap_not_before() {
-        let mut rx = Receiver::new(&LineConfig::default());
+        let mut rx = exact(&LineConfig::default());
         rx.push(
             at(0),
             &[1, 3, 0, 0, 0, 0x0A, 0xC5, 0xCD],
@@ -559,7 +567,7 @@ mod tests {
 
     #[test]
     fn short_frames_are_counted_and_dropped() {
-        let mut rx = Receiver::new(&LineConfig::default());
+        let mut rx = exact(&LineConfig::default());
         rx.push(at(0), &[1, 2], |_| true, Expect::Nothing);
         assert_eq!(rx.poll(at(10_000)), None);
         assert_eq!(rx.counters().discarded, 1);
@@ -571,7 +579,7 @@ mod tests {
             mode: Mode::InterferenceSuppression,
             ..LineConfig::default()
         };
-        let mut rx = Receiver::new(&line);
+        let mut rx = exact(&line);
         rx.push(
             at(0),
             &[0x55, 0xAA, 1, 3, 0, 0, 0, 0x0A, 0xC5, 0xCD],
@@ -594,13 +602,13 @@ mod tests {
 
     #[test]
     fn overflow_is_a_fault() {
-        let mut rx = Receiver::new(&LineConfig::default());
+        let mut rx = exact(&LineConfig::default());
         rx.push(at(0), &[0u8; 300], |_| true, Expect::Nothing);
         assert_eq!(rx.poll(at(10_000)).unwrap().fault, Some(Fault::Overflow));
     }
 
     fn length_rx() -> Receiver {
-        let mut rx = Receiver::new(&LineConfig::default());
+        let mut rx = exact(&LineConfig::default());
         rx.set_frame_end(FrameEnd::Length);
         rx
     }
@@ -656,7 +664,7 @@ mod tests {
 
     #[test]
     fn gap_mode_ignores_predictions() {
-        let mut rx = Receiver::new(&LineConfig::default());
+        let mut rx = exact(&LineConfig::default());
         let n = rx.push(
             at(0),
             &[1, 3, 0, 0, 0, 0x0A, 0xC5, 0xCD, 1],
