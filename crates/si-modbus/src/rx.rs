@@ -380,11 +380,17 @@ impl Receiver {
             self.counters.discarded += 1;
             return None;
         }
-        if self.mode == Mode::InterferenceSuppression && !crc_ok(adu.as_bytes()) {
-            // The start is a correctly received address: try the later ones.
+        if self.starts_at_address() && !crc_ok(adu.as_bytes()) {
+            // The start is a correctly received address: try the later ones. On RS-485 in
+            // Normal mode too (`[derived]` from [Modbus/USS] §3.4.1, §3.4.3: a message starts at
+            // a correctly received address): behind a port that hands bytes over late, a
+            // fragment (noise, a frame for another unit cut at an address byte) can only be
+            // judged over after the next frame has begun, and that frame is found here, whatever
+            // address started the fragment (the engine checks the frame's address itself).
             let first = self.buf[0];
+            let rs485 = self.interface == Interface::Rs485;
             let restart = (1..len.saturating_sub(3))
-                .find(|&k| self.buf[k] == first && crc_ok(&self.buf[k..len]));
+                .find(|&k| (self.buf[k] == first || rs485) && crc_ok(&self.buf[k..len]));
             if let Some(k) = restart {
                 self.counters.skipped_bytes += k as u64;
                 adu = Adu::from_slice(&self.buf[k..len]).unwrap_or_default();
