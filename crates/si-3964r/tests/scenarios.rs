@@ -8,6 +8,8 @@ mod common;
 mod line_errors;
 #[path = "scenarios/restart.rs"]
 mod restart;
+#[path = "scenarios/fifo_uart.rs"]
+mod fifo_uart;
 #[path = "scenarios/usb_adapter.rs"]
 mod usb_adapter;
 

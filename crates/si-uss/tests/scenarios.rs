@@ -9,6 +9,8 @@ mod frame_golden;
 mod pkw_jobs;
 #[path = "scenarios/tokio_duplex.rs"]
 mod tokio_duplex;
+#[path = "scenarios/fifo_uart.rs"]
+mod fifo_uart;
 #[path = "scenarios/usb_adapter.rs"]
 mod usb_adapter;
 
