@@ -4,12 +4,12 @@
 #[path = "scenarios/character_delay.rs"]
 mod character_delay;
 mod common;
+#[path = "scenarios/fifo_uart.rs"]
+mod fifo_uart;
 #[path = "scenarios/line_errors.rs"]
 mod line_errors;
 #[path = "scenarios/restart.rs"]
 mod restart;
-#[path = "scenarios/fifo_uart.rs"]
-mod fifo_uart;
 #[path = "scenarios/usb_adapter.rs"]
 mod usb_adapter;
 

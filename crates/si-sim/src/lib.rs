@@ -31,6 +31,17 @@
 //! Such a station's trace records each hand-over as one [`TraceKind::RxChunk`] (what its engine
 //! saw), not one `Rx` per character. Stations without an adapter are unchanged.
 //!
+//! Or behind a 16550-type UART with a receive FIFO ([`Simulator::set_uart`], [`FifoUart`]): its
+//! characters reach its engine when the FIFO (16 places) reaches its trigger level (1, 4, 8 or
+//! 14) or its character timeout (4 character times) runs out, a host service latency later;
+//! characters arriving at a full FIFO are lost with an overrun. Recorded as `RxChunk`s too.
+//!
+//! **What each station's engine is told about its port** ([`Engine::set_rx_latency`]): a
+//! station without adapter or UART is declared byte by byte (`Duration::ZERO`) before the
+//! simulation first moves, so the manuals' exact timing holds from the first byte; an adapter
+//! or UART declares its hold when it announces, and nothing otherwise (an unknown port, which
+//! si-core's `delivery` takes for a default USB adapter until the reads show otherwise).
+//!
 //! ```
 //! use si_sim::Simulator;
 //! use si_core::{Engine, Instant, Output, SerialSettings};
@@ -574,6 +585,7 @@ impl Simulator {
 
     /// Process everything scheduled up to and including `until`, then set the clock to `until`.
     pub fn run_until(&mut self, until: Instant) {
+        self.declare();
         while self.next_at().is_some_and(|at| at <= until) {
             self.step();
         }
@@ -587,6 +599,7 @@ impl Simulator {
 
     /// Run until nothing is scheduled or the clock would pass `limit`; true if quiet.
     pub fn run_until_quiet(&mut self, limit: Instant) -> bool {
+        self.declare();
         while self.next_at().is_some_and(|at| at <= limit) {
             self.step();
         }
@@ -1088,3 +1101,5 @@ fn draws(p: &f64) -> bool {
 mod adapter_tests;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod uart_tests;

@@ -3,14 +3,14 @@
 
 #[path = "scenarios/fb.rs"]
 mod fb;
+#[path = "scenarios/fifo_uart.rs"]
+mod fifo_uart;
 #[path = "scenarios/frame_golden.rs"]
 mod frame_golden;
 #[path = "scenarios/pkw_jobs.rs"]
 mod pkw_jobs;
 #[path = "scenarios/tokio_duplex.rs"]
 mod tokio_duplex;
-#[path = "scenarios/fifo_uart.rs"]
-mod fifo_uart;
 #[path = "scenarios/usb_adapter.rs"]
 mod usb_adapter;
 

@@ -72,6 +72,12 @@ fn a_host_too_slow_for_the_fifo_loses_characters_with_an_overrun_receive_error()
     let events = b.events();
     // [ET200S SI] §2.13, Table 2-28: 080CH, transmission error (overrun).
     let codes: Vec<u16> = errors(&events).iter().map(|e| e.0).collect();
-    assert!(!codes.is_empty() && codes.iter().all(|&c| c == 0x080C), "{events:?}");
-    assert!(b.frames().iter().all(|f| f.len() < 100), "nothing arrives whole");
+    assert!(
+        !codes.is_empty() && codes.iter().all(|&c| c == 0x080C),
+        "{events:?}"
+    );
+    assert!(
+        b.frames().iter().all(|f| f.len() < 100),
+        "nothing arrives whole"
+    );
 }

@@ -125,8 +125,8 @@ fn poll(b: &mut Bus, unit: u8) -> bool {
     let took = b.sim.now() - start;
     // Let the bus settle (the master's own gap, the slaves' frame ends).
     b.sim.run_for(Duration::from_millis(10));
-    let ok = matches!(event, MasterEvent::Completed(ref c) if c.unit() == unit)
-        && took <= POLL_LIMIT;
+    let ok =
+        matches!(event, MasterEvent::Completed(ref c) if c.unit() == unit) && took <= POLL_LIMIT;
     if !ok {
         eprintln!("unit {unit} after {took}: {event:?}");
     }
