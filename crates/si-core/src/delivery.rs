@@ -317,7 +317,7 @@ mod tests {
         let mut at = from;
         for _ in 0..count {
             d.observe(at, 1);
-            at = at + ct();
+            at += ct();
         }
         at
     }
@@ -437,7 +437,7 @@ mod tests {
             for (n, gap) in reads {
                 // Bytes 1..=2 per read mostly, to exercise the runs.
                 let n = if n % 3 == 0 { n } else { n % 2 };
-                at = at + Duration::from_micros(gap);
+                at += Duration::from_micros(gap);
                 d.observe(at, n);
                 let assumed = if d.is_declared() { Duration::ZERO } else { ASSUMED_HOLD };
                 let proven = if d.learnt() > Duration::ZERO { d.learnt() + ct } else { Duration::ZERO };
