@@ -36,8 +36,10 @@
 //!    time (the most the last byte of a full packet can have waited). The largest hold proven
 //!    ([`learnt`](Delivery::learnt)) never decreases.
 //! 4. **Single bytes at wire pace lower it.** [`PROOF_READS`] single-byte reads in a row, each
-//!    at most 1.5 character times after the one before, are only possible on a port that held
-//!    none of them for long (a holding port would have handed two or more over together). Such
+//!    0.5 to 1.5 character times after the one before, are only possible on a port that held
+//!    none of them for long (a holding port would have handed two or more over together; on a
+//!    port not declared byte by byte, two single bytes less than half a character time apart
+//!    are one packet read in pieces and count as a read of two, rule 3). Such
 //!    a run **halves** the estimate, and an estimate below one character time becomes zero. A
 //!    port that never packetised (nothing declared, no multi-byte read) goes to zero at the
 //!    first run: exact manual timing from the fifth byte of the first frame on.
@@ -170,10 +172,13 @@ impl Delivery {
 
     #[inline]
     fn observe_single(&mut self, now: Instant) -> bool {
-        let at_wire_pace = self.last_single.is_some_and(|last| {
-            now.saturating_since(last)
-                <= self.char_time + Duration::from_micros(self.char_time.as_micros() / 2)
-        });
+        let half = Duration::from_micros(self.char_time.as_micros() / 2);
+        let gap = self.last_single.map(|last| now.saturating_since(last));
+        if gap.is_some_and(|gap| gap < half) && self.declared != Some(Duration::ZERO) {
+            // Two single bytes closer than the wire can carry them: one packet read in pieces.
+            return self.observe_packet(2);
+        }
+        let at_wire_pace = gap.is_some_and(|gap| gap <= self.char_time + half);
         self.last_single = Some(now);
         self.run = if at_wire_pace {
             self.run.saturating_add(1)
@@ -333,6 +338,16 @@ mod tests {
         singles(&mut d, next, 1);
         assert!(!d.packetises());
         assert_eq!(d.allowance(), Duration::ZERO);
+    }
+
+    #[test]
+    fn single_bytes_faster_than_the_wire_are_a_packet_read_in_pieces() {
+        let mut d = Delivery::new(&SerialSettings::default());
+        for k in 0..20u64 {
+            d.observe(Instant::from_micros(k * 10), 1);
+        }
+        assert_eq!(d.latency(), ASSUMED_HOLD, "never proven byte by byte");
+        assert_eq!(d.learnt(), ct());
     }
 
     #[test]
