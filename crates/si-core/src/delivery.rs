@@ -49,8 +49,9 @@
 //! more than [`MAX_LATENCY`]. From it each silence-judging timer gets its
 //! [`allowance`](Delivery::allowance) (the estimate plus one character time; zero when the
 //! estimate is zero, so the manual's timing is kept exactly there), and a timer waiting for
-//! bytes the frame's own length still predicts gets [`patience`](Delivery::patience) (twice
-//! the estimate plus one character time, at most [`MAX_LATENCY`] plus one). Each frame end is
+//! bytes the frame's own length still predicts gets [`patience`](Delivery::patience)
+//! ([`PATIENCE_FACTOR`] times the estimate plus one character time, at most [`MAX_LATENCY`]
+//! plus one). Each frame end is
 //! still decided by the manual's rule wherever the bytes allow it: a frame whose length or end
 //! character ends it ends there, at once; the allowance only lengthens the silence that the
 //! manual's timers wait for.
@@ -89,6 +90,12 @@ pub const MAX_LATENCY: Duration = Duration::from_millis(255);
 /// The hold an undeclared port is assumed to have until reads prove otherwise: the default
 /// latency timer of an FTDI-type USB adapter.
 pub const ASSUMED_HOLD: Duration = Duration::from_millis(16);
+
+/// How many hold estimates a frame whose length predicts more bytes waits for them
+/// ([`Delivery::patience`]): the estimate can lag the port's real hold, and a loaded host
+/// stalls its reader on top (a pty relay of a 16 ms adapter on a busy two-core machine showed
+/// holes above twice the hold).
+pub const PATIENCE_FACTOR: u64 = 4;
 
 /// How many single-byte reads in a row, each at wire pace, prove a run of undelayed delivery
 /// (rule 4 of the [module docs](self)).
@@ -240,15 +247,15 @@ impl Delivery {
     }
 
     /// The allowance while a frame's own length says more bytes are coming (a Modbus frame
-    /// whose header predicts its length, a USS telegram after LGE): twice the hold estimate
-    /// plus one character time on a packetising port (the estimate can lag a port's real hold
+    /// whose header predicts its length, a USS telegram after LGE): [`PATIENCE_FACTOR`] times
+    /// the hold estimate plus one character time on a packetising port (the estimate can lag a port's real hold
     /// until a longer read proves more, and the host's scheduling adds to it), at most
     /// [`MAX_LATENCY`] plus one character time; zero on a port that delivers byte by byte.
     /// Costs nothing on a good frame, which ends by its length, and stays short enough that a
     /// fragment on a busy bus is judged over before the next request starts.
     pub fn patience(&self) -> Duration {
         if self.packetises() {
-            min(self.estimate.saturating_mul(2), MAX_LATENCY) + self.char_time
+            min(self.estimate.saturating_mul(PATIENCE_FACTOR), MAX_LATENCY) + self.char_time
         } else {
             Duration::ZERO
         }
