@@ -232,6 +232,7 @@ fn the_bound_ends_the_job_on_input_alone_when_the_timer_never_fires() {
     use si_core::{Engine, Output};
     let config = short(Priority::Low);
     let mut link = Link::new(config, line()).unwrap();
+    link.set_rx_latency(Duration::ZERO); // a byte-by-byte port: the manual's bound
     let job = link.send(Instant::ZERO, vec![1, 2, 3]).unwrap();
     let bound = Instant::ZERO + config.send_job_bound(&line(), 3);
     // The partner's STX (we yield), then data every millisecond: the link receives, cuts the

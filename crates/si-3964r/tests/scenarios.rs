@@ -4,6 +4,8 @@
 #[path = "scenarios/character_delay.rs"]
 mod character_delay;
 mod common;
+#[path = "scenarios/fifo_uart.rs"]
+mod fifo_uart;
 #[path = "scenarios/line_errors.rs"]
 mod line_errors;
 #[path = "scenarios/restart.rs"]

@@ -63,7 +63,7 @@
 //!   more bytes, [`si_core::delivery`]) gets the port's allowance added to the character delay
 //!   time, so a hole between two packets of one frame does not end it (with end characters or
 //!   a fixed length, which end a frame by its content, the longest latency an adapter can
-//!   have, [`Delivery::patience`](si_core::delivery::Delivery::patience)). Frames the partner
+//!   have, [`Delivery::longest_patience`](si_core::delivery::Delivery::longest_patience)). Frames the partner
 //!   separates by less than the adapter's latency cannot be told apart on such a port (the
 //!   adapter packs them together); end characters and fixed length still cut them. On a port
 //!   that delivers byte by byte the allowance is zero and the timing above holds exactly.
@@ -345,6 +345,7 @@ impl Link {
             rx_pool: FramePool::preallocated(RX_POOL_FRAMES * config.max_frame()),
             rx_deadline_only: true,
         };
+        link.delivery_changed();
         link.enter_mode();
         link.settle_wait();
         Ok(link)
@@ -986,11 +987,10 @@ impl Link {
         now + self.gap
     }
 
-    /// A read of `n` bytes at once: two or more teach the port's hold ([`Delivery::observe`]).
+    /// A read of `n` bytes at `now`: what it proves about the port's hold ([`Delivery::observe`]).
     #[inline]
-    fn observe_read(&mut self, n: usize) {
-        if n > 1 {
-            self.delivery.observe(n);
+    fn observe_read(&mut self, now: Instant, n: usize) {
+        if self.delivery.observe(now, n) {
             self.delivery_changed();
         }
     }
@@ -998,7 +998,7 @@ impl Link {
     /// The port's delivery changed: the character delay monitoring gets its allowance. With
     /// end characters or a fixed length the frame's own content ends it, and the character
     /// delay time only catches a partner that stopped: there it waits out the longest latency
-    /// an adapter can have ([`Delivery::patience`]), so host scheduling on top of the adapter's
+    /// an adapter can have ([`Delivery::longest_patience`]), so host scheduling on top of the adapter's
     /// holes never cuts a frame. In character-delay mode the silence *is* the frame end, so it
     /// gets only the port's [`Delivery::allowance`], to stay responsive.
     #[cold]
@@ -1006,7 +1006,7 @@ impl Link {
         let allowance = match self.cfg.end {
             EndCriterion::CharDelay => self.delivery.allowance(),
             EndCriterion::EndChars { .. } | EndCriterion::FixedLength { .. } => {
-                self.delivery.patience()
+                self.delivery.longest_patience()
             }
         };
         self.gap = self.cfg.settings.gap_limit(self.cdt) + allowance;
@@ -1077,7 +1077,7 @@ impl Engine for Link {
     /// Inline, so a driver feeding single bytes pays no call for the common case.
     #[inline(always)]
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
-        self.observe_read(bytes.len());
+        self.observe_read(now, bytes.len());
         let gap = self.gap_deadline(now);
         for &b in bytes {
             self.on_byte(now, gap, b);
@@ -1269,7 +1269,7 @@ mod tests {
 
     /// Received characters go through the general path only.
     fn rx_general(link: &mut Link, now: Instant, bytes: &[u8]) {
-        link.observe_read(bytes.len());
+        link.observe_read(now, bytes.len());
         let gap = link.gap_deadline(now);
         for &b in bytes {
             let b = b & link.mask;

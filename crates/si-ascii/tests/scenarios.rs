@@ -6,6 +6,8 @@
 mod common;
 #[path = "scenarios/end_criteria.rs"]
 mod end_criteria;
+#[path = "scenarios/fifo_uart.rs"]
+mod fifo_uart;
 #[path = "scenarios/flow_control.rs"]
 mod flow_control;
 #[path = "scenarios/function_blocks.rs"]

@@ -50,6 +50,14 @@ pub struct Connection {
     /// an FTDI-type adapter deliver received bytes at once instead of every 16 ms.
     #[arg(long, global = true, help_heading = LINE_OPTIONS, value_name = "MS")]
     pub latency_timer: Option<u64>,
+    /// Declare how late the port hands received bytes over, in ms (0–255), where nothing can
+    /// be read from sysfs: a CH340 or CP210x adapter, a device server, a pty. 0 declares a
+    /// port that delivers every byte at once (the protocols' exact timing from the first
+    /// byte). Without it an FTDI adapter's latency timer is read from sysfs; any other port
+    /// is taken for a 16 ms adapter until its reads show single bytes at wire pace.
+    #[arg(long, global = true, help_heading = LINE_OPTIONS, value_name = "MS",
+          value_parser = clap::value_parser!(u64).range(0..=255))]
+    pub rx_latency: Option<u64>,
     /// RS-485 direction control: `kernel` (the UART driver's RS-485 mode, Linux TIOCSRS485);
     /// or this program switches the transmitter around each transmission with `rts` (RTS on
     /// to transmit), `rts-inverted` (RTS off to transmit), `sysfs` ('1' written to
@@ -164,6 +172,7 @@ impl Connection {
                     inner: stream,
                     facts: PortFacts {
                         local_echo: self.local_echo,
+                        rx_latency: self.rx_latency.map(Duration::from_millis),
                         ..PortFacts::default()
                     },
                 })
@@ -231,6 +240,7 @@ impl Connection {
         };
         Ok(PortOptions {
             latency_timer: self.latency_timer.map(Duration::from_millis),
+            rx_latency: self.rx_latency.map(Duration::from_millis),
             rs485,
             local_echo: self.local_echo,
             no_line_errors: self.no_line_errors,

@@ -16,7 +16,8 @@
 //! stop_bits = 1
 //! ```
 //!
-//! Also `tcp`, `latency_timer`, `rs485` (`kernel`, `rts`, `rts-inverted`, `sysfs`,
+//! Also `tcp`, `latency_timer`, `rx_latency_ms` (the port's delivery latency declared to the
+//! engine, 0–255 ms, as `--rx-latency`), `rs485` (`kernel`, `rts`, `rts-inverted`, `sysfs`,
 //! `sysfs-inverted`), `rs485_file`, `rs485_delay_before`, `rs485_delay_after`, `local_echo`,
 //! `no_line_errors`. The file is read through [`crate::config_file`] (at most 4 MiB). An
 //! unknown key is refused with its line, and so are `port` and `tcp` together (a line is one
@@ -61,6 +62,7 @@ struct Profile {
     parity: Option<Spanned<String>>,
     stop_bits: Option<Spanned<u8>>,
     latency_timer: Option<Spanned<u64>>,
+    rx_latency_ms: Option<Spanned<u64>>,
     rs485: Option<Rs485Mode>,
     rs485_file: Option<PathBuf>,
     rs485_delay_before: Option<u64>,
@@ -166,6 +168,12 @@ impl Profile {
                 return Err(at("latency_timer", t.span(), &why));
             }
         }
+        if let Some(t) = &self.rx_latency_ms {
+            if *t.get_ref() > 255 {
+                let why = format!("rx latency {} ms out of range: 0 … 255 ms", t.get_ref());
+                return Err(at("rx_latency_ms", t.span(), &why));
+            }
+        }
         Ok(())
     }
 
@@ -205,6 +213,11 @@ impl Profile {
             &mut conn.latency_timer,
             self.latency_timer.map(|t| Some(t.into_inner())),
             explicit("latency_timer"),
+        );
+        set(
+            &mut conn.rx_latency,
+            self.rx_latency_ms.map(|t| Some(t.into_inner())),
+            explicit("rx_latency"),
         );
         set(&mut conn.rs485, self.rs485.map(Some), explicit("rs485"));
         set(

@@ -4,6 +4,8 @@
 
 #[path = "pty/ascii.rs"]
 mod ascii;
+#[path = "pty/ascii_usb_relay.rs"]
+mod ascii_usb_relay;
 mod common;
 #[path = "pty/dpcoord.rs"]
 mod dpcoord;

@@ -136,6 +136,9 @@ pub trait Engine {
     /// first byte. Engines whose timers judge silence (an end-of-frame gap, a character delay
     /// time, a response start) allow for it so that a hole between two packets is not taken for
     /// silence; on a port that delivers bytes one by one the manual's timing is kept exactly.
+    /// `Duration::ZERO` declares such a port (the simulator's direct stations, a driver that
+    /// knows its UART delivers every byte at once). A port nobody declared is taken to packetise
+    /// like a default USB adapter until its reads prove otherwise ([`crate::delivery`]).
     /// The default ignores it.
     fn set_rx_latency(&mut self, latency: crate::time::Duration) {
         let _ = latency;

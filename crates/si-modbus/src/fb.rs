@@ -653,6 +653,7 @@ mod tests {
     fn completion(request: &str, response: &str) -> Completion {
         // Run a master against the scripted response to get a real Completion.
         let mut m = Master::new(MasterConfig::default()).unwrap();
+        m.set_rx_latency(si_core::Duration::ZERO);
         let req = hex(request);
         let (unit, r) = parse_job(&req).unwrap();
         m.request(Instant::ZERO, unit, &r).unwrap();
@@ -720,6 +721,7 @@ mod tests {
     /// A master, S_SEND and S_RCV, with S_SEND's first call (REQ edge) for `job` made.
     fn started(job: &[u8]) -> (Master, SSend, SRcv) {
         let mut m = Master::new(MasterConfig::default()).unwrap();
+        m.set_rx_latency(si_core::Duration::ZERO);
         let (mut s_send, s_rcv) = (SSend::default(), SRcv::default());
         let d = s_send.call(&mut m, Instant::ZERO, true, false, job);
         assert_eq!(d, Done::default());
@@ -792,6 +794,7 @@ mod tests {
     #[test]
     fn r_on_s_send_reports_1e0d_and_the_response_is_nobodys() {
         let mut m = Master::new(MasterConfig::default()).unwrap();
+        m.set_rx_latency(si_core::Duration::ZERO);
         let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
         let job = hex("01 03 00 00 00 01");
         s_send.call(&mut m, Instant::ZERO, true, false, &job);
@@ -823,6 +826,7 @@ mod tests {
             ..SlaveConfig::default()
         };
         let mut slave = Slave::new(config, store).unwrap();
+        slave.set_rx_latency(si_core::Duration::ZERO);
         let mut fb = SModb::new();
         let out = fb.call(&mut slave, true, 10);
         assert!(out.start_ok && !out.start_error);

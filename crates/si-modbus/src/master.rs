@@ -743,7 +743,7 @@ impl Engine for Master {
     type Event = MasterEvent;
 
     fn handle_rx(&mut self, now: Instant, mut bytes: &[u8]) {
-        self.rx.observe_read(bytes.len());
+        self.rx.observe_read(now, bytes.len());
         self.tick(now);
         if !self.tx.may_receive() {
             return; // [Modbus/USS] §3.2.2 item 6: nothing is received while DSR = OFF

@@ -289,6 +289,15 @@ impl<S: Store> Slave<S> {
         self
     }
 
+    /// The physical interface ([Modbus/USS] §3.4.1, §3.4.3; RS-232C by default). On RS-485 a
+    /// request starts at a correctly received slave address (this slave's or broadcast) in
+    /// Normal mode too: a turnaround glitch or noise before it is skipped, as on the master
+    /// ([`Master::with_interface`](crate::master::Master::with_interface)).
+    pub fn with_interface(mut self, interface: si_core::Interface) -> Self {
+        self.rx.set_interface(interface);
+        self
+    }
+
     /// How received frames end.
     pub fn frame_end(&self) -> FrameEnd {
         self.rx.frame_end()
@@ -494,7 +503,7 @@ impl<S: Store> Engine for Slave<S> {
     type Event = SlaveEvent;
 
     fn handle_rx(&mut self, now: Instant, mut bytes: &[u8]) {
-        self.rx.observe_read(bytes.len());
+        self.rx.observe_read(now, bytes.len());
         self.tick(now);
         if !self.tx.may_receive() {
             return; // [Modbus/USS] §3.2.2 item 6: nothing is received while DSR = OFF

@@ -31,6 +31,17 @@
 //! Such a station's trace records each hand-over as one [`TraceKind::RxChunk`] (what its engine
 //! saw), not one `Rx` per character. Stations without an adapter are unchanged.
 //!
+//! Or behind a 16550-type UART with a receive FIFO ([`Simulator::set_uart`], [`FifoUart`]): its
+//! characters reach its engine when the FIFO (16 places) reaches its trigger level (1, 4, 8 or
+//! 14) or its character timeout (4 character times) runs out, a host service latency later;
+//! characters arriving at a full FIFO are lost with an overrun. Recorded as `RxChunk`s too.
+//!
+//! **What each station's engine is told about its port** ([`Engine::set_rx_latency`]): a
+//! station without adapter or UART is declared byte by byte (`Duration::ZERO`) before the
+//! simulation first moves, so the manuals' exact timing holds from the first byte; an adapter
+//! or UART declares its hold when it announces, and nothing otherwise (an unknown port, which
+//! si-core's `delivery` takes for a default USB adapter until the reads show otherwise).
+//!
 //! ```
 //! use si_sim::Simulator;
 //! use si_core::{Engine, Instant, Output, SerialSettings};
@@ -62,11 +73,13 @@ mod adapter;
 mod burst;
 mod pair;
 mod rng;
+mod uart;
 
 pub use adapter::{AdapterError, UsbAdapter};
 pub use pair::Pair;
 pub use rng::SplitMix64;
 pub use si_core::trace::{Trace, TraceEntry, TraceKind};
+pub use uart::{FifoUart, UartError};
 
 use adapter::Held;
 use burst::{Burst, Key, Mod};
@@ -77,6 +90,7 @@ use si_core::{Duration, Instant};
 use si_core::{Engine, LineError, ModemSignals, Output, SignalUpdate};
 use std::cmp::Ordering;
 use std::collections::{BinaryHeap, VecDeque};
+use uart::{Fifo, FifoWake};
 
 /// Seeded faults on the characters a station receives from others (its own bus echo is clean).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -203,6 +217,11 @@ struct Slot {
     signals: ModemSignals,
     /// A USB-serial adapter between the receiver and the engine ([`Simulator::set_adapter`]).
     adapter: Option<Held>,
+    /// A 16550-type UART with a receive FIFO before the engine ([`Simulator::set_uart`]).
+    uart: Option<Fifo>,
+    /// The engine was told how its port delivers ([`Engine::set_rx_latency`]), or must not be
+    /// (an unannounced adapter or UART).
+    declared: bool,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -228,6 +247,11 @@ enum What {
     AdapterFlush {
         station: usize,
         generation: u64,
+    },
+    /// A station's FIFO UART interrupts or is read (live only for its current generation).
+    Uart {
+        station: usize,
+        wake: FifoWake,
     },
 }
 
@@ -272,6 +296,8 @@ pub struct Simulator {
     free_bursts: Vec<u32>,
     rng: SplitMix64,
     trace: Option<Trace>,
+    /// Some station has not been told yet how its port delivers ([`Simulator::declare`]).
+    undeclared: bool,
 }
 
 impl Simulator {
@@ -290,6 +316,7 @@ impl Simulator {
             free_bursts: Vec::new(),
             rng: SplitMix64::new(seed),
             trace: Some(Trace::default()),
+            undeclared: false,
         }
     }
 
@@ -328,7 +355,10 @@ impl Simulator {
             corrupt: None,
             signals: ModemSignals::default(),
             adapter: None,
+            uart: None,
+            declared: false,
         });
+        self.undeclared = true;
         let index = self.slots.len() - 1;
         self.drain(index);
         StationId {
@@ -384,11 +414,51 @@ impl Simulator {
         adapter.validate()?;
         let slot = &mut self.slots[station.index];
         slot.adapter = Some(Held::new(adapter));
+        slot.declared = true;
         if adapter.announce_latency {
             slot.engine.rx_latency(adapter.latency);
             self.drain(station.index);
         }
         Ok(())
+    }
+
+    /// Put a 16550-type UART with a receive FIFO in front of `station`'s receiver (see
+    /// [`FifoUart`] for the model): from now on what it receives reaches its engine when the
+    /// FIFO reaches its trigger level or its character timeout runs out, `service` later, and
+    /// characters arriving at a full FIFO are lost with an overrun. With `announce` the engine
+    /// is told the longest hold ([`FifoUart::hold`]) at once; without, it learns from the
+    /// reads. Replaces a USB adapter set before.
+    pub fn set_uart<E>(&mut self, station: StationId<E>, uart: FifoUart) -> Result<(), UartError> {
+        uart.validate()?;
+        let slot = &mut self.slots[station.index];
+        slot.adapter = None;
+        slot.uart = Some(Fifo::new(uart, &slot.settings));
+        slot.declared = true;
+        if uart.announce {
+            slot.engine.rx_latency(uart.hold(&slot.settings));
+            self.drain(station.index);
+        }
+        Ok(())
+    }
+
+    /// Tell every station not yet told how its port delivers: a station without an adapter or
+    /// UART hears its characters the moment they end, so its engine is declared byte by byte
+    /// (`set_rx_latency(Duration::ZERO)`) and keeps the manuals' timing exactly from the first
+    /// byte. Runs by itself before the simulation first moves (a step, a command, a
+    /// transmission), after the stations were set up; adapters and UARTs declare their own
+    /// (or, unannounced, nothing: the engine starts from an unknown port).
+    fn declare(&mut self) {
+        if !self.undeclared {
+            return;
+        }
+        self.undeclared = false;
+        for index in 0..self.slots.len() {
+            if !self.slots[index].declared {
+                self.slots[index].declared = true;
+                self.slots[index].engine.rx_latency(Duration::ZERO);
+                self.drain(index);
+            }
+        }
     }
 
     /// A BREAK reaches `station`'s receiver at `at`.
@@ -424,6 +494,7 @@ impl Simulator {
         station: StationId<E>,
         f: impl FnOnce(&mut E, Instant) -> R,
     ) -> R {
+        self.declare();
         let now = self.now;
         let engine: &mut dyn Any = &mut *self.slots[station.index].engine;
         let engine = engine
@@ -437,6 +508,7 @@ impl Simulator {
     /// Put raw bytes on the line from `station` as if its engine had sent them (a scripted or
     /// misbehaving partner).
     pub fn transmit<E>(&mut self, station: StationId<E>, bytes: &[u8]) {
+        self.declare();
         self.start_transmit(station.index, bytes);
     }
 
@@ -470,6 +542,7 @@ impl Simulator {
 
     /// Process the next scheduled happening; false if there is none.
     pub fn step(&mut self) -> bool {
+        self.declare();
         // The lane delivering characters is kept out of the queue (`hot`) while it stays ahead
         // of everything queued: an undisturbed burst costs no queue work at all.
         let from_queue = match (&self.hot, self.queue.peek()) {
@@ -512,6 +585,7 @@ impl Simulator {
 
     /// Process everything scheduled up to and including `until`, then set the clock to `until`.
     pub fn run_until(&mut self, until: Instant) {
+        self.declare();
         while self.next_at().is_some_and(|at| at <= until) {
             self.step();
         }
@@ -525,6 +599,7 @@ impl Simulator {
 
     /// Run until nothing is scheduled or the clock would pass `limit`; true if quiet.
     pub fn run_until_quiet(&mut self, limit: Instant) -> bool {
+        self.declare();
         while self.next_at().is_some_and(|at| at <= limit) {
             self.step();
         }
@@ -564,6 +639,12 @@ impl Simulator {
 
     /// A character (or a line error) arrives at `to` now: at its engine, or at its adapter.
     fn receive(&mut self, to: usize, item: Result<u8, LineError>) {
+        if let Some(fifo) = &mut self.slots[to].uart {
+            if let Some((at, wake)) = fifo.arrive(self.now, item) {
+                self.schedule(at, What::Uart { station: to, wake });
+            }
+            return;
+        }
         if let Some(held) = &mut self.slots[to].adapter {
             held.pending.push(item);
             let (n, full) = (held.pending.len(), held.config.packet_bytes);
@@ -606,8 +687,35 @@ impl Simulator {
         held.generation += 1;
         let mut packet = core::mem::take(&mut held.pending);
         let mut scratch = core::mem::take(&mut held.scratch);
+        self.deliver(to, &packet, &mut scratch);
+        packet.clear();
+        if let Some(held) = &mut self.slots[to].adapter {
+            held.pending = packet;
+            held.scratch = scratch;
+        }
+    }
+
+    /// The host reads the FIFO of the UART in front of `to` (see [`hand_over`](Self::hand_over)).
+    fn uart_read(&mut self, to: usize) {
+        let Some(fifo) = &mut self.slots[to].uart else {
+            return;
+        };
+        let mut packet = core::mem::take(&mut fifo.pending);
+        let mut scratch = core::mem::take(&mut fifo.scratch);
+        self.deliver(to, &packet, &mut scratch);
+        packet.clear();
+        if let Some(fifo) = &mut self.slots[to].uart {
+            fifo.pending = packet;
+            fifo.scratch = scratch;
+            fifo.emptied();
+        }
+    }
+
+    /// Hands what a port held to `to`'s engine: each run of bytes in one `handle_rx`
+    /// (recorded as one chunk), each line error on its own, in order, draining after each.
+    fn deliver(&mut self, to: usize, packet: &[Result<u8, LineError>], scratch: &mut Vec<u8>) {
         adapter::runs(
-            &packet,
+            packet,
             |item| {
                 let now = self.now;
                 match item {
@@ -625,13 +733,8 @@ impl Simulator {
                 }
                 self.drain(to);
             },
-            &mut scratch,
+            scratch,
         );
-        packet.clear();
-        if let Some(held) = &mut self.slots[to].adapter {
-            held.pending = packet;
-            held.scratch = scratch;
-        }
     }
 
     /// Everything but a burst's characters (those are [`step`](Self::step)'s).
@@ -680,6 +783,23 @@ impl Simulator {
                     .is_some_and(|h| h.generation == generation && !h.pending.is_empty());
                 if live {
                     self.hand_over(station);
+                }
+            }
+            What::Uart { station, wake } => {
+                let Some(fifo) = &mut self.slots[station].uart else {
+                    return;
+                };
+                match wake {
+                    FifoWake::Timeout(generation) => {
+                        if let Some((at, wake)) = fifo.timeout(now, generation) {
+                            self.schedule(at, What::Uart { station, wake });
+                        }
+                    }
+                    FifoWake::Read(generation) => {
+                        if fifo.read(generation) {
+                            self.uart_read(station);
+                        }
+                    }
                 }
             }
         }
@@ -981,3 +1101,5 @@ fn draws(p: &f64) -> bool {
 mod adapter_tests;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod uart_tests;

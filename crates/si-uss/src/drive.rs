@@ -691,7 +691,7 @@ impl Engine for Drive {
     type Event = DriveEvent;
 
     fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
-        self.rx.observe_read(bytes.len());
+        self.rx.observe_read(now, bytes.len());
         for &b in bytes {
             if self.echo.drops(now, b) {
                 continue;

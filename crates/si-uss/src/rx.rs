@@ -82,8 +82,8 @@ impl Receiver {
     }
 
     /// The engine got `n` bytes in one read ([`Delivery::observe`]).
-    pub(crate) fn observe_read(&mut self, n: usize) {
-        self.delivery.observe(n);
+    pub(crate) fn observe_read(&mut self, now: Instant, n: usize) {
+        self.delivery.observe(now, n);
     }
 
     /// The driver declared the port's latency ([`si_core::Engine::set_rx_latency`]).

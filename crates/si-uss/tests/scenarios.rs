@@ -3,6 +3,8 @@
 
 #[path = "scenarios/fb.rs"]
 mod fb;
+#[path = "scenarios/fifo_uart.rs"]
+mod fifo_uart;
 #[path = "scenarios/frame_golden.rs"]
 mod frame_golden;
 #[path = "scenarios/param_pke.rs"]

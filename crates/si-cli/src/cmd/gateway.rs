@@ -176,6 +176,7 @@ impl GatewayArgs {
             rs485_delay_after_ms: Some(conn.rs485_delay_after),
             local_echo: conn.local_echo,
             latency_timer_ms: conn.latency_timer,
+            rx_latency_ms: conn.rx_latency,
             units: self.units.clone(),
             retries: self.retries,
             pause_ms: self.pause,
@@ -331,6 +332,7 @@ fn line_connection(conn: &Connection, l: &config::Line, protocol: &'static str) 
     (c.rs485_delay_before, c.rs485_delay_after) = l.rs485_delays_ms;
     c.local_echo = l.local_echo;
     c.latency_timer = l.latency_timer_ms;
+    c.rx_latency = l.rx_latency_ms;
     c.protocol = Some(protocol);
     c
 }

@@ -134,3 +134,35 @@ fn pymodbus_client_against_si_modbus_serve_through_a_16ms_adapter_with_default_s
         served(&log)
     );
 }
+
+#[test]
+fn si_modbus_read_of_125_registers_succeeds_20_times_in_20_behind_an_unannounced_adapter() {
+    // A pty announces no latency: each `si` process starts from an unknown port, which the
+    // engines take for a 16 ms adapter until reads show otherwise, so the first response
+    // (a 255-byte frame in about nine packets) is never judged over at its first hole.
+    let Some((near, far)) = line_with_adapter() else {
+        return;
+    };
+    let _server = pymodbus_server(PYMODBUS_SERVER, &far.b);
+    modbus::wait_for_echo(&near.a, LINE, &[]);
+    let values: Vec<String> = (1000..1125).map(|v: u32| v.to_string()).collect();
+    for run in 0..20 {
+        let o = bounded(
+            common::si_command()
+                .args(["--port", &near.a])
+                .args(LINE)
+                .args(["modbus", "read", "holding", "--unit", "1", "--count", "125"]),
+            Duration::from_secs(20),
+        );
+        assert!(
+            o.status.success(),
+            "run {run}: si modbus read failed: {}",
+            stderr(&o)
+        );
+        assert_eq!(
+            stdout(&o).trim(),
+            format!("unit 1 FC03 0…124: {}", values.join(" ")),
+            "run {run}"
+        );
+    }
+}

@@ -162,6 +162,20 @@ fn a_bad_value_gives_the_range_error_with_file_line_and_key() {
 }
 
 #[test]
+fn a_profiles_rx_latency_is_checked_with_its_line() {
+    let o = si_with(
+        "[profile.x]\nport = \"/dev/null\"\nrx_latency_ms = 256\n",
+        &["--profile", "x", "ports"],
+    );
+    assert!(
+        stderr(&o)
+            .contains(":3: [profile.x] rx_latency_ms: rx latency 256 ms out of range: 0 … 255 ms"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
 fn an_unknown_key_is_refused_with_its_line() {
     let o = si_with(
         "[profile.x]\nbaud = 9600\nbuad = 19200\n",

@@ -68,6 +68,13 @@ pub struct PortOptions {
     /// FTDI-type adapter hand over received bytes almost at once, at the cost of more USB
     /// traffic. `None` leaves it as it is (and the driver allows for it).
     pub latency_timer: Option<Duration>,
+    /// How late the port hands received bytes over, declared where nothing can be read from
+    /// sysfs (a CH340 or CP210x adapter, a device server mapped to a pseudo-terminal): the
+    /// engine is told it ([`crate::Engine::set_rx_latency`]); zero declares a port that
+    /// delivers byte by byte. `None` uses the adapter's latency timer if sysfs has one, else
+    /// leaves the port undeclared, which the engines treat as a default USB adapter until
+    /// reads prove otherwise ([`crate::delivery`]).
+    pub rx_latency: Option<Duration>,
     /// RS-485 direction control; `None` for RS-232/RS-422 or an adapter that switches by
     /// itself.
     pub rs485: Option<Rs485>,
@@ -125,7 +132,7 @@ pub fn open(
     };
     let info = describe(path);
     let facts = PortFacts {
-        rx_latency: info.latency_timer,
+        rx_latency: options.rx_latency.or(info.latency_timer),
         rts_toggle: match &options.rs485 {
             Some(Rs485::Driver { toggle, .. }) => Some(*toggle),
             _ => None,

@@ -84,6 +84,8 @@ pub struct LineFile {
     pub local_echo: bool,
     /// USB adapter latency timer (ms).
     pub latency_timer_ms: Option<u64>,
+    /// The port's delivery latency declared to the engine (ms, 0–255; `--rx-latency`).
+    pub rx_latency_ms: Option<u64>,
     /// Unit ids served by this line: `"1-10,12"`.
     pub units: Option<String>,
     /// Retries after a timeout or a corrupt answer.
@@ -191,6 +193,8 @@ pub struct Line {
     pub local_echo: bool,
     /// USB latency timer (ms).
     pub latency_timer_ms: Option<u64>,
+    /// The port's delivery latency declared to the engine (ms).
+    pub rx_latency_ms: Option<u64>,
     /// Unit ids routed here (1–255).
     pub units: Vec<u8>,
     /// Retries.
@@ -415,6 +419,9 @@ impl LineFile {
                 RangeError::new("device", "a port path or tcp:HOST:PORT", "", "none")
             })?;
         let units = parse_units(self.units.as_deref().unwrap_or(""))?;
+        if let Some(ms) = self.rx_latency_ms.filter(|&ms| ms > 255) {
+            return Err(RangeError::new("rx_latency_ms", "0 … 255 ms", " ms", ms));
+        }
         if kind == "rk512" {
             return self.check_rk512(name, device, units);
         }
@@ -512,6 +519,7 @@ impl LineFile {
             ),
             local_echo: self.local_echo,
             latency_timer_ms: self.latency_timer_ms,
+            rx_latency_ms: self.rx_latency_ms,
             units,
             retries: 0,
             pause: std::time::Duration::ZERO,
