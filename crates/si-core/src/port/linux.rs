@@ -3,6 +3,7 @@
 //! second handle of the same tty (termios and RS-485 mode belong to the device, not the
 //! handle).
 
+use super::icount::{self, LineCounters};
 use super::stream::TermiosMode;
 use crate::serial::{Parity, SerialSettings};
 use crate::time::Duration;
@@ -71,6 +72,12 @@ impl Control {
                 ),
             )
         })
+    }
+
+    /// The UART driver's line-error counters (`TIOCGICOUNT`).
+    pub(super) fn counters(&self) -> io::Result<LineCounters> {
+        use std::os::fd::AsFd;
+        icount::read(self.0.as_fd())
     }
 
     pub(super) fn termios_mode(&self) -> io::Result<TermiosMode> {

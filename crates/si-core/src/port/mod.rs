@@ -35,17 +35,27 @@
 //! - mark and space parity (`CMSPAR`); elsewhere [`open`] refuses them.
 //! - the kernel's RS-485 mode ([`Rs485::Kernel`], `TIOCSRS485`), where the port's driver
 //!   supports it;
+//! - overruns: the kernel does not mark them in the stream; the port reads the UART driver's
+//!   counters (`TIOCGICOUNT`, [`line_counters`]) after each read the driver makes, and a rise of
+//!   `overrun` or `buf_overrun` reaches the engine as one [`LineError::Overrun`](crate::LineError)
+//!   after that read's bytes ([`Transport::new_overruns`]). Each protocol reports it as its
+//!   receive error: 3964(R), the ASCII driver and Modbus as 080CH "transmission error (parity,
+//!   stop bit, overrun)" ([ET200S SI] §2.13, Table 2-28; [Modbus/USS] §3.6, which name overrun
+//!   there, so no parity code stands in for it), the USS master in its overrun counter. A port
+//!   whose driver keeps no counters (a pseudo-terminal) is read without them.
 //! - the USB adapter's latency timer (`/sys/bus/usb-serial/devices/<tty>/latency_timer`):
 //!   read on open, set with [`PortOptions::latency_timer`] or [`set_latency_timer`]. Elsewhere
 //!   the latency is unknown to the driver (Windows sets it in the FTDI driver's port
 //!   properties).
 
+mod icount;
 mod info;
 #[cfg(target_os = "linux")]
 mod linux;
 mod stream;
 mod tx_enable;
 
+pub use icount::{line_counters, LineCounters};
 pub use info::{
     describe, latency_timer, list, set_latency_timer, PortInfo, UsbIds, LATENCY_TIMER_MS,
 };
@@ -253,5 +263,9 @@ impl Transport for SerialPort {
 
     fn attach(&mut self) -> PortFacts {
         SerialPort::attach(self)
+    }
+
+    fn new_overruns(&mut self) -> u64 {
+        SerialPort::new_overruns(self)
     }
 }
