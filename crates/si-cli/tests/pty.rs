@@ -35,6 +35,8 @@ mod monitor_flood;
 mod noise_links;
 #[path = "pty/noise_masters.rs"]
 mod noise_masters;
+#[path = "pty/port_check.rs"]
+mod port_check;
 #[path = "pty/port_flags.rs"]
 mod port_flags;
 #[path = "pty/profile.rs"]

@@ -56,6 +56,7 @@ mod stream;
 mod tx_enable;
 
 pub use icount::{line_counters, LineCounters};
+
 pub use info::{
     describe, latency_timer, list, set_latency_timer, PortInfo, UsbIds, LATENCY_TIMER_MS,
 };
@@ -110,6 +111,57 @@ pub enum Rs485 {
         /// a GPIO's sysfs `value` (mbusd's `-t`, `-r`, `-y`, `-Y`).
         output: TxEnable,
     },
+}
+
+/// Whether the port at `path` has the kernel's RS-485 mode ([`Rs485::Kernel`], Linux
+/// `TIOCGRS485`): `Ok(true)` on, `Ok(false)` available and off. Opens a second handle for the
+/// call and changes nothing. Errors: the port cannot be opened, or its driver has no RS-485
+/// mode (kind `Unsupported`; a pseudo-terminal, most USB adapters), or not Linux.
+pub fn kernel_rs485(path: &str) -> io::Result<bool> {
+    #[cfg(target_os = "linux")]
+    {
+        let control = linux::Control::open(path)
+            .map_err(|e| io::Error::new(e.kind(), format!("cannot open {path}: {e}")))?;
+        control.rs485().map_err(|e| {
+            let kind = match e.raw_os_error() {
+                Some(libc::ENOTTY) | Some(libc::EINVAL) => io::ErrorKind::Unsupported,
+                _ => e.kind(),
+            };
+            io::Error::new(kind, format!("{path}: no kernel RS-485 mode ({e})"))
+        })
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        Err(io::Error::new(
+            io::ErrorKind::Unsupported,
+            format!("{path}: the kernel's RS-485 mode needs Linux"),
+        ))
+    }
+}
+
+/// The modem inputs of the port at `path` as `[CTS, DSR, DCD, RI]` (Linux `TIOCMGET`), read
+/// through a second handle that changes no setting. Errors: the port cannot be opened, it has
+/// no modem lines (a pseudo-terminal: kind `Unsupported`), or not Linux.
+pub fn modem_inputs(path: &str) -> io::Result<[bool; 4]> {
+    #[cfg(target_os = "linux")]
+    {
+        let control = linux::Control::open(path)
+            .map_err(|e| io::Error::new(e.kind(), format!("cannot open {path}: {e}")))?;
+        control.modem_inputs().map_err(|e| {
+            let kind = match e.raw_os_error() {
+                Some(libc::ENOTTY) | Some(libc::EINVAL) => io::ErrorKind::Unsupported,
+                _ => e.kind(),
+            };
+            io::Error::new(kind, format!("{path}: no modem lines ({e})"))
+        })
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        Err(io::Error::new(
+            io::ErrorKind::Unsupported,
+            format!("{path}: reading the modem lines without opening the port needs Linux"),
+        ))
+    }
 }
 
 /// Open `path` (`/dev/ttyUSB0`, `/dev/serial/by-id/…`, `COM3`) with the line format `settings`
