@@ -19,6 +19,8 @@ mod modbus_frame_end;
 mod modbus_interop;
 #[path = "pty/modbus_poll.rs"]
 mod modbus_poll;
+#[path = "pty/modbus_scan.rs"]
+mod modbus_scan;
 #[path = "pty/modbus_serial_example.rs"]
 mod modbus_serial_example;
 #[path = "pty/modbus_serve_map.rs"]

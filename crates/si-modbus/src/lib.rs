@@ -105,6 +105,7 @@ pub mod master;
 pub mod mbap;
 pub mod monitor;
 pub mod rx;
+pub mod scan;
 pub mod serve;
 pub mod simatic;
 pub mod slave;
