@@ -55,3 +55,5 @@ mod servers_flooded;
 mod three_protocols_example;
 #[path = "pty/uss.rs"]
 mod uss;
+#[path = "pty/uss_scan.rs"]
+mod uss_scan;

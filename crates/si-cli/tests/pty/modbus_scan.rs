@@ -16,7 +16,7 @@ use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 
 const SLAVE: &str = r#"
-import os, pty, sys, termios, select, tty, fcntl, struct
+import os, pty, sys, termios, select, tty, fcntl, struct, time
 UNIT = int(sys.argv[1]); BAUD = int(sys.argv[2])
 TCGETS2 = 0x802C542A  # struct termios2 (44 bytes): the speed in bit/s, as serial libraries set it
 master, slave = pty.openpty()
@@ -35,7 +35,12 @@ while True:
     if not r:
         buf = b""  # silence: a frame ends
         continue
-    buf += os.read(master, 256)
+    try:
+        buf += os.read(master, 256)
+    except OSError:  # si closed the pty between two line settings
+        buf = b""
+        time.sleep(0.01)
+        continue
     # Termios calls on a pty master act on the slave: the settings si set.
     raw = fcntl.ioctl(master, TCGETS2, bytes(44))
     speed = struct.unpack_from("I", raw, 40)[0]
