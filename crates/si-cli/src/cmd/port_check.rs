@@ -48,7 +48,8 @@ pub struct Finding {
 }
 
 impl Finding {
-    fn new(check: &'static str, severity: Severity, text: impl Into<String>) -> Self {
+    /// A finding without a remedy.
+    pub fn new(check: &'static str, severity: Severity, text: impl Into<String>) -> Self {
         Finding {
             check,
             severity,
@@ -57,7 +58,8 @@ impl Finding {
         }
     }
 
-    fn remedy(mut self, remedy: impl Into<String>) -> Self {
+    /// The finding with what to do about it.
+    pub fn remedy(mut self, remedy: impl Into<String>) -> Self {
         self.remedy = Some(remedy.into());
         self
     }

@@ -17,6 +17,10 @@ pub struct PortsArgs {
     /// 1 otherwise.
     #[arg(long, value_name = "PORT", num_args = 0..=1, default_missing_value = "")]
     pub check: Option<String>,
+    /// With --check: TX is wired to RX (or the other end of a pty echoes): round trips at each
+    /// baud rate, the packets and hold measured, the echo present or not.
+    #[arg(long, requires = "check")]
+    pub loopback: bool,
 }
 
 impl PortsArgs {
@@ -31,7 +35,7 @@ impl PortsArgs {
                 } else {
                     path
                 };
-                check(&path, out)
+                check(&path, self.loopback, out)
             }
             None => run(conn, out),
         }
@@ -40,9 +44,16 @@ impl PortsArgs {
 
 /// One screen for one port: the findings, then exit 1 if any is a problem.
 #[cfg(unix)]
-fn check(path: &str, out: &Output) -> Result<(), CliError> {
+fn check(path: &str, loopback: bool, out: &Output) -> Result<(), CliError> {
     use super::port_check::{self, Severity};
-    let findings = port_check::check(path);
+    let mut findings = port_check::check(path);
+    let usable = !findings.iter().any(|f| f.severity == Severity::Problem);
+    if loopback && usable {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()?;
+        findings.extend(rt.block_on(super::port_loopback::loopback(path)));
+    }
     let problems = findings
         .iter()
         .filter(|f| f.severity == Severity::Problem)
@@ -79,7 +90,7 @@ fn check(path: &str, out: &Output) -> Result<(), CliError> {
 }
 
 #[cfg(not(unix))]
-fn check(path: &str, _: &Output) -> Result<(), CliError> {
+fn check(path: &str, _: bool, _: &Output) -> Result<(), CliError> {
     Err(CliError::new(format!(
         "{path}: --check reads /dev, /sys and /proc and needs Linux"
     )))

@@ -133,3 +133,57 @@ fn the_line_error_counters_of_a_pty_read_without_error() {
     // A pseudo-terminal's driver keeps no counters: said so, not an error.
     assert!(last["counters"].is_null(), "{t}");
 }
+
+/// A pty whose other end echoes (socat's PIPE address): the loopback reports the echo and,
+/// per baud rate, what came back, in how many reads, and the hold measured.
+#[test]
+fn loopback_on_an_echoing_pty_reports_the_echo_and_the_measured_hold() {
+    if !common::have_socat() {
+        return;
+    }
+    let mut child = Command::new("socat")
+        .args(["-d", "-d", "pty,raw,echo=0", "pipe"])
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("spawn socat");
+    let log = child.stderr.take().expect("socat log");
+    let _socat = Kill(child);
+    let mut lines = std::io::BufRead::lines(std::io::BufReader::new(log));
+    let pty = loop {
+        let line = lines.next().expect("socat names its pty").expect("a line");
+        if let Some(i) = line.find("PTY is ") {
+            break line[i + 7..].trim().to_owned();
+        }
+    };
+    std::thread::spawn(move || for _ in lines {});
+    let o = si(&["ports", "--check", &pty, "--loopback"]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    assert!(
+        t.contains("echo: the port hears its own transmission"),
+        "{t}"
+    );
+    for baud in ["9600", "115200"] {
+        let line = t
+            .lines()
+            .find(|l| l.contains(&format!("loopback: {baud} bit/s")))
+            .unwrap_or_else(|| panic!("no loopback line at {baud}: {t}"));
+        assert!(line.contains("100 of 100 bytes back"), "{line}");
+        assert!(
+            line.contains("held") && line.contains("ms past the wire"),
+            "{line}"
+        );
+    }
+}
+
+/// A pty whose other end does not echo: nothing comes back, a problem with its remedy, exit 1.
+#[test]
+fn loopback_without_an_echo_says_so_and_exits_1() {
+    let Some(pair) = pty_pair() else { return };
+    let o = si(&["ports", "--check", &pair.a, "--loopback"]);
+    let t = text(&o);
+    assert_eq!(o.status.code(), Some(1), "{t}");
+    assert!(t.contains("nothing came back"), "{t}");
+    assert!(t.contains("wire TX to RX"), "{t}");
+}
