@@ -63,7 +63,7 @@
 //! A port from `port::open` (feature `serial`) on Linux marks parity and framing errors and
 //! BREAKs in the received stream (`PARMRK`); when the driver takes the port over
 //! ([`Transport::attach`]) it decodes the marks ([`crate::linemark`]) and hands the engine data
-//! runs and [`LineError`](crate::LineError)s in the order they arrived
+//! runs and [`LineError`]s in the order they arrived
 //! ([`crate::rx_path`]), so the manuals' 080C/0810/0811/080D codes are reachable on real
 //! hardware. A marked bad character is reported as a parity error on a line with a checked
 //! parity bit and as a framing error on one without (the kernel cannot tell them apart);
