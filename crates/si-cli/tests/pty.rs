@@ -45,6 +45,8 @@ mod port_flags;
 mod profile;
 #[path = "pty/r3964.rs"]
 mod r3964;
+#[path = "pty/r3964_probe.rs"]
+mod r3964_probe;
 #[path = "pty/rk512.rs"]
 mod rk512;
 #[path = "pty/rs485_sysfs.rs"]
