@@ -109,3 +109,46 @@ fn a_scan_finds_the_one_unit_at_its_baud_rate_within_the_announced_time() {
         "took {took:?}, announced {bound_ms} ms"
     );
 }
+
+/// Ctrl-C (SIGINT) during a scan that would take minutes: it ends at once, exit 130, with
+/// the unit found so far printed.
+#[test]
+fn ctrl_c_stops_the_scan_at_once_with_what_was_found() {
+    let (_slave, port) = slave(1, 9600);
+    let mut scan = si_command()
+        .args(["--port", &port, "--baud", "9600", "modbus", "scan"])
+        .args(["--units", "1-247", "--parities", "none"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run si");
+    let mut lines = BufReader::new(scan.stdout.take().expect("stdout")).lines();
+    let announced = lines.next().expect("the bound").expect("a line");
+    assert!(announced.contains("at most"), "{announced}");
+    let found = lines.next().expect("unit 1").expect("a line");
+    assert!(found.starts_with("unit 1 "), "{found}");
+    // Unit 2 is silent: the scan now waits its 2 s response time.
+    let sent = Command::new("kill")
+        .args(["-INT", &scan.id().to_string()])
+        .status()
+        .expect("run kill");
+    assert!(sent.success());
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = scan.try_wait().expect("wait") {
+            break status;
+        }
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(1),
+            "the scan did not stop at once"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    };
+    assert_eq!(status.code(), Some(130));
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    assert!(
+        rest.iter()
+            .any(|l| l.contains("1 unit(s) answered (interrupted)")),
+        "{rest:?}"
+    );
+}
