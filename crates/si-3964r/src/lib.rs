@@ -58,6 +58,7 @@ pub mod fb;
 pub mod frame;
 pub mod link;
 pub mod monitor;
+pub mod probe;
 pub mod status;
 #[cfg(feature = "tokio")]
 #[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]

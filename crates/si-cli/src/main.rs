@@ -49,8 +49,9 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// List the serial ports of this machine.
-    Ports,
+    /// List the serial ports of this machine, or check one (`--check PORT`): what keeps it
+    /// from working, with remedies.
+    Ports(cmd::ports::PortsArgs),
     /// Encode or decode frames offline, from hex.
     #[command(subcommand)]
     Frame(cmd::frame::FrameCommand),
@@ -116,7 +117,7 @@ fn main() -> ExitCode {
         .settle_line(&matches)
         .and_then(|()| profile::apply(&mut cli.connection, &matches))
         .and_then(|()| match cli.command {
-            Command::Ports => cmd::ports::run(&cli.connection, &out),
+            Command::Ports(a) => a.run(&cli.connection, &out),
             Command::Frame(c) => c.run(&out),
             Command::Monitor(a) => {
                 runtime().and_then(|rt| rt.block_on(a.run(&cli.connection, &out)))

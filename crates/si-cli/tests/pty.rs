@@ -21,6 +21,8 @@ mod modbus_frame_end;
 mod modbus_interop;
 #[path = "pty/modbus_poll.rs"]
 mod modbus_poll;
+#[path = "pty/modbus_scan.rs"]
+mod modbus_scan;
 #[path = "pty/modbus_serial_example.rs"]
 mod modbus_serial_example;
 #[path = "pty/modbus_serve_map.rs"]
@@ -37,12 +39,16 @@ mod monitor_flood;
 mod noise_links;
 #[path = "pty/noise_masters.rs"]
 mod noise_masters;
+#[path = "pty/port_check.rs"]
+mod port_check;
 #[path = "pty/port_flags.rs"]
 mod port_flags;
 #[path = "pty/profile.rs"]
 mod profile;
 #[path = "pty/r3964.rs"]
 mod r3964;
+#[path = "pty/r3964_probe.rs"]
+mod r3964_probe;
 #[path = "pty/rk512.rs"]
 mod rk512;
 #[path = "pty/rs485_sysfs.rs"]
@@ -53,3 +59,5 @@ mod servers_flooded;
 mod three_protocols_example;
 #[path = "pty/uss.rs"]
 mod uss;
+#[path = "pty/uss_scan.rs"]
+mod uss_scan;

@@ -65,7 +65,7 @@
 //! A port from `port::open` (feature `serial`) on Linux marks parity and framing errors and
 //! BREAKs in the received stream (`PARMRK`); when the driver takes the port over
 //! ([`Transport::attach`]) it decodes the marks ([`crate::linemark`]) and hands the engine data
-//! runs and [`LineError`](crate::LineError)s in the order they arrived
+//! runs and [`LineError`]s in the order they arrived
 //! ([`crate::rx_path`]), so the manuals' 080C/0810/0811/080D codes are reachable on real
 //! hardware. A marked bad character is reported as a parity error on a line with a checked
 //! parity bit and as a framing error on one without (the kernel cannot tell them apart);
@@ -102,7 +102,7 @@ use crate::job::{JobEnd, JobId, NotStarted};
 use crate::linemark::Marked;
 pub use crate::port_facts::{PortFacts, RtsToggle};
 use crate::rx_path::RxPath;
-use crate::sansio::{Engine, ModemSignals, Output, SignalUpdate};
+use crate::sansio::{Engine, LineError, ModemSignals, Output, SignalUpdate};
 use crate::serial::SerialSettings;
 use crate::time::{Duration, Instant};
 use crate::trace::TraceKind;
@@ -140,6 +140,14 @@ pub trait Transport: AsyncRead + AsyncWrite + Unpin + Send + 'static {
     /// here). Called once, before the first read. The default is a plain byte stream.
     fn attach(&mut self) -> PortFacts {
         PortFacts::default()
+    }
+
+    /// Characters the port lost since the last call that the stream cannot show: the kernel
+    /// counts UART and buffer overruns (Linux `TIOCGICOUNT`) but does not mark them. The
+    /// driver asks after each read and reports a rise as one [`LineError::Overrun`] after
+    /// that read's bytes. The default: a transport that loses nothing it could count.
+    fn new_overruns(&mut self) -> u64 {
+        0
     }
 }
 
@@ -808,6 +816,16 @@ where
                         record(TraceKind::RxError { error })
                     }
                 });
+                // An overrun lost characters somewhere around this read; where exactly the
+                // counter cannot say, so it is reported after the read's bytes (`[derived]`):
+                // the frame they belong to, or the one they end, is judged corrupt.
+                let lost = io.new_overruns();
+                if lost > 0 {
+                    let error = LineError::Overrun;
+                    tracing::debug!("rx line error: {error:?} ({lost} characters lost)");
+                    record(TraceKind::RxError { error });
+                    engine.handle_line_error(now, error);
+                }
             }
             _ = &mut wheel, if wheel_at.is_some() => wheel_set = None,
             _ = precise.fired(), if precise.is_armed() => precise.fired_seen(),
@@ -966,6 +984,9 @@ impl<T: Transport> Transport for WithFacts<T> {
     fn attach(&mut self) -> PortFacts {
         self.inner.attach().or(self.facts)
     }
+    fn new_overruns(&mut self) -> u64 {
+        self.inner.new_overruns()
+    }
 }
 
 /// A boxed transport, so a program can choose serial or TCP at run time.
@@ -978,6 +999,9 @@ impl Transport for Box<dyn Transport> {
     }
     fn attach(&mut self) -> PortFacts {
         (**self).attach()
+    }
+    fn new_overruns(&mut self) -> u64 {
+        (**self).new_overruns()
     }
 }
 
@@ -1292,6 +1316,80 @@ mod tests {
                 TraceKind::RxChunk { bytes: vec![0xFF] },
                 TraceKind::RxError { error: Break },
             ]
+        );
+    }
+
+    /// A duplex stream whose "kernel" counted lost characters (what `TIOCGICOUNT` tells).
+    struct Lossy {
+        inner: tokio::io::DuplexStream,
+        lost: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    }
+    impl AsyncRead for Lossy {
+        fn poll_read(
+            mut self: std::pin::Pin<&mut Self>,
+            cx: &mut std::task::Context<'_>,
+            buf: &mut tokio::io::ReadBuf<'_>,
+        ) -> std::task::Poll<io::Result<()>> {
+            std::pin::Pin::new(&mut self.inner).poll_read(cx, buf)
+        }
+    }
+    impl AsyncWrite for Lossy {
+        fn poll_write(
+            mut self: std::pin::Pin<&mut Self>,
+            cx: &mut std::task::Context<'_>,
+            buf: &[u8],
+        ) -> std::task::Poll<io::Result<usize>> {
+            std::pin::Pin::new(&mut self.inner).poll_write(cx, buf)
+        }
+        fn poll_flush(
+            mut self: std::pin::Pin<&mut Self>,
+            cx: &mut std::task::Context<'_>,
+        ) -> std::task::Poll<io::Result<()>> {
+            std::pin::Pin::new(&mut self.inner).poll_flush(cx)
+        }
+        fn poll_shutdown(
+            mut self: std::pin::Pin<&mut Self>,
+            cx: &mut std::task::Context<'_>,
+        ) -> std::task::Poll<io::Result<()>> {
+            std::pin::Pin::new(&mut self.inner).poll_shutdown(cx)
+        }
+    }
+    impl Transport for Lossy {
+        fn new_overruns(&mut self) -> u64 {
+            self.lost.swap(0, std::sync::atomic::Ordering::SeqCst)
+        }
+    }
+
+    #[test]
+    fn an_overrun_the_port_counted_reaches_the_engine_once_after_the_bytes_of_that_read() {
+        use crate::LineError::Overrun;
+        use std::sync::atomic::Ordering::SeqCst;
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        let seen = rt.block_on(async {
+            let (ours, mut theirs) = tokio::io::duplex(64);
+            let lost = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
+            let port = Lossy {
+                inner: ours,
+                lost: lost.clone(),
+            };
+            let (mut handle, _task) = spawn(Lines::default(), port, DriverOptions::default());
+            theirs.write_all(&[1]).await.unwrap();
+            let mut seen = vec![handle.next_event().await.unwrap()];
+            // Three characters lost before the next read.
+            lost.store(3, SeqCst);
+            theirs.write_all(&[2]).await.unwrap();
+            seen.push(handle.next_event().await.unwrap());
+            seen.push(handle.next_event().await.unwrap());
+            theirs.write_all(&[3]).await.unwrap();
+            seen.push(handle.next_event().await.unwrap());
+            seen
+        });
+        assert_eq!(
+            seen,
+            vec![Ok(vec![1]), Ok(vec![2]), Err(Overrun), Ok(vec![3])]
         );
     }
 }

@@ -115,4 +115,14 @@ impl<T: Transport, W: Watch + Unpin + Send + 'static> Transport for Tap<T, W> {
         self.marks = facts.marked_errors.map(MarkDecoder::new);
         facts
     }
+    /// The watcher sees an overrun the kernel counted as the driver does: one
+    /// [`LineError::Overrun`](crate::LineError) after the read that found it.
+    fn new_overruns(&mut self) -> u64 {
+        let lost = self.inner.new_overruns();
+        if lost > 0 {
+            self.watch
+                .read(Marked::Error(crate::sansio::LineError::Overrun));
+        }
+        lost
+    }
 }

@@ -109,6 +109,7 @@ pub mod mbap;
 pub mod monitor;
 pub mod quiet_guard;
 pub mod rx;
+pub mod scan;
 pub mod serve;
 pub mod serve_map;
 pub mod simatic;

@@ -70,6 +70,7 @@ pub mod master;
 pub mod monitor;
 pub mod param;
 mod rx;
+pub mod scan;
 pub mod status;
 #[cfg(feature = "tokio")]
 #[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]

@@ -11,6 +11,7 @@ mod explain;
 mod format;
 mod poll;
 mod report;
+mod scan;
 mod tcp;
 
 use address::{parse_u16, parse_unit, AddressArgs};
@@ -186,6 +187,10 @@ pub enum WriteKind {
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Find which units answer, at which line settings: one FC03 read of register 0 per unit
+    /// and setting, one try each; the total time is printed before it starts, Ctrl-C stops
+    /// with what was found.
+    Scan(scan::ScanArgs),
     /// Read coils, discrete inputs, holding or input registers (FC01–04).
     Read {
         /// What to read.
@@ -307,6 +312,7 @@ impl Command {
     /// Run it on the line.
     pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         match self {
+            Command::Scan(a) => a.run(conn, out).await,
             Command::Serve {
                 unit,
                 config,

@@ -1,14 +1,105 @@
 //! `si ports`: the serial ports the OS knows, with USB identity and the adapter's latency
-//! timer (Linux), which decides how late received bytes reach the host.
+//! timer (Linux), which decides how late received bytes reach the host; with `--port`, that
+//! port's line-error counters; with `--check [PORT]`, what keeps a port from working
+//! (`port_check`).
 
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use si_core::port::{self, PortInfo};
 
+/// `si ports` arguments.
+#[derive(Debug, clap::Args)]
+pub struct PortsArgs {
+    /// Check a port (PORT, or the one given with --port): that it exists, its driver, that
+    /// you may open it, who else holds it, its latency timer, RS-485 mode, modem lines and
+    /// line-error counters; each finding with its remedy. Exit code 0 when nothing is wrong,
+    /// 1 otherwise.
+    #[arg(long, value_name = "PORT", num_args = 0..=1, default_missing_value = "")]
+    pub check: Option<String>,
+    /// With --check: TX is wired to RX (or the other end of a pty echoes): round trips at each
+    /// baud rate, the packets and hold measured, the echo present or not.
+    #[arg(long, requires = "check")]
+    pub loopback: bool,
+}
+
+impl PortsArgs {
+    /// Check one port, or list them all.
+    pub fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
+        match self.check {
+            Some(path) => {
+                let path = if path.is_empty() {
+                    conn.port.clone().ok_or_else(|| {
+                        CliError::usage("--check needs the port: --check PATH or --port PATH")
+                    })?
+                } else {
+                    path
+                };
+                check(&path, self.loopback, out)
+            }
+            None => run(conn, out),
+        }
+    }
+}
+
+/// One screen for one port: the findings, then exit 1 if any is a problem.
+#[cfg(unix)]
+fn check(path: &str, loopback: bool, out: &Output) -> Result<(), CliError> {
+    use super::port_check::{self, Severity};
+    let mut findings = port_check::check(path);
+    let usable = !findings.iter().any(|f| f.severity == Severity::Problem);
+    if loopback && usable {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()?;
+        findings.extend(rt.block_on(super::port_loopback::loopback(path)));
+    }
+    let problems = findings
+        .iter()
+        .filter(|f| f.severity == Severity::Problem)
+        .count();
+    if out.json {
+        out.line(
+            "",
+            serde_json::json!({
+                "port": path,
+                "ok": problems == 0,
+                "findings": findings.iter().map(|f| f.json()).collect::<Vec<_>>(),
+            }),
+        );
+    } else {
+        let mut text = format!("{path}\n");
+        for f in &findings {
+            text += &f.text_lines();
+            text.push('\n');
+        }
+        text += &match problems {
+            0 => "nothing wrong found".to_owned(),
+            1 => "1 problem".to_owned(),
+            n => format!("{n} problems"),
+        };
+        out.line(&text, serde_json::Value::Null);
+    }
+    match problems {
+        0 => Ok(()),
+        n => Err(CliError::new(format!(
+            "{path}: {n} problem{} found",
+            if n == 1 { "" } else { "s" }
+        ))),
+    }
+}
+
+#[cfg(not(unix))]
+fn check(path: &str, _: bool, _: &Output) -> Result<(), CliError> {
+    Err(CliError::new(format!(
+        "{path}: --check reads /dev, /sys and /proc and needs Linux"
+    )))
+}
+
 /// List serial ports, one per line (or JSON objects with `--json`). With `--port` and
-/// `--latency-timer MS`, set that port's latency timer first.
-pub fn run(conn: &Connection, out: &Output) -> Result<(), CliError> {
+/// `--latency-timer MS`, set that port's latency timer first; with `--port`, show its
+/// line-error counters after the list.
+fn run(conn: &Connection, out: &Output) -> Result<(), CliError> {
     if let Some(ms) = conn.latency_timer {
         let path = conn.port.as_deref().ok_or_else(|| {
             CliError::new("--latency-timer with `si ports` needs the port: --port PATH")
@@ -23,7 +114,37 @@ pub fn run(conn: &Connection, out: &Output) -> Result<(), CliError> {
     for p in ports {
         out.line(&describe(&p), json(&p));
     }
+    if let Some(path) = &conn.port {
+        let (text, json) = counters(path)?;
+        out.line(&text, json);
+    }
     Ok(())
+}
+
+/// The port's line-error counters (`TIOCGICOUNT`): zero or not kept (a pseudo-terminal) is
+/// no error; a port that cannot be opened is.
+fn counters(path: &str) -> Result<(String, serde_json::Value), CliError> {
+    match port::line_counters(path) {
+        Ok(c) => Ok((
+            format!(
+                "{path}  line errors since the driver loaded: overrun {}, buffer overrun {}, \
+                 parity {}, framing {}, break {}",
+                c.overrun, c.buf_overrun, c.parity, c.frame, c.brk
+            ),
+            serde_json::json!({
+                "port": path,
+                "counters": {
+                    "overrun": c.overrun, "buf_overrun": c.buf_overrun, "parity": c.parity,
+                    "frame": c.frame, "brk": c.brk, "rx": c.rx, "tx": c.tx,
+                },
+            }),
+        )),
+        Err(e) if e.kind() == std::io::ErrorKind::Unsupported => Ok((
+            format!("{path}  line-error counters: not supported by this port's driver"),
+            serde_json::json!({ "port": path, "counters": null }),
+        )),
+        Err(e) => Err(CliError::new(e.to_string())),
+    }
 }
 
 /// `/dev/ttyUSB0  usb 0403:6001 FTDI FT232R USB UART  latency 16 ms`.

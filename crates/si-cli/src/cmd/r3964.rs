@@ -1,6 +1,8 @@
 //! `si 3964r send|recv`, `si frame encode|decode 3964r`, and the 3964(R) scenarios of `si sim`
 //! ([ET200S SI] §2.7, [CP 341] §2.2.2, §2.3.1).
 
+mod probe;
+
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
@@ -16,6 +18,9 @@ use si_sim::{Simulator, StationId};
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Does a partner answer STX with DLE at each line setting, and does it insist on sending
+    /// (high priority)? One STX per setting; the total time is printed first.
+    Probe(probe::ProbeArgs),
     /// Send one block and wait for the partner's acknowledgement (DLE); exits non-zero with the
     /// STATUS when the procedure gives up.
     Send(SendArgs),
@@ -111,6 +116,7 @@ impl Command {
     /// Run it on the line.
     pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         match self {
+            Command::Probe(args) => args.run(conn, out).await,
             Command::Send(args) => args.run(conn, out).await,
             Command::Recv(args) => args.run(conn, out).await,
         }

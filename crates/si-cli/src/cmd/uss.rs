@@ -5,6 +5,8 @@
 //! may be negative; output is decimal unless `--hex` is given. STATUS codes always print as
 //! `16#…` (the manuals' notation for them), telegram bytes as hex.
 
+mod scan;
+
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
@@ -26,6 +28,10 @@ use si_uss::tokio::Handle;
 /// The protocol's subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Find which nodes (0–31) answer, at which line settings: one read of parameter 0 per
+    /// node and setting, one telegram each; the total time is printed before it starts,
+    /// Ctrl-C stops with what was found.
+    Scan(scan::ScanArgs),
     /// Poll drives cyclically; prints status word and actual value per slave per cycle. Exits
     /// with 1 when a node never answered during a run of --cycles.
     Poll(PollArgs),
@@ -266,6 +272,7 @@ impl Command {
     /// Run it on the line.
     pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         match self {
+            Command::Scan(a) => a.run(conn, out).await,
             Command::Poll(a) => poll(a, conn, out).await,
             Command::ReadParam(a) => {
                 let param = parse_param(&a.param, a.index)?;

@@ -3,6 +3,7 @@
 //! second handle of the same tty (termios and RS-485 mode belong to the device, not the
 //! handle).
 
+use super::icount::{self, LineCounters};
 use super::stream::TermiosMode;
 use crate::serial::{Parity, SerialSettings};
 use crate::time::Duration;
@@ -71,6 +72,30 @@ impl Control {
                 ),
             )
         })
+    }
+
+    /// Whether the port's driver has the kernel's RS-485 mode (`TIOCGRS485` answers) and
+    /// whether it is on.
+    pub(super) fn rs485(&self) -> io::Result<bool> {
+        self.0
+            .get_rs4xx_mode()
+            .map(|mode| matches!(mode, serial2::rs4xx::TransceiverMode::Rs485(_)))
+    }
+
+    /// The modem inputs (`TIOCMGET`): CTS, DSR, DCD, RI.
+    pub(super) fn modem_inputs(&self) -> io::Result<[bool; 4]> {
+        Ok([
+            self.0.read_cts()?,
+            self.0.read_dsr()?,
+            self.0.read_cd()?,
+            self.0.read_ri()?,
+        ])
+    }
+
+    /// The UART driver's line-error counters (`TIOCGICOUNT`).
+    pub(super) fn counters(&self) -> io::Result<LineCounters> {
+        use std::os::fd::AsFd;
+        icount::read(self.0.as_fd())
     }
 
     pub(super) fn termios_mode(&self) -> io::Result<TermiosMode> {

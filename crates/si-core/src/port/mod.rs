@@ -35,18 +35,29 @@
 //! - mark and space parity (`CMSPAR`); elsewhere [`open`] refuses them.
 //! - the kernel's RS-485 mode ([`Rs485::Kernel`], `TIOCSRS485`), where the port's driver
 //!   supports it;
+//! - overruns: the kernel does not mark them in the stream; the port reads the UART driver's
+//!   counters (`TIOCGICOUNT`, [`line_counters`]) after each read the driver makes, and a rise of
+//!   `overrun` or `buf_overrun` reaches the engine as one [`LineError::Overrun`](crate::LineError)
+//!   after that read's bytes ([`Transport::new_overruns`]). Each protocol reports it as its
+//!   receive error: 3964(R), the ASCII driver and Modbus as 080CH "transmission error (parity,
+//!   stop bit, overrun)" ([ET200S SI] §2.13, Table 2-28; [Modbus/USS] §3.6, which name overrun
+//!   there, so no parity code stands in for it), the USS master in its overrun counter. A port
+//!   whose driver keeps no counters (a pseudo-terminal) is read without them.
 //! - the USB adapter's latency timer (`/sys/bus/usb-serial/devices/<tty>/latency_timer`):
 //!   read on open, set with [`PortOptions::latency_timer`] or [`set_latency_timer`]. Elsewhere
 //!   the latency is unknown to the driver (Windows sets it in the FTDI driver's port
 //!   properties).
 
 mod busy;
+mod icount;
 mod info;
 #[cfg(target_os = "linux")]
 mod linux;
 mod rs485;
 mod stream;
 mod tx_enable;
+
+pub use icount::{line_counters, LineCounters};
 
 pub use info::{
     describe, latency_timer, list, set_latency_timer, PortInfo, UsbIds, LATENCY_TIMER_MS,
@@ -87,6 +98,57 @@ pub struct PortOptions {
     /// Do not put the port in line-error marking mode (Linux): bad characters then arrive
     /// as plain bytes, as on other platforms.
     pub no_line_errors: bool,
+}
+
+/// Whether the port at `path` has the kernel's RS-485 mode ([`Rs485::Kernel`], Linux
+/// `TIOCGRS485`): `Ok(true)` on, `Ok(false)` available and off. Opens a second handle for the
+/// call and changes nothing. Errors: the port cannot be opened, or its driver has no RS-485
+/// mode (kind `Unsupported`; a pseudo-terminal, most USB adapters), or not Linux.
+pub fn kernel_rs485(path: &str) -> io::Result<bool> {
+    #[cfg(target_os = "linux")]
+    {
+        let control = linux::Control::open(path)
+            .map_err(|e| io::Error::new(e.kind(), format!("cannot open {path}: {e}")))?;
+        control.rs485().map_err(|e| {
+            let kind = match e.raw_os_error() {
+                Some(libc::ENOTTY) | Some(libc::EINVAL) => io::ErrorKind::Unsupported,
+                _ => e.kind(),
+            };
+            io::Error::new(kind, format!("{path}: no kernel RS-485 mode ({e})"))
+        })
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        Err(io::Error::new(
+            io::ErrorKind::Unsupported,
+            format!("{path}: the kernel's RS-485 mode needs Linux"),
+        ))
+    }
+}
+
+/// The modem inputs of the port at `path` as `[CTS, DSR, DCD, RI]` (Linux `TIOCMGET`), read
+/// through a second handle that changes no setting. Errors: the port cannot be opened, it has
+/// no modem lines (a pseudo-terminal: kind `Unsupported`), or not Linux.
+pub fn modem_inputs(path: &str) -> io::Result<[bool; 4]> {
+    #[cfg(target_os = "linux")]
+    {
+        let control = linux::Control::open(path)
+            .map_err(|e| io::Error::new(e.kind(), format!("cannot open {path}: {e}")))?;
+        control.modem_inputs().map_err(|e| {
+            let kind = match e.raw_os_error() {
+                Some(libc::ENOTTY) | Some(libc::EINVAL) => io::ErrorKind::Unsupported,
+                _ => e.kind(),
+            };
+            io::Error::new(kind, format!("{path}: no modem lines ({e})"))
+        })
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        Err(io::Error::new(
+            io::ErrorKind::Unsupported,
+            format!("{path}: reading the modem lines without opening the port needs Linux"),
+        ))
+    }
 }
 
 /// Open `path` (`/dev/ttyUSB0`, `/dev/serial/by-id/…`, `COM3`) with the line format `settings`
@@ -243,5 +305,9 @@ impl Transport for SerialPort {
 
     fn attach(&mut self) -> PortFacts {
         SerialPort::attach(self)
+    }
+
+    fn new_overruns(&mut self) -> u64 {
+        SerialPort::new_overruns(self)
     }
 }

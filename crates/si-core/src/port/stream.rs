@@ -25,6 +25,9 @@ pub struct SerialPort {
     /// flags, RS-485 mode).
     #[cfg(target_os = "linux")]
     control: Option<super::linux::Control>,
+    /// Characters lost so far by the kernel's count (`overrun` + `buf_overrun`), from the
+    /// driver's attach on; `None` while no driver is attached or the port keeps no counters.
+    lost: Option<u64>,
 }
 
 impl std::fmt::Debug for SerialPort {
@@ -64,6 +67,7 @@ impl SerialPort {
             facts,
             tx_enable,
             control,
+            lost: None,
         }
     }
 
@@ -80,6 +84,7 @@ impl SerialPort {
             clean: facts.marked_errors.map(MarkDecoder::new),
             facts,
             tx_enable,
+            lost: None,
         }
     }
 
@@ -97,7 +102,37 @@ impl SerialPort {
     /// A driver takes over (`Transport::attach`): reads return the marked stream from now on.
     pub(super) fn attach(&mut self) -> PortFacts {
         self.clean = None;
+        self.lost = self.line_counters().ok().map(|c| c.lost());
         self.facts
+    }
+
+    /// The UART driver's line-error counters now (Linux `TIOCGICOUNT`; they count since the
+    /// driver loaded, not since this port was opened). Kind `Unsupported` where the port keeps
+    /// none (a pseudo-terminal) or not on Linux.
+    pub fn line_counters(&self) -> io::Result<super::LineCounters> {
+        #[cfg(target_os = "linux")]
+        if let Some(control) = &self.control {
+            return control.counters();
+        }
+        Err(io::Error::new(
+            io::ErrorKind::Unsupported,
+            "no line-error counters for this port",
+        ))
+    }
+
+    /// How many characters the kernel counted as lost (overrun in the UART or the kernel's
+    /// buffer) since the last call, from the driver's attach on; 0 where the port keeps no
+    /// counters. A failing read of the counters counts nothing: the bytes go on.
+    pub(super) fn new_overruns(&mut self) -> u64 {
+        let Some(seen) = self.lost else {
+            return 0;
+        };
+        let Ok(now) = self.line_counters().map(|c| c.lost()) else {
+            return 0;
+        };
+        self.lost = Some(now);
+        // The kernel's counters only grow (modulo their wrap, which `lost` sums without).
+        now.saturating_sub(seen)
     }
 
     /// Set RTS/DTR; with driver-side RS-485 direction control, RTS is the direction and goes

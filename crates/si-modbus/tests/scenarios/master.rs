@@ -532,3 +532,24 @@ fn s3_7_rs422_normal_mode_keeps_0831h_for_a_glitch_byte() {
         assert_eq!(events, failed(status::WRONG_SLAVE_ADDRESS), "{interface:?}");
     }
 }
+
+// --- An overrun the port counted (Linux TIOCGICOUNT, reported by the driver as
+// LineError::Overrun) inside a response: 080CH "transmission error (parity, stop bit,
+// overrun)", [Modbus/USS] §3.6 ----------------------------------------------------------------
+
+#[test]
+fn an_overrun_inside_the_response_fails_the_job_with_080ch() {
+    let (mut sim, m, p) = master_with_partner_on(Mode::Normal, Interface::Rs232);
+    sim.with(m, |e, now| e.request(now, 1, &READ10)).unwrap();
+    sim.run_for(Duration::from_millis(20));
+    let mut pdu = vec![1, 3, 20];
+    pdu.extend([0u8; 20]);
+    let response = with_crc(pdu);
+    sim.transmit(p, &response[..5]);
+    // The first five characters are in (1.15 ms each at 9600 8E1): the port's count rises.
+    sim.run_for(Duration::from_micros(5 * 1_146 + 100));
+    sim.with(m, |e, now| e.handle_line_error(now, LineError::Overrun));
+    sim.transmit(p, &response[5..]);
+    sim.run_until_quiet(LIMIT);
+    assert_eq!(sim.take_events(m), failed(status::TRANSMISSION_ERROR));
+}

@@ -164,6 +164,10 @@ impl Transport for Watched {
     fn attach(&mut self) -> PortFacts {
         self.inner.attach()
     }
+
+    fn new_overruns(&mut self) -> u64 {
+        self.inner.new_overruns()
+    }
 }
 
 /// A line's link to its devices, with the port's closing.

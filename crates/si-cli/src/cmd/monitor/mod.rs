@@ -22,6 +22,8 @@ pub mod ordered;
 pub mod pcap_in;
 pub mod pcap_out;
 
+mod line_errors;
+
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
@@ -574,6 +576,11 @@ impl MonitorArgs {
             (None, None)
         };
         let mut decoder = self.decoder(protocol, settings, tap.is_none());
+        // Line errors (parity, framing, BREAK, overrun) reach the decoders in place.
+        let mut lines_a = line_errors::LineReader::attach(port.as_mut(), (Some(0), to_a));
+        let mut lines_b = tap
+            .as_mut()
+            .map(|t| line_errors::LineReader::attach(t.as_mut(), (Some(1), to_b)));
         let origin = tokio::time::Instant::now();
         let now = || Instant::from_micros(origin.elapsed().as_micros() as u64);
         let stop = self
@@ -627,7 +634,7 @@ impl MonitorArgs {
                         ended = Some(conn.closed());
                         break;
                     }
-                    for c in line::pace(&buf[..n], now(), (Some(0), to_a), settings, &mut last) {
+                    for c in lines_a.chars(port.as_mut(), &buf[..n], now(), settings, &mut last) {
                         decoder.push(&c, &mut records);
                     }
                 }
@@ -637,7 +644,8 @@ impl MonitorArgs {
                         ended = tap_conn.as_ref().map(Connection::closed);
                         break;
                     }
-                    for c in line::pace(&buf2[..n], now(), (Some(1), to_b), settings, &mut last) {
+                    let (Some(t), Some(lines)) = (tap.as_mut(), lines_b.as_mut()) else { break };
+                    for c in lines.chars(t.as_mut(), &buf2[..n], now(), settings, &mut last) {
                         decoder.push(&c, &mut records);
                     }
                 }

@@ -1,0 +1,229 @@
+//! `si modbus scan`: which units answer, at which line settings. Bounded and polite: one
+//! harmless read per unit and setting (`si_modbus::scan::PROBE`), one try, the response time
+//! of the config; the longest it can take is printed before the first request, and Ctrl-C
+//! stops at once with what was found so far.
+
+use crate::conn::Connection;
+use crate::error::CliError;
+use crate::output::Output;
+use clap::Args;
+use si_core::{Duration, Parity, SerialSettings};
+use si_modbus::scan::{self, Answer};
+use si_modbus::MasterConfig;
+
+/// What the host may add to each probe beyond the line's own time: a USB adapter's hold on
+/// the response (16 ms by default) and scheduling, counted generously.
+const PROBE_SLACK: Duration = Duration::from_millis(60);
+
+/// Opening and closing the port for one line setting.
+const OPEN_SLACK: Duration = Duration::from_millis(300);
+
+/// `si modbus scan` arguments.
+#[derive(Debug, Clone, Args)]
+pub struct ScanArgs {
+    /// The units to ask: a range (1-247) or a list (1,2,10-20).
+    #[arg(long, default_value = "1-247", value_name = "UNITS")]
+    units: String,
+    /// The baud rates to try, a list (9600,19200); default: --baud.
+    #[arg(
+        long = "bauds",
+        visible_alias = "baud-rates",
+        value_delimiter = ',',
+        value_name = "BAUD"
+    )]
+    bauds: Vec<u32>,
+    /// The parities to try, a list (even,none); default: --parity.
+    #[arg(long = "parities", value_delimiter = ',', value_name = "PARITY")]
+    parities: Vec<String>,
+    /// The response time in ms: how long each unit is given to start its answer
+    /// ([Modbus/USS] §3.4.3, Table 3-17; default 2000, the master's).
+    #[arg(long, value_name = "MS")]
+    response_timeout_ms: Option<u32>,
+}
+
+/// One unit that answered something.
+struct Found {
+    unit: u8,
+    settings: SerialSettings,
+    answer: Answer,
+}
+
+impl ScanArgs {
+    /// Run the scan.
+    pub async fn run(&self, conn: &Connection, out: &Output) -> Result<(), CliError> {
+        let units = parse_units(&self.units)?;
+        let settings = self.settings(conn)?;
+        let mut config = MasterConfig::default();
+        if let Some(ms) = self.response_timeout_ms {
+            config.response_timeout = si_core::Duration::from_millis(u64::from(ms));
+        }
+        config.retries = 0;
+        config.validate().map_err(CliError::bad_argument)?;
+        let bound = settings
+            .iter()
+            .map(|s| {
+                let mut c = config;
+                c.line.settings = *s;
+                let probe = scan::probe_bound(&c, PROBE_SLACK);
+                Duration::from_micros(probe.as_micros() * units.len() as u64) + OPEN_SLACK
+            })
+            .fold(Duration::ZERO, |a, b| a + b);
+        let list: Vec<String> = settings.iter().map(ToString::to_string).collect();
+        out.line(
+            &format!(
+                "scanning {} unit(s) at {} line setting(s) ({}): at most {:.1} s",
+                units.len(),
+                settings.len(),
+                list.join(", "),
+                bound.as_micros() as f64 / 1e6
+            ),
+            serde_json::json!({
+                "scan": "modbus", "units": units.len(), "settings": list,
+                "bound_ms": bound.as_millis(),
+            }),
+        );
+        let mut found = Vec::new();
+        let ctrl_c = tokio::signal::ctrl_c();
+        tokio::pin!(ctrl_c);
+        let mut interrupted = false;
+        'settings: for s in &settings {
+            let mut c = config;
+            c.line.settings = *s;
+            let port = conn.open_with(s).await?;
+            let master = si_modbus::tokio::Master::spawn(c, port)
+                .map_err(|e| CliError::new(e.to_string()))?;
+            for &unit in &units {
+                let outcome = tokio::select! {
+                    r = master.request(unit, &scan::PROBE) => r.map(|_| ()),
+                    _ = &mut ctrl_c => {
+                        interrupted = true;
+                        master.close().await.ok();
+                        break 'settings;
+                    }
+                };
+                let outcome = match outcome {
+                    Ok(()) => Ok(()),
+                    Err(e) => match e.status() {
+                        Some(status) => Err(status),
+                        None => return Err(CliError::new(e.to_string())),
+                    },
+                };
+                let answer = Answer::of(outcome);
+                if answer != Answer::Absent {
+                    let f = Found {
+                        unit,
+                        settings: *s,
+                        answer,
+                    };
+                    print_found(&f, out);
+                    found.push(f);
+                }
+            }
+            // Returns once the port is released, so the next setting can open it again.
+            master.close().await.ok();
+        }
+        let present = found.iter().filter(|f| f.answer == Answer::Present).count();
+        if !out.json {
+            println!(
+                "{present} unit(s) answered{}",
+                if interrupted { " (interrupted)" } else { "" }
+            );
+        }
+        if interrupted {
+            return Err(CliError::interrupted());
+        }
+        Ok(())
+    }
+
+    /// Every combination of the baud rates and parities asked for, the rest of the character
+    /// format from the line flags.
+    fn settings(&self, conn: &Connection) -> Result<Vec<SerialSettings>, CliError> {
+        let base = conn.settings()?;
+        let bauds = if self.bauds.is_empty() {
+            vec![base.baud()]
+        } else {
+            self.bauds.clone()
+        };
+        let parities: Vec<Parity> = if self.parities.is_empty() {
+            vec![base.parity()]
+        } else {
+            self.parities
+                .iter()
+                .map(|p| p.parse().map_err(CliError::bad_argument))
+                .collect::<Result<_, _>>()?
+        };
+        let mut all = Vec::new();
+        for &baud in &bauds {
+            for &parity in &parities {
+                all.push(
+                    SerialSettings::new(baud, 8, parity, base.stop_bits())
+                        .map_err(CliError::bad_argument)?,
+                );
+            }
+        }
+        Ok(all)
+    }
+}
+
+/// `unit 5  19200 8N1  answered`.
+fn print_found(f: &Found, out: &Output) {
+    let (what, status) = match f.answer {
+        Answer::Present => ("answered".to_owned(), None),
+        Answer::Garbled(s) => (
+            format!("something answered, garbled ({s}): another setting, or two at once?"),
+            Some(format!("{:04X}", s.code())),
+        ),
+        Answer::Absent => ("no answer".to_owned(), None),
+    };
+    out.line(
+        &format!("unit {:<3}  {}  {what}", f.unit, f.settings),
+        serde_json::json!({
+            "unit": f.unit,
+            "settings": f.settings.to_string(),
+            "answered": f.answer == Answer::Present,
+            "status": status,
+        }),
+    );
+}
+
+/// `1-247`, `1,2,10-20`: the units in order, each once; 1–247 ([Modbus serial] §2.2: 0 is
+/// the broadcast, 248–255 reserved).
+fn parse_units(text: &str) -> Result<Vec<u8>, CliError> {
+    let bad = || {
+        CliError::usage(format!(
+            "--units {text:?}: give units 1-247 as a range (1-247) or a list (1,2,10-20)"
+        ))
+    };
+    let mut units = Vec::new();
+    for part in text.split(',') {
+        let (a, b) = match part.split_once('-') {
+            Some((a, b)) => (a.trim(), b.trim()),
+            None => (part.trim(), part.trim()),
+        };
+        let a: u8 = a.parse().map_err(|_| bad())?;
+        let b: u8 = b.parse().map_err(|_| bad())?;
+        if a == 0 || b > 247 || a > b {
+            return Err(bad());
+        }
+        for u in a..=b {
+            if !units.contains(&u) {
+                units.push(u);
+            }
+        }
+    }
+    Ok(units)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn units_are_ranges_and_lists_within_1_to_247() {
+        assert_eq!(parse_units("1-3,2,10").unwrap(), vec![1, 2, 3, 10]);
+        assert_eq!(parse_units("1-247").unwrap().len(), 247);
+        for bad in ["0-5", "1-248", "5-1", "x"] {
+            assert!(parse_units(bad).is_err(), "{bad}");
+        }
+    }
+}
