@@ -9,7 +9,7 @@
     feature = "uss"
 ))]
 
-use si_serial::core::Duration;
+use si_serial::core::{delivery, Duration};
 use si_serial::rk512::frame::{Address, Coordination};
 use si_serial::uss::config::{MasterConfig, PollEntry};
 use si_serial::uss::frame::PkwWords;
@@ -27,7 +27,9 @@ fn elapsed_since(start: Instant) -> Duration {
 }
 
 /// 3964(R): every connection attempt (STX) waits QVZ for the partner's DLE; after the last
-/// one the job fails with 0703H. 6 × (QVZ 2 s + one character) = 12.007 s at 9600 8E1.
+/// one the job fails with 0703H. 6 × (QVZ 2 s + one character) = 12.007 s at 9600 8E1, plus,
+/// on a port whose delivery nobody declared (this in-memory pipe, a pty, a CH340), a USB
+/// adapter's assumed hold and one character per wait (`si_core::delivery`): 12.11 s.
 #[tokio::test(start_paused = true)]
 async fn a_3964r_send_to_a_silent_partner_ends_after_the_connection_attempts() {
     let config = r3964::Config::default();
@@ -39,9 +41,10 @@ async fn a_3964r_send_to_a_silent_partner_ends_after_the_connection_attempts() {
     assert_eq!(e.status(), Some(r3964::status::SETUP_TIMEOUT));
     let attempts = u64::from(config.connection_attempts);
     let per_attempt = config.ack_delay + config.settings.char_time();
+    let allowance = delivery::ASSUMED_HOLD + config.settings.char_time();
     assert!(took >= per_attempt.saturating_mul(attempts), "{took}");
     assert!(
-        took < per_attempt.saturating_mul(attempts) + Duration::from_millis(50),
+        took < (per_attempt + allowance).saturating_mul(attempts) + Duration::from_millis(50),
         "{took}"
     );
     assert_eq!(took.as_millis() / 1000, 12, "{took}");
@@ -65,8 +68,9 @@ async fn an_rk512_fetch_from_a_silent_partner_ends_with_the_3964r_attempts() {
 
 /// USS: a parameter job goes out with its node's poll, at most 1 + WDH (20) times, each time
 /// waiting the response timeout (20 ms) after the request; then it fails with 1408H ("node
-/// does not answer"). With one node at 9600 8E1 that is 21 polls, under a second, and within
-/// the config's own bound (`MasterConfig::job_bound`).
+/// does not answer"). With one node at 9600 8E1 that is 21 polls, each wait also allowing a USB
+/// adapter's assumed hold on this undeclared port (`si_core::delivery`): 1.18 s, within the
+/// config's own bound (`MasterConfig::job_bound`).
 #[tokio::test(start_paused = true)]
 async fn a_uss_parameter_job_to_a_silent_node_ends_after_its_repetitions() {
     let config = MasterConfig::new(vec![PollEntry::new(3, PkwWords::Four, 2)]);
@@ -84,7 +88,10 @@ async fn a_uss_parameter_job_to_a_silent_node_ends_after_its_repetitions() {
         took >= floor && took <= bound,
         "{took} not in {floor} … {bound}"
     );
-    assert!(took < Duration::from(StdDuration::from_secs(1)), "{took}");
+    assert!(
+        took < Duration::from(StdDuration::from_millis(1_200)),
+        "{took}"
+    );
     println!("USS silent node: {took} (bound {bound})");
 }
 

@@ -97,7 +97,9 @@ impl ScanArgs {
                     r = master.request(unit, &scan::PROBE) => r.map(|_| ()),
                     _ = &mut ctrl_c => {
                         interrupted = true;
-                        master.close().await.ok();
+                        // Dropped, not awaited: the summary must be out before the
+                        // process's own Ctrl-C handling ends it.
+                        drop(master);
                         break 'settings;
                     }
                 };
