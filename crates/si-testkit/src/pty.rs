@@ -18,10 +18,21 @@ pub struct PtyPair {
 /// A raw pty pair (`socat -d -d pty,rawer pty,rawer`: no echo, no line discipline, so bytes
 /// written to one end by a plain file write arrive unchanged), or `None` without socat.
 pub fn pty_pair() -> Option<PtyPair> {
+    let (socat, a, b) = socat_pair("pty,rawer")?;
+    Some(PtyPair {
+        a,
+        b,
+        _socat: socat,
+    })
+}
+
+/// `socat -d -d END END` with both ends' options `end` (e.g. `pty,raw,echo=0,ignoreeof`): the
+/// running socat (killed when dropped) and the two pty names read from its log, or `None`
+/// without socat. socat present but not making the pair is a failure.
+pub fn socat_pair(end: &str) -> Option<(Kill, String, String)> {
     if !have_socat() {
         return None;
     }
-    let end = "pty,rawer";
     let child = Command::new("socat")
         .args(["-d", "-d", end, end])
         .stderr(Stdio::piped())
@@ -41,13 +52,10 @@ pub fn pty_pair() -> Option<PtyPair> {
             names.push(line[i + 7..].trim().to_owned());
         }
     }
-    // Keep draining socat's log so it never blocks on a full pipe.
+    // Keep draining socat's log so it never blocks on a full pipe nor dies of SIGPIPE when it
+    // logs an end of file later.
     std::thread::spawn(move || for _ in lines {});
     let b = names.pop().expect("second pty");
     let a = names.pop().expect("first pty");
-    Some(PtyPair {
-        a,
-        b,
-        _socat: socat,
-    })
+    Some((socat, a, b))
 }

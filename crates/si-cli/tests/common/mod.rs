@@ -120,36 +120,9 @@ pub fn pty_pair_ignoreeof() -> Option<PtyPair> {
     socat_pty_pair("pty,raw,echo=0,ignoreeof")
 }
 
-/// Starts `socat -d -d END END` and reads the two pty names from its log. socat missing is a
-/// skip (a failure with `CI` set); socat present but not making the pair is always a failure.
+/// The pair of si-testkit's `socat -d -d END END` with both ends' options `end`.
 fn socat_pty_pair(end: &str) -> Option<PtyPair> {
-    if !have_socat() {
-        return None;
-    }
-    let child = Command::new("socat")
-        .args(["-d", "-d", end, end])
-        .stderr(Stdio::piped())
-        .stdout(Stdio::null())
-        .spawn()
-        .expect("spawn socat");
-    let mut socat = Kill(child);
-    let log = socat.0.stderr.take().expect("socat stderr");
-    let mut names = Vec::new();
-    let mut lines = BufReader::new(log).lines();
-    while names.len() < 2 {
-        let line = lines
-            .next()
-            .expect("socat ended before printing two pty names")
-            .expect("socat log line");
-        if let Some(i) = line.find("PTY is ") {
-            names.push(line[i + 7..].trim().to_owned());
-        }
-    }
-    // Keep draining socat's log so it never blocks on a full pipe nor dies of SIGPIPE when it
-    // logs an end of file later.
-    std::thread::spawn(move || for _ in lines {});
-    let b = names.pop().expect("second pty");
-    let a = names.pop().expect("first pty");
+    let (socat, a, b) = si_testkit::pty::socat_pair(end)?;
     Some(PtyPair { socat, a, b })
 }
 
