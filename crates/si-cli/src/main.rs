@@ -6,6 +6,7 @@
 //! protocol or I/O failure, 2 usage, 130 interrupted: [`error::EXIT_CODES`]); a protocol failure
 //! prints its STATUS.
 
+mod address_list;
 mod cmd;
 mod config_file;
 mod conn;

@@ -627,23 +627,8 @@ pub(super) fn refuse_keys(
 /// `broadcast`). At least one unit, or the line would serve nothing.
 pub fn parse_units(text: &str) -> Result<Vec<u8>, RangeError> {
     const RANGE: &str = "unit ids 1 … 255 as a list of N or N-M, e.g. 1-10,12";
-    let bad = || RangeError::new("units", RANGE, "", format!("{text:?}"));
-    let mut units = Vec::new();
-    for part in text.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let (a, b) = part.split_once('-').unwrap_or((part, part));
-        let a: u8 = a.trim().parse().map_err(|_| bad())?;
-        let b: u8 = b.trim().parse().map_err(|_| bad())?;
-        if a == 0 || b < a {
-            return Err(bad());
-        }
-        units.extend(a..=b);
-    }
-    if units.is_empty() {
-        return Err(bad());
-    }
-    units.sort_unstable();
-    units.dedup();
-    Ok(units)
+    crate::address_list::parse(text, 1, 255)
+        .ok_or_else(|| RangeError::new("units", RANGE, "", format!("{text:?}")))
 }
 
 #[cfg(test)]

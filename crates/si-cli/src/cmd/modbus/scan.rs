@@ -191,29 +191,11 @@ fn print_found(f: &Found, out: &Output) {
 /// `1-247`, `1,2,10-20`: the units in order, each once; 1–247 ([Modbus serial] §2.2: 0 is
 /// the broadcast, 248–255 reserved).
 fn parse_units(text: &str) -> Result<Vec<u8>, CliError> {
-    let bad = || {
+    crate::address_list::parse(text, 1, 247).ok_or_else(|| {
         CliError::usage(format!(
             "--units {text:?}: give units 1-247 as a range (1-247) or a list (1,2,10-20)"
         ))
-    };
-    let mut units = Vec::new();
-    for part in text.split(',') {
-        let (a, b) = match part.split_once('-') {
-            Some((a, b)) => (a.trim(), b.trim()),
-            None => (part.trim(), part.trim()),
-        };
-        let a: u8 = a.parse().map_err(|_| bad())?;
-        let b: u8 = b.parse().map_err(|_| bad())?;
-        if a == 0 || b > 247 || a > b {
-            return Err(bad());
-        }
-        for u in a..=b {
-            if !units.contains(&u) {
-                units.push(u);
-            }
-        }
-    }
-    Ok(units)
+    })
 }
 
 #[cfg(test)]

@@ -220,29 +220,11 @@ fn print_found(node: u8, settings: SerialSettings, answer: Answer, out: &Output)
 
 /// `0-31`, `0,1,5-9`: the nodes in order, each once; 0–31 (USS addresses, [USS spec] §4.3).
 fn parse_nodes(text: &str) -> Result<Vec<u8>, CliError> {
-    let bad = || {
+    crate::address_list::parse(text, 0, 31).ok_or_else(|| {
         CliError::usage(format!(
             "--nodes {text:?}: give nodes 0-31 as a range (0-31) or a list (0,1,5-9)"
         ))
-    };
-    let mut nodes = Vec::new();
-    for part in text.split(',') {
-        let (a, b) = match part.split_once('-') {
-            Some((a, b)) => (a.trim(), b.trim()),
-            None => (part.trim(), part.trim()),
-        };
-        let a: u8 = a.parse().map_err(|_| bad())?;
-        let b: u8 = b.parse().map_err(|_| bad())?;
-        if b > 31 || a > b {
-            return Err(bad());
-        }
-        for n in a..=b {
-            if !nodes.contains(&n) {
-                nodes.push(n);
-            }
-        }
-    }
-    Ok(nodes)
+    })
 }
 
 #[cfg(test)]
