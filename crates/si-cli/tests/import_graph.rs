@@ -41,47 +41,6 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
-/// The code without `//` comments (doc comments name modules without importing them).
-fn code(text: &str) -> String {
-    text.lines()
-        .map(|l| match l.find("//") {
-            Some(i) => &l[..i],
-            None => l,
-        })
-        .collect::<Vec<_>>()
-        .join("\n")
-}
-
-/// `a::{b::C, d}` → `a::b::C`, `a::d`.
-fn expand(tree: &str) -> Vec<String> {
-    let tree = tree.trim();
-    let Some(open) = tree.find('{') else {
-        return vec![tree.to_owned()];
-    };
-    let prefix = &tree[..open];
-    let inner = &tree[open + 1..tree.rfind('}').unwrap_or(tree.len())];
-    let mut parts = Vec::new();
-    let (mut depth, mut start) = (0, 0);
-    for (i, ch) in inner.char_indices() {
-        match ch {
-            '{' => depth += 1,
-            '}' => depth -= 1,
-            ',' if depth == 0 => {
-                parts.push(&inner[start..i]);
-                start = i + 1;
-            }
-            _ => {}
-        }
-    }
-    parts.push(&inner[start..]);
-    parts
-        .into_iter()
-        .filter(|p| !p.trim().is_empty())
-        .flat_map(expand)
-        .map(|p| format!("{prefix}{p}"))
-        .collect()
-}
-
 /// Every `crate::…` path the code names, without the `crate::`.
 fn crate_paths(code: &str) -> Vec<String> {
     let mut paths = Vec::new();
@@ -95,7 +54,7 @@ fn crate_paths(code: &str) -> Vec<String> {
                 .find(|c: char| !(c.is_alphanumeric() || c == '_' || c == ':'))
                 .unwrap_or(after.len())
         };
-        paths.extend(expand(&after[..end]));
+        paths.extend(pairs::expand(&after[..end]));
         rest = &after[end..];
     }
     paths
@@ -119,7 +78,7 @@ fn graph(files: &[(String, String)]) -> Graph {
     let mut g = Graph::new();
     for (module, text) in files {
         let deps = g.entry(module.clone()).or_default();
-        for path in crate_paths(&code(text)) {
+        for path in crate_paths(&pairs::strip(text)) {
             let target = resolve(&path, &modules);
             if &target != module {
                 deps.insert(target);

@@ -231,7 +231,7 @@ fn declared_children(code: &str) -> BTreeSet<String> {
 }
 
 /// `a::{b::C, d as e}` → `a::b::C`, `a::d as e`.
-fn expand(tree: &str) -> Vec<String> {
+pub fn expand(tree: &str) -> Vec<String> {
     let tree = tree.trim();
     let Some(open) = tree.find('{') else {
         return vec![tree.split_whitespace().collect::<Vec<_>>().join(" ")];
