@@ -21,6 +21,7 @@ mod preset;
 mod profile;
 mod radix;
 mod scenario;
+mod setting_sweep;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use error::CliError;

@@ -7,7 +7,7 @@ use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::Args;
-use si_core::{Duration, Parity, SerialSettings};
+use si_core::{Duration, SerialSettings};
 use si_modbus::scan::{self, Answer};
 use si_modbus::MasterConfig;
 
@@ -24,17 +24,8 @@ pub struct ScanArgs {
     /// The units to ask: a range (1-247) or a list (1,2,10-20).
     #[arg(long, default_value = "1-247", value_name = "UNITS")]
     units: String,
-    /// The baud rates to try, a list (9600,19200); default: --baud.
-    #[arg(
-        long = "bauds",
-        visible_alias = "baud-rates",
-        value_delimiter = ',',
-        value_name = "BAUD"
-    )]
-    bauds: Vec<u32>,
-    /// The parities to try, a list (even,none); default: --parity.
-    #[arg(long = "parities", value_delimiter = ',', value_name = "PARITY")]
-    parities: Vec<String>,
+    #[command(flatten)]
+    sweep: crate::setting_sweep::Sweep,
     /// The response time in ms: how long each unit is given to start its answer
     /// ([Modbus/USS] §3.4.3, Table 3-17; default 2000, the master's).
     #[arg(long, value_name = "MS")]
@@ -140,30 +131,9 @@ impl ScanArgs {
     /// Every combination of the baud rates and parities asked for, the rest of the character
     /// format from the line flags.
     fn settings(&self, conn: &Connection) -> Result<Vec<SerialSettings>, CliError> {
-        let base = conn.settings()?;
-        let bauds = if self.bauds.is_empty() {
-            vec![base.baud()]
-        } else {
-            self.bauds.clone()
-        };
-        let parities: Vec<Parity> = if self.parities.is_empty() {
-            vec![base.parity()]
-        } else {
-            self.parities
-                .iter()
-                .map(|p| p.parse().map_err(CliError::bad_argument))
-                .collect::<Result<_, _>>()?
-        };
-        let mut all = Vec::new();
-        for &baud in &bauds {
-            for &parity in &parities {
-                all.push(
-                    SerialSettings::new(baud, 8, parity, base.stop_bits())
-                        .map_err(CliError::bad_argument)?,
-                );
-            }
-        }
-        Ok(all)
+        // Modbus RTU characters have 8 data bits ([Modbus serial] §2.5.1).
+        self.sweep
+            .settings(conn.settings()?, 8, &si_core::BAUD_RATES)
     }
 }
 

@@ -9,7 +9,7 @@ use crate::output::Output;
 use clap::Args;
 use si_3964r::frame::STX;
 use si_3964r::probe::Reply;
-use si_core::{Parity, SerialSettings};
+use si_core::SerialSettings;
 use std::time::Duration;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
@@ -19,12 +19,8 @@ const OPEN_SLACK: Duration = Duration::from_millis(400);
 /// `si 3964r probe` arguments.
 #[derive(Debug, Clone, Args)]
 pub struct ProbeArgs {
-    /// The baud rates to try, a list (9600,19200); default: --baud.
-    #[arg(long = "bauds", value_delimiter = ',', value_name = "BAUD")]
-    bauds: Vec<u32>,
-    /// The parities to try, a list (even,none); default: --parity.
-    #[arg(long = "parities", value_delimiter = ',', value_name = "PARITY")]
-    parities: Vec<String>,
+    #[command(flatten)]
+    sweep: crate::setting_sweep::Sweep,
     /// Acknowledgement delay time QVZ in ms: how long the partner has to answer (default
     /// 2000, the 3964(R) default, [ET200S SI] §2.7).
     #[arg(long, default_value_t = 2000, value_name = "MS")]
@@ -120,28 +116,7 @@ impl ProbeArgs {
     /// Every combination of the baud rates and parities asked for.
     fn settings(&self, conn: &Connection) -> Result<Vec<SerialSettings>, CliError> {
         let base = conn.settings()?;
-        let bauds = if self.bauds.is_empty() {
-            vec![base.baud()]
-        } else {
-            self.bauds.clone()
-        };
-        let parities: Vec<Parity> = if self.parities.is_empty() {
-            vec![base.parity()]
-        } else {
-            self.parities
-                .iter()
-                .map(|p| p.parse().map_err(CliError::bad_argument))
-                .collect::<Result<_, _>>()?
-        };
-        let mut all = Vec::new();
-        for &baud in &bauds {
-            for &parity in &parities {
-                all.push(
-                    SerialSettings::new(baud, base.data_bits(), parity, base.stop_bits())
-                        .map_err(CliError::bad_argument)?,
-                );
-            }
-        }
-        Ok(all)
+        self.sweep
+            .settings(base, base.data_bits(), &si_core::BAUD_RATES)
     }
 }

@@ -7,7 +7,7 @@ use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::Args;
-use si_core::{Duration, Instant, Parity, SerialSettings};
+use si_core::{Duration, Instant, SerialSettings};
 use si_uss::config::{MasterConfig, PollEntry, MAX_ENTRIES, USS_BAUD_RATES};
 use si_uss::frame::PkwWords;
 use si_uss::master::{Event, Master};
@@ -31,12 +31,8 @@ pub struct ScanArgs {
     /// The nodes to ask: a range (0-31) or a list (0,1,5-9).
     #[arg(long, default_value = "0-31", value_name = "NODES")]
     nodes: String,
-    /// The baud rates to try, a list (9600,19200); default: --baud.
-    #[arg(long = "bauds", value_delimiter = ',', value_name = "BAUD")]
-    bauds: Vec<u32>,
-    /// The parities to try, a list (even,none); default: --parity.
-    #[arg(long = "parities", value_delimiter = ',', value_name = "PARITY")]
-    parities: Vec<String>,
+    #[command(flatten)]
+    sweep: crate::setting_sweep::Sweep,
     /// PKW words of the drives' net-data structure: 3 or 4.
     #[arg(long, default_value_t = 4)]
     pkw_words: u8,
@@ -165,35 +161,7 @@ impl ScanArgs {
     /// format from the line flags.
     fn settings(&self, conn: &Connection) -> Result<Vec<SerialSettings>, CliError> {
         let base = conn.settings_for(&USS_BAUD_RATES)?;
-        let bauds = if self.bauds.is_empty() {
-            vec![base.baud()]
-        } else {
-            self.bauds.clone()
-        };
-        let parities: Vec<Parity> = if self.parities.is_empty() {
-            vec![base.parity()]
-        } else {
-            self.parities
-                .iter()
-                .map(|p| p.parse().map_err(CliError::bad_argument))
-                .collect::<Result<_, _>>()?
-        };
-        let mut all = Vec::new();
-        for &baud in &bauds {
-            for &parity in &parities {
-                all.push(
-                    SerialSettings::with_rates(
-                        baud,
-                        base.data_bits(),
-                        parity,
-                        base.stop_bits(),
-                        &USS_BAUD_RATES,
-                    )
-                    .map_err(CliError::bad_argument)?,
-                );
-            }
-        }
-        Ok(all)
+        self.sweep.settings(base, base.data_bits(), &USS_BAUD_RATES)
     }
 }
 
