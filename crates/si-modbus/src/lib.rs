@@ -104,6 +104,7 @@
 pub mod config;
 pub mod fb;
 pub mod frame;
+mod job_end;
 pub mod master;
 pub mod mbap;
 pub mod monitor;
@@ -115,6 +116,7 @@ pub mod serve_map;
 pub mod simatic;
 pub mod slave;
 pub mod status;
+pub mod store;
 mod transmitter;
 
 #[cfg(feature = "tokio")]

@@ -42,11 +42,17 @@ use std::collections::VecDeque;
 /// A finished job: the request and, unless it was a broadcast, the checked response.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Completion {
+    job: JobId,
     request: Adu,
     response: Option<Adu>,
 }
 
 impl Completion {
+    /// The job this completes (the id [`Master::request`] returned).
+    pub fn job(&self) -> JobId {
+        self.job
+    }
+
     /// The slave address the request went to (0 for a broadcast).
     pub fn unit(&self) -> u8 {
         self.request.unit()
@@ -106,6 +112,8 @@ pub enum MasterEvent {
     Completed(Completion),
     /// The job failed with the manual's STATUS (an exception response is 0E61H–0E67H).
     Failed {
+        /// The job (the id [`Master::request`] returned).
+        job: JobId,
         /// The slave address of the job.
         unit: u8,
         /// Its function code.
@@ -194,6 +202,9 @@ pub struct Master {
     pub(crate) fb_job: Option<JobId>,
     /// See `fb_job`.
     pub(crate) fb_reception: Option<Result<Completion, Status>>,
+    /// The id of the running job (or of the last one), named by its end event even when an FB
+    /// reset made `jobs` forget it.
+    job_id: JobId,
 }
 
 impl Master {
@@ -213,6 +224,7 @@ impl Master {
             guard: QuietGuard::default(),
             out,
             jobs: JobSlot::default(),
+            job_id: JobId(0),
             fb_job: None,
             fb_reception: None,
         })
@@ -302,9 +314,7 @@ impl Master {
             return Err(RequestError::Busy);
         }
         let adu = Self::check_job(unit, request)?;
-        let id = self.jobs.start();
-        self.start(now, adu);
-        Ok(id)
+        Ok(self.start(now, adu))
     }
 
     /// Start a job for a function code this crate does not know, passed through as it is (a
@@ -324,9 +334,19 @@ impl Master {
             return Err(RequestError::Busy);
         }
         let adu = pass_through_adu(unit_pdu)?;
-        let id = self.jobs.start();
-        self.start(now, adu);
-        Ok(id)
+        Ok(self.start(now, adu))
+    }
+
+    /// Start a job checked beforehand ([`CheckedRequest`]); refused only while a job runs.
+    pub(crate) fn request_checked(
+        &mut self,
+        now: Instant,
+        request: CheckedRequest,
+    ) -> Result<JobId, RequestError> {
+        if self.job.is_some() {
+            return Err(RequestError::Busy);
+        }
+        Ok(self.start(now, request.0))
     }
 
     /// The outcome of job `id` once it has ended: the completion, or the failure's STATUS.
@@ -340,8 +360,10 @@ impl Master {
         self.jobs.running()
     }
 
-    /// Start the job of request `adu` at `now`.
-    fn start(&mut self, now: Instant, adu: Adu) {
+    /// Start the job of request `adu` at `now`: its id.
+    fn start(&mut self, now: Instant, adu: Adu) -> JobId {
+        let id = self.jobs.start();
+        self.job_id = id;
         self.job = Some((adu, 1 + self.config.retries));
         self.attempts = Attempts::default();
         // A request the quiet guard holds has its bound counted from the guard's end.
@@ -351,6 +373,7 @@ impl Master {
             .map_or(Duration::ZERO, |b| b.saturating_since(now));
         self.job_deadline = Some(now + held + self.config.job_bound());
         self.attempt(now);
+        id
     }
 
     /// The checks of [Modbus/USS] §3.4.5–§3.4.16 a job must pass before it is started (0E43H
@@ -452,6 +475,7 @@ impl Master {
             .job
             .map_or((0, 0), |(a, _)| (a.unit(), a.as_bytes()[1]));
         self.finish(MasterEvent::Failed {
+            job: self.job_id,
             unit,
             function,
             status,
@@ -518,6 +542,7 @@ impl Master {
         match check_response(request.as_bytes(), response) {
             Ok(()) => {
                 let completion = Completion {
+                    job: self.job_id,
                     request,
                     response: Some(frame.adu),
                 };
@@ -560,6 +585,7 @@ impl Master {
             State::Turnaround { until } if now >= until => {
                 if let Some((request, _)) = self.job {
                     self.finish(MasterEvent::Completed(Completion {
+                        job: self.job_id,
                         request,
                         response: None,
                     }));
@@ -612,6 +638,25 @@ const PASS_THROUGH_MAX: usize = 256;
 /// CRC; refused with 0E42H (invalid function) when it is shorter than unit + function code,
 /// with 0E43H for a broadcast (whether the function may be broadcast is unknown), and with
 /// 0E46H when it would not fit an RTU frame of [`PASS_THROUGH_MAX`] bytes.
+/// A request that passed the checks a job must pass before it starts
+/// ([`Master::check_job`], or those of [`Master::request_pass_through`]): the job the async
+/// handle hands the driver ([`si_core::job::JobEnd`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CheckedRequest(Adu);
+
+impl CheckedRequest {
+    /// `request` to `unit`, checked as [`Master::request`] checks it.
+    pub fn new(unit: u8, request: &Request<'_>) -> Result<Self, RequestError> {
+        Master::check_job(unit, request).map(CheckedRequest)
+    }
+
+    /// A request passed through as it is (`unit | PDU` without CRC), checked as
+    /// [`Master::request_pass_through`] checks it.
+    pub fn pass_through(unit_pdu: &[u8]) -> Result<Self, RequestError> {
+        pass_through_adu(unit_pdu).map(CheckedRequest)
+    }
+}
+
 fn pass_through_adu(unit_pdu: &[u8]) -> Result<Adu, RequestError> {
     match unit_pdu {
         [] | [_] => Err(RequestError::Invalid(status::INVALID_FUNCTION)),

@@ -1,16 +1,15 @@
 //! The async RTU master handle: the engine runs in a driver task that owns the port, and each
-//! job is sent there and its outcome routed back (si-core's driver, "Job routing").
+//! job is sent there and its outcome routed back (si-core's driver, `Caller::run_job`).
 
 use super::client::{unexpected, Client};
 use super::error::{Error, Job};
 use super::lifetime::Lifetime;
 use crate::config::MasterConfig;
 use crate::frame::{Request, Response};
-use crate::master::{self, Attempts, Completion, MasterEvent, RequestError};
-use si_core::driver::{self, Caller, DriverOptions, Start, Transport};
+use crate::master::{self, Attempts, CheckedRequest, Completion, MasterEvent};
+use si_core::driver::{self, Caller, DriverOptions, JobError, Transport};
 use si_core::{Instant, Status};
 use std::collections::VecDeque;
-use std::ops::ControlFlow::{Break, Continue};
 use std::sync::Mutex;
 
 /// How many line diagnostics (0E50H, line errors between jobs) a handle keeps; older ones are
@@ -107,27 +106,20 @@ impl Master {
     /// (its outcome is dropped), so every call gets its own job's outcome.
     pub async fn request(&self, unit: u8, request: &Request<'_>) -> Result<Completion, Error> {
         let job = Job::of(unit, request);
-        let adu = master::Master::check_job(unit, request)
-            .map_err(|reason| Error::Refused { job, reason })?;
+        let checked =
+            CheckedRequest::new(unit, request).map_err(|reason| Error::Refused { job, reason })?;
+        self.run(job, checked).await
+    }
+
+    /// Run a checked job in the driver ([`Caller::run_job`]; its end is recognised by the
+    /// engine's [`JobEnd`](si_core::job::JobEnd) impl), naming `job` in its error.
+    async fn run(&self, job: Job, checked: CheckedRequest) -> Result<Completion, Error> {
         self.keep_diagnostics();
-        let start = move |m: &mut master::Master, now| {
-            let started = match adu.decode_request() {
-                Ok((_, r)) => m.request(now, unit, &r),
-                Err(_) => Err(RequestError::Invalid(crate::status::INVALID_FUNCTION)),
-            };
-            match started {
-                Ok(id) => Start::Running(id),
-                Err(RequestError::Busy) => Start::Busy,
-                Err(reason) => Start::Ended(Err(Error::Refused { job, reason })),
-            }
-        };
-        // One job at a time: the job's end is the next Completed or Failed event.
-        let done = move |_: &_, event| match event {
-            MasterEvent::Completed(c) => Break(Ok(c)),
-            MasterEvent::Failed { status, .. } => Break(Err(Error::failed(job, status))),
-            other @ MasterEvent::Diagnostic(_) => Continue(other),
-        };
-        self.caller.job(start, done).await?
+        self.caller.run_job(checked).await.map_err(|e| match e {
+            JobError::Refused(reason) => Error::Refused { job, reason },
+            JobError::Failed(status) => Error::failed(job, status),
+            JobError::Stopped => Error::Stopped,
+        })
     }
 
     /// [`request`](Self::request), and what the job's attempts met ([`Attempts`]): a job that
@@ -161,22 +153,9 @@ impl Master {
             function: unit_pdu.get(1).copied().unwrap_or(0),
             address: None,
         };
-        self.keep_diagnostics();
-        let unit_pdu = unit_pdu.to_vec();
-        let start = move |m: &mut master::Master, now| match m.request_pass_through(now, &unit_pdu)
-        {
-            Ok(id) => Start::Running(id),
-            Err(RequestError::Busy) => Start::Busy,
-            Err(reason) => Start::Ended(Err(Error::Refused { job, reason })),
-        };
-        let done = move |_: &_, event| match event {
-            MasterEvent::Completed(c) => Break(Ok(c)),
-            MasterEvent::Failed { status, .. } => Break(Err(Error::failed(job, status))),
-            other @ MasterEvent::Diagnostic(_) => Continue(other),
-        };
-        let result = match self.caller.job(start, done).await {
-            Ok(r) => r,
-            Err(e) => Err(e.into()),
+        let result = match CheckedRequest::pass_through(unit_pdu) {
+            Ok(checked) => self.run(job, checked).await,
+            Err(reason) => Err(Error::Refused { job, reason }),
         };
         if matches!(result, Err(Error::Refused { .. } | Error::Stopped)) {
             return (result, Attempts::default());

@@ -130,6 +130,7 @@ fn s2_2_no_cts_within_the_data_output_wait_time_fails_the_job_with_0818() {
         vec![
             Out::Rts(false),
             Out::Event(MasterEvent::Failed {
+                job: si_core::job::JobId(1),
                 unit: 1,
                 function: 3,
                 status: status::DSR_CTS_OFF
@@ -147,6 +148,7 @@ fn s2_2_a_request_while_dsr_is_off_fails_at_once_and_never_raises_rts() {
     assert_eq!(
         drain(&mut m),
         vec![Out::Event(MasterEvent::Failed {
+            job: si_core::job::JobId(1),
             unit: 1,
             function: 3,
             status: status::DSR_CTS_OFF
@@ -166,6 +168,7 @@ fn s2_2_dsr_dropping_aborts_the_reception_of_a_response() {
     m.handle_signals(ms(41), signals(false, true));
     let outs = drain(&mut m);
     assert!(outs.contains(&Out::Event(MasterEvent::Failed {
+        job: si_core::job::JobId(1),
         unit: 1,
         function: 3,
         status: status::DSR_CTS_OFF
@@ -188,6 +191,7 @@ fn master_after_tx_done() -> Master {
 }
 
 const ABORTED: MasterEvent = MasterEvent::Failed {
+    job: si_core::job::JobId(1),
     unit: 1,
     function: 3,
     status: status::DSR_CTS_OFF,
@@ -236,6 +240,7 @@ fn s2_2_dsr_dropping_after_a_broadcast_aborts_it_during_the_turnaround_delay() {
     assert_eq!(
         drain(&mut m),
         vec![Out::Event(MasterEvent::Failed {
+            job: si_core::job::JobId(1),
             unit: 0,
             function: 6,
             status: status::DSR_CTS_OFF

@@ -376,6 +376,7 @@ fn s4_4_extension_length_response_with_a_bad_crc_ends_at_the_gap_with_0e57h() {
     assert_eq!(
         sim.take_events(m),
         vec![MasterEvent::Failed {
+            job: si_core::job::JobId(1),
             unit: 1,
             function: 3,
             status: status::RESPONSE_CRC
@@ -398,6 +399,7 @@ fn s4_4_extension_length_response_with_another_function_code_ends_at_the_gap_wit
     assert_eq!(
         sim.take_events(m),
         vec![MasterEvent::Failed {
+            job: si_core::job::JobId(1),
             unit: 1,
             function: 3,
             status: status::WRONG_FUNCTION

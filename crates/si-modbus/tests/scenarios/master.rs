@@ -93,6 +93,7 @@ fn s3_8_response_timeout_is_0830h_after_the_response_time() {
     assert_eq!(
         events,
         vec![MasterEvent::Failed {
+            job: si_core::job::JobId(1),
             unit: 1,
             function: 3,
             status: status::RESPONSE_TIMEOUT
@@ -124,6 +125,7 @@ fn s3_8_extension_retries_resend_before_failing() {
     assert_eq!(
         sim.take_events(m),
         vec![MasterEvent::Failed {
+            job: si_core::job::JobId(1),
             unit: 1,
             function: 3,
             status: status::RESPONSE_TIMEOUT
@@ -199,6 +201,7 @@ fn master_with_partner_on(mode: Mode, interface: Interface) -> PartnerRig {
 
 fn failed(status: si_core::Status) -> Vec<MasterEvent> {
     vec![MasterEvent::Failed {
+        job: si_core::job::JobId(1),
         unit: 1,
         function: 3,
         status,
@@ -313,6 +316,7 @@ fn s4_4_echo_error_is_0e56h() {
     assert_eq!(
         sim.take_events(m),
         vec![MasterEvent::Failed {
+            job: si_core::job::JobId(1),
             unit: 1,
             function: 6,
             status: status::ECHO_WRONG
