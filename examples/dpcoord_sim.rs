@@ -1,11 +1,12 @@
-//! One user program, two transports: S_SEND and S_RCV (si-core's `job::Channel`) over any
+//! One user program, two transports: S_SEND and S_RCV (si-core's `fb::Channel`) over any
 //! `JobPort`, run first directly on two 3964(R) links (a host with its own
 //! serial port), then through the DP windows of two simulated ET 200S SI modules that run
 //! 3964(R) on their line ([ET200S SI 2005] §2.12, §2.10).
 //!
 //! `cargo run --example dpcoord_sim`
 
-use si_serial::core::job::{Channel, FramePort};
+use si_serial::core::fb::Channel;
+use si_serial::core::job::FramePort;
 use si_serial::core::{Duration, Instant, SerialSettings};
 use si_serial::dp_coord::line::EngineSerial;
 use si_serial::dp_coord::module::Module;

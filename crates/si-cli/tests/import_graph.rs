@@ -218,13 +218,6 @@ fn workspace_crates() -> Vec<(String, PathBuf)> {
 /// rewrite is merged (the test fails on a pair listed here that no longer exists, so the list
 /// cannot go stale).
 const KNOWN_PAIRS: &[(&str, &str, &str)] = &[
-    // Helper "handles" rewrites job.rs (the outcome path), helper "v24" fb.rs: the job layer
-    // names S_SEND/S_RCV for its docs and tests while the FBs run over the job layer.
-    ("si-core", "fb.rs", "job.rs"),
-    // Helper "handles" owns the ports: the Linux RS-485 control type and the termios mode.
-    ("si-core", "port/linux.rs", "port/stream.rs"),
-    // Helper "modbus": the slave's store and the request execution call each other.
-    ("si-modbus", "serve.rs", "slave.rs"),
     // The gateway moves out in a later issue.
     (
         "si-cli",

@@ -350,6 +350,38 @@ impl SRcv {
     }
 }
 
+/// One S_SEND and one S_RCV instance: the user program's "channel" to a partner, driven the
+/// same way whether the port is a line engine on the host's own port or the window host of an
+/// ET 200S SI module. The port is passed in on every call (engines live inside a simulator or a
+/// driver and are lent for one call), so one program is written once:
+///
+/// ```
+/// use si_core::fb::Channel;
+/// use si_core::job::FramePort;
+/// use si_core::Instant;
+///
+/// /// Forwards every received frame back to the partner.
+/// fn echo<P: FramePort>(ch: &mut Channel, port: &mut P, now: Instant, buf: &mut [u8; 256], pending: &mut Option<usize>) {
+///     let r = ch.s_rcv.call(port, now, true, false, buf);
+///     if r.ndr {
+///         *pending = Some(r.len);
+///     }
+///     if let Some(len) = *pending {
+///         let d = ch.s_send.call(port, now, true, false, &buf[..len]);
+///         if d.done || d.error {
+///             *pending = None;
+///         }
+///     }
+/// }
+/// ```
+#[derive(Debug, Default)]
+pub struct Channel {
+    /// The S_SEND instance.
+    pub s_send: SSend,
+    /// The S_RCV instance.
+    pub s_rcv: SRcv,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

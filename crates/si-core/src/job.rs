@@ -6,9 +6,8 @@
 //! the RK 512 station, the Modbus master (for the S_SEND/S_RCV layouts of
 //! [Modbus/USS] §3.4.2, §3.4.5–§3.4.16) and the window host of si-dp-coord. S_SEND and S_RCV are
 //! written once, in [`crate::fb`], generic over it, so one user program drives an engine on the
-//! host's own port or a module through the DP window (see [`Channel`]).
+//! host's own port or a module through the DP window (see [`Channel`](crate::fb::Channel)).
 
-use crate::fb::{SRcv, SSend};
 use crate::{Instant, Status};
 use bytes::Bytes;
 use core::fmt;
@@ -159,37 +158,6 @@ pub type JobEnded<E> = (JobId, Result<<E as JobEnd>::Output, <E as JobEnd>::Fail
 pub trait FramePort: JobPort<Job: From<Bytes>> {}
 
 impl<P: JobPort<Job: From<Bytes>>> FramePort for P {}
-
-/// One S_SEND and one S_RCV instance: the user program's "channel" to a partner, driven the
-/// same way whether the port is a line engine on the host's own port or the window host of an
-/// ET 200S SI module. The port is passed in on every call (engines live inside a simulator or a
-/// driver and are lent for one call), so one program is written once:
-///
-/// ```
-/// use si_core::job::{Channel, FramePort};
-/// use si_core::Instant;
-///
-/// /// Forwards every received frame back to the partner.
-/// fn echo<P: FramePort>(ch: &mut Channel, port: &mut P, now: Instant, buf: &mut [u8; 256], pending: &mut Option<usize>) {
-///     let r = ch.s_rcv.call(port, now, true, false, buf);
-///     if r.ndr {
-///         *pending = Some(r.len);
-///     }
-///     if let Some(len) = *pending {
-///         let d = ch.s_send.call(port, now, true, false, &buf[..len]);
-///         if d.done || d.error {
-///             *pending = None;
-///         }
-///     }
-/// }
-/// ```
-#[derive(Debug, Default)]
-pub struct Channel {
-    /// The S_SEND instance.
-    pub s_send: SSend,
-    /// The S_RCV instance.
-    pub s_rcv: SRcv,
-}
 
 /// The job bookkeeping of an engine that runs one job at a time: it hands out the ids and keeps
 /// the last outcome for [`JobPort::job_outcome`] until the next job ends.

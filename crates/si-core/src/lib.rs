@@ -11,7 +11,7 @@
 //! - [`Status`]: the 16-bit STATUS word of the S7 function blocks, with the manual's text;
 //! - [`Engine`] and [`Output`]: the Sans-IO contract (see [`sansio`] for the drain rule);
 //! - [`job`]: the job layer: [`JobId`], the [`JobPort`] trait every engine with jobs implements,
-//!   and [`job::Channel`] (one S_SEND and one S_RCV);
+//!   and [`fb::Channel`] (one S_SEND and one S_RCV);
 //! - [`fb`]: edge detection, one-call pulses, and S_SEND / S_RCV written once over [`JobPort`];
 //! - [`fb_v24`]: S_VSTAT, S_VSET, S_XON, S_RTS and S_V24 written once over a [`fb_v24::V24Port`]
 //!   (the ASCII link and the coordination window's host);

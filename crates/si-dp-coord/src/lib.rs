@@ -15,7 +15,7 @@
 //!   V.24, parameters, with segmenting, go-back on the error bit, back-off on foreign job codes and
 //!   a job watchdog. Every job ends in exactly one completion.
 //! * [`fb`]: the host as a [`si_core::JobPort`], so si-core's S_SEND and S_RCV (and its
-//!   [`si_core::job::Channel`]) run through the window as on a line engine; S_VSTAT, S_VSET,
+//!   [`si_core::fb::Channel`]) run through the window as on a line engine; S_VSTAT, S_VSET,
 //!   S_XON, S_RTS, S_V24 with S7 call semantics over the host.
 //! * [`module`]: the module's engine, with its serial line behind the [`module::SerialSide`]
 //!   trait, for simulations and tests (and gateways that play the module).

@@ -4,8 +4,8 @@
 //! ([Modbus/USS] §3.5.6–§3.5.14, Table 3-12).
 
 use crate::frame::{fc, Bits, DecodeErrorKind, ExceptionCode, Registers, Request, Response};
-use crate::slave::{Store, StoreError};
 use crate::status::slave as codes;
+use crate::store::{Store, StoreError};
 use si_core::Status;
 
 /// Room for the data of any read response: 255 bytes of bits or 254 of registers.

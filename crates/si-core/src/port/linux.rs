@@ -4,7 +4,6 @@
 //! handle).
 
 use super::icount::{self, LineCounters};
-use super::stream::TermiosMode;
 use crate::serial::{Parity, SerialSettings};
 use crate::time::Duration;
 use std::io;
@@ -115,4 +114,28 @@ impl Control {
             cmspar: control(libc::CMSPAR),
         })
     }
+}
+
+/// The termios flags that decide how line errors reach a reader and which parity the line
+/// has (termios(3)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TermiosMode {
+    /// `PARMRK`: bad characters and BREAKs are marked in the stream.
+    pub parmrk: bool,
+    /// `INPCK`: received parity is checked.
+    pub inpck: bool,
+    /// `IGNPAR`: bad characters are dropped silently.
+    pub ignpar: bool,
+    /// `BRKINT`: a BREAK flushes the queues and signals the process.
+    pub brkint: bool,
+    /// `IGNBRK`: BREAKs are dropped silently.
+    pub ignbrk: bool,
+    /// `ISTRIP`: the eighth bit is cleared.
+    pub istrip: bool,
+    /// `PARENB`: a parity bit is sent and received.
+    pub parenb: bool,
+    /// `PARODD`: odd parity (with `CMSPAR`: mark).
+    pub parodd: bool,
+    /// `CMSPAR`: the parity bit is fixed, mark or space.
+    pub cmspar: bool,
 }

@@ -62,6 +62,8 @@ pub use icount::{line_counters, LineCounters};
 pub use info::{
     describe, latency_timer, list, set_latency_timer, PortInfo, UsbIds, LATENCY_TIMER_MS,
 };
+#[cfg(target_os = "linux")]
+pub use linux::TermiosMode;
 pub use rs485::{Rs485, Rs485Mode, Rs485ModeError};
 pub use stream::SerialPort;
 pub use tx_enable::{TxEnable, TxEnableOutput};

@@ -153,7 +153,7 @@ impl SerialPort {
     /// The flags the kernel holds for this port now, read back with `TCGETS2` (Linux): how a
     /// test or a doubtful user sees that line-error marking and the parity are set.
     #[cfg(target_os = "linux")]
-    pub fn termios_mode(&self) -> io::Result<TermiosMode> {
+    pub fn termios_mode(&self) -> io::Result<super::TermiosMode> {
         match &self.control {
             Some(control) => control.termios_mode(),
             None => Err(io::Error::new(
@@ -162,31 +162,6 @@ impl SerialPort {
             )),
         }
     }
-}
-
-/// The termios flags that decide how line errors reach a reader and which parity the line
-/// has (termios(3)).
-#[cfg(target_os = "linux")]
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct TermiosMode {
-    /// `PARMRK`: bad characters and BREAKs are marked in the stream.
-    pub parmrk: bool,
-    /// `INPCK`: received parity is checked.
-    pub inpck: bool,
-    /// `IGNPAR`: bad characters are dropped silently.
-    pub ignpar: bool,
-    /// `BRKINT`: a BREAK flushes the queues and signals the process.
-    pub brkint: bool,
-    /// `IGNBRK`: BREAKs are dropped silently.
-    pub ignbrk: bool,
-    /// `ISTRIP`: the eighth bit is cleared.
-    pub istrip: bool,
-    /// `PARENB`: a parity bit is sent and received.
-    pub parenb: bool,
-    /// `PARODD`: odd parity (with `CMSPAR`: mark).
-    pub parodd: bool,
-    /// `CMSPAR`: the parity bit is fixed, mark or space.
-    pub cmspar: bool,
 }
 
 impl AsyncRead for SerialPort {

@@ -9,7 +9,8 @@
 //! runs one cycle and its module one cycle; then the line simulator runs for the rest of the
 //! cycle. Every test counts the FB completions: each job ends exactly once.
 
-use si_core::job::{Channel, FramePort};
+use si_core::fb::Channel;
+use si_core::job::FramePort;
 use si_core::{Duration, Engine, Instant, SerialSettings, Status};
 use si_dp_coord::engines;
 use si_dp_coord::fb::{Done, Received, SRcv, SSend, SVset, SXon};
