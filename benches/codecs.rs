@@ -525,7 +525,7 @@ fn r3964(c: &mut Criterion) {
     ] {
         let mut g = c.benchmark_group(group);
         g.throughput(Throughput::Bytes(256));
-        let mut link = Link::new(config, SerialSettings::default()).unwrap();
+        let mut link = Link::new(config.with_settings(SerialSettings::default())).unwrap();
         drain(&mut link, |_| {});
         let mut t = 0u64;
         g.bench_function("si", |b| {

@@ -29,11 +29,15 @@ fn r3964_saturated(span: Duration) -> u64 {
         priority: Priority::High,
         ..Config::default()
     };
-    let a = sim.add_station("A", settings, Link::new(high, settings).unwrap());
+    let a = sim.add_station(
+        "A",
+        settings,
+        Link::new(high.with_settings(settings)).unwrap(),
+    );
     let b = sim.add_station(
         "B",
         settings,
-        Link::new(Config::default(), settings).unwrap(),
+        Link::new(Config::default().with_settings(settings)).unwrap(),
     );
     sim.connect(a, b);
     let block = Bytes::from(vec![0x55u8; 200]);
@@ -171,11 +175,15 @@ fn memory_per_link() -> (f64, f64) {
     };
     let mut pairs = Vec::with_capacity(LINKS);
     for _ in 0..LINKS {
-        let a = sim.add_station("A", settings, Link::new(high, settings).unwrap());
+        let a = sim.add_station(
+            "A",
+            settings,
+            Link::new(high.with_settings(settings)).unwrap(),
+        );
         let b = sim.add_station(
             "B",
             settings,
-            Link::new(Config::default(), settings).unwrap(),
+            Link::new(Config::default().with_settings(settings)).unwrap(),
         );
         sim.connect(a, b);
         pairs.push((a, b));

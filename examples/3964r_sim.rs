@@ -20,12 +20,12 @@ fn main() {
     let plc = sim.add_station(
         "PLC",
         line,
-        Link::new(plc_config, line).expect("valid config"),
+        Link::new(plc_config.with_settings(line)).expect("valid config"),
     );
     let host = sim.add_station(
         "host",
         line,
-        Link::new(Config::default(), line).expect("valid config"),
+        Link::new(Config::default().with_settings(line)).expect("valid config"),
     );
     sim.connect(plc, host);
 

@@ -65,11 +65,11 @@ const CYCLE: Duration = Duration::from_millis(2);
 
 fn link(priority: Priority, line: SerialSettings) -> Link {
     Link::new(
-        Config {
+        (Config {
             priority,
             ..Config::default()
-        },
-        line,
+        })
+        .with_settings(line),
     )
     .expect("valid 3964(R) parameters")
 }

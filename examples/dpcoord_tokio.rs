@@ -25,7 +25,10 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (module_end, partner_end) = tokio::io::duplex(1024);
 
     // The module: window protocol + 3964(R) (low priority) on the line.
-    let module = engines::r3964r_module(WindowSize::Eight, Link::new(Config::default(), line)?)?;
+    let module = engines::r3964r_module(
+        WindowSize::Eight,
+        Link::new(Config::default().with_settings(line))?,
+    )?;
     let (module, _module_task) = spawn(module, module_end, options.clone());
 
     // The serial partner: 3964(R), high priority.
@@ -33,7 +36,8 @@ async fn main() -> Result<(), Box<dyn std::error::Error>> {
         priority: Priority::High,
         ..Config::default()
     };
-    let (mut partner, _partner_task) = spawn(Link::new(high, line)?, partner_end, options);
+    let (mut partner, _partner_task) =
+        spawn(Link::new(high.with_settings(line))?, partner_end, options);
 
     // The DP master and the user program: one cycle every 5 ms.
     let mut host = Host::new(HostConfig::new(WindowSize::Eight))?;

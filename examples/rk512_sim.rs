@@ -26,12 +26,12 @@ fn main() {
     let host = sim.add_station(
         "host",
         line,
-        Station::new(host_config, line).expect("valid config"),
+        Station::new(host_config.with_settings(line)).expect("valid config"),
     );
     let plc = sim.add_station(
         "PLC",
         line,
-        Station::serving(Config::default(), line, &plc_memory).expect("valid config"),
+        Station::serving(Config::default().with_settings(line), &plc_memory).expect("valid config"),
     );
     sim.connect(host, plc);
 

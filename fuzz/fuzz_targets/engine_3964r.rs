@@ -20,7 +20,7 @@ fuzz_target!(|data: &[u8]| {
         max_block_len: 64,
         ..Config::default()
     };
-    let Ok(mut link) = Link::new(config, SerialSettings::default()) else {
+    let Ok(mut link) = Link::new(config.with_settings(SerialSettings::default())) else {
         return;
     };
     if flags & 4 != 0 {

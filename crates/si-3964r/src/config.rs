@@ -171,6 +171,11 @@ impl Default for Config {
 }
 
 impl Config {
+    /// This config on a line with `settings` ([`Config::settings`]).
+    pub fn with_settings(self, settings: SerialSettings) -> Self {
+        Config { settings, ..self }
+    }
+
     /// The defaults for plain 3964 (no block check): QVZ 550 ms.
     pub fn without_block_check() -> Self {
         Config {

@@ -12,8 +12,8 @@
 //! let line = SerialSettings::default();
 //! let mut sim = Simulator::new(1);
 //! let high = Config { priority: Priority::High, ..Config::default() };
-//! let a = sim.add_station("A", line, Link::new(high, line).unwrap());
-//! let b = sim.add_station("B", line, Link::new(Config::default(), line).unwrap());
+//! let a = sim.add_station("A", line, Link::new(high.with_settings(line)).unwrap());
+//! let b = sim.add_station("B", line, Link::new(Config::default().with_settings(line)).unwrap());
 //! sim.connect(a, b);
 //! let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
 //! let mut db = [0u8; 256];
@@ -133,8 +133,8 @@ mod tests {
             priority: Priority::High,
             ..Config::default()
         };
-        let a = sim.add_station("A", line, Link::new(high, line).unwrap());
-        let b = sim.add_station("B", line, Link::new(b_config, line).unwrap());
+        let a = sim.add_station("A", line, Link::new(high.with_settings(line)).unwrap());
+        let b = sim.add_station("B", line, Link::new(b_config.with_settings(line)).unwrap());
         sim.connect(a, b);
         (sim, a, b)
     }
@@ -162,7 +162,11 @@ mod tests {
     fn s_send_error_carries_the_status_for_one_call() {
         let line = SerialSettings::default();
         let mut sim = Simulator::new(1);
-        let a = sim.add_station("A", line, Link::new(Config::default(), line).unwrap());
+        let a = sim.add_station(
+            "A",
+            line,
+            Link::new(Config::default().with_settings(line)).unwrap(),
+        );
         let mut fb = SSend::default();
         let mut errors = Vec::new();
         for i in 0..2000 {
@@ -238,7 +242,7 @@ mod tests {
         use crate::link::RECEIVE_ERRORS;
         use si_core::{Engine, Instant, LineError};
         let line = SerialSettings::default();
-        let mut link = Link::new(Config::default(), line).unwrap();
+        let mut link = Link::new(Config::default().with_settings(line)).unwrap();
         // A corrupted character in idle is reported at once as 080CH; a BREAK as 080DH.
         let mut raise = |parity_errors: usize| {
             link.handle_line_error(Instant::ZERO, LineError::Break);

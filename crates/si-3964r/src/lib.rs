@@ -27,9 +27,9 @@
 //!
 //! let line = SerialSettings::default(); // 9600 8E1
 //! let mut sim = Simulator::new(7);
-//! let plc = sim.add_station("PLC", line, Link::new(Config::default(), line).unwrap());
+//! let plc = sim.add_station("PLC", line, Link::new(Config::default().with_settings(line)).unwrap());
 //! let host_config = Config { priority: Priority::High, ..Config::default() };
-//! let host = sim.add_station("host", line, Link::new(host_config, line).unwrap());
+//! let host = sim.add_station("host", line, Link::new(host_config.with_settings(line)).unwrap());
 //! sim.connect(plc, host);
 //!
 //! // Both send at the same instant: an initialization conflict, the low-priority PLC yields.

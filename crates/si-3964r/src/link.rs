@@ -12,8 +12,8 @@
 //! let settings = SerialSettings::default();
 //! let high = Config { priority: Priority::High, ..Config::default() };
 //! let mut sim = Simulator::new(1);
-//! let a = sim.add_station("A", settings, Link::new(high, settings).unwrap());
-//! let b = sim.add_station("B", settings, Link::new(Config::default(), settings).unwrap());
+//! let a = sim.add_station("A", settings, Link::new(high.with_settings(settings)).unwrap());
+//! let b = sim.add_station("B", settings, Link::new(Config::default().with_settings(settings)).unwrap());
 //! sim.connect(a, b);
 //! let job = sim.with(a, |link, now| link.send(now, &b"hello"[..])).unwrap();
 //! sim.run_until_quiet(Instant::from_micros(10_000_000));
@@ -264,11 +264,12 @@ impl fmt::Debug for Link {
 }
 
 impl Link {
-    /// A link with `config` on a line with `settings` (used to know how long our own bytes take
-    /// on the wire). Queues the startup NAK that puts the partner into idle ([ET200S SI] §2.7,
+    /// A link with `config`, on a line with the config's own [`settings`](Config::settings)
+    /// (used to know how long our own bytes take on the wire). Queues the startup NAK that puts the partner into idle ([ET200S SI] §2.7,
     /// receiving: startup NAK). Refuses parameters out of range, ZVZ and QVZ also below their
     /// minimum for the line's baud rate ([`Config::validate_for`]).
-    pub fn new(config: Config, settings: SerialSettings) -> Result<Link, ConfigError> {
+    pub fn new(config: Config) -> Result<Link, ConfigError> {
+        let settings = config.settings;
         config.validate_for(&settings)?;
         let max = usize::from(config.max_block_len);
         let mut link = Link {
@@ -918,7 +919,7 @@ mod tests {
     #[test]
     fn a_port_learnt_to_packetise_mid_job_widens_the_jobs_deadline() {
         let settings = SerialSettings::default();
-        let mut link = Link::new(Config::default(), settings).unwrap();
+        let mut link = Link::new(Config::default().with_settings(settings)).unwrap();
         link.set_rx_latency(Duration::ZERO); // declared byte by byte until a read shows more
         let start = Instant::ZERO;
         link.send(start, &b"hello"[..]).unwrap();

@@ -115,10 +115,7 @@ impl Handle {
     /// it inside a tokio runtime: it spawns the driver (and panics otherwise, as
     /// `tokio::spawn` does).
     pub fn spawn<T: Transport>(config: Config, transport: T) -> Result<Handle, Error> {
-        Ok(Self::spawn_engine(
-            Link::new(config, config.settings)?,
-            transport,
-        ))
+        Ok(Self::spawn_engine(Link::new(config)?, transport))
     }
 
     /// Open the serial port at `path` with the config's line settings and start a link on it
@@ -127,7 +124,7 @@ impl Handle {
     #[cfg(feature = "serial")]
     #[cfg_attr(docsrs, doc(cfg(feature = "serial")))]
     pub fn open(config: Config, path: &str) -> Result<Handle, Error> {
-        let link = Link::new(config, config.settings)?;
+        let link = Link::new(config)?;
         let options = si_core::port::PortOptions::default();
         let port = si_core::port::open(path, &config.settings, &options).map_err(IoError::from)?;
         Ok(Self::spawn_engine(link, port))

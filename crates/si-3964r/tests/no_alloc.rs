@@ -25,8 +25,8 @@ fn steady_state_block_exchange_does_not_allocate() {
         priority: Priority::High,
         ..Config::default()
     };
-    let a = Link::new(high, settings).unwrap();
-    let b = Link::new(Config::default(), settings).unwrap();
+    let a = Link::new(high.with_settings(settings)).unwrap();
+    let b = Link::new(Config::default().with_settings(settings)).unwrap();
     let mut pair = Pair::new(a, b);
     // 200 bytes with DLEs in them, so doubling is exercised.
     let payload: Bytes = (0..200u8)
@@ -69,8 +69,8 @@ fn s_send_and_s_rcv_jobs_do_not_allocate() {
         priority: Priority::High,
         ..Config::default()
     };
-    let a = Link::new(high, settings).unwrap();
-    let b = Link::new(Config::default(), settings).unwrap();
+    let a = Link::new(high.with_settings(settings)).unwrap();
+    let b = Link::new(Config::default().with_settings(settings)).unwrap();
     let mut pair = Pair::new(a, b);
     let payload: Vec<u8> = (0..200u8).map(|i| i.wrapping_mul(7)).collect();
     let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());

@@ -62,7 +62,12 @@ fn send_into(
         mut sim,
         engine: host,
         ..
-    } = facing(seed, line(), Link::new(config, line()).unwrap(), pattern);
+    } = facing(
+        seed,
+        line(),
+        Link::new(config.with_settings(line())).unwrap(),
+        pattern,
+    );
     sim.run_for(at);
     let start = sim.now();
     let job = sim
@@ -158,7 +163,12 @@ fn an_endless_frame_is_cut_off_at_the_maximum_length_with_0850() {
         mut sim,
         engine: host,
         peer,
-    } = facing(5, line(), Link::new(config, line()).unwrap(), SILENT);
+    } = facing(
+        5,
+        line(),
+        Link::new(config.with_settings(line())).unwrap(),
+        SILENT,
+    );
     let mut frame = vec![STX];
     frame.extend([b'A'; 1_000]);
     sim.transmit(peer, &frame);
@@ -195,7 +205,7 @@ proptest! {
     ) {
         let config = short(if high { Priority::High } else { Priority::Low });
         let Facing { mut sim, engine: host, peer } =
-            facing(9, line(), Link::new(config, line()).unwrap(), SILENT);
+            facing(9, line(), Link::new(config.with_settings(line())).unwrap(), SILENT);
         let job = sim.with(host, |l, now| l.send(now, vec![0xAA; len])).unwrap();
         let limit = Instant::ZERO + config.send_job_bound(&line(), len);
         let mut end = None;
@@ -231,7 +241,7 @@ proptest! {
 fn the_bound_ends_the_job_on_input_alone_when_the_timer_never_fires() {
     use si_core::{Engine, Output};
     let config = short(Priority::Low);
-    let mut link = Link::new(config, line()).unwrap();
+    let mut link = Link::new(config.with_settings(line())).unwrap();
     link.set_rx_latency(Duration::ZERO); // a byte-by-byte port: the manual's bound
     let job = link.send(Instant::ZERO, vec![1, 2, 3]).unwrap();
     let bound = Instant::ZERO + config.send_job_bound(&line(), 3);

@@ -111,7 +111,7 @@ proptest! {
     #[test]
     fn the_engine_never_panics_and_ends_every_job_once(config in config(), steps in prop::collection::vec(step(), 0..200)) {
         let line = SerialSettings::default();
-        let mut link = Link::new(config, line).unwrap();
+        let mut link = Link::new(config.with_settings(line)).unwrap();
         let mut now = Instant::ZERO;
         let mut deadline = None;
         let mut started: HashSet<JobId> = HashSet::new();

@@ -146,8 +146,12 @@ fn soak(span: Duration, seed: u64, rate: f64) {
         priority: Priority::High,
         ..Config::default()
     };
-    let a = sim.add_station("A", line, Link::new(high, line).unwrap());
-    let b = sim.add_station("B", line, Link::new(Config::default(), line).unwrap());
+    let a = sim.add_station("A", line, Link::new(high.with_settings(line)).unwrap());
+    let b = sim.add_station(
+        "B",
+        line,
+        Link::new(Config::default().with_settings(line)).unwrap(),
+    );
     sim.connect(a, b);
     let faults = Faults {
         bit_flip: rate,

@@ -238,8 +238,10 @@ mod tests {
 
     #[test]
     fn r3964r_refuses_parameters_and_drops_zero_length_blocks() {
-        let mut side =
-            r3964r(si_3964r::Link::new(si_3964r::Config::default(), Default::default()).unwrap());
+        let mut side = r3964r(
+            si_3964r::Link::new(si_3964r::Config::default().with_settings(Default::default()))
+                .unwrap(),
+        );
         let err = side
             .set_flow_control(Instant::ZERO, ParamBlock::XON_XOFF_DEFAULT)
             .unwrap_err();

@@ -135,7 +135,7 @@ fn cycle<E>(
 fn a_send_through_a_3964r_module_ends_with_its_status_within_the_bound_under_every_noise() {
     let bound = r3964r().send_job_bound(&line(), LEN) + WINDOW_MARGIN;
     for pattern in issue_patterns(line().char_time()) {
-        let link = si_3964r::Link::new(r3964r(), line()).unwrap();
+        let link = si_3964r::Link::new(r3964r().with_settings(line())).unwrap();
         let module = engines::r3964r_module(WindowSize::Eight, link).unwrap();
         let (took, status) = send_through(module, pattern, bound);
         assert!(!status.is_ok(), "{}: {status:?}", pattern.name);
@@ -148,7 +148,7 @@ fn a_send_through_a_3964r_module_ends_with_its_status_within_the_bound_under_eve
 #[test]
 fn a_silent_partner_behind_the_window_is_0703h() {
     let silent = issue_patterns(line().char_time())[0];
-    let link = si_3964r::Link::new(r3964r(), line()).unwrap();
+    let link = si_3964r::Link::new(r3964r().with_settings(line())).unwrap();
     let module = engines::r3964r_module(WindowSize::Eight, link).unwrap();
     let bound = r3964r().send_job_bound(&line(), LEN) + WINDOW_MARGIN;
     let (took, status) = send_through(module, silent, bound);

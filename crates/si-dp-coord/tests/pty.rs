@@ -29,7 +29,7 @@ async fn a_send_and_a_receive_through_the_window_of_a_module_on_a_pty() {
     let module_port = port::open(&pair.a, &line, &PortOptions::default()).unwrap();
     let module = engines::r3964r_module(
         WindowSize::Eight,
-        Link::new(Config::default(), line).unwrap(),
+        Link::new(Config::default().with_settings(line)).unwrap(),
     )
     .unwrap();
     let (module, _module_task) = spawn(module, module_port, options.clone());
@@ -38,7 +38,11 @@ async fn a_send_and_a_receive_through_the_window_of_a_module_on_a_pty() {
         ..Config::default()
     };
     let partner_port = port::open(&pair.b, &line, &PortOptions::default()).unwrap();
-    let (mut partner, _partner_task) = spawn(Link::new(high, line).unwrap(), partner_port, options);
+    let (mut partner, _partner_task) = spawn(
+        Link::new(high.with_settings(line)).unwrap(),
+        partner_port,
+        options,
+    );
 
     let mut host = Host::new(HostConfig::new(WindowSize::Eight)).unwrap();
     let mut input = module.call(|m, _| m.input().to_vec()).await.unwrap();

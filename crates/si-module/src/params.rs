@@ -218,7 +218,8 @@ impl R3964Params {
         &self,
         window: WindowSize,
     ) -> Result<Module<EngineSerial<si_3964r::Link>>, ParamErrors> {
-        let link = si_3964r::Link::new(self.config, self.settings).map_err(|e| one("config", e))?;
+        let link = si_3964r::Link::new(self.config.with_settings(self.settings))
+            .map_err(|e| one("config", e))?;
         let cfg = DriverParams::R3964(*self).module_config(window);
         Module::new(cfg, si_dp_coord::engines::r3964r(link)).map_err(|e| one("module", e))
     }

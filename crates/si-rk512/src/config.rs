@@ -115,6 +115,12 @@ impl Default for Config {
 }
 
 impl Config {
+    /// This config on a line with `settings` (the 3964(R) link's, [`si_3964r::Config::settings`]).
+    pub fn with_settings(mut self, settings: si_core::SerialSettings) -> Self {
+        self.link.settings = settings;
+        self
+    }
+
     /// Check every parameter against its range; the error names parameter, range and value.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.link.validate()?;

@@ -30,8 +30,8 @@
 //! let mut memory = ServerConfig::default();
 //! memory.memory.dbs.insert(5, 64);
 //! let mut sim = Simulator::new(1);
-//! let a = sim.add_station("A", line, Station::new(high, line).unwrap());
-//! let b = sim.add_station("B", line, Station::serving(Config::default(), line, &memory).unwrap());
+//! let a = sim.add_station("A", line, Station::new(high.with_settings(line)).unwrap());
+//! let b = sim.add_station("B", line, Station::serving(Config::default().with_settings(line), &memory).unwrap());
 //! sim.connect(a, b);
 //!
 //! let (mut send, mut fetch) = (SendFb::default(), FetchFb::default());
@@ -305,11 +305,11 @@ mod tests {
         let mut memory = ServerConfig::default();
         memory.memory.dbs.insert(5, 64);
         let mut sim = Simulator::new(1);
-        let a = sim.add_station("A", line, Station::new(high, line).unwrap());
+        let a = sim.add_station("A", line, Station::new(high.with_settings(line)).unwrap());
         let b = sim.add_station(
             "B",
             line,
-            Station::serving(Config::default(), line, &memory).unwrap(),
+            Station::serving(Config::default().with_settings(line), &memory).unwrap(),
         );
         sim.connect(a, b);
         (sim, a, b)

@@ -46,8 +46,8 @@
 //! let mut memory = ServerConfig::default();
 //! memory.memory.dbs.insert(10, 1024);
 //! let mut sim = Simulator::new(3);
-//! let host = sim.add_station("host", line, Station::new(host_config, line).unwrap());
-//! let plc = sim.add_station("PLC", line, Station::serving(Config::default(), line, &memory).unwrap());
+//! let host = sim.add_station("host", line, Station::new(host_config.with_settings(line)).unwrap());
+//! let plc = sim.add_station("PLC", line, Station::serving(Config::default().with_settings(line), &memory).unwrap());
 //! sim.connect(host, plc);
 //!
 //! let data: Vec<u8> = (0..300u16).map(|i| i as u8).collect();

@@ -18,8 +18,8 @@
 //! serve.memory.dbs.insert(10, 512);
 //!
 //! let mut sim = Simulator::new(1);
-//! let host = sim.add_station("host", line, Station::new(active_config, line).unwrap());
-//! let plc = sim.add_station("PLC", line, Station::serving(Config::default(), line, &serve).unwrap());
+//! let host = sim.add_station("host", line, Station::new(active_config.with_settings(line)).unwrap());
+//! let plc = sim.add_station("PLC", line, Station::serving(Config::default().with_settings(line), &serve).unwrap());
 //! sim.connect(host, plc);
 //!
 //! let job = sim
@@ -79,9 +79,7 @@ use bytes::{Bytes, BytesMut};
 use core::fmt;
 use si_3964r::{ConfigError, Link};
 use si_core::status::common;
-use si_core::{
-    Engine, FramePool, Instant, LineError, ModemSignals, Output, SerialSettings, Status,
-};
+use si_core::{Engine, FramePool, Instant, LineError, ModemSignals, Output, Status};
 use std::collections::VecDeque;
 
 /// The one job id of si-core, here because the async handle and users name it from this module.
@@ -288,27 +286,20 @@ impl fmt::Debug for Station {
 impl Station {
     /// An active-only station: it runs our jobs and refuses every partner command with 060D
     /// (error number 0AH, access refused).
-    pub fn new(config: Config, settings: SerialSettings) -> Result<Station, ConfigError> {
-        Station::with_server(config, settings, Server::refusing())
+    /// The line settings are the config's own (`config.link.settings`).
+    pub fn new(config: Config) -> Result<Station, ConfigError> {
+        Station::with_server(config, Server::refusing())
     }
 
     /// A station that also serves the partner's jobs from memory of these sizes.
-    pub fn serving(
-        config: Config,
-        settings: SerialSettings,
-        server: &ServerConfig,
-    ) -> Result<Station, ConfigError> {
-        Station::with_server(config, settings, Server::new(server))
+    pub fn serving(config: Config, server: &ServerConfig) -> Result<Station, ConfigError> {
+        Station::with_server(config, Server::new(server))
     }
 
-    fn with_server(
-        config: Config,
-        settings: SerialSettings,
-        server: Server,
-    ) -> Result<Station, ConfigError> {
+    fn with_server(config: Config, server: Server) -> Result<Station, ConfigError> {
         config.validate()?;
         Ok(Station {
-            link: Link::new(config.link, settings)?,
+            link: Link::new(config.link)?,
             config,
             server,
             job: None,

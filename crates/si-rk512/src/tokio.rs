@@ -17,7 +17,7 @@
 //! memory.memory.dbs.insert(1, 16);
 //! let host = Handle::spawn(high, left).unwrap();
 //! let line = Config::default().link.settings;
-//! let plc = Station::serving(Config::default(), line, &memory).unwrap();
+//! let plc = Station::serving(Config::default().with_settings(line), &memory).unwrap();
 //! let _plc = Handle::spawn_engine(plc, right);
 //! let at = Address::Db { db: 1, dw: 0 };
 //! host.send(at, Coordination::NONE, vec![1, 2, 3, 4]).await.unwrap();
@@ -107,10 +107,7 @@ impl Handle {
     /// [`Station::serving`] and start it with [`spawn_engine`](Self::spawn_engine). Call it
     /// inside a tokio runtime.
     pub fn spawn<T: Transport>(config: Config, transport: T) -> Result<Handle, Error> {
-        Ok(Self::spawn_engine(
-            Station::new(config, config.link.settings)?,
-            transport,
-        ))
+        Ok(Self::spawn_engine(Station::new(config)?, transport))
     }
 
     /// Open the serial port at `path` with the config's line settings
@@ -121,7 +118,7 @@ impl Handle {
     #[cfg_attr(docsrs, doc(cfg(feature = "serial")))]
     pub fn open(config: Config, path: &str) -> Result<Handle, Error> {
         let settings = config.link.settings;
-        let station = Station::new(config, settings)?;
+        let station = Station::new(config)?;
         let options = si_core::port::PortOptions::default();
         let port = si_core::port::open(path, &settings, &options).map_err(IoError::from)?;
         Ok(Self::spawn_engine(station, port))
@@ -229,7 +226,7 @@ mod tests {
         let mut memory = ServerConfig::default();
         memory.memory.dbs.insert(2, 8);
         let host = Handle::spawn(high, left).unwrap();
-        let station = Station::serving(Config::default(), line, &memory).unwrap();
+        let station = Station::serving(Config::default().with_settings(line), &memory).unwrap();
         let mut plc = Handle::spawn_engine(station, right);
         let at = Address::Db { db: 2, dw: 1 };
         host.send(at, Coordination::NONE, vec![0xAB, 0xCD])

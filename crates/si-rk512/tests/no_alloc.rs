@@ -27,8 +27,8 @@ fn steady_state_send_and_fetch_do_not_allocate() {
     active.link.priority = Priority::High;
     let mut serve = ServerConfig::default();
     serve.memory.dbs.insert(10, 512);
-    let a = Station::new(active, line).unwrap();
-    let b = Station::serving(Config::default(), line, &serve).unwrap();
+    let a = Station::new(active.with_settings(line)).unwrap();
+    let b = Station::serving(Config::default().with_settings(line), &serve).unwrap();
     let mut pair = Pair::new(a, b);
     // 200 bytes with DLEs in them, so doubling is exercised; two telegrams per job.
     let payload: Bytes = (0..200u8)

@@ -80,7 +80,12 @@ fn run_job(
         mut sim,
         engine: host,
         ..
-    } = facing(seed, line(), Station::new(config, line()).unwrap(), noise);
+    } = facing(
+        seed,
+        line(),
+        Station::new(config.with_settings(line())).unwrap(),
+        noise,
+    );
     sim.run_for(at);
     let start = sim.now();
     let id = sim.with(host, |s, now| job.start(s, now));
@@ -206,7 +211,7 @@ fn events_of(station: &mut Station) -> Vec<Event> {
 fn tres_ends_the_job_on_input_alone_when_the_timer_never_fires() {
     use si_core::Engine;
     let config = short(Priority::High);
-    let mut station = Station::new(config, line()).unwrap();
+    let mut station = Station::new(config.with_settings(line())).unwrap();
     let t0 = Instant::ZERO;
     let id = Job::Fetch(10).start(&mut station, t0);
     events_of(&mut station); // the startup NAK and our STX

@@ -85,7 +85,7 @@ proptest! {
         let line = SerialSettings::default();
         let mut m = ServerConfig::default();
         m.memory.dbs.insert(1, 300);
-        let mut st = Station::serving(Config::default(), line, &m).unwrap();
+        let mut st = Station::serving(Config::default().with_settings(line), &m).unwrap();
         let mut now = Instant::ZERO;
         if start_fetch {
             let _ = st.fetch(now, Address::Db { db: 1, dw: 0 }, Coordination::NONE, 200);
@@ -118,9 +118,9 @@ proptest! {
         let mut sim = Simulator::new(1);
         let mut m = ServerConfig::default();
         m.memory.dbs.insert(1, 64);
-        let st = sim.add_station("st", line, Station::serving(Config::default(), line, &m).unwrap());
+        let st = sim.add_station("st", line, Station::serving(Config::default().with_settings(line), &m).unwrap());
         let raw_config = si_3964r::Config { priority: si_3964r::Priority::High, ..Default::default() };
-        let raw = sim.add_station("raw", line, si_3964r::Link::new(raw_config, line).unwrap());
+        let raw = sim.add_station("raw", line, si_3964r::Link::new(raw_config.with_settings(line)).unwrap());
         sim.connect(st, raw);
         for t in telegrams {
             let looks_like_reaction = t.len() >= 3 && t[2] == 0;
@@ -144,8 +144,8 @@ proptest! {
         high.link.priority = si_3964r::Priority::High;
         let mut m = ServerConfig::default();
         m.memory.dbs.insert(1, 600);
-        let a = sim.add_station("A", line, Station::new(high, line).unwrap());
-        let b = sim.add_station("B", line, Station::serving(Config::default(), line, &m).unwrap());
+        let a = sim.add_station("A", line, Station::new(high.with_settings(line)).unwrap());
+        let b = sim.add_station("B", line, Station::serving(Config::default().with_settings(line), &m).unwrap());
         sim.connect(a, b);
         let faults = Faults { bit_flip: flip, drop: flip / 4.0, insert: flip / 4.0, ..Faults::default() };
         sim.set_faults(a, faults);

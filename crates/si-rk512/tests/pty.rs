@@ -31,7 +31,7 @@ async fn send_then_fetch_through_a_serving_station_on_a_pty() {
     let settings = SerialSettings::default();
     let mut memory = ServerConfig::default();
     memory.memory.dbs.insert(10, 512);
-    let partner = Station::serving(Config::default(), settings, &memory).unwrap();
+    let partner = Station::serving(Config::default().with_settings(settings), &memory).unwrap();
     let partner_line = port::open(&pair.b, &settings, &PortOptions::default()).unwrap();
     let _partner = Handle::spawn_engine(partner, partner_line);
 

@@ -46,11 +46,15 @@ struct Pair {
 /// A = active host (high priority), B = serving PLC.
 fn pair(seed: u64) -> Pair {
     let mut sim = Simulator::new(seed);
-    let a = sim.add_station("A", line(), Station::new(high(), line()).unwrap());
+    let a = sim.add_station(
+        "A",
+        line(),
+        Station::new(high().with_settings(line())).unwrap(),
+    );
     let b = sim.add_station(
         "B",
         line(),
-        Station::serving(Config::default(), line(), &memory()).unwrap(),
+        Station::serving(Config::default().with_settings(line()), &memory()).unwrap(),
     );
     sim.connect(a, b);
     Pair { sim, a, b }
@@ -305,11 +309,15 @@ fn s4_3_partner_errors_reach_the_requester_as_class_09() {
     assert_eq!(refused, [0x0606, 0x0608, 0x060D]);
     // 0AH: an active-only station refuses every command.
     let mut sim = Simulator::new(5);
-    let a = sim.add_station("A", line(), Station::new(high(), line()).unwrap());
+    let a = sim.add_station(
+        "A",
+        line(),
+        Station::new(high().with_settings(line())).unwrap(),
+    );
     let b = sim.add_station(
         "B",
         line(),
-        Station::new(Config::default(), line()).unwrap(),
+        Station::new(Config::default().with_settings(line())).unwrap(),
     );
     sim.connect(a, b);
     let q = &mut Pair { sim, a, b };
@@ -337,13 +345,17 @@ fn scripted_with(seed: u64, config: Config) -> Scripted {
     let station = sim.add_station(
         "station",
         line(),
-        Station::serving(config, line(), &memory()).unwrap(),
+        Station::serving(config.with_settings(line()), &memory()).unwrap(),
     );
     let raw_config = si_3964r::Config {
         priority: Priority::High,
         ..si_3964r::Config::default()
     };
-    let raw = sim.add_station("raw", line(), Link::new(raw_config, line()).unwrap());
+    let raw = sim.add_station(
+        "raw",
+        line(),
+        Link::new(raw_config.with_settings(line())).unwrap(),
+    );
     sim.connect(station, raw);
     Scripted { sim, station, raw }
 }
@@ -492,11 +504,15 @@ fn s4_7_first_telegram_instead_of_continuation_060e() {
 /// A station whose partner is a bare link that answers with scripted reactions.
 fn active_against_script(seed: u64) -> (Simulator, StationId<Station>, StationId<Link>) {
     let mut sim = Simulator::new(seed);
-    let station = sim.add_station("station", line(), Station::new(high(), line()).unwrap());
+    let station = sim.add_station(
+        "station",
+        line(),
+        Station::new(high().with_settings(line())).unwrap(),
+    );
     let raw = sim.add_station(
         "raw",
         line(),
-        Link::new(si_3964r::Config::default(), line()).unwrap(),
+        Link::new(si_3964r::Config::default().with_settings(line())).unwrap(),
     );
     sim.connect(station, raw);
     (sim, station, raw)
@@ -608,11 +624,15 @@ fn s4_7_tres_is_a_setting() {
     let mut sim = Simulator::new(51);
     let mut c = high();
     c.response_timeout = si_core::Duration::from_millis(5000);
-    let st = sim.add_station("station", line(), Station::new(c, line()).unwrap());
+    let st = sim.add_station(
+        "station",
+        line(),
+        Station::new(c.with_settings(line())).unwrap(),
+    );
     let raw = sim.add_station(
         "raw",
         line(),
-        Link::new(si_3964r::Config::default(), line()).unwrap(),
+        Link::new(si_3964r::Config::default().with_settings(line())).unwrap(),
     );
     sim.connect(st, raw);
     sim.with(st, |s, now| {
@@ -637,11 +657,11 @@ fn a10_counter_letter_z_by_default_c_as_a_setting() {
         let mut sim = Simulator::new(53);
         let mut c = high();
         c.counter_letter = letter;
-        let a = sim.add_station("A", line(), Station::new(c, line()).unwrap());
+        let a = sim.add_station("A", line(), Station::new(c.with_settings(line())).unwrap());
         let b = sim.add_station(
             "B",
             line(),
-            Station::serving(Config::default(), line(), &memory()).unwrap(),
+            Station::serving(Config::default().with_settings(line()), &memory()).unwrap(),
         );
         sim.connect(a, b);
         sim.with(b, |s, _| {
@@ -763,12 +783,12 @@ fn s4_6_both_sides_run_jobs_at_once() {
     let a = sim.add_station(
         "A",
         line(),
-        Station::serving(ha, line(), &memory()).unwrap(),
+        Station::serving(ha.with_settings(line()), &memory()).unwrap(),
     );
     let b = sim.add_station(
         "B",
         line(),
-        Station::serving(Config::default(), line(), &memory()).unwrap(),
+        Station::serving(Config::default().with_settings(line()), &memory()).unwrap(),
     );
     sim.connect(a, b);
     let da = pattern(400, 1);

@@ -206,11 +206,15 @@ fn soak(span: Duration, seed: u64, rate: f64) {
     let mut high = Config::default();
     high.link.priority = Priority::High;
     let mut sim = Simulator::new(seed).without_trace();
-    let a = sim.add_station("A", line, Station::serving(high, line, &memory).unwrap());
+    let a = sim.add_station(
+        "A",
+        line,
+        Station::serving(high.with_settings(line), &memory).unwrap(),
+    );
     let b = sim.add_station(
         "B",
         line,
-        Station::serving(Config::default(), line, &memory).unwrap(),
+        Station::serving(Config::default().with_settings(line), &memory).unwrap(),
     );
     sim.connect(a, b);
     let faults = Faults {

@@ -21,8 +21,8 @@ pub fn with_priority(priority: Priority) -> Config {
 /// Two links "A" and "B" on a point-to-point line.
 pub fn pair(a: Config, b: Config) -> (Simulator, StationId<Link>, StationId<Link>) {
     let mut sim = Simulator::new(3964);
-    let sa = sim.add_station("A", line(), Link::new(a, line()).unwrap());
-    let sb = sim.add_station("B", line(), Link::new(b, line()).unwrap());
+    let sa = sim.add_station("A", line(), Link::new(a.with_settings(line())).unwrap());
+    let sb = sim.add_station("B", line(), Link::new(b.with_settings(line())).unwrap());
     sim.connect(sa, sb);
     (sim, sa, sb)
 }
@@ -52,7 +52,11 @@ pub fn scripted_on(
     config: Config,
 ) -> (Simulator, StationId<Link>, StationId<Partner>) {
     let mut sim = Simulator::new(3964);
-    let a = sim.add_station("A", settings, Link::new(config, settings).unwrap());
+    let a = sim.add_station(
+        "A",
+        settings,
+        Link::new(config.with_settings(settings)).unwrap(),
+    );
     let p = sim.add_station("P", settings, Partner);
     sim.connect(a, p);
     (sim, a, p)

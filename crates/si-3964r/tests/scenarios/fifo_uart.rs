@@ -17,8 +17,12 @@ fn exchange(baud: u32, uart: FifoUart) {
         priority: Priority::High,
         ..Config::default()
     };
-    let a = sim.add_station("A", s, Link::new(high, s).unwrap());
-    let b = sim.add_station("B", s, Link::new(Config::default(), s).unwrap());
+    let a = sim.add_station("A", s, Link::new(high.with_settings(s)).unwrap());
+    let b = sim.add_station(
+        "B",
+        s,
+        Link::new(Config::default().with_settings(s)).unwrap(),
+    );
     sim.connect(a, b);
     sim.set_uart(a, uart).unwrap();
     sim.set_uart(b, uart).unwrap();

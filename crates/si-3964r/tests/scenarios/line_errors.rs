@@ -38,7 +38,7 @@ impl MarkingPort {
             ..PortFacts::default()
         };
         MarkingPort {
-            link: Link::new(config, line()).unwrap(),
+            link: Link::new(config.with_settings(line())).unwrap(),
             rx_path: RxPath::new(&facts),
             received: 0,
             bad,
@@ -99,7 +99,7 @@ fn a_flipped_parity_bit_inside_a_block_is_refused_and_repeated() {
     let a = sim.add_station(
         "A",
         line(),
-        Link::new(with_priority(Priority::High), line()).unwrap(),
+        Link::new(with_priority(Priority::High).with_settings(line())).unwrap(),
     );
     // B receives: 0 = A's startup NAK, 1 = STX, 2.. = the block; a data byte is bad.
     let b = sim.add_station(

@@ -19,8 +19,12 @@ fn rig(baud: u32, adapter: Option<UsbAdapter>) -> (Simulator, StationId<Link>, S
         priority: Priority::High,
         ..Config::default()
     };
-    let a = sim.add_station("A", s, Link::new(high, s).unwrap());
-    let b = sim.add_station("B", s, Link::new(Config::default(), s).unwrap());
+    let a = sim.add_station("A", s, Link::new(high.with_settings(s)).unwrap());
+    let b = sim.add_station(
+        "B",
+        s,
+        Link::new(Config::default().with_settings(s)).unwrap(),
+    );
     sim.connect(a, b);
     if let Some(adapter) = adapter {
         sim.set_adapter(a, adapter).unwrap();

@@ -463,7 +463,7 @@ impl ModuleArgs {
                     },
                     ..si_3964r::Config::default()
                 };
-                let link = si_3964r::Link::new(config, settings)?;
+                let link = si_3964r::Link::new(config.with_settings(settings))?;
                 let module =
                     engines::r3964r_module(self.window, link)?.with_exec_wrap(self.exec_after_7);
                 serve(module, transport, settings, self.window, conn, out).await
@@ -733,10 +733,13 @@ fn scenario_e2e(o: &SimOptions, out: &Output) -> Result<(), CliError> {
         ..si_3964r::Config::default()
     };
     let mut sim = Simulator::new(o.seed);
-    let a = engines::r3964r_module(WindowSize::Eight, si_3964r::Link::new(high, o.settings)?)?;
+    let a = engines::r3964r_module(
+        WindowSize::Eight,
+        si_3964r::Link::new(high.with_settings(o.settings))?,
+    )?;
     let b = engines::r3964r_module(
         WindowSize::Eight,
-        si_3964r::Link::new(si_3964r::Config::default(), o.settings)?,
+        si_3964r::Link::new(si_3964r::Config::default().with_settings(o.settings))?,
     )?;
     let (mut in_a, mut in_b) = (a.input().to_vec(), b.input().to_vec());
     let a = sim.add_station("A", o.settings, a);

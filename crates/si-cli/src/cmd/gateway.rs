@@ -402,13 +402,14 @@ async fn open_rk512(
     kept: Option<&rk512_own::Kept>,
 ) -> Result<reopen::Opened<si_rk512::tokio::Handle>, OpenError> {
     open_engine(conn, l, "rk512", None, |settings| match r.role {
-        rk512_config::Role::Active => si_rk512::Station::new(r.config, settings),
+        rk512_config::Role::Active => si_rk512::Station::new(r.config.with_settings(settings)),
         rk512_config::Role::Passive => {
             let server = si_rk512::passive::ServerConfig {
                 memory: r.memory.clone(),
                 ..si_rk512::passive::ServerConfig::default()
             };
-            let mut station = si_rk512::Station::serving(r.config, settings, &server)?;
+            let mut station =
+                si_rk512::Station::serving(r.config.with_settings(settings), &server)?;
             if let Some(kept) = kept {
                 kept.restore(&mut station);
             }
@@ -426,7 +427,7 @@ async fn open_3964r(
     link: &si_3964r::Config,
 ) -> Result<reopen::Opened<si_3964r::tokio::Handle>, OpenError> {
     open_engine(conn, l, "3964r", None, |settings| {
-        si_3964r::Link::new(*link, settings)
+        si_3964r::Link::new((*link).with_settings(settings))
     })
     .await
     .map(|o| o.spawn(si_3964r::tokio::Handle::spawn_engine))

@@ -314,8 +314,8 @@ fn two_links(
 ) -> Result<(Simulator, Station, Station), CliError> {
     let line = o.settings;
     let mut sim = Simulator::new(o.seed);
-    let sa = sim.add_station("A", line, Link::new(a, line)?);
-    let sb = sim.add_station("B", line, Link::new(b, line)?);
+    let sa = sim.add_station("A", line, Link::new(a.with_settings(line))?);
+    let sb = sim.add_station("B", line, Link::new(b.with_settings(line))?);
     sim.connect(sa, sb);
     Ok((sim, sa, sb))
 }

@@ -261,7 +261,7 @@ fn refused_offline(
     settings: si_core::SerialSettings,
     start: impl FnOnce(&mut Station) -> Result<si_rk512::JobId, si_rk512::RequestError>,
 ) -> Result<(), CliError> {
-    let mut probe = Station::new(config, settings)?;
+    let mut probe = Station::new(config.with_settings(settings))?;
     match start(&mut probe) {
         Ok(_) => Ok(()),
         Err(e) => Err(CliError::usage(format!(
@@ -487,7 +487,7 @@ impl ServeArgs {
         let config = self.link.config(Priority::Low)?;
         let settings = conn.settings()?;
         let transport = conn.open().await?;
-        let station = Station::serving(config, settings, &server)?;
+        let station = Station::serving(config.with_settings(settings), &server)?;
         let mut station = Handle::spawn_engine(station, transport);
         let mut served = 0u64;
         while self.count.is_none_or(|n| served < n) {
@@ -663,11 +663,11 @@ fn stations(o: &SimOptions) -> Result<(Simulator, St, St), CliError> {
     let mut memory = ServerConfig::default();
     memory.memory.dbs.insert(10, 512);
     let mut sim = Simulator::new(o.seed);
-    let a = sim.add_station("host", line, Station::new(host, line)?);
+    let a = sim.add_station("host", line, Station::new(host.with_settings(line))?);
     let b = sim.add_station(
         "PLC",
         line,
-        Station::serving(Config::default(), line, &memory)?,
+        Station::serving(Config::default().with_settings(line), &memory)?,
     );
     sim.connect(a, b);
     Ok((sim, a, b))

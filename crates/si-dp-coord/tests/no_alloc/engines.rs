@@ -40,7 +40,7 @@ fn r3964r_exchanges_through_the_window_do_not_allocate() {
             priority,
             ..si_3964r::Config::default()
         };
-        si_3964r::Link::new(config, line).unwrap()
+        si_3964r::Link::new(config.with_settings(line)).unwrap()
     };
     let a = engines::r3964r_module(WINDOW, link(si_3964r::config::Priority::High)).unwrap();
     let b = engines::r3964r_module(WINDOW, link(si_3964r::config::Priority::Low)).unwrap();

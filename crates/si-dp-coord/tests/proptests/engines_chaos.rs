@@ -153,8 +153,8 @@ proptest! {
             ..si_3964r::Config::default()
         };
         let mut sim = Simulator::new(seed).without_trace();
-        let ma = engines::r3964r_module(window, si_3964r::Link::new(config(si_3964r::config::Priority::High), line).unwrap()).unwrap();
-        let mb = engines::r3964r_module(window, si_3964r::Link::new(config(si_3964r::config::Priority::Low), line).unwrap()).unwrap();
+        let ma = engines::r3964r_module(window, si_3964r::Link::new(config(si_3964r::config::Priority::High).with_settings(line)).unwrap()).unwrap();
+        let mb = engines::r3964r_module(window, si_3964r::Link::new(config(si_3964r::config::Priority::Low).with_settings(line)).unwrap()).unwrap();
         let a = Side::new(&mut sim, "A", line, ma);
         let b = Side::new(&mut sim, "B", line, mb);
         sim.connect(a.station, b.station);
@@ -251,7 +251,7 @@ proptest! {
     fn module_with_3964r_never_panics_on_any_window_bytes_or_timing(
         (window, script) in window_size().prop_flat_map(|w| (Just(w), inputs(w))),
     ) {
-        let link = si_3964r::Link::new(si_3964r::Config::default(), SerialSettings::default()).unwrap();
+        let link = si_3964r::Link::new(si_3964r::Config::default().with_settings(SerialSettings::default())).unwrap();
         drive(engines::r3964r_module(window, link).unwrap(), &script)?;
     }
 

@@ -111,10 +111,14 @@ fn r3964r_pair(window: WindowSize) -> (Simulator, Side<si_3964r::Link>, Side<si_
         ..si_3964r::Config::default()
     };
     let mut sim = Simulator::new(3);
-    let a = engines::r3964r_module(window, si_3964r::Link::new(high, settings).unwrap()).unwrap();
+    let a = engines::r3964r_module(
+        window,
+        si_3964r::Link::new(high.with_settings(settings)).unwrap(),
+    )
+    .unwrap();
     let b = engines::r3964r_module(
         window,
-        si_3964r::Link::new(si_3964r::Config::default(), settings).unwrap(),
+        si_3964r::Link::new(si_3964r::Config::default().with_settings(settings)).unwrap(),
     )
     .unwrap();
     let a = Side::new(&mut sim, "A", settings, a);
@@ -213,12 +217,12 @@ fn section_2_8_partner_transmit_wire_cut_s_send_error_carries_the_3964r_status()
     let mut sim = Simulator::new(5);
     let a = engines::r3964r_module(
         WindowSize::Four,
-        si_3964r::Link::new(config, settings).unwrap(),
+        si_3964r::Link::new(config.with_settings(settings)).unwrap(),
     )
     .unwrap();
     let b = engines::r3964r_module(
         WindowSize::Four,
-        si_3964r::Link::new(config, settings).unwrap(),
+        si_3964r::Link::new(config.with_settings(settings)).unwrap(),
     )
     .unwrap();
     let mut a = Side::new(&mut sim, "A", settings, a);
@@ -438,7 +442,7 @@ fn channel_same_user_program_on_3964r_directly_and_through_the_window() {
             priority,
             ..si_3964r::Config::default()
         };
-        si_3964r::Link::new(config, settings).unwrap()
+        si_3964r::Link::new(config.with_settings(settings)).unwrap()
     };
     let (pa, pb, wa, wb) = direct_and_window(
         make,

@@ -246,14 +246,18 @@ fn failed_reaction_send_07xx_then_0612() {
     let station = sim.add_station(
         "station",
         line(),
-        Station::serving(Config::default(), line(), &memory()).unwrap(),
+        Station::serving(Config::default().with_settings(line()), &memory()).unwrap(),
     );
     let raw_config = si_3964r::Config {
         priority: Priority::High,
         receive_buffer_blocks: 1,
         ..si_3964r::Config::default()
     };
-    let raw = sim.add_station("raw", line(), Link::new(raw_config, line()).unwrap());
+    let raw = sim.add_station(
+        "raw",
+        line(),
+        Link::new(raw_config.with_settings(line())).unwrap(),
+    );
     sim.connect(station, raw);
     for _ in 0..2 {
         let t = Bytes::copy_from_slice(&fetch_db10(0xFF, 0xFF));

@@ -40,11 +40,11 @@ fn rig_with(
     let mut memory = ServerConfig::default();
     memory.memory.dbs.insert(10, 2048);
     let mut sim = Simulator::new(512);
-    let a = sim.add_station("A", s, Station::new(high, s).unwrap());
+    let a = sim.add_station("A", s, Station::new(high.with_settings(s)).unwrap());
     let b = sim.add_station(
         "B",
         s,
-        Station::serving(Config::default(), s, &memory).unwrap(),
+        Station::serving(Config::default().with_settings(s), &memory).unwrap(),
     );
     sim.connect(a, b);
     for (station, adapter) in [(a, on_a), (b, on_b)] {

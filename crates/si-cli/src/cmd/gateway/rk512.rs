@@ -364,7 +364,7 @@ pub(super) mod tests {
         high.link.priority = si_3964r::Priority::High;
         let mut memory = ServerConfig::default();
         memory.memory.dbs.insert(6, db6);
-        let serving = Station::serving(Config::default(), settings, &memory).unwrap();
+        let serving = Station::serving(Config::default().with_settings(settings), &memory).unwrap();
         let serving = Handle::spawn_engine(serving, b);
         (Handle::spawn(high, a).unwrap(), serving)
     }
@@ -506,7 +506,7 @@ pub(super) mod tests {
         let (port, closed) = reopen::watch(Box::new(a));
         let mut high = Config::default();
         high.link.priority = si_3964r::Priority::High;
-        let station = Station::new(high, SerialSettings::default()).unwrap();
+        let station = Station::new(high.with_settings(SerialSettings::default())).unwrap();
         let station = Handle::spawn_engine(station, port);
         let area = rk512_spans::db_span(6, 0, 8, DwUnit::Words).unwrap();
         let every = Some(Duration::from_millis(1));

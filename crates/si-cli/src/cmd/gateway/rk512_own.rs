@@ -207,7 +207,8 @@ mod tests {
         let mut memory = si_rk512::passive::ServerConfig::default();
         memory.memory.dbs.insert(6, 64);
         let settings = si_core::SerialSettings::default();
-        let mut station = Station::serving(si_rk512::Config::default(), settings, &memory).unwrap();
+        let mut station =
+            Station::serving(si_rk512::Config::default().with_settings(settings), &memory).unwrap();
         if let Some(kept) = kept {
             kept.restore(&mut station);
         }
