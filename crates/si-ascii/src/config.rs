@@ -25,6 +25,7 @@
 
 use crate::status;
 use serde::{Deserialize, Serialize};
+use si_core::param_block::{ten_ms_count, MIN_WAIT};
 use si_core::{
     Duration, ModulePreset, RangeError, SerialSettings, SettingsError, Status, BAUD_RATES,
 };
@@ -114,8 +115,10 @@ pub struct XonXoff {
     pub xon: u8,
     /// XOFF character, default DC3 = 13H.
     pub xoff: u8,
-    /// Wait time for XON after XOFF, 20 … 655 350 ms in 10 ms steps, default 2000 ms.
-    pub wait_for_xon_ms: u32,
+    /// Wait time for XON after XOFF, 20 … 655 350 ms in 10 ms steps, default 2000 ms. In files
+    /// `wait_for_xon_ms`.
+    #[serde(rename = "wait_for_xon_ms", with = "si_core::time::millis")]
+    pub wait_for_xon: Duration,
 }
 
 impl Default for XonXoff {
@@ -123,7 +126,7 @@ impl Default for XonXoff {
         XonXoff {
             xon: 0x11,
             xoff: 0x13,
-            wait_for_xon_ms: 2_000,
+            wait_for_xon: Duration::from_millis(2_000),
         }
     }
 }
@@ -132,14 +135,16 @@ impl Default for XonXoff {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(default)]
 pub struct RtsCts {
-    /// Wait time for CTS = ON, 20 … 655 350 ms in 10 ms steps, default 2000 ms.
-    pub wait_for_cts_ms: u32,
+    /// Wait time for CTS = ON, 20 … 655 350 ms in 10 ms steps, default 2000 ms. In files
+    /// `wait_for_cts_ms`.
+    #[serde(rename = "wait_for_cts_ms", with = "si_core::time::millis")]
+    pub wait_for_cts: Duration,
 }
 
 impl Default for RtsCts {
     fn default() -> Self {
         RtsCts {
-            wait_for_cts_ms: 2_000,
+            wait_for_cts: Duration::from_millis(2_000),
         }
     }
 }
@@ -276,17 +281,12 @@ fn out_of_range(
     RangeError::new(parameter, range, unit, value).into()
 }
 
-/// A time in whole 10 ms steps within `min ..= 655 350` ms (Table 2-26, `[derived]`).
-fn check_step_time(parameter: &'static str, ms: u32, min: u32) -> Result<(), ConfigError> {
-    if ms < min || ms > 655_350 || (ms / 10) * 10 != ms {
-        return Err(out_of_range(
-            parameter,
-            ms,
-            " ms",
-            format!("{min} … 655350 ms in 10 ms steps"),
-        ));
-    }
-    Ok(())
+/// A wait time in whole 10 ms steps within 20 … 655 350 ms (Table 2-26), checked by si-core's
+/// one 10 ms conversion.
+fn check_step_time(parameter: &'static str, time: Duration) -> Result<(), ConfigError> {
+    ten_ms_count(parameter, time, MIN_WAIT)
+        .map(drop)
+        .map_err(Into::into)
 }
 
 impl XonXoff {
@@ -316,7 +316,7 @@ impl XonXoff {
                 reason: "it must differ from the XON character",
             });
         }
-        errors.extend(check_step_time("wait time for XON", self.wait_for_xon_ms, 20).err());
+        errors.extend(check_step_time("wait time for XON", self.wait_for_xon).err());
         errors
     }
 }
@@ -324,7 +324,7 @@ impl XonXoff {
 impl RtsCts {
     /// Check the wait time against its range (20 … 655 350 ms, 10 ms steps).
     pub fn validate(&self) -> Result<(), ConfigError> {
-        check_step_time("wait time for CTS", self.wait_for_cts_ms, 20)
+        check_step_time("wait time for CTS", self.wait_for_cts)
     }
 }
 
@@ -492,13 +492,13 @@ mod tests {
         assert_eq!(c.char_delay, Duration::from_millis(4));
         assert!(c.dynamic_frames && c.prevent_overwrite && c.clear_at_startup);
         assert_eq!((c.xon_xoff.xon, c.xon_xoff.xoff), (0x11, 0x13));
-        assert_eq!(c.xon_xoff.wait_for_xon_ms, 2_000);
-        assert_eq!(c.rts_cts.wait_for_cts_ms, 2_000);
+        assert_eq!(c.xon_xoff.wait_for_xon, Duration::from_millis(2_000));
+        assert_eq!(c.rts_cts.wait_for_cts, Duration::from_millis(2_000));
         assert_eq!(
             c.auto_v24,
             AutoV24 {
-                time_rts_off_ms: 10,
-                data_wait_time_ms: 10
+                time_rts_off: Duration::from_millis(10),
+                data_wait_time: Duration::from_millis(10)
             }
         );
         c.validate().unwrap();
@@ -594,15 +594,15 @@ mod tests {
         };
         assert_eq!(c.validate(), Ok(()));
         let mut c = Config::default();
-        c.xon_xoff.wait_for_xon_ms = 15;
+        c.xon_xoff.wait_for_xon = Duration::from_millis(15);
         assert_eq!(
             c.validate().unwrap_err().to_string(),
             "wait time for XON = 15 ms is out of range: 20 … 655350 ms in 10 ms steps"
         );
-        c.xon_xoff.wait_for_xon_ms = 2_005;
+        c.xon_xoff.wait_for_xon = Duration::from_millis(2_005);
         assert!(c.validate().is_err());
         let mut c = Config::default();
-        c.auto_v24.time_rts_off_ms = 655_360;
+        c.auto_v24.time_rts_off = Duration::from_millis(655_360);
         assert_eq!(
             c.validate().unwrap_err().status(),
             status::PARAMETER_OUT_OF_RANGE
@@ -660,7 +660,7 @@ mod tests {
             flow_control: FlowControl::XonXoff,
             ..Config::default()
         };
-        c.auto_v24.data_wait_time_ms = 5;
+        c.auto_v24.data_wait_time = Duration::from_millis(5);
         let all: Vec<String> = c.validate_all().iter().map(|e| e.to_string()).collect();
         assert_eq!(all.len(), 4, "{all:?}");
         assert!(all[0].starts_with("character delay time = 3 ms"), "{all:?}");

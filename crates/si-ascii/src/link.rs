@@ -451,11 +451,10 @@ impl Link {
     }
 
     fn hold_time(&self) -> Duration {
-        let ms = match self.cfg.flow_control {
-            FlowControl::XonXoff => self.cfg.xon_xoff.wait_for_xon_ms,
-            _ => self.cfg.rts_cts.wait_for_cts_ms,
-        };
-        Duration::from_millis(u64::from(ms))
+        match self.cfg.flow_control {
+            FlowControl::XonXoff => self.cfg.xon_xoff.wait_for_xon,
+            _ => self.cfg.rts_cts.wait_for_cts,
+        }
     }
 
     fn rx_busy(&self) -> bool {
@@ -944,7 +943,6 @@ impl Link {
     /// converted by si-core's one conversion: 0550H when it does not match the configured flow
     /// control, 1E20H when a value is out of range.
     pub fn apply_param_block(&mut self, block: ParamBlock) -> Result<(), Refused> {
-        let ms = |count: u16| u32::try_from(ten_ms_time(count).as_millis()).unwrap_or(u32::MAX);
         match block {
             ParamBlock::XonXoff {
                 xon,
@@ -953,17 +951,17 @@ impl Link {
             } => self.set_xon_xoff(XonXoff {
                 xon,
                 xoff,
-                wait_for_xon_ms: ms(xon_wait),
+                wait_for_xon: ten_ms_time(xon_wait),
             }),
             ParamBlock::RtsCts { cts_wait } => self.set_rts_cts(RtsCts {
-                wait_for_cts_ms: ms(cts_wait),
+                wait_for_cts: ten_ms_time(cts_wait),
             }),
             ParamBlock::AutoV24 {
                 rts_off_delay,
                 cts_wait,
             } => self.set_auto_v24(AutoV24 {
-                time_rts_off_ms: ms(rts_off_delay),
-                data_wait_time_ms: ms(cts_wait),
+                time_rts_off: ten_ms_time(rts_off_delay),
+                data_wait_time: ten_ms_time(cts_wait),
             }),
         }
     }

@@ -44,9 +44,9 @@ fn with_flow(flow_control: FlowControl) -> Config {
         tx_chunk: 1,
         ..Config::default()
     };
-    c.auto_v24.data_wait_time_ms = 100;
-    c.rts_cts.wait_for_cts_ms = 200;
-    c.xon_xoff.wait_for_xon_ms = 300;
+    c.auto_v24.data_wait_time = si_core::Duration::from_millis(100);
+    c.rts_cts.wait_for_cts = si_core::Duration::from_millis(200);
+    c.xon_xoff.wait_for_xon = si_core::Duration::from_millis(300);
     c
 }
 

@@ -194,6 +194,27 @@ pub mod millis {
     }
 }
 
+/// Serde for an optional [`Duration`] kept in files as whole milliseconds, absent or `null` for
+/// none: [`millis`] for an `Option` (`#[serde(rename = "job_timeout_ms", with =
+/// "si_core::time::millis_opt", default)]`).
+pub mod millis_opt {
+    use super::Duration;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// Writes `d` as its whole milliseconds, or nothing (`null`).
+    pub fn serialize<S: Serializer>(d: &Option<Duration>, s: S) -> Result<S::Ok, S::Error> {
+        match d {
+            Some(d) => s.serialize_some(&d.as_millis()),
+            None => s.serialize_none(),
+        }
+    }
+
+    /// Reads a whole number of milliseconds, or nothing.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Duration>, D::Error> {
+        Option::<u64>::deserialize(d).map(|ms| ms.map(Duration::from_millis))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -33,6 +33,7 @@
 //! transmission with [`AutoV24::sent`], and passes timeouts and modem-signal changes through.
 //! Every answer is a [`Step`] the engine acts on.
 
+use crate::param_block::ten_ms_count;
 use crate::range::RangeError;
 use crate::sansio::{ModemSignals, Output, SignalUpdate};
 use crate::time::{Duration, Instant};
@@ -44,16 +45,20 @@ use std::collections::VecDeque;
 #[serde(default)]
 pub struct AutoV24Times {
     /// Time from the last byte sent until RTS = OFF, 0 … 655 350 ms in 10 ms steps, default 10 ms.
-    pub time_rts_off_ms: u32,
+    /// In files `time_rts_off_ms`.
+    #[serde(rename = "time_rts_off_ms", with = "crate::time::millis")]
+    pub time_rts_off: Duration,
     /// Time to wait for CTS = ON after RTS = ON, 0 … 655 350 ms in 10 ms steps, default 10 ms.
-    pub data_wait_time_ms: u32,
+    /// In files `data_wait_time_ms`.
+    #[serde(rename = "data_wait_time_ms", with = "crate::time::millis")]
+    pub data_wait_time: Duration,
 }
 
 impl Default for AutoV24Times {
     fn default() -> Self {
         AutoV24Times {
-            time_rts_off_ms: 10,
-            data_wait_time_ms: 10,
+            time_rts_off: Duration::from_millis(10),
+            data_wait_time: Duration::from_millis(10),
         }
     }
 }
@@ -65,23 +70,20 @@ impl AutoV24Times {
     /// Every time outside 0 … 655 350 ms or off the 10 ms grid.
     pub fn validate_all(&self) -> Vec<RangeError> {
         [
-            ("time to RTS off", self.time_rts_off_ms),
-            ("data output wait time", self.data_wait_time_ms),
+            ("time to RTS off", self.time_rts_off),
+            ("data output wait time", self.data_wait_time),
         ]
         .into_iter()
-        .filter(|&(_, ms)| ms > MAX_TIME_MS || ms % 10 != 0)
-        .map(|(parameter, ms)| {
-            RangeError::new(parameter, "0 … 655350 ms in 10 ms steps", " ms", ms)
-        })
+        .filter_map(|(parameter, time)| ten_ms_count(parameter, time, Duration::ZERO).err())
         .collect()
     }
 
     fn rts_off(&self) -> Duration {
-        Duration::from_millis(u64::from(self.time_rts_off_ms))
+        self.time_rts_off
     }
 
     fn data_wait(&self) -> Duration {
-        Duration::from_millis(u64::from(self.data_wait_time_ms))
+        self.data_wait_time
     }
 }
 
@@ -419,8 +421,8 @@ mod tests {
     #[test]
     fn a_zero_rts_off_time_ends_the_job_with_the_last_byte() {
         let times = AutoV24Times {
-            time_rts_off_ms: 0,
-            data_wait_time_ms: 0,
+            time_rts_off: Duration::ZERO,
+            data_wait_time: Duration::ZERO,
         };
         let mut v = AutoV24::new(times);
         let mut out = Out::new();
@@ -432,8 +434,8 @@ mod tests {
     #[test]
     fn times_outside_the_range_or_grid_are_named() {
         let times = AutoV24Times {
-            time_rts_off_ms: 655_360,
-            data_wait_time_ms: 5,
+            time_rts_off: Duration::from_millis(655_360),
+            data_wait_time: Duration::from_millis(5),
         };
         let errors = times.validate_all();
         assert_eq!(errors.len(), 2);

@@ -45,7 +45,8 @@ pub struct HostConfig {
     /// LEN check, [ET200S SI 2005] `[derived]`).
     pub max_frame_len: usize,
     /// Watchdog per job, from the moment the job owns byte 0 until its completion; `None`
-    /// disables it. Default [`DEFAULT_JOB_TIMEOUT`].
+    /// disables it. Default [`DEFAULT_JOB_TIMEOUT`]. In files `job_timeout_ms`.
+    #[serde(rename = "job_timeout_ms", with = "si_core::time::millis_opt")]
     pub job_timeout: Option<Duration>,
     /// The STATUS a job ends with when its watchdog expires. The manual has no such code; the
     /// default 0502H ("job not possible in the module's current mode") names the likely cause: a

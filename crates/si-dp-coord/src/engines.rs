@@ -216,7 +216,10 @@ mod tests {
             },
         )
         .unwrap();
-        assert_eq!(side.engine().config().xon_xoff.wait_for_xon_ms, 3_000);
+        assert_eq!(
+            side.engine().config().xon_xoff.wait_for_xon,
+            si_core::Duration::from_millis(3_000)
+        );
         // 1 unit = 10 ms is below the engine's 20 ms minimum: 1E20H from the engine.
         let err = side
             .set_flow_control(

@@ -55,7 +55,7 @@ fn ascii() -> si_ascii::Config {
         tx_chunk: 1,
         ..si_ascii::Config::default()
     };
-    c.rts_cts.wait_for_cts_ms = 200;
+    c.rts_cts.wait_for_cts = si_core::Duration::from_millis(200);
     c
 }
 

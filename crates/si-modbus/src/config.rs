@@ -340,9 +340,10 @@ impl MasterConfig {
     ///   the broadcast turnaround if that is longer;
     /// - response = [`max_response_duration`](Self::max_response_duration).
     pub fn attempt_bound(&self) -> Duration {
-        let cts = self.line.auto_v24.map_or(Duration::ZERO, |t| {
-            Duration::from_millis(t.data_wait_time_ms as u64)
-        });
+        let cts = self
+            .line
+            .auto_v24
+            .map_or(Duration::ZERO, |t| t.data_wait_time);
         let wait = (self.response_timeout + self.port_margin()).max(self.broadcast_turnaround);
         self.max_response_duration()
             + self.max_frame_time()

@@ -711,34 +711,34 @@ fn read_ascii(r: &mut Reader<'_>) -> AsciiParams {
         xon_xoff: si_ascii::config::XonXoff {
             xon: r.uint("xon", dc.xon_xoff.xon.into(), 0xFF, "00H … FFH") as u8,
             xoff: r.uint("xoff", dc.xon_xoff.xoff.into(), 0xFF, "00H … FFH") as u8,
-            wait_for_xon_ms: r.uint(
+            wait_for_xon: si_core::Duration::from_millis(r.uint(
                 "wait_for_xon_ms",
-                dc.xon_xoff.wait_for_xon_ms.into(),
+                dc.xon_xoff.wait_for_xon.as_millis(),
                 u32::MAX.into(),
                 step,
-            ) as u32,
+            )),
         },
         rts_cts: si_ascii::config::RtsCts {
-            wait_for_cts_ms: r.uint(
+            wait_for_cts: si_core::Duration::from_millis(r.uint(
                 "wait_for_cts_ms",
-                dc.rts_cts.wait_for_cts_ms.into(),
+                dc.rts_cts.wait_for_cts.as_millis(),
                 u32::MAX.into(),
                 step,
-            ) as u32,
+            )),
         },
         auto_v24: si_ascii::config::AutoV24 {
-            time_rts_off_ms: r.uint(
+            time_rts_off: si_core::Duration::from_millis(r.uint(
                 "time_rts_off_ms",
-                dc.auto_v24.time_rts_off_ms.into(),
+                dc.auto_v24.time_rts_off.as_millis(),
                 u32::MAX.into(),
                 step,
-            ) as u32,
-            data_wait_time_ms: r.uint(
+            )),
+            data_wait_time: si_core::Duration::from_millis(r.uint(
                 "data_wait_time_ms",
-                dc.auto_v24.data_wait_time_ms.into(),
+                dc.auto_v24.data_wait_time.as_millis(),
                 u32::MAX.into(),
                 step,
-            ) as u32,
+            )),
         },
         tx_chunk: r.uint("tx_chunk", dc.tx_chunk.into(), 0xFF, "1 … 200 characters") as u8,
     };
@@ -855,18 +855,18 @@ fn read_modbus_line(r: &mut Reader<'_>) -> (ModbusModule, LineConfig) {
             let d = si_core::v24::AutoV24Times::default();
             let step = "0 … 655350 ms in 10 ms steps";
             si_core::v24::AutoV24Times {
-                time_rts_off_ms: r.uint(
+                time_rts_off: si_core::Duration::from_millis(r.uint(
                     "time_rts_off_ms",
-                    d.time_rts_off_ms.into(),
+                    d.time_rts_off.as_millis(),
                     u32::MAX.into(),
                     step,
-                ) as u32,
-                data_wait_time_ms: r.uint(
+                )),
+                data_wait_time: si_core::Duration::from_millis(r.uint(
                     "data_wait_time_ms",
-                    d.data_wait_time_ms.into(),
+                    d.data_wait_time.as_millis(),
                     u32::MAX.into(),
                     step,
-                ) as u32,
+                )),
             }
         }),
     };
@@ -1267,10 +1267,19 @@ impl DriverParams {
                 put("clear_at_startup", c.clear_at_startup.into());
                 put("xon", c.xon_xoff.xon.into());
                 put("xoff", c.xon_xoff.xoff.into());
-                put("wait_for_xon_ms", c.xon_xoff.wait_for_xon_ms.into());
-                put("wait_for_cts_ms", c.rts_cts.wait_for_cts_ms.into());
-                put("time_rts_off_ms", c.auto_v24.time_rts_off_ms.into());
-                put("data_wait_time_ms", c.auto_v24.data_wait_time_ms.into());
+                put(
+                    "wait_for_xon_ms",
+                    c.xon_xoff.wait_for_xon.as_millis().into(),
+                );
+                put("wait_for_cts_ms", c.rts_cts.wait_for_cts.as_millis().into());
+                put(
+                    "time_rts_off_ms",
+                    c.auto_v24.time_rts_off.as_millis().into(),
+                );
+                put(
+                    "data_wait_time_ms",
+                    c.auto_v24.data_wait_time.as_millis().into(),
+                );
                 put("tx_chunk", c.tx_chunk.into());
             }
             DriverParams::R3964(p) => {
@@ -1318,8 +1327,8 @@ impl DriverParams {
                 put("char_delay_multiplier", line.char_delay_multiplier.into());
                 put("local_echo", line.local_echo.into());
                 if let Some(t) = line.auto_v24 {
-                    put("time_rts_off_ms", t.time_rts_off_ms.into());
-                    put("data_wait_time_ms", t.data_wait_time_ms.into());
+                    put("time_rts_off_ms", t.time_rts_off.as_millis().into());
+                    put("data_wait_time_ms", t.data_wait_time.as_millis().into());
                 }
                 match self {
                     DriverParams::ModbusMaster(p) => {

@@ -285,7 +285,7 @@ fn s8_4_s_xon_changes_the_characters_and_is_0550_under_other_flow_control() {
         XonXoff {
             xon: 0x01,
             xoff: 0x02,
-            wait_for_xon_ms: 100,
+            wait_for_xon: si_core::Duration::from_millis(100),
         }
     );
     // Only the edge counts.
@@ -473,7 +473,10 @@ fn s9_8_job_code_5_parameter_block_applies_or_is_0550() {
     let mut link = Link::new(config(FlowControl::XonXoff)).unwrap();
     link.apply_param_block(block).unwrap();
     assert_eq!(link.config().xon_xoff.xon, 0x0B);
-    assert_eq!(link.config().xon_xoff.wait_for_xon_ms, 2_000);
+    assert_eq!(
+        link.config().xon_xoff.wait_for_xon,
+        si_core::Duration::from_millis(2_000)
+    );
     // A block for another flow control: 0550H.
     let rts = ParamBlock::decode(&[0x21, 0x00, 0x02, 0x00, 0x01]).unwrap();
     assert_eq!(
@@ -608,8 +611,8 @@ fn s8_6_s_v24_sets_the_rts_off_time() {
     });
     let mut s_v24 = SV24::default();
     let params = AutoV24 {
-        time_rts_off_ms: 50,
-        data_wait_time_ms: 20,
+        time_rts_off: si_core::Duration::from_millis(50),
+        data_wait_time: si_core::Duration::from_millis(20),
     };
     let (rts_off, data_wait) = (Duration::from_millis(50), Duration::from_millis(20));
     let out = b.sim.with(b.link, |l, _| {

@@ -119,8 +119,8 @@ impl DriverArgs {
             c.max_frame_len = n;
         }
         if let Some(ms) = self.flow_wait_ms {
-            c.xon_xoff.wait_for_xon_ms = ms;
-            c.rts_cts.wait_for_cts_ms = ms;
+            c.xon_xoff.wait_for_xon = si_core::Duration::from_millis(ms.into());
+            c.rts_cts.wait_for_cts = si_core::Duration::from_millis(ms.into());
         }
         c.validate().map_err(CliError::bad_argument)?;
         Ok(c)

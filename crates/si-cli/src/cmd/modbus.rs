@@ -114,8 +114,12 @@ impl FramingOptions {
         }
         let d = AutoV24Times::default();
         Ok(Some(AutoV24Times {
-            time_rts_off_ms: self.rts_off_ms.unwrap_or(d.time_rts_off_ms),
-            data_wait_time_ms: self.data_wait_ms.unwrap_or(d.data_wait_time_ms),
+            time_rts_off: self
+                .rts_off_ms
+                .map_or(d.time_rts_off, |ms| Duration::from_millis(ms.into())),
+            data_wait_time: self
+                .data_wait_ms
+                .map_or(d.data_wait_time, |ms| Duration::from_millis(ms.into())),
         }))
     }
 }

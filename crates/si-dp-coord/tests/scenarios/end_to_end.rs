@@ -299,7 +299,7 @@ fn section_2_6_s_xon_and_s_vset_through_the_window_reach_the_ascii_engine() {
     assert_eq!(xon_done.len(), 1, "{xon_done:?}");
     assert!(xon_done[0].done, "{xon_done:?}");
     let a_cfg = sim.engine(a.station).serial().engine().config().xon_xoff;
-    assert_eq!(a_cfg.wait_for_xon_ms, 3_000);
+    assert_eq!(a_cfg.wait_for_xon, si_core::Duration::from_millis(3_000));
     assert_eq!(vset_done.len(), 1, "{vset_done:?}");
     assert!(vset_done[0].done, "{vset_done:?}");
     let signals = sim.engine(b.station).serial().engine().signals();

@@ -117,6 +117,9 @@ fn one_v24_program_drives_an_ascii_link_and_a_window_host_alike() {
     // S_XON's 3 s reached both ASCII drivers as the same parameter.
     let module_link = sim.engine(station).serial().engine();
     for link in [&link, module_link] {
-        assert_eq!(link.config().xon_xoff.wait_for_xon_ms, 3_000);
+        assert_eq!(
+            link.config().xon_xoff.wait_for_xon,
+            si_core::Duration::from_millis(3_000)
+        );
     }
 }

@@ -43,8 +43,8 @@ fn ms(n: u64) -> Instant {
 fn line() -> LineConfig {
     LineConfig {
         auto_v24: Some(AutoV24Times {
-            time_rts_off_ms: 20,
-            data_wait_time_ms: 50,
+            time_rts_off: si_core::Duration::from_millis(20),
+            data_wait_time: si_core::Duration::from_millis(50),
         }),
         ..LineConfig::default()
     }
@@ -337,8 +337,8 @@ fn s2_2_slave_dsr_dropping_during_the_rts_off_time_aborts_its_response_with_0818
 fn s2_2_times_off_the_10_ms_grid_are_refused_naming_the_parameter() {
     let mut config = MasterConfig::default();
     config.line.auto_v24 = Some(AutoV24Times {
-        time_rts_off_ms: 15,
-        data_wait_time_ms: 10,
+        time_rts_off: si_core::Duration::from_millis(15),
+        data_wait_time: si_core::Duration::from_millis(10),
     });
     let err = Master::new(config).unwrap_err();
     assert_eq!(err.range.parameter, "time to RTS off");

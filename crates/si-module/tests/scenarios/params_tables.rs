@@ -579,7 +579,13 @@ fn modbus_auto_v24_carries_its_two_times_to_the_engine_config() {
         panic!("{p:?}")
     };
     let times = m.config.line.auto_v24.expect("auto V.24 times");
-    assert_eq!((times.time_rts_off_ms, times.data_wait_time_ms), (30, 120));
+    assert_eq!(
+        (
+            times.time_rts_off.as_millis(),
+            times.data_wait_time.as_millis()
+        ),
+        (30, 120)
+    );
     let p = DriverParams::from_toml_str("driver = \"modbus-master\"").unwrap();
     let DriverParams::ModbusMaster(m) = &p else {
         panic!("{p:?}")
