@@ -53,11 +53,17 @@ pub enum Error {
     #[error(transparent)]
     Config(#[from] ConfigError),
     /// The driver has stopped (the port closed or failed, or the handle was closed).
-    #[error(transparent)]
-    Stopped(#[from] DriverStopped),
+    #[error("the driver has stopped: the port was closed or failed")]
+    Stopped,
     /// The port could not be opened ([`Handle::open`]).
     #[error("{0}")]
     Io(#[from] IoError),
+}
+
+impl From<DriverStopped> for Error {
+    fn from(_: DriverStopped) -> Self {
+        Error::Stopped
+    }
 }
 
 impl Error {
@@ -67,7 +73,7 @@ impl Error {
         match self {
             Error::Refused(e) => Some(e.status()),
             Error::Failed { status } => Some(*status),
-            Error::Config(_) | Error::Stopped(_) | Error::Io(_) => None,
+            Error::Config(_) | Error::Stopped | Error::Io(_) => None,
         }
     }
 }
@@ -77,7 +83,7 @@ impl From<JobError<SendError, Status>> for Error {
         match e {
             JobError::Refused(e) => Error::Refused(e),
             JobError::Failed(status) => Error::Failed { status },
-            JobError::Stopped => Error::Stopped(DriverStopped),
+            JobError::Stopped => Error::Stopped,
         }
     }
 }
@@ -173,7 +179,7 @@ impl Handle {
             match self.driver.next_event().await {
                 Some(Event::ReceiveError(status)) => return Err(Error::Failed { status }),
                 Some(_) => {}
-                None => return Err(Error::Stopped(DriverStopped)),
+                None => return Err(Error::Stopped),
             }
         }
     }
@@ -293,8 +299,8 @@ mod tests {
         let mut link = Handle::spawn(Config::default(), left).unwrap();
         drop(right);
         assert_eq!(link.next_event().await, None);
-        assert_eq!(link.recv().await, Err(Error::Stopped(DriverStopped)));
-        assert_eq!(link.send(vec![1]).await, Err(Error::Stopped(DriverStopped)));
+        assert_eq!(link.recv().await, Err(Error::Stopped));
+        assert_eq!(link.send(vec![1]).await, Err(Error::Stopped));
         link.closed().await;
     }
 
@@ -309,10 +315,7 @@ mod tests {
         tokio::io::AsyncReadExt::read_to_end(&mut right, &mut rest)
             .await
             .unwrap();
-        assert_eq!(
-            sender.send(vec![1]).await,
-            Err(Error::Stopped(DriverStopped))
-        );
+        assert_eq!(sender.send(vec![1]).await, Err(Error::Stopped));
     }
 
     #[tokio::test(start_paused = true)]

@@ -64,11 +64,17 @@ pub enum Error {
     #[error(transparent)]
     Config(#[from] ConfigError),
     /// The driver stopped (the port closed or failed, or the handle was closed).
-    #[error(transparent)]
-    Stopped(#[from] DriverStopped),
+    #[error("the driver has stopped: the port was closed or failed")]
+    Stopped,
     /// The port could not be opened ([`Handle::open`]).
     #[error("{0}")]
     Io(#[from] IoError),
+}
+
+impl From<DriverStopped> for Error {
+    fn from(_: DriverStopped) -> Self {
+        Error::Stopped
+    }
 }
 
 impl Error {
@@ -78,7 +84,7 @@ impl Error {
             Error::Refused(e) => Some(e.status()),
             Error::Failed { status } => Some(*status),
             Error::Config(e) => Some(e.status()),
-            Error::Stopped(_) | Error::Io(_) => None,
+            Error::Stopped | Error::Io(_) => None,
         }
     }
 }
@@ -88,7 +94,7 @@ impl From<JobError<SendError, Status>> for Error {
         match e {
             JobError::Refused(e) => Error::Refused(Refusal::Send(e)),
             JobError::Failed(status) => Error::Failed { status },
-            JobError::Stopped => Error::Stopped(DriverStopped),
+            JobError::Stopped => Error::Stopped,
         }
     }
 }

@@ -62,11 +62,17 @@ pub enum Error {
     #[error(transparent)]
     Config(#[from] ConfigError),
     /// The driver has stopped (the port closed or failed, or the handle was closed).
-    #[error(transparent)]
-    Stopped(#[from] DriverStopped),
+    #[error("the driver has stopped: the port was closed or failed")]
+    Stopped,
     /// The port could not be opened ([`Handle::open`]).
     #[error("{0}")]
     Io(#[from] IoError),
+}
+
+impl From<DriverStopped> for Error {
+    fn from(_: DriverStopped) -> Self {
+        Error::Stopped
+    }
 }
 
 impl Error {
@@ -76,7 +82,7 @@ impl Error {
         match self {
             Error::Refused(e) => Some(e.status()),
             Error::Failed { status, .. } => Some(*status),
-            Error::Config(_) | Error::Stopped(_) | Error::Io(_) => None,
+            Error::Config(_) | Error::Stopped | Error::Io(_) => None,
         }
     }
 
@@ -84,7 +90,7 @@ impl Error {
         match e {
             JobError::Refused(e) => Error::Refused(e),
             JobError::Failed(status) => Error::Failed { status, address },
-            JobError::Stopped => Error::Stopped(DriverStopped),
+            JobError::Stopped => Error::Stopped,
         }
     }
 }
@@ -261,7 +267,7 @@ mod tests {
         drop(plc);
         assert_eq!(
             host.fetch(at, Coordination::NONE, 2).await,
-            Err(Error::Stopped(si_core::driver::DriverStopped))
+            Err(Error::Stopped)
         );
     }
 }

@@ -38,11 +38,17 @@ pub enum Error {
     #[error(transparent)]
     Config(#[from] ConfigError),
     /// The driver has stopped (the port closed or failed, or the handle was closed).
-    #[error(transparent)]
-    Stopped(#[from] DriverStopped),
+    #[error("the driver has stopped: the port was closed or failed")]
+    Stopped,
     /// The port could not be opened ([`Handle::open`]).
     #[error("{0}")]
     Io(#[from] IoError),
+}
+
+impl From<DriverStopped> for Error {
+    fn from(_: DriverStopped) -> Self {
+        Error::Stopped
+    }
 }
 
 impl Error {
@@ -53,7 +59,7 @@ impl Error {
         match self {
             Error::Failed { status, .. } => Some(*status),
             Error::Refused(e) => Some(e.status()),
-            Error::Config(_) | Error::Stopped(_) | Error::Io(_) => None,
+            Error::Config(_) | Error::Stopped | Error::Io(_) => None,
         }
     }
 
@@ -69,7 +75,7 @@ impl Error {
                 address: job.address,
                 number: job.request.param.number,
             },
-            JobError::Stopped => Error::Stopped(DriverStopped),
+            JobError::Stopped => Error::Stopped,
         }
     }
 }

@@ -262,7 +262,7 @@ fn ascii_error(e: AsciiError) -> CliError {
 /// else is [`ascii_error`].
 fn received_error(e: AsciiError, conn: &Connection) -> CliError {
     match e {
-        AsciiError::Stopped(_) => conn.closed(),
+        AsciiError::Stopped => conn.closed(),
         other => ascii_error(other),
     }
 }

@@ -179,7 +179,7 @@ impl RecvArgs {
                 Err(LinkError::Failed { status }) => {
                     eprintln!("si: receive error {}", described(status));
                 }
-                Err(LinkError::Stopped(_)) => return Err(conn.closed()),
+                Err(LinkError::Stopped) => return Err(conn.closed()),
                 Err(e) => return Err(e.into()),
             }
         }

@@ -114,7 +114,7 @@ impl BlockLine {
                 let block = block(&words, self.max_block_len)?;
                 if let Err(e) = sender.send(block).await {
                     return Err(match e.status() {
-                        Some(s) if !matches!(e, Error::Stopped(_)) => {
+                        Some(s) if !matches!(e, Error::Stopped) => {
                             let s = si_3964r::status::lookup(s.code());
                             tracing::debug!("3964(R) send: {s}");
                             status_exception(s.code())
