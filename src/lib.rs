@@ -37,6 +37,7 @@ pub use si_core as core;
 
 #[cfg(feature = "sim")]
 #[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
+#[doc(inline)]
 pub use si_sim as sim;
 
 #[cfg(feature = "3964r")]

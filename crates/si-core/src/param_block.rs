@@ -58,17 +58,24 @@ pub fn ten_ms_count(
     let count = u16::try_from(us / step).ok();
     match count {
         Some(count) if time >= min && time <= MAX_TIME && us.is_multiple_of(step) => Ok(count),
-        _ => Err(RangeError::new(
+        // A whole number of milliseconds is named as one with its unit, as every other range
+        // error names its value; a finer time prints as the duration it is.
+        _ if us.is_multiple_of(1_000) => Err(RangeError::new(
             parameter,
-            format!(
-                "{} … {} ms in 10 ms steps",
-                min.as_millis(),
-                MAX_TIME.as_millis()
-            ),
-            "",
-            time,
+            ten_ms_range(min),
+            " ms",
+            time.as_millis(),
         )),
+        _ => Err(RangeError::new(parameter, ten_ms_range(min), "", time)),
     }
+}
+
+fn ten_ms_range(min: Duration) -> String {
+    format!(
+        "{} … {} ms in 10 ms steps",
+        min.as_millis(),
+        MAX_TIME.as_millis()
+    )
 }
 
 /// The TIME a count of 10 ms stands for (`[ET200S SI]` §2.12, Table 2-26).

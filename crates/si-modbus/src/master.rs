@@ -60,8 +60,7 @@ impl Completion {
 
     /// The request as sent.
     pub fn request(&self) -> Request<'_> {
-        self.request
-            .decode_request()
+        frame::decode_unit_pdu_request(unit_pdu(&self.request))
             .map(|(_, r)| r)
             .unwrap_or(Request::ReadExceptionStatus)
     }
@@ -69,15 +68,21 @@ impl Completion {
     /// The response, `None` for a broadcast. Coil and input reads are cut to the quantity
     /// requested.
     pub fn response(&self) -> Option<Response<'_>> {
-        let (_, r) = self.response.as_ref()?.decode_response().ok()?;
-        Some(match (r, self.request()) {
-            (Response::ReadCoils(b), Request::ReadCoils { quantity, .. }) => {
-                Response::ReadCoils(b.truncate(quantity))
-            }
-            (Response::ReadDiscreteInputs(b), Request::ReadDiscreteInputs { quantity, .. }) => {
-                Response::ReadDiscreteInputs(b.truncate(quantity))
-            }
-            (r, _) => r,
+        let (_, r) = frame::decode_unit_pdu_response(unit_pdu(self.response.as_ref()?)).ok()?;
+        // Only bit reads need the request (for its quantity): decoding it for every response
+        // would cost a round trip more than the rest of the decode.
+        Some(match r {
+            Response::ReadCoils(b) => match self.request() {
+                Request::ReadCoils { quantity, .. } => Response::ReadCoils(b.truncate(quantity)),
+                _ => Response::ReadCoils(b),
+            },
+            Response::ReadDiscreteInputs(b) => match self.request() {
+                Request::ReadDiscreteInputs { quantity, .. } => {
+                    Response::ReadDiscreteInputs(b.truncate(quantity))
+                }
+                _ => Response::ReadDiscreteInputs(b),
+            },
+            r => r,
         })
     }
 
@@ -85,6 +90,13 @@ impl Completion {
     pub fn response_bytes(&self) -> Option<&[u8]> {
         self.response.as_ref().map(Adu::as_bytes)
     }
+}
+
+/// `unit | PDU` of an ADU whose CRC is known good (computed when the request was encoded,
+/// checked when the response was received), so reading it again skips the CRC.
+fn unit_pdu(adu: &Adu) -> &[u8] {
+    let bytes = adu.as_bytes();
+    &bytes[..bytes.len().saturating_sub(2)]
 }
 
 /// What the attempts of one job met (a host extension): a job whose first response
@@ -712,7 +724,8 @@ pub fn check_response(request: &[u8], response: &[u8]) -> Result<(), Status> {
         // A function passed through: its answer's structure is the slave's business.
         return Ok(());
     }
-    frame::decode_response(response)
+    // The CRC is good (above): read `unit | PDU` without computing it again.
+    frame::decode_unit_pdu_response(&response[..without_crc(response)])
         .map(|_| ())
         .map_err(|_| status::BYTE_COUNT_WRONG)
 }

@@ -77,7 +77,7 @@ impl<T: Transport> InlineMaster<T> {
     /// Send any request and wait for its completion (a broadcast completes after the
     /// turnaround delay with no response).
     pub async fn request(&self, unit: u8, request: &Request<'_>) -> Result<Completion, Error> {
-        self.inner.lock().await.run(unit, request).await
+        self.inner.lock().await.run(unit, request, |c| *c).await
     }
 
     /// [`request`](Self::request), and what the job's attempts met ([`Attempts`]).
@@ -87,7 +87,7 @@ impl<T: Transport> InlineMaster<T> {
         request: &Request<'_>,
     ) -> (Result<Completion, Error>, Attempts) {
         let mut inner = self.inner.lock().await;
-        let result = inner.run(unit, request).await;
+        let result = inner.run(unit, request, |c| *c).await;
         let attempts = match result {
             Err(Error::Refused { .. } | Error::Stopped) => Attempts::default(),
             _ => inner.engine.attempts(),
@@ -142,42 +142,52 @@ impl<T: Transport> Inner<T> {
         self.origin + std::time::Duration::from_micros(instant.as_micros())
     }
 
-    async fn run(&mut self, unit: u8, request: &Request<'_>) -> Result<Completion, Error> {
+    /// Run one job: `pick` reads what the caller wants out of its completion where the engine
+    /// reports it (a completion carries both ADUs inline, so not moving it up through the
+    /// futures saves copying it at each level).
+    async fn run<R>(
+        &mut self,
+        unit: u8,
+        request: &Request<'_>,
+        pick: impl FnOnce(&Completion) -> R,
+    ) -> Result<R, Error> {
         let job = Job::of(unit, request);
         if self.stopped {
             return Err(Error::Stopped);
         }
         // A job abandoned by a dropped future runs to its end first (its outcome is nobody's).
         while self.engine.is_busy() {
-            let _abandoned = self.drive(None).await?;
+            let _abandoned = self.drive(None, |_| ()).await?;
         }
         let id = self
             .engine
             .request(self.now(), unit, request)
             .map_err(|reason| Error::Refused { job, reason })?;
-        match self.drive(Some(id)).await? {
-            Ok(c) => Ok(c),
+        match self.drive(Some(id), pick).await? {
+            Ok(r) => Ok(r),
             Err(status) => Err(Error::failed(job, status)),
         }
     }
 
-    /// Run the engine until the running job ends: its outcome (`Ok(Err(status))` for a failed
-    /// job); `Err` if the port failed.
-    async fn drive(
+    /// Run the engine until the running job ends: its outcome, `pick`ed from the completion
+    /// (`Ok(Err(status))` for a failed job); `Err` if the port failed.
+    async fn drive<R>(
         &mut self,
         id: Option<si_core::job::JobId>,
-    ) -> Result<Result<Completion, Status>, Error> {
-        let result = self.drive_inner(id).await;
+        pick: impl FnOnce(&Completion) -> R,
+    ) -> Result<Result<R, Status>, Error> {
+        let result = self.drive_inner(id, pick).await;
         if matches!(result, Err(Error::Stopped | Error::Io(_))) {
             self.stopped = true;
         }
         result
     }
 
-    async fn drive_inner(
+    async fn drive_inner<R>(
         &mut self,
         id: Option<si_core::job::JobId>,
-    ) -> Result<Result<Completion, Status>, Error> {
+        pick: impl FnOnce(&Completion) -> R,
+    ) -> Result<Result<R, Status>, Error> {
         // The engine's next deadline, armed only when a wait is not over after one yield: on
         // a pipe or a busy runtime the answer is usually there by then, and a timer armed and
         // disarmed per request would cost more than the exchange itself.
@@ -202,7 +212,7 @@ impl<T: Transport> Inner<T> {
                     // one, this event ended it ([`master::Master::outcome`] has it by id).
                     Output::Event(MasterEvent::Completed(c)) => {
                         if self.engine.running_job().is_none_or(|r| Some(r) != id) {
-                            return Ok(Ok(c));
+                            return Ok(Ok(pick(&c)));
                         }
                     }
                     Output::Event(MasterEvent::Failed { status, .. }) => {
@@ -271,7 +281,11 @@ impl<T: Transport> Client for InlineMaster<T> {
         request: &Request<'_>,
         pick: impl FnOnce(Option<Response<'_>>) -> Option<R> + Send,
     ) -> Result<R, Error> {
-        let c = self.request(unit, request).await?;
-        pick(c.response()).ok_or_else(|| unexpected(unit, request))
+        self.inner
+            .lock()
+            .await
+            .run(unit, request, |c| pick(c.response()))
+            .await?
+            .ok_or_else(|| unexpected(unit, request))
     }
 }
