@@ -646,10 +646,6 @@ impl Master {
 /// keeps to it (the codec's own limit is the module's, longer).
 const PASS_THROUGH_MAX: usize = 256;
 
-/// The ADU of a passed-through request ([`Master::request_pass_through`]): `unit_pdu` and its
-/// CRC; refused with 0E42H (invalid function) when it is shorter than unit + function code,
-/// with 0E43H for a broadcast (whether the function may be broadcast is unknown), and with
-/// 0E46H when it would not fit an RTU frame of [`PASS_THROUGH_MAX`] bytes.
 /// A request that passed the checks a job must pass before it starts
 /// ([`Master::check_job`], or those of [`Master::request_pass_through`]): the job the async
 /// handle hands the driver ([`si_core::job::JobEnd`]).
@@ -669,6 +665,10 @@ impl CheckedRequest {
     }
 }
 
+/// The ADU of a passed-through request ([`Master::request_pass_through`]): `unit_pdu` and its
+/// CRC; refused with 0E42H (invalid function) when it is shorter than unit + function code,
+/// with 0E43H for a broadcast (whether the function may be broadcast is unknown), and with
+/// 0E46H when it would not fit an RTU frame of [`PASS_THROUGH_MAX`] bytes.
 fn pass_through_adu(unit_pdu: &[u8]) -> Result<Adu, RequestError> {
     match unit_pdu {
         [] | [_] => Err(RequestError::Invalid(status::INVALID_FUNCTION)),

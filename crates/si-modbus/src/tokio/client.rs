@@ -280,12 +280,17 @@ pub trait Client: Sync {
     }
 }
 
-/// The registers as numbers, allocated once at their count (collecting the iterator, whose
-/// length is not known in advance, would grow the vector as it goes).
+/// The registers as numbers, allocated once at their count (`chunks_exact` knows its length).
 fn words(w: Registers<'_>) -> Vec<u16> {
-    let mut v = Vec::with_capacity(w.len());
-    v.extend(w.iter());
-    v
+    match w {
+        // Straight from the wire's pairs: a loop the compiler can unroll, without the
+        // per-register bounds check of `Registers::get`.
+        Registers::Wire(bytes) => bytes
+            .chunks_exact(2)
+            .map(|p| u16::from_be_bytes([p[0], p[1]]))
+            .collect(),
+        Registers::Words(words) => words.to_vec(),
+    }
 }
 
 /// The bits as booleans, allocated once (see [`words`]).

@@ -190,46 +190,71 @@ impl<T: Transport> Inner<T> {
     ) -> Result<Result<R, Status>, Error> {
         // The engine's next deadline, armed only when a wait is not over after one yield: on
         // a pipe or a busy runtime the answer is usually there by then, and a timer armed and
-        // disarmed per request would cost more than the exchange itself.
+        // disarmed per request would cost more than the exchange itself. (A timer kept armed
+        // across jobs was tried too: every park of the runtime then also runs tokio's timer
+        // wheel, and the round trip got slower than with the yield.)
         let mut sleep: Option<Pin<Box<tokio::time::Sleep>>> = None;
         let mut armed: Option<Instant> = None;
         let mut yielded = false;
+        // Just wrote a request: the first wait skips the read and only yields. The answer
+        // cannot be there before the partner has run, and a read polled now would register
+        // its waker, so the partner's write would wake this task once and the yield's
+        // deferred wake a second time, two wake-ups (an eventfd write each on tokio's
+        // current-thread runtime) where one is enough.
+        let mut skip_read = false;
+        // A clock reading taken just before (a read's arrival, a deadline handled) that the
+        // next turn reuses.
+        let mut fresh: Option<Instant> = None;
         loop {
             // One clock read per turn: the engine's outputs, the write and the deadline checks
             // below take microseconds at most.
-            let now = self.now();
+            let now = fresh.take().unwrap_or_else(|| self.now());
             let wait = loop {
-                match self.engine.poll_output() {
-                    Output::Transmit(bytes) => {
-                        let start = now;
-                        self.port.write_all(&bytes).await?;
-                        let settings = self.engine.config().line.settings;
-                        self.tx_done = Some(start + settings.chars_time(bytes.len() as u64));
+                // Match the output into what crosses the write's `await` (the frame's handle)
+                // before awaiting: an output is as large as a completion (two ADUs inline),
+                // and one kept across the `await` would be copied into the future every turn.
+                let bytes = match self.engine.poll_output() {
+                    Output::Transmit(bytes) => bytes,
+                    Output::SetSignals(update) => {
+                        self.port.set_signals(update)?;
+                        continue;
                     }
-                    Output::SetSignals(update) => self.port.set_signals(update)?,
-                    Output::Event(MasterEvent::Diagnostic(s)) => self.diagnostics.keep(s),
+                    Output::Event(MasterEvent::Diagnostic(s)) => {
+                        self.diagnostics.keep(s);
+                        continue;
+                    }
                     // The job's end: one job at a time, so once it is no longer the running
                     // one, this event ended it ([`master::Master::outcome`] has it by id).
                     Output::Event(MasterEvent::Completed(c)) => {
                         if self.engine.running_job().is_none_or(|r| Some(r) != id) {
                             return Ok(Ok(pick(&c)));
                         }
+                        continue;
                     }
                     Output::Event(MasterEvent::Failed { status, .. }) => {
                         if self.engine.running_job().is_none_or(|r| Some(r) != id) {
                             return Ok(Err(status));
                         }
+                        continue;
                     }
                     Output::Wait(deadline) => break deadline,
-                }
+                };
+                let start = now;
+                self.port.write_all(&bytes).await?;
+                skip_read = true;
+                yielded = false;
+                let settings = self.engine.config().line.settings;
+                self.tx_done = Some(start + settings.chars_time(bytes.len() as u64));
             };
             if self.tx_done.is_some_and(|t| t <= now) {
                 self.tx_done = None;
                 self.engine.handle_tx_done(now);
+                fresh = Some(now);
                 continue;
             }
             if wait.is_some_and(|d| d <= now) {
                 self.engine.handle_timeout(now);
+                fresh = Some(now);
                 continue;
             }
             let next = Instant::earliest(wait, self.tx_done);
@@ -249,7 +274,7 @@ impl<T: Transport> Inner<T> {
             });
             tokio::select! {
                 biased;
-                read = self.port.read(&mut self.rx) => {
+                read = self.port.read(&mut self.rx), if !skip_read => {
                     yielded = false;
                     let n = read?;
                     if n == 0 {
@@ -257,18 +282,14 @@ impl<T: Transport> Inner<T> {
                     }
                     let now = self.now();
                     self.engine.handle_rx(now, &self.rx[..n]);
+                    fresh = Some(now);
                 }
-                () = tokio::task::yield_now(), if !yielded => yielded = true,
-                () = timer => {
-                    armed = None;
-                    let now = self.now();
-                    if self.tx_done.is_some_and(|t| t <= now) {
-                        self.tx_done = None;
-                        self.engine.handle_tx_done(now);
-                    } else {
-                        self.engine.handle_timeout(now);
-                    }
+                () = tokio::task::yield_now(), if !yielded => {
+                    yielded = true;
+                    skip_read = false;
                 }
+                // What is due is handled at the top of the loop.
+                () = timer => armed = None,
             }
         }
     }
