@@ -252,6 +252,24 @@ pub enum TraceFileError {
 
 #[cfg(feature = "tracefile")]
 #[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
+impl Header {
+    /// The header as its JSON line (without the newline): what a trace file starts with, and
+    /// what a capture's section comment carries (`si_capture::pcap_out`).
+    pub fn to_line(&self) -> String {
+        // Strings, numbers and options only: serialization cannot fail.
+        serde_json::to_string(self).unwrap_or_default()
+    }
+
+    /// A header from its JSON line; `None` for text that is not a trace header of this format.
+    pub fn from_line(text: &str) -> Option<Header> {
+        serde_json::from_str::<Header>(text)
+            .ok()
+            .filter(|h| h.format == FORMAT)
+    }
+}
+
+#[cfg(feature = "tracefile")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
 /// The longest trace line a reader accepts: 1 MiB, an entry of about 250,000 bytes written as
 /// JSON numbers, far beyond any frame of the protocols (the longest, an RK 512 or 3964(R)
 /// block, is 1 KiB). A streaming reader holds one line at a time, so this bounds its memory.

@@ -47,6 +47,13 @@
 pub mod exchange;
 pub mod framer;
 pub mod line;
+#[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
+pub mod line_errors;
+#[cfg(feature = "tracefile")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
+pub mod line_stream;
+pub mod ordered;
 
 use crate::{Duration, Instant, LineError};
 use std::collections::BTreeMap;

@@ -17,18 +17,13 @@
 //! line, not the file. `--pcap` also writes the records as a Wireshark capture ([`pcap_out`]),
 //! `--from-pcap` reads one instead of a trace ([`pcap_in`]).
 
-pub mod line_stream;
-pub mod ordered;
-pub mod pcap_in;
-pub mod pcap_out;
-
-mod line_errors;
-
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::{Args, ValueEnum};
+use si_capture::{pcap_in, pcap_out};
 use si_core::monitor::{self, decode_all, line, Analysis, Decoder, Kind, LineChar, Record};
+use si_core::monitor::{line_errors, line_stream, ordered};
 use si_core::trace::TraceEntry;
 use si_core::tracefile::{self, Header, Item, TraceFile};
 use si_core::{Duration, Instant, SerialSettings};

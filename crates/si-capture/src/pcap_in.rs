@@ -12,8 +12,8 @@
 //! packet's time and the others follow at the line's character time, so the monitor judges
 //! the gaps between frames (the timers) but not inside them.
 
-use si_capture::pcapng::{Block, ReadError, Reader};
-use si_capture::{rtac, upper_pdu};
+use crate::pcapng::{Block, ReadError, Reader};
+use crate::{rtac, upper_pdu};
 use si_core::monitor::LineChar;
 use si_core::tracefile::Header;
 use si_core::{Duration, Instant, LineError, SerialSettings};
@@ -74,15 +74,13 @@ impl PcapIn {
                 None => return Ok((me, None)),
                 Some(Block::Section { comment }) => {
                     me.linktypes.clear();
-                    me.header = comment
-                        .and_then(|c| serde_json::from_str::<Header>(&c).ok())
-                        .filter(|h| h.format == si_core::tracefile::FORMAT);
+                    me.header = comment.and_then(|c| Header::from_line(&c));
                     if let Some(h) = &me.header {
                         me.stations = h.stations.clone();
                         me.origin = h
                             .start
                             .as_deref()
-                            .and_then(crate::cmd::monitor::pcap_out::epoch_micros)
+                            .and_then(crate::pcap_out::epoch_micros)
                             .or(Some(0));
                     }
                 }
@@ -175,7 +173,7 @@ impl PcapIn {
                 let Some((h, payload)) = rtac::Header::parse(data) else {
                     return;
                 };
-                if comment == Some(crate::cmd::monitor::pcap_out::END_COMMENT) {
+                if comment == Some(crate::pcap_out::END_COMMENT) {
                     self.end = Some(at);
                     return;
                 }

@@ -22,9 +22,9 @@
 //! Times are the recording's wall-clock start plus the record's time; a trace without a
 //! start (the simulator's virtual time) counts from 1970-01-01.
 
-use si_capture::pcapng::Writer;
-use si_capture::rtac;
-use si_capture::upper_pdu::{self, Direction};
+use crate::pcapng::Writer;
+use crate::rtac;
+use crate::upper_pdu::{self, Direction};
 use si_core::monitor::{LineChar, Record};
 use si_core::tracefile::Header;
 use si_core::{Instant, LineError};
@@ -124,7 +124,7 @@ impl PcapOut {
         header: &Header,
     ) -> std::io::Result<Self> {
         let file = std::fs::File::create(path)?;
-        let comment = serde_json::to_string(header).unwrap_or_default();
+        let comment = header.to_line();
         let mut w = Writer::new(
             BufWriter::new(file),
             concat!("si ", env!("CARGO_PKG_VERSION")),
