@@ -49,10 +49,14 @@
 //!   properties).
 
 mod busy;
+#[cfg(target_os = "linux")]
+pub mod check;
 mod icount;
 mod info;
 #[cfg(target_os = "linux")]
 mod linux;
+#[cfg(target_os = "linux")]
+pub mod loopback;
 mod rs485;
 mod stream;
 mod tx_enable;

@@ -1,4 +1,4 @@
-//! `si ports --check PORT --loopback`: with TX wired to RX (or a pseudo-terminal whose other
+//! The loopback check (`si ports --check PORT --loopback`): with TX wired to RX (or a pseudo-terminal whose other
 //! end echoes), what the port does with real traffic: a round trip at each baud rate, the
 //! packets received bytes arrive in and how long the port holds them, and whether the port
 //! hears its own transmission at all. (Whether parity errors are detected needs a sender and a
@@ -8,9 +8,9 @@
 //! Times are measured on this host's clock around blocking-free reads; they are what a user's
 //! program sees, not what the wire does.
 
-use super::port_check::{Finding, Severity};
-use si_core::port::{self, PortOptions};
-use si_core::{Parity, SerialSettings};
+use crate::port::check::{Finding, Severity};
+use crate::port::{self, PortOptions};
+use crate::{Parity, SerialSettings};
 use std::time::{Duration, Instant};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
