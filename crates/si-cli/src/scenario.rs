@@ -7,8 +7,9 @@
 
 use crate::cmd::monitor::MonitorArgs;
 use crate::error::CliError;
-use crate::line_names::{named_trace, Naming};
+use crate::line_names::Naming;
 use crate::output::{write_stdout, Output};
+use si_core::trace_names::named_trace;
 use si_core::SerialSettings;
 use si_sim::Trace;
 use std::cell::{Cell, RefCell};
@@ -158,7 +159,10 @@ pub fn print_trace(trace: &Trace, out: &Output) {
         }
     } else {
         match NAMING.with(Cell::get) {
-            Some(naming) => write_stdout(format_args!("{}", named_trace(trace, naming))),
+            Some(naming) => write_stdout(format_args!(
+                "{}",
+                named_trace(trace, |b| naming.transmission(b))
+            )),
             None => write_stdout(format_args!("{trace}")),
         }
     }

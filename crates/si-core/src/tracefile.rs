@@ -55,8 +55,8 @@ pub const FORMAT: &str = "si-trace";
 pub const VERSION: u32 = 1;
 
 /// The baud rates a trace may name: the manuals' twelve plus USS's 187 500 bit/s, so a USS trace
-/// reads back.
-static TRACE_RATES: [u32; 13] = {
+/// reads back; also the rates a monitored line or a trace without a header may use.
+pub const TRACE_RATES: [u32; 13] = {
     let mut r = [187_500; 13];
     let mut i = 0;
     while i < BAUD_RATES.len() {

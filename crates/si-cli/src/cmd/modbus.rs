@@ -587,8 +587,12 @@ async fn serve(
         },
         _ => e.into(),
     })?;
-    let store =
-        serve_map::Explaining::new(SimaticStore::new(memory, conversion), map.clone(), *out);
+    let out_copy = *out;
+    let store = si_modbus::serve_map::Explaining::new(
+        SimaticStore::new(memory, conversion),
+        map.clone(),
+        move |r: &si_modbus::serve_map::Refusal| serve_map::print_refusal(r, &out_copy),
+    );
     let config = SlaveConfig {
         line: line_config(
             conn,

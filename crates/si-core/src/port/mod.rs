@@ -59,6 +59,7 @@ mod linux;
 pub mod loopback;
 mod rs485;
 mod stream;
+mod sweep;
 mod tx_enable;
 
 pub use icount::{line_counters, LineCounters};
@@ -68,6 +69,7 @@ pub use info::{
 };
 pub use rs485::{Rs485, Rs485Mode, Rs485ModeError};
 pub use stream::SerialPort;
+pub use sweep::settings_sweep;
 pub use tx_enable::{TxEnable, TxEnableOutput};
 
 use crate::driver::{PortFacts, Transport};

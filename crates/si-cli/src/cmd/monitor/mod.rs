@@ -25,13 +25,9 @@ use si_capture::{pcap_in, pcap_out};
 use si_core::monitor::{self, decode_all, line, Analysis, Decoder, Kind, LineChar, Record};
 use si_core::monitor::{line_errors, line_stream, ordered};
 use si_core::trace::TraceEntry;
-use si_core::tracefile::{self, Header, Item, TraceFile};
+use si_core::tracefile::{self, Header, Item, TraceFile, TRACE_RATES};
 use si_core::{Duration, Instant, SerialSettings};
 use std::path::PathBuf;
-
-/// Baud rates a trace or a monitored line may use: the widest list, the manuals' twelve and
-/// USS's 187 500 (si-uss's own list).
-const TRACE_RATES: [u32; 13] = si_uss::config::USS_BAUD_RATES;
 
 /// The protocols the monitor decodes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]

@@ -53,7 +53,7 @@ pub fn export(
         .as_ref()
         .and_then(|h| h.settings)
         .and_then(|f| f.settings())
-        .map_or_else(|| conn.settings_for(&si_uss::config::USS_BAUD_RATES), Ok)?;
+        .map_or_else(|| conn.settings_for(&si_core::tracefile::TRACE_RATES), Ok)?;
     let wave = si_capture::trace_levels::waveform(&file, settings);
     drop(file);
     if wave.channels.is_empty() {
