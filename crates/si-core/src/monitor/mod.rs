@@ -54,6 +54,9 @@ pub mod line_errors;
 #[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
 pub mod line_stream;
 pub mod ordered;
+#[cfg(feature = "tracefile")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
+pub mod streamed;
 
 use crate::{Duration, Instant, LineError};
 use std::collections::BTreeMap;

@@ -13,19 +13,19 @@
 //! only chooses the monitor, feeds it and prints: every record as it is decoded, the counters
 //! at the end; `--svg` draws the sequence diagram ([`si_core::diagram`]).
 //!
-//! A trace is read record by record ([`line_stream`], [`ordered`]): memory holds a minute of
-//! line, not the file. `--pcap` also writes the records as a Wireshark capture ([`pcap_out`]),
-//! `--from-pcap` reads one instead of a trace ([`pcap_in`]).
+//! A trace is read record by record (`si_core::monitor::streamed`): memory holds a minute of
+//! line, not the file. `--pcap` also writes the records as a Wireshark capture
+//! ([`pcap_out`]), `--from-pcap` reads one instead of a trace ([`pcap_in`]).
 
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::{Args, ValueEnum};
 use si_capture::{pcap_in, pcap_out};
+use si_core::monitor::line_errors;
+use si_core::monitor::streamed::{Sink, StreamError, TraceStream};
 use si_core::monitor::{self, decode_all, line, Analysis, Decoder, Kind, LineChar, Record};
-use si_core::monitor::{line_errors, line_stream, ordered};
-use si_core::trace::TraceEntry;
-use si_core::tracefile::{self, Header, Item, TraceFile, TRACE_RATES};
+use si_core::tracefile::{self, Header, TraceFile, TRACE_RATES};
 use si_core::{Duration, Instant, SerialSettings};
 use std::path::PathBuf;
 
@@ -231,7 +231,7 @@ impl MonitorArgs {
     }
 
     /// Decode the trace at `path` record by record, handing every record to `sinks`: memory
-    /// bounded by a minute of line ([`ordered::HORIZON`]) and the longest trace line, not by
+    /// bounded by a minute of line (`si_core::monitor::ordered::HORIZON`) and the longest trace line, not by
     /// the file. The records come in the order [`analyse`](Self::analyse) gives them.
     pub fn stream_trace(
         &self,
@@ -241,21 +241,9 @@ impl MonitorArgs {
     ) -> Result<Analysis, CliError> {
         let file = std::fs::File::open(path)
             .map_err(|e| CliError::new(format!("cannot open {}: {e}", path.display())))?;
-        let mut stream = tracefile::Stream::new(std::io::BufReader::new(file));
         let bad = |e: tracefile::TraceFileError| CliError::new(format!("{}: {e}", path.display()));
-        let mut header: Option<Header> = None;
-        let mut prefix: Vec<TraceEntry> = Vec::new();
-        let mut more = true;
-        while prefix.len() < line_stream::LOOKAHEAD {
-            match stream.next_item().map_err(bad)? {
-                Some(Item::Header(h)) => header = Some(h),
-                Some(Item::Entry(e)) => prefix.push(e),
-                None => {
-                    more = false;
-                    break;
-                }
-            }
-        }
+        let input = TraceStream::open(std::io::BufReader::new(file)).map_err(bad)?;
+        let header = input.header().cloned();
         let settings = header
             .as_ref()
             .and_then(|h| h.settings)
@@ -270,107 +258,58 @@ impl MonitorArgs {
             (p, _) => p == Protocol::DpCoord,
         };
         // The first entries decide the kind of line and, unnamed, the protocol.
-        let mut probe = line_stream::LineStream::plan(header.as_ref(), &prefix, settings, windows);
-        let mut probe_chars = Vec::new();
-        for e in &prefix {
-            probe.push(e, &mut probe_chars);
-        }
-        probe.finish(&mut probe_chars);
-        let one_sided = probe.stations().len() < 2;
+        let probe = input.probe(settings, windows);
+        let one_sided = probe.stations.len() < 2;
         let protocol = match (self.protocol, named) {
             (Protocol::Auto, Some(p)) => p,
-            (Protocol::Auto, None) => {
-                let end = probe
-                    .end
-                    .max(probe_chars.last().map(|c| c.at).unwrap_or_default());
-                // ASCII explains every line trivially: only when nothing else does.
-                let candidates = [Protocol::P3964r, Protocol::Modbus, Protocol::Uss];
-                monitor::best_fit(&probe_chars, end, &candidates, Protocol::Ascii, |p| {
-                    self.decoder(p, settings, one_sided)
-                })
-            }
+            (Protocol::Auto, None) => self.guess(&probe.chars, probe.end, settings, one_sided),
             (p, _) => p,
         };
-        drop(probe_chars);
         let decoder: Box<dyn Decoder + Send> = if windows {
             Box::new(si_dp_coord::monitor::Monitor::new(
-                si_dp_coord::monitor::module_index(probe.stations()),
+                si_dp_coord::monitor::module_index(&probe.stations),
             ))
         } else {
             self.decoder(protocol, settings, one_sided)
         };
-        let mut decoding = ordered::Ordered::new(decoder);
-        let mut line = line_stream::LineStream::plan(header.as_ref(), &prefix, settings, windows);
-        let start = header.as_ref().and_then(|h| h.start.clone());
         // Record times count from the recording's start; say when that was. Text only: a JSON
         // reader has the header itself, and every JSON line stays a record.
-        if let (Some(start), Some(out)) = (&start, sinks.out) {
+        if let (Some(start), Some(out)) =
+            (header.as_ref().and_then(|h| h.start.as_ref()), sinks.out)
+        {
             if !out.json {
                 crate::output::write_stdout(format_args!("recorded from {start}\n"));
             }
         }
         let described = header
-            .clone()
             .unwrap_or_else(|| Header::new("trace"))
             .protocol(protocol.name())
             .settings(settings)
-            .stations(probe.stations());
+            .stations(&probe.stations);
+        drop(probe);
         sinks.open_pcap(protocol.name(), &described)?;
-        let mut stations = line.stations().to_vec();
-        let mut chars = Vec::new();
-        let mut feed = |e: &TraceEntry,
-                        line: &mut line_stream::LineStream,
-                        decoding: &mut ordered::Ordered,
-                        stations: &mut Vec<String>,
-                        sinks: &mut Sinks<'_>|
-         -> Result<(), CliError> {
-            line.push(e, &mut chars);
-            if line.stations().len() != stations.len() {
-                *stations = line.stations().to_vec();
-            }
-            if let si_core::trace::TraceKind::Signals { update } = &e.kind {
-                sinks.signals(e.at, update, &e.station)?;
-            }
-            for c in chars.drain(..) {
-                sinks.char(&c);
-                decoding.push(&c, &mut |r| sinks.record(r, stations))?;
-            }
-            if self.events {
-                if let si_core::trace::TraceKind::Event { text } = &e.kind {
-                    let from = stations.iter().position(|s| s == &e.station);
-                    let mut r = Record::new(Kind::Event, e.at, e.at, from);
-                    r.label = text.clone();
-                    decoding.event(r);
-                }
-            }
-            Ok(())
-        };
-        for e in &prefix {
-            feed(e, &mut line, &mut decoding, &mut stations, sinks)?;
-        }
-        drop(prefix);
-        while more {
-            match stream.next_item().map_err(bad)? {
-                Some(Item::Entry(e)) => feed(&e, &mut line, &mut decoding, &mut stations, sinks)?,
-                Some(Item::Header(_)) => {}
-                None => more = false,
-            }
-        }
-        let mut rest = Vec::new();
-        line.finish(&mut rest);
-        stations = line.stations().to_vec();
-        for c in &rest {
-            sinks.char(c);
-            decoding.push(c, &mut |r| sinks.record(r, &stations))?;
-        }
-        let end = line.end.max(decoding.last);
-        decoding.finish(end, &mut |r| sinks.record(r, &stations))?;
-        Ok(Analysis {
-            protocol: protocol.name().to_owned(),
-            stations,
-            records: Vec::new(),
-            counters: decoding.decoder.counters().clone(),
-            span: (decoding.first.unwrap_or_default(), end),
+        let run = (settings, windows);
+        input
+            .run(run, decoder, (protocol.name(), self.events), sinks)
+            .map_err(|e| match e {
+                StreamError::Read(e) => bad(e),
+                StreamError::Sink(e) => e,
+            })
+    }
+
+    /// Which protocol a line that names none looks like ([`monitor::best_fit`]): 3964(R),
+    /// Modbus or USS, whichever explains it best; ASCII explains every line trivially, so only
+    /// when nothing else does.
+    fn guess(
+        &self,
+        chars: &[LineChar],
+        end: Instant,
+        settings: SerialSettings,
+        one_sided: bool,
+    ) -> Protocol {
+        let candidates = [Protocol::P3964r, Protocol::Modbus, Protocol::Uss];
+        monitor::best_fit(chars, end, &candidates, Protocol::Ascii, |p| {
+            self.decoder(p, settings, one_sided)
         })
     }
 
@@ -411,7 +350,6 @@ impl MonitorArgs {
         } else {
             self.decoder(protocol, settings, one_sided)
         };
-        let mut decoding = ordered::Ordered::new(decoder);
         let mut sinks = Sinks {
             out: Some(out),
             diagram: self.svg.as_ref().map(|_| si_core::diagram::Diagram::new()),
@@ -430,31 +368,12 @@ impl MonitorArgs {
             .protocol(protocol.name())
             .settings(settings);
         sinks.open_pcap(protocol.name(), &described)?;
-        let mut chars = Vec::new();
-        let mut packet = first;
-        let mut end = Instant::ZERO;
-        while let Some((iface, at, data, comment)) = packet {
-            input.chars(iface, at, &data, comment.as_deref(), &mut chars);
-            let stations = input.stations.clone();
-            for c in chars.drain(..) {
-                end = end.max(c.at);
-                sinks.char(&c);
-                decoding.push(&c, &mut |r| sinks.record(r, &stations))?;
-            }
-            packet = input
-                .next_packet()
-                .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
-        }
-        let stations = input.stations.clone();
-        let end = input.end.unwrap_or(end).max(end);
-        decoding.finish(end, &mut |r| sinks.record(r, &stations))?;
-        let analysis = Analysis {
-            protocol: protocol.name().to_owned(),
-            stations,
-            records: Vec::new(),
-            counters: decoding.decoder.counters().clone(),
-            span: (decoding.first.unwrap_or_default(), end),
-        };
+        let analysis = input
+            .run(first, decoder, protocol.name(), &mut sinks)
+            .map_err(|e| match e {
+                StreamError::Read(e) => CliError::new(format!("{}: {e}", path.display())),
+                StreamError::Sink(e) => e,
+            })?;
         sinks.finish(&analysis, self.svg.as_deref())
     }
 
@@ -488,13 +407,7 @@ impl MonitorArgs {
             .max(line.chars.last().map(|c| c.at).unwrap_or_default());
         let protocol = match (self.protocol, named) {
             (Protocol::Auto, Some(p)) => p,
-            (Protocol::Auto, None) => {
-                // ASCII explains every line trivially: only when nothing else does.
-                let candidates = [Protocol::P3964r, Protocol::Modbus, Protocol::Uss];
-                monitor::best_fit(&line.chars, end, &candidates, Protocol::Ascii, |p| {
-                    self.decoder(p, settings, one_sided)
-                })
-            }
+            (Protocol::Auto, None) => self.guess(&line.chars, end, settings, one_sided),
             (p, _) => p,
         };
         let mut decoder: Box<dyn Decoder + Send> = if windows {
@@ -720,16 +633,18 @@ impl Sinks<'_> {
         }
         Ok(())
     }
+}
 
-    /// A character as the monitor is fed it.
-    pub fn char(&mut self, c: &LineChar) {
+impl Sink for Sinks<'_> {
+    type Error = CliError;
+
+    fn char(&mut self, c: &LineChar) {
         if let Some(p) = &mut self.pcap {
             p.char(c);
         }
     }
 
-    /// A change of a station's modem lines.
-    pub fn signals(
+    fn signals(
         &mut self,
         at: Instant,
         update: &si_core::SignalUpdate,
@@ -752,8 +667,7 @@ impl Sinks<'_> {
         Ok(())
     }
 
-    /// A decoded record, in start order.
-    pub fn record(&mut self, r: Record, stations: &[String]) -> Result<(), CliError> {
+    fn record(&mut self, r: Record, stations: &[String]) -> Result<(), CliError> {
         if let Some(out) = self.out {
             print_record(&r, stations, out);
         }
@@ -769,7 +683,9 @@ impl Sinks<'_> {
         }
         Ok(())
     }
+}
 
+impl Sinks<'_> {
     /// The end: counters printed, the diagram and the capture written.
     pub fn finish(
         self,
