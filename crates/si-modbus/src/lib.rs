@@ -116,6 +116,7 @@ pub mod simatic;
 pub mod slave;
 pub mod status;
 mod transmitter;
+pub mod values;
 
 #[cfg(feature = "tokio")]
 #[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]

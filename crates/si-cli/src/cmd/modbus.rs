@@ -15,10 +15,11 @@ mod scan;
 mod tcp;
 
 use address::{parse_u16, parse_unit, AddressArgs};
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use explain::{failure, status_text};
-use format::{ValueFormat, WordOrder};
 use poll::PollArgs;
 use report::Report;
+use si_modbus::values::{ValueFormat, WordOrder};
 
 mod serve_map;
 
@@ -205,12 +206,16 @@ pub enum Command {
         count: u16,
         #[command(flatten)]
         polling: PollArgs,
-        /// How registers are shown (holding and input registers only) [default: u16].
-        #[arg(long, value_enum)]
+        /// How registers are shown (holding and input registers only) [default: u16]: hex, u16
+        /// or i16 per register, u32, i32 or f32 per pair (see --word-order), ascii two
+        /// characters per register.
+        #[arg(long, value_parser = PossibleValuesParser::new(ValueFormat::NAMES)
+            .try_map(|s| s.parse::<ValueFormat>()))]
         format: Option<ValueFormat>,
         /// For u32/i32/f32: `big` = high word first (Modicon default), `swapped` = low word
         /// first.
-        #[arg(long, value_enum, default_value_t = WordOrder::Big)]
+        #[arg(long, default_value = "big", value_parser = PossibleValuesParser::new(WordOrder::NAMES)
+            .try_map(|s| s.parse::<WordOrder>()))]
         word_order: WordOrder,
     },
     /// Write coils or registers (FC05, 06, 15, 16).
@@ -353,7 +358,7 @@ impl Command {
                             f.name()
                         )));
                     }
-                    f.check_count(count).map_err(CliError::usage)?;
+                    format::check_count(f, count).map_err(CliError::usage)?;
                 }
                 let report = Report {
                     format: format.unwrap_or_default(),
