@@ -11,6 +11,7 @@ pub mod pcapng;
 pub mod rtac;
 pub mod sigrok;
 pub mod trace_levels;
+pub mod trace_waves;
 pub mod uart_levels;
 pub mod upper_pdu;
 pub mod vcd;
