@@ -107,6 +107,7 @@ pub mod frame;
 pub mod master;
 pub mod mbap;
 pub mod monitor;
+pub mod poll_counters;
 pub mod quiet_guard;
 pub mod rx;
 pub mod scan;
