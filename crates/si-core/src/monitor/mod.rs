@@ -53,6 +53,9 @@ pub mod line_errors;
 #[cfg(feature = "tracefile")]
 #[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
 pub mod line_stream;
+#[cfg(feature = "tokio")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
+pub mod live;
 pub mod ordered;
 #[cfg(feature = "tracefile")]
 #[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]

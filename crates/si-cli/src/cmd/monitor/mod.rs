@@ -22,7 +22,7 @@ use crate::error::CliError;
 use crate::output::Output;
 use clap::{Args, ValueEnum};
 use si_capture::{pcap_in, pcap_out};
-use si_core::monitor::line_errors;
+use si_core::monitor::live::{self, Ended, WatchError};
 use si_core::monitor::streamed::{Sink, StreamError, TraceStream};
 use si_core::monitor::{self, decode_all, line, Analysis, Decoder, Kind, LineChar, Record};
 use si_core::tracefile::{self, Header, TraceFile, TRACE_RATES};
@@ -440,7 +440,6 @@ impl MonitorArgs {
     }
 
     async fn run_live(&self, conn: &Connection, out: &Output) -> Result<(), CliError> {
-        use tokio::io::AsyncReadExt;
         let settings = conn.settings_for(&TRACE_RATES)?;
         let protocol = if self.protocol == Protocol::Auto {
             return Err(CliError::new(
@@ -474,22 +473,7 @@ impl MonitorArgs {
             Some(t) => vec![name(conn.port.as_ref(), "A"), name(Some(t), "B")],
             None => vec!["line".to_owned()],
         };
-        let (to_a, to_b) = if tap.is_some() {
-            (Some(1), Some(0))
-        } else {
-            (None, None)
-        };
         let mut decoder = self.decoder(protocol, settings, tap.is_none());
-        // Line errors (parity, framing, BREAK, overrun) reach the decoders in place.
-        let mut lines_a = line_errors::LineReader::attach(port.as_mut(), (Some(0), to_a));
-        let mut lines_b = tap
-            .as_mut()
-            .map(|t| line_errors::LineReader::attach(t.as_mut(), (Some(1), to_b)));
-        let origin = tokio::time::Instant::now();
-        let now = || Instant::from_micros(origin.elapsed().as_micros() as u64);
-        let stop = self
-            .duration
-            .map(|s| origin + std::time::Duration::from_secs_f64(s.max(0.0)));
         // The diagram summarises as the records arrive: a monitor left running for days, or
         // flooded, holds a bounded number of them (si_core::diagram::Diagram).
         let mut diagram = self.svg.as_ref().map(|_| si_core::diagram::Diagram::new());
@@ -512,12 +496,6 @@ impl MonitorArgs {
         let pcap_error = |p: &pcap_out::PcapOut, e: std::io::Error| {
             CliError::new(format!("cannot write {}: {e}", p.path().display()))
         };
-        let mut buf = [0u8; 512];
-        let mut buf2 = [0u8; 512];
-        let mut last = Instant::ZERO;
-        let mut tick = tokio::time::interval(std::time::Duration::from_millis(50));
-        let ctrl_c = tokio::signal::ctrl_c();
-        tokio::pin!(ctrl_c);
         out.line(
             &format!(
                 "monitoring {} at {settings} (receive only); Ctrl-C ends",
@@ -525,66 +503,53 @@ impl MonitorArgs {
             ),
             serde_json::json!({"monitor": protocol.name(), "settings": settings.to_string()}),
         );
-        let read_error = |e: std::io::Error| CliError::new(format!("reading the line: {e}"));
+        // Ctrl-C (true) or the --duration (false) ends the watch.
+        let duration = self
+            .duration
+            .map(|s| std::time::Duration::from_secs_f64(s.max(0.0)));
+        let stop = async {
+            tokio::select! {
+                _ = tokio::signal::ctrl_c() => true,
+                _ = tokio::time::sleep(duration.unwrap_or_default()), if duration.is_some() => false,
+            }
+        };
+        let watched = live::watch(
+            port.as_mut(),
+            tap.as_mut()
+                .map(|t| &mut **t as &mut dyn si_core::driver::Transport),
+            settings,
+            decoder.as_mut(),
+            stop,
+            |records| {
+                for r in &records {
+                    print_record(r, &stations, out);
+                    if let Some(p) = &mut pcap {
+                        p.record(r, &stations).map_err(|e| pcap_error(p, e))?;
+                    }
+                }
+                if let Some(d) = &mut diagram {
+                    records.into_iter().for_each(|r| d.push(r));
+                }
+                Ok(())
+            },
+        )
+        .await;
+        let (ended, end) = watched.map_err(|e| match e {
+            WatchError::Read(e) => CliError::new(format!("reading the line: {e}")),
+            WatchError::Records(e) => e,
+        })?;
         // How the watch ended when it was not its --duration: the counters and the diagram
         // are still written, then the exit code says it (a closed line 1, Ctrl-C 130).
-        let mut ended: Option<CliError> = None;
-        loop {
-            let mut records = Vec::new();
-            tokio::select! {
-                read = port.read(&mut buf) => {
-                    let n = read.map_err(read_error)?;
-                    if n == 0 {
-                        ended = Some(conn.closed());
-                        break;
-                    }
-                    for c in lines_a.chars(port.as_mut(), &buf[..n], now(), settings, &mut last) {
-                        decoder.push(&c, &mut records);
-                    }
-                }
-                read = async { tap.as_mut().map(|t| t.read(&mut buf2)).expect("guarded").await }, if tap.is_some() => {
-                    let n = read.map_err(read_error)?;
-                    if n == 0 {
-                        ended = tap_conn.as_ref().map(Connection::closed);
-                        break;
-                    }
-                    let (Some(t), Some(lines)) = (tap.as_mut(), lines_b.as_mut()) else { break };
-                    for c in lines.chars(t.as_mut(), &buf2[..n], now(), settings, &mut last) {
-                        decoder.push(&c, &mut records);
-                    }
-                }
-                _ = tick.tick() => decoder.idle(now(), &mut records),
-                _ = &mut ctrl_c => {
-                    ended = Some(CliError::interrupted());
-                    break;
-                }
-                _ = tokio::time::sleep_until(stop.unwrap_or(origin)), if stop.is_some() => break,
-            }
-            for r in &records {
-                print_record(r, &stations, out);
-                if let Some(p) = &mut pcap {
-                    p.record(r, &stations).map_err(|e| pcap_error(p, e))?;
-                }
-            }
-            if let Some(d) = &mut diagram {
-                records.into_iter().for_each(|r| d.push(r));
-            }
-        }
-        let mut records = Vec::new();
-        decoder.finish(now(), &mut records);
-        for r in &records {
-            print_record(r, &stations, out);
-            if let Some(p) = &mut pcap {
-                p.record(r, &stations).map_err(|e| pcap_error(p, e))?;
-            }
-        }
+        let ended = match ended {
+            Ended::Stopped(false) => None,
+            Ended::Stopped(true) => Some(CliError::interrupted()),
+            Ended::Closed { tap: false } => Some(conn.closed()),
+            Ended::Closed { tap: true } => tap_conn.as_ref().map(Connection::closed),
+        };
         if let Some(p) = pcap {
             let path = p.path().to_owned();
-            p.finish(&stations, now())
+            p.finish(&stations, end)
                 .map_err(|e| CliError::new(format!("cannot write {}: {e}", path.display())))?;
-        }
-        if let Some(d) = &mut diagram {
-            records.into_iter().for_each(|r| d.push(r));
         }
         let first = diagram
             .as_ref()
@@ -592,7 +557,7 @@ impl MonitorArgs {
         let analysis = Analysis {
             protocol: protocol.name().to_owned(),
             stations,
-            span: (first.unwrap_or_default(), now()),
+            span: (first.unwrap_or_default(), end),
             records: Vec::new(),
             counters: decoder.counters().clone(),
         };
