@@ -196,7 +196,15 @@ impl PcapOut {
     }
 
     /// A change of a station's modem lines (`lines`: [`rtac::lines`] bits).
-    pub fn signals(&mut self, at: Instant, lines: u8, station: &str) -> std::io::Result<()> {
+    pub fn signals(
+        &mut self,
+        at: Instant,
+        update: &si_core::SignalUpdate,
+        station: &str,
+    ) -> std::io::Result<()> {
+        // The outputs a trace records, as RTAC's control-line bits: on when set, else off.
+        let on = |set: Option<bool>, bit: u8| if set == Some(true) { bit } else { 0 };
+        let lines = on(update.dtr, rtac::lines::DTR) | on(update.rts, rtac::lines::RTS);
         let header = rtac::Header {
             at_us: self.origin + at.as_micros(),
             event: rtac::Event::Other(0),

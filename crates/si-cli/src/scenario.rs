@@ -90,15 +90,7 @@ pub fn run(
 
 /// Write the trace file and the diagram the running scenario asked for.
 fn save(sink: &Sink, trace: &Trace) -> Result<(), String> {
-    let stations: Vec<String> = {
-        let mut names: Vec<String> = Vec::new();
-        for e in &trace.entries {
-            if !names.contains(&e.station) {
-                names.push(e.station.clone());
-            }
-        }
-        names
-    };
+    let stations = trace.stations();
     let mut header = si_core::tracefile::Header::new("sim")
         .settings(sink.settings)
         .stations(&stations);

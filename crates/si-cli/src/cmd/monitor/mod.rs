@@ -615,18 +615,8 @@ impl Sink for Sinks<'_> {
         update: &si_core::SignalUpdate,
         station: &str,
     ) -> Result<(), CliError> {
-        use si_capture::rtac::lines;
         if let Some(p) = &mut self.pcap {
-            let bits = if update.dtr == Some(true) {
-                lines::DTR
-            } else {
-                0
-            } | if update.rts == Some(true) {
-                lines::RTS
-            } else {
-                0
-            };
-            p.signals(at, bits, station)
+            p.signals(at, update, station)
                 .map_err(|e| Self::pcap_error(p.path(), e))?;
         }
         Ok(())
@@ -686,20 +676,7 @@ impl MonitorArgs {
     pub fn quiet(protocol: Protocol) -> MonitorArgs {
         MonitorArgs {
             protocol,
-            trace: None,
-            from_pcap: None,
-            pcap: None,
-            svg: None,
-            tap: None,
-            duration: None,
-            zvz: None,
-            qvz: None,
-            timeout: None,
-            char_delay: None,
-            end_char: None,
-            fixed_length: None,
-            events: false,
-            no_xon_xoff: false,
+            ..MonitorArgs::default()
         }
     }
 }
