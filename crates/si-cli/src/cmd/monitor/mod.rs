@@ -24,7 +24,7 @@ use clap::{Args, ValueEnum};
 use si_capture::{pcap_in, pcap_out};
 use si_core::monitor::live::{self, Ended, WatchError};
 use si_core::monitor::streamed::{Sink, StreamError, TraceStream};
-use si_core::monitor::{self, decode_all, line, Analysis, Decoder, Kind, LineChar, Record};
+use si_core::monitor::{self, line, Analysis, Decoder, Kind, LineChar, Record};
 use si_core::tracefile::{self, Header, TraceFile, TRACE_RATES};
 use si_core::{Duration, Instant, SerialSettings};
 use std::path::PathBuf;
@@ -249,29 +249,11 @@ impl MonitorArgs {
             .and_then(|h| h.settings)
             .and_then(|f| f.settings())
             .map_or_else(|| conn.settings_for(&TRACE_RATES), Ok)?;
-        let named = header
-            .as_ref()
-            .and_then(|h| h.protocol.as_deref())
-            .and_then(Protocol::from_name);
-        let windows = match (self.protocol, named) {
-            (Protocol::Auto, named) => named == Some(Protocol::DpCoord),
-            (p, _) => p == Protocol::DpCoord,
-        };
+        let (named, windows) = self.named(header.as_ref());
         // The first entries decide the kind of line and, unnamed, the protocol.
         let probe = input.probe(settings, windows);
-        let one_sided = probe.stations.len() < 2;
-        let protocol = match (self.protocol, named) {
-            (Protocol::Auto, Some(p)) => p,
-            (Protocol::Auto, None) => self.guess(&probe.chars, probe.end, settings, one_sided),
-            (p, _) => p,
-        };
-        let decoder: Box<dyn Decoder + Send> = if windows {
-            Box::new(si_dp_coord::monitor::Monitor::new(
-                si_dp_coord::monitor::module_index(&probe.stations),
-            ))
-        } else {
-            self.decoder(protocol, settings, one_sided)
-        };
+        let line = (&probe.chars[..], probe.end, &probe.stations[..]);
+        let (protocol, decoder) = self.chosen(named, windows, line, settings);
         // Record times count from the recording's start; say when that was. Text only: a JSON
         // reader has the header itself, and every JSON line stays a record.
         if let (Some(start), Some(out)) =
@@ -295,6 +277,42 @@ impl MonitorArgs {
                 StreamError::Read(e) => bad(e),
                 StreamError::Sink(e) => e,
             })
+    }
+
+    /// The protocol a trace header names, and whether the trace is one of DP windows.
+    fn named(&self, header: Option<&Header>) -> (Option<Protocol>, bool) {
+        let named = header
+            .and_then(|h| h.protocol.as_deref())
+            .and_then(Protocol::from_name);
+        let windows = match (self.protocol, named) {
+            (Protocol::Auto, named) => named == Some(Protocol::DpCoord),
+            (p, _) => p == Protocol::DpCoord,
+        };
+        (named, windows)
+    }
+
+    /// The protocol (`--protocol`, else the one `named`, else the [`guess`](Self::guess) from
+    /// the line's first characters up to `end`) and its decoder for a line of `stations`.
+    fn chosen(
+        &self,
+        named: Option<Protocol>,
+        windows: bool,
+        (chars, end, stations): (&[LineChar], Instant, &[String]),
+        settings: SerialSettings,
+    ) -> (Protocol, Box<dyn Decoder + Send>) {
+        let one_sided = stations.len() < 2;
+        let protocol = match (self.protocol, named) {
+            (Protocol::Auto, Some(p)) => p,
+            (Protocol::Auto, None) => self.guess(chars, end, settings, one_sided),
+            (p, _) => p,
+        };
+        let decoder: Box<dyn Decoder + Send> = if windows {
+            let index = si_dp_coord::monitor::module_index(stations);
+            Box::new(si_dp_coord::monitor::Monitor::new(index))
+        } else {
+            self.decoder(protocol, settings, one_sided)
+        };
+        (protocol, decoder)
     }
 
     /// Which protocol a line that names none looks like ([`monitor::best_fit`]): 3964(R),
@@ -383,21 +401,12 @@ impl MonitorArgs {
         file: &TraceFile,
         settings: SerialSettings,
     ) -> Result<Analysis, CliError> {
-        let named = file
-            .header
-            .as_ref()
-            .and_then(|h| h.protocol.as_deref())
-            .and_then(Protocol::from_name);
-        let windows = match (self.protocol, named) {
-            (Protocol::Auto, named) => named == Some(Protocol::DpCoord),
-            (p, _) => p == Protocol::DpCoord,
-        };
+        let (named, windows) = self.named(file.header.as_ref());
         let line = if windows {
             si_dp_coord::monitor::line(file)
         } else {
             line::from_trace(file, settings)
         };
-        let one_sided = line.stations.len() < 2;
         let end = file
             .trace
             .entries
@@ -405,38 +414,17 @@ impl MonitorArgs {
             .map(|e| e.at)
             .unwrap_or_default()
             .max(line.chars.last().map(|c| c.at).unwrap_or_default());
-        let protocol = match (self.protocol, named) {
-            (Protocol::Auto, Some(p)) => p,
-            (Protocol::Auto, None) => self.guess(&line.chars, end, settings, one_sided),
-            (p, _) => p,
-        };
-        let mut decoder: Box<dyn Decoder + Send> = if windows {
-            Box::new(si_dp_coord::monitor::Monitor::new(
-                si_dp_coord::monitor::module_index(&line.stations),
-            ))
-        } else {
-            self.decoder(protocol, settings, one_sided)
-        };
-        let mut records = decode_all(decoder.as_mut(), &line.chars, end);
-        if self.events {
-            for e in &file.trace.entries {
-                if let si_core::trace::TraceKind::Event { text } = &e.kind {
-                    let from = line.stations.iter().position(|s| s == &e.station);
-                    let mut r = Record::new(Kind::Event, e.at, e.at, from);
-                    r.label = text.clone();
-                    records.push(r);
-                }
-            }
-            // Stable: at equal times the line comes before what the engine made of it.
-            records.sort_by_key(|r| r.start);
-        }
-        Ok(Analysis {
-            protocol: protocol.name().to_owned(),
-            stations: line.stations,
-            records,
-            counters: decoder.counters().clone(),
-            span: (line.chars.first().map(|c| c.at).unwrap_or_default(), end),
-        })
+        let seen = (&line.chars[..], end, &line.stations[..]);
+        let (protocol, mut decoder) = self.chosen(named, windows, seen, settings);
+        let events = self.events.then_some(&file.trace.entries[..]);
+        let name = protocol.name();
+        Ok(monitor::analyse_line(
+            line,
+            end,
+            decoder.as_mut(),
+            name,
+            events,
+        ))
     }
 
     async fn run_live(&self, conn: &Connection, out: &Output) -> Result<(), CliError> {
@@ -753,6 +741,7 @@ mod tests {
     use clap::FromArgMatches;
     use si_core::monitor::LineChar;
     use si_core::LineError;
+    use si_core::monitor::decode_all;
     use si_sim::{SplitMix64, Trace, TraceEntry, TraceKind};
 
     fn args(extra: &[&str]) -> MonitorArgs {
