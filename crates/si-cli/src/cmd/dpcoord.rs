@@ -294,12 +294,7 @@ fn finish(result: Result<Outcome, Status>, out: &Output) -> Result<(), CliError>
 /// the module (3964(R), ASCII); a code none of them has says so instead of standing bare
 /// (a bare 16#49D1 tells the user nothing).
 fn described(status: Status) -> String {
-    let lookups: [fn(u16) -> Status; 3] = [
-        si_dp_coord::status::lookup,
-        si_3964r::status::lookup,
-        si_ascii::status::lookup,
-    ];
-    match (lookups.iter().map(|l| status.described_by(l))).find(|s| s.info().is_some()) {
+    match si_dp_coord::status::lookup_with_drivers(status) {
         Some(s) => s.to_string(),
         None => format!("{status} (not in the catalog)"),
     }

@@ -74,9 +74,12 @@ pub struct MasterOptions {
 /// slave side can too.
 #[derive(Debug, Clone, Args)]
 pub struct FramingOptions {
-    /// Operating mode (`serve`: overridden by the config file's `mode`).
-    #[arg(long, value_enum, default_value_t = ModeArg::Normal)]
-    mode: ModeArg,
+    /// Operating mode (`serve`: overridden by the config file's `mode`): normal reports
+    /// transmission errors, interference-suppression ignores corrupt frames and skips garbage
+    /// before the address.
+    #[arg(long, default_value = "normal", value_parser = PossibleValuesParser::new(Mode::NAMES.map(|(n, _)| n))
+        .try_map(|s| s.parse::<Mode>()))]
+    mode: Mode,
     /// Character delay multiplier 1–10: end-of-frame gap = table value × this (`serve`:
     /// overridden by the config file's `char_delay_multiplier`).
     #[arg(long, default_value_t = 1)]
@@ -84,9 +87,10 @@ pub struct FramingOptions {
     /// How a received frame ends: at the end-of-frame gap as the module does, or (host
     /// extension) also as soon as it has its predicted length and a good CRC, so the master
     /// completes (and the slave answers) without waiting for the gap (`serve`: overridden by
-    /// the config file's `frame_end`).
-    #[arg(long, value_enum, default_value_t = FrameEndArg::Gap)]
-    frame_end: FrameEndArg,
+    /// the config file's `frame_end`): gap ([Modbus/USS] §3.3.5, Table 3-11) or length.
+    #[arg(long, default_value = "gap", value_parser = PossibleValuesParser::new(FrameEnd::NAMES)
+        .try_map(|s| s.parse::<FrameEnd>()))]
+    frame_end: FrameEnd,
     /// Data flow control "automatic use of the V.24 signals" ([Modbus/USS] §3.2.2; RS-232C only):
     /// RTS on before each frame, send once CTS is on, RTS off after it. Default: none.
     #[arg(long)]
@@ -118,44 +122,6 @@ impl FramingOptions {
             time_rts_off_ms: self.rts_off_ms.unwrap_or(d.time_rts_off_ms),
             data_wait_time_ms: self.data_wait_ms.unwrap_or(d.data_wait_time_ms),
         }))
-    }
-}
-
-/// `--frame-end`.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum FrameEndArg {
-    /// The module's behaviour ([Modbus/USS] §3.3.5, Table 3-11): a frame ends after the line has
-    /// been silent for the gap.
-    Gap,
-    /// Host extension: a frame also ends at the length its header predicts once its CRC
-    /// checks (no wait for the gap; the master still leaves it before its next request).
-    Length,
-}
-
-impl From<FrameEndArg> for FrameEnd {
-    fn from(f: FrameEndArg) -> FrameEnd {
-        match f {
-            FrameEndArg::Gap => FrameEnd::Gap,
-            FrameEndArg::Length => FrameEnd::Length,
-        }
-    }
-}
-
-/// `--mode`.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum ModeArg {
-    /// Report transmission errors.
-    Normal,
-    /// Ignore corrupt frames, skip garbage before the address.
-    InterferenceSuppression,
-}
-
-impl From<ModeArg> for Mode {
-    fn from(m: ModeArg) -> Mode {
-        match m {
-            ModeArg::Normal => Mode::Normal,
-            ModeArg::InterferenceSuppression => Mode::InterferenceSuppression,
-        }
     }
 }
 

@@ -68,17 +68,10 @@ impl Protocol {
         }
     }
 
+    /// The protocol a trace header or a capture names (`3964R` as `3964r`), not `auto`.
     fn from_name(name: &str) -> Option<Protocol> {
-        Some(match name {
-            "3964r" | "3964R" => Protocol::P3964r,
-            "3964" => Protocol::P3964,
-            "rk512" => Protocol::Rk512,
-            "ascii" => Protocol::Ascii,
-            "modbus" => Protocol::Modbus,
-            "uss" => Protocol::Uss,
-            "dp-coord" => Protocol::DpCoord,
-            _ => return None,
-        })
+        let p = <Protocol as ValueEnum>::from_str(name, true).ok();
+        p.filter(|p| *p != Protocol::Auto)
     }
 }
 
@@ -739,9 +732,9 @@ fn write_file(path: &std::path::Path, svg: String) -> Result<(), CliError> {
 mod tests {
     use super::*;
     use clap::FromArgMatches;
+    use si_core::monitor::decode_all;
     use si_core::monitor::LineChar;
     use si_core::LineError;
-    use si_core::monitor::decode_all;
     use si_sim::{SplitMix64, Trace, TraceEntry, TraceKind};
 
     fn args(extra: &[&str]) -> MonitorArgs {
