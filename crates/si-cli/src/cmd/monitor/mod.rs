@@ -102,18 +102,16 @@ pub struct MonitorArgs {
     /// Stop watching a port after this many seconds (default: until Ctrl-C).
     #[arg(long, value_name = "SECONDS")]
     pub duration: Option<f64>,
-    /// 3964(R) character delay time ZVZ in ms (default 220).
+    /// Character delay time in ms: 3964(R)'s ZVZ (default 220) or the ASCII driver's (default:
+    /// 4 ms or the baud rate's minimum, whichever is longer).
     #[arg(long, value_name = "MS")]
-    pub zvz: Option<u64>,
+    pub char_delay_ms: Option<u64>,
     /// 3964(R) acknowledgement delay time QVZ in ms (default 2000, 550 for plain 3964).
     #[arg(long, value_name = "MS")]
-    pub qvz: Option<u64>,
+    pub ack_delay_ms: Option<u64>,
     /// Modbus response timeout in ms (default 2000, the master's default).
     #[arg(long, value_name = "MS")]
-    pub timeout: Option<u64>,
-    /// ASCII character delay time in ms (default: 4 ms or the baud rate's minimum, whichever is longer).
-    #[arg(long, value_name = "MS")]
-    pub char_delay: Option<u64>,
+    pub response_timeout_ms: Option<u64>,
     /// ASCII: frames end with these one or two end-of-text characters (hex, e.g. 03 or 0D0A)
     /// instead of at the character delay time.
     #[arg(long, value_name = "HEX", conflicts_with = "fixed_length")]
@@ -161,15 +159,15 @@ impl MonitorArgs {
                 } else {
                     si_3964r::monitor::Params::from_config(&link, settings)
                 };
-                p.zvz = self.zvz.map_or(p.zvz, ms);
-                p.qvz = self.qvz.map_or(p.qvz, ms);
+                p.zvz = self.char_delay_ms.map_or(p.zvz, ms);
+                p.qvz = self.ack_delay_ms.map_or(p.qvz, ms);
                 Box::new(si_3964r::monitor::Monitor::new(p))
             }
             Protocol::Modbus => {
                 let mut master = si_modbus::config::MasterConfig::default();
                 master.line.settings = settings;
                 let mut p = si_modbus::monitor::Params::from_config(&master);
-                p.timeout = self.timeout.map_or(p.timeout, ms);
+                p.timeout = self.response_timeout_ms.map_or(p.timeout, ms);
                 Box::new(si_modbus::monitor::Monitor::new(p, one_sided))
             }
             Protocol::Uss => Box::new(si_uss::monitor::Monitor::new(settings, one_sided)),
@@ -200,7 +198,7 @@ impl MonitorArgs {
                     ..si_ascii::Config::default()
                 };
                 let mut p = si_ascii::monitor::Params::from_config(&link);
-                p.char_delay = self.char_delay.map_or(p.char_delay, ms);
+                p.char_delay = self.char_delay_ms.map_or(p.char_delay, ms);
                 Box::new(si_ascii::monitor::Monitor::new(p))
             }
         }
@@ -976,5 +974,46 @@ mod tests {
             "back to back, the character delay never expires: {:?}",
             EndCriterion::CharDelay
         );
+    }
+
+    #[test]
+    fn timer_flags_are_named_by_the_time_rule_and_reach_the_decoders() {
+        let settings = SerialSettings::default();
+        let c = |b: u8, at: u64, from: usize| LineChar {
+            at: Instant::from_micros(at),
+            from: Some(from),
+            to: Some(1 - from),
+            item: Ok(b),
+            exact: true,
+        };
+        let end = Instant::from_micros(5_000_000);
+        // ASCII: "AB", 10 ms of silence, "CD": two frames at the default delay, one at 50 ms.
+        let ascii = [
+            c(b'A', 1_146, 0),
+            c(b'B', 2_292, 0),
+            c(b'C', 12_292, 0),
+            c(b'D', 13_438, 0),
+        ];
+        let frames = |a: &MonitorArgs| {
+            let mut d = a.decoder(Protocol::Ascii, settings, false);
+            decode_all(d.as_mut(), &ascii, end).len()
+        };
+        assert_eq!(frames(&args(&[])), 2);
+        assert_eq!(frames(&args(&["--char-delay-ms", "50"])), 1);
+        // 3964(R): the partner's DLE 150 ms after our STX is late for a 100 ms QVZ only.
+        let r3964 = [c(0x02, 1_146, 0), c(0x10, 151_146, 1)];
+        let flagged = |a: &MonitorArgs| {
+            let mut d = a.decoder(Protocol::P3964r, settings, false);
+            let records = decode_all(d.as_mut(), &r3964, end);
+            records.iter().map(|r| r.flags.len()).sum::<usize>()
+        };
+        assert!(flagged(&args(&["--ack-delay-ms", "100"])) > flagged(&args(&[])));
+        let a = args(&["--response-timeout-ms", "300"]);
+        assert_eq!(a.response_timeout_ms, Some(300));
+        // The manual's abbreviations are not flags any more.
+        for old in ["--zvz", "--qvz", "--timeout", "--char-delay"] {
+            let cmd = <MonitorArgs as clap::Args>::augment_args(clap::Command::new("m"));
+            assert!(cmd.try_get_matches_from(["m", old, "5"]).is_err(), "{old}");
+        }
     }
 }
