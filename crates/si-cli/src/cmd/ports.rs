@@ -18,7 +18,8 @@ pub struct PortsArgs {
     #[arg(long, value_name = "PORT", num_args = 0..=1, default_missing_value = "")]
     pub check: Option<String>,
     /// With --check: TX is wired to RX (or the other end of a pty echoes): round trips at each
-    /// baud rate, the packets and hold measured, the echo present or not.
+    /// baud rate, the packets and hold measured, the echo present or not, and the parity and
+    /// framing errors the driver counted meanwhile.
     #[arg(long, requires = "check")]
     pub loopback: bool,
 }
