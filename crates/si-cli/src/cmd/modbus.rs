@@ -257,7 +257,7 @@ fn master_config(conn: &Connection, o: &MasterOptions) -> Result<MasterConfig, C
     let config = MasterConfig {
         line: line_config(
             conn,
-            o.framing.mode.into(),
+            o.framing.mode,
             o.framing.char_delay_multiplier,
             &o.framing,
         )?,
@@ -436,7 +436,7 @@ async fn open_master(conn: &Connection, o: &MasterOptions) -> Result<handle::Mas
     };
     let master = Master::new(config)
         .map_err(|e| failure(e.into()))?
-        .with_frame_end(o.framing.frame_end.into())
+        .with_frame_end(o.framing.frame_end)
         .with_interface(interface);
     let port = conn.open().await?;
     Ok(handle::Master::spawn_engine(master, port))
@@ -567,7 +567,7 @@ async fn serve(
     let config = SlaveConfig {
         line: line_config(
             conn,
-            file.mode.unwrap_or(framing.mode.into()),
+            file.mode.unwrap_or(framing.mode),
             file.char_delay_multiplier
                 .unwrap_or(framing.char_delay_multiplier),
             framing,
@@ -575,7 +575,7 @@ async fn serve(
         address: unit,
     };
     config.validate()?;
-    let frame_end = file.frame_end.unwrap_or(framing.frame_end.into());
+    let frame_end = file.frame_end.unwrap_or(framing.frame_end);
     let slave = Slave::new(config, store)
         .map_err(|e| failure(e.into()))?
         .with_frame_end(frame_end);
