@@ -7,7 +7,7 @@
 //! `si_ascii::frame::control_name`). The names come from the transmitting side, where each
 //! engine's transmission is whole (one `tx` entry per control character or block); each
 //! received character takes the name of the character its partner sent in that place (the line
-//! delivers in order, [`arrived`] skips the characters lost), and keeps none if a fault changed
+//! delivers in order; the characters lost are skipped), and keeps none if a fault changed
 //! it.
 
 use crate::trace::{Trace, TraceEntry, TraceKind};

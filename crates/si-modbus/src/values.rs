@@ -140,7 +140,7 @@ pub fn join(first: u16, second: u16, order: WordOrder) -> u32 {
 }
 
 /// The registers shown in `format`. A 32-bit format takes them in pairs (a last odd register
-/// is left out; [`ValueFormat::check_count`] refuses such a count before the read); `ascii`
+/// is left out: a caller refuses an odd count before the read); `ascii`
 /// gives one value for all of them.
 pub fn show(regs: &[u16], format: ValueFormat, order: WordOrder) -> Vec<Value> {
     let pairs = || regs.chunks_exact(2).map(|p| join(p[0], p[1], order));

@@ -1,5 +1,5 @@
 //! A bus scan over real lines: which units answer, at which line settings. Bounded and polite:
-//! one harmless read per unit and setting ([`PROBE`](crate::scan::PROBE)), one try (no
+//! one harmless read per unit and setting ([`PROBE`]), one try (no
 //! retries), the response time of the config; [`Scan::bound`] is the longest it can take, to
 //! be told before the first request. The caller opens the line for each setting and hears of
 //! each unit that answered as it is found; dropping the future stops the scan at once with
