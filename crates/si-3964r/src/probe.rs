@@ -15,6 +15,7 @@
 //! - nothing: no partner, or one that hears garbage at these settings.
 
 use crate::frame::{DLE, NAK, STX};
+use si_core::{Duration, SerialSettings};
 
 /// What the partner's first character says.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -56,6 +57,128 @@ impl Reply {
             Reply::Silent => "no answer".into(),
         }
     }
+}
+
+/// Opening and closing the port for one setting, and the write `[derived]`.
+pub const OPEN_SLACK: Duration = Duration::from_millis(400);
+
+/// What one setting's probe saw.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Found {
+    /// The line settings probed.
+    pub settings: SerialSettings,
+    /// The first character back, if one came within the acknowledgement delay time.
+    pub first: Option<u8>,
+    /// What it means.
+    pub reply: Reply,
+}
+
+/// A probe of each of a list of line settings (run with `run`, feature `tokio`).
+#[derive(Debug, Clone)]
+pub struct Probe {
+    settings: Vec<SerialSettings>,
+    ack_delay: Duration,
+    char_delay: Duration,
+}
+
+impl Probe {
+    /// A probe at each of `settings`, giving the partner `ack_delay` (QVZ) to answer and
+    /// waiting twice its `char_delay` (ZVZ, and its NAK) out after an answer.
+    pub fn new(
+        settings: Vec<SerialSettings>,
+        ack_delay: impl Into<Duration>,
+        char_delay: impl Into<Duration>,
+    ) -> Probe {
+        Probe {
+            settings,
+            ack_delay: ack_delay.into(),
+            char_delay: char_delay.into(),
+        }
+    }
+
+    /// The settings probed, in order.
+    pub fn settings(&self) -> &[SerialSettings] {
+        &self.settings
+    }
+
+    /// The longest the probe can take: per setting the QVZ wait, the partner's ZVZ (and its
+    /// NAK) waited out, and [`OPEN_SLACK`].
+    pub fn bound(&self) -> Duration {
+        let per_setting = self.ack_delay + self.char_delay + self.char_delay + OPEN_SLACK;
+        Duration::from_micros(per_setting.as_micros() * self.settings.len() as u64)
+    }
+
+    /// Run it: for each setting, `open` the line, drop what it held (a partner's start-up
+    /// NAK; at most 10 reads, so a chattering line cannot hold the probe), send `STX`, read
+    /// the first character back within QVZ, hand it to `found`, and after an answer wait the
+    /// partner's ZVZ out so the next setting starts on a quiet line. Dropping the future
+    /// stops the probe at once.
+    #[cfg(feature = "tokio")]
+    #[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
+    pub async fn run<T, E, Fut>(
+        &self,
+        mut open: impl FnMut(SerialSettings) -> Fut,
+        mut found: impl FnMut(Found),
+    ) -> Result<(), ProbeError<E>>
+    where
+        T: tokio::io::AsyncRead + tokio::io::AsyncWrite + Unpin,
+        Fut: std::future::Future<Output = Result<T, E>>,
+    {
+        use tokio::io::{AsyncReadExt, AsyncWriteExt};
+        let std = core::time::Duration::from;
+        for &settings in &self.settings {
+            let mut port = open(settings).await.map_err(ProbeError::Open)?;
+            let mut stale = [0u8; 64];
+            for _ in 0..10 {
+                let read = port.read(&mut stale);
+                match tokio::time::timeout(std::time::Duration::from_millis(20), read).await {
+                    Ok(Ok(0)) => return Err(ProbeError::Closed),
+                    Ok(Ok(_)) => {}
+                    _ => break,
+                }
+            }
+            port.write_all(&[STX]).await.map_err(ProbeError::Io)?;
+            let mut byte = [0u8; 1];
+            let first = match tokio::time::timeout(std(self.ack_delay), port.read(&mut byte)).await
+            {
+                Ok(Ok(1)) => Some(byte[0]),
+                Ok(Ok(_)) => return Err(ProbeError::Closed),
+                Ok(Err(e)) => return Err(ProbeError::Io(e)),
+                Err(_) => None,
+            };
+            found(Found {
+                settings,
+                first,
+                reply: Reply::of(first),
+            });
+            if first.is_some() {
+                let quiet = tokio::time::sleep(std(self.char_delay + self.char_delay));
+                tokio::pin!(quiet);
+                let mut drain = [0u8; 64];
+                loop {
+                    tokio::select! {
+                        _ = &mut quiet => break,
+                        r = port.read(&mut drain) => if !matches!(r, Ok(n) if n > 0) { break },
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Why a probe stopped before its end.
+#[derive(Debug, thiserror::Error)]
+pub enum ProbeError<E> {
+    /// The caller could not open the line for a setting.
+    #[error("{0}")]
+    Open(E),
+    /// The line closed under the probe.
+    #[error("the line closed")]
+    Closed,
+    /// Writing `STX` or reading the answer failed.
+    #[error("{0}")]
+    Io(std::io::Error),
 }
 
 #[cfg(test)]

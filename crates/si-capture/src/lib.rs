@@ -5,10 +5,13 @@
 //! every reader is bounded by the largest record it accepts, never by the file, and the waveform
 //! writers hold one bounded chunk of samples, never the whole capture.
 
+pub mod pcap_in;
+pub mod pcap_out;
 pub mod pcapng;
 pub mod rtac;
 pub mod sigrok;
 pub mod trace_levels;
+pub mod trace_waves;
 pub mod uart_levels;
 pub mod upper_pdu;
 pub mod vcd;

@@ -1,17 +1,9 @@
-//! The control characters of a simulated line trace by name (`si sim`): `tx 02  STX`,
-//! `rx 10  DLE`, a 3964(R) block's `DLE ETX BCC`, a USS telegram's `STX LGE ADR … BCC`, an ASCII
-//! frame's `CR LF`, `XON`/`XOFF`.
+//! Which protocol crate names a simulated trace's bytes (`si sim`): `tx 02  STX`, `rx 10  DLE`.
 //!
-//! A leaf below the commands (used by `crate::scenario::print_trace`). A byte is named by its
-//! place in the protocol, not by its value alone: in a 3964(R) block a data byte 02H is data,
-//! not STX, and a Modbus frame is binary throughout, so it gets no names. The names come from the
-//! transmitting side, where each engine's transmission is whole (one `tx` entry per control
-//! character or block); each received character takes the name of the character its partner
-//! sent in that place (the line delivers in order, [`arrived`] skips the characters lost), and
-//! keeps none if a fault changed it.
-
-use si_sim::{Trace, TraceEntry, TraceKind};
-use std::collections::{HashMap, VecDeque};
+//! A leaf below the commands (used by `crate::scenario::print_trace`); the naming of a whole
+//! trace is `si_core::trace_names::named_trace`. A byte is named by its place in the protocol,
+//! not by its value alone: in a 3964(R) block a data byte 02H is data, not STX, and a Modbus
+//! frame is binary throughout, so it gets no names.
 
 /// How a protocol's bytes are named: by the protocol crate's frame module.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -38,7 +30,7 @@ impl Naming {
 
     /// The name of each byte of one transmission (`None`: data), from the protocol crate's
     /// frame module.
-    fn transmission(self, bytes: &[u8]) -> Vec<Option<&'static str>> {
+    pub fn transmission(self, bytes: &[u8]) -> Vec<Option<&'static str>> {
         match self {
             Naming::R3964 => si_3964r::frame::byte_names(bytes).collect(),
             Naming::Uss => (0..bytes.len())
@@ -50,70 +42,6 @@ impl Naming {
                 .collect(),
         }
     }
-}
-
-/// The trace as `si sim` prints it, each line followed by the names of its control characters.
-pub fn named_trace(trace: &Trace, naming: Naming) -> String {
-    // Per station: the names of the characters on their way to it, in line order.
-    let mut in_flight: HashMap<&str, VecDeque<(u8, Option<&'static str>)>> = HashMap::new();
-    for e in &trace.entries {
-        in_flight.entry(e.station.as_str()).or_default();
-    }
-    let mut out = String::new();
-    for e in &trace.entries {
-        let names: Vec<&'static str> = match &e.kind {
-            TraceKind::Tx { bytes } => {
-                let names = naming.transmission(bytes);
-                for (station, queue) in in_flight.iter_mut() {
-                    if *station != e.station {
-                        queue.extend(bytes.iter().copied().zip(names.iter().copied()));
-                    }
-                }
-                names.into_iter().flatten().collect()
-            }
-            TraceKind::Rx { byte } => arrived(&mut in_flight, &e.station, Some(*byte))
-                .into_iter()
-                .collect(),
-            // A garbled character still took its place on the line.
-            TraceKind::RxError { .. } => {
-                arrived(&mut in_flight, &e.station, None);
-                Vec::new()
-            }
-            _ => Vec::new(),
-        };
-        out.push_str(&with_names(e, &names));
-    }
-    out
-}
-
-/// The name of the character that arrived at `station` (`None`: a line error in its place).
-///
-/// Normally the next one on its way. A character sent before the stations were connected (the
-/// 3964(R) startup NAK) never arrives: the first character on the way that is `byte` is the
-/// one, and those before it were lost. A byte nobody sent (a fault changed it) takes the place
-/// of the next character and gets no name.
-fn arrived(
-    in_flight: &mut HashMap<&str, VecDeque<(u8, Option<&'static str>)>>,
-    station: &str,
-    byte: Option<u8>,
-) -> Option<&'static str> {
-    let queue = in_flight.get_mut(station)?;
-    match queue.iter().position(|(sent, _)| Some(*sent) == byte) {
-        Some(i) => queue.drain(..=i).next_back().and_then(|(_, name)| name),
-        None => queue.pop_front().and(None),
-    }
-}
-
-/// One entry as the trace prints it, with `names` after it.
-fn with_names(entry: &TraceEntry, names: &[&str]) -> String {
-    let line = Trace {
-        entries: vec![entry.clone()],
-    }
-    .to_string();
-    if names.is_empty() {
-        return line;
-    }
-    format!("{}  {}\n", line.trim_end_matches('\n'), names.join(" "))
 }
 
 #[cfg(test)]

@@ -7,8 +7,9 @@
 
 use crate::cmd::monitor::MonitorArgs;
 use crate::error::CliError;
-use crate::line_names::{named_trace, Naming};
+use crate::line_names::Naming;
 use crate::output::{write_stdout, Output};
+use si_core::trace_names::named_trace;
 use si_core::SerialSettings;
 use si_sim::Trace;
 use std::cell::{Cell, RefCell};
@@ -89,15 +90,7 @@ pub fn run(
 
 /// Write the trace file and the diagram the running scenario asked for.
 fn save(sink: &Sink, trace: &Trace) -> Result<(), String> {
-    let stations: Vec<String> = {
-        let mut names: Vec<String> = Vec::new();
-        for e in &trace.entries {
-            if !names.contains(&e.station) {
-                names.push(e.station.clone());
-            }
-        }
-        names
-    };
+    let stations = trace.stations();
     let mut header = si_core::tracefile::Header::new("sim")
         .settings(sink.settings)
         .stations(&stations);
@@ -158,7 +151,10 @@ pub fn print_trace(trace: &Trace, out: &Output) {
         }
     } else {
         match NAMING.with(Cell::get) {
-            Some(naming) => write_stdout(format_args!("{}", named_trace(trace, naming))),
+            Some(naming) => write_stdout(format_args!(
+                "{}",
+                named_trace(trace, |b| naming.transmission(b))
+            )),
             None => write_stdout(format_args!("{trace}")),
         }
     }

@@ -43,15 +43,7 @@ impl Sweep {
                 .map(|p| p.parse().map_err(CliError::bad_argument))
                 .collect::<Result<_, _>>()?
         };
-        let mut all = Vec::new();
-        for &baud in &bauds {
-            for &parity in &parities {
-                all.push(
-                    SerialSettings::with_rates(baud, data_bits, parity, base.stop_bits(), rates)
-                        .map_err(CliError::bad_argument)?,
-                );
-            }
-        }
-        Ok(all)
+        si_core::port::settings_sweep(&bauds, &parities, (data_bits, base.stop_bits()), rates)
+            .map_err(CliError::bad_argument)
     }
 }

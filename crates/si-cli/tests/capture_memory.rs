@@ -1,7 +1,8 @@
 //! Traces and captures are read and written record by record: a trace of 1,000,000 Modbus
-//! frames (over 100 MB) is monitored, exported to pcapng and read back from the capture, each
-//! by a child `si` whose peak memory stays under 64 MB; `/dev/zero` is refused at its first
-//! line instead of being read into memory.
+//! frames (over 100 MB) is monitored, exported to pcapng and read back from the capture, and a
+//! trace of 200,000 frames (some 30 MB, which whole in memory took over ten times that) is
+//! exported as UART levels (VCD), each by a child `si` whose peak memory stays under 64 MB;
+//! `/dev/zero` is refused at its first line instead of being read into memory.
 //!
 //! Its own test binary: the peak is the kernel's maximum resident set of this process's
 //! waited-for children (`getrusage(RUSAGE_CHILDREN)`), so no other test's child may count.
@@ -167,6 +168,29 @@ fn a_million_frames_stream_through_monitor_export_and_import_in_bounded_memory()
     );
     eprintln!(
         "export and import of 1,000,000 frames: peak {} MB resident",
+        peak >> 20
+    );
+
+    // The UART levels: two passes over the trace, nothing of it held (the VCD goes to
+    // /dev/null; the levels of 200,000 frames are some 300 MB of text).
+    let levels = dir.join("levels.trace");
+    write_trace(&levels, 100_000);
+    let size = std::fs::metadata(&levels).unwrap().len();
+    let o = si_command()
+        .args(["trace", "export"])
+        .arg(&levels)
+        .args(["--vcd", "/dev/null"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let peak = children_peak();
+    assert!(
+        peak < LIMIT,
+        "si trace export --vcd of a {size}-byte trace peaked at {} MB resident (limit 64 MB)",
+        peak >> 20
+    );
+    eprintln!(
+        "si trace export --vcd, {size} bytes: peak {} MB resident",
         peak >> 20
     );
     let _ = std::fs::remove_dir_all(&dir);

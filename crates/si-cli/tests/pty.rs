@@ -61,3 +61,5 @@ mod three_protocols_example;
 mod uss;
 #[path = "pty/uss_scan.rs"]
 mod uss_scan;
+#[path = "pty/uss_usb_relay.rs"]
+mod uss_usb_relay;

@@ -74,6 +74,7 @@ pub mod serial;
 pub mod status;
 pub mod time;
 pub mod trace;
+pub mod trace_names;
 pub mod tracefile;
 pub mod v24;
 

@@ -76,6 +76,17 @@ impl Trace {
         self.entries.iter().filter(move |e| e.station == station)
     }
 
+    /// The stations named in the entries, in the order they first appear.
+    pub fn stations(&self) -> Vec<String> {
+        let mut names: Vec<String> = Vec::new();
+        for e in &self.entries {
+            if !names.contains(&e.station) {
+                names.push(e.station.clone());
+            }
+        }
+        names
+    }
+
     /// Arrival times and values of the characters a station received.
     pub fn received(&self, station: &str) -> Vec<(Instant, u8)> {
         self.of(station)

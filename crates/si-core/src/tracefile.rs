@@ -55,8 +55,8 @@ pub const FORMAT: &str = "si-trace";
 pub const VERSION: u32 = 1;
 
 /// The baud rates a trace may name: the manuals' twelve plus USS's 187 500 bit/s, so a USS trace
-/// reads back.
-static TRACE_RATES: [u32; 13] = {
+/// reads back; also the rates a monitored line or a trace without a header may use.
+pub const TRACE_RATES: [u32; 13] = {
     let mut r = [187_500; 13];
     let mut i = 0;
     while i < BAUD_RATES.len() {
@@ -248,6 +248,24 @@ pub enum TraceFileError {
         /// [`MAX_LINE`].
         max: usize,
     },
+}
+
+#[cfg(feature = "tracefile")]
+#[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
+impl Header {
+    /// The header as its JSON line (without the newline): what a trace file starts with, and
+    /// what a capture's section comment carries (`si_capture::pcap_out`).
+    pub fn to_line(&self) -> String {
+        // Strings, numbers and options only: serialization cannot fail.
+        serde_json::to_string(self).unwrap_or_default()
+    }
+
+    /// A header from its JSON line; `None` for text that is not a trace header of this format.
+    pub fn from_line(text: &str) -> Option<Header> {
+        serde_json::from_str::<Header>(text)
+            .ok()
+            .filter(|h| h.format == FORMAT)
+    }
 }
 
 #[cfg(feature = "tracefile")]

@@ -110,6 +110,9 @@ pub mod monitor;
 pub mod sim;
 pub mod status;
 pub mod timing;
+#[cfg(feature = "module-sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "module-sim")))]
+pub mod user_program;
 
 pub use config::{HostConfig, ModuleConfig};
 pub use coord::{CoordByte, ExecWrap, JobCode};

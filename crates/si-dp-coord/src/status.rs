@@ -61,6 +61,20 @@ pub fn lookup(code: u16) -> si_core::Status {
     si_core::Status::lookup(code, CATALOGS)
 }
 
+/// The code with the manual's text from the window's catalogs ([`lookup`]) or, failing them,
+/// those of the drivers behind the module (3964(R), ASCII): a window passes their STATUS on.
+/// `None` for a code none of them has.
+#[cfg(feature = "module-sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "module-sim")))]
+pub fn lookup_with_drivers(status: si_core::Status) -> Option<si_core::Status> {
+    let lookups: [fn(u16) -> si_core::Status; 3] =
+        [lookup, si_3964r::status::lookup, si_ascii::status::lookup];
+    lookups
+        .iter()
+        .map(|l| status.described_by(l))
+        .find(|s| s.info().is_some())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

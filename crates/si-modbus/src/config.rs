@@ -99,6 +99,23 @@ pub enum FrameEnd {
     Length,
 }
 
+impl FrameEnd {
+    /// The two frame ends by their names (parameter files, the command line).
+    pub const NAMES: [&'static str; 2] = ["gap", "length"];
+}
+
+impl core::str::FromStr for FrameEnd {
+    type Err = String;
+
+    fn from_str(name: &str) -> Result<FrameEnd, String> {
+        match name {
+            "gap" => Ok(FrameEnd::Gap),
+            "length" => Ok(FrameEnd::Length),
+            _ => Err(format!("frame end {name:?}: gap or length")),
+        }
+    }
+}
+
 /// The end-of-frame gap tZVZ_TAB for a baud rate ([Modbus/USS] §3.3.5, Table 3-11).
 ///
 /// Table 3-11 of the Modbus/USS manual gives 4 ms at 9600–38 400 bit/s and 3.5 character

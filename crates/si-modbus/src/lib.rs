@@ -108,6 +108,7 @@ mod job_end;
 pub mod master;
 pub mod mbap;
 pub mod monitor;
+pub mod poll_counters;
 pub mod quiet_guard;
 pub mod rx;
 pub mod scan;
@@ -118,6 +119,7 @@ pub mod slave;
 pub mod status;
 pub mod store;
 mod transmitter;
+pub mod values;
 
 #[cfg(feature = "tokio")]
 #[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]

@@ -9,9 +9,9 @@
 //! [`ConversionDb::bit_address`] and [`ConversionDb::register_address`], the functions the
 //! slave itself uses, so the printed map cannot drift from what is served.
 
-use crate::frame::{fc, ExceptionCode};
+use crate::frame::{fc, Bits, ExceptionCode, Registers};
 use crate::simatic::ConversionDb;
-use crate::slave::StoreError;
+use crate::slave::{Store, StoreError};
 use si_core::memory::{Area, MemorySizes};
 use std::collections::BTreeMap;
 
@@ -286,6 +286,106 @@ fn registers(
             })
         })
         .collect()
+}
+
+/// A request the wrapped store refused, and why as far as the map tells ([`ServeMap::why`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Refusal {
+    /// The table asked for.
+    pub table: Table,
+    /// A write (else a read).
+    pub write: bool,
+    /// The first address asked for.
+    pub address: u16,
+    /// How many addresses.
+    pub count: usize,
+    /// The exception the slave answers with.
+    pub exception: ExceptionCode,
+    /// Why, from the map.
+    pub why: String,
+}
+
+/// A store that says why it refuses: on an error from the wrapped store, hands a [`Refusal`]
+/// to `tell`, then passes the error on unchanged (the engine answers the exception as before).
+pub struct Explaining<S, F> {
+    inner: S,
+    map: ServeMap,
+    tell: F,
+}
+
+impl<S: Store, F: FnMut(&Refusal)> Explaining<S, F> {
+    /// Wrap `inner`, whose addresses `map` describes, telling `tell` of each refusal.
+    pub fn new(inner: S, map: ServeMap, tell: F) -> Self {
+        Explaining { inner, map, tell }
+    }
+
+    fn explain(
+        &mut self,
+        result: Result<(), StoreError>,
+        (table, write): (Table, bool),
+        address: u16,
+        count: usize,
+    ) -> Result<(), StoreError> {
+        if let Err(e) = &result {
+            (self.tell)(&Refusal {
+                table,
+                write,
+                address,
+                count,
+                exception: e.exception,
+                why: self.map.why(table, write, address, count, e),
+            });
+        }
+        result
+    }
+}
+
+impl<S: Store, F: FnMut(&Refusal)> Store for Explaining<S, F> {
+    fn read_coils(
+        &mut self,
+        address: u16,
+        quantity: u16,
+        out: &mut [u8],
+    ) -> Result<(), StoreError> {
+        let r = self.inner.read_coils(address, quantity, out);
+        self.explain(r, (Table::Coils, false), address, quantity.into())
+    }
+    fn read_discrete_inputs(
+        &mut self,
+        address: u16,
+        quantity: u16,
+        out: &mut [u8],
+    ) -> Result<(), StoreError> {
+        let r = self.inner.read_discrete_inputs(address, quantity, out);
+        self.explain(r, (Table::DiscreteInputs, false), address, quantity.into())
+    }
+    fn read_holding_registers(
+        &mut self,
+        address: u16,
+        quantity: u16,
+        out: &mut [u8],
+    ) -> Result<(), StoreError> {
+        let r = self.inner.read_holding_registers(address, quantity, out);
+        let table = (Table::HoldingRegisters, false);
+        self.explain(r, table, address, quantity.into())
+    }
+    fn read_input_registers(
+        &mut self,
+        address: u16,
+        quantity: u16,
+        out: &mut [u8],
+    ) -> Result<(), StoreError> {
+        let r = self.inner.read_input_registers(address, quantity, out);
+        self.explain(r, (Table::InputRegisters, false), address, quantity.into())
+    }
+    fn write_coils(&mut self, address: u16, values: Bits<'_>) -> Result<(), StoreError> {
+        let r = self.inner.write_coils(address, values);
+        self.explain(r, (Table::Coils, true), address, values.len())
+    }
+    fn write_registers(&mut self, address: u16, values: Registers<'_>) -> Result<(), StoreError> {
+        let r = self.inner.write_registers(address, values);
+        self.explain(r, (Table::HoldingRegisters, true), address, values.len())
+    }
 }
 
 #[cfg(test)]

@@ -33,6 +33,7 @@ mod error;
 mod inline;
 mod lifetime;
 mod master;
+pub mod scan;
 mod slave;
 pub mod tcp;
 

@@ -311,6 +311,35 @@ impl Coordination {
         }
     }
 
+    /// A flag written `BYTE.BIT` (`20.3`: M 20.3), byte 0 … 254 (FFH means "no flag") and bit
+    /// 0 … 7, and CPU number `cpu` 1 … 4 if given ([CP 341] §2.2.3, Table 2-1); the error
+    /// names what is out of range.
+    pub fn parse(flag: Option<&str>, cpu: Option<u8>) -> Result<Coordination, String> {
+        let mut c = match flag {
+            None => Coordination::NONE,
+            Some(text) => {
+                let parsed = text.split_once('.').and_then(|(b, bit)| {
+                    Some((b.trim().parse::<u8>().ok()?, bit.trim().parse::<u8>().ok()?))
+                });
+                match parsed {
+                    Some((byte, bit)) if byte != 0xFF && bit <= 7 => Coordination::flag(byte, bit),
+                    _ => {
+                        return Err(format!(
+                            "flag must be BYTE.BIT with BYTE 0 … 254 and BIT 0 … 7, got {text:?}"
+                        ))
+                    }
+                }
+            }
+        };
+        if let Some(cpu) = cpu {
+            if !(1..=4).contains(&cpu) {
+                return Err(format!("cpu must be 1 … 4, got {cpu}"));
+            }
+            c.cpu = cpu;
+        }
+        Ok(c)
+    }
+
     /// The flag as (byte, bit) when one is defined: byte ≠ FFH and bit 0–7.
     pub const fn flag_address(self) -> Option<(u8, u8)> {
         if self.flag_byte != 0xFF && self.flag_bit <= 7 {
@@ -611,6 +640,20 @@ pub enum DecodeError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_coordination_flag_is_byte_dot_bit_and_the_cpu_1_to_4() {
+        assert_eq!(Coordination::parse(None, None), Ok(Coordination::NONE));
+        let c = Coordination::parse(Some("20.3"), Some(2)).unwrap();
+        assert_eq!((c.flag_address(), c.cpu), (Some((20, 3)), 2));
+        for bad in ["255.0", "20.8", "20", "x.1"] {
+            let e = Coordination::parse(Some(bad), None).unwrap_err();
+            assert!(e.contains(bad), "{e}");
+        }
+        assert!(Coordination::parse(None, Some(5))
+            .unwrap_err()
+            .contains("got 5"));
+    }
 
     /// Fig. 2-13: `00 00 41 44 0A 01 00 32 FF 1F`.
     #[test]

@@ -73,12 +73,14 @@ mod adapter;
 mod burst;
 mod pair;
 mod rng;
+mod terminal;
 mod uart;
 
 pub use adapter::{AdapterError, UsbAdapter};
 pub use pair::Pair;
 pub use rng::SplitMix64;
 pub use si_core::trace::{Trace, TraceEntry, TraceKind};
+pub use terminal::Terminal;
 pub use uart::{FifoUart, UartError};
 
 use adapter::Held;

@@ -137,6 +137,44 @@ impl Handle {
         Ok(())
     }
 
+    /// Run one parameter job as the only one on the line: a master polling `config`'s nodes
+    /// is started on `transport` with the job for node `address` already entered, and stops in
+    /// the step that ends it ([`Master::stop_when_idle`]), so every telegram carries the job
+    /// and none comes before or after it.
+    pub async fn only_job<T: Transport>(
+        config: MasterConfig,
+        transport: T,
+        address: u8,
+        request: ParamRequest,
+    ) -> Result<Pkw, Error> {
+        let mut master = Master::new(config)?;
+        let job = master.request_parameter(Instant::ZERO, address, request)?;
+        master.stop_when_idle();
+        let mut m = Handle::spawn_engine(master, transport);
+        while let Some(event) = m.next_event().await {
+            match event {
+                Event::ParameterDone {
+                    job: j, response, ..
+                } if j == job => return Ok(response),
+                Event::ParameterFailed {
+                    job: j,
+                    status,
+                    error_number,
+                    ..
+                } if j == job => {
+                    return Err(Error::Failed {
+                        status,
+                        error_number,
+                        address,
+                        number: request.param.number,
+                    })
+                }
+                _ => {}
+            }
+        }
+        Err(Error::Stopped(DriverStopped))
+    }
+
     /// Run a parameter job to its end and return the response's PKW area. Jobs for a node whose
     /// previous job still runs wait in the driver; other events stay for
     /// [`next_event`](Self::next_event).

@@ -42,11 +42,11 @@ use serde_json::json;
 use si_core::driver::{self, DriverOptions, Transport};
 use si_core::{Duration, Engine, Instant, ModulePreset, SerialSettings, Status};
 use si_dp_coord::engines;
-use si_dp_coord::fb::{Done, Received, SRcv, SSend};
 use si_dp_coord::frame::{describe, Direction, V24Layout};
 use si_dp_coord::line::EngineSerial;
 use si_dp_coord::modbus;
 use si_dp_coord::module::{LoopbackSerial, Module};
+use si_dp_coord::user_program::{user_programs, ReceiveResult, SendResult};
 use si_dp_coord::{
     ExecWrap, Host, HostConfig, HostEvent, Job, ModuleConfig, Outcome, ParamBlock, Window,
     WindowSize,
@@ -294,12 +294,7 @@ fn finish(result: Result<Outcome, Status>, out: &Output) -> Result<(), CliError>
 /// the module (3964(R), ASCII); a code none of them has says so instead of standing bare
 /// (a bare 16#49D1 tells the user nothing).
 fn described(status: Status) -> String {
-    let lookups: [fn(u16) -> Status; 3] = [
-        si_dp_coord::status::lookup,
-        si_3964r::status::lookup,
-        si_ascii::status::lookup,
-    ];
-    match (lookups.iter().map(|l| status.described_by(l))).find(|s| s.info().is_some()) {
+    match si_dp_coord::status::lookup_with_drivers(status) {
         Some(s) => s.to_string(),
         None => format!("{status} (not in the catalog)"),
     }
@@ -764,44 +759,6 @@ fn scenario_e2e(o: &SimOptions, out: &Output) -> Result<(), CliError> {
     print_trace(sim.trace(), out);
     print_fb_results(sent, ("B", got), out)
 }
-
-/// The user programs of a run: S_SEND with `data` on `hosts[0]` (REQ until it has ended) and
-/// S_RCV (EN_R = 1) on `hosts[receiver]`, one call each per DP cycle of 2 ms, in which
-/// `dp_cycle` runs the hosts and their modules. Ends when both FBs have ended, or after 5000
-/// cycles.
-fn user_programs(
-    sim: &mut Simulator,
-    hosts: &mut [Host],
-    receiver: usize,
-    data: &[u8],
-    mut dp_cycle: impl FnMut(&mut Simulator, &mut [Host]),
-) -> (SendResult, ReceiveResult) {
-    let (mut s_send, mut s_rcv) = (SSend::default(), SRcv::default());
-    let mut dest = [0u8; 224];
-    let (mut sent, mut got) = (None, None);
-    for _ in 0..5_000 {
-        let d = s_send.call(&mut hosts[0], sim.now(), sent.is_none(), false, data);
-        if d.done || d.error {
-            sent = Some((sim.now(), d));
-        }
-        let r = s_rcv.call(&mut hosts[receiver], sim.now(), true, false, &mut dest);
-        if r.ndr || r.error {
-            got = Some((sim.now(), r, dest[..r.len].to_vec()));
-        }
-        if sent.is_some() && got.is_some() {
-            break;
-        }
-        dp_cycle(sim, hosts);
-        sim.run_for(Duration::from_millis(2));
-    }
-    (sent, got)
-}
-
-/// What S_SEND ended with: when, and its outputs.
-type SendResult = Option<(Instant, Done)>;
-
-/// What S_RCV ended with: when, its outputs and the received bytes.
-type ReceiveResult = Option<(Instant, Received, Vec<u8>)>;
 
 /// Prints S_SEND's end (on station A) and S_RCV's (on `station`); an error if either is missing
 /// or failed.

@@ -21,10 +21,6 @@ pub mod gateway;
 pub mod modbus;
 pub mod module;
 pub mod monitor;
-#[cfg(unix)]
-pub mod port_check;
-#[cfg(unix)]
-pub mod port_loopback;
 pub mod ports;
 pub mod r3964;
 pub mod rk512;

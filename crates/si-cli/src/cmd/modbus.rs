@@ -15,10 +15,11 @@ mod scan;
 mod tcp;
 
 use address::{parse_u16, parse_unit, AddressArgs};
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use explain::{failure, status_text};
-use format::{ValueFormat, WordOrder};
 use poll::PollArgs;
 use report::Report;
+use si_modbus::values::{ValueFormat, WordOrder};
 
 mod serve_map;
 
@@ -73,9 +74,12 @@ pub struct MasterOptions {
 /// slave side can too.
 #[derive(Debug, Clone, Args)]
 pub struct FramingOptions {
-    /// Operating mode (`serve`: overridden by the config file's `mode`).
-    #[arg(long, value_enum, default_value_t = ModeArg::Normal)]
-    mode: ModeArg,
+    /// Operating mode (`serve`: overridden by the config file's `mode`): normal reports
+    /// transmission errors, interference-suppression ignores corrupt frames and skips garbage
+    /// before the address.
+    #[arg(long, default_value = "normal", value_parser = PossibleValuesParser::new(Mode::NAMES.map(|(n, _)| n))
+        .try_map(|s| s.parse::<Mode>()))]
+    mode: Mode,
     /// Character delay multiplier 1–10: end-of-frame gap = table value × this (`serve`:
     /// overridden by the config file's `char_delay_multiplier`).
     #[arg(long, default_value_t = 1)]
@@ -83,9 +87,10 @@ pub struct FramingOptions {
     /// How a received frame ends: at the end-of-frame gap as the module does, or (host
     /// extension) also as soon as it has its predicted length and a good CRC, so the master
     /// completes (and the slave answers) without waiting for the gap (`serve`: overridden by
-    /// the config file's `frame_end`).
-    #[arg(long, value_enum, default_value_t = FrameEndArg::Gap)]
-    frame_end: FrameEndArg,
+    /// the config file's `frame_end`): gap ([Modbus/USS] §3.3.5, Table 3-11) or length.
+    #[arg(long, default_value = "gap", value_parser = PossibleValuesParser::new(FrameEnd::NAMES)
+        .try_map(|s| s.parse::<FrameEnd>()))]
+    frame_end: FrameEnd,
     /// Data flow control "automatic use of the V.24 signals" ([Modbus/USS] §3.2.2; RS-232C only):
     /// RTS on before each frame, send once CTS is on, RTS off after it. Default: none.
     #[arg(long)]
@@ -121,44 +126,6 @@ impl FramingOptions {
                 .data_wait_ms
                 .map_or(d.data_wait_time, |ms| Duration::from_millis(ms.into())),
         }))
-    }
-}
-
-/// `--frame-end`.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum FrameEndArg {
-    /// The module's behaviour ([Modbus/USS] §3.3.5, Table 3-11): a frame ends after the line has
-    /// been silent for the gap.
-    Gap,
-    /// Host extension: a frame also ends at the length its header predicts once its CRC
-    /// checks (no wait for the gap; the master still leaves it before its next request).
-    Length,
-}
-
-impl From<FrameEndArg> for FrameEnd {
-    fn from(f: FrameEndArg) -> FrameEnd {
-        match f {
-            FrameEndArg::Gap => FrameEnd::Gap,
-            FrameEndArg::Length => FrameEnd::Length,
-        }
-    }
-}
-
-/// `--mode`.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum ModeArg {
-    /// Report transmission errors.
-    Normal,
-    /// Ignore corrupt frames, skip garbage before the address.
-    InterferenceSuppression,
-}
-
-impl From<ModeArg> for Mode {
-    fn from(m: ModeArg) -> Mode {
-        match m {
-            ModeArg::Normal => Mode::Normal,
-            ModeArg::InterferenceSuppression => Mode::InterferenceSuppression,
-        }
     }
 }
 
@@ -209,12 +176,16 @@ pub enum Command {
         count: u16,
         #[command(flatten)]
         polling: PollArgs,
-        /// How registers are shown (holding and input registers only) [default: u16].
-        #[arg(long, value_enum)]
+        /// How registers are shown (holding and input registers only) [default: u16]: hex, u16
+        /// or i16 per register, u32, i32 or f32 per pair (see --word-order), ascii two
+        /// characters per register.
+        #[arg(long, value_parser = PossibleValuesParser::new(ValueFormat::NAMES)
+            .try_map(|s| s.parse::<ValueFormat>()))]
         format: Option<ValueFormat>,
         /// For u32/i32/f32: `big` = high word first (Modicon default), `swapped` = low word
         /// first.
-        #[arg(long, value_enum, default_value_t = WordOrder::Big)]
+        #[arg(long, default_value = "big", value_parser = PossibleValuesParser::new(WordOrder::NAMES)
+            .try_map(|s| s.parse::<WordOrder>()))]
         word_order: WordOrder,
     },
     /// Write coils or registers (FC05, 06, 15, 16).
@@ -290,7 +261,7 @@ fn master_config(conn: &Connection, o: &MasterOptions) -> Result<MasterConfig, C
     let config = MasterConfig {
         line: line_config(
             conn,
-            o.framing.mode.into(),
+            o.framing.mode,
             o.framing.char_delay_multiplier,
             &o.framing,
         )?,
@@ -357,7 +328,7 @@ impl Command {
                             f.name()
                         )));
                     }
-                    f.check_count(count).map_err(CliError::usage)?;
+                    format::check_count(f, count).map_err(CliError::usage)?;
                 }
                 let report = Report {
                     format: format.unwrap_or_default(),
@@ -469,7 +440,7 @@ async fn open_master(conn: &Connection, o: &MasterOptions) -> Result<handle::Mas
     };
     let master = Master::new(config)
         .map_err(|e| failure(e.into()))?
-        .with_frame_end(o.framing.frame_end.into())
+        .with_frame_end(o.framing.frame_end)
         .with_interface(interface);
     let port = conn.open().await?;
     Ok(handle::Master::spawn_engine(master, port))
@@ -591,12 +562,16 @@ async fn serve(
         },
         _ => e.into(),
     })?;
-    let store =
-        serve_map::Explaining::new(SimaticStore::new(memory, conversion), map.clone(), *out);
+    let out_copy = *out;
+    let store = si_modbus::serve_map::Explaining::new(
+        SimaticStore::new(memory, conversion),
+        map.clone(),
+        move |r: &si_modbus::serve_map::Refusal| serve_map::print_refusal(r, &out_copy),
+    );
     let config = SlaveConfig {
         line: line_config(
             conn,
-            file.mode.unwrap_or(framing.mode.into()),
+            file.mode.unwrap_or(framing.mode),
             file.char_delay_multiplier
                 .unwrap_or(framing.char_delay_multiplier),
             framing,
@@ -604,7 +579,7 @@ async fn serve(
         address: unit,
     };
     config.validate()?;
-    let frame_end = file.frame_end.unwrap_or(framing.frame_end.into());
+    let frame_end = file.frame_end.unwrap_or(framing.frame_end);
     let slave = Slave::new(config, store)
         .map_err(|e| failure(e.into()))?
         .with_frame_end(frame_end);

@@ -1,7 +1,7 @@
 //! `si ports`: the serial ports the OS knows, with USB identity and the adapter's latency
 //! timer (Linux), which decides how late received bytes reach the host; with `--port`, that
 //! port's line-error counters; with `--check [PORT]`, what keeps a port from working
-//! (`port_check`).
+//! (`si_core::port::check`).
 
 use crate::conn::Connection;
 use crate::error::CliError;
@@ -18,7 +18,8 @@ pub struct PortsArgs {
     #[arg(long, value_name = "PORT", num_args = 0..=1, default_missing_value = "")]
     pub check: Option<String>,
     /// With --check: TX is wired to RX (or the other end of a pty echoes): round trips at each
-    /// baud rate, the packets and hold measured, the echo present or not.
+    /// baud rate, the packets and hold measured, the echo present or not, and the parity and
+    /// framing errors the driver counted meanwhile.
     #[arg(long, requires = "check")]
     pub loopback: bool,
 }
@@ -43,16 +44,16 @@ impl PortsArgs {
 }
 
 /// One screen for one port: the findings, then exit 1 if any is a problem.
-#[cfg(unix)]
+#[cfg(target_os = "linux")]
 fn check(path: &str, loopback: bool, out: &Output) -> Result<(), CliError> {
-    use super::port_check::{self, Severity};
-    let mut findings = port_check::check(path);
+    use si_core::port::check::{self, Severity};
+    let mut findings = check::check(path);
     let usable = !findings.iter().any(|f| f.severity == Severity::Problem);
     if loopback && usable {
         let rt = tokio::runtime::Builder::new_current_thread()
             .enable_all()
             .build()?;
-        findings.extend(rt.block_on(super::port_loopback::loopback(path)));
+        findings.extend(rt.block_on(si_core::port::loopback::loopback(path)));
     }
     let problems = findings
         .iter()
@@ -64,13 +65,13 @@ fn check(path: &str, loopback: bool, out: &Output) -> Result<(), CliError> {
             serde_json::json!({
                 "port": path,
                 "ok": problems == 0,
-                "findings": findings.iter().map(|f| f.json()).collect::<Vec<_>>(),
+                "findings": findings.iter().map(finding_json).collect::<Vec<_>>(),
             }),
         );
     } else {
         let mut text = format!("{path}\n");
         for f in &findings {
-            text += &f.text_lines();
+            text += &finding_text(f);
             text.push('\n');
         }
         text += &match problems {
@@ -89,7 +90,28 @@ fn check(path: &str, loopback: bool, out: &Output) -> Result<(), CliError> {
     }
 }
 
-#[cfg(not(unix))]
+/// `  PROBLEM  held open by …` and the remedy indented below it.
+#[cfg(target_os = "linux")]
+fn finding_text(f: &si_core::port::check::Finding) -> String {
+    let mut s = format!("  {:<8} {}: {}", f.severity.label(), f.check, f.text);
+    if let Some(r) = &f.remedy {
+        s += &format!("\n           remedy: {r}");
+    }
+    s
+}
+
+/// The finding as a JSON object.
+#[cfg(target_os = "linux")]
+fn finding_json(f: &si_core::port::check::Finding) -> serde_json::Value {
+    serde_json::json!({
+        "check": f.check,
+        "severity": f.severity.label().to_lowercase(),
+        "text": f.text,
+        "remedy": f.remedy,
+    })
+}
+
+#[cfg(not(target_os = "linux"))]
 fn check(path: &str, _: bool, _: &Output) -> Result<(), CliError> {
     Err(CliError::new(format!(
         "{path}: --check reads /dev, /sys and /proc and needs Linux"

@@ -102,29 +102,8 @@ impl Target {
     }
 
     fn coordination(&self) -> Result<Coordination, CliError> {
-        let mut c = match &self.flag {
-            None => Coordination::NONE,
-            Some(text) => {
-                let parsed = text.split_once('.').and_then(|(b, bit)| {
-                    Some((b.trim().parse::<u8>().ok()?, bit.trim().parse::<u8>().ok()?))
-                });
-                match parsed {
-                    Some((byte, bit)) if byte != 0xFF && bit <= 7 => Coordination::flag(byte, bit),
-                    _ => {
-                        return Err(CliError::usage(format!(
-                            "--flag must be BYTE.BIT with BYTE 0 … 254 and BIT 0 … 7, got {text:?}"
-                        )))
-                    }
-                }
-            }
-        };
-        if let Some(cpu) = self.cpu {
-            if !(1..=4).contains(&cpu) {
-                return Err(CliError::usage(format!("--cpu must be 1 … 4, got {cpu}")));
-            }
-            c.cpu = cpu;
-        }
-        Ok(c)
+        Coordination::parse(self.flag.as_deref(), self.cpu)
+            .map_err(|e| CliError::usage(format!("--{e}")))
     }
 }
 

@@ -14,9 +14,8 @@ use crate::error::CliError;
 use crate::output::Output;
 use crate::scenario::{self, print_trace, Scenario, SimOptions, Sink};
 use clap::Args;
-use si_core::{Engine, Instant, LineError, Output as EngineOutput, SerialSettings};
-use si_sim::Simulator;
-use std::collections::VecDeque;
+use si_core::{Instant, SerialSettings};
+use si_sim::{Simulator, Terminal};
 use std::path::{Path, PathBuf};
 
 /// `si sim`.
@@ -111,29 +110,6 @@ impl SimArgs {
             svg: self.svg.clone(),
         });
         scenario::run(scenario, (name, protocol), &options, sink, out)
-    }
-}
-
-/// A raw terminal: transmits what it is told, reports every character and line error.
-#[derive(Default)]
-struct Terminal {
-    events: VecDeque<Result<u8, LineError>>,
-}
-
-impl Engine for Terminal {
-    type Event = Result<u8, LineError>;
-    fn handle_rx(&mut self, _: Instant, bytes: &[u8]) {
-        self.events.extend(bytes.iter().map(|&b| Ok(b)));
-    }
-    fn handle_timeout(&mut self, _: Instant) {}
-    fn handle_line_error(&mut self, _: Instant, error: LineError) {
-        self.events.push_back(Err(error));
-    }
-    fn poll_output(&mut self) -> EngineOutput<Self::Event> {
-        match self.events.pop_front() {
-            Some(e) => EngineOutput::Event(e),
-            None => EngineOutput::Wait(None),
-        }
     }
 }
 

@@ -317,10 +317,8 @@ impl Command {
     }
 }
 
-/// Run one parameter job on a master that polls only `slave`. The job is entered before the
-/// master starts and the master stops in the step that ends it
-/// ([`Master::stop_when_idle`]): every telegram on the line carries the job, none comes before
-/// or after it.
+/// Run one parameter job on a master that polls only `slave`, as the only job on the line
+/// (`si_uss::tokio::Handle::only_job`).
 async fn last_job(
     conn: &Connection,
     structure: &Structure,
@@ -331,27 +329,18 @@ async fn last_job(
         conn.settings_for(&si_uss::config::USS_BAUD_RATES)?,
         &[slave],
     )?;
-    let settings = config.settings;
-    let mut master = Master::new(config)?;
-    let job = master.request_parameter(Instant::ZERO, slave, request)?;
-    master.stop_when_idle();
-    let transport = conn.open_with(&settings).await?;
-    let mut m = Handle::spawn_engine(master, transport);
-    while let Some(event) = m.next_event().await {
-        match event {
-            Event::ParameterDone {
-                job: j, response, ..
-            } if j == job => return Ok(response),
-            Event::ParameterFailed {
-                job: j,
+    let transport = conn.open_with(&config.settings).await?;
+    Handle::only_job(config, transport, slave, request)
+        .await
+        .map_err(|e| match e {
+            si_uss::tokio::Error::Failed {
                 status,
                 error_number,
                 ..
-            } if j == job => return Err(CliError::new(failure_text(slave, status, error_number))),
-            _ => {}
-        }
-    }
-    Err(conn.closed())
+            } => CliError::new(failure_text(slave, status, error_number)),
+            si_uss::tokio::Error::Stopped(_) => conn.closed(),
+            e => CliError::new(e.to_string()),
+        })
 }
 
 async fn poll(a: PollArgs, conn: &Connection, out: &Output) -> Result<(), CliError> {

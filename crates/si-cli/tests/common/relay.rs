@@ -40,6 +40,25 @@ impl Adapter {
 /// `ignoreeof`), both directions shaped by `adapter`. Runs until the pairs are closed (the
 /// threads end when their reads fail).
 pub fn usb_relay(a: &str, b: &str, adapter: Adapter) {
+    relay(a, b, adapter, adapter);
+}
+
+/// Relays between the host's pseudo-terminal `host` and a device's `device` with the adapter
+/// on the host's side only, in front of a device with a plain UART (a drive): what the device
+/// sends is held as `adapter` holds it; what the host writes is only paced by the wire, as an
+/// adapter's transmit side hands each USB packet to its UART at once `[derived]`.
+#[allow(dead_code)] // Not every test binary that includes this module uses it.
+pub fn usb_relay_host_side(host: &str, device: &str, adapter: Adapter) {
+    let wire_only = Adapter {
+        packet: 1,
+        latency: Duration::ZERO,
+        ..adapter
+    };
+    relay(host, device, wire_only, adapter);
+}
+
+/// Relays `a` → `b` shaped by `to_b` and `b` → `a` by `to_a`.
+fn relay(a: &str, b: &str, to_b: Adapter, to_a: Adapter) {
     let open = |p: &str| {
         OpenOptions::new()
             .read(true)
@@ -48,7 +67,8 @@ pub fn usb_relay(a: &str, b: &str, adapter: Adapter) {
             .unwrap_or_else(|e| panic!("relay cannot open {p}: {e}"))
     };
     let (fa, fb) = (open(a), open(b));
-    for (from, to) in [(fa.try_clone().unwrap(), fb.try_clone().unwrap()), (fb, fa)] {
+    let (fa2, fb2) = (fa.try_clone().unwrap(), fb.try_clone().unwrap());
+    for (from, to, adapter) in [(fa2, fb2, to_b), (fb, fa, to_a)] {
         let (tx, rx) = channel();
         std::thread::spawn(move || read_into(from, tx));
         std::thread::spawn(move || shape(rx, to, adapter));

@@ -49,12 +49,17 @@
 //!   properties).
 
 mod busy;
+#[cfg(target_os = "linux")]
+pub mod check;
 mod icount;
 mod info;
 #[cfg(target_os = "linux")]
 mod linux;
+#[cfg(target_os = "linux")]
+pub mod loopback;
 mod rs485;
 mod stream;
+mod sweep;
 mod tx_enable;
 
 pub use icount::{line_counters, LineCounters};
@@ -66,6 +71,7 @@ pub use info::{
 pub use linux::TermiosMode;
 pub use rs485::{Rs485, Rs485Mode, Rs485ModeError};
 pub use stream::SerialPort;
+pub use sweep::settings_sweep;
 pub use tx_enable::{TxEnable, TxEnableOutput};
 
 use crate::driver::{PortFacts, Transport};

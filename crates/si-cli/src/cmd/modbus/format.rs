@@ -1,261 +1,62 @@
-//! How register values are shown (`si modbus read --format … --word-order …`): pure functions
-//! from the registers on the wire to the values a user reads.
-//!
-//! Modbus moves 16-bit registers, high byte first ([Modbus/USS] §3.4.5–§3.4.16, S7 WORDs are
-//! big-endian); what two registers mean together is left to the devices. The common convention
-//! (Modicon, and mbpoll's default) puts the high word first: `--word-order big`. Many devices
-//! send the low word first: `--word-order swapped` (mbpoll's `-B` names the other choice).
+//! How register values are shown on the command line (`si modbus read --format …
+//! --word-order …`): the values are si-modbus's (`si_modbus::values`); this checks the count
+//! against the format and writes a value in JSON.
 
-use clap::ValueEnum;
 use serde_json::Value as Json;
+use si_modbus::values::{Value, ValueFormat};
 
-/// `--format`: how each register (or pair of registers) is shown.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
-pub enum ValueFormat {
-    /// Each register as 4 hex digits (`0x4049`).
-    Hex,
-    /// Each register as an unsigned decimal number (the default).
-    #[default]
-    U16,
-    /// Each register as a signed (two's complement) decimal number.
-    I16,
-    /// Two registers as one unsigned 32-bit number (see --word-order).
-    U32,
-    /// Two registers as one signed 32-bit number (see --word-order).
-    I32,
-    /// Two registers as one IEEE 754 single-precision float (see --word-order).
-    F32,
-    /// Two characters per register, high byte first, as one quoted string; bytes outside
-    /// printable ASCII are written as `\xNN`.
-    Ascii,
-}
-
-/// `--word-order`: which register of a pair holds the high 16 bits (32-bit formats only).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
-pub enum WordOrder {
-    /// High word first, at the lower address (Modicon convention, the default).
-    #[default]
-    Big,
-    /// Low word first, at the lower address ("word swapped").
-    Swapped,
-}
-
-impl ValueFormat {
-    /// How many registers one value takes.
-    pub fn registers_per_value(self) -> u16 {
-        match self {
-            ValueFormat::U32 | ValueFormat::I32 | ValueFormat::F32 => 2,
-            _ => 1,
-        }
-    }
-
-    /// The name as typed on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            ValueFormat::Hex => "hex",
-            ValueFormat::U16 => "u16",
-            ValueFormat::I16 => "i16",
-            ValueFormat::U32 => "u32",
-            ValueFormat::I32 => "i32",
-            ValueFormat::F32 => "f32",
-            ValueFormat::Ascii => "ascii",
-        }
-    }
-
-    /// A usage error when `count` registers do not split into whole values (an odd count with
-    /// a 32-bit format).
-    pub fn check_count(self, count: u16) -> Result<(), String> {
-        let per = self.registers_per_value();
-        if count.is_multiple_of(per) {
-            Ok(())
-        } else {
-            Err(format!(
-                "--format {} takes {per} registers per value, and --count {count} is odd: \
-                 read an even number of registers",
-                self.name()
-            ))
-        }
+/// A usage error when `count` registers do not split into whole values (an odd count with
+/// a 32-bit format).
+pub fn check_count(format: ValueFormat, count: u16) -> Result<(), String> {
+    let per = format.registers_per_value();
+    if count.is_multiple_of(per) {
+        Ok(())
+    } else {
+        Err(format!(
+            "--format {} takes {per} registers per value, and --count {count} is odd: \
+             read an even number of registers",
+            format.name()
+        ))
     }
 }
 
-/// One shown value.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Value {
-    /// A register in hex.
-    Hex(u16),
-    /// An unsigned number (u16, u32).
-    Unsigned(u32),
-    /// A signed number (i16, i32).
-    Signed(i32),
-    /// A float (f32).
-    Float(f32),
-    /// Characters (ascii), already escaped.
-    Text(String),
-}
-
-impl std::fmt::Display for Value {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Value::Hex(v) => write!(f, "0x{v:04X}"),
-            Value::Unsigned(v) => write!(f, "{v}"),
-            Value::Signed(v) => write!(f, "{v}"),
-            // Rust prints the shortest text that reads back as the same f32: 3.1415927.
-            Value::Float(v) => write!(f, "{v}"),
-            Value::Text(t) => write!(f, "\"{t}\""),
-        }
+/// The value in JSON: numbers as numbers (a float with the digits the text shows, NaN and
+/// infinities as null), hex and text as strings.
+pub fn json(value: &Value) -> Json {
+    match value {
+        Value::Hex(_) => Json::String(value.to_string()),
+        Value::Unsigned(v) => Json::from(*v),
+        Value::Signed(v) => Json::from(*v),
+        Value::Float(v) => v
+            .to_string()
+            .parse::<f64>()
+            .ok()
+            .and_then(serde_json::Number::from_f64)
+            .map_or(Json::Null, Json::Number),
+        Value::Text(t) => Json::String(t.clone()),
     }
-}
-
-impl Value {
-    /// The value in JSON: numbers as numbers (a float with the digits the text shows, NaN and
-    /// infinities as null), hex and text as strings.
-    pub fn json(&self) -> Json {
-        match self {
-            Value::Hex(_) => Json::String(self.to_string()),
-            Value::Unsigned(v) => Json::from(*v),
-            Value::Signed(v) => Json::from(*v),
-            Value::Float(v) => v
-                .to_string()
-                .parse::<f64>()
-                .ok()
-                .and_then(serde_json::Number::from_f64)
-                .map_or(Json::Null, Json::Number),
-            Value::Text(t) => Json::String(t.clone()),
-        }
-    }
-}
-
-/// Two registers as they came, lower address first, joined into 32 bits in `order`.
-pub fn join(first: u16, second: u16, order: WordOrder) -> u32 {
-    let (high, low) = match order {
-        WordOrder::Big => (first, second),
-        WordOrder::Swapped => (second, first),
-    };
-    (u32::from(high) << 16) | u32::from(low)
-}
-
-/// The registers shown in `format`. A 32-bit format takes them in pairs (a last odd register
-/// is left out; [`ValueFormat::check_count`] refuses such a count before the read); `ascii`
-/// gives one value for all of them.
-pub fn show(regs: &[u16], format: ValueFormat, order: WordOrder) -> Vec<Value> {
-    let pairs = || regs.chunks_exact(2).map(|p| join(p[0], p[1], order));
-    match format {
-        ValueFormat::Hex => regs.iter().map(|&r| Value::Hex(r)).collect(),
-        ValueFormat::U16 => regs.iter().map(|&r| Value::Unsigned(r.into())).collect(),
-        ValueFormat::I16 => regs
-            .iter()
-            .map(|&r| Value::Signed(i16::from_be_bytes(r.to_be_bytes()).into()))
-            .collect(),
-        ValueFormat::U32 => pairs().map(Value::Unsigned).collect(),
-        ValueFormat::I32 => pairs()
-            .map(|v| Value::Signed(i32::from_be_bytes(v.to_be_bytes())))
-            .collect(),
-        ValueFormat::F32 => pairs().map(|v| Value::Float(f32::from_bits(v))).collect(),
-        ValueFormat::Ascii => vec![Value::Text(ascii(regs))],
-    }
-}
-
-/// Two characters per register, high byte first; `"` and `\` escaped, bytes outside printable
-/// ASCII as `\xNN`, so the text is unambiguous and shows every byte.
-fn ascii(regs: &[u16]) -> String {
-    let mut text = String::with_capacity(regs.len() * 2);
-    for byte in regs.iter().flat_map(|r| r.to_be_bytes()) {
-        match byte {
-            b'"' => text.push_str("\\\""),
-            b'\\' => text.push_str("\\\\"),
-            0x20..=0x7E => text.push(char::from(byte)),
-            _ => text.push_str(&format!("\\x{byte:02X}")),
-        }
-    }
-    text
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn shown(regs: &[u16], format: ValueFormat, order: WordOrder) -> Vec<String> {
-        show(regs, format, order)
-            .iter()
-            .map(ToString::to_string)
-            .collect()
-    }
-
-    #[test]
-    fn pi_reads_the_same_from_either_word_order() {
-        // 0x40490FDB is the f32 nearest to π.
-        let big = shown(&[0x4049, 0x0FDB], ValueFormat::F32, WordOrder::Big);
-        let swapped = shown(&[0x0FDB, 0x4049], ValueFormat::F32, WordOrder::Swapped);
-        assert_eq!(big, ["3.1415927"]);
-        assert_eq!(swapped, big);
-        // The other order reads other bits.
-        let wrong = shown(&[0x0FDB, 0x4049], ValueFormat::F32, WordOrder::Big);
-        assert_ne!(wrong, big);
-    }
-
-    #[test]
-    fn sixteen_bit_formats_show_each_register() {
-        let regs = [0x0000, 0x7FFF, 0x8000, 0xFFFF];
-        assert_eq!(
-            shown(&regs, ValueFormat::U16, WordOrder::Big),
-            ["0", "32767", "32768", "65535"]
-        );
-        assert_eq!(
-            shown(&regs, ValueFormat::I16, WordOrder::Big),
-            ["0", "32767", "-32768", "-1"]
-        );
-        assert_eq!(
-            shown(&regs, ValueFormat::Hex, WordOrder::Swapped),
-            ["0x0000", "0x7FFF", "0x8000", "0xFFFF"]
-        );
-    }
-
-    #[test]
-    fn thirty_two_bit_formats_join_pairs_in_the_word_order() {
-        let regs = [0x0001, 0x0002, 0xFFFF, 0xFFFE];
-        assert_eq!(
-            shown(&regs, ValueFormat::U32, WordOrder::Big),
-            ["65538", "4294967294"]
-        );
-        assert_eq!(
-            shown(&regs, ValueFormat::U32, WordOrder::Swapped),
-            ["131073", "4294901759"]
-        );
-        assert_eq!(
-            shown(&regs, ValueFormat::I32, WordOrder::Big),
-            ["65538", "-2"]
-        );
-        assert_eq!(
-            shown(&regs, ValueFormat::I32, WordOrder::Swapped),
-            ["131073", "-65537"]
-        );
-    }
-
-    #[test]
-    fn ascii_is_high_byte_first_with_escapes() {
-        // "Hi", "!\0", then a quote and a backslash.
-        let regs = [0x4869, 0x2100, 0x225C];
-        assert_eq!(
-            shown(&regs, ValueFormat::Ascii, WordOrder::Big),
-            [r#""Hi!\x00\"\\""#]
-        );
-    }
+    use si_modbus::values::{show, WordOrder};
 
     #[test]
     fn an_odd_count_with_a_32_bit_format_is_refused_naming_the_count() {
-        let e = ValueFormat::F32.check_count(3).unwrap_err();
+        let e = check_count(ValueFormat::F32, 3).unwrap_err();
         assert!(e.contains("--count 3") && e.contains("f32"), "{e}");
-        assert!(ValueFormat::U32.check_count(4).is_ok());
-        assert!(ValueFormat::I16.check_count(3).is_ok());
+        assert!(check_count(ValueFormat::U32, 4).is_ok());
+        assert!(check_count(ValueFormat::I16, 3).is_ok());
     }
 
     #[test]
     fn json_keeps_numbers_as_numbers_with_the_shown_digits() {
         let pi = show(&[0x4049, 0x0FDB], ValueFormat::F32, WordOrder::Big);
-        assert_eq!(pi[0].json().to_string(), "3.1415927");
+        assert_eq!(json(&pi[0]).to_string(), "3.1415927");
         let nan = show(&[0x7FC0, 0x0000], ValueFormat::F32, WordOrder::Big);
-        assert_eq!(nan[0].json(), Json::Null);
-        assert_eq!(Value::Hex(0x10).json(), Json::from("0x0010"));
-        assert_eq!(Value::Signed(-2).json(), Json::from(-2));
+        assert_eq!(json(&nan[0]), Json::Null);
+        assert_eq!(json(&Value::Hex(0x10)), Json::from("0x0010"));
+        assert_eq!(json(&Value::Signed(-2)), Json::from(-2));
     }
 }

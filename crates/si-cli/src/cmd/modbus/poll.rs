@@ -11,11 +11,9 @@
 //! - one job without `--poll`: its line, or its failure as the error (exit 1); with several
 //!   units, one line per unit and exit 1 if any failed.
 //!
-//! A failure's kind comes from its STATUS ([Modbus/USS]): 0830H is the response
-//! timeout ([Modbus/USS] §3.4.3, Table 3-17), 0E61H–0E67H an exception response (§3.3.6, Table
-//! 3-12); everything else on the line (0E57H CRC, 0831H wrong slave, 0E5xH malformed responses,
-//! 08xxH receive errors) counts as another error. A job the master refuses before sending (0E4xH)
-//! or a closed port ends the run: repeating it could only fail the same way.
+//! A failure's kind comes from its STATUS (`si_modbus::poll_counters`). A job the master
+//! refuses before sending (0E4xH) or a closed port ends the run: repeating it could only fail
+//! the same way.
 
 use super::explain::{failure, status_text};
 use super::report::Report;
@@ -49,76 +47,14 @@ impl PollArgs {
     }
 }
 
-/// What happened to the polls of one unit.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Counters {
-    /// Jobs that ended (one of the four below).
-    pub polls: u64,
-    /// Answered (a broadcast counts when sent).
-    pub answers: u64,
-    /// Exception responses (0E61H–0E67H).
-    pub exceptions: u64,
-    /// No response in time (0830H).
-    pub timeouts: u64,
-    /// Any other failure on the line.
-    pub other_errors: u64,
-}
+pub use si_modbus::poll_counters::{Counters, Kind};
 
-/// How a failed job is counted.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Kind {
-    /// An exception response ([Modbus/USS] §3.3.6, Table 3-12).
-    Exception,
-    /// The response timeout ([Modbus/USS] §3.4.3, Table 3-17).
-    Timeout,
-    /// Anything else on the line.
-    Other,
-}
-
-impl Kind {
-    /// The kind of a failure with this STATUS.
-    pub fn of(status: Status) -> Kind {
-        match status.code() {
-            0x0830 => Kind::Timeout,
-            0x0E61..=0x0E67 => Kind::Exception,
-            _ => Kind::Other,
-        }
-    }
-
-    /// The name in the failure line's JSON.
-    pub fn name(self) -> &'static str {
-        match self {
-            Kind::Exception => "exception",
-            Kind::Timeout => "timeout",
-            Kind::Other => "error",
-        }
-    }
-}
-
-impl Counters {
-    /// Count one failure.
-    pub fn failed(&mut self, kind: Kind) {
-        self.polls += 1;
-        match kind {
-            Kind::Exception => self.exceptions += 1,
-            Kind::Timeout => self.timeouts += 1,
-            Kind::Other => self.other_errors += 1,
-        }
-    }
-
-    /// Count one answer.
-    pub fn answered(&mut self) {
-        self.polls += 1;
-        self.answers += 1;
-    }
-
-    /// The counters as one line of text.
-    pub fn text(&self, unit: u8) -> String {
-        format!(
-            "--- unit {unit}: {} polls, {} answers, {} exceptions, {} timeouts, {} other errors",
-            self.polls, self.answers, self.exceptions, self.timeouts, self.other_errors
-        )
-    }
+/// The counters as one line of text.
+pub fn counters_text(c: &Counters, unit: u8) -> String {
+    format!(
+        "--- unit {unit}: {} polls, {} answers, {} exceptions, {} timeouts, {} other errors",
+        c.polls, c.answers, c.exceptions, c.timeouts, c.other_errors
+    )
 }
 
 /// A job that failed on the line: counted, printed, and the poll goes on.
@@ -263,7 +199,7 @@ fn summary(units: &[u8], counters: &[Counters], polling: &PollArgs, report: &Rep
     };
     for (c, &unit) in counters.iter().zip(units) {
         report.emit(
-            &c.text(unit),
+            &counters_text(c, unit),
             json!({"summary": {"unit": unit, "polls": c.polls, "answers": c.answers,
                                "exceptions": c.exceptions, "timeouts": c.timeouts,
                                "other_errors": c.other_errors},
@@ -308,7 +244,7 @@ mod tests {
             }
         );
         assert_eq!(
-            c.text(5),
+            counters_text(&c, 5),
             "--- unit 5: 6 polls, 1 answers, 2 exceptions, 1 timeouts, 2 other errors"
         );
     }

@@ -1,13 +1,13 @@
 //! One line per job outcome, in the user's address numbering and value format, stamped with
 //! the wall clock: always in JSON (`timestamp`), in text with `--timestamps`.
 
-use super::format::{show, ValueFormat, WordOrder};
 use crate::output::Output;
 use serde_json::{json, Value as Json};
 use si_core::tracefile::rfc3339_millis;
 use si_core::Status;
 use si_modbus::frame::{Request, Response};
 use si_modbus::master::Completion;
+use si_modbus::values::{show, ValueFormat, WordOrder};
 
 /// How job outcomes are printed.
 #[derive(Debug, Clone, Copy)]
@@ -107,15 +107,12 @@ impl Report<'_> {
                 let text: Vec<String> = values.iter().map(ToString::to_string).collect();
                 let mut j = json!({"unit": unit, "function": function, "address": first,
                                    "base": base, "format": self.format.name(),
-                                   "values": values.iter().map(|v| v.json()).collect::<Vec<_>>()});
+                                   "values": values.iter().map(super::format::json).collect::<Vec<_>>()});
                 if self.format != ValueFormat::U16 {
                     j["registers"] = json!(raw);
                 }
                 if self.format.registers_per_value() == 2 {
-                    j["word_order"] = json!(match self.order {
-                        WordOrder::Big => "big",
-                        WordOrder::Swapped => "swapped",
-                    });
+                    j["word_order"] = json!(self.order.name());
                 }
                 self.emit(
                     &format!(

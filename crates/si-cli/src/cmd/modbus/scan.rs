@@ -1,22 +1,16 @@
-//! `si modbus scan`: which units answer, at which line settings. Bounded and polite: one
-//! harmless read per unit and setting (`si_modbus::scan::PROBE`), one try, the response time
-//! of the config; the longest it can take is printed before the first request, and Ctrl-C
-//! stops at once with what was found so far.
+//! `si modbus scan`: which units answer, at which line settings. The scan is si-modbus's
+//! (`si_modbus::tokio::scan`: one harmless read per unit and setting, one try, the response
+//! time of the config); this prints the longest it can take before the first request and each
+//! unit found, and Ctrl-C stops it at once with what was found so far.
 
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::Args;
-use si_core::{Duration, SerialSettings};
-use si_modbus::scan::{self, Answer};
+use si_core::SerialSettings;
+use si_modbus::scan::Answer;
+use si_modbus::tokio::scan::{Found, Scan, ScanError};
 use si_modbus::MasterConfig;
-
-/// What the host may add to each probe beyond the line's own time: a USB adapter's hold on
-/// the response (16 ms by default) and scheduling, counted generously.
-const PROBE_SLACK: Duration = Duration::from_millis(60);
-
-/// Opening and closing the port for one line setting.
-const OPEN_SLACK: Duration = Duration::from_millis(300);
 
 /// `si modbus scan` arguments.
 #[derive(Debug, Clone, Args)]
@@ -32,39 +26,23 @@ pub struct ScanArgs {
     response_timeout_ms: Option<u32>,
 }
 
-/// One unit that answered something.
-struct Found {
-    unit: u8,
-    settings: SerialSettings,
-    answer: Answer,
-}
-
 impl ScanArgs {
-    /// Run the scan.
+    /// Run the scan (`si_modbus::tokio::scan`), printing what it finds.
     pub async fn run(&self, conn: &Connection, out: &Output) -> Result<(), CliError> {
         let units = parse_units(&self.units)?;
-        let settings = self.settings(conn)?;
         let mut config = MasterConfig::default();
         if let Some(ms) = self.response_timeout_ms {
             config.response_timeout = si_core::Duration::from_millis(u64::from(ms));
         }
-        config.retries = 0;
-        config.validate().map_err(CliError::bad_argument)?;
-        let bound = settings
-            .iter()
-            .map(|s| {
-                let mut c = config;
-                c.line.settings = *s;
-                let probe = scan::probe_bound(&c, PROBE_SLACK);
-                Duration::from_micros(probe.as_micros() * units.len() as u64) + OPEN_SLACK
-            })
-            .fold(Duration::ZERO, |a, b| a + b);
-        let list: Vec<String> = settings.iter().map(ToString::to_string).collect();
+        let scan = Scan::new(config, self.settings(conn)?, units.clone())
+            .map_err(CliError::bad_argument)?;
+        let bound = scan.bound();
+        let list: Vec<String> = scan.settings().iter().map(ToString::to_string).collect();
         out.line(
             &format!(
                 "scanning {} unit(s) at {} line setting(s) ({}): at most {:.1} s",
                 units.len(),
-                settings.len(),
+                list.len(),
                 list.join(", "),
                 bound.as_micros() as f64 / 1e6
             ),
@@ -73,49 +51,26 @@ impl ScanArgs {
                 "bound_ms": bound.as_millis(),
             }),
         );
-        let mut found = Vec::new();
-        let ctrl_c = tokio::signal::ctrl_c();
-        tokio::pin!(ctrl_c);
-        let mut interrupted = false;
-        'settings: for s in &settings {
-            let mut c = config;
-            c.line.settings = *s;
-            let port = conn.open_with(s).await?;
-            let master = si_modbus::tokio::Master::spawn(c, port)
-                .map_err(|e| CliError::new(e.to_string()))?;
-            for &unit in &units {
-                let outcome = tokio::select! {
-                    r = master.request(unit, &scan::PROBE) => r.map(|_| ()),
-                    _ = &mut ctrl_c => {
-                        interrupted = true;
-                        // Dropped, not awaited: the summary must be out before the
-                        // process's own Ctrl-C handling ends it.
-                        drop(master);
-                        break 'settings;
-                    }
-                };
-                let outcome = match outcome {
-                    Ok(()) => Ok(()),
-                    Err(e) => match e.status() {
-                        Some(status) => Err(status),
-                        None => return Err(CliError::new(e.to_string())),
-                    },
-                };
-                let answer = Answer::of(outcome);
-                if answer != Answer::Absent {
-                    let f = Found {
-                        unit,
-                        settings: *s,
-                        answer,
-                    };
-                    print_found(&f, out);
-                    found.push(f);
-                }
+        let mut present = 0;
+        let run = scan.run(
+            |s| async move { conn.open_with(&s).await },
+            |f| {
+                present += usize::from(f.answer == Answer::Present);
+                print_found(&f, out);
+            },
+        );
+        // Ctrl-C drops the scan at once: the summary must be out before the process's own
+        // Ctrl-C handling ends it.
+        let interrupted = tokio::select! {
+            r = run => {
+                r.map_err(|e| match e {
+                    ScanError::Open(e) => e,
+                    ScanError::Master(e) => CliError::new(e.to_string()),
+                })?;
+                false
             }
-            // Returns once the port is released, so the next setting can open it again.
-            master.close().await.ok();
-        }
-        let present = found.iter().filter(|f| f.answer == Answer::Present).count();
+            _ = tokio::signal::ctrl_c() => true,
+        };
         if !out.json {
             println!(
                 "{present} unit(s) answered{}",

@@ -13,30 +13,21 @@
 //! only chooses the monitor, feeds it and prints: every record as it is decoded, the counters
 //! at the end; `--svg` draws the sequence diagram ([`si_core::diagram`]).
 //!
-//! A trace is read record by record ([`line_stream`], [`ordered`]): memory holds a minute of
-//! line, not the file. `--pcap` also writes the records as a Wireshark capture ([`pcap_out`]),
-//! `--from-pcap` reads one instead of a trace ([`pcap_in`]).
-
-pub mod line_stream;
-pub mod ordered;
-pub mod pcap_in;
-pub mod pcap_out;
-
-mod line_errors;
+//! A trace is read record by record (`si_core::monitor::streamed`): memory holds a minute of
+//! line, not the file. `--pcap` also writes the records as a Wireshark capture
+//! ([`pcap_out`]), `--from-pcap` reads one instead of a trace ([`pcap_in`]).
 
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::{Args, ValueEnum};
-use si_core::monitor::{self, decode_all, line, Analysis, Decoder, Kind, LineChar, Record};
-use si_core::trace::TraceEntry;
-use si_core::tracefile::{self, Header, Item, TraceFile};
+use si_capture::{pcap_in, pcap_out};
+use si_core::monitor::live::{self, Ended, WatchError};
+use si_core::monitor::streamed::{Sink, StreamError, TraceStream};
+use si_core::monitor::{self, line, Analysis, Decoder, Kind, LineChar, Record};
+use si_core::tracefile::{self, Header, TraceFile, TRACE_RATES};
 use si_core::{Duration, Instant, SerialSettings};
 use std::path::PathBuf;
-
-/// Baud rates a trace or a monitored line may use: the widest list, the manuals' twelve and
-/// USS's 187 500 (si-uss's own list).
-const TRACE_RATES: [u32; 13] = si_uss::config::USS_BAUD_RATES;
 
 /// The protocols the monitor decodes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
@@ -77,17 +68,10 @@ impl Protocol {
         }
     }
 
+    /// The protocol a trace header or a capture names (`3964R` as `3964r`), not `auto`.
     fn from_name(name: &str) -> Option<Protocol> {
-        Some(match name {
-            "3964r" | "3964R" => Protocol::P3964r,
-            "3964" => Protocol::P3964,
-            "rk512" => Protocol::Rk512,
-            "ascii" => Protocol::Ascii,
-            "modbus" => Protocol::Modbus,
-            "uss" => Protocol::Uss,
-            "dp-coord" => Protocol::DpCoord,
-            _ => return None,
-        })
+        let p = <Protocol as ValueEnum>::from_str(name, true).ok();
+        p.filter(|p| *p != Protocol::Auto)
     }
 }
 
@@ -118,18 +102,16 @@ pub struct MonitorArgs {
     /// Stop watching a port after this many seconds (default: until Ctrl-C).
     #[arg(long, value_name = "SECONDS")]
     pub duration: Option<f64>,
-    /// 3964(R) character delay time ZVZ in ms (default 220).
+    /// Character delay time in ms: 3964(R)'s ZVZ (default 220) or the ASCII driver's (default:
+    /// 4 ms or the baud rate's minimum, whichever is longer).
     #[arg(long, value_name = "MS")]
-    pub zvz: Option<u64>,
+    pub char_delay_ms: Option<u64>,
     /// 3964(R) acknowledgement delay time QVZ in ms (default 2000, 550 for plain 3964).
     #[arg(long, value_name = "MS")]
-    pub qvz: Option<u64>,
+    pub ack_delay_ms: Option<u64>,
     /// Modbus response timeout in ms (default 2000, the master's default).
     #[arg(long, value_name = "MS")]
-    pub timeout: Option<u64>,
-    /// ASCII character delay time in ms (default: 4 ms or the baud rate's minimum, whichever is longer).
-    #[arg(long, value_name = "MS")]
-    pub char_delay: Option<u64>,
+    pub response_timeout_ms: Option<u64>,
     /// ASCII: frames end with these one or two end-of-text characters (hex, e.g. 03 or 0D0A)
     /// instead of at the character delay time.
     #[arg(long, value_name = "HEX", conflicts_with = "fixed_length")]
@@ -177,15 +159,15 @@ impl MonitorArgs {
                 } else {
                     si_3964r::monitor::Params::from_config(&link, settings)
                 };
-                p.zvz = self.zvz.map_or(p.zvz, ms);
-                p.qvz = self.qvz.map_or(p.qvz, ms);
+                p.zvz = self.char_delay_ms.map_or(p.zvz, ms);
+                p.qvz = self.ack_delay_ms.map_or(p.qvz, ms);
                 Box::new(si_3964r::monitor::Monitor::new(p))
             }
             Protocol::Modbus => {
                 let mut master = si_modbus::config::MasterConfig::default();
                 master.line.settings = settings;
                 let mut p = si_modbus::monitor::Params::from_config(&master);
-                p.timeout = self.timeout.map_or(p.timeout, ms);
+                p.timeout = self.response_timeout_ms.map_or(p.timeout, ms);
                 Box::new(si_modbus::monitor::Monitor::new(p, one_sided))
             }
             Protocol::Uss => Box::new(si_uss::monitor::Monitor::new(settings, one_sided)),
@@ -216,7 +198,7 @@ impl MonitorArgs {
                     ..si_ascii::Config::default()
                 };
                 let mut p = si_ascii::monitor::Params::from_config(&link);
-                p.char_delay = self.char_delay.map_or(p.char_delay, ms);
+                p.char_delay = self.char_delay_ms.map_or(p.char_delay, ms);
                 Box::new(si_ascii::monitor::Monitor::new(p))
             }
         }
@@ -240,7 +222,7 @@ impl MonitorArgs {
     }
 
     /// Decode the trace at `path` record by record, handing every record to `sinks`: memory
-    /// bounded by a minute of line ([`ordered::HORIZON`]) and the longest trace line, not by
+    /// bounded by a minute of line (`si_core::monitor::ordered::HORIZON`) and the longest trace line, not by
     /// the file. The records come in the order [`analyse`](Self::analyse) gives them.
     pub fn stream_trace(
         &self,
@@ -250,136 +232,93 @@ impl MonitorArgs {
     ) -> Result<Analysis, CliError> {
         let file = std::fs::File::open(path)
             .map_err(|e| CliError::new(format!("cannot open {}: {e}", path.display())))?;
-        let mut stream = tracefile::Stream::new(std::io::BufReader::new(file));
         let bad = |e: tracefile::TraceFileError| CliError::new(format!("{}: {e}", path.display()));
-        let mut header: Option<Header> = None;
-        let mut prefix: Vec<TraceEntry> = Vec::new();
-        let mut more = true;
-        while prefix.len() < line_stream::LOOKAHEAD {
-            match stream.next_item().map_err(bad)? {
-                Some(Item::Header(h)) => header = Some(h),
-                Some(Item::Entry(e)) => prefix.push(e),
-                None => {
-                    more = false;
-                    break;
-                }
-            }
-        }
+        let input = TraceStream::open(std::io::BufReader::new(file)).map_err(bad)?;
+        let header = input.header().cloned();
         let settings = header
             .as_ref()
             .and_then(|h| h.settings)
             .and_then(|f| f.settings())
             .map_or_else(|| conn.settings_for(&TRACE_RATES), Ok)?;
+        let (named, windows) = self.named(header.as_ref());
+        // The first entries decide the kind of line and, unnamed, the protocol.
+        let probe = input.probe(settings, windows);
+        let line = (&probe.chars[..], probe.end, &probe.stations[..]);
+        let (protocol, decoder) = self.chosen(named, windows, line, settings);
+        // Record times count from the recording's start; say when that was. Text only: a JSON
+        // reader has the header itself, and every JSON line stays a record.
+        if let (Some(start), Some(out)) =
+            (header.as_ref().and_then(|h| h.start.as_ref()), sinks.out)
+        {
+            if !out.json {
+                crate::output::write_stdout(format_args!("recorded from {start}\n"));
+            }
+        }
+        let described = header
+            .unwrap_or_else(|| Header::new("trace"))
+            .protocol(protocol.name())
+            .settings(settings)
+            .stations(&probe.stations);
+        drop(probe);
+        sinks.open_pcap(protocol.name(), &described)?;
+        let run = (settings, windows);
+        input
+            .run(run, decoder, (protocol.name(), self.events), sinks)
+            .map_err(|e| match e {
+                StreamError::Read(e) => bad(e),
+                StreamError::Sink(e) => e,
+            })
+    }
+
+    /// The protocol a trace header names, and whether the trace is one of DP windows.
+    fn named(&self, header: Option<&Header>) -> (Option<Protocol>, bool) {
         let named = header
-            .as_ref()
             .and_then(|h| h.protocol.as_deref())
             .and_then(Protocol::from_name);
         let windows = match (self.protocol, named) {
             (Protocol::Auto, named) => named == Some(Protocol::DpCoord),
             (p, _) => p == Protocol::DpCoord,
         };
-        // The first entries decide the kind of line and, unnamed, the protocol.
-        let mut probe = line_stream::LineStream::plan(header.as_ref(), &prefix, settings, windows);
-        let mut probe_chars = Vec::new();
-        for e in &prefix {
-            probe.push(e, &mut probe_chars);
-        }
-        probe.finish(&mut probe_chars);
-        let one_sided = probe.stations().len() < 2;
+        (named, windows)
+    }
+
+    /// The protocol (`--protocol`, else the one `named`, else the [`guess`](Self::guess) from
+    /// the line's first characters up to `end`) and its decoder for a line of `stations`.
+    fn chosen(
+        &self,
+        named: Option<Protocol>,
+        windows: bool,
+        (chars, end, stations): (&[LineChar], Instant, &[String]),
+        settings: SerialSettings,
+    ) -> (Protocol, Box<dyn Decoder + Send>) {
+        let one_sided = stations.len() < 2;
         let protocol = match (self.protocol, named) {
             (Protocol::Auto, Some(p)) => p,
-            (Protocol::Auto, None) => {
-                let end = probe
-                    .end
-                    .max(probe_chars.last().map(|c| c.at).unwrap_or_default());
-                // ASCII explains every line trivially: only when nothing else does.
-                let candidates = [Protocol::P3964r, Protocol::Modbus, Protocol::Uss];
-                monitor::best_fit(&probe_chars, end, &candidates, Protocol::Ascii, |p| {
-                    self.decoder(p, settings, one_sided)
-                })
-            }
+            (Protocol::Auto, None) => self.guess(chars, end, settings, one_sided),
             (p, _) => p,
         };
-        drop(probe_chars);
         let decoder: Box<dyn Decoder + Send> = if windows {
-            Box::new(si_dp_coord::monitor::Monitor::new(
-                si_dp_coord::monitor::module_index(probe.stations()),
-            ))
+            let index = si_dp_coord::monitor::module_index(stations);
+            Box::new(si_dp_coord::monitor::Monitor::new(index))
         } else {
             self.decoder(protocol, settings, one_sided)
         };
-        let mut decoding = ordered::Ordered::new(decoder);
-        let mut line = line_stream::LineStream::plan(header.as_ref(), &prefix, settings, windows);
-        let start = header.as_ref().and_then(|h| h.start.clone());
-        // Record times count from the recording's start; say when that was. Text only: a JSON
-        // reader has the header itself, and every JSON line stays a record.
-        if let (Some(start), Some(out)) = (&start, sinks.out) {
-            if !out.json {
-                crate::output::write_stdout(format_args!("recorded from {start}\n"));
-            }
-        }
-        let described = header
-            .clone()
-            .unwrap_or_else(|| Header::new("trace"))
-            .protocol(protocol.name())
-            .settings(settings)
-            .stations(probe.stations());
-        sinks.open_pcap(protocol.name(), &described)?;
-        let mut stations = line.stations().to_vec();
-        let mut chars = Vec::new();
-        let mut feed = |e: &TraceEntry,
-                        line: &mut line_stream::LineStream,
-                        decoding: &mut ordered::Ordered,
-                        stations: &mut Vec<String>,
-                        sinks: &mut Sinks<'_>|
-         -> Result<(), CliError> {
-            line.push(e, &mut chars);
-            if line.stations().len() != stations.len() {
-                *stations = line.stations().to_vec();
-            }
-            if let si_core::trace::TraceKind::Signals { update } = &e.kind {
-                sinks.signals(e.at, update, &e.station)?;
-            }
-            for c in chars.drain(..) {
-                sinks.char(&c);
-                decoding.push(&c, &mut |r| sinks.record(r, stations))?;
-            }
-            if self.events {
-                if let si_core::trace::TraceKind::Event { text } = &e.kind {
-                    let from = stations.iter().position(|s| s == &e.station);
-                    let mut r = Record::new(Kind::Event, e.at, e.at, from);
-                    r.label = text.clone();
-                    decoding.event(r);
-                }
-            }
-            Ok(())
-        };
-        for e in &prefix {
-            feed(e, &mut line, &mut decoding, &mut stations, sinks)?;
-        }
-        drop(prefix);
-        while more {
-            match stream.next_item().map_err(bad)? {
-                Some(Item::Entry(e)) => feed(&e, &mut line, &mut decoding, &mut stations, sinks)?,
-                Some(Item::Header(_)) => {}
-                None => more = false,
-            }
-        }
-        let mut rest = Vec::new();
-        line.finish(&mut rest);
-        stations = line.stations().to_vec();
-        for c in &rest {
-            sinks.char(c);
-            decoding.push(c, &mut |r| sinks.record(r, &stations))?;
-        }
-        let end = line.end.max(decoding.last);
-        decoding.finish(end, &mut |r| sinks.record(r, &stations))?;
-        Ok(Analysis {
-            protocol: protocol.name().to_owned(),
-            stations,
-            records: Vec::new(),
-            counters: decoding.decoder.counters().clone(),
-            span: (decoding.first.unwrap_or_default(), end),
+        (protocol, decoder)
+    }
+
+    /// Which protocol a line that names none looks like ([`monitor::best_fit`]): 3964(R),
+    /// Modbus or USS, whichever explains it best; ASCII explains every line trivially, so only
+    /// when nothing else does.
+    fn guess(
+        &self,
+        chars: &[LineChar],
+        end: Instant,
+        settings: SerialSettings,
+        one_sided: bool,
+    ) -> Protocol {
+        let candidates = [Protocol::P3964r, Protocol::Modbus, Protocol::Uss];
+        monitor::best_fit(chars, end, &candidates, Protocol::Ascii, |p| {
+            self.decoder(p, settings, one_sided)
         })
     }
 
@@ -420,7 +359,6 @@ impl MonitorArgs {
         } else {
             self.decoder(protocol, settings, one_sided)
         };
-        let mut decoding = ordered::Ordered::new(decoder);
         let mut sinks = Sinks {
             out: Some(out),
             diagram: self.svg.as_ref().map(|_| si_core::diagram::Diagram::new()),
@@ -439,31 +377,12 @@ impl MonitorArgs {
             .protocol(protocol.name())
             .settings(settings);
         sinks.open_pcap(protocol.name(), &described)?;
-        let mut chars = Vec::new();
-        let mut packet = first;
-        let mut end = Instant::ZERO;
-        while let Some((iface, at, data, comment)) = packet {
-            input.chars(iface, at, &data, comment.as_deref(), &mut chars);
-            let stations = input.stations.clone();
-            for c in chars.drain(..) {
-                end = end.max(c.at);
-                sinks.char(&c);
-                decoding.push(&c, &mut |r| sinks.record(r, &stations))?;
-            }
-            packet = input
-                .next_packet()
-                .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
-        }
-        let stations = input.stations.clone();
-        let end = input.end.unwrap_or(end).max(end);
-        decoding.finish(end, &mut |r| sinks.record(r, &stations))?;
-        let analysis = Analysis {
-            protocol: protocol.name().to_owned(),
-            stations,
-            records: Vec::new(),
-            counters: decoding.decoder.counters().clone(),
-            span: (decoding.first.unwrap_or_default(), end),
-        };
+        let analysis = input
+            .run(first, decoder, protocol.name(), &mut sinks)
+            .map_err(|e| match e {
+                StreamError::Read(e) => CliError::new(format!("{}: {e}", path.display())),
+                StreamError::Sink(e) => e,
+            })?;
         sinks.finish(&analysis, self.svg.as_deref())
     }
 
@@ -473,21 +392,12 @@ impl MonitorArgs {
         file: &TraceFile,
         settings: SerialSettings,
     ) -> Result<Analysis, CliError> {
-        let named = file
-            .header
-            .as_ref()
-            .and_then(|h| h.protocol.as_deref())
-            .and_then(Protocol::from_name);
-        let windows = match (self.protocol, named) {
-            (Protocol::Auto, named) => named == Some(Protocol::DpCoord),
-            (p, _) => p == Protocol::DpCoord,
-        };
+        let (named, windows) = self.named(file.header.as_ref());
         let line = if windows {
             si_dp_coord::monitor::line(file)
         } else {
             line::from_trace(file, settings)
         };
-        let one_sided = line.stations.len() < 2;
         let end = file
             .trace
             .entries
@@ -495,48 +405,20 @@ impl MonitorArgs {
             .map(|e| e.at)
             .unwrap_or_default()
             .max(line.chars.last().map(|c| c.at).unwrap_or_default());
-        let protocol = match (self.protocol, named) {
-            (Protocol::Auto, Some(p)) => p,
-            (Protocol::Auto, None) => {
-                // ASCII explains every line trivially: only when nothing else does.
-                let candidates = [Protocol::P3964r, Protocol::Modbus, Protocol::Uss];
-                monitor::best_fit(&line.chars, end, &candidates, Protocol::Ascii, |p| {
-                    self.decoder(p, settings, one_sided)
-                })
-            }
-            (p, _) => p,
-        };
-        let mut decoder: Box<dyn Decoder + Send> = if windows {
-            Box::new(si_dp_coord::monitor::Monitor::new(
-                si_dp_coord::monitor::module_index(&line.stations),
-            ))
-        } else {
-            self.decoder(protocol, settings, one_sided)
-        };
-        let mut records = decode_all(decoder.as_mut(), &line.chars, end);
-        if self.events {
-            for e in &file.trace.entries {
-                if let si_core::trace::TraceKind::Event { text } = &e.kind {
-                    let from = line.stations.iter().position(|s| s == &e.station);
-                    let mut r = Record::new(Kind::Event, e.at, e.at, from);
-                    r.label = text.clone();
-                    records.push(r);
-                }
-            }
-            // Stable: at equal times the line comes before what the engine made of it.
-            records.sort_by_key(|r| r.start);
-        }
-        Ok(Analysis {
-            protocol: protocol.name().to_owned(),
-            stations: line.stations,
-            records,
-            counters: decoder.counters().clone(),
-            span: (line.chars.first().map(|c| c.at).unwrap_or_default(), end),
-        })
+        let seen = (&line.chars[..], end, &line.stations[..]);
+        let (protocol, mut decoder) = self.chosen(named, windows, seen, settings);
+        let events = self.events.then_some(&file.trace.entries[..]);
+        let name = protocol.name();
+        Ok(monitor::analyse_line(
+            line,
+            end,
+            decoder.as_mut(),
+            name,
+            events,
+        ))
     }
 
     async fn run_live(&self, conn: &Connection, out: &Output) -> Result<(), CliError> {
-        use tokio::io::AsyncReadExt;
         let settings = conn.settings_for(&TRACE_RATES)?;
         let protocol = if self.protocol == Protocol::Auto {
             return Err(CliError::new(
@@ -570,22 +452,7 @@ impl MonitorArgs {
             Some(t) => vec![name(conn.port.as_ref(), "A"), name(Some(t), "B")],
             None => vec!["line".to_owned()],
         };
-        let (to_a, to_b) = if tap.is_some() {
-            (Some(1), Some(0))
-        } else {
-            (None, None)
-        };
         let mut decoder = self.decoder(protocol, settings, tap.is_none());
-        // Line errors (parity, framing, BREAK, overrun) reach the decoders in place.
-        let mut lines_a = line_errors::LineReader::attach(port.as_mut(), (Some(0), to_a));
-        let mut lines_b = tap
-            .as_mut()
-            .map(|t| line_errors::LineReader::attach(t.as_mut(), (Some(1), to_b)));
-        let origin = tokio::time::Instant::now();
-        let now = || Instant::from_micros(origin.elapsed().as_micros() as u64);
-        let stop = self
-            .duration
-            .map(|s| origin + std::time::Duration::from_secs_f64(s.max(0.0)));
         // The diagram summarises as the records arrive: a monitor left running for days, or
         // flooded, holds a bounded number of them (si_core::diagram::Diagram).
         let mut diagram = self.svg.as_ref().map(|_| si_core::diagram::Diagram::new());
@@ -608,12 +475,6 @@ impl MonitorArgs {
         let pcap_error = |p: &pcap_out::PcapOut, e: std::io::Error| {
             CliError::new(format!("cannot write {}: {e}", p.path().display()))
         };
-        let mut buf = [0u8; 512];
-        let mut buf2 = [0u8; 512];
-        let mut last = Instant::ZERO;
-        let mut tick = tokio::time::interval(std::time::Duration::from_millis(50));
-        let ctrl_c = tokio::signal::ctrl_c();
-        tokio::pin!(ctrl_c);
         out.line(
             &format!(
                 "monitoring {} at {settings} (receive only); Ctrl-C ends",
@@ -621,66 +482,53 @@ impl MonitorArgs {
             ),
             serde_json::json!({"monitor": protocol.name(), "settings": settings.to_string()}),
         );
-        let read_error = |e: std::io::Error| CliError::new(format!("reading the line: {e}"));
+        // Ctrl-C (true) or the --duration (false) ends the watch.
+        let duration = self
+            .duration
+            .map(|s| std::time::Duration::from_secs_f64(s.max(0.0)));
+        let stop = async {
+            tokio::select! {
+                _ = tokio::signal::ctrl_c() => true,
+                _ = tokio::time::sleep(duration.unwrap_or_default()), if duration.is_some() => false,
+            }
+        };
+        let watched = live::watch(
+            port.as_mut(),
+            tap.as_mut()
+                .map(|t| &mut **t as &mut dyn si_core::driver::Transport),
+            settings,
+            decoder.as_mut(),
+            stop,
+            |records| {
+                for r in &records {
+                    print_record(r, &stations, out);
+                    if let Some(p) = &mut pcap {
+                        p.record(r, &stations).map_err(|e| pcap_error(p, e))?;
+                    }
+                }
+                if let Some(d) = &mut diagram {
+                    records.into_iter().for_each(|r| d.push(r));
+                }
+                Ok(())
+            },
+        )
+        .await;
+        let (ended, end) = watched.map_err(|e| match e {
+            WatchError::Read(e) => CliError::new(format!("reading the line: {e}")),
+            WatchError::Records(e) => e,
+        })?;
         // How the watch ended when it was not its --duration: the counters and the diagram
         // are still written, then the exit code says it (a closed line 1, Ctrl-C 130).
-        let mut ended: Option<CliError> = None;
-        loop {
-            let mut records = Vec::new();
-            tokio::select! {
-                read = port.read(&mut buf) => {
-                    let n = read.map_err(read_error)?;
-                    if n == 0 {
-                        ended = Some(conn.closed());
-                        break;
-                    }
-                    for c in lines_a.chars(port.as_mut(), &buf[..n], now(), settings, &mut last) {
-                        decoder.push(&c, &mut records);
-                    }
-                }
-                read = async { tap.as_mut().map(|t| t.read(&mut buf2)).expect("guarded").await }, if tap.is_some() => {
-                    let n = read.map_err(read_error)?;
-                    if n == 0 {
-                        ended = tap_conn.as_ref().map(Connection::closed);
-                        break;
-                    }
-                    let (Some(t), Some(lines)) = (tap.as_mut(), lines_b.as_mut()) else { break };
-                    for c in lines.chars(t.as_mut(), &buf2[..n], now(), settings, &mut last) {
-                        decoder.push(&c, &mut records);
-                    }
-                }
-                _ = tick.tick() => decoder.idle(now(), &mut records),
-                _ = &mut ctrl_c => {
-                    ended = Some(CliError::interrupted());
-                    break;
-                }
-                _ = tokio::time::sleep_until(stop.unwrap_or(origin)), if stop.is_some() => break,
-            }
-            for r in &records {
-                print_record(r, &stations, out);
-                if let Some(p) = &mut pcap {
-                    p.record(r, &stations).map_err(|e| pcap_error(p, e))?;
-                }
-            }
-            if let Some(d) = &mut diagram {
-                records.into_iter().for_each(|r| d.push(r));
-            }
-        }
-        let mut records = Vec::new();
-        decoder.finish(now(), &mut records);
-        for r in &records {
-            print_record(r, &stations, out);
-            if let Some(p) = &mut pcap {
-                p.record(r, &stations).map_err(|e| pcap_error(p, e))?;
-            }
-        }
+        let ended = match ended {
+            Ended::Stopped(false) => None,
+            Ended::Stopped(true) => Some(CliError::interrupted()),
+            Ended::Closed { tap: false } => Some(conn.closed()),
+            Ended::Closed { tap: true } => tap_conn.as_ref().map(Connection::closed),
+        };
         if let Some(p) = pcap {
             let path = p.path().to_owned();
-            p.finish(&stations, now())
+            p.finish(&stations, end)
                 .map_err(|e| CliError::new(format!("cannot write {}: {e}", path.display())))?;
-        }
-        if let Some(d) = &mut diagram {
-            records.into_iter().for_each(|r| d.push(r));
         }
         let first = diagram
             .as_ref()
@@ -688,7 +536,7 @@ impl MonitorArgs {
         let analysis = Analysis {
             protocol: protocol.name().to_owned(),
             stations,
-            span: (first.unwrap_or_default(), now()),
+            span: (first.unwrap_or_default(), end),
             records: Vec::new(),
             counters: decoder.counters().clone(),
         };
@@ -729,40 +577,31 @@ impl Sinks<'_> {
         }
         Ok(())
     }
+}
 
-    /// A character as the monitor is fed it.
-    pub fn char(&mut self, c: &LineChar) {
+impl Sink for Sinks<'_> {
+    type Error = CliError;
+
+    fn char(&mut self, c: &LineChar) {
         if let Some(p) = &mut self.pcap {
             p.char(c);
         }
     }
 
-    /// A change of a station's modem lines.
-    pub fn signals(
+    fn signals(
         &mut self,
         at: Instant,
         update: &si_core::SignalUpdate,
         station: &str,
     ) -> Result<(), CliError> {
-        use si_capture::rtac::lines;
         if let Some(p) = &mut self.pcap {
-            let bits = if update.dtr == Some(true) {
-                lines::DTR
-            } else {
-                0
-            } | if update.rts == Some(true) {
-                lines::RTS
-            } else {
-                0
-            };
-            p.signals(at, bits, station)
+            p.signals(at, update, station)
                 .map_err(|e| Self::pcap_error(p.path(), e))?;
         }
         Ok(())
     }
 
-    /// A decoded record, in start order.
-    pub fn record(&mut self, r: Record, stations: &[String]) -> Result<(), CliError> {
+    fn record(&mut self, r: Record, stations: &[String]) -> Result<(), CliError> {
         if let Some(out) = self.out {
             print_record(&r, stations, out);
         }
@@ -778,7 +617,9 @@ impl Sinks<'_> {
         }
         Ok(())
     }
+}
 
+impl Sinks<'_> {
     /// The end: counters printed, the diagram and the capture written.
     pub fn finish(
         self,
@@ -814,20 +655,7 @@ impl MonitorArgs {
     pub fn quiet(protocol: Protocol) -> MonitorArgs {
         MonitorArgs {
             protocol,
-            trace: None,
-            from_pcap: None,
-            pcap: None,
-            svg: None,
-            tap: None,
-            duration: None,
-            zvz: None,
-            qvz: None,
-            timeout: None,
-            char_delay: None,
-            end_char: None,
-            fixed_length: None,
-            events: false,
-            no_xon_xoff: false,
+            ..MonitorArgs::default()
         }
     }
 }
@@ -902,6 +730,7 @@ fn write_file(path: &std::path::Path, svg: String) -> Result<(), CliError> {
 mod tests {
     use super::*;
     use clap::FromArgMatches;
+    use si_core::monitor::decode_all;
     use si_core::monitor::LineChar;
     use si_core::LineError;
     use si_sim::{SplitMix64, Trace, TraceEntry, TraceKind};
@@ -1145,5 +974,46 @@ mod tests {
             "back to back, the character delay never expires: {:?}",
             EndCriterion::CharDelay
         );
+    }
+
+    #[test]
+    fn timer_flags_are_named_by_the_time_rule_and_reach_the_decoders() {
+        let settings = SerialSettings::default();
+        let c = |b: u8, at: u64, from: usize| LineChar {
+            at: Instant::from_micros(at),
+            from: Some(from),
+            to: Some(1 - from),
+            item: Ok(b),
+            exact: true,
+        };
+        let end = Instant::from_micros(5_000_000);
+        // ASCII: "AB", 10 ms of silence, "CD": two frames at the default delay, one at 50 ms.
+        let ascii = [
+            c(b'A', 1_146, 0),
+            c(b'B', 2_292, 0),
+            c(b'C', 12_292, 0),
+            c(b'D', 13_438, 0),
+        ];
+        let frames = |a: &MonitorArgs| {
+            let mut d = a.decoder(Protocol::Ascii, settings, false);
+            decode_all(d.as_mut(), &ascii, end).len()
+        };
+        assert_eq!(frames(&args(&[])), 2);
+        assert_eq!(frames(&args(&["--char-delay-ms", "50"])), 1);
+        // 3964(R): the partner's DLE 150 ms after our STX is late for a 100 ms QVZ only.
+        let r3964 = [c(0x02, 1_146, 0), c(0x10, 151_146, 1)];
+        let flagged = |a: &MonitorArgs| {
+            let mut d = a.decoder(Protocol::P3964r, settings, false);
+            let records = decode_all(d.as_mut(), &r3964, end);
+            records.iter().map(|r| r.flags.len()).sum::<usize>()
+        };
+        assert!(flagged(&args(&["--ack-delay-ms", "100"])) > flagged(&args(&[])));
+        let a = args(&["--response-timeout-ms", "300"]);
+        assert_eq!(a.response_timeout_ms, Some(300));
+        // The manual's abbreviations are not flags any more.
+        for old in ["--zvz", "--qvz", "--timeout", "--char-delay"] {
+            let cmd = <MonitorArgs as clap::Args>::augment_args(clap::Command::new("m"));
+            assert!(cmd.try_get_matches_from(["m", old, "5"]).is_err(), "{old}");
+        }
     }
 }

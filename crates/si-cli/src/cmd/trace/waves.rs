@@ -4,31 +4,11 @@
 
 use crate::conn::Connection;
 use crate::error::CliError;
-use si_capture::sigrok::SrWriter;
-use si_capture::uart_levels::{self, Edge, Levels};
-use si_capture::vcd::VcdWriter;
-use si_core::tracefile;
+use si_capture::trace_waves::{self, WavesError};
+use si_core::tracefile::{Item, Stream, TRACE_RATES};
 use std::fs::File;
-use std::io::{self, BufWriter};
+use std::io::{BufReader, BufWriter};
 use std::path::Path;
-
-/// Where the edges go: each format asked for.
-struct Waves {
-    sr: Option<SrWriter<BufWriter<File>>>,
-    vcd: Option<VcdWriter<BufWriter<File>>>,
-}
-
-impl Waves {
-    fn edge(&mut self, e: Edge) -> io::Result<()> {
-        if let Some(sr) = &mut self.sr {
-            sr.edge(e)?;
-        }
-        if let Some(vcd) = &mut self.vcd {
-            vcd.edge(e)?;
-        }
-        Ok(())
-    }
-}
 
 fn create(path: &Path) -> Result<BufWriter<File>, CliError> {
     File::create(path)
@@ -37,69 +17,40 @@ fn create(path: &Path) -> Result<BufWriter<File>, CliError> {
 }
 
 /// Write the UART levels of the trace at `path` to the sigrok session file `sr` and the VCD
-/// `vcd`, whichever are given.
+/// `vcd`, whichever are given: read twice, record by record (`si_capture::trace_waves`).
 pub fn export(
     path: &Path,
     sr: Option<&Path>,
     vcd: Option<&Path>,
     conn: &Connection,
 ) -> Result<(), CliError> {
-    let file = File::open(path)
-        .map_err(|e| CliError::new(format!("cannot open {}: {e}", path.display())))?;
-    let file = tracefile::read(io::BufReader::new(file))
-        .map_err(|e| CliError::new(format!("{}: {e}", path.display())))?;
-    let settings = file
-        .header
-        .as_ref()
+    let open = || File::open(path).map(BufReader::new);
+    let cannot_open = |e| CliError::new(format!("cannot open {}: {e}", path.display()));
+    let bad = |e| CliError::new(format!("{}: {e}", path.display()));
+    // The header, if any, is the first line.
+    let header = match Stream::new(open().map_err(cannot_open)?).next_item() {
+        Ok(Some(Item::Header(h))) => Some(h),
+        Ok(_) => None,
+        Err(e) => return Err(bad(e)),
+    };
+    let settings = header
         .and_then(|h| h.settings)
         .and_then(|f| f.settings())
-        .map_or_else(|| conn.settings_for(&si_uss::config::USS_BAUD_RATES), Ok)?;
-    let wave = si_capture::trace_levels::waveform(&file, settings);
-    drop(file);
-    if wave.channels.is_empty() {
-        return Err(CliError::new(format!(
+        .map_or_else(|| conn.settings_for(&TRACE_RATES), Ok)?;
+    let sr_file = sr.map(create).transpose()?;
+    let vcd_file = vcd.map(create).transpose()?;
+    let failed = |what: Option<&Path>, e: std::io::Error| {
+        let what = what.map_or_else(String::new, |p| p.display().to_string());
+        CliError::new(format!("cannot write {what}: {e}"))
+    };
+    trace_waves::export(open, settings, sr_file, vcd_file).map_err(|e| match e {
+        WavesError::Open(e) => cannot_open(e),
+        WavesError::Read(e) => bad(e),
+        WavesError::Empty => CliError::new(format!(
             "{}: no characters and no RTS changes to draw",
             path.display()
-        )));
-    }
-    let rate = uart_levels::sample_rate(&settings);
-    let failed =
-        |what: &Path, e: io::Error| CliError::new(format!("cannot write {}: {e}", what.display()));
-    let mut sinks = Waves {
-        sr: match sr {
-            Some(p) => Some(
-                SrWriter::new(create(p)?, &wave.channels, rate, &wave.initial)
-                    .map_err(|e| failed(p, e))?,
-            ),
-            None => None,
-        },
-        vcd: match vcd {
-            Some(p) => Some(
-                VcdWriter::new(create(p)?, "si", &wave.channels, rate, &wave.initial)
-                    .map_err(|e| failed(p, e))?,
-            ),
-            None => None,
-        },
-    };
-    let mut levels = Levels::new(settings, wave.initial);
-    let mut result = Ok(());
-    let mut sink = |e: Edge| {
-        if result.is_ok() {
-            result = sinks.edge(e);
-        }
-    };
-    for item in wave.items {
-        levels.push(item, &mut sink);
-    }
-    // Two character times of idle line after the last edge, so a decoder sees the end.
-    let end = levels.finish(&mut sink) + 2 * u64::from(settings.bits_per_char()) * 16;
-    let write_error = |e: io::Error| CliError::new(format!("cannot write the export: {e}"));
-    result.map_err(write_error)?;
-    if let (Some(w), Some(p)) = (sinks.sr, sr) {
-        w.finish(end).map_err(|e| failed(p, e))?;
-    }
-    if let (Some(w), Some(p)) = (sinks.vcd, vcd) {
-        w.finish(end).map_err(|e| failed(p, e))?;
-    }
-    Ok(())
+        )),
+        WavesError::Sr(e) => failed(sr, e),
+        WavesError::Vcd(e) => failed(vcd, e),
+    })
 }

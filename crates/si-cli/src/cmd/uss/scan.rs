@@ -7,23 +7,10 @@ use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::Args;
-use si_core::{Duration, Instant, SerialSettings};
-use si_uss::config::{MasterConfig, PollEntry, MAX_ENTRIES, USS_BAUD_RATES};
+use si_core::{Duration, SerialSettings};
+use si_uss::config::{PollEntry, USS_BAUD_RATES};
 use si_uss::frame::PkwWords;
-use si_uss::master::{Event, Master};
-use si_uss::scan::{self, Answer};
-use si_uss::tokio::Handle;
-
-/// What the host may add to each telegram beyond the line's own time (a USB adapter's hold,
-/// scheduling), counted generously.
-const TELEGRAM_SLACK: Duration = Duration::from_millis(40);
-
-/// Opening and closing the port for one line setting.
-const OPEN_SLACK: Duration = Duration::from_millis(300);
-
-/// Cycles over the nodes the bound allows: the probe goes out in the first; a second covers
-/// a cycle the master had begun before the jobs were entered `[derived]`.
-const CYCLES: u64 = 2;
+use si_uss::scan::{Answer, Found, Scan, ScanError};
 
 /// `si uss scan` arguments.
 #[derive(Debug, Clone, Args)]
@@ -62,27 +49,10 @@ impl ScanArgs {
             .map(|&a| PollEntry::new(a, pkw, self.pzd_words))
             .collect();
         let settings = self.settings(conn)?;
-        // One master per setting and batch: a polling list holds at most 31 nodes (SANZ,
-        // [Modbus/USS] §3.7.6, Table 3-31), so 0…31 is asked in two batches.
-        let mut batches: Vec<MasterConfig> = Vec::new();
-        for s in &settings {
-            for chunk in entries.chunks(MAX_ENTRIES) {
-                let mut c = MasterConfig::new(chunk.to_vec());
-                c.settings = *s;
-                c.response_timeout = Duration::from_millis(self.response_timeout_ms);
-                c.retries = 0;
-                c.validate().map_err(CliError::bad_argument)?;
-                batches.push(c);
-            }
-        }
-        let bound = batches
-            .iter()
-            .map(|c| {
-                let telegram = scan::telegram_bound(c, &entries[0], TELEGRAM_SLACK);
-                let polls = c.polling_list.len() as u64 * CYCLES;
-                Duration::from_micros(telegram.as_micros() * polls) + OPEN_SLACK
-            })
-            .fold(Duration::ZERO, |a, b| a + b);
+        let response_timeout = Duration::from_millis(self.response_timeout_ms);
+        let scan =
+            Scan::new(&entries, &settings, response_timeout).map_err(CliError::bad_argument)?;
+        let bound = scan.bound();
         let list: Vec<String> = settings.iter().map(ToString::to_string).collect();
         out.line(
             &format!(
@@ -97,62 +67,33 @@ impl ScanArgs {
                 "bound_ms": bound.as_millis(),
             }),
         );
-        let ctrl_c = tokio::signal::ctrl_c();
-        tokio::pin!(ctrl_c);
         let mut present = 0;
-        for c in batches {
-            let mut master = Master::new(c.clone()).map_err(CliError::bad_argument)?;
-            let mut jobs = Vec::new();
-            for entry in &c.polling_list {
-                let job = master
-                    .request_parameter(Instant::ZERO, entry.address, scan::probe())
-                    .map_err(|e| CliError::new(e.to_string()))?;
-                jobs.push((job, entry.address));
+        let run = scan.run(
+            |s| async move { conn.open_with(&s).await },
+            |f| {
+                present += usize::from(f.answer == Answer::Present);
+                print_found(&f, out);
+            },
+        );
+        let interrupted = tokio::select! {
+            r = run => {
+                r.map_err(|e| match e {
+                    ScanError::Open(e) => e,
+                    ScanError::Config(e) => CliError::bad_argument(e),
+                    ScanError::Refused(e) => CliError::new(e.to_string()),
+                })?;
+                false
             }
-            master.stop_when_idle();
-            let transport = conn.open_with(&c.settings).await?;
-            let mut m = Handle::spawn_engine(master, transport);
-            let mut open = jobs.len();
-            while open > 0 {
-                let event = tokio::select! {
-                    e = m.next_event() => e,
-                    _ = &mut ctrl_c => {
-                        if !out.json {
-                            println!("{present} node(s) answered (interrupted)");
-                        }
-                        return Err(CliError::interrupted());
-                    }
-                };
-                let (job, outcome) = match event {
-                    None => break,
-                    Some(Event::ParameterDone { job, .. }) => (job, Ok(())),
-                    Some(Event::ParameterFailed {
-                        job,
-                        status,
-                        error_number,
-                        ..
-                    }) => (job, Err((status, error_number))),
-                    Some(_) => continue,
-                };
-                let Some(&(_, node)) = jobs.iter().find(|(j, _)| *j == job) else {
-                    continue;
-                };
-                open -= 1;
-                let answer = Answer::of(outcome);
-                if answer == Answer::Present {
-                    present += 1;
-                }
-                if answer != Answer::Absent {
-                    print_found(node, c.settings, answer, out);
-                }
-            }
-            // The driver ends as the master stops; let it release the port before the next
-            // batch opens it again.
-            drop(m);
-            tokio::task::yield_now().await;
-        }
+            _ = tokio::signal::ctrl_c() => true,
+        };
         if !out.json {
-            println!("{present} node(s) answered");
+            println!(
+                "{present} node(s) answered{}",
+                if interrupted { " (interrupted)" } else { "" }
+            );
+        }
+        if interrupted {
+            return Err(CliError::interrupted());
         }
         Ok(())
     }
@@ -166,7 +107,8 @@ impl ScanArgs {
 }
 
 /// `node 5    9600 8E1  answered`.
-fn print_found(node: u8, settings: SerialSettings, answer: Answer, out: &Output) {
+fn print_found(f: &Found, out: &Output) {
+    let (node, settings, answer) = (f.node, f.settings, f.answer);
     let (what, status) = match answer {
         Answer::Present => ("answered".to_owned(), None),
         Answer::Garbled(s) => (

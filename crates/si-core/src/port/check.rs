@@ -1,4 +1,4 @@
-//! `si ports --check PORT`: what stands between a user and a working serial port, each finding
+//! A port check (`si ports --check PORT`): what stands between a user and a working serial port, each finding
 //! with its remedy. Most questions about serial tools are about setup, not protocol: the wrong
 //! device, no permission, the port held by another program (ModemManager, a getty), an
 //! adapter's latency timer, RS-485 direction control.
@@ -24,7 +24,8 @@ pub enum Severity {
 }
 
 impl Severity {
-    fn label(self) -> &'static str {
+    /// How a report names it: `ok`, `note`, `PROBLEM`.
+    pub fn label(self) -> &'static str {
         match self {
             Severity::Ok => "ok",
             Severity::Note => "note",
@@ -62,30 +63,6 @@ impl Finding {
     pub fn remedy(mut self, remedy: impl Into<String>) -> Self {
         self.remedy = Some(remedy.into());
         self
-    }
-
-    /// `  PROBLEM  held open by …` and the remedy indented below it.
-    pub fn text_lines(&self) -> String {
-        let mut s = format!(
-            "  {:<8} {}: {}",
-            self.severity.label(),
-            self.check,
-            self.text
-        );
-        if let Some(r) = &self.remedy {
-            s += &format!("\n           remedy: {r}");
-        }
-        s
-    }
-
-    /// The finding as a JSON object.
-    pub fn json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "check": self.check,
-            "severity": self.severity.label().to_lowercase(),
-            "text": self.text,
-            "remedy": self.remedy,
-        })
     }
 }
 
@@ -211,7 +188,7 @@ fn access(path: &str, meta: &fs::Metadata) -> Finding {
     let opened = fs::OpenOptions::new()
         .read(true)
         .write(true)
-        .custom_flags(nix::libc::O_NOCTTY | nix::libc::O_NONBLOCK)
+        .custom_flags(libc::O_NOCTTY | libc::O_NONBLOCK)
         .open(path);
     let who = format!("uid {}", effective_uid());
     match opened {
@@ -247,7 +224,7 @@ fn access(path: &str, meta: &fs::Metadata) -> Finding {
                 )
             })
         }
-        Err(e) if e.raw_os_error() == Some(nix::libc::EBUSY) => Finding::new(
+        Err(e) if e.raw_os_error() == Some(libc::EBUSY) => Finding::new(
             "access",
             Severity::Problem,
             "busy: another program holds the port exclusively",
@@ -416,7 +393,7 @@ fn latency(name: &str) -> Option<Finding> {
 
 /// The kernel's RS-485 mode (`TIOCGRS485`).
 fn rs485(path: &str, pty: bool) -> Finding {
-    match si_core::port::kernel_rs485(path) {
+    match crate::port::kernel_rs485(path) {
         Ok(true) => Finding::new("rs485", Severity::Ok, "the kernel's RS-485 mode is on"),
         Ok(false) => Finding::new(
             "rs485",
@@ -443,7 +420,7 @@ fn rs485(path: &str, pty: bool) -> Finding {
 
 /// The modem inputs as they are now.
 fn modem_lines(path: &str, pty: bool) -> Finding {
-    match si_core::port::modem_inputs(path) {
+    match crate::port::modem_inputs(path) {
         Ok([cts, dsr, dcd, ri]) => {
             let on = |b: bool| if b { "on" } else { "off" };
             Finding::new(
@@ -470,7 +447,7 @@ fn modem_lines(path: &str, pty: bool) -> Finding {
 /// The UART driver's line-error counters (`TIOCGICOUNT`): characters lost to overruns show
 /// nowhere else.
 fn line_errors(path: &str) -> Finding {
-    match si_core::port::line_counters(path) {
+    match crate::port::line_counters(path) {
         Ok(c) => {
             let text = format!(
                 "since the driver loaded: overrun {}, buffer overrun {}, parity {}, framing {}, \

@@ -1,13 +1,13 @@
-//! The line errors of a watched port: a marking port (Linux, `PARMRK`, `si_core::linemark`)
+//! The line errors of a watched port: a marking port (Linux, `PARMRK`, `crate::linemark`)
 //! reports parity and framing errors and BREAKs in its stream once a reader attaches, and the
 //! kernel counts overruns it cannot mark (`TIOCGICOUNT`). The monitor shows each where a
 //! character would have been, so the protocol monitors flag the frame it hit, and the text,
 //! JSON and SVG output and the recorded trace (`--record`, through the port's tap) carry it.
 
-use si_core::driver::Transport;
-use si_core::linemark::{MarkDecoder, Marked};
-use si_core::monitor::LineChar;
-use si_core::{Instant, LineError, SerialSettings};
+use crate::driver::Transport;
+use crate::linemark::{MarkDecoder, Marked};
+use crate::monitor::LineChar;
+use crate::{Instant, LineError, SerialSettings};
 
 /// One watched port's reads turned into line characters, line errors included.
 pub struct LineReader {
@@ -28,7 +28,7 @@ impl LineReader {
     }
 
     /// The characters of one read that returned `bytes` at `at`, paced back from `at` one
-    /// character time apart (as `si_core::monitor::line::pace`), then one overrun if the port
+    /// character time apart (as `crate::monitor::line::pace`), then one overrun if the port
     /// counted characters lost since the previous read (where they were lost the count cannot
     /// say: after the read's characters, `[derived]`). Never before `last`, the time of the
     /// character fed before (from any port of the monitor), which this advances.
@@ -76,7 +76,7 @@ impl LineReader {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use si_core::driver::PortFacts;
+    use crate::driver::PortFacts;
     use std::pin::Pin;
     use std::task::{Context, Poll};
     use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};

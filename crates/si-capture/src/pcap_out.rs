@@ -22,9 +22,9 @@
 //! Times are the recording's wall-clock start plus the record's time; a trace without a
 //! start (the simulator's virtual time) counts from 1970-01-01.
 
-use si_capture::pcapng::Writer;
-use si_capture::rtac;
-use si_capture::upper_pdu::{self, Direction};
+use crate::pcapng::Writer;
+use crate::rtac;
+use crate::upper_pdu::{self, Direction};
 use si_core::monitor::{LineChar, Record};
 use si_core::tracefile::Header;
 use si_core::{Instant, LineError};
@@ -124,7 +124,7 @@ impl PcapOut {
         header: &Header,
     ) -> std::io::Result<Self> {
         let file = std::fs::File::create(path)?;
-        let comment = serde_json::to_string(header).unwrap_or_default();
+        let comment = header.to_line();
         let mut w = Writer::new(
             BufWriter::new(file),
             concat!("si ", env!("CARGO_PKG_VERSION")),
@@ -196,7 +196,15 @@ impl PcapOut {
     }
 
     /// A change of a station's modem lines (`lines`: [`rtac::lines`] bits).
-    pub fn signals(&mut self, at: Instant, lines: u8, station: &str) -> std::io::Result<()> {
+    pub fn signals(
+        &mut self,
+        at: Instant,
+        update: &si_core::SignalUpdate,
+        station: &str,
+    ) -> std::io::Result<()> {
+        // The outputs a trace records, as RTAC's control-line bits: on when set, else off.
+        let on = |set: Option<bool>, bit: u8| if set == Some(true) { bit } else { 0 };
+        let lines = on(update.dtr, rtac::lines::DTR) | on(update.rts, rtac::lines::RTS);
         let header = rtac::Header {
             at_us: self.origin + at.as_micros(),
             event: rtac::Event::Other(0),

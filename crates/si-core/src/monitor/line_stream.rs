@@ -1,5 +1,5 @@
 //! The line view of a trace built entry by entry, for traces of any length: the same rules
-//! as `si_core::monitor::line::from_trace` (serial lines) and `si_dp_coord::monitor::line`
+//! as `crate::monitor::line::from_trace` (serial lines) and `si_dp_coord::monitor::line`
 //! (DP windows), which hold the whole trace, in memory bounded by a few seconds of line.
 //!
 //! The whole-trace builders decide three things from the whole file: the station list, whether
@@ -14,11 +14,11 @@
 //! passed it by [`BACKDATE`], the most a chunk of a [`MAX_LINE`]-long trace line can date
 //! back.
 
-use si_core::monitor::line::PARTNER;
-use si_core::monitor::LineChar;
-use si_core::trace::{TraceEntry, TraceKind};
-use si_core::tracefile::{Header, MAX_LINE};
-use si_core::{Duration, Instant, LineError, SerialSettings};
+use crate::monitor::line::PARTNER;
+use crate::monitor::LineChar;
+use crate::trace::{TraceEntry, TraceKind};
+use crate::tracefile::{Header, MAX_LINE};
+use crate::{Duration, Instant, LineError, SerialSettings};
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap, VecDeque};
 

@@ -1,16 +1,23 @@
-//! `si ports --check PORT --loopback`: with TX wired to RX (or a pseudo-terminal whose other
+//! The loopback check (`si ports --check PORT --loopback`): with TX wired to RX (or a pseudo-terminal whose other
 //! end echoes), what the port does with real traffic: a round trip at each baud rate, the
 //! packets received bytes arrive in and how long the port holds them, and whether the port
-//! hears its own transmission at all. (Whether parity errors are detected needs a sender and a
-//! receiver with different parity at once, which one UART looping back to itself cannot be:
-//! not checked here.)
+//! hears its own transmission at all, and what the driver's line-error counters
+//! (`TIOCGICOUNT`) counted during the loop: parity and framing errors, BREAKs and lost
+//! characters. A loop that garbles characters (bad wiring, noise, a partner at another
+//! parity or baud rate echoing) shows there, and only there when the port does not mark
+//! errors in its stream.
+//!
+//! What the check cannot show: that a parity error *would* be detected. That needs a sender and
+//! a receiver at different parity at once, which one UART looping back to itself cannot be (it
+//! sends with the parity it checks), and a pseudo-terminal has no parity at all: its driver
+//! keeps no counters, which the check says instead of a count.
 //!
 //! Times are measured on this host's clock around blocking-free reads; they are what a user's
 //! program sees, not what the wire does.
 
-use super::port_check::{Finding, Severity};
-use si_core::port::{self, PortOptions};
-use si_core::{Parity, SerialSettings};
+use crate::port::check::{Finding, Severity};
+use crate::port::{self, LineCounters, PortOptions};
+use crate::{Parity, SerialSettings};
 use std::time::{Duration, Instant};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
@@ -42,6 +49,7 @@ struct Trip {
 pub async fn loopback(path: &str) -> Vec<Finding> {
     let mut findings = Vec::new();
     let mut echoed = false;
+    let before = port::line_counters(path);
     for baud in BAUDS {
         let settings = match SerialSettings::new(baud, 8, Parity::None, 1) {
             Ok(s) => s,
@@ -110,7 +118,52 @@ pub async fn loopback(path: &str) -> Vec<Finding> {
         )
         .remedy("wire TX to RX for the loopback check")
     });
+    findings.push(line_errors(before, port::line_counters(path)));
     findings
+}
+
+/// What the driver's counters say about the loop: the parity and framing errors, BREAKs and
+/// lost characters counted from `before` to `after`.
+pub fn line_errors(
+    before: std::io::Result<LineCounters>,
+    after: std::io::Result<LineCounters>,
+) -> Finding {
+    let (before, after) = match (before, after) {
+        (Ok(b), Ok(a)) => (b, a),
+        (Err(e), _) | (_, Err(e)) if e.kind() == std::io::ErrorKind::Unsupported => {
+            return Finding::new(
+                "line errors",
+                Severity::Ok,
+                "the port's driver keeps no line-error counters (a pseudo-terminal has no \
+                 parity): parity and framing errors on the loop cannot be counted",
+            )
+        }
+        (Err(e), _) | (_, Err(e)) => {
+            return Finding::new(
+                "line errors",
+                Severity::Note,
+                format!("cannot read the counters: {e}"),
+            )
+        }
+    };
+    let d = |a: u32, b: u32| a.wrapping_sub(b);
+    let (parity, frame) = (d(after.parity, before.parity), d(after.frame, before.frame));
+    let (brk, lost) = (
+        d(after.brk, before.brk),
+        after.lost().wrapping_sub(before.lost()),
+    );
+    let text = format!(
+        "during the loopback: {parity} parity errors, {frame} framing errors, {brk} BREAKs, \
+         {lost} characters lost (the driver's counters)"
+    );
+    if parity == 0 && frame == 0 && brk == 0 && lost == 0 {
+        Finding::new("line errors", Severity::Ok, text)
+    } else {
+        Finding::new("line errors", Severity::Problem, text).remedy(
+            "the loop garbles characters: check the wiring and its ground, and that nothing \
+             else (another program, a partner at other settings) is on the line",
+        )
+    }
 }
 
 /// Send the pattern at `settings` and read it back.
@@ -148,4 +201,34 @@ async fn round_trip(path: &str, settings: SerialSettings) -> std::io::Result<Tri
         hold: round_trip.saturating_sub(wire),
         same: back.iter().zip(&pattern).all(|(a, b)| a == b),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io;
+
+    fn counters(parity: u32, frame: u32) -> io::Result<LineCounters> {
+        Ok(LineCounters {
+            rx: 500,
+            tx: 500,
+            parity,
+            frame,
+            ..LineCounters::default()
+        })
+    }
+
+    #[test]
+    fn parity_errors_counted_during_the_loop_are_a_problem_and_a_pty_says_it_cannot_count() {
+        let clean = line_errors(counters(3, 1), counters(3, 1));
+        assert_eq!(clean.severity, Severity::Ok, "{}", clean.text);
+        let garbled = line_errors(counters(3, 1), counters(7, 1));
+        assert_eq!(garbled.severity, Severity::Problem);
+        assert!(garbled.text.contains("4 parity errors"), "{}", garbled.text);
+        assert!(garbled.remedy.is_some());
+        let unsupported = || Err(io::Error::new(io::ErrorKind::Unsupported, "no counters"));
+        let pty = line_errors(unsupported(), unsupported());
+        assert_eq!(pty.severity, Severity::Ok);
+        assert!(pty.text.contains("cannot be counted"), "{}", pty.text);
+    }
 }

@@ -1,5 +1,5 @@
 //! A decoder fed character by character whose records come out in start order, as
-//! `si_core::monitor::decode_all` sorts them, without holding the whole trace's records.
+//! `crate::monitor::decode_all` sorts them, without holding the whole trace's records.
 //!
 //! A decoder reports a frame when it ends, so a later short frame (a DLE) can be reported
 //! before an earlier note. Records are held until the line has passed their start by
@@ -7,8 +7,8 @@
 //! timeout, USS's response delay) and every frame they delimit end well within it, so the
 //! order is the sorted one, and the memory is a minute of line at most.
 
-use si_core::monitor::{Decoder, LineChar, Record};
-use si_core::{Duration, Instant};
+use crate::monitor::{Decoder, LineChar, Record};
+use crate::{Duration, Instant};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 

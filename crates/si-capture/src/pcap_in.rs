@@ -12,15 +12,20 @@
 //! packet's time and the others follow at the line's character time, so the monitor judges
 //! the gaps between frames (the timers) but not inside them.
 
-use si_capture::pcapng::{Block, ReadError, Reader};
-use si_capture::{rtac, upper_pdu};
-use si_core::monitor::LineChar;
+use crate::pcapng::{Block, ReadError, Reader};
+use crate::{rtac, upper_pdu};
+use si_core::monitor::ordered::Ordered;
+use si_core::monitor::streamed::{Sink, StreamError};
+use si_core::monitor::{Analysis, Decoder, LineChar};
 use si_core::tracefile::Header;
 use si_core::{Duration, Instant, LineError, SerialSettings};
 use std::io::BufReader;
 
 /// Link type of USER0 (DLT_USER0), what many serial sniffers use for raw frames.
 pub const LINKTYPE_USER0: u16 = 147;
+
+/// One packet: (interface, time in µs, bytes, comment).
+pub type Packet = (u32, u64, Vec<u8>, Option<String>);
 
 /// A capture opened for the monitor.
 pub struct PcapIn {
@@ -49,10 +54,7 @@ fn read_error(path: &std::path::Path, e: ReadError) -> String {
 impl PcapIn {
     /// Open `path` and read up to its first packet (the header, the interfaces); that packet
     /// is handed back to be fed once the decoder is chosen.
-    #[allow(clippy::type_complexity)]
-    pub fn open(
-        path: &std::path::Path,
-    ) -> Result<(Self, Option<(u32, u64, Vec<u8>, Option<String>)>), String> {
+    pub fn open(path: &std::path::Path) -> Result<(Self, Option<Packet>), String> {
         let file = std::fs::File::open(path)
             .map_err(|e| format!("cannot open {}: {e}", path.display()))?;
         let reader = Reader::new(BufReader::new(file)).map_err(|e| read_error(path, e))?;
@@ -74,15 +76,13 @@ impl PcapIn {
                 None => return Ok((me, None)),
                 Some(Block::Section { comment }) => {
                     me.linktypes.clear();
-                    me.header = comment
-                        .and_then(|c| serde_json::from_str::<Header>(&c).ok())
-                        .filter(|h| h.format == si_core::tracefile::FORMAT);
+                    me.header = comment.and_then(|c| Header::from_line(&c));
                     if let Some(h) = &me.header {
                         me.stations = h.stations.clone();
                         me.origin = h
                             .start
                             .as_deref()
-                            .and_then(crate::cmd::monitor::pcap_out::epoch_micros)
+                            .and_then(crate::pcap_out::epoch_micros)
                             .or(Some(0));
                     }
                 }
@@ -175,7 +175,7 @@ impl PcapIn {
                 let Some((h, payload)) = rtac::Header::parse(data) else {
                     return;
                 };
-                if comment == Some(crate::cmd::monitor::pcap_out::END_COMMENT) {
+                if comment == Some(crate::pcap_out::END_COMMENT) {
                     self.end = Some(at);
                     return;
                 }
@@ -249,8 +249,7 @@ impl PcapIn {
     }
 
     /// The next packet: (interface, time, bytes, comment); `None` at the end.
-    #[allow(clippy::type_complexity)]
-    pub fn next_packet(&mut self) -> Result<Option<(u32, u64, Vec<u8>, Option<String>)>, String> {
+    pub fn next_packet(&mut self) -> Result<Option<Packet>, String> {
         loop {
             match self.reader.next_block().map_err(|e| e.to_string())? {
                 None => return Ok(None),
@@ -264,5 +263,45 @@ impl PcapIn {
                 }) => return Ok(Some((interface, at_us, data.to_vec(), comment))),
             }
         }
+    }
+}
+
+impl PcapIn {
+    /// Decode the capture from `first` (what [`open`](Self::open) handed back) on with
+    /// `decoder` (named `protocol` in the analysis), packet by packet, handing every character
+    /// and record to `sink`. The analysis holds the counters and span, not the records.
+    pub fn run<S: Sink>(
+        mut self,
+        first: Option<Packet>,
+        decoder: Box<dyn Decoder + Send>,
+        protocol: &str,
+        sink: &mut S,
+    ) -> Result<Analysis, StreamError<S::Error, String>> {
+        let mut decoding = Ordered::new(decoder);
+        let mut chars = Vec::new();
+        let mut packet = first;
+        let mut end = Instant::ZERO;
+        while let Some((iface, at, data, comment)) = packet {
+            self.chars(iface, at, &data, comment.as_deref(), &mut chars);
+            for c in chars.drain(..) {
+                end = end.max(c.at);
+                sink.char(&c);
+                decoding
+                    .push(&c, &mut |r| sink.record(r, &self.stations))
+                    .map_err(StreamError::Sink)?;
+            }
+            packet = self.next_packet().map_err(StreamError::Read)?;
+        }
+        let end = self.end.unwrap_or(end).max(end);
+        decoding
+            .finish(end, &mut |r| sink.record(r, &self.stations))
+            .map_err(StreamError::Sink)?;
+        Ok(Analysis {
+            protocol: protocol.to_owned(),
+            stations: self.stations,
+            records: Vec::new(),
+            counters: decoding.decoder.counters().clone(),
+            span: (decoding.first.unwrap_or_default(), end),
+        })
     }
 }
