@@ -7,7 +7,6 @@ use super::counters::{Outcome, Stats};
 use super::quantities;
 use super::queue::FairQueue;
 use super::reopen::{self, Closed, LineLog, Opened};
-use crate::error::CliError;
 use si_modbus::frame::{DecodeErrorKind, ExceptionCode};
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::{Error, Master};
@@ -95,7 +94,7 @@ pub async fn run(
     log: LineLog,
     queue: Arc<LineQueue>,
     first: reopen::First<Master>,
-    open: impl AsyncFnMut() -> Result<Opened<Master>, CliError>,
+    open: impl AsyncFnMut() -> Result<Opened<Master>, crate::Error>,
     pause: Duration,
 ) {
     // The closures own what their futures use: a future borrowing from the task would not
