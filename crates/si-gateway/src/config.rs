@@ -1,5 +1,5 @@
 //! The gateway's configuration: a TOML file (`--config`) or the flags of the common case (one
-//! line), checked into [`Gateway`] with every value in range.
+//! line), checked into [`Config`] with every value in range.
 //!
 //! Ranges and defaults: the response timeout is the module's "Response Time", 50–655 000 ms
 //! ([Modbus/USS] §3.4.3, Table 3-17, the range `si_modbus::MasterConfig::validate` checks);
@@ -151,7 +151,7 @@ pub struct LineFile {
 
 /// A checked gateway configuration.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Gateway {
+pub struct Config {
     /// Listen address.
     pub listen: String,
     /// Connections served at once.
@@ -319,7 +319,7 @@ impl File {
     }
 
     /// Check every value and fill in the defaults.
-    pub fn check(&self) -> Result<Gateway, ConfigError> {
+    pub fn check(&self) -> Result<Config, ConfigError> {
         let top = |range| ConfigError { line: None, range };
         let listen = self
             .listen
@@ -394,7 +394,7 @@ impl File {
             }
             lines.push(line);
         }
-        Ok(Gateway {
+        Ok(Config {
             listen,
             max_connections,
             idle_timeout,
@@ -635,7 +635,7 @@ pub(super) mod tests {
     use super::*;
 
     /// The checked gateway of TOML `text`, or the error's text.
-    pub(crate) fn check(text: &str) -> Result<Gateway, String> {
+    pub(crate) fn check(text: &str) -> Result<Config, String> {
         File::from_toml(text)?.check().map_err(|e| e.to_string())
     }
 

@@ -124,7 +124,7 @@ pub struct Client {
 }
 
 /// Every counter of the gateway.
-#[derive(Debug, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct Stats {
     /// Per line, in configuration order.
     pub lines: Vec<Counters>,

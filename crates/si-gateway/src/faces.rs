@@ -13,9 +13,10 @@
 //! order and the per-client counters key on them) carry the face's number in their top 16
 //! bits, as each TCP server numbers its connections from 1.
 
-use super::config::Gateway;
+use super::backend::Backend;
+use super::config::Config;
 use super::counters::Stats;
-use super::router::{LineHandle, Router};
+use super::router::Router;
 use crate::Error;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::tcp::{Handler, Peer, Server, ServerConfig, Units};
@@ -36,7 +37,7 @@ pub struct Face {
 
 /// The faces of `gw`: the top-level `listen` first (even with no line of its own: it still
 /// answers the diagnostic unit and 0AH), then each line address in the order it first appears.
-pub fn faces(gw: &Gateway) -> Vec<Face> {
+pub fn faces(gw: &Config) -> Vec<Face> {
     let mut faces = vec![Face {
         listen: gw.listen.clone(),
         lines: Vec::new(),
@@ -59,6 +60,7 @@ pub fn faces(gw: &Gateway) -> Vec<Face> {
 }
 
 /// A face's router, numbering its clients apart from the other faces'.
+#[derive(Clone)]
 pub struct FaceHandler {
     face: u64,
     router: Router,
@@ -100,12 +102,14 @@ pub struct Bound {
     pub lines: Vec<usize>,
     /// The server.
     pub server: Server<FaceHandler>,
+    /// A copy of the server's handler: the same routes and counters.
+    pub handler: FaceHandler,
 }
 
 /// Listen on every face of `gw`; `lines` are the open lines in file order.
 pub async fn bind(
-    gw: &Gateway,
-    lines: Arc<[LineHandle]>,
+    gw: &Config,
+    lines: Arc<[Arc<dyn Backend>]>,
     stats: &Arc<Mutex<Stats>>,
 ) -> Result<Vec<Bound>, Error> {
     let mut bound = Vec::new();
@@ -138,51 +142,17 @@ pub async fn bind(
             face: n as u64,
             router,
         };
-        let server = Server::with_handler(&face.listen, config, handler)
+        let server = Server::with_handler(&face.listen, config, handler.clone())
             .await
             .map_err(|e| Error::new(format!("cannot listen on {}: {e}", face.listen)))?;
         bound.push(Bound {
             addr: server.local_addr()?,
             lines: face.lines,
             server,
+            handler,
         });
     }
     Ok(bound)
-}
-
-/// Faces listed by address in the text of the "listening" line; more are counted only.
-const LISTED_FACES: usize = 8;
-
-/// The "listening" line: the top-level address and the line count, then the other addresses.
-pub fn listening_text(gw: &Gateway, faces: &[Bound]) -> String {
-    let mut text = format!(
-        "gateway listening on {}, {} line(s)",
-        faces[0].addr,
-        gw.lines.len()
-    );
-    for f in faces.iter().skip(1).take(LISTED_FACES) {
-        let names: Vec<_> = f.lines.iter().map(|&i| gw.lines[i].name.as_str()).collect();
-        text += &format!("; {}: {}", f.addr, names.join(", "));
-    }
-    if faces.len() > LISTED_FACES + 1 {
-        text += &format!("; {} more address(es)", faces.len() - LISTED_FACES - 1);
-    }
-    text
-}
-
-/// The "listening" event: `addr` (the top-level face) and every line's name as before, and
-/// `listeners`, every face's address with its lines' names (the top-level face first).
-pub fn listening_json(gw: &Gateway, faces: &[Bound]) -> serde_json::Value {
-    let names = |lines: &[usize]| -> Vec<&str> {
-        lines.iter().map(|&i| gw.lines[i].name.as_str()).collect()
-    };
-    let listeners: Vec<_> = faces
-        .iter()
-        .map(|f| serde_json::json!({"addr": f.addr.to_string(), "lines": names(&f.lines)}))
-        .collect();
-    serde_json::json!({"event": "listening", "addr": faces[0].addr.to_string(),
-        "lines": gw.lines.iter().map(|l| &l.name).collect::<Vec<_>>(),
-        "listeners": listeners})
 }
 
 /// Serve every face until one server ends (its error), or forever.

@@ -20,11 +20,13 @@
 //! may have its own listening address ([`faces`]), so that more than 255 lines fit in one
 //! process.
 
+pub mod backend;
 pub mod config;
 pub mod counters;
 mod error;
 pub mod event;
 pub mod faces;
+mod gateway;
 pub mod line;
 pub mod open;
 pub mod quantities;
@@ -43,3 +45,4 @@ pub mod uss_config;
 
 pub use error::Error;
 pub use event::{Event, Events};
+pub use gateway::{Gateway, Handler, Listener, Options, Shutdown};

@@ -2,9 +2,9 @@
 //! options, or a serial device server (`tcp:HOST:PORT`), then handed to the program's tap
 //! (a trace recorder, a frame log) if it gave one.
 //!
-//! A leaf module of the opening: it reads the checked [`Line`] and imports nothing else of the
-//! crate but the error type.
+//! It reads the checked [`Line`]; a program may bring its own transports ([`Connect`]).
 
+use crate::backend::BoxFuture;
 use crate::config::{Device, Line};
 use crate::Error;
 use si_core::driver::{PortFacts, Transport, WithFacts};
@@ -22,9 +22,21 @@ pub type Tap = Arc<
         + Sync,
 >;
 
+/// A program's own way to reach a line's device, instead of a serial port or device server:
+/// called with the line and its checked settings, it returns the line's transport (an
+/// in-memory pipe in a test, a transport the program made). The tap still applies.
+pub type Connect = Arc<
+    dyn Fn(&Line, &SerialSettings) -> BoxFuture<'static, Result<Box<dyn Transport>, Error>>
+        + Send
+        + Sync,
+>;
+
 /// The options of opening that are the program's, not a line's.
 #[derive(Clone, Default)]
 pub struct Opening {
+    /// The program's way to reach every line's device, if not the ports and device servers
+    /// the lines name.
+    pub connect: Option<Connect>,
     /// Do not put serial ports in line-error mode (Linux PARMRK): parity, framing and BREAK
     /// are then not reported.
     pub no_line_errors: bool,
@@ -36,6 +48,7 @@ impl std::fmt::Debug for Opening {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Opening")
             .field("no_line_errors", &self.no_line_errors)
+            .field("connect", &self.connect.is_some())
             .field("tap", &self.tap.is_some())
             .finish()
     }
@@ -60,6 +73,13 @@ pub async fn open(
     protocol: &'static str,
     opening: &Opening,
 ) -> Result<Box<dyn Transport>, Error> {
+    if let Some(connect) = &opening.connect {
+        let transport = connect(l, settings).await?;
+        return match &opening.tap {
+            Some(tap) => tap(protocol, settings, transport),
+            None => Ok(transport),
+        };
+    }
     let transport: Box<dyn Transport> = match &l.device {
         Device::Port(path) => Box::new(
             port::open(path, settings, &port_options(l, opening)?)

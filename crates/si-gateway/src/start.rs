@@ -1,31 +1,39 @@
 //! Starting the lines: each line's engine built from its configuration, its port opened
 //! ([`crate::open`]) and its task spawned, watched for its port closing ([`crate::reopen`]).
 
-use crate::config::{Gateway, Kind, Line};
+use crate::backend::{Backend, QueuedLine};
+use crate::config::{Config, Kind, Line};
 use crate::counters::Stats;
 use crate::event::Events;
 use crate::open::{self, Opening};
 use crate::reopen;
 use crate::rk512_config::{Rk512Line, Role};
-use crate::router::LineHandle;
 use crate::uss_config::UssLine;
 use crate::{line, r3964, rk512, rk512_own, uss, Error};
 use si_modbus::config::LineConfig;
 use si_modbus::{MasterConfig, Mode};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
+use tokio::task::AbortHandle;
 
-/// Open every line of `gw` and spawn its task (on the current tokio runtime); the handles the
-/// router reaches them by, in file order, and the counters they share. A line whose
+/// The started lines.
+pub struct Started {
+    /// The counters the lines share with the router.
+    pub stats: Arc<Mutex<Stats>>,
+    /// How the router reaches each line, in file order.
+    pub lines: Vec<Arc<dyn Backend>>,
+    /// The lines' tasks, to end them (and release their ports) with the gateway.
+    pub tasks: Vec<AbortHandle>,
+}
+
+/// Open every line of `gw` and spawn its task (on the current tokio runtime). A line whose
 /// configuration its engine refuses stops the start; so does a port that cannot be opened,
-/// unless `allow_down_at_start` lets the line start down.
-pub async fn lines(
-    gw: &Gateway,
-    opening: &Opening,
-    events: &Events,
-) -> Result<(Arc<Mutex<Stats>>, Vec<LineHandle>), Error> {
+/// unless `allow_down_at_start` lets the line start down. On an error the lines started so
+/// far are ended.
+pub async fn lines(gw: &Config, opening: &Opening, events: &Events) -> Result<Started, Error> {
     let stats = Arc::new(Mutex::new(Stats::new(gw.lines.len())));
     let mut handles = Vec::with_capacity(gw.lines.len());
+    let mut tasks = Tasks(Vec::with_capacity(gw.lines.len()));
     for (i, l) in gw.lines.iter().enumerate() {
         let log = reopen::LineLog {
             index: i,
@@ -34,22 +42,22 @@ pub async fn lines(
             events: Arc::clone(events),
         };
         let (o, l) = (opening.clone(), l.clone());
-        let handle = match &l.kind {
+        let handle: Arc<dyn Backend> = match &l.kind {
             Kind::ModbusRtu => {
                 let first = start(open_modbus(&o, &l).await, gw, &l)?;
                 let queue = Arc::new(line::LineQueue::new(l.queue));
                 let (q, pause) = (Arc::clone(&queue), l.pause);
                 let open = async move || open_modbus(&o, &l).await;
-                tokio::spawn(line::run(log, q, first, open, pause));
-                LineHandle::Rtu(queue)
+                tasks.spawn(line::run(log, q, first, open, pause));
+                Arc::new(QueuedLine(queue))
             }
             Kind::Uss(u) => {
                 let u = u.clone();
                 let first = start(open_uss(&o, &l, &u).await, gw, &l)?;
                 let drives = uss::UssDrives::new(&u);
                 let open = async move || open_uss(&o, &l, &u).await;
-                tokio::spawn(drives.supervise(log, first, open));
-                LineHandle::Uss(drives)
+                tasks.spawn(drives.supervise(log, first, open));
+                Arc::new(drives)
             }
             Kind::Rk512(r) => {
                 let (r, pause) = (r.clone(), l.pause);
@@ -60,37 +68,58 @@ pub async fn lines(
                         let first = start(open_rk512(&o, &l, &r, None).await, gw, &l)?;
                         let partner = rk512::Partner::new(&r);
                         let open = async move || open_rk512(&o, &l, &r, None).await;
-                        tokio::spawn(rk512::run(log, q, partner, first, open, pause));
+                        tasks.spawn(rk512::run(log, q, partner, first, open, pause));
                     }
                     Role::Passive => {
                         let own = rk512_own::OwnMemory::new(&r);
                         let kept = own.kept();
                         let first = start(open_rk512(&o, &l, &r, None).await, gw, &l)?;
                         let open = async move || open_rk512(&o, &l, &r, Some(&kept)).await;
-                        tokio::spawn(own.run(log, q, first, open));
+                        tasks.spawn(own.run(log, q, first, open));
                     }
                 }
-                LineHandle::Rk512(queue)
+                Arc::new(QueuedLine(queue))
             }
             Kind::R3964(link) => {
                 let link = *link;
                 let first = start(open_3964r(&o, &l, &link).await, gw, &l)?;
                 let blocks = r3964::BlockLine::new(link.max_block_len.into());
                 let open = async move || open_3964r(&o, &l, &link).await;
-                tokio::spawn(blocks.supervise(log, first, open));
-                LineHandle::R3964(blocks)
+                tasks.spawn(blocks.supervise(log, first, open));
+                Arc::new(blocks)
             }
         };
         handles.push(handle);
     }
-    Ok((stats, handles))
+    Ok(Started {
+        stats,
+        lines: handles,
+        tasks: std::mem::take(&mut tasks.0),
+    })
+}
+
+/// The tasks started so far, ended if the start fails part way (dropped without being taken).
+struct Tasks(Vec<AbortHandle>);
+
+impl Tasks {
+    fn spawn(&mut self, task: impl std::future::Future<Output = ()> + Send + 'static) {
+        self.0.push(tokio::spawn(task).abort_handle());
+    }
+}
+
+impl Drop for Tasks {
+    fn drop(&mut self) {
+        for t in &self.0 {
+            t.abort();
+        }
+    }
 }
 
 /// How line `l` starts from its first opening: open, or (with `allow_down_at_start` and a port
 /// that cannot be opened) down with the reason; otherwise the error stops the gateway.
 fn start<L>(
     opened: Result<reopen::Opened<L>, Error>,
-    gw: &Gateway,
+    gw: &Config,
     l: &Line,
 ) -> Result<reopen::First<L>, Error> {
     match opened {

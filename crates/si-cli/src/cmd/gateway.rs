@@ -25,12 +25,12 @@ use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::Args;
-use si_gateway::config::{self, File, Gateway, LineFile};
+use si_gateway::config::{self, Config, File, LineFile};
 use si_gateway::counters::Stats;
 use si_gateway::open::Opening;
-use si_gateway::{faces, line, Event};
+use si_gateway::{faces, Event, Gateway, Listener, Options};
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::Duration;
 
 /// `si gateway`: a Modbus TCP server whose unit ids are slaves on Modbus RTU lines, USS
@@ -100,7 +100,7 @@ impl GatewayArgs {
     /// The checked configuration: the file with the top-level flags over it, or the flag form.
     /// An error in the file names the file, then where in it (the TOML line and column, or the
     /// `[[line]]`) and the key, on a line of at most [`config::MAX_ERROR_LINE`] characters.
-    fn gateway(&self, conn: &Connection) -> Result<Gateway, CliError> {
+    fn gateway(&self, conn: &Connection) -> Result<Config, CliError> {
         match &self.config {
             Some(path) => {
                 let file = crate::config_file::read_toml::<File>(path)?;
@@ -129,7 +129,7 @@ impl GatewayArgs {
     }
 
     /// `file` with the top-level flags over it, checked.
-    fn over(&self, mut file: File) -> Result<Gateway, config::ConfigError> {
+    fn over(&self, mut file: File) -> Result<Config, config::ConfigError> {
         file.listen = self.listen.clone().or(file.listen);
         file.max_connections = self.max_connections.or(file.max_connections);
         file.diagnostic_unit = self.diagnostic_unit.or(file.diagnostic_unit);
@@ -177,17 +177,22 @@ impl GatewayArgs {
         crate::output::outlive_stdout();
         let listeners = faces::faces(&gw).len();
         limits::raise_open_files(limits::descriptors_needed(&gw, listeners))?;
-        let opening = Opening {
-            no_line_errors: conn.no_line_errors,
-            tap: Some(tap(conn)),
+        let options = Options {
+            opening: Opening {
+                no_line_errors: conn.no_line_errors,
+                tap: Some(tap(conn)),
+                ..Opening::default()
+            },
+            on_event: Some(events(*out)),
         };
-        let (stats, lines) = si_gateway::start::lines(&gw, &opening, &events(*out)).await?;
-        let bound = faces::bind(&gw, lines.into(), &stats).await?;
+        let gateway = Gateway::start_with(gw, options).await?;
+        let gw = gateway.config();
         out.line(
-            &faces::listening_text(&gw, &bound),
-            faces::listening_json(&gw, &bound),
+            &listening_text(gw, gateway.listeners()),
+            listening_json(gw, gateway.listeners()),
         );
-        let mut server = tokio::spawn(faces::run(bound));
+        let server = gateway.run();
+        tokio::pin!(server);
         let every = self
             .status_every
             .filter(|&s| s > 0)
@@ -204,13 +209,13 @@ impl GatewayArgs {
                 _ = tokio::signal::ctrl_c() => break Err(CliError::interrupted()),
                 () = terminate.recv() => break Err(CliError::interrupted()),
                 ended = &mut server => break match ended {
-                    Ok(Err(e)) => Err(CliError::new(format!("gateway stopped: {e}"))),
-                    _ => Err(CliError::new("gateway stopped")),
+                    Err(e) => Err(e.into()),
+                    Ok(()) => Ok(()),
                 },
-                () = tick => print_status(&gw, &stats, out),
+                () = tick => print_status(gw, &gateway.stats(), out),
             }
         };
-        print_status(&gw, &stats, out);
+        print_status(gw, &gateway.stats(), out);
         result
     }
 }
@@ -292,8 +297,7 @@ fn events(out: Output) -> si_gateway::Events {
 }
 
 /// One status line: every line's and every client's counters.
-fn print_status(gw: &Gateway, stats: &Mutex<Stats>, out: &Output) {
-    let s = line::lock(stats);
+fn print_status(gw: &Config, s: &Stats, out: &Output) {
     let lines: Vec<_> = gw
         .lines
         .iter()
@@ -334,4 +338,39 @@ fn print_status(gw: &Gateway, stats: &Mutex<Stats>, out: &Output) {
         &format!("status: {text}; {} client(s)", clients.len()),
         serde_json::json!({"event": "status", "lines": lines, "clients": clients}),
     );
+}
+
+/// Faces listed by address in the text of the "listening" line; more are counted only.
+const LISTED_FACES: usize = 8;
+
+/// The "listening" line: the top-level address and the line count, then the other addresses.
+fn listening_text(gw: &Config, faces: &[Listener]) -> String {
+    let mut text = format!(
+        "gateway listening on {}, {} line(s)",
+        faces[0].addr,
+        gw.lines.len()
+    );
+    for f in faces.iter().skip(1).take(LISTED_FACES) {
+        let names: Vec<_> = f.lines.iter().map(|&i| gw.lines[i].name.as_str()).collect();
+        text += &format!("; {}: {}", f.addr, names.join(", "));
+    }
+    if faces.len() > LISTED_FACES + 1 {
+        text += &format!("; {} more address(es)", faces.len() - LISTED_FACES - 1);
+    }
+    text
+}
+
+/// The "listening" event: `addr` (the top-level face) and every line's name as before, and
+/// `listeners`, every face's address with its lines' names (the top-level face first).
+fn listening_json(gw: &Config, faces: &[Listener]) -> serde_json::Value {
+    let names = |lines: &[usize]| -> Vec<&str> {
+        lines.iter().map(|&i| gw.lines[i].name.as_str()).collect()
+    };
+    let listeners: Vec<_> = faces
+        .iter()
+        .map(|f| serde_json::json!({"addr": f.addr.to_string(), "lines": names(&f.lines)}))
+        .collect();
+    serde_json::json!({"event": "listening", "addr": faces[0].addr.to_string(),
+        "lines": gw.lines.iter().map(|l| &l.name).collect::<Vec<_>>(),
+        "listeners": listeners})
 }

@@ -11,7 +11,7 @@
 //! retries its accept (si-modbus `tokio::tcp`), so only the lower bound is checked here.
 
 use crate::error::CliError;
-use si_gateway::config::{Device, Gateway};
+use si_gateway::config::{Config, Device};
 
 /// Descriptors a process has open before the gateway opens any line: stdin, stdout, stderr,
 /// the runtime's epoll and wake-up descriptors, the Ctrl-C signal pipe, with room to spare.
@@ -27,7 +27,7 @@ const PORT_DESCRIPTORS: u64 = 2;
 
 /// Descriptors the gateway needs at least: for each line its port's or socket's, one per
 /// listening address, the connections one listener may hold, and the runtime's own.
-pub fn descriptors_needed(gw: &Gateway, listeners: usize) -> u64 {
+pub fn descriptors_needed(gw: &Config, listeners: usize) -> u64 {
     let lines: u64 = gw
         .lines
         .iter()
@@ -111,7 +111,7 @@ mod tests {
     }
 
     /// The checked gateway of TOML `text`.
-    fn check(text: &str) -> Gateway {
+    fn check(text: &str) -> Config {
         si_gateway::config::File::from_toml(text)
             .unwrap()
             .check()

@@ -1,0 +1,8 @@
+//! The gateway in-process: lines over `tokio::io::duplex` pipes to simulated slaves, reached
+//! through the library's API (no ports, no `si` binary).
+
+#[path = "scenarios/common.rs"]
+mod common;
+
+#[path = "scenarios/api.rs"]
+mod api;
