@@ -1,34 +1,40 @@
 //! The gateway's configuration: a TOML file (`--config`) or the flags of the common case (one
 //! line), checked into [`Config`] with every value in range.
 //!
-//! Ranges and defaults: the response timeout is the module's "Response Time", 50–655 000 ms
-//! ([Modbus/USS] §3.4.3, Table 3-17, the range `si_modbus::MasterConfig::validate` checks);
-//! retries, the pause between requests, the connection limit and the idle timeout have no
-//! module counterpart (the module has no retries, [Modbus/USS] §3.4.3, Table 3-17) and follow
-//! mbusd, the gateway si is measured against (mbusd's `src/conn.h`: `DEFAULT_MAXTRY` 3 tries = 2
-//! retries, `MAX_MAXTRY` 15, `DEFAULT_RQSTPAUSE` 100 ms, `MAX_RQSTPAUSE` 10 000 ms,
-//! `DEFAULT_RESPWAIT` 500 ms, `DEFAULT_MAXCONN` 32, `MAX_CONNTIMEOUT` 1000 s). mbusd's pause is
-//! 1–10 000 ms; we also allow 0 (no pause).
+//! Each `[[line]]` is one of the kinds of [`LineFile`], a serde enum tagged by `kind`
+//! (`modbus-rtu` where `kind` is left out): each kind has the keys every line has
+//! ([`crate::port_config`]) and only its own ([`crate::rtu_config`], [`crate::uss_config`],
+//! [`crate::rk512_config`], [`crate::r3964_config`]); a key of another kind, or a misspelt
+//! one, is refused as unknown, naming the file, line and key ([`File::read`]).
+//!
+//! The connection limit and the idle timeout have no module counterpart and follow mbusd,
+//! the gateway si is measured against (mbusd's `src/conn.h`: `DEFAULT_MAXCONN` 32,
+//! `MAX_CONNTIMEOUT` 1000 s).
 
+use crate::backend::Backend;
+use crate::port_config::{parse_units, Common, Port};
+use crate::r3964_config::R3964File;
+use crate::rk512_config::{Rk512File, Rk512Line};
+use crate::rtu_config::{RtuFile, RtuFraming};
+use crate::uss_config::{UssFile, UssLine};
+use serde::de::{self, DeserializeSeed, MapAccess, SeqAccess, Visitor};
 use serde::Deserialize;
-use si_core::port::Rs485Mode;
 use si_core::RangeError;
 use std::fmt;
+use std::path::Path;
+use std::sync::Arc;
 
-/// The line kinds a `[[line]]` may be: Modbus RTU slaves, USS drives ([`super::uss_config`]),
-/// an RK 512 partner ([`super::rk512_config`]) or a plain 3964(R) partner
-/// ([`super::r3964_config`]).
+pub use crate::port_config::{Device, DEFAULT_QUEUE, MAX_QUEUE};
+
+/// The line kinds a `[[line]]` may be: Modbus RTU slaves, USS drives, an RK 512 partner or a
+/// plain 3964(R) partner.
 pub const LINE_KINDS: &str = "modbus-rtu, uss, rk512 or 3964r";
 
-/// Default request queue length per line.
-pub const DEFAULT_QUEUE: usize = 32;
-/// The longest request queue per line: bounded memory whatever the file says.
-pub const MAX_QUEUE: usize = 1024;
 /// The most connections a gateway accepts (a host limit; mbusd's `MAX_MAXCONN` is 128).
 pub const MAX_CONNECTIONS: usize = 1024;
 
 /// The whole file, as written (before checking).
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct File {
     /// TCP address listened on, e.g. `127.0.0.1:5020`.
@@ -43,110 +49,45 @@ pub struct File {
     #[serde(default)]
     pub reply_on_broadcast: bool,
     /// A line whose device cannot be opened at start starts down and is reopened like a line
-    /// whose port closed ([`super::reopen`]), instead of stopping the gateway (the default,
+    /// whose port closed ([`crate::reopen`]), instead of stopping the gateway (the default,
     /// so that a wrong path is reported at once).
     #[serde(default)]
     pub allow_down_at_start: bool,
-    /// The serial lines.
+    /// The lines.
     #[serde(default, rename = "line")]
     pub lines: Vec<LineFile>,
 }
 
-/// One `[[line]]`, as written.
-#[derive(Debug, Clone, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct LineFile {
-    /// `modbus-rtu` (the default); see [`LINE_KINDS`].
-    pub kind: Option<String>,
-    /// A name for status lines and errors (default `line<N>`).
-    pub name: Option<String>,
-    /// Serial port path, or `tcp:HOST:PORT` for a serial device server.
-    pub device: Option<String>,
-    /// Baud rate (default 9600).
-    pub baud: Option<u32>,
-    /// Data bits (default 8).
-    pub data_bits: Option<u8>,
-    /// none, even, odd, mark, space (default even).
-    pub parity: Option<String>,
-    /// Stop bits (default 1).
-    pub stop_bits: Option<u8>,
-    /// RS-485 direction control: `kernel`, `rts`, `rts-inverted`, `sysfs`,
-    /// `sysfs-inverted` (the `--rs485` names).
-    pub rs485: Option<String>,
-    /// The file `sysfs`/`sysfs-inverted` write '1'/'0' to (e.g. a GPIO's `value`).
-    pub rs485_file: Option<std::path::PathBuf>,
-    /// RTS on this long before the first bit (ms).
-    pub rs485_delay_before_ms: Option<u64>,
-    /// RTS kept on this long after the last bit (ms).
-    pub rs485_delay_after_ms: Option<u64>,
-    /// The port hears its own transmission.
-    #[serde(default)]
-    pub local_echo: bool,
-    /// USB adapter latency timer (ms).
-    pub latency_timer_ms: Option<u64>,
-    /// The port's delivery latency declared to the engine (ms, 0–255; `--rx-latency`).
-    pub rx_latency_ms: Option<u64>,
-    /// Unit ids served by this line: `"1-10,12"`.
-    pub units: Option<String>,
-    /// Retries after a timeout or a corrupt answer.
-    pub retries: Option<u8>,
-    /// Pause between the end of one request and the next (ms).
-    pub pause_ms: Option<u64>,
-    /// Response timeout (ms).
-    pub response_timeout_ms: Option<u32>,
-    /// Forward broadcasts (unit 0) to this line.
-    #[serde(default)]
-    pub broadcast: bool,
-    /// Requests waiting for this line at most; one more is refused with exception 06.
-    pub queue: Option<usize>,
-    /// `modbus-rtu`: the character delay multiplier 1–10, end-of-frame gap = table value × it
-    /// ([Modbus/USS] §3.3.5, Table 3-11; default 1).
-    pub char_delay_multiplier: Option<u8>,
-    /// `modbus-rtu`: `gap` (the module's: an answer ends after the end-of-frame gap, the
-    /// default) or `length` (host extension: also at the length its header predicts, once its
-    /// CRC checks).
-    pub frame_end: Option<String>,
-    /// `modbus-rtu`: the silence that ends a frame and precedes a request: `spec` (the Modbus
-    /// specification's t3.5, 1.75 ms at 19200 bit/s and above, [Modbus serial] §2.5.1.1; the
-    /// default) or `module` (the module's Table 3-11 gap × `char_delay_multiplier`,
-    /// [Modbus/USS] §3.3.5; the default when `char_delay_multiplier` is given).
-    pub frame_gap: Option<String>,
-    /// `modbus-rtu`: after a slave did not answer, the next request waits until the line has
-    /// been silent this long, 0–655000 ms (default: the line's response timeout; 0: off), and
-    /// what arrives meanwhile is discarded and counted, so a late answer never reaches another
-    /// request (si-modbus's quiet guard, bounded by this + the longest response).
-    pub quiet_after_timeout_ms: Option<u32>,
-    /// A listening address of its own (`[[line]]`s naming the same address share it): this
-    /// line's units are reached there and not on the top-level `listen`, and need to be
-    /// unique only among the lines on that address ([`super::faces`]).
-    pub listen: Option<String>,
-    /// `uss`: the drives' bus addresses (0–31) in the order of `units`, e.g. `"0,5"`;
-    /// default: each unit id is its drive's address.
-    pub drives: Option<String>,
-    /// `uss`: PZD words per drive (0–16, default 2: STW/HSW out, ZSW/HIW in).
-    pub pzd_words: Option<u8>,
-    /// `uss`: PKW words per drive (0, 3, 4 or 127 = variable; default 4).
-    pub pkw_words: Option<u8>,
-    /// `rk512`: `active` (default) or `passive` ([`super::rk512_config`] has every rk512 key).
-    pub role: Option<String>,
-    /// `rk512`, `3964r`: 3964(R) priority, `high` or `low`.
-    pub priority: Option<String>,
-    /// `rk512`, `3964r`: 3964R with block check (default), or plain 3964.
-    pub block_check: Option<bool>,
-    /// `rk512`, `3964r`: acknowledgement delay time QVZ (ms).
-    pub ack_delay_ms: Option<u32>,
-    /// `rk512`: the partner's CPU number 1–4 (header byte 10).
-    pub cpu: Option<u8>,
-    /// `rk512`: header byte 6 counts `words` (default) or `bytes`.
-    pub dw_unit: Option<String>,
-    /// `rk512`: S_MODB's conversion DB (`[line.conversion]`).
-    pub conversion: Option<si_modbus::simatic::ConversionDb>,
-    /// `rk512`: FETCH the `refresh` areas this often (ms; 0: on demand).
-    pub refresh_ms: Option<u64>,
-    /// `rk512`: the refresh image's areas, e.g. `["DB6:0-99", "MB500-531"]`.
-    pub refresh: Option<Vec<String>>,
-    /// `rk512`, passive: the gateway's own memory (`[line.memory]`).
-    pub memory: Option<si_core::memory::MemorySizes>,
+/// One `[[line]]`, as written: a serde enum tagged by `kind`. (TOML files are read through
+/// [`File::read`], which also takes a line without `kind` for `modbus-rtu` and keeps every
+/// error's place in the file.)
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "kind")]
+pub enum LineFile {
+    /// `modbus-rtu`: Modbus RTU slaves.
+    #[serde(rename = "modbus-rtu")]
+    ModbusRtu(RtuFile),
+    /// `uss`: USS drives.
+    #[serde(rename = "uss")]
+    Uss(UssFile),
+    /// `rk512`: an RK 512 partner.
+    #[serde(rename = "rk512")]
+    Rk512(Box<Rk512File>),
+    /// `3964r`: a plain 3964(R) partner.
+    #[serde(rename = "3964r")]
+    R3964(R3964File),
+}
+
+impl LineFile {
+    /// The keys every line has.
+    pub fn common(&self) -> Common<'_> {
+        match self {
+            LineFile::ModbusRtu(l) => l.common(),
+            LineFile::Uss(l) => l.common(),
+            LineFile::Rk512(l) => l.common(),
+            LineFile::R3964(l) => l.common(),
+        }
+    }
 }
 
 /// A checked gateway configuration.
@@ -158,43 +99,23 @@ pub struct Config {
     pub max_connections: usize,
     /// Idle timeout (`None`: never).
     pub idle_timeout: Option<std::time::Duration>,
-    /// The diagnostic unit, if any.
+    /// The unit answering the counters.
     pub diagnostic_unit: Option<u8>,
-    /// Echo a broadcast once sent.
+    /// Echo broadcasts once sent.
     pub reply_on_broadcast: bool,
-    /// Lines that cannot be opened at start start down.
+    /// Lines whose device cannot be opened at start start down.
     pub allow_down_at_start: bool,
-    /// The lines, in file order.
+    /// The lines.
     pub lines: Vec<Line>,
 }
 
-/// A checked Modbus RTU line.
+/// A checked line.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Line {
     /// Name.
     pub name: String,
-    /// Port path, or the device server's `HOST:PORT` in `tcp`.
-    pub device: Device,
-    /// Baud rate.
-    pub baud: u32,
-    /// Data bits.
-    pub data_bits: u8,
-    /// Parity name.
-    pub parity: String,
-    /// Stop bits.
-    pub stop_bits: u8,
-    /// RS-485 mode name (`kernel`, `rts`, …: the `--rs485` names, checked).
-    pub rs485: Option<String>,
-    /// The file a sysfs RS-485 mode writes.
-    pub rs485_file: Option<std::path::PathBuf>,
-    /// RS-485 delays before and after (ms).
-    pub rs485_delays_ms: (u64, u64),
-    /// The port hears its own transmission.
-    pub local_echo: bool,
-    /// USB latency timer (ms).
-    pub latency_timer_ms: Option<u64>,
-    /// The port's delivery latency declared to the engine (ms).
-    pub rx_latency_ms: Option<u64>,
+    /// Its port (`None` only for a line of the program's own kind, [`Kind::Custom`]).
+    pub port: Option<Port>,
     /// Unit ids routed here (1–255).
     pub units: Vec<u8>,
     /// Retries.
@@ -215,27 +136,22 @@ pub struct Line {
     pub listen: Option<String>,
 }
 
-/// How a Modbus RTU line's master recognises the end of an answer.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct RtuFraming {
-    /// fMUL 1–10 ([Modbus/USS] §3.3.5, Table 3-11).
-    pub char_delay_multiplier: u8,
-    /// At the gap, or also at the predicted length.
-    pub frame_end: si_modbus::FrameEnd,
-    /// The specification's t3.5 (`true`) or the module's gap.
-    pub spec_gap: bool,
-    /// Silence kept after a timeout before the next request, in ms (`None`: the line's
-    /// response timeout).
-    pub quiet_after_timeout_ms: Option<u32>,
-}
-
-impl Default for RtuFraming {
-    fn default() -> Self {
-        RtuFraming {
-            char_delay_multiplier: 1,
-            frame_end: si_modbus::FrameEnd::Gap,
-            spec_gap: true,
-            quiet_after_timeout_ms: None,
+impl Line {
+    /// A line of the program's own kind: `units` served by `backend`, on the top-level
+    /// address.
+    pub fn custom(name: impl Into<String>, units: Vec<u8>, backend: Arc<dyn Backend>) -> Line {
+        Line {
+            name: name.into(),
+            port: None,
+            units,
+            retries: 0,
+            pause: std::time::Duration::ZERO,
+            response_timeout_ms: 0,
+            broadcast: false,
+            queue: 1,
+            rtu: RtuFraming::default(),
+            kind: Kind::Custom(Custom(backend)),
+            listen: None,
         }
     }
 }
@@ -246,34 +162,35 @@ pub enum Kind {
     /// Modbus RTU slaves: requests are forwarded.
     ModbusRtu,
     /// USS drives polled by a USS master: requests are served from their PZD and a parameter
-    /// window ([`super::uss`]).
-    Uss(super::uss_config::UssLine),
+    /// window ([`crate::uss`]).
+    Uss(UssLine),
     /// An RK 512 partner: requests become FETCH and SEND jobs, or are served from the
-    /// gateway's own memory in the passive role ([`super::rk512`]).
-    Rk512(Box<super::rk512_config::Rk512Line>),
+    /// gateway's own memory in the passive role ([`crate::rk512`]).
+    Rk512(Box<Rk512Line>),
     /// A plain 3964(R) partner: the latest block received as input registers, a register
-    /// write sends a block ([`super::r3964`]).
+    /// write sends a block ([`crate::r3964`]).
     R3964(si_3964r::Config),
+    /// The program's own kind: its backend answers (no port of the gateway's).
+    Custom(Custom),
 }
 
-/// Where a line's bytes go.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Device {
-    /// A serial port.
-    Port(String),
-    /// A serial device server in raw TCP mode.
-    Tcp(String),
-}
+/// A program's own backend as a line kind: equal only to itself.
+#[derive(Clone)]
+pub struct Custom(pub Arc<dyn Backend>);
 
-impl Device {
-    /// `tcp:HOST:PORT` or a port path.
-    pub fn parse(text: &str) -> Device {
-        match text.strip_prefix("tcp:") {
-            Some(addr) => Device::Tcp(addr.to_string()),
-            None => Device::Port(text.to_string()),
-        }
+impl fmt::Debug for Custom {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("Custom")
     }
 }
+
+impl PartialEq for Custom {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+
+impl Eq for Custom {}
 
 /// A configuration error: which line (if any), which key, and why.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -312,10 +229,41 @@ impl fmt::Display for ConfigError {
 impl std::error::Error for ConfigError {}
 
 impl File {
-    /// Parse TOML text (the tests' shortcut; `si gateway` reads its file through
-    /// `si_core::config_file`, whose errors name the file, line and key).
+    /// Read and check the TOML file `path` through si-core's bounded reader: an error names
+    /// the file, then where in it (the TOML line and the key, or the `[[line]]`) and why, on
+    /// a line of at most [`MAX_ERROR_LINE`] characters.
+    pub fn read(path: &Path) -> Result<Config, crate::Error> {
+        let text =
+            si_core::config_file::read(path).map_err(|e| crate::Error::Config(e.text().into()))?;
+        Self::parse(path, &text)?.check().map_err(|e| {
+            crate::Error::Config(format!("{}: {}", path.display(), cut(&e.to_string())))
+        })
+    }
+
+    /// Parse `text`, the contents of `path`, as TOML: each `[[line]]` by its `kind`, errors
+    /// placed at their line and key ([`si_core::config_file::placed`]).
+    pub fn parse(path: &Path, text: &str) -> Result<File, crate::Error> {
+        let placed = |e: toml::de::Error| {
+            let span = e.span().unwrap_or(0..0);
+            crate::Error::Config(
+                si_core::config_file::placed(path, text, span, None, e.message())
+                    .text()
+                    .to_owned(),
+            )
+        };
+        let kinds: Kinds = toml::from_str(text).map_err(placed)?;
+        let kinds: Vec<String> = kinds
+            .line
+            .into_iter()
+            .map(|l| l.kind.unwrap_or_else(|| "modbus-rtu".to_owned()))
+            .collect();
+        let de = toml::de::Deserializer::parse(text).map_err(placed)?;
+        FileSeed(&kinds).deserialize(de).map_err(placed)
+    }
+
+    /// Parse TOML text without a file name (errors say where by `gateway config:`).
     pub fn from_toml(text: &str) -> Result<File, String> {
-        toml::from_str(text).map_err(|e| format!("gateway config: {e}"))
+        Self::parse(Path::new("gateway config"), text).map_err(|e| e.to_string())
     }
 
     /// Check every value and fill in the defaults.
@@ -350,26 +298,54 @@ impl File {
             )));
         }
         let mut lines: Vec<Line> = Vec::with_capacity(self.lines.len());
-        // The line owning each unit id, per listening address (`None`: the top-level one).
-        let mut owners: std::collections::HashMap<Option<String>, [Option<usize>; 256]> =
-            std::collections::HashMap::new();
         for (i, l) in self.lines.iter().enumerate() {
-            let name = l.name.clone().unwrap_or_else(|| format!("line{}", i + 1));
-            let at = format!("line {} ({name})", i + 1);
+            let name = l
+                .common()
+                .name
+                .map_or_else(|| format!("line{}", i + 1), str::to_owned);
             let err = |range| ConfigError {
-                line: Some(at.clone()),
+                line: Some(format!("line {} ({name})", i + 1)),
                 range,
             };
             let mut line = l.check(name.clone()).map_err(err)?;
             if line.listen.as_ref() == Some(&listen) {
                 line.listen = None;
             }
-            let owner = owners.entry(line.listen.clone()).or_insert([None; 256]);
+            lines.push(line);
+        }
+        let config = Config {
+            listen,
+            max_connections,
+            idle_timeout,
+            diagnostic_unit: self.diagnostic_unit,
+            reply_on_broadcast: self.reply_on_broadcast,
+            allow_down_at_start: self.allow_down_at_start,
+            lines,
+        };
+        config.check_lines()?;
+        Ok(config)
+    }
+}
+
+impl Config {
+    /// The lines together: names unique, each unit id served by one line per listening
+    /// address, none the diagnostic unit. A program that builds or changes a configuration
+    /// (a line of its own kind) checks it with this.
+    pub fn check_lines(&self) -> Result<(), ConfigError> {
+        // The line owning each unit id, per listening address (`None`: the top-level one).
+        let mut owners: std::collections::HashMap<Option<&String>, [Option<usize>; 256]> =
+            std::collections::HashMap::new();
+        for (i, line) in self.lines.iter().enumerate() {
+            let err = |range| ConfigError {
+                line: Some(format!("line {} ({})", i + 1, line.name)),
+                range,
+            };
+            let owner = owners.entry(line.listen.as_ref()).or_insert([None; 256]);
             for &u in &line.units {
                 if let Some(other) = owner[u as usize] {
                     return Err(err(RangeError::new(
                         "units",
-                        format!("unit ids not served by {}", lines[other].name),
+                        format!("unit ids not served by {}", self.lines[other].name),
                         "",
                         u,
                     )));
@@ -384,7 +360,7 @@ impl File {
                 }
                 owner[u as usize] = Some(i);
             }
-            if lines.iter().any(|other| other.name == line.name) {
+            if self.lines[..i].iter().any(|other| other.name == line.name) {
                 return Err(err(RangeError::new(
                     "name",
                     "a name no other [[line]] has",
@@ -392,133 +368,29 @@ impl File {
                     format!("{:?}", line.name),
                 )));
             }
-            lines.push(line);
+            let queued = matches!(line.kind, Kind::ModbusRtu | Kind::Rk512(_));
+            if line.broadcast && !queued {
+                return Err(err(RangeError::new(
+                    "broadcast",
+                    "false on this kind of line",
+                    "",
+                    true,
+                )));
+            }
         }
-        Ok(Config {
-            listen,
-            max_connections,
-            idle_timeout,
-            diagnostic_unit: self.diagnostic_unit,
-            reply_on_broadcast: self.reply_on_broadcast,
-            allow_down_at_start: self.allow_down_at_start,
-            lines,
-        })
+        Ok(())
     }
 }
 
 impl LineFile {
     /// Check one line (the caller names it in the error).
     fn check(&self, name: String) -> Result<Line, RangeError> {
-        let kind = self.kind.as_deref().unwrap_or("modbus-rtu");
-        if !matches!(kind, "modbus-rtu" | "uss" | "rk512" | "3964r") {
-            return Err(RangeError::new("kind", LINE_KINDS, "", kind));
-        }
-        let device =
-            self.device.as_deref().map(Device::parse).ok_or_else(|| {
-                RangeError::new("device", "a port path or tcp:HOST:PORT", "", "none")
-            })?;
-        let units = parse_units(self.units.as_deref().unwrap_or(""))?;
-        if let Some(ms) = self.rx_latency_ms.filter(|&ms| ms > 255) {
-            return Err(RangeError::new("rx_latency_ms", "0 … 255 ms", " ms", ms));
-        }
-        if kind == "rk512" {
-            return self.check_rk512(name, device, units);
-        }
-        self.refuse_rk512_keys(kind)?;
-        if kind != "modbus-rtu" {
-            refuse_keys(
-                &[
-                    (
-                        "char_delay_multiplier",
-                        self.char_delay_multiplier.is_some(),
-                    ),
-                    ("frame_end", self.frame_end.is_some()),
-                    ("frame_gap", self.frame_gap.is_some()),
-                    (
-                        "quiet_after_timeout_ms",
-                        self.quiet_after_timeout_ms.is_some(),
-                    ),
-                ],
-                "a key of modbus-rtu lines",
-                format!("set on a {kind} line"),
-            )?;
-        }
-        if kind == "3964r" {
-            return self.check_3964r(name, device, units);
-        }
-        if kind == "uss" {
-            return self.check_uss(name, device, units);
-        }
-        refuse_keys(
-            &[
-                ("drives", self.drives.is_some()),
-                ("pzd_words", self.pzd_words.is_some()),
-                ("pkw_words", self.pkw_words.is_some()),
-            ],
-            "a key of uss lines",
-            format!("set on a {kind} line"),
-        )?;
-        let retries = self.retries.unwrap_or(2);
-        RangeError::check("retries", (0, 15), "", retries)?;
-        let pause_ms = self.pause_ms.unwrap_or(100);
-        RangeError::check("pause_ms", (0, 10_000), " ms", pause_ms)?;
-        let response_timeout_ms = self.response_timeout_ms.unwrap_or(500);
-        RangeError::check(
-            "response_timeout_ms",
-            (50, 655_000),
-            " ms",
-            response_timeout_ms,
-        )?;
-        let queue = self.queue.unwrap_or(DEFAULT_QUEUE);
-        RangeError::check("queue", (1, MAX_QUEUE), "", queue)?;
-        let baud = self.baud.unwrap_or(9600);
-        if !si_core::BAUD_RATES.contains(&baud) {
-            return Err(RangeError::new(
-                "baud",
-                format!("{:?}", si_core::BAUD_RATES),
-                " bit/s",
-                baud,
-            ));
-        }
-        self.check_rs485()?;
-        Ok(Line {
-            retries,
-            pause: std::time::Duration::from_millis(pause_ms),
-            response_timeout_ms,
-            broadcast: self.broadcast,
-            queue,
-            rtu: self.rtu_framing()?,
-            ..self.port_line(name, device, units, Kind::ModbusRtu)
-        })
-    }
-}
-
-impl LineFile {
-    /// Line `name` with its port keys (defaults filled in) and no retries, pause or queue:
-    /// each kind sets those it has.
-    pub(super) fn port_line(
-        &self,
-        name: String,
-        device: Device,
-        units: Vec<u8>,
-        kind: Kind,
-    ) -> Line {
-        Line {
+        let common = self.common();
+        let units = parse_units(common.units.unwrap_or(""))?;
+        let port = common.port()?;
+        let line = Line {
             name,
-            device,
-            baud: self.baud.unwrap_or(9600),
-            data_bits: self.data_bits.unwrap_or(8),
-            parity: self.parity.clone().unwrap_or_else(|| "even".to_string()),
-            stop_bits: self.stop_bits.unwrap_or(1),
-            rs485: self.rs485.clone(),
-            rs485_file: self.rs485_file.clone(),
-            rs485_delays_ms: (
-                self.rs485_delay_before_ms.unwrap_or(0),
-                self.rs485_delay_after_ms.unwrap_or(0),
-            ),
-            local_echo: self.local_echo,
-            latency_timer_ms: self.latency_timer_ms,
-            rx_latency_ms: self.rx_latency_ms,
+            port: Some(port),
             units,
             retries: 0,
             pause: std::time::Duration::ZERO,
@@ -526,108 +398,157 @@ impl LineFile {
             broadcast: false,
             queue: 1,
             rtu: RtuFraming::default(),
-            kind,
-            listen: self.listen.clone(),
-        }
-    }
-
-    /// `char_delay_multiplier` and `frame_end`, checked (the ranges of `si modbus`'s flags).
-    fn rtu_framing(&self) -> Result<RtuFraming, RangeError> {
-        let char_delay_multiplier = self.char_delay_multiplier.unwrap_or(1);
-        RangeError::check("char_delay_multiplier", (1, 10), "", char_delay_multiplier)?;
-        let frame_end = match self.frame_end.as_deref() {
-            None | Some("gap") => si_modbus::FrameEnd::Gap,
-            Some("length") => si_modbus::FrameEnd::Length,
-            Some(other) => return Err(RangeError::new("frame_end", "gap or length", "", other)),
+            kind: Kind::ModbusRtu,
+            listen: common.listen.map(str::to_owned),
         };
-        let spec_gap = match (self.frame_gap.as_deref(), self.char_delay_multiplier) {
-            (None, None) | (Some("spec"), None) => true,
-            (None | Some("module"), _) => false,
-            (Some("spec"), Some(_)) => {
-                return Err(RangeError::new(
-                    "frame_gap",
-                    "module where char_delay_multiplier is given",
-                    "",
-                    "spec",
-                ))
+        Ok(match self {
+            LineFile::ModbusRtu(l) => {
+                let rtu = l.check()?;
+                Line {
+                    retries: rtu.retries,
+                    pause: rtu.pause,
+                    response_timeout_ms: rtu.response_timeout_ms,
+                    broadcast: rtu.broadcast,
+                    queue: rtu.queue,
+                    rtu: rtu.framing,
+                    ..line
+                }
             }
-            (Some(other), _) => {
-                return Err(RangeError::new("frame_gap", "spec or module", "", other))
+            LineFile::Uss(l) => {
+                let uss = l.check(&line.units)?;
+                Line {
+                    retries: l.retries.unwrap_or(20),
+                    response_timeout_ms: uss.master.response_timeout.as_millis() as u32,
+                    kind: Kind::Uss(uss),
+                    ..line
+                }
             }
-        };
-        if let Some(q) = self.quiet_after_timeout_ms {
-            RangeError::check("quiet_after_timeout_ms", (0, 655_000), " ms", q)?;
-        }
-        Ok(RtuFraming {
-            char_delay_multiplier,
-            frame_end,
-            spec_gap,
-            quiet_after_timeout_ms: self.quiet_after_timeout_ms,
+            LineFile::Rk512(l) => {
+                let (rk512, queue, pause) = l.check()?;
+                Line {
+                    response_timeout_ms: u32::try_from(rk512.config.response_timeout.as_millis())
+                        .unwrap_or(u32::MAX),
+                    queue,
+                    pause,
+                    kind: Kind::Rk512(Box::new(rk512)),
+                    ..line
+                }
+            }
+            LineFile::R3964(l) => Line {
+                kind: Kind::R3964(l.check()?),
+                ..line
+            },
         })
     }
+}
 
-    /// The RS-485 mode, if given, is one we know (the `--rs485` names), and `rs485_file` is
-    /// given exactly when the mode writes a file.
-    pub(super) fn check_rs485(&self) -> Result<(), RangeError> {
-        // A device server switches its own line: these are serial port options (refused by
-        // the port too, but here as a configuration error, never a line down for ever).
-        if self
-            .device
-            .as_deref()
-            .is_some_and(|d| d.starts_with("tcp:"))
-        {
-            refuse_keys(
-                &[
-                    ("rs485", self.rs485.is_some()),
-                    ("latency_timer_ms", self.latency_timer_ms.is_some()),
-                ],
-                "a serial port's key (a device server switches its own line)",
-                "set on a tcp: device".to_owned(),
-            )?;
-        }
-        let mode = match self.rs485.as_deref() {
-            Some(name) => Some(name.parse::<Rs485Mode>().map_err(|_| {
-                RangeError::new("rs485", Rs485Mode::NAMES, "", format!("{name:?}"))
-            })?),
-            None => None,
-        };
-        let wants_file = mode.is_some_and(Rs485Mode::needs_file);
-        match &self.rs485_file {
-            None if wants_file => Err(RangeError::new(
-                "rs485_file",
-                "a file path, needed with rs485 = \"sysfs\" or \"sysfs-inverted\"",
-                "",
-                "missing",
-            )),
-            Some(file) if !wants_file => Err(RangeError::new(
-                "rs485_file",
-                "only with rs485 = \"sysfs\" or \"sysfs-inverted\"",
-                "",
-                format!("{:?}", file.display().to_string()),
-            )),
-            _ => Ok(()),
-        }
+/// The first pass over a TOML file: each `[[line]]`'s `kind`, nothing else.
+#[derive(Deserialize)]
+struct Kinds {
+    #[serde(default)]
+    line: Vec<KindOf>,
+}
+
+/// One `[[line]]`'s `kind`, if written.
+#[derive(Deserialize)]
+struct KindOf {
+    kind: Option<String>,
+}
+
+/// The keys of the top level, as the unknown-key error lists them.
+const FILE_KEYS: &[&str] = &[
+    "listen",
+    "max_connections",
+    "idle_timeout_s",
+    "diagnostic_unit",
+    "reply_on_broadcast",
+    "allow_down_at_start",
+    "line",
+];
+
+/// The second pass: the file, each `[[line]]` read as the kind found in the first (so an
+/// error keeps its place in the file, which a tagged enum's buffering would lose).
+struct FileSeed<'a>(&'a [String]);
+
+impl<'de> DeserializeSeed<'de> for FileSeed<'_> {
+    type Value = File;
+    fn deserialize<D: de::Deserializer<'de>>(self, d: D) -> Result<File, D::Error> {
+        d.deserialize_map(self)
     }
 }
 
-/// The first of `keys` given (`(name, given)`) as an error: `range` says where it belongs.
-pub(super) fn refuse_keys(
-    keys: &[(&'static str, bool)],
-    range: &'static str,
-    value: String,
-) -> Result<(), RangeError> {
-    match keys.iter().find(|(_, given)| *given) {
-        Some((key, _)) => Err(RangeError::new(key, range, "", value)),
-        None => Ok(()),
+impl<'de> Visitor<'de> for FileSeed<'_> {
+    type Value = File;
+
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("a gateway configuration")
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<File, A::Error> {
+        let mut file = File::default();
+        while let Some(key) = map.next_key::<String>()? {
+            match key.as_str() {
+                "listen" => file.listen = Some(map.next_value()?),
+                "max_connections" => file.max_connections = Some(map.next_value()?),
+                "idle_timeout_s" => file.idle_timeout_s = Some(map.next_value()?),
+                "diagnostic_unit" => file.diagnostic_unit = Some(map.next_value()?),
+                "reply_on_broadcast" => file.reply_on_broadcast = map.next_value()?,
+                "allow_down_at_start" => file.allow_down_at_start = map.next_value()?,
+                "line" => file.lines = map.next_value_seed(LinesSeed(self.0))?,
+                other => return Err(de::Error::unknown_field(other, FILE_KEYS)),
+            }
+        }
+        Ok(file)
     }
 }
 
-/// `"1-10,12"` → the unit ids 1–10 and 12 (each 1–255; unit 0 is the broadcast, see
-/// `broadcast`). At least one unit, or the line would serve nothing.
-pub fn parse_units(text: &str) -> Result<Vec<u8>, RangeError> {
-    const RANGE: &str = "unit ids 1 … 255 as a list of N or N-M, e.g. 1-10,12";
-    si_core::address_list::parse(text, 1, 255)
-        .ok_or_else(|| RangeError::new("units", RANGE, "", format!("{text:?}")))
+/// The `[[line]]`s, the i-th read as kind `self.0[i]`.
+struct LinesSeed<'a>(&'a [String]);
+
+impl<'de> DeserializeSeed<'de> for LinesSeed<'_> {
+    type Value = Vec<LineFile>;
+    fn deserialize<D: de::Deserializer<'de>>(self, d: D) -> Result<Vec<LineFile>, D::Error> {
+        d.deserialize_seq(self)
+    }
+}
+
+impl<'de> Visitor<'de> for LinesSeed<'_> {
+    type Value = Vec<LineFile>;
+
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("[[line]] tables")
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Vec<LineFile>, A::Error> {
+        let mut lines = Vec::with_capacity(self.0.len());
+        for kind in self.0 {
+            match seq.next_element_seed(LineSeed(kind))? {
+                Some(line) => lines.push(line),
+                None => break,
+            }
+        }
+        Ok(lines)
+    }
+}
+
+/// One `[[line]]` of the kind named.
+struct LineSeed<'a>(&'a str);
+
+impl<'de> DeserializeSeed<'de> for LineSeed<'_> {
+    type Value = LineFile;
+    fn deserialize<D: de::Deserializer<'de>>(self, d: D) -> Result<LineFile, D::Error> {
+        Ok(match self.0 {
+            "modbus-rtu" => LineFile::ModbusRtu(RtuFile::deserialize(d)?),
+            "uss" => LineFile::Uss(UssFile::deserialize(d)?),
+            "rk512" => LineFile::Rk512(Box::new(Rk512File::deserialize(d)?)),
+            "3964r" => LineFile::R3964(R3964File::deserialize(d)?),
+            other => {
+                return Err(de::Error::custom(RangeError::new(
+                    "kind", LINE_KINDS, "", other,
+                )))
+            }
+        })
+    }
 }
 
 #[cfg(test)]
@@ -662,7 +583,10 @@ pub(super) mod tests {
         assert_eq!(g.max_connections, 32);
         let l = &g.lines[0];
         assert_eq!(l.units, [1, 2, 3, 7]);
-        assert_eq!(l.device, Device::Tcp("127.0.0.1:4001".into()));
+        assert_eq!(
+            l.port.as_ref().unwrap().device,
+            Device::Tcp("127.0.0.1:4001".into())
+        );
         assert_eq!((l.retries, l.response_timeout_ms, l.queue), (2, 500, 32));
         assert_eq!(l.pause.as_millis(), 100);
     }
@@ -751,7 +675,7 @@ pub(super) mod tests {
             "{e}"
         );
         let e = check(&format!("{base}kind = \"uss\"\nframe_end = \"gap\"\n")).unwrap_err();
-        assert!(e.contains("frame_end = set on a uss line"), "{e}");
+        assert!(e.contains("unknown field `frame_end`"), "{e}");
     }
 
     #[test]

@@ -29,6 +29,7 @@ pub mod faces;
 mod gateway;
 pub mod line;
 pub mod open;
+pub mod port_config;
 pub mod quantities;
 pub mod queue;
 pub mod r3964;
@@ -39,7 +40,9 @@ pub mod rk512_config;
 pub mod rk512_own;
 pub mod rk512_spans;
 pub mod router;
+pub mod rtu_config;
 pub mod start;
+mod sync;
 pub mod uss;
 pub mod uss_config;
 

@@ -82,10 +82,7 @@ impl LineQueue {
     }
 }
 
-/// Lock, taking over a lock poisoned by a panicking holder (the data are plain counters).
-pub fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|p| p.into_inner())
-}
+pub use crate::sync::lock;
 
 /// Serve line `log.index` until the process ends: one request at a time, then the pause.
 /// While its port is closed every request is answered with 0AH and the port is reopened with

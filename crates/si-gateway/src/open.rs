@@ -6,6 +6,7 @@
 
 use crate::backend::BoxFuture;
 use crate::config::{Device, Line};
+use crate::port_config::Port;
 use crate::Error;
 use si_core::driver::{PortFacts, Transport, WithFacts};
 use si_core::port::{self, PortOptions, Rs485Mode};
@@ -57,6 +58,7 @@ impl std::fmt::Debug for Opening {
 /// Line `l`'s character format, with a baud rate from `rates` (a protocol's own list: USS adds
 /// 187 500 bit/s); a value outside is a configuration error.
 pub fn settings(l: &Line, rates: &'static [u32]) -> Result<SerialSettings, Error> {
+    let l = port(l)?;
     let parity: Parity = l
         .parity
         .parse()
@@ -80,6 +82,7 @@ pub async fn open(
             None => Ok(transport),
         };
     }
+    let l = port(l)?;
     let transport: Box<dyn Transport> = match &l.device {
         Device::Port(path) => Box::new(
             port::open(path, settings, &port_options(l, opening)?)
@@ -105,8 +108,18 @@ pub async fn open(
     }
 }
 
-/// The serial port options of line `l` (its RS-485 mode and names checked with the file).
-fn port_options(l: &Line, opening: &Opening) -> Result<PortOptions, Error> {
+/// Line `l`'s port (every line the gateway opens has one).
+fn port(l: &Line) -> Result<&Port, Error> {
+    l.port.as_ref().ok_or_else(|| {
+        Error::Config(format!(
+            "line {}: no port (a line of the program's own kind)",
+            l.name
+        ))
+    })
+}
+
+/// The serial port options of port `l` (its RS-485 mode and names checked with the file).
+fn port_options(l: &Port, opening: &Opening) -> Result<PortOptions, Error> {
     let (before, after) = l.rs485_delays_ms;
     let rs485 = match l.rs485.as_deref() {
         None => None,

@@ -3,81 +3,55 @@
 //! block check: [ET200S SI] §2.7, Fig. 2-16, Table 2-11), with the port keys every line has. The
 //! link's own bounds (block length 200 bytes, attempts) keep the manual's defaults.
 
-use super::config::{refuse_keys, Device, Kind, Line, LineFile};
+use crate::port_config::line_file;
 use si_core::RangeError;
 
-impl LineFile {
-    /// Check a `3964r` line whose device and unit ids are already read.
-    pub(super) fn check_3964r(
-        &self,
-        name: String,
-        device: Device,
-        units: Vec<u8>,
-    ) -> Result<Line, RangeError> {
-        let mut keys = self.not_on_3964r_links();
-        keys.extend([
-            ("response_timeout_ms", self.response_timeout_ms.is_some()),
-            ("pause_ms", self.pause_ms.is_some()),
-            ("queue", self.queue.is_some()),
-        ]);
-        refuse_keys(&keys, "not a key of 3964r lines", "given".to_string())?;
-        let link = self.link(si_3964r::Priority::High)?;
-        link.validate()?;
-        self.check_rs485()?;
-        Ok(self.port_line(name, device, units, Kind::R3964(link)))
+line_file! {
+    /// One `[[line]]` of kind `3964r`, as written.
+    pub struct R3964File {
+        /// 3964(R) priority, `high` (default) or `low`.
+        pub priority: Option<String>,
+        /// 3964R with block check (default), or plain 3964.
+        pub block_check: Option<bool>,
+        /// Acknowledgement delay time QVZ (ms).
+        pub ack_delay_ms: Option<u32>,
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use crate::config::{File, Kind};
-
-    fn check(keys: &str) -> Result<si_3964r::Config, String> {
-        let text = format!(
-            "[[line]]\nname = \"b\"\nkind = \"3964r\"\ndevice = \"x\"\nunits = \"1\"\n{keys}"
-        );
-        let g = File::from_toml(&text)?.check().map_err(|e| e.to_string())?;
-        match g.lines[0].kind.clone() {
-            Kind::R3964(c) => Ok(c),
-            other => Err(format!("not a 3964r line: {other:?}")),
-        }
+impl R3964File {
+    /// Check the line's own keys: the link (the shared keys are checked by the caller).
+    pub fn check(&self) -> Result<si_3964r::Config, RangeError> {
+        let link = link(
+            self.priority.as_deref(),
+            self.block_check,
+            self.ack_delay_ms,
+            si_3964r::Priority::High,
+        )?;
+        link.validate()?;
+        Ok(link)
     }
+}
 
-    #[test]
-    fn the_link_keys_are_read_and_others_refused() {
-        let c = check("").unwrap();
-        assert_eq!(c.priority, si_3964r::Priority::High);
-        assert!(c.block_check);
-        let c = check("priority = \"low\"\nblock_check = false\nack_delay_ms = 300\n").unwrap();
-        assert_eq!(
-            (c.priority, c.block_check, c.ack_delay.as_millis()),
-            (si_3964r::Priority::Low, false, 300)
-        );
-        for (keys, want) in [
-            ("ack_delay_ms = 1\n", "(QVZ) = 1 ms"),
-            (
-                "cpu = 1\n",
-                "cpu = set on a 3964r line is out of range: a key of rk512 lines",
-            ),
-            (
-                "queue = 4\n",
-                "queue = given is out of range: not a key of 3964r lines",
-            ),
-            ("response_timeout_ms = 100\n", "response_timeout_ms = given"),
-        ] {
-            let e = check(keys).unwrap_err();
-            assert!(e.contains(want), "{keys}: {e}");
-        }
-        let e = File::from_toml("[[line]]\ndevice = \"x\"\nunits = \"1\"\nack_delay_ms = 100\n")
-            .unwrap()
-            .check()
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains(
-                "ack_delay_ms = set on a modbus-rtu line is out of range: a key of rk512 and 3964r lines"
-            ),
-            "{e}"
-        );
+/// The 3964(R) link of an `rk512` or `3964r` line from its keys `priority` (default
+/// `default`), `block_check` and `ack_delay_ms` (checked with the rest of the configuration).
+pub fn link(
+    priority: Option<&str>,
+    block_check: Option<bool>,
+    ack_delay_ms: Option<u32>,
+    default: si_3964r::Priority,
+) -> Result<si_3964r::Config, RangeError> {
+    let mut link = si_3964r::Config::default();
+    if block_check == Some(false) {
+        link = si_3964r::Config::without_block_check();
     }
+    link.priority = match priority {
+        None => default,
+        Some("low") => si_3964r::Priority::Low,
+        Some("high") => si_3964r::Priority::High,
+        Some(other) => return Err(RangeError::new("priority", "high or low", "", other)),
+    };
+    if let Some(q) = ack_delay_ms {
+        link.ack_delay = si_core::Duration::from_millis(q.into());
+    }
+    Ok(link)
 }

@@ -18,8 +18,8 @@
 //! with the reopening (its first opening is no reconnect).
 
 use super::counters::Stats;
-use super::line::lock;
 use crate::event::{Event, Events};
+use crate::sync::lock;
 use crate::Error;
 use si_core::driver::{PortFacts, Transport};
 use si_core::{ModemSignals, SignalUpdate};

@@ -22,8 +22,9 @@
 //! (cells 0–65 535); one number for one word, byte or cell. Each is at most the job limit
 //! (1024 bytes, `si_rk512::Config::max_job_len`).
 
-use super::config::{refuse_keys, Device, Kind, Line, LineFile, DEFAULT_QUEUE, MAX_QUEUE};
 use super::rk512_spans::{db_span, Span, DB_BYTES};
+use crate::port_config::{line_file, DEFAULT_QUEUE, MAX_QUEUE};
+use crate::r3964_config::link;
 use si_core::memory::{Area, MemorySizes};
 use si_core::RangeError;
 use si_modbus::simatic::ConversionDb;
@@ -77,91 +78,57 @@ fn default_memory() -> MemorySizes {
     sizes
 }
 
-impl LineFile {
-    /// The RK 512 keys given on a line of another kind: refused by name. A `3964r` line has
-    /// the link's keys (priority, block check, QVZ), not RK 512's.
-    pub(super) fn refuse_rk512_keys(&self, kind: &str) -> Result<(), RangeError> {
-        let value = format!("set on a {kind} line");
-        refuse_keys(
-            &[
-                ("role", self.role.is_some()),
-                ("cpu", self.cpu.is_some()),
-                ("dw_unit", self.dw_unit.is_some()),
-                ("conversion", self.conversion.is_some()),
-                ("refresh_ms", self.refresh_ms.is_some()),
-                ("refresh", self.refresh.is_some()),
-                ("memory", self.memory.is_some()),
-            ],
-            "a key of rk512 lines",
-            value.clone(),
-        )?;
-        if kind == "3964r" {
-            return Ok(());
-        }
-        refuse_keys(
-            &[
-                ("priority", self.priority.is_some()),
-                ("block_check", self.block_check.is_some()),
-                ("ack_delay_ms", self.ack_delay_ms.is_some()),
-            ],
-            "a key of rk512 and 3964r lines",
-            value,
-        )
+line_file! {
+    /// One `[[line]]` of kind `rk512`, as written (the module docs list the keys).
+    pub struct Rk512File {
+        /// `active` (default) or `passive`.
+        pub role: Option<String>,
+        /// 3964(R) priority, `high` or `low`.
+        pub priority: Option<String>,
+        /// 3964R with block check (default), or plain 3964.
+        pub block_check: Option<bool>,
+        /// Acknowledgement delay time QVZ (ms).
+        pub ack_delay_ms: Option<u32>,
+        /// The partner's answer time TRES (ms; active only).
+        pub response_timeout_ms: Option<u32>,
+        /// The partner's CPU number 1–4 (header byte 10).
+        pub cpu: Option<u8>,
+        /// Header byte 6 counts `words` (default) or `bytes`.
+        pub dw_unit: Option<String>,
+        /// S_MODB's conversion DB (`[line.conversion]`).
+        pub conversion: Option<ConversionDb>,
+        /// FETCH the `refresh` areas this often (ms; 0: on demand).
+        pub refresh_ms: Option<u64>,
+        /// The refresh image's areas, e.g. `["DB6:0-99", "MB500-531"]`.
+        pub refresh: Option<Vec<String>>,
+        /// Passive: the gateway's own memory (`[line.memory]`).
+        pub memory: Option<MemorySizes>,
+        /// Requests waiting for this line at most (default 32).
+        pub queue: Option<usize>,
+        /// Pause after each job (ms, active only, default 0).
+        pub pause_ms: Option<u64>,
     }
+}
 
-    /// The keys neither `rk512` nor `3964r` lines have, each with whether it is given:
-    /// broadcasts, Modbus retries, USS drives.
-    pub(super) fn not_on_3964r_links(&self) -> Vec<(&'static str, bool)> {
-        vec![
-            ("broadcast", self.broadcast),
-            ("retries", self.retries.is_some()),
-            ("drives", self.drives.is_some()),
-            ("pzd_words", self.pzd_words.is_some()),
-            ("pkw_words", self.pkw_words.is_some()),
-        ]
-    }
-
-    /// The 3964(R) link of an `rk512` or `3964r` line: `priority` (default `default`),
-    /// `block_check`, `ack_delay_ms` (checked with the rest of the configuration).
-    pub(super) fn link(&self, default: si_3964r::Priority) -> Result<si_3964r::Config, RangeError> {
-        let mut link = si_3964r::Config::default();
-        if self.block_check == Some(false) {
-            link = si_3964r::Config::without_block_check();
-        }
-        link.priority = match self.priority.as_deref() {
-            None => default,
-            Some("low") => si_3964r::Priority::Low,
-            Some("high") => si_3964r::Priority::High,
-            Some(other) => return Err(RangeError::new("priority", "high or low", "", other)),
-        };
-        if let Some(q) = self.ack_delay_ms {
-            link.ack_delay = si_core::Duration::from_millis(q.into());
-        }
-        Ok(link)
-    }
-
-    /// Check an `rk512` line whose device and unit ids are already read.
-    pub(super) fn check_rk512(
-        &self,
-        name: String,
-        device: Device,
-        units: Vec<u8>,
-    ) -> Result<Line, RangeError> {
-        refuse_keys(
-            &self.not_on_3964r_links(),
-            "not a key of rk512 lines",
-            "given".to_string(),
-        )?;
+impl Rk512File {
+    /// Check the line's own keys (the shared keys are checked by the caller): the line, its
+    /// queue length and its pause.
+    pub fn check(&self) -> Result<(Rk512Line, usize, Duration), RangeError> {
         let role = match self.role.as_deref().unwrap_or("active") {
             "active" => Role::Active,
             "passive" => Role::Passive,
             other => return Err(RangeError::new("role", "active or passive", "", other)),
         };
         let mut config = Config {
-            link: self.link(match role {
-                Role::Active => si_3964r::Priority::High,
-                Role::Passive => si_3964r::Priority::Low,
-            })?,
+            link: link(
+                self.priority.as_deref(),
+                self.block_check,
+                self.ack_delay_ms,
+                match role {
+                    Role::Active => si_3964r::Priority::High,
+                    Role::Passive => si_3964r::Priority::Low,
+                },
+            )?,
             ..Config::default()
         };
         if let Some(t) = self.response_timeout_ms {
@@ -209,14 +176,18 @@ impl LineFile {
         }
         if role == Role::Passive {
             // Both belong to jobs the gateway starts; a passive line starts none.
-            refuse_keys(
-                &[
-                    ("response_timeout_ms", self.response_timeout_ms.is_some()),
-                    ("pause_ms", self.pause_ms.is_some()),
-                ],
-                "a key of active rk512 lines (the passive role starts no jobs)",
-                "set on a passive line".to_owned(),
-            )?;
+            let given = [
+                ("response_timeout_ms", self.response_timeout_ms.is_some()),
+                ("pause_ms", self.pause_ms.is_some()),
+            ];
+            if let Some((key, _)) = given.iter().find(|(_, g)| *g) {
+                return Err(RangeError::new(
+                    key,
+                    "a key of active rk512 lines (the passive role starts no jobs)",
+                    "",
+                    "set on a passive line",
+                ));
+            }
         }
         let memory = match (&self.memory, role) {
             (Some(_), Role::Active) => {
@@ -235,8 +206,7 @@ impl LineFile {
         RangeError::check("queue", (1, MAX_QUEUE), "", queue)?;
         let pause_ms = self.pause_ms.unwrap_or(0);
         RangeError::check("pause_ms", (0, 10_000), " ms", pause_ms)?;
-        self.check_rs485()?;
-        let kind = Kind::Rk512(Box::new(Rk512Line {
+        let line = Rk512Line {
             role,
             config,
             coordination,
@@ -244,14 +214,8 @@ impl LineFile {
             refresh_every: (refresh_ms > 0).then(|| Duration::from_millis(refresh_ms)),
             refresh,
             memory,
-        }));
-        Ok(Line {
-            response_timeout_ms: u32::try_from(config.response_timeout.as_millis())
-                .unwrap_or(u32::MAX),
-            queue,
-            pause: Duration::from_millis(pause_ms),
-            ..self.port_line(name, device, units, kind)
-        })
+        };
+        Ok((line, queue, Duration::from_millis(pause_ms)))
     }
 }
 
@@ -318,125 +282,4 @@ fn parse_area(text: &str, dw_unit: DwUnit, max_len: usize) -> Result<Span, Range
         return Err(bad());
     }
     Ok(span)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::config::File;
-
-    fn check(keys: &str) -> Result<Rk512Line, String> {
-        let text = format!(
-            "[[line]]\nname = \"p\"\nkind = \"rk512\"\ndevice = \"x\"\nunits = \"1\"\n{keys}"
-        );
-        let g = File::from_toml(&text)?.check().map_err(|e| e.to_string())?;
-        match g.lines[0].kind.clone() {
-            Kind::Rk512(r) => Ok(*r),
-            other => Err(format!("not an rk512 line: {other:?}")),
-        }
-    }
-
-    #[test]
-    fn defaults_are_an_on_demand_active_station_with_the_example_conversion() {
-        let r = check("").unwrap();
-        assert_eq!(r.role, Role::Active);
-        assert_eq!(r.config.link.priority, si_3964r::Priority::High);
-        assert!(r.config.link.block_check);
-        assert_eq!(r.config.response_timeout.as_millis(), 10_000);
-        assert_eq!(r.conversion, ConversionDb::EXAMPLE);
-        assert_eq!((r.refresh_every, r.refresh.len()), (None, 0));
-        assert_eq!(r.coordination, Coordination::NONE);
-    }
-
-    #[test]
-    fn keys_are_read_into_the_station_and_the_image() {
-        let r = check(
-            "priority = \"low\"\nblock_check = false\nack_delay_ms = 100\nresponse_timeout_ms = 500\n\
-             cpu = 2\nrefresh_ms = 250\nrefresh = [\"DB6:0-99\", \"MB500-531\", \"T40-41\"]\n\
-             [line.conversion]\ndb_fc03_06_16 = 10\n",
-        )
-        .unwrap();
-        assert_eq!(r.config.link.priority, si_3964r::Priority::Low);
-        assert!(!r.config.link.block_check);
-        assert_eq!(r.config.link.ack_delay.as_millis(), 100);
-        assert_eq!(r.config.response_timeout.as_millis(), 500);
-        assert_eq!(r.coordination, Coordination::cpu_only(2));
-        assert_eq!(r.conversion.db_fc03_06_16, 10);
-        assert_eq!(r.conversion.db_max, 0, "a given table starts from zeros");
-        assert_eq!(r.refresh_every, Some(Duration::from_millis(250)));
-        let spans: Vec<_> = r.refresh.iter().map(|s| (s.address, s.len)).collect();
-        assert_eq!(
-            spans,
-            [
-                (Address::Db { db: 6, dw: 0 }, 200),
-                (Address::Flags(500), 32),
-                (Address::Timers(40), 4)
-            ]
-        );
-        let p = check("role = \"passive\"\n[line.memory]\nflags = 16\n[line.memory.dbs]\n9 = 64\n")
-            .unwrap();
-        assert_eq!(p.role, Role::Passive);
-        assert_eq!(p.config.link.priority, si_3964r::Priority::Low);
-        assert_eq!((p.memory.flags, p.memory.dbs.get(&9)), (16, Some(&64)));
-    }
-
-    #[test]
-    fn errors_name_the_key_and_the_value() {
-        for (keys, want) in [
-            (
-                "role = \"both\"\n",
-                "role = both is out of range: active or passive",
-            ),
-            ("priority = \"mid\"\n", "priority = mid"),
-            ("ack_delay_ms = 5\n", "(QVZ) = 5 ms"),
-            ("response_timeout_ms = 1\n", "(TRES) = 1 ms"),
-            ("cpu = 5\n", "cpu = 5 is out of range: 1 … 4"),
-            ("dw_unit = \"bits\"\n", "dw_unit = bits"),
-            ("refresh_ms = 100\n", "refresh = none"),
-            (
-                "refresh_ms = 4000000\nrefresh = [\"MB0\"]\n",
-                "refresh_ms = 4000000 ms",
-            ),
-            ("refresh = [\"DB6:300-301\"]\n", "refresh = \"DB6:300-301\""),
-            ("refresh = [\"DB0:0-1\"]\n", "refresh = \"DB0:0-1\""),
-            ("refresh = [\"DB6:0-512\"]\n", "refresh = \"DB6:0-512\""),
-            ("refresh = [\"MB0-2000\"]\n", "refresh = \"MB0-2000\""),
-            ("refresh = [\"XB0\"]\n", "refresh = \"XB0\""),
-            ("refresh = [\"MB9-1\"]\n", "refresh = \"MB9-1\""),
-            ("retries = 2\n", "retries = given"),
-            ("broadcast = true\n", "broadcast = given"),
-            (
-                "[line.memory]\nflags = 1\n",
-                "memory = set on an active line",
-            ),
-            (
-                "role = \"passive\"\nrefresh = [\"MB0\"]\n",
-                "refresh = given is out of range: none on a passive line",
-            ),
-            (
-                "role = \"passive\"\n[line.memory]\nflags = 70000\n",
-                "memory.flags = 70000 bytes",
-            ),
-            (
-                "role = \"passive\"\npause_ms = 10\n",
-                "pause_ms = set on a passive line",
-            ),
-            ("[line.conversion]\nbogus = 1\n", "bogus"),
-        ] {
-            let e = check(keys).unwrap_err();
-            assert!(e.contains(want), "{keys}: {e}");
-        }
-        let many: Vec<String> = (0..33).map(|i| format!("\"MB{i}\"")).collect();
-        let e = check(&format!("refresh = [{}]\n", many.join(","))).unwrap_err();
-        assert!(
-            e.contains("refresh = 33 is out of range: at most 32"),
-            "{e}"
-        );
-        let e = File::from_toml("[[line]]\ndevice = \"x\"\nunits = \"1\"\ncpu = 1\n")
-            .unwrap()
-            .check()
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("cpu = set on a modbus-rtu line"), "{e}");
-    }
 }

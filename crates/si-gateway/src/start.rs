@@ -88,6 +88,7 @@ pub async fn lines(gw: &Config, opening: &Opening, events: &Events) -> Result<St
                 tasks.spawn(blocks.supervise(log, first, open));
                 Arc::new(blocks)
             }
+            Kind::Custom(custom) => Arc::clone(&custom.0),
         };
         handles.push(handle);
     }
@@ -196,7 +197,7 @@ async fn open_modbus(
 ) -> Result<reopen::Opened<si_modbus::tokio::Master>, Error> {
     // On RS-485 a response is recognised by its address, skipping a turnaround glitch ([Modbus/USS]
     // §3.4.1, §3.4.3).
-    let interface = if l.rs485.is_some() {
+    let interface = if l.port.as_ref().is_some_and(|p| p.rs485.is_some()) {
         si_core::Interface::Rs485
     } else {
         si_core::Interface::Rs232

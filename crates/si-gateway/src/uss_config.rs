@@ -6,7 +6,7 @@
 //! default 20), response timeout 1 ms–10 s (default the USS spec's 20 ms). Every other
 //! `si_uss::config::MasterConfig::validate` finding is reported under its own name.
 
-use super::config::{Device, Kind, Line, LineFile};
+use crate::port_config::{check_baud, line_file};
 use si_core::RangeError;
 use si_uss::config::{ConfigError, MasterConfig, PollEntry, RESPONSE_DELAY_MAX, USS_BAUD_RATES};
 use si_uss::frame::PkwWords;
@@ -15,6 +15,23 @@ use si_uss::frame::PkwWords;
 pub const MAX_ADDRESS: u8 = 31;
 /// Most PZD words of a drive ([Modbus/USS] §3.7.6, Table 3-31).
 pub const MAX_PZD_WORDS: u8 = 16;
+
+line_file! {
+    /// One `[[line]]` of kind `uss`, as written.
+    pub struct UssFile {
+        /// The drives' bus addresses (0–31) in the order of `units`, e.g. `"0,5"`; default:
+        /// each unit id is its drive's address.
+        pub drives: Option<String>,
+        /// PZD words per drive (0–16, default 2: STW/HSW out, ZSW/HIW in).
+        pub pzd_words: Option<u8>,
+        /// PKW words per drive (0, 3, 4 or 127 = variable; default 4).
+        pub pkw_words: Option<u8>,
+        /// PKW repetitions WDH (default 20).
+        pub retries: Option<u8>,
+        /// Response timeout (ms, 1–10 000, default the USS spec's 20 ms).
+        pub response_timeout_ms: Option<u32>,
+    }
+}
 
 /// A checked USS line: which unit id is which drive, and the master that polls them.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -27,25 +44,13 @@ pub struct UssLine {
     pub master: MasterConfig,
 }
 
-impl LineFile {
-    /// Check a `uss` line whose device and unit ids are already read.
-    pub(super) fn check_uss(
-        &self,
-        name: String,
-        device: Device,
-        units: Vec<u8>,
-    ) -> Result<Line, RangeError> {
-        if self.broadcast {
-            return Err(RangeError::new(
-                "broadcast",
-                "false on a uss line",
-                "",
-                true,
-            ));
-        }
+impl UssFile {
+    /// Check the line's own keys for its unit ids `units` (the shared keys are checked by
+    /// the caller).
+    pub fn check(&self, units: &[u8]) -> Result<UssLine, RangeError> {
         let addresses = match self.drives.as_deref() {
             Some(text) => parse_addresses(text, units.len())?,
-            None => units.clone(),
+            None => units.to_vec(),
         };
         for &a in &addresses {
             let key = if self.drives.is_some() {
@@ -55,11 +60,7 @@ impl LineFile {
             };
             RangeError::check(key, (0, MAX_ADDRESS), " (USS bus address)", a)?;
         }
-        let baud = self.baud.unwrap_or(9600);
-        if !USS_BAUD_RATES.contains(&baud) {
-            let rates = format!("{USS_BAUD_RATES:?}");
-            return Err(RangeError::new("baud", rates, " bit/s", baud));
-        }
+        check_baud(self.baud.unwrap_or(9600), &USS_BAUD_RATES)?;
         let pzd_words = self.pzd_words.unwrap_or(2);
         RangeError::check("pzd_words", (0, MAX_PZD_WORDS), "", pzd_words)?;
         let pkw_count = self.pkw_words.unwrap_or(4);
@@ -84,16 +85,10 @@ impl LineFile {
             ConfigError::OutOfRange(r) => r,
             other => RangeError::new("drives", "each address once", "", other),
         })?;
-        self.check_rs485()?;
-        let kind = Kind::Uss(UssLine {
+        Ok(UssLine {
             drives: units.iter().copied().zip(addresses).collect(),
             pzd_words,
             master,
-        });
-        Ok(Line {
-            retries: self.retries.unwrap_or(20),
-            response_timeout_ms: timeout_ms,
-            ..self.port_line(name, device, units, kind)
         })
     }
 }
@@ -116,71 +111,4 @@ fn parse_addresses(text: &str, count: usize) -> Result<Vec<u8>, RangeError> {
         return Err(bad());
     }
     Ok(addresses)
-}
-
-#[cfg(test)]
-mod tests {
-    use crate::config::File;
-
-    fn check(keys: &str) -> Result<super::UssLine, String> {
-        let text = format!("[[line]]\nname = \"d\"\nkind = \"uss\"\ndevice = \"x\"\n{keys}");
-        let g = File::from_toml(&text)?.check().map_err(|e| e.to_string())?;
-        match g.lines[0].kind.clone() {
-            super::Kind::Uss(u) => Ok(u),
-            _ => Err("not a uss line".into()),
-        }
-    }
-
-    #[test]
-    fn drives_are_unit_ids_mapped_to_bus_addresses() {
-        let u = check("units = \"5,7\"\n").unwrap();
-        assert_eq!(u.drives, [(5, 5), (7, 7)]);
-        assert_eq!(u.pzd_words, 2);
-        assert_eq!(u.master.response_timeout.as_millis(), 20);
-        let u = check("units = \"10-11\"\ndrives = \"0, 31\"\npzd_words = 4\n").unwrap();
-        assert_eq!(u.drives, [(10, 0), (11, 31)]);
-    }
-
-    #[test]
-    fn local_echo_is_dropped_once_by_the_port_not_again_by_the_master() {
-        let text = "[[line]]\nkind = \"uss\"\ndevice = \"x\"\nunits = \"1\"\nlocal_echo = true\n";
-        let g = File::from_toml(text).unwrap().check().unwrap();
-        assert!(g.lines[0].local_echo, "the port filters the echo");
-        let super::Kind::Uss(u) = &g.lines[0].kind else {
-            panic!("not a uss line")
-        };
-        assert!(!u.master.local_echo, "and the master does not again");
-    }
-
-    #[test]
-    fn errors_name_the_key_and_the_value() {
-        let e = check("units = \"32\"\n").unwrap_err();
-        assert!(
-            e.contains("line 1 (d): units = 32 (USS bus address) is out of range: 0 … 31"),
-            "{e}"
-        );
-        let e = check("units = \"1\"\ndrives = \"40\"\n").unwrap_err();
-        assert!(e.contains("drives = 40"), "{e}");
-        let e = check("units = \"1,2\"\ndrives = \"4\"\n").unwrap_err();
-        assert!(e.contains("drives = \"4\""), "{e}");
-        let e = check("units = \"1\"\npzd_words = 17\n").unwrap_err();
-        assert!(e.contains("pzd_words = 17 is out of range: 0 … 16"), "{e}");
-        let e = check("units = \"1\"\npkw_words = 2\n").unwrap_err();
-        assert!(e.contains("pkw_words = 2"), "{e}");
-        let e = check("units = \"1\"\nbaud = 1234\n").unwrap_err();
-        assert!(e.contains("baud = 1234 bit/s"), "{e}");
-        let e = check("units = \"1\"\nbroadcast = true\n").unwrap_err();
-        assert!(e.contains("broadcast = true"), "{e}");
-        let e = check("units = \"1\"\nresponse_timeout_ms = 20000\n").unwrap_err();
-        assert!(e.contains("response_timeout_ms = 20000 ms"), "{e}");
-        let e = File::from_toml("[[line]]\ndevice = \"x\"\nunits = \"1\"\npzd_words = 2\n")
-            .unwrap()
-            .check()
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("pzd_words = set on a modbus-rtu line is out of range: a key of uss lines"),
-            "{e}"
-        );
-    }
 }

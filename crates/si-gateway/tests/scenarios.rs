@@ -6,3 +6,6 @@ mod common;
 
 #[path = "scenarios/api.rs"]
 mod api;
+
+#[path = "scenarios/config_kinds.rs"]
+mod config_kinds;

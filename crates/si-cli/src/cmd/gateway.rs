@@ -28,6 +28,7 @@ use clap::Args;
 use si_gateway::config::{self, Config, File, LineFile};
 use si_gateway::counters::Stats;
 use si_gateway::open::Opening;
+use si_gateway::rtu_config::RtuFile;
 use si_gateway::{faces, Event, Gateway, Listener, Options};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -103,7 +104,8 @@ impl GatewayArgs {
     fn gateway(&self, conn: &Connection) -> Result<Config, CliError> {
         match &self.config {
             Some(path) => {
-                let file = crate::config_file::read_toml::<File>(path)?;
+                let text = crate::config_file::read(path)?;
+                let file = File::parse(path, &text)?;
                 self.over(file).map_err(|e| {
                     CliError::new(format!(
                         "{}: {}",
@@ -114,13 +116,8 @@ impl GatewayArgs {
             }
             None => {
                 let file = File {
-                    listen: None,
-                    max_connections: None,
-                    idle_timeout_s: None,
-                    diagnostic_unit: None,
-                    reply_on_broadcast: false,
-                    allow_down_at_start: false,
-                    lines: vec![self.flag_line(conn)?],
+                    lines: vec![LineFile::ModbusRtu(self.flag_line(conn)?)],
+                    ..File::default()
                 };
                 self.over(file)
                     .map_err(|e| CliError::new(config::cut(&e.to_string())))
@@ -139,7 +136,7 @@ impl GatewayArgs {
     }
 
     /// The line of the flag form, with the global serial flags.
-    fn flag_line(&self, conn: &Connection) -> Result<LineFile, CliError> {
+    fn flag_line(&self, conn: &Connection) -> Result<RtuFile, CliError> {
         let device = self
             .line
             .clone()
@@ -148,7 +145,7 @@ impl GatewayArgs {
             .ok_or_else(|| {
                 CliError::new("no line: use --config FILE, or --line DEVICE --units LIST")
             })?;
-        Ok(LineFile {
+        Ok(RtuFile {
             device: Some(device),
             baud: Some(conn.baud),
             data_bits: Some(conn.data_bits),
@@ -167,7 +164,7 @@ impl GatewayArgs {
             response_timeout_ms: self.timeout,
             broadcast: self.broadcast,
             queue: self.queue,
-            ..LineFile::default()
+            ..RtuFile::default()
         })
     }
 

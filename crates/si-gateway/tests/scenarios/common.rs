@@ -25,7 +25,7 @@ pub fn slaves() -> (Connect, Slaves) {
     let keep = Arc::clone(&slaves);
     let connect: Connect = Arc::new(move |line, _settings| {
         let keep = Arc::clone(&keep);
-        let device = match &line.device {
+        let device = match &line.port.as_ref().expect("a port").device {
             si_gateway::config::Device::Port(p) | si_gateway::config::Device::Tcp(p) => p.clone(),
         };
         Box::pin(async move {

@@ -31,9 +31,10 @@ pub fn descriptors_needed(gw: &Config, listeners: usize) -> u64 {
     let lines: u64 = gw
         .lines
         .iter()
-        .map(|l| match l.device {
+        .filter_map(|l| l.port.as_ref())
+        .map(|p| match p.device {
             // A sysfs RS-485 direction file stays open with its port.
-            Device::Port(_) => PORT_DESCRIPTORS + u64::from(l.rs485_file.is_some()),
+            Device::Port(_) => PORT_DESCRIPTORS + u64::from(p.rs485_file.is_some()),
             Device::Tcp(_) => 1,
         })
         .sum();
