@@ -116,8 +116,11 @@ pub struct Line {
     pub name: String,
     /// Its port (`None` only for a line of the program's own kind, [`Kind::Custom`]).
     pub port: Option<Port>,
-    /// Unit ids routed here (1–255).
+    /// TCP unit ids routed here (1–255).
     pub units: Vec<u8>,
+    /// The TCP unit ids that reach a slave of another address (`unit_map`): unit id →
+    /// address; the others reach the slave of their own number.
+    pub unit_map: std::collections::BTreeMap<u8, u8>,
     /// Retries.
     pub retries: u8,
     /// Pause between requests.
@@ -144,6 +147,7 @@ impl Line {
             name: name.into(),
             port: None,
             units,
+            unit_map: Default::default(),
             retries: 0,
             pause: std::time::Duration::ZERO,
             response_timeout_ms: 0,
@@ -386,12 +390,19 @@ impl LineFile {
     /// Check one line (the caller names it in the error).
     fn check(&self, name: String) -> Result<Line, RangeError> {
         let common = self.common();
-        let units = parse_units(common.units.unwrap_or(""))?;
+        // A Modbus RTU line may name its units by `unit_map` alone.
+        let mapped_only = matches!(self, LineFile::ModbusRtu(l) if l.unit_map.is_some())
+            && common.units.is_none();
+        let units = match mapped_only {
+            true => Vec::new(),
+            false => parse_units(common.units.unwrap_or(""))?,
+        };
         let port = common.port()?;
         let line = Line {
             name,
             port: Some(port),
             units,
+            unit_map: Default::default(),
             retries: 0,
             pause: std::time::Duration::ZERO,
             response_timeout_ms: 0,
@@ -404,7 +415,22 @@ impl LineFile {
         Ok(match self {
             LineFile::ModbusRtu(l) => {
                 let rtu = l.check()?;
+                let mut units = line.units.clone();
+                for &(unit, _) in &rtu.unit_map {
+                    if units.contains(&unit) {
+                        let range = "unit ids not also in units";
+                        return Err(RangeError::new("unit_map", range, "", unit));
+                    }
+                    units.push(unit);
+                }
+                units.sort_unstable();
+                if units.is_empty() {
+                    let range = "at least one unit id";
+                    return Err(RangeError::new("unit_map", range, "", "{}"));
+                }
                 Line {
+                    units,
+                    unit_map: rtu.unit_map.iter().copied().collect(),
                     retries: rtu.retries,
                     pause: rtu.pause,
                     response_timeout_ms: rtu.response_timeout_ms,

@@ -116,8 +116,10 @@ pub async fn bind(
     for (n, face) in faces(gw).into_iter().enumerate() {
         let mut routes = [None; 256];
         for &i in &face.lines {
-            for &u in &gw.lines[i].units {
-                routes[u as usize] = Some(i);
+            let line = &gw.lines[i];
+            for &u in &line.units {
+                let address = line.unit_map.get(&u).copied().unwrap_or(u);
+                routes[u as usize] = Some((i, address));
             }
         }
         let router = Router {

@@ -13,8 +13,9 @@ use tokio::sync::oneshot;
 /// Routes requests to lines.
 #[derive(Clone)]
 pub struct Router {
-    /// The line serving each unit id.
-    pub routes: [Option<usize>; 256],
+    /// The line serving each unit id, and the unit's address on that line (the unit id
+    /// itself unless the line's `unit_map` remaps it).
+    pub routes: [Option<(usize, u8)>; 256],
     /// Every line, in configuration order (shared by the listening addresses, [`super::faces`]).
     pub lines: Arc<[Arc<dyn Backend>]>,
     /// The lines broadcasts (unit 0) go to; empty: broadcasts are refused with 0AH.
@@ -45,10 +46,20 @@ impl Router {
         if unit == 0 {
             return self.broadcast(id, request);
         }
-        let Some(index) = self.routes[unit as usize] else {
+        let Some((index, address)) = self.routes[unit as usize] else {
             self.count_client(id, |c| c.count(Outcome::Other));
             return Some(exception(&request, line::GATEWAY_PATH_UNAVAILABLE));
         };
+        if address == unit {
+            return self.to_line(id, index, request).await;
+        }
+        // The slave answers its own address; the client gets the unit id it asked.
+        let answer = self.to_line(id, index, with_unit(&request, address)).await;
+        answer.map(|a| with_unit(&a, unit))
+    }
+
+    /// The answer of line `index` to `request` (its unit id the line's own address).
+    async fn to_line(&self, id: u64, index: usize, request: TcpAdu) -> Option<TcpAdu> {
         let queue = match self.lines[index].reach(&request) {
             Reach::Queue(queue) => queue,
             Reach::Answer(answer) => {
@@ -151,6 +162,16 @@ impl Router {
     }
 }
 
+/// `adu` with unit id `unit`.
+fn with_unit(adu: &TcpAdu, unit: u8) -> TcpAdu {
+    let pdu = adu.unit_pdu();
+    let mut bytes = [0u8; 256];
+    let n = pdu.len().min(bytes.len());
+    bytes[..n].copy_from_slice(&pdu[..n]);
+    bytes[0] = unit;
+    TcpAdu::from_unit_pdu(adu.transaction(), &bytes[..n]).unwrap_or(*adu)
+}
+
 impl Handler for Router {
     async fn answer(&self, request: TcpAdu) -> Option<TcpAdu> {
         self.route(0, request).await
@@ -215,8 +236,8 @@ mod tests {
         let pause = std::time::Duration::ZERO;
         tokio::spawn(line::run(log, Arc::clone(&queue), first, never, pause));
         let mut routes = [None; 256];
-        routes[7] = Some(0);
-        routes[8] = Some(0);
+        routes[7] = Some((0, 7));
+        routes[8] = Some((0, 8));
         let router = Router {
             routes,
             lines: Arc::new([Arc::new(crate::backend::QueuedLine(queue)) as Arc<dyn Backend>]),

@@ -44,6 +44,12 @@ line_file! {
         /// what arrives meanwhile is discarded and counted, so a late answer never reaches
         /// another request (si-modbus's quiet guard, bounded by this + the longest response).
         pub quiet_after_timeout_ms: Option<u32>,
+        /// TCP unit ids mapped to slave addresses on this line, e.g. `{ 11 = 1, 12 = 2 }`:
+        /// unit 11 reaches the slave at address 1, and its answer carries unit id 11 back.
+        /// So slaves of the same address on two lines are told apart. The mapped unit ids
+        /// are served besides `units` (which may then be left out); a unit id in both is
+        /// refused.
+        pub unit_map: Option<std::collections::BTreeMap<String, u8>>,
     }
 }
 
@@ -73,7 +79,7 @@ impl Default for RtuFraming {
 }
 
 /// A checked Modbus RTU line's own settings.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct RtuLine {
     /// Retries.
     pub retries: u8,
@@ -87,6 +93,8 @@ pub struct RtuLine {
     pub queue: usize,
     /// Framing.
     pub framing: RtuFraming,
+    /// TCP unit id → slave address, for the unit ids remapped (`unit_map`).
+    pub unit_map: Vec<(u8, u8)>,
 }
 
 impl RtuFile {
@@ -113,7 +121,30 @@ impl RtuFile {
             broadcast: self.broadcast,
             queue,
             framing: self.framing()?,
+            unit_map: self.unit_map()?,
         })
+    }
+
+    /// `unit_map`, checked: TCP unit ids 1–255, slave addresses 1–247 ([Modbus serial]
+    /// §2.2: 0 is the broadcast, 248–255 reserved).
+    fn unit_map(&self) -> Result<Vec<(u8, u8)>, RangeError> {
+        let Some(map) = &self.unit_map else {
+            return Ok(Vec::new());
+        };
+        map.iter()
+            .map(|(unit, &address)| {
+                let unit = unit
+                    .trim()
+                    .parse::<u8>()
+                    .ok()
+                    .filter(|&u| u >= 1)
+                    .ok_or_else(|| {
+                        RangeError::new("unit_map", "TCP unit ids 1 … 255", "", format!("{unit:?}"))
+                    })?;
+                RangeError::check("unit_map", (1, 247), " (slave address)", address)?;
+                Ok((unit, address))
+            })
+            .collect()
     }
 
     /// `char_delay_multiplier`, `frame_end`, `frame_gap` and `quiet_after_timeout_ms`,

@@ -9,3 +9,6 @@ mod api;
 
 #[path = "scenarios/config_kinds.rs"]
 mod config_kinds;
+
+#[path = "scenarios/unit_map.rs"]
+mod unit_map;

@@ -19,7 +19,8 @@ pub fn config(text: &str) -> Config {
 pub type Slaves = Arc<Mutex<Vec<Slave<Tables>>>>;
 
 /// A connector giving each line a pipe to a new slave: the line's `device` names the slave's
-/// address (`"7"`), whose holding register `r` holds `100 × address + r`.
+/// address (`"7"`), whose holding register `r` holds `100 × address + r`, or the address and
+/// that base (`"1@500"`: address 1, register `r` holds `500 + r`).
 pub fn slaves() -> (Connect, Slaves) {
     let slaves: Slaves = Arc::default();
     let keep = Arc::clone(&slaves);
@@ -29,11 +30,17 @@ pub fn slaves() -> (Connect, Slaves) {
             si_gateway::config::Device::Port(p) | si_gateway::config::Device::Tcp(p) => p.clone(),
         };
         Box::pin(async move {
-            let address: u8 = device.parse().expect("a slave address as the device");
+            let (address, base) = match device.split_once('@') {
+                Some((a, b)) => (a.parse().unwrap(), b.parse().unwrap()),
+                None => {
+                    let a: u8 = device.parse().expect("a slave address as the device");
+                    (a, 100 * u16::from(a))
+                }
+            };
             let (a, b) = tokio::io::duplex(1024);
             let mut tables = Tables::new(0, 0, 64, 0);
             for (r, v) in tables.holding_registers.iter_mut().enumerate() {
-                *v = 100 * u16::from(address) + r as u16;
+                *v = base + r as u16;
             }
             let config = SlaveConfig {
                 address,
