@@ -53,6 +53,10 @@ pub struct GatewayArgs {
         conflicts_with_all = ["line", "units", "retries", "timeout", "pause", "queue", "broadcast"]
     )]
     config: Option<PathBuf>,
+    /// Check the TOML configuration FILE and exit: 0 and a summary if it is valid, 2 and the
+    /// error (file, line, key) if not. Nothing is opened or bound.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["config", "line"])]
+    check: Option<PathBuf>,
     /// TCP address to listen on (overrides the file's `listen`; default 127.0.0.1:502).
     #[arg(long, value_name = "HOST:PORT")]
     listen: Option<String>,
@@ -168,8 +172,39 @@ impl GatewayArgs {
         })
     }
 
+    /// `--check FILE`: the file checked as `--config` would read it, with nothing opened.
+    fn check_file(&self, path: &std::path::Path, out: &Output) -> Result<(), CliError> {
+        let text = crate::config_file::read(path).map_err(|e| CliError::usage(e.text()))?;
+        let gw = File::parse(path, &text)
+            .map_err(|e| CliError::usage(e.text()))
+            .and_then(|file| {
+                self.over(file).map_err(|e| {
+                    CliError::usage(format!(
+                        "{}: {}",
+                        path.display(),
+                        config::cut(&e.to_string())
+                    ))
+                })
+            })?;
+        let names: Vec<_> = gw.lines.iter().map(|l| l.name.as_str()).collect();
+        out.line(
+            &format!(
+                "{}: valid, {} line(s): {}",
+                path.display(),
+                names.len(),
+                names.join(", ")
+            ),
+            serde_json::json!({"event": "checked", "file": path.display().to_string(),
+                "lines": names}),
+        );
+        Ok(())
+    }
+
     /// Open every line, listen, and serve until Ctrl-C.
     pub async fn run(self, conn: &Connection, out: &Output) -> Result<(), CliError> {
+        if let Some(path) = &self.check {
+            return self.check_file(path, out);
+        }
         let gw = self.gateway(conn)?;
         crate::output::outlive_stdout();
         let listeners = faces::faces(&gw).len();
