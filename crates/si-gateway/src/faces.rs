@@ -21,7 +21,7 @@ use crate::Error;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::tcp::{Handler, Peer, Server, ServerConfig, Units};
 use std::net::SocketAddr;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, RwLock};
 
 /// Bits of a client id left for the TCP server's own connection number.
 const CONNECTION_BITS: u32 = 48;
@@ -59,14 +59,33 @@ pub fn faces(gw: &Config) -> Vec<Face> {
     faces
 }
 
-/// A face's router, numbering its clients apart from the other faces'.
+/// A face's router, numbering its clients apart from the other faces'. Its clones share the
+/// router, which a reload replaces for all of them at once.
 #[derive(Clone)]
 pub struct FaceHandler {
     face: u64,
-    router: Router,
+    router: Arc<RwLock<Arc<Router>>>,
 }
 
 impl FaceHandler {
+    /// Face number `face` routing by `router`.
+    pub fn new(face: usize, router: Router) -> Self {
+        FaceHandler {
+            face: face as u64,
+            router: Arc::new(RwLock::new(Arc::new(router))),
+        }
+    }
+
+    /// Route by `router` from now on (requests already routed finish by the old one).
+    pub fn replace(&self, router: Router) {
+        *self.router.write().unwrap_or_else(|p| p.into_inner()) = Arc::new(router);
+    }
+
+    /// The router now.
+    fn current(&self) -> Arc<Router> {
+        Arc::clone(&self.router.read().unwrap_or_else(|p| p.into_inner()))
+    }
+
     /// The peer as the router sees it: the face's number in the id's top bits.
     fn peer(&self, peer: &Peer) -> Peer {
         Peer {
@@ -78,19 +97,19 @@ impl FaceHandler {
 
 impl Handler for FaceHandler {
     async fn answer(&self, request: TcpAdu) -> Option<TcpAdu> {
-        self.router.answer(request).await
+        self.current().answer(request).await
     }
 
     async fn answer_from(&self, peer: &Peer, request: TcpAdu) -> Option<TcpAdu> {
-        self.router.answer_from(&self.peer(peer), request).await
+        self.current().answer_from(&self.peer(peer), request).await
     }
 
     fn connected(&self, peer: &Peer) {
-        self.router.connected(&self.peer(peer));
+        self.current().connected(&self.peer(peer));
     }
 
     fn disconnected(&self, peer: &Peer) {
-        self.router.disconnected(&self.peer(peer));
+        self.current().disconnected(&self.peer(peer));
     }
 }
 
@@ -106,44 +125,57 @@ pub struct Bound {
     pub handler: FaceHandler,
 }
 
+/// The router of each face of `gw`: line `i` of the configuration is `lines[slots[i]]`.
+pub fn routers(
+    gw: &Config,
+    slots: &[usize],
+    lines: &Arc<[Arc<dyn Backend>]>,
+    stats: &Arc<Mutex<Stats>>,
+) -> Vec<Router> {
+    faces(gw)
+        .into_iter()
+        .map(|face| {
+            let mut routes = [None; 256];
+            for &i in &face.lines {
+                let line = &gw.lines[i];
+                for &u in &line.units {
+                    let address = line.unit_map.get(&u).copied().unwrap_or(u);
+                    routes[u as usize] = Some((slots[i], address));
+                }
+            }
+            Router {
+                routes,
+                lines: Arc::clone(lines),
+                broadcast_lines: face
+                    .lines
+                    .iter()
+                    .filter(|&&i| gw.lines[i].broadcast)
+                    .map(|&i| slots[i])
+                    .collect(),
+                diagnostic_unit: gw.diagnostic_unit,
+                reply_on_broadcast: gw.reply_on_broadcast,
+                stats: Arc::clone(stats),
+            }
+        })
+        .collect()
+}
+
 /// Listen on every face of `gw`; `lines` are the open lines in file order.
 pub async fn bind(
     gw: &Config,
     lines: Arc<[Arc<dyn Backend>]>,
     stats: &Arc<Mutex<Stats>>,
 ) -> Result<Vec<Bound>, Error> {
+    let slots: Vec<usize> = (0..gw.lines.len()).collect();
     let mut bound = Vec::new();
-    for (n, face) in faces(gw).into_iter().enumerate() {
-        let mut routes = [None; 256];
-        for &i in &face.lines {
-            let line = &gw.lines[i];
-            for &u in &line.units {
-                let address = line.unit_map.get(&u).copied().unwrap_or(u);
-                routes[u as usize] = Some((i, address));
-            }
-        }
-        let router = Router {
-            routes,
-            lines: Arc::clone(&lines),
-            broadcast_lines: face
-                .lines
-                .iter()
-                .copied()
-                .filter(|&i| gw.lines[i].broadcast)
-                .collect(),
-            diagnostic_unit: gw.diagnostic_unit,
-            reply_on_broadcast: gw.reply_on_broadcast,
-            stats: Arc::clone(stats),
-        };
+    let routers = routers(gw, &slots, &lines, stats);
+    for ((n, face), router) in faces(gw).into_iter().enumerate().zip(routers) {
         let config = ServerConfig {
             max_connections: gw.max_connections,
             units: Units::all(),
             idle_timeout: gw.idle_timeout,
         };
-        let handler = FaceHandler {
-            face: n as u64,
-            router,
-        };
+        let handler = FaceHandler::new(n, router);
         let server = Server::with_handler(&face.listen, config, handler.clone())
             .await
             .map_err(|e| Error::new(format!("cannot listen on {}: {e}", face.listen)))?;
@@ -231,16 +263,18 @@ mod tests {
 
     #[test]
     fn client_ids_of_two_faces_differ() {
-        let router = |face| FaceHandler {
-            face,
-            router: Router {
-                routes: [None; 256],
-                lines: Arc::new([]),
-                broadcast_lines: vec![],
-                diagnostic_unit: None,
-                reply_on_broadcast: false,
-                stats: Arc::new(Mutex::new(Stats::new(0))),
-            },
+        let router = |face| {
+            FaceHandler::new(
+                face,
+                Router {
+                    routes: [None; 256],
+                    lines: Arc::new([]),
+                    broadcast_lines: vec![],
+                    diagnostic_unit: None,
+                    reply_on_broadcast: false,
+                    stats: Arc::new(Mutex::new(Stats::new(0))),
+                },
+            )
         };
         let peer = Peer {
             id: 1,

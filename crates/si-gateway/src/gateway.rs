@@ -16,7 +16,7 @@
 //! ```
 
 use crate::backend::Backend;
-use crate::config::Config;
+use crate::config::{Config, Kind};
 use crate::counters::Stats;
 use crate::event::{Event, Events};
 use crate::faces::{self, Bound, FaceHandler};
@@ -56,14 +56,50 @@ pub struct Listener {
 /// [`start`](Self::start) on; [`run`](Self::run) serves the clients. Dropping it ends the
 /// lines and releases their ports.
 pub struct Gateway {
-    config: Config,
+    lines: tokio::sync::Mutex<Lines>,
     stats: Arc<Mutex<Stats>>,
-    handler: FaceHandler,
+    handlers: Vec<FaceHandler>,
     listeners: Vec<Listener>,
     faces: Mutex<Option<Vec<Bound>>>,
     events: broadcast::Sender<Event>,
+    sink: Events,
+    opening: Opening,
     shutdown: Arc<watch::Sender<bool>>,
-    tasks: Vec<AbortHandle>,
+}
+
+/// The lines as configured now: each counts in its slot (module [`crate::counters`]'s
+/// `Stats::order`), which it keeps across reloads.
+struct Lines {
+    config: Config,
+    /// Configuration order → slot.
+    slots: Vec<usize>,
+    /// By slot: how the router reaches the line (a removed line's stays, unrouted).
+    backends: Vec<Arc<dyn Backend>>,
+    /// By slot: the line's task, while it runs.
+    tasks: Vec<Option<AbortHandle>>,
+}
+
+impl Lines {
+    /// End the task of slot `slot`.
+    fn end(&mut self, slot: usize) {
+        if let Some(t) = self.tasks[slot].take() {
+            t.abort();
+        }
+    }
+}
+
+/// What a reload did, by line name.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Reloaded {
+    /// Lines whose configuration did not change: they kept their port, clients, queue and
+    /// counters.
+    pub kept: Vec<String>,
+    /// Lines whose configuration changed: restarted (their counters go on).
+    pub restarted: Vec<String>,
+    /// Lines new in the configuration: started.
+    pub added: Vec<String>,
+    /// Lines no longer configured: ended; their unit ids are answered with 0AH.
+    pub removed: Vec<String>,
 }
 
 impl Gateway {
@@ -74,6 +110,9 @@ impl Gateway {
 
     /// [`start`](Self::start) with the program's [`Options`].
     pub async fn start_with(config: Config, options: Options) -> Result<Gateway, Error> {
+        config
+            .check_lines()
+            .map_err(|e| Error::Config(e.to_string()))?;
         let (events, _) = broadcast::channel(EVENT_BACKLOG);
         let sink: Events = {
             let (events, on_event) = (events.clone(), options.on_event.clone());
@@ -86,12 +125,12 @@ impl Gateway {
             })
         };
         let started = start::lines(&config, &options.opening, &sink).await?;
-        let end_lines = |tasks: &[AbortHandle]| tasks.iter().for_each(AbortHandle::abort);
+        let backends = started.lines.clone();
         let lines: Arc<[Arc<dyn Backend>]> = started.lines.into();
         let bound = match faces::bind(&config, lines, &started.stats).await {
             Ok(b) => b,
             Err(e) => {
-                end_lines(&started.tasks);
+                started.tasks.iter().flatten().for_each(AbortHandle::abort);
                 return Err(e);
             }
         };
@@ -102,22 +141,28 @@ impl Gateway {
                 lines: b.lines.clone(),
             })
             .collect();
-        let handler = bound[0].handler.clone();
+        let handlers = bound.iter().map(|b| b.handler.clone()).collect();
         Ok(Gateway {
-            config,
+            lines: tokio::sync::Mutex::new(Lines {
+                slots: (0..config.lines.len()).collect(),
+                config,
+                backends,
+                tasks: started.tasks,
+            }),
             stats: started.stats,
-            handler,
+            handlers,
             listeners,
             faces: Mutex::new(Some(bound)),
             events,
+            sink,
+            opening: options.opening,
             shutdown: Arc::new(watch::Sender::new(false)),
-            tasks: started.tasks,
         })
     }
 
-    /// The configuration it runs.
-    pub fn config(&self) -> &Config {
-        &self.config
+    /// The configuration it runs now.
+    pub async fn config(&self) -> Config {
+        self.lines.lock().await.config.clone()
     }
 
     /// Where it listens: the top-level address first, then each line address.
@@ -125,9 +170,10 @@ impl Gateway {
         &self.listeners
     }
 
-    /// Every counter now: per line (and whether it is down, and why), per client.
+    /// Every counter now: per configured line, in configuration order (and whether it is
+    /// down, and why), per client.
     pub fn stats(&self) -> Stats {
-        lock(&self.stats).clone()
+        lock(&self.stats).in_order()
     }
 
     /// The lines' events from now on (down and up, with why).
@@ -144,7 +190,104 @@ impl Gateway {
     /// server (`si_modbus::tokio::tcp::Server::with_handler`) or to call directly
     /// ([`Handler::call`]): the same routes, lines and counters as the gateway's own.
     pub fn handler(&self) -> Handler {
-        Handler(self.handler.clone())
+        Handler(self.handlers[0].clone())
+    }
+
+    /// Change to `config` while serving: lines (by name) whose configuration did not change
+    /// keep their port, clients, queue and counters; changed lines restart; removed lines
+    /// end and their unit ids are answered with 0AH; added lines start. The connections stay.
+    /// A line restarted or added whose port cannot be opened starts down and is reopened (as
+    /// with `allow_down_at_start`).
+    ///
+    /// Refused, with the old configuration still running, if `config` does not check
+    /// ([`Config::check_lines`]), a changed or added line's settings are refused, or it would
+    /// change what is bound: the listening addresses (the top-level `listen` and the lines'),
+    /// `max_connections` or `idle_timeout_s`, which need a restart.
+    pub async fn reload(&self, config: Config) -> Result<Reloaded, Error> {
+        config
+            .check_lines()
+            .map_err(|e| Error::Config(e.to_string()))?;
+        let mut lines = self.lines.lock().await;
+        let old = lines.config.clone();
+        let old = &old;
+        let bound = |c: &Config| {
+            let faces: Vec<String> = faces::faces(c).into_iter().map(|f| f.listen).collect();
+            (faces, c.max_connections, c.idle_timeout)
+        };
+        if bound(old) != bound(&config) {
+            return Err(Error::Config(
+                "reload: the listening addresses, max_connections and idle_timeout_s change \
+                 only with a restart"
+                    .into(),
+            ));
+        }
+        let before = |name: &str| old.lines.iter().position(|l| l.name == name);
+        // Settings refused (a parity or baud rate the protocol lacks) refuse the reload
+        // before anything stops.
+        for l in &config.lines {
+            let same = before(&l.name).is_some_and(|i| old.lines[i] == *l);
+            if !same && l.port.is_some() {
+                let rates: &'static [u32] = match l.kind {
+                    Kind::Uss(_) => &si_uss::config::USS_BAUD_RATES,
+                    _ => &si_core::BAUD_RATES,
+                };
+                crate::open::settings(l, rates)
+                    .map_err(|e| e.prefixed(&format!("line {}: ", l.name)))?;
+            }
+        }
+        let mut done = Reloaded::default();
+        let mut slots = Vec::with_capacity(config.lines.len());
+        for l in &config.lines {
+            let slot = match before(&l.name) {
+                Some(i) if old.lines[i] == *l => {
+                    done.kept.push(l.name.clone());
+                    slots.push(lines.slots[i]);
+                    continue;
+                }
+                Some(i) => {
+                    done.restarted.push(l.name.clone());
+                    let slot = lines.slots[i];
+                    lines.end(slot);
+                    lock(&self.stats).down[slot] = None;
+                    slot
+                }
+                None => {
+                    done.added.push(l.name.clone());
+                    let mut s = lock(&self.stats);
+                    s.lines.push(Default::default());
+                    s.down.push(None);
+                    lines.backends.push(Arc::new(Gone));
+                    lines.tasks.push(None);
+                    s.lines.len() - 1
+                }
+            };
+            let at = start::Slot {
+                index: slot,
+                stats: &self.stats,
+                events: &self.sink,
+            };
+            let (backend, task) = start::line(l, at, true, &self.opening).await?;
+            lines.backends[slot] = backend;
+            lines.tasks[slot] = task;
+            slots.push(slot);
+        }
+        for (i, l) in lines.config.lines.clone().iter().enumerate() {
+            if !config.lines.iter().any(|n| n.name == l.name) {
+                done.removed.push(l.name.clone());
+                let slot = lines.slots[i];
+                lines.end(slot);
+                lines.backends[slot] = Arc::new(Gone);
+            }
+        }
+        let backends: Arc<[Arc<dyn Backend>]> = lines.backends.clone().into();
+        let routers = faces::routers(&config, &slots, &backends, &self.stats);
+        lock(&self.stats).order = slots.clone();
+        for (handler, router) in self.handlers.iter().zip(routers) {
+            handler.replace(router);
+        }
+        lines.config = config;
+        lines.slots = slots;
+        Ok(done)
     }
 
     /// Serve the clients until [`Shutdown::shutdown`] (`Ok`), or until a listening server
@@ -166,9 +309,21 @@ impl Gateway {
 
 impl Drop for Gateway {
     fn drop(&mut self) {
-        for t in &self.tasks {
+        for t in self.lines.get_mut().tasks.iter().flatten() {
             t.abort();
         }
+    }
+}
+
+/// A removed line's slot: never routed to (its unit ids are no longer routed), 0AH if it were.
+struct Gone;
+
+impl Backend for Gone {
+    fn reach<'a>(&'a self, request: &'a TcpAdu) -> crate::backend::Reach<'a> {
+        let answer = crate::line::exception(request, crate::line::GATEWAY_PATH_UNAVAILABLE);
+        crate::backend::Reach::Answer(Box::pin(async move {
+            (answer, crate::counters::Outcome::Other)
+        }))
     }
 }
 

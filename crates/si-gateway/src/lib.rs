@@ -48,4 +48,4 @@ pub mod uss_config;
 
 pub use error::Error;
 pub use event::{Event, Events};
-pub use gateway::{Gateway, Handler, Listener, Options, Shutdown};
+pub use gateway::{Gateway, Handler, Listener, Options, Reloaded, Shutdown};

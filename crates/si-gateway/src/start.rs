@@ -22,75 +22,28 @@ pub struct Started {
     pub stats: Arc<Mutex<Stats>>,
     /// How the router reaches each line, in file order.
     pub lines: Vec<Arc<dyn Backend>>,
-    /// The lines' tasks, to end them (and release their ports) with the gateway.
-    pub tasks: Vec<AbortHandle>,
+    /// The lines' tasks (none for a line of the program's own kind), to end them (and
+    /// release their ports) with the gateway.
+    pub tasks: Vec<Option<AbortHandle>>,
 }
 
-/// Open every line of `gw` and spawn its task (on the current tokio runtime). A line whose
-/// configuration its engine refuses stops the start; so does a port that cannot be opened,
-/// unless `allow_down_at_start` lets the line start down. On an error the lines started so
-/// far are ended.
+/// Open every line of `gw` and spawn its task (on the current tokio runtime); line `i`
+/// counts in slot `i` of the counters. A line whose configuration its engine refuses stops
+/// the start; so does a port that cannot be opened, unless `allow_down_at_start` lets the
+/// line start down. On an error the lines started so far are ended.
 pub async fn lines(gw: &Config, opening: &Opening, events: &Events) -> Result<Started, Error> {
     let stats = Arc::new(Mutex::new(Stats::new(gw.lines.len())));
     let mut handles = Vec::with_capacity(gw.lines.len());
     let mut tasks = Tasks(Vec::with_capacity(gw.lines.len()));
     for (i, l) in gw.lines.iter().enumerate() {
-        let log = reopen::LineLog {
+        let at = Slot {
             index: i,
-            name: l.name.clone(),
-            stats: Arc::clone(&stats),
-            events: Arc::clone(events),
+            stats: &stats,
+            events,
         };
-        let (o, l) = (opening.clone(), l.clone());
-        let handle: Arc<dyn Backend> = match &l.kind {
-            Kind::ModbusRtu => {
-                let first = start(open_modbus(&o, &l).await, gw, &l)?;
-                let queue = Arc::new(line::LineQueue::new(l.queue));
-                let (q, pause) = (Arc::clone(&queue), l.pause);
-                let open = async move || open_modbus(&o, &l).await;
-                tasks.spawn(line::run(log, q, first, open, pause));
-                Arc::new(QueuedLine(queue))
-            }
-            Kind::Uss(u) => {
-                let u = u.clone();
-                let first = start(open_uss(&o, &l, &u).await, gw, &l)?;
-                let drives = uss::UssDrives::new(&u);
-                let open = async move || open_uss(&o, &l, &u).await;
-                tasks.spawn(drives.supervise(log, first, open));
-                Arc::new(drives)
-            }
-            Kind::Rk512(r) => {
-                let (r, pause) = (r.clone(), l.pause);
-                let queue = Arc::new(line::LineQueue::new(l.queue));
-                let q = Arc::clone(&queue);
-                match r.role {
-                    Role::Active => {
-                        let first = start(open_rk512(&o, &l, &r, None).await, gw, &l)?;
-                        let partner = rk512::Partner::new(&r);
-                        let open = async move || open_rk512(&o, &l, &r, None).await;
-                        tasks.spawn(rk512::run(log, q, partner, first, open, pause));
-                    }
-                    Role::Passive => {
-                        let own = rk512_own::OwnMemory::new(&r);
-                        let kept = own.kept();
-                        let first = start(open_rk512(&o, &l, &r, None).await, gw, &l)?;
-                        let open = async move || open_rk512(&o, &l, &r, Some(&kept)).await;
-                        tasks.spawn(own.run(log, q, first, open));
-                    }
-                }
-                Arc::new(QueuedLine(queue))
-            }
-            Kind::R3964(link) => {
-                let link = *link;
-                let first = start(open_3964r(&o, &l, &link).await, gw, &l)?;
-                let blocks = r3964::BlockLine::new(link.max_block_len.into());
-                let open = async move || open_3964r(&o, &l, &link).await;
-                tasks.spawn(blocks.supervise(log, first, open));
-                Arc::new(blocks)
-            }
-            Kind::Custom(custom) => Arc::clone(&custom.0),
-        };
-        handles.push(handle);
+        let (backend, task) = line(l, at, gw.allow_down_at_start, opening).await?;
+        handles.push(backend);
+        tasks.0.push(task);
     }
     Ok(Started {
         stats,
@@ -99,18 +52,92 @@ pub async fn lines(gw: &Config, opening: &Opening, events: &Events) -> Result<St
     })
 }
 
-/// The tasks started so far, ended if the start fails part way (dropped without being taken).
-struct Tasks(Vec<AbortHandle>);
-
-impl Tasks {
-    fn spawn(&mut self, task: impl std::future::Future<Output = ()> + Send + 'static) {
-        self.0.push(tokio::spawn(task).abort_handle());
-    }
+/// Where a line reports: its slot in the counters, and the event sink.
+#[derive(Clone, Copy)]
+pub struct Slot<'a> {
+    /// The line's slot in [`Stats::lines`].
+    pub index: usize,
+    /// The counters.
+    pub stats: &'a Arc<Mutex<Stats>>,
+    /// The events.
+    pub events: &'a Events,
 }
+
+/// Open line `l` and spawn its task, counting in slot `at`: how the router reaches it, and
+/// its task. A port that cannot be opened stops it unless `allow_down` lets it start down.
+pub async fn line(
+    l: &Line,
+    at: Slot<'_>,
+    allow_down: bool,
+    opening: &Opening,
+) -> Result<(Arc<dyn Backend>, Option<AbortHandle>), Error> {
+    let log = reopen::LineLog {
+        index: at.index,
+        name: l.name.clone(),
+        stats: Arc::clone(at.stats),
+        events: Arc::clone(at.events),
+    };
+    let (o, l) = (opening.clone(), l.clone());
+    let started = |task| Some(tokio::spawn(task).abort_handle());
+    Ok(match &l.kind {
+        Kind::ModbusRtu => {
+            let first = start(open_modbus(&o, &l).await, allow_down, &l)?;
+            let queue = Arc::new(line::LineQueue::new(l.queue));
+            let (q, pause) = (Arc::clone(&queue), l.pause);
+            let open = async move || open_modbus(&o, &l).await;
+            let task = started(Box::pin(line::run(log, q, first, open, pause)) as Task);
+            (Arc::new(QueuedLine(queue)), task)
+        }
+        Kind::Uss(u) => {
+            let u = u.clone();
+            let first = start(open_uss(&o, &l, &u).await, allow_down, &l)?;
+            let drives = uss::UssDrives::new(&u);
+            let open = async move || open_uss(&o, &l, &u).await;
+            let task = started(Box::pin(drives.supervise(log, first, open)));
+            (Arc::new(drives), task)
+        }
+        Kind::Rk512(r) => {
+            let (r, pause) = (r.clone(), l.pause);
+            let queue = Arc::new(line::LineQueue::new(l.queue));
+            let q = Arc::clone(&queue);
+            let task = match r.role {
+                Role::Active => {
+                    let first = start(open_rk512(&o, &l, &r, None).await, allow_down, &l)?;
+                    let partner = rk512::Partner::new(&r);
+                    let open = async move || open_rk512(&o, &l, &r, None).await;
+                    started(Box::pin(rk512::run(log, q, partner, first, open, pause)))
+                }
+                Role::Passive => {
+                    let own = rk512_own::OwnMemory::new(&r);
+                    let kept = own.kept();
+                    let first = start(open_rk512(&o, &l, &r, None).await, allow_down, &l)?;
+                    let open = async move || open_rk512(&o, &l, &r, Some(&kept)).await;
+                    started(Box::pin(own.run(log, q, first, open)))
+                }
+            };
+            (Arc::new(QueuedLine(queue)), task)
+        }
+        Kind::R3964(link) => {
+            let link = *link;
+            let first = start(open_3964r(&o, &l, &link).await, allow_down, &l)?;
+            let blocks = r3964::BlockLine::new(link.max_block_len.into());
+            let open = async move || open_3964r(&o, &l, &link).await;
+            let task = started(Box::pin(blocks.supervise(log, first, open)));
+            (Arc::new(blocks), task)
+        }
+        Kind::Custom(custom) => (Arc::clone(&custom.0), None),
+    })
+}
+
+/// A line's task.
+type Task = std::pin::Pin<Box<dyn std::future::Future<Output = ()> + Send + 'static>>;
+
+/// The tasks started so far, ended if the start fails part way (dropped without being taken).
+struct Tasks(Vec<Option<AbortHandle>>);
 
 impl Drop for Tasks {
     fn drop(&mut self) {
-        for t in &self.0 {
+        for t in self.0.iter().flatten() {
             t.abort();
         }
     }
@@ -120,12 +147,12 @@ impl Drop for Tasks {
 /// that cannot be opened) down with the reason; otherwise the error stops the gateway.
 fn start<L>(
     opened: Result<reopen::Opened<L>, Error>,
-    gw: &Config,
+    allow_down: bool,
     l: &Line,
 ) -> Result<reopen::First<L>, Error> {
     match opened {
         Ok(o) => Ok(Ok(o)),
-        Err(Error::Port(e)) if gw.allow_down_at_start => {
+        Err(Error::Port(e)) if allow_down => {
             let prefix = format!("line {}: ", l.name);
             Ok(Err(e.trim_start_matches(&prefix).to_owned()))
         }

@@ -12,3 +12,6 @@ mod config_kinds;
 
 #[path = "scenarios/unit_map.rs"]
 mod unit_map;
+
+#[path = "scenarios/reload.rs"]
+mod reload;

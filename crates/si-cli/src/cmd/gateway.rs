@@ -218,10 +218,10 @@ impl GatewayArgs {
             on_event: Some(events(*out)),
         };
         let gateway = Gateway::start_with(gw, options).await?;
-        let gw = gateway.config();
+        let gw = gateway.config().await;
         out.line(
-            &listening_text(gw, gateway.listeners()),
-            listening_json(gw, gateway.listeners()),
+            &listening_text(&gw, gateway.listeners()),
+            listening_json(&gw, gateway.listeners()),
         );
         let server = gateway.run();
         tokio::pin!(server);
@@ -229,7 +229,8 @@ impl GatewayArgs {
             .status_every
             .filter(|&s| s > 0)
             .map(Duration::from_secs);
-        let mut terminate = terminate_signal()?;
+        let mut terminate = watch(Signal::Terminate)?;
+        let mut hangup = watch(Signal::Hangup)?;
         let result = loop {
             let tick = async {
                 match every {
@@ -240,28 +241,68 @@ impl GatewayArgs {
             tokio::select! {
                 _ = tokio::signal::ctrl_c() => break Err(CliError::interrupted()),
                 () = terminate.recv() => break Err(CliError::interrupted()),
+                () = hangup.recv() => self.reload(conn, &gateway, out).await,
                 ended = &mut server => break match ended {
                     Err(e) => Err(e.into()),
                     Ok(()) => Ok(()),
                 },
-                () = tick => print_status(gw, &gateway.stats(), out),
+                () = tick => print_status(&gateway.config().await, &gateway.stats(), out),
             }
         };
-        print_status(gw, &gateway.stats(), out);
+        print_status(&gateway.config().await, &gateway.stats(), out);
         result
+    }
+
+    /// SIGHUP: the file read and checked again and the gateway changed to it
+    /// ([`Gateway::reload`]); a file that does not check is refused with the error it would
+    /// give at start, and the running configuration stays.
+    async fn reload(&self, conn: &Connection, gateway: &Gateway, out: &Output) {
+        let reloaded = match self.config {
+            Some(_) => match self.gateway(conn) {
+                Ok(config) => gateway.reload(config).await.map_err(CliError::from),
+                Err(e) => Err(e),
+            },
+            None => Err(CliError::new("no --config file to read again")),
+        };
+        match reloaded {
+            Ok(r) => out.line(
+                &format!(
+                    "reloaded: {} kept, {} restarted, {} added, {} removed",
+                    r.kept.len(),
+                    r.restarted.len(),
+                    r.added.len(),
+                    r.removed.len()
+                ),
+                serde_json::json!({"event": "reloaded", "kept": r.kept,
+                    "restarted": r.restarted, "added": r.added, "removed": r.removed}),
+            ),
+            Err(e) => eprintln!(
+                "si: reload refused, the running configuration stays: {}",
+                e.text()
+            ),
+        }
     }
 }
 
-/// SIGTERM, what a service manager stops the gateway with: it ends the gateway as SIGINT does,
-/// with the final counters and exit code 130 (without a handler the process would die
-/// silently).
-struct Terminate {
+/// The signals the gateway watches besides SIGINT.
+#[derive(Clone, Copy)]
+enum Signal {
+    /// SIGTERM, what a service manager stops the gateway with: it ends the gateway as SIGINT
+    /// does, with the final counters and exit code 130 (without a handler the process would
+    /// die silently).
+    Terminate,
+    /// SIGHUP: read the configuration file again.
+    Hangup,
+}
+
+/// One watched signal.
+struct Watched {
     #[cfg(unix)]
     signal: tokio::signal::unix::Signal,
 }
 
-impl Terminate {
-    /// The next SIGTERM (never, where there is none).
+impl Watched {
+    /// The next one (never, where there is none).
     async fn recv(&mut self) {
         #[cfg(unix)]
         {
@@ -272,12 +313,19 @@ impl Terminate {
     }
 }
 
-/// Watch SIGTERM from now on.
-fn terminate_signal() -> Result<Terminate, CliError> {
-    Ok(Terminate {
+/// Watch `signal` from now on.
+fn watch(signal: Signal) -> Result<Watched, CliError> {
+    #[cfg(unix)]
+    let (kind, name) = match signal {
+        Signal::Terminate => (tokio::signal::unix::SignalKind::terminate(), "SIGTERM"),
+        Signal::Hangup => (tokio::signal::unix::SignalKind::hangup(), "SIGHUP"),
+    };
+    #[cfg(not(unix))]
+    let _ = signal;
+    Ok(Watched {
         #[cfg(unix)]
-        signal: tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
-            .map_err(|e| CliError::new(format!("cannot watch SIGTERM: {e}")))?,
+        signal: tokio::signal::unix::signal(kind)
+            .map_err(|e| CliError::new(format!("cannot watch {name}: {e}")))?,
     })
 }
 
