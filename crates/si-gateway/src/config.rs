@@ -16,6 +16,7 @@ use crate::port_config::{parse_units, Common, Port};
 use crate::r3964_config::R3964File;
 use crate::rk512_config::{Rk512File, Rk512Line};
 use crate::rtu_config::{RtuFile, RtuFraming};
+use crate::tcp_config::{TcpFile, TcpLine};
 use crate::uss_config::{UssFile, UssLine};
 use serde::de::{self, DeserializeSeed, MapAccess, SeqAccess, Visitor};
 use serde::Deserialize;
@@ -26,9 +27,9 @@ use std::sync::Arc;
 
 pub use crate::port_config::{Device, DEFAULT_QUEUE, MAX_QUEUE};
 
-/// The line kinds a `[[line]]` may be: Modbus RTU slaves, USS drives, an RK 512 partner or a
-/// plain 3964(R) partner.
-pub const LINE_KINDS: &str = "modbus-rtu, uss, rk512 or 3964r";
+/// The line kinds a `[[line]]` may be: Modbus RTU slaves, a Modbus TCP slave, USS drives, an
+/// RK 512 partner or a plain 3964(R) partner.
+pub const LINE_KINDS: &str = "modbus-rtu, modbus-tcp, uss, rk512 or 3964r";
 
 /// The most connections a gateway accepts (a host limit; mbusd's `MAX_MAXCONN` is 128).
 pub const MAX_CONNECTIONS: usize = 1024;
@@ -67,6 +68,9 @@ pub enum LineFile {
     /// `modbus-rtu`: Modbus RTU slaves.
     #[serde(rename = "modbus-rtu")]
     ModbusRtu(RtuFile),
+    /// `modbus-tcp`: a Modbus TCP slave.
+    #[serde(rename = "modbus-tcp")]
+    ModbusTcp(TcpFile),
     /// `uss`: USS drives.
     #[serde(rename = "uss")]
     Uss(UssFile),
@@ -83,6 +87,12 @@ impl LineFile {
     pub fn common(&self) -> Common<'_> {
         match self {
             LineFile::ModbusRtu(l) => l.common(),
+            LineFile::ModbusTcp(l) => Common {
+                name: l.name.as_deref(),
+                units: l.units.as_deref(),
+                listen: l.listen.as_deref(),
+                ..Common::default()
+            },
             LineFile::Uss(l) => l.common(),
             LineFile::Rk512(l) => l.common(),
             LineFile::R3964(l) => l.common(),
@@ -165,6 +175,8 @@ impl Line {
 pub enum Kind {
     /// Modbus RTU slaves: requests are forwarded.
     ModbusRtu,
+    /// A Modbus TCP slave: requests are forwarded over one connection ([`crate::tcp_line`]).
+    ModbusTcp(TcpLine),
     /// USS drives polled by a USS master: requests are served from their PZD and a parameter
     /// window ([`crate::uss`]).
     Uss(UssLine),
@@ -373,6 +385,7 @@ impl Config {
                 )));
             }
             let queued = matches!(line.kind, Kind::ModbusRtu | Kind::Rk512(_));
+            // (A Modbus TCP line has no `broadcast` key: TCP has no broadcast.)
             if line.broadcast && !queued {
                 return Err(err(RangeError::new(
                     "broadcast",
@@ -390,17 +403,23 @@ impl LineFile {
     /// Check one line (the caller names it in the error).
     fn check(&self, name: String) -> Result<Line, RangeError> {
         let common = self.common();
-        // A Modbus RTU line may name its units by `unit_map` alone.
-        let mapped_only = matches!(self, LineFile::ModbusRtu(l) if l.unit_map.is_some())
-            && common.units.is_none();
-        let units = match mapped_only {
+        // A Modbus line may name its units by `unit_map` alone.
+        let mapped = match self {
+            LineFile::ModbusRtu(l) => l.unit_map.is_some(),
+            LineFile::ModbusTcp(l) => l.unit_map.is_some(),
+            _ => false,
+        };
+        let units = match mapped && common.units.is_none() {
             true => Vec::new(),
             false => parse_units(common.units.unwrap_or(""))?,
         };
-        let port = common.port()?;
+        let port = match self {
+            LineFile::ModbusTcp(_) => None,
+            _ => Some(common.port()?),
+        };
         let line = Line {
             name,
-            port: Some(port),
+            port,
             units,
             unit_map: Default::default(),
             retries: 0,
@@ -415,21 +434,8 @@ impl LineFile {
         Ok(match self {
             LineFile::ModbusRtu(l) => {
                 let rtu = l.check()?;
-                let mut units = line.units.clone();
-                for &(unit, _) in &rtu.unit_map {
-                    if units.contains(&unit) {
-                        let range = "unit ids not also in units";
-                        return Err(RangeError::new("unit_map", range, "", unit));
-                    }
-                    units.push(unit);
-                }
-                units.sort_unstable();
-                if units.is_empty() {
-                    let range = "at least one unit id";
-                    return Err(RangeError::new("unit_map", range, "", "{}"));
-                }
                 Line {
-                    units,
+                    units: with_mapped(&line.units, &rtu.unit_map)?,
                     unit_map: rtu.unit_map.iter().copied().collect(),
                     retries: rtu.retries,
                     pause: rtu.pause,
@@ -437,6 +443,19 @@ impl LineFile {
                     broadcast: rtu.broadcast,
                     queue: rtu.queue,
                     rtu: rtu.framing,
+                    ..line
+                }
+            }
+            LineFile::ModbusTcp(l) => {
+                let tcp = l.check()?;
+                Line {
+                    units: with_mapped(&line.units, &tcp.unit_map)?,
+                    unit_map: tcp.unit_map.iter().copied().collect(),
+                    retries: tcp.client.retries,
+                    pause: tcp.pause,
+                    response_timeout_ms: tcp.client.response_timeout.as_millis() as u32,
+                    queue: tcp.queue,
+                    kind: Kind::ModbusTcp(tcp),
                     ..line
                 }
             }
@@ -466,6 +485,29 @@ impl LineFile {
             },
         })
     }
+}
+
+/// `units` and the unit ids of `unit_map`, sorted; refused if one is in both, or if there is
+/// none.
+fn with_mapped(units: &[u8], unit_map: &[(u8, u8)]) -> Result<Vec<u8>, RangeError> {
+    let mut all = units.to_vec();
+    for &(unit, _) in unit_map {
+        if all.contains(&unit) {
+            let range = "unit ids not also in units";
+            return Err(RangeError::new("unit_map", range, "", unit));
+        }
+        all.push(unit);
+    }
+    all.sort_unstable();
+    if all.is_empty() {
+        return Err(RangeError::new(
+            "unit_map",
+            "at least one unit id",
+            "",
+            "{}",
+        ));
+    }
+    Ok(all)
 }
 
 /// The first pass over a TOML file: each `[[line]]`'s `kind`, nothing else.
@@ -565,6 +607,7 @@ impl<'de> DeserializeSeed<'de> for LineSeed<'_> {
     fn deserialize<D: de::Deserializer<'de>>(self, d: D) -> Result<LineFile, D::Error> {
         Ok(match self.0 {
             "modbus-rtu" => LineFile::ModbusRtu(RtuFile::deserialize(d)?),
+            "modbus-tcp" => LineFile::ModbusTcp(TcpFile::deserialize(d)?),
             "uss" => LineFile::Uss(UssFile::deserialize(d)?),
             "rk512" => LineFile::Rk512(Box::new(Rk512File::deserialize(d)?)),
             "3964r" => LineFile::R3964(R3964File::deserialize(d)?),
@@ -631,7 +674,9 @@ pub(super) mod tests {
         assert!(e.contains("line 1 (line1): units = \"0-3\""), "{e}");
         let e = check(&format!("{base}kind = \"profibus\"\n")).unwrap_err();
         assert!(
-            e.contains("kind = profibus is out of range: modbus-rtu, uss, rk512 or 3964r"),
+            e.contains(
+                "kind = profibus is out of range: modbus-rtu, modbus-tcp, uss, rk512 or 3964r"
+            ),
             "{e}"
         );
         let e = check(&format!("max_connections = 0\n{base}")).unwrap_err();

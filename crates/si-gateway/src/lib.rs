@@ -43,6 +43,8 @@ pub mod router;
 pub mod rtu_config;
 pub mod start;
 mod sync;
+pub mod tcp_config;
+pub mod tcp_line;
 pub mod uss;
 pub mod uss_config;
 

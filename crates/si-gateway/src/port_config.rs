@@ -97,8 +97,9 @@ macro_rules! line_file {
 }
 pub(crate) use line_file;
 
-/// The keys every line has, as written.
-#[derive(Debug, Clone, Copy)]
+/// The keys every line has, as written (a `modbus-tcp` line has only `name`, `units` and
+/// `listen` of them).
+#[derive(Debug, Clone, Copy, Default)]
 pub struct Common<'a> {
     /// `name`.
     pub name: Option<&'a str>,
@@ -271,4 +272,29 @@ pub fn parse_units(text: &str) -> Result<Vec<u8>, RangeError> {
     const RANGE: &str = "unit ids 1 … 255 as a list of N or N-M, e.g. 1-10,12";
     si_core::address_list::parse(text, 1, 255)
         .ok_or_else(|| RangeError::new("units", RANGE, "", format!("{text:?}")))
+}
+
+/// A line's `unit_map` (`{ 11 = 1 }`: TCP unit id → the slave's unit id or address),
+/// checked: TCP unit ids 1–255, slave addresses 1–247 ([Modbus serial] §2.2: 0 is the
+/// broadcast, 248–255 reserved).
+pub fn parse_unit_map(
+    map: Option<&std::collections::BTreeMap<String, u8>>,
+) -> Result<Vec<(u8, u8)>, RangeError> {
+    let Some(map) = map else {
+        return Ok(Vec::new());
+    };
+    map.iter()
+        .map(|(unit, &address)| {
+            let unit = unit
+                .trim()
+                .parse::<u8>()
+                .ok()
+                .filter(|&u| u >= 1)
+                .ok_or_else(|| {
+                    RangeError::new("unit_map", "TCP unit ids 1 … 255", "", format!("{unit:?}"))
+                })?;
+            RangeError::check("unit_map", (1, 247), " (slave address)", address)?;
+            Ok((unit, address))
+        })
+        .collect()
 }

@@ -73,6 +73,13 @@ impl Future for Closed {
     }
 }
 
+/// A [`Closed`] for a link that sees its own end (a TCP client whose connection breaks under
+/// a request): it resolves with the reason sent, or once the sender is dropped.
+pub fn closing() -> (oneshot::Sender<String>, Closed) {
+    let (tx, rx) = oneshot::channel();
+    (tx, Closed(rx))
+}
+
 /// Wrap `port` so that its closing can be awaited.
 pub fn watch(port: Box<dyn Transport>) -> (Box<dyn Transport>, Closed) {
     let (tx, rx) = oneshot::channel();

@@ -8,7 +8,7 @@
 //! 3 tries = 2 retries, `MAX_MAXTRY` 15, `DEFAULT_RQSTPAUSE` 100 ms, `MAX_RQSTPAUSE`
 //! 10 000 ms, `DEFAULT_RESPWAIT` 500 ms). mbusd's pause is 1–10 000 ms; we also allow 0.
 
-use crate::port_config::{check_baud, line_file, DEFAULT_QUEUE, MAX_QUEUE};
+use crate::port_config::{check_baud, line_file, parse_unit_map, DEFAULT_QUEUE, MAX_QUEUE};
 use si_core::RangeError;
 use std::time::Duration;
 
@@ -121,30 +121,8 @@ impl RtuFile {
             broadcast: self.broadcast,
             queue,
             framing: self.framing()?,
-            unit_map: self.unit_map()?,
+            unit_map: parse_unit_map(self.unit_map.as_ref())?,
         })
-    }
-
-    /// `unit_map`, checked: TCP unit ids 1–255, slave addresses 1–247 ([Modbus serial]
-    /// §2.2: 0 is the broadcast, 248–255 reserved).
-    fn unit_map(&self) -> Result<Vec<(u8, u8)>, RangeError> {
-        let Some(map) = &self.unit_map else {
-            return Ok(Vec::new());
-        };
-        map.iter()
-            .map(|(unit, &address)| {
-                let unit = unit
-                    .trim()
-                    .parse::<u8>()
-                    .ok()
-                    .filter(|&u| u >= 1)
-                    .ok_or_else(|| {
-                        RangeError::new("unit_map", "TCP unit ids 1 … 255", "", format!("{unit:?}"))
-                    })?;
-                RangeError::check("unit_map", (1, 247), " (slave address)", address)?;
-                Ok((unit, address))
-            })
-            .collect()
     }
 
     /// `char_delay_multiplier`, `frame_end`, `frame_gap` and `quiet_after_timeout_ms`,

@@ -9,7 +9,7 @@ use crate::open::{self, Opening};
 use crate::reopen;
 use crate::rk512_config::{Rk512Line, Role};
 use crate::uss_config::UssLine;
-use crate::{line, r3964, rk512, rk512_own, uss, Error};
+use crate::{line, r3964, rk512, rk512_own, tcp_line, uss, Error};
 use si_modbus::config::LineConfig;
 use si_modbus::{MasterConfig, Mode};
 use std::sync::{Arc, Mutex};
@@ -86,6 +86,16 @@ pub async fn line(
             let (q, pause) = (Arc::clone(&queue), l.pause);
             let open = async move || open_modbus(&o, &l).await;
             let task = started(Box::pin(line::run(log, q, first, open, pause)) as Task);
+            (Arc::new(QueuedLine(queue)), task)
+        }
+        Kind::ModbusTcp(tcp) => {
+            let (tcp, prefix) = (tcp.clone(), format!("line {}: ", l.name));
+            let opened = tcp_line::open(&tcp).await.map_err(|e| e.prefixed(&prefix));
+            let first = start(opened, allow_down, &l)?;
+            let queue = Arc::new(line::LineQueue::new(l.queue));
+            let (q, pause) = (Arc::clone(&queue), l.pause);
+            let open = async move || tcp_line::open(&tcp).await.map_err(|e| e.prefixed(&prefix));
+            let task = started(Box::pin(tcp_line::run(log, q, first, open, pause)));
             (Arc::new(QueuedLine(queue)), task)
         }
         Kind::Uss(u) => {

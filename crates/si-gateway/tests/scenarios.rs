@@ -15,3 +15,6 @@ mod unit_map;
 
 #[path = "scenarios/reload.rs"]
 mod reload;
+
+#[path = "scenarios/modbus_tcp.rs"]
+mod modbus_tcp;

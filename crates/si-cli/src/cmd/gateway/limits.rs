@@ -11,7 +11,7 @@
 //! retries its accept (si-modbus `tokio::tcp`), so only the lower bound is checked here.
 
 use crate::error::CliError;
-use si_gateway::config::{Config, Device};
+use si_gateway::config::{Config, Device, Kind};
 
 /// Descriptors a process has open before the gateway opens any line: stdin, stdout, stderr,
 /// the runtime's epoll and wake-up descriptors, the Ctrl-C signal pipe, with room to spare.
@@ -31,11 +31,14 @@ pub fn descriptors_needed(gw: &Config, listeners: usize) -> u64 {
     let lines: u64 = gw
         .lines
         .iter()
-        .filter_map(|l| l.port.as_ref())
-        .map(|p| match p.device {
+        .map(|l| match &l.port {
             // A sysfs RS-485 direction file stays open with its port.
-            Device::Port(_) => PORT_DESCRIPTORS + u64::from(p.rs485_file.is_some()),
-            Device::Tcp(_) => 1,
+            Some(p) => match p.device {
+                Device::Port(_) => PORT_DESCRIPTORS + u64::from(p.rs485_file.is_some()),
+                Device::Tcp(_) => 1,
+            },
+            // A Modbus TCP line's connection; a program's own kind holds none of ours.
+            None => u64::from(matches!(l.kind, Kind::ModbusTcp(_))),
         })
         .sum();
     lines + (listeners + gw.max_connections) as u64 + RUNTIME_DESCRIPTORS
