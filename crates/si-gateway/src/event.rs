@@ -35,6 +35,32 @@ pub enum Event {
     },
 }
 
+impl std::fmt::Display for Event {
+    /// The log line: `line NAME: closed (why); reopening`, `line NAME: reopened`, ….
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Event::LineDown {
+                name,
+                reason,
+                at_start: true,
+                ..
+            } => write!(
+                f,
+                "line {name}: not opened at start ({reason}); trying again"
+            ),
+            Event::LineDown { name, reason, .. } => {
+                write!(f, "line {name}: closed ({reason}); reopening")
+            }
+            Event::LineUp {
+                name,
+                reopened: true,
+                ..
+            } => write!(f, "line {name}: reopened"),
+            Event::LineUp { name, .. } => write!(f, "line {name}: opened"),
+        }
+    }
+}
+
 /// Where events go: called on the line's task, so it should not block.
 pub type Events = Arc<dyn Fn(&Event) + Send + Sync>;
 

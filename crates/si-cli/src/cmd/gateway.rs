@@ -1,23 +1,8 @@
-//! `si gateway`: Modbus TCP clients served by Modbus RTU lines, as mbusd does, several lines
-//! in one process, and by USS, RK 512 and 3964(R) lines.
-//!
-//! Requests are routed by unit id to a line ([`router`]); a Modbus RTU or RK 512 line has a
-//! bounded queue served in round-robin order between clients ([`queue`]) by a task driving the
-//! line's master ([`mod@line`]), USS and 3964(R) lines answer from their images at once;
-//! counters per line and per client are printed as status lines and readable on a diagnostic
-//! unit ([`counters`]). The configuration is a TOML file or flags ([`config`]); the RS-485
-//! direction modes (`kernel`, `rts`, `rts-inverted`, `sysfs`, `sysfs-inverted`) apply to every
-//! line kind. A line whose port closes is reopened while its requests get 0AH ([`reopen`]);
-//! with `allow_down_at_start` a line whose port cannot be opened at start starts that way.
-//! A `kind = "uss"` line serves USS drives instead: each drive is a unit id whose PZD and
-//! parameter window are registers ([`uss`], keys in [`uss_config`]). A `kind = "rk512"` line
-//! serves an RK 512 partner's S7 memory through S_MODB's conversion DB, or the gateway's own
-//! memory as a passive partner ([`rk512`], [`rk512_own`], keys in [`rk512_config`], spans in
-//! [`rk512_spans`]); a `kind = "3964r"` line shows a plain 3964(R) partner's latest block as
-//! input registers and sends a block for a register write ([`r3964`], keys in
-//! [`r3964_config`]). Every line kind is reopened the same way when its port closes. A line
-//! may have its own listening address ([`faces`]), so that more than 255 lines fit in one
-//! process; the open-file limit is raised for them ([`limits`]).
+//! `si gateway`: Modbus TCP clients served by Modbus RTU and Modbus TCP lines, as mbusd does,
+//! several lines in one process, and by USS, RK 512 and 3964(R) lines. The gateway is the
+//! si-gateway library; this command turns flags and the `--config` file into its
+//! configuration, prints what it reports, reloads on SIGHUP and raises the open-file limit
+//! ([`limits`]).
 
 mod limits;
 
@@ -26,10 +11,9 @@ use crate::error::CliError;
 use crate::output::Output;
 use clap::Args;
 use si_gateway::config::{self, Config, File, LineFile};
-use si_gateway::counters::Stats;
 use si_gateway::open::Opening;
 use si_gateway::rtu_config::RtuFile;
-use si_gateway::{faces, Event, Gateway, Listener, Options};
+use si_gateway::{report, Event, Gateway, Options};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
@@ -207,8 +191,7 @@ impl GatewayArgs {
         }
         let gw = self.gateway(conn)?;
         crate::output::outlive_stdout();
-        let listeners = faces::faces(&gw).len();
-        limits::raise_open_files(limits::descriptors_needed(&gw, listeners))?;
+        limits::raise_open_files(si_gateway::limits::descriptors_needed(&gw))?;
         let options = Options {
             opening: Opening {
                 no_line_errors: conn.no_line_errors,
@@ -219,9 +202,10 @@ impl GatewayArgs {
         };
         let gateway = Gateway::start_with(gw, options).await?;
         let gw = gateway.config().await;
+        let listeners = gateway.listeners();
         out.line(
-            &listening_text(&gw, gateway.listeners()),
-            listening_json(&gw, gateway.listeners()),
+            &report::listening_text(&gw, listeners),
+            report::listening_json(&gw, listeners),
         );
         let server = gateway.run();
         tokio::pin!(server);
@@ -229,8 +213,16 @@ impl GatewayArgs {
             .status_every
             .filter(|&s| s > 0)
             .map(Duration::from_secs);
-        let mut terminate = watch(Signal::Terminate)?;
-        let mut hangup = watch(Signal::Hangup)?;
+        #[cfg(unix)]
+        let (mut terminate, mut hangup) = {
+            use tokio::signal::unix::SignalKind;
+            (
+                Watched::new(SignalKind::terminate())?,
+                Watched::new(SignalKind::hangup())?,
+            )
+        };
+        #[cfg(not(unix))]
+        let (mut terminate, mut hangup) = (Watched(), Watched());
         let result = loop {
             let tick = async {
                 match every {
@@ -246,10 +238,10 @@ impl GatewayArgs {
                     Err(e) => Err(e.into()),
                     Ok(()) => Ok(()),
                 },
-                () = tick => print_status(&gateway.config().await, &gateway.stats(), out),
+                () = tick => print_status(&gateway, out).await,
             }
         };
-        print_status(&gateway.config().await, &gateway.stats(), out);
+        print_status(&gateway, out).await;
         result
     }
 
@@ -284,49 +276,28 @@ impl GatewayArgs {
     }
 }
 
-/// The signals the gateway watches besides SIGINT.
-#[derive(Clone, Copy)]
-enum Signal {
-    /// SIGTERM, what a service manager stops the gateway with: it ends the gateway as SIGINT
-    /// does, with the final counters and exit code 130 (without a handler the process would
-    /// die silently).
-    Terminate,
-    /// SIGHUP: read the configuration file again.
-    Hangup,
-}
-
-/// One watched signal.
-struct Watched {
-    #[cfg(unix)]
-    signal: tokio::signal::unix::Signal,
-}
+/// A signal the gateway watches besides SIGINT: SIGTERM, what a service manager stops it
+/// with, ends it as SIGINT does (with the final counters and exit code 130; without a handler
+/// the process would die silently); SIGHUP reads the configuration file again.
+struct Watched(#[cfg(unix)] tokio::signal::unix::Signal);
 
 impl Watched {
-    /// The next one (never, where there is none).
+    /// Watch signal `kind` from now on.
+    #[cfg(unix)]
+    fn new(kind: tokio::signal::unix::SignalKind) -> Result<Self, CliError> {
+        let n = kind.as_raw_value();
+        let signal = tokio::signal::unix::signal(kind)
+            .map_err(|e| CliError::new(format!("cannot watch signal {n}: {e}")))?;
+        Ok(Watched(signal))
+    }
+
+    /// The next delivery (never, where there are no such signals).
     async fn recv(&mut self) {
         #[cfg(unix)]
-        {
-            self.signal.recv().await;
-        }
+        self.0.recv().await;
         #[cfg(not(unix))]
         std::future::pending::<()>().await
     }
-}
-
-/// Watch `signal` from now on.
-fn watch(signal: Signal) -> Result<Watched, CliError> {
-    #[cfg(unix)]
-    let (kind, name) = match signal {
-        Signal::Terminate => (tokio::signal::unix::SignalKind::terminate(), "SIGTERM"),
-        Signal::Hangup => (tokio::signal::unix::SignalKind::hangup(), "SIGHUP"),
-    };
-    #[cfg(not(unix))]
-    let _ = signal;
-    Ok(Watched {
-        #[cfg(unix)]
-        signal: tokio::signal::unix::signal(kind)
-            .map_err(|e| CliError::new(format!("cannot watch {name}: {e}")))?,
-    })
 }
 
 /// The global flags' tap on every line's port: `--record`'s trace and -v's frame log, as on
@@ -343,114 +314,14 @@ fn tap(conn: &Connection) -> si_gateway::open::Tap {
 
 /// The lines' events as log lines: text, or JSON with `--json`.
 fn events(out: Output) -> si_gateway::Events {
-    Arc::new(move |event: &Event| match event {
-        Event::LineDown {
-            name,
-            reason,
-            at_start,
-            ..
-        } => {
-            let text = if *at_start {
-                format!("line {name}: not opened at start ({reason}); trying again")
-            } else {
-                format!("line {name}: closed ({reason}); reopening")
-            };
-            out.line(
-                &text,
-                serde_json::json!({"event": "line_down", "line": name, "reason": reason,
-                    "at_start": at_start}),
-            );
-        }
-        Event::LineUp {
-            name,
-            reconnects,
-            reopened,
-            ..
-        } => {
-            let done = if *reopened { "reopened" } else { "opened" };
-            out.line(
-                &format!("line {name}: {done}"),
-                serde_json::json!({"event": "line_up", "line": name, "reconnects": reconnects}),
-            );
-        }
-    })
+    Arc::new(move |event: &Event| out.line(&event.to_string(), report::event_json(event)))
 }
 
 /// One status line: every line's and every client's counters.
-fn print_status(gw: &Config, s: &Stats, out: &Output) {
-    let lines: Vec<_> = gw
-        .lines
-        .iter()
-        .zip(s.lines.iter().zip(&s.down))
-        .map(|(l, (c, down))| {
-            let mut v = serde_json::to_value(c).unwrap_or_default();
-            v["name"] = l.name.clone().into();
-            v["state"] = if down.is_some() { "down" } else { "up" }.into();
-            if let Some(why) = down {
-                v["down_reason"] = why.clone().into();
-            }
-            v
-        })
-        .collect();
-    let clients: Vec<_> = s
-        .clients
-        .iter()
-        .map(|(id, c)| {
-            let mut v = serde_json::to_value(c).unwrap_or_default();
-            v["id"] = (*id).into();
-            v
-        })
-        .collect();
-    let text = gw
-        .lines
-        .iter()
-        .zip(s.lines.iter().zip(&s.down))
-        .map(|(l, (c, down))| {
-            let state = down.as_ref().map(|why| format!(" (down: {why})")).unwrap_or_default();
-            format!(
-                "{}{state}: {} requests, {} answers, {} exceptions, {} timeouts, {} CRC errors, {} busy, {} other, queue {}, {} reconnects",
-                l.name, c.requests, c.answers, c.exceptions, c.timeouts, c.crc_errors, c.busy, c.other, c.queue_depth, c.reconnects
-            )
-        })
-        .collect::<Vec<_>>()
-        .join("; ");
+async fn print_status(gateway: &Gateway, out: &Output) {
+    let (gw, stats) = (gateway.config().await, gateway.stats());
     out.line(
-        &format!("status: {text}; {} client(s)", clients.len()),
-        serde_json::json!({"event": "status", "lines": lines, "clients": clients}),
+        &report::status_text(&gw, &stats),
+        report::status_json(&gw, &stats),
     );
-}
-
-/// Faces listed by address in the text of the "listening" line; more are counted only.
-const LISTED_FACES: usize = 8;
-
-/// The "listening" line: the top-level address and the line count, then the other addresses.
-fn listening_text(gw: &Config, faces: &[Listener]) -> String {
-    let mut text = format!(
-        "gateway listening on {}, {} line(s)",
-        faces[0].addr,
-        gw.lines.len()
-    );
-    for f in faces.iter().skip(1).take(LISTED_FACES) {
-        let names: Vec<_> = f.lines.iter().map(|&i| gw.lines[i].name.as_str()).collect();
-        text += &format!("; {}: {}", f.addr, names.join(", "));
-    }
-    if faces.len() > LISTED_FACES + 1 {
-        text += &format!("; {} more address(es)", faces.len() - LISTED_FACES - 1);
-    }
-    text
-}
-
-/// The "listening" event: `addr` (the top-level face) and every line's name as before, and
-/// `listeners`, every face's address with its lines' names (the top-level face first).
-fn listening_json(gw: &Config, faces: &[Listener]) -> serde_json::Value {
-    let names = |lines: &[usize]| -> Vec<&str> {
-        lines.iter().map(|&i| gw.lines[i].name.as_str()).collect()
-    };
-    let listeners: Vec<_> = faces
-        .iter()
-        .map(|f| serde_json::json!({"addr": f.addr.to_string(), "lines": names(&f.lines)}))
-        .collect();
-    serde_json::json!({"event": "listening", "addr": faces[0].addr.to_string(),
-        "lines": gw.lines.iter().map(|l| &l.name).collect::<Vec<_>>(),
-        "listeners": listeners})
 }
