@@ -344,6 +344,21 @@ impl File {
 }
 
 impl Config {
+    /// A configuration listening on `listen`, with the file's defaults (32 connections, idle
+    /// connections closed after 60 s) and no line yet: a program adds its lines (of the
+    /// built-in kinds from a file's [`LineFile`], or its own with [`Line::custom`]).
+    pub fn listening(listen: impl Into<String>) -> Config {
+        Config {
+            listen: listen.into(),
+            max_connections: si_modbus::tokio::tcp::DEFAULT_MAX_CONNECTIONS,
+            idle_timeout: Some(si_modbus::tokio::tcp::DEFAULT_IDLE_TIMEOUT),
+            diagnostic_unit: None,
+            reply_on_broadcast: false,
+            allow_down_at_start: false,
+            lines: Vec::new(),
+        }
+    }
+
     /// The lines together: names unique, each unit id served by one line per listening
     /// address, none the diagnostic unit. A program that builds or changes a configuration
     /// (a line of its own kind) checks it with this.
