@@ -12,7 +12,8 @@ pub enum Event {
     /// be opened at start (`at_start`, only with `allow_down_at_start`). Its requests get 0AH
     /// meanwhile.
     LineDown {
-        /// The line's index in the configuration.
+        /// The line's counter slot: its index in the configuration as started (a reload
+        /// keeps a line's slot and gives added lines new ones; `Stats::order` maps them).
         line: usize,
         /// Its name.
         name: String,
@@ -24,7 +25,7 @@ pub enum Event {
     /// A line serves: reopened after it went down (`reopened`), or opened for the first time
     /// after it started down.
     LineUp {
-        /// The line's index in the configuration.
+        /// The line's counter slot (as in [`Event::LineDown`]).
         line: usize,
         /// Its name.
         name: String,

@@ -48,7 +48,7 @@ pub struct Options {
 pub struct Listener {
     /// The address bound (the port the system chose for `:0`).
     pub addr: SocketAddr,
-    /// The lines reached there.
+    /// The lines reached there (indices in the configuration it started with).
     pub lines: Vec<usize>,
 }
 
