@@ -18,3 +18,6 @@ mod reload;
 
 #[path = "scenarios/modbus_tcp.rs"]
 mod modbus_tcp;
+
+#[path = "scenarios/queueing.rs"]
+mod queueing;

@@ -109,3 +109,23 @@ async fn events_tell_a_line_down_at_start_and_up() {
     let answer = gateway.handler().call(read(2, 7, 0)).await.unwrap();
     assert_eq!(answer.unit_pdu(), [7, 0x03, 2, 0x02, 0xBC]);
 }
+
+/// The gateway's handler mounted in a program's own si-modbus TCP server: the same routes.
+#[tokio::test]
+async fn the_handler_mounts_in_a_programs_own_tcp_server() {
+    use si_modbus::tokio::tcp::{Client, Server, ServerConfig};
+    let (gateway, _slaves) = start(ONE_LINE).await;
+    let own = Server::with_handler("127.0.0.1:0", ServerConfig::default(), gateway.handler())
+        .await
+        .unwrap();
+    let addr = own.local_addr().unwrap();
+    tokio::spawn(own.run());
+    let c = Client::connect(addr).await.unwrap();
+    let r = Request::ReadHoldingRegisters {
+        address: 4,
+        quantity: 1,
+    };
+    let answer = c.request_adu(7, &r).await.unwrap();
+    assert_eq!(answer.unit_pdu(), [7, 0x03, 2, 0x02, 0xC0]);
+    assert_eq!(gateway.stats().lines[0].answers, 1);
+}

@@ -57,7 +57,8 @@ async fn a_reload_while_a_client_polls_another_line_at_10_hz_fails_none_of_its_r
             answers.push(c.request_adu(7, &r).await.map(|a| a.unit_pdu().to_vec()));
             tokio::time::sleep(Duration::from_millis(100)).await;
         }
-        answers
+        // The client goes back with its connection open, to be counted below.
+        (answers, c)
     });
     tokio::time::sleep(Duration::from_millis(350)).await;
     let before = gateway.stats();
@@ -87,7 +88,7 @@ async fn a_reload_while_a_client_polls_another_line_at_10_hz_fails_none_of_its_r
         [8, 0x03, 2, 0x03, 0x21],
         "the restarted line serves"
     );
-    let answers = client.await.unwrap();
+    let (answers, _connected) = client.await.unwrap();
     for (i, a) in answers.iter().enumerate() {
         assert_eq!(
             a.as_deref().ok(),
