@@ -26,6 +26,8 @@ mod probe;
 mod queueing;
 #[path = "gateway/reconnect.rs"]
 mod reconnect;
+#[path = "gateway/reload.rs"]
+mod reload;
 #[path = "gateway/rk512.rs"]
 mod rk512;
 #[path = "gateway/rk512_reconnect.rs"]

@@ -172,7 +172,7 @@ impl Handle {
                 _ => {}
             }
         }
-        Err(Error::Stopped(DriverStopped))
+        Err(Error::Stopped)
     }
 
     /// Run a parameter job to its end and return the response's PKW area. Jobs for a node whose

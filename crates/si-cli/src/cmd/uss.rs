@@ -338,7 +338,7 @@ async fn last_job(
                 error_number,
                 ..
             } => CliError::new(failure_text(slave, status, error_number)),
-            si_uss::tokio::Error::Stopped(_) => conn.closed(),
+            si_uss::tokio::Error::Stopped => conn.closed(),
             e => CliError::new(e.to_string()),
         })
 }

@@ -108,3 +108,42 @@ fn a_toml_error_names_the_file_and_where_in_it() {
     let at_line_5 = format!("{}:5", path.display());
     assert!(e.contains(&at_line_5) && e.contains("speed"), "{e}");
 }
+
+#[test]
+fn check_exits_0_for_a_valid_file_and_2_naming_file_line_and_key_for_an_invalid_one() {
+    let dir = test_dir("gateway-check");
+    let good = dir.join("good.toml");
+    std::fs::write(
+        &good,
+        "[[line]]\nname = \"meters\"\ndevice = \"/dev/nonexistent-si-port\"\nunits = \"1\"\n",
+    )
+    .unwrap();
+    let o = si(&["gateway", "--check", good.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        crate::common::stdout(&o).contains("valid, 1 line(s): meters"),
+        "nothing opened, the device need not exist: {}",
+        crate::common::stdout(&o)
+    );
+    let bad = dir.join("bad.toml");
+    std::fs::write(
+        &bad,
+        "[[line]]\nname = \"meters\"\ndevice = \"/dev/null\"\nunits = \"1\"\nretries = 99\n",
+    )
+    .unwrap();
+    let o = si(&["gateway", "--check", bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(e.contains(bad.to_str().unwrap()), "{e}");
+    assert!(e.contains("line 1 (meters): retries = 99"), "{e}");
+    let unknown = dir.join("unknown.toml");
+    std::fs::write(
+        &unknown,
+        "[[line]]\nname = \"meters\"\ndevice = \"/dev/null\"\nunits = \"1\"\nspeed = 1\n",
+    )
+    .unwrap();
+    let o = si(&["gateway", "--check", unknown.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let at = format!("{}:5: unknown field `speed`", unknown.display());
+    assert!(stderr(&o).contains(&at), "{}", stderr(&o));
+}

@@ -51,6 +51,7 @@
 mod busy;
 #[cfg(target_os = "linux")]
 pub mod check;
+mod device_server;
 mod icount;
 mod info;
 #[cfg(target_os = "linux")]
@@ -62,6 +63,7 @@ mod stream;
 mod sweep;
 mod tx_enable;
 
+pub use device_server::{device_server, ConnectError, CONNECT_TIMEOUT, KEEPALIVE};
 pub use icount::{line_counters, LineCounters};
 
 pub use info::{

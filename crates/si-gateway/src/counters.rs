@@ -124,12 +124,16 @@ pub struct Client {
 }
 
 /// Every counter of the gateway.
-#[derive(Debug, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct Stats {
-    /// Per line, in configuration order.
+    /// Per line slot: each line counts in its own slot, which it keeps across reloads (a
+    /// removed line's slot stays, unused); [`order`](Self::order) lists the configured lines'.
     pub lines: Vec<Counters>,
-    /// Per line: why it is down (its port closed and is being reopened), `None` while it serves.
+    /// Per line slot: why it is down (its port closed and is being reopened), `None` while it
+    /// serves.
     pub down: Vec<Option<String>>,
+    /// The slots of the configured lines, in configuration order.
+    pub order: Vec<usize>,
     /// Per connected client, by connection number (gone when it disconnects).
     pub clients: BTreeMap<u64, Client>,
 }
@@ -140,7 +144,19 @@ impl Stats {
         Stats {
             lines: vec![Counters::default(); lines],
             down: vec![None; lines],
+            order: (0..lines).collect(),
             clients: BTreeMap::new(),
+        }
+    }
+
+    /// These counters with the configured lines only, in configuration order (slot `i` is
+    /// line `i`).
+    pub fn in_order(&self) -> Stats {
+        Stats {
+            lines: self.order.iter().map(|&s| self.lines[s]).collect(),
+            down: self.order.iter().map(|&s| self.down[s].clone()).collect(),
+            order: (0..self.order.len()).collect(),
+            clients: self.clients.clone(),
         }
     }
 
@@ -157,7 +173,7 @@ impl Stats {
             .map(|c| c.counters)
             .unwrap_or_default();
         std::iter::once(own)
-            .chain(self.lines.iter().copied())
+            .chain(self.order.iter().map(|&s| self.lines[s]))
             .flat_map(|c| c.registers())
             .collect()
     }

@@ -7,7 +7,6 @@ use super::counters::{Outcome, Stats};
 use super::quantities;
 use super::queue::FairQueue;
 use super::reopen::{self, Closed, LineLog, Opened};
-use crate::error::CliError;
 use si_modbus::frame::{DecodeErrorKind, ExceptionCode};
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::{Error, Master};
@@ -83,10 +82,7 @@ impl LineQueue {
     }
 }
 
-/// Lock, taking over a lock poisoned by a panicking holder (the data are plain counters).
-pub fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
-    m.lock().unwrap_or_else(|p| p.into_inner())
-}
+pub use crate::sync::lock;
 
 /// Serve line `log.index` until the process ends: one request at a time, then the pause.
 /// While its port is closed every request is answered with 0AH and the port is reopened with
@@ -95,7 +91,7 @@ pub async fn run(
     log: LineLog,
     queue: Arc<LineQueue>,
     first: reopen::First<Master>,
-    open: impl AsyncFnMut() -> Result<Opened<Master>, CliError>,
+    open: impl AsyncFnMut() -> Result<Opened<Master>, crate::Error>,
     pause: Duration,
 ) {
     // The closures own what their futures use: a future borrowing from the task would not

@@ -2,21 +2,22 @@
 //! to a USS line's drive images or a 3964(R) line's blocks),
 //! answers the diagnostic unit itself, and keeps the counters per client.
 
+use super::backend::{Backend, Reach};
 use super::counters::{Client, Counters, Outcome, Stats};
 use super::line::{self, exception, Job, LineQueue};
-use super::r3964::BlockLine;
-use super::uss::UssDrives;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::tcp::{Handler, Peer};
 use std::sync::{Arc, Mutex};
 use tokio::sync::oneshot;
 
 /// Routes requests to lines.
+#[derive(Clone)]
 pub struct Router {
-    /// The line serving each unit id.
-    pub routes: [Option<usize>; 256],
+    /// The line serving each unit id, and the unit's address on that line (the unit id
+    /// itself unless the line's `unit_map` remaps it).
+    pub routes: [Option<(usize, u8)>; 256],
     /// Every line, in configuration order (shared by the listening addresses, [`super::faces`]).
-    pub lines: Arc<[LineHandle]>,
+    pub lines: Arc<[Arc<dyn Backend>]>,
     /// The lines broadcasts (unit 0) go to; empty: broadcasts are refused with 0AH.
     pub broadcast_lines: Vec<usize>,
     /// The unit that answers the counters.
@@ -25,19 +26,6 @@ pub struct Router {
     pub reply_on_broadcast: bool,
     /// The counters.
     pub stats: Arc<Mutex<Stats>>,
-}
-
-/// How requests reach a line.
-pub enum LineHandle {
-    /// Modbus RTU: through the line's queue to its master.
-    Rtu(Arc<LineQueue>),
-    /// USS: answered from the drives' images ([`super::uss`]).
-    Uss(UssDrives),
-    /// An RK 512 line: through the line's queue to its task, which serves the partner's
-    /// memory ([`super::rk512`]) or the gateway's own ([`super::rk512_own`]).
-    Rk512(Arc<LineQueue>),
-    /// A plain 3964(R) line: its latest block, and blocks sent ([`super::r3964`]).
-    R3964(BlockLine),
 }
 
 impl Router {
@@ -58,30 +46,39 @@ impl Router {
         if unit == 0 {
             return self.broadcast(id, request);
         }
-        let Some(index) = self.routes[unit as usize] else {
+        let Some((index, address)) = self.routes[unit as usize] else {
             self.count_client(id, |c| c.count(Outcome::Other));
             return Some(exception(&request, line::GATEWAY_PATH_UNAVAILABLE));
         };
-        let answered = match &self.lines[index] {
-            LineHandle::Uss(drives) => Some(drives.answer(&request).await),
-            LineHandle::R3964(blocks) => Some(blocks.answer(&request).await),
-            _ => None,
-        };
-        if let Some((answer, outcome)) = answered {
-            let mut s = line::lock(&self.stats);
-            s.lines[index].requests += 1;
-            s.lines[index].count(outcome);
-            if let Some(c) = s.client(id) {
-                c.count(outcome);
-            }
-            return Some(answer);
+        if address == unit {
+            return self.to_line(id, index, request).await;
         }
+        // The slave answers its own address; the client gets the unit id it asked.
+        let answer = self.to_line(id, index, with_unit(&request, address)).await;
+        answer.map(|a| with_unit(&a, unit))
+    }
+
+    /// The answer of line `index` to `request` (its unit id the line's own address).
+    async fn to_line(&self, id: u64, index: usize, request: TcpAdu) -> Option<TcpAdu> {
+        let queue = match self.lines[index].reach(&request) {
+            Reach::Queue(queue) => queue,
+            Reach::Answer(answer) => {
+                let (answer, outcome) = answer.await;
+                let mut s = line::lock(&self.stats);
+                s.lines[index].requests += 1;
+                s.lines[index].count(outcome);
+                if let Some(c) = s.client(id) {
+                    c.count(outcome);
+                }
+                return Some(answer);
+            }
+        };
         let (tx, rx) = oneshot::channel();
         let job = Job {
             request,
             reply: Some(tx),
         };
-        if self.enqueue(id, index, job).is_err() {
+        if self.enqueue(id, index, queue, job).is_err() {
             return Some(exception(&request, line::SLAVE_DEVICE_BUSY));
         }
         // The line task dropped the job without an answer only if it ended: the path is gone.
@@ -92,10 +89,7 @@ impl Router {
     }
 
     /// Queue `job` on line `index` for client `id`, counting it; busy (06H, counted) if full.
-    fn enqueue(&self, id: u64, index: usize, job: Job) -> Result<(), ()> {
-        let (LineHandle::Rtu(queue) | LineHandle::Rk512(queue)) = &self.lines[index] else {
-            return Err(());
-        };
+    fn enqueue(&self, id: u64, index: usize, queue: &LineQueue, job: Job) -> Result<(), ()> {
         // The counters are locked before the push: a line task taking the job at once then
         // writes its depth after ours, never a stale one over it. (No one holds the queue's
         // lock while taking the counters', so the order cannot deadlock.)
@@ -132,8 +126,10 @@ impl Router {
                 reply: None,
             };
             // A full queue drops the broadcast (counted as busy): there is no answer to
-            // carry an exception.
-            let _ = self.enqueue(id, index, job);
+            // carry an exception. Only queued lines take broadcasts (checked at load).
+            if let Reach::Queue(queue) = self.lines[index].reach(&request) {
+                let _ = self.enqueue(id, index, queue, job);
+            }
         }
         self.reply_on_broadcast.then_some(request)
     }
@@ -166,6 +162,16 @@ impl Router {
     }
 }
 
+/// `adu` with unit id `unit`.
+fn with_unit(adu: &TcpAdu, unit: u8) -> TcpAdu {
+    let pdu = adu.unit_pdu();
+    let mut bytes = [0u8; 256];
+    let n = pdu.len().min(bytes.len());
+    bytes[..n].copy_from_slice(&pdu[..n]);
+    bytes[0] = unit;
+    TcpAdu::from_unit_pdu(adu.transaction(), &bytes[..n]).unwrap_or(*adu)
+}
+
 impl Handler for Router {
     async fn answer(&self, request: TcpAdu) -> Option<TcpAdu> {
         self.route(0, request).await
@@ -193,7 +199,7 @@ impl Handler for Router {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cmd::gateway::reopen::{self, LineLog, Opened};
+    use crate::reopen::{self, LineLog, Opened};
     use si_modbus::frame::Request;
     use si_modbus::slave::Tables;
     use si_modbus::tokio::{Master, Slave};
@@ -223,18 +229,18 @@ mod tests {
             index: 0,
             name: "pipe".into(),
             stats: Arc::clone(&stats),
-            out: crate::output::Output { json: true },
+            events: crate::event::ignore(),
         };
-        let never = async || Err(crate::error::CliError::new("an in-memory pipe"));
+        let never = async || Err(crate::Error::new("an in-memory pipe"));
         let first = Ok(Opened { link, closed });
         let pause = std::time::Duration::ZERO;
         tokio::spawn(line::run(log, Arc::clone(&queue), first, never, pause));
         let mut routes = [None; 256];
-        routes[7] = Some(0);
-        routes[8] = Some(0);
+        routes[7] = Some((0, 7));
+        routes[8] = Some((0, 8));
         let router = Router {
             routes,
-            lines: Arc::new([LineHandle::Rtu(queue)]),
+            lines: Arc::new([Arc::new(crate::backend::QueuedLine(queue)) as Arc<dyn Backend>]),
             broadcast_lines: vec![],
             diagnostic_unit: Some(247),
             reply_on_broadcast: false,

@@ -13,14 +13,15 @@
 //! order and the per-client counters key on them) carry the face's number in their top 16
 //! bits, as each TCP server numbers its connections from 1.
 
-use super::config::Gateway;
+use super::backend::Backend;
+use super::config::Config;
 use super::counters::Stats;
-use super::router::{LineHandle, Router};
-use crate::error::CliError;
+use super::router::Router;
+use crate::Error;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::tcp::{Handler, Peer, Server, ServerConfig, Units};
 use std::net::SocketAddr;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, RwLock};
 
 /// Bits of a client id left for the TCP server's own connection number.
 const CONNECTION_BITS: u32 = 48;
@@ -36,7 +37,7 @@ pub struct Face {
 
 /// The faces of `gw`: the top-level `listen` first (even with no line of its own: it still
 /// answers the diagnostic unit and 0AH), then each line address in the order it first appears.
-pub fn faces(gw: &Gateway) -> Vec<Face> {
+pub fn faces(gw: &Config) -> Vec<Face> {
     let mut faces = vec![Face {
         listen: gw.listen.clone(),
         lines: Vec::new(),
@@ -58,13 +59,33 @@ pub fn faces(gw: &Gateway) -> Vec<Face> {
     faces
 }
 
-/// A face's router, numbering its clients apart from the other faces'.
+/// A face's router, numbering its clients apart from the other faces'. Its clones share the
+/// router, which a reload replaces for all of them at once.
+#[derive(Clone)]
 pub struct FaceHandler {
     face: u64,
-    router: Router,
+    router: Arc<RwLock<Arc<Router>>>,
 }
 
 impl FaceHandler {
+    /// Face number `face` routing by `router`.
+    pub fn new(face: usize, router: Router) -> Self {
+        FaceHandler {
+            face: face as u64,
+            router: Arc::new(RwLock::new(Arc::new(router))),
+        }
+    }
+
+    /// Route by `router` from now on (requests already routed finish by the old one).
+    pub fn replace(&self, router: Router) {
+        *self.router.write().unwrap_or_else(|p| p.into_inner()) = Arc::new(router);
+    }
+
+    /// The router now.
+    fn current(&self) -> Arc<Router> {
+        Arc::clone(&self.router.read().unwrap_or_else(|p| p.into_inner()))
+    }
+
     /// The peer as the router sees it: the face's number in the id's top bits.
     fn peer(&self, peer: &Peer) -> Peer {
         Peer {
@@ -76,19 +97,19 @@ impl FaceHandler {
 
 impl Handler for FaceHandler {
     async fn answer(&self, request: TcpAdu) -> Option<TcpAdu> {
-        self.router.answer(request).await
+        self.current().answer(request).await
     }
 
     async fn answer_from(&self, peer: &Peer, request: TcpAdu) -> Option<TcpAdu> {
-        self.router.answer_from(&self.peer(peer), request).await
+        self.current().answer_from(&self.peer(peer), request).await
     }
 
     fn connected(&self, peer: &Peer) {
-        self.router.connected(&self.peer(peer));
+        self.current().connected(&self.peer(peer));
     }
 
     fn disconnected(&self, peer: &Peer) {
-        self.router.disconnected(&self.peer(peer));
+        self.current().disconnected(&self.peer(peer));
     }
 }
 
@@ -100,89 +121,72 @@ pub struct Bound {
     pub lines: Vec<usize>,
     /// The server.
     pub server: Server<FaceHandler>,
+    /// A copy of the server's handler: the same routes and counters.
+    pub handler: FaceHandler,
+}
+
+/// The router of each face of `gw`: line `i` of the configuration is `lines[slots[i]]`.
+pub fn routers(
+    gw: &Config,
+    slots: &[usize],
+    lines: &Arc<[Arc<dyn Backend>]>,
+    stats: &Arc<Mutex<Stats>>,
+) -> Vec<Router> {
+    faces(gw)
+        .into_iter()
+        .map(|face| {
+            let mut routes = [None; 256];
+            for &i in &face.lines {
+                let line = &gw.lines[i];
+                for &u in &line.units {
+                    let address = line.unit_map.get(&u).copied().unwrap_or(u);
+                    routes[u as usize] = Some((slots[i], address));
+                }
+            }
+            Router {
+                routes,
+                lines: Arc::clone(lines),
+                broadcast_lines: face
+                    .lines
+                    .iter()
+                    .filter(|&&i| gw.lines[i].broadcast)
+                    .map(|&i| slots[i])
+                    .collect(),
+                diagnostic_unit: gw.diagnostic_unit,
+                reply_on_broadcast: gw.reply_on_broadcast,
+                stats: Arc::clone(stats),
+            }
+        })
+        .collect()
 }
 
 /// Listen on every face of `gw`; `lines` are the open lines in file order.
 pub async fn bind(
-    gw: &Gateway,
-    lines: Arc<[LineHandle]>,
+    gw: &Config,
+    lines: Arc<[Arc<dyn Backend>]>,
     stats: &Arc<Mutex<Stats>>,
-) -> Result<Vec<Bound>, CliError> {
+) -> Result<Vec<Bound>, Error> {
+    let slots: Vec<usize> = (0..gw.lines.len()).collect();
     let mut bound = Vec::new();
-    for (n, face) in faces(gw).into_iter().enumerate() {
-        let mut routes = [None; 256];
-        for &i in &face.lines {
-            for &u in &gw.lines[i].units {
-                routes[u as usize] = Some(i);
-            }
-        }
-        let router = Router {
-            routes,
-            lines: Arc::clone(&lines),
-            broadcast_lines: face
-                .lines
-                .iter()
-                .copied()
-                .filter(|&i| gw.lines[i].broadcast)
-                .collect(),
-            diagnostic_unit: gw.diagnostic_unit,
-            reply_on_broadcast: gw.reply_on_broadcast,
-            stats: Arc::clone(stats),
-        };
+    let routers = routers(gw, &slots, &lines, stats);
+    for ((n, face), router) in faces(gw).into_iter().enumerate().zip(routers) {
         let config = ServerConfig {
             max_connections: gw.max_connections,
             units: Units::all(),
             idle_timeout: gw.idle_timeout,
         };
-        let handler = FaceHandler {
-            face: n as u64,
-            router,
-        };
-        let server = Server::with_handler(&face.listen, config, handler)
+        let handler = FaceHandler::new(n, router);
+        let server = Server::with_handler(&face.listen, config, handler.clone())
             .await
-            .map_err(|e| CliError::new(format!("cannot listen on {}: {e}", face.listen)))?;
+            .map_err(|e| Error::new(format!("cannot listen on {}: {e}", face.listen)))?;
         bound.push(Bound {
             addr: server.local_addr()?,
             lines: face.lines,
             server,
+            handler,
         });
     }
     Ok(bound)
-}
-
-/// Faces listed by address in the text of the "listening" line; more are counted only.
-const LISTED_FACES: usize = 8;
-
-/// The "listening" line: the top-level address and the line count, then the other addresses.
-pub fn listening_text(gw: &Gateway, faces: &[Bound]) -> String {
-    let mut text = format!(
-        "gateway listening on {}, {} line(s)",
-        faces[0].addr,
-        gw.lines.len()
-    );
-    for f in faces.iter().skip(1).take(LISTED_FACES) {
-        let names: Vec<_> = f.lines.iter().map(|&i| gw.lines[i].name.as_str()).collect();
-        text += &format!("; {}: {}", f.addr, names.join(", "));
-    }
-    if faces.len() > LISTED_FACES + 1 {
-        text += &format!("; {} more address(es)", faces.len() - LISTED_FACES - 1);
-    }
-    text
-}
-
-/// The "listening" event: `addr` (the top-level face) and every line's name as before, and
-/// `listeners`, every face's address with its lines' names (the top-level face first).
-pub fn listening_json(gw: &Gateway, faces: &[Bound]) -> serde_json::Value {
-    let names = |lines: &[usize]| -> Vec<&str> {
-        lines.iter().map(|&i| gw.lines[i].name.as_str()).collect()
-    };
-    let listeners: Vec<_> = faces
-        .iter()
-        .map(|f| serde_json::json!({"addr": f.addr.to_string(), "lines": names(&f.lines)}))
-        .collect();
-    serde_json::json!({"event": "listening", "addr": faces[0].addr.to_string(),
-        "lines": gw.lines.iter().map(|l| &l.name).collect::<Vec<_>>(),
-        "listeners": listeners})
 }
 
 /// Serve every face until one server ends (its error), or forever.
@@ -201,7 +205,7 @@ pub async fn run(faces: Vec<Bound>) -> std::io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cmd::gateway::config::tests::check as gateway;
+    use crate::config::tests::check as gateway;
 
     /// Units 1 and 2 on the top-level address and again on 127.0.0.1:5021.
     const TWO_FACES: &str = r#"
@@ -259,16 +263,18 @@ mod tests {
 
     #[test]
     fn client_ids_of_two_faces_differ() {
-        let router = |face| FaceHandler {
-            face,
-            router: Router {
-                routes: [None; 256],
-                lines: Arc::new([]),
-                broadcast_lines: vec![],
-                diagnostic_unit: None,
-                reply_on_broadcast: false,
-                stats: Arc::new(Mutex::new(Stats::new(0))),
-            },
+        let router = |face| {
+            FaceHandler::new(
+                face,
+                Router {
+                    routes: [None; 256],
+                    lines: Arc::new([]),
+                    broadcast_lines: vec![],
+                    diagnostic_unit: None,
+                    reply_on_broadcast: false,
+                    stats: Arc::new(Mutex::new(Stats::new(0))),
+                },
+            )
         };
         let peer = Peer {
             id: 1,

@@ -1,0 +1,369 @@
+//! The gateway as a program holds it: started from a checked [`Config`], it serves until
+//! shut down, and tells its counters ([`Gateway::stats`]) and its lines' events
+//! ([`Gateway::events`]) meanwhile.
+//!
+//! ```no_run
+//! # async fn f(config: si_gateway::config::Config) -> Result<(), si_gateway::Error> {
+//! let gateway = si_gateway::Gateway::start(config).await?;
+//! let stop = gateway.shutdown_handle();
+//! tokio::spawn(async move {
+//!     // An hour of serving, then stop.
+//!     tokio::time::sleep(std::time::Duration::from_secs(3600)).await;
+//!     stop.shutdown();
+//! });
+//! gateway.run().await
+//! # }
+//! ```
+
+use crate::backend::Backend;
+use crate::config::{Config, Kind};
+use crate::counters::Stats;
+use crate::event::{Event, Events};
+use crate::faces::{self, Bound, FaceHandler};
+use crate::line::lock;
+use crate::open::Opening;
+use crate::{start, Error};
+use si_modbus::mbap::TcpAdu;
+use si_modbus::tokio::tcp::Peer;
+use std::net::SocketAddr;
+use std::sync::{Arc, Mutex};
+use tokio::sync::{broadcast, watch};
+use tokio::task::AbortHandle;
+
+/// Events kept for a slow [`Gateway::events`] receiver before it misses the oldest.
+const EVENT_BACKLOG: usize = 256;
+
+/// What a program may add to a start: how ports are opened, and a sink seeing every event
+/// from the first (a receiver from [`Gateway::events`] sees those after it subscribed).
+#[derive(Clone, Default)]
+pub struct Options {
+    /// The program's part in opening ports (line-error mode, a tap).
+    pub opening: Opening,
+    /// Called with each event, on the line's task.
+    pub on_event: Option<Events>,
+}
+
+/// One listening address and the lines (indices in the configuration) reached there.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Listener {
+    /// The address bound (the port the system chose for `:0`).
+    pub addr: SocketAddr,
+    /// The lines reached there (indices in the configuration it started with).
+    pub lines: Vec<usize>,
+}
+
+/// A running gateway: its lines are open (or being reopened) and its addresses bound from
+/// [`start`](Self::start) on; [`run`](Self::run) serves the clients. Dropping it ends the
+/// lines and releases their ports.
+pub struct Gateway {
+    lines: tokio::sync::Mutex<Lines>,
+    stats: Arc<Mutex<Stats>>,
+    handlers: Vec<FaceHandler>,
+    listeners: Vec<Listener>,
+    faces: Mutex<Option<Vec<Bound>>>,
+    events: broadcast::Sender<Event>,
+    sink: Events,
+    opening: Opening,
+    shutdown: Arc<watch::Sender<bool>>,
+}
+
+/// The lines as configured now: each counts in its slot (module [`crate::counters`]'s
+/// `Stats::order`), which it keeps across reloads.
+struct Lines {
+    config: Config,
+    /// Configuration order → slot.
+    slots: Vec<usize>,
+    /// By slot: how the router reaches the line (a removed line's stays, unrouted).
+    backends: Vec<Arc<dyn Backend>>,
+    /// By slot: the line's task, while it runs.
+    tasks: Vec<Option<AbortHandle>>,
+}
+
+impl Lines {
+    /// End the task of slot `slot`.
+    fn end(&mut self, slot: usize) {
+        if let Some(t) = self.tasks[slot].take() {
+            t.abort();
+        }
+    }
+}
+
+/// What a reload did, by line name.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Reloaded {
+    /// Lines whose configuration did not change: they kept their port, clients, queue and
+    /// counters.
+    pub kept: Vec<String>,
+    /// Lines whose configuration changed: restarted (their counters go on).
+    pub restarted: Vec<String>,
+    /// Lines new in the configuration: started.
+    pub added: Vec<String>,
+    /// Lines no longer configured: ended; their unit ids are answered with 0AH.
+    pub removed: Vec<String>,
+}
+
+impl Gateway {
+    /// Open every line of `config` and bind every listening address.
+    pub async fn start(config: Config) -> Result<Gateway, Error> {
+        Self::start_with(config, Options::default()).await
+    }
+
+    /// [`start`](Self::start) with the program's [`Options`].
+    pub async fn start_with(config: Config, options: Options) -> Result<Gateway, Error> {
+        config
+            .check_lines()
+            .map_err(|e| Error::Config(e.to_string()))?;
+        let (events, _) = broadcast::channel(EVENT_BACKLOG);
+        let sink: Events = {
+            let (events, on_event) = (events.clone(), options.on_event.clone());
+            Arc::new(move |e: &Event| {
+                if let Some(f) = &on_event {
+                    f(e);
+                }
+                // No receiver: nobody listens, which is fine.
+                let _ = events.send(e.clone());
+            })
+        };
+        let started = start::lines(&config, &options.opening, &sink).await?;
+        let backends = started.lines.clone();
+        let lines: Arc<[Arc<dyn Backend>]> = started.lines.into();
+        let bound = match faces::bind(&config, lines, &started.stats).await {
+            Ok(b) => b,
+            Err(e) => {
+                started.tasks.iter().flatten().for_each(AbortHandle::abort);
+                return Err(e);
+            }
+        };
+        let listeners = bound
+            .iter()
+            .map(|b| Listener {
+                addr: b.addr,
+                lines: b.lines.clone(),
+            })
+            .collect();
+        let handlers = bound.iter().map(|b| b.handler.clone()).collect();
+        Ok(Gateway {
+            lines: tokio::sync::Mutex::new(Lines {
+                slots: (0..config.lines.len()).collect(),
+                config,
+                backends,
+                tasks: started.tasks,
+            }),
+            stats: started.stats,
+            handlers,
+            listeners,
+            faces: Mutex::new(Some(bound)),
+            events,
+            sink,
+            opening: options.opening,
+            shutdown: Arc::new(watch::Sender::new(false)),
+        })
+    }
+
+    /// The configuration it runs now.
+    pub async fn config(&self) -> Config {
+        self.lines.lock().await.config.clone()
+    }
+
+    /// Where it listens: the top-level address first, then each line address.
+    pub fn listeners(&self) -> &[Listener] {
+        &self.listeners
+    }
+
+    /// Every counter now: per configured line, in configuration order (and whether it is
+    /// down, and why), per client.
+    pub fn stats(&self) -> Stats {
+        lock(&self.stats).in_order()
+    }
+
+    /// The lines' events from now on (down and up, with why).
+    pub fn events(&self) -> broadcast::Receiver<Event> {
+        self.events.subscribe()
+    }
+
+    /// A handle that ends [`run`](Self::run) from anywhere.
+    pub fn shutdown_handle(&self) -> Shutdown {
+        Shutdown(Arc::clone(&self.shutdown))
+    }
+
+    /// The top-level address's request handler, to mount in a program's own Modbus TCP
+    /// server (`si_modbus::tokio::tcp::Server::with_handler`) or to call directly
+    /// ([`Handler::call`]): the same routes, lines and counters as the gateway's own.
+    pub fn handler(&self) -> Handler {
+        Handler(self.handlers[0].clone())
+    }
+
+    /// Change to `config` while serving: lines (by name) whose configuration did not change
+    /// keep their port, clients, queue and counters; changed lines restart; removed lines
+    /// end and their unit ids are answered with 0AH; added lines start. The connections stay.
+    /// A line restarted or added whose port cannot be opened starts down and is reopened (as
+    /// with `allow_down_at_start`).
+    ///
+    /// Refused, with the old configuration still running, if `config` does not check
+    /// ([`Config::check_lines`]), a changed or added line's settings are refused, or it would
+    /// change what is bound: the listening addresses (the top-level `listen` and the lines'),
+    /// `max_connections` or `idle_timeout_s`, which need a restart.
+    pub async fn reload(&self, config: Config) -> Result<Reloaded, Error> {
+        config
+            .check_lines()
+            .map_err(|e| Error::Config(e.to_string()))?;
+        let mut lines = self.lines.lock().await;
+        let old = lines.config.clone();
+        let old = &old;
+        let bound = |c: &Config| {
+            let faces: Vec<String> = faces::faces(c).into_iter().map(|f| f.listen).collect();
+            (faces, c.max_connections, c.idle_timeout)
+        };
+        if bound(old) != bound(&config) {
+            return Err(Error::Config(
+                "reload: the listening addresses, max_connections and idle_timeout_s change \
+                 only with a restart"
+                    .into(),
+            ));
+        }
+        let before = |name: &str| old.lines.iter().position(|l| l.name == name);
+        // Settings refused (a parity or baud rate the protocol lacks) refuse the reload
+        // before anything stops.
+        for l in &config.lines {
+            let same = before(&l.name).is_some_and(|i| old.lines[i] == *l);
+            if !same && l.port.is_some() {
+                let rates: &'static [u32] = match l.kind {
+                    Kind::Uss(_) => &si_uss::config::USS_BAUD_RATES,
+                    _ => &si_core::BAUD_RATES,
+                };
+                crate::open::settings(l, rates)
+                    .map_err(|e| e.prefixed(&format!("line {}: ", l.name)))?;
+            }
+        }
+        let mut done = Reloaded::default();
+        let mut slots = Vec::with_capacity(config.lines.len());
+        for l in &config.lines {
+            let slot = match before(&l.name) {
+                Some(i) if old.lines[i] == *l => {
+                    done.kept.push(l.name.clone());
+                    slots.push(lines.slots[i]);
+                    continue;
+                }
+                Some(i) => {
+                    done.restarted.push(l.name.clone());
+                    let slot = lines.slots[i];
+                    lines.end(slot);
+                    lock(&self.stats).down[slot] = None;
+                    slot
+                }
+                None => {
+                    done.added.push(l.name.clone());
+                    let mut s = lock(&self.stats);
+                    s.lines.push(Default::default());
+                    s.down.push(None);
+                    lines.backends.push(Arc::new(Gone));
+                    lines.tasks.push(None);
+                    s.lines.len() - 1
+                }
+            };
+            let at = start::Slot {
+                index: slot,
+                stats: &self.stats,
+                events: &self.sink,
+            };
+            let (backend, task) = start::line(l, at, true, &self.opening).await?;
+            lines.backends[slot] = backend;
+            lines.tasks[slot] = task;
+            slots.push(slot);
+        }
+        for (i, l) in lines.config.lines.clone().iter().enumerate() {
+            if !config.lines.iter().any(|n| n.name == l.name) {
+                done.removed.push(l.name.clone());
+                let slot = lines.slots[i];
+                lines.end(slot);
+                lines.backends[slot] = Arc::new(Gone);
+            }
+        }
+        let backends: Arc<[Arc<dyn Backend>]> = lines.backends.clone().into();
+        let routers = faces::routers(&config, &slots, &backends, &self.stats);
+        lock(&self.stats).order = slots.clone();
+        for (handler, router) in self.handlers.iter().zip(routers) {
+            handler.replace(router);
+        }
+        lines.config = config;
+        lines.slots = slots;
+        Ok(done)
+    }
+
+    /// Serve the clients until [`Shutdown::shutdown`] (`Ok`), or until a listening server
+    /// fails (its error). Only the first call serves; a second returns at once.
+    pub async fn run(&self) -> Result<(), Error> {
+        let Some(bound) = lock(&self.faces).take() else {
+            return Ok(());
+        };
+        let mut stop = self.shutdown.subscribe();
+        tokio::select! {
+            ended = faces::run(bound) => match ended {
+                Ok(()) => Err(Error::new("gateway stopped")),
+                Err(e) => Err(Error::new(format!("gateway stopped: {e}"))),
+            },
+            _ = stop.wait_for(|&s| s) => Ok(()),
+        }
+    }
+}
+
+impl Drop for Gateway {
+    fn drop(&mut self) {
+        for t in self.lines.get_mut().tasks.iter().flatten() {
+            t.abort();
+        }
+    }
+}
+
+/// A removed line's slot: never routed to (its unit ids are no longer routed), 0AH if it were.
+struct Gone;
+
+impl Backend for Gone {
+    fn reach<'a>(&'a self, request: &'a TcpAdu) -> crate::backend::Reach<'a> {
+        let answer = crate::line::exception(request, crate::line::GATEWAY_PATH_UNAVAILABLE);
+        crate::backend::Reach::Answer(Box::pin(async move {
+            (answer, crate::counters::Outcome::Other)
+        }))
+    }
+}
+
+/// Ends a gateway's [`Gateway::run`].
+#[derive(Clone)]
+pub struct Shutdown(Arc<watch::Sender<bool>>);
+
+impl Shutdown {
+    /// End the run (at once; requests in flight are dropped with their connections).
+    pub fn shutdown(&self) {
+        self.0.send_replace(true);
+    }
+}
+
+/// The gateway's request handler, for a program's own Modbus TCP server.
+#[derive(Clone)]
+pub struct Handler(FaceHandler);
+
+impl Handler {
+    /// The answer to one request (`None`: a broadcast without an answer): routed by its unit
+    /// id like a request from a TCP client, counted for no client.
+    pub async fn call(&self, request: TcpAdu) -> Option<TcpAdu> {
+        si_modbus::tokio::tcp::Handler::answer(&self.0, request).await
+    }
+}
+
+impl si_modbus::tokio::tcp::Handler for Handler {
+    async fn answer(&self, request: TcpAdu) -> Option<TcpAdu> {
+        self.0.answer(request).await
+    }
+
+    async fn answer_from(&self, peer: &Peer, request: TcpAdu) -> Option<TcpAdu> {
+        self.0.answer_from(peer, request).await
+    }
+
+    fn connected(&self, peer: &Peer) {
+        self.0.connected(peer);
+    }
+
+    fn disconnected(&self, peer: &Peer) {
+        self.0.disconnected(peer);
+    }
+}
