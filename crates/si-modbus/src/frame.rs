@@ -1208,6 +1208,24 @@ pub fn decode_response(adu: &[u8]) -> Result<(u8, Response<'_>), DecodeError> {
     read_response(open(adu, FrameKind::Response)?)
 }
 
+/// The RTU ADU of `body` (slave address, function code and the rest of the PDU): `body` with
+/// its [`crc16`] appended, low byte first. Refused, naming why, when `body` lacks the address
+/// or the function code, or the ADU would be longer than [`MAX_ADU`].
+pub fn seal(body: &[u8]) -> Result<Vec<u8>, String> {
+    if body.len() < 2 {
+        return Err("give at least the slave address and the function code".into());
+    }
+    if body.len() + 2 > MAX_ADU {
+        return Err(format!(
+            "{} bytes: an ADU holds at most {MAX_ADU} bytes with the CRC",
+            body.len()
+        ));
+    }
+    let mut adu = body.to_vec();
+    adu.extend_from_slice(&crc16(body).to_le_bytes());
+    Ok(adu)
+}
+
 /// How an ADU with a good CRC reads, as `si frame decode modbus` says it: `("request", "unit 1
 /// FC03 read …")`, `"response"`, or `"request and response (an echo reads the same both
 /// ways)"` for a frame both decode to alike (FC05, FC06 and their echoes); `None` when it is
@@ -1426,6 +1444,17 @@ impl fmt::Debug for Adu {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn seal_appends_the_crc_low_byte_first_and_refuses_a_body_too_short_or_too_long() {
+        let adu = seal(&[0x01, 0x03, 0x00, 0x00, 0x00, 0x01]).unwrap();
+        assert_eq!(adu, [0x01, 0x03, 0x00, 0x00, 0x00, 0x01, 0x84, 0x0A]);
+        assert!(crc_ok(&adu));
+        assert!(seal(&[0x01]).unwrap_err().contains("function code"));
+        let e = seal(&[0u8; MAX_ADU - 1]).unwrap_err();
+        assert!(e.contains(&format!("{} bytes", MAX_ADU - 1)), "{e}");
+        assert_eq!(seal(&[0u8; MAX_ADU - 2]).unwrap().len(), MAX_ADU);
+    }
 
     fn hex(s: &str) -> Vec<u8> {
         si_core::hex::parse(s).unwrap()

@@ -668,21 +668,8 @@ impl EncodeArgs {
     /// Append the CRC (low byte first) and say how the frame reads.
     pub fn run(&self, out: &Output) -> Result<(), CliError> {
         let body = crate::hex::parse_hex_args(&self.hex)?;
-        if body.len() < 2 {
-            return Err(CliError::new(
-                "give at least the slave address and the function code",
-            ));
-        }
-        if body.len() + 2 > frame::MAX_ADU {
-            return Err(CliError::new(format!(
-                "{} bytes: an ADU holds at most {} bytes with the CRC",
-                body.len(),
-                frame::MAX_ADU
-            )));
-        }
+        let adu = frame::seal(&body).map_err(CliError::new)?;
         let crc = frame::crc16(&body);
-        let mut adu = body.clone();
-        adu.extend_from_slice(&crc.to_le_bytes());
         let reading = frame::reading(&adu);
         out.line(
             &si_core::hex::format(&adu),

@@ -409,7 +409,7 @@ impl MonitorArgs {
         let (protocol, mut decoder) = self.chosen(named, windows, seen, settings);
         let events = self.events.then_some(&file.trace.entries[..]);
         let name = protocol.name();
-        Ok(monitor::analyse_line(
+        Ok(monitor::whole::analyse_line(
             line,
             end,
             decoder.as_mut(),
