@@ -1,0 +1,36 @@
+//! The Python bindings of si: the `si-serial` wheel, imported as `si_serial` (its Python part
+//! re-exports this extension module, `si_serial._si_serial`).
+//!
+//! Thin glue only: every protocol rule, range and STATUS is the protocol crates'. What is
+//! here converts keyword arguments to configs ([`options`]), runs the async handles on one
+//! shared runtime with the GIL released ([`runtime`]) and maps their errors onto one
+//! exception tree ([`errors`]).
+
+mod errors;
+mod modbus_client;
+mod modbus_config;
+mod modbus_slave;
+mod options;
+mod runtime;
+mod store;
+mod store_class;
+mod values;
+
+use pyo3::prelude::*;
+
+/// The extension module.
+#[pymodule]
+fn _si_serial(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    errors::register(m)?;
+    m.add_class::<modbus_client::ModbusClient>()?;
+    m.add_class::<modbus_client::RtuClient>()?;
+    m.add_class::<modbus_client::TcpClient>()?;
+    m.add_class::<store_class::ModbusStore>()?;
+    m.add_class::<modbus_slave::ModbusSlave>()?;
+    m.add_class::<modbus_slave::TcpServer>()?;
+    m.add("BYTEORDER_BIG", values::BYTEORDER_BIG)?;
+    m.add("BYTEORDER_LITTLE", values::BYTEORDER_LITTLE)?;
+    m.add("BYTEORDER_BIG_SWAP", values::BYTEORDER_BIG_SWAP)?;
+    m.add("BYTEORDER_LITTLE_SWAP", values::BYTEORDER_LITTLE_SWAP)?;
+    Ok(())
+}
