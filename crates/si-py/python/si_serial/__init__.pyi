@@ -1,0 +1,278 @@
+"""si for Python: the SIMATIC ET 200S serial interface protocols for test rigs.
+
+Blocking calls release the GIL while they wait. Times are float seconds. Every failure is an
+:class:`SiError` carrying the manual's STATUS word; every bad parameter a :class:`ConfigError`
+naming the keyword, the manual's parameter, its range and the value.
+"""
+
+from types import TracebackType
+from typing import List, Optional, Tuple, Type, TypedDict
+
+BYTEORDER_BIG: int
+"""ABCD: registers in order, each high byte first (minimalmodbus's constant)."""
+BYTEORDER_LITTLE: int
+"""DCBA: the whole value little-endian."""
+BYTEORDER_BIG_SWAP: int
+"""BADC: registers in order, bytes swapped within each."""
+BYTEORDER_LITTLE_SWAP: int
+"""CDAB: low register first, each high byte first."""
+
+class SiError(OSError):
+    """A job failed."""
+
+    status: Optional[int]
+    """The manual's STATUS word (e.g. 0x0830), None where the failure has none."""
+    status_text: Optional[str]
+    """The manual's meaning of the STATUS."""
+
+class NoResponseError(SiError):
+    """The partner did not answer within the configured time (Modbus 0830H)."""
+
+class InvalidResponseError(SiError):
+    """An answer failed the checks: CRC, BCC, length, byte count or echo."""
+
+class ProtocolError(SiError):
+    """The protocol gave up: NAK, retries exhausted, the line stopped or the client closed."""
+
+class DeviceException(SiError):
+    """The partner answered with an error."""
+
+    exception_code: int
+    """The Modbus exception code (1 … 255)."""
+
+class ConfigError(ValueError):
+    """A parameter is out of range. The message starts with the keyword argument."""
+
+    keyword: str
+    """The Python keyword argument (``response_timeout``)."""
+    parameter: str
+    """The parameter as the manual names it (``response time``)."""
+    range: str
+    """The allowed values (``50 … 655000 ms``)."""
+    value: str
+    """The value given, without its unit."""
+    status: Optional[int]
+    """The module's parameter-assignment STATUS (e.g. 0x0E23), None where it has none."""
+    status_text: Optional[str]
+
+class ModbusClient:
+    """A Modbus client; build it as :class:`RtuClient` or :class:`TcpClient`.
+
+    ``unit`` is the slave address (RTU) or unit id (TCP); 0 is a broadcast (writes only).
+    Quantities follow the module's limits: 1 … 2040 bits, 1 … 127 registers (ConfigError with
+    the STATUS 0E44H … 0E46H otherwise). A context manager; ``close()`` releases the port.
+    """
+
+    @property
+    def job_bound(self) -> float:
+        """The longest a job can take before it ends, in seconds (retries included)."""
+    def read_coils(self, address: int, count: int, unit: int = 1) -> List[bool]:
+        """FC01: ``count`` coils from ``address``."""
+    def read_discrete_inputs(self, address: int, count: int, unit: int = 1) -> List[bool]:
+        """FC02: ``count`` discrete inputs from ``address``."""
+    def read_holding_registers(self, address: int, count: int, unit: int = 1) -> List[int]:
+        """FC03: ``count`` holding registers from ``address``."""
+    def read_input_registers(self, address: int, count: int, unit: int = 1) -> List[int]:
+        """FC04: ``count`` input registers from ``address``."""
+    def write_single_coil(self, address: int, value: bool, unit: int = 1) -> None:
+        """FC05: one coil."""
+    def write_single_register(self, address: int, value: int, unit: int = 1) -> None:
+        """FC06: one register."""
+    def read_exception_status(self, unit: int = 1) -> int:
+        """FC07: the exception status byte."""
+    def diagnostics(self, data: int = 0, unit: int = 1) -> int:
+        """FC08 sub-function 0 (return query data): ``data`` echoed."""
+    def get_comm_event_counter(self, unit: int = 1) -> Tuple[int, int]:
+        """FC11: ``(status, event_count)``."""
+    def get_comm_event_log(self, unit: int = 1) -> Tuple[int, int, int, List[int]]:
+        """FC12: ``(status, event_count, message_count, events)``."""
+    def write_multiple_coils(self, address: int, values: List[bool], unit: int = 1) -> None:
+        """FC15: coils from ``address``."""
+    def write_multiple_registers(self, address: int, values: List[int], unit: int = 1) -> None:
+        """FC16: registers from ``address``."""
+    def read_float(
+        self,
+        address: int,
+        unit: int = 1,
+        number_of_registers: int = 2,
+        byteorder: int = 0,
+        function: int = 3,
+    ) -> float:
+        """A float in 2 registers (a double in 4), read with FC03 (or FC04), in
+        minimalmodbus's ``byteorder``."""
+    def read_long(
+        self,
+        address: int,
+        unit: int = 1,
+        signed: bool = False,
+        byteorder: int = 0,
+        number_of_registers: int = 2,
+        function: int = 3,
+    ) -> int:
+        """A 32-bit integer in 2 registers (64-bit in 4), in minimalmodbus's ``byteorder``."""
+    def write_float(
+        self,
+        address: int,
+        value: float,
+        unit: int = 1,
+        number_of_registers: int = 2,
+        byteorder: int = 0,
+    ) -> None:
+        """Writes a float into 2 (or 4) registers with FC16."""
+    def write_long(
+        self,
+        address: int,
+        value: int,
+        unit: int = 1,
+        signed: bool = False,
+        byteorder: int = 0,
+        number_of_registers: int = 2,
+    ) -> None:
+        """Writes a 32-bit (or 64-bit) integer into 2 (or 4) registers with FC16."""
+    def close(self) -> None:
+        """Releases the port or connection; later calls raise ProtocolError. Idempotent."""
+    def __enter__(self) -> "ModbusClient": ...
+    def __exit__(
+        self,
+        exc_type: Optional[Type[BaseException]],
+        exc: Optional[BaseException],
+        tb: Optional[TracebackType],
+    ) -> bool: ...
+
+class RtuClient(ModbusClient):
+    """A Modbus RTU master on the serial port ``port``.
+
+    Keyword arguments are the module's parameters ([Modbus/USS] §3.4.3, Table 3-17):
+    ``baud`` (110 … 115200, one of the module's twelve rates), ``data_bits`` (8),
+    ``parity`` ("none", "even", "odd", "mark", "space"), ``stop_bits`` (1 or 2), ``mode``
+    ("normal" or "interference-suppression"), ``char_delay_multiplier`` (1 … 10),
+    ``response_timeout`` (0.05 … 655 s), ``retries`` (0 … 255, an extension),
+    ``broadcast_turnaround`` (seconds). ``rx_latency``: how late the port hands bytes over
+    (0 for a pseudo-terminal or a byte-by-byte port; None: read from sysfs or assume a USB
+    adapter).
+    """
+
+    def __init__(
+        self,
+        port: str,
+        *,
+        baud: int = 9600,
+        data_bits: int = 8,
+        parity: str = "even",
+        stop_bits: int = 1,
+        mode: str = "normal",
+        char_delay_multiplier: int = 1,
+        response_timeout: float = 2.0,
+        retries: int = 0,
+        broadcast_turnaround: float = 0.1,
+        rx_latency: Optional[float] = None,
+    ) -> None: ...
+    def __enter__(self) -> "RtuClient": ...
+
+class TcpClient(ModbusClient):
+    """A Modbus TCP client connected to ``host``:``port``."""
+
+    def __init__(
+        self, host: str, port: int = 502, *, response_timeout: float = 2.0, retries: int = 0
+    ) -> None: ...
+    def __enter__(self) -> "TcpClient": ...
+
+class ModbusStore:
+    """The data a slave or server serves, shared with Python while it runs.
+
+    ``ModbusStore(...)``: plain tables of the given sizes from address 0 (an access beyond
+    the end is answered with exception 02). ``ModbusStore.simatic()``: S7 memory behind the
+    example conversion DB of [Modbus/USS] §3.5.4, Table 3-20 (holding registers in DB6,
+    input registers in DB2, coils on Q and M, inputs on I).
+    """
+
+    def __init__(
+        self,
+        *,
+        coils: int = 10000,
+        discrete_inputs: int = 10000,
+        holding_registers: int = 10000,
+        input_registers: int = 10000,
+    ) -> None: ...
+    @staticmethod
+    def simatic() -> "ModbusStore":
+        """SIMATIC memory: DB1–DB6 (1024 bytes each), MB0–MB1255, QB0–QB127, IB0–IB127,
+        T0–T255, C0–C255 behind the manual's example conversion DB."""
+    def get_registers(self, table: str, address: int, count: int) -> List[int]:
+        """``count`` registers of ``table`` ("holding_registers", "input_registers")."""
+    def set_registers(self, table: str, address: int, values: List[int]) -> None:
+        """Writes ``values`` into ``table`` from ``address``."""
+    def get_bits(self, table: str, address: int, count: int) -> List[bool]:
+        """``count`` bits of ``table`` ("coils", "discrete_inputs")."""
+    def set_bits(self, table: str, address: int, values: List[bool]) -> None:
+        """Writes ``values`` into ``table`` from ``address``."""
+    def read_memory(self, area: str, start: int, count: int) -> bytes:
+        """``count`` bytes of SIMATIC ``area`` ("DB1", "M", "Q", "I", "T", "C")."""
+    def write_memory(self, area: str, start: int, data: bytes) -> None:
+        """Writes ``data`` into SIMATIC ``area`` from byte ``start``."""
+
+class SlaveEvent(TypedDict, total=False):
+    """What a slave reports: ``kind`` is "served", "broadcast", "exception" or "error"."""
+
+    kind: str
+    function: int
+    address: int
+    quantity: int
+    exception_code: int
+    status: Optional[int]
+    status_text: str
+
+class ModbusSlave:
+    """A Modbus RTU slave on the serial port ``port`` at ``address`` (1 … 255, default 222 as
+    in [Modbus/USS] §3.5.4, Table 3-20), serving ``store`` (default: plain tables of 10000
+    each) until ``close()``. Line keyword arguments as for :class:`RtuClient`.
+    """
+
+    def __init__(
+        self,
+        port: str,
+        *,
+        address: int = 222,
+        store: Optional[ModbusStore] = None,
+        baud: int = 9600,
+        data_bits: int = 8,
+        parity: str = "even",
+        stop_bits: int = 1,
+        mode: str = "normal",
+        char_delay_multiplier: int = 1,
+        rx_latency: Optional[float] = None,
+    ) -> None: ...
+    @property
+    def store(self) -> ModbusStore: ...
+    def next_event(self, timeout: float = 1.0) -> Optional[SlaveEvent]:
+        """The next event, waiting up to ``timeout`` seconds (the newest 1024 are kept)."""
+    def close(self) -> None:
+        """Stops answering and releases the port. Idempotent."""
+    def __enter__(self) -> "ModbusSlave": ...
+    def __exit__(
+        self,
+        exc_type: Optional[Type[BaseException]],
+        exc: Optional[BaseException],
+        tb: Optional[TracebackType],
+    ) -> bool: ...
+
+class TcpServer:
+    """A Modbus TCP server on ``host``:``port`` (0: a free port, see ``.port``) serving
+    ``store`` for every unit id."""
+
+    def __init__(
+        self, host: str = "127.0.0.1", port: int = 0, *, store: Optional[ModbusStore] = None
+    ) -> None: ...
+    @property
+    def store(self) -> ModbusStore: ...
+    @property
+    def port(self) -> int: ...
+    def close(self) -> None:
+        """Stops listening and closes every connection. Idempotent."""
+    def __enter__(self) -> "TcpServer": ...
+    def __exit__(
+        self,
+        exc_type: Optional[Type[BaseException]],
+        exc: Optional[BaseException],
+        tb: Optional[TracebackType],
+    ) -> bool: ...
