@@ -112,6 +112,12 @@ fn keyword_of(parameter: &str) -> &str {
         "slave address" => "address",
         "operating mode" => "mode",
         "data bits" => "data_bits",
+        "character delay time (ZVZ)" => "char_delay",
+        "acknowledgement delay time (QVZ)" => "ack_delay",
+        "connection attempts" => "connection_attempts",
+        "transmission attempts" => "transmission_attempts",
+        "maximum block length" => "max_block_len",
+        "receive buffer" => "receive_buffer_blocks",
         other => other,
     }
 }
@@ -146,6 +152,36 @@ pub fn modbus(e: ModbusError) -> PyErr {
         }
         ModbusError::Stopped => ProtocolError::new_err(text),
         ModbusError::Io(_) => SiError::new_err(text),
+    };
+    with_status(err, status)
+}
+
+/// Nothing arrived within the `timeout` the caller gave a receive.
+pub fn nothing_received(timeout: f64) -> PyErr {
+    with_status(
+        NoResponseError::new_err(format!("nothing received within {timeout} s")),
+        None,
+    )
+}
+
+/// The exception for a failed 3964(R) job ([ET200S SI] §2.13, Table 2-28): the acknowledgement
+/// delay time exceeded (0703H, 0707H) is no response; the other send errors (event class 07H:
+/// NAK, conflicts) the protocol giving up; receive errors (class 08H: BCC, character delay,
+/// transmission errors) an invalid block.
+pub fn p3964r(e: si_3964r::tokio::Error) -> PyErr {
+    use si_3964r::status::{END_TIMEOUT, SETUP_TIMEOUT};
+    use si_3964r::tokio::Error as E;
+    let status = e.status();
+    let text = e.to_string();
+    let err = match &e {
+        E::Config(range) => return range_error(range, None),
+        E::Refused(_) => ConfigError::new_err(text),
+        E::Failed { status } if *status == SETUP_TIMEOUT || *status == END_TIMEOUT => {
+            NoResponseError::new_err(text)
+        }
+        E::Failed { status } if status.class() == 0x08 => InvalidResponseError::new_err(text),
+        E::Failed { .. } | E::Stopped(_) => ProtocolError::new_err(text),
+        E::Io(_) => SiError::new_err(text),
     };
     with_status(err, status)
 }

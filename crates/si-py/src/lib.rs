@@ -7,6 +7,7 @@
 //! exception tree ([`errors`]).
 
 mod errors;
+mod link3964r;
 mod modbus_client;
 mod modbus_config;
 mod modbus_slave;
@@ -26,6 +27,7 @@ fn _si_serial(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<modbus_client::RtuClient>()?;
     m.add_class::<modbus_client::TcpClient>()?;
     m.add_class::<store_class::ModbusStore>()?;
+    m.add_class::<link3964r::Link3964R>()?;
     m.add_class::<modbus_slave::ModbusSlave>()?;
     m.add_class::<modbus_slave::TcpServer>()?;
     m.add("BYTEORDER_BIG", values::BYTEORDER_BIG)?;

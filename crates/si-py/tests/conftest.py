@@ -69,3 +69,14 @@ def python_peer():
     for proc in procs:
         proc.kill()
         proc.wait()
+
+
+@pytest.fixture
+def si_cli():
+    """The `si` command line (its path in SI_BIN: `cargo build -p si-cli`)."""
+    path = os.environ.get("SI_BIN")
+    if not path or not os.path.exists(path):
+        if os.environ.get("CI"):
+            pytest.fail("SI_BIN does not name the si binary (CI builds it)")
+        pytest.skip("SI_BIN is not set: build si with `cargo build -p si-cli`")
+    return path

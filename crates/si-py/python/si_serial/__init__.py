@@ -6,40 +6,7 @@ parameter a :class:`ConfigError` (a :class:`ValueError`) naming the parameter, i
 the value.
 """
 
-from ._si_serial import (
-    BYTEORDER_BIG,
-    BYTEORDER_BIG_SWAP,
-    BYTEORDER_LITTLE,
-    BYTEORDER_LITTLE_SWAP,
-    ConfigError,
-    DeviceException,
-    InvalidResponseError,
-    ModbusClient,
-    ModbusSlave,
-    ModbusStore,
-    NoResponseError,
-    ProtocolError,
-    RtuClient,
-    SiError,
-    TcpClient,
-    TcpServer,
-)
+from . import _si_serial
+from ._si_serial import *  # noqa: F401,F403 (the extension's classes, exceptions, constants)
 
-__all__ = [
-    "BYTEORDER_BIG",
-    "BYTEORDER_BIG_SWAP",
-    "BYTEORDER_LITTLE",
-    "BYTEORDER_LITTLE_SWAP",
-    "ConfigError",
-    "DeviceException",
-    "InvalidResponseError",
-    "ModbusClient",
-    "ModbusSlave",
-    "ModbusStore",
-    "NoResponseError",
-    "ProtocolError",
-    "RtuClient",
-    "SiError",
-    "TcpClient",
-    "TcpServer",
-]
+__all__ = [name for name in dir(_si_serial) if not name.startswith("_")]

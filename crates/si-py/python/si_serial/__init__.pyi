@@ -276,3 +276,51 @@ class TcpServer:
         exc: Optional[BaseException],
         tb: Optional[TracebackType],
     ) -> bool: ...
+
+class Link3964R:
+    """A 3964(R) link on the serial port ``port`` ([ET200S SI] §2.9, Table 2-11).
+
+    Keyword arguments: ``priority`` ("low" or "high"; the partners must differ),
+    ``block_check`` (3964(R) with BCC, or plain 3964), ``char_delay`` ZVZ (0.02 … 655.35 s,
+    default 0.22), ``ack_delay`` QVZ (0.01 … 655.35 s, default 2.0, 0.55 without block
+    check), ``connection_attempts`` and ``transmission_attempts`` (1 … 255, default 6, the
+    first included), ``max_block_len`` (1 … 1024 bytes, default 200),
+    ``receive_buffer_blocks`` (1 … 255, default 5), the line (``baud``, ``data_bits``,
+    ``parity``, ``stop_bits``) and ``rx_latency`` as for :class:`RtuClient`.
+    """
+
+    def __init__(
+        self,
+        port: str,
+        *,
+        priority: str = "low",
+        block_check: bool = True,
+        char_delay: float = 0.22,
+        ack_delay: Optional[float] = None,
+        connection_attempts: int = 6,
+        transmission_attempts: int = 6,
+        max_block_len: int = 200,
+        receive_buffer_blocks: int = 5,
+        baud: int = 9600,
+        data_bits: int = 8,
+        parity: str = "even",
+        stop_bits: int = 1,
+        rx_latency: Optional[float] = None,
+    ) -> None: ...
+    def send(self, data: bytes) -> None:
+        """Sends ``data`` as one block and returns once the partner acknowledged it (DLE);
+        NoResponseError for 0703H/0707H (QVZ exceeded), ProtocolError for a NAK (0702H,
+        0705H, 0706H), ConfigError (1E41H) for an empty or overlong block."""
+    def recv(self, timeout: Optional[float] = None) -> bytes:
+        """The next block received, waiting up to ``timeout`` seconds (None: for ever);
+        NoResponseError when none came, InvalidResponseError for a receive error (class 08H:
+        BCC, character delay)."""
+    def close(self) -> None:
+        """Stops the link and releases the port. Idempotent."""
+    def __enter__(self) -> "Link3964R": ...
+    def __exit__(
+        self,
+        exc_type: Optional[Type[BaseException]],
+        exc: Optional[BaseException],
+        tb: Optional[TracebackType],
+    ) -> bool: ...
