@@ -118,6 +118,10 @@ fn keyword_of(parameter: &str) -> &str {
         "transmission attempts" => "transmission_attempts",
         "maximum block length" => "max_block_len",
         "receive buffer" => "receive_buffer_blocks",
+        "character delay time" => "char_delay",
+        "end-of-text character 1" | "end-of-text character 2" => "end_chars",
+        "length of received frame" => "fixed_length",
+        "maximum frame length" => "max_frame_len",
         other => other,
     }
 }
@@ -179,6 +183,31 @@ pub fn p3964r(e: si_3964r::tokio::Error) -> PyErr {
         E::Failed { status } if *status == SETUP_TIMEOUT || *status == END_TIMEOUT => {
             NoResponseError::new_err(text)
         }
+        E::Failed { status } if status.class() == 0x08 => InvalidResponseError::new_err(text),
+        E::Failed { .. } | E::Stopped(_) => ProtocolError::new_err(text),
+        E::Io(_) => SiError::new_err(text),
+    };
+    with_status(err, status)
+}
+
+/// The exception for a failed ASCII job ([ET200S SI] §2.13, Table 2-28): receive errors (event
+/// class 08H: character delay, frame too long, transmission errors) an invalid frame; send
+/// errors (class 07H: XON or CTS = ON timed out) the protocol giving up.
+pub fn ascii(e: si_ascii::tokio::Error) -> PyErr {
+    use si_ascii::config::ConfigError as C;
+    use si_ascii::tokio::Error as E;
+    let status = e.status();
+    let text = e.to_string();
+    let err = match &e {
+        E::Config(C::OutOfRange(range)) => return range_error(range, status),
+        E::Config(C::NotAllowed {
+            parameter, value, ..
+        }) => {
+            let err = with_attr(ConfigError::new_err(text), "keyword", keyword_of(parameter));
+            let err = with_attr(err, "parameter", *parameter);
+            with_attr(err, "value", value.clone())
+        }
+        E::Config(C::Settings(_)) | E::Refused(_) => ConfigError::new_err(text),
         E::Failed { status } if status.class() == 0x08 => InvalidResponseError::new_err(text),
         E::Failed { .. } | E::Stopped(_) => ProtocolError::new_err(text),
         E::Io(_) => SiError::new_err(text),

@@ -8,6 +8,7 @@
 
 mod errors;
 mod link3964r;
+mod link_ascii;
 mod modbus_client;
 mod modbus_config;
 mod modbus_slave;
@@ -28,6 +29,7 @@ fn _si_serial(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<modbus_client::TcpClient>()?;
     m.add_class::<store_class::ModbusStore>()?;
     m.add_class::<link3964r::Link3964R>()?;
+    m.add_class::<link_ascii::AsciiLink>()?;
     m.add_class::<modbus_slave::ModbusSlave>()?;
     m.add_class::<modbus_slave::TcpServer>()?;
     m.add("BYTEORDER_BIG", values::BYTEORDER_BIG)?;

@@ -324,3 +324,46 @@ class Link3964R:
         exc: Optional[BaseException],
         tb: Optional[TracebackType],
     ) -> bool: ...
+
+class AsciiLink:
+    """The ASCII driver on the serial port ``port`` ([ET200S SI] §2.8, Table 2-10).
+
+    The end of a received frame: ``end="char-delay"`` (a gap longer than ``char_delay``,
+    the default), ``"end-chars"`` (``end_chars=(first, second)``, second 0 = unused; the frame
+    includes them) or ``"fixed-length"`` (``fixed_length`` characters). ``char_delay``
+    (0.004 … 65.535 s, at least the manual's minimum for the baud rate), ``max_frame_len``
+    (1 … 1024, default 200), ``flow_control`` ("none", "xon-xoff", "rts-cts", "auto-v24"),
+    the line and ``rx_latency`` as for :class:`RtuClient`.
+    """
+
+    def __init__(
+        self,
+        port: str,
+        *,
+        end: str = "char-delay",
+        end_chars: Tuple[int, int] = (3, 0),
+        fixed_length: int = 100,
+        char_delay: float = 0.004,
+        max_frame_len: int = 200,
+        flow_control: str = "none",
+        baud: int = 9600,
+        data_bits: int = 8,
+        parity: str = "even",
+        stop_bits: int = 1,
+        rx_latency: Optional[float] = None,
+    ) -> None: ...
+    def send(self, data: bytes) -> None:
+        """Sends ``data`` as one frame (end characters are the caller's to include)."""
+    def recv(self, timeout: Optional[float] = None) -> bytes:
+        """The next frame, waiting up to ``timeout`` seconds (None: for ever);
+        NoResponseError when none came, InvalidResponseError for a receive error (class 08H).
+        A ``send`` from another thread waits while a ``recv`` waits."""
+    def close(self) -> None:
+        """Stops the link and releases the port. Idempotent."""
+    def __enter__(self) -> "AsciiLink": ...
+    def __exit__(
+        self,
+        exc_type: Optional[Type[BaseException]],
+        exc: Optional[BaseException],
+        tb: Optional[TracebackType],
+    ) -> bool: ...
