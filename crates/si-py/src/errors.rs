@@ -118,6 +118,8 @@ fn keyword_of(parameter: &str) -> &str {
         "transmission attempts" => "transmission_attempts",
         "maximum block length" => "max_block_len",
         "receive buffer" => "receive_buffer_blocks",
+        "response monitoring time (TRES)" => "response_timeout",
+        "maximum job length" => "max_job_len",
         "character delay time" => "char_delay",
         "end-of-text character 1" | "end-of-text character 2" => "end_chars",
         "length of received frame" => "fixed_length",
@@ -209,6 +211,48 @@ pub fn ascii(e: si_ascii::tokio::Error) -> PyErr {
         }
         E::Config(C::Settings(_)) | E::Refused(_) => ConfigError::new_err(text),
         E::Failed { status } if status.class() == 0x08 => InvalidResponseError::new_err(text),
+        E::Failed { .. } | E::Stopped(_) => ProtocolError::new_err(text),
+        E::Io(_) => SiError::new_err(text),
+    };
+    with_status(err, status)
+}
+
+/// The exception for a failed RK 512 job ([CP 341] §2.2.3; [CP 341 Diag] §8.1): no reaction
+/// telegram (0A05H) or no acknowledgement of the 3964(R) procedure (0703H, 0707H) is no
+/// response; the partner's error numbers (event class 09H) a device exception with
+/// `.error_number`; a wrong reaction telegram (class 0AH) or receive error (class 08H) an
+/// invalid response; the rest (NAK, refused by the procedure) the protocol giving up.
+///
+/// `cause` is the 3964(R) STATUS behind 051AH "command telegram not sent" (the station's last
+/// cause): it decides the class and is the exception's `.cause`.
+pub fn rk512(e: si_rk512::tokio::Error, cause: Option<Status>) -> PyErr {
+    use si_3964r::status::{END_TIMEOUT, SETUP_TIMEOUT};
+    use si_rk512::status::NO_REACTION;
+    use si_rk512::tokio::Error as E;
+    let status = e.status();
+    if let (Some(cause), E::Failed { .. }) = (cause, &e) {
+        let err = p3964r(si_3964r::tokio::Error::Failed { status: cause });
+        let err = with_attr(err, "cause", cause.code());
+        let err = with_attr(err, "args", (e.to_string(),));
+        return with_status(err, status);
+    }
+    let text = e.to_string();
+    let err = match &e {
+        E::Config(range) => return range_error(range, None),
+        E::Refused(_) => ConfigError::new_err(text),
+        E::Failed { status, .. }
+            if *status == NO_REACTION || *status == SETUP_TIMEOUT || *status == END_TIMEOUT =>
+        {
+            NoResponseError::new_err(text)
+        }
+        E::Failed { status, .. } if status.class() == 0x09 => with_attr(
+            DeviceException::new_err(text),
+            "error_number",
+            status.number(),
+        ),
+        E::Failed { status, .. } if matches!(status.class(), 0x08 | 0x0A) => {
+            InvalidResponseError::new_err(text)
+        }
         E::Failed { .. } | E::Stopped(_) => ProtocolError::new_err(text),
         E::Io(_) => SiError::new_err(text),
     };

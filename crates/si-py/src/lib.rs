@@ -13,6 +13,7 @@ mod modbus_client;
 mod modbus_config;
 mod modbus_slave;
 mod options;
+mod rk512;
 mod runtime;
 mod store;
 mod store_class;
@@ -30,6 +31,7 @@ fn _si_serial(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<store_class::ModbusStore>()?;
     m.add_class::<link3964r::Link3964R>()?;
     m.add_class::<link_ascii::AsciiLink>()?;
+    m.add_class::<rk512::Rk512Station>()?;
     m.add_class::<modbus_slave::ModbusSlave>()?;
     m.add_class::<modbus_slave::TcpServer>()?;
     m.add("BYTEORDER_BIG", values::BYTEORDER_BIG)?;

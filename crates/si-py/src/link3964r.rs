@@ -9,6 +9,51 @@ use pyo3::types::{PyBytes, PyTuple};
 use si_3964r::tokio::{Handle, Sender};
 use si_3964r::{Config, Priority};
 
+/// The 3964(R) config from its keyword arguments (unchecked: `validate` checks the ranges).
+#[allow(clippy::too_many_arguments)]
+pub fn link_config(
+    priority: &str,
+    block_check: bool,
+    char_delay: f64,
+    ack_delay: Option<f64>,
+    connection_attempts: i64,
+    transmission_attempts: i64,
+    max_block_len: i64,
+    receive_buffer_blocks: i64,
+    settings: si_core::SerialSettings,
+) -> PyResult<Config> {
+    let defaults = if block_check {
+        Config::default()
+    } else {
+        Config::without_block_check()
+    };
+    Ok(Config {
+        block_check,
+        priority: match priority {
+            "low" => Priority::Low,
+            "high" => Priority::High,
+            other => {
+                return Err(crate::errors::argument_error(
+                    "priority",
+                    "low, high",
+                    other,
+                ))
+            }
+        },
+        char_delay: seconds("char_delay", char_delay)?,
+        ack_delay: match ack_delay {
+            Some(s) => seconds("ack_delay", s)?,
+            None => defaults.ack_delay,
+        },
+        connection_attempts: narrow("connection_attempts", connection_attempts)?,
+        transmission_attempts: narrow("transmission_attempts", transmission_attempts)?,
+        max_block_len: narrow("max_block_len", max_block_len)?,
+        receive_buffer_blocks: narrow("receive_buffer_blocks", receive_buffer_blocks)?,
+        settings,
+        ..defaults
+    })
+}
+
 /// A 3964(R) link on the serial port `port` ([ET200S SI] §2.9, Table 2-11): `send` a block
 /// and wait for its acknowledgement, `recv` the next block received.
 #[pyclass(frozen, module = "si_serial")]
@@ -40,36 +85,17 @@ impl Link3964R {
         stop_bits: i64,
         rx_latency: Option<f64>,
     ) -> PyResult<Self> {
-        let defaults = if block_check {
-            Config::default()
-        } else {
-            Config::without_block_check()
-        };
-        let config = Config {
+        let config = link_config(
+            priority,
             block_check,
-            priority: match priority {
-                "low" => Priority::Low,
-                "high" => Priority::High,
-                other => {
-                    return Err(crate::errors::argument_error(
-                        "priority",
-                        "low, high",
-                        other,
-                    ))
-                }
-            },
-            char_delay: seconds("char_delay", char_delay)?,
-            ack_delay: match ack_delay {
-                Some(s) => seconds("ack_delay", s)?,
-                None => defaults.ack_delay,
-            },
-            connection_attempts: narrow("connection_attempts", connection_attempts)?,
-            transmission_attempts: narrow("transmission_attempts", transmission_attempts)?,
-            max_block_len: narrow("max_block_len", max_block_len)?,
-            receive_buffer_blocks: narrow("receive_buffer_blocks", receive_buffer_blocks)?,
-            settings: settings(baud, data_bits, parity, stop_bits)?,
-            ..defaults
-        };
+            char_delay,
+            ack_delay,
+            connection_attempts,
+            transmission_attempts,
+            max_block_len,
+            receive_buffer_blocks,
+            settings(baud, data_bits, parity, stop_bits)?,
+        )?;
         config.validate().map_err(|e| range_error(&e, None))?;
         let options = port_options(rx_latency)?;
         let _entered = runtime().enter();

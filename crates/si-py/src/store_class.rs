@@ -75,7 +75,7 @@ fn span<T>(values: &mut [T], address: i64, count: usize) -> PyResult<&mut [T]> {
 }
 
 /// An area of SIMATIC memory by its S7 name: I (or E), Q (or A), M (or F), T, C, DBn.
-fn area(name: &str) -> PyResult<Area> {
+pub fn area(name: &str) -> PyResult<Area> {
     let upper = name.to_ascii_uppercase();
     Ok(match upper.as_str() {
         "I" | "E" => Area::Inputs,

@@ -6,7 +6,7 @@ naming the keyword, the manual's parameter, its range and the value.
 """
 
 from types import TracebackType
-from typing import List, Optional, Tuple, Type, TypedDict
+from typing import Dict, List, Optional, Tuple, Type, TypedDict
 
 BYTEORDER_BIG: int
 """ABCD: registers in order, each high byte first (minimalmodbus's constant)."""
@@ -34,11 +34,16 @@ class InvalidResponseError(SiError):
 class ProtocolError(SiError):
     """The protocol gave up: NAK, retries exhausted, the line stopped or the client closed."""
 
+# RK 512's 051AH "command telegram not sent" carries ``cause``: the 3964(R) STATUS behind
+# it (e.g. 0703H), which also decides the exception's class.
+
 class DeviceException(SiError):
     """The partner answered with an error."""
 
     exception_code: int
-    """The Modbus exception code (1 … 255)."""
+    """Modbus: the exception code (1 … 255)."""
+    error_number: int
+    """RK 512: the partner's error number (the STATUS's event number, class 09H)."""
 
 class ConfigError(ValueError):
     """A parameter is out of range. The message starts with the keyword argument."""
@@ -361,6 +366,62 @@ class AsciiLink:
     def close(self) -> None:
         """Stops the link and releases the port. Idempotent."""
     def __enter__(self) -> "AsciiLink": ...
+    def __exit__(
+        self,
+        exc_type: Optional[Type[BaseException]],
+        exc: Optional[BaseException],
+        tb: Optional[TracebackType],
+    ) -> bool: ...
+
+class Rk512Station:
+    """An RK 512 station on the serial port ``port`` ([CP 341] §2.2.3).
+
+    The 3964(R) keyword arguments of :class:`Link3964R`, plus ``response_timeout`` (TRES,
+    0.01 … 655.35 s, default 10) and ``max_job_len`` (2 … 65534 bytes). With ``serve=True``
+    it is also the passive partner: it serves the other side's SEND and FETCH jobs from its
+    own memory (``dbs`` {number: bytes}; ``inputs``, ``outputs``, ``flags`` in bytes,
+    ``timers``, ``counters`` in cells). Areas: "DBn"/"DXn" (``start`` a data word), "I",
+    "Q", "M" (a byte), "T", "C" (a cell).
+    """
+
+    def __init__(
+        self,
+        port: str,
+        *,
+        serve: bool = False,
+        dbs: Optional[Dict[int, int]] = None,
+        inputs: Optional[int] = None,
+        outputs: Optional[int] = None,
+        flags: Optional[int] = None,
+        timers: Optional[int] = None,
+        counters: Optional[int] = None,
+        response_timeout: float = 10.0,
+        max_job_len: int = 1024,
+        priority: str = "low",
+        block_check: bool = True,
+        char_delay: float = 0.22,
+        ack_delay: Optional[float] = None,
+        connection_attempts: int = 6,
+        transmission_attempts: int = 6,
+        max_block_len: int = 200,
+        receive_buffer_blocks: int = 5,
+        baud: int = 9600,
+        data_bits: int = 8,
+        parity: str = "even",
+        stop_bits: int = 1,
+        rx_latency: Optional[float] = None,
+    ) -> None: ...
+    def send(self, area: str, start: int, data: bytes) -> None:
+        """SEND ``data`` into the partner's ``area`` from ``start``; returns on its reaction."""
+    def fetch(self, area: str, start: int, length: int) -> bytes:
+        """FETCH ``length`` bytes from the partner's ``area`` from ``start``."""
+    def read_memory(self, area: str, start: int, count: int) -> bytes:
+        """``count`` bytes of this station's own memory (``serve=True``) from byte ``start``."""
+    def write_memory(self, area: str, start: int, data: bytes) -> None:
+        """Writes ``data`` into this station's own memory from byte ``start``."""
+    def close(self) -> None:
+        """Stops the station and releases the port. Idempotent."""
+    def __enter__(self) -> "Rk512Station": ...
     def __exit__(
         self,
         exc_type: Optional[Type[BaseException]],
