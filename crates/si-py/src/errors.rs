@@ -120,6 +120,12 @@ fn keyword_of(parameter: &str) -> &str {
         "receive buffer" => "receive_buffer_blocks",
         "response monitoring time (TRES)" => "response_timeout",
         "maximum job length" => "max_job_len",
+        "response timeout" => "response_timeout",
+        "WDH (PKW repetitions)" => "retries",
+        "cycle pause" => "cycle_pause",
+        "SANZ (polling list entries)" | "TNU (node number)" | "PZD words" | "net data bytes" => {
+            "nodes"
+        }
         "character delay time" => "char_delay",
         "end-of-text character 1" | "end-of-text character 2" => "end_chars",
         "length of received frame" => "fixed_length",
@@ -253,6 +259,35 @@ pub fn rk512(e: si_rk512::tokio::Error, cause: Option<Status>) -> PyErr {
         E::Failed { status, .. } if matches!(status.class(), 0x08 | 0x0A) => {
             InvalidResponseError::new_err(text)
         }
+        E::Failed { .. } | E::Stopped(_) => ProtocolError::new_err(text),
+        E::Io(_) => SiError::new_err(text),
+    };
+    with_status(err, status)
+}
+
+/// The exception for a failed USS parameter job ([Modbus/USS] §3.8): the drive's PKW error
+/// (response ID 7, with `.error_number`) a device exception; no answer (1404H, 1408H) no
+/// response; the other telegram checks (event class 14H: BCC, LGE, address, character error)
+/// an invalid response; the rest (PKW task errors, class 15H) the protocol giving up.
+pub fn uss(e: si_uss::tokio::Error) -> PyErr {
+    use si_uss::config::ConfigError as C;
+    use si_uss::status::{NO_ANSWER, NO_STX};
+    use si_uss::tokio::Error as E;
+    let status = e.status();
+    let text = e.to_string();
+    let err = match &e {
+        E::Config(C::OutOfRange(range)) => return range_error(range, None),
+        E::Config(C::ConflictingStructure { .. }) | E::Refused(_) => {
+            with_attr(ConfigError::new_err(text), "keyword", "nodes")
+        }
+        E::Failed {
+            error_number: Some(n),
+            ..
+        } => with_attr(DeviceException::new_err(text), "error_number", *n),
+        E::Failed { status, .. } if *status == NO_ANSWER || *status == NO_STX => {
+            NoResponseError::new_err(text)
+        }
+        E::Failed { status, .. } if status.class() == 0x14 => InvalidResponseError::new_err(text),
         E::Failed { .. } | E::Stopped(_) => ProtocolError::new_err(text),
         E::Io(_) => SiError::new_err(text),
     };

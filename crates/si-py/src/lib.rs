@@ -17,6 +17,7 @@ mod rk512;
 mod runtime;
 mod store;
 mod store_class;
+mod uss;
 mod values;
 
 use pyo3::prelude::*;
@@ -32,6 +33,7 @@ fn _si_serial(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<link3964r::Link3964R>()?;
     m.add_class::<link_ascii::AsciiLink>()?;
     m.add_class::<rk512::Rk512Station>()?;
+    m.add_class::<uss::UssMaster>()?;
     m.add_class::<modbus_slave::ModbusSlave>()?;
     m.add_class::<modbus_slave::TcpServer>()?;
     m.add("BYTEORDER_BIG", values::BYTEORDER_BIG)?;

@@ -21,7 +21,7 @@ pub fn settings(
     SerialSettings::new(baud, data_bits, parity, stop_bits).map_err(|e| settings_error(&e))
 }
 
-fn settings_error(e: &SettingsError) -> PyErr {
+pub fn settings_error(e: &SettingsError) -> PyErr {
     let range = si_core::RangeError::new(
         match e {
             SettingsError::Baud { .. } => "baud",

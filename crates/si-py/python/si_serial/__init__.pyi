@@ -43,7 +43,8 @@ class DeviceException(SiError):
     exception_code: int
     """Modbus: the exception code (1 … 255)."""
     error_number: int
-    """RK 512: the partner's error number (the STATUS's event number, class 09H)."""
+    """RK 512: the partner's error number (the STATUS's event number, class 09H); USS: the
+    drive's PKW error number (response ID 7)."""
 
 class ConfigError(ValueError):
     """A parameter is out of range. The message starts with the keyword argument."""
@@ -422,6 +423,62 @@ class Rk512Station:
     def close(self) -> None:
         """Stops the station and releases the port. Idempotent."""
     def __enter__(self) -> "Rk512Station": ...
+    def __exit__(
+        self,
+        exc_type: Optional[Type[BaseException]],
+        exc: Optional[BaseException],
+        tb: Optional[TracebackType],
+    ) -> bool: ...
+
+class UssEvent(TypedDict, total=False):
+    """A USS cycle event: ``kind`` is "response", "no_answer", "rejected", "cycle_done" or
+    "other"."""
+
+    kind: str
+    cycle: int
+    address: int
+    pzd: List[int]
+    status: int
+    status_text: str
+    text: str
+
+class UssMaster:
+    """The USS master on the serial port ``port`` ([Modbus/USS] §3.8), polling ``nodes``
+    (a list of ``(address 0 … 31, pkw_words 0/3/4/127, pzd_words 0 … 16)``) cyclically from
+    the moment it is built, at 8E1.
+
+    ``response_timeout`` (0.001 … 10 s, default 0.02), ``retries`` (PKW repetitions WDH,
+    0 … 32767, default 20), ``cycle_pause`` (0 … 60 s), ``baud`` (the USS rates) and
+    ``rx_latency`` as for :class:`RtuClient`.
+    """
+
+    def __init__(
+        self,
+        port: str,
+        nodes: List[Tuple[int, int, int]],
+        *,
+        response_timeout: float = 0.02,
+        retries: int = 20,
+        cycle_pause: float = 0.0,
+        baud: int = 9600,
+        rx_latency: Optional[float] = None,
+    ) -> None: ...
+    def read_parameter(self, node: int, number: int, index: int = 0) -> int:
+        """Reads parameter ``number`` (element ``index``) of ``node`` (PKW task 1)."""
+    def write_parameter(
+        self, node: int, number: int, value: int, index: int = 0, double: bool = False
+    ) -> int:
+        """Writes ``value`` (task 2, or 3 with ``double``); returns the value answered.
+        DeviceException with ``error_number`` when the drive refuses."""
+    def set_control(self, node: int, words: List[int]) -> None:
+        """The PZD sent to ``node`` from the next poll on: STW, HSW, …"""
+    def get_status(self, node: int) -> List[int]:
+        """The PZD ``node`` answered last: ZSW, HIW, …"""
+    def next_event(self, timeout: float = 1.0) -> Optional[UssEvent]:
+        """The next cycle event, waiting up to ``timeout`` seconds."""
+    def close(self) -> None:
+        """Stops polling and releases the port. Idempotent."""
+    def __enter__(self) -> "UssMaster": ...
     def __exit__(
         self,
         exc_type: Optional[Type[BaseException]],
