@@ -15,6 +15,8 @@ mod modbus_slave;
 mod options;
 mod rk512;
 mod runtime;
+mod sim;
+mod sim_trace;
 mod store;
 mod store_class;
 mod uss;
@@ -34,6 +36,7 @@ fn _si_serial(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<link_ascii::AsciiLink>()?;
     m.add_class::<rk512::Rk512Station>()?;
     m.add_class::<uss::UssMaster>()?;
+    m.add_class::<sim::Simulator>()?;
     m.add_class::<modbus_slave::ModbusSlave>()?;
     m.add_class::<modbus_slave::TcpServer>()?;
     m.add("BYTEORDER_BIG", values::BYTEORDER_BIG)?;

@@ -18,7 +18,7 @@ use std::collections::BTreeMap;
 
 /// The RK 512 address of a job: `area` "DBn" or "DXn" from data word `start`, "I", "Q", "M"
 /// from byte `start`, "T", "C" from cell `start` ([CP 341] §2.2.3, Table 2-1).
-fn address(area: &str, start: i64) -> PyResult<Address> {
+pub fn address(area: &str, start: i64) -> PyResult<Address> {
     let upper = area.to_ascii_uppercase();
     let block = |prefix: &str| {
         upper

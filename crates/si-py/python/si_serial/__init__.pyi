@@ -485,3 +485,65 @@ class UssMaster:
         exc: Optional[BaseException],
         tb: Optional[TracebackType],
     ) -> bool: ...
+
+class TraceRecord(TypedDict, total=False):
+    """One simulator trace entry: ``at`` (virtual seconds), ``station``, ``kind`` ("tx",
+    "rx", "rx_chunk", "rx_error", "other") and its fields."""
+
+    at: float
+    station: str
+    kind: str
+    bytes: bytes
+    byte: int
+    error: str
+    text: str
+
+class Simulator:
+    """si's deterministic line simulator, in virtual time: protocol engines as stations,
+    wired with ``connect`` (point to point) or ``bus`` (half-duplex RS-485). A job call steps
+    the simulation until the job's event (at most ``job_limit`` virtual seconds) and returns
+    at once in real time; ``now`` is the virtual time. Station methods return the station's
+    number."""
+
+    def __init__(self, seed: int = 1, *, trace: bool = True, job_limit: float = 60.0) -> None: ...
+    @property
+    def now(self) -> float:
+        """Virtual time in seconds."""
+    def connect(self, a: int, b: int) -> None:
+        """Wires two stations point to point, full duplex."""
+    def bus(self, stations: List[int]) -> None:
+        """Puts stations on one half-duplex bus."""
+    def run_for(self, span: float) -> None:
+        """Runs ``span`` seconds of virtual time."""
+    def trace(self) -> List[TraceRecord]:
+        """The trace so far as a list of records."""
+    def add_modbus_master(
+        self, name: str, *, response_timeout: float = 2.0, retries: int = 0, baud: int = 9600
+    ) -> int: ...
+    def add_modbus_slave(
+        self, name: str, *, address: int = 1, store: Optional[ModbusStore] = None, baud: int = 9600
+    ) -> int: ...
+    def add_3964r(self, name: str, *, priority: str = "low", baud: int = 9600) -> int: ...
+    def add_ascii(self, name: str, *, end_char: Optional[int] = None, baud: int = 9600) -> int: ...
+    def add_rk512(
+        self, name: str, *, priority: str = "low", dbs: Optional[Dict[int, int]] = None, baud: int = 9600
+    ) -> int: ...
+    def add_uss_master(
+        self, name: str, nodes: List[Tuple[int, int, int]], *, baud: int = 9600, local_echo: bool = False
+    ) -> int: ...
+    def add_uss_drive(
+        self, name: str, *, address: int = 1, baud: int = 9600, local_echo: bool = False
+    ) -> int:
+        """A simulated drive (PKW 4, PZD 2; P700, P1082, P2010, P964, P2000, P1120, P20001)."""
+    def read_holding_registers(self, station: int, address: int, count: int, unit: int = 1) -> List[int]: ...
+    def write_multiple_registers(self, station: int, address: int, values: List[int], unit: int = 1) -> None: ...
+    def send(self, station: int, data: bytes) -> None:
+        """3964(R) or ASCII: sends a block or frame and runs until it is acknowledged or sent."""
+    def recv(self, station: int, timeout: float = 10.0) -> bytes:
+        """3964(R) or ASCII: the next block or frame, within ``timeout`` virtual seconds."""
+    def rk512_send(self, station: int, area: str, start: int, data: bytes) -> None: ...
+    def rk512_fetch(self, station: int, area: str, start: int, length: int) -> bytes: ...
+    def read_memory(self, station: int, area_name: str, start: int, count: int) -> bytes:
+        """Bytes of an RK 512 serving station's own memory."""
+    def read_parameter(self, station: int, node: int, number: int, index: int = 0) -> int:
+        """USS master: reads parameter ``number`` of ``node``."""
