@@ -459,7 +459,7 @@ impl RtuClient {
     #[new]
     #[pyo3(signature = (port, *, baud=9600, data_bits=8, parity="even", stop_bits=1, mode="normal",
         char_delay_multiplier=1, response_timeout=2.0, retries=0, broadcast_turnaround=0.1,
-        rx_latency=None))]
+        rx_latency=None, frame_end="gap"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         port: &str,
@@ -473,6 +473,7 @@ impl RtuClient {
         retries: i64,
         broadcast_turnaround: f64,
         rx_latency: Option<f64>,
+        frame_end: &str,
     ) -> PyResult<PyClassInitializer<Self>> {
         let line = LineArgs {
             baud,
@@ -487,7 +488,10 @@ impl RtuClient {
         let _entered = runtime().enter();
         let serial = si_core::port::open(port, &config.line.settings, &options)
             .map_err(|e| modbus(e.into()))?;
-        let master = Master::spawn(config, serial).map_err(modbus)?;
+        let engine = si_modbus::Master::new(config)
+            .map_err(|e| modbus(e.into()))?
+            .with_frame_end(modbus_config::frame_end(frame_end)?);
+        let master = Master::spawn_engine(engine, serial);
         let bound = config.job_bound().as_micros() as f64 / 1e6;
         Ok(
             PyClassInitializer::from(ModbusClient::new(Line::Rtu(master), bound))

@@ -64,3 +64,17 @@ pub fn slave(line: &LineArgs<'_>, address: i64) -> PyResult<SlaveConfig> {
         .map_err(|e| range_error(&e.range, Some(e.status)))?;
     Ok(config)
 }
+
+/// How received frames end: "gap" (the module's silence, [Modbus/USS] §3.3.5, Table 3-11) or
+/// "length" (si-modbus's host extension: at the length the header predicts once the CRC checks).
+pub fn frame_end(name: &str) -> PyResult<si_modbus::FrameEnd> {
+    match name {
+        "gap" => Ok(si_modbus::FrameEnd::Gap),
+        "length" => Ok(si_modbus::FrameEnd::Length),
+        other => Err(crate::errors::argument_error(
+            "frame_end",
+            "gap, length",
+            other,
+        )),
+    }
+}

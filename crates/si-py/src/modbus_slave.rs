@@ -91,7 +91,7 @@ pub struct ModbusSlave {
 impl ModbusSlave {
     #[new]
     #[pyo3(signature = (port, *, address=222, store=None, baud=9600, data_bits=8, parity="even",
-        stop_bits=1, mode="normal", char_delay_multiplier=1, rx_latency=None))]
+        stop_bits=1, mode="normal", char_delay_multiplier=1, rx_latency=None, frame_end="gap"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -105,6 +105,7 @@ impl ModbusSlave {
         mode: &str,
         char_delay_multiplier: i64,
         rx_latency: Option<f64>,
+        frame_end: &str,
     ) -> PyResult<Self> {
         let line = LineArgs {
             baud,
@@ -124,7 +125,10 @@ impl ModbusSlave {
         let _entered = runtime().enter();
         let serial = si_core::port::open(port, &config.line.settings, &options)
             .map_err(|e| modbus(e.into()))?;
-        let mut slave = Slave::spawn(config, shared, serial).map_err(modbus)?;
+        let engine = si_modbus::Slave::new(config, shared)
+            .map_err(|e| modbus(e.into()))?
+            .with_frame_end(modbus_config::frame_end(frame_end)?);
+        let mut slave = Slave::spawn_engine(engine, serial);
         let (tx, rx) = mpsc::channel(EVENTS_KEPT);
         let (stop_tx, mut stop_rx) = oneshot::channel();
         let task = runtime().spawn(async move {
