@@ -6,11 +6,13 @@
 //! shared runtime with the GIL released ([`runtime`]) and maps their errors onto one
 //! exception tree ([`errors`]).
 
+mod aio_modbus;
 mod errors;
 mod link3964r;
 mod link_ascii;
 mod modbus_client;
 mod modbus_config;
+mod modbus_jobs;
 mod modbus_slave;
 mod options;
 mod rk512;
@@ -43,5 +45,12 @@ fn _si_serial(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("BYTEORDER_LITTLE", values::BYTEORDER_LITTLE)?;
     m.add("BYTEORDER_BIG_SWAP", values::BYTEORDER_BIG_SWAP)?;
     m.add("BYTEORDER_LITTLE_SWAP", values::BYTEORDER_LITTLE_SWAP)?;
+    let aio = PyModule::new(m.py(), "_aio")?;
+    aio.add_class::<aio_modbus::AioModbusClient>()?;
+    aio.add_class::<aio_modbus::AioRtuClient>()?;
+    aio.add_class::<aio_modbus::AioTcpClient>()?;
+    m.add_submodule(&aio)?;
+    // One runtime for both APIs; a second import of the module finds it set already.
+    let _ = pyo3_async_runtimes::tokio::init_with_runtime(runtime::runtime());
     Ok(())
 }

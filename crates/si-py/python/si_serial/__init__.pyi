@@ -155,7 +155,8 @@ class RtuClient(ModbusClient):
     ``response_timeout`` (0.05 … 655 s), ``retries`` (0 … 255, an extension),
     ``broadcast_turnaround`` (seconds). ``rx_latency``: how late the port hands bytes over
     (0 for a pseudo-terminal or a byte-by-byte port; None: read from sysfs or assume a USB
-    adapter).
+    adapter). ``frame_end``: "gap" (the module's silence, Table 3-11) or "length" (a host
+    extension: a response ends at its predicted length once its CRC checks).
     """
 
     def __init__(
@@ -172,6 +173,7 @@ class RtuClient(ModbusClient):
         retries: int = 0,
         broadcast_turnaround: float = 0.1,
         rx_latency: Optional[float] = None,
+        frame_end: str = "gap",
     ) -> None: ...
     def __enter__(self) -> "RtuClient": ...
 
@@ -247,6 +249,7 @@ class ModbusSlave:
         mode: str = "normal",
         char_delay_multiplier: int = 1,
         rx_latency: Optional[float] = None,
+        frame_end: str = "gap",
     ) -> None: ...
     @property
     def store(self) -> ModbusStore: ...
