@@ -2,9 +2,9 @@
 //! re-exports this extension module, `si_serial._si_serial`).
 //!
 //! Thin glue only: every protocol rule, range and STATUS is the protocol crates'. What is
-//! here converts keyword arguments to configs ([`options`]), runs the async handles on one
-//! shared runtime with the GIL released ([`runtime`]) and maps their errors onto one
-//! exception tree ([`errors`]).
+//! here converts keyword arguments to configs (`options`), runs the async handles on one
+//! shared runtime with the GIL released (`runtime`) and maps their errors onto one
+//! exception tree (`errors`).
 
 mod aio_modbus;
 mod errors;

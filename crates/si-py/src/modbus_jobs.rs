@@ -16,8 +16,8 @@ use std::sync::{Arc, Mutex};
 pub enum Line {
     /// Modbus RTU on a serial port.
     Rtu(Master),
-    /// Modbus TCP.
-    Tcp(tcp::Client),
+    /// Modbus TCP (boxed: its receive buffer makes it the larger).
+    Tcp(Box<tcp::Client>),
 }
 
 /// Runs `$body` with `$c` bound to whichever client `$line` holds.
@@ -29,6 +29,9 @@ macro_rules! on_line {
         }
     };
 }
+
+/// FC12's answer: status, event count, message count, events.
+pub type EventLog = (u16, u16, u16, Vec<u8>);
 
 /// A job's result, once it has run.
 pub type Job<T> = std::pin::Pin<Box<dyn Future<Output = PyResult<T>> + Send + 'static>>;
@@ -127,7 +130,7 @@ impl Jobs {
             let client = tcp::Client::connect_with(config, address)
                 .await
                 .map_err(modbus)?;
-            Ok(Jobs::new(Line::Tcp(client), bound))
+            Ok(Jobs::new(Line::Tcp(Box::new(client)), bound))
         }))
     }
 
@@ -249,7 +252,7 @@ impl Jobs {
     }
 
     /// FC12.
-    pub fn get_comm_event_log(&self, unit: i64) -> PyResult<Job<(u16, u16, u16, Vec<u8>)>> {
+    pub fn get_comm_event_log(&self, unit: i64) -> PyResult<Job<EventLog>> {
         let (line, u) = (self.line()?, self::unit(unit)?);
         Ok(Box::pin(async move {
             let log = on_line!(line, c => c.get_comm_event_log(u).await).map_err(modbus)?;
@@ -404,7 +407,7 @@ impl Jobs {
             };
             match line {
                 Line::Rtu(m) => m.close().await,
-                Line::Tcp(c) => c.close().await,
+                Line::Tcp(c) => (*c).close().await,
             }
             .map_err(modbus)
         })

@@ -57,7 +57,7 @@ where
 /// Float seconds as a [`Duration`] (microsecond resolution); negative, NaN or infinite is a
 /// ConfigError naming `parameter`.
 pub fn seconds(parameter: &str, value: f64) -> PyResult<Duration> {
-    if value.is_finite() && value >= 0.0 && value < 1.0e9 {
+    if (0.0..1.0e9).contains(&value) {
         Ok(Duration::from_micros((value * 1e6).round() as u64))
     } else {
         Err(argument_error(parameter, "0 … 1e9 s", value))
