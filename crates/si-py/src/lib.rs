@@ -8,6 +8,7 @@
 
 mod aio_modbus;
 mod errors;
+mod frames;
 mod link3964r;
 mod link_ascii;
 mod modbus_client;
@@ -30,6 +31,7 @@ use pyo3::prelude::*;
 #[pymodule]
 fn _si_serial(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
+    frames::register(m)?;
     m.add_class::<modbus_client::ModbusClient>()?;
     m.add_class::<modbus_client::RtuClient>()?;
     m.add_class::<modbus_client::TcpClient>()?;

@@ -550,3 +550,24 @@ class Simulator:
         """Bytes of an RK 512 serving station's own memory."""
     def read_parameter(self, station: int, node: int, number: int, index: int = 0) -> int:
         """USS master: reads parameter ``number`` of ``node``."""
+
+# Frames, offline. Decoding errors raise InvalidResponseError naming what and where.
+
+def encode_3964r(payload: bytes, block_check: bool = True) -> bytes:
+    """3964(R): the block after the partner's DLE (DLE doubled, DLE ETX, BCC)."""
+def decode_3964r(block: bytes, block_check: bool = True, max_len: int = 1024) -> bytes:
+    """3964(R): the payload of a block; InvalidResponseError for a wrong BCC or odd DLE."""
+def encode_modbus(unit: int, pdu: bytes) -> bytes:
+    """Modbus RTU: ``unit`` + ``pdu`` + CRC (low byte first)."""
+def decode_modbus_request(adu: bytes) -> Dict[str, object]:
+    """Modbus RTU request ADU checked as the slave does: ``unit``, ``function``, ``address``,
+    ``pdu``, ``text``."""
+def decode_modbus_response(adu: bytes) -> Dict[str, object]:
+    """Modbus RTU response ADU checked: ``unit``, ``function``, ``pdu``, ``text``."""
+def encode_uss(adr: int, net: bytes) -> bytes:
+    """USS: STX LGE ADR net BCC."""
+def decode_uss(telegram: bytes) -> Tuple[int, bytes]:
+    """USS: ``(adr, net)`` of a checked telegram."""
+def decode_rk512(telegram: bytes) -> Dict[str, object]:
+    """RK 512: ``kind`` ("command", "continuation", "reaction"), ``header``, ``data`` (and
+    ``error_number`` of a reaction)."""
