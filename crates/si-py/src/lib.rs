@@ -15,6 +15,7 @@ mod modbus_client;
 mod modbus_config;
 mod modbus_jobs;
 mod modbus_slave;
+mod monitor;
 mod options;
 mod rk512;
 mod runtime;
@@ -41,6 +42,8 @@ fn _si_serial(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<rk512::Rk512Station>()?;
     m.add_class::<uss::UssMaster>()?;
     m.add_class::<sim::Simulator>()?;
+    m.add_class::<monitor::Monitor>()?;
+    m.add_function(wrap_pyfunction!(monitor::monitor_trace, m)?)?;
     m.add_class::<modbus_slave::ModbusSlave>()?;
     m.add_class::<modbus_slave::TcpServer>()?;
     m.add("BYTEORDER_BIG", values::BYTEORDER_BIG)?;

@@ -190,6 +190,16 @@ impl Simulator {
         records(py, self.sim.trace())
     }
 
+    /// Writes the trace as a trace file (JSON lines, what `si monitor` and `monitor_trace`
+    /// read).
+    fn write_trace(&self, path: &str) -> PyResult<()> {
+        let file = std::fs::File::create(path)
+            .map_err(|e| crate::errors::SiError::new_err(format!("{path}: {e}")))?;
+        let header = si_core::tracefile::Header::new("si_serial.Simulator");
+        si_core::tracefile::write(std::io::BufWriter::new(file), &header, self.sim.trace())
+            .map_err(|e| crate::errors::SiError::new_err(format!("{path}: {e}")))
+    }
+
     /// Adds a Modbus RTU master ([Modbus/USS] §3.4.3, Table 3-17).
     #[pyo3(signature = (name, *, response_timeout=2.0, retries=0, baud=9600))]
     fn add_modbus_master(

@@ -550,6 +550,8 @@ class Simulator:
         """Bytes of an RK 512 serving station's own memory."""
     def read_parameter(self, station: int, node: int, number: int, index: int = 0) -> int:
         """USS master: reads parameter ``number`` of ``node``."""
+    def write_trace(self, path: str) -> None:
+        """Writes the trace as a trace file (what ``monitor_trace`` and ``si monitor`` read)."""
 
 # Frames, offline. Decoding errors raise InvalidResponseError naming what and where.
 
@@ -571,3 +573,48 @@ def decode_uss(telegram: bytes) -> Tuple[int, bytes]:
 def decode_rk512(telegram: bytes) -> Dict[str, object]:
     """RK 512: ``kind`` ("command", "continuation", "reaction"), ``header``, ``data`` (and
     ``error_number`` of a reaction)."""
+
+class MonitorRecord(TypedDict):
+    """What a monitor reports: ``kind`` "control", "frame", "note" or "event"; ``flags``
+    start with "!!" for a fault, "--" for a remark."""
+
+    start: float
+    end: float
+    kind: str
+    label: str
+    text: str
+    bytes: bytes
+    flags: List[str]
+
+def monitor_trace(
+    path: str,
+    protocol: str,
+    *,
+    baud: int = 9600,
+    data_bits: int = 8,
+    parity: str = "even",
+    stop_bits: int = 1,
+    end_char: Optional[int] = None,
+) -> List[MonitorRecord]:
+    """The records of a trace file decoded as ``protocol`` ("3964r", "3964", "rk512",
+    "modbus", "uss", "ascii"); each record also has ``from``, the sending station's name."""
+
+class Monitor:
+    """A live passive monitor: ``push`` the bytes a port read and take the records."""
+
+    def __init__(
+        self,
+        protocol: str,
+        *,
+        stations: List[str] = ...,
+        baud: int = 9600,
+        data_bits: int = 8,
+        parity: str = "even",
+        stop_bits: int = 1,
+        end_char: Optional[int] = None,
+    ) -> None: ...
+    def push(self, data: bytes, at: float, station: Optional[int] = None) -> List[MonitorRecord]:
+        """``data`` arrived at ``at`` seconds, sent by station number ``station``."""
+    def idle(self, now: float) -> List[MonitorRecord]:
+        """The line was quiet until ``now``: what is overdue."""
+    def counters(self) -> Dict[str, int]: ...
