@@ -25,6 +25,7 @@ mod store;
 mod store_class;
 mod uss;
 mod values;
+mod window;
 
 use pyo3::prelude::*;
 
@@ -43,6 +44,8 @@ fn _si_serial(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<uss::UssMaster>()?;
     m.add_class::<sim::Simulator>()?;
     m.add_class::<monitor::Monitor>()?;
+    m.add_class::<window::WindowHost>()?;
+    m.add_class::<window::WindowModule>()?;
     m.add_function(wrap_pyfunction!(monitor::monitor_trace, m)?)?;
     m.add_class::<modbus_slave::ModbusSlave>()?;
     m.add_class::<modbus_slave::TcpServer>()?;

@@ -6,7 +6,7 @@ naming the keyword, the manual's parameter, its range and the value.
 """
 
 from types import TracebackType
-from typing import Dict, List, Optional, Tuple, Type, TypedDict
+from typing import Dict, List, Optional, Tuple, Type, TypedDict, Union
 
 BYTEORDER_BIG: int
 """ABCD: registers in order, each high byte first (minimalmodbus's constant)."""
@@ -618,3 +618,27 @@ class Monitor:
     def idle(self, now: float) -> List[MonitorRecord]:
         """The line was quiet until ``now``: what is overdue."""
     def counters(self) -> Dict[str, int]: ...
+
+class WindowHost:
+    """The DP master's side of the coordination-byte window ([ET200S SI 2005] §2.12): queue
+    jobs, call ``cycle`` once per DP cycle with the input window read from the module and
+    write the output window it returns, collect each job's ``result``."""
+
+    def __init__(self, *, window: int = 8) -> None:
+        """``window``: 4, 8 or 32 bytes."""
+    def send(self, data: bytes) -> int:
+        """Queues a send job; returns its job number."""
+    def receive(self) -> int:
+        """Queues a receive job; returns its job number."""
+    def cycle(self, now: float, input: bytes) -> bytes:
+        """One DP cycle at ``now`` seconds: the output window for ``input``."""
+    def result(self, job: int) -> Optional[Union[bytes, bool]]:
+        """None while ``job`` runs; True for a finished send, the bytes of a receive (empty:
+        no message); ProtocolError with the STATUS when it failed."""
+
+class WindowModule:
+    """The module's side of the window with a loopback serial line, to test a rig."""
+
+    def __init__(self, *, window: int = 8) -> None: ...
+    def cycle(self, now: float, output: bytes) -> bytes:
+        """One DP cycle at ``now`` seconds: the input window for the host's ``output``."""
