@@ -1,11 +1,12 @@
 //! `si_serial.Link3964R`: a 3964(R) link on a serial port (si-3964r's handle), `send` and
 //! `recv` of blocks.
 
-use crate::errors::{nothing_received, p3964r, range_error, ProtocolError};
+use crate::errors::{nothing_received, p3964r, range_error};
 use crate::options::{narrow, port_options, seconds, settings};
-use crate::runtime::{runtime, wait};
+use crate::runtime::{close_handle, runtime, shared, wait, with_handle, within, Data, Job, Shared};
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyTuple};
+use pyo3::types::PyTuple;
+use pyo3_async_runtimes::tokio::future_into_py;
 use si_3964r::tokio::{Handle, Sender};
 use si_3964r::{Config, Priority};
 
@@ -59,7 +60,7 @@ pub fn link_config(
 #[pyclass(frozen, module = "si_serial")]
 pub struct Link3964R {
     sender: Sender,
-    handle: tokio::sync::Mutex<Option<Handle>>,
+    handle: Shared<Handle>,
 }
 
 #[pymethods]
@@ -104,46 +105,42 @@ impl Link3964R {
         let handle = Handle::spawn(config, serial).map_err(p3964r)?;
         Ok(Link3964R {
             sender: handle.sender(),
-            handle: tokio::sync::Mutex::new(Some(handle)),
+            handle: shared(handle),
         })
     }
 
     /// Sends `data` as one block; returns once the partner acknowledged it (DLE), else raises
     /// with the manual's STATUS (NoResponseError for 0703H/0707H, ProtocolError for a NAK).
     fn send(&self, py: Python<'_>, data: Vec<u8>) -> PyResult<()> {
-        let sender = self.sender.clone();
-        wait(py, async move { sender.send(data).await }).map_err(p3964r)
+        wait(py, self.send_job(data))
+    }
+
+    /// `send` as an awaitable (`si_serial.aio`).
+    fn _aio_send<'py>(&self, py: Python<'py>, data: Vec<u8>) -> PyResult<Bound<'py, PyAny>> {
+        future_into_py(py, self.send_job(data))
     }
 
     /// The next block received, waiting up to `timeout` seconds (None: for ever); raises
     /// NoResponseError when none came, InvalidResponseError for a receive error (BCC …).
     #[pyo3(signature = (timeout=None))]
-    fn recv<'py>(&self, py: Python<'py>, timeout: Option<f64>) -> PyResult<Bound<'py, PyBytes>> {
-        let limit = timeout.map(|t| seconds("timeout", t)).transpose()?;
-        let block = wait(py, async {
-            let mut guard = self.handle.lock().await;
-            let Some(handle) = guard.as_mut() else {
-                return Err(ProtocolError::new_err("the link is closed"));
-            };
-            let received = match limit {
-                Some(l) => tokio::time::timeout(l.into(), handle.recv()).await.ok(),
-                None => Some(handle.recv().await),
-            };
-            match received {
-                Some(r) => r.map_err(p3964r),
-                None => Err(nothing_received(timeout.unwrap_or_default())),
-            }
-        })?;
-        Ok(PyBytes::new(py, &block))
+    fn recv(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Data> {
+        wait(py, self.recv_job(timeout)?)
+    }
+
+    /// `recv` as an awaitable (`si_serial.aio`).
+    #[pyo3(signature = (timeout=None))]
+    fn _aio_recv<'py>(&self, py: Python<'py>, timeout: Option<f64>) -> PyResult<Bound<'py, PyAny>> {
+        future_into_py(py, self.recv_job(timeout)?)
     }
 
     /// Stops the link and releases the port. Idempotent.
-    fn close(&self, py: Python<'_>) {
-        wait(py, async {
-            if let Some(handle) = self.handle.lock().await.take() {
-                handle.close().await;
-            }
-        });
+    fn close(&self, py: Python<'_>) -> PyResult<()> {
+        wait(py, self.close_job())
+    }
+
+    /// `close` as an awaitable (`si_serial.aio`).
+    fn _aio_close<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        future_into_py(py, self.close_job())
     }
 
     fn __enter__(slf: Py<Self>) -> Py<Self> {
@@ -151,8 +148,33 @@ impl Link3964R {
     }
 
     #[pyo3(signature = (*_args))]
-    fn __exit__(&self, py: Python<'_>, _args: &Bound<'_, PyTuple>) -> bool {
-        self.close(py);
-        false
+    fn __exit__(&self, py: Python<'_>, _args: &Bound<'_, PyTuple>) -> PyResult<bool> {
+        self.close(py)?;
+        Ok(false)
+    }
+}
+
+impl Link3964R {
+    fn send_job(&self, data: Vec<u8>) -> Job<()> {
+        let sender = self.sender.clone();
+        Box::pin(async move { sender.send(data).await.map_err(p3964r) })
+    }
+
+    fn recv_job(&self, timeout: Option<f64>) -> PyResult<Job<Data>> {
+        let limit = timeout.map(|t| seconds("timeout", t)).transpose()?;
+        Ok(Box::pin(with_handle(
+            self.handle.clone(),
+            "link",
+            async move |h: &mut Handle| match within(limit, h.recv()).await {
+                Some(r) => r.map(|b| Data::Owned(b.to_vec())).map_err(p3964r),
+                None => Err(nothing_received(timeout.unwrap_or_default())),
+            },
+        )))
+    }
+
+    fn close_job(&self) -> Job<()> {
+        Box::pin(close_handle(self.handle.clone(), async |h: Handle| {
+            h.close().await
+        }))
     }
 }

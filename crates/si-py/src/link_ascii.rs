@@ -1,11 +1,12 @@
 //! `si_serial.AsciiLink`: the ASCII driver on a serial port (si-ascii's handle), `send` and
 //! `recv` of frames with the end criterion of the config.
 
-use crate::errors::{argument_error, ascii, nothing_received, ProtocolError};
+use crate::errors::{argument_error, ascii, nothing_received};
 use crate::options::{narrow, port_options, seconds, settings};
-use crate::runtime::{runtime, wait};
+use crate::runtime::{close_handle, runtime, shared, wait, with_handle, within, Data, Job, Shared};
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyTuple};
+use pyo3::types::PyTuple;
+use pyo3_async_runtimes::tokio::future_into_py;
 use si_ascii::config::{EndCriterion, FlowControl};
 use si_ascii::tokio::Handle;
 use si_ascii::Config;
@@ -35,7 +36,7 @@ fn end_criterion(end: &str, end_chars: (i64, i64), fixed_length: i64) -> PyResul
 /// `recv` the next frame cut by the configured end criterion.
 #[pyclass(frozen, module = "si_serial")]
 pub struct AsciiLink {
-    handle: tokio::sync::Mutex<Option<Handle>>,
+    handle: Shared<Handle>,
 }
 
 #[pymethods]
@@ -86,52 +87,43 @@ impl AsciiLink {
             .map_err(|e| ascii(si_ascii::tokio::Error::Io(e.into())))?;
         let handle = Handle::spawn(config, serial).map_err(ascii)?;
         Ok(AsciiLink {
-            handle: tokio::sync::Mutex::new(Some(handle)),
+            handle: shared(handle),
         })
     }
 
     /// Sends `data` as one frame (the end characters, if any, are the caller's to include);
-    /// returns once it is on the line.
+    /// returns once it is on the line. A `send` from another thread waits while a `recv`
+    /// waits.
     fn send(&self, py: Python<'_>, data: Vec<u8>) -> PyResult<()> {
-        wait(py, async {
-            let guard = self.handle.lock().await;
-            let handle = guard
-                .as_ref()
-                .ok_or_else(|| ProtocolError::new_err("the link is closed"))?;
-            handle.send(data).await.map_err(ascii)
-        })
+        wait(py, self.send_job(data))
+    }
+
+    /// `send` as an awaitable (`si_serial.aio`).
+    fn _aio_send<'py>(&self, py: Python<'py>, data: Vec<u8>) -> PyResult<Bound<'py, PyAny>> {
+        future_into_py(py, self.send_job(data))
     }
 
     /// The next frame received, waiting up to `timeout` seconds (None: for ever); raises
-    /// NoResponseError when none came, InvalidResponseError for a receive error. A `send`
-    /// from another thread waits while a `recv` waits.
+    /// NoResponseError when none came, InvalidResponseError for a receive error.
     #[pyo3(signature = (timeout=None))]
-    fn recv<'py>(&self, py: Python<'py>, timeout: Option<f64>) -> PyResult<Bound<'py, PyBytes>> {
-        let limit = timeout.map(|t| seconds("timeout", t)).transpose()?;
-        let frame = wait(py, async {
-            let mut guard = self.handle.lock().await;
-            let handle = guard
-                .as_mut()
-                .ok_or_else(|| ProtocolError::new_err("the link is closed"))?;
-            let received = match limit {
-                Some(l) => tokio::time::timeout(l.into(), handle.recv()).await.ok(),
-                None => Some(handle.recv().await),
-            };
-            match received {
-                Some(r) => r.map_err(ascii),
-                None => Err(nothing_received(timeout.unwrap_or_default())),
-            }
-        })?;
-        Ok(PyBytes::new(py, &frame))
+    fn recv(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Data> {
+        wait(py, self.recv_job(timeout)?)
+    }
+
+    /// `recv` as an awaitable (`si_serial.aio`).
+    #[pyo3(signature = (timeout=None))]
+    fn _aio_recv<'py>(&self, py: Python<'py>, timeout: Option<f64>) -> PyResult<Bound<'py, PyAny>> {
+        future_into_py(py, self.recv_job(timeout)?)
     }
 
     /// Stops the link and releases the port. Idempotent.
-    fn close(&self, py: Python<'_>) {
-        wait(py, async {
-            if let Some(handle) = self.handle.lock().await.take() {
-                handle.close().await;
-            }
-        });
+    fn close(&self, py: Python<'_>) -> PyResult<()> {
+        wait(py, self.close_job())
+    }
+
+    /// `close` as an awaitable (`si_serial.aio`).
+    fn _aio_close<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        future_into_py(py, self.close_job())
     }
 
     fn __enter__(slf: Py<Self>) -> Py<Self> {
@@ -139,8 +131,36 @@ impl AsciiLink {
     }
 
     #[pyo3(signature = (*_args))]
-    fn __exit__(&self, py: Python<'_>, _args: &Bound<'_, PyTuple>) -> bool {
-        self.close(py);
-        false
+    fn __exit__(&self, py: Python<'_>, _args: &Bound<'_, PyTuple>) -> PyResult<bool> {
+        self.close(py)?;
+        Ok(false)
+    }
+}
+
+impl AsciiLink {
+    fn send_job(&self, data: Vec<u8>) -> Job<()> {
+        Box::pin(with_handle(
+            self.handle.clone(),
+            "link",
+            async move |h: &mut Handle| h.send(data).await.map_err(ascii),
+        ))
+    }
+
+    fn recv_job(&self, timeout: Option<f64>) -> PyResult<Job<Data>> {
+        let limit = timeout.map(|t| seconds("timeout", t)).transpose()?;
+        Ok(Box::pin(with_handle(
+            self.handle.clone(),
+            "link",
+            async move |h: &mut Handle| match within(limit, h.recv()).await {
+                Some(r) => r.map(|b| Data::Owned(b.to_vec())).map_err(ascii),
+                None => Err(nothing_received(timeout.unwrap_or_default())),
+            },
+        )))
+    }
+
+    fn close_job(&self) -> Job<()> {
+        Box::pin(close_handle(self.handle.clone(), async |h: Handle| {
+            h.close().await
+        }))
     }
 }

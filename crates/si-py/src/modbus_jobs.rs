@@ -5,11 +5,10 @@
 use crate::errors::{argument_error, modbus, ProtocolError};
 use crate::modbus_config::{self, LineArgs};
 use crate::options::{narrow, port_options, seconds};
-use crate::runtime::runtime;
+use crate::runtime::{runtime, Job};
 use crate::values;
 use pyo3::prelude::*;
 use si_modbus::tokio::{tcp, Client, Master};
-use std::future::Future;
 use std::sync::{Arc, Mutex};
 
 /// The connection a client talks over.
@@ -32,9 +31,6 @@ macro_rules! on_line {
 
 /// FC12's answer: status, event count, message count, events.
 pub type EventLog = (u16, u16, u16, Vec<u8>);
-
-/// A job's result, once it has run.
-pub type Job<T> = std::pin::Pin<Box<dyn Future<Output = PyResult<T>> + Send + 'static>>;
 
 /// A client's line and its job bound; `close` takes the line away.
 pub struct Jobs {

@@ -2,13 +2,14 @@
 //! and `fetch` as the active side, and, with `serve=True`, the passive partner answering the
 //! other side's jobs from its own memory.
 
-use crate::errors::{argument_error, range_error, rk512, ProtocolError};
+use crate::errors::{argument_error, range_error, rk512};
 use crate::link3964r::link_config;
 use crate::options::{narrow, port_options, seconds, settings};
-use crate::runtime::{runtime, wait};
+use crate::runtime::{close_handle, runtime, shared, wait, with_handle, Data, Job, Shared};
 use crate::store_class::area;
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyTuple};
+use pyo3::types::PyTuple;
+use pyo3_async_runtimes::tokio::future_into_py;
 use si_core::memory::MemorySizes;
 use si_rk512::frame::{Address, Coordination};
 use si_rk512::passive::ServerConfig;
@@ -73,17 +74,7 @@ async fn job_error(h: &Handle, e: si_rk512::tokio::Error) -> PyErr {
 /// sizes of `inputs`, `outputs`, `flags`, cells of `timers`, `counters`).
 #[pyclass(frozen, module = "si_serial")]
 pub struct Rk512Station {
-    handle: tokio::sync::RwLock<Option<Handle>>,
-}
-
-impl Rk512Station {
-    async fn with_handle<R>(&self, f: impl AsyncFnOnce(&Handle) -> PyResult<R>) -> PyResult<R> {
-        let guard = self.handle.read().await;
-        let handle = guard
-            .as_ref()
-            .ok_or_else(|| ProtocolError::new_err("the station is closed"))?;
-        f(handle).await
-    }
+    handle: Shared<Handle>,
 }
 
 #[pymethods]
@@ -163,72 +154,67 @@ impl Rk512Station {
         let serial = si_core::port::open(port, &line, &options)
             .map_err(|e| rk512(si_rk512::tokio::Error::Io(e.into()), None))?;
         Ok(Rk512Station {
-            handle: tokio::sync::RwLock::new(Some(Handle::spawn_engine(station, serial))),
+            handle: shared(Handle::spawn_engine(station, serial)),
         })
     }
 
     /// SEND: writes `data` into the partner's `area` from `start` (DB/DX: data word; I, Q, M:
     /// byte; T, C: cell); returns once the partner's reaction telegram reported success.
     fn send(&self, py: Python<'_>, area: &str, start: i64, data: Vec<u8>) -> PyResult<()> {
-        let at = address(area, start)?;
-        wait(
-            py,
-            self.with_handle(
-                async move |h| match h.send(at, Coordination::NONE, data).await {
-                    Ok(()) => Ok(()),
-                    Err(e) => Err(job_error(h, e).await),
-                },
-            ),
-        )
+        wait(py, self.send_job(area, start, data)?)
+    }
+
+    /// `send` as an awaitable (`si_serial.aio`).
+    fn _aio_send<'py>(
+        &self,
+        py: Python<'py>,
+        area: &str,
+        start: i64,
+        data: Vec<u8>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        future_into_py(py, self.send_job(area, start, data)?)
     }
 
     /// FETCH: reads `length` bytes from the partner's `area` from `start`.
-    fn fetch<'py>(
+    fn fetch(&self, py: Python<'_>, area: &str, start: i64, length: usize) -> PyResult<Data> {
+        wait(py, self.fetch_job(area, start, length)?)
+    }
+
+    /// `fetch` as an awaitable (`si_serial.aio`).
+    fn _aio_fetch<'py>(
         &self,
         py: Python<'py>,
         area: &str,
         start: i64,
         length: usize,
-    ) -> PyResult<Bound<'py, PyBytes>> {
-        let at = address(area, start)?;
-        let data = wait(
-            py,
-            self.with_handle(
-                async move |h| match h.fetch(at, Coordination::NONE, length).await {
-                    Ok(data) => Ok(data),
-                    Err(e) => Err(job_error(h, e).await),
-                },
-            ),
-        )?;
-        Ok(PyBytes::new(py, &data))
+    ) -> PyResult<Bound<'py, PyAny>> {
+        future_into_py(py, self.fetch_job(area, start, length)?)
     }
 
     /// `count` bytes of this station's own memory (`serve=True`): `area` "DBn", "I", "Q",
     /// "M", "T", "C" from byte `start`.
-    fn read_memory<'py>(
-        &self,
-        py: Python<'py>,
-        area: &str,
-        start: u32,
-        count: usize,
-    ) -> PyResult<Bound<'py, PyBytes>> {
+    fn read_memory(&self, py: Python<'_>, area: &str, start: u32, count: usize) -> PyResult<Data> {
         let area = self::area(area)?;
-        let data = wait(
+        wait(
             py,
-            self.with_handle(async move |h| {
-                h.with_server(move |s| {
-                    let mut out = vec![0; count];
-                    s.memory()
-                        .read(area, start, &mut out)
-                        .map(|()| out)
-                        .map_err(|e| e.to_string())
-                })
-                .await
-                .map_err(|e| rk512(e, None))?
-                .map_err(|e| argument_error("start", &e, start))
-            }),
-        )?;
-        Ok(PyBytes::new(py, &data))
+            with_handle(
+                self.handle.clone(),
+                "station",
+                async move |h: &mut Handle| {
+                    h.with_server(move |s| {
+                        let mut out = vec![0; count];
+                        s.memory()
+                            .read(area, start, &mut out)
+                            .map(|()| out)
+                            .map_err(|e| e.to_string())
+                    })
+                    .await
+                    .map_err(|e| rk512(e, None))?
+                    .map(Data::Owned)
+                    .map_err(|e| argument_error("start", &e, start))
+                },
+            ),
+        )
     }
 
     /// Writes `data` into this station's own memory from byte `start` of `area`.
@@ -236,26 +222,31 @@ impl Rk512Station {
         let area = self::area(area)?;
         wait(
             py,
-            self.with_handle(async move |h| {
-                h.with_server(move |s| {
-                    s.memory_mut()
-                        .write(area, start, &data)
-                        .map_err(|e| e.to_string())
-                })
-                .await
-                .map_err(|e| rk512(e, None))?
-                .map_err(|e| argument_error("start", &e, start))
-            }),
+            with_handle(
+                self.handle.clone(),
+                "station",
+                async move |h: &mut Handle| {
+                    h.with_server(move |s| {
+                        s.memory_mut()
+                            .write(area, start, &data)
+                            .map_err(|e| e.to_string())
+                    })
+                    .await
+                    .map_err(|e| rk512(e, None))?
+                    .map_err(|e| argument_error("start", &e, start))
+                },
+            ),
         )
     }
 
     /// Stops the station and releases the port. Idempotent.
-    fn close(&self, py: Python<'_>) {
-        wait(py, async {
-            if let Some(handle) = self.handle.write().await.take() {
-                handle.close().await;
-            }
-        });
+    fn close(&self, py: Python<'_>) -> PyResult<()> {
+        wait(py, self.close_job())
+    }
+
+    /// `close` as an awaitable (`si_serial.aio`).
+    fn _aio_close<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        future_into_py(py, self.close_job())
     }
 
     fn __enter__(slf: Py<Self>) -> Py<Self> {
@@ -263,8 +254,40 @@ impl Rk512Station {
     }
 
     #[pyo3(signature = (*_args))]
-    fn __exit__(&self, py: Python<'_>, _args: &Bound<'_, PyTuple>) -> bool {
-        self.close(py);
-        false
+    fn __exit__(&self, py: Python<'_>, _args: &Bound<'_, PyTuple>) -> PyResult<bool> {
+        self.close(py)?;
+        Ok(false)
+    }
+}
+
+impl Rk512Station {
+    fn send_job(&self, area: &str, start: i64, data: Vec<u8>) -> PyResult<Job<()>> {
+        let at = address(area, start)?;
+        Ok(Box::pin(with_handle(
+            self.handle.clone(),
+            "station",
+            async move |h: &mut Handle| match h.send(at, Coordination::NONE, data).await {
+                Ok(()) => Ok(()),
+                Err(e) => Err(job_error(h, e).await),
+            },
+        )))
+    }
+
+    fn fetch_job(&self, area: &str, start: i64, length: usize) -> PyResult<Job<Data>> {
+        let at = address(area, start)?;
+        Ok(Box::pin(with_handle(
+            self.handle.clone(),
+            "station",
+            async move |h: &mut Handle| match h.fetch(at, Coordination::NONE, length).await {
+                Ok(data) => Ok(Data::Owned(data.to_vec())),
+                Err(e) => Err(job_error(h, e).await),
+            },
+        )))
+    }
+
+    fn close_job(&self) -> Job<()> {
+        Box::pin(close_handle(self.handle.clone(), async |h: Handle| {
+            h.close().await
+        }))
     }
 }

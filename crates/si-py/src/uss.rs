@@ -1,11 +1,12 @@
 //! `si_serial.UssMaster`: the USS master on a serial port (si-uss's handle): parameter jobs,
 //! the control words it sends, the status words it receives, and the cycle's events.
 
-use crate::errors::{argument_error, uss, ProtocolError};
+use crate::errors::{argument_error, uss};
 use crate::options::{narrow, port_options, seconds, settings_error};
-use crate::runtime::{runtime, wait};
+use crate::runtime::{close_handle, runtime, shared, wait, with_handle, within, Job, Shared};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
+use pyo3_async_runtimes::tokio::future_into_py;
 use si_uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_uss::frame::PkwWords;
 use si_uss::master::{Event, Width};
@@ -81,17 +82,7 @@ fn event_dict<'py>(py: Python<'py>, event: &Event) -> PyResult<Bound<'py, PyDict
 /// `(address, pkw_words, pzd_words)`, cyclically from the moment it is built.
 #[pyclass(frozen, module = "si_serial")]
 pub struct UssMaster {
-    handle: tokio::sync::RwLock<Option<Handle>>,
-}
-
-impl UssMaster {
-    async fn with_handle<R>(&self, f: impl AsyncFnOnce(&Handle) -> PyResult<R>) -> PyResult<R> {
-        let guard = self.handle.read().await;
-        let handle = guard
-            .as_ref()
-            .ok_or_else(|| ProtocolError::new_err("the master is closed"))?;
-        f(handle).await
-    }
+    handle: Shared<Handle>,
 }
 
 #[pymethods]
@@ -126,24 +117,26 @@ impl UssMaster {
             .map_err(|e| uss(si_uss::tokio::Error::Io(e.into())))?;
         let handle = Handle::spawn(config, serial).map_err(uss)?;
         Ok(UssMaster {
-            handle: tokio::sync::RwLock::new(Some(handle)),
+            handle: shared(handle),
         })
     }
 
     /// Reads parameter `number` (element `index`) of node `node` (PKW task 1).
     #[pyo3(signature = (node, number, index=0))]
     fn read_parameter(&self, py: Python<'_>, node: i64, number: i64, index: i64) -> PyResult<u32> {
-        let (node, number, index) = (
-            narrow("node", node)?,
-            narrow("number", number)?,
-            narrow("index", index)?,
-        );
-        wait(
-            py,
-            self.with_handle(async move |h| {
-                h.read_parameter(node, number, index).await.map_err(uss)
-            }),
-        )
+        wait(py, self.read_job(node, number, index)?)
+    }
+
+    /// `read_parameter` as an awaitable (`si_serial.aio`).
+    #[pyo3(signature = (node, number, index=0))]
+    fn _aio_read_parameter<'py>(
+        &self,
+        py: Python<'py>,
+        node: i64,
+        number: i64,
+        index: i64,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        future_into_py(py, self.read_job(node, number, index)?)
     }
 
     /// Writes `value` to parameter `number` of node `node` (task 2, or 3 with `double=True`);
@@ -158,24 +151,21 @@ impl UssMaster {
         index: i64,
         double: bool,
     ) -> PyResult<u32> {
-        let (node, number, index) = (
-            narrow("node", node)?,
-            narrow("number", number)?,
-            narrow("index", index)?,
-        );
-        let width = if double {
-            Width::DoubleWord
-        } else {
-            Width::Word
-        };
-        wait(
-            py,
-            self.with_handle(async move |h| {
-                h.write_parameter(node, number, index, value, width)
-                    .await
-                    .map_err(uss)
-            }),
-        )
+        wait(py, self.write_job(node, number, value, index, double)?)
+    }
+
+    /// `write_parameter` as an awaitable (`si_serial.aio`).
+    #[pyo3(signature = (node, number, value, index=0, double=false))]
+    fn _aio_write_parameter<'py>(
+        &self,
+        py: Python<'py>,
+        node: i64,
+        number: i64,
+        value: u32,
+        index: i64,
+        double: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        future_into_py(py, self.write_job(node, number, value, index, double)?)
     }
 
     /// Sets the PZD the master sends to `node` from the next poll on: control word STW,
@@ -184,7 +174,11 @@ impl UssMaster {
         let node = narrow("node", node)?;
         wait(
             py,
-            self.with_handle(async move |h| h.set_control(node, words).await.map_err(uss)),
+            with_handle(
+                self.handle.clone(),
+                "master",
+                async move |h: &mut Handle| h.set_control(node, words).await.map_err(uss),
+            ),
         )
     }
 
@@ -193,12 +187,16 @@ impl UssMaster {
         let node: u8 = narrow("node", node)?;
         wait(
             py,
-            self.with_handle(async move |h| {
-                h.call(move |m, _| m.slave(node).map(|s| s.status.words().to_vec()))
-                    .await
-                    .map_err(uss)?
-                    .ok_or_else(|| argument_error("node", "a node of the polling list", node))
-            }),
+            with_handle(
+                self.handle.clone(),
+                "master",
+                async move |h: &mut Handle| {
+                    h.call(move |m, _| m.slave(node).map(|s| s.status.words().to_vec()))
+                        .await
+                        .map_err(uss)?
+                        .ok_or_else(|| argument_error("node", "a node of the polling list", node))
+                },
+            ),
         )
     }
 
@@ -212,28 +210,25 @@ impl UssMaster {
         timeout: f64,
     ) -> PyResult<Option<Bound<'py, PyDict>>> {
         let limit = seconds("timeout", timeout)?;
-        let event = wait(py, async {
-            let mut guard = self.handle.write().await;
-            let handle = guard
-                .as_mut()
-                .ok_or_else(|| ProtocolError::new_err("the master is closed"))?;
-            Ok::<_, PyErr>(
-                tokio::time::timeout(limit.into(), handle.next_event())
-                    .await
-                    .ok()
-                    .flatten(),
-            )
-        })?;
+        let event = wait(
+            py,
+            with_handle(
+                self.handle.clone(),
+                "master",
+                async move |h: &mut Handle| Ok(within(Some(limit), h.next_event()).await.flatten()),
+            ),
+        )?;
         event.map(|e| event_dict(py, &e)).transpose()
     }
 
     /// Stops polling and releases the port. Idempotent.
-    fn close(&self, py: Python<'_>) {
-        wait(py, async {
-            if let Some(handle) = self.handle.write().await.take() {
-                handle.close().await;
-            }
-        });
+    fn close(&self, py: Python<'_>) -> PyResult<()> {
+        wait(py, self.close_job())
+    }
+
+    /// `close` as an awaitable (`si_serial.aio`).
+    fn _aio_close<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        future_into_py(py, self.close_job())
     }
 
     fn __enter__(slf: Py<Self>) -> Py<Self> {
@@ -241,8 +236,58 @@ impl UssMaster {
     }
 
     #[pyo3(signature = (*_args))]
-    fn __exit__(&self, py: Python<'_>, _args: &Bound<'_, PyTuple>) -> bool {
-        self.close(py);
-        false
+    fn __exit__(&self, py: Python<'_>, _args: &Bound<'_, PyTuple>) -> PyResult<bool> {
+        self.close(py)?;
+        Ok(false)
+    }
+}
+
+impl UssMaster {
+    fn read_job(&self, node: i64, number: i64, index: i64) -> PyResult<Job<u32>> {
+        let (node, number, index) = (
+            narrow("node", node)?,
+            narrow("number", number)?,
+            narrow("index", index)?,
+        );
+        Ok(Box::pin(with_handle(
+            self.handle.clone(),
+            "master",
+            async move |h: &mut Handle| h.read_parameter(node, number, index).await.map_err(uss),
+        )))
+    }
+
+    fn write_job(
+        &self,
+        node: i64,
+        number: i64,
+        value: u32,
+        index: i64,
+        double: bool,
+    ) -> PyResult<Job<u32>> {
+        let (node, number, index) = (
+            narrow("node", node)?,
+            narrow("number", number)?,
+            narrow("index", index)?,
+        );
+        let width = if double {
+            Width::DoubleWord
+        } else {
+            Width::Word
+        };
+        Ok(Box::pin(with_handle(
+            self.handle.clone(),
+            "master",
+            async move |h: &mut Handle| {
+                h.write_parameter(node, number, index, value, width)
+                    .await
+                    .map_err(uss)
+            },
+        )))
+    }
+
+    fn close_job(&self) -> Job<()> {
+        Box::pin(close_handle(self.handle.clone(), async |h: Handle| {
+            h.close().await
+        }))
     }
 }

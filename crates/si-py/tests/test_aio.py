@@ -59,3 +59,52 @@ def test_bad_arguments_raise_before_any_await():
     with pytest.raises(si_serial.ConfigError) as info:
         aio.RtuClient("/nonexistent", response_timeout=0.01)
     assert info.value.keyword == "response_timeout"
+
+
+def test_3964r_links_as_coroutines(pty_pair):
+    a, b = pty_pair
+
+    async def main():
+        async with aio.Link3964R(a, priority="high", rx_latency=0) as high, aio.Link3964R(b, rx_latency=0) as low:
+            # Receive and send at once on the two ends.
+            received, _ = await asyncio.gather(low.recv(timeout=2.0), high.send(b"async block"))
+            assert received == b"async block"
+            with pytest.raises(aio.NoResponseError):
+                await high.recv(timeout=0.1)
+
+    asyncio.run(main())
+
+
+def test_ascii_and_rk512_as_coroutines(pty_pair):
+    a, b = pty_pair
+
+    async def main():
+        async with aio.AsciiLink(a, rx_latency=0) as tx, aio.AsciiLink(b, end="end-chars", end_chars=(0x0A, 0), rx_latency=0) as rx:
+            await tx.send(b"line\n")
+            assert await rx.recv(timeout=2.0) == b"line\n"
+
+    asyncio.run(main())
+
+
+def test_rk512_and_uss_as_coroutines(pty_pair, si_cli):
+    import subprocess
+
+    a, b = pty_pair
+
+    async def main():
+        async with aio.Rk512Station(b, serve=True, dbs={2: 16}, rx_latency=0) as plc:
+            async with aio.Rk512Station(a, priority="high", rx_latency=0) as host:
+                await host.send("DB2", 0, b"\x01\x02")
+                assert plc.read_memory("DB2", 0, 2) == b"\x01\x02"
+                assert await host.fetch("DB2", 0, 2) == b"\x01\x02"
+        drive = subprocess.Popen([si_cli, "uss", "sim-slave", "--address", "5", "--port", b],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            await asyncio.sleep(0.5)
+            async with aio.UssMaster(a, [(5, 4, 2)], response_timeout=0.1, rx_latency=0) as master:
+                assert await master.read_parameter(5, 1082) == 50
+        finally:
+            drive.kill()
+            drive.wait()
+
+    asyncio.run(main())
