@@ -3,8 +3,9 @@
 ``RtuClient(...)``, ``Link3964R(...)``, ``AsciiLink(...)``, ``Rk512Station(...)`` and
 ``UssMaster(...)`` open their port at once and their line jobs are awaited;
 ``await TcpClient.connect(host, port)`` connects. Both are async context managers. The
-exceptions are si_serial's. Classes that never wait on the line (``ModbusStore``,
-``ModbusSlave``, ``TcpServer``, ``Simulator``) are si_serial's own, re-exported.
+exceptions are si_serial's. What never waits on a line (``ModbusStore``, ``ModbusSlave``,
+``TcpServer``, ``Simulator``, ``Monitor``, ``monitor_trace``, ``WindowHost``,
+``WindowModule``, the frame functions) is si_serial's own, re-exported.
 """
 
 from . import _si_serial
@@ -16,6 +17,7 @@ from ._si_serial import (  # noqa: F401 (re-exported)
     ConfigError,
     DeviceException,
     InvalidResponseError,
+    Monitor,
     ModbusSlave,
     ModbusStore,
     NoResponseError,
@@ -23,6 +25,17 @@ from ._si_serial import (  # noqa: F401 (re-exported)
     SiError,
     Simulator,
     TcpServer,
+    WindowHost,
+    WindowModule,
+    decode_3964r,
+    decode_modbus_request,
+    decode_modbus_response,
+    decode_rk512,
+    decode_uss,
+    encode_3964r,
+    encode_modbus,
+    encode_uss,
+    monitor_trace,
 )
 
 ModbusClient = _si_serial._aio.ModbusClient
@@ -137,6 +150,18 @@ __all__ = [
     "DeviceException",
     "InvalidResponseError",
     "ModbusClient",
+    "Monitor",
+    "WindowHost",
+    "WindowModule",
+    "decode_3964r",
+    "decode_modbus_request",
+    "decode_modbus_response",
+    "decode_rk512",
+    "decode_uss",
+    "encode_3964r",
+    "encode_modbus",
+    "encode_uss",
+    "monitor_trace",
     "ModbusSlave",
     "ModbusStore",
     "NoResponseError",

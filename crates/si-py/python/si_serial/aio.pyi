@@ -19,6 +19,18 @@ from . import (
     SiError as SiError,
     Simulator as Simulator,
     TcpServer as TcpServer,
+    Monitor as Monitor,
+    WindowHost as WindowHost,
+    WindowModule as WindowModule,
+    decode_3964r as decode_3964r,
+    decode_modbus_request as decode_modbus_request,
+    decode_modbus_response as decode_modbus_response,
+    decode_rk512 as decode_rk512,
+    decode_uss as decode_uss,
+    encode_3964r as encode_3964r,
+    encode_modbus as encode_modbus,
+    encode_uss as encode_uss,
+    monitor_trace as monitor_trace,
 )
 
 class ModbusClient:
