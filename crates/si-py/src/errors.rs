@@ -192,7 +192,7 @@ pub fn p3964r(e: si_3964r::tokio::Error) -> PyErr {
             NoResponseError::new_err(text)
         }
         E::Failed { status } if status.class() == 0x08 => InvalidResponseError::new_err(text),
-        E::Failed { .. } | E::Stopped(_) => ProtocolError::new_err(text),
+        E::Failed { .. } | E::Stopped => ProtocolError::new_err(text),
         E::Io(_) => SiError::new_err(text),
     };
     with_status(err, status)
@@ -217,7 +217,7 @@ pub fn ascii(e: si_ascii::tokio::Error) -> PyErr {
         }
         E::Config(C::Settings(_)) | E::Refused(_) => ConfigError::new_err(text),
         E::Failed { status } if status.class() == 0x08 => InvalidResponseError::new_err(text),
-        E::Failed { .. } | E::Stopped(_) => ProtocolError::new_err(text),
+        E::Failed { .. } | E::Stopped => ProtocolError::new_err(text),
         E::Io(_) => SiError::new_err(text),
     };
     with_status(err, status)
@@ -259,7 +259,7 @@ pub fn rk512(e: si_rk512::tokio::Error, cause: Option<Status>) -> PyErr {
         E::Failed { status, .. } if matches!(status.class(), 0x08 | 0x0A) => {
             InvalidResponseError::new_err(text)
         }
-        E::Failed { .. } | E::Stopped(_) => ProtocolError::new_err(text),
+        E::Failed { .. } | E::Stopped => ProtocolError::new_err(text),
         E::Io(_) => SiError::new_err(text),
     };
     with_status(err, status)
@@ -288,7 +288,7 @@ pub fn uss(e: si_uss::tokio::Error) -> PyErr {
             NoResponseError::new_err(text)
         }
         E::Failed { status, .. } if status.class() == 0x14 => InvalidResponseError::new_err(text),
-        E::Failed { .. } | E::Stopped(_) => ProtocolError::new_err(text),
+        E::Failed { .. } | E::Stopped => ProtocolError::new_err(text),
         E::Io(_) => SiError::new_err(text),
     };
     with_status(err, status)

@@ -144,9 +144,9 @@ impl Rk512Station {
                 memory,
                 ..ServerConfig::default()
             };
-            Station::serving(config, line, &server)
+            Station::serving(config.with_settings(line), &server)
         } else {
-            Station::new(config, line)
+            Station::new(config.with_settings(line))
         }
         .map_err(|e| range_error(&e, None))?;
         let options = port_options(rx_latency)?;

@@ -250,7 +250,7 @@ impl Simulator {
     #[pyo3(signature = (name, *, priority="low", baud=9600))]
     fn add_3964r(&mut self, name: &str, priority: &str, baud: i64) -> PyResult<usize> {
         let line = settings(baud, 8, "even", 1)?;
-        let link = si_3964r::Link::new(r3964_config(priority, line)?, line)
+        let link = si_3964r::Link::new(r3964_config(priority, line)?.with_settings(line))
             .map_err(|e| range_error(&e, None))?;
         let id = self.sim.add_station(name, line, link);
         Ok(self.add(Station::Link3964R(id)))
@@ -296,9 +296,9 @@ impl Simulator {
             Some(dbs) => {
                 let mut server = si_rk512::passive::ServerConfig::default();
                 server.memory.dbs = dbs;
-                si_rk512::Station::serving(config, line, &server)
+                si_rk512::Station::serving(config.with_settings(line), &server)
             }
-            None => si_rk512::Station::new(config, line),
+            None => si_rk512::Station::new(config.with_settings(line)),
         }
         .map_err(|e| range_error(&e, None))?;
         let id = self.sim.add_station(name, line, station);
