@@ -7,6 +7,7 @@
 //! exception tree (`errors`).
 
 mod aio_modbus;
+mod callback_store;
 mod errors;
 mod frames;
 mod link3964r;

@@ -2,11 +2,11 @@
 //! both serving a [`ModbusStore`]. A task per slave keeps its events, so an unread event never
 //! pauses the line: the newest 1024 wait for `next_event`, older ones are dropped.
 
-use crate::errors::modbus;
+use crate::callback_store::{CallbackStore, Callbacks};
+use crate::errors::{argument_error, modbus};
 use crate::modbus_config::{self, LineArgs};
 use crate::options::{narrow, port_options, seconds};
 use crate::runtime::{runtime, wait};
-use crate::store::SharedStore;
 use crate::store_class::ModbusStore;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
@@ -32,6 +32,21 @@ fn stop(py: Python<'_>, running: &Mutex<Option<Running>>) {
         let _ = stop.send(());
         let _ = wait(py, task);
     }
+}
+
+/// The callbacks, each checked to be callable (else ConfigError naming it).
+fn callbacks(
+    py: Python<'_>,
+    on_read: Option<Py<PyAny>>,
+    on_write: Option<Py<PyAny>>,
+) -> PyResult<Callbacks> {
+    for (name, callback) in [("on_read", &on_read), ("on_write", &on_write)] {
+        if let Some(c) = callback.as_ref().filter(|c| !c.bind(py).is_callable()) {
+            let type_name = c.bind(py).get_type().name()?;
+            return Err(argument_error(name, "a callable or None", type_name));
+        }
+    }
+    Ok(Callbacks { on_read, on_write })
 }
 
 /// An event as a dict: `kind` ("served", "broadcast", "exception", "error") and its fields.
@@ -80,6 +95,11 @@ fn event_dict<'py>(py: Python<'py>, event: &SlaveEvent) -> PyResult<Bound<'py, P
 
 /// A Modbus RTU slave on a serial port serving `store` (default: plain tables) at `address`
 /// ([Modbus/USS] §3.5.4, Table 3-20); it answers until `close()`.
+///
+/// `on_read(table, address, count)` returns `count` values (or None: the store answers);
+/// `on_write(table, address, values)` sees a write before the store takes it. They run on
+/// the module's threads with the GIL held only meanwhile; one that raises answers the master
+/// with exception 04, SERVER DEVICE FAILURE ([Modbus AP] §7), and the slave keeps serving.
 #[pyclass(frozen, module = "si_serial")]
 pub struct ModbusSlave {
     store: Py<ModbusStore>,
@@ -91,7 +111,8 @@ pub struct ModbusSlave {
 impl ModbusSlave {
     #[new]
     #[pyo3(signature = (port, *, address=222, store=None, baud=9600, data_bits=8, parity="even",
-        stop_bits=1, mode="normal", char_delay_multiplier=1, rx_latency=None, frame_end="gap"))]
+        stop_bits=1, mode="normal", char_delay_multiplier=1, rx_latency=None, frame_end="gap",
+        on_read=None, on_write=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -106,6 +127,8 @@ impl ModbusSlave {
         char_delay_multiplier: i64,
         rx_latency: Option<f64>,
         frame_end: &str,
+        on_read: Option<Py<PyAny>>,
+        on_write: Option<Py<PyAny>>,
     ) -> PyResult<Self> {
         let line = LineArgs {
             baud,
@@ -121,7 +144,10 @@ impl ModbusSlave {
             Some(s) => s,
             None => Py::new(py, ModbusStore::new(10000, 10000, 10000, 10000)?)?,
         };
-        let shared: SharedStore = store.get().shared.clone();
+        let shared = CallbackStore::new(
+            store.get().shared.clone(),
+            callbacks(py, on_read, on_write)?,
+        );
         let _entered = runtime().enter();
         let serial = si_core::port::open(port, &config.line.settings, &options)
             .map_err(|e| modbus(e.into()))?;
@@ -196,7 +222,7 @@ impl ModbusSlave {
 }
 
 /// A Modbus TCP server on `host`:`port` (0: any free port, see `.port`) serving `store`,
-/// answering every unit id.
+/// answering every unit id, with `on_read` / `on_write` as for `ModbusSlave`.
 #[pyclass(frozen, module = "si_serial")]
 pub struct TcpServer {
     store: Py<ModbusStore>,
@@ -207,19 +233,24 @@ pub struct TcpServer {
 #[pymethods]
 impl TcpServer {
     #[new]
-    #[pyo3(signature = (host="127.0.0.1", port=0, *, store=None))]
+    #[pyo3(signature = (host="127.0.0.1", port=0, *, store=None, on_read=None, on_write=None))]
     fn new(
         py: Python<'_>,
         host: &str,
         port: i64,
         store: Option<Py<ModbusStore>>,
+        on_read: Option<Py<PyAny>>,
+        on_write: Option<Py<PyAny>>,
     ) -> PyResult<Self> {
         let port: u16 = narrow("port", port)?;
         let store = match store {
             Some(s) => s,
             None => Py::new(py, ModbusStore::new(10000, 10000, 10000, 10000)?)?,
         };
-        let shared = store.get().shared.clone();
+        let shared = CallbackStore::new(
+            store.get().shared.clone(),
+            callbacks(py, on_read, on_write)?,
+        );
         let address = format!("{host}:{port}");
         let server = wait(
             py,

@@ -6,7 +6,7 @@ naming the keyword, the manual's parameter, its range and the value.
 """
 
 from types import TracebackType
-from typing import Dict, List, Optional, Tuple, Type, TypedDict, Union
+from typing import Callable, Dict, List, Optional, Sequence, Tuple, Type, TypedDict, Union
 
 BYTEORDER_BIG: int
 """ABCD: registers in order, each high byte first (minimalmodbus's constant)."""
@@ -230,10 +230,25 @@ class SlaveEvent(TypedDict, total=False):
     status: Optional[int]
     status_text: str
 
+_OnRead = Callable[[str, int, int], Optional[Sequence[Union[int, bool]]]]
+"""``on_read(table, address, count)``: ``count`` values of ``table`` ("coils",
+"discrete_inputs", "holding_registers", "input_registers") from ``address``, or None to
+serve them from the store."""
+
+_OnWrite = Callable[[str, int, List[Union[int, bool]]], object]
+"""``on_write(table, address, values)``: sees a write ("coils" or "holding_registers")
+before the store takes it; raising refuses it."""
+
 class ModbusSlave:
     """A Modbus RTU slave on the serial port ``port`` at ``address`` (1 … 255, default 222 as
     in [Modbus/USS] §3.5.4, Table 3-20), serving ``store`` (default: plain tables of 10000
     each) until ``close()``. Line keyword arguments as for :class:`RtuClient`.
+
+    ``on_read`` / ``on_write`` put Python in front of the store (see :data:`_OnRead`,
+    :data:`_OnWrite`). They run on the module's own threads, holding the GIL only while they
+    run. A callback that raises, or returns other than ``count`` values, never stops the
+    slave: the master gets exception 04, SERVER DEVICE FAILURE ([Modbus AP] §7), and the
+    Python exception goes to ``sys.unraisablehook``.
     """
 
     def __init__(
@@ -250,6 +265,8 @@ class ModbusSlave:
         char_delay_multiplier: int = 1,
         rx_latency: Optional[float] = None,
         frame_end: str = "gap",
+        on_read: Optional[_OnRead] = None,
+        on_write: Optional[_OnWrite] = None,
     ) -> None: ...
     @property
     def store(self) -> ModbusStore: ...
@@ -267,10 +284,16 @@ class ModbusSlave:
 
 class TcpServer:
     """A Modbus TCP server on ``host``:``port`` (0: a free port, see ``.port``) serving
-    ``store`` for every unit id."""
+    ``store`` for every unit id, with ``on_read`` / ``on_write`` as for :class:`ModbusSlave`."""
 
     def __init__(
-        self, host: str = "127.0.0.1", port: int = 0, *, store: Optional[ModbusStore] = None
+        self,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        *,
+        store: Optional[ModbusStore] = None,
+        on_read: Optional[_OnRead] = None,
+        on_write: Optional[_OnWrite] = None,
     ) -> None: ...
     @property
     def store(self) -> ModbusStore: ...
