@@ -35,6 +35,20 @@ fn poll_entry((address, pkw, pzd): (i64, i64, i64)) -> PyResult<PollEntry> {
     ))
 }
 
+/// An event that becomes a dict ([`event_dict`]) once it reaches Python, as an awaited job's
+/// result does.
+struct EventDict(Event);
+
+impl<'py> IntoPyObject<'py> for EventDict {
+    type Target = PyDict;
+    type Output = Bound<'py, PyDict>;
+    type Error = PyErr;
+
+    fn into_pyobject(self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        event_dict(py, &self.0)
+    }
+}
+
 /// An event as a dict: `kind` and its fields.
 fn event_dict<'py>(py: Python<'py>, event: &Event) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
@@ -209,16 +223,14 @@ impl UssMaster {
         py: Python<'py>,
         timeout: f64,
     ) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let limit = seconds("timeout", timeout)?;
-        let event = wait(
-            py,
-            with_handle(
-                self.handle.clone(),
-                "master",
-                async move |h: &mut Handle| Ok(within(Some(limit), h.next_event()).await.flatten()),
-            ),
-        )?;
-        event.map(|e| event_dict(py, &e)).transpose()
+        let event = wait(py, self.event_job(timeout)?)?;
+        event.map(|e| event_dict(py, &e.0)).transpose()
+    }
+
+    /// `next_event` as an awaitable (`si_serial.aio`).
+    #[pyo3(signature = (timeout=1.0))]
+    fn _aio_next_event<'py>(&self, py: Python<'py>, timeout: f64) -> PyResult<Bound<'py, PyAny>> {
+        future_into_py(py, self.event_job(timeout)?)
     }
 
     /// Stops polling and releases the port. Idempotent.
@@ -281,6 +293,20 @@ impl UssMaster {
                 h.write_parameter(node, number, index, value, width)
                     .await
                     .map_err(uss)
+            },
+        )))
+    }
+
+    fn event_job(&self, timeout: f64) -> PyResult<Job<Option<EventDict>>> {
+        let limit = seconds("timeout", timeout)?;
+        Ok(Box::pin(with_handle(
+            self.handle.clone(),
+            "master",
+            async move |h: &mut Handle| {
+                Ok(within(Some(limit), h.next_event())
+                    .await
+                    .flatten()
+                    .map(EventDict))
             },
         )))
     }

@@ -108,3 +108,47 @@ def test_rk512_and_uss_as_coroutines(pty_pair, si_cli):
             drive.wait()
 
     asyncio.run(main())
+
+
+def test_uss_next_event_as_a_coroutine(pty_pair, si_cli):
+    """`await UssMaster.next_event()`: the cycle's events from the CLI's simulated drive at
+    node 5 and a silent node 6, while the event loop keeps running."""
+    import subprocess
+
+    a, b = pty_pair
+
+    async def main():
+        drive = subprocess.Popen([si_cli, "uss", "sim-slave", "--address", "5", "--port", b],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            await asyncio.sleep(0.5)
+            async with aio.UssMaster(a, [(5, 4, 2), (6, 4, 2)], response_timeout=0.05,
+                                     rx_latency=0) as master:
+                ticks = 0
+
+                async def tick():
+                    nonlocal ticks
+                    while True:
+                        ticks += 1
+                        await asyncio.sleep(0.001)
+
+                ticker = asyncio.create_task(tick())
+                seen = set()
+                deadline = time.monotonic() + 5
+                while not {("response", 5), ("no_answer", 6)} <= seen:
+                    assert time.monotonic() < deadline, seen
+                    event = await master.next_event(timeout=1.0)
+                    assert event is not None
+                    seen.add((event["kind"], event.get("address")))
+                ticker.cancel()
+                assert ticks > 10
+                with pytest.raises(si_serial.ConfigError):
+                    await master.next_event(timeout=-1.0)
+            # Closed: the master says so.
+            with pytest.raises(si_serial.ProtocolError):
+                await master.next_event(timeout=0.1)
+        finally:
+            drive.kill()
+            drive.wait()
+
+    asyncio.run(main())

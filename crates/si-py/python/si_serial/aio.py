@@ -136,6 +136,11 @@ class UssMaster(_Link):
         """The PZD ``node`` answered last (no await)."""
         return self._link.get_status(node)
 
+    async def next_event(self, timeout=1.0):
+        """The next event of the cycle (a dict with ``kind``), waiting up to ``timeout``
+        seconds; None if none came."""
+        return await self._link._aio_next_event(timeout)
+
 
 __all__ = [
     "AsciiLink",
