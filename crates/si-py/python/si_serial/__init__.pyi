@@ -6,7 +6,46 @@ naming the keyword, the manual's parameter, its range and the value.
 """
 
 from types import TracebackType
-from typing import Callable, Dict, List, Optional, Sequence, Tuple, Type, TypedDict, Union
+from typing import Callable, Dict, List, Optional, Sequence, Tuple, Type, TypedDict, Union, final
+
+from typing_extensions import disjoint_base
+
+# The extension's public names, as `__init__.py` computes them at import.
+__all__ = [
+    "AsciiLink",
+    "BYTEORDER_BIG",
+    "BYTEORDER_BIG_SWAP",
+    "BYTEORDER_LITTLE",
+    "BYTEORDER_LITTLE_SWAP",
+    "ConfigError",
+    "DeviceException",
+    "InvalidResponseError",
+    "Link3964R",
+    "ModbusClient",
+    "ModbusSlave",
+    "ModbusStore",
+    "Monitor",
+    "NoResponseError",
+    "ProtocolError",
+    "Rk512Station",
+    "RtuClient",
+    "SiError",
+    "Simulator",
+    "TcpClient",
+    "TcpServer",
+    "UssMaster",
+    "WindowHost",
+    "WindowModule",
+    "decode_3964r",
+    "decode_modbus_request",
+    "decode_modbus_response",
+    "decode_rk512",
+    "decode_uss",
+    "encode_3964r",
+    "encode_modbus",
+    "encode_uss",
+    "monitor_trace",
+]
 
 BYTEORDER_BIG: int
 """ABCD: registers in order, each high byte first (minimalmodbus's constant)."""
@@ -61,6 +100,7 @@ class ConfigError(ValueError):
     """The module's parameter-assignment STATUS (e.g. 0x0E23), None where it has none."""
     status_text: Optional[str]
 
+@disjoint_base
 class ModbusClient:
     """A Modbus client; build it as :class:`RtuClient` or :class:`TcpClient`.
 
@@ -145,6 +185,7 @@ class ModbusClient:
         tb: Optional[TracebackType],
     ) -> bool: ...
 
+@final
 class RtuClient(ModbusClient):
     """A Modbus RTU master on the serial port ``port``.
 
@@ -159,8 +200,8 @@ class RtuClient(ModbusClient):
     extension: a response ends at its predicted length once its CRC checks).
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         port: str,
         *,
         baud: int = 9600,
@@ -174,17 +215,19 @@ class RtuClient(ModbusClient):
         broadcast_turnaround: float = 0.1,
         rx_latency: Optional[float] = None,
         frame_end: str = "gap",
-    ) -> None: ...
+    ) -> "RtuClient": ...
     def __enter__(self) -> "RtuClient": ...
 
+@final
 class TcpClient(ModbusClient):
     """A Modbus TCP client connected to ``host``:``port``."""
 
-    def __init__(
-        self, host: str, port: int = 502, *, response_timeout: float = 2.0, retries: int = 0
-    ) -> None: ...
+    def __new__(
+        cls, host: str, port: int = 502, *, response_timeout: float = 2.0, retries: int = 0
+    ) -> "TcpClient": ...
     def __enter__(self) -> "TcpClient": ...
 
+@final
 class ModbusStore:
     """The data a slave or server serves, shared with Python while it runs.
 
@@ -194,14 +237,14 @@ class ModbusStore:
     input registers in DB2, coils on Q and M, inputs on I).
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         *,
         coils: int = 10000,
         discrete_inputs: int = 10000,
         holding_registers: int = 10000,
         input_registers: int = 10000,
-    ) -> None: ...
+    ) -> "ModbusStore": ...
     @staticmethod
     def simatic() -> "ModbusStore":
         """SIMATIC memory: DB1–DB6 (1024 bytes each), MB0–MB1255, QB0–QB127, IB0–IB127,
@@ -239,6 +282,7 @@ _OnWrite = Callable[[str, int, List[Union[int, bool]]], object]
 """``on_write(table, address, values)``: sees a write ("coils" or "holding_registers")
 before the store takes it; raising refuses it."""
 
+@final
 class ModbusSlave:
     """A Modbus RTU slave on the serial port ``port`` at ``address`` (1 … 255, default 222 as
     in [Modbus/USS] §3.5.4, Table 3-20), serving ``store`` (default: plain tables of 10000
@@ -251,8 +295,8 @@ class ModbusSlave:
     Python exception goes to ``sys.unraisablehook``.
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         port: str,
         *,
         address: int = 222,
@@ -267,7 +311,7 @@ class ModbusSlave:
         frame_end: str = "gap",
         on_read: Optional[_OnRead] = None,
         on_write: Optional[_OnWrite] = None,
-    ) -> None: ...
+    ) -> "ModbusSlave": ...
     @property
     def store(self) -> ModbusStore: ...
     def next_event(self, timeout: float = 1.0) -> Optional[SlaveEvent]:
@@ -282,19 +326,20 @@ class ModbusSlave:
         tb: Optional[TracebackType],
     ) -> bool: ...
 
+@final
 class TcpServer:
     """A Modbus TCP server on ``host``:``port`` (0: a free port, see ``.port``) serving
     ``store`` for every unit id, with ``on_read`` / ``on_write`` as for :class:`ModbusSlave`."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         host: str = "127.0.0.1",
         port: int = 0,
         *,
         store: Optional[ModbusStore] = None,
         on_read: Optional[_OnRead] = None,
         on_write: Optional[_OnWrite] = None,
-    ) -> None: ...
+    ) -> "TcpServer": ...
     @property
     def store(self) -> ModbusStore: ...
     @property
@@ -309,6 +354,7 @@ class TcpServer:
         tb: Optional[TracebackType],
     ) -> bool: ...
 
+@final
 class Link3964R:
     """A 3964(R) link on the serial port ``port`` ([ET200S SI] §2.9, Table 2-11).
 
@@ -321,8 +367,8 @@ class Link3964R:
     ``parity``, ``stop_bits``) and ``rx_latency`` as for :class:`RtuClient`.
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         port: str,
         *,
         priority: str = "low",
@@ -338,7 +384,7 @@ class Link3964R:
         parity: str = "even",
         stop_bits: int = 1,
         rx_latency: Optional[float] = None,
-    ) -> None: ...
+    ) -> "Link3964R": ...
     def send(self, data: bytes) -> None:
         """Sends ``data`` as one block and returns once the partner acknowledged it (DLE);
         NoResponseError for 0703H/0707H (QVZ exceeded), ProtocolError for a NAK (0702H,
@@ -357,23 +403,25 @@ class Link3964R:
         tb: Optional[TracebackType],
     ) -> bool: ...
 
+@final
 class AsciiLink:
     """The ASCII driver on the serial port ``port`` ([ET200S SI] §2.8, Table 2-10).
 
     The end of a received frame: ``end="char-delay"`` (a gap longer than ``char_delay``,
-    the default), ``"end-chars"`` (``end_chars=(first, second)``, second 0 = unused; the frame
-    includes them) or ``"fixed-length"`` (``fixed_length`` characters). ``char_delay``
+    the default), ``"end-chars"`` (``end_chars=(first, second)``, default ``(3, 0)``, second 0 =
+    unused; the frame includes them) or ``"fixed-length"`` (``fixed_length`` characters). ``char_delay``
     (0.004 … 65.535 s, at least the manual's minimum for the baud rate), ``max_frame_len``
     (1 … 1024, default 200), ``flow_control`` ("none", "xon-xoff", "rts-cts", "auto-v24"),
     the line and ``rx_latency`` as for :class:`RtuClient`.
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         port: str,
         *,
         end: str = "char-delay",
-        end_chars: Tuple[int, int] = (3, 0),
+        # (3, 0): the runtime signature cannot show a tuple default.
+        end_chars: Tuple[int, int] = ...,
         fixed_length: int = 100,
         char_delay: float = 0.004,
         max_frame_len: int = 200,
@@ -383,7 +431,7 @@ class AsciiLink:
         parity: str = "even",
         stop_bits: int = 1,
         rx_latency: Optional[float] = None,
-    ) -> None: ...
+    ) -> "AsciiLink": ...
     def send(self, data: bytes) -> None:
         """Sends ``data`` as one frame (end characters are the caller's to include)."""
     def recv(self, timeout: Optional[float] = None) -> bytes:
@@ -400,6 +448,7 @@ class AsciiLink:
         tb: Optional[TracebackType],
     ) -> bool: ...
 
+@final
 class Rk512Station:
     """An RK 512 station on the serial port ``port`` ([CP 341] §2.2.3).
 
@@ -411,8 +460,8 @@ class Rk512Station:
     "Q", "M" (a byte), "T", "C" (a cell).
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         port: str,
         *,
         serve: bool = False,
@@ -437,7 +486,7 @@ class Rk512Station:
         parity: str = "even",
         stop_bits: int = 1,
         rx_latency: Optional[float] = None,
-    ) -> None: ...
+    ) -> "Rk512Station": ...
     def send(self, area: str, start: int, data: bytes) -> None:
         """SEND ``data`` into the partner's ``area`` from ``start``; returns on its reaction."""
     def fetch(self, area: str, start: int, length: int) -> bytes:
@@ -468,6 +517,7 @@ class UssEvent(TypedDict, total=False):
     status_text: str
     text: str
 
+@final
 class UssMaster:
     """The USS master on the serial port ``port`` ([Modbus/USS] §3.8), polling ``nodes``
     (a list of ``(address 0 … 31, pkw_words 0/3/4/127, pzd_words 0 … 16)``) cyclically from
@@ -478,8 +528,8 @@ class UssMaster:
     ``rx_latency`` as for :class:`RtuClient`.
     """
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         port: str,
         nodes: List[Tuple[int, int, int]],
         *,
@@ -488,7 +538,7 @@ class UssMaster:
         cycle_pause: float = 0.0,
         baud: int = 9600,
         rx_latency: Optional[float] = None,
-    ) -> None: ...
+    ) -> "UssMaster": ...
     def read_parameter(self, node: int, number: int, index: int = 0) -> int:
         """Reads parameter ``number`` (element ``index``) of ``node`` (PKW task 1)."""
     def write_parameter(
@@ -524,6 +574,7 @@ class TraceRecord(TypedDict, total=False):
     error: str
     text: str
 
+@final
 class Simulator:
     """si's deterministic line simulator, in virtual time: protocol engines as stations,
     wired with ``connect`` (point to point) or ``bus`` (half-duplex RS-485). A job call steps
@@ -531,7 +582,7 @@ class Simulator:
     at once in real time; ``now`` is the virtual time. Station methods return the station's
     number."""
 
-    def __init__(self, seed: int = 1, *, trace: bool = True, job_limit: float = 60.0) -> None: ...
+    def __new__(cls, seed: int = 1, *, trace: bool = True, job_limit: float = 60.0) -> "Simulator": ...
     @property
     def now(self) -> float:
         """Virtual time in seconds."""
@@ -622,11 +673,12 @@ def monitor_trace(
     """The records of a trace file decoded as ``protocol`` ("3964r", "3964", "rk512",
     "modbus", "uss", "ascii"); each record also has ``from``, the sending station's name."""
 
+@final
 class Monitor:
     """A live passive monitor: ``push`` the bytes a port read and take the records."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         protocol: str,
         *,
         stations: List[str] = ...,
@@ -635,19 +687,20 @@ class Monitor:
         parity: str = "even",
         stop_bits: int = 1,
         end_char: Optional[int] = None,
-    ) -> None: ...
+    ) -> "Monitor": ...
     def push(self, data: bytes, at: float, station: Optional[int] = None) -> List[MonitorRecord]:
         """``data`` arrived at ``at`` seconds, sent by station number ``station``."""
     def idle(self, now: float) -> List[MonitorRecord]:
         """The line was quiet until ``now``: what is overdue."""
     def counters(self) -> Dict[str, int]: ...
 
+@final
 class WindowHost:
     """The DP master's side of the coordination-byte window ([ET200S SI 2005] §2.12): queue
     jobs, call ``cycle`` once per DP cycle with the input window read from the module and
     write the output window it returns, collect each job's ``result``."""
 
-    def __init__(self, *, window: int = 8) -> None:
+    def __new__(cls, *, window: int = 8) -> "WindowHost":
         """``window``: 4, 8 or 32 bytes."""
     def send(self, data: bytes) -> int:
         """Queues a send job; returns its job number."""
@@ -659,9 +712,10 @@ class WindowHost:
         """None while ``job`` runs; True for a finished send, the bytes of a receive (empty:
         no message); ProtocolError with the STATUS when it failed."""
 
+@final
 class WindowModule:
     """The module's side of the window with a loopback serial line, to test a rig."""
 
-    def __init__(self, *, window: int = 8) -> None: ...
+    def __new__(cls, *, window: int = 8) -> "WindowModule": ...
     def cycle(self, now: float, output: bytes) -> bytes:
         """One DP cycle at ``now`` seconds: the input window for the host's ``output``."""

@@ -2,8 +2,11 @@
 si_serial's one runtime)."""
 
 from types import TracebackType
-from typing import Dict, List, Optional, Tuple, Type
+from typing import Dict, List, Optional, Tuple, Type, final
 
+from typing_extensions import disjoint_base
+
+from . import UssEvent
 from . import (
     BYTEORDER_BIG as BYTEORDER_BIG,
     BYTEORDER_BIG_SWAP as BYTEORDER_BIG_SWAP,
@@ -19,7 +22,6 @@ from . import (
     SiError as SiError,
     Simulator as Simulator,
     TcpServer as TcpServer,
-    UssEvent as UssEvent,
     Monitor as Monitor,
     WindowHost as WindowHost,
     WindowModule as WindowModule,
@@ -34,6 +36,43 @@ from . import (
     monitor_trace as monitor_trace,
 )
 
+__all__ = [
+    "AsciiLink",
+    "Link3964R",
+    "Rk512Station",
+    "UssMaster",
+    "BYTEORDER_BIG",
+    "BYTEORDER_BIG_SWAP",
+    "BYTEORDER_LITTLE",
+    "BYTEORDER_LITTLE_SWAP",
+    "ConfigError",
+    "DeviceException",
+    "InvalidResponseError",
+    "ModbusClient",
+    "Monitor",
+    "WindowHost",
+    "WindowModule",
+    "decode_3964r",
+    "decode_modbus_request",
+    "decode_modbus_response",
+    "decode_rk512",
+    "decode_uss",
+    "encode_3964r",
+    "encode_modbus",
+    "encode_uss",
+    "monitor_trace",
+    "ModbusSlave",
+    "ModbusStore",
+    "NoResponseError",
+    "ProtocolError",
+    "RtuClient",
+    "SiError",
+    "Simulator",
+    "TcpClient",
+    "TcpServer",
+]
+
+@disjoint_base
 class ModbusClient:
     """A Modbus client whose jobs are coroutines; arguments as in ``si_serial.ModbusClient``.
     Several jobs may be awaited at once: they run one after the other on the line."""
@@ -85,12 +124,13 @@ class ModbusClient:
         tb: Optional[TracebackType],
     ) -> bool: ...
 
+@final
 class RtuClient(ModbusClient):
     """A Modbus RTU master on ``port``; the keyword arguments of ``si_serial.RtuClient``.
     The port opens at once; the jobs are awaited."""
 
-    def __init__(
-        self,
+    def __new__(
+        cls,
         port: str,
         *,
         baud: int = 9600,
@@ -104,8 +144,9 @@ class RtuClient(ModbusClient):
         broadcast_turnaround: float = 0.1,
         rx_latency: Optional[float] = None,
         frame_end: str = "gap",
-    ) -> None: ...
+    ) -> "RtuClient": ...
 
+@final
 class TcpClient(ModbusClient):
     """A Modbus TCP client: ``client = await TcpClient.connect(host, port)``."""
 
