@@ -138,9 +138,15 @@ def test_minimalmodbus_instrument_against_si_slave_with_callbacks(pty_pair):
             instrument.serial.close()
 
 
-@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
-def test_tcp_server_values_from_a_callback():
+def test_tcp_server_values_from_a_callback(monkeypatch):
+    """A raising callback: exception 04 to the client, the Python exception to
+    `sys.unraisablehook`."""
+    import sys
+
     from pymodbus.client import ModbusTcpClient
+
+    unraisable = []
+    monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
 
     def on_read(table, address, count):
         if address >= 10:
@@ -156,6 +162,8 @@ def test_tcp_server_values_from_a_callback():
             assert r.registers == [2, 3, 4]
             r = client.read_holding_registers(10, count=1, device_id=1)
             assert r.isError() and r.exception_code == 4, r
+            assert [type(u.exc_value) for u in unraisable] == [KeyError]
+            assert unraisable[0].object is on_read
             r = client.read_holding_registers(0, count=1, device_id=1)
             assert r.registers == [0]
         finally:
