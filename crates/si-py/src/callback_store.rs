@@ -54,23 +54,29 @@ impl CallbackStore {
         CallbackStore { store, callbacks }
     }
 
-    /// `count` values of `table` from the read callback as `T` (u16 or bool), `Ok(None)` if
-    /// there is no callback or it returned None.
-    fn read<T>(&self, table: &str, address: u16, count: u16) -> Result<Option<Vec<T>>, StoreError>
-    where
-        T: for<'a, 'py> FromPyObject<'a, 'py>,
-    {
+    /// `count` values of `table` from the read callback as `T` (a register or a bit),
+    /// `Ok(None)` if there is no callback or it returned None.
+    fn read<T: Value>(
+        &self,
+        table: &str,
+        address: u16,
+        count: u16,
+    ) -> Result<Option<Vec<T>>, StoreError> {
         let Some(callback) = &self.callbacks.on_read else {
             return Ok(None);
         };
         Python::attach(|py| {
             let called = callback
-                .call1(py, (table, address, count))
+                .bind(py)
+                .call1((table, address, count))
                 .and_then(|values| {
-                    if values.is_none(py) {
+                    if values.is_none() {
                         return Ok(None);
                     }
-                    let values: Vec<T> = values.extract(py)?;
+                    let values = values
+                        .try_iter()?
+                        .map(|v| T::from_py(&v?))
+                        .collect::<PyResult<Vec<T>>>()?;
                     if values.len() != usize::from(count) {
                         return Err(PyValueError::new_err(format!(
                             "on_read returned {} values for {count} {table} from {address}",
@@ -98,6 +104,26 @@ impl CallbackStore {
             .and_then(|values| callback.call1(py, (table, address, values)))
             .map(drop)
             .map_err(|e| device_failure(py, e, callback))
+    }
+}
+
+/// One value a read callback returns.
+trait Value: Sized {
+    /// The value of `v`, or the Python error to report.
+    fn from_py(v: &Bound<'_, PyAny>) -> PyResult<Self>;
+}
+
+/// A register: an int 0 … 65535 (else OverflowError or TypeError).
+impl Value for u16 {
+    fn from_py(v: &Bound<'_, PyAny>) -> PyResult<Self> {
+        v.extract()
+    }
+}
+
+/// A bit: any object, by its truth (True, 1, …), as Python's `bool()` would take it.
+impl Value for bool {
+    fn from_py(v: &Bound<'_, PyAny>) -> PyResult<Self> {
+        v.is_truthy()
     }
 }
 

@@ -96,7 +96,8 @@ fn event_dict<'py>(py: Python<'py>, event: &SlaveEvent) -> PyResult<Bound<'py, P
 /// A Modbus RTU slave on a serial port serving `store` (default: plain tables) at `address`
 /// ([Modbus/USS] §3.5.4, Table 3-20); it answers until `close()`.
 ///
-/// `on_read(table, address, count)` returns `count` values (or None: the store answers);
+/// `on_read(table, address, count)` returns `count` values, registers as ints, bits by their
+/// truth (or None: the store answers);
 /// `on_write(table, address, values)` sees a write before the store takes it. They run on
 /// the module's threads with the GIL held only meanwhile; one that raises answers the master
 /// with exception 04, SERVER DEVICE FAILURE ([Modbus AP] §7), and the slave keeps serving.

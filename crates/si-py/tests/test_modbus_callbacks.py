@@ -12,8 +12,8 @@ import si_serial
 
 
 class Device:
-    """A simulated device: holding registers computed on read, writes recorded; raises for
-    holding register 99 and for coils."""
+    """A simulated device: holding registers computed on read, writes recorded; fails for
+    holding registers 97 … 99 and for coils."""
 
     def __init__(self):
         self.reads = []
@@ -31,8 +31,10 @@ class Device:
             return [1, 2, 3]  # not `count` values
         if table == "input_registers":
             return None  # served from the store
+        if table == "holding_registers" and address == 97:
+            return [70000] * count  # not a register value
         if table == "discrete_inputs":
-            return [i % 2 == 1 for i in range(count)]
+            return (i % 2 for i in range(count))  # any iterable; bits by truth
         return [1000 + address + i for i in range(count)]
 
     def on_write(self, table, address, values):
@@ -75,8 +77,10 @@ def test_pymodbus_serial_client_against_si_slave_with_callbacks(pty_pair):
             assert r.isError() and r.exception_code == 4, r
             r = client.read_coils(0, count=8, device_id=17)
             assert r.isError() and r.exception_code == 4, r
-            # Three values for a request of one: exception 04 too.
+            # Three values for a request of one, or a value beyond 16 bits: exception 04 too.
             r = client.read_holding_registers(98, count=1, device_id=17)
+            assert r.isError() and r.exception_code == 4, r
+            r = client.read_holding_registers(97, count=1, device_id=17)
             assert r.isError() and r.exception_code == 4, r
 
             # A write goes to on_write, then into the store.

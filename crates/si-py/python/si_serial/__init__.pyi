@@ -6,7 +6,7 @@ naming the keyword, the manual's parameter, its range and the value.
 """
 
 from types import TracebackType
-from typing import Callable, Dict, List, Optional, Sequence, Tuple, Type, TypedDict, Union, final
+from typing import Callable, Dict, Iterable, List, Optional, Tuple, Type, TypedDict, Union, final
 
 from typing_extensions import disjoint_base
 
@@ -273,10 +273,10 @@ class SlaveEvent(TypedDict, total=False):
     status: Optional[int]
     status_text: str
 
-_OnRead = Callable[[str, int, int], Optional[Sequence[Union[int, bool]]]]
+_OnRead = Callable[[str, int, int], Optional[Iterable[Union[int, bool]]]]
 """``on_read(table, address, count)``: ``count`` values of ``table`` ("coils",
-"discrete_inputs", "holding_registers", "input_registers") from ``address``, or None to
-serve them from the store."""
+"discrete_inputs", "holding_registers", "input_registers") from ``address`` (registers as
+ints 0 … 65535, bits by their truth), or None to serve them from the store."""
 
 _OnWrite = Callable[[str, int, List[Union[int, bool]]], object]
 """``on_write(table, address, values)``: sees a write ("coils" or "holding_registers")
