@@ -1383,6 +1383,17 @@ impl Adu {
         Ok(a)
     }
 
+    /// Encode a request into this ADU, in place (an engine's job slot); on error it is
+    /// left as it was.
+    pub(crate) fn encode_request(
+        &mut self,
+        unit: u8,
+        request: &Request<'_>,
+    ) -> Result<(), EncodeError> {
+        self.len = request.encode(unit, &mut self.buf)? as u16;
+        Ok(())
+    }
+
     /// Encode a response into a new ADU.
     pub fn response(unit: u8, response: &Response<'_>) -> Result<Self, EncodeError> {
         let mut a = Adu::new();
