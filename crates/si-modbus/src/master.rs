@@ -217,6 +217,11 @@ pub struct Master {
     /// The id of the running job (or of the last one), named by its end event even when an FB
     /// reset made `jobs` forget it.
     job_id: JobId,
+    /// [`MasterConfig::max_response_duration`], computed once (the config does not change),
+    /// not at each step of every job.
+    max_response: Duration,
+    /// [`MasterConfig::job_bound`], computed once.
+    job_bound: Duration,
 }
 
 impl Master {
@@ -239,6 +244,8 @@ impl Master {
             job_id: JobId(0),
             fb_job: None,
             fb_reception: None,
+            max_response: config.max_response_duration(),
+            job_bound: config.job_bound(),
         })
     }
 
@@ -394,9 +401,9 @@ impl Master {
         // A request the quiet guard holds has its bound counted from the guard's end.
         let held = self
             .guard
-            .bound(self.config.max_response_duration())
+            .bound(self.max_response)
             .map_or(Duration::ZERO, |b| b.saturating_since(now));
-        self.job_deadline = Some(now + held + self.config.job_bound());
+        self.job_deadline = Some(now + held + self.job_bound);
         self.attempt(now);
         id
     }
@@ -429,7 +436,7 @@ impl Master {
     /// [`MasterConfig::max_response_duration`] (a frame in progress is over by then; a line
     /// that is still busy carries noise, which the request would not wait out).
     fn attempt(&mut self, now: Instant) {
-        self.hold_limit = now + self.config.max_response_duration();
+        self.hold_limit = now + self.max_response;
         self.send(now);
     }
 
@@ -442,7 +449,7 @@ impl Master {
             .map(|q| q.min(self.hold_limit));
         let guard = self
             .guard
-            .until(self.rx.last_activity(), self.config.max_response_duration())
+            .until(self.rx.last_activity(), self.max_response)
             .filter(|&g| now < g);
         if let Some(until) = gap.max(guard) {
             self.state = State::Holding { until };
@@ -484,7 +491,7 @@ impl Master {
                 let deadline = now + self.config.response_timeout + self.rx.delivery().allowance();
                 State::Waiting {
                     deadline,
-                    limit: deadline + self.config.max_response_duration(),
+                    limit: deadline + self.max_response,
                 }
             };
         }
@@ -505,19 +512,22 @@ impl Master {
     /// End the running job with its completion: the request is moved out of the job, not
     /// copied (an ADU is 264 bytes inline).
     fn complete(&mut self, response: Option<Adu>) {
-        let Some((request, _)) = self.job.take() else {
+        let Some((request, _)) = self.job.as_ref() else {
             return;
         };
-        let completion = Completion {
-            job: self.job_id,
-            request,
-            response,
-        };
+        // Built where the output queue keeps it, then copied once into the job slot.
+        self.out
+            .push_back(Output::Event(MasterEvent::Completed(Completion {
+                job: self.job_id,
+                request: *request,
+                response,
+            })));
+        self.job = None;
         self.job_deadline = None;
         self.state = State::Idle;
-        self.jobs.finish(Ok(completion));
-        self.out
-            .push_back(Output::Event(MasterEvent::Completed(completion)));
+        if let Some(Output::Event(MasterEvent::Completed(c))) = self.out.back() {
+            self.jobs.finish(Ok(*c));
+        }
     }
 
     fn fail(&mut self, status: Status) {

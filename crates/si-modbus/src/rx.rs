@@ -362,11 +362,14 @@ impl Receiver {
             self.unpredictable = false;
             let len = core::mem::take(&mut self.len);
             self.counters.frames += 1;
-            return Some(Received {
-                adu: Adu::from_slice(&self.buf[..len]).unwrap_or_default(),
+            // Filled where it is returned (the receiver's buffer holds at most `MAX_ADU`).
+            let mut frame = Received {
+                adu: Adu::new(),
                 fault: None,
                 crc_good: true,
-            });
+            };
+            frame.adu.fill(&self.buf[..len]);
+            return Some(frame);
         }
         if now < last + self.effective_gap() {
             return None;
