@@ -309,7 +309,11 @@ fn modbus_roundtrip_interleaved(runtime: &str, rt: &tokio::runtime::Runtime) {
     // `SI_BENCH_CLIENTS=si-inline,tokio-modbus`: only these clients take turns (all three
     // unless given), e.g. to count one client's instructions under callgrind.
     let clients = std::env::var("SI_BENCH_CLIENTS").ok();
-    let runs = |name: &str| clients.as_deref().is_none_or(|c| c.split(',').any(|n| n == name));
+    let runs = |name: &str| {
+        clients
+            .as_deref()
+            .is_none_or(|c| c.split(',').any(|n| n == name))
+    };
     let active = [runs("si"), runs("si-inline"), runs("tokio-modbus")];
     let mut times = [Vec::new(), Vec::new(), Vec::new()];
     for _ in 0..requests {

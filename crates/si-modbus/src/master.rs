@@ -481,7 +481,10 @@ impl Master {
 
     fn sent(&mut self, now: Instant) {
         if let State::Sending { .. } = self.state {
-            let broadcast = self.job.as_ref().is_some_and(|(a, _)| a.unit() == BROADCAST);
+            let broadcast = self
+                .job
+                .as_ref()
+                .is_some_and(|(a, _)| a.unit() == BROADCAST);
             self.state = if broadcast {
                 State::Turnaround {
                     until: now + self.config.broadcast_turnaround,
@@ -1018,6 +1021,9 @@ mod tests {
         );
         // In range: the structure check alone accepts it.
         let req = with_crc(adu("01 03 00 00 00 01"));
-        assert_eq!(check_response(&req, &with_crc(adu("01 03 02 00 07"))), Ok(()));
+        assert_eq!(
+            check_response(&req, &with_crc(adu("01 03 02 00 07"))),
+            Ok(())
+        );
     }
 }
