@@ -518,7 +518,7 @@ impl Master {
         let Some((request, _)) = self.job.as_ref() else {
             return;
         };
-        // Built where the output queue keeps it, then copied once into the job slot.
+        // Pushed as it is built; the job slot copies it from the queue.
         self.out
             .push_back(Output::Event(MasterEvent::Completed(Completion {
                 job: self.job_id,
