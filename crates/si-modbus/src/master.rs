@@ -514,23 +514,28 @@ impl Master {
 
     /// End the running job with its completion: the request is moved out of the job, not
     /// copied (an ADU is 264 bytes inline).
-    fn complete(&mut self, response: Option<Adu>) {
+    fn complete(&mut self, response: Option<&[u8]>) {
         let Some((request, _)) = self.job.as_ref() else {
             return;
         };
-        // Pushed as it is built; the job slot copies it from the queue.
+        // Pushed empty, then filled where the queue keeps it: the ADUs' bytes are copied once,
+        // not the whole inline arrays several times on their way in.
         self.out
             .push_back(Output::Event(MasterEvent::Completed(Completion {
                 job: self.job_id,
-                request: *request,
-                response,
+                request: Adu::new(),
+                response: response.map(|_| Adu::new()),
             })));
+        if let Some(Output::Event(MasterEvent::Completed(c))) = self.out.back_mut() {
+            c.request.fill(request.as_bytes());
+            if let (Some(adu), Some(bytes)) = (c.response.as_mut(), response) {
+                adu.fill(bytes);
+            }
+            self.jobs.finish(Ok(*c));
+        }
         self.job = None;
         self.job_deadline = None;
         self.state = State::Idle;
-        if let Some(Output::Event(MasterEvent::Completed(c))) = self.out.back() {
-            self.jobs.finish(Ok(*c));
-        }
     }
 
     fn fail(&mut self, status: Status) {
@@ -607,7 +612,7 @@ impl Master {
                 // be one.
                 self.fail(self.rx.delivery().annotate(status::WRONG_SLAVE_ADDRESS));
             }
-            Some(Ok(())) => self.complete(Some(frame.adu)),
+            Some(Ok(())) => self.complete(Some(frame.adu.as_bytes())),
             Some(Err(s)) => {
                 self.rx.count_discarded();
                 // CRC, length and structure errors: a frame cut by a late packet.
