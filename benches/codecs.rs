@@ -306,9 +306,22 @@ fn modbus_roundtrip_interleaved(runtime: &str, rt: &tokio::runtime::Runtime) {
     let (a, b) = tokio::io::duplex(1024);
     take_events(handle::Slave::spawn_engine(slave(), b));
     let mut ctx = tokio_modbus::client::rtu::attach_slave(a, tokio_modbus::Slave(1));
+    // `SI_BENCH_CLIENTS=si-inline,tokio-modbus`: only these clients take turns (all three
+    // unless given), e.g. to count one client's instructions under callgrind.
+    let clients = std::env::var("SI_BENCH_CLIENTS").ok();
+    let runs = |name: &str| {
+        clients
+            .as_deref()
+            .is_none_or(|c| c.split(',').any(|n| n == name))
+    };
+    let active = [runs("si"), runs("si-inline"), runs("tokio-modbus")];
     let mut times = [Vec::new(), Vec::new(), Vec::new()];
     for _ in 0..requests {
         for (which, t) in times.iter_mut().enumerate() {
+            if !active[which] {
+                t.push(StdDuration::ZERO);
+                continue;
+            }
             roundtrip_idle();
             let start = std::time::Instant::now();
             let n = rt.block_on(async {

@@ -1401,6 +1401,28 @@ impl Adu {
         Ok(a)
     }
 
+    /// Overwrite this ADU with `bytes` (an engine's frame built in place); `false`, and left
+    /// as it was, if they are longer than [`MAX_ADU`].
+    pub(crate) fn fill(&mut self, bytes: &[u8]) -> bool {
+        let Some(buf) = self.buf.get_mut(..bytes.len()) else {
+            return false;
+        };
+        buf.copy_from_slice(bytes);
+        self.len = bytes.len() as u16;
+        true
+    }
+
+    /// Encode a request into this ADU, in place (an engine's job slot); on error it is
+    /// left as it was.
+    pub(crate) fn encode_request(
+        &mut self,
+        unit: u8,
+        request: &Request<'_>,
+    ) -> Result<(), EncodeError> {
+        self.len = request.encode(unit, &mut self.buf)? as u16;
+        Ok(())
+    }
+
     /// Encode a response into a new ADU.
     pub fn response(unit: u8, response: &Response<'_>) -> Result<Self, EncodeError> {
         let mut a = Adu::new();

@@ -217,6 +217,11 @@ pub struct Master {
     /// The id of the running job (or of the last one), named by its end event even when an FB
     /// reset made `jobs` forget it.
     job_id: JobId,
+    /// [`MasterConfig::max_response_duration`], computed once (the config does not change),
+    /// not at each step of every job.
+    max_response: Duration,
+    /// [`MasterConfig::job_bound`], computed once.
+    job_bound: Duration,
 }
 
 impl Master {
@@ -239,6 +244,8 @@ impl Master {
             job_id: JobId(0),
             fb_job: None,
             fb_reception: None,
+            max_response: config.max_response_duration(),
+            job_bound: config.job_bound(),
         })
     }
 
@@ -325,8 +332,13 @@ impl Master {
         if self.job.is_some() {
             return Err(RequestError::Busy);
         }
-        let adu = Self::check_job(unit, request)?;
-        Ok(self.start(now, adu))
+        // Encoded straight into the job slot: no ADU returned and moved in.
+        let (adu, _) = self.job.insert((Adu::new(), 0));
+        if let Err(e) = Self::check_job_into(unit, request, adu) {
+            self.job = None;
+            return Err(e);
+        }
+        Ok(self.start_placed(now))
     }
 
     /// Start a job for a function code this crate does not know, passed through as it is (a
@@ -374,16 +386,24 @@ impl Master {
 
     /// Start the job of request `adu` at `now`: its id.
     fn start(&mut self, now: Instant, adu: Adu) -> JobId {
+        self.job = Some((adu, 0));
+        self.start_placed(now)
+    }
+
+    /// Start the job whose request is already in the job slot, at `now`: its id.
+    fn start_placed(&mut self, now: Instant) -> JobId {
         let id = self.jobs.start();
         self.job_id = id;
-        self.job = Some((adu, 1 + self.config.retries));
+        if let Some((_, attempts)) = self.job.as_mut() {
+            *attempts = 1 + self.config.retries;
+        }
         self.attempts = Attempts::default();
         // A request the quiet guard holds has its bound counted from the guard's end.
         let held = self
             .guard
-            .bound(self.config.max_response_duration())
+            .bound(self.max_response)
             .map_or(Duration::ZERO, |b| b.saturating_since(now));
-        self.job_deadline = Some(now + held + self.config.job_bound());
+        self.job_deadline = Some(now + held + self.job_bound);
         self.attempt(now);
         id
     }
@@ -392,11 +412,18 @@ impl Master {
     /// broadcast not allowed for this function, 0E44H–0E46H counts), with the request as it would
     /// be sent. Pure, so a caller can check a job without the engine at hand.
     pub fn check_job(unit: u8, request: &Request<'_>) -> Result<Adu, RequestError> {
+        let mut adu = Adu::new();
+        Self::check_job_into(unit, request, &mut adu)?;
+        Ok(adu)
+    }
+
+    /// [`check_job`](Self::check_job), the request encoded into `adu`.
+    fn check_job_into(unit: u8, request: &Request<'_>, adu: &mut Adu) -> Result<(), RequestError> {
         let f = request.function();
         if unit == BROADCAST && !fc::broadcast_allowed(f) {
             return Err(RequestError::Invalid(status::BROADCAST_NOT_ALLOWED_FOR_FC));
         }
-        Adu::request(unit, request).map_err(|_| {
+        adu.encode_request(unit, request).map_err(|_| {
             RequestError::Invalid(match f {
                 fc::READ_COILS | fc::READ_DISCRETE_INPUTS => status::BIT_COUNT,
                 fc::READ_HOLDING_REGISTERS | fc::READ_INPUT_REGISTERS => status::REGISTER_COUNT,
@@ -409,7 +436,7 @@ impl Master {
     /// [`MasterConfig::max_response_duration`] (a frame in progress is over by then; a line
     /// that is still busy carries noise, which the request would not wait out).
     fn attempt(&mut self, now: Instant) {
-        self.hold_limit = now + self.config.max_response_duration();
+        self.hold_limit = now + self.max_response;
         self.send(now);
     }
 
@@ -422,7 +449,7 @@ impl Master {
             .map(|q| q.min(self.hold_limit));
         let guard = self
             .guard
-            .until(self.rx.last_activity(), self.config.max_response_duration())
+            .until(self.rx.last_activity(), self.max_response)
             .filter(|&g| now < g);
         if let Some(until) = gap.max(guard) {
             self.state = State::Holding { until };
@@ -454,7 +481,10 @@ impl Master {
 
     fn sent(&mut self, now: Instant) {
         if let State::Sending { .. } = self.state {
-            let broadcast = self.job.is_some_and(|(a, _)| a.unit() == BROADCAST);
+            let broadcast = self
+                .job
+                .as_ref()
+                .is_some_and(|(a, _)| a.unit() == BROADCAST);
             self.state = if broadcast {
                 State::Turnaround {
                     until: now + self.config.broadcast_turnaround,
@@ -464,7 +494,7 @@ impl Master {
                 let deadline = now + self.config.response_timeout + self.rx.delivery().allowance();
                 State::Waiting {
                     deadline,
-                    limit: deadline + self.config.max_response_duration(),
+                    limit: deadline + self.max_response,
                 }
             };
         }
@@ -482,9 +512,36 @@ impl Master {
         self.out.push_back(Output::Event(event));
     }
 
+    /// End the running job with its completion: the request is moved out of the job, not
+    /// copied (an ADU is 264 bytes inline).
+    fn complete(&mut self, response: Option<&[u8]>) {
+        let Some((request, _)) = self.job.as_ref() else {
+            return;
+        };
+        // Pushed empty, then filled where the queue keeps it: the ADUs' bytes are copied once,
+        // not the whole inline arrays several times on their way in.
+        self.out
+            .push_back(Output::Event(MasterEvent::Completed(Completion {
+                job: self.job_id,
+                request: Adu::new(),
+                response: response.map(|_| Adu::new()),
+            })));
+        if let Some(Output::Event(MasterEvent::Completed(c))) = self.out.back_mut() {
+            c.request.fill(request.as_bytes());
+            if let (Some(adu), Some(bytes)) = (c.response.as_mut(), response) {
+                adu.fill(bytes);
+            }
+            self.jobs.finish(Ok(*c));
+        }
+        self.job = None;
+        self.job_deadline = None;
+        self.state = State::Idle;
+    }
+
     fn fail(&mut self, status: Status) {
         let (unit, function) = self
             .job
+            .as_ref()
             .map_or((0, 0), |(a, _)| (a.unit(), a.as_bytes()[1]));
         self.finish(MasterEvent::Failed {
             job: self.job_id,
@@ -497,7 +554,7 @@ impl Master {
     /// Fail, or send again if retries are left and the failure is one a retry can cure.
     fn fail_or_retry(&mut self, now: Instant, status: Status) {
         self.count_attempt(status);
-        let retry = self.job.is_some_and(|(_, left)| left > 0)
+        let retry = self.job.as_ref().is_some_and(|&(_, left)| left > 0)
             && (status == status::RESPONSE_TIMEOUT || status == status::RESPONSE_CRC);
         if retry {
             self.attempt(now);
@@ -531,7 +588,7 @@ impl Master {
             }
             return;
         }
-        let Some((request, _)) = self.job.filter(|_| waiting) else {
+        let Some((request, _)) = self.job.as_ref().filter(|_| waiting) else {
             if !frame.adu.as_bytes().is_empty() {
                 self.rx.count_discarded();
                 self.out.push_back(Output::Event(MasterEvent::Diagnostic(
@@ -541,26 +598,22 @@ impl Master {
             return;
         };
         let response = frame.adu.as_bytes();
-        if response.first() != Some(&request.unit()) {
-            if self.config.line.mode == Mode::InterferenceSuppression {
-                // Not a correctly received address: not a response start; keep waiting.
-                self.rx.count_discarded();
-                return;
+        // Checked where it lies (the job's request is not copied out to compare against).
+        let checked = (response.first() == Some(&request.unit()))
+            .then(|| check_response_with(request.as_bytes(), response, frame.crc_good));
+        match checked {
+            None => {
+                if self.config.line.mode == Mode::InterferenceSuppression {
+                    // Not a correctly received address: not a response start; keep waiting.
+                    self.rx.count_discarded();
+                    return;
+                }
+                // A response cut by a late packet starts mid-frame: name the adapter if it may
+                // be one.
+                self.fail(self.rx.delivery().annotate(status::WRONG_SLAVE_ADDRESS));
             }
-            // A response cut by a late packet starts mid-frame: name the adapter if it may be one.
-            self.fail(self.rx.delivery().annotate(status::WRONG_SLAVE_ADDRESS));
-            return;
-        }
-        match check_response(request.as_bytes(), response) {
-            Ok(()) => {
-                let completion = Completion {
-                    job: self.job_id,
-                    request,
-                    response: Some(frame.adu),
-                };
-                self.finish(MasterEvent::Completed(completion));
-            }
-            Err(s) => {
+            Some(Ok(())) => self.complete(Some(frame.adu.as_bytes())),
+            Some(Err(s)) => {
                 self.rx.count_discarded();
                 // CRC, length and structure errors: a frame cut by a late packet.
                 self.fail_or_retry(now, self.rx.delivery().annotate(s));
@@ -595,13 +648,7 @@ impl Master {
                 self.fail_or_retry(now, status::RESPONSE_TIMEOUT)
             }
             State::Turnaround { until } if now >= until => {
-                if let Some((request, _)) = self.job {
-                    self.finish(MasterEvent::Completed(Completion {
-                        job: self.job_id,
-                        request,
-                        response: None,
-                    }));
-                }
+                self.complete(None);
             }
             _ => {}
         }
@@ -631,7 +678,7 @@ impl Master {
     /// What the receiver may predict the length of: the response to the running job's
     /// request once it is being sent (a broadcast has none).
     fn expect(&self) -> Expect {
-        match (self.job, self.state) {
+        match (self.job.as_ref(), self.state) {
             (Some((request, _)), State::Sending { .. } | State::Waiting { .. })
                 if request.unit() != BROADCAST =>
             {
@@ -705,6 +752,13 @@ fn fault_status(fault: Fault) -> Status {
 /// (0E52H/0E53H) rather than 0E57H: a response cut short by a gap or run into by another
 /// frame fails its CRC as a consequence, and "too few bytes" says what happened.
 pub fn check_response(request: &[u8], response: &[u8]) -> Result<(), Status> {
+    check_response_with(request, response, false)
+}
+
+/// [`check_response`], where `crc_good` says the receiver has already found the response's
+/// CRC good (a frame ended by its length is checked there before it is handed up), so it is
+/// not computed a second time.
+fn check_response_with(request: &[u8], response: &[u8], crc_good: bool) -> Result<(), Status> {
     if response.len() < 4 {
         return Err(status::TOO_FEW_BYTES);
     }
@@ -713,7 +767,7 @@ pub fn check_response(request: &[u8], response: &[u8]) -> Result<(), Status> {
         &request[..without_crc(request)],
         &response[..without_crc(response)],
     );
-    if !frame::crc_ok(response) {
+    if !crc_good && !frame::crc_ok(response) {
         return match structure {
             Err(s) if s == status::TOO_FEW_BYTES || s == status::TOO_MANY_BYTES => Err(s),
             _ => Err(status::RESPONSE_CRC),
@@ -724,10 +778,35 @@ pub fn check_response(request: &[u8], response: &[u8]) -> Result<(), Status> {
         // A function passed through: its answer's structure is the slave's business.
         return Ok(());
     }
+    if read_fully_checked(request) {
+        // The structure check above has pinned the byte count to one the decoder accepts:
+        // decoding the response here too would only repeat it (the caller decodes it once).
+        return Ok(());
+    }
     // The CRC is good (above): read `unit | PDU` without computing it again.
     frame::decode_unit_pdu_response(&response[..without_crc(response)])
         .map(|_| ())
         .map_err(|_| status::BYTE_COUNT_WRONG)
+}
+
+/// True for a read (FC01–04) whose quantity the decoder's byte-count limits accept
+/// (1–[`frame::MAX_BITS`] bits, 1–[`frame::MAX_REGISTERS`] registers, as
+/// [`Master::check_job`] allows): once [`check_structure`]
+/// has found the response's byte count equal to the one the quantity needs, decoding it cannot
+/// fail. A passed-through read of another quantity is still decoded by [`check_response`].
+fn read_fully_checked(request: &[u8]) -> bool {
+    let Some(&[f, _, _, hi, lo]) = request.get(1..6).and_then(|b| <&[u8; 5]>::try_from(b).ok())
+    else {
+        return false;
+    };
+    let quantity = u16::from_be_bytes([hi, lo]);
+    match f {
+        fc::READ_COILS | fc::READ_DISCRETE_INPUTS => (1..=frame::MAX_BITS).contains(&quantity),
+        fc::READ_HOLDING_REGISTERS | fc::READ_INPUT_REGISTERS => {
+            (1..=frame::MAX_REGISTERS).contains(&quantity)
+        }
+        _ => false,
+    }
 }
 
 /// The structure of a response (`unit | PDU`, no CRC: RTU and Modbus TCP alike) against its
@@ -807,7 +886,7 @@ impl Engine for Master {
             return; // [Modbus/USS] §3.2.2 item 6: nothing is received while DSR = OFF
         }
         while !bytes.is_empty() {
-            let unit = self.job.map(|(a, _)| a.unit());
+            let unit = self.job.as_ref().map(|(a, _)| a.unit());
             let taken = self.rx.push(now, bytes, |b| Some(b) == unit, self.expect());
             bytes = &bytes[taken..];
             if matches!(self.state, State::Sending { .. }) && self.rx.is_receiving() {
@@ -928,6 +1007,28 @@ mod tests {
         assert_eq!(
             check_response(&req, &with_crc(adu("01 06 00 01 00 04"))),
             Err(status::ECHO_WRONG)
+        );
+    }
+
+    #[test]
+    fn a_passed_through_read_of_a_quantity_the_decoder_refuses_is_still_decoded() {
+        // Quantity 0 (a pass-through request is not range-checked): the byte count 0 matches
+        // the structure, but no register read has it.
+        let req = with_crc(adu("01 03 00 00 00 00"));
+        assert_eq!(
+            check_response(&req, &with_crc(adu("01 03 00"))),
+            Err(status::BYTE_COUNT_WRONG)
+        );
+        let req = with_crc(adu("01 01 00 00 00 00"));
+        assert_eq!(
+            check_response(&req, &with_crc(adu("01 01 00"))),
+            Err(status::BYTE_COUNT_WRONG)
+        );
+        // In range: the structure check alone accepts it.
+        let req = with_crc(adu("01 03 00 00 00 01"));
+        assert_eq!(
+            check_response(&req, &with_crc(adu("01 03 02 00 07"))),
+            Ok(())
         );
     }
 }

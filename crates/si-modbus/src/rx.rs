@@ -171,6 +171,10 @@ pub struct Received {
     pub adu: Adu,
     /// Set if the frame is faulty (Normal mode only; suppression mode drops such frames).
     pub fault: Option<Fault>,
+    /// The receiver has already found the CRC over `adu` good (a frame ended by its length,
+    /// or one whose start was searched for by its CRC), so the engine need not compute it
+    /// again; `false` says only that it was not checked here.
+    pub crc_good: bool,
 }
 
 /// The frame assembler the master and slave share: silence ends a frame, and with
@@ -358,10 +362,14 @@ impl Receiver {
             self.unpredictable = false;
             let len = core::mem::take(&mut self.len);
             self.counters.frames += 1;
-            return Some(Received {
-                adu: Adu::from_slice(&self.buf[..len]).unwrap_or_default(),
+            // Filled where it is returned (the receiver's buffer holds at most `MAX_ADU`).
+            let mut frame = Received {
+                adu: Adu::new(),
                 fault: None,
-            });
+                crc_good: true,
+            };
+            frame.adu.fill(&self.buf[..len]);
+            return Some(frame);
         }
         if now < last + self.effective_gap() {
             return None;
@@ -382,6 +390,7 @@ impl Receiver {
                 return Some(Received {
                     adu,
                     fault: Some(f),
+                    crc_good: false,
                 })
             }
             _ => {}
@@ -390,6 +399,7 @@ impl Receiver {
             self.counters.discarded += 1;
             return None;
         }
+        let mut crc_good = false;
         if self.starts_at_address() && !crc_ok(adu.as_bytes()) {
             // The start is a correctly received address: try the later ones. On RS-485 in
             // Normal mode too (`[derived]` from [Modbus/USS] §3.4.1, §3.4.3: a message starts at
@@ -404,10 +414,17 @@ impl Receiver {
             if let Some(k) = restart {
                 self.counters.skipped_bytes += k as u64;
                 adu = Adu::from_slice(&self.buf[k..len]).unwrap_or_default();
+                crc_good = true;
             }
+        } else if self.starts_at_address() {
+            crc_good = true;
         }
         self.counters.frames += 1;
-        Some(Received { adu, fault: None })
+        Some(Received {
+            adu,
+            fault: None,
+            crc_good,
+        })
     }
 
     /// Bytes from the line at `now`; returns how many of them it took. Call

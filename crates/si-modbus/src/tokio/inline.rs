@@ -138,10 +138,6 @@ impl<T: Transport> Inner<T> {
         Instant::from_micros(u64::try_from(elapsed.as_micros()).unwrap_or(u64::MAX))
     }
 
-    fn at(&self, instant: Instant) -> tokio::time::Instant {
-        self.origin + std::time::Duration::from_micros(instant.as_micros())
-    }
-
     /// Run one job: `pick` reads what the caller wants out of its completion where the engine
     /// reports it (a completion carries both ADUs inline, so not moving it up through the
     /// futures saves copying it at each level).
@@ -157,26 +153,29 @@ impl<T: Transport> Inner<T> {
         }
         // A job abandoned by a dropped future runs to its end first (its outcome is nobody's).
         while self.engine.is_busy() {
-            let _abandoned = self.drive(None, |_| ()).await?;
+            let _abandoned = self.drive(None, |_| (), None).await?;
         }
+        let now = self.now();
         let id = self
             .engine
-            .request(self.now(), unit, request)
+            .request(now, unit, request)
             .map_err(|reason| Error::Refused { job, reason })?;
-        match self.drive(Some(id), pick).await? {
+        match self.drive(Some(id), pick, Some(now)).await? {
             Ok(r) => Ok(r),
             Err(status) => Err(Error::failed(job, status)),
         }
     }
 
     /// Run the engine until the running job ends: its outcome, `pick`ed from the completion
-    /// (`Ok(Err(status))` for a failed job); `Err` if the port failed.
+    /// (`Ok(Err(status))` for a failed job); `Err` if the port failed. `now`: a clock reading
+    /// just taken (the job's start), reused for the first turn.
     async fn drive<R>(
         &mut self,
         id: Option<si_core::job::JobId>,
         pick: impl FnOnce(&Completion) -> R,
+        now: Option<Instant>,
     ) -> Result<Result<R, Status>, Error> {
-        let result = self.drive_inner(id, pick).await;
+        let result = self.drive_inner(id, pick, now).await;
         if matches!(result, Err(Error::Stopped | Error::Io(_))) {
             self.stopped = true;
         }
@@ -187,6 +186,7 @@ impl<T: Transport> Inner<T> {
         &mut self,
         id: Option<si_core::job::JobId>,
         pick: impl FnOnce(&Completion) -> R,
+        now: Option<Instant>,
     ) -> Result<Result<R, Status>, Error> {
         // The engine's next deadline, armed only when a wait is not over after one yield: on
         // a pipe or a busy runtime the answer is usually there by then, and a timer armed and
@@ -204,7 +204,7 @@ impl<T: Transport> Inner<T> {
         let mut skip_read = false;
         // A clock reading taken just before (a read's arrival, a deadline handled) that the
         // next turn reuses.
-        let mut fresh: Option<Instant> = None;
+        let mut fresh: Option<Instant> = now;
         loop {
             // One clock read per turn: the engine's outputs, the write and the deadline checks
             // below take microseconds at most.
@@ -258,19 +258,24 @@ impl<T: Transport> Inner<T> {
                 continue;
             }
             let next = Instant::earliest(wait, self.tx_done);
-            if yielded && next != armed {
-                if let Some(next) = next {
-                    let at = self.at(next);
-                    match sleep.as_mut() {
-                        Some(s) => s.as_mut().reset(at),
-                        None => sleep = Some(Box::pin(tokio::time::sleep_until(at))),
+            let origin = self.origin;
+            // Armed when first polled: only once the read (polled first) is pending, so a
+            // response already there costs no timer (its allocation, its wheel entry).
+            let timer = std::future::poll_fn(|cx| {
+                if yielded && next != armed {
+                    if let Some(next) = next {
+                        let at = origin + std::time::Duration::from_micros(next.as_micros());
+                        match sleep.as_mut() {
+                            Some(s) => s.as_mut().reset(at),
+                            None => sleep = Some(Box::pin(tokio::time::sleep_until(at))),
+                        }
                     }
+                    armed = next;
                 }
-                armed = next;
-            }
-            let timer = std::future::poll_fn(|cx| match (armed, sleep.as_mut()) {
-                (Some(_), Some(s)) => s.as_mut().poll(cx),
-                _ => Poll::Pending,
+                match (armed, sleep.as_mut()) {
+                    (Some(_), Some(s)) => s.as_mut().poll(cx),
+                    _ => Poll::Pending,
+                }
             });
             tokio::select! {
                 biased;
