@@ -56,9 +56,11 @@ pub async fn read_waiting<R: AsyncRead + Unpin>(
 /// the engine before it too; bytes that came after it would have found the frame ended. The
 /// host cannot tell these apart once it is late, and reads them as the first: a frame the line
 /// never cut is not cut. The reading costs something only where the line really was silent
-/// for the gap and then carried a new frame within the host's lateness (a second frame on a
-/// shared bus right after the first): the two then reach the engine as one, which fails its
-/// check (CRC) and is counted, as a frame cut by the late timer would have been.
+/// for the gap and then carried a new frame within the host's lateness (another station's
+/// frame right after the first on a shared bus): the two then reach the engine as one, which
+/// fails its check (CRC) and is counted, where firing first would have kept them apart. The
+/// other reading cuts every frame whose rest was waiting, on every line, which is the common
+/// case: a master waiting for its answer, a slave receiving a request.
 pub fn stamp_waiting(expired: Instant, now: Instant, floor: Instant) -> Instant {
     let just_before = Instant::from_micros(
         expired
