@@ -39,7 +39,8 @@
 //! kernel, so it burns no CPU; tokio's timer stays armed as a backstop. A
 //! deadline already due when the engine names it (tx-done right after a write on a transport
 //! without wire time) is handled at once, and whatever fell due while the driver slept reaches
-//! the engine before the bytes or the command that woke it.
+//! the engine before the bytes or the command that woke it, except an engine deadline with
+//! bytes waiting behind it: those go first (see "A late host").
 //!
 //! What remains is the operating system: scheduling latency under load (milliseconds on a
 //! busy machine), and the port itself. A pseudo-terminal or a pipe delivers bytes at once; a
