@@ -39,7 +39,8 @@
 //! kernel, so it burns no CPU; tokio's timer stays armed as a backstop. A
 //! deadline already due when the engine names it (tx-done right after a write on a transport
 //! without wire time) is handled at once, and whatever fell due while the driver slept reaches
-//! the engine before the bytes or the command that woke it.
+//! the engine before the bytes or the command that woke it, except an engine deadline with
+//! bytes waiting behind it: those go first (see "A late host").
 //!
 //! What remains is the operating system: scheduling latency under load (milliseconds on a
 //! busy machine), and the port itself. A pseudo-terminal or a pipe delivers bytes at once; a
@@ -55,6 +56,18 @@
 //! 19 200 bit/s) still cannot be *enforced* from user space: the driver reports the gap the
 //! kernel let it see. Use a converter with hardware framing where that matters, or let the
 //! engine end frames by length where the protocol allows it (si-modbus's `FrameEnd::Length`).
+//!
+//! # A late host
+//!
+//! A host whose process was off the CPU for longer than an engine's silence timer (Modbus's
+//! end-of-frame gap, [Modbus/USS] §3.3.5, Table 3-11, t3.5 of [Modbus serial] §2.5.1.1: a few
+//! milliseconds) while a frame arrived wakes with the deadline expired and the rest of
+//! the frame already in the port's buffer. Before the driver fires an expired deadline it
+//! therefore takes what the transport holds without waiting and hands it to the engine first,
+//! stamped just before the deadline; only a deadline with nothing waiting, a silence that
+//! really happened, fires (the reading and its cost: the driver's `waiting` module). Each
+//! deadline gets this once: one the bytes do not move (a response timeout) fires after them,
+//! and a line that never pauses cannot hold it off.
 //!
 //! "Transmission done" ([`Engine::handle_tx_done`]) is reported when the write has completed
 //! *and*, if [`DriverOptions::settings`] is given, the bytes' character time has passed since the
@@ -117,6 +130,7 @@ use tokio::task::JoinHandle;
 
 mod events;
 mod precise_timer;
+mod waiting;
 
 /// A byte stream the driver can run an engine over, with optional modem-signal access.
 ///
@@ -636,12 +650,18 @@ where
     if let Some(latency) = facts.rx_latency {
         engine.set_rx_latency(latency);
     }
-    let mut rx_path = RxPath::new(&facts);
+    let mut rx = Receive {
+        path: RxPath::new(&facts),
+        buf: [0u8; 512],
+        recording: options.recorder.is_some(),
+        record: &record,
+        floor: Instant::from_micros(0),
+        rescued: None,
+    };
     let mut direction = Direction::new(facts.rts_toggle);
     // How long after tx-done our own echo may still arrive: the port's delivery latency, or
     // a USB adapter's default latency timer when the port did not say.
     let echo_grace = facts.rx_latency.unwrap_or(ECHO_GRACE);
-    let mut buf = [0u8; 512];
     let mut tx_done_at: Option<Instant> = None;
     let mut signals = io.read_signals()?;
     let mut poll = tokio::time::interval(options.signal_poll);
@@ -688,7 +708,7 @@ where
                     // RTS off and the echo window follow the wire, whatever the engine is told.
                     let on_wire = done.max(ends(options.settings.or(facts.wire)));
                     direction.written(on_wire);
-                    rx_path.sent(&bytes, on_wire + echo_grace);
+                    rx.path.sent(&bytes, on_wire + echo_grace);
                 }
                 Output::SetSignals(update) => {
                     tracing::debug!("signals {update:?}");
@@ -728,7 +748,8 @@ where
         // A start the engine refused as busy may go now; it may cause outputs.
         if !jobs.deferred.is_empty() {
             let before = jobs.deferred.len();
-            jobs.retry(&mut engine, clock.now());
+            rx.floor = clock.now();
+            jobs.retry(&mut engine, rx.floor);
             if jobs.deferred.len() != before {
                 continue;
             }
@@ -741,8 +762,10 @@ where
         if next.is_some_and(|at| at <= clock.now()) {
             precise.disarm();
             tokio::task::consume_budget().await;
-            fire_due(&mut engine, &mut tx_done_at, deadline, clock.now());
-            direction.due(clock.now(), &mut io, &record)?;
+            let now = clock.now();
+            rx.catch_up(&mut engine, &mut io, &mut tx_done_at, deadline, now)
+                .await?;
+            direction.due(now, &mut io, &record)?;
             continue;
         }
 
@@ -781,11 +804,14 @@ where
         tokio::select! {
             command = commands.recv() => match command {
                 Some(command) => {
-                    // What fell due while we slept goes first: the command sees the state
+                    // What fell due while we slept goes first (bytes that waited in the port
+                    // before an expired deadline, "A late host"): the command sees the state
                     // the line has reached.
                     let now = clock.now();
-                    fire_due(&mut engine, &mut tx_done_at, deadline.take(), now);
+                    rx.catch_up(&mut engine, &mut io, &mut tx_done_at, deadline.take(), now)
+                        .await?;
                     direction.due(now, &mut io, &record)?;
+                    rx.floor = now;
                     match command {
                         Command::Run(f) => f(&mut engine, now),
                         Command::Job(attempt) => jobs.start(&mut engine, now, attempt),
@@ -794,38 +820,27 @@ where
                 }
                 None => return Ok(()),
             },
-            read = io.read(&mut buf) => {
+            read = io.read(&mut rx.buf) => {
                 let n = read?;
                 if n == 0 {
                     return Ok(());
                 }
-                // A tx-done or timeout that fell due before these bytes came goes first (a
-                // slave must know its answer has left before it judges the next request).
                 let now = clock.now();
-                fire_due(&mut engine, &mut tx_done_at, deadline.take(), now);
-                direction.due(now, &mut io, &record)?;
-                rx_path.deliver(&mut engine, now, &buf[..n], |piece| match piece {
-                    Marked::Data(bytes) => {
-                        tracing::debug!("rx {}", crate::hex::format(bytes));
-                        if options.recorder.is_some() {
-                            record(TraceKind::RxChunk { bytes: bytes.to_vec() })
-                        }
+                let expired = deadline.take();
+                match rx.rescuable(expired, now) {
+                    // The deadline expired while these bytes waited ("A late host"): they
+                    // go first, and the engine names its deadline again.
+                    Some(expired) => rx.deliver_late(&mut engine, &mut io, &mut tx_done_at, expired, n, now),
+                    None => {
+                        // A tx-done or timeout that fell due before these bytes came goes
+                        // first (a slave must know its answer has left before it judges the
+                        // next request).
+                        fire_due(&mut engine, &mut tx_done_at, expired, now);
+                        rx.deliver(&mut engine, &mut io, n, now);
+                        rx.floor = now;
                     }
-                    Marked::Error(error) => {
-                        tracing::debug!("rx line error: {error:?}");
-                        record(TraceKind::RxError { error })
-                    }
-                });
-                // An overrun lost characters somewhere around this read; where exactly the
-                // counter cannot say, so it is reported after the read's bytes (`[derived]`):
-                // the frame they belong to, or the one they end, is judged corrupt.
-                let lost = io.new_overruns();
-                if lost > 0 {
-                    let error = LineError::Overrun;
-                    tracing::debug!("rx line error: {error:?} ({lost} characters lost)");
-                    record(TraceKind::RxError { error });
-                    engine.handle_line_error(now, error);
                 }
+                direction.due(now, &mut io, &record)?;
             }
             _ = &mut wheel, if wheel_at.is_some() => wheel_set = None,
             _ = precise.fired(), if precise.is_armed() => precise.fired_seen(),
@@ -835,15 +850,160 @@ where
                 if now_signals != signals {
                     signals = now_signals;
                     if let Some(s) = signals {
-                        engine.handle_signals(clock.now(), s);
+                        let now = clock.now();
+                        engine.handle_signals(now, s);
+                        rx.floor = now;
                     }
                 }
             }
         }
 
-        // Whatever woke us, look at the clock: timers are checked, not trusted.
-        fire_due(&mut engine, &mut tx_done_at, deadline, clock.now());
-        direction.due(clock.now(), &mut io, &record)?;
+        // Whatever woke us, look at the clock: timers are checked, not trusted; an expired
+        // deadline fires only if no bytes waited behind it ("A late host").
+        let now = clock.now();
+        rx.catch_up(&mut engine, &mut io, &mut tx_done_at, deadline, now)
+            .await?;
+        direction.due(now, &mut io, &record)?;
+    }
+}
+
+/// The driver's receiving side: the port's receive path, the read buffer, and how bytes found
+/// waiting behind an expired deadline reach the engine ([`waiting`], "A late host").
+struct Receive<'r, F: Fn(TraceKind)> {
+    path: RxPath,
+    buf: [u8; 512],
+    /// A trace is recorded (the bytes are copied for it only then).
+    recording: bool,
+    record: &'r F,
+    /// The latest instant the engine has been told (the driver sets it wherever it tells the
+    /// engine anything): bytes stamped back to an expired deadline never go before it (the
+    /// engine's time never runs backwards).
+    floor: Instant,
+    /// The expired deadline bytes were last handed over before. Once is all a deadline gets:
+    /// what a read finds then waited while the driver was late; if the engine names the same
+    /// deadline again (one that bytes do not move, a response timeout), more bytes can only
+    /// have come since, and a line that never pauses (a flood) must not hold it off.
+    rescued: Option<Instant>,
+}
+
+impl<F: Fn(TraceKind)> Receive<'_, F> {
+    /// Hand the first `n` bytes of the buffer (one read) to the engine at `at` through the
+    /// receive path, recording what the line carried; then a rise in the port's overrun count.
+    fn deliver<E: Engine, T: Transport>(
+        &mut self,
+        engine: &mut E,
+        io: &mut T,
+        n: usize,
+        at: Instant,
+    ) {
+        let (recording, record) = (self.recording, self.record);
+        self.path
+            .deliver(engine, at, &self.buf[..n], |piece| match piece {
+                Marked::Data(bytes) => {
+                    tracing::debug!("rx {}", crate::hex::format(bytes));
+                    if recording {
+                        record(TraceKind::RxChunk {
+                            bytes: bytes.to_vec(),
+                        })
+                    }
+                }
+                Marked::Error(error) => {
+                    tracing::debug!("rx line error: {error:?}");
+                    record(TraceKind::RxError { error })
+                }
+            });
+        // An overrun lost characters somewhere around this read; where exactly the counter
+        // cannot say, so it is reported after the read's bytes (`[derived]`): the frame they
+        // belong to, or the one they end, is judged corrupt.
+        let lost = io.new_overruns();
+        if lost > 0 {
+            let error = LineError::Overrun;
+            tracing::debug!("rx line error: {error:?} ({lost} characters lost)");
+            record(TraceKind::RxError { error });
+            engine.handle_line_error(at, error);
+        }
+    }
+
+    /// The engine's `deadline` if it has expired by `now` and bytes waiting behind it may still
+    /// go first (not already done once for it, [`rescued`](Self::rescued)).
+    fn rescuable(&self, deadline: Option<Instant>, now: Instant) -> Option<Instant> {
+        deadline.filter(|&d| now >= d && self.rescued != Some(d))
+    }
+
+    /// The first `n` bytes of the buffer were read at `now`, after the engine's deadline
+    /// `expired`: they waited in the port while the driver was late, so they reach the engine
+    /// stamped just before that deadline ([`waiting::stamp_waiting`]), and the deadline is not
+    /// fired (the engine names its deadline again). A tx-done due by `now` still goes first,
+    /// at the same instant, and the bytes are never stamped before it was due.
+    fn deliver_late<E: Engine, T: Transport>(
+        &mut self,
+        engine: &mut E,
+        io: &mut T,
+        tx_done_at: &mut Option<Instant>,
+        expired: Instant,
+        n: usize,
+        now: Instant,
+    ) {
+        let tx_done = tx_done_at.filter(|&t| now >= t);
+        let floor = tx_done.map_or(self.floor, |t| t.max(self.floor));
+        let at = waiting::stamp_waiting(expired, now, floor);
+        tracing::trace!("deadline {expired} expired with bytes waiting (now {now}): rx at {at}");
+        if let Some(due) = tx_done {
+            *tx_done_at = None;
+            tracing::trace!("tx done (due {due}, now {now}, told {at})");
+            engine.handle_tx_done(at);
+        }
+        self.deliver(engine, io, n, at);
+        self.floor = at;
+        self.rescued = Some(expired);
+    }
+
+    /// What fell due by `now` reaches the engine: bytes waiting behind an expired `deadline`
+    /// first ([`waiting_first`](Self::waiting_first)); without them, a tx-done and the deadline
+    /// that are due ([`fire_due`]).
+    async fn catch_up<E: Engine, T: Transport>(
+        &mut self,
+        engine: &mut E,
+        io: &mut T,
+        tx_done_at: &mut Option<Instant>,
+        deadline: Option<Instant>,
+        now: Instant,
+    ) -> io::Result<()> {
+        if !self
+            .waiting_first(engine, io, tx_done_at, deadline, now)
+            .await?
+        {
+            fire_due(engine, tx_done_at, deadline, now);
+            self.floor = now;
+        }
+        Ok(())
+    }
+
+    /// Before the engine's `deadline` fires at `now`: if it has expired and the transport holds
+    /// bytes already, take them without waiting and hand them over first
+    /// ([`deliver_late`](Self::deliver_late)). True if bytes were waiting (the deadline is then
+    /// not fired: the engine names it again); false if the deadline is not due or nothing was
+    /// waiting (a silence that really happened: fire it). An end of file is left to the next
+    /// read.
+    async fn waiting_first<E: Engine, T: Transport>(
+        &mut self,
+        engine: &mut E,
+        io: &mut T,
+        tx_done_at: &mut Option<Instant>,
+        deadline: Option<Instant>,
+        now: Instant,
+    ) -> io::Result<bool> {
+        let Some(expired) = self.rescuable(deadline, now) else {
+            return Ok(false);
+        };
+        match waiting::read_waiting(io, &mut self.buf).await {
+            None | Some(Ok(0)) => Ok(false),
+            Some(Ok(n)) => {
+                self.deliver_late(engine, io, tx_done_at, expired, n, now);
+                Ok(true)
+            }
+            Some(Err(e)) => Err(e),
+        }
     }
 }
 

@@ -1,8 +1,10 @@
-//! The tokio driver in virtual time (feature `tokio`): its timers, RS-485 direction control and
-//! logs.
+//! The tokio driver in virtual time (feature `tokio`): its timers, a late host, RS-485 direction
+//! control and logs.
 //! The timer thread's own test stays in driver_timer_thread.rs: it counts the process's threads,
 //! which other tests running beside it in one binary would disturb.
 
+#[path = "scenarios/driver_late_host.rs"]
+mod driver_late_host;
 #[path = "scenarios/driver_logs.rs"]
 mod driver_logs;
 #[path = "scenarios/driver_rs485.rs"]
