@@ -21,6 +21,7 @@
 
 mod config;
 mod counters;
+mod demotion;
 mod faces;
 mod limits;
 mod line;
