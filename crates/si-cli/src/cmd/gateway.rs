@@ -25,6 +25,7 @@ mod demotion;
 mod faces;
 mod limits;
 mod line;
+mod metrics;
 mod quantities;
 mod queue;
 mod r3964;

@@ -331,7 +331,11 @@ mod tests {
         assert_eq!(h.admit(9, at(70_499)), Admit::Refuse);
         assert_eq!(h.admit(9, at(70_500)), Admit::Probe);
         assert_eq!(h.counters().probes_failed, 1);
-        assert_eq!(h.counters().demotions, 1, "a failed probe is no new demotion");
+        assert_eq!(
+            h.counters().demotions,
+            1,
+            "a failed probe is no new demotion"
+        );
     }
 
     #[test]
@@ -358,8 +362,8 @@ mod tests {
 
     #[test]
     fn file_keys_and_defaults() {
-        let c: DemotionConfig = serde_json::from_str(r#"{"demote_after": 5, "demote_for_ms": 1500}"#)
-            .unwrap();
+        let c: DemotionConfig =
+            serde_json::from_str(r#"{"demote_after": 5, "demote_for_ms": 1500}"#).unwrap();
         assert_eq!(c.demote_after, 5);
         assert_eq!(c.demote_for, Duration::from_millis(1500));
         let d: DemotionConfig = serde_json::from_str("{}").unwrap();
