@@ -23,9 +23,11 @@ mod config;
 mod counters;
 mod demotion;
 mod faces;
+mod gateway_metrics;
 mod limits;
 mod line;
 mod metrics;
+mod metrics_http;
 mod quantities;
 mod queue;
 mod r3964;
@@ -36,6 +38,7 @@ mod rk512_config;
 mod rk512_own;
 mod rk512_spans;
 mod router;
+mod rtu_listener;
 mod uss;
 mod uss_config;
 
@@ -138,6 +141,8 @@ impl GatewayArgs {
                     diagnostic_unit: None,
                     reply_on_broadcast: false,
                     allow_down_at_start: false,
+                    metrics_listen: None,
+                    rtu_over_tcp_listen: None,
                     lines: vec![self.flag_line(conn)?],
                 };
                 self.over(file)
@@ -196,6 +201,17 @@ impl GatewayArgs {
         let listeners = faces::faces(&gw).len();
         limits::raise_open_files(limits::descriptors_needed(&gw, listeners))?;
         let stats = Arc::new(Mutex::new(Stats::new(gw.lines.len())));
+        {
+            let mut s = line::lock(&stats);
+            s.metrics = gateway_metrics::GatewayMetrics::new(
+                gw.lines.iter().map(|l| l.name.clone()).collect(),
+            );
+            s.health = gw
+                .lines
+                .iter()
+                .map(|l| demotion::LineHealth::new(l.demotion))
+                .collect();
+        }
         let mut queues = Vec::with_capacity(gw.lines.len());
         for (i, l) in gw.lines.iter().enumerate() {
             let log = reopen::LineLog {
@@ -255,11 +271,40 @@ impl GatewayArgs {
             };
             queues.push(handle);
         }
-        let bound = faces::bind(&gw, queues.into(), &stats).await?;
+        let lines: Arc<[router::LineHandle]> = queues.into();
+        let bound = faces::bind(&gw, Arc::clone(&lines), &stats).await?;
         out.line(
             &faces::listening_text(&gw, &bound),
             faces::listening_json(&gw, &bound),
         );
+        let rtu = match &gw.rtu_over_tcp_listen {
+            Some(addr) => {
+                let face = &faces::faces(&gw)[0];
+                let handler = faces::handler(&gw, bound.len() as u64, face, lines, &stats);
+                let listener = listen(addr, "rtu_over_tcp_listening", out).await?;
+                let counters = Arc::new(rtu_listener::RtuCounters::default());
+                let run = rtu_listener::run(listener, Arc::new(handler), Arc::clone(&counters), 0);
+                tokio::spawn(async move {
+                    if let Err(e) = run.await {
+                        tracing::error!("RTU-over-TCP listener stopped: {e}");
+                    }
+                });
+                Some(counters)
+            }
+            None => None,
+        };
+        if let Some(addr) = &gw.metrics_listen {
+            let listener = listen(addr, "metrics_listening", out).await?;
+            let source = metrics_http::Source {
+                stats: Arc::clone(&stats),
+                rtu,
+            };
+            tokio::spawn(async move {
+                if let Err(e) = metrics_http::run(listener, source).await {
+                    tracing::error!("metrics listener stopped: {e}");
+                }
+            });
+        }
         let mut server = tokio::spawn(faces::run(bound));
         let every = self
             .status_every
@@ -286,6 +331,27 @@ impl GatewayArgs {
         print_status(&gw, &stats, out);
         result
     }
+}
+
+/// Bind one of the extra listeners (metrics, RTU over TCP) and say where it listens with the
+/// event `event` (its `addr`, the port resolved).
+async fn listen(
+    addr: &str,
+    event: &str,
+    out: &Output,
+) -> Result<tokio::net::TcpListener, CliError> {
+    let listener = tokio::net::TcpListener::bind(addr)
+        .await
+        .map_err(|e| CliError::new(format!("cannot listen on {addr}: {e}")))?;
+    let at = listener.local_addr()?.to_string();
+    out.line(
+        &format!(
+            "{}: listening on {at}",
+            event.trim_end_matches("_listening").replace('_', "-")
+        ),
+        serde_json::json!({"event": event, "addr": at}),
+    );
+    Ok(listener)
 }
 
 /// SIGTERM, what a service manager stops the gateway with: it ends the gateway as SIGINT does,

@@ -47,6 +47,12 @@ pub struct File {
     /// so that a wrong path is reported at once).
     #[serde(default)]
     pub allow_down_at_start: bool,
+    /// Serve Prometheus metrics over HTTP at `GET /metrics` on this address (default: none;
+    /// `super::metrics_http`).
+    pub metrics_listen: Option<String>,
+    /// Accept raw RTU frames (address, PDU, CRC) over TCP on this address, routed like the
+    /// top-level `listen`'s Modbus TCP requests (default: none; `super::rtu_listener`).
+    pub rtu_over_tcp_listen: Option<String>,
     /// The serial lines.
     #[serde(default, rename = "line")]
     pub lines: Vec<LineFile>,
@@ -116,6 +122,12 @@ pub struct LineFile {
     /// what arrives meanwhile is discarded and counted, so a late answer never reaches another
     /// request (si-modbus's quiet guard, bounded by this + the longest response).
     pub quiet_after_timeout_ms: Option<u32>,
+    /// `modbus-rtu`: failed requests in a row that demote a unit, 0–255 (default 3; 0: never
+    /// demoted; [`super::demotion`]).
+    pub demote_after: Option<u32>,
+    /// `modbus-rtu`: how long a demoted unit's requests are answered 0BH at once before one
+    /// probes it, 1–3 600 000 ms (default 30 000).
+    pub demote_for_ms: Option<u64>,
     /// A listening address of its own (`[[line]]`s naming the same address share it): this
     /// line's units are reached there and not on the top-level `listen`, and need to be
     /// unique only among the lines on that address ([`super::faces`]).
@@ -164,6 +176,10 @@ pub struct Gateway {
     pub reply_on_broadcast: bool,
     /// Lines that cannot be opened at start start down.
     pub allow_down_at_start: bool,
+    /// The Prometheus metrics address, if any.
+    pub metrics_listen: Option<String>,
+    /// The RTU-over-TCP address, if any.
+    pub rtu_over_tcp_listen: Option<String>,
     /// The lines, in file order.
     pub lines: Vec<Line>,
 }
@@ -209,6 +225,8 @@ pub struct Line {
     pub queue: usize,
     /// Modbus RTU framing (defaults for other kinds, which do not use it).
     pub rtu: RtuFraming,
+    /// Auto-demotion of units that stop answering (Modbus RTU lines only).
+    pub demotion: super::demotion::DemotionConfig,
     /// What is on the line.
     pub kind: Kind,
     /// Its own listening address (`None`: the gateway's `listen`).
@@ -402,6 +420,8 @@ impl File {
             diagnostic_unit: self.diagnostic_unit,
             reply_on_broadcast: self.reply_on_broadcast,
             allow_down_at_start: self.allow_down_at_start,
+            metrics_listen: self.metrics_listen.clone(),
+            rtu_over_tcp_listen: self.rtu_over_tcp_listen.clone(),
             lines,
         })
     }
@@ -413,6 +433,16 @@ impl LineFile {
         let kind = self.kind.as_deref().unwrap_or("modbus-rtu");
         if !matches!(kind, "modbus-rtu" | "uss" | "rk512" | "3964r") {
             return Err(RangeError::new("kind", LINE_KINDS, "", kind));
+        }
+        if kind != "modbus-rtu" {
+            refuse_keys(
+                &[
+                    ("demote_after", self.demote_after.is_some()),
+                    ("demote_for_ms", self.demote_for_ms.is_some()),
+                ],
+                "a key of modbus-rtu lines",
+                format!("set on a {kind} line"),
+            )?;
         }
         let device =
             self.device.as_deref().map(Device::parse).ok_or_else(|| {
@@ -489,6 +519,7 @@ impl LineFile {
             broadcast: self.broadcast,
             queue,
             rtu: self.rtu_framing()?,
+            demotion: self.demotion()?,
             ..self.port_line(name, device, units, Kind::ModbusRtu)
         })
     }
@@ -527,9 +558,25 @@ impl LineFile {
             broadcast: false,
             queue: 1,
             rtu: RtuFraming::default(),
+            demotion: super::demotion::DemotionConfig::default(),
             kind,
             listen: self.listen.clone(),
         }
+    }
+
+    /// `demote_after` and `demote_for_ms`, checked. The ranges are ours `[derived]`: up to 255
+    /// failures, up to an hour demoted.
+    fn demotion(&self) -> Result<super::demotion::DemotionConfig, RangeError> {
+        let mut d = super::demotion::DemotionConfig::default();
+        if let Some(n) = self.demote_after {
+            RangeError::check("demote_after", (0, 255), "", n)?;
+            d.demote_after = n;
+        }
+        if let Some(ms) = self.demote_for_ms {
+            RangeError::check("demote_for_ms", (1, 3_600_000), " ms", ms)?;
+            d.demote_for = si_core::Duration::from_millis(ms);
+        }
+        Ok(d)
     }
 
     /// `char_delay_multiplier` and `frame_end`, checked (the ranges of `si modbus`'s flags).

@@ -12,7 +12,7 @@
 //! | 0–1 | requests (every request received; for a line, every one routed to it) |
 //! | 2–3 | answers (normal responses returned) |
 //! | 4–5 | exceptions (exception responses of the slave, passed through) |
-//! | 6–7 | timeouts (no answer after the retries: 0BH returned) |
+//! | 6–7 | timeouts (no answer after the retries, or the unit is demoted: 0BH returned) |
 //! | 8–9 | CRC errors: every answer with a wrong CRC the master received, also one a retry then cured |
 //! | 10–11 | busy (queue full: 06H returned) |
 //! | 12–13 | other failures (0AH no route or line down, 01H/03H refused, 04H for an answer still corrupt after the retries, as mbusd does, or otherwise bad) |
@@ -29,6 +29,8 @@
 //! Any other function code on the diagnostic unit is answered with exception 01H, registers
 //! past the last block with 02H, and a quantity outside 1–125 with 03H.
 
+use super::demotion::LineHealth;
+use super::gateway_metrics::GatewayMetrics;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::net::SocketAddr;
@@ -51,6 +53,9 @@ pub enum Outcome {
     Other,
     /// A broadcast, sent without an answer.
     Sent,
+    /// Its unit is demoted: 0BH at once, nothing sent ([`super::demotion`]); counted with the
+    /// timeouts.
+    Demoted,
 }
 
 /// Counters of one line or one client.
@@ -76,13 +81,28 @@ pub struct Counters {
     pub reconnects: u64,
 }
 
+impl Outcome {
+    /// Its name in metrics labels.
+    pub fn name(self) -> &'static str {
+        match self {
+            Outcome::Answer => "answer",
+            Outcome::Exception => "exception",
+            Outcome::Timeout => "timeout",
+            Outcome::Busy => "busy",
+            Outcome::Other => "other",
+            Outcome::Sent => "sent",
+            Outcome::Demoted => "demoted",
+        }
+    }
+}
+
 impl Counters {
     /// Count what became of a request.
     pub fn count(&mut self, outcome: Outcome) {
         let c = match outcome {
             Outcome::Answer => &mut self.answers,
             Outcome::Exception => &mut self.exceptions,
-            Outcome::Timeout => &mut self.timeouts,
+            Outcome::Timeout | Outcome::Demoted => &mut self.timeouts,
             Outcome::Busy => &mut self.busy,
             Outcome::Other => &mut self.other,
             Outcome::Sent => return,
@@ -132,6 +152,10 @@ pub struct Stats {
     pub down: Vec<Option<String>>,
     /// Per connected client, by connection number (gone when it disconnects).
     pub clients: BTreeMap<u64, Client>,
+    /// Per line: the units demoted and why ([`super::demotion`]), kept across reconnects.
+    pub health: Vec<LineHealth>,
+    /// Counters per line, unit and outcome for Prometheus ([`super::gateway_metrics`]).
+    pub metrics: GatewayMetrics,
 }
 
 impl Stats {
@@ -141,12 +165,43 @@ impl Stats {
             lines: vec![Counters::default(); lines],
             down: vec![None; lines],
             clients: BTreeMap::new(),
+            health: vec![LineHealth::default(); lines],
+            metrics: GatewayMetrics::default(),
         }
     }
 
     /// The client's counters (a request before `connected`, e.g. from a test, gets none).
     pub fn client(&mut self, id: u64) -> Option<&mut Counters> {
         self.clients.get_mut(&id).map(|c| &mut c.counters)
+    }
+
+    /// The line-state a scrape reads ([`super::gateway_metrics::LineNow`]), one per line.
+    pub fn lines_now(&self) -> Vec<super::gateway_metrics::LineNow> {
+        (0..self.lines.len())
+            .map(|i| super::gateway_metrics::LineNow {
+                up: self.down[i].is_none(),
+                queue_depth: self.lines[i].queue_depth,
+                demoted: self.health.get(i).map_or(0, |h| h.demoted() as u64),
+                reconnects: self.lines[i].reconnects,
+            })
+            .collect()
+    }
+
+    /// Count one request to `unit` on line `index` for Prometheus: its outcome and, if its
+    /// answer is an exception, the code.
+    pub fn count_request(
+        &mut self,
+        index: usize,
+        unit: u8,
+        outcome: Outcome,
+        answer: Option<&si_modbus::mbap::TcpAdu>,
+        crc_errors: u64,
+    ) {
+        let code = answer
+            .filter(|a| a.function() & 0x80 != 0)
+            .and_then(|a| a.unit_pdu().get(2).copied());
+        self.metrics
+            .request(index, unit, outcome.name(), code, crc_errors);
     }
 
     /// The diagnostic registers as seen by client `id` (module docs).

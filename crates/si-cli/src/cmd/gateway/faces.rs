@@ -92,6 +92,36 @@ impl Handler for FaceHandler {
     }
 }
 
+/// The router of `face`, numbered `n` among the faces (its clients' ids carry it).
+pub fn handler(
+    gw: &Gateway,
+    n: u64,
+    face: &Face,
+    lines: Arc<[LineHandle]>,
+    stats: &Arc<Mutex<Stats>>,
+) -> FaceHandler {
+    let mut routes = [None; 256];
+    for &i in &face.lines {
+        for &u in &gw.lines[i].units {
+            routes[u as usize] = Some(i);
+        }
+    }
+    let router = Router {
+        routes,
+        lines,
+        broadcast_lines: face
+            .lines
+            .iter()
+            .copied()
+            .filter(|&i| gw.lines[i].broadcast)
+            .collect(),
+        diagnostic_unit: gw.diagnostic_unit,
+        reply_on_broadcast: gw.reply_on_broadcast,
+        stats: Arc::clone(stats),
+    };
+    FaceHandler { face: n, router }
+}
+
 /// A bound face: where it listens, its lines, and its server (not yet running).
 pub struct Bound {
     /// The address listened on.
@@ -110,34 +140,12 @@ pub async fn bind(
 ) -> Result<Vec<Bound>, CliError> {
     let mut bound = Vec::new();
     for (n, face) in faces(gw).into_iter().enumerate() {
-        let mut routes = [None; 256];
-        for &i in &face.lines {
-            for &u in &gw.lines[i].units {
-                routes[u as usize] = Some(i);
-            }
-        }
-        let router = Router {
-            routes,
-            lines: Arc::clone(&lines),
-            broadcast_lines: face
-                .lines
-                .iter()
-                .copied()
-                .filter(|&i| gw.lines[i].broadcast)
-                .collect(),
-            diagnostic_unit: gw.diagnostic_unit,
-            reply_on_broadcast: gw.reply_on_broadcast,
-            stats: Arc::clone(stats),
-        };
         let config = ServerConfig {
             max_connections: gw.max_connections,
             units: Units::all(),
             idle_timeout: gw.idle_timeout,
         };
-        let handler = FaceHandler {
-            face: n as u64,
-            router,
-        };
+        let handler = handler(gw, n as u64, &face, Arc::clone(&lines), stats);
         let server = Server::with_handler(&face.listen, config, handler)
             .await
             .map_err(|e| CliError::new(format!("cannot listen on {}: {e}", face.listen)))?;

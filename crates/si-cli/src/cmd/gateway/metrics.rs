@@ -118,6 +118,18 @@ impl Registry {
         }
     }
 
+    /// Raise a counter's series to `total` if it is below (a count kept elsewhere that only
+    /// grows, read at scrape time); never lowers it.
+    pub fn raise(&mut self, counter: Counter, labels: Labels, total: u64) {
+        let series = self.families[counter.0]
+            .series
+            .entry(labels)
+            .or_insert(Series::Counter(0));
+        if let Series::Counter(v) = series {
+            *v = (*v).max(total);
+        }
+    }
+
     /// Create a counter's series at 0 if it does not exist, so a scrape shows it before its
     /// first event.
     pub fn touch(&mut self, counter: Counter, labels: Labels) {
@@ -125,6 +137,7 @@ impl Registry {
     }
 
     /// A counter's value (0 if the series does not exist).
+    #[cfg(test)]
     pub fn counter_value(&self, counter: Counter, labels: &Labels) -> u64 {
         match self.families[counter.0].series.get(labels) {
             Some(Series::Counter(v)) => *v,
@@ -273,6 +286,14 @@ mod tests {
              si_requests_total{line=\"c\"} 0\n"
         );
         assert_eq!(r.counter_value(c, &line("b")), 5);
+        r.raise(c, line("b"), 4);
+        assert_eq!(
+            r.counter_value(c, &line("b")),
+            5,
+            "a counter never goes down"
+        );
+        r.raise(c, line("b"), 7);
+        assert_eq!(r.counter_value(c, &line("b")), 7);
     }
 
     #[test]
