@@ -167,7 +167,7 @@ impl Connection {
                         "--rs485 and --latency-timer need a serial port (--port); the device server switches its own line",
                     ));
                 }
-                let stream = device_server(addr).await?;
+                let stream = port::device_server(addr).await?;
                 Box::new(WithFacts {
                     inner: stream,
                     facts: PortFacts {
@@ -183,6 +183,16 @@ impl Connection {
                 ))
             }
         };
+        self.tap(transport, settings)
+    }
+
+    /// `transport` with what the global flags ask to see of it: recorded into `--record`'s
+    /// trace, and with -v each frame logged as text (`si_core::frame_log`).
+    pub fn tap(
+        &self,
+        transport: Box<dyn Transport>,
+        settings: &SerialSettings,
+    ) -> Result<Box<dyn Transport>, CliError> {
         let transport: Box<dyn Transport> = match self.recorder(settings)? {
             Some(recorder) => Box::new(Tap::new(
                 transport,
@@ -334,44 +344,6 @@ fn rs485_mode_parser() -> impl clap::builder::TypedValueParser<Value = Rs485Mode
         .try_map(|name| name.parse::<Rs485Mode>())
 }
 
-/// The longest wait for a serial device server to accept the connection (an unreachable host
-/// would otherwise hold the command, or a gateway line's reopening, for the kernel's two
-/// minutes of SYN retries).
-pub const CONNECT_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(5);
-
-/// TCP keepalive on a device server's connection: the first probe after 10 s of silence, then
-/// every 5 s, 3 unanswered probes end it. A server gone without closing the connection (cable
-/// pulled, power lost) is thus seen within about 25 s as a lost line (a gateway line goes down
-/// and is reopened), where the system default would take over two hours.
-pub const KEEPALIVE: (std::time::Duration, std::time::Duration, u32) = (
-    std::time::Duration::from_secs(10),
-    std::time::Duration::from_secs(5),
-    3,
-);
-
-/// Connect to the serial device server at `addr` (raw TCP mode): no Nagle delay (a frame's
-/// bytes go at once), keepalive ([`KEEPALIVE`]), at most [`CONNECT_TIMEOUT`] to connect.
-async fn device_server(addr: &str) -> Result<tokio::net::TcpStream, CliError> {
-    let cannot = |why: String| CliError::new(format!("cannot connect to {addr}: {why}"));
-    let stream = tokio::time::timeout(CONNECT_TIMEOUT, tokio::net::TcpStream::connect(addr))
-        .await
-        .map_err(|_| cannot(format!("no connection within {CONNECT_TIMEOUT:?}")))?
-        .map_err(|e| cannot(e.to_string()))?;
-    stream.set_nodelay(true).ok();
-    let (time, interval, retries) = KEEPALIVE;
-    let keepalive = socket2::TcpKeepalive::new()
-        .with_time(time)
-        .with_interval(interval);
-    #[cfg(any(target_os = "linux", target_os = "macos", target_os = "freebsd"))]
-    let keepalive = keepalive.with_retries(retries);
-    #[cfg(not(any(target_os = "linux", target_os = "macos", target_os = "freebsd")))]
-    let _ = retries;
-    socket2::SockRef::from(&stream)
-        .set_tcp_keepalive(&keepalive)
-        .map_err(|e| cannot(format!("cannot set TCP keepalive: {e}")))?;
-    Ok(stream)
-}
-
 /// Where option `id` got its value, looked for at every level of the subcommands (a global
 /// option given after a subcommand is recorded in that subcommand's matches); `None` when it
 /// was not given and has no default.
@@ -388,25 +360,4 @@ pub fn value_source(matches: &clap::ArgMatches, id: &str) -> Option<clap::parser
         level = m.subcommand().map(|(_, sub)| sub);
     }
     found
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[tokio::test]
-    async fn a_device_server_connection_has_keepalive_and_no_nagle() {
-        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-        let addr = listener.local_addr().unwrap().to_string();
-        let stream = device_server(&addr).await.unwrap();
-        let socket = socket2::SockRef::from(&stream);
-        assert!(socket.keepalive().unwrap());
-        assert_eq!(socket.tcp_keepalive_time().unwrap(), KEEPALIVE.0);
-        #[cfg(target_os = "linux")]
-        {
-            assert_eq!(socket.tcp_keepalive_interval().unwrap(), KEEPALIVE.1);
-            assert_eq!(socket.tcp_keepalive_retries().unwrap(), KEEPALIVE.2);
-        }
-        assert!(stream.nodelay().unwrap());
-    }
 }

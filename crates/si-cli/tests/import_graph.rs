@@ -225,18 +225,10 @@ const KNOWN_PAIRS: &[(&str, &str, &str)] = &[
     ("si-core", "port/linux.rs", "port/stream.rs"),
     // Helper "modbus": the slave's store and the request execution call each other.
     ("si-modbus", "serve.rs", "slave.rs"),
-    // The gateway moves out in a later issue.
-    (
-        "si-cli",
-        "cmd/gateway/config.rs",
-        "cmd/gateway/rk512_config.rs",
-    ),
-    (
-        "si-cli",
-        "cmd/gateway/config.rs",
-        "cmd/gateway/uss_config.rs",
-    ),
-    ("si-cli", "cmd/gateway/line.rs", "cmd/gateway/reopen.rs"),
+    // The gateway's line kinds' configs and the reopening: untangled in si-gateway next.
+    ("si-gateway", "config.rs", "rk512_config.rs"),
+    ("si-gateway", "config.rs", "uss_config.rs"),
+    ("si-gateway", "line.rs", "reopen.rs"),
 ];
 
 #[test]

@@ -52,6 +52,10 @@
 //! edition and order number.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
+pub mod address_list;
+#[cfg(feature = "config-file")]
+#[cfg_attr(docsrs, doc(cfg(feature = "config-file")))]
+pub mod config_file;
 pub mod delivery;
 pub mod diagram;
 pub mod echo;

@@ -19,37 +19,16 @@
 //! may have its own listening address ([`faces`]), so that more than 255 lines fit in one
 //! process; the open-file limit is raised for them ([`limits`]).
 
-mod config;
-mod counters;
-mod demotion;
-mod faces;
-mod gateway_metrics;
 mod limits;
-mod line;
-mod metrics;
-mod metrics_http;
-mod quantities;
-mod queue;
-mod r3964;
-mod r3964_config;
-mod reopen;
-mod rk512;
-mod rk512_config;
-mod rk512_own;
-mod rk512_spans;
-mod router;
-mod rtu_listener;
-mod uss;
-mod uss_config;
 
 use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::Args;
-use config::{Device, File, Gateway, Kind, LineFile};
-use counters::Stats;
-use si_modbus::config::LineConfig;
-use si_modbus::{MasterConfig, Mode};
+use si_gateway::config::{self, File, Gateway, LineFile};
+use si_gateway::counters::Stats;
+use si_gateway::open::Opening;
+use si_gateway::{faces, line, Event};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -200,110 +179,23 @@ impl GatewayArgs {
         crate::output::outlive_stdout();
         let listeners = faces::faces(&gw).len();
         limits::raise_open_files(limits::descriptors_needed(&gw, listeners))?;
-        let stats = Arc::new(Mutex::new(Stats::new(gw.lines.len())));
-        {
-            let mut s = line::lock(&stats);
-            s.metrics = gateway_metrics::GatewayMetrics::new(
-                gw.lines.iter().map(|l| l.name.clone()).collect(),
-            );
-            s.health = gw
-                .lines
-                .iter()
-                .map(|l| demotion::LineHealth::new(l.demotion))
-                .collect();
-        }
-        let mut queues = Vec::with_capacity(gw.lines.len());
-        for (i, l) in gw.lines.iter().enumerate() {
-            let log = reopen::LineLog {
-                index: i,
-                name: l.name.clone(),
-                stats: Arc::clone(&stats),
-                out: *out,
-            };
-            let (conn, l) = (conn.clone(), l.clone());
-            let handle = match &l.kind {
-                Kind::ModbusRtu => {
-                    let first = start(open_line(&conn, &l).await, &gw, &l)?;
-                    let queue = Arc::new(line::LineQueue::new(l.queue));
-                    let (q, pause) = (Arc::clone(&queue), l.pause);
-                    let open = async move || Ok(open_line(&conn, &l).await?);
-                    tokio::spawn(line::run(log, q, first, open, pause));
-                    router::LineHandle::Rtu(queue)
-                }
-                Kind::Uss(u) => {
-                    let u = u.clone();
-                    let first = start(open_uss(&conn, &l, &u).await, &gw, &l)?;
-                    let drives = uss::UssDrives::new(&u);
-                    let open = async move || Ok(open_uss(&conn, &l, &u).await?);
-                    tokio::spawn(drives.supervise(log, first, open));
-                    router::LineHandle::Uss(drives)
-                }
-                Kind::Rk512(r) => {
-                    let (r, pause) = (r.clone(), l.pause);
-                    let queue = Arc::new(line::LineQueue::new(l.queue));
-                    let q = Arc::clone(&queue);
-                    match r.role {
-                        rk512_config::Role::Active => {
-                            let first = start(open_rk512(&conn, &l, &r, None).await, &gw, &l)?;
-                            let partner = rk512::Partner::new(&r);
-                            let open = async move || Ok(open_rk512(&conn, &l, &r, None).await?);
-                            tokio::spawn(rk512::run(log, q, partner, first, open, pause));
-                        }
-                        rk512_config::Role::Passive => {
-                            let own = rk512_own::OwnMemory::new(&r);
-                            let kept = own.kept();
-                            let first = start(open_rk512(&conn, &l, &r, None).await, &gw, &l)?;
-                            let open =
-                                async move || Ok(open_rk512(&conn, &l, &r, Some(&kept)).await?);
-                            tokio::spawn(own.run(log, q, first, open));
-                        }
-                    }
-                    router::LineHandle::Rk512(queue)
-                }
-                Kind::R3964(link) => {
-                    let link = *link;
-                    let first = start(open_3964r(&conn, &l, &link).await, &gw, &l)?;
-                    let blocks = r3964::BlockLine::new(link.max_block_len.into());
-                    let open = async move || Ok(open_3964r(&conn, &l, &link).await?);
-                    tokio::spawn(blocks.supervise(log, first, open));
-                    router::LineHandle::R3964(blocks)
-                }
-            };
-            queues.push(handle);
-        }
-        let lines: Arc<[router::LineHandle]> = queues.into();
+        let opening = Opening {
+            no_line_errors: conn.no_line_errors,
+            tap: Some(tap(conn)),
+        };
+        let (stats, lines) = si_gateway::start::lines(&gw, &opening, &events(*out)).await?;
+        let lines: Arc<[si_gateway::router::LineHandle]> = lines.into();
         let bound = faces::bind(&gw, Arc::clone(&lines), &stats).await?;
         out.line(
             &faces::listening_text(&gw, &bound),
             faces::listening_json(&gw, &bound),
         );
-        let rtu = match &gw.rtu_over_tcp_listen {
-            Some(addr) => {
-                let face = &faces::faces(&gw)[0];
-                let handler = faces::handler(&gw, bound.len() as u64, face, lines, &stats);
-                let listener = listen(addr, "rtu_over_tcp_listening", out).await?;
-                let counters = Arc::new(rtu_listener::RtuCounters::default());
-                let run = rtu_listener::run(listener, Arc::new(handler), Arc::clone(&counters), 0);
-                tokio::spawn(async move {
-                    if let Err(e) = run.await {
-                        tracing::error!("RTU-over-TCP listener stopped: {e}");
-                    }
-                });
-                Some(counters)
-            }
-            None => None,
-        };
-        if let Some(addr) = &gw.metrics_listen {
-            let listener = listen(addr, "metrics_listening", out).await?;
-            let source = metrics_http::Source {
-                stats: Arc::clone(&stats),
-                rtu,
-            };
-            tokio::spawn(async move {
-                if let Err(e) = metrics_http::run(listener, source).await {
-                    tracing::error!("metrics listener stopped: {e}");
-                }
-            });
+        for (event, addr) in si_gateway::listeners::start(&gw, bound.len(), lines, &stats).await? {
+            let name = event.trim_end_matches("_listening").replace('_', "-");
+            out.line(
+                &format!("{name}: listening on {addr}"),
+                serde_json::json!({"event": event, "addr": addr.to_string()}),
+            );
         }
         let mut server = tokio::spawn(faces::run(bound));
         let every = self
@@ -331,27 +223,6 @@ impl GatewayArgs {
         print_status(&gw, &stats, out);
         result
     }
-}
-
-/// Bind one of the extra listeners (metrics, RTU over TCP) and say where it listens with the
-/// event `event` (its `addr`, the port resolved).
-async fn listen(
-    addr: &str,
-    event: &str,
-    out: &Output,
-) -> Result<tokio::net::TcpListener, CliError> {
-    let listener = tokio::net::TcpListener::bind(addr)
-        .await
-        .map_err(|e| CliError::new(format!("cannot listen on {addr}: {e}")))?;
-    let at = listener.local_addr()?.to_string();
-    out.line(
-        &format!(
-            "{}: listening on {at}",
-            event.trim_end_matches("_listening").replace('_', "-")
-        ),
-        serde_json::json!({"event": event, "addr": at}),
-    );
-    Ok(listener)
 }
 
 /// SIGTERM, what a service manager stops the gateway with: it ends the gateway as SIGINT does,
@@ -383,205 +254,74 @@ fn terminate_signal() -> Result<Terminate, CliError> {
     })
 }
 
-/// The connection options of line `l`: the common ones (trace, monitor) with the line's port.
-fn line_connection(conn: &Connection, l: &config::Line, protocol: &'static str) -> Connection {
-    let mut c = conn.clone();
-    (c.port, c.tcp) = match &l.device {
-        Device::Port(p) => (Some(p.clone()), None),
-        Device::Tcp(t) => (None, Some(t.clone())),
-    };
-    c.baud = l.baud;
-    c.data_bits = l.data_bits;
-    c.parity = l.parity.clone();
-    c.stop_bits = l.stop_bits;
-    // Names checked with the file (`LineFile::check_rs485`).
-    c.rs485 = l.rs485.as_deref().and_then(|name| name.parse().ok());
-    c.rs485_file = l.rs485_file.clone();
-    (c.rs485_delay_before, c.rs485_delay_after) = l.rs485_delays_ms;
-    c.local_echo = l.local_echo;
-    c.latency_timer = l.latency_timer_ms;
-    c.rx_latency = l.rx_latency_ms;
-    c.protocol = Some(protocol);
-    c
-}
-
-/// Why a line could not be opened: its configuration, which no retry can mend (the gateway
-/// stops, naming it), or its port (a device missing or busy: with `allow_down_at_start` the
-/// line starts down and is reopened).
-enum OpenError {
-    /// The line's settings or engine configuration were refused.
-    Config(CliError),
-    /// The port could not be opened.
-    Port(CliError),
-}
-
-impl From<OpenError> for CliError {
-    fn from(e: OpenError) -> CliError {
-        match e {
-            OpenError::Config(e) | OpenError::Port(e) => e,
-        }
-    }
-}
-
-/// How line `l` starts from its first opening: open, or (with `allow_down_at_start` and a port
-/// that cannot be opened) down with the reason; otherwise the error stops the gateway.
-fn start<L>(
-    opened: Result<reopen::Opened<L>, OpenError>,
-    gw: &Gateway,
-    l: &config::Line,
-) -> Result<reopen::First<L>, CliError> {
-    match opened {
-        Ok(o) => Ok(Ok(o)),
-        Err(OpenError::Port(e)) if gw.allow_down_at_start => {
-            let prefix = format!("line {}: ", l.name);
-            Ok(Err(e.text().trim_start_matches(&prefix).to_owned()))
-        }
-        Err(e) => Err(e.into()),
-    }
-}
-
-/// `line NAME: why`.
-fn named(l: &config::Line) -> impl Fn(CliError) -> CliError + '_ {
-    move |e| CliError::new(format!("line {}: {}", l.name, e.text()))
-}
-
-/// Open a USS line and start its master polling the drives.
-async fn open_uss(
-    conn: &Connection,
-    l: &config::Line,
-    u: &uss_config::UssLine,
-) -> Result<reopen::Opened<si_uss::tokio::Handle>, OpenError> {
-    let rates = Some(&si_uss::config::USS_BAUD_RATES[..]);
-    open_engine(conn, l, "uss", rates, |settings| {
-        let mut config = u.master.clone();
-        config.settings = settings;
-        si_uss::Master::new(config)
+/// The global flags' tap on every line's port: `--record`'s trace and -v's frame log, as on
+/// any other command's port.
+fn tap(conn: &Connection) -> si_gateway::open::Tap {
+    let conn = conn.clone();
+    Arc::new(move |protocol, settings, transport| {
+        let mut c = conn.clone();
+        c.protocol = Some(protocol);
+        c.tap(transport, settings)
+            .map_err(|e| si_gateway::Error::Port(e.text().to_owned()))
     })
-    .await
-    .map(|o| o.spawn(si_uss::tokio::Handle::spawn_engine))
 }
 
-/// Open an RK 512 line and start its station: active only, or serving the line's memory in
-/// the passive role, from the memory `kept` before its port last closed, if any.
-async fn open_rk512(
-    conn: &Connection,
-    l: &config::Line,
-    r: &rk512_config::Rk512Line,
-    kept: Option<&rk512_own::Kept>,
-) -> Result<reopen::Opened<si_rk512::tokio::Handle>, OpenError> {
-    open_engine(conn, l, "rk512", None, |settings| match r.role {
-        rk512_config::Role::Active => si_rk512::Station::new(r.config, settings),
-        rk512_config::Role::Passive => {
-            let server = si_rk512::passive::ServerConfig {
-                memory: r.memory.clone(),
-                ..si_rk512::passive::ServerConfig::default()
-            };
-            let mut station = si_rk512::Station::serving(r.config, settings, &server)?;
-            if let Some(kept) = kept {
-                kept.restore(&mut station);
-            }
-            Ok(station)
-        }
-    })
-    .await
-    .map(|o| o.spawn(si_rk512::tokio::Handle::spawn_engine))
-}
-
-/// Open a plain 3964(R) line and start its link.
-async fn open_3964r(
-    conn: &Connection,
-    l: &config::Line,
-    link: &si_3964r::Config,
-) -> Result<reopen::Opened<si_3964r::tokio::Handle>, OpenError> {
-    open_engine(conn, l, "3964r", None, |settings| {
-        si_3964r::Link::new(*link, settings)
-    })
-    .await
-    .map(|o| o.spawn(si_3964r::tokio::Handle::spawn_engine))
-}
-
-/// Open a Modbus RTU line and start its master.
-async fn open_line(
-    conn: &Connection,
-    l: &config::Line,
-) -> Result<reopen::Opened<si_modbus::tokio::Master>, OpenError> {
-    // On RS-485 a response is recognised by its address, skipping a turnaround glitch ([Modbus/USS]
-    // §3.4.1, §3.4.3).
-    let interface = if l.rs485.is_some() {
-        si_core::Interface::Rs485
-    } else {
-        si_core::Interface::Rs232
-    };
-    open_engine(conn, l, "modbus", None, |settings| {
-        let gap = spec_gap(&settings);
-        let config = MasterConfig {
-            line: LineConfig {
-                settings,
-                mode: Mode::Normal,
-                char_delay_multiplier: l.rtu.char_delay_multiplier,
-                local_echo: false,
-                auto_v24: None,
-            },
-            response_timeout: si_core::Duration::from_millis(l.response_timeout_ms.into()),
-            retries: l.retries,
-            ..MasterConfig::default()
-        };
-        // A late answer never reaches the next request (si-modbus's quiet guard).
-        let quiet = l
-            .rtu
-            .quiet_after_timeout_ms
-            .unwrap_or(l.response_timeout_ms);
-        si_modbus::Master::new(config).map(|m| {
-            let m = m
-                .with_interface(interface)
-                .with_frame_end(l.rtu.frame_end)
-                .with_quiet_after_timeout(Duration::from_millis(quiet.into()));
-            if l.rtu.spec_gap {
-                m.with_gap(gap)
+/// The lines' events as log lines: text, or JSON with `--json`.
+fn events(out: Output) -> si_gateway::Events {
+    Arc::new(move |event: &Event| match event {
+        Event::LineDown {
+            name,
+            reason,
+            at_start,
+            ..
+        } => {
+            let text = if *at_start {
+                format!("line {name}: not opened at start ({reason}); trying again")
             } else {
-                m
-            }
-        })
-    })
-    .await
-    .map(|o| o.spawn(si_modbus::tokio::Master::spawn_engine))
-}
-
-/// The Modbus specification's inter-frame silence t3.5 ([Modbus serial] §2.5.1.1): 3.5
-/// character times below 19200 bit/s, a fixed 1.75 ms at and above, where the character time
-/// would make it too short for a host to time.
-fn spec_gap(settings: &si_core::SerialSettings) -> si_core::Duration {
-    if settings.baud() >= 19_200 {
-        si_core::Duration::from_micros(1_750)
-    } else {
-        let seven_halves = settings.chars_time(7).as_micros();
-        si_core::Duration::from_micros(seven_halves.div_ceil(2))
-    }
-}
-
-/// Build line `l`'s engine for its serial settings (the protocol's baud rates, `rates`, where
-/// they differ from the manuals' twelve), checking its configuration before the port opens,
-/// then open the port, watched for its closing ([`reopen::watch`]).
-async fn open_engine<E, F: std::error::Error>(
-    conn: &Connection,
-    l: &config::Line,
-    protocol: &'static str,
-    rates: Option<&'static [u32]>,
-    engine: impl FnOnce(si_core::SerialSettings) -> Result<E, F>,
-) -> Result<reopen::Opened<(E, Box<dyn si_core::driver::Transport>)>, OpenError> {
-    let c = line_connection(conn, l, protocol);
-    let named = named(l);
-    let settings = match rates {
-        Some(rates) => c.settings_for(rates),
-        None => c.settings(),
-    }
-    .map_err(|e| OpenError::Config(named(e)))?;
-    let engine = engine(settings).map_err(|e| OpenError::Config(named(e.into())))?;
-    let port = c.open_with(&settings).await;
-    let (port, closed) = reopen::watch(port.map_err(|e| OpenError::Port(named(e)))?);
-    Ok(reopen::Opened {
-        link: (engine, port),
-        closed,
+                format!("line {name}: closed ({reason}); reopening")
+            };
+            out.line(
+                &text,
+                serde_json::json!({"event": "line_down", "line": name, "reason": reason,
+                    "at_start": at_start}),
+            );
+        }
+        Event::LineUp {
+            name,
+            reconnects,
+            reopened,
+            ..
+        } => {
+            let done = if *reopened { "reopened" } else { "opened" };
+            out.line(
+                &format!("line {name}: {done}"),
+                serde_json::json!({"event": "line_up", "line": name, "reconnects": reconnects}),
+            );
+        }
+        Event::UnitDemoted {
+            name,
+            unit,
+            failures,
+            for_ms,
+            ..
+        } => out.line(
+            &format!(
+                "line {name}: unit {unit} demoted for {for_ms} ms after {failures} failed requests"
+            ),
+            serde_json::json!({"event": "unit_demoted", "line": name, "unit": unit,
+                "failures": failures, "for_ms": for_ms}),
+        ),
+        Event::UnitProbeFailed {
+            name, unit, for_ms, ..
+        } => out.line(
+            &format!("line {name}: unit {unit} still not answering; demoted for {for_ms} ms more"),
+            serde_json::json!({"event": "unit_probe_failed", "line": name, "unit": unit,
+                "for_ms": for_ms}),
+        ),
+        Event::UnitRestored { name, unit, .. } => out.line(
+            &format!("line {name}: unit {unit} answers again"),
+            serde_json::json!({"event": "unit_restored", "line": name, "unit": unit}),
+        ),
     })
 }
 
@@ -628,19 +368,4 @@ fn print_status(gw: &Gateway, stats: &Mutex<Stats>, out: &Output) {
         &format!("status: {text}; {} client(s)", clients.len()),
         serde_json::json!({"event": "status", "lines": lines, "clients": clients}),
     );
-}
-
-#[cfg(test)]
-mod tests {
-    use super::spec_gap;
-    use si_core::{Parity, SerialSettings};
-
-    #[test]
-    fn the_spec_gap_is_t35_below_19200_and_1_75_ms_from_there() {
-        let at = |baud| SerialSettings::new(baud, 8, Parity::Even, 1).unwrap();
-        // 9600 8E1: 11 bits a character, 3.5 × 1145.8 µs.
-        assert_eq!(spec_gap(&at(9600)).as_micros(), 4011);
-        assert_eq!(spec_gap(&at(19_200)).as_micros(), 1750);
-        assert_eq!(spec_gap(&at(115_200)).as_micros(), 1750);
-    }
 }

@@ -49,6 +49,7 @@
 //!   properties).
 
 mod busy;
+mod device_server;
 mod icount;
 mod info;
 #[cfg(target_os = "linux")]
@@ -57,6 +58,7 @@ mod rs485;
 mod stream;
 mod tx_enable;
 
+pub use device_server::{device_server, ConnectError, CONNECT_TIMEOUT, KEEPALIVE};
 pub use icount::{line_counters, LineCounters};
 
 pub use info::{

@@ -10,8 +10,8 @@
 //! Client connections beyond what is left are refused by the TCP server, which pauses and
 //! retries its accept (si-modbus `tokio::tcp`), so only the lower bound is checked here.
 
-use super::config::{Device, Gateway};
 use crate::error::CliError;
+use si_gateway::config::{Device, Gateway};
 
 /// Descriptors a process has open before the gateway opens any line: stdin, stdout, stderr,
 /// the runtime's epoll and wake-up descriptors, the Ctrl-C signal pipe, with room to spare.
@@ -110,18 +110,26 @@ mod tests {
         assert!(e.contains("ulimit -Hn 1100"), "{e}");
     }
 
+    /// The checked gateway of TOML `text`.
+    fn check(text: &str) -> Gateway {
+        si_gateway::config::File::from_toml(text)
+            .unwrap()
+            .check()
+            .unwrap()
+    }
+
     #[test]
     fn a_port_line_needs_two_descriptors_and_a_device_server_line_one() {
         let toml = "listen = \"127.0.0.1:5020\"\n\
                     [[line]]\ndevice = \"/dev/ttyS0\"\nunits = \"1\"\n\
                     [[line]]\ndevice = \"tcp:127.0.0.1:4001\"\nunits = \"2\"\n";
-        let gw = crate::cmd::gateway::config::tests::check(toml).unwrap();
+        let gw = check(toml);
         // 2 + 1 for the lines, 1 listener, mbusd's 32 connections, the runtime's 32.
         assert_eq!(descriptors_needed(&gw, 1), 68);
         // A sysfs direction file stays open with its port: one more.
         let sysfs = "rs485 = \"sysfs\"\nrs485_file = \"/sys/class/gpio/gpio17/value\"\n";
         let with_file = toml.replace("units = \"1\"\n", &format!("units = \"1\"\n{sysfs}"));
-        let gw = crate::cmd::gateway::config::tests::check(&with_file).unwrap();
+        let gw = check(&with_file);
         assert_eq!(descriptors_needed(&gw, 1), 69);
     }
 

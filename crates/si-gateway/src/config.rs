@@ -331,8 +331,7 @@ impl std::error::Error for ConfigError {}
 
 impl File {
     /// Parse TOML text (the tests' shortcut; `si gateway` reads its file through
-    /// `crate::config_file`, whose errors name the file, line and key).
-    #[cfg(test)]
+    /// `si_core::config_file`, whose errors name the file, line and key).
     pub fn from_toml(text: &str) -> Result<File, String> {
         toml::from_str(text).map_err(|e| format!("gateway config: {e}"))
     }
@@ -674,7 +673,7 @@ pub(super) fn refuse_keys(
 /// `broadcast`). At least one unit, or the line would serve nothing.
 pub fn parse_units(text: &str) -> Result<Vec<u8>, RangeError> {
     const RANGE: &str = "unit ids 1 … 255 as a list of N or N-M, e.g. 1-10,12";
-    crate::address_list::parse(text, 1, 255)
+    si_core::address_list::parse(text, 1, 255)
         .ok_or_else(|| RangeError::new("units", RANGE, "", format!("{text:?}")))
 }
 

@@ -16,7 +16,7 @@
 use super::config::Gateway;
 use super::counters::Stats;
 use super::router::{LineHandle, Router};
-use crate::error::CliError;
+use crate::Error;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::tcp::{Handler, Peer, Server, ServerConfig, Units};
 use std::net::SocketAddr;
@@ -137,7 +137,7 @@ pub async fn bind(
     gw: &Gateway,
     lines: Arc<[LineHandle]>,
     stats: &Arc<Mutex<Stats>>,
-) -> Result<Vec<Bound>, CliError> {
+) -> Result<Vec<Bound>, Error> {
     let mut bound = Vec::new();
     for (n, face) in faces(gw).into_iter().enumerate() {
         let config = ServerConfig {
@@ -148,7 +148,7 @@ pub async fn bind(
         let handler = handler(gw, n as u64, &face, Arc::clone(&lines), stats);
         let server = Server::with_handler(&face.listen, config, handler)
             .await
-            .map_err(|e| CliError::new(format!("cannot listen on {}: {e}", face.listen)))?;
+            .map_err(|e| Error::new(format!("cannot listen on {}: {e}", face.listen)))?;
         bound.push(Bound {
             addr: server.local_addr()?,
             lines: face.lines,
@@ -209,7 +209,7 @@ pub async fn run(faces: Vec<Bound>) -> std::io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cmd::gateway::config::tests::check as gateway;
+    use crate::config::tests::check as gateway;
 
     /// Units 1 and 2 on the top-level address and again on 127.0.0.1:5021.
     const TWO_FACES: &str = r#"

@@ -323,7 +323,7 @@ fn parse_area(text: &str, dw_unit: DwUnit, max_len: usize) -> Result<Span, Range
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cmd::gateway::config::File;
+    use crate::config::File;
 
     fn check(keys: &str) -> Result<Rk512Line, String> {
         let text = format!(

@@ -30,7 +30,7 @@ impl LineFile {
 
 #[cfg(test)]
 mod tests {
-    use crate::cmd::gateway::config::{File, Kind};
+    use crate::config::{File, Kind};
 
     fn check(keys: &str) -> Result<si_3964r::Config, String> {
         let text = format!(

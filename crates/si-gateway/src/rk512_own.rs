@@ -25,7 +25,7 @@ use super::reopen::{self, Closed, LineLog, Opened};
 use super::rk512::answer_from;
 use super::rk512_config::Rk512Line;
 use super::rk512_spans::is_read;
-use crate::error::CliError;
+use crate::Error;
 use si_core::memory::{Memory, MemorySizes};
 use si_modbus::mbap::TcpAdu;
 use si_modbus::serve;
@@ -97,7 +97,7 @@ impl OwnMemory {
         log: LineLog,
         queue: Arc<LineQueue>,
         first: reopen::First<Handle>,
-        open: impl AsyncFnMut() -> Result<Opened<Handle>, CliError>,
+        open: impl AsyncFnMut() -> Result<Opened<Handle>, Error>,
     ) {
         // The closures own what their futures use (see `line::run`).
         let (index, stats) = (log.index, Arc::clone(&log.stats));
@@ -194,7 +194,7 @@ const NO_MEMORY: MemorySizes = MemorySizes {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cmd::gateway::rk512::tests::line;
+    use crate::rk512::tests::line;
     use si_modbus::frame::Request;
     use si_rk512::frame::{Address, Coordination};
 

@@ -120,7 +120,7 @@ fn parse_addresses(text: &str, count: usize) -> Result<Vec<u8>, RangeError> {
 
 #[cfg(test)]
 mod tests {
-    use crate::cmd::gateway::config::File;
+    use crate::config::File;
 
     fn check(keys: &str) -> Result<super::UssLine, String> {
         let text = format!("[[line]]\nname = \"d\"\nkind = \"uss\"\ndevice = \"x\"\n{keys}");

@@ -30,7 +30,6 @@ use super::line::{
 };
 use super::reopen::{self, Closed, LineLog, Opened};
 use super::uss_config::UssLine;
-use crate::error::CliError;
 use si_modbus::frame::Request;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::serve;
@@ -96,7 +95,7 @@ impl UssDrives {
         &self,
         log: LineLog,
         first: reopen::First<Handle>,
-        open: impl AsyncFnMut() -> Result<Opened<Handle>, CliError> + 'static,
+        open: impl AsyncFnMut() -> Result<Opened<Handle>, crate::Error> + 'static,
     ) -> impl Future<Output = ()> + 'static {
         let link = Arc::clone(&self.link);
         // The closure owns what its futures use (see `line::run`).

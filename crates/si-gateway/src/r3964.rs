@@ -26,7 +26,6 @@ use super::line::{
 };
 use super::reopen::{self, Closed, LineLog, Opened};
 use super::rk512::status_exception;
-use crate::error::CliError;
 use si_3964r::tokio::{Error, Handle, Sender};
 use si_modbus::frame::{Registers, Request, Response};
 use si_modbus::mbap::TcpAdu;
@@ -71,7 +70,7 @@ impl BlockLine {
         &self,
         log: LineLog,
         first: reopen::First<Handle>,
-        open: impl AsyncFnMut() -> Result<Opened<Handle>, CliError> + 'static,
+        open: impl AsyncFnMut() -> Result<Opened<Handle>, crate::Error> + 'static,
     ) -> impl Future<Output = ()> + 'static {
         // The closure owns what its futures use (see `line::run`).
         let (sender, latest) = (Arc::clone(&self.sender), Arc::clone(&self.latest));
@@ -235,7 +234,7 @@ mod tests {
             link: Handle::spawn(high, port).unwrap(),
             closed,
         };
-        let never = async || Err(CliError::new("an in-memory pipe"));
+        let never = async || Err(crate::Error::new("an in-memory pipe"));
         tokio::spawn(line.supervise(LineLog::test(1), Ok(first), never));
         until_up(&line, true).await;
         let mut partner = Handle::spawn(si_3964r::Config::default(), b).unwrap();
@@ -285,7 +284,7 @@ mod tests {
             let (a, b) = tokio::io::duplex(4096);
             let (port, closed) = reopen::watch(Box::new(a));
             let _ = ends.send(b);
-            let link = Handle::spawn(high(), port).map_err(|e| CliError::new(e.to_string()))?;
+            let link = Handle::spawn(high(), port).map_err(|e| crate::Error::new(e.to_string()))?;
             Ok(Opened { link, closed })
         };
         let line = BlockLine::new(200);

@@ -19,8 +19,8 @@
 
 use super::counters::Stats;
 use super::line::lock;
-use crate::error::CliError;
-use crate::output::Output;
+use crate::event::{Event, Events};
+use crate::Error;
 use si_core::driver::{PortFacts, Transport};
 use si_core::{ModemSignals, SignalUpdate};
 use std::convert::Infallible;
@@ -198,32 +198,25 @@ pub struct LineLog {
     pub name: String,
     /// The gateway's counters.
     pub stats: Arc<Mutex<Stats>>,
-    /// Where log lines go.
-    pub out: Output,
+    /// Where the line's events go.
+    pub events: Events,
 }
 
 impl LineLog {
     /// The line's port closed (`was_open`), or could not be opened at start: down, and say so.
     fn down(&self, why: &str, was_open: bool) {
         lock(&self.stats).down[self.index] = Some(why.to_owned());
-        let text = if was_open {
-            format!("line {}: closed ({why}); reopening", self.name)
-        } else {
-            format!(
-                "line {}: not opened at start ({why}); trying again",
-                self.name
-            )
-        };
-        self.out.line(
-            &text,
-            serde_json::json!({"event": "line_down", "line": self.name, "reason": why,
-                "at_start": !was_open}),
-        );
+        (self.events)(&Event::LineDown {
+            line: self.index,
+            name: self.name.clone(),
+            reason: why.to_owned(),
+            at_start: !was_open,
+        });
     }
 
     /// An attempt to reopen failed: keep the reason up to date (not logged: one a second
     /// at first, for as long as the device is away).
-    fn still_down(&self, why: &str, error: &CliError) {
+    fn still_down(&self, why: &str, error: &Error) {
         let reason = format!("{why}; reopening failed: {}", error.text());
         tracing::debug!("line {}: {reason}", self.name);
         lock(&self.stats).down[self.index] = Some(reason);
@@ -238,23 +231,24 @@ impl LineLog {
             c.reconnects += u64::from(was_open);
             c.reconnects
         };
-        let done = if was_open { "reopened" } else { "opened" };
-        self.out.line(
-            &format!("line {}: {done}", self.name),
-            serde_json::json!({"event": "line_up", "line": self.name, "reconnects": reconnects}),
-        );
+        (self.events)(&Event::LineUp {
+            line: self.index,
+            name: self.name.clone(),
+            reconnects,
+            reopened: was_open,
+        });
     }
 }
 
 #[cfg(test)]
 impl LineLog {
-    /// Line 0 of `lines` fresh counters, logging JSON.
+    /// Line 0 of `lines` fresh counters, its events dropped.
     pub fn test(lines: usize) -> LineLog {
         LineLog {
             index: 0,
             name: "test".into(),
             stats: Arc::new(Mutex::new(Stats::new(lines))),
-            out: Output { json: true },
+            events: crate::event::ignore(),
         }
     }
 }
@@ -270,7 +264,7 @@ pub type First<L> = Result<Opened<L>, String>;
 pub async fn supervise<L>(
     log: LineLog,
     first: First<L>,
-    mut open: impl AsyncFnMut() -> Result<Opened<L>, CliError>,
+    mut open: impl AsyncFnMut() -> Result<Opened<L>, Error>,
     mut serve: impl AsyncFnMut(L, Closed) -> String,
     mut while_down: impl AsyncFnMut() -> Infallible,
 ) {
@@ -330,7 +324,7 @@ mod tests {
             index: 0,
             name: "l".into(),
             stats: Arc::clone(&stats),
-            out: Output { json: true },
+            events: crate::event::ignore(),
         };
         let (a, _b) = tokio::io::duplex(8);
         let (port, closed) = watch(Box::new(a));
@@ -341,7 +335,7 @@ mod tests {
         let open = async || {
             attempts.push(start.elapsed().as_secs());
             if attempts.len() < 4 {
-                return Err(CliError::new("away"));
+                return Err(Error::new("away"));
             }
             let (a, _b) = tokio::io::duplex(8);
             let (port, closed) = watch(Box::new(a));

@@ -170,6 +170,18 @@ impl Stats {
         }
     }
 
+    /// Counters for the lines of `gw`: their names in the metrics, their demotion settings.
+    pub fn for_gateway(gw: &super::config::Gateway) -> Self {
+        let mut s = Stats::new(gw.lines.len());
+        s.metrics = GatewayMetrics::new(gw.lines.iter().map(|l| l.name.clone()).collect());
+        s.health = gw
+            .lines
+            .iter()
+            .map(|l| LineHealth::new(l.demotion))
+            .collect();
+        s
+    }
+
     /// The client's counters (a request before `connected`, e.g. from a test, gets none).
     pub fn client(&mut self, id: u64) -> Option<&mut Counters> {
         self.clients.get_mut(&id).map(|c| &mut c.counters)

@@ -57,6 +57,11 @@ impl<T> FairQueue<T> {
     pub fn len(&self) -> usize {
         self.entries.len()
     }
+
+    /// No request waiting.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
 }
 
 #[cfg(test)]

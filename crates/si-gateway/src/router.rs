@@ -197,7 +197,7 @@ impl Handler for Router {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cmd::gateway::reopen::{self, LineLog, Opened};
+    use crate::reopen::{self, LineLog, Opened};
     use si_modbus::frame::Request;
     use si_modbus::slave::Tables;
     use si_modbus::tokio::{Master, Slave};
@@ -227,9 +227,9 @@ mod tests {
             index: 0,
             name: "pipe".into(),
             stats: Arc::clone(&stats),
-            out: crate::output::Output { json: true },
+            events: crate::event::ignore(),
         };
-        let never = async || Err(crate::error::CliError::new("an in-memory pipe"));
+        let never = async || Err(crate::Error::new("an in-memory pipe"));
         let first = Ok(Opened { link, closed });
         let pause = std::time::Duration::ZERO;
         tokio::spawn(line::run(log, Arc::clone(&queue), first, never, pause));

@@ -15,7 +15,7 @@
 //!   one that fails demotes it again for the whole time;
 //! - a slave's exception is an answer: the unit is alive.
 //!
-//! `demote_after = 0` disables demotion. Every change is an [`Event`]; [`DemotionCounters`]
+//! `demote_after = 0` disables demotion. Every change is a [`Change`]; [`DemotionCounters`]
 //! only grow.
 
 use serde::{Deserialize, Serialize};
@@ -66,9 +66,8 @@ pub enum Admit {
 }
 
 /// A change of a unit's state.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(tag = "event", rename_all = "snake_case")]
-pub enum Event {
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Change {
     /// The unit failed `failures` requests in a row and is demoted until `for_ms` from now.
     Demoted {
         /// The unit id.
@@ -198,18 +197,18 @@ impl LineHealth {
     }
 
     /// A request sent to `unit` got a valid answer (a slave exception included).
-    pub fn succeeded(&mut self, unit: u8) -> Option<Event> {
+    pub fn succeeded(&mut self, unit: u8) -> Option<Change> {
         let health = self.units.get_mut(&unit)?;
         let was = health.state;
         self.units.remove(&unit);
         (was == UnitState::Probing).then(|| {
             self.counters.restorations += 1;
-            Event::Restored { unit }
+            Change::Restored { unit }
         })
     }
 
     /// A request sent to `unit` got no valid answer (timeout, corrupt after the retries).
-    pub fn failed(&mut self, unit: u8, now: Instant) -> Option<Event> {
+    pub fn failed(&mut self, unit: u8, now: Instant) -> Option<Change> {
         if !self.config.enabled() {
             return None;
         }
@@ -223,7 +222,7 @@ impl LineHealth {
             UnitState::Probing => {
                 health.state = UnitState::Demoted { until };
                 self.counters.probes_failed += 1;
-                Some(Event::ProbeFailed { unit, for_ms })
+                Some(Change::ProbeFailed { unit, for_ms })
             }
             // A request sent before the unit was demoted ends after it: no new demotion.
             UnitState::Demoted { .. } => None,
@@ -238,7 +237,7 @@ impl LineHealth {
                     failures: 0,
                 };
                 self.counters.demotions += 1;
-                Some(Event::Demoted {
+                Some(Change::Demoted {
                     unit,
                     failures,
                     for_ms,
@@ -268,7 +267,7 @@ mod tests {
         assert_eq!(h.admit(5, at(2)), Admit::Send);
         assert_eq!(
             h.failed(5, at(2)),
-            Some(Event::Demoted {
+            Some(Change::Demoted {
                 unit: 5,
                 failures: 3,
                 for_ms: 30_000
@@ -305,7 +304,7 @@ mod tests {
         // While the probe is out, the others are refused.
         assert_eq!(h.admit(9, at(30_003)), Admit::Refuse);
         assert_eq!(h.admit(9, at(30_004)), Admit::Refuse);
-        assert_eq!(h.succeeded(9), Some(Event::Restored { unit: 9 }));
+        assert_eq!(h.succeeded(9), Some(Change::Restored { unit: 9 }));
         assert_eq!(h.admit(9, at(30_005)), Admit::Send);
         assert_eq!(h.demoted(), 0);
         let c = h.counters();
@@ -321,7 +320,7 @@ mod tests {
         assert_eq!(h.admit(9, at(40_000)), Admit::Probe);
         assert_eq!(
             h.failed(9, at(40_500)),
-            Some(Event::ProbeFailed {
+            Some(Change::ProbeFailed {
                 unit: 9,
                 for_ms: 30_000
             })

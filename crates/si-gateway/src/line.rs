@@ -6,11 +6,10 @@
 //! once, without a byte on the line, until one probe finds it again.
 
 use super::counters::{Outcome, Stats};
-use super::demotion::{Admit, Event};
+use super::demotion::{Admit, Change};
 use super::quantities;
 use super::queue::FairQueue;
 use super::reopen::{self, Closed, LineLog, Opened};
-use crate::error::CliError;
 use si_modbus::frame::{DecodeErrorKind, ExceptionCode};
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::{Error, Master};
@@ -98,7 +97,7 @@ pub async fn run(
     log: LineLog,
     queue: Arc<LineQueue>,
     first: reopen::First<Master>,
-    open: impl AsyncFnMut() -> Result<Opened<Master>, CliError>,
+    open: impl AsyncFnMut() -> Result<Opened<Master>, crate::Error>,
     pause: Duration,
 ) {
     // The closures own what their futures use: a future borrowing from the task would not
@@ -158,7 +157,7 @@ async fn serve(
                 (_, Some(false)) => s.health[index].failed(unit, now()),
             };
             if let Some(e) = event {
-                s.metrics.demotion_event(index, event_name(e));
+                s.metrics.demotion_event(index, change_name(e));
             }
             event
         };
@@ -187,35 +186,39 @@ fn verdict(outcome: Outcome, answer: Option<&TcpAdu>) -> Option<bool> {
     }
 }
 
-/// The metrics label of a demotion event.
-fn event_name(e: Event) -> &'static str {
-    match e {
-        Event::Demoted { .. } => "demoted",
-        Event::ProbeFailed { .. } => "probe_failed",
-        Event::Restored { .. } => "restored",
+/// The metrics label of a demotion change.
+fn change_name(c: Change) -> &'static str {
+    match c {
+        Change::Demoted { .. } => "demoted",
+        Change::ProbeFailed { .. } => "probe_failed",
+        Change::Restored { .. } => "restored",
     }
 }
 
-/// Say a demotion event: a text line, or the event's JSON with the line's name.
-fn report(log: &LineLog, e: Event) {
-    let text = match e {
-        Event::Demoted {
+/// Hand a demotion change to the program's event sink.
+fn report(log: &LineLog, c: Change) {
+    let (line, name) = (log.index, log.name.clone());
+    let event = match c {
+        Change::Demoted {
             unit,
             failures,
             for_ms,
-        } => format!(
-            "line {}: unit {unit} demoted for {for_ms} ms after {failures} failed requests",
-            log.name
-        ),
-        Event::ProbeFailed { unit, for_ms } => format!(
-            "line {}: unit {unit} still not answering; demoted for {for_ms} ms more",
-            log.name
-        ),
-        Event::Restored { unit } => format!("line {}: unit {unit} answers again", log.name),
+        } => crate::Event::UnitDemoted {
+            line,
+            name,
+            unit,
+            failures,
+            for_ms,
+        },
+        Change::ProbeFailed { unit, for_ms } => crate::Event::UnitProbeFailed {
+            line,
+            name,
+            unit,
+            for_ms,
+        },
+        Change::Restored { unit } => crate::Event::UnitRestored { line, name, unit },
     };
-    let mut json = serde_json::to_value(e).unwrap_or_default();
-    json["line"] = log.name.clone().into();
-    log.out.line(&text, json);
+    (log.events)(&event);
 }
 
 /// Now, on the process's one clock for demotion times (tokio's, so paused test time works).

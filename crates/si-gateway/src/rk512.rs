@@ -45,7 +45,6 @@ use super::line::{
 use super::reopen::{self, Closed, LineLog, Opened};
 use super::rk512_config::Rk512Line;
 use super::rk512_spans::{self, add_dbs, is_read, Span};
-use crate::error::CliError;
 use si_core::memory::Memory;
 use si_modbus::frame::Request;
 use si_modbus::mbap::TcpAdu;
@@ -247,7 +246,7 @@ pub async fn run(
     queue: Arc<LineQueue>,
     partner: Partner,
     first: reopen::First<Handle>,
-    open: impl AsyncFnMut() -> Result<Opened<Handle>, CliError>,
+    open: impl AsyncFnMut() -> Result<Opened<Handle>, crate::Error>,
     pause: Duration,
 ) {
     // The closures own what their futures use (see `line::run`); the partner is lent to one
@@ -334,7 +333,7 @@ async fn next_tick(tick: &mut Option<Interval>) {
 #[cfg(test)]
 pub(super) mod tests {
     use super::*;
-    use crate::cmd::gateway::rk512_config::Role;
+    use crate::rk512_config::Role;
     use si_core::memory::{Area, MemorySizes};
     use si_core::SerialSettings;
     use si_modbus::frame::Registers;

@@ -1,0 +1,261 @@
+//! Starting the lines: each line's engine built from its configuration, its port opened
+//! ([`crate::open`]) and its task spawned, watched for its port closing ([`crate::reopen`]).
+
+use crate::config::{Gateway, Kind, Line};
+use crate::counters::Stats;
+use crate::event::Events;
+use crate::open::{self, Opening};
+use crate::reopen;
+use crate::rk512_config::{Rk512Line, Role};
+use crate::router::LineHandle;
+use crate::uss_config::UssLine;
+use crate::{line, r3964, rk512, rk512_own, uss, Error};
+use si_modbus::config::LineConfig;
+use si_modbus::{MasterConfig, Mode};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// Open every line of `gw` and spawn its task (on the current tokio runtime); the handles the
+/// router reaches them by, in file order, and the counters they share. A line whose
+/// configuration its engine refuses stops the start; so does a port that cannot be opened,
+/// unless `allow_down_at_start` lets the line start down.
+pub async fn lines(
+    gw: &Gateway,
+    opening: &Opening,
+    events: &Events,
+) -> Result<(Arc<Mutex<Stats>>, Vec<LineHandle>), Error> {
+    let stats = Arc::new(Mutex::new(Stats::for_gateway(gw)));
+    let mut handles = Vec::with_capacity(gw.lines.len());
+    for (i, l) in gw.lines.iter().enumerate() {
+        let log = reopen::LineLog {
+            index: i,
+            name: l.name.clone(),
+            stats: Arc::clone(&stats),
+            events: Arc::clone(events),
+        };
+        let (o, l) = (opening.clone(), l.clone());
+        let handle = match &l.kind {
+            Kind::ModbusRtu => {
+                let first = start(open_modbus(&o, &l).await, gw, &l)?;
+                let queue = Arc::new(line::LineQueue::new(l.queue));
+                let (q, pause) = (Arc::clone(&queue), l.pause);
+                let open = async move || open_modbus(&o, &l).await;
+                tokio::spawn(line::run(log, q, first, open, pause));
+                LineHandle::Rtu(queue)
+            }
+            Kind::Uss(u) => {
+                let u = u.clone();
+                let first = start(open_uss(&o, &l, &u).await, gw, &l)?;
+                let drives = uss::UssDrives::new(&u);
+                let open = async move || open_uss(&o, &l, &u).await;
+                tokio::spawn(drives.supervise(log, first, open));
+                LineHandle::Uss(drives)
+            }
+            Kind::Rk512(r) => {
+                let (r, pause) = (r.clone(), l.pause);
+                let queue = Arc::new(line::LineQueue::new(l.queue));
+                let q = Arc::clone(&queue);
+                match r.role {
+                    Role::Active => {
+                        let first = start(open_rk512(&o, &l, &r, None).await, gw, &l)?;
+                        let partner = rk512::Partner::new(&r);
+                        let open = async move || open_rk512(&o, &l, &r, None).await;
+                        tokio::spawn(rk512::run(log, q, partner, first, open, pause));
+                    }
+                    Role::Passive => {
+                        let own = rk512_own::OwnMemory::new(&r);
+                        let kept = own.kept();
+                        let first = start(open_rk512(&o, &l, &r, None).await, gw, &l)?;
+                        let open = async move || open_rk512(&o, &l, &r, Some(&kept)).await;
+                        tokio::spawn(own.run(log, q, first, open));
+                    }
+                }
+                LineHandle::Rk512(queue)
+            }
+            Kind::R3964(link) => {
+                let link = *link;
+                let first = start(open_3964r(&o, &l, &link).await, gw, &l)?;
+                let blocks = r3964::BlockLine::new(link.max_block_len.into());
+                let open = async move || open_3964r(&o, &l, &link).await;
+                tokio::spawn(blocks.supervise(log, first, open));
+                LineHandle::R3964(blocks)
+            }
+        };
+        handles.push(handle);
+    }
+    Ok((stats, handles))
+}
+
+/// How line `l` starts from its first opening: open, or (with `allow_down_at_start` and a port
+/// that cannot be opened) down with the reason; otherwise the error stops the gateway.
+fn start<L>(
+    opened: Result<reopen::Opened<L>, Error>,
+    gw: &Gateway,
+    l: &Line,
+) -> Result<reopen::First<L>, Error> {
+    match opened {
+        Ok(o) => Ok(Ok(o)),
+        Err(Error::Port(e)) if gw.allow_down_at_start => {
+            let prefix = format!("line {}: ", l.name);
+            Ok(Err(e.trim_start_matches(&prefix).to_owned()))
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// Open a USS line and start its master polling the drives.
+async fn open_uss(
+    o: &Opening,
+    l: &Line,
+    u: &UssLine,
+) -> Result<reopen::Opened<si_uss::tokio::Handle>, Error> {
+    let rates = &si_uss::config::USS_BAUD_RATES[..];
+    open_engine(o, l, "uss", rates, |settings| {
+        let mut config = u.master.clone();
+        config.settings = settings;
+        si_uss::Master::new(config)
+    })
+    .await
+    .map(|o| o.spawn(si_uss::tokio::Handle::spawn_engine))
+}
+
+/// Open an RK 512 line and start its station: active only, or serving the line's memory in
+/// the passive role, from the memory `kept` before its port last closed, if any.
+async fn open_rk512(
+    o: &Opening,
+    l: &Line,
+    r: &Rk512Line,
+    kept: Option<&rk512_own::Kept>,
+) -> Result<reopen::Opened<si_rk512::tokio::Handle>, Error> {
+    open_engine(o, l, "rk512", &si_core::BAUD_RATES, |settings| {
+        match r.role {
+            Role::Active => si_rk512::Station::new(r.config, settings),
+            Role::Passive => {
+                let server = si_rk512::passive::ServerConfig {
+                    memory: r.memory.clone(),
+                    ..si_rk512::passive::ServerConfig::default()
+                };
+                let mut station = si_rk512::Station::serving(r.config, settings, &server)?;
+                if let Some(kept) = kept {
+                    kept.restore(&mut station);
+                }
+                Ok(station)
+            }
+        }
+    })
+    .await
+    .map(|o| o.spawn(si_rk512::tokio::Handle::spawn_engine))
+}
+
+/// Open a plain 3964(R) line and start its link.
+async fn open_3964r(
+    o: &Opening,
+    l: &Line,
+    link: &si_3964r::Config,
+) -> Result<reopen::Opened<si_3964r::tokio::Handle>, Error> {
+    open_engine(o, l, "3964r", &si_core::BAUD_RATES, |settings| {
+        si_3964r::Link::new(*link, settings)
+    })
+    .await
+    .map(|o| o.spawn(si_3964r::tokio::Handle::spawn_engine))
+}
+
+/// Open a Modbus RTU line and start its master.
+async fn open_modbus(
+    o: &Opening,
+    l: &Line,
+) -> Result<reopen::Opened<si_modbus::tokio::Master>, Error> {
+    // On RS-485 a response is recognised by its address, skipping a turnaround glitch ([Modbus/USS]
+    // §3.4.1, §3.4.3).
+    let interface = if l.rs485.is_some() {
+        si_core::Interface::Rs485
+    } else {
+        si_core::Interface::Rs232
+    };
+    open_engine(o, l, "modbus", &si_core::BAUD_RATES, |settings| {
+        let gap = spec_gap(&settings);
+        let config = MasterConfig {
+            line: LineConfig {
+                settings,
+                mode: Mode::Normal,
+                char_delay_multiplier: l.rtu.char_delay_multiplier,
+                local_echo: false,
+                auto_v24: None,
+            },
+            response_timeout: si_core::Duration::from_millis(l.response_timeout_ms.into()),
+            retries: l.retries,
+            ..MasterConfig::default()
+        };
+        // A late answer never reaches the next request (si-modbus's quiet guard).
+        let quiet = l
+            .rtu
+            .quiet_after_timeout_ms
+            .unwrap_or(l.response_timeout_ms);
+        si_modbus::Master::new(config).map(|m| {
+            let m = m
+                .with_interface(interface)
+                .with_frame_end(l.rtu.frame_end)
+                .with_quiet_after_timeout(Duration::from_millis(quiet.into()));
+            if l.rtu.spec_gap {
+                m.with_gap(gap)
+            } else {
+                m
+            }
+        })
+    })
+    .await
+    .map(|o| o.spawn(si_modbus::tokio::Master::spawn_engine))
+}
+
+/// The Modbus specification's inter-frame silence t3.5 ([Modbus serial] §2.5.1.1): 3.5
+/// character times below 19200 bit/s, a fixed 1.75 ms at and above, where the character time
+/// would make it too short for a host to time.
+fn spec_gap(settings: &si_core::SerialSettings) -> si_core::Duration {
+    if settings.baud() >= 19_200 {
+        si_core::Duration::from_micros(1_750)
+    } else {
+        let seven_halves = settings.chars_time(7).as_micros();
+        si_core::Duration::from_micros(seven_halves.div_ceil(2))
+    }
+}
+
+/// Build line `l`'s engine for its serial settings (a baud rate from `rates`, the protocol's
+/// list), checking its configuration before the port opens, then open the port, watched for
+/// its closing ([`reopen::watch`]). Errors name the line: [`Error::Config`] for settings or
+/// an engine configuration refused, [`Error::Port`] for a port that cannot be opened.
+async fn open_engine<E, F: std::error::Error>(
+    o: &Opening,
+    l: &Line,
+    protocol: &'static str,
+    rates: &'static [u32],
+    engine: impl FnOnce(si_core::SerialSettings) -> Result<E, F>,
+) -> Result<reopen::Opened<(E, Box<dyn si_core::driver::Transport>)>, Error> {
+    let prefix = format!("line {}: ", l.name);
+    let settings = open::settings(l, rates).map_err(|e| e.prefixed(&prefix))?;
+    let engine = engine(settings).map_err(|e| Error::Config(format!("{prefix}{e}")))?;
+    let port = open::open(l, &settings, protocol, o)
+        .await
+        .map_err(|e| match e {
+            Error::Config(t) | Error::Port(t) | Error::Io(t) => Error::Port(format!("{prefix}{t}")),
+        })?;
+    let (port, closed) = reopen::watch(port);
+    Ok(reopen::Opened {
+        link: (engine, port),
+        closed,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::spec_gap;
+    use si_core::{Parity, SerialSettings};
+
+    #[test]
+    fn the_spec_gap_is_t35_below_19200_and_1_75_ms_from_there() {
+        let at = |baud| SerialSettings::new(baud, 8, Parity::Even, 1).unwrap();
+        // 9600 8E1: 11 bits a character, 3.5 × 1145.8 µs.
+        assert_eq!(spec_gap(&at(9600)).as_micros(), 4011);
+        assert_eq!(spec_gap(&at(19_200)).as_micros(), 1750);
+        assert_eq!(spec_gap(&at(115_200)).as_micros(), 1750);
+    }
+}
