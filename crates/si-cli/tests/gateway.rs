@@ -18,6 +18,8 @@ mod harness;
 mod many_lines;
 #[path = "gateway/mbusd_itests.rs"]
 mod mbusd_itests;
+#[path = "gateway/metrics_scrape.rs"]
+mod metrics_scrape;
 #[path = "gateway/pass_through.rs"]
 mod pass_through;
 #[path = "gateway/probe.rs"]

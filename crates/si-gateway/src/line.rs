@@ -145,12 +145,14 @@ async fn serve(
             continue;
         }
         let started = tokio::time::Instant::now();
-        let (answer, outcome, crc_errors, retries) = forward(&mut master, &job.request).await;
+        let (answer, outcome, crc_errors, sent) = forward(&mut master, &job.request).await;
         let event = {
             let mut s = lock(&stats);
-            let seconds = started.elapsed().as_secs_f64();
-            s.metrics.response_time(index, seconds);
-            s.metrics.retried(index, unit, retries.into());
+            if sent > 0 {
+                let seconds = started.elapsed().as_secs_f64();
+                s.metrics.response_time(index, seconds);
+                s.metrics.retried(index, unit, (sent - 1).into());
+            }
             let event = match (unit, verdict(outcome, answer.as_ref())) {
                 (0, _) | (_, None) => None,
                 (_, Some(true)) => s.health[index].succeeded(unit),
@@ -284,14 +286,8 @@ pub fn answered(
 /// Send one request through the RTU master: the slave's answer with the client's transaction
 /// id (exceptions as they are), or the gateway's own exception; and the corrupt answers its
 /// attempts met ([`si_modbus::master::Attempts`]), counted even when a retry cured them; and
-/// the retries it took.
+/// the requests put on the line (0 if the gateway answered itself, 1 + the retries).
 async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outcome, u8, u8) {
-    let (answer, outcome, crc_errors, attempts) = forward_once(master, request).await;
-    (answer, outcome, crc_errors, attempts.saturating_sub(1))
-}
-
-/// [`forward`], with the requests put on the line (0 if none was).
-async fn forward_once(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outcome, u8, u8) {
     let broadcast = request.unit() == 0;
     if quantities::out_of_range(request.unit_pdu()) {
         let answer = (!broadcast).then(|| exception(request, ILLEGAL_DATA_VALUE));
