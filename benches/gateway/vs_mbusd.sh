@@ -13,7 +13,8 @@
 # env: MBUSD_SRC (default ../shared/peers/mbusd), BAUD (19200), CLIENTS ("1,8"),
 #   PACE (0): 1 puts benches/gateway/pace.py between the gateway's pty and the slave's, so
 #   every byte takes its wire time at BAUD 8N1 (a pty alone ignores the baud rate);
-#   SI_FRAME_END (unset): si's frame_end line key (gap or length).
+#   SI_FRAME_END (unset): si's frame_end line key (gap or length); SI_KEYS: more line keys
+#   for si (e.g. "demote_after = 0"); GATEWAYS ("si mbusd"): which to run.
 set -euo pipefail
 
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
@@ -23,6 +24,8 @@ BAUD=${BAUD:-19200}
 CLIENTS=${CLIENTS:-1,8}
 PACE=${PACE:-0}
 SI_FRAME_END=${SI_FRAME_END:-}
+SI_KEYS=${SI_KEYS:-}
+GATEWAYS=${GATEWAYS:-si mbusd}
 MBUSD_SRC=${MBUSD_SRC:-$ROOT/../shared/peers/mbusd}
 [ -d "$MBUSD_SRC/src" ] || MBUSD_SRC=/work/shared/peers/mbusd
 TMP=$(mktemp -d /tmp/si-vs-mbusd.XXXXXX)
@@ -54,7 +57,9 @@ pty_pair() {
     socat -d -d pty,raw,echo=0 pty,raw,echo=0 >/dev/null 2>"$log" &
     PIDS+=($!)
     for _ in $(seq 50); do
-        [ "$(grep -c 'PTY is' "$log")" -ge 2 ] && break
+        local n
+        n=$(grep -c 'PTY is' "$log" 2>/dev/null || true)
+        [ "${n:-0}" -ge 2 ] && break
         sleep 0.1
     done
     read -r PTY_A PTY_B <<<"$(grep -o '/dev/pts/[0-9]*' "$log" | head -2 | tr '\n' ' ')"
@@ -123,6 +128,7 @@ retries = 2
 response_timeout_ms = 500
 pause_ms = $PAUSE
 $frame_end
+$SI_KEYS
 TOML
         "$SI" gateway --config "$TMP/gw.toml" >"$TMP/si.log" 2>&1 &
         ;;
@@ -137,5 +143,4 @@ TOML
     PIDS=()
 }
 
-run si
-run mbusd
+for g in $GATEWAYS; do run "$g"; done

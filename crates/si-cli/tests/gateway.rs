@@ -32,10 +32,10 @@ mod reconnect;
 mod rk512;
 #[path = "gateway/rk512_reconnect.rs"]
 mod rk512_reconnect;
-#[path = "gateway/rtu_over_tcp.rs"]
-mod rtu_over_tcp;
 #[path = "gateway/rs485.rs"]
 mod rs485;
+#[path = "gateway/rtu_over_tcp.rs"]
+mod rtu_over_tcp;
 #[path = "gateway/soak.rs"]
 mod soak;
 #[path = "gateway/uss.rs"]

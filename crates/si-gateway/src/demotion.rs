@@ -207,6 +207,16 @@ impl LineHealth {
         })
     }
 
+    /// A request admitted for `unit` says nothing about it (the gateway refused it itself, or
+    /// the port closed under it): a probe out is taken back, so the next request probes.
+    pub fn inconclusive(&mut self, unit: u8, now: Instant) {
+        if let Some(health) = self.units.get_mut(&unit) {
+            if health.state == UnitState::Probing {
+                health.state = UnitState::Demoted { until: now };
+            }
+        }
+    }
+
     /// A request sent to `unit` got no valid answer (timeout, corrupt after the retries).
     pub fn failed(&mut self, unit: u8, now: Instant) -> Option<Change> {
         if !self.config.enabled() {
@@ -333,6 +343,21 @@ mod tests {
             1,
             "a failed probe is no new demotion"
         );
+    }
+
+    #[test]
+    fn an_inconclusive_probe_lets_the_next_request_probe() {
+        let mut h = line();
+        for t in 0..3 {
+            h.failed(9, at(t));
+        }
+        assert_eq!(h.admit(9, at(30_002)), Admit::Probe);
+        h.inconclusive(9, at(30_003));
+        assert_eq!(h.admit(9, at(30_004)), Admit::Probe);
+        assert_eq!(h.succeeded(9), Some(Change::Restored { unit: 9 }));
+        // A healthy unit is not touched.
+        h.inconclusive(9, at(30_005));
+        assert_eq!(h.admit(9, at(30_006)), Admit::Send);
     }
 
     #[test]

@@ -154,7 +154,11 @@ async fn serve(
                 s.metrics.retried(index, unit, (sent - 1).into());
             }
             let event = match (unit, verdict(outcome, answer.as_ref())) {
-                (0, _) | (_, None) => None,
+                (0, _) => None,
+                (_, None) => {
+                    s.health[index].inconclusive(unit, now());
+                    None
+                }
                 (_, Some(true)) => s.health[index].succeeded(unit),
                 (_, Some(false)) => s.health[index].failed(unit, now()),
             };

@@ -28,7 +28,10 @@ fn a_scrape_parsed_by_prometheus_has_exact_counts() {
     };
     let metrics = wait_for_event(&rig.log, "metrics_listening", Duration::from_secs(10));
     let metrics = metrics["addr"].as_str().expect("addr").to_owned();
-    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/gateway/metrics_scrape.py");
+    let script = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/gateway/metrics_scrape.py"
+    );
     let out = std::process::Command::new("python3")
         .args([script, &rig.addr, &metrics])
         .output()

@@ -21,7 +21,8 @@ fn with_crc(body: &[u8]) -> Vec<u8> {
 
 fn scrape(addr: &str) -> String {
     let mut s = TcpStream::connect(addr).expect("connect to /metrics");
-    s.write_all(b"GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
+    s.write_all(b"GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n")
+        .unwrap();
     let mut text = String::new();
     s.read_to_string(&mut text).unwrap();
     text
