@@ -50,6 +50,9 @@ use crate::frame::{crc16, crc_ok, Adu, MAX_ADU};
 use crate::rx::{self, Expect, Prediction};
 
 /// What the stream cut: a frame, or bytes it dropped and why.
+///
+/// A frame is held inline (no heap per frame), which makes this enum large; that is deliberate.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Cut {
     /// A whole ADU whose CRC checks.
