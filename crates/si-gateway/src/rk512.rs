@@ -71,7 +71,7 @@ pub struct Partner {
 }
 
 impl Partner {
-    /// The partner of `line`, reached once a station is [attached](Self::attach).
+    /// The partner of `line`, reached once a station is attached (when its line opens).
     pub fn new(line: &Rk512Line) -> Self {
         let sizes = rk512_spans::mirror_sizes(&line.conversion);
         let mut mirror = SimaticStore::new(Memory::new(&sizes), line.conversion);
