@@ -1,21 +1,21 @@
 //! `si gateway`: Modbus TCP clients served by Modbus RTU lines, as mbusd does, several lines
 //! in one process, and by USS, RK 512 and 3964(R) lines.
 //!
-//! Requests are routed by unit id to a line ([`router`]); a Modbus RTU or RK 512 line has a
-//! bounded queue served in round-robin order between clients ([`queue`]) by a task driving the
+//! Requests are routed by unit id to a line ([`router`](si_gateway::router)); a Modbus RTU or RK 512 line has a
+//! bounded queue served in round-robin order between clients ([`queue`](si_gateway::queue)) by a task driving the
 //! line's master ([`mod@line`]), USS and 3964(R) lines answer from their images at once;
 //! counters per line and per client are printed as status lines and readable on a diagnostic
-//! unit ([`counters`]). The configuration is a TOML file or flags ([`config`]); the RS-485
+//! unit ([`counters`](si_gateway::counters)). The configuration is a TOML file or flags ([`config`]); the RS-485
 //! direction modes (`kernel`, `rts`, `rts-inverted`, `sysfs`, `sysfs-inverted`) apply to every
-//! line kind. A line whose port closes is reopened while its requests get 0AH ([`reopen`]);
+//! line kind. A line whose port closes is reopened while its requests get 0AH ([`reopen`](si_gateway::reopen));
 //! with `allow_down_at_start` a line whose port cannot be opened at start starts that way.
 //! A `kind = "uss"` line serves USS drives instead: each drive is a unit id whose PZD and
-//! parameter window are registers ([`uss`], keys in [`uss_config`]). A `kind = "rk512"` line
+//! parameter window are registers ([`uss`](si_gateway::uss), keys in [`uss_config`](si_gateway::uss_config)). A `kind = "rk512"` line
 //! serves an RK 512 partner's S7 memory through S_MODB's conversion DB, or the gateway's own
-//! memory as a passive partner ([`rk512`], [`rk512_own`], keys in [`rk512_config`], spans in
-//! [`rk512_spans`]); a `kind = "3964r"` line shows a plain 3964(R) partner's latest block as
-//! input registers and sends a block for a register write ([`r3964`], keys in
-//! [`r3964_config`]). Every line kind is reopened the same way when its port closes. A line
+//! memory as a passive partner ([`rk512`](si_gateway::rk512), [`rk512_own`](si_gateway::rk512_own), keys in [`rk512_config`](si_gateway::rk512_config), spans in
+//! [`rk512_spans`](si_gateway::rk512_spans)); a `kind = "3964r"` line shows a plain 3964(R) partner's latest block as
+//! input registers and sends a block for a register write ([`r3964`](si_gateway::r3964), keys in
+//! [`r3964_config`](si_gateway::r3964_config)). Every line kind is reopened the same way when its port closes. A line
 //! may have its own listening address ([`faces`]), so that more than 255 lines fit in one
 //! process; the open-file limit is raised for them ([`limits`]).
 
