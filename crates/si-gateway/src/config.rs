@@ -790,6 +790,41 @@ pub(super) mod tests {
     }
 
     #[test]
+    fn demotion_keys_are_checked_and_belong_to_modbus_rtu_lines() {
+        let base = "[[line]]\nname = \"m\"\ndevice = \"/dev/null\"\nunits = \"1\"\n";
+        let d = check(base).unwrap().lines[0].demotion;
+        assert_eq!((d.demote_after, d.demote_for.as_millis()), (3, 30_000));
+        let g = check(&format!("{base}demote_after = 0\ndemote_for_ms = 500\n")).unwrap();
+        let d = g.lines[0].demotion;
+        assert_eq!((d.demote_after, d.demote_for.as_millis()), (0, 500));
+        let e = check(&format!("{base}demote_after = 256\n")).unwrap_err();
+        assert!(
+            e.contains("line 1 (m): demote_after = 256 is out of range: 0 … 255"),
+            "{e}"
+        );
+        let e = check(&format!("{base}demote_for_ms = 0\n")).unwrap_err();
+        assert!(e.contains("demote_for_ms = 0 ms is out of range"), "{e}");
+        for kind in ["uss", "rk512", "3964r"] {
+            let e = check(&format!("{base}kind = \"{kind}\"\ndemote_after = 3\n")).unwrap_err();
+            assert!(e.contains("unknown field `demote_after`"), "{kind}: {e}");
+        }
+        let tcp = "[[line]]\nkind = \"modbus-tcp\"\naddress = \"127.0.0.1:502\"\nunits = \"1\"\n";
+        let e = check(&format!("{tcp}demote_for_ms = 5\n")).unwrap_err();
+        assert!(e.contains("unknown field `demote_for_ms`"), "{e}");
+    }
+
+    #[test]
+    fn the_top_level_listeners_are_read() {
+        let g = check(
+            "metrics_listen = \"127.0.0.1:9100\"\nrtu_over_tcp_listen = \"127.0.0.1:5021\"\n\
+             [[line]]\ndevice = \"x\"\nunits = \"1\"\n",
+        )
+        .unwrap();
+        assert_eq!(g.metrics_listen.as_deref(), Some("127.0.0.1:9100"));
+        assert_eq!(g.rtu_over_tcp_listen.as_deref(), Some("127.0.0.1:5021"));
+    }
+
+    #[test]
     fn the_diagnostic_unit_is_not_routed_to_a_line() {
         let e =
             check("diagnostic_unit = 5\n[[line]]\ndevice = \"x\"\nunits = \"1-10\"\n").unwrap_err();
