@@ -194,9 +194,13 @@ impl Stats {
     /// slot no configured line uses reads as down, with nothing queued or demoted (its
     /// counters stay).
     pub fn lines_now(&self) -> Vec<LineNow> {
+        let mut configured = vec![false; self.lines.len()];
+        for &s in &self.order {
+            configured[s] = true;
+        }
         (0..self.lines.len())
             .map(|i| LineNow {
-                up: self.order.contains(&i) && self.down[i].is_none(),
+                up: configured[i] && self.down[i].is_none(),
                 queue_depth: self.lines[i].queue_depth,
                 demoted: self.health.get(i).map_or(0, |h| h.demoted() as u64),
                 reconnects: self.lines[i].reconnects,
