@@ -1,6 +1,8 @@
 //! The gateway's metric families for Prometheus (served on `metrics_listen`, see
 //! `metrics_http`), kept in one [`Registry`] for the whole process so no counter ever goes
-//! down across reconnects.
+//! down across reconnects or reloads. Lines are indexed by their counter slot (which a line
+//! keeps across reloads; a line added by a reload gets the next one, [`GatewayMetrics::add_line`])
+//! and labelled by name.
 //!
 //! | family | type | labels | what |
 //! |---|---|---|---|
@@ -67,7 +69,7 @@ impl Default for GatewayMetrics {
 }
 
 impl GatewayMetrics {
-    /// The families, empty, for lines named `lines` in configuration order.
+    /// The families, empty, for lines named `lines` in slot order.
     pub fn new(lines: Vec<String>) -> Self {
         let mut r = Registry::new();
         let requests = r.counter(
@@ -191,7 +193,7 @@ impl GatewayMetrics {
         self.registry.inc(self.demotion_events, labels, 1);
     }
 
-    /// The text exposition, with the gauges and reconnects read from `now` (one per line) and
+    /// The text exposition, with the gauges and reconnects read from `now` (one per slot) and
     /// the RTU-over-TCP listener's counters if it runs.
     pub fn render(&mut self, now: &[LineNow], rtu: Option<RtuNow>) -> String {
         if let Some(c) = rtu {
