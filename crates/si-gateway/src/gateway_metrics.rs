@@ -2,7 +2,8 @@
 //! `metrics_http`), kept in one [`Registry`] for the whole process so no counter ever goes
 //! down across reconnects or reloads. Lines are indexed by their counter slot (which a line
 //! keeps across reloads; a line added by a reload gets the next one, [`GatewayMetrics::add_line`])
-//! and labelled by name.
+//! and labelled by name; a `unit` label is the slave's address on the line (the TCP unit id
+//! unless the line's `unit_map` remaps it), as demotion judges units.
 //!
 //! | family | type | labels | what |
 //! |---|---|---|---|
