@@ -10,7 +10,11 @@
 # usage: benches/gateway/vs_mbusd.sh [SECONDS_PER_RUN (15)] [PAUSE_MS (1)]
 #   PAUSE_MS: the pause between requests on the line, the same for both (mbusd -R, si
 #   pause_ms); mbusd's minimum is 1 ms, both default to 100 ms.
-# env: MBUSD_SRC (default ../shared/peers/mbusd), BAUD (19200), CLIENTS ("1,8").
+# env: MBUSD_SRC (default ../shared/peers/mbusd), BAUD (19200), CLIENTS ("1,8"),
+#   PACE (0): 1 puts benches/gateway/pace.py between the gateway's pty and the slave's, so
+#   every byte takes its wire time at BAUD 8N1 (a pty alone ignores the baud rate);
+#   SI_FRAME_END (unset): si's frame_end line key (gap or length); SI_KEYS: more line keys
+#   for si (e.g. "demote_after = 0"); GATEWAYS ("si mbusd"): which to run.
 set -euo pipefail
 
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
@@ -18,6 +22,10 @@ SECS=${1:-15}
 PAUSE=${2:-1}
 BAUD=${BAUD:-19200}
 CLIENTS=${CLIENTS:-1,8}
+PACE=${PACE:-0}
+SI_FRAME_END=${SI_FRAME_END:-}
+SI_KEYS=${SI_KEYS:-}
+GATEWAYS=${GATEWAYS:-si mbusd}
 MBUSD_SRC=${MBUSD_SRC:-$ROOT/../shared/peers/mbusd}
 [ -d "$MBUSD_SRC/src" ] || MBUSD_SRC=/work/shared/peers/mbusd
 TMP=$(mktemp -d /tmp/si-vs-mbusd.XXXXXX)
@@ -38,7 +46,7 @@ SI=${CARGO_TARGET_DIR:-$ROOT/target}/release/si
 echo "# $(uname -srm), $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
 echo "# $($SI --version), mbusd $(sed -n 's/^project(mbusd VERSION \([0-9.]*\).*/\1/p' "$MBUSD_SRC/CMakeLists.txt") (cmake -DCMAKE_BUILD_TYPE=Release, $(cc --version | head -1))"
 echo "# python $(python3 -c 'import sys, pymodbus; print(sys.version.split()[0], "pymodbus", pymodbus.__version__)'), $(socat -V | sed -n 2p)"
-echo "# $BAUD 8N1, pause $PAUSE ms, $SECS s per run, clients $CLIENTS"
+echo "# $BAUD 8N1, pause $PAUSE ms, $SECS s per run, clients $CLIENTS, paced wire: $PACE${SI_FRAME_END:+, si frame_end $SI_FRAME_END}"
 
 # A free loopback port.
 free_port() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
@@ -49,7 +57,9 @@ pty_pair() {
     socat -d -d pty,raw,echo=0 pty,raw,echo=0 >/dev/null 2>"$log" &
     PIDS+=($!)
     for _ in $(seq 50); do
-        [ "$(grep -c 'PTY is' "$log")" -ge 2 ] && break
+        local n
+        n=$(grep -c 'PTY is' "$log" 2>/dev/null || true)
+        [ "${n:-0}" -ge 2 ] && break
         sleep 0.1
     done
     read -r PTY_A PTY_B <<<"$(grep -o '/dev/pts/[0-9]*' "$log" | head -2 | tr '\n' ' ')"
@@ -85,6 +95,14 @@ run() { # name
     port=$(free_port)
     pty_pair "$name"
     a=$PTY_A
+    if [ "$PACE" = 1 ]; then
+        local relay_a=$PTY_B
+        pty_pair "$name-slave"
+        rm -f "$TMP/pace.out"
+        python3 "$ROOT/benches/gateway/pace.py" "$relay_a" "$PTY_A" "$BAUD" >"$TMP/pace.out" 2>"$TMP/pace.log" &
+        PIDS+=($!)
+        for _ in $(seq 50); do grep -q ready "$TMP/pace.out" 2>/dev/null && break; sleep 0.1; done
+    fi
     start_slave "$PTY_B"
     for _ in $(seq 100); do grep -q ready "$TMP/slave.out" 2>/dev/null && break; sleep 0.1; done
     sleep 1 # pymodbus opens its port after importing
@@ -94,6 +112,8 @@ run() { # name
             -R "$PAUSE" -W 500 -N 3 -C 32 &
         ;;
     si)
+        local frame_end=""
+        [ -n "$SI_FRAME_END" ] && frame_end="frame_end = \"$SI_FRAME_END\""
         cat >"$TMP/gw.toml" <<TOML
 listen = "127.0.0.1:$port"
 max_connections = 32
@@ -107,6 +127,8 @@ units = "1"
 retries = 2
 response_timeout_ms = 500
 pause_ms = $PAUSE
+$frame_end
+$SI_KEYS
 TOML
         "$SI" gateway --config "$TMP/gw.toml" >"$TMP/si.log" 2>&1 &
         ;;
@@ -121,5 +143,4 @@ TOML
     PIDS=()
 }
 
-run si
-run mbusd
+for g in $GATEWAYS; do run "$g"; done

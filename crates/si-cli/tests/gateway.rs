@@ -18,6 +18,8 @@ mod harness;
 mod many_lines;
 #[path = "gateway/mbusd_itests.rs"]
 mod mbusd_itests;
+#[path = "gateway/metrics_scrape.rs"]
+mod metrics_scrape;
 #[path = "gateway/pass_through.rs"]
 mod pass_through;
 #[path = "gateway/probe.rs"]
@@ -34,6 +36,8 @@ mod rk512;
 mod rk512_reconnect;
 #[path = "gateway/rs485.rs"]
 mod rs485;
+#[path = "gateway/rtu_over_tcp.rs"]
+mod rtu_over_tcp;
 #[path = "gateway/soak.rs"]
 mod soak;
 #[path = "gateway/uss.rs"]

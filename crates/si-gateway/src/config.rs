@@ -12,6 +12,7 @@
 //! `MAX_CONNTIMEOUT` 1000 s).
 
 use crate::backend::Backend;
+use crate::demotion::DemotionConfig;
 use crate::port_config::{parse_units, Common, Port};
 use crate::r3964_config::R3964File;
 use crate::rk512_config::{Rk512File, Rk512Line};
@@ -54,6 +55,12 @@ pub struct File {
     /// so that a wrong path is reported at once).
     #[serde(default)]
     pub allow_down_at_start: bool,
+    /// Serve Prometheus metrics over HTTP at `GET /metrics` on this address (default: none;
+    /// [`crate::metrics_http`]).
+    pub metrics_listen: Option<String>,
+    /// Accept raw RTU frames (address, PDU, CRC) over TCP on this address, routed like the
+    /// top-level `listen`'s Modbus TCP requests (default: none; [`crate::rtu_listener`]).
+    pub rtu_over_tcp_listen: Option<String>,
     /// The lines.
     #[serde(default, rename = "line")]
     pub lines: Vec<LineFile>,
@@ -115,6 +122,10 @@ pub struct Config {
     pub reply_on_broadcast: bool,
     /// Lines whose device cannot be opened at start start down.
     pub allow_down_at_start: bool,
+    /// The Prometheus metrics address, if any.
+    pub metrics_listen: Option<String>,
+    /// The RTU-over-TCP address, if any.
+    pub rtu_over_tcp_listen: Option<String>,
     /// The lines.
     pub lines: Vec<Line>,
 }
@@ -143,6 +154,9 @@ pub struct Line {
     pub queue: usize,
     /// Modbus RTU framing (defaults for other kinds, which do not use it).
     pub rtu: RtuFraming,
+    /// Auto-demotion of units that stop answering (Modbus RTU lines; the default for other
+    /// kinds, which do not use it).
+    pub demotion: DemotionConfig,
     /// What is on the line.
     pub kind: Kind,
     /// Its own listening address (`None`: the gateway's `listen`).
@@ -164,6 +178,7 @@ impl Line {
             broadcast: false,
             queue: 1,
             rtu: RtuFraming::default(),
+            demotion: DemotionConfig::default(),
             kind: Kind::Custom(Custom(backend)),
             listen: None,
         }
@@ -336,6 +351,8 @@ impl File {
             diagnostic_unit: self.diagnostic_unit,
             reply_on_broadcast: self.reply_on_broadcast,
             allow_down_at_start: self.allow_down_at_start,
+            metrics_listen: self.metrics_listen.clone(),
+            rtu_over_tcp_listen: self.rtu_over_tcp_listen.clone(),
             lines,
         };
         config.check_lines()?;
@@ -355,6 +372,8 @@ impl Config {
             diagnostic_unit: None,
             reply_on_broadcast: false,
             allow_down_at_start: false,
+            metrics_listen: None,
+            rtu_over_tcp_listen: None,
             lines: Vec::new(),
         }
     }
@@ -443,6 +462,7 @@ impl LineFile {
             broadcast: false,
             queue: 1,
             rtu: RtuFraming::default(),
+            demotion: DemotionConfig::default(),
             kind: Kind::ModbusRtu,
             listen: common.listen.map(str::to_owned),
         };
@@ -458,6 +478,7 @@ impl LineFile {
                     broadcast: rtu.broadcast,
                     queue: rtu.queue,
                     rtu: rtu.framing,
+                    demotion: rtu.demotion,
                     ..line
                 }
             }
@@ -546,6 +567,8 @@ const FILE_KEYS: &[&str] = &[
     "diagnostic_unit",
     "reply_on_broadcast",
     "allow_down_at_start",
+    "metrics_listen",
+    "rtu_over_tcp_listen",
     "line",
 ];
 
@@ -577,6 +600,8 @@ impl<'de> Visitor<'de> for FileSeed<'_> {
                 "diagnostic_unit" => file.diagnostic_unit = Some(map.next_value()?),
                 "reply_on_broadcast" => file.reply_on_broadcast = map.next_value()?,
                 "allow_down_at_start" => file.allow_down_at_start = map.next_value()?,
+                "metrics_listen" => file.metrics_listen = Some(map.next_value()?),
+                "rtu_over_tcp_listen" => file.rtu_over_tcp_listen = Some(map.next_value()?),
                 "line" => file.lines = map.next_value_seed(LinesSeed(self.0))?,
                 other => return Err(de::Error::unknown_field(other, FILE_KEYS)),
             }
@@ -762,6 +787,41 @@ pub(super) mod tests {
         );
         let e = check(&format!("{base}kind = \"uss\"\nframe_end = \"gap\"\n")).unwrap_err();
         assert!(e.contains("unknown field `frame_end`"), "{e}");
+    }
+
+    #[test]
+    fn demotion_keys_are_checked_and_belong_to_modbus_rtu_lines() {
+        let base = "[[line]]\nname = \"m\"\ndevice = \"/dev/null\"\nunits = \"1\"\n";
+        let d = check(base).unwrap().lines[0].demotion;
+        assert_eq!((d.demote_after, d.demote_for.as_millis()), (3, 30_000));
+        let g = check(&format!("{base}demote_after = 0\ndemote_for_ms = 500\n")).unwrap();
+        let d = g.lines[0].demotion;
+        assert_eq!((d.demote_after, d.demote_for.as_millis()), (0, 500));
+        let e = check(&format!("{base}demote_after = 256\n")).unwrap_err();
+        assert!(
+            e.contains("line 1 (m): demote_after = 256 is out of range: 0 … 255"),
+            "{e}"
+        );
+        let e = check(&format!("{base}demote_for_ms = 0\n")).unwrap_err();
+        assert!(e.contains("demote_for_ms = 0 ms is out of range"), "{e}");
+        for kind in ["uss", "rk512", "3964r"] {
+            let e = check(&format!("{base}kind = \"{kind}\"\ndemote_after = 3\n")).unwrap_err();
+            assert!(e.contains("unknown field `demote_after`"), "{kind}: {e}");
+        }
+        let tcp = "[[line]]\nkind = \"modbus-tcp\"\naddress = \"127.0.0.1:502\"\nunits = \"1\"\n";
+        let e = check(&format!("{tcp}demote_for_ms = 5\n")).unwrap_err();
+        assert!(e.contains("unknown field `demote_for_ms`"), "{e}");
+    }
+
+    #[test]
+    fn the_top_level_listeners_are_read() {
+        let g = check(
+            "metrics_listen = \"127.0.0.1:9100\"\nrtu_over_tcp_listen = \"127.0.0.1:5021\"\n\
+             [[line]]\ndevice = \"x\"\nunits = \"1\"\n",
+        )
+        .unwrap();
+        assert_eq!(g.metrics_listen.as_deref(), Some("127.0.0.1:9100"));
+        assert_eq!(g.rtu_over_tcp_listen.as_deref(), Some("127.0.0.1:5021"));
     }
 
     #[test]

@@ -12,7 +12,7 @@
 //! | 0–1 | requests (every request received; for a line, every one routed to it) |
 //! | 2–3 | answers (normal responses returned) |
 //! | 4–5 | exceptions (exception responses of the slave, passed through) |
-//! | 6–7 | timeouts (no answer after the retries: 0BH returned) |
+//! | 6–7 | timeouts (no answer after the retries, or the unit is demoted: 0BH returned) |
 //! | 8–9 | CRC errors: every answer with a wrong CRC the master received, also one a retry then cured |
 //! | 10–11 | busy (queue full: 06H returned) |
 //! | 12–13 | other failures (0AH no route or line down, 01H/03H refused, 04H for an answer still corrupt after the retries, as mbusd does, or otherwise bad) |
@@ -29,6 +29,8 @@
 //! Any other function code on the diagnostic unit is answered with exception 01H, registers
 //! past the last block with 02H, and a quantity outside 1–125 with 03H.
 
+use crate::demotion::{DemotionConfig, LineHealth};
+use crate::gateway_metrics::{GatewayMetrics, LineNow};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::net::SocketAddr;
@@ -51,6 +53,24 @@ pub enum Outcome {
     Other,
     /// A broadcast, sent without an answer.
     Sent,
+    /// Its unit is demoted: 0BH at once, nothing sent ([`crate::demotion`]); counted with the
+    /// timeouts.
+    Demoted,
+}
+
+impl Outcome {
+    /// Its name in metrics labels.
+    pub fn name(self) -> &'static str {
+        match self {
+            Outcome::Answer => "answer",
+            Outcome::Exception => "exception",
+            Outcome::Timeout => "timeout",
+            Outcome::Busy => "busy",
+            Outcome::Other => "other",
+            Outcome::Sent => "sent",
+            Outcome::Demoted => "demoted",
+        }
+    }
 }
 
 /// Counters of one line or one client.
@@ -82,7 +102,7 @@ impl Counters {
         let c = match outcome {
             Outcome::Answer => &mut self.answers,
             Outcome::Exception => &mut self.exceptions,
-            Outcome::Timeout => &mut self.timeouts,
+            Outcome::Timeout | Outcome::Demoted => &mut self.timeouts,
             Outcome::Busy => &mut self.busy,
             Outcome::Other => &mut self.other,
             Outcome::Sent => return,
@@ -136,6 +156,13 @@ pub struct Stats {
     pub order: Vec<usize>,
     /// Per connected client, by connection number (gone when it disconnects).
     pub clients: BTreeMap<u64, Client>,
+    /// Per line slot: the units demoted and why ([`crate::demotion`]), kept across
+    /// reconnects.
+    pub health: Vec<LineHealth>,
+    /// Counters per line, unit and outcome for Prometheus ([`crate::gateway_metrics`]),
+    /// indexed by slot and labelled by line name; they only grow, across reconnects and
+    /// reloads.
+    pub metrics: GatewayMetrics,
 }
 
 impl Stats {
@@ -146,7 +173,56 @@ impl Stats {
             down: vec![None; lines],
             order: (0..lines).collect(),
             clients: BTreeMap::new(),
+            health: vec![LineHealth::default(); lines],
+            metrics: GatewayMetrics::default(),
         }
+    }
+
+    /// A new slot, last in the configuration's order, for the line `name` (started, or
+    /// added by a reload) demoting its units by `demotion`: its number.
+    pub fn add_line(&mut self, name: String, demotion: DemotionConfig) -> usize {
+        self.lines.push(Counters::default());
+        self.down.push(None);
+        self.health.push(LineHealth::new(demotion));
+        self.metrics.add_line(name);
+        let slot = self.lines.len() - 1;
+        self.order.push(slot);
+        slot
+    }
+
+    /// The line-state a scrape reads ([`crate::gateway_metrics::LineNow`]), one per slot; a
+    /// slot no configured line uses reads as down, with nothing queued or demoted (its
+    /// counters stay).
+    pub fn lines_now(&self) -> Vec<LineNow> {
+        let mut configured = vec![false; self.lines.len()];
+        for &s in &self.order {
+            configured[s] = true;
+        }
+        (0..self.lines.len())
+            .map(|i| LineNow {
+                up: configured[i] && self.down[i].is_none(),
+                queue_depth: self.lines[i].queue_depth,
+                demoted: self.health.get(i).map_or(0, |h| h.demoted() as u64),
+                reconnects: self.lines[i].reconnects,
+            })
+            .collect()
+    }
+
+    /// Count one request to `unit` on line slot `slot` for Prometheus: its outcome and, if
+    /// its answer is an exception, the code.
+    pub fn count_request(
+        &mut self,
+        slot: usize,
+        unit: u8,
+        outcome: Outcome,
+        answer: Option<&si_modbus::mbap::TcpAdu>,
+        crc_errors: u64,
+    ) {
+        let code = answer
+            .filter(|a| a.function() & 0x80 != 0)
+            .and_then(|a| a.unit_pdu().get(2).copied());
+        self.metrics
+            .request(slot, unit, outcome.name(), code, crc_errors);
     }
 
     /// These counters with the configured lines only, in configuration order (slot `i` is
@@ -157,6 +233,13 @@ impl Stats {
             down: self.order.iter().map(|&s| self.down[s].clone()).collect(),
             order: (0..self.order.len()).collect(),
             clients: self.clients.clone(),
+            health: self
+                .order
+                .iter()
+                .map(|&s| self.health.get(s).cloned().unwrap_or_default())
+                .collect(),
+            // Labelled by line name, so the order does not matter.
+            metrics: self.metrics.clone(),
         }
     }
 

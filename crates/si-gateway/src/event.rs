@@ -5,7 +5,7 @@
 
 use std::sync::Arc;
 
-/// A line's change of state.
+/// A line's change of state, or a unit's on it.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Event {
     /// A line went down: its port closed (`at_start` false; it is being reopened), or could not
@@ -34,6 +34,40 @@ pub enum Event {
         /// It had been open before.
         reopened: bool,
     },
+    /// A unit failed `failures` requests in a row and is demoted for `for_ms`: its requests
+    /// get 0BH at once, nothing goes to the line (`crate::demotion`).
+    UnitDemoted {
+        /// The line's counter slot (as in [`Event::LineDown`]).
+        line: usize,
+        /// Its name.
+        name: String,
+        /// The unit id.
+        unit: u8,
+        /// The failures in a row.
+        failures: u32,
+        /// How long it stays demoted, in ms.
+        for_ms: u64,
+    },
+    /// The one request that probed a demoted unit failed: demoted again for `for_ms`.
+    UnitProbeFailed {
+        /// The line's counter slot (as in [`Event::LineDown`]).
+        line: usize,
+        /// Its name.
+        name: String,
+        /// The unit id.
+        unit: u8,
+        /// How long it stays demoted, in ms.
+        for_ms: u64,
+    },
+    /// The probe was answered: the unit is served again.
+    UnitRestored {
+        /// The line's counter slot (as in [`Event::LineDown`]).
+        line: usize,
+        /// Its name.
+        name: String,
+        /// The unit id.
+        unit: u8,
+    },
 }
 
 impl std::fmt::Display for Event {
@@ -58,6 +92,25 @@ impl std::fmt::Display for Event {
                 ..
             } => write!(f, "line {name}: reopened"),
             Event::LineUp { name, .. } => write!(f, "line {name}: opened"),
+            Event::UnitDemoted {
+                name,
+                unit,
+                failures,
+                for_ms,
+                ..
+            } => write!(
+                f,
+                "line {name}: unit {unit} demoted for {for_ms} ms after {failures} failed requests"
+            ),
+            Event::UnitProbeFailed {
+                name, unit, for_ms, ..
+            } => write!(
+                f,
+                "line {name}: unit {unit} still not answering; demoted for {for_ms} ms more"
+            ),
+            Event::UnitRestored { name, unit, .. } => {
+                write!(f, "line {name}: unit {unit} answers again")
+            }
         }
     }
 }

@@ -24,7 +24,7 @@ use std::net::SocketAddr;
 use std::sync::{Arc, Mutex, RwLock};
 
 /// Bits of a client id left for the TCP server's own connection number.
-const CONNECTION_BITS: u32 = 48;
+pub const CONNECTION_BITS: u32 = 48;
 
 /// One listening address and the lines (indices in file order) reached there.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -18,9 +18,11 @@
 use crate::backend::Backend;
 use crate::config::{Config, Kind};
 use crate::counters::Stats;
+use crate::demotion::LineHealth;
 use crate::event::{Event, Events};
 use crate::faces::{self, Bound, FaceHandler};
 use crate::line::lock;
+use crate::listeners::{self, Extra};
 use crate::open::Opening;
 use crate::{start, Error};
 use si_modbus::mbap::TcpAdu;
@@ -60,6 +62,7 @@ pub struct Gateway {
     stats: Arc<Mutex<Stats>>,
     handlers: Vec<FaceHandler>,
     listeners: Vec<Listener>,
+    extra: Vec<Extra>,
     faces: Mutex<Option<Vec<Bound>>>,
     events: broadcast::Sender<Event>,
     sink: Events,
@@ -141,7 +144,15 @@ impl Gateway {
                 lines: b.lines.clone(),
             })
             .collect();
-        let handlers = bound.iter().map(|b| b.handler.clone()).collect();
+        let handlers: Vec<FaceHandler> = bound.iter().map(|b| b.handler.clone()).collect();
+        let extra = match listeners::start(&config, bound.len(), &handlers[0], &started.stats).await
+        {
+            Ok(e) => e,
+            Err(e) => {
+                started.tasks.iter().flatten().for_each(AbortHandle::abort);
+                return Err(e);
+            }
+        };
         Ok(Gateway {
             lines: tokio::sync::Mutex::new(Lines {
                 slots: (0..config.lines.len()).collect(),
@@ -152,6 +163,7 @@ impl Gateway {
             stats: started.stats,
             handlers,
             listeners,
+            extra,
             faces: Mutex::new(Some(bound)),
             events,
             sink,
@@ -168,6 +180,12 @@ impl Gateway {
     /// Where it listens: the top-level address first, then each line address.
     pub fn listeners(&self) -> &[Listener] {
         &self.listeners
+    }
+
+    /// The extra listeners it started: `rtu_over_tcp_listen` and `metrics_listen`, if
+    /// configured.
+    pub fn extra_listeners(&self) -> &[Extra] {
+        &self.extra
     }
 
     /// Every counter now: per configured line, in configuration order (and whether it is
@@ -201,8 +219,13 @@ impl Gateway {
     ///
     /// Refused, with the old configuration still running, if `config` does not check
     /// ([`Config::check_lines`]), a changed or added line's settings are refused, or it would
-    /// change what is bound: the listening addresses (the top-level `listen` and the lines'),
-    /// `max_connections` or `idle_timeout_s`, which need a restart.
+    /// change what is bound: the listening addresses (the top-level `listen`, the lines',
+    /// `metrics_listen` and `rtu_over_tcp_listen`), `max_connections` or `idle_timeout_s`,
+    /// which need a restart.
+    ///
+    /// Every line keeps its counter slot: a kept or changed line's counters and metrics go on
+    /// (they never go down), a changed line's units start healthy (not demoted), and an added
+    /// line gets a new slot, reported in the metrics under its name.
     pub async fn reload(&self, config: Config) -> Result<Reloaded, Error> {
         config
             .check_lines()
@@ -212,12 +235,14 @@ impl Gateway {
         let old = &old;
         let bound = |c: &Config| {
             let faces: Vec<String> = faces::faces(c).into_iter().map(|f| f.listen).collect();
-            (faces, c.max_connections, c.idle_timeout)
+            let extra = (c.metrics_listen.clone(), c.rtu_over_tcp_listen.clone());
+            (faces, extra, c.max_connections, c.idle_timeout)
         };
         if bound(old) != bound(&config) {
             return Err(Error::Config(
-                "reload: the listening addresses, max_connections and idle_timeout_s change \
-                 only with a restart"
+                "reload: the listening addresses (listen, a line's listen, metrics_listen, \
+                 rtu_over_tcp_listen), max_connections and idle_timeout_s change only with a \
+                 restart"
                     .into(),
             ));
         }
@@ -248,17 +273,20 @@ impl Gateway {
                     done.restarted.push(l.name.clone());
                     let slot = lines.slots[i];
                     lines.end(slot);
-                    lock(&self.stats).down[slot] = None;
+                    let mut s = lock(&self.stats);
+                    s.down[slot] = None;
+                    // It restarts: its units start healthy, under its new settings (its
+                    // counters and metrics go on).
+                    s.health[slot] = LineHealth::new(l.demotion);
                     slot
                 }
                 None => {
                     done.added.push(l.name.clone());
-                    let mut s = lock(&self.stats);
-                    s.lines.push(Default::default());
-                    s.down.push(None);
                     lines.backends.push(Arc::new(Gone));
                     lines.tasks.push(None);
-                    s.lines.len() - 1
+                    // Its own slot in the counters, health and metrics (the order is set
+                    // below, once every line has its slot).
+                    lock(&self.stats).add_line(l.name.clone(), l.demotion)
                 }
             };
             let at = start::Slot {
@@ -311,6 +339,9 @@ impl Drop for Gateway {
     fn drop(&mut self) {
         for t in self.lines.get_mut().tasks.iter().flatten() {
             t.abort();
+        }
+        for e in &self.extra {
+            e.task.abort();
         }
     }
 }

@@ -19,16 +19,27 @@
 //! [`r3964_config`]). Every line kind is reopened the same way when its port closes. A line
 //! may have its own listening address ([`faces`]), so that more than 255 lines fit in one
 //! process.
+//!
+//! A Modbus RTU unit that stops answering is demoted for a while so it does not slow the live
+//! ones ([`demotion`]); the counters per line, unit and outcome are served to Prometheus on
+//! `metrics_listen` ([`gateway_metrics`], [`metrics`], [`metrics_http`]); raw RTU frames over
+//! TCP are accepted on `rtu_over_tcp_listen` ([`rtu_listener`]); both extra listeners start
+//! with the gateway ([`listeners`]).
 
 pub mod backend;
 pub mod config;
 pub mod counters;
+pub mod demotion;
 mod error;
 pub mod event;
 pub mod faces;
 mod gateway;
+pub mod gateway_metrics;
 pub mod limits;
 pub mod line;
+pub mod listeners;
+pub mod metrics;
+pub mod metrics_http;
 pub mod open;
 pub mod port_config;
 pub mod quantities;
@@ -43,6 +54,7 @@ pub mod rk512_own;
 pub mod rk512_spans;
 pub mod router;
 pub mod rtu_config;
+pub mod rtu_listener;
 pub mod start;
 mod sync;
 pub mod tcp_config;

@@ -1,9 +1,12 @@
 //! One Modbus RTU line behind the gateway: its queue, and the task that takes requests from it
 //! one at a time (the master has one job at a time, [Modbus/USS] §3.4.2), sends each
 //! through si-modbus's RTU master with the line's retries, and hands the answer back; while
-//! the line's port is closed, the task answers 0AH and reopens it ([`super::reopen`]).
+//! the line's port is closed, the task answers 0AH and reopens it ([`super::reopen`]). A unit
+//! that stops answering is demoted ([`super::demotion`]): its requests are answered 0BH at
+//! once, without a byte on the line, until one probe finds it again.
 
 use super::counters::{Outcome, Stats};
+use super::demotion::{Admit, Change};
 use super::quantities;
 use super::queue::FairQueue;
 use super::reopen::{self, Closed, LineLog, Opened};
@@ -97,12 +100,12 @@ pub async fn run(
     // The closures own what their futures use: a future borrowing from the task would not
     // be `Send` for every lifetime, which `tokio::spawn` asks.
     let (index, stats) = (log.index, Arc::clone(&log.stats));
-    let (q, s) = (Arc::clone(&queue), Arc::clone(&stats));
+    let (q, events) = (Arc::clone(&queue), log.clone());
     reopen::supervise(
         log,
         first,
         open,
-        move |master, closed| serve(index, Arc::clone(&q), master, closed, pause, Arc::clone(&s)),
+        move |master, closed| serve(events.clone(), Arc::clone(&q), master, closed, pause),
         move || refuse(index, Arc::clone(&queue), Arc::clone(&stats)),
     )
     .await;
@@ -110,25 +113,125 @@ pub async fn run(
 
 /// Serve the queue through `master` until its port closes: why it closed.
 async fn serve(
-    index: usize,
+    log: LineLog,
     queue: Arc<LineQueue>,
     mut master: Master,
     mut closed: Closed,
     pause: Duration,
-    stats: Arc<Mutex<Stats>>,
 ) -> String {
+    let (index, stats) = (log.index, Arc::clone(&log.stats));
     loop {
         let (client, job, depth) = tokio::select! {
             why = &mut closed => return why,
             next = queue.pop() => next,
         };
         taken(index, &stats, client, depth);
-        let (answer, outcome, crc_errors) = forward(&mut master, &job.request).await;
+        let unit = job.request.unit();
+        // Broadcasts (unit 0) have no answer to judge a unit by.
+        if unit != 0 && lock(&stats).health[index].admit(unit, now()) == Admit::Refuse {
+            let answer = exception(&job.request, GATEWAY_TARGET_FAILED);
+            answered(
+                index,
+                &stats,
+                client,
+                job,
+                Some(answer),
+                Outcome::Demoted,
+                0,
+            );
+            continue;
+        }
+        let started = tokio::time::Instant::now();
+        let (answer, outcome, crc_errors, sent) = forward(&mut master, &job.request).await;
+        let event = {
+            let mut s = lock(&stats);
+            if sent > 0 {
+                let seconds = started.elapsed().as_secs_f64();
+                s.metrics.response_time(index, seconds);
+                s.metrics.retried(index, unit, (sent - 1).into());
+            }
+            let event = match (unit, verdict(outcome, answer.as_ref())) {
+                (0, _) => None,
+                (_, None) => {
+                    s.health[index].inconclusive(unit, now());
+                    None
+                }
+                (_, Some(true)) => s.health[index].succeeded(unit),
+                (_, Some(false)) => s.health[index].failed(unit, now()),
+            };
+            if let Some(e) = event {
+                s.metrics.demotion_event(index, change_name(e));
+            }
+            event
+        };
+        if let Some(e) = event {
+            report(&log, e);
+        }
         answered(index, &stats, client, job, answer, outcome, crc_errors);
         if !pause.is_zero() {
             tokio::time::sleep(pause).await;
         }
     }
+}
+
+/// Whether an outcome shows the unit alive (`true`: an answer, the slave's exception too),
+/// dead (`false`: no answer, or still corrupt after the retries, 04H), or says nothing of it
+/// (the gateway refused the request itself, or the port closed).
+fn verdict(outcome: Outcome, answer: Option<&TcpAdu>) -> Option<bool> {
+    match outcome {
+        Outcome::Answer | Outcome::Exception => Some(true),
+        Outcome::Timeout => Some(false),
+        Outcome::Other => {
+            let code = answer.and_then(|a| a.unit_pdu().get(2).copied());
+            (code == Some(SLAVE_DEVICE_FAILURE)).then_some(false)
+        }
+        Outcome::Busy | Outcome::Sent | Outcome::Demoted => None,
+    }
+}
+
+/// The metrics label of a demotion change.
+fn change_name(c: Change) -> &'static str {
+    match c {
+        Change::Demoted { .. } => "demoted",
+        Change::ProbeFailed { .. } => "probe_failed",
+        Change::Restored { .. } => "restored",
+    }
+}
+
+/// Hand a demotion change to the program's event sink.
+fn report(log: &LineLog, c: Change) {
+    let (line, name) = (log.index, log.name.clone());
+    let event = match c {
+        Change::Demoted {
+            unit,
+            failures,
+            for_ms,
+        } => crate::Event::UnitDemoted {
+            line,
+            name,
+            unit,
+            failures,
+            for_ms,
+        },
+        Change::ProbeFailed { unit, for_ms } => crate::Event::UnitProbeFailed {
+            line,
+            name,
+            unit,
+            for_ms,
+        },
+        Change::Restored { unit } => crate::Event::UnitRestored { line, name, unit },
+    };
+    (log.events)(&event);
+}
+
+/// Now, on the process's one clock for demotion times (tokio's, so paused test time works).
+fn now() -> si_core::Instant {
+    static EPOCH: std::sync::OnceLock<tokio::time::Instant> = std::sync::OnceLock::new();
+    let epoch = *EPOCH.get_or_init(tokio::time::Instant::now);
+    let micros = tokio::time::Instant::now()
+        .duration_since(epoch)
+        .as_micros();
+    si_core::Instant::from_micros(u64::try_from(micros).unwrap_or(u64::MAX))
 }
 
 /// While the line is down: every request it takes is answered with 0AH, "gateway path
@@ -172,6 +275,8 @@ pub fn answered(
             c.count(outcome);
             c.crc_errors += u64::from(crc_errors);
         }
+        let unit = job.request.unit();
+        s.count_request(index, unit, outcome, answer.as_ref(), crc_errors.into());
     }
     if let (Some(reply), Some(answer)) = (job.reply, answer) {
         // The client may have gone; its answer is then dropped.
@@ -181,12 +286,13 @@ pub fn answered(
 
 /// Send one request through the RTU master: the slave's answer with the client's transaction
 /// id (exceptions as they are), or the gateway's own exception; and the corrupt answers its
-/// attempts met ([`si_modbus::master::Attempts`]), counted even when a retry cured them.
-async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outcome, u8) {
+/// attempts met ([`si_modbus::master::Attempts`]), counted even when a retry cured them; and
+/// the requests put on the line (0 if the gateway answered itself, 1 + the retries).
+async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outcome, u8, u8) {
     let broadcast = request.unit() == 0;
     if quantities::out_of_range(request.unit_pdu()) {
         let answer = (!broadcast).then(|| exception(request, ILLEGAL_DATA_VALUE));
-        return (answer, Outcome::Other, 0);
+        return (answer, Outcome::Other, 0, 0);
     }
     let (result, attempts) = match request.decode_request() {
         Ok((unit, r)) => master.request_with_attempts(unit, &r).await,
@@ -197,10 +303,10 @@ async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outc
         }
         Err(e) => {
             let code = serve::refusal(e.kind).0.code();
-            return (Some(exception(request, code)), Outcome::Other, 0);
+            return (Some(exception(request, code)), Outcome::Other, 0, 0);
         }
     };
-    let crc_errors = attempts.crc_errors;
+    let (crc_errors, sent) = (attempts.crc_errors, attempts.sent);
     let (code, outcome) = match result {
         Ok(done) => {
             let answer = done.response_bytes().and_then(|rtu| {
@@ -209,12 +315,13 @@ async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outc
                 TcpAdu::from_unit_pdu(request.transaction(), unit_pdu).ok()
             });
             return match answer {
-                Some(a) => (Some(a), Outcome::Answer, crc_errors),
-                None if broadcast => (None, Outcome::Sent, crc_errors),
+                Some(a) => (Some(a), Outcome::Answer, crc_errors, sent),
+                None if broadcast => (None, Outcome::Sent, crc_errors, sent),
                 None => (
                     Some(exception(request, SLAVE_DEVICE_FAILURE)),
                     Outcome::Other,
                     crc_errors,
+                    sent,
                 ),
             };
         }
@@ -243,9 +350,9 @@ async fn forward(master: &mut Master, request: &TcpAdu) -> (Option<TcpAdu>, Outc
         Err(_) => (GATEWAY_PATH_UNAVAILABLE, Outcome::Other),
     };
     if broadcast {
-        return (None, outcome, crc_errors);
+        return (None, outcome, crc_errors, sent);
     }
-    (Some(exception(request, code)), outcome, crc_errors)
+    (Some(exception(request, code)), outcome, crc_errors, sent)
 }
 
 /// Exception `code` in answer to `request`, with its transaction and unit id.

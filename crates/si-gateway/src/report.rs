@@ -5,6 +5,7 @@
 use crate::config::Config;
 use crate::counters::Stats;
 use crate::event::Event;
+use crate::listeners::Extra;
 use crate::Listener;
 use serde_json::{json, Value};
 
@@ -90,8 +91,20 @@ pub fn listening_json(gw: &Config, faces: &[Listener]) -> Value {
         "listeners": listeners})
 }
 
-/// A line's event as JSON (`line_down` with the reason, `line_up` with the reconnects); its
-/// text is its `Display`.
+/// An extra listener's line: `metrics: listening on ADDR`, `rtu-over-tcp: listening on ADDR`.
+pub fn extra_text(e: &Extra) -> String {
+    let name = e.event.trim_end_matches("_listening").replace('_', "-");
+    format!("{name}: listening on {}", e.addr)
+}
+
+/// [`extra_text`] as JSON: `{"event": "metrics_listening", "addr": ...}` (or
+/// `rtu_over_tcp_listening`).
+pub fn extra_json(e: &Extra) -> Value {
+    json!({"event": e.event, "addr": e.addr.to_string()})
+}
+
+/// A line's event as JSON (`line_down` with the reason, `line_up` with the reconnects,
+/// `unit_demoted`, `unit_probe_failed`, `unit_restored`); its text is its `Display`.
 pub fn event_json(event: &Event) -> Value {
     match event {
         Event::LineDown {
@@ -103,5 +116,20 @@ pub fn event_json(event: &Event) -> Value {
         Event::LineUp {
             name, reconnects, ..
         } => json!({"event": "line_up", "line": name, "reconnects": reconnects}),
+        Event::UnitDemoted {
+            name,
+            unit,
+            failures,
+            for_ms,
+            ..
+        } => json!({"event": "unit_demoted", "line": name, "unit": unit,
+            "failures": failures, "for_ms": for_ms}),
+        Event::UnitProbeFailed {
+            name, unit, for_ms, ..
+        } => json!({"event": "unit_probe_failed", "line": name, "unit": unit,
+            "for_ms": for_ms}),
+        Event::UnitRestored { name, unit, .. } => {
+            json!({"event": "unit_restored", "line": name, "unit": unit})
+        }
     }
 }

@@ -70,6 +70,7 @@ impl Router {
                 if let Some(c) = s.client(id) {
                     c.count(outcome);
                 }
+                s.count_request(index, request.unit(), outcome, Some(&answer), 0);
                 return Some(answer);
             }
         };
@@ -94,12 +95,15 @@ impl Router {
         // writes its depth after ours, never a stale one over it. (No one holds the queue's
         // lock while taking the counters', so the order cannot deadlock.)
         let mut s = line::lock(&self.stats);
+        let request = job.request;
         let pushed = queue.push(id, job);
         // Every request routed to the line counts, a refused one too: its outcomes add up.
         s.lines[index].requests += 1;
         let depth = match pushed {
             Some(depth) => depth,
             None => {
+                let busy = exception(&request, line::SLAVE_DEVICE_BUSY);
+                s.count_request(index, request.unit(), Outcome::Busy, Some(&busy), 0);
                 s.lines[index].count(Outcome::Busy);
                 if let Some(c) = s.client(id) {
                     c.count(Outcome::Busy);

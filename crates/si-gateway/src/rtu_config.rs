@@ -8,6 +8,7 @@
 //! 3 tries = 2 retries, `MAX_MAXTRY` 15, `DEFAULT_RQSTPAUSE` 100 ms, `MAX_RQSTPAUSE`
 //! 10 000 ms, `DEFAULT_RESPWAIT` 500 ms). mbusd's pause is 1–10 000 ms; we also allow 0.
 
+use crate::demotion::DemotionConfig;
 use crate::port_config::{check_baud, line_file, parse_unit_map, DEFAULT_QUEUE, MAX_QUEUE};
 use si_core::RangeError;
 use std::time::Duration;
@@ -50,6 +51,12 @@ line_file! {
         /// are served besides `units` (which may then be left out); a unit id in both is
         /// refused.
         pub unit_map: Option<std::collections::BTreeMap<String, u8>>,
+        /// Failed requests in a row that demote a unit, 0–255 (default 3; 0: never demoted;
+        /// [`crate::demotion`]).
+        pub demote_after: Option<u32>,
+        /// How long a demoted unit's requests are answered 0BH at once before one probes
+        /// it, 1–3 600 000 ms (default 30 000).
+        pub demote_for_ms: Option<u64>,
     }
 }
 
@@ -95,6 +102,8 @@ pub struct RtuLine {
     pub framing: RtuFraming,
     /// TCP unit id → slave address, for the unit ids remapped (`unit_map`).
     pub unit_map: Vec<(u8, u8)>,
+    /// Auto-demotion of units that stop answering.
+    pub demotion: DemotionConfig,
 }
 
 impl RtuFile {
@@ -122,7 +131,23 @@ impl RtuFile {
             queue,
             framing: self.framing()?,
             unit_map: parse_unit_map(self.unit_map.as_ref())?,
+            demotion: self.demotion()?,
         })
+    }
+
+    /// `demote_after` and `demote_for_ms`, checked. The ranges are ours `[derived]`: up to 255
+    /// failures, up to an hour demoted.
+    fn demotion(&self) -> Result<DemotionConfig, RangeError> {
+        let mut d = DemotionConfig::default();
+        if let Some(n) = self.demote_after {
+            RangeError::check("demote_after", (0, 255), "", n)?;
+            d.demote_after = n;
+        }
+        if let Some(ms) = self.demote_for_ms {
+            RangeError::check("demote_for_ms", (1, 3_600_000), " ms", ms)?;
+            d.demote_for = si_core::Duration::from_millis(ms);
+        }
+        Ok(d)
     }
 
     /// `char_delay_multiplier`, `frame_end`, `frame_gap` and `quiet_after_timeout_ms`,

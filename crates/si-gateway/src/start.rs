@@ -32,7 +32,11 @@ pub struct Started {
 /// the start; so does a port that cannot be opened, unless `allow_down_at_start` lets the
 /// line start down. On an error the lines started so far are ended.
 pub async fn lines(gw: &Config, opening: &Opening, events: &Events) -> Result<Started, Error> {
-    let stats = Arc::new(Mutex::new(Stats::new(gw.lines.len())));
+    let mut counters = Stats::new(0);
+    for l in &gw.lines {
+        counters.add_line(l.name.clone(), l.demotion);
+    }
+    let stats = Arc::new(Mutex::new(counters));
     let mut handles = Vec::with_capacity(gw.lines.len());
     let mut tasks = Tasks(Vec::with_capacity(gw.lines.len()));
     for (i, l) in gw.lines.iter().enumerate() {

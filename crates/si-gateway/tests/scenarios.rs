@@ -16,6 +16,12 @@ mod unit_map;
 #[path = "scenarios/reload.rs"]
 mod reload;
 
+#[path = "scenarios/reload_metrics.rs"]
+mod reload_metrics;
+
+#[path = "scenarios/rtu_over_tcp.rs"]
+mod rtu_over_tcp;
+
 #[path = "scenarios/modbus_tcp.rs"]
 mod modbus_tcp;
 

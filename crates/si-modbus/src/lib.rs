@@ -15,6 +15,7 @@
 //! - [`serve`]: one decoded request executed on a [`slave::Store`], shared by the RTU slave and
 //!   the Modbus TCP server so both answer alike; [`serve_map`] says what a slave over a
 //!   conversion DB serves and why it refused a request;
+//! - [`rtu_stream`]: RTU ADUs cut out of a TCP byte stream (RTU over TCP), Sans-IO;
 //! - [`mbap`]: Modbus TCP framing (MBAP header, streaming decoder), Sans-IO, over the same PDU
 //!   codec as RTU;
 //! - `tokio` (feature `tokio`): the `Client` trait, one method per function code, implemented
@@ -110,6 +111,7 @@ pub mod mbap;
 pub mod monitor;
 pub mod poll_counters;
 pub mod quiet_guard;
+pub mod rtu_stream;
 pub mod rx;
 pub mod scan;
 pub mod serve;

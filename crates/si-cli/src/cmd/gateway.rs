@@ -207,6 +207,9 @@ impl GatewayArgs {
             &report::listening_text(&gw, listeners),
             report::listening_json(&gw, listeners),
         );
+        for e in gateway.extra_listeners() {
+            out.line(&report::extra_text(e), report::extra_json(e));
+        }
         let server = gateway.run();
         tokio::pin!(server);
         let every = self

@@ -1,0 +1,360 @@
+//! A small metrics registry rendered in the Prometheus text exposition format (version 0.0.4):
+//! counters, gauges and histograms with fixed buckets, labelled series, no dependency.
+//!
+//! Gateway behaviour, not a manual's `[derived]`. The format, as Prometheus documents it: per
+//! family a `# HELP name text` line (backslash and line feed escaped) and a `# TYPE name kind`
+//! line, then one `name{label="value",…} number` line per series (label values with
+//! backslash, double quote and line feed escaped). A histogram's series are
+//! `name_bucket{…,le="bound"}` with cumulative counts, the last bucket `le="+Inf"`, then
+//! `name_sum` and `name_count`.
+//!
+//! Families are registered once and addressed by typed ids ([`Counter`], [`Gauge`],
+//! [`Histogram`]), so a counter can only be increased: it never goes down while the registry
+//! lives (keep one registry for the process and counters survive reconnects and reloads).
+//! Families render in registration order, series sorted by their labels, so a scrape is
+//! deterministic.
+
+use std::collections::BTreeMap;
+use std::fmt::Write;
+
+/// Response-time buckets in seconds: Prometheus client libraries' defaults, which span a fast
+/// RTU answer (a few ms at 115 200 bit/s) to a slave's longest timeout.
+pub const RESPONSE_TIME_BUCKETS: &[f64] = &[
+    0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0,
+];
+
+/// The labels of one series: names are fixed by the code, values come from the configuration.
+pub type Labels = Vec<(&'static str, String)>;
+
+/// A counter family.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Counter(usize);
+/// A gauge family.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Gauge(usize);
+/// A histogram family.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Histogram(usize);
+
+#[derive(Debug, Clone)]
+enum Series {
+    Counter(u64),
+    Gauge(f64),
+    Histogram {
+        /// Observations per bucket, not cumulative; one more than the bounds (+Inf).
+        counts: Vec<u64>,
+        sum: f64,
+    },
+}
+
+#[derive(Debug, Clone)]
+struct Family {
+    name: &'static str,
+    help: &'static str,
+    kind: &'static str,
+    bounds: &'static [f64],
+    series: BTreeMap<Labels, Series>,
+}
+
+/// The registry: families in registration order.
+#[derive(Debug, Clone, Default)]
+pub struct Registry {
+    families: Vec<Family>,
+}
+
+impl Registry {
+    /// An empty registry.
+    pub fn new() -> Self {
+        Registry::default()
+    }
+
+    fn add(
+        &mut self,
+        name: &'static str,
+        help: &'static str,
+        kind: &'static str,
+        bounds: &'static [f64],
+    ) -> usize {
+        debug_assert!(valid_name(name), "metric name {name:?}");
+        self.families.push(Family {
+            name,
+            help,
+            kind,
+            bounds,
+            series: BTreeMap::new(),
+        });
+        self.families.len() - 1
+    }
+
+    /// Register a counter family (its name should end in `_total`).
+    pub fn counter(&mut self, name: &'static str, help: &'static str) -> Counter {
+        Counter(self.add(name, help, "counter", &[]))
+    }
+
+    /// Register a gauge family.
+    pub fn gauge(&mut self, name: &'static str, help: &'static str) -> Gauge {
+        Gauge(self.add(name, help, "gauge", &[]))
+    }
+
+    /// Register a histogram family with these upper bounds, ascending (the `+Inf` bucket is
+    /// added).
+    pub fn histogram(
+        &mut self,
+        name: &'static str,
+        help: &'static str,
+        bounds: &'static [f64],
+    ) -> Histogram {
+        Histogram(self.add(name, help, "histogram", bounds))
+    }
+
+    /// Add `by` to a counter's series (created at 0 if new).
+    pub fn inc(&mut self, counter: Counter, labels: Labels, by: u64) {
+        let series = self.families[counter.0]
+            .series
+            .entry(labels)
+            .or_insert(Series::Counter(0));
+        if let Series::Counter(v) = series {
+            *v = v.saturating_add(by);
+        }
+    }
+
+    /// Raise a counter's series to `total` if it is below (a count kept elsewhere that only
+    /// grows, read at scrape time); never lowers it.
+    pub fn raise(&mut self, counter: Counter, labels: Labels, total: u64) {
+        let series = self.families[counter.0]
+            .series
+            .entry(labels)
+            .or_insert(Series::Counter(0));
+        if let Series::Counter(v) = series {
+            *v = (*v).max(total);
+        }
+    }
+
+    /// Create a counter's series at 0 if it does not exist, so a scrape shows it before its
+    /// first event.
+    pub fn touch(&mut self, counter: Counter, labels: Labels) {
+        self.inc(counter, labels, 0);
+    }
+
+    /// A counter's value (0 if the series does not exist).
+    #[cfg(test)]
+    pub fn counter_value(&self, counter: Counter, labels: &Labels) -> u64 {
+        match self.families[counter.0].series.get(labels) {
+            Some(Series::Counter(v)) => *v,
+            _ => 0,
+        }
+    }
+
+    /// Set a gauge's series.
+    pub fn set(&mut self, gauge: Gauge, labels: Labels, value: f64) {
+        self.families[gauge.0]
+            .series
+            .insert(labels, Series::Gauge(value));
+    }
+
+    /// Record one observation (seconds, for response times) in a histogram's series.
+    pub fn observe(&mut self, histogram: Histogram, labels: Labels, value: f64) {
+        let family = &mut self.families[histogram.0];
+        let buckets = family.bounds.len() + 1;
+        let series = family
+            .series
+            .entry(labels)
+            .or_insert_with(|| Series::Histogram {
+                counts: vec![0; buckets],
+                sum: 0.0,
+            });
+        if let Series::Histogram { counts, sum } = series {
+            let at = family
+                .bounds
+                .iter()
+                .position(|&b| value <= b)
+                .unwrap_or(family.bounds.len());
+            counts[at] += 1;
+            *sum += value;
+        }
+    }
+
+    /// The text exposition of every family.
+    pub fn render(&self) -> String {
+        let mut out = String::new();
+        for f in &self.families {
+            let _ = writeln!(out, "# HELP {} {}", f.name, escape_help(f.help));
+            let _ = writeln!(out, "# TYPE {} {}", f.name, f.kind);
+            for (labels, series) in &f.series {
+                match series {
+                    Series::Counter(v) => {
+                        let _ = writeln!(out, "{}{} {v}", f.name, label_set(labels, None));
+                    }
+                    Series::Gauge(v) => {
+                        let _ =
+                            writeln!(out, "{}{} {}", f.name, label_set(labels, None), number(*v));
+                    }
+                    Series::Histogram { counts, sum } => {
+                        let mut cumulative = 0;
+                        for (i, n) in counts.iter().enumerate() {
+                            cumulative += n;
+                            let le = f
+                                .bounds
+                                .get(i)
+                                .map_or_else(|| "+Inf".to_string(), |b| number(*b));
+                            let _ = writeln!(
+                                out,
+                                "{}_bucket{} {cumulative}",
+                                f.name,
+                                label_set(labels, Some(&le))
+                            );
+                        }
+                        let set = label_set(labels, None);
+                        let _ = writeln!(out, "{}_sum{set} {}", f.name, number(*sum));
+                        let _ = writeln!(out, "{}_count{set} {cumulative}", f.name);
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+/// `{a="x",b="y"}` (with `le` last if given), or nothing without labels.
+fn label_set(labels: &Labels, le: Option<&str>) -> String {
+    let mut pairs: Vec<String> = labels
+        .iter()
+        .map(|(k, v)| format!("{k}=\"{}\"", escape_value(v)))
+        .collect();
+    if let Some(le) = le {
+        pairs.push(format!("le=\"{le}\""));
+    }
+    if pairs.is_empty() {
+        String::new()
+    } else {
+        format!("{{{}}}", pairs.join(","))
+    }
+}
+
+/// A sample value: integers without a fraction, `+Inf`/`-Inf`/`NaN` as the format spells them.
+fn number(v: f64) -> String {
+    if v.is_nan() {
+        "NaN".into()
+    } else if v.is_infinite() {
+        if v > 0.0 { "+Inf" } else { "-Inf" }.into()
+    } else {
+        format!("{v}")
+    }
+}
+
+fn escape_help(s: &str) -> String {
+    s.replace('\\', "\\\\").replace('\n', "\\n")
+}
+
+fn escape_value(s: &str) -> String {
+    s.replace('\\', "\\\\")
+        .replace('"', "\\\"")
+        .replace('\n', "\\n")
+}
+
+/// `[a-zA-Z_:][a-zA-Z0-9_:]*`, the format's metric names.
+fn valid_name(name: &str) -> bool {
+    let mut chars = name.chars();
+    chars
+        .next()
+        .is_some_and(|c| c.is_ascii_alphabetic() || c == '_' || c == ':')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_' || c == ':')
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn line(name: &str) -> Labels {
+        vec![("line", name.to_string())]
+    }
+
+    #[test]
+    fn counters_render_with_help_type_and_sorted_series() {
+        let mut r = Registry::new();
+        let c = r.counter("si_requests_total", "Requests routed to a line.");
+        r.inc(c, line("b"), 2);
+        r.inc(c, line("a"), 1);
+        r.inc(c, line("b"), 3);
+        r.touch(c, line("c"));
+        assert_eq!(
+            r.render(),
+            "# HELP si_requests_total Requests routed to a line.\n\
+             # TYPE si_requests_total counter\n\
+             si_requests_total{line=\"a\"} 1\n\
+             si_requests_total{line=\"b\"} 5\n\
+             si_requests_total{line=\"c\"} 0\n"
+        );
+        assert_eq!(r.counter_value(c, &line("b")), 5);
+        r.raise(c, line("b"), 4);
+        assert_eq!(
+            r.counter_value(c, &line("b")),
+            5,
+            "a counter never goes down"
+        );
+        r.raise(c, line("b"), 7);
+        assert_eq!(r.counter_value(c, &line("b")), 7);
+    }
+
+    #[test]
+    fn gauges_are_set_not_added() {
+        let mut r = Registry::new();
+        let g = r.gauge("si_line_up", "1 while the line's port is open.");
+        r.set(g, line("x"), 1.0);
+        r.set(g, line("x"), 0.0);
+        let q = r.gauge("si_temperature", "no labels");
+        r.set(q, vec![], 0.5);
+        assert_eq!(
+            r.render(),
+            "# HELP si_line_up 1 while the line's port is open.\n\
+             # TYPE si_line_up gauge\n\
+             si_line_up{line=\"x\"} 0\n\
+             # HELP si_temperature no labels\n\
+             # TYPE si_temperature gauge\n\
+             si_temperature 0.5\n"
+        );
+    }
+
+    #[test]
+    fn histogram_buckets_are_cumulative_with_inf_sum_and_count() {
+        let mut r = Registry::new();
+        let h = r.histogram("si_rt_seconds", "Response time.", &[0.01, 0.1]);
+        for v in [0.005, 0.01, 0.05, 3.0] {
+            r.observe(h, line("l"), v);
+        }
+        assert_eq!(
+            r.render(),
+            "# HELP si_rt_seconds Response time.\n\
+             # TYPE si_rt_seconds histogram\n\
+             si_rt_seconds_bucket{line=\"l\",le=\"0.01\"} 2\n\
+             si_rt_seconds_bucket{line=\"l\",le=\"0.1\"} 3\n\
+             si_rt_seconds_bucket{line=\"l\",le=\"+Inf\"} 4\n\
+             si_rt_seconds_sum{line=\"l\"} 3.065\n\
+             si_rt_seconds_count{line=\"l\"} 4\n"
+        );
+    }
+
+    #[test]
+    fn label_values_and_help_are_escaped() {
+        let mut r = Registry::new();
+        let c = r.counter("x_total", "a \\ b\nc");
+        r.inc(c, vec![("line", "q\"u\\o\nte".into())], 1);
+        assert_eq!(
+            r.render(),
+            "# HELP x_total a \\\\ b\\nc\n\
+             # TYPE x_total counter\n\
+             x_total{line=\"q\\\"u\\\\o\\nte\"} 1\n"
+        );
+    }
+
+    #[test]
+    fn names_are_checked() {
+        assert!(valid_name("si_gateway_requests_total"));
+        assert!(valid_name("a:b_c9"));
+        assert!(!valid_name("9a"));
+        assert!(!valid_name("a-b"));
+        assert!(!valid_name(""));
+        assert_eq!(number(f64::INFINITY), "+Inf");
+        assert_eq!(number(2.0), "2");
+    }
+}
