@@ -146,8 +146,8 @@ pub struct Line {
     pub retries: u8,
     /// Pause between requests.
     pub pause: std::time::Duration,
-    /// Response timeout (ms).
-    pub response_timeout_ms: u32,
+    /// Response timeout.
+    pub response_timeout: std::time::Duration,
     /// Broadcasts forwarded.
     pub broadcast: bool,
     /// Queue length.
@@ -174,7 +174,7 @@ impl Line {
             unit_map: Default::default(),
             retries: 0,
             pause: std::time::Duration::ZERO,
-            response_timeout_ms: 0,
+            response_timeout: std::time::Duration::ZERO,
             broadcast: false,
             queue: 1,
             rtu: RtuFraming::default(),
@@ -458,7 +458,7 @@ impl LineFile {
             unit_map: Default::default(),
             retries: 0,
             pause: std::time::Duration::ZERO,
-            response_timeout_ms: 0,
+            response_timeout: std::time::Duration::ZERO,
             broadcast: false,
             queue: 1,
             rtu: RtuFraming::default(),
@@ -474,7 +474,7 @@ impl LineFile {
                     unit_map: rtu.unit_map.iter().copied().collect(),
                     retries: rtu.retries,
                     pause: rtu.pause,
-                    response_timeout_ms: rtu.response_timeout_ms,
+                    response_timeout: rtu.response_timeout,
                     broadcast: rtu.broadcast,
                     queue: rtu.queue,
                     rtu: rtu.framing,
@@ -489,7 +489,7 @@ impl LineFile {
                     unit_map: tcp.unit_map.iter().copied().collect(),
                     retries: tcp.client.retries,
                     pause: tcp.pause,
-                    response_timeout_ms: tcp.client.response_timeout.as_millis() as u32,
+                    response_timeout: tcp.client.response_timeout.into(),
                     queue: tcp.queue,
                     kind: Kind::ModbusTcp(tcp),
                     ..line
@@ -499,7 +499,7 @@ impl LineFile {
                 let uss = l.check(&line.units)?;
                 Line {
                     retries: l.retries.unwrap_or(20),
-                    response_timeout_ms: uss.master.response_timeout.as_millis() as u32,
+                    response_timeout: uss.master.response_timeout.into(),
                     kind: Kind::Uss(uss),
                     ..line
                 }
@@ -507,8 +507,7 @@ impl LineFile {
             LineFile::Rk512(l) => {
                 let (rk512, queue, pause) = l.check()?;
                 Line {
-                    response_timeout_ms: u32::try_from(rk512.config.response_timeout.as_millis())
-                        .unwrap_or(u32::MAX),
+                    response_timeout: rk512.config.response_timeout.into(),
                     queue,
                     pause,
                     kind: Kind::Rk512(Box::new(rk512)),
@@ -696,7 +695,10 @@ pub(super) mod tests {
             l.port.as_ref().unwrap().device,
             Device::Tcp("127.0.0.1:4001".into())
         );
-        assert_eq!((l.retries, l.response_timeout_ms, l.queue), (2, 500, 32));
+        assert_eq!(
+            (l.retries, l.response_timeout, l.queue),
+            (2, std::time::Duration::from_millis(500), 32)
+        );
         assert_eq!(l.pause.as_millis(), 100);
     }
 

@@ -10,7 +10,7 @@ use crate::port_config::Port;
 use crate::Error;
 use si_core::driver::{PortFacts, Transport, WithFacts};
 use si_core::port::{self, PortOptions, Rs485Mode};
-use si_core::{Duration, Parity, SerialSettings};
+use si_core::{Parity, SerialSettings};
 use std::sync::Arc;
 
 /// What a program may do with each port the gateway opens before a line's engine gets it:
@@ -96,7 +96,7 @@ pub async fn open(
                 inner: stream,
                 facts: PortFacts {
                     local_echo: l.local_echo,
-                    rx_latency: l.rx_latency_ms.map(Duration::from_millis),
+                    rx_latency: l.rx_latency,
                     ..PortFacts::default()
                 },
             })
@@ -120,24 +120,20 @@ fn port(l: &Line) -> Result<&Port, Error> {
 
 /// The serial port options of port `l` (its RS-485 mode and names checked with the file).
 fn port_options(l: &Port, opening: &Opening) -> Result<PortOptions, Error> {
-    let (before, after) = l.rs485_delays_ms;
+    let (before, after) = l.rs485_delays;
     let rs485 = match l.rs485.as_deref() {
         None => None,
         Some(name) => {
             let mode: Rs485Mode = name.parse().map_err(|e| Error::Config(format!("{e}")))?;
             Some(
-                mode.control(
-                    l.rs485_file.clone(),
-                    Duration::from_millis(before),
-                    Duration::from_millis(after),
-                )
-                .map_err(|e| Error::Config(e.to_string()))?,
+                mode.control(l.rs485_file.clone(), before, after)
+                    .map_err(|e| Error::Config(e.to_string()))?,
             )
         }
     };
     Ok(PortOptions {
-        latency_timer: l.latency_timer_ms.map(Duration::from_millis),
-        rx_latency: l.rx_latency_ms.map(Duration::from_millis),
+        latency_timer: l.latency_timer,
+        rx_latency: l.rx_latency,
         rs485,
         local_echo: l.local_echo,
         no_line_errors: opening.no_line_errors,

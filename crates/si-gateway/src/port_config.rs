@@ -6,6 +6,7 @@
 //! A leaf module: the kinds' configurations import it, it imports none of them.
 
 use si_core::port::Rs485Mode;
+use si_core::Duration;
 use si_core::RangeError;
 use std::path::PathBuf;
 
@@ -169,14 +170,14 @@ pub struct Port {
     pub rs485: Option<String>,
     /// The file a sysfs RS-485 mode writes.
     pub rs485_file: Option<PathBuf>,
-    /// RS-485 delays before and after (ms).
-    pub rs485_delays_ms: (u64, u64),
+    /// RS-485 delays before and after.
+    pub rs485_delays: (Duration, Duration),
     /// The port hears its own transmission.
     pub local_echo: bool,
-    /// USB latency timer (ms).
-    pub latency_timer_ms: Option<u64>,
-    /// The port's delivery latency declared to the engine (ms).
-    pub rx_latency_ms: Option<u64>,
+    /// USB latency timer.
+    pub latency_timer: Option<Duration>,
+    /// The port's delivery latency declared to the engine.
+    pub rx_latency: Option<Duration>,
 }
 
 impl Common<'_> {
@@ -198,13 +199,13 @@ impl Common<'_> {
             stop_bits: self.stop_bits.unwrap_or(1),
             rs485: self.rs485.map(str::to_owned),
             rs485_file: self.rs485_file.cloned(),
-            rs485_delays_ms: (
-                self.rs485_delay_before_ms.unwrap_or(0),
-                self.rs485_delay_after_ms.unwrap_or(0),
+            rs485_delays: (
+                Duration::from_millis(self.rs485_delay_before_ms.unwrap_or(0)),
+                Duration::from_millis(self.rs485_delay_after_ms.unwrap_or(0)),
             ),
             local_echo: self.local_echo,
-            latency_timer_ms: self.latency_timer_ms,
-            rx_latency_ms: self.rx_latency_ms,
+            latency_timer: self.latency_timer_ms.map(Duration::from_millis),
+            rx_latency: self.rx_latency_ms.map(Duration::from_millis),
         })
     }
 

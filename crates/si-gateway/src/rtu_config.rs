@@ -92,8 +92,8 @@ pub struct RtuLine {
     pub retries: u8,
     /// Pause between requests.
     pub pause: Duration,
-    /// Response timeout (ms).
-    pub response_timeout_ms: u32,
+    /// Response timeout.
+    pub response_timeout: Duration,
     /// Broadcasts forwarded.
     pub broadcast: bool,
     /// Queue length.
@@ -126,7 +126,7 @@ impl RtuFile {
         Ok(RtuLine {
             retries,
             pause: Duration::from_millis(pause_ms),
-            response_timeout_ms,
+            response_timeout: Duration::from_millis(response_timeout_ms.into()),
             broadcast: self.broadcast,
             queue,
             framing: self.framing()?,

@@ -254,7 +254,7 @@ async fn open_modbus(
                 local_echo: false,
                 auto_v24: None,
             },
-            response_timeout: si_core::Duration::from_millis(l.response_timeout_ms.into()),
+            response_timeout: l.response_timeout.into(),
             retries: l.retries,
             ..MasterConfig::default()
         };
@@ -262,12 +262,12 @@ async fn open_modbus(
         let quiet = l
             .rtu
             .quiet_after_timeout_ms
-            .unwrap_or(l.response_timeout_ms);
+            .map_or(l.response_timeout, |ms| Duration::from_millis(ms.into()));
         si_modbus::Master::new(config).map(|m| {
             let m = m
                 .with_interface(interface)
                 .with_frame_end(l.rtu.frame_end)
-                .with_quiet_after_timeout(Duration::from_millis(quiet.into()));
+                .with_quiet_after_timeout(quiet);
             if l.rtu.spec_gap {
                 m.with_gap(gap)
             } else {
