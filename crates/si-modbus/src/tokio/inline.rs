@@ -220,35 +220,50 @@ impl<T: Transport> Inner<T> {
             // below take microseconds at most.
             let now = fresh.take().unwrap_or_else(|| self.now());
             let wait = loop {
-                // Match the output into what crosses the write's `await` (the frame's handle)
-                // before awaiting: an output is as large as a completion (two ADUs inline),
-                // and one kept across the `await` would be copied into the future every turn.
-                let bytes = match self.engine.poll_output() {
-                    Output::Transmit(bytes) => bytes,
+                // Read the output where the engine's queue keeps it: an output is as large as a
+                // completion (two ADUs inline), and one handed out by value, or kept across the
+                // write's `await`, would be copied whole; only the frame's handle crosses.
+                let ours_ended = self.engine.running_job().is_none_or(|r| Some(r) != id);
+                let out = match self.engine.next_output_mut() {
+                    Ok(out) => out,
+                    Err(deadline) => break deadline,
+                };
+                let bytes = match out {
+                    Output::Transmit(bytes) => std::mem::take(bytes),
                     Output::SetSignals(update) => {
+                        let update = *update;
+                        self.engine.consume_output();
                         self.port.set_signals(update)?;
                         continue;
                     }
                     Output::Event(MasterEvent::Diagnostic(s)) => {
-                        self.diagnostics.keep(s);
+                        self.diagnostics.keep(*s);
+                        self.engine.consume_output();
                         continue;
                     }
                     // The job's end: one job at a time, so once it is no longer the running
                     // one, this event ended it ([`master::Master::outcome`] has it by id).
-                    Output::Event(MasterEvent::Completed(c)) => {
-                        if self.engine.running_job().is_none_or(|r| Some(r) != id) {
-                            return Ok(Ok(pick(&c)));
-                        }
+                    Output::Event(MasterEvent::Completed(c)) if ours_ended => {
+                        let picked = pick(c);
+                        self.engine.consume_output();
+                        return Ok(Ok(picked));
+                    }
+                    Output::Event(MasterEvent::Failed { status, .. }) if ours_ended => {
+                        let status = *status;
+                        self.engine.consume_output();
+                        return Ok(Err(status));
+                    }
+                    Output::Event(_) => {
+                        self.engine.consume_output();
                         continue;
                     }
-                    Output::Event(MasterEvent::Failed { status, .. }) => {
-                        if self.engine.running_job().is_none_or(|r| Some(r) != id) {
-                            return Ok(Err(status));
-                        }
-                        continue;
+                    Output::Wait(deadline) => {
+                        let deadline = *deadline;
+                        self.engine.consume_output();
+                        break deadline;
                     }
-                    Output::Wait(deadline) => break deadline,
                 };
+                self.engine.consume_output();
                 let start = now;
                 self.port.write_all(&bytes).await?;
                 skip_read = true;
