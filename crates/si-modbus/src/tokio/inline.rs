@@ -12,7 +12,7 @@ use std::future::Future;
 use std::pin::Pin;
 use std::task::Poll;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
-use tokio::sync::{Mutex, MutexGuard};
+use tokio::sync::Mutex;
 
 /// Bytes read from the port at once: more than the longest ADU (264 bytes).
 const RX_CHUNK: usize = 512;
@@ -53,16 +53,6 @@ struct Inner<T> {
 }
 
 impl<T: Transport> InlineMaster<T> {
-    /// The port's lock. Uncontended (the usual case: one caller, one job at a time), it is
-    /// taken without building and polling the lock's future, which costs more than the
-    /// semaphore's single compare-and-swap; only a concurrent call waits in the queue.
-    async fn lock(&self) -> MutexGuard<'_, Inner<T>> {
-        match self.inner.try_lock() {
-            Ok(guard) => guard,
-            Err(_) => self.inner.lock().await,
-        }
-    }
-
     /// A master on `transport`.
     pub fn new(config: MasterConfig, transport: T) -> Result<Self, Error> {
         Ok(Self::from_engine(master::Master::new(config)?, transport))
@@ -87,7 +77,7 @@ impl<T: Transport> InlineMaster<T> {
     /// Send any request and wait for its completion (a broadcast completes after the
     /// turnaround delay with no response).
     pub async fn request(&self, unit: u8, request: &Request<'_>) -> Result<Completion, Error> {
-        self.lock().await.run(unit, request, |c| *c).await
+        self.inner.lock().await.run(unit, request, |c| *c).await
     }
 
     /// [`request`](Self::request), and what the job's attempts met ([`Attempts`]).
@@ -96,7 +86,7 @@ impl<T: Transport> InlineMaster<T> {
         unit: u8,
         request: &Request<'_>,
     ) -> (Result<Completion, Error>, Attempts) {
-        let mut inner = self.lock().await;
+        let mut inner = self.inner.lock().await;
         let result = inner.run(unit, request, |c| *c).await;
         let attempts = match result {
             Err(Error::Refused { .. } | Error::Stopped) => Attempts::default(),
@@ -108,13 +98,13 @@ impl<T: Transport> InlineMaster<T> {
     /// Line diagnostics met during jobs outside their responses (0E50H, line errors), oldest
     /// first; taking them empties the list.
     pub async fn take_diagnostics(&self) -> Vec<Status> {
-        self.lock().await.diagnostics.take()
+        self.inner.lock().await.diagnostics.take()
     }
 
     /// Run `f` on the engine between jobs (counters, state), as the driver-backed
     /// [`Master::call`](super::Master::call) does.
     pub async fn call<R>(&self, f: impl FnOnce(&mut master::Master, Instant) -> R) -> R {
-        let mut inner = self.lock().await;
+        let mut inner = self.inner.lock().await;
         let now = inner.now();
         f(&mut inner.engine, now)
     }
