@@ -301,12 +301,24 @@ impl<T: Transport> Inner<T> {
                         return Err(Error::Stopped);
                     }
                     let now = self.now();
+                    // The request's end first, if it is due (the turn after a yield did
+                    // not read the clock to see it): the engine hears of its events in order.
+                    if self.tx_done.is_some_and(|t| t <= now) {
+                        self.tx_done = None;
+                        self.engine.handle_tx_done(now);
+                    }
                     self.engine.handle_rx(now, &self.rx[..n]);
                     fresh = Some(now);
                 }
                 () = tokio::task::yield_now(), if !yielded => {
                     yielded = true;
                     skip_read = false;
+                    // The turn after a yield reuses this turn's clock reading: it only polls
+                    // the read, which reads the clock itself if bytes came. A deadline passed
+                    // meanwhile is not missed: the timer is armed for it when the read is
+                    // pending (already due, it fires at once, and the turn after reads the
+                    // clock).
+                    fresh = Some(now);
                 }
                 // What is due is handled at the top of the loop.
                 () = timer => armed = None,
