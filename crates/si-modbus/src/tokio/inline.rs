@@ -205,10 +205,13 @@ impl<T: Transport> Inner<T> {
         // A clock reading taken just before (a read's arrival, a deadline handled) that the
         // next turn reuses.
         let mut fresh: Option<Instant> = now;
+        // `fresh` is a reading from before a yield: the deadlines were checked against it.
+        let mut stale = false;
         loop {
             // One clock read per turn: the engine's outputs, the write and the deadline checks
             // below take microseconds at most.
             let now = fresh.take().unwrap_or_else(|| self.now());
+            let stale_now = std::mem::take(&mut stale);
             let wait = loop {
                 // Read the output where the engine's queue keeps it: an output is as large as a
                 // completion (two ADUs inline), and one handed out by value, or kept across the
@@ -277,6 +280,9 @@ impl<T: Transport> Inner<T> {
             // Armed when first polled: only once the read (polled first) is pending, so a
             // response already there costs no timer (its allocation, its wheel entry).
             let timer = std::future::poll_fn(|cx| {
+                if stale_now {
+                    return Poll::Ready(());
+                }
                 if yielded && next != armed {
                     if let Some(next) = next {
                         let at = origin + std::time::Duration::from_micros(next.as_micros());
@@ -314,11 +320,11 @@ impl<T: Transport> Inner<T> {
                     yielded = true;
                     skip_read = false;
                     // The turn after a yield reuses this turn's clock reading: it only polls
-                    // the read, which reads the clock itself if bytes came. A deadline passed
-                    // meanwhile is not missed: the timer is armed for it when the read is
-                    // pending (already due, it fires at once, and the turn after reads the
-                    // clock).
+                    // the read, which reads the clock itself if bytes came. If none came, the
+                    // timer ends that turn at once instead of arming on a stale reading, and
+                    // the turn after reads the clock.
                     fresh = Some(now);
+                    stale = true;
                 }
                 // What is due is handled at the top of the loop.
                 () = timer => armed = None,
