@@ -11,7 +11,7 @@ use si_core::{Engine, Instant, Output, Status};
 use std::future::Future;
 use std::pin::Pin;
 use std::task::Poll;
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::io::AsyncWriteExt;
 use tokio::sync::Mutex;
 
 /// Bytes read from the port at once: more than the longest ADU (264 bytes).
@@ -279,11 +279,24 @@ impl<T: Transport> Inner<T> {
             let origin = self.origin;
             // Armed when first polled: only once the read (polled first) is pending, so a
             // response already there costs no timer (its allocation, its wheel entry).
-            let timer = std::future::poll_fn(|cx| {
-                if stale_now {
-                    return Poll::Ready(());
+            // The read, the yield and the timer, polled in that order by hand: `select!`
+            // would build and poll the same three futures with more bookkeeping per turn.
+            let mut yield_now = std::pin::pin!(tokio::task::yield_now());
+            let (port, rx) = (&mut self.port, &mut self.rx);
+            let woke = std::future::poll_fn(|cx| {
+                if !skip_read {
+                    let mut buf = tokio::io::ReadBuf::new(&mut rx[..]);
+                    if let Poll::Ready(read) = Pin::new(&mut *port).poll_read(cx, &mut buf) {
+                        return Poll::Ready(Woke::Read(read.map(|()| buf.filled().len())));
+                    }
                 }
-                if yielded && next != armed {
+                if !yielded {
+                    return yield_now.as_mut().poll(cx).map(|()| Woke::Yielded);
+                }
+                if stale_now {
+                    return Poll::Ready(Woke::Timer);
+                }
+                if next != armed {
                     if let Some(next) = next {
                         let at = origin + std::time::Duration::from_micros(next.as_micros());
                         match sleep.as_mut() {
@@ -294,13 +307,13 @@ impl<T: Transport> Inner<T> {
                     armed = next;
                 }
                 match (armed, sleep.as_mut()) {
-                    (Some(_), Some(s)) => s.as_mut().poll(cx),
+                    (Some(_), Some(s)) => s.as_mut().poll(cx).map(|()| Woke::Timer),
                     _ => Poll::Pending,
                 }
-            });
-            tokio::select! {
-                biased;
-                read = self.port.read(&mut self.rx), if !skip_read => {
+            })
+            .await;
+            match woke {
+                Woke::Read(read) => {
                     yielded = false;
                     let n = read?;
                     if n == 0 {
@@ -316,7 +329,7 @@ impl<T: Transport> Inner<T> {
                     self.engine.handle_rx(now, &self.rx[..n]);
                     fresh = Some(now);
                 }
-                () = tokio::task::yield_now(), if !yielded => {
+                Woke::Yielded => {
                     yielded = true;
                     skip_read = false;
                     // The turn after a yield reuses this turn's clock reading: it only polls
@@ -327,10 +340,20 @@ impl<T: Transport> Inner<T> {
                     stale = true;
                 }
                 // What is due is handled at the top of the loop.
-                () = timer => armed = None,
+                Woke::Timer => armed = None,
             }
         }
     }
+}
+
+/// What ended a wait of [`Inner::drive_inner`].
+enum Woke {
+    /// The port's read returned.
+    Read(std::io::Result<usize>),
+    /// The yield after a write is over.
+    Yielded,
+    /// The timer fired (or a turn on a stale clock reading ended).
+    Timer,
 }
 
 impl<T: Transport> Client for InlineMaster<T> {
