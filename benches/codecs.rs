@@ -276,8 +276,20 @@ fn modbus_roundtrip(c: &mut Criterion) {
         .unwrap();
     modbus_roundtrip_on(c, "modbus_roundtrip_duplex_mt", &multi);
     if std::env::var_os("SI_BENCH_INTERLEAVED").is_some() {
-        modbus_roundtrip_interleaved("current-thread", &current);
-        modbus_roundtrip_interleaved("multi-thread", &multi);
+        // `SI_BENCH_RUNTIMES=current-thread`: only that runtime (both unless given), e.g. for
+        // instruction counts that do not depend on how the workers' threads were scheduled.
+        let runtimes = std::env::var("SI_BENCH_RUNTIMES").ok();
+        let on = |name: &str| {
+            runtimes
+                .as_deref()
+                .is_none_or(|r| r.split(',').any(|n| n == name))
+        };
+        if on("current-thread") {
+            modbus_roundtrip_interleaved("current-thread", &current);
+        }
+        if on("multi-thread") {
+            modbus_roundtrip_interleaved("multi-thread", &multi);
+        }
     }
 }
 

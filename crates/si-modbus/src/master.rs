@@ -538,6 +538,25 @@ impl Master {
         self.state = State::Idle;
     }
 
+    /// The next output where the queue keeps it, for [`Engine::poll_output`]'s caller in this
+    /// crate that reads it in place ([`crate::tokio::InlineMaster`]): an output is as large as a
+    /// completion (two ADUs inline), and handing it out by value copies all of it, also for a
+    /// transmission. `Err(deadline)` when the queue is empty (what `poll_output` reports as
+    /// [`Output::Wait`]); the caller drops an output it read with [`Master::consume_output`].
+    #[cfg(feature = "tokio")]
+    pub(crate) fn next_output_mut(&mut self) -> Result<&mut Output<MasterEvent>, Option<Instant>> {
+        if self.out.is_empty() {
+            return Err(self.deadline());
+        }
+        self.out.front_mut().ok_or(None)
+    }
+
+    /// Drop the output [`Master::next_output_mut`] showed.
+    #[cfg(feature = "tokio")]
+    pub(crate) fn consume_output(&mut self) {
+        self.out.pop_front();
+    }
+
     fn fail(&mut self, status: Status) {
         let (unit, function) = self
             .job

@@ -11,7 +11,7 @@ use si_core::{Engine, Instant, Output, Status};
 use std::future::Future;
 use std::pin::Pin;
 use std::task::Poll;
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::io::AsyncWriteExt;
 use tokio::sync::Mutex;
 
 /// Bytes read from the port at once: more than the longest ADU (264 bytes).
@@ -205,40 +205,58 @@ impl<T: Transport> Inner<T> {
         // A clock reading taken just before (a read's arrival, a deadline handled) that the
         // next turn reuses.
         let mut fresh: Option<Instant> = now;
+        // `fresh` is a reading from before a yield: the deadlines were checked against it.
+        let mut stale = false;
         loop {
             // One clock read per turn: the engine's outputs, the write and the deadline checks
             // below take microseconds at most.
             let now = fresh.take().unwrap_or_else(|| self.now());
+            let stale_now = std::mem::take(&mut stale);
             let wait = loop {
-                // Match the output into what crosses the write's `await` (the frame's handle)
-                // before awaiting: an output is as large as a completion (two ADUs inline),
-                // and one kept across the `await` would be copied into the future every turn.
-                let bytes = match self.engine.poll_output() {
-                    Output::Transmit(bytes) => bytes,
+                // Read the output where the engine's queue keeps it: an output is as large as a
+                // completion (two ADUs inline), and one handed out by value, or kept across the
+                // write's `await`, would be copied whole; only the frame's handle crosses.
+                let ours_ended = self.engine.running_job().is_none_or(|r| Some(r) != id);
+                let out = match self.engine.next_output_mut() {
+                    Ok(out) => out,
+                    Err(deadline) => break deadline,
+                };
+                let bytes = match out {
+                    Output::Transmit(bytes) => std::mem::take(bytes),
                     Output::SetSignals(update) => {
+                        let update = *update;
+                        self.engine.consume_output();
                         self.port.set_signals(update)?;
                         continue;
                     }
                     Output::Event(MasterEvent::Diagnostic(s)) => {
-                        self.diagnostics.keep(s);
+                        self.diagnostics.keep(*s);
+                        self.engine.consume_output();
                         continue;
                     }
                     // The job's end: one job at a time, so once it is no longer the running
                     // one, this event ended it ([`master::Master::outcome`] has it by id).
-                    Output::Event(MasterEvent::Completed(c)) => {
-                        if self.engine.running_job().is_none_or(|r| Some(r) != id) {
-                            return Ok(Ok(pick(&c)));
-                        }
+                    Output::Event(MasterEvent::Completed(c)) if ours_ended => {
+                        let picked = pick(c);
+                        self.engine.consume_output();
+                        return Ok(Ok(picked));
+                    }
+                    Output::Event(MasterEvent::Failed { status, .. }) if ours_ended => {
+                        let status = *status;
+                        self.engine.consume_output();
+                        return Ok(Err(status));
+                    }
+                    Output::Event(_) => {
+                        self.engine.consume_output();
                         continue;
                     }
-                    Output::Event(MasterEvent::Failed { status, .. }) => {
-                        if self.engine.running_job().is_none_or(|r| Some(r) != id) {
-                            return Ok(Err(status));
-                        }
-                        continue;
+                    Output::Wait(deadline) => {
+                        let deadline = *deadline;
+                        self.engine.consume_output();
+                        break deadline;
                     }
-                    Output::Wait(deadline) => break deadline,
                 };
+                self.engine.consume_output();
                 let start = now;
                 self.port.write_all(&bytes).await?;
                 skip_read = true;
@@ -261,8 +279,24 @@ impl<T: Transport> Inner<T> {
             let origin = self.origin;
             // Armed when first polled: only once the read (polled first) is pending, so a
             // response already there costs no timer (its allocation, its wheel entry).
-            let timer = std::future::poll_fn(|cx| {
-                if yielded && next != armed {
+            // The read, the yield and the timer, polled in that order by hand: `select!`
+            // would build and poll the same three futures with more bookkeeping per turn.
+            let mut yield_now = std::pin::pin!(tokio::task::yield_now());
+            let (port, rx) = (&mut self.port, &mut self.rx);
+            let woke = std::future::poll_fn(|cx| {
+                if !skip_read {
+                    let mut buf = tokio::io::ReadBuf::new(&mut rx[..]);
+                    if let Poll::Ready(read) = Pin::new(&mut *port).poll_read(cx, &mut buf) {
+                        return Poll::Ready(Woke::Read(read.map(|()| buf.filled().len())));
+                    }
+                }
+                if !yielded {
+                    return yield_now.as_mut().poll(cx).map(|()| Woke::Yielded);
+                }
+                if stale_now {
+                    return Poll::Ready(Woke::Timer);
+                }
+                if next != armed {
                     if let Some(next) = next {
                         let at = origin + std::time::Duration::from_micros(next.as_micros());
                         match sleep.as_mut() {
@@ -273,31 +307,53 @@ impl<T: Transport> Inner<T> {
                     armed = next;
                 }
                 match (armed, sleep.as_mut()) {
-                    (Some(_), Some(s)) => s.as_mut().poll(cx),
+                    (Some(_), Some(s)) => s.as_mut().poll(cx).map(|()| Woke::Timer),
                     _ => Poll::Pending,
                 }
-            });
-            tokio::select! {
-                biased;
-                read = self.port.read(&mut self.rx), if !skip_read => {
+            })
+            .await;
+            match woke {
+                Woke::Read(read) => {
                     yielded = false;
                     let n = read?;
                     if n == 0 {
                         return Err(Error::Stopped);
                     }
                     let now = self.now();
+                    // The request's end first, if it is due (the turn after a yield did
+                    // not read the clock to see it): the engine hears of its events in order.
+                    if self.tx_done.is_some_and(|t| t <= now) {
+                        self.tx_done = None;
+                        self.engine.handle_tx_done(now);
+                    }
                     self.engine.handle_rx(now, &self.rx[..n]);
                     fresh = Some(now);
                 }
-                () = tokio::task::yield_now(), if !yielded => {
+                Woke::Yielded => {
                     yielded = true;
                     skip_read = false;
+                    // The turn after a yield reuses this turn's clock reading: it only polls
+                    // the read, which reads the clock itself if bytes came. If none came, the
+                    // timer ends that turn at once instead of arming on a stale reading, and
+                    // the turn after reads the clock.
+                    fresh = Some(now);
+                    stale = true;
                 }
                 // What is due is handled at the top of the loop.
-                () = timer => armed = None,
+                Woke::Timer => armed = None,
             }
         }
     }
+}
+
+/// What ended a wait of [`Inner::drive_inner`].
+enum Woke {
+    /// The port's read returned.
+    Read(std::io::Result<usize>),
+    /// The yield after a write is over.
+    Yielded,
+    /// The timer fired (or a turn on a stale clock reading ended).
+    Timer,
 }
 
 impl<T: Transport> Client for InlineMaster<T> {
