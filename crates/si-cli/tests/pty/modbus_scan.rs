@@ -3,8 +3,9 @@
 //! ends within the time it announced before it started.
 //!
 //! The slave is a small Python peer, not pymodbus: pymodbus 3.16's serial server answers every
-//! unit address (exception 04 for the ones it does not serve), so "nothing else" could not
-//! hold. The peer reads the line settings si set on the pty (termios calls on a pty master act
+//! unit address (exception 04 for the ones it does not serve, even with
+//! `ignore_missing_devices`: its datastore raises a plain error there, not the missing-device
+//! one that option silences), so "nothing else" could not hold. The peer reads the line settings si set on the pty (termios calls on a pty master act
 //! on its slave) and stays silent at any other baud rate, as a real device would hear only
 //! garbage. Parity cannot be told apart on a pty (the kernel clears PARENB on pseudo-terminals),
 //! so the four settings differ in their baud rate.
