@@ -634,8 +634,14 @@ impl Master {
             Some(Ok(())) => self.complete(Some(frame.adu.as_bytes())),
             Some(Err(s)) => {
                 self.rx.count_discarded();
-                // CRC, length and structure errors: a frame cut by a late packet.
-                self.fail_or_retry(now, self.rx.delivery().annotate(s));
+                // CRC, length and structure errors may be a frame cut by a late packet; a
+                // slave's exception answer arrived whole and keeps the manual's remedy.
+                let s = if status::is_exception(s) {
+                    s
+                } else {
+                    self.rx.delivery().annotate(s)
+                };
+                self.fail_or_retry(now, s);
             }
         }
     }

@@ -302,6 +302,12 @@ pub fn for_exception(code: ExceptionCode) -> Status {
     Status::lookup(0x0E60 + code.code() as u16, &[CATALOG])
 }
 
+/// Whether `status` reports a slave's exception answer (0E61H–0E6FH, [Modbus/USS] §3.3.6,
+/// Table 3-12): a frame that arrived whole, as opposed to a framing, CRC or length error.
+pub fn is_exception(status: Status) -> bool {
+    status.code() & 0xFFF0 == 0x0E60 && status.code() != 0x0E60
+}
+
 /// A code with its text from either catalog (the master's meaning first).
 pub fn lookup(code: u16) -> Status {
     Status::lookup(

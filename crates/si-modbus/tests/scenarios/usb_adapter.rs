@@ -239,6 +239,19 @@ fn a_response_cut_by_a_late_packet_names_the_adapter_latency_in_its_remedy() {
 }
 
 #[test]
+fn a_slaves_exception_behind_a_packetising_port_keeps_the_manuals_remedy() {
+    // The exception answer arrives whole, in one read faster than the wire (a packetising
+    // port): it is the slave's word (0E64H, exception 04), not a frame cut by the adapter, so
+    // its remedy is the manual's, not the adapter's latency timer.
+    let mut answer = vec![1, 0x83, 4];
+    let crc = si_modbus::frame::crc16(&answer).to_le_bytes();
+    answer.extend_from_slice(&crc);
+    let status = failure_after(&[(20, &answer)]);
+    assert_eq!(status.code(), 0x0E64);
+    assert_ne!(status.remedy(), Some(si_core::delivery::ADAPTER_REMEDY));
+}
+
+#[test]
 fn a_hole_shorter_than_the_longest_latency_inside_a_predicted_frame_is_waited_out() {
     // The hold estimate (16 ms on a port nobody declared) is a lower bound; while the header
     // says more bytes are coming, a hole of twice that is not the end of the frame.
