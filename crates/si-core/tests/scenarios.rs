@@ -5,8 +5,6 @@
 
 #[path = "scenarios/driver_late_host.rs"]
 mod driver_late_host;
-#[path = "scenarios/driver_logs.rs"]
-mod driver_logs;
 #[path = "scenarios/driver_rs485.rs"]
 mod driver_rs485;
 #[path = "scenarios/driver_timers.rs"]

@@ -2,6 +2,11 @@
 //! si_core::frame_log): a library user's subscriber gets each frame decoded at INFO, the raw
 //! bytes and the engine's events at DEBUG, the timers at TRACE; a frame that ends by silence is
 //! logged once the silence has passed, without another byte.
+//!
+//! Alone in its test binary: tracing caches each call site's interest when the site is first
+//! hit, and a test of another file hitting the driver's call sites on another thread while a
+//! subscriber here is being set up could leave a site cached as disabled for it. The tests here
+//! take turns.
 #![cfg(feature = "tokio")]
 
 use si_core::driver::{spawn, DriverOptions};
