@@ -2,8 +2,9 @@
 //! combination, the rest of the character format from the line flags.
 
 use crate::error::CliError;
+use crate::output::Output;
 use clap::Args;
-use si_core::{Parity, SerialSettings};
+use si_core::{Duration, Parity, SerialSettings};
 
 /// `--bauds` and `--parities` of `si modbus scan`, `si uss scan` and `si 3964r probe`.
 #[derive(Debug, Clone, Args)]
@@ -46,4 +47,49 @@ impl Sweep {
         si_core::port::settings_sweep(&bauds, &parities, (data_bits, base.stop_bits()), rates)
             .map_err(CliError::bad_argument)
     }
+}
+
+/// The line a scan or probe prints before its first request: how many stations it asks (`asked`:
+/// the noun and the count; none for a probe), at which settings, and the longest it can take.
+/// `json` names the run (`{"scan": "modbus"}`); the count, settings and bound are added to it.
+pub fn announce(
+    out: &Output,
+    verb: &str,
+    asked: Option<(&str, usize)>,
+    settings: &[SerialSettings],
+    bound: Duration,
+    mut json: serde_json::Value,
+) {
+    let list: Vec<String> = settings.iter().map(ToString::to_string).collect();
+    let stations = asked.map_or(String::new(), |(noun, n)| format!("{n} {noun}(s) at "));
+    let text = format!(
+        "{verb} {stations}{} line setting(s) ({}): at most {:.1} s",
+        list.len(),
+        list.join(", "),
+        bound.as_micros() as f64 / 1e6
+    );
+    if let Some((noun, n)) = asked {
+        json[format!("{noun}s")] = n.into();
+    }
+    json["settings"] = list.into();
+    json["bound_ms"] = bound.as_millis().into();
+    out.line(&text, json);
+}
+
+/// The last line of a scan: how many stations answered (`noun`: "unit", "node"), and whether
+/// Ctrl-C cut it short (then the error that exits 130).
+pub fn summary(
+    out: &Output,
+    present: usize,
+    noun: &str,
+    interrupted: bool,
+) -> Result<(), CliError> {
+    if !out.json {
+        let cut = if interrupted { " (interrupted)" } else { "" };
+        println!("{present} {noun}(s) answered{cut}");
+    }
+    if interrupted {
+        return Err(CliError::interrupted());
+    }
+    Ok(())
 }

@@ -37,19 +37,13 @@ impl ScanArgs {
         let scan = Scan::new(config, self.settings(conn)?, units.clone())
             .map_err(CliError::bad_argument)?;
         let bound = scan.bound();
-        let list: Vec<String> = scan.settings().iter().map(ToString::to_string).collect();
-        out.line(
-            &format!(
-                "scanning {} unit(s) at {} line setting(s) ({}): at most {:.1} s",
-                units.len(),
-                list.len(),
-                list.join(", "),
-                bound.as_micros() as f64 / 1e6
-            ),
-            serde_json::json!({
-                "scan": "modbus", "units": units.len(), "settings": list,
-                "bound_ms": bound.as_millis(),
-            }),
+        crate::setting_sweep::announce(
+            out,
+            "scanning",
+            Some(("unit", units.len())),
+            scan.settings(),
+            bound,
+            serde_json::json!({"scan": "modbus"}),
         );
         let mut present = 0;
         let run = scan.run(
@@ -71,16 +65,7 @@ impl ScanArgs {
             }
             _ = tokio::signal::ctrl_c() => true,
         };
-        if !out.json {
-            println!(
-                "{present} unit(s) answered{}",
-                if interrupted { " (interrupted)" } else { "" }
-            );
-        }
-        if interrupted {
-            return Err(CliError::interrupted());
-        }
-        Ok(())
+        crate::setting_sweep::summary(out, present, "unit", interrupted)
     }
 
     /// Every combination of the baud rates and parities asked for, the rest of the character

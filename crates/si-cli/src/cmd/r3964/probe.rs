@@ -35,16 +35,13 @@ impl ProbeArgs {
             Duration::from_millis(self.char_delay_ms),
         );
         let bound = probe.bound();
-        let list: Vec<String> = probe.settings().iter().map(ToString::to_string).collect();
-        out.line(
-            &format!(
-                "probing {} line setting(s) ({}): at most {:.1} s",
-                list.len(),
-                list.join(", "),
-                bound.as_micros() as f64 / 1e6
-            ),
-            serde_json::json!({"probe": "3964r", "settings": list,
-                               "bound_ms": bound.as_millis()}),
+        crate::setting_sweep::announce(
+            out,
+            "probing",
+            None,
+            probe.settings(),
+            bound,
+            serde_json::json!({"probe": "3964r"}),
         );
         let mut ready = 0;
         let run = probe.run(

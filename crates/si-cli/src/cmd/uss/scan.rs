@@ -53,19 +53,13 @@ impl ScanArgs {
         let scan =
             Scan::new(&entries, &settings, response_timeout).map_err(CliError::bad_argument)?;
         let bound = scan.bound();
-        let list: Vec<String> = settings.iter().map(ToString::to_string).collect();
-        out.line(
-            &format!(
-                "scanning {} node(s) at {} line setting(s) ({}): at most {:.1} s",
-                nodes.len(),
-                settings.len(),
-                list.join(", "),
-                bound.as_micros() as f64 / 1e6
-            ),
-            serde_json::json!({
-                "scan": "uss", "nodes": nodes.len(), "settings": list,
-                "bound_ms": bound.as_millis(),
-            }),
+        crate::setting_sweep::announce(
+            out,
+            "scanning",
+            Some(("node", nodes.len())),
+            &settings,
+            bound,
+            serde_json::json!({"scan": "uss"}),
         );
         let mut present = 0;
         let run = scan.run(
@@ -86,16 +80,7 @@ impl ScanArgs {
             }
             _ = tokio::signal::ctrl_c() => true,
         };
-        if !out.json {
-            println!(
-                "{present} node(s) answered{}",
-                if interrupted { " (interrupted)" } else { "" }
-            );
-        }
-        if interrupted {
-            return Err(CliError::interrupted());
-        }
-        Ok(())
+        crate::setting_sweep::summary(out, present, "node", interrupted)
     }
 
     /// Every combination of the baud rates and parities asked for, the rest of the character
