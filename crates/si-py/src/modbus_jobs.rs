@@ -138,14 +138,24 @@ impl Jobs {
             .ok_or_else(|| ProtocolError::new_err("the client is closed"))
     }
 
-    /// FC01.
-    pub fn read_coils(&self, address: i64, count: i64, unit: i64) -> PyResult<Job<Vec<bool>>> {
-        let (line, a, n, u) = (
+    /// The line and the checked arguments of a read (FC01 to FC04).
+    fn read_args(
+        &self,
+        address: i64,
+        count: i64,
+        unit: i64,
+    ) -> PyResult<(Arc<Line>, u16, u16, u8)> {
+        Ok((
             self.line()?,
             self::address(address)?,
             self::count(count)?,
             self::unit(unit)?,
-        );
+        ))
+    }
+
+    /// FC01.
+    pub fn read_coils(&self, address: i64, count: i64, unit: i64) -> PyResult<Job<Vec<bool>>> {
+        let (line, a, n, u) = self.read_args(address, count, unit)?;
         Ok(Box::pin(async move {
             on_line!(line, c => c.read_coils(u, a, n).await).map_err(modbus)
         }))
@@ -158,12 +168,7 @@ impl Jobs {
         count: i64,
         unit: i64,
     ) -> PyResult<Job<Vec<bool>>> {
-        let (line, a, n, u) = (
-            self.line()?,
-            self::address(address)?,
-            self::count(count)?,
-            self::unit(unit)?,
-        );
+        let (line, a, n, u) = self.read_args(address, count, unit)?;
         Ok(Box::pin(async move {
             on_line!(line, c => c.read_discrete_inputs(u, a, n).await).map_err(modbus)
         }))
@@ -176,12 +181,7 @@ impl Jobs {
         count: i64,
         unit: i64,
     ) -> PyResult<Job<Vec<u16>>> {
-        let (line, a, n, u) = (
-            self.line()?,
-            self::address(address)?,
-            self::count(count)?,
-            self::unit(unit)?,
-        );
+        let (line, a, n, u) = self.read_args(address, count, unit)?;
         Ok(Box::pin(async move {
             on_line!(line, c => c.read_holding_registers(u, a, n).await).map_err(modbus)
         }))
@@ -194,12 +194,7 @@ impl Jobs {
         count: i64,
         unit: i64,
     ) -> PyResult<Job<Vec<u16>>> {
-        let (line, a, n, u) = (
-            self.line()?,
-            self::address(address)?,
-            self::count(count)?,
-            self::unit(unit)?,
-        );
+        let (line, a, n, u) = self.read_args(address, count, unit)?;
         Ok(Box::pin(async move {
             on_line!(line, c => c.read_input_registers(u, a, n).await).map_err(modbus)
         }))
