@@ -2,8 +2,7 @@
 //! blocking ones, every job a coroutine run on the shared runtime (pyo3-async-runtimes).
 //! `RtuClient` opens its port at once; `TcpClient.connect(...)` is a coroutine.
 
-use crate::modbus_config::LineArgs;
-use crate::modbus_jobs::{Jobs, RtuArgs};
+use crate::modbus_jobs::Jobs;
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 use pyo3_async_runtimes::tokio::future_into_py;
@@ -290,27 +289,21 @@ impl AioRtuClient {
         rx_latency: Option<f64>,
         frame_end: &str,
     ) -> PyResult<PyClassInitializer<Self>> {
-        let line = LineArgs {
+        let jobs = Jobs::rtu(
+            port,
             baud,
             data_bits,
             parity,
             stop_bits,
             mode,
             char_delay_multiplier,
-        };
-        let args = RtuArgs {
-            port,
-            line,
             response_timeout,
             retries,
             broadcast_turnaround,
             rx_latency,
             frame_end,
-        };
-        Ok(PyClassInitializer::from(AioModbusClient {
-            jobs: Jobs::rtu(&args)?,
-        })
-        .add_subclass(AioRtuClient))
+        )?;
+        Ok(PyClassInitializer::from(AioModbusClient { jobs }).add_subclass(AioRtuClient))
     }
 }
 

@@ -298,12 +298,12 @@ pub fn uss(e: si_uss::tokio::Error) -> PyErr {
 /// no response; event class 08H (receive errors: parity, framing, overflow) and the response
 /// checks 0E50H–0E57H an invalid response; anything else the protocol giving up.
 fn modbus_failure(status: Status, text: String) -> PyErr {
+    use si_modbus::status::{RESPONSE_CRC, RESPONSE_TIMEOUT, UNSOLICITED_RESPONSE};
     const RECEIVE_ERROR: u8 = 0x08;
-    const PROCEDURE_ERROR: u8 = 0x0E;
-    if status == si_modbus::status::RESPONSE_TIMEOUT {
+    if status == RESPONSE_TIMEOUT {
         NoResponseError::new_err(text)
     } else if status.class() == RECEIVE_ERROR
-        || (status.class() == PROCEDURE_ERROR && (0x50..=0x5F).contains(&status.number()))
+        || (UNSOLICITED_RESPONSE.code()..=RESPONSE_CRC.code()).contains(&status.code())
     {
         InvalidResponseError::new_err(text)
     } else {

@@ -3,8 +3,7 @@
 //! and `TcpClient` (si-modbus's Modbus TCP client). Each call blocks with the GIL released.
 //! (`aio_modbus` is the same over asyncio; both run [`modbus_jobs`](crate::modbus_jobs).)
 
-use crate::modbus_config::LineArgs;
-use crate::modbus_jobs::{Jobs, RtuArgs};
+use crate::modbus_jobs::Jobs;
 use crate::runtime::wait;
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
@@ -273,27 +272,21 @@ impl RtuClient {
         rx_latency: Option<f64>,
         frame_end: &str,
     ) -> PyResult<PyClassInitializer<Self>> {
-        let line = LineArgs {
+        let jobs = Jobs::rtu(
+            port,
             baud,
             data_bits,
             parity,
             stop_bits,
             mode,
             char_delay_multiplier,
-        };
-        let args = RtuArgs {
-            port,
-            line,
             response_timeout,
             retries,
             broadcast_turnaround,
             rx_latency,
             frame_end,
-        };
-        Ok(PyClassInitializer::from(ModbusClient {
-            jobs: Jobs::rtu(&args)?,
-        })
-        .add_subclass(RtuClient))
+        )?;
+        Ok(PyClassInitializer::from(ModbusClient { jobs }).add_subclass(RtuClient))
     }
 }
 

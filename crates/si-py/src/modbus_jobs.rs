@@ -65,24 +65,6 @@ fn registers(number_of_registers: i64) -> PyResult<u16> {
     }
 }
 
-/// The RTU keyword arguments of `RtuClient`.
-pub struct RtuArgs<'a> {
-    /// Serial port path.
-    pub port: &'a str,
-    /// Line parameters.
-    pub line: LineArgs<'a>,
-    /// Seconds.
-    pub response_timeout: f64,
-    /// Repetitions.
-    pub retries: i64,
-    /// Seconds.
-    pub broadcast_turnaround: f64,
-    /// Seconds, or None.
-    pub rx_latency: Option<f64>,
-    /// "gap" or "length".
-    pub frame_end: &'a str,
-}
-
 impl Jobs {
     fn new(line: Line, job_bound: f64) -> Self {
         Jobs {
@@ -91,21 +73,39 @@ impl Jobs {
         }
     }
 
-    /// An RTU master on a serial port, its config checked first.
-    pub fn rtu(a: &RtuArgs<'_>) -> PyResult<Jobs> {
-        let config = modbus_config::master(
-            &a.line,
-            a.response_timeout,
-            a.retries,
-            a.broadcast_turnaround,
-        )?;
-        let options = port_options(a.rx_latency)?;
+    /// An RTU master on a serial port, its config checked first: the keyword arguments of
+    /// `RtuClient` (blocking and asyncio alike), times in seconds.
+    #[allow(clippy::too_many_arguments)]
+    pub fn rtu(
+        port: &str,
+        baud: i64,
+        data_bits: i64,
+        parity: &str,
+        stop_bits: i64,
+        mode: &str,
+        char_delay_multiplier: i64,
+        response_timeout: f64,
+        retries: i64,
+        broadcast_turnaround: f64,
+        rx_latency: Option<f64>,
+        frame_end: &str,
+    ) -> PyResult<Jobs> {
+        let line = LineArgs {
+            baud,
+            data_bits,
+            parity,
+            stop_bits,
+            mode,
+            char_delay_multiplier,
+        };
+        let config = modbus_config::master(&line, response_timeout, retries, broadcast_turnaround)?;
+        let options = port_options(rx_latency)?;
         let _entered = runtime().enter();
-        let serial = si_core::port::open(a.port, &config.line.settings, &options)
+        let serial = si_core::port::open(port, &config.line.settings, &options)
             .map_err(|e| modbus(e.into()))?;
         let engine = si_modbus::Master::new(config)
             .map_err(|e| modbus(e.into()))?
-            .with_frame_end(modbus_config::frame_end(a.frame_end)?);
+            .with_frame_end(modbus_config::frame_end(frame_end)?);
         let master = Master::spawn_engine(engine, serial);
         Ok(Jobs::new(
             Line::Rtu(master),
@@ -138,14 +138,24 @@ impl Jobs {
             .ok_or_else(|| ProtocolError::new_err("the client is closed"))
     }
 
-    /// FC01.
-    pub fn read_coils(&self, address: i64, count: i64, unit: i64) -> PyResult<Job<Vec<bool>>> {
-        let (line, a, n, u) = (
+    /// The line and the checked arguments of a read (FC01 to FC04).
+    fn read_args(
+        &self,
+        address: i64,
+        count: i64,
+        unit: i64,
+    ) -> PyResult<(Arc<Line>, u16, u16, u8)> {
+        Ok((
             self.line()?,
             self::address(address)?,
             self::count(count)?,
             self::unit(unit)?,
-        );
+        ))
+    }
+
+    /// FC01.
+    pub fn read_coils(&self, address: i64, count: i64, unit: i64) -> PyResult<Job<Vec<bool>>> {
+        let (line, a, n, u) = self.read_args(address, count, unit)?;
         Ok(Box::pin(async move {
             on_line!(line, c => c.read_coils(u, a, n).await).map_err(modbus)
         }))
@@ -158,12 +168,7 @@ impl Jobs {
         count: i64,
         unit: i64,
     ) -> PyResult<Job<Vec<bool>>> {
-        let (line, a, n, u) = (
-            self.line()?,
-            self::address(address)?,
-            self::count(count)?,
-            self::unit(unit)?,
-        );
+        let (line, a, n, u) = self.read_args(address, count, unit)?;
         Ok(Box::pin(async move {
             on_line!(line, c => c.read_discrete_inputs(u, a, n).await).map_err(modbus)
         }))
@@ -176,12 +181,7 @@ impl Jobs {
         count: i64,
         unit: i64,
     ) -> PyResult<Job<Vec<u16>>> {
-        let (line, a, n, u) = (
-            self.line()?,
-            self::address(address)?,
-            self::count(count)?,
-            self::unit(unit)?,
-        );
+        let (line, a, n, u) = self.read_args(address, count, unit)?;
         Ok(Box::pin(async move {
             on_line!(line, c => c.read_holding_registers(u, a, n).await).map_err(modbus)
         }))
@@ -194,12 +194,7 @@ impl Jobs {
         count: i64,
         unit: i64,
     ) -> PyResult<Job<Vec<u16>>> {
-        let (line, a, n, u) = (
-            self.line()?,
-            self::address(address)?,
-            self::count(count)?,
-            self::unit(unit)?,
-        );
+        let (line, a, n, u) = self.read_args(address, count, unit)?;
         Ok(Box::pin(async move {
             on_line!(line, c => c.read_input_registers(u, a, n).await).map_err(modbus)
         }))

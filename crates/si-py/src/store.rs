@@ -15,6 +15,16 @@ pub enum PyStore {
     Simatic(Box<SimaticStore>),
 }
 
+impl PyStore {
+    /// The store picked, for the requests to go to.
+    fn picked(&mut self) -> &mut dyn Store {
+        match self {
+            PyStore::Tables(s) => s,
+            PyStore::Simatic(s) => &mut **s,
+        }
+    }
+}
+
 impl Store for PyStore {
     fn read_coils(
         &mut self,
@@ -22,10 +32,7 @@ impl Store for PyStore {
         quantity: u16,
         out: &mut [u8],
     ) -> Result<(), StoreError> {
-        match self {
-            PyStore::Tables(s) => s.read_coils(address, quantity, out),
-            PyStore::Simatic(s) => s.read_coils(address, quantity, out),
-        }
+        self.picked().read_coils(address, quantity, out)
     }
 
     fn read_discrete_inputs(
@@ -34,10 +41,7 @@ impl Store for PyStore {
         quantity: u16,
         out: &mut [u8],
     ) -> Result<(), StoreError> {
-        match self {
-            PyStore::Tables(s) => s.read_discrete_inputs(address, quantity, out),
-            PyStore::Simatic(s) => s.read_discrete_inputs(address, quantity, out),
-        }
+        self.picked().read_discrete_inputs(address, quantity, out)
     }
 
     fn read_holding_registers(
@@ -46,10 +50,7 @@ impl Store for PyStore {
         quantity: u16,
         out: &mut [u8],
     ) -> Result<(), StoreError> {
-        match self {
-            PyStore::Tables(s) => s.read_holding_registers(address, quantity, out),
-            PyStore::Simatic(s) => s.read_holding_registers(address, quantity, out),
-        }
+        self.picked().read_holding_registers(address, quantity, out)
     }
 
     fn read_input_registers(
@@ -58,24 +59,15 @@ impl Store for PyStore {
         quantity: u16,
         out: &mut [u8],
     ) -> Result<(), StoreError> {
-        match self {
-            PyStore::Tables(s) => s.read_input_registers(address, quantity, out),
-            PyStore::Simatic(s) => s.read_input_registers(address, quantity, out),
-        }
+        self.picked().read_input_registers(address, quantity, out)
     }
 
     fn write_coils(&mut self, address: u16, values: Bits<'_>) -> Result<(), StoreError> {
-        match self {
-            PyStore::Tables(s) => s.write_coils(address, values),
-            PyStore::Simatic(s) => s.write_coils(address, values),
-        }
+        self.picked().write_coils(address, values)
     }
 
     fn write_registers(&mut self, address: u16, values: Registers<'_>) -> Result<(), StoreError> {
-        match self {
-            PyStore::Tables(s) => s.write_registers(address, values),
-            PyStore::Simatic(s) => s.write_registers(address, values),
-        }
+        self.picked().write_registers(address, values)
     }
 }
 

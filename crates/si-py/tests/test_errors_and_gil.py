@@ -1,5 +1,6 @@
 """The exception tree, a silent partner's bound, and the GIL released while a job waits."""
 
+import os
 import threading
 import time
 
@@ -75,6 +76,42 @@ def test_a_silent_partner_raises_no_response_error_within_the_bound(pty_pair):
     assert "response" in info.value.status_text
     # The documented bound: job_bound (si-modbus "Bounds"); and not before the response time.
     assert 0.1 <= elapsed <= client.job_bound, (elapsed, client.job_bound)
+
+
+def _answer_once(path, answer):
+    """Reads one 8-byte request from the pty `path` and writes `answer` (a fake slave)."""
+    fd = os.open(path, os.O_RDWR | os.O_NOCTTY)
+    try:
+        request = b""
+        while len(request) < 8:
+            request += os.read(fd, 8 - len(request))
+        os.write(fd, answer)
+    finally:
+        os.close(fd)
+
+
+@pytest.mark.parametrize(
+    "answer, status",
+    [
+        # FC03 from unit 3, one register, its CRC's bytes swapped: 0E57H.
+        (bytes.fromhex("03 03 02 00 2a 5b 40"), 0x0E57),
+        # A well-formed answer to another function (FC04): 0E51H.
+        (bytes.fromhex("03 04 02 00 2a 41 2f"), 0x0E51),
+    ],
+    ids=["crc", "function"],
+)
+def test_an_answer_failing_the_checks_raises_invalid_response_error(pty_pair, answer, status):
+    # [Modbus/USS] §3.6: the response checks 0E50H-0E57H fail the job; not a silent partner.
+    a, b = pty_pair
+    with si_serial.RtuClient(a, response_timeout=1.0, rx_latency=0) as client:
+        slave = threading.Thread(target=_answer_once, args=(b, answer))
+        slave.start()
+        try:
+            with pytest.raises(si_serial.InvalidResponseError) as info:
+                client.read_holding_registers(0, 1, unit=3)
+        finally:
+            slave.join(timeout=5)
+    assert info.value.status == status
 
 
 def test_the_gil_is_released_while_a_job_waits(pty_pair):
