@@ -7,7 +7,7 @@
 //!
 //! | family | type | labels | what |
 //! |---|---|---|---|
-//! | `si_gateway_requests_total` | counter | line, unit, outcome | requests routed to a line, by what became of them: `answer`, `exception` (the slave's), `timeout` (0BH), `busy` (06H), `other` (0AH, 01H, 03H, 04H), `sent` (a broadcast) |
+//! | `si_gateway_requests_total` | counter | line, unit, outcome | requests routed to a line, by what became of them: `answer`, `exception` (the slave's), `timeout` (0BH), `busy` (06H), `other` (0AH, 01H, 03H, 04H), `sent` (a broadcast), `demoted` (refused with 0BH at once: the unit is demoted, [`crate::demotion`]) |
 //! | `si_gateway_exceptions_total` | counter | line, unit, code | exception answers returned to clients, the slave's and the gateway's own, by code (`0x0B`, …) |
 //! | `si_gateway_retries_total` | counter | line, unit | requests repeated on the line after a failed attempt |
 //! | `si_gateway_crc_errors_total` | counter | line, unit | answers with a wrong CRC, also those a retry cured |
