@@ -223,10 +223,7 @@ impl LineHealth {
             return None;
         }
         let for_ms = self.config.demote_for.as_millis();
-        let until = Instant::from_micros(
-            now.as_micros()
-                .saturating_add(self.config.demote_for.as_micros()),
-        );
+        let until = now + self.config.demote_for;
         let health = self.units.entry(unit).or_default();
         match health.state {
             UnitState::Probing => {

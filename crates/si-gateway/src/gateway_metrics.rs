@@ -7,7 +7,7 @@
 //!
 //! | family | type | labels | what |
 //! |---|---|---|---|
-//! | `si_gateway_requests_total` | counter | line, unit, outcome | requests routed to a line, by what became of them: `answer`, `exception` (the slave's), `timeout` (0BH), `busy` (06H), `other` (0AH, 01H, 03H, 04H), `sent` (a broadcast) |
+//! | `si_gateway_requests_total` | counter | line, unit, outcome | requests routed to a line, by what became of them: `answer`, `exception` (the slave's), `timeout` (0BH), `busy` (06H), `other` (0AH, 01H, 03H, 04H), `sent` (a broadcast), `demoted` (refused with 0BH at once: the unit is demoted, [`crate::demotion`]) |
 //! | `si_gateway_exceptions_total` | counter | line, unit, code | exception answers returned to clients, the slave's and the gateway's own, by code (`0x0B`, …) |
 //! | `si_gateway_retries_total` | counter | line, unit | requests repeated on the line after a failed attempt |
 //! | `si_gateway_crc_errors_total` | counter | line, unit | answers with a wrong CRC, also those a retry cured |
@@ -166,10 +166,10 @@ impl GatewayMetrics {
             labels.push(("code", format!("0x{code:02X}")));
             self.registry.inc(self.exceptions, labels, 1);
         }
-        if crc_errors > 0 {
-            let labels = self.unit_labels(index, unit);
-            self.registry.inc(self.crc_errors, labels, crc_errors);
-        }
+        // Also by 0: the series exists from the unit's first request, as `retries_total`'s
+        // does, so `rate()` and `increase()` see the first error.
+        let labels = self.unit_labels(index, unit);
+        self.registry.inc(self.crc_errors, labels, crc_errors);
     }
 
     /// Count the retries one request to `unit` on line `index` needed.
@@ -258,6 +258,17 @@ mod tests {
         ] {
             assert!(text.contains(want), "{want} not in\n{text}");
         }
+    }
+
+    #[test]
+    fn a_units_crc_error_series_exists_from_its_first_request() {
+        let mut m = GatewayMetrics::new(vec!["a".into()]);
+        m.request(0, 4, "answer", None, 0);
+        let text = m.render(&[LineNow::default()], None);
+        assert!(
+            text.contains("si_gateway_crc_errors_total{line=\"a\",unit=\"4\"} 0\n"),
+            "{text}"
+        );
     }
 
     #[test]

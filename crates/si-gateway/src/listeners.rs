@@ -42,11 +42,7 @@ pub async fn start(
             let handler = Arc::new(top.clone());
             let id_base = (faces as u64) << crate::faces::CONNECTION_BITS;
             let run = rtu_listener::run(listener, handler, Arc::clone(&counters), id_base);
-            let task = tokio::spawn(async move {
-                if let Err(e) = run.await {
-                    tracing::error!("RTU-over-TCP listener stopped: {e}");
-                }
-            });
+            let task = tokio::spawn(async move { match run.await {} });
             bound.push(Extra {
                 event: "rtu_over_tcp_listening",
                 addr,
@@ -69,11 +65,7 @@ pub async fn start(
             stats: Arc::clone(stats),
             rtu,
         };
-        let task = tokio::spawn(async move {
-            if let Err(e) = metrics_http::run(listener, source).await {
-                tracing::error!("metrics listener stopped: {e}");
-            }
-        });
+        let task = tokio::spawn(async move { match metrics_http::run(listener, source).await {} });
         bound.push(Extra {
             event: "metrics_listening",
             addr,

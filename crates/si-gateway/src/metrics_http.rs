@@ -8,7 +8,7 @@
 use super::counters::Stats;
 use super::gateway_metrics::RtuNow;
 use super::line::lock;
-use super::rtu_listener::RtuCounters;
+use super::rtu_listener::{RtuCounters, ACCEPT_RETRY};
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -43,10 +43,17 @@ impl Source {
     }
 }
 
-/// Serve scrapes on `listener` until it fails.
-pub async fn run(listener: TcpListener, source: Source) -> std::io::Result<()> {
+/// Serve scrapes on `listener` for ever (a failed accept is retried after
+/// [`ACCEPT_RETRY`], as the RTU-over-TCP listener does).
+pub async fn run(listener: TcpListener, source: Source) -> std::convert::Infallible {
     loop {
-        let (stream, _) = listener.accept().await?;
+        let (stream, _) = match listener.accept().await {
+            Ok(accepted) => accepted,
+            Err(_) => {
+                tokio::time::sleep(ACCEPT_RETRY).await;
+                continue;
+            }
+        };
         let source = source.clone();
         tokio::spawn(async move {
             let _ = tokio::time::timeout(HEAD_TIMEOUT, scrape(stream, &source)).await;

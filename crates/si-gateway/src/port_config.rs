@@ -14,6 +14,26 @@ use std::path::PathBuf;
 pub const DEFAULT_QUEUE: usize = 32;
 /// The longest request queue per line: bounded memory whatever the file says.
 pub const MAX_QUEUE: usize = 1024;
+/// The longest pause between a line's requests (ms): mbusd's maximum.
+pub const MAX_PAUSE_MS: u64 = 10_000;
+
+/// A queued line's `queue` (1 … [`MAX_QUEUE`], default [`DEFAULT_QUEUE`]), checked.
+pub fn check_queue(queue: Option<usize>) -> Result<usize, RangeError> {
+    let queue = queue.unwrap_or(DEFAULT_QUEUE);
+    RangeError::check("queue", (1, MAX_QUEUE), "", queue)?;
+    Ok(queue)
+}
+
+/// A queued line's `pause_ms` (0 … [`MAX_PAUSE_MS`], the kind's `default_ms` when absent),
+/// checked.
+pub fn check_pause(
+    pause_ms: Option<u64>,
+    default_ms: u64,
+) -> Result<std::time::Duration, RangeError> {
+    let pause_ms = pause_ms.unwrap_or(default_ms);
+    RangeError::check("pause_ms", (0, MAX_PAUSE_MS), " ms", pause_ms)?;
+    Ok(std::time::Duration::from_millis(pause_ms))
+}
 
 /// Declares a line kind's file form: a struct refusing unknown keys, with the keys every line
 /// has (`kind`, `name`, `device`, `baud`, `data_bits`, `parity`, `stop_bits`, `rs485`,

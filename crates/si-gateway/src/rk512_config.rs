@@ -23,7 +23,7 @@
 //! (1024 bytes, `si_rk512::Config::max_job_len`).
 
 use super::rk512_spans::{db_span, Span, DB_BYTES};
-use crate::port_config::{line_file, DEFAULT_QUEUE, MAX_QUEUE};
+use crate::port_config::{check_pause, check_queue, line_file};
 use crate::r3964_config::link;
 use si_core::memory::{Area, MemorySizes};
 use si_core::RangeError;
@@ -202,10 +202,8 @@ impl Rk512File {
             (None, _) => default_memory(),
         };
         memory.check()?;
-        let queue = self.queue.unwrap_or(DEFAULT_QUEUE);
-        RangeError::check("queue", (1, MAX_QUEUE), "", queue)?;
-        let pause_ms = self.pause_ms.unwrap_or(0);
-        RangeError::check("pause_ms", (0, 10_000), " ms", pause_ms)?;
+        let queue = check_queue(self.queue)?;
+        let pause = check_pause(self.pause_ms, 0)?;
         let line = Rk512Line {
             role,
             config,
@@ -215,7 +213,7 @@ impl Rk512File {
             refresh,
             memory,
         };
-        Ok((line, queue, Duration::from_millis(pause_ms)))
+        Ok((line, queue, pause))
     }
 }
 

@@ -9,7 +9,7 @@
 //! 10 000 ms, `DEFAULT_RESPWAIT` 500 ms). mbusd's pause is 1–10 000 ms; we also allow 0.
 
 use crate::demotion::DemotionConfig;
-use crate::port_config::{check_baud, line_file, parse_unit_map, DEFAULT_QUEUE, MAX_QUEUE};
+use crate::port_config::{check_baud, check_pause, check_queue, line_file, parse_unit_map};
 use si_core::RangeError;
 use std::time::Duration;
 
@@ -111,8 +111,7 @@ impl RtuFile {
     pub fn check(&self) -> Result<RtuLine, RangeError> {
         let retries = self.retries.unwrap_or(2);
         RangeError::check("retries", (0, 15), "", retries)?;
-        let pause_ms = self.pause_ms.unwrap_or(100);
-        RangeError::check("pause_ms", (0, 10_000), " ms", pause_ms)?;
+        let pause = check_pause(self.pause_ms, 100)?;
         let response_timeout_ms = self.response_timeout_ms.unwrap_or(500);
         RangeError::check(
             "response_timeout_ms",
@@ -120,12 +119,11 @@ impl RtuFile {
             " ms",
             response_timeout_ms,
         )?;
-        let queue = self.queue.unwrap_or(DEFAULT_QUEUE);
-        RangeError::check("queue", (1, MAX_QUEUE), "", queue)?;
+        let queue = check_queue(self.queue)?;
         check_baud(self.baud.unwrap_or(9600), &si_core::BAUD_RATES)?;
         Ok(RtuLine {
             retries,
-            pause: Duration::from_millis(pause_ms),
+            pause,
             response_timeout: Duration::from_millis(response_timeout_ms.into()),
             broadcast: self.broadcast,
             queue,

@@ -37,17 +37,29 @@ pub struct RtuCounters {
     pub dropped: AtomicU64,
 }
 
-/// Accept connections on `listener` until it fails; each is served by `handler`. Connection
-/// ids given to the handler are `id_base` + the connection's number from 1.
+/// Pause after a failed accept (out of file descriptors and the like) before the next, as the
+/// Modbus TCP server does: one failing connection attempt must not end the listener, and
+/// retrying at once would spin.
+pub const ACCEPT_RETRY: Duration = Duration::from_millis(100);
+
+/// Accept connections on `listener` for ever (a failed accept is retried after
+/// [`ACCEPT_RETRY`]); each is served by `handler`. Connection ids given to the handler are
+/// `id_base` + the connection's number from 1.
 pub async fn run<H: Handler>(
     listener: TcpListener,
     handler: Arc<H>,
     counters: Arc<RtuCounters>,
     id_base: u64,
-) -> std::io::Result<()> {
+) -> std::convert::Infallible {
     let mut next = 0u64;
     loop {
-        let (stream, addr) = listener.accept().await?;
+        let (stream, addr) = match listener.accept().await {
+            Ok(accepted) => accepted,
+            Err(_) => {
+                tokio::time::sleep(ACCEPT_RETRY).await;
+                continue;
+            }
+        };
         next += 1;
         let peer = Peer {
             id: id_base | next,

@@ -15,7 +15,7 @@
 //! A Modbus TCP slave times its own answers, so there is no character format, framing or
 //! RS-485 key; the timeout default is si-modbus's TCP client's own.
 
-use crate::port_config::{parse_unit_map, DEFAULT_QUEUE, MAX_QUEUE};
+use crate::port_config::{check_pause, check_queue, parse_unit_map};
 use si_core::RangeError;
 use std::collections::BTreeMap;
 use std::time::Duration;
@@ -73,17 +73,15 @@ impl TcpFile {
         RangeError::check("response_timeout_ms", (50, 655_000), " ms", timeout)?;
         let retries = self.retries.unwrap_or(0);
         RangeError::check("retries", (0, 15), "", retries)?;
-        let pause_ms = self.pause_ms.unwrap_or(0);
-        RangeError::check("pause_ms", (0, 10_000), " ms", pause_ms)?;
-        let queue = self.queue.unwrap_or(DEFAULT_QUEUE);
-        RangeError::check("queue", (1, MAX_QUEUE), "", queue)?;
+        let pause = check_pause(self.pause_ms, 0)?;
+        let queue = check_queue(self.queue)?;
         Ok(TcpLine {
             address,
             client: si_modbus::tokio::tcp::ClientConfig {
                 response_timeout: si_core::Duration::from_millis(timeout.into()),
                 retries,
             },
-            pause: Duration::from_millis(pause_ms),
+            pause,
             queue,
             unit_map: parse_unit_map(self.unit_map.as_ref())?,
         })

@@ -67,6 +67,9 @@ def value(samples, name, **labels):
 
 
 def expect(samples, name, want, **labels):
+    # The series must exist, a 0 too: a counter missing until its first event hides that
+    # event from rate() and increase().
+    assert (name, tuple(sorted(labels.items()))) in samples, f"{name}{labels}: no such series"
     got = value(samples, name, **labels)
     assert got == want, f"{name}{labels}: expected {want}, got {got}"
 
