@@ -206,11 +206,16 @@ async fn without_demotion_the_dead_unit_holds_the_line() {
         demote_after: 0,
         ..DemotionConfig::default()
     };
-    let (alone, both, _, during) = dead_unit_beside_a_live_one(off).await;
+    let (_, both, _, during) = dead_unit_beside_a_live_one(off).await;
     assert_eq!(
         during,
         2 * REQUESTS,
         "every request to the dead unit went to the line"
     );
-    assert!(both > 2 * alone, "{both:?} vs {alone:?}");
+    // A live request queued behind one to the dead unit waits out its response timeout: a
+    // lower bound that a loaded machine can only raise (a ratio to `alone` would not be).
+    assert!(
+        both >= Duration::from_millis(50),
+        "the live unit's p99 {both:?}: it never waited behind the dead unit's 50 ms timeout"
+    );
 }
