@@ -98,25 +98,17 @@ impl Pass {
         }
     }
 
+    /// Hold the characters the line view gave; their buffer is kept for the next entry (not
+    /// freed and grown again per entry).
     fn chars(&mut self, stations: &[String]) {
-        for c in std::mem::take(&mut self.chars) {
-            if let LineItem::Char {
-                start,
-                channel,
-                item,
-            } = self.tx.char_item(&c, stations, &self.settings)
-            {
-                self.hold(
-                    start,
-                    0,
-                    LineItem::Char {
-                        start,
-                        channel,
-                        item,
-                    },
-                );
+        let mut chars = std::mem::take(&mut self.chars);
+        for c in chars.drain(..) {
+            let item = self.tx.char_item(&c, stations, &self.settings);
+            if let LineItem::Char { start, .. } = item {
+                self.hold(start, 0, item);
             }
         }
+        self.chars = chars;
     }
 
     fn entry(&mut self, e: &TraceEntry, line: &mut LineStream, each: &mut impl FnMut(LineItem)) {
