@@ -16,10 +16,11 @@ use crate::sigrok::SrWriter;
 use crate::trace_levels::Lanes;
 use crate::uart_levels::{sample_rate, Edge, Levels, LineItem};
 use crate::vcd::VcdWriter;
-use si_core::monitor::line_stream::{LineStream, BACKDATE, LOOKAHEAD};
+use si_core::monitor::line_stream::{LineStream, BACKDATE};
 use si_core::monitor::reorder::Reorder;
+use si_core::monitor::streamed::TraceStream;
 use si_core::trace::TraceEntry;
-use si_core::tracefile::{Item, Stream, TraceFileError};
+use si_core::tracefile::{Item, TraceFileError};
 use si_core::{Instant, SerialSettings};
 use std::io::{self, BufRead, Write};
 
@@ -104,20 +105,7 @@ fn pass<R: BufRead>(
     rts_from: usize,
     each: &mut impl FnMut(LineItem),
 ) -> Result<(Lanes, Lanes), TraceFileError> {
-    let mut stream = Stream::new(input);
-    let mut header = None;
-    let mut prefix = Vec::new();
-    let mut more = true;
-    while prefix.len() < LOOKAHEAD {
-        match stream.next_item()? {
-            Some(Item::Header(h)) => header = Some(h),
-            Some(Item::Entry(e)) => prefix.push(e),
-            None => {
-                more = false;
-                break;
-            }
-        }
-    }
+    let (header, prefix, rest) = TraceStream::open(input)?.into_parts();
     let mut line = LineStream::plan(header.as_ref(), &prefix, settings, false);
     let mut p = Pass {
         settings,
@@ -131,11 +119,11 @@ fn pass<R: BufRead>(
         p.entry(e, &mut line, each);
     }
     drop(prefix);
-    while more {
-        match stream.next_item()? {
-            Some(Item::Entry(e)) => p.entry(&e, &mut line, each),
-            Some(Item::Header(_)) => {}
-            None => more = false,
+    if let Some(mut stream) = rest {
+        while let Some(item) = stream.next_item()? {
+            if let Item::Entry(e) = item {
+                p.entry(&e, &mut line, each);
+            }
         }
     }
     line.finish(&mut p.chars);
