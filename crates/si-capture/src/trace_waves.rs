@@ -16,12 +16,12 @@ use crate::sigrok::SrWriter;
 use crate::trace_levels::Lanes;
 use crate::uart_levels::{sample_rate, Edge, Levels, LineItem};
 use crate::vcd::VcdWriter;
-use si_core::monitor::line_stream::{LineStream, BACKDATE, LOOKAHEAD};
+use si_core::monitor::line_stream::{LineStream, BACKDATE};
+use si_core::monitor::reorder::Reorder;
+use si_core::monitor::streamed::TraceStream;
 use si_core::trace::TraceEntry;
-use si_core::tracefile::{Item, Stream, TraceFileError};
+use si_core::tracefile::{Item, TraceFileError};
 use si_core::{Instant, SerialSettings};
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 use std::io::{self, BufRead, Write};
 
 /// Why an export stopped.
@@ -44,29 +44,6 @@ pub enum WavesError {
     Vcd(io::Error),
 }
 
-/// An item waiting for its turn: by time, characters before RTS changes, then arrival.
-struct Waiting {
-    key: (Instant, u8, u64),
-    item: LineItem,
-}
-
-impl PartialEq for Waiting {
-    fn eq(&self, other: &Self) -> bool {
-        self.key == other.key
-    }
-}
-impl Eq for Waiting {}
-impl PartialOrd for Waiting {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-impl Ord for Waiting {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.key.cmp(&other.key)
-    }
-}
-
 /// One pass over a trace: its line items, with the channels numbered as they first appear
 /// (transmit lines from 0, RTS lines from `rts_from`).
 struct Pass {
@@ -74,49 +51,37 @@ struct Pass {
     rts_from: usize,
     tx: Lanes,
     rts: Lanes,
-    held: BinaryHeap<Reverse<Waiting>>,
-    seq: u64,
+    /// Items waiting for their turn: by time, characters before RTS changes, then arrival.
+    held: Reorder<LineItem>,
     chars: Vec<si_core::monitor::LineChar>,
 }
 
 impl Pass {
     fn hold(&mut self, at: Instant, class: u8, item: LineItem) {
-        let key = (at, class, self.seq);
-        self.held.push(Reverse(Waiting { key, item }));
-        self.seq += 1;
+        self.held.hold(at, class, item);
     }
 
     /// Hand on every item before `before` (all with `None`).
     fn release(&mut self, before: Option<Instant>, each: &mut impl FnMut(LineItem)) {
-        while let Some(Reverse(w)) = self.held.peek() {
-            if before.is_some_and(|b| w.key.0 >= b) {
-                break;
-            }
-            if let Some(Reverse(w)) = self.held.pop() {
-                each(w.item);
-            }
+        while let Some(item) = match before {
+            Some(b) => self.held.pop_before(b),
+            None => self.held.pop(),
+        } {
+            each(item);
         }
     }
 
+    /// Hold the characters the line view gave; their buffer is kept for the next entry (not
+    /// freed and grown again per entry).
     fn chars(&mut self, stations: &[String]) {
-        for c in std::mem::take(&mut self.chars) {
-            if let LineItem::Char {
-                start,
-                channel,
-                item,
-            } = self.tx.char_item(&c, stations, &self.settings)
-            {
-                self.hold(
-                    start,
-                    0,
-                    LineItem::Char {
-                        start,
-                        channel,
-                        item,
-                    },
-                );
+        let mut chars = std::mem::take(&mut self.chars);
+        for c in chars.drain(..) {
+            let item = self.tx.char_item(&c, stations, &self.settings);
+            if let LineItem::Char { start, .. } = item {
+                self.hold(start, 0, item);
             }
         }
+        self.chars = chars;
     }
 
     fn entry(&mut self, e: &TraceEntry, line: &mut LineStream, each: &mut impl FnMut(LineItem)) {
@@ -140,39 +105,25 @@ fn pass<R: BufRead>(
     rts_from: usize,
     each: &mut impl FnMut(LineItem),
 ) -> Result<(Lanes, Lanes), TraceFileError> {
-    let mut stream = Stream::new(input);
-    let mut header = None;
-    let mut prefix = Vec::new();
-    let mut more = true;
-    while prefix.len() < LOOKAHEAD {
-        match stream.next_item()? {
-            Some(Item::Header(h)) => header = Some(h),
-            Some(Item::Entry(e)) => prefix.push(e),
-            None => {
-                more = false;
-                break;
-            }
-        }
-    }
+    let (header, prefix, rest) = TraceStream::open(input)?.into_parts();
     let mut line = LineStream::plan(header.as_ref(), &prefix, settings, false);
     let mut p = Pass {
         settings,
         rts_from,
         tx: Lanes::default(),
         rts: Lanes::default(),
-        held: BinaryHeap::new(),
-        seq: 0,
+        held: Reorder::default(),
         chars: Vec::new(),
     };
     for e in &prefix {
         p.entry(e, &mut line, each);
     }
     drop(prefix);
-    while more {
-        match stream.next_item()? {
-            Some(Item::Entry(e)) => p.entry(&e, &mut line, each),
-            Some(Item::Header(_)) => {}
-            None => more = false,
+    if let Some(mut stream) = rest {
+        while let Some(item) = stream.next_item()? {
+            if let Item::Entry(e) = item {
+                p.entry(&e, &mut line, each);
+            }
         }
     }
     line.finish(&mut p.chars);

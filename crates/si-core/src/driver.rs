@@ -972,8 +972,11 @@ impl<F: Fn(TraceKind)> Receive<'_, F> {
         if !self
             .waiting_first(engine, io, tx_done_at, deadline, now)
             .await?
+            && fire_due(engine, tx_done_at, deadline, now)
         {
-            fire_due(engine, tx_done_at, deadline, now);
+            // Only what the engine was told raises the floor: raised by a look at the clock
+            // that fired nothing (the one after a late read), it would stamp the next bytes
+            // found waiting at `now`, past a deadline they were in the port before.
             self.floor = now;
         }
         Ok(())
@@ -1074,22 +1077,27 @@ impl Direction {
     }
 }
 
-/// Tell the engine that its transmission is done and its deadline has passed, if they have.
+/// Tell the engine that its transmission is done and its deadline has passed, if they have;
+/// true if it told the engine anything.
 fn fire_due<E: Engine>(
     engine: &mut E,
     tx_done_at: &mut Option<Instant>,
     deadline: Option<Instant>,
     now: Instant,
-) {
+) -> bool {
+    let mut told = false;
     if let Some(at) = tx_done_at.filter(|&t| now >= t) {
         *tx_done_at = None;
         tracing::trace!("tx done (due {at}, now {now})");
         engine.handle_tx_done(now);
+        told = true;
     }
     if let Some(at) = deadline.filter(|&d| now >= d) {
         tracing::trace!("timeout (due {at}, now {now})");
         engine.handle_timeout(now);
+        told = true;
     }
+    told
 }
 
 /// A transport with facts added to what it says itself ([`PortFacts::or`]): local echo on a

@@ -15,12 +15,12 @@
 //! back.
 
 use crate::monitor::line::PARTNER;
+use crate::monitor::reorder::Reorder;
 use crate::monitor::LineChar;
 use crate::trace::{TraceEntry, TraceKind};
 use crate::tracefile::{Header, MAX_LINE};
 use crate::{Duration, Instant, LineError, SerialSettings};
-use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap, VecDeque};
+use std::collections::{HashMap, VecDeque};
 
 /// Entries read before the kind of line is decided.
 pub const LOOKAHEAD: usize = 4096;
@@ -36,30 +36,6 @@ struct Window {
     end: Instant,
 }
 
-/// A character waiting for its turn: ordered by time, then exact receptions before the
-/// characters of chunks and writes (the whole-trace builder's stable sort), then arrival.
-struct Pending {
-    key: (Instant, u8, u64),
-    c: LineChar,
-}
-
-impl PartialEq for Pending {
-    fn eq(&self, other: &Self) -> bool {
-        self.key == other.key
-    }
-}
-impl Eq for Pending {}
-impl PartialOrd for Pending {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-impl Ord for Pending {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.key.cmp(&other.key)
-    }
-}
-
 /// The line of a trace, fed entry by entry.
 pub struct LineStream {
     stations: Vec<String>,
@@ -72,8 +48,9 @@ pub struct LineStream {
     windows: VecDeque<Window>,
     free: HashMap<usize, Instant>,
     partner: Option<usize>,
-    pending: BinaryHeap<Reverse<Pending>>,
-    seq: u64,
+    /// Characters waiting for their turn: by time, then exact receptions before the
+    /// characters of chunks and writes (the whole-trace builder's stable sort), then arrival.
+    pending: Reorder<LineChar>,
     last_out: Instant,
     /// The latest entry time.
     pub end: Instant,
@@ -138,8 +115,7 @@ impl LineStream {
             windows: VecDeque::new(),
             free: HashMap::new(),
             partner: None,
-            pending: BinaryHeap::new(),
-            seq: 0,
+            pending: Reorder::default(),
             last_out: Instant::ZERO,
             end: Instant::ZERO,
         }
@@ -172,11 +148,7 @@ impl LineStream {
     }
 
     fn hold(&mut self, class: u8, c: LineChar) {
-        self.seq += 1;
-        self.pending.push(Reverse(Pending {
-            key: (c.at, class, self.seq),
-            c,
-        }));
+        self.pending.hold(c.at, class, c);
     }
 
     /// The window that was on the line when a character ended at `at`; the latest start wins.
@@ -296,28 +268,23 @@ impl LineStream {
     }
 
     fn release(&mut self, now: Instant, out: &mut Vec<LineChar>) {
-        let horizon = now.as_micros().saturating_sub(BACKDATE);
-        while let Some(Reverse(p)) = self.pending.peek() {
-            if p.key.0.as_micros() >= horizon {
-                break;
-            }
-            self.pop(out);
+        let horizon = Instant::from_micros(now.as_micros().saturating_sub(BACKDATE));
+        while let Some(c) = self.pending.pop_before(horizon) {
+            self.out(c, out);
         }
     }
 
-    fn pop(&mut self, out: &mut Vec<LineChar>) {
-        if let Some(Reverse(mut p)) = self.pending.pop() {
-            // A trace out of time order is put in order as far as it can be held.
-            p.c.at = p.c.at.max(self.last_out);
-            self.last_out = p.c.at;
-            out.push(p.c);
-        }
+    fn out(&mut self, mut c: LineChar, out: &mut Vec<LineChar>) {
+        // A trace out of time order is put in order as far as it can be held.
+        c.at = c.at.max(self.last_out);
+        self.last_out = c.at;
+        out.push(c);
     }
 
     /// The end of the trace: every character still held.
     pub fn finish(&mut self, out: &mut Vec<LineChar>) {
-        while !self.pending.is_empty() {
-            self.pop(out);
+        while let Some(c) = self.pending.pop() {
+            self.out(c, out);
         }
     }
 }

@@ -57,6 +57,7 @@ pub mod line_stream;
 #[cfg_attr(docsrs, doc(cfg(feature = "tokio")))]
 pub mod live;
 pub mod ordered;
+pub mod reorder;
 #[cfg(feature = "tracefile")]
 #[cfg_attr(docsrs, doc(cfg(feature = "tracefile")))]
 pub mod streamed;

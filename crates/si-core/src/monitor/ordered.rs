@@ -7,44 +7,20 @@
 //! timeout, USS's response delay) and every frame they delimit end well within it, so the
 //! order is the sorted one, and the memory is a minute of line at most.
 
+use crate::monitor::reorder::Reorder;
 use crate::monitor::{Decoder, LineChar, Record};
 use crate::{Duration, Instant};
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 
 /// How long a record is held before it is handed on.
 pub const HORIZON: Duration = Duration::from_millis(60_000);
-
-/// A record waiting for its turn: by start, then the line's records before the engines'
-/// events (`--events`), then arrival.
-struct Held {
-    key: (Instant, u8, u64),
-    r: Record,
-}
-
-impl PartialEq for Held {
-    fn eq(&self, other: &Self) -> bool {
-        self.key == other.key
-    }
-}
-impl Eq for Held {}
-impl PartialOrd for Held {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-impl Ord for Held {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.key.cmp(&other.key)
-    }
-}
 
 /// A decoder and the records it has made but not yet handed on.
 pub struct Ordered {
     /// The protocol's monitor.
     pub decoder: Box<dyn Decoder + Send>,
-    held: BinaryHeap<Reverse<Held>>,
-    seq: u64,
+    /// By start, then the line's records before the engines' events (`--events`), then
+    /// arrival.
+    held: Reorder<Record>,
     scratch: Vec<Record>,
     /// The first character's time.
     pub first: Option<Instant>,
@@ -57,8 +33,7 @@ impl Ordered {
     pub fn new(decoder: Box<dyn Decoder + Send>) -> Self {
         Ordered {
             decoder,
-            held: BinaryHeap::new(),
-            seq: 0,
+            held: Reorder::default(),
             scratch: Vec::new(),
             first: None,
             last: Instant::ZERO,
@@ -66,11 +41,7 @@ impl Ordered {
     }
 
     fn hold(&mut self, class: u8, r: Record) {
-        self.seq += 1;
-        self.held.push(Reverse(Held {
-            key: (r.start, class, self.seq),
-            r,
-        }));
+        self.held.hold(r.start, class, r);
     }
 
     /// Feed one character; records whose turn has come go to `each`.
@@ -88,13 +59,8 @@ impl Ordered {
         }
         self.scratch = out;
         let horizon = Instant::from_micros(c.at.as_micros().saturating_sub(HORIZON.as_micros()));
-        while let Some(Reverse(h)) = self.held.peek() {
-            if h.key.0 >= horizon {
-                break;
-            }
-            if let Some(Reverse(h)) = self.held.pop() {
-                each(h.r)?;
-            }
+        while let Some(r) = self.held.pop_before(horizon) {
+            each(r)?;
         }
         Ok(())
     }
@@ -116,8 +82,8 @@ impl Ordered {
         for r in out {
             self.hold(0, r);
         }
-        while let Some(Reverse(h)) = self.held.pop() {
-            each(h.r)?;
+        while let Some(r) = self.held.pop() {
+            each(r)?;
         }
         Ok(())
     }

@@ -93,6 +93,13 @@ impl<R: BufRead> TraceStream<R> {
         self.header.as_ref()
     }
 
+    /// The header, the first entries, and the stream of the rest (`None` when the first
+    /// entries were the whole trace): for a reader that feeds the line its own way (si-capture's
+    /// waveforms).
+    pub fn into_parts(self) -> (Option<Header>, Vec<TraceEntry>, Option<Stream<R>>) {
+        (self.header, self.prefix, self.more.then_some(self.stream))
+    }
+
     /// The line of the first entries at `settings` (`windows`: a trace of DP windows).
     pub fn probe(&self, settings: SerialSettings, windows: bool) -> Probe {
         let mut line = LineStream::plan(self.header.as_ref(), &self.prefix, settings, windows);

@@ -134,3 +134,73 @@ async fn a_deadline_bytes_do_not_move_gets_the_waiting_bytes_first_and_then_fire
     assert_eq!(received, 3, "the answer waiting in the port came first");
     assert!(at >= deadline, "fired early: {at} < {deadline}");
 }
+
+/// A port that hands over at most two bytes per read: what waited behind an expired deadline
+/// takes the driver several reads to take.
+struct TwoAtATime(tokio::io::DuplexStream);
+
+impl tokio::io::AsyncRead for TwoAtATime {
+    fn poll_read(
+        mut self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+        buf: &mut tokio::io::ReadBuf<'_>,
+    ) -> std::task::Poll<std::io::Result<()>> {
+        let mut two = [0u8; 2];
+        let mut small = tokio::io::ReadBuf::new(&mut two);
+        let polled = std::pin::Pin::new(&mut self.0).poll_read(cx, &mut small);
+        buf.put_slice(small.filled());
+        polled
+    }
+}
+
+impl tokio::io::AsyncWrite for TwoAtATime {
+    fn poll_write(
+        mut self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+        buf: &[u8],
+    ) -> std::task::Poll<std::io::Result<usize>> {
+        std::pin::Pin::new(&mut self.0).poll_write(cx, buf)
+    }
+    fn poll_flush(
+        mut self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<std::io::Result<()>> {
+        std::pin::Pin::new(&mut self.0).poll_flush(cx)
+    }
+    fn poll_shutdown(
+        mut self: std::pin::Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<std::io::Result<()>> {
+        std::pin::Pin::new(&mut self.0).poll_shutdown(cx)
+    }
+}
+
+impl si_core::driver::Transport for TwoAtATime {}
+
+/// Each chunk taken late is stamped before the deadline the engine named after the last one,
+/// whichever way the driver came to take the first (its read or its look at the clock): a
+/// look at the clock that fired nothing does not count as telling the engine the time. The
+/// driver picks between a ready read and a ready timer at random, so the scenario is run
+/// several times (the old reading failed it unless the timer won every time).
+#[tokio::test(start_paused = true)]
+async fn a_rest_taken_in_several_reads_still_arrives_whole() {
+    let (ours, mut theirs) = tokio::io::duplex(64);
+    let (mut handle, _task) = spawn(
+        Framer::default(),
+        TwoAtATime(ours),
+        DriverOptions::default(),
+    );
+    for round in 0..8u8 {
+        arrive(&mut theirs, &handle, &[round, 0x03]).await;
+        theirs
+            .write_all(&[0x06, 0x00, 0x2A, 0x00, 0x01, round])
+            .await
+            .unwrap();
+        tokio::time::advance((GAP + GAP + GAP).into()).await;
+        assert_eq!(
+            handle.next_event().await,
+            Some(vec![round, 0x03, 0x06, 0x00, 0x2A, 0x00, 0x01, round]),
+            "round {round}: the line was never silent for the gap: one frame"
+        );
+    }
+}

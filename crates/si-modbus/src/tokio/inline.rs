@@ -193,7 +193,9 @@ impl<T: Transport> Inner<T> {
         // disarmed per request would cost more than the exchange itself. (A timer kept armed
         // across jobs was tried too: every park of the runtime then also runs tokio's timer
         // wheel, and the round trip got slower than with the yield.)
-        let mut sleep: Option<Pin<Box<tokio::time::Sleep>>> = None;
+        // Pinned here, not boxed: a job that waits for its answer (every one on a real line)
+        // costs no allocation for its timer.
+        let mut sleep = std::pin::pin!(None::<tokio::time::Sleep>);
         let mut armed: Option<Instant> = None;
         let mut yielded = false;
         // Just wrote a request: the first wait skips the read and only yields. The answer
@@ -278,7 +280,7 @@ impl<T: Transport> Inner<T> {
             let next = Instant::earliest(wait, self.tx_done);
             let origin = self.origin;
             // Armed when first polled: only once the read (polled first) is pending, so a
-            // response already there costs no timer (its allocation, its wheel entry).
+            // response already there costs no timer (no wheel entry).
             // The read, the yield and the timer, polled in that order by hand: `select!`
             // would build and poll the same three futures with more bookkeeping per turn.
             let mut yield_now = std::pin::pin!(tokio::task::yield_now());
@@ -299,15 +301,15 @@ impl<T: Transport> Inner<T> {
                 if next != armed {
                     if let Some(next) = next {
                         let at = origin + std::time::Duration::from_micros(next.as_micros());
-                        match sleep.as_mut() {
-                            Some(s) => s.as_mut().reset(at),
-                            None => sleep = Some(Box::pin(tokio::time::sleep_until(at))),
+                        match sleep.as_mut().as_pin_mut() {
+                            Some(s) => s.reset(at),
+                            None => sleep.set(Some(tokio::time::sleep_until(at))),
                         }
                     }
                     armed = next;
                 }
-                match (armed, sleep.as_mut()) {
-                    (Some(_), Some(s)) => s.as_mut().poll(cx).map(|()| Woke::Timer),
+                match (armed, sleep.as_mut().as_pin_mut()) {
+                    (Some(_), Some(s)) => s.poll(cx).map(|()| Woke::Timer),
                     _ => Poll::Pending,
                 }
             })
