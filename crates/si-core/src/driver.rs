@@ -33,8 +33,9 @@
 //! the last stretch is waited by one helper thread for all the process's drivers
 //! (`si-driver-timer`, started on first use, ended when the last driver using it ends; see
 //! [`precise_timer_drivers`]) that blocks on a condition variable with a timeout until the
-//! earliest armed deadline (the kernel's high-resolution timers: some 50–100 µs late on an
-//! idle Linux machine, timer slack included) and wakes that driver's task [`SPIN_BELOW`]
+//! earliest armed deadline (the kernel's high-resolution timers; on Linux the thread asks for
+//! 1 µs of timer slack instead of the default 50 µs, so its waits end within some tens of µs
+//! on an idle machine) and wakes that driver's task [`SPIN_BELOW`]
 //! (50 µs) early; the driver yields to the runtime for the rest. The thread sleeps in the
 //! kernel, so it burns no CPU; tokio's timer stays armed as a backstop. A
 //! deadline already due when the engine names it (tx-done right after a write on a transport

@@ -6,7 +6,7 @@
 
 use si_core::driver::{precise_timer_drivers, spawn, DriverOptions, Handle};
 use si_core::{Duration, Engine, Instant, Output};
-use si_testkit::procfs::threads_named;
+use si_testkit::procfs::{threads_named, timer_slack_ns_named};
 use std::sync::Mutex;
 use tokio::io::DuplexStream;
 use tokio::task::JoinHandle;
@@ -146,6 +146,33 @@ fn the_helper_thread_starts_on_first_use_and_ends_with_the_driver() {
         assert_eq!(timer_threads(), 0, "a driver that waited nothing yet");
         wait_short_deadlines(&mut fleet.handles, 1).await;
         assert_eq!(started_timer_threads(), 1);
+        fleet.end(1).await;
+    });
+    wait_for_no_timer_thread();
+}
+
+/// The thread's timed waits end when asked: its timer slack (50 µs by default on Linux, the
+/// lateness the kernel may add to each wait) is set to 1 µs as the thread starts.
+#[test]
+fn the_helper_thread_asks_the_kernel_for_exact_waits() {
+    let _turn = TURN.lock().unwrap_or_else(|e| e.into_inner());
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async {
+        let mut fleet = Fleet::new(1);
+        wait_short_deadlines(&mut fleet.handles, 1).await;
+        assert_eq!(started_timer_threads(), 1);
+        // The thread sets its slack first thing when it runs, which may be a moment after it
+        // named itself.
+        let start = std::time::Instant::now();
+        let mut slack = timer_slack_ns_named(THREAD).expect("/proc is readable on Linux");
+        while slack != [1_000] && start.elapsed() < std::time::Duration::from_secs(5) {
+            std::thread::sleep(std::time::Duration::from_millis(1));
+            slack = timer_slack_ns_named(THREAD).expect("/proc is readable on Linux");
+        }
+        assert_eq!(slack, [1_000], "the timer thread's slack in ns");
         fleet.end(1).await;
     });
     wait_for_no_timer_thread();

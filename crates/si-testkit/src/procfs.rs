@@ -22,6 +22,21 @@ pub fn threads_named(name: &str) -> Option<usize> {
     )
 }
 
+/// The timer slack, in nanoseconds, of each thread of this process with this name
+/// (`/proc/<tid>/timerslack_ns`, Linux 4.6 and later): how late the kernel may end the
+/// thread's timed waits.
+pub fn timer_slack_ns_named(name: &str) -> Option<Vec<u64>> {
+    let tasks = std::fs::read_dir("/proc/self/task").ok()?;
+    tasks
+        .filter_map(Result::ok)
+        .filter(|t| comm(&t.path()).is_some_and(|c| c == name))
+        .map(|t| {
+            let slack = Path::new("/proc").join(t.file_name()).join("timerslack_ns");
+            std::fs::read_to_string(slack).ok()?.trim().parse().ok()
+        })
+        .collect()
+}
+
 fn comm(task: &Path) -> Option<String> {
     let text = std::fs::read_to_string(task.join("comm")).ok()?;
     Some(text.trim_end().to_owned())

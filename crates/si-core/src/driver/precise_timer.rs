@@ -98,6 +98,7 @@ impl Service {
 
     /// The thread: fire what is due, then sleep until the earliest deadline or a change.
     fn run(&self) {
+        exact_waits();
         // Drivers to wake, collected under the lock and woken after it (kept: no allocation
         // once it has grown to the most deadlines due at once).
         let mut due: Vec<Arc<Notify>> = Vec::new();
@@ -161,6 +162,20 @@ impl Service {
         let slot = service.state().seat(Arc::clone(fired));
         *global = Some(Arc::clone(&service));
         Ok((service, slot))
+    }
+}
+
+/// Make this thread's timed waits end when asked. Linux lets a thread's timed wait end up to
+/// its *timer slack* late (50 µs by default) so that wake-ups can be merged; for the one
+/// thread whose job is to wake drivers on time that is the whole error left (measured: a
+/// Modbus master's request after the 1 ms gap at 115 200 bit/s went out about 45 µs sooner
+/// with 1 µs of slack). Best effort: a kernel that refuses leaves the default.
+fn exact_waits() {
+    #[cfg(target_os = "linux")]
+    {
+        /// The slack asked for, in nanoseconds (0 would mean "the default" to the kernel).
+        const SLACK_NS: std::ffi::c_ulong = 1_000;
+        let _ = nix::sys::prctl::set_timerslack(SLACK_NS);
     }
 }
 
