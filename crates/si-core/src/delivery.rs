@@ -261,6 +261,15 @@ impl Delivery {
         }
     }
 
+    /// [`patience`](Self::patience) as an undeclared port gets it before reads prove anything
+    /// ([`PATIENCE_FACTOR`] times [`ASSUMED_HOLD`], plus one character time), whatever this
+    /// port has proven: for a receiver that waits for predicted bytes on any port, because
+    /// what pauses inside a frame there is the partner or a relay in between, not the port
+    /// (see si-modbus's master with `FrameEnd::Length`).
+    pub fn assumed_patience(&self) -> Duration {
+        ASSUMED_HOLD.saturating_mul(PATIENCE_FACTOR) + self.char_time
+    }
+
     /// The allowance for a frame that only its own content can end and that nothing else on
     /// the line can follow (an ASCII frame with end characters or a fixed length): the longest
     /// hold any port has, [`MAX_LATENCY`] plus one character time, on a packetising port, so

@@ -87,6 +87,11 @@ impl TryFrom<String> for Mode {
 /// has arrived; with `Length` we do the same, but only when the CRC at that length checks, so
 /// anything unexpected (an unknown function code, a corrupt frame, garbage) still ends at the
 /// gap and is checked and reported exactly as with `Gap`. See [`crate::rx`] for the lengths.
+/// A **master** with `Length` also waits out a pause inside a response whose header predicts
+/// more bytes (up to [`si_core::delivery::Delivery::assumed_patience`], 64 ms and a character,
+/// per pause), as libmodbus and mbusd wait for late bytes: a slow slave or a device server
+/// that stalls mid-answer costs time, not a failed job (`crate::rx::Receiver::set_patient`);
+/// an answer cut short for good then fails with 0E52H that much later.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FrameEnd {

@@ -255,8 +255,12 @@ impl Master {
     /// An engine option rather than a [`LineConfig`](crate::config::LineConfig) field:
     /// `LineConfig` is the module's own parameter set ([Modbus/USS] §3.3.5–§3.9, Table 3-11, what
     /// si-dp-coord reads from a parameter record), and this is not one of the module's parameters.
+    ///
+    /// With [`FrameEnd::Length`] the master also waits out a hole inside a response whose
+    /// header predicts more bytes, on any port ([`Receiver::set_patient`]).
     pub fn with_frame_end(mut self, frame_end: FrameEnd) -> Self {
         self.rx.set_frame_end(frame_end);
+        self.rx.set_patient(frame_end == FrameEnd::Length);
         self
     }
 

@@ -203,9 +203,11 @@ pub struct Receiver {
     delivery: Delivery,
     /// RS-485 recognises a message by its address ([Modbus/USS] §3.4.1, §3.4.3).
     interface: Interface,
-    /// The frame's header predicts more bytes than it holds: on a packetising port a hole is
-    /// then waited out up to the longest latency a port can have.
+    /// The frame's header predicts more bytes than it holds: on a packetising port (or with
+    /// `patient`) a hole is then waited out ([`effective_gap`](Self::effective_gap)).
     more_predicted: bool,
+    /// Wait for predicted bytes on every port ([`set_patient`](Self::set_patient)).
+    patient: bool,
 }
 
 impl Receiver {
@@ -227,7 +229,23 @@ impl Receiver {
             delivery: Delivery::new(&line.settings),
             interface: Interface::Rs232,
             more_predicted: false,
+            patient: false,
         }
+    }
+
+    /// Wait out a hole in a frame whose header predicts more bytes on any port, not only on
+    /// one that packetises: a master with [`FrameEnd::Length`] (host extension). `[derived]`:
+    /// what pauses inside a response on a port that delivers byte by byte is the slave itself
+    /// (a slow slave that pauses between characters) or something between it and us (a
+    /// device server, a relay, a converter that stalls), and the response's own length says
+    /// it is not over. Libmodbus and mbusd likewise end a known response by its length and
+    /// wait for late bytes with a timeout of their own. The wait is at most
+    /// [`Delivery::assumed_patience`] per hole (64 ms and a character), and a response as a
+    /// whole still ends by [`MasterConfig::max_response_duration`](crate::MasterConfig::max_response_duration),
+    /// which allows one port margin (255 ms and a character) beyond its wire time and gap.
+    /// A slave keeps the gap: on a bus a fragment waited for could swallow the next request.
+    pub fn set_patient(&mut self, patient: bool) {
+        self.patient = patient;
     }
 
     /// The driver declared the port's delivery latency ([`si_core::Engine::set_rx_latency`]).
@@ -252,7 +270,11 @@ impl Receiver {
     /// scheduling adds to it, so only a frame that cannot end by its length is judged by the
     /// tighter allowance.
     pub fn effective_gap(&self) -> Duration {
-        let allowance = if self.more_predicted {
+        let allowance = if self.more_predicted && self.patient {
+            self.delivery
+                .patience()
+                .max(self.delivery.assumed_patience())
+        } else if self.more_predicted {
             self.delivery.patience()
         } else {
             self.delivery.allowance()
@@ -488,7 +510,7 @@ impl Receiver {
                 }
             }
         }
-        self.more_predicted = self.delivery.packetises()
+        self.more_predicted = (self.patient || self.delivery.packetises())
             && matches!(self.prediction(expect),
                 Prediction::NeedMore(k) | Prediction::Len(k) if k > self.len);
         taken

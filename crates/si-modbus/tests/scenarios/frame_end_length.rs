@@ -778,3 +778,57 @@ proptest! {
         prop_assert!(done > 10, "{} of 40 done", done);
     }
 }
+
+/// The extension's patience: a master that ends frames by length waits out a pause inside a
+/// response whose header predicts more bytes, even on a port that delivers byte by byte (the
+/// simulator's stations declare exact delivery). With the gap alone, the 10 ms pause below
+/// would cut the answer into two frames and fail the job.
+#[test]
+fn s3_5_extension_length_master_waits_out_a_pause_inside_a_response() {
+    let (mut sim, m, p) = master_waiting_for_read2();
+    let answer = with_crc(vec![1, 3, 4, 0, 1, 0, 2]);
+    sim.transmit(p, &answer[..4]);
+    let s = SerialSettings::default();
+    let paused = sim.now() + s.chars_time(4) + Duration::from_millis(10);
+    sim.run_until(paused);
+    assert!(sim.take_events(m).is_empty(), "the job ended in the pause");
+    sim.transmit(p, &answer[4..]);
+    sim.run_until_quiet(LIMIT);
+    let events = sim.take_events(m);
+    assert_eq!(events.len(), 1, "{events:?}");
+    let MasterEvent::Completed(c) = &events[0] else {
+        panic!("expected the completed job, got {events:?}");
+    };
+    assert_eq!(
+        c.response(),
+        Some(Response::ReadHoldingRegisters(Registers::Words(&[1, 2])))
+    );
+}
+
+/// A response cut short for good still ends, after the gap and the patience
+/// (`Delivery::assumed_patience`: 4 × 16 ms and one character), as a length error, not as
+/// "no response".
+#[test]
+fn s4_4_extension_length_a_response_cut_short_ends_after_the_patience_with_0e52h() {
+    let (mut sim, m, p) = master_waiting_for_read2();
+    let s = SerialSettings::default();
+    let start = sim.now();
+    sim.transmit(p, &[1, 3, 4, 0]);
+    sim.run_until_quiet(LIMIT);
+    let events = event_times(&sim, "master");
+    assert_eq!(events.len(), 1, "{events:?}");
+    let patience = 64_000 + s.chars_time(1).as_micros();
+    assert_eq!(
+        events[0].0,
+        start + s.chars_time(4) + Duration::from_micros(GAP + patience)
+    );
+    assert_eq!(
+        sim.take_events(m),
+        vec![MasterEvent::Failed {
+            job: si_core::job::JobId(1),
+            unit: 1,
+            function: 3,
+            status: status::TOO_FEW_BYTES
+        }]
+    );
+}
