@@ -59,3 +59,32 @@ pub fn socat_pair(end: &str) -> Option<(Kill, String, String)> {
     let a = names.pop().expect("first pty");
     Some((socat, a, b))
 }
+
+/// Wait until process `pid` holds the device at `path` open (one of its `/proc/<pid>/fd` links
+/// names that device, symlinks resolved), checking every 2 ms for at most `bound`; `false` if
+/// it did not by then (or `path` does not exist). A test that writes to a peer process's
+/// port waits for this instead of a guessed sleep, which is slow on an idle machine and too
+/// short on a loaded one. Linux only (`/proc`); elsewhere it waits out `bound` and says no.
+pub fn wait_until_open(pid: u32, path: &str, bound: std::time::Duration) -> bool {
+    let Ok(device) = std::fs::canonicalize(path) else {
+        return false;
+    };
+    let start = std::time::Instant::now();
+    loop {
+        if holds_open(pid, &device) {
+            return true;
+        }
+        if start.elapsed() > bound {
+            return false;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+}
+
+fn holds_open(pid: u32, device: &std::path::Path) -> bool {
+    let Ok(fds) = std::fs::read_dir(format!("/proc/{pid}/fd")) else {
+        return false;
+    };
+    fds.filter_map(Result::ok)
+        .any(|fd| std::fs::read_link(fd.path()).is_ok_and(|target| target == device))
+}

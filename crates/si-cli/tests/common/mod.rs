@@ -120,6 +120,18 @@ pub fn pty_pair_ignoreeof() -> Option<PtyPair> {
     socat_pty_pair("pty,raw,echo=0,ignoreeof")
 }
 
+/// Wait until `child` holds the port at `path` open (at most 10 s, then fail): a receiver or
+/// server started before its peer must be listening before the first byte comes, and a
+/// fixed sleep is slow on an idle machine and too short on a loaded one.
+pub fn opened(child: &std::process::Child, path: &str) {
+    let bound = std::time::Duration::from_secs(10);
+    assert!(
+        si_testkit::pty::wait_until_open(child.id(), path, bound),
+        "process {} did not open {path} within {bound:?}",
+        child.id()
+    );
+}
+
 /// The pair of si-testkit's `socat -d -d END END` with both ends' options `end`.
 fn socat_pty_pair(end: &str) -> Option<PtyPair> {
     let (socat, a, b) = si_testkit::pty::socat_pair(end)?;

@@ -3,7 +3,7 @@
 //! `si rk512 send` / `fetch` reach from the other end; and a `kind = "3964r"` line with
 //! `si 3964r send` / `recv` at the other end. Skips without socat (fails with `CI`).
 
-use crate::common::{pty_pair, pty_pair_ignoreeof, si_command, Kill, PtyPair};
+use crate::common::{opened, pty_pair, pty_pair_ignoreeof, si_command, Kill, PtyPair};
 use crate::harness::{launch, read_holding, stdout_lines, write_registers, Client};
 use std::process::Stdio;
 use std::sync::mpsc::Receiver;
@@ -211,7 +211,7 @@ fn a_3964r_partners_blocks_are_registers() {
         .expect("start si 3964r recv");
     let log = stdout_lines(&mut recv);
     let _recv = Kill(recv);
-    std::thread::sleep(Duration::from_millis(300));
+    opened(&_recv.0, &pair.b);
     assert_eq!(
         c.ask(4, &write_registers(0, &[3, 0x4142, 0x4300])),
         [0x10, 0, 0, 0, 3]

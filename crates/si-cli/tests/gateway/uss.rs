@@ -2,7 +2,7 @@
 //! `si gateway` polling it on the other, raw MBAP frames from a std socket. Unit 5 is the drive;
 //! unit 6 is drive address 6, which nobody answers. Skips without socat (fails with `CI` set).
 
-use crate::common::{have_socat, pty_pair, si_command, test_dir, Kill};
+use crate::common::{have_socat, opened, pty_pair, si_command, test_dir, Kill};
 use crate::harness::{
     launch, read_holding, stop, wait_for_event, write_registers, Client, LinkedPair,
 };
@@ -48,7 +48,7 @@ fn drive(port: &str) -> Kill {
             .spawn()
             .expect("start sim-slave"),
     );
-    std::thread::sleep(Duration::from_millis(300));
+    opened(&drive.0, port);
     drive
 }
 

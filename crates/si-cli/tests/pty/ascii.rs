@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use crate::common;
 
-use common::{pty_pair, si_command, PtyPair};
+use common::{opened, pty_pair, si_command, PtyPair};
 
 #[test]
 fn recv_end_chars_cr_lf_receives_the_lines_send_writes() {
@@ -22,8 +22,8 @@ fn recv_end_chars_cr_lf_receives_the_lines_send_writes() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("start si ascii recv");
-    // Let the receiver open its port before anything is written.
-    std::thread::sleep(Duration::from_millis(700));
+    // The receiver opens its port before anything is written.
+    opened(&recv, &pair.a);
 
     let first = si_command()
         .args([
@@ -175,7 +175,7 @@ fn monitor_prints_timestamped_frames_and_never_transmits() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("start si ascii monitor");
-    std::thread::sleep(Duration::from_millis(700));
+    opened(&monitor, &pair.a);
     let mut partner = std::fs::OpenOptions::new()
         .read(true)
         .write(true)
@@ -221,7 +221,7 @@ fn monitor_prints_timestamped_frames_and_never_transmits() {
     );
 }
 
-/// Start `si ascii recv` on `port` with `args`, let it open the port, run `send` (each a full
+/// Start `si ascii recv` on `port` with `args`, wait until it holds the port open, run `send` (each a full
 /// `si ascii send` argument list after the port), and return recv's stdout lines.
 fn recv_while_sending(pair: &PtyPair, recv_args: &[&str], sends: &[&[&str]]) -> Vec<String> {
     let recv = si_command()
@@ -239,7 +239,7 @@ fn recv_while_sending(pair: &PtyPair, recv_args: &[&str], sends: &[&[&str]]) -> 
         .stderr(Stdio::piped())
         .spawn()
         .expect("start si ascii recv");
-    std::thread::sleep(Duration::from_millis(700));
+    opened(&recv, &pair.a);
     for (i, args) in sends.iter().enumerate() {
         if i > 0 {
             // Longer than the CDT of the character-delay test, so each send is its own frame.
@@ -347,7 +347,7 @@ fn cp341_frames_of_1_kb_pass_and_the_et200s_refuses_201_bytes_with_050e() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("start si ascii recv");
-    std::thread::sleep(Duration::from_millis(700));
+    opened(&recv, &pair.a);
     let line = format!("{}0D 0A", "41 ".repeat(1022));
     let sent = si_command()
         .args([

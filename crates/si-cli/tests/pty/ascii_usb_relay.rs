@@ -11,7 +11,7 @@ use std::time::Duration;
 use crate::common;
 
 use common::relay::{usb_relay, Adapter};
-use common::{have_socat, pty_pair_ignoreeof, si_command};
+use common::{have_socat, opened, pty_pair_ignoreeof, si_command};
 
 #[test]
 fn si_ascii_recv_gets_three_100_byte_frames_whole_behind_an_unannounced_16ms_adapter() {
@@ -29,7 +29,7 @@ fn si_ascii_recv_gets_three_100_byte_frames_whole_behind_an_unannounced_16ms_ada
         .stderr(Stdio::piped())
         .spawn()
         .expect("start si ascii recv");
-    std::thread::sleep(Duration::from_millis(700));
+    opened(&recv, &near.a);
     let frame: Vec<String> = (0..100u32)
         .map(|i| format!("{:02X}", b'A' + (i % 26) as u8))
         .collect();

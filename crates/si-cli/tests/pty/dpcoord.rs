@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 
 use crate::common;
 
-use common::{pty_pair, si_command};
+use common::{opened, pty_pair, si_command};
 
 /// The module process, cycled one window at a time.
 struct ModuleProcess {
@@ -151,7 +151,7 @@ fn module_3964r_receives_from_si_3964r_send_and_sends_to_si_3964r_recv() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("si 3964r recv");
-    std::thread::sleep(Duration::from_millis(500));
+    opened(&recv, &pair.b);
     assert_eq!(
         m.cycle("10 00 00 00 00 00 00 00"),
         "10 00 00 00 00 00 00 00"
@@ -252,7 +252,7 @@ fn host_and_module_processes_joined_by_the_test_deliver_a_block_to_si_3964r_recv
         .stderr(Stdio::piped())
         .spawn()
         .expect("si 3964r recv");
-    std::thread::sleep(Duration::from_millis(500));
+    opened(&recv, &pair.b);
     let mut host = si_command()
         .args([
             "dp-coord",

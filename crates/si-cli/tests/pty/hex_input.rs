@@ -4,13 +4,12 @@
 //! missing, a failure with `CI` set).
 
 use std::process::{Output, Stdio};
-use std::time::Duration;
 
 use crate::common;
 
-use common::{pty_pair_ignoreeof, si_command, text};
+use common::{opened, pty_pair_ignoreeof, si_command, text};
 
-/// Start `si --json --port B <receiver>`, let it open the port, run `si --port A <sender>`,
+/// Start `si --json --port B <receiver>`, wait until it holds the port open, run `si --port A <sender>`,
 /// and return the sender's output and the receiver's stdout.
 fn send_to(receiver: &[&str], sender: &[&str]) -> Option<(Output, String)> {
     let pair = pty_pair_ignoreeof()?;
@@ -21,7 +20,7 @@ fn send_to(receiver: &[&str], sender: &[&str]) -> Option<(Output, String)> {
         .stderr(Stdio::piped())
         .spawn()
         .expect("start the receiver");
-    std::thread::sleep(Duration::from_millis(500));
+    opened(&recv, &pair.b);
     let sent = si_command()
         .args(["--port", &pair.a])
         .args(sender)

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use crate::common;
 
-use common::{pty_pair, si_command, stderr, stdout, Kill};
+use common::{opened, pty_pair, si_command, stderr, stdout, Kill};
 
 /// How long a role may take to notice the hang-up: a bound for a stuck process, not a timing
 /// claim (it ends within milliseconds).
@@ -59,14 +59,16 @@ fn start(line: &[&str], args: &[&str]) -> Child {
         .expect("start si")
 }
 
-/// Start `si --port <first pty> <args…>`, let it open the port, write `feed` (raw bytes, each
+/// Start `si --port <first pty> <args…>`, wait until it holds the port open, write `feed` (raw bytes, each
 /// a piece written after a pause) into the other end, hang up (socat killed), and return how
 /// `si` ended and the pty's name. `None` when socat is missing.
 fn hang_up(args: &[&str], feed: &[&[u8]]) -> Option<(Output, String)> {
     let pair = pty_pair()?;
     let port = pair.a.clone();
     let child = start(&["--port", &port], args);
-    std::thread::sleep(Duration::from_millis(700));
+    opened(&child, &port);
+    // Then it reads the line: the hang-up comes while it runs, not while it starts.
+    std::thread::sleep(Duration::from_millis(300));
     if !feed.is_empty() {
         let mut other = std::fs::OpenOptions::new()
             .read(true)

@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use crate::common;
 
-use common::{monitor_json, pty_pair_ignoreeof, si_command, test_dir, Kill};
+use common::{monitor_json, opened, pty_pair_ignoreeof, si_command, test_dir, Kill};
 
 fn tmp(name: &str) -> PathBuf {
     test_dir("si-monitor-pty").join(name)
@@ -33,7 +33,7 @@ fn record_on_3964r_send_and_recv_reads_back_in_the_monitor() {
         .spawn()
         .expect("start recv");
     let recv = Kill(recv);
-    std::thread::sleep(Duration::from_millis(300));
+    opened(&recv.0, b);
     let o = si_command()
         .args(["--port", a, "--record"])
         .arg(&send_trace)
@@ -137,7 +137,7 @@ fn live_monitor_decodes_and_never_transmits() {
             .spawn()
             .unwrap(),
     );
-    std::thread::sleep(Duration::from_millis(300));
+    opened(&monitor.0, b);
     let mut port = std::fs::OpenOptions::new()
         .read(true)
         .write(true)
@@ -197,7 +197,7 @@ fn a_monitor_cable_with_two_ports_shows_both_directions() {
             .spawn()
             .unwrap(),
     );
-    std::thread::sleep(Duration::from_millis(300));
+    opened(&monitor.0, b1);
     let open = |p: &str| std::fs::OpenOptions::new().write(true).open(p).unwrap();
     let (mut a, mut b) = (open(a1), open(a2));
     // Station A sends "AB" with 3964(R) (BCC 10H); station B answers on its own wire.
@@ -270,7 +270,7 @@ fn live_monitor_writes_the_frames_as_a_wireshark_capture() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(Duration::from_millis(300));
+    opened(&monitor, b);
     let mut port = std::fs::OpenOptions::new()
         .read(true)
         .write(true)

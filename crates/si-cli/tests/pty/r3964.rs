@@ -3,11 +3,10 @@
 //! is missing (fails with `CI` set).
 
 use std::process::Stdio;
-use std::time::Duration;
 
 use crate::common;
 
-use common::{pty_pair_ignoreeof, si_command};
+use common::{opened, pty_pair_ignoreeof, si_command};
 
 #[test]
 fn recv_gets_what_send_sends_and_both_exit_0() {
@@ -23,7 +22,7 @@ fn recv_gets_what_send_sends_and_both_exit_0() {
         .spawn()
         .expect("start recv");
     // If the test fails early, killing socat closes the pty and recv exits with an error.
-    std::thread::sleep(Duration::from_millis(300));
+    opened(&recv, b);
 
     // A block with a DLE in it (doubled on the line) and one given as text.
     for args in [vec!["41 42 10 43"], vec!["--text", "hello over a pty"]] {

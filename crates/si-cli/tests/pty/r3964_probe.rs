@@ -3,7 +3,7 @@
 
 use crate::common;
 
-use common::{pty_pair_ignoreeof, si_command, stdout, text, Kill};
+use common::{opened, pty_pair_ignoreeof, si_command, stdout, text, Kill};
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
@@ -38,8 +38,8 @@ fn a_receiving_partner_answers_stx_with_dle_within_the_announced_time() {
             .spawn()
             .expect("start recv"),
     );
-    // The partner opens its port.
-    std::thread::sleep(Duration::from_millis(500));
+    // The partner opens its port (its own STX comes only when it sends).
+    opened(&_partner.0, &pair.b);
     let (lines, took, t) = probe(&pair.a, &["--ack-delay-ms", "500"]);
     let bound = lines[0]["bound_ms"].as_u64().expect("the announced bound");
     assert_eq!(lines.len(), 2, "{t}");

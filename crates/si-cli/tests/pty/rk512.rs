@@ -5,11 +5,10 @@
 
 use std::io::Write;
 use std::process::{Command, Stdio};
-use std::time::Duration;
 
 use crate::common;
 
-use common::{pty_pair_ignoreeof, si, si_command, test_dir, text, Kill};
+use common::{opened, pty_pair_ignoreeof, si, si_command, test_dir, text, Kill};
 
 #[test]
 fn fetch_returns_what_send_wrote_to_serve() {
@@ -33,7 +32,7 @@ fn fetch_returns_what_send_wrote_to_serve() {
         .spawn()
         .expect("start serve");
     let serve = Kill(serve);
-    std::thread::sleep(Duration::from_millis(300));
+    opened(&serve.0, b);
 
     // 150 bytes: a first telegram of 128 bytes and a continuation; a DLE (10H) in the data.
     let data: Vec<String> = (0..150u32)

@@ -16,7 +16,7 @@ use crate::common;
 
 use common::modbus;
 use common::noise::{noise_peer, one_at_a_time, Noise};
-use common::{pty_pair, pty_pair_ignoreeof, si, si_command, test_dir, text, Kill};
+use common::{opened, pty_pair, pty_pair_ignoreeof, si, si_command, test_dir, text, Kill};
 
 /// How long the flood lasts (the issue: "flooded").
 const FLOOD: Duration = Duration::from_secs(2);
@@ -99,7 +99,7 @@ fn uss_sim_slave_answers_after_a_flood() {
     );
     // Time to open the port (as in pty/uss.rs). The drive hunts for STX and drops 01H without
     // an event, so only the answer after the flood shows it coped.
-    std::thread::sleep(Duration::from_millis(300));
+    opened(&slave.0, &pair.b);
     let written = uss_job(&pair.a, &["write-param", "1082", "120"]);
     ok(&written, "write-param");
 
@@ -136,7 +136,7 @@ fn rk512_serve_answers_after_a_flood() {
             .expect("start rk512 serve"),
     );
     // Time to open the port (as in pty/rk512.rs).
-    std::thread::sleep(Duration::from_millis(300));
+    opened(&serve.0, &pair.b);
     let hex = "12 34 56 78";
     let sent = si(&[
         "--port", &pair.a, "rk512", "send", "--db", "10", "--dw", "4", hex,

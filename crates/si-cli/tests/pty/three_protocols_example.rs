@@ -9,9 +9,8 @@
 use crate::common;
 
 use common::modbus::{serve, served};
-use common::{example, pty_pair, si_command, stderr, stdout, Kill};
+use common::{example, opened, pty_pair, si_command, stderr, stdout, Kill};
 use std::process::{Command, Stdio};
-use std::time::Duration;
 
 #[test]
 fn the_user_program_talks_3964r_modbus_and_uss_and_prints_each_answer() {
@@ -37,7 +36,7 @@ fn the_user_program_talks_3964r_modbus_and_uss_and_prints_each_answer() {
             .spawn()
             .expect("start si uss sim-slave"),
     );
-    std::thread::sleep(Duration::from_millis(300));
+    opened(&_drive.0, &uss.b);
 
     let o = Command::new(example)
         .args([&r3964.a, &modbus.a, &uss.a])

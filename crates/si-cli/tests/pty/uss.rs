@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use crate::common;
 
-use common::{pty_pair, pty_pair_ignoreeof, si_command, Kill};
+use common::{opened, pty_pair, pty_pair_ignoreeof, si_command, Kill};
 
 /// `si uss sim-slave --address <address> <extra…> --port <port>`, given 300 ms to open the port.
 fn drive(port: &str, address: &str, extra: &[&str]) -> Kill {
@@ -19,7 +19,7 @@ fn drive(port: &str, address: &str, extra: &[&str]) -> Kill {
             .spawn()
             .expect("start sim-slave"),
     );
-    std::thread::sleep(Duration::from_millis(300));
+    opened(&slave.0, port);
     slave
 }
 

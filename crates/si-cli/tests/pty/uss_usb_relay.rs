@@ -14,12 +14,11 @@
 //! either. Skips with a message when socat is missing; with `CI` set it fails instead.
 
 use std::process::Stdio;
-use std::time::Duration;
 
 use crate::common;
 
 use common::relay::{usb_relay_host_side, Adapter};
-use common::{have_socat, pty_pair_ignoreeof, si_command, test_dir, Kill};
+use common::{have_socat, opened, pty_pair_ignoreeof, si_command, test_dir, Kill};
 
 #[test]
 fn si_uss_read_param_is_answered_on_its_first_poll_behind_an_unannounced_16ms_adapter() {
@@ -38,7 +37,7 @@ fn si_uss_read_param_is_answered_on_its_first_poll_behind_an_unannounced_16ms_ad
             .spawn()
             .expect("start si uss sim-slave"),
     );
-    std::thread::sleep(Duration::from_millis(500));
+    opened(&_drive.0, &far.b);
     let dir = test_dir("si-uss-usb-relay");
     for run in 0..5 {
         let trace = dir.join(format!("read-param-{run}.trace"));
