@@ -11,8 +11,8 @@
 #   PAUSE_MS: the pause between requests on the line, the same for both (mbusd -R, si
 #   pause_ms); mbusd's minimum is 1 ms, both default to 100 ms.
 # env: MBUSD_SRC (default ../shared/peers/mbusd), BAUD (19200), CLIENTS ("1,8"),
-#   PACE (0): 1 puts benches/gateway/pace.py between the gateway's pty and the slave's, so
-#   every byte takes its wire time at BAUD 8N1 (a pty alone ignores the baud rate);
+#   PACE (0): 1 puts si-testkit's si-pace relay between the gateway's pty and the slave's,
+#   so every byte takes its wire time at BAUD 8N1 (a pty alone ignores the baud rate);
 #   SI_FRAME_END (unset): si's frame_end line key (gap or length); SI_KEYS: more line keys
 #   for si (e.g. "demote_after = 0"); GATEWAYS ("si mbusd"): which to run.
 set -euo pipefail
@@ -42,6 +42,10 @@ cmake --build "$TMP/mbusd" >>"$TMP/mbusd-build.log" 2>&1
 MBUSD=$TMP/mbusd/mbusd
 (cd "$ROOT" && CARGO_INCREMENTAL=0 cargo build --release -p si-cli >"$TMP/si-build.log" 2>&1)
 SI=${CARGO_TARGET_DIR:-$ROOT/target}/release/si
+if [ "$PACE" = 1 ]; then
+    (cd "$ROOT" && CARGO_INCREMENTAL=0 cargo build --release -p si-testkit --bin si-pace >>"$TMP/si-build.log" 2>&1)
+fi
+PACER=${CARGO_TARGET_DIR:-$ROOT/target}/release/si-pace
 
 echo "# $(uname -srm), $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
 echo "# $($SI --version), mbusd $(sed -n 's/^project(mbusd VERSION \([0-9.]*\).*/\1/p' "$MBUSD_SRC/CMakeLists.txt") (cmake -DCMAKE_BUILD_TYPE=Release, $(cc --version | head -1))"
@@ -99,7 +103,7 @@ run() { # name
         local relay_a=$PTY_B
         pty_pair "$name-slave"
         rm -f "$TMP/pace.out"
-        python3 "$ROOT/benches/gateway/pace.py" "$relay_a" "$PTY_A" "$BAUD" >"$TMP/pace.out" 2>"$TMP/pace.log" &
+        "$PACER" "$relay_a" "$PTY_A" "$BAUD" >"$TMP/pace.out" 2>"$TMP/pace.log" &
         PIDS+=($!)
         for _ in $(seq 50); do grep -q ready "$TMP/pace.out" 2>/dev/null && break; sleep 0.1; done
     fi

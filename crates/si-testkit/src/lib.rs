@@ -10,6 +10,8 @@
 //! - [`peers`]: external test peers (socat, pymodbus, mbpoll): skip without one, fail under
 //!   `CI`; a child process killed when the test ends.
 //! - [`pty`]: pseudo-terminal pairs (socat) for the pty tests of a library handle.
+//! - [`relay`]: a relay between two pseudo-terminals that paces bytes at the wire's character
+//!   time and can hold them like a USB adapter (the USB tests, the `si-pace` binary).
 //! - [`procfs`]: threads and resident memory of the process (Linux), for the driver's
 //!   thread-count test and the lines-per-process benchmark.
 
@@ -19,3 +21,4 @@ pub mod noise;
 pub mod peers;
 pub mod procfs;
 pub mod pty;
+pub mod relay;

@@ -9,7 +9,6 @@
 pub mod fifo;
 pub mod modbus;
 pub mod noise;
-pub mod relay;
 
 use serde_json::Value;
 use std::ffi::OsStr;

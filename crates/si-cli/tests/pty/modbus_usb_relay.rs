@@ -12,8 +12,8 @@
 use crate::common;
 
 use common::modbus::{self, have_pymodbus, pymodbus_server, served};
-use common::relay::{usb_relay, Adapter};
 use common::{exit_within, have_socat, pty_pair_ignoreeof, stderr, stdout, Kill, PtyPair};
+use si_testkit::relay::{usb_relay, Adapter};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -28,7 +28,7 @@ fn line_with_adapter() -> Option<(PtyPair, PtyPair)> {
     }
     let near = pty_pair_ignoreeof()?;
     let far = pty_pair_ignoreeof()?;
-    usb_relay(&near.b, &far.a, Adapter::ftdi_default(19_200, 11));
+    let _relay = usb_relay(&near.b, &far.a, Adapter::ftdi_default(19_200, 11));
     Some((near, far))
 }
 

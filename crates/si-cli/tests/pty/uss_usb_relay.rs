@@ -17,8 +17,8 @@ use std::process::Stdio;
 
 use crate::common;
 
-use common::relay::{usb_relay_host_side, Adapter};
 use common::{have_socat, opened, pty_pair_ignoreeof, si_command, test_dir, Kill};
+use si_testkit::relay::{usb_relay_host_side, Adapter, LATE_TOLERANCE};
 
 #[test]
 fn si_uss_read_param_is_answered_on_its_first_poll_behind_an_unannounced_16ms_adapter() {
@@ -29,7 +29,7 @@ fn si_uss_read_param_is_answered_on_its_first_poll_behind_an_unannounced_16ms_ad
         return;
     };
     // USS's character: 8 data bits, even parity, 1 stop bit ([USS spec] §6.1).
-    usb_relay_host_side(&near.b, &far.a, Adapter::ftdi_default(9_600, 11));
+    let relay = usb_relay_host_side(&near.b, &far.a, Adapter::ftdi_default(9_600, 11));
     let _drive = Kill(
         si_command()
             .args(["uss", "sim-slave", "--address", "5", "--port", &far.b])
@@ -39,7 +39,12 @@ fn si_uss_read_param_is_answered_on_its_first_poll_behind_an_unannounced_16ms_ad
     );
     opened(&_drive.0, &far.b);
     let dir = test_dir("si-uss-usb-relay");
-    for run in 0..5 {
+    // Five runs judged; a run in which the machine stalled the relay is not judged (at most
+    // five such).
+    let (mut judged, mut late_runs) = (0, 0);
+    while judged < 5 {
+        let run = judged + late_runs;
+        relay.take_max_late();
         let trace = dir.join(format!("read-param-{run}.trace"));
         let o = si_command()
             .arg("--record")
@@ -59,6 +64,15 @@ fn si_uss_read_param_is_answered_on_its_first_poll_behind_an_unannounced_16ms_ad
             String::from_utf8_lossy(&o.stdout),
             String::from_utf8_lossy(&o.stderr),
         );
+        let text = std::fs::read_to_string(&trace).expect("the recording");
+        let late = relay.take_max_late();
+        if late > LATE_TOLERANCE && late_runs < 5 && !answered_at_once(o.status.success(), &text) {
+            // The machine stalled the relay: a hole no adapter makes. Not this code's failure.
+            eprintln!("run {run}: the relay was {late:?} late, not judged");
+            late_runs += 1;
+            continue;
+        }
+        judged += 1;
         assert!(o.status.success(), "run {run}: {err}");
         assert_eq!(
             out.trim(),
@@ -67,17 +81,26 @@ fn si_uss_read_param_is_answered_on_its_first_poll_behind_an_unannounced_16ms_ad
         );
         // The first poll was answered: one telegram out (16 bytes: STX LGE ADR, 4 PKW and
         // 2 PZD words, BCC), no repetition.
-        let text = std::fs::read_to_string(&trace).expect("the recording");
-        let sent: usize = text
-            .lines()
-            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
-            .filter(|v| v["kind"] == "tx")
-            .map(|v| v["bytes"].as_array().map_or(0, Vec::len))
-            .sum();
         assert_eq!(
-            sent, 16,
+            sent_bytes(&text),
+            16,
             "run {run}: one telegram, not a repetition:\n{text}"
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The bytes the host sent, from its recording.
+fn sent_bytes(trace: &str) -> usize {
+    trace
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|v| v["kind"] == "tx")
+        .map(|v| v["bytes"].as_array().map_or(0, Vec::len))
+        .sum()
+}
+
+/// The read succeeded on its first poll (one 16-byte telegram sent).
+fn answered_at_once(success: bool, trace: &str) -> bool {
+    success && sent_bytes(trace) == 16
 }
