@@ -6,8 +6,14 @@ use pyo3::types::PyTuple;
 
 /// `__exit__`'s rule: the context manager closes the handle and never swallows the
 /// exception that ended the `with` block (returns False); `closed` is what `close` returned.
-pub fn exit(closed: PyResult<()>, _args: &Bound<'_, PyTuple>) -> PyResult<bool> {
-    closed?;
+/// `args` are `(exc_type, exc_value, traceback)`. A failed close raises, unless an exception
+/// already propagates: that one is the cause the caller needs, and raising here would
+/// replace it.
+pub fn exit(closed: PyResult<()>, args: &Bound<'_, PyTuple>) -> PyResult<bool> {
+    let propagating = args.get_item(0).is_ok_and(|exc_type| !exc_type.is_none());
+    if !propagating {
+        closed?;
+    }
     Ok(false)
 }
 
@@ -61,3 +67,47 @@ macro_rules! pymethods_with_close {
     };
 }
 pub(crate) use pymethods_with_close;
+
+#[cfg(test)]
+mod tests {
+    use super::exit;
+    use pyo3::exceptions::{PyOSError, PyValueError};
+    use pyo3::prelude::*;
+    use pyo3::types::PyTuple;
+
+    fn failed_close() -> PyResult<()> {
+        Err(PyOSError::new_err("the line failed"))
+    }
+
+    #[test]
+    fn a_failed_close_raises_when_the_block_ended_normally() {
+        Python::initialize();
+        Python::attach(|py| {
+            let normal_end = PyTuple::new(py, [py.None(), py.None(), py.None()]).unwrap();
+            let raised = exit(failed_close(), &normal_end).unwrap_err();
+            assert!(raised.is_instance_of::<PyOSError>(py), "{raised}");
+            assert!(!exit(Ok(()), &normal_end).unwrap(), "nothing swallowed");
+            let no_arguments = PyTuple::empty(py);
+            assert!(exit(failed_close(), &no_arguments).is_err());
+        });
+    }
+
+    #[test]
+    fn a_failed_close_does_not_mask_the_propagating_exception() {
+        Python::initialize();
+        Python::attach(|py| {
+            let error = PyValueError::new_err("the test failed");
+            let propagating = PyTuple::new(
+                py,
+                [
+                    py.get_type::<PyValueError>().into_any(),
+                    error.value(py).clone().into_any(),
+                    py.None().into_bound(py),
+                ],
+            )
+            .unwrap();
+            // False: the `with` statement re-raises the ValueError, not the close's error.
+            assert!(!exit(failed_close(), &propagating).unwrap());
+        });
+    }
+}

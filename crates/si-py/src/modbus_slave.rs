@@ -3,7 +3,7 @@
 //! pauses the line: the newest 1024 wait for `next_event`, older ones are dropped.
 
 use crate::callback_store::{CallbackStore, Callbacks};
-use crate::errors::{argument_error, modbus};
+use crate::errors::{argument_error, modbus, SiError};
 use crate::lifecycle::pymethods_with_close;
 use crate::modbus_config::{self, LineArgs};
 use crate::options::{narrow, port_options, seconds};
@@ -12,7 +12,7 @@ use crate::store_class::ModbusStore;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use si_modbus::slave::SlaveEvent;
-use si_modbus::tokio::{tcp, Slave};
+use si_modbus::tokio::{tcp, Error as ModbusError, Slave};
 use std::sync::Mutex;
 use tokio::sync::{mpsc, oneshot};
 use tokio::task::JoinHandle;
@@ -20,21 +20,29 @@ use tokio::task::JoinHandle;
 /// Events kept for `next_event`.
 const EVENTS_KEPT: usize = 1024;
 
-/// A running service: its stop signal and the task that ends once the port is released.
+/// A running service: its stop signal and the task that ends once the port is released,
+/// with the line's I/O result.
 struct Running {
     stop: oneshot::Sender<()>,
-    task: JoinHandle<()>,
+    task: JoinHandle<Result<(), ModbusError>>,
 }
 
-/// Stops a service (once); the job ends when its port or socket is released.
+/// Stops a service (once); the job ends when its port or socket is released, with the
+/// line's error if it failed (SiError).
 fn stop(running: &Mutex<Option<Running>>) -> Job<()> {
     let taken = running.lock().unwrap_or_else(|e| e.into_inner()).take();
     Box::pin(async move {
-        if let Some(Running { stop, task }) = taken {
-            let _ = stop.send(());
-            let _ = task.await;
+        let Some(Running { stop, task }) = taken else {
+            return Ok(());
+        };
+        // Err: the service ended already (its line failed), its result is in the task.
+        let _ = stop.send(());
+        match task.await {
+            Ok(closed) => closed.map_err(modbus),
+            Err(ended) => Err(SiError::new_err(format!(
+                "the service's task ended: {ended}"
+            ))),
         }
-        Ok(())
     })
 }
 
@@ -113,7 +121,7 @@ pub struct ModbusSlave {
 }
 
 pymethods_with_close! {
-    close = "Stops answering and releases the port. Idempotent.";
+    close = "Stops answering and releases the port (raises if the line failed). Idempotent.";
     impl ModbusSlave {
         #[new]
         #[pyo3(signature = (port, *, address=222, store=None, baud=9600, data_bits=8, parity="even",
@@ -174,7 +182,7 @@ pymethods_with_close! {
                         _ = &mut stop_rx => break,
                     }
                 }
-                let _ = slave.close().await;
+                slave.close().await
             });
             Ok(ModbusSlave {
                 store,
@@ -263,6 +271,7 @@ pymethods_with_close! {
                     _ = server.run() => {}
                     _ = stop_rx => {}
                 }
+                Ok(())
             });
             Ok(TcpServer {
                 store,
