@@ -11,48 +11,24 @@ use crate::store_class::area;
 use pyo3::prelude::*;
 use pyo3_async_runtimes::tokio::future_into_py;
 use si_core::memory::MemorySizes;
+use si_rk512::area::{Area, UnknownArea};
 use si_rk512::frame::{Address, Coordination};
 use si_rk512::passive::ServerConfig;
 use si_rk512::tokio::Handle;
 use si_rk512::{Config, Station};
 use std::collections::BTreeMap;
 
-/// The RK 512 address of a job: `area` "DBn" or "DXn" from data word `start`, "I", "Q", "M"
-/// from byte `start`, "T", "C" from cell `start` ([CP 341] §2.2.3, Table 2-1).
+/// The RK 512 address of a job: `area` by name (si-rk512's `Area`: "DBn", "DXn", "E"/"I",
+/// "A"/"Q", "M"/"F", "T", "Z"/"C"), `start` the data word in a DB or DX, else the byte or cell
+/// number ([CP 341] §2.2.3, Table 2-1).
 pub fn address(area: &str, start: i64) -> PyResult<Address> {
-    let upper = area.to_ascii_uppercase();
-    let block = |prefix: &str| {
-        upper
-            .strip_prefix(prefix)
-            .and_then(|n| n.parse::<u8>().ok())
-    };
-    Ok(if let Some(db) = block("DB") {
-        Address::Db {
-            db,
-            dw: narrow("start", start)?,
-        }
-    } else if let Some(db) = block("DX") {
-        Address::Dx {
-            db,
-            dw: narrow("start", start)?,
-        }
-    } else {
-        let start = narrow("start", start)?;
-        match upper.as_str() {
-            "I" | "E" => Address::Inputs(start),
-            "Q" | "A" => Address::Outputs(start),
-            "M" | "F" => Address::Flags(start),
-            "T" => Address::Timers(start),
-            "C" | "Z" => Address::Counters(start),
-            _ => {
-                return Err(argument_error(
-                    "area",
-                    "DB1 … DB255, DX1 … DX255, I, Q, M, T, C",
-                    area,
-                ))
-            }
-        }
-    })
+    let area: Area = area
+        .parse()
+        .map_err(|e: UnknownArea| argument_error("area", Area::NAMES, e.value))?;
+    u16::try_from(start)
+        .ok()
+        .and_then(|s| area.at(s).ok())
+        .ok_or_else(|| argument_error("start", &format!("0 … {}", area.max_start()), start))
 }
 
 /// The exception for a failed job; for 051AH "command telegram not sent" with the 3964(R)
