@@ -3,10 +3,10 @@ pty pair, and against `si rk512 serve` / `send` / `fetch`."""
 
 import json
 import subprocess
-import time
 
 import pytest
 import si_serial
+from peers import wait_for_port
 
 
 def test_send_and_fetch_against_a_passive_partner(pty_pair):
@@ -76,7 +76,7 @@ def test_against_the_si_cli_as_passive_partner(pty_pair, si_cli):
     a, b = pty_pair
     serve = subprocess.Popen([si_cli, "--json", "--port", b, "rk512", "serve"], stdout=subprocess.PIPE, text=True)
     try:
-        time.sleep(0.5)
+        wait_for_port(serve, b)
         with si_serial.Rk512Station(a, priority="high", rx_latency=0) as host:
             host.send("DB1", 0, b"\x11\x22\x33\x44")
             assert host.fetch("DB1", 1, 2) == b"\x33\x44"
