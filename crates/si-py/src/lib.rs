@@ -10,6 +10,7 @@ mod aio_modbus;
 mod callback_store;
 mod errors;
 mod frames;
+mod lifecycle;
 mod link3964r;
 mod link_ascii;
 mod modbus_client;

@@ -2,10 +2,10 @@
 //! `recv` of blocks.
 
 use crate::errors::{nothing_received, p3964r, range_error};
+use crate::lifecycle::pymethods_with_close;
 use crate::options::{narrow, port_options, seconds, settings};
 use crate::runtime::{close_handle, runtime, shared, wait, with_handle, within, Data, Job, Shared};
 use pyo3::prelude::*;
-use pyo3::types::PyTuple;
 use pyo3_async_runtimes::tokio::future_into_py;
 use si_3964r::tokio::{Handle, Sender};
 use si_3964r::{Config, Priority};
@@ -63,94 +63,80 @@ pub struct Link3964R {
     handle: Shared<Handle>,
 }
 
-#[pymethods]
-impl Link3964R {
-    #[new]
-    #[pyo3(signature = (port, *, priority="low", block_check=true, char_delay=0.22, ack_delay=None,
-        connection_attempts=6, transmission_attempts=6, max_block_len=200, receive_buffer_blocks=5,
-        baud=9600, data_bits=8, parity="even", stop_bits=1, rx_latency=None))]
-    #[allow(clippy::too_many_arguments)]
-    fn new(
-        port: &str,
-        priority: &str,
-        block_check: bool,
-        char_delay: f64,
-        ack_delay: Option<f64>,
-        connection_attempts: i64,
-        transmission_attempts: i64,
-        max_block_len: i64,
-        receive_buffer_blocks: i64,
-        baud: i64,
-        data_bits: i64,
-        parity: &str,
-        stop_bits: i64,
-        rx_latency: Option<f64>,
-    ) -> PyResult<Self> {
-        let config = link_config(
-            priority,
-            block_check,
-            char_delay,
-            ack_delay,
-            connection_attempts,
-            transmission_attempts,
-            max_block_len,
-            receive_buffer_blocks,
-            settings(baud, data_bits, parity, stop_bits)?,
-        )?;
-        config.validate().map_err(|e| range_error(&e, None))?;
-        let options = port_options(rx_latency)?;
-        let _entered = runtime().enter();
-        let serial = si_core::port::open(port, &config.settings, &options)
-            .map_err(|e| p3964r(si_3964r::tokio::Error::Io(e.into())))?;
-        let handle = Handle::spawn(config, serial).map_err(p3964r)?;
-        Ok(Link3964R {
-            sender: handle.sender(),
-            handle: shared(handle),
-        })
-    }
+pymethods_with_close! {
+    aio, close = "Stops the link and releases the port. Idempotent.";
+    impl Link3964R {
+        #[new]
+        #[pyo3(signature = (port, *, priority="low", block_check=true, char_delay=0.22,
+            ack_delay=None, connection_attempts=6, transmission_attempts=6, max_block_len=200,
+            receive_buffer_blocks=5, baud=9600, data_bits=8, parity="even", stop_bits=1, rx_latency=None))]
+        #[allow(clippy::too_many_arguments)]
+        fn new(
+            port: &str,
+            priority: &str,
+            block_check: bool,
+            char_delay: f64,
+            ack_delay: Option<f64>,
+            connection_attempts: i64,
+            transmission_attempts: i64,
+            max_block_len: i64,
+            receive_buffer_blocks: i64,
+            baud: i64,
+            data_bits: i64,
+            parity: &str,
+            stop_bits: i64,
+            rx_latency: Option<f64>,
+        ) -> PyResult<Self> {
+            let config = link_config(
+                priority,
+                block_check,
+                char_delay,
+                ack_delay,
+                connection_attempts,
+                transmission_attempts,
+                max_block_len,
+                receive_buffer_blocks,
+                settings(baud, data_bits, parity, stop_bits)?,
+            )?;
+            config.validate().map_err(|e| range_error(&e, None))?;
+            let options = port_options(rx_latency)?;
+            let _entered = runtime().enter();
+            let serial = si_core::port::open(port, &config.settings, &options)
+                .map_err(|e| p3964r(si_3964r::tokio::Error::Io(e.into())))?;
+            let handle = Handle::spawn(config, serial).map_err(p3964r)?;
+            Ok(Link3964R {
+                sender: handle.sender(),
+                handle: shared(handle),
+            })
+        }
 
-    /// Sends `data` as one block; returns once the partner acknowledged it (DLE), else raises
-    /// with the manual's STATUS (NoResponseError for 0703H/0707H, ProtocolError for a NAK).
-    fn send(&self, py: Python<'_>, data: Vec<u8>) -> PyResult<()> {
-        wait(py, self.send_job(data))
-    }
+        /// Sends `data` as one block; returns once the partner acknowledged it (DLE), else raises
+        /// with the manual's STATUS (NoResponseError for 0703H/0707H, ProtocolError for a NAK).
+        fn send(&self, py: Python<'_>, data: Vec<u8>) -> PyResult<()> {
+            wait(py, self.send_job(data))
+        }
 
-    /// `send` as an awaitable (`si_serial.aio`).
-    fn _aio_send<'py>(&self, py: Python<'py>, data: Vec<u8>) -> PyResult<Bound<'py, PyAny>> {
-        future_into_py(py, self.send_job(data))
-    }
+        /// `send` as an awaitable (`si_serial.aio`).
+        fn _aio_send<'py>(&self, py: Python<'py>, data: Vec<u8>) -> PyResult<Bound<'py, PyAny>> {
+            future_into_py(py, self.send_job(data))
+        }
 
-    /// The next block received, waiting up to `timeout` seconds (None: for ever); raises
-    /// NoResponseError when none came, InvalidResponseError for a receive error (BCC …).
-    #[pyo3(signature = (timeout=None))]
-    fn recv(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Data> {
-        wait(py, self.recv_job(timeout)?)
-    }
+        /// The next block received, waiting up to `timeout` seconds (None: for ever); raises
+        /// NoResponseError when none came, InvalidResponseError for a receive error (BCC …).
+        #[pyo3(signature = (timeout=None))]
+        fn recv(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Data> {
+            wait(py, self.recv_job(timeout)?)
+        }
 
-    /// `recv` as an awaitable (`si_serial.aio`).
-    #[pyo3(signature = (timeout=None))]
-    fn _aio_recv<'py>(&self, py: Python<'py>, timeout: Option<f64>) -> PyResult<Bound<'py, PyAny>> {
-        future_into_py(py, self.recv_job(timeout)?)
-    }
-
-    /// Stops the link and releases the port. Idempotent.
-    fn close(&self, py: Python<'_>) -> PyResult<()> {
-        wait(py, self.close_job())
-    }
-
-    /// `close` as an awaitable (`si_serial.aio`).
-    fn _aio_close<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        future_into_py(py, self.close_job())
-    }
-
-    fn __enter__(slf: Py<Self>) -> Py<Self> {
-        slf
-    }
-
-    #[pyo3(signature = (*_args))]
-    fn __exit__(&self, py: Python<'_>, _args: &Bound<'_, PyTuple>) -> PyResult<bool> {
-        self.close(py)?;
-        Ok(false)
+        /// `recv` as an awaitable (`si_serial.aio`).
+        #[pyo3(signature = (timeout=None))]
+        fn _aio_recv<'py>(
+            &self,
+            py: Python<'py>,
+            timeout: Option<f64>,
+        ) -> PyResult<Bound<'py, PyAny>> {
+            future_into_py(py, self.recv_job(timeout)?)
+        }
     }
 }
 

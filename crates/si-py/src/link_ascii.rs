@@ -2,10 +2,10 @@
 //! `recv` of frames with the end criterion of the config.
 
 use crate::errors::{argument_error, ascii, nothing_received};
+use crate::lifecycle::pymethods_with_close;
 use crate::options::{narrow, port_options, seconds, settings};
 use crate::runtime::{close_handle, runtime, shared, wait, with_handle, within, Data, Job, Shared};
 use pyo3::prelude::*;
-use pyo3::types::PyTuple;
 use pyo3_async_runtimes::tokio::future_into_py;
 use si_ascii::config::{EndCriterion, FlowControl};
 use si_ascii::tokio::Handle;
@@ -39,101 +39,87 @@ pub struct AsciiLink {
     handle: Shared<Handle>,
 }
 
-#[pymethods]
-impl AsciiLink {
-    #[new]
-    #[pyo3(signature = (port, *, end="char-delay", end_chars=(3, 0), fixed_length=100,
-        char_delay=0.004, max_frame_len=200, flow_control="none", baud=9600, data_bits=8,
-        parity="even", stop_bits=1, rx_latency=None))]
-    #[allow(clippy::too_many_arguments)]
-    fn new(
-        port: &str,
-        end: &str,
-        end_chars: (i64, i64),
-        fixed_length: i64,
-        char_delay: f64,
-        max_frame_len: i64,
-        flow_control: &str,
-        baud: i64,
-        data_bits: i64,
-        parity: &str,
-        stop_bits: i64,
-        rx_latency: Option<f64>,
-    ) -> PyResult<Self> {
-        let config = Config {
-            settings: settings(baud, data_bits, parity, stop_bits)?,
-            end: end_criterion(end, end_chars, fixed_length)?,
-            char_delay: seconds("char_delay", char_delay)?,
-            max_frame_len: narrow("max_frame_len", max_frame_len)?,
-            flow_control: match flow_control {
-                "none" => FlowControl::None,
-                "xon-xoff" => FlowControl::XonXoff,
-                "rts-cts" => FlowControl::RtsCts,
-                "auto-v24" => FlowControl::AutoV24,
-                other => {
-                    return Err(argument_error(
-                        "flow_control",
-                        "none, xon-xoff, rts-cts, auto-v24",
-                        other,
-                    ))
-                }
-            },
-            ..Config::default()
-        };
-        config.validate().map_err(|e| ascii(e.into()))?;
-        let options = port_options(rx_latency)?;
-        let _entered = runtime().enter();
-        let serial = si_core::port::open(port, &config.settings, &options)
-            .map_err(|e| ascii(si_ascii::tokio::Error::Io(e.into())))?;
-        let handle = Handle::spawn(config, serial).map_err(ascii)?;
-        Ok(AsciiLink {
-            handle: shared(handle),
-        })
-    }
+pymethods_with_close! {
+    aio, close = "Stops the link and releases the port. Idempotent.";
+    impl AsciiLink {
+        #[new]
+        #[pyo3(signature = (port, *, end="char-delay", end_chars=(3, 0), fixed_length=100,
+            char_delay=0.004, max_frame_len=200, flow_control="none", baud=9600, data_bits=8,
+            parity="even", stop_bits=1, rx_latency=None))]
+        #[allow(clippy::too_many_arguments)]
+        fn new(
+            port: &str,
+            end: &str,
+            end_chars: (i64, i64),
+            fixed_length: i64,
+            char_delay: f64,
+            max_frame_len: i64,
+            flow_control: &str,
+            baud: i64,
+            data_bits: i64,
+            parity: &str,
+            stop_bits: i64,
+            rx_latency: Option<f64>,
+        ) -> PyResult<Self> {
+            let config = Config {
+                settings: settings(baud, data_bits, parity, stop_bits)?,
+                end: end_criterion(end, end_chars, fixed_length)?,
+                char_delay: seconds("char_delay", char_delay)?,
+                max_frame_len: narrow("max_frame_len", max_frame_len)?,
+                flow_control: match flow_control {
+                    "none" => FlowControl::None,
+                    "xon-xoff" => FlowControl::XonXoff,
+                    "rts-cts" => FlowControl::RtsCts,
+                    "auto-v24" => FlowControl::AutoV24,
+                    other => {
+                        return Err(argument_error(
+                            "flow_control",
+                            "none, xon-xoff, rts-cts, auto-v24",
+                            other,
+                        ))
+                    }
+                },
+                ..Config::default()
+            };
+            config.validate().map_err(|e| ascii(e.into()))?;
+            let options = port_options(rx_latency)?;
+            let _entered = runtime().enter();
+            let serial = si_core::port::open(port, &config.settings, &options)
+                .map_err(|e| ascii(si_ascii::tokio::Error::Io(e.into())))?;
+            let handle = Handle::spawn(config, serial).map_err(ascii)?;
+            Ok(AsciiLink {
+                handle: shared(handle),
+            })
+        }
 
-    /// Sends `data` as one frame (the end characters, if any, are the caller's to include);
-    /// returns once it is on the line. A `send` from another thread waits while a `recv`
-    /// waits.
-    fn send(&self, py: Python<'_>, data: Vec<u8>) -> PyResult<()> {
-        wait(py, self.send_job(data))
-    }
+        /// Sends `data` as one frame (the end characters, if any, are the caller's to include);
+        /// returns once it is on the line. A `send` from another thread waits while a `recv`
+        /// waits.
+        fn send(&self, py: Python<'_>, data: Vec<u8>) -> PyResult<()> {
+            wait(py, self.send_job(data))
+        }
 
-    /// `send` as an awaitable (`si_serial.aio`).
-    fn _aio_send<'py>(&self, py: Python<'py>, data: Vec<u8>) -> PyResult<Bound<'py, PyAny>> {
-        future_into_py(py, self.send_job(data))
-    }
+        /// `send` as an awaitable (`si_serial.aio`).
+        fn _aio_send<'py>(&self, py: Python<'py>, data: Vec<u8>) -> PyResult<Bound<'py, PyAny>> {
+            future_into_py(py, self.send_job(data))
+        }
 
-    /// The next frame received, waiting up to `timeout` seconds (None: for ever); raises
-    /// NoResponseError when none came, InvalidResponseError for a receive error.
-    #[pyo3(signature = (timeout=None))]
-    fn recv(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Data> {
-        wait(py, self.recv_job(timeout)?)
-    }
+        /// The next frame received, waiting up to `timeout` seconds (None: for ever); raises
+        /// NoResponseError when none came, InvalidResponseError for a receive error.
+        #[pyo3(signature = (timeout=None))]
+        fn recv(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Data> {
+            wait(py, self.recv_job(timeout)?)
+        }
 
-    /// `recv` as an awaitable (`si_serial.aio`).
-    #[pyo3(signature = (timeout=None))]
-    fn _aio_recv<'py>(&self, py: Python<'py>, timeout: Option<f64>) -> PyResult<Bound<'py, PyAny>> {
-        future_into_py(py, self.recv_job(timeout)?)
-    }
-
-    /// Stops the link and releases the port. Idempotent.
-    fn close(&self, py: Python<'_>) -> PyResult<()> {
-        wait(py, self.close_job())
-    }
-
-    /// `close` as an awaitable (`si_serial.aio`).
-    fn _aio_close<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        future_into_py(py, self.close_job())
-    }
-
-    fn __enter__(slf: Py<Self>) -> Py<Self> {
-        slf
-    }
-
-    #[pyo3(signature = (*_args))]
-    fn __exit__(&self, py: Python<'_>, _args: &Bound<'_, PyTuple>) -> PyResult<bool> {
-        self.close(py)?;
-        Ok(false)
+        /// `recv` as an awaitable (`si_serial.aio`).
+        #[pyo3(signature = (timeout=None))]
+        fn _aio_recv<'py>(
+            &self,
+            py: Python<'py>,
+            timeout: Option<f64>,
+        ) -> PyResult<Bound<'py, PyAny>> {
+            future_into_py(py, self.recv_job(timeout)?)
+        }
     }
 }
 

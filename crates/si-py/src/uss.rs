@@ -2,10 +2,11 @@
 //! the control words it sends, the status words it receives, and the cycle's events.
 
 use crate::errors::{argument_error, uss};
+use crate::lifecycle::pymethods_with_close;
 use crate::options::{narrow, port_options, seconds, settings_error};
 use crate::runtime::{close_handle, runtime, shared, wait, with_handle, within, Job, Shared};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
+use pyo3::types::PyDict;
 use pyo3_async_runtimes::tokio::future_into_py;
 use si_uss::config::{uss_settings, MasterConfig, PollEntry};
 use si_uss::frame::PkwWords;
@@ -99,158 +100,152 @@ pub struct UssMaster {
     handle: Shared<Handle>,
 }
 
-#[pymethods]
-impl UssMaster {
-    #[new]
-    #[pyo3(signature = (port, nodes, *, response_timeout=0.02, retries=20, cycle_pause=0.0,
-        baud=9600, rx_latency=None))]
-    fn new(
-        port: &str,
-        nodes: Vec<(i64, i64, i64)>,
-        response_timeout: f64,
-        retries: i64,
-        cycle_pause: f64,
-        baud: i64,
-        rx_latency: Option<f64>,
-    ) -> PyResult<Self> {
-        let list = nodes
-            .into_iter()
-            .map(poll_entry)
-            .collect::<PyResult<Vec<_>>>()?;
-        let config = MasterConfig {
-            settings: uss_settings(narrow("baud", baud)?).map_err(|e| settings_error(&e))?,
-            response_timeout: seconds("response_timeout", response_timeout)?,
-            retries: narrow("retries", retries)?,
-            cycle_pause: seconds("cycle_pause", cycle_pause)?,
-            ..MasterConfig::new(list)
-        };
-        config.validate().map_err(|e| uss(e.into()))?;
-        let options = port_options(rx_latency)?;
-        let _entered = runtime().enter();
-        let serial = si_core::port::open(port, &config.settings, &options)
-            .map_err(|e| uss(si_uss::tokio::Error::Io(e.into())))?;
-        let handle = Handle::spawn(config, serial).map_err(uss)?;
-        Ok(UssMaster {
-            handle: shared(handle),
-        })
-    }
+pymethods_with_close! {
+    aio, close = "Stops polling and releases the port. Idempotent.";
+    impl UssMaster {
+        #[new]
+        #[pyo3(signature = (port, nodes, *, response_timeout=0.02, retries=20, cycle_pause=0.0,
+            baud=9600, rx_latency=None))]
+        fn new(
+            port: &str,
+            nodes: Vec<(i64, i64, i64)>,
+            response_timeout: f64,
+            retries: i64,
+            cycle_pause: f64,
+            baud: i64,
+            rx_latency: Option<f64>,
+        ) -> PyResult<Self> {
+            let list = nodes
+                .into_iter()
+                .map(poll_entry)
+                .collect::<PyResult<Vec<_>>>()?;
+            let config = MasterConfig {
+                settings: uss_settings(narrow("baud", baud)?).map_err(|e| settings_error(&e))?,
+                response_timeout: seconds("response_timeout", response_timeout)?,
+                retries: narrow("retries", retries)?,
+                cycle_pause: seconds("cycle_pause", cycle_pause)?,
+                ..MasterConfig::new(list)
+            };
+            config.validate().map_err(|e| uss(e.into()))?;
+            let options = port_options(rx_latency)?;
+            let _entered = runtime().enter();
+            let serial = si_core::port::open(port, &config.settings, &options)
+                .map_err(|e| uss(si_uss::tokio::Error::Io(e.into())))?;
+            let handle = Handle::spawn(config, serial).map_err(uss)?;
+            Ok(UssMaster {
+                handle: shared(handle),
+            })
+        }
 
-    /// Reads parameter `number` (element `index`) of node `node` (PKW task 1).
-    #[pyo3(signature = (node, number, index=0))]
-    fn read_parameter(&self, py: Python<'_>, node: i64, number: i64, index: i64) -> PyResult<u32> {
-        wait(py, self.read_job(node, number, index)?)
-    }
+        /// Reads parameter `number` (element `index`) of node `node` (PKW task 1).
+        #[pyo3(signature = (node, number, index=0))]
+        fn read_parameter(
+            &self,
+            py: Python<'_>,
+            node: i64,
+            number: i64,
+            index: i64,
+        ) -> PyResult<u32> {
+            wait(py, self.read_job(node, number, index)?)
+        }
 
-    /// `read_parameter` as an awaitable (`si_serial.aio`).
-    #[pyo3(signature = (node, number, index=0))]
-    fn _aio_read_parameter<'py>(
-        &self,
-        py: Python<'py>,
-        node: i64,
-        number: i64,
-        index: i64,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        future_into_py(py, self.read_job(node, number, index)?)
-    }
+        /// `read_parameter` as an awaitable (`si_serial.aio`).
+        #[pyo3(signature = (node, number, index=0))]
+        fn _aio_read_parameter<'py>(
+            &self,
+            py: Python<'py>,
+            node: i64,
+            number: i64,
+            index: i64,
+        ) -> PyResult<Bound<'py, PyAny>> {
+            future_into_py(py, self.read_job(node, number, index)?)
+        }
 
-    /// Writes `value` to parameter `number` of node `node` (task 2, or 3 with `double=True`);
-    /// returns the value the drive answered.
-    #[pyo3(signature = (node, number, value, index=0, double=false))]
-    fn write_parameter(
-        &self,
-        py: Python<'_>,
-        node: i64,
-        number: i64,
-        value: u32,
-        index: i64,
-        double: bool,
-    ) -> PyResult<u32> {
-        wait(py, self.write_job(node, number, value, index, double)?)
-    }
+        /// Writes `value` to parameter `number` of node `node` (task 2, or 3 with `double=True`);
+        /// returns the value the drive answered.
+        #[pyo3(signature = (node, number, value, index=0, double=false))]
+        fn write_parameter(
+            &self,
+            py: Python<'_>,
+            node: i64,
+            number: i64,
+            value: u32,
+            index: i64,
+            double: bool,
+        ) -> PyResult<u32> {
+            wait(py, self.write_job(node, number, value, index, double)?)
+        }
 
-    /// `write_parameter` as an awaitable (`si_serial.aio`).
-    #[pyo3(signature = (node, number, value, index=0, double=false))]
-    fn _aio_write_parameter<'py>(
-        &self,
-        py: Python<'py>,
-        node: i64,
-        number: i64,
-        value: u32,
-        index: i64,
-        double: bool,
-    ) -> PyResult<Bound<'py, PyAny>> {
-        future_into_py(py, self.write_job(node, number, value, index, double)?)
-    }
+        /// `write_parameter` as an awaitable (`si_serial.aio`).
+        #[pyo3(signature = (node, number, value, index=0, double=false))]
+        fn _aio_write_parameter<'py>(
+            &self,
+            py: Python<'py>,
+            node: i64,
+            number: i64,
+            value: u32,
+            index: i64,
+            double: bool,
+        ) -> PyResult<Bound<'py, PyAny>> {
+            future_into_py(py, self.write_job(node, number, value, index, double)?)
+        }
 
-    /// Sets the PZD the master sends to `node` from the next poll on: control word STW,
-    /// main setpoint HSW, …
-    fn set_control(&self, py: Python<'_>, node: i64, words: Vec<u16>) -> PyResult<()> {
-        let node = narrow("node", node)?;
-        wait(
-            py,
-            with_handle(
-                self.handle.clone(),
-                "master",
-                async move |h: &mut Handle| h.set_control(node, words).await.map_err(uss),
-            ),
-        )
-    }
+        /// Sets the PZD the master sends to `node` from the next poll on: control word STW,
+        /// main setpoint HSW, …
+        fn set_control(&self, py: Python<'_>, node: i64, words: Vec<u16>) -> PyResult<()> {
+            let node = narrow("node", node)?;
+            wait(
+                py,
+                with_handle(
+                    self.handle.clone(),
+                    "master",
+                    async move |h: &mut Handle| h.set_control(node, words).await.map_err(uss),
+                ),
+            )
+        }
 
-    /// The PZD `node` answered last: status word ZSW, main actual value HIW, …
-    fn get_status(&self, py: Python<'_>, node: i64) -> PyResult<Vec<u16>> {
-        let node: u8 = narrow("node", node)?;
-        wait(
-            py,
-            with_handle(
-                self.handle.clone(),
-                "master",
-                async move |h: &mut Handle| {
-                    h.call(move |m, _| m.slave(node).map(|s| s.status.words().to_vec()))
-                        .await
-                        .map_err(uss)?
-                        .ok_or_else(|| argument_error("node", "a node of the polling list", node))
-                },
-            ),
-        )
-    }
+        /// The PZD `node` answered last: status word ZSW, main actual value HIW, …
+        fn get_status(&self, py: Python<'_>, node: i64) -> PyResult<Vec<u16>> {
+            let node: u8 = narrow("node", node)?;
+            wait(
+                py,
+                with_handle(
+                    self.handle.clone(),
+                    "master",
+                    async move |h: &mut Handle| {
+                        h.call(move |m, _| m.slave(node).map(|s| s.status.words().to_vec()))
+                            .await
+                            .map_err(uss)?
+                            .ok_or_else(|| {
+                                argument_error("node", "a node of the polling list", node)
+                            })
+                    },
+                ),
+            )
+        }
 
-    /// The next event of the cycle (a dict with `kind` "response", "no_answer", "rejected",
-    /// "cycle_done" or "other"), waiting up to `timeout` seconds; None if none came. Jobs
-    /// from other threads wait while it waits.
-    #[pyo3(signature = (timeout=1.0))]
-    fn next_event<'py>(
-        &self,
-        py: Python<'py>,
-        timeout: f64,
-    ) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let event = wait(py, self.event_job(timeout)?)?;
-        event.map(|e| event_dict(py, &e.0)).transpose()
-    }
+        /// The next event of the cycle (a dict with `kind` "response", "no_answer", "rejected",
+        /// "cycle_done" or "other"), waiting up to `timeout` seconds; None if none came. Jobs
+        /// from other threads wait while it waits.
+        #[pyo3(signature = (timeout=1.0))]
+        fn next_event<'py>(
+            &self,
+            py: Python<'py>,
+            timeout: f64,
+        ) -> PyResult<Option<Bound<'py, PyDict>>> {
+            let event = wait(py, self.event_job(timeout)?)?;
+            event.map(|e| event_dict(py, &e.0)).transpose()
+        }
 
-    /// `next_event` as an awaitable (`si_serial.aio`).
-    #[pyo3(signature = (timeout=1.0))]
-    fn _aio_next_event<'py>(&self, py: Python<'py>, timeout: f64) -> PyResult<Bound<'py, PyAny>> {
-        future_into_py(py, self.event_job(timeout)?)
-    }
-
-    /// Stops polling and releases the port. Idempotent.
-    fn close(&self, py: Python<'_>) -> PyResult<()> {
-        wait(py, self.close_job())
-    }
-
-    /// `close` as an awaitable (`si_serial.aio`).
-    fn _aio_close<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        future_into_py(py, self.close_job())
-    }
-
-    fn __enter__(slf: Py<Self>) -> Py<Self> {
-        slf
-    }
-
-    #[pyo3(signature = (*_args))]
-    fn __exit__(&self, py: Python<'_>, _args: &Bound<'_, PyTuple>) -> PyResult<bool> {
-        self.close(py)?;
-        Ok(false)
+        /// `next_event` as an awaitable (`si_serial.aio`).
+        #[pyo3(signature = (timeout=1.0))]
+        fn _aio_next_event<'py>(
+            &self,
+            py: Python<'py>,
+            timeout: f64,
+        ) -> PyResult<Bound<'py, PyAny>> {
+            future_into_py(py, self.event_job(timeout)?)
+        }
     }
 }
 

@@ -11,6 +11,7 @@ import tempfile
 import time
 
 import pytest
+from peers import read_line, wait_for_port
 
 
 def _need(tool):
@@ -45,24 +46,24 @@ def pty_pair():
 
 @pytest.fixture
 def python_peer():
-    """Starts `script` (Python source) with arguments in a child process that prints "ready"
-    when it serves; stops it at the end of the test."""
+    """Starts `script` (Python source) with `port` and further arguments in a child process
+    that prints "ready" and then opens `port` to serve; returns once it holds the port open,
+    and stops it at the end of the test."""
     procs = []
 
-    def start(script, *args):
+    def start(script, port, *args):
         proc = subprocess.Popen(
-            [sys.executable, "-c", script, *map(str, args)],
+            [sys.executable, "-c", script, port, *map(str, args)],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
         )
         procs.append(proc)
-        line = proc.stdout.readline()
+        line = read_line(proc, timeout=10.0)
         if "ready" not in line:
             proc.kill()
             pytest.fail(f"peer did not start: {line}{proc.stderr.read()}")
-        # The server opens its port right after printing.
-        time.sleep(0.3)
+        wait_for_port(proc, port)
         return proc
 
     yield start

@@ -6,6 +6,7 @@ import time
 
 import pytest
 import si_serial
+from peers import read_line, wait_for_port
 
 
 def test_two_links_send_and_receive_both_ways(pty_pair):
@@ -62,10 +63,10 @@ def test_against_the_si_cli(pty_pair, si_cli):
         text=True,
     )
     try:
-        time.sleep(0.5)
+        wait_for_port(recv, b)
         with si_serial.Link3964R(a, priority="high", rx_latency=0) as link:
             link.send(b"ABC")
-            got = json.loads(recv.stdout.readline())
+            got = json.loads(read_line(recv))
             assert got["hex"] == "41 42 43"
             recv.wait(timeout=5)  # --count 1: it exits and releases the port
             sent = subprocess.run(

@@ -6,6 +6,7 @@ import time
 import pytest
 import si_serial
 from si_serial import aio
+from peers import wait_for_port
 
 
 def test_tcp_client_coroutines_against_si_server():
@@ -100,7 +101,7 @@ def test_rk512_and_uss_as_coroutines(pty_pair, si_cli):
         drive = subprocess.Popen([si_cli, "uss", "sim-slave", "--address", "5", "--port", b],
                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         try:
-            await asyncio.sleep(0.5)
+            await asyncio.to_thread(wait_for_port, drive, b)
             async with aio.UssMaster(a, [(5, 4, 2)], response_timeout=0.1, rx_latency=0) as master:
                 assert await master.read_parameter(5, 1082) == 50
         finally:
@@ -121,7 +122,7 @@ def test_uss_next_event_as_a_coroutine(pty_pair, si_cli):
         drive = subprocess.Popen([si_cli, "uss", "sim-slave", "--address", "5", "--port", b],
                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         try:
-            await asyncio.sleep(0.5)
+            await asyncio.to_thread(wait_for_port, drive, b)
             async with aio.UssMaster(a, [(5, 4, 2), (6, 4, 2)], response_timeout=0.05,
                                      rx_latency=0) as master:
                 ticks = 0

@@ -3,10 +3,10 @@ against the `si` CLI."""
 
 import json
 import subprocess
-import time
 
 import pytest
 import si_serial
+from peers import read_line, wait_for_port
 
 
 @pytest.mark.parametrize(
@@ -49,10 +49,10 @@ def test_against_the_si_cli(pty_pair, si_cli):
         text=True,
     )
     try:
-        time.sleep(0.5)
+        wait_for_port(recv, b)
         with si_serial.AsciiLink(a, end="end-chars", end_chars=(0x0D, 0), rx_latency=0) as link:
             link.send(b"HI\r")
-            got = json.loads(recv.stdout.readline())
+            got = json.loads(read_line(recv))
             assert got["frame"] == "48 49 0D", got
             recv.wait(timeout=5)
             sent = subprocess.run(

@@ -149,6 +149,15 @@ def test_a_closed_client_raises_protocol_error(pty_pair):
         client.read_coils(0, 1)
 
 
+def test_a_with_block_keeps_its_own_exception_and_closes_the_slave(pty_pair):
+    a, _ = pty_pair
+    with pytest.raises(KeyError, match="the test's own"):
+        with si_serial.ModbusSlave(a, address=1) as slave:
+            raise KeyError("the test's own")
+    # Closed by __exit__: the port is free for the next user.
+    slave.close()
+    si_serial.ModbusSlave(a, address=1).close()
+
 def test_a_device_exception_carries_its_code():
     with si_serial.TcpServer(store=si_serial.ModbusStore(holding_registers=10)) as server:
         with si_serial.TcpClient("127.0.0.1", server.port) as client:

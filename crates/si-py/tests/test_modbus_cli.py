@@ -3,9 +3,9 @@ serve`, and `si modbus read`/`write` against si_serial's slave."""
 
 import json
 import subprocess
-import time
 
 import si_serial
+from peers import wait_for_port
 
 
 def test_client_against_si_modbus_serve(pty_pair, si_cli):
@@ -13,7 +13,7 @@ def test_client_against_si_modbus_serve(pty_pair, si_cli):
     serve = subprocess.Popen([si_cli, "--port", b, "modbus", "serve", "--unit", "1"],
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        time.sleep(0.5)
+        wait_for_port(serve, b)
         with si_serial.RtuClient(a, response_timeout=1.0, rx_latency=0) as client:
             # The CLI serves S_MODB's example conversion DB: registers are DB6 (Table 3-20).
             client.write_multiple_registers(0, [0x1234, 0x5678])

@@ -25,7 +25,8 @@ def test_the_readme_has_two_ten_line_examples():
 def test_the_readme_examples_pass(tmp_path):
     for i, block in enumerate(examples()):
         (tmp_path / f"test_readme_{i}.py").write_text(block)
-    shutil.copy(os.path.join(os.path.dirname(__file__), "conftest.py"), tmp_path)
+    for helper in ("conftest.py", "peers.py"):
+        shutil.copy(os.path.join(os.path.dirname(__file__), helper), tmp_path)
     done = subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(tmp_path)],
         capture_output=True,

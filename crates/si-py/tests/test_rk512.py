@@ -3,10 +3,10 @@ pty pair, and against `si rk512 serve` / `send` / `fetch`."""
 
 import json
 import subprocess
-import time
 
 import pytest
 import si_serial
+from peers import wait_for_port
 
 
 def test_send_and_fetch_against_a_passive_partner(pty_pair):
@@ -35,6 +35,34 @@ def test_a_silent_partner_is_no_response(pty_pair):
     assert info.value.cause == 0x0703
 
 
+
+
+@pytest.mark.parametrize(
+    "area, start, keyword, value, allowed",
+    [
+        ("DW2", 0, "area", "DW2", "DB0 … DB255, DX0 … DX255, E/I, A/Q, M/F, T, Z/C"),
+        ("DB256", 0, "area", "DB256", "DB0 … DB255, DX0 … DX255, E/I, A/Q, M/F, T, Z/C"),
+        ("DB2", 256, "start", "256", "0 … 255"),
+        ("M", 65536, "start", "65536", "0 … 65535"),
+    ],
+)
+def test_a_bad_area_or_start_is_refused_before_the_line(pty_pair, area, start, keyword, value, allowed):
+    a, _ = pty_pair
+    with si_serial.Rk512Station(a, priority="high", rx_latency=0) as host:
+        with pytest.raises(si_serial.ConfigError) as info:
+            host.send(area, start, b"\x00\x01")
+    assert (info.value.keyword, info.value.value, info.value.range) == (keyword, value, allowed)
+
+
+def test_german_and_english_area_letters_name_the_same_memory(pty_pair):
+    a, b = pty_pair
+    with si_serial.Rk512Station(b, serve=True, dbs={2: 64}, rx_latency=0) as plc, si_serial.Rk512Station(
+        a, priority="high", rx_latency=0
+    ) as host:
+        plc.write_memory("Q", 3, b"\x12")
+        assert host.fetch("A", 3, 1) == host.fetch("q", 3, 1) == b"\x12"
+        host.send("db2", 0, b"\x34\x56")
+        assert plc.read_memory("DB2", 0, 2) == b"\x34\x56"
 def test_bad_arguments_name_the_keyword():
     with pytest.raises(si_serial.ConfigError) as info:
         si_serial.Rk512Station("/nonexistent", response_timeout=0.001)
@@ -48,7 +76,7 @@ def test_against_the_si_cli_as_passive_partner(pty_pair, si_cli):
     a, b = pty_pair
     serve = subprocess.Popen([si_cli, "--json", "--port", b, "rk512", "serve"], stdout=subprocess.PIPE, text=True)
     try:
-        time.sleep(0.5)
+        wait_for_port(serve, b)
         with si_serial.Rk512Station(a, priority="high", rx_latency=0) as host:
             host.send("DB1", 0, b"\x11\x22\x33\x44")
             assert host.fetch("DB1", 1, 2) == b"\x33\x44"

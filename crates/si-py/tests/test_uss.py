@@ -5,6 +5,7 @@ import time
 
 import pytest
 import si_serial
+from peers import wait_for_port
 
 
 @pytest.fixture
@@ -16,7 +17,7 @@ def drive(pty_pair, si_cli):
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
-    time.sleep(0.5)
+    wait_for_port(proc, b)
     yield a
     proc.kill()
     proc.wait()

@@ -7,6 +7,7 @@ import time
 
 import pytest
 import si_serial
+from peers import read_line
 
 
 class CliModule:
@@ -28,10 +29,7 @@ class CliModule:
             output = host.cycle(time.monotonic() - self.start, self.input)
             self.proc.stdin.write(output.hex() + "\n")
             self.proc.stdin.flush()
-            line = self.proc.stdout.readline()
-            if not line:
-                pytest.fail(f"the CLI module ended: {self.proc.stderr.read()}")
-            self.input = bytes.fromhex(line.strip())
+            self.input = bytes.fromhex(read_line(self.proc).strip())
             done = result()
             if done is not None:
                 return done

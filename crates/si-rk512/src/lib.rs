@@ -7,6 +7,8 @@
 //!
 //! - [`frame`]: the 10-byte command header, the 4-byte continuation and reaction headers;
 //!   decode errors name the offset, what was expected and what was found;
+//! - [`area`]: the partner's memory areas by name (`DB10`, `E`/`I`, …), parsed for the
+//!   front ends that take them as text;
 //! - [`config`]: TRES, the job length limit, the DW-number convention, and the 3964(R)
 //!   parameters underneath;
 //! - [`station`]: one Sans-IO engine wrapping a [`si_3964r::Link`]: our jobs (active side) and
@@ -69,6 +71,7 @@
 //! within 185.95 s, one of up to 256 bytes within twice that.
 #![cfg_attr(docsrs, feature(doc_cfg))]
 
+pub mod area;
 pub mod bound;
 pub mod config;
 pub mod fb;

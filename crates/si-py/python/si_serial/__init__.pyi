@@ -317,7 +317,7 @@ class ModbusSlave:
     def next_event(self, timeout: float = 1.0) -> Optional[SlaveEvent]:
         """The next event, waiting up to ``timeout`` seconds (the newest 1024 are kept)."""
     def close(self) -> None:
-        """Stops answering and releases the port. Idempotent."""
+        """Stops answering and releases the port (raises if the line failed). Idempotent."""
     def __enter__(self) -> "ModbusSlave": ...
     def __exit__(
         self,
