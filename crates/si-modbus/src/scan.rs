@@ -7,8 +7,8 @@
 //! still answers, with exception 02 (illegal data address), which proves it is there. One try
 //! per unit, no retry: a scan must stay short and polite on a live bus.
 
-use crate::config::MasterConfig;
 use crate::frame::Request;
+use crate::master::Master;
 use crate::status;
 use si_core::{Duration, Status};
 
@@ -44,16 +44,15 @@ impl Answer {
     }
 }
 
-/// The longest one probe takes on the line with `config` (no retries): the request on the
-/// wire, the response time, the longest response to [`PROBE`] (7 characters) and the
-/// end-of-frame gap after each frame, plus `slack` for what the host adds (a USB adapter's
-/// hold, scheduling). A scan of `n` probes takes at most `n` times this.
-pub fn probe_bound(config: &MasterConfig, slack: Duration) -> Duration {
-    let s = config.line.settings;
-    // Request 8 characters, response 7; a 3.5-character gap after each (rounded up to 4),
-    // counted generously at the char-delay multiplier's widest setting's factor.
-    let chars = 8 + 7 + 2 * 4 * u64::from(config.line.char_delay_multiplier.max(1));
-    s.chars_time(chars) + config.response_timeout + slack
+/// The longest one probe takes on `master` (built with the scan's config, retries 0: one try),
+/// from its start to its end whatever the line does, plus `slack` for what the host adds
+/// (scheduling): the engine's own bound, [`Master::longest_job`], not a formula of the scan's.
+/// It counts what a noisy line can make a probe last: the hold for silence before the request,
+/// the quiet guard after a timeout where one is set, the response time plus a port's latency,
+/// and a garbled answer up to the longest frame, not just the 7 characters of a valid answer
+/// to [`PROBE`]. A scan of `n` probes takes at most `n` times this.
+pub fn probe_bound(master: &Master, slack: Duration) -> Duration {
+    master.longest_job() + slack
 }
 
 #[cfg(test)]
@@ -75,10 +74,19 @@ mod tests {
     }
 
     #[test]
-    fn a_probe_takes_at_least_the_response_time() {
-        let c = MasterConfig::default();
-        let bound = probe_bound(&c, Duration::ZERO);
-        assert!(bound > c.response_timeout);
-        assert!(bound < c.response_timeout + Duration::from_millis(100));
+    fn a_probe_is_bounded_by_the_engines_own_bound() {
+        let mut c = crate::MasterConfig::default();
+        c.retries = 0;
+        let master = Master::new(c).unwrap();
+        let bound = probe_bound(&master, Duration::ZERO);
+        assert_eq!(bound, c.job_bound());
+        assert!(bound > c.response_timeout + c.max_response_duration());
+        let guarded = Master::new(c)
+            .unwrap()
+            .with_quiet_after_timeout(Duration::from_millis(300));
+        assert_eq!(
+            probe_bound(&guarded, Duration::from_millis(5)),
+            c.job_bound() + Duration::from_millis(305) + c.max_response_duration()
+        );
     }
 }
