@@ -44,26 +44,28 @@ impl Answer {
     }
 }
 
-/// The longest one telegram exchange with `entry` takes with `config`: the start interval
-/// (2 character times) before the request, the request, the response timeout, the response
-/// within its residual run time (1.5 × its characters, [USS spec] §5.2.1.2), plus `slack` for
-/// what the host adds. A scan that polls `n` nodes `c` times takes at most `n × c` times this.
-pub fn telegram_bound(config: &MasterConfig, entry: &PollEntry, slack: Duration) -> Duration {
-    // STX, LGE, ADR, the net data, BCC.
-    let chars = 4 + entry.net_len() as u64;
-    let s = config.settings;
-    s.chars_time(2 + chars + (3 * chars).div_ceil(2)) + config.response_timeout + slack
+/// The longest one batch takes, from the master's start to its last probe's end, whatever the
+/// line does: the engine's own bound for a parameter job, [`MasterConfig::job_bound`] (with
+/// `config`'s retries, 0 in a scan: one telegram per node; every probe is entered before the
+/// start, so each ends within it), plus `slack` per telegram for what the host adds. It counts
+/// what a noisy line can make a poll last (the wait for the start interval's silence, a
+/// garbled answer up to the longest telegram's residual run time, a port's latency) and the
+/// cycle pause, not just a valid answer's characters; not a formula of the scan's own.
+pub fn batch_bound(config: &MasterConfig, slack: Duration) -> Duration {
+    let telegrams = config.polling_list.len() as u64 * (u64::from(config.retries) + CYCLES);
+    config.job_bound() + slack.saturating_mul(telegrams)
 }
 
-/// What the host may add to each telegram beyond the line's own time (a USB adapter's hold,
-/// scheduling), counted generously `[derived]`.
+/// What the host may add to each telegram beyond the engine's bound (which already counts a
+/// port's latency, [`MasterConfig::port_margin`]): scheduling, counted generously `[derived]`.
 pub const TELEGRAM_SLACK: Duration = Duration::from_millis(40);
 
 /// Opening and closing the port for one line setting `[derived]`.
 pub const OPEN_SLACK: Duration = Duration::from_millis(300);
 
-/// Cycles over the nodes the bound allows: the probe goes out in the first; a second covers
-/// a cycle the master had begun before the jobs were entered `[derived]`.
+/// Cycles a parameter job spans beyond its repetitions ([`MasterConfig::job_bound`]'s `+ 2`):
+/// the probe goes out in the first whole cycle; the other covers a cycle the master had
+/// begun before the job was entered.
 pub const CYCLES: u64 = 2;
 
 /// A node that answered something.
@@ -112,20 +114,39 @@ impl Scan {
         })
     }
 
-    /// The longest the scan can take: [`CYCLES`] telegrams per node ([`telegram_bound`] with
-    /// [`TELEGRAM_SLACK`]) plus [`OPEN_SLACK`] per batch.
+    /// The longest the scan can take: every batch's [`batch_bound`] with [`TELEGRAM_SLACK`],
+    /// plus [`OPEN_SLACK`] per batch.
     pub fn bound(&self) -> Duration {
-        let Some(first) = &self.first else {
+        if self.first.is_none() {
             return Duration::ZERO;
-        };
+        }
         self.batches
             .iter()
-            .map(|c| {
-                let telegram = telegram_bound(c, first, TELEGRAM_SLACK);
-                let polls = c.polling_list.len() as u64 * CYCLES;
-                Duration::from_micros(telegram.as_micros() * polls) + OPEN_SLACK
-            })
+            .map(|c| batch_bound(c, TELEGRAM_SLACK) + OPEN_SLACK)
             .fold(Duration::ZERO, |a, b| a + b)
+    }
+
+    /// The batches: one master configuration each, in the order they run.
+    pub fn batches(&self) -> &[MasterConfig] {
+        &self.batches
+    }
+
+    /// The engine of one batch (`config`, from [`Scan::batches`]), as the scan runs it: the
+    /// probe entered for each node of its polling list, to stop when all have ended; not yet
+    /// started. With each probe's job and node.
+    pub fn batch_master(
+        config: &MasterConfig,
+    ) -> Result<(crate::master::Master, Vec<(si_core::job::JobId, u8)>), BatchError> {
+        let mut master = crate::master::Master::new(config.clone()).map_err(BatchError::Config)?;
+        let mut jobs = Vec::new();
+        for entry in &config.polling_list {
+            let job = master
+                .request_parameter(si_core::Instant::ZERO, entry.address, probe())
+                .map_err(BatchError::Refused)?;
+            jobs.push((job, entry.address));
+        }
+        master.stop_when_idle();
+        Ok((master, jobs))
     }
 
     /// Run it: for each batch, `open` the line at its settings, ask every node once, hand
@@ -141,17 +162,12 @@ impl Scan {
         T: si_core::driver::Transport,
         Fut: std::future::Future<Output = Result<T, E>>,
     {
-        use crate::master::{Event, Master};
+        use crate::master::Event;
         for c in &self.batches {
-            let mut master = Master::new(c.clone()).map_err(ScanError::Config)?;
-            let mut jobs = Vec::new();
-            for entry in &c.polling_list {
-                let job = master
-                    .request_parameter(si_core::Instant::ZERO, entry.address, probe())
-                    .map_err(ScanError::Refused)?;
-                jobs.push((job, entry.address));
-            }
-            master.stop_when_idle();
+            let (master, jobs) = Self::batch_master(c).map_err(|e| match e {
+                BatchError::Config(e) => ScanError::Config(e),
+                BatchError::Refused(e) => ScanError::Refused(e),
+            })?;
             let transport = open(c.settings).await.map_err(ScanError::Open)?;
             let mut m = crate::tokio::Handle::spawn_engine(master, transport);
             let mut open_jobs = jobs.len();
@@ -203,6 +219,17 @@ pub enum ScanError<E> {
     Refused(crate::master::RequestError),
 }
 
+/// Why a batch's engine could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum BatchError {
+    /// The batch's configuration is out of range.
+    #[error("{0}")]
+    Config(ConfigError),
+    /// The master refused the probe.
+    #[error("{0}")]
+    Refused(crate::master::RequestError),
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -223,10 +250,14 @@ mod tests {
     }
 
     #[test]
-    fn a_telegram_takes_at_least_the_response_timeout() {
+    fn a_batch_is_bounded_by_the_engines_own_job_bound() {
         let entry = PollEntry::new(1, PkwWords::Four, 2);
-        let c = MasterConfig::new(vec![entry]);
-        let bound = telegram_bound(&c, &entry, Duration::ZERO);
-        assert!(bound > c.response_timeout + c.settings.chars_time(16));
+        let mut c = MasterConfig::new(vec![entry, PollEntry::new(2, PkwWords::Four, 2)]);
+        c.retries = 0;
+        assert_eq!(batch_bound(&c, Duration::ZERO), c.job_bound());
+        assert_eq!(
+            batch_bound(&c, Duration::from_millis(1)),
+            c.job_bound() + Duration::from_millis(4)
+        );
     }
 }
