@@ -60,7 +60,14 @@ impl Reply {
 }
 
 /// Opening and closing the port for one setting, and the write `[derived]`.
-pub const OPEN_SLACK: Duration = Duration::from_millis(400);
+pub const OPEN_SLACK: Duration = Duration::from_millis(300);
+
+/// Reads of what the line held before the probe (a partner's start-up NAK) at most: a line that
+/// chatters cannot hold the probe longer than this many [`STALE_WAIT`]s.
+pub const STALE_READS: u32 = 10;
+
+/// How long one read of the line's stale bytes waits; a line silent this long is clear.
+pub const STALE_WAIT: Duration = Duration::from_millis(20);
 
 /// What one setting's probe saw.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -101,15 +108,24 @@ impl Probe {
         &self.settings
     }
 
-    /// The longest the probe can take: per setting the QVZ wait, the partner's ZVZ (and its
-    /// NAK) waited out, and [`OPEN_SLACK`].
+    /// The longest the probe of one setting takes once its port is open, whatever the line
+    /// does: the stale bytes read ([`STALE_READS`] × [`STALE_WAIT`] on a line that chatters),
+    /// the QVZ wait, and the partner's ZVZ (and its NAK) waited out after an answer.
+    pub fn setting_bound(&self) -> Duration {
+        STALE_WAIT.saturating_mul(u64::from(STALE_READS))
+            + self.ack_delay
+            + self.char_delay
+            + self.char_delay
+    }
+
+    /// The longest the probe can take: per setting [`Probe::setting_bound`] and
+    /// [`OPEN_SLACK`].
     pub fn bound(&self) -> Duration {
-        let per_setting = self.ack_delay + self.char_delay + self.char_delay + OPEN_SLACK;
-        Duration::from_micros(per_setting.as_micros() * self.settings.len() as u64)
+        (self.setting_bound() + OPEN_SLACK).saturating_mul(self.settings.len() as u64)
     }
 
     /// Run it: for each setting, `open` the line, drop what it held (a partner's start-up
-    /// NAK; at most 10 reads, so a chattering line cannot hold the probe), send `STX`, read
+    /// NAK; at most [`STALE_READS`] reads, so a chattering line cannot hold the probe), send `STX`, read
     /// the first character back within QVZ, hand it to `found`, and after an answer wait the
     /// partner's ZVZ out so the next setting starts on a quiet line. Dropping the future
     /// stops the probe at once.
@@ -129,9 +145,9 @@ impl Probe {
         for &settings in &self.settings {
             let mut port = open(settings).await.map_err(ProbeError::Open)?;
             let mut stale = [0u8; 64];
-            for _ in 0..10 {
+            for _ in 0..STALE_READS {
                 let read = port.read(&mut stale);
-                match tokio::time::timeout(std::time::Duration::from_millis(20), read).await {
+                match tokio::time::timeout(std(STALE_WAIT), read).await {
                     Ok(Ok(0)) => return Err(ProbeError::Closed),
                     Ok(Ok(_)) => {}
                     _ => break,
