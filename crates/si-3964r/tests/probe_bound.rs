@@ -62,7 +62,7 @@ async fn a_setting_is_probed_within_its_bound_on_a_chattering_line() {
                 tokio::spawn(worst_peer(theirs));
                 async move { Ok::<_, std::io::Error>(ours) }
             },
-            |f| replies.push(f.reply),
+            |f| replies.push(f.answer),
         )
         .await
         .unwrap();

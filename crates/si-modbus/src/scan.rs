@@ -18,29 +18,20 @@ pub const PROBE: Request<'static> = Request::ReadHoldingRegisters {
     quantity: 1,
 };
 
-/// What one probe found.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Answer {
-    /// A valid response, data or exception: a unit at this address and these line settings.
-    Present,
-    /// Something came back that was not a valid response (CRC, length, another address):
-    /// a device may be there at other line settings, or two answered at once.
-    Garbled(Status),
-    /// No response within the response time.
-    Absent,
-}
+/// What one probe found: si-core's, shared by every bus scan ([`answer`] says how a Modbus
+/// outcome reads).
+pub use si_core::sweep::Answer;
 
-impl Answer {
-    /// How a probe's outcome reads: `Ok` or an exception response is a unit that answered,
-    /// the response timeout (0830H, [Modbus/USS] §3.6) none, any other STATUS a garbled one.
-    pub fn of(outcome: Result<(), Status>) -> Answer {
-        match outcome {
-            Ok(()) => Answer::Present,
-            Err(s) if s == status::RESPONSE_TIMEOUT => Answer::Absent,
-            // 0E61H … 0E6FH: the slave's exception response, a valid frame from it.
-            Err(s) if (0x0E61..=0x0E6F).contains(&s.code()) => Answer::Present,
-            Err(s) => Answer::Garbled(s),
-        }
+/// How a probe's outcome reads: `Ok` or an exception response is a unit that answered,
+/// the response timeout (0830H, [Modbus/USS] §3.6) none, any other STATUS a garbled one
+/// (not a valid response: CRC, length, another address).
+pub fn answer(outcome: Result<(), Status>) -> Answer {
+    match outcome {
+        Ok(()) => Answer::Present,
+        Err(s) if s == status::RESPONSE_TIMEOUT => Answer::Absent,
+        // 0E61H … 0E6FH: the slave's exception response, a valid frame from it.
+        Err(s) if (0x0E61..=0x0E6F).contains(&s.code()) => Answer::Present,
+        Err(s) => Answer::Garbled(s),
     }
 }
 
@@ -61,14 +52,14 @@ mod tests {
 
     #[test]
     fn an_exception_is_a_unit_that_answered_and_a_timeout_none() {
-        assert_eq!(Answer::of(Ok(())), Answer::Present);
+        assert_eq!(answer(Ok(())), Answer::Present);
         assert_eq!(
-            Answer::of(Err(status::EXCEPTION_ILLEGAL_DATA_ADDRESS)),
+            answer(Err(status::EXCEPTION_ILLEGAL_DATA_ADDRESS)),
             Answer::Present
         );
-        assert_eq!(Answer::of(Err(status::RESPONSE_TIMEOUT)), Answer::Absent);
+        assert_eq!(answer(Err(status::RESPONSE_TIMEOUT)), Answer::Absent);
         assert_eq!(
-            Answer::of(Err(status::WRONG_SLAVE_ADDRESS)),
+            answer(Err(status::WRONG_SLAVE_ADDRESS)),
             Answer::Garbled(status::WRONG_SLAVE_ADDRESS)
         );
     }

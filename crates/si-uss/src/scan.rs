@@ -17,30 +17,21 @@ pub fn probe() -> ParamRequest {
     ParamRequest::read(0, 0)
 }
 
-/// What one probe found.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Answer {
-    /// The node answered: the value, or a PKW error (response ID 7 or 8), is an answer.
-    Present,
-    /// The node answered with telegrams that never matched the job, or was rejected: a
-    /// device may be there at other settings or with another net-data structure.
-    Garbled(Status),
-    /// No answer within the response timeout.
-    Absent,
-}
+/// What one probe found: si-core's, shared by every bus scan ([`answer`] says how a USS
+/// outcome reads).
+pub use si_core::sweep::Answer;
 
-impl Answer {
-    /// How a probe's outcome reads: done, or failed with response ID 7 (`PKW_ERROR`) or 8
-    /// (`PKW_INTERFACE_ERROR` with an error number) is a node that answered; `NO_ANSWER` none;
-    /// anything else garbled.
-    pub fn of(outcome: Result<(), (Status, Option<u16>)>) -> Answer {
-        match outcome {
-            Ok(()) => Answer::Present,
-            Err((s, _)) if s == status::NO_ANSWER => Answer::Absent,
-            Err((s, _)) if s == status::PKW_ERROR => Answer::Present,
-            Err((_, Some(_))) => Answer::Present,
-            Err((s, None)) => Answer::Garbled(s),
-        }
+/// How a probe's outcome reads: done, or failed with response ID 7 (`PKW_ERROR`) or 8
+/// (`PKW_INTERFACE_ERROR` with an error number) is a node that answered; `NO_ANSWER` none;
+/// anything else garbled (telegrams that never matched the job, or a rejection: a device may
+/// be there at other settings or with another net-data structure).
+pub fn answer(outcome: Result<(), (Status, Option<u16>)>) -> Answer {
+    match outcome {
+        Ok(()) => Answer::Present,
+        Err((s, _)) if s == status::NO_ANSWER => Answer::Absent,
+        Err((s, _)) if s == status::PKW_ERROR => Answer::Present,
+        Err((_, Some(_))) => Answer::Present,
+        Err((s, None)) => Answer::Garbled(s),
     }
 }
 
@@ -60,24 +51,14 @@ pub fn batch_bound(config: &MasterConfig, slack: Duration) -> Duration {
 /// port's latency, [`MasterConfig::port_margin`]): scheduling, counted generously `[derived]`.
 pub const TELEGRAM_SLACK: Duration = Duration::from_millis(40);
 
-/// Opening and closing the port for one line setting `[derived]`.
-pub const OPEN_SLACK: Duration = Duration::from_millis(300);
-
 /// Cycles a parameter job spans beyond its repetitions ([`MasterConfig::job_bound`]'s `+ 2`):
 /// the probe goes out in the first whole cycle; the other covers a cycle the master had
 /// begun before the job was entered.
 pub const CYCLES: u64 = 2;
 
-/// A node that answered something.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Found {
-    /// The node's address.
-    pub node: u8,
-    /// The line settings it answered at.
-    pub settings: SerialSettings,
-    /// What it answered ([`Answer::Present`] or [`Answer::Garbled`], never `Absent`).
-    pub answer: Answer,
-}
+/// A node that answered something ([`Answer::Present`] or [`Answer::Garbled`], never
+/// `Absent`) at one line setting: the station is the node's address.
+pub type Found = si_core::sweep::Found<u8, Answer>;
 
 /// A planned scan over real lines (run with `run`, feature `tokio`): one master per setting
 /// and batch, as a polling list holds at most [`MAX_ENTRIES`] nodes (SANZ, [Modbus/USS]
@@ -115,15 +96,12 @@ impl Scan {
     }
 
     /// The longest the scan can take: every batch's [`batch_bound`] with [`TELEGRAM_SLACK`],
-    /// plus [`OPEN_SLACK`] per batch.
+    /// plus [`OPEN_SLACK`](si_core::sweep::OPEN_SLACK) per batch ([`si_core::sweep::total`]).
     pub fn bound(&self) -> Duration {
         if self.first.is_none() {
             return Duration::ZERO;
         }
-        self.batches
-            .iter()
-            .map(|c| batch_bound(c, TELEGRAM_SLACK) + OPEN_SLACK)
-            .fold(Duration::ZERO, |a, b| a + b)
+        si_core::sweep::total(self.batches.iter().map(|c| batch_bound(c, TELEGRAM_SLACK)))
     }
 
     /// The batches: one master configuration each, in the order they run.
@@ -164,10 +142,7 @@ impl Scan {
     {
         use crate::master::Event;
         for c in &self.batches {
-            let (master, jobs) = Self::batch_master(c).map_err(|e| match e {
-                BatchError::Config(e) => ScanError::Config(e),
-                BatchError::Refused(e) => ScanError::Refused(e),
-            })?;
+            let (master, jobs) = Self::batch_master(c).map_err(ScanError::Run)?;
             let transport = open(c.settings).await.map_err(ScanError::Open)?;
             let mut m = crate::tokio::Handle::spawn_engine(master, transport);
             let mut open_jobs = jobs.len();
@@ -187,10 +162,10 @@ impl Scan {
                     continue;
                 };
                 open_jobs -= 1;
-                let answer = Answer::of(outcome);
+                let answer = answer(outcome);
                 if answer != Answer::Absent {
                     found(Found {
-                        node,
+                        station: node,
                         settings: c.settings,
                         answer,
                     });
@@ -205,19 +180,10 @@ impl Scan {
     }
 }
 
-/// Why a scan stopped before its end.
-#[derive(Debug, thiserror::Error)]
-pub enum ScanError<E> {
-    /// The caller could not open the line for a setting.
-    #[error("{0}")]
-    Open(E),
-    /// A batch's configuration is out of range.
-    #[error("{0}")]
-    Config(ConfigError),
-    /// The master refused the probe.
-    #[error("{0}")]
-    Refused(crate::master::RequestError),
-}
+/// Why a scan stopped before its end: the caller could not open the line for a setting
+/// ([`SweepError::Open`](si_core::sweep::SweepError::Open)), or a batch's engine could not be
+/// built ([`SweepError::Run`](si_core::sweep::SweepError::Run) with a [`BatchError`]).
+pub type ScanError<E> = si_core::sweep::SweepError<E, BatchError>;
 
 /// Why a batch's engine could not be built.
 #[derive(Debug, thiserror::Error)]
@@ -237,14 +203,11 @@ mod tests {
 
     #[test]
     fn a_drive_that_refuses_parameter_0_is_still_there() {
-        assert_eq!(Answer::of(Ok(())), Answer::Present);
+        assert_eq!(answer(Ok(())), Answer::Present);
+        assert_eq!(answer(Err((status::PKW_ERROR, Some(0)))), Answer::Present);
+        assert_eq!(answer(Err((status::NO_ANSWER, None))), Answer::Absent);
         assert_eq!(
-            Answer::of(Err((status::PKW_ERROR, Some(0)))),
-            Answer::Present
-        );
-        assert_eq!(Answer::of(Err((status::NO_ANSWER, None))), Answer::Absent);
-        assert_eq!(
-            Answer::of(Err((status::PKW_INTERFACE_ERROR, None))),
+            answer(Err((status::PKW_INTERFACE_ERROR, None))),
             Answer::Garbled(status::PKW_INTERFACE_ERROR)
         );
     }

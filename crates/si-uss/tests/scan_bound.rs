@@ -36,7 +36,11 @@ fn a_batch_ends_within_its_bound_under_every_noise() {
         let mut last = start;
         while open > 0 && sim.now().saturating_since(start) <= bound.saturating_mul(3) {
             let at = sim.now();
-            assert!(sim.step(), "{}: the line stopped with probes open", pattern.name);
+            assert!(
+                sim.step(),
+                "{}: the line stopped with probes open",
+                pattern.name
+            );
             let at = sim.now().max(at);
             for e in sim.take_events(m) {
                 if let Event::ParameterDone { job, .. } | Event::ParameterFailed { job, .. } = e {
@@ -47,7 +51,11 @@ fn a_batch_ends_within_its_bound_under_every_noise() {
                 }
             }
         }
-        assert_eq!(open, 0, "{}: probes still open at 3 × {bound}", pattern.name);
+        assert_eq!(
+            open, 0,
+            "{}: probes still open at 3 × {bound}",
+            pattern.name
+        );
         let took = last.saturating_since(start);
         assert!(took <= bound, "{}: {took} > {bound}", pattern.name);
         worst = worst.max(took);

@@ -9,8 +9,9 @@ use super::error::Error;
 use super::master::Master;
 use crate::config::{ConfigError, MasterConfig};
 use crate::master;
-use crate::scan::{probe_bound, Answer, PROBE};
+use crate::scan::{answer, probe_bound, Answer, PROBE};
 use si_core::driver::Transport;
+use si_core::sweep::SweepError;
 use si_core::{Duration, SerialSettings};
 use std::future::Future;
 
@@ -18,30 +19,14 @@ use std::future::Future;
 /// port's latency, [`MasterConfig::port_margin`]): scheduling, counted generously `[derived]`.
 pub const PROBE_SLACK: Duration = Duration::from_millis(60);
 
-/// Opening and closing the port for one line setting `[derived]`.
-pub const OPEN_SLACK: Duration = Duration::from_millis(300);
+/// A unit that answered something ([`Answer::Present`] or [`Answer::Garbled`], never
+/// `Absent`) at one line setting: the station is the unit's address.
+pub type Found = si_core::sweep::Found<u8, Answer>;
 
-/// A unit that answered something.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Found {
-    /// The unit.
-    pub unit: u8,
-    /// The line settings it answered at.
-    pub settings: SerialSettings,
-    /// What it answered ([`Answer::Present`] or [`Answer::Garbled`], never `Absent`).
-    pub answer: Answer,
-}
-
-/// Why a scan stopped before its end.
-#[derive(Debug, thiserror::Error)]
-pub enum ScanError<E> {
-    /// The caller could not open the line for a setting.
-    #[error("{0}")]
-    Open(E),
-    /// The master failed otherwise than with a STATUS.
-    #[error("{0}")]
-    Master(Error),
-}
+/// Why a scan stopped before its end: the caller could not open the line for a setting
+/// ([`SweepError::Open`]), or the master failed otherwise than with a STATUS
+/// ([`SweepError::Run`]).
+pub type ScanError<E> = SweepError<E, Error>;
 
 /// A planned scan: the units, the settings, the master's configuration.
 #[derive(Debug, Clone)]
@@ -83,12 +68,11 @@ impl Scan {
     }
 
     /// The longest the scan can take: every probe's bound ([`probe_bound`] of the engine it
-    /// runs on, with [`PROBE_SLACK`]) plus [`OPEN_SLACK`] per setting.
+    /// runs on, with [`PROBE_SLACK`]) plus [`OPEN_SLACK`](si_core::sweep::OPEN_SLACK) per setting
+    /// ([`si_core::sweep::total`]).
     pub fn bound(&self) -> Duration {
-        self.probe_bounds
-            .iter()
-            .map(|probe| probe.saturating_mul(self.units.len() as u64) + OPEN_SLACK)
-            .fold(Duration::ZERO, |a, b| a + b)
+        let units = self.units.len() as u64;
+        si_core::sweep::total(self.probe_bounds.iter().map(|p| p.saturating_mul(units)))
     }
 
     /// The longest one probe at `settings` can take ([`probe_bound`] with [`PROBE_SLACK`]);
@@ -123,17 +107,17 @@ impl Scan {
     {
         for &settings in &self.settings {
             let port = open(settings).await.map_err(ScanError::Open)?;
-            let engine = Self::engine(self.at(settings)).map_err(|e| ScanError::Master(e.into()))?;
+            let engine = Self::engine(self.at(settings)).map_err(|e| ScanError::Run(e.into()))?;
             let master = Master::spawn_engine(engine, port);
             for &unit in &self.units {
                 let outcome = match master.request(unit, &PROBE).await {
                     Ok(_) => Ok(()),
-                    Err(e) => Err(e.status().ok_or(e).map_err(ScanError::Master)?),
+                    Err(e) => Err(e.status().ok_or(e).map_err(ScanError::Run)?),
                 };
-                let answer = Answer::of(outcome);
+                let answer = answer(outcome);
                 if answer != Answer::Absent {
                     found(Found {
-                        unit,
+                        station: unit,
                         settings,
                         answer,
                     });
