@@ -58,6 +58,8 @@ mod info;
 mod linux;
 #[cfg(target_os = "linux")]
 pub mod loopback;
+#[cfg(target_os = "linux")]
+pub mod parity_check;
 mod rs485;
 mod stream;
 mod tx_enable;
