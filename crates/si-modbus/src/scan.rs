@@ -66,8 +66,10 @@ mod tests {
 
     #[test]
     fn a_probe_is_bounded_by_the_engines_own_bound() {
-        let mut c = crate::MasterConfig::default();
-        c.retries = 0;
+        let c = crate::MasterConfig {
+            retries: 0,
+            ..Default::default()
+        };
         let master = Master::new(c).unwrap();
         let bound = probe_bound(&master, Duration::ZERO);
         assert_eq!(bound, c.job_bound());
