@@ -13,6 +13,14 @@
 //!   is low priority or simply idle; a probe cannot tell which.
 //! - anything else: a character at other line settings, or another protocol.
 //! - nothing: no partner, or one that hears garbage at these settings.
+//!
+//! The probe writes and reads the port itself rather than run a [`Link`](crate::link::Link):
+//! a link's send job goes on with a whole block once the partner answers `DLE` (the partner
+//! would receive data, not just a connection setup it drops), and it reports the partner's
+//! first character only as the job's STATUS or a conflict it resolved by its own priority,
+//! never as the character; a probe must send `STX` alone and say what came back. What it
+//! shares with the bus scans (the settings tried, [`Found`], [`ProbeError`], the total bound)
+//! is si-core's `sweep`.
 
 use crate::frame::{DLE, NAK, STX};
 use si_core::{Duration, SerialSettings};
@@ -44,6 +52,17 @@ impl Reply {
         }
     }
 
+    /// The character that gave this reply (`None`: nothing came).
+    pub fn first(self) -> Option<u8> {
+        match self {
+            Reply::Ready => Some(DLE),
+            Reply::Refused => Some(NAK),
+            Reply::HighPriority => Some(STX),
+            Reply::Other(c) => Some(c),
+            Reply::Silent => None,
+        }
+    }
+
     /// One line for a person.
     pub fn describe(self) -> String {
         match self {
@@ -59,19 +78,17 @@ impl Reply {
     }
 }
 
-/// Opening and closing the port for one setting, and the write `[derived]`.
-pub const OPEN_SLACK: Duration = Duration::from_millis(400);
+/// Reads of what the line held before the probe (a partner's start-up NAK) at most: a line that
+/// chatters cannot hold the probe longer than this many [`STALE_WAIT`]s.
+pub const STALE_READS: u32 = 10;
 
-/// What one setting's probe saw.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Found {
-    /// The line settings probed.
-    pub settings: SerialSettings,
-    /// The first character back, if one came within the acknowledgement delay time.
-    pub first: Option<u8>,
-    /// What it means.
-    pub reply: Reply,
-}
+/// How long one read of the line's stale bytes waits; a line silent this long is clear.
+pub const STALE_WAIT: Duration = Duration::from_millis(20);
+
+/// What one setting's probe saw: the partner's [`Reply`] (its first character back within
+/// the acknowledgement delay time, [`Reply::first`]) at those settings. A point-to-point
+/// partner has no address: the station is `()`.
+pub type Found = si_core::sweep::Found<(), Reply>;
 
 /// A probe of each of a list of line settings (run with `run`, feature `tokio`).
 #[derive(Debug, Clone)]
@@ -101,15 +118,24 @@ impl Probe {
         &self.settings
     }
 
-    /// The longest the probe can take: per setting the QVZ wait, the partner's ZVZ (and its
-    /// NAK) waited out, and [`OPEN_SLACK`].
+    /// The longest the probe of one setting takes once its port is open, whatever the line
+    /// does: the stale bytes read ([`STALE_READS`] × [`STALE_WAIT`] on a line that chatters),
+    /// the QVZ wait, and the partner's ZVZ (and its NAK) waited out after an answer.
+    pub fn setting_bound(&self) -> Duration {
+        STALE_WAIT.saturating_mul(u64::from(STALE_READS))
+            + self.ack_delay
+            + self.char_delay
+            + self.char_delay
+    }
+
+    /// The longest the probe can take: per setting [`Probe::setting_bound`] and
+    /// [`OPEN_SLACK`](si_core::sweep::OPEN_SLACK) ([`si_core::sweep::total`]).
     pub fn bound(&self) -> Duration {
-        let per_setting = self.ack_delay + self.char_delay + self.char_delay + OPEN_SLACK;
-        Duration::from_micros(per_setting.as_micros() * self.settings.len() as u64)
+        si_core::sweep::total(self.settings.iter().map(|_| self.setting_bound()))
     }
 
     /// Run it: for each setting, `open` the line, drop what it held (a partner's start-up
-    /// NAK; at most 10 reads, so a chattering line cannot hold the probe), send `STX`, read
+    /// NAK; at most [`STALE_READS`] reads, so a chattering line cannot hold the probe), send `STX`, read
     /// the first character back within QVZ, hand it to `found`, and after an answer wait the
     /// partner's ZVZ out so the next setting starts on a quiet line. Dropping the future
     /// stops the probe at once.
@@ -129,27 +155,29 @@ impl Probe {
         for &settings in &self.settings {
             let mut port = open(settings).await.map_err(ProbeError::Open)?;
             let mut stale = [0u8; 64];
-            for _ in 0..10 {
+            for _ in 0..STALE_READS {
                 let read = port.read(&mut stale);
-                match tokio::time::timeout(std::time::Duration::from_millis(20), read).await {
-                    Ok(Ok(0)) => return Err(ProbeError::Closed),
+                match tokio::time::timeout(std(STALE_WAIT), read).await {
+                    Ok(Ok(0)) => return Err(ProbeError::Run(ProbeFault::Closed)),
                     Ok(Ok(_)) => {}
                     _ => break,
                 }
             }
-            port.write_all(&[STX]).await.map_err(ProbeError::Io)?;
+            port.write_all(&[STX])
+                .await
+                .map_err(|e| ProbeError::Run(ProbeFault::Io(e)))?;
             let mut byte = [0u8; 1];
             let first = match tokio::time::timeout(std(self.ack_delay), port.read(&mut byte)).await
             {
                 Ok(Ok(1)) => Some(byte[0]),
-                Ok(Ok(_)) => return Err(ProbeError::Closed),
-                Ok(Err(e)) => return Err(ProbeError::Io(e)),
+                Ok(Ok(_)) => return Err(ProbeError::Run(ProbeFault::Closed)),
+                Ok(Err(e)) => return Err(ProbeError::Run(ProbeFault::Io(e))),
                 Err(_) => None,
             };
             found(Found {
+                station: (),
                 settings,
-                first,
-                reply: Reply::of(first),
+                answer: Reply::of(first),
             });
             if first.is_some() {
                 let quiet = tokio::time::sleep(std(self.char_delay + self.char_delay));
@@ -167,12 +195,14 @@ impl Probe {
     }
 }
 
-/// Why a probe stopped before its end.
+/// Why a probe stopped before its end: the caller could not open the line for a setting
+/// ([`SweepError::Open`](si_core::sweep::SweepError::Open)), or the line failed under the probe
+/// ([`SweepError::Run`](si_core::sweep::SweepError::Run) with a [`ProbeFault`]).
+pub type ProbeError<E> = si_core::sweep::SweepError<E, ProbeFault>;
+
+/// How the line failed under a probe.
 #[derive(Debug, thiserror::Error)]
-pub enum ProbeError<E> {
-    /// The caller could not open the line for a setting.
-    #[error("{0}")]
-    Open(E),
+pub enum ProbeFault {
     /// The line closed under the probe.
     #[error("the line closed")]
     Closed,
@@ -193,5 +223,8 @@ mod tests {
         assert_eq!(Reply::of(Some(0x41)), Reply::Other(0x41));
         assert_eq!(Reply::of(None), Reply::Silent);
         assert!(Reply::Other(0xFE).describe().contains("FEH"));
+        for first in [Some(DLE), Some(NAK), Some(STX), Some(0x41), None] {
+            assert_eq!(Reply::of(first).first(), first);
+        }
     }
 }

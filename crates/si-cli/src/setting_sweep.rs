@@ -44,7 +44,7 @@ impl Sweep {
                 .map(|p| p.parse().map_err(CliError::bad_argument))
                 .collect::<Result<_, _>>()?
         };
-        si_core::port::settings_sweep(&bauds, &parities, (data_bits, base.stop_bits()), rates)
+        si_core::sweep::settings(&bauds, &parities, (data_bits, base.stop_bits()), rates)
             .map_err(CliError::bad_argument)
     }
 }

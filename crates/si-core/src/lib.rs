@@ -76,6 +76,7 @@ pub mod rx_path;
 pub mod sansio;
 pub mod serial;
 pub mod status;
+pub mod sweep;
 pub mod time;
 pub mod trace;
 pub mod trace_names;

@@ -249,6 +249,16 @@ impl Master {
         })
     }
 
+    /// The longest a job started on this engine at any instant takes, from its start to its
+    /// end, whatever the line does: [`MasterConfig::job_bound`] plus the longest hold of the
+    /// quiet guard after a timeout ([`crate::quiet_guard`]; zero when it is off), which a job
+    /// started while the guard holds the line waits out first. The engine's own deadline for a
+    /// job never lies beyond it, so a caller announcing how long jobs take (a bus scan,
+    /// [`crate::scan::probe_bound`]) counts from this, not from a formula of its own.
+    pub fn longest_job(&self) -> Duration {
+        self.guard.longest_hold(self.max_response) + self.job_bound
+    }
+
     /// End received frames this way (host extension [`FrameEnd::Length`]; the default is
     /// the module's [`FrameEnd::Gap`]).
     ///

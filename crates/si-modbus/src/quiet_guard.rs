@@ -54,6 +54,17 @@ impl QuietGuard {
         self.armed.map(|t| t + self.quiet + longest)
     }
 
+    /// The longest the guard can hold a request started at any instant: `quiet` + `longest`
+    /// (the longest response) when it is set, zero when it is off. What
+    /// [`Master::longest_job`](crate::master::Master::longest_job) adds to a job's own bound.
+    pub fn longest_hold(&self, longest: Duration) -> Duration {
+        if self.quiet == Duration::ZERO {
+            Duration::ZERO
+        } else {
+            self.quiet + longest
+        }
+    }
+
     /// When the next request may go out, given the last character received (`last`) and the
     /// longest response: silence of `quiet` since the timeout or `last`, within
     /// [`bound`](Self::bound). `None` when not armed.

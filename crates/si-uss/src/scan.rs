@@ -17,65 +17,48 @@ pub fn probe() -> ParamRequest {
     ParamRequest::read(0, 0)
 }
 
-/// What one probe found.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Answer {
-    /// The node answered: the value, or a PKW error (response ID 7 or 8), is an answer.
-    Present,
-    /// The node answered with telegrams that never matched the job, or was rejected: a
-    /// device may be there at other settings or with another net-data structure.
-    Garbled(Status),
-    /// No answer within the response timeout.
-    Absent,
-}
+/// What one probe found: si-core's, shared by every bus scan ([`answer`] says how a USS
+/// outcome reads).
+pub use si_core::sweep::Answer;
 
-impl Answer {
-    /// How a probe's outcome reads: done, or failed with response ID 7 (`PKW_ERROR`) or 8
-    /// (`PKW_INTERFACE_ERROR` with an error number) is a node that answered; `NO_ANSWER` none;
-    /// anything else garbled.
-    pub fn of(outcome: Result<(), (Status, Option<u16>)>) -> Answer {
-        match outcome {
-            Ok(()) => Answer::Present,
-            Err((s, _)) if s == status::NO_ANSWER => Answer::Absent,
-            Err((s, _)) if s == status::PKW_ERROR => Answer::Present,
-            Err((_, Some(_))) => Answer::Present,
-            Err((s, None)) => Answer::Garbled(s),
-        }
+/// How a probe's outcome reads: done, or failed with response ID 7 (`PKW_ERROR`) or 8
+/// (`PKW_INTERFACE_ERROR` with an error number) is a node that answered; `NO_ANSWER` none;
+/// anything else garbled (telegrams that never matched the job, or a rejection: a device may
+/// be there at other settings or with another net-data structure).
+pub fn answer(outcome: Result<(), (Status, Option<u16>)>) -> Answer {
+    match outcome {
+        Ok(()) => Answer::Present,
+        Err((s, _)) if s == status::NO_ANSWER => Answer::Absent,
+        Err((s, _)) if s == status::PKW_ERROR => Answer::Present,
+        Err((_, Some(_))) => Answer::Present,
+        Err((s, None)) => Answer::Garbled(s),
     }
 }
 
-/// The longest one telegram exchange with `entry` takes with `config`: the start interval
-/// (2 character times) before the request, the request, the response timeout, the response
-/// within its residual run time (1.5 × its characters, [USS spec] §5.2.1.2), plus `slack` for
-/// what the host adds. A scan that polls `n` nodes `c` times takes at most `n × c` times this.
-pub fn telegram_bound(config: &MasterConfig, entry: &PollEntry, slack: Duration) -> Duration {
-    // STX, LGE, ADR, the net data, BCC.
-    let chars = 4 + entry.net_len() as u64;
-    let s = config.settings;
-    s.chars_time(2 + chars + (3 * chars).div_ceil(2)) + config.response_timeout + slack
+/// The longest one batch takes, from the master's start to its last probe's end, whatever the
+/// line does: the engine's own bound for a parameter job, [`MasterConfig::job_bound`] (with
+/// `config`'s retries, 0 in a scan: one telegram per node; every probe is entered before the
+/// start, so each ends within it), plus `slack` per telegram for what the host adds. It counts
+/// what a noisy line can make a poll last (the wait for the start interval's silence, a
+/// garbled answer up to the longest telegram's residual run time, a port's latency) and the
+/// cycle pause, not just a valid answer's characters; not a formula of the scan's own.
+pub fn batch_bound(config: &MasterConfig, slack: Duration) -> Duration {
+    let telegrams = config.polling_list.len() as u64 * (u64::from(config.retries) + CYCLES);
+    config.job_bound() + slack.saturating_mul(telegrams)
 }
 
-/// What the host may add to each telegram beyond the line's own time (a USB adapter's hold,
-/// scheduling), counted generously `[derived]`.
+/// What the host may add to each telegram beyond the engine's bound (which already counts a
+/// port's latency, [`MasterConfig::port_margin`]): scheduling, counted generously `[derived]`.
 pub const TELEGRAM_SLACK: Duration = Duration::from_millis(40);
 
-/// Opening and closing the port for one line setting `[derived]`.
-pub const OPEN_SLACK: Duration = Duration::from_millis(300);
-
-/// Cycles over the nodes the bound allows: the probe goes out in the first; a second covers
-/// a cycle the master had begun before the jobs were entered `[derived]`.
+/// Cycles a parameter job spans beyond its repetitions ([`MasterConfig::job_bound`]'s `+ 2`):
+/// the probe goes out in the first whole cycle; the other covers a cycle the master had
+/// begun before the job was entered.
 pub const CYCLES: u64 = 2;
 
-/// A node that answered something.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Found {
-    /// The node's address.
-    pub node: u8,
-    /// The line settings it answered at.
-    pub settings: SerialSettings,
-    /// What it answered ([`Answer::Present`] or [`Answer::Garbled`], never `Absent`).
-    pub answer: Answer,
-}
+/// A node that answered something ([`Answer::Present`] or [`Answer::Garbled`], never
+/// `Absent`) at one line setting: the station is the node's address.
+pub type Found = si_core::sweep::Found<u8, Answer>;
 
 /// A planned scan over real lines (run with `run`, feature `tokio`): one master per setting
 /// and batch, as a polling list holds at most [`MAX_ENTRIES`] nodes (SANZ, [Modbus/USS]
@@ -112,20 +95,36 @@ impl Scan {
         })
     }
 
-    /// The longest the scan can take: [`CYCLES`] telegrams per node ([`telegram_bound`] with
-    /// [`TELEGRAM_SLACK`]) plus [`OPEN_SLACK`] per batch.
+    /// The longest the scan can take: every batch's [`batch_bound`] with [`TELEGRAM_SLACK`],
+    /// plus [`OPEN_SLACK`](si_core::sweep::OPEN_SLACK) per batch ([`si_core::sweep::total`]).
     pub fn bound(&self) -> Duration {
-        let Some(first) = &self.first else {
+        if self.first.is_none() {
             return Duration::ZERO;
-        };
-        self.batches
-            .iter()
-            .map(|c| {
-                let telegram = telegram_bound(c, first, TELEGRAM_SLACK);
-                let polls = c.polling_list.len() as u64 * CYCLES;
-                Duration::from_micros(telegram.as_micros() * polls) + OPEN_SLACK
-            })
-            .fold(Duration::ZERO, |a, b| a + b)
+        }
+        si_core::sweep::total(self.batches.iter().map(|c| batch_bound(c, TELEGRAM_SLACK)))
+    }
+
+    /// The batches: one master configuration each, in the order they run.
+    pub fn batches(&self) -> &[MasterConfig] {
+        &self.batches
+    }
+
+    /// The engine of one batch (`config`, from [`Scan::batches`]), as the scan runs it: the
+    /// probe entered for each node of its polling list, to stop when all have ended; not yet
+    /// started. With each probe's job and node.
+    pub fn batch_master(
+        config: &MasterConfig,
+    ) -> Result<(crate::master::Master, Vec<(si_core::job::JobId, u8)>), BatchError> {
+        let mut master = crate::master::Master::new(config.clone()).map_err(BatchError::Config)?;
+        let mut jobs = Vec::new();
+        for entry in &config.polling_list {
+            let job = master
+                .request_parameter(si_core::Instant::ZERO, entry.address, probe())
+                .map_err(BatchError::Refused)?;
+            jobs.push((job, entry.address));
+        }
+        master.stop_when_idle();
+        Ok((master, jobs))
     }
 
     /// Run it: for each batch, `open` the line at its settings, ask every node once, hand
@@ -141,17 +140,9 @@ impl Scan {
         T: si_core::driver::Transport,
         Fut: std::future::Future<Output = Result<T, E>>,
     {
-        use crate::master::{Event, Master};
+        use crate::master::Event;
         for c in &self.batches {
-            let mut master = Master::new(c.clone()).map_err(ScanError::Config)?;
-            let mut jobs = Vec::new();
-            for entry in &c.polling_list {
-                let job = master
-                    .request_parameter(si_core::Instant::ZERO, entry.address, probe())
-                    .map_err(ScanError::Refused)?;
-                jobs.push((job, entry.address));
-            }
-            master.stop_when_idle();
+            let (master, jobs) = Self::batch_master(c).map_err(ScanError::Run)?;
             let transport = open(c.settings).await.map_err(ScanError::Open)?;
             let mut m = crate::tokio::Handle::spawn_engine(master, transport);
             let mut open_jobs = jobs.len();
@@ -171,10 +162,10 @@ impl Scan {
                     continue;
                 };
                 open_jobs -= 1;
-                let answer = Answer::of(outcome);
+                let answer = answer(outcome);
                 if answer != Answer::Absent {
                     found(Found {
-                        node,
+                        station: node,
                         settings: c.settings,
                         answer,
                     });
@@ -189,13 +180,15 @@ impl Scan {
     }
 }
 
-/// Why a scan stopped before its end.
+/// Why a scan stopped before its end: the caller could not open the line for a setting
+/// ([`SweepError::Open`](si_core::sweep::SweepError::Open)), or a batch's engine could not be
+/// built ([`SweepError::Run`](si_core::sweep::SweepError::Run) with a [`BatchError`]).
+pub type ScanError<E> = si_core::sweep::SweepError<E, BatchError>;
+
+/// Why a batch's engine could not be built.
 #[derive(Debug, thiserror::Error)]
-pub enum ScanError<E> {
-    /// The caller could not open the line for a setting.
-    #[error("{0}")]
-    Open(E),
-    /// A batch's configuration is out of range.
+pub enum BatchError {
+    /// The batch's configuration is out of range.
     #[error("{0}")]
     Config(ConfigError),
     /// The master refused the probe.
@@ -210,23 +203,24 @@ mod tests {
 
     #[test]
     fn a_drive_that_refuses_parameter_0_is_still_there() {
-        assert_eq!(Answer::of(Ok(())), Answer::Present);
+        assert_eq!(answer(Ok(())), Answer::Present);
+        assert_eq!(answer(Err((status::PKW_ERROR, Some(0)))), Answer::Present);
+        assert_eq!(answer(Err((status::NO_ANSWER, None))), Answer::Absent);
         assert_eq!(
-            Answer::of(Err((status::PKW_ERROR, Some(0)))),
-            Answer::Present
-        );
-        assert_eq!(Answer::of(Err((status::NO_ANSWER, None))), Answer::Absent);
-        assert_eq!(
-            Answer::of(Err((status::PKW_INTERFACE_ERROR, None))),
+            answer(Err((status::PKW_INTERFACE_ERROR, None))),
             Answer::Garbled(status::PKW_INTERFACE_ERROR)
         );
     }
 
     #[test]
-    fn a_telegram_takes_at_least_the_response_timeout() {
+    fn a_batch_is_bounded_by_the_engines_own_job_bound() {
         let entry = PollEntry::new(1, PkwWords::Four, 2);
-        let c = MasterConfig::new(vec![entry]);
-        let bound = telegram_bound(&c, &entry, Duration::ZERO);
-        assert!(bound > c.response_timeout + c.settings.chars_time(16));
+        let mut c = MasterConfig::new(vec![entry, PollEntry::new(2, PkwWords::Four, 2)]);
+        c.retries = 0;
+        assert_eq!(batch_bound(&c, Duration::ZERO), c.job_bound());
+        assert_eq!(
+            batch_bound(&c, Duration::from_millis(1)),
+            c.job_bound() + Duration::from_millis(4)
+        );
     }
 }

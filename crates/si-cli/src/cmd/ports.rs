@@ -22,6 +22,12 @@ pub struct PortsArgs {
     /// framing errors the driver counted meanwhile.
     #[arg(long, requires = "check")]
     pub loopback: bool,
+    /// With --check: a second port wired to the first (its RX to the first's TX, a null-modem
+    /// cable): whether parity errors are detected, sending with mark parity on the first and
+    /// receiving expecting space on this one. Without it (or on a pseudo-terminal), --loopback
+    /// reports that test as not testable.
+    #[arg(long, requires = "check", value_name = "PATH")]
+    pub loopback_peer: Option<String>,
 }
 
 impl PortsArgs {
@@ -36,17 +42,19 @@ impl PortsArgs {
                 } else {
                     path
                 };
-                check(&path, self.loopback, out)
+                check(&path, self.loopback, self.loopback_peer.as_deref(), out)
             }
             None => run(conn, out),
         }
     }
 }
 
-/// One screen for one port: the findings, then exit 1 if any is a problem.
+/// One screen for one port: the findings, then exit 1 if any is a problem. With `loopback` the
+/// round trips; with `loopback` or a `peer` the parity test (`si_core::port::parity_check`).
 #[cfg(target_os = "linux")]
-fn check(path: &str, loopback: bool, out: &Output) -> Result<(), CliError> {
+fn check(path: &str, loopback: bool, peer: Option<&str>, out: &Output) -> Result<(), CliError> {
     use si_core::port::check::{self, Severity};
+    use si_core::port::parity_check::{parity_check, ParityCheck};
     let mut findings = check::check(path);
     let usable = !findings.iter().any(|f| f.severity == Severity::Problem);
     if loopback && usable {
@@ -55,19 +63,30 @@ fn check(path: &str, loopback: bool, out: &Output) -> Result<(), CliError> {
             .build()?;
         findings.extend(rt.block_on(si_core::port::loopback::loopback(path)));
     }
+    let parity = ((loopback || peer.is_some()) && usable).then(|| parity_check(path, peer));
+    if let Some(p) = &parity {
+        findings.push(p.finding());
+    }
     let problems = findings
         .iter()
         .filter(|f| f.severity == Severity::Problem)
         .count();
     if out.json {
-        out.line(
-            "",
-            serde_json::json!({
-                "port": path,
-                "ok": problems == 0,
-                "findings": findings.iter().map(finding_json).collect::<Vec<_>>(),
-            }),
-        );
+        let mut report = serde_json::json!({
+            "port": path,
+            "ok": problems == 0,
+            "findings": findings.iter().map(finding_json).collect::<Vec<_>>(),
+        });
+        if let Some(p) = &parity {
+            // "yes", "no" or "not testable"; the counts where the test ran.
+            report["parity_errors_detected"] = p.verdict().into();
+            if let ParityCheck::Ran { sent, marks } = p {
+                report["parity_test"] = serde_json::json!({
+                    "sent": sent, "received": marks.received, "marked": marks.marked,
+                });
+            }
+        }
+        out.line("", report);
     } else {
         let mut text = format!("{path}\n");
         for f in &findings {
@@ -112,7 +131,7 @@ fn finding_json(f: &si_core::port::check::Finding) -> serde_json::Value {
 }
 
 #[cfg(not(target_os = "linux"))]
-fn check(path: &str, _: bool, _: &Output) -> Result<(), CliError> {
+fn check(path: &str, _: bool, _: Option<&str>, _: &Output) -> Result<(), CliError> {
     Err(CliError::new(format!(
         "{path}: --check reads /dev, /sys and /proc and needs Linux"
     )))

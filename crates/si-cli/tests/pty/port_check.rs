@@ -223,3 +223,59 @@ fn loopback_without_an_echo_says_so_and_exits_1() {
     assert!(t.contains("nothing came back"), "{t}");
     assert!(t.contains("wire TX to RX"), "{t}");
 }
+
+/// Parity-error detection needs a wire and a second UART: on a pty pair given as port and
+/// peer, the check says "not testable" with the reason and what to wire, never "yes"; that is
+/// no problem, so the exit code stays 0. Without a peer `--loopback` says the same.
+#[test]
+fn parity_detection_on_a_pty_pair_is_not_testable_and_says_what_to_wire() {
+    let Some(pair) = pty_pair() else { return };
+    let o = si(&["ports", "--check", &pair.a, "--loopback-peer", &pair.b]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    let line = t
+        .lines()
+        .find(|l| l.contains("parity: parity errors detected: not testable"))
+        .unwrap_or_else(|| panic!("no parity finding: {t}"));
+    assert!(line.contains("pseudo-terminal"), "{line}");
+    assert!(t.contains("--loopback-peer PATH"), "{t}");
+    assert!(!t.contains("detected: yes"), "{t}");
+
+    let o = si(&[
+        "--json",
+        "ports",
+        "--check",
+        &pair.a,
+        "--loopback-peer",
+        &pair.b,
+    ]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    let report: serde_json::Value =
+        serde_json::from_str(stdout(&o).lines().last().expect("a line")).expect("JSON");
+    assert_eq!(report["parity_errors_detected"], "not testable", "{t}");
+    let finding = report["findings"]
+        .as_array()
+        .expect("findings")
+        .iter()
+        .find(|f| f["check"] == "parity")
+        .unwrap_or_else(|| panic!("no parity finding: {t}"));
+    assert_eq!(finding["severity"], "note", "{t}");
+    assert!(
+        finding["remedy"].as_str().unwrap().contains("null-modem"),
+        "{t}"
+    );
+}
+
+#[test]
+fn loopback_without_a_peer_reports_parity_detection_not_testable() {
+    let Some((_socat, pty)) = echoing_pty() else {
+        return;
+    };
+    let o = si(&["--json", "ports", "--check", &pty, "--loopback"]);
+    let t = text(&o);
+    assert!(o.status.success(), "{t}");
+    let report: serde_json::Value =
+        serde_json::from_str(stdout(&o).lines().last().expect("a line")).expect("JSON");
+    assert_eq!(report["parity_errors_detected"], "not testable", "{t}");
+}

@@ -38,7 +38,7 @@ impl Severity {
 #[derive(Debug, Clone)]
 pub struct Finding {
     /// What was checked: `device`, `driver`, `access`, `holders`, `latency timer`, `rs485`,
-    /// `modem lines`, `line errors`.
+    /// `modem lines`, `line errors`; with the loopback `loopback`, `echo`, `parity`.
     pub check: &'static str,
     /// How much it matters.
     pub severity: Severity,
@@ -111,7 +111,7 @@ pub fn check(path: &str) -> Vec<Finding> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let pty = real.starts_with("/dev/pts");
+    let pty = is_pseudo_terminal(path);
     findings.push(Finding::new(
         "device",
         Severity::Ok,
@@ -135,6 +135,22 @@ pub fn check(path: &str) -> Vec<Finding> {
         findings.push(line_errors(path));
     }
     findings
+}
+
+/// Whether `path` (a link followed) is a pseudo-terminal: under `/dev/pts`, or a character device
+/// of the majors Linux gives Unix 98 pty slaves (136–143). A pseudo-terminal has no
+/// wire and no parity bits: what it is told of parity it drops or ignores.
+pub fn is_pseudo_terminal(path: &str) -> bool {
+    let real = fs::canonicalize(path).unwrap_or_else(|_| PathBuf::from(path));
+    if real.starts_with("/dev/pts") || real == Path::new("/dev/ptmx") {
+        return true;
+    }
+    fs::metadata(&real).is_ok_and(|m| {
+        let dev = m.rdev();
+        // The major number's bits of a Linux dev_t (glibc's gnu_dev_major).
+        let major = ((dev >> 8) & 0xfff) | ((dev >> 32) & !0xfff);
+        m.file_type().is_char_device() && (136..=143).contains(&major)
+    })
 }
 
 /// Which kernel driver serves the port, from `/sys/class/tty/<name>/device/driver`.

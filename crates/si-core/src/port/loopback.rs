@@ -7,10 +7,11 @@
 //! parity or baud rate echoing) shows there, and only there when the port does not mark
 //! errors in its stream.
 //!
-//! What the check cannot show: that a parity error *would* be detected. That needs a sender and
+//! What the loop cannot show: that a parity error *would* be detected. That needs a sender and
 //! a receiver at different parity at once, which one UART looping back to itself cannot be (it
-//! sends with the parity it checks), and a pseudo-terminal has no parity at all: its driver
-//! keeps no counters, which the check says instead of a count.
+//! sends with the parity it checks): a second port wired to this one does it
+//! ([`crate::port::parity_check`], `--loopback-peer`). A pseudo-terminal has no parity at all:
+//! its driver keeps no counters, which the check says instead of a count.
 //!
 //! Times are measured on this host's clock around blocking-free reads; they are what a user's
 //! program sees, not what the wire does.

@@ -58,14 +58,16 @@ mod info;
 mod linux;
 #[cfg(target_os = "linux")]
 pub mod loopback;
+#[cfg(target_os = "linux")]
+pub mod parity_check;
 mod rs485;
 mod stream;
-mod sweep;
 mod tx_enable;
 
 pub use device_server::{device_server, ConnectError, CONNECT_TIMEOUT, KEEPALIVE};
 pub use icount::{line_counters, LineCounters};
 
+pub use crate::sweep::settings as settings_sweep;
 pub use info::{
     describe, latency_timer, list, set_latency_timer, PortInfo, UsbIds, LATENCY_TIMER_MS,
 };
@@ -73,7 +75,6 @@ pub use info::{
 pub use linux::TermiosMode;
 pub use rs485::{Rs485, Rs485Mode, Rs485ModeError};
 pub use stream::SerialPort;
-pub use sweep::settings_sweep;
 pub use tx_enable::{TxEnable, TxEnableOutput};
 
 use crate::driver::{PortFacts, Transport};

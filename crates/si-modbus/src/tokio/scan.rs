@@ -8,39 +8,25 @@
 use super::error::Error;
 use super::master::Master;
 use crate::config::{ConfigError, MasterConfig};
-use crate::scan::{probe_bound, Answer, PROBE};
+use crate::master;
+use crate::scan::{answer, probe_bound, Answer, PROBE};
 use si_core::driver::Transport;
+use si_core::sweep::SweepError;
 use si_core::{Duration, SerialSettings};
 use std::future::Future;
 
-/// What the host may add to each probe beyond the line's own time: a USB adapter's hold on
-/// the response (16 ms by default) and scheduling, counted generously `[derived]`.
+/// What the host may add to each probe beyond the engine's own bound (which already counts a
+/// port's latency, [`MasterConfig::port_margin`]): scheduling, counted generously `[derived]`.
 pub const PROBE_SLACK: Duration = Duration::from_millis(60);
 
-/// Opening and closing the port for one line setting `[derived]`.
-pub const OPEN_SLACK: Duration = Duration::from_millis(300);
+/// A unit that answered something ([`Answer::Present`] or [`Answer::Garbled`], never
+/// `Absent`) at one line setting: the station is the unit's address.
+pub type Found = si_core::sweep::Found<u8, Answer>;
 
-/// A unit that answered something.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Found {
-    /// The unit.
-    pub unit: u8,
-    /// The line settings it answered at.
-    pub settings: SerialSettings,
-    /// What it answered ([`Answer::Present`] or [`Answer::Garbled`], never `Absent`).
-    pub answer: Answer,
-}
-
-/// Why a scan stopped before its end.
-#[derive(Debug, thiserror::Error)]
-pub enum ScanError<E> {
-    /// The caller could not open the line for a setting.
-    #[error("{0}")]
-    Open(E),
-    /// The master failed otherwise than with a STATUS.
-    #[error("{0}")]
-    Master(Error),
-}
+/// Why a scan stopped before its end: the caller could not open the line for a setting
+/// ([`SweepError::Open`]), or the master failed otherwise than with a STATUS
+/// ([`SweepError::Run`]).
+pub type ScanError<E> = SweepError<E, Error>;
 
 /// A planned scan: the units, the settings, the master's configuration.
 #[derive(Debug, Clone)]
@@ -48,11 +34,14 @@ pub struct Scan {
     config: MasterConfig,
     settings: Vec<SerialSettings>,
     units: Vec<u8>,
+    /// Per setting, [`probe_bound`] of the engine the scan runs at it.
+    probe_bounds: Vec<Duration>,
 }
 
 impl Scan {
     /// A scan of `units` at each of `settings`, with `config`'s response time (its retries
-    /// are set to 0: one try per unit).
+    /// are set to 0: one try per unit). Each setting's config is checked here, by building the
+    /// engine the scan will run at it.
     pub fn new(
         mut config: MasterConfig,
         settings: Vec<SerialSettings>,
@@ -60,11 +49,17 @@ impl Scan {
     ) -> Result<Scan, ConfigError> {
         config.retries = 0;
         config.validate()?;
-        Ok(Scan {
+        let mut scan = Scan {
             config,
             settings,
             units,
-        })
+            probe_bounds: Vec::new(),
+        };
+        for &s in &scan.settings {
+            let engine = Self::engine(scan.at(s))?;
+            scan.probe_bounds.push(probe_bound(&engine, PROBE_SLACK));
+        }
+        Ok(scan)
     }
 
     /// The settings the scan tries, in order.
@@ -72,16 +67,24 @@ impl Scan {
         &self.settings
     }
 
-    /// The longest the scan can take: every probe's bound ([`probe_bound`] with
-    /// [`PROBE_SLACK`]) plus [`OPEN_SLACK`] per setting.
+    /// The longest the scan can take: every probe's bound ([`probe_bound`] of the engine it
+    /// runs on, with [`PROBE_SLACK`]) plus [`OPEN_SLACK`](si_core::sweep::OPEN_SLACK) per setting
+    /// ([`si_core::sweep::total`]).
     pub fn bound(&self) -> Duration {
-        self.settings
-            .iter()
-            .map(|s| {
-                let probe = probe_bound(&self.at(*s), PROBE_SLACK);
-                Duration::from_micros(probe.as_micros() * self.units.len() as u64) + OPEN_SLACK
-            })
-            .fold(Duration::ZERO, |a, b| a + b)
+        let units = self.units.len() as u64;
+        si_core::sweep::total(self.probe_bounds.iter().map(|p| p.saturating_mul(units)))
+    }
+
+    /// The longest one probe at `settings` can take ([`probe_bound`] with [`PROBE_SLACK`]);
+    /// `None` for a setting the scan does not try.
+    pub fn probe_bound(&self, settings: SerialSettings) -> Option<Duration> {
+        let i = self.settings.iter().position(|s| *s == settings)?;
+        self.probe_bounds.get(i).copied()
+    }
+
+    /// The engine a probe at `config` runs on; [`Scan::new`] takes its bound from the same.
+    fn engine(config: MasterConfig) -> Result<master::Master, ConfigError> {
+        master::Master::new(config)
     }
 
     fn at(&self, settings: SerialSettings) -> MasterConfig {
@@ -104,16 +107,17 @@ impl Scan {
     {
         for &settings in &self.settings {
             let port = open(settings).await.map_err(ScanError::Open)?;
-            let master = Master::spawn(self.at(settings), port).map_err(ScanError::Master)?;
+            let engine = Self::engine(self.at(settings)).map_err(|e| ScanError::Run(e.into()))?;
+            let master = Master::spawn_engine(engine, port);
             for &unit in &self.units {
                 let outcome = match master.request(unit, &PROBE).await {
                     Ok(_) => Ok(()),
-                    Err(e) => Err(e.status().ok_or(e).map_err(ScanError::Master)?),
+                    Err(e) => Err(e.status().ok_or(e).map_err(ScanError::Run)?),
                 };
-                let answer = Answer::of(outcome);
+                let answer = answer(outcome);
                 if answer != Answer::Absent {
                     found(Found {
-                        unit,
+                        station: unit,
                         settings,
                         answer,
                     });

@@ -59,7 +59,7 @@ impl ScanArgs {
             r = run => {
                 r.map_err(|e| match e {
                     ScanError::Open(e) => e,
-                    ScanError::Master(e) => CliError::new(e.to_string()),
+                    ScanError::Run(e) => CliError::new(e.to_string()),
                 })?;
                 false
             }
@@ -88,9 +88,9 @@ fn print_found(f: &Found, out: &Output) {
         Answer::Absent => ("no answer".to_owned(), None),
     };
     out.line(
-        &format!("unit {:<3}  {}  {what}", f.unit, f.settings),
+        &format!("unit {:<3}  {}  {what}", f.station, f.settings),
         serde_json::json!({
-            "unit": f.unit,
+            "unit": f.station,
             "settings": f.settings.to_string(),
             "answered": f.answer == Answer::Present,
             "status": status,

@@ -8,7 +8,7 @@ use crate::conn::Connection;
 use crate::error::CliError;
 use crate::output::Output;
 use clap::Args;
-use si_3964r::probe::{Found, Probe, ProbeError, Reply};
+use si_3964r::probe::{Found, Probe, ProbeError, ProbeFault, Reply};
 use si_core::{Duration, SerialSettings};
 
 /// `si 3964r probe` arguments.
@@ -47,15 +47,15 @@ impl ProbeArgs {
         let run = probe.run(
             |s| async move { conn.open_with(&s).await },
             |f| {
-                ready += usize::from(f.reply == Reply::Ready);
+                ready += usize::from(f.answer == Reply::Ready);
                 print_found(&f, out);
             },
         );
         tokio::select! {
             r = run => r.map_err(|e| match e {
                 ProbeError::Open(e) => e,
-                ProbeError::Closed => conn.closed(),
-                ProbeError::Io(e) => CliError::new(format!("probing: {e}")),
+                ProbeError::Run(ProbeFault::Closed) => conn.closed(),
+                ProbeError::Run(ProbeFault::Io(e)) => CliError::new(format!("probing: {e}")),
             })?,
             _ = tokio::signal::ctrl_c() => return Err(CliError::interrupted()),
         }
@@ -76,12 +76,12 @@ impl ProbeArgs {
 /// `9600 8E1  answers STX with DLE: …`.
 fn print_found(f: &Found, out: &Output) {
     out.line(
-        &format!("{}  {}", f.settings, f.reply.describe()),
+        &format!("{}  {}", f.settings, f.answer.describe()),
         serde_json::json!({
             "settings": f.settings.to_string(),
-            "reply": f.first,
-            "ready": f.reply == Reply::Ready,
-            "high_priority": f.reply == Reply::HighPriority,
+            "reply": f.answer.first(),
+            "ready": f.answer == Reply::Ready,
+            "high_priority": f.answer == Reply::HighPriority,
         }),
     );
 }

@@ -10,7 +10,7 @@ use clap::Args;
 use si_core::{Duration, SerialSettings};
 use si_uss::config::{PollEntry, USS_BAUD_RATES};
 use si_uss::frame::PkwWords;
-use si_uss::scan::{Answer, Found, Scan, ScanError};
+use si_uss::scan::{Answer, BatchError, Found, Scan, ScanError};
 
 /// `si uss scan` arguments.
 #[derive(Debug, Clone, Args)]
@@ -73,8 +73,8 @@ impl ScanArgs {
             r = run => {
                 r.map_err(|e| match e {
                     ScanError::Open(e) => e,
-                    ScanError::Config(e) => CliError::bad_argument(e),
-                    ScanError::Refused(e) => CliError::new(e.to_string()),
+                    ScanError::Run(BatchError::Config(e)) => CliError::bad_argument(e),
+                    ScanError::Run(BatchError::Refused(e)) => CliError::new(e.to_string()),
                 })?;
                 false
             }
@@ -93,7 +93,7 @@ impl ScanArgs {
 
 /// `node 5    9600 8E1  answered`.
 fn print_found(f: &Found, out: &Output) {
-    let (node, settings, answer) = (f.node, f.settings, f.answer);
+    let (node, settings, answer) = (f.station, f.settings, f.answer);
     let (what, status) = match answer {
         Answer::Present => ("answered".to_owned(), None),
         Answer::Garbled(s) => (
