@@ -43,8 +43,8 @@ pub struct File {
     pub listen: Option<String>,
     /// Connections served at once.
     pub max_connections: Option<usize>,
-    /// A connection silent this long is closed (0–1000 s, 0: never; default 60).
-    pub idle_timeout_s: Option<u64>,
+    /// A connection silent this long is closed (0–1 000 000 ms, 0: never; default 60 000).
+    pub idle_timeout_ms: Option<u64>,
     /// The unit id that answers the gateway's counters as input registers.
     pub diagnostic_unit: Option<u8>,
     /// Answer a broadcast request with its echo once sent (mbusd's `-b`); default: no answer.
@@ -309,11 +309,11 @@ impl File {
             .unwrap_or(si_modbus::tokio::tcp::DEFAULT_MAX_CONNECTIONS);
         RangeError::check("max_connections", (1, MAX_CONNECTIONS), "", max_connections)
             .map_err(top)?;
-        let idle_timeout = match self.idle_timeout_s {
+        let idle_timeout = match self.idle_timeout_ms {
             Some(0) => None,
-            Some(s) => {
-                RangeError::check("idle_timeout_s", (0, 1000), " s", s).map_err(top)?;
-                Some(std::time::Duration::from_secs(s))
+            Some(ms) => {
+                RangeError::check("idle_timeout_ms", (0, 1_000_000), " ms", ms).map_err(top)?;
+                Some(std::time::Duration::from_millis(ms))
             }
             None => Some(si_modbus::tokio::tcp::DEFAULT_IDLE_TIMEOUT),
         };
@@ -562,7 +562,7 @@ struct KindOf {
 const FILE_KEYS: &[&str] = &[
     "listen",
     "max_connections",
-    "idle_timeout_s",
+    "idle_timeout_ms",
     "diagnostic_unit",
     "reply_on_broadcast",
     "allow_down_at_start",
@@ -595,7 +595,7 @@ impl<'de> Visitor<'de> for FileSeed<'_> {
             match key.as_str() {
                 "listen" => file.listen = Some(map.next_value()?),
                 "max_connections" => file.max_connections = Some(map.next_value()?),
-                "idle_timeout_s" => file.idle_timeout_s = Some(map.next_value()?),
+                "idle_timeout_ms" => file.idle_timeout_ms = Some(map.next_value()?),
                 "diagnostic_unit" => file.diagnostic_unit = Some(map.next_value()?),
                 "reply_on_broadcast" => file.reply_on_broadcast = map.next_value()?,
                 "allow_down_at_start" => file.allow_down_at_start = map.next_value()?,
@@ -727,6 +727,20 @@ pub(super) mod tests {
         assert!(e.contains("line 2 (m): units = 1"), "{e}");
         let e = check(&format!("{base}speed = 1\n")).unwrap_err();
         assert!(e.contains("speed"), "unknown keys are refused: {e}");
+    }
+
+    #[test]
+    fn the_idle_timeout_is_in_milliseconds() {
+        let base = "[[line]]\nname = \"m\"\ndevice = \"/dev/null\"\nunits = \"1\"\n";
+        let top = |key: &str| check(&format!("{key}\n{base}")).map(|g| g.idle_timeout);
+        let ms = std::time::Duration::from_millis;
+        assert_eq!(top("idle_timeout_ms = 1500"), Ok(Some(ms(1500))));
+        assert_eq!(top("idle_timeout_ms = 0"), Ok(None));
+        assert_eq!(top(""), Ok(Some(ms(60_000))));
+        let e = top("idle_timeout_ms = 1000001").unwrap_err();
+        assert!(e.contains("idle_timeout_ms = 1000001 ms"), "{e}");
+        let e = top("idle_timeout_s = 60").unwrap_err();
+        assert!(e.contains("idle_timeout_s"), "the old key is unknown: {e}");
     }
 
     #[test]

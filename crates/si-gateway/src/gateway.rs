@@ -220,7 +220,7 @@ impl Gateway {
     /// Refused, with the old configuration still running, if `config` does not check
     /// ([`Config::check_lines`]), a changed or added line's settings are refused, or it would
     /// change what is bound: the listening addresses (the top-level `listen`, the lines',
-    /// `metrics_listen` and `rtu_over_tcp_listen`), `max_connections` or `idle_timeout_s`,
+    /// `metrics_listen` and `rtu_over_tcp_listen`), `max_connections` or `idle_timeout_ms`,
     /// which need a restart.
     ///
     /// Every line keeps its counter slot: a kept or changed line's counters and metrics go on
@@ -241,7 +241,7 @@ impl Gateway {
         if bound(old) != bound(&config) {
             return Err(Error::Config(
                 "reload: the listening addresses (listen, a line's listen, metrics_listen, \
-                 rtu_over_tcp_listen), max_connections and idle_timeout_s change only with a \
+                 rtu_over_tcp_listen), max_connections and idle_timeout_ms change only with a \
                  restart"
                     .into(),
             ));

@@ -109,9 +109,7 @@ pub async fn run(
         log,
         first,
         open,
-        move |master, closed| {
-            serve(events.clone(), Arc::clone(&q), master, closed, pause, clock)
-        },
+        move |master, closed| serve(events.clone(), Arc::clone(&q), master, closed, pause, clock),
         move || refuse(index, Arc::clone(&queue), Arc::clone(&stats)),
     )
     .await;
