@@ -41,9 +41,10 @@ pub const MAX_CONNECTIONS: usize = 1024;
 pub struct File {
     /// TCP address listened on, e.g. `127.0.0.1:5020`.
     pub listen: Option<String>,
-    /// Connections served at once.
+    /// Connections served at once, on each listening address (the RTU-over-TCP one too).
     pub max_connections: Option<usize>,
-    /// A connection silent this long is closed (0–1 000 000 ms, 0: never; default 60 000).
+    /// A connection silent this long is closed (0–1 000 000 ms, 0: never; default 60 000), on
+    /// every listening address (the RTU-over-TCP one too).
     pub idle_timeout_ms: Option<u64>,
     /// The unit id that answers the gateway's counters as input registers.
     pub diagnostic_unit: Option<u8>,
