@@ -190,6 +190,12 @@ impl Stats {
         slot
     }
 
+    /// The line in slot `slot` is no longer configured: its metrics series go
+    /// ([`GatewayMetrics::remove_line`]); its counters stay for the diagnostic unit's totals.
+    pub fn remove_line(&mut self, slot: usize) {
+        self.metrics.remove_line(slot);
+    }
+
     /// The line-state a scrape reads ([`crate::gateway_metrics::LineNow`]), one per slot; a
     /// slot no configured line uses reads as down, with nothing queued or demoted (its
     /// counters stay).

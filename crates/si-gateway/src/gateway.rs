@@ -226,7 +226,8 @@ impl Gateway {
     ///
     /// Every line keeps its counter slot: a kept or changed line's counters and metrics go on
     /// (they never go down), a changed line's units start healthy (not demoted), and an added
-    /// line gets a new slot, reported in the metrics under its name.
+    /// line gets a new slot, reported in the metrics under its name. A removed line's metric
+    /// series disappear from the scrape (a gone target's do in Prometheus).
     pub async fn reload(&self, config: Config) -> Result<Reloaded, Error> {
         config
             .check_lines()
@@ -304,6 +305,7 @@ impl Gateway {
                 let slot = lines.slots[i];
                 lines.end(slot);
                 lines.backends[slot] = Arc::new(Gone);
+                lock(&self.stats).remove_line(slot);
             }
         }
         let backends: Arc<[Arc<dyn Backend>]> = lines.backends.clone().into();
@@ -341,7 +343,11 @@ impl Gateway {
         for &(slot, was) in swapped {
             lines.end(slot);
             lines.backends[slot] = Arc::new(Gone);
-            let Some(l) = was else { continue };
+            let Some(l) = was else {
+                // An added line's slot: its series go, as a removed line's do.
+                lock(&self.stats).remove_line(slot);
+                continue;
+            };
             self.restarting(slot, l);
             // It started before with these settings; a port that cannot be opened now
             // starts it down, to be reopened.

@@ -50,6 +50,8 @@ pub struct RtuNow {
 pub struct GatewayMetrics {
     registry: Registry,
     lines: Vec<String>,
+    /// By slot: the line was removed by a reload (its series are gone).
+    removed: Vec<bool>,
     requests: Counter,
     exceptions: Counter,
     retries: Counter,
@@ -118,6 +120,7 @@ impl GatewayMetrics {
         GatewayMetrics {
             rtu_frames,
             registry: r,
+            removed: vec![false; lines.len()],
             lines,
             requests,
             exceptions,
@@ -135,6 +138,21 @@ impl GatewayMetrics {
     /// Label the next line slot `name` (a line started, or added by a reload).
     pub fn add_line(&mut self, name: String) {
         self.lines.push(name);
+        self.removed.push(false);
+    }
+
+    /// The line in slot `index` was removed: its series (every family's with its `line`
+    /// label) disappear from the scrape, as a gone target's do in Prometheus, and it is no
+    /// longer reported. A line of the same name added later starts its series from 0, a
+    /// counter reset Prometheus's `rate()` and `increase()` handle.
+    pub fn remove_line(&mut self, index: usize) {
+        let Some(removed) = self.removed.get_mut(index) else {
+            return;
+        };
+        *removed = true;
+        let name = self.line(index);
+        self.registry
+            .drop_series(|labels| labels.iter().any(|(k, v)| *k == "line" && *v == name));
     }
 
     fn line(&self, index: usize) -> String {
@@ -208,6 +226,9 @@ impl GatewayMetrics {
             }
         }
         for (index, l) in now.iter().enumerate() {
+            if self.removed.get(index) == Some(&true) {
+                continue;
+            }
             let labels = vec![("line", self.line(index))];
             let r = &mut self.registry;
             r.set(self.line_up, labels.clone(), f64::from(u8::from(l.up)));
@@ -267,6 +288,27 @@ mod tests {
         let text = m.render(&[LineNow::default()], None);
         assert!(
             text.contains("si_gateway_crc_errors_total{line=\"a\",unit=\"4\"} 0\n"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn a_removed_lines_series_disappear() {
+        let mut m = GatewayMetrics::new(vec!["a".into(), "b".into()]);
+        m.request(0, 7, "answer", None, 0);
+        m.request(1, 8, "answer", None, 0);
+        m.response_time(1, 0.02);
+        m.remove_line(1);
+        let text = m.render(&[LineNow::default(), LineNow::default()], None);
+        assert!(!text.contains("line=\"b\""), "{text}");
+        assert!(
+            text.contains("si_gateway_line_up{line=\"a\"} 0\n"),
+            "{text}"
+        );
+        assert!(
+            text.contains(
+                "si_gateway_requests_total{line=\"a\",unit=\"7\",outcome=\"answer\"} 1\n"
+            ),
             "{text}"
         );
     }

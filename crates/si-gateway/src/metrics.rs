@@ -136,6 +136,14 @@ impl Registry {
         self.inc(counter, labels, 0);
     }
 
+    /// Drop every series whose labels `gone` says so, of every family (a target that is gone:
+    /// its series disappear from the scrape, as Prometheus expects).
+    pub fn drop_series(&mut self, gone: impl Fn(&Labels) -> bool) {
+        for f in &mut self.families {
+            f.series.retain(|labels, _| !gone(labels));
+        }
+    }
+
     /// A counter's value (0 if the series does not exist).
     #[cfg(test)]
     pub fn counter_value(&self, counter: Counter, labels: &Labels) -> u64 {
@@ -344,6 +352,21 @@ mod tests {
             "# HELP x_total a \\\\ b\\nc\n\
              # TYPE x_total counter\n\
              x_total{line=\"q\\\"u\\\\o\\nte\"} 1\n"
+        );
+    }
+
+    #[test]
+    fn dropped_series_disappear_and_the_others_stay() {
+        let mut r = Registry::new();
+        let c = r.counter("x_total", "x");
+        let g = r.gauge("y", "y");
+        r.inc(c, line("a"), 1);
+        r.inc(c, line("b"), 2);
+        r.set(g, line("a"), 1.0);
+        r.drop_series(|l| l == &line("a"));
+        assert_eq!(
+            r.render(),
+            "# HELP x_total x\n# TYPE x_total counter\nx_total{line=\"b\"} 2\n# HELP y y\n# TYPE y gauge\n"
         );
     }
 
