@@ -165,6 +165,19 @@ pub struct Line {
 }
 
 impl Line {
+    /// The slave addresses its unit ids reach (through `unit_map`), as its metrics label
+    /// units.
+    pub fn addresses(&self) -> Vec<u8> {
+        let mut a: Vec<u8> = self
+            .units
+            .iter()
+            .map(|u| self.unit_map.get(u).copied().unwrap_or(*u))
+            .collect();
+        a.sort_unstable();
+        a.dedup();
+        a
+    }
+
     /// A line of the program's own kind: `units` served by `backend`, on the top-level
     /// address.
     pub fn custom(name: impl Into<String>, units: Vec<u8>, backend: Arc<dyn Backend>) -> Line {

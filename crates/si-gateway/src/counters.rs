@@ -179,12 +179,14 @@ impl Stats {
     }
 
     /// A new slot, last in the configuration's order, for the line `name` (started, or
-    /// added by a reload) demoting its units by `demotion`: its number.
-    pub fn add_line(&mut self, name: String, demotion: DemotionConfig) -> usize {
+    /// added by a reload) demoting its units by `demotion`: its number. Its metrics series,
+    /// and those of the slave addresses `units` it serves, are looked up now, so counting a
+    /// request allocates nothing ([`GatewayMetrics::add_line`]).
+    pub fn add_line(&mut self, name: String, demotion: DemotionConfig, units: &[u8]) -> usize {
         self.lines.push(Counters::default());
         self.down.push(None);
         self.health.push(LineHealth::new(demotion));
-        self.metrics.add_line(name);
+        self.metrics.add_line(name, units);
         let slot = self.lines.len() - 1;
         self.order.push(slot);
         slot

@@ -283,7 +283,9 @@ impl Gateway {
                     lines.tasks.push(None);
                     // Its own slot in the counters, health and metrics (the order is set
                     // below, once every line has its slot).
-                    (lock(&self.stats).add_line(l.name.clone(), l.demotion), None)
+                    let units = l.addresses();
+                    let slot = lock(&self.stats).add_line(l.name.clone(), l.demotion, &units);
+                    (slot, None)
                 }
             };
             swapped.push((slot, was));

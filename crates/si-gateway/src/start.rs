@@ -34,7 +34,7 @@ pub struct Started {
 pub async fn lines(gw: &Config, opening: &Opening, events: &Events) -> Result<Started, Error> {
     let mut counters = Stats::new(0);
     for l in &gw.lines {
-        counters.add_line(l.name.clone(), l.demotion);
+        counters.add_line(l.name.clone(), l.demotion, &l.addresses());
     }
     let stats = Arc::new(Mutex::new(counters));
     let mut handles = Vec::with_capacity(gw.lines.len());
