@@ -356,7 +356,7 @@ fn build<E, F: std::error::Error>(
 }
 
 /// Whether line `l` would start, short of its port: its settings and its engine's
-/// configuration are accepted, with the error [`line`] would give if not. Nothing is opened
+/// configuration are accepted, with the error [`line()`] would give if not. Nothing is opened
 /// (an engine is state only), so a reload checks every line it would start before it ends
 /// any ([`crate::Gateway::reload`]).
 pub fn check(l: &Line) -> Result<(), Error> {
