@@ -611,14 +611,26 @@ fn hung_up(e: &io::Error) -> bool {
     ) || e.raw_os_error().is_some_and(|n| HANG_UPS.contains(&n))
 }
 
-/// The engine's clock: microseconds since the driver started.
-struct Clock(tokio::time::Instant);
+/// The clock the driver passes its engine's time on: [`Instant`]s in microseconds since the
+/// clock started, read from tokio's clock (so paused test time applies). Anything beside an
+/// engine that keeps time of its own in [`Instant`]s (a gateway's unit demotion, say) uses
+/// one too, so there is one way to turn the process's time into an engine's.
+#[derive(Debug, Clone, Copy)]
+pub struct Clock(tokio::time::Instant);
 
 impl Clock {
-    fn now(&self) -> Instant {
+    /// A clock starting now (its [`now`](Self::now) is 0 at first).
+    pub fn start() -> Clock {
+        Clock(tokio::time::Instant::now())
+    }
+
+    /// The time since the clock started.
+    pub fn now(&self) -> Instant {
         Instant::from_micros(self.0.elapsed().as_micros() as u64)
     }
-    fn to_tokio(&self, at: Instant) -> tokio::time::Instant {
+
+    /// The tokio instant of `at` on this clock (to sleep until it).
+    pub fn to_tokio(&self, at: Instant) -> tokio::time::Instant {
         self.0 + std::time::Duration::from_micros(at.as_micros())
     }
 }
@@ -639,7 +651,7 @@ where
     E: Engine,
     T: Transport,
 {
-    let clock = Clock(tokio::time::Instant::now());
+    let clock = Clock::start();
     let record = |kind: TraceKind| {
         if let Some(r) = &options.recorder {
             if let Err(e) = r.record(kind) {

@@ -41,10 +41,11 @@ pub const MAX_CONNECTIONS: usize = 1024;
 pub struct File {
     /// TCP address listened on, e.g. `127.0.0.1:5020`.
     pub listen: Option<String>,
-    /// Connections served at once.
+    /// Connections served at once, on each listening address (the RTU-over-TCP one too).
     pub max_connections: Option<usize>,
-    /// A connection silent this long is closed (0–1000 s, 0: never; default 60).
-    pub idle_timeout_s: Option<u64>,
+    /// A connection silent this long is closed (0–1 000 000 ms, 0: never; default 60 000), on
+    /// every listening address (the RTU-over-TCP one too).
+    pub idle_timeout_ms: Option<u64>,
     /// The unit id that answers the gateway's counters as input registers.
     pub diagnostic_unit: Option<u8>,
     /// Answer a broadcast request with its echo once sent (mbusd's `-b`); default: no answer.
@@ -164,6 +165,19 @@ pub struct Line {
 }
 
 impl Line {
+    /// The slave addresses its unit ids reach (through `unit_map`), as its metrics label
+    /// units.
+    pub fn addresses(&self) -> Vec<u8> {
+        let mut a: Vec<u8> = self
+            .units
+            .iter()
+            .map(|u| self.unit_map.get(u).copied().unwrap_or(*u))
+            .collect();
+        a.sort_unstable();
+        a.dedup();
+        a
+    }
+
     /// A line of the program's own kind: `units` served by `backend`, on the top-level
     /// address.
     pub fn custom(name: impl Into<String>, units: Vec<u8>, backend: Arc<dyn Backend>) -> Line {
@@ -309,11 +323,11 @@ impl File {
             .unwrap_or(si_modbus::tokio::tcp::DEFAULT_MAX_CONNECTIONS);
         RangeError::check("max_connections", (1, MAX_CONNECTIONS), "", max_connections)
             .map_err(top)?;
-        let idle_timeout = match self.idle_timeout_s {
+        let idle_timeout = match self.idle_timeout_ms {
             Some(0) => None,
-            Some(s) => {
-                RangeError::check("idle_timeout_s", (0, 1000), " s", s).map_err(top)?;
-                Some(std::time::Duration::from_secs(s))
+            Some(ms) => {
+                RangeError::check("idle_timeout_ms", (0, 1_000_000), " ms", ms).map_err(top)?;
+                Some(std::time::Duration::from_millis(ms))
             }
             None => Some(si_modbus::tokio::tcp::DEFAULT_IDLE_TIMEOUT),
         };
@@ -562,7 +576,7 @@ struct KindOf {
 const FILE_KEYS: &[&str] = &[
     "listen",
     "max_connections",
-    "idle_timeout_s",
+    "idle_timeout_ms",
     "diagnostic_unit",
     "reply_on_broadcast",
     "allow_down_at_start",
@@ -595,7 +609,7 @@ impl<'de> Visitor<'de> for FileSeed<'_> {
             match key.as_str() {
                 "listen" => file.listen = Some(map.next_value()?),
                 "max_connections" => file.max_connections = Some(map.next_value()?),
-                "idle_timeout_s" => file.idle_timeout_s = Some(map.next_value()?),
+                "idle_timeout_ms" => file.idle_timeout_ms = Some(map.next_value()?),
                 "diagnostic_unit" => file.diagnostic_unit = Some(map.next_value()?),
                 "reply_on_broadcast" => file.reply_on_broadcast = map.next_value()?,
                 "allow_down_at_start" => file.allow_down_at_start = map.next_value()?,
@@ -727,6 +741,20 @@ pub(super) mod tests {
         assert!(e.contains("line 2 (m): units = 1"), "{e}");
         let e = check(&format!("{base}speed = 1\n")).unwrap_err();
         assert!(e.contains("speed"), "unknown keys are refused: {e}");
+    }
+
+    #[test]
+    fn the_idle_timeout_is_in_milliseconds() {
+        let base = "[[line]]\nname = \"m\"\ndevice = \"/dev/null\"\nunits = \"1\"\n";
+        let top = |key: &str| check(&format!("{key}\n{base}")).map(|g| g.idle_timeout);
+        let ms = std::time::Duration::from_millis;
+        assert_eq!(top("idle_timeout_ms = 1500"), Ok(Some(ms(1500))));
+        assert_eq!(top("idle_timeout_ms = 0"), Ok(None));
+        assert_eq!(top(""), Ok(Some(ms(60_000))));
+        let e = top("idle_timeout_ms = 1000001").unwrap_err();
+        assert!(e.contains("idle_timeout_ms = 1000001 ms"), "{e}");
+        let e = top("idle_timeout_s = 60").unwrap_err();
+        assert!(e.contains("idle_timeout_s"), "the old key is unknown: {e}");
     }
 
     #[test]

@@ -179,15 +179,23 @@ impl Stats {
     }
 
     /// A new slot, last in the configuration's order, for the line `name` (started, or
-    /// added by a reload) demoting its units by `demotion`: its number.
-    pub fn add_line(&mut self, name: String, demotion: DemotionConfig) -> usize {
+    /// added by a reload) demoting its units by `demotion`: its number. Its metrics series,
+    /// and those of the slave addresses `units` it serves, are looked up now, so counting a
+    /// request allocates nothing ([`GatewayMetrics::add_line`]).
+    pub fn add_line(&mut self, name: String, demotion: DemotionConfig, units: &[u8]) -> usize {
         self.lines.push(Counters::default());
         self.down.push(None);
         self.health.push(LineHealth::new(demotion));
-        self.metrics.add_line(name);
+        self.metrics.add_line(name, units);
         let slot = self.lines.len() - 1;
         self.order.push(slot);
         slot
+    }
+
+    /// The line in slot `slot` is no longer configured: its metrics series go
+    /// ([`GatewayMetrics::remove_line`]); its counters stay for the diagnostic unit's totals.
+    pub fn remove_line(&mut self, slot: usize) {
+        self.metrics.remove_line(slot);
     }
 
     /// The line-state a scrape reads ([`crate::gateway_metrics::LineNow`]), one per slot; a

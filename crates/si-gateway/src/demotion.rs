@@ -196,12 +196,13 @@ impl LineHealth {
         }
     }
 
-    /// A request sent to `unit` got a valid answer (a slave exception included).
+    /// A request sent to `unit` got a valid answer (a slave exception included). A demoted
+    /// unit is restored by it, whether it was the probe or a request sent before the unit was
+    /// demoted that ended after it: either way its requests go to the line again, which the
+    /// program is told ([`Change::Restored`]).
     pub fn succeeded(&mut self, unit: u8) -> Option<Change> {
-        let health = self.units.get_mut(&unit)?;
-        let was = health.state;
-        self.units.remove(&unit);
-        (was == UnitState::Probing).then(|| {
+        let health = self.units.remove(&unit)?;
+        health.is_demoted().then(|| {
             self.counters.restorations += 1;
             Change::Restored { unit }
         })
@@ -365,6 +366,22 @@ mod tests {
         }
         assert_eq!(h.failed(9, at(4)), None);
         assert_eq!(h.unit(9).state(), UnitState::Demoted { until: at(30_002) });
+    }
+
+    #[test]
+    fn an_answer_after_the_demotion_restores_the_unit_and_says_so() {
+        let mut h = line();
+        for t in 0..3 {
+            h.failed(9, at(t));
+        }
+        assert!(h.unit(9).is_demoted());
+        // A request admitted before the demotion, answered after it.
+        assert_eq!(h.succeeded(9), Some(Change::Restored { unit: 9 }));
+        assert_eq!(h.admit(9, at(4)), Admit::Send);
+        assert_eq!(h.demoted(), 0);
+        assert_eq!(h.counters().restorations, 1);
+        // A healthy unit's answer changes nothing.
+        assert_eq!(h.succeeded(9), None);
     }
 
     #[test]

@@ -16,7 +16,7 @@
 //! ```
 
 use crate::backend::Backend;
-use crate::config::{Config, Kind};
+use crate::config::{Config, Line};
 use crate::counters::Stats;
 use crate::demotion::LineHealth;
 use crate::event::{Event, Events};
@@ -218,14 +218,16 @@ impl Gateway {
     /// with `allow_down_at_start`).
     ///
     /// Refused, with the old configuration still running, if `config` does not check
-    /// ([`Config::check_lines`]), a changed or added line's settings are refused, or it would
+    /// ([`Config::check_lines`]), a changed or added line's settings or engine configuration
+    /// are refused ([`start::check`], before any line ends), or it would
     /// change what is bound: the listening addresses (the top-level `listen`, the lines',
-    /// `metrics_listen` and `rtu_over_tcp_listen`), `max_connections` or `idle_timeout_s`,
+    /// `metrics_listen` and `rtu_over_tcp_listen`), `max_connections` or `idle_timeout_ms`,
     /// which need a restart.
     ///
     /// Every line keeps its counter slot: a kept or changed line's counters and metrics go on
     /// (they never go down), a changed line's units start healthy (not demoted), and an added
-    /// line gets a new slot, reported in the metrics under its name.
+    /// line gets a new slot, reported in the metrics under its name. A removed line's metric
+    /// series disappear from the scrape (a gone target's do in Prometheus).
     pub async fn reload(&self, config: Config) -> Result<Reloaded, Error> {
         config
             .check_lines()
@@ -241,29 +243,26 @@ impl Gateway {
         if bound(old) != bound(&config) {
             return Err(Error::Config(
                 "reload: the listening addresses (listen, a line's listen, metrics_listen, \
-                 rtu_over_tcp_listen), max_connections and idle_timeout_s change only with a \
+                 rtu_over_tcp_listen), max_connections and idle_timeout_ms change only with a \
                  restart"
                     .into(),
             ));
         }
         let before = |name: &str| old.lines.iter().position(|l| l.name == name);
-        // Settings refused (a parity or baud rate the protocol lacks) refuse the reload
-        // before anything stops.
+        // Every line it would start is checked (its settings, its engine's configuration)
+        // before any line ends, so a refused one refuses the reload with nothing stopped.
         for l in &config.lines {
-            let same = before(&l.name).is_some_and(|i| old.lines[i] == *l);
-            if !same && l.port.is_some() {
-                let rates: &'static [u32] = match l.kind {
-                    Kind::Uss(_) => &si_uss::config::USS_BAUD_RATES,
-                    _ => &si_core::BAUD_RATES,
-                };
-                crate::open::settings(l, rates)
-                    .map_err(|e| e.prefixed(&format!("line {}: ", l.name)))?;
+            if !before(&l.name).is_some_and(|i| old.lines[i] == *l) {
+                start::check(l)?;
             }
         }
         let mut done = Reloaded::default();
         let mut slots = Vec::with_capacity(config.lines.len());
+        // The slots swapped so far, with the line each held before (`None`: added), to put
+        // back should a line fail to start after all.
+        let mut swapped: Vec<(usize, Option<&Line>)> = Vec::new();
         for l in &config.lines {
-            let slot = match before(&l.name) {
+            let (slot, was) = match before(&l.name) {
                 Some(i) if old.lines[i] == *l => {
                     done.kept.push(l.name.clone());
                     slots.push(lines.slots[i]);
@@ -273,12 +272,10 @@ impl Gateway {
                     done.restarted.push(l.name.clone());
                     let slot = lines.slots[i];
                     lines.end(slot);
-                    let mut s = lock(&self.stats);
-                    s.down[slot] = None;
                     // It restarts: its units start healthy, under its new settings (its
                     // counters and metrics go on).
-                    s.health[slot] = LineHealth::new(l.demotion);
-                    slot
+                    self.restarting(slot, l);
+                    (slot, Some(&old.lines[i]))
                 }
                 None => {
                     done.added.push(l.name.clone());
@@ -286,18 +283,23 @@ impl Gateway {
                     lines.tasks.push(None);
                     // Its own slot in the counters, health and metrics (the order is set
                     // below, once every line has its slot).
-                    lock(&self.stats).add_line(l.name.clone(), l.demotion)
+                    let units = l.addresses();
+                    let slot = lock(&self.stats).add_line(l.name.clone(), l.demotion, &units);
+                    (slot, None)
                 }
             };
-            let at = start::Slot {
-                index: slot,
-                stats: &self.stats,
-                events: &self.sink,
-            };
-            let (backend, task) = start::line(l, at, true, &self.opening).await?;
-            lines.backends[slot] = backend;
-            lines.tasks[slot] = task;
-            slots.push(slot);
+            swapped.push((slot, was));
+            match start::line(l, self.slot(slot), true, &self.opening).await {
+                Ok((backend, task)) => {
+                    lines.backends[slot] = backend;
+                    lines.tasks[slot] = task;
+                    slots.push(slot);
+                }
+                Err(e) => {
+                    self.put_back(&mut lines, &swapped).await;
+                    return Err(e);
+                }
+            }
         }
         for (i, l) in lines.config.lines.clone().iter().enumerate() {
             if !config.lines.iter().any(|n| n.name == l.name) {
@@ -305,6 +307,7 @@ impl Gateway {
                 let slot = lines.slots[i];
                 lines.end(slot);
                 lines.backends[slot] = Arc::new(Gone);
+                lock(&self.stats).remove_line(slot);
             }
         }
         let backends: Arc<[Arc<dyn Backend>]> = lines.backends.clone().into();
@@ -316,6 +319,47 @@ impl Gateway {
         lines.config = config;
         lines.slots = slots;
         Ok(done)
+    }
+
+    /// Where the line in slot `slot` reports.
+    fn slot(&self, slot: usize) -> start::Slot<'_> {
+        start::Slot {
+            index: slot,
+            stats: &self.stats,
+            events: &self.sink,
+        }
+    }
+
+    /// The line in slot `slot` is about to restart as `l`: it is up until its port says
+    /// otherwise, and its units are healthy under `l`'s demotion settings.
+    fn restarting(&self, slot: usize, l: &Line) {
+        let mut s = lock(&self.stats);
+        s.down[slot] = None;
+        s.health[slot] = LineHealth::new(l.demotion);
+    }
+
+    /// A reload failed part way: the slots `swapped` get back the lines they held (those
+    /// restarted start again as they were; those added end, unrouted), and the counters'
+    /// order is the running configuration's again. The routes never changed.
+    async fn put_back(&self, lines: &mut Lines, swapped: &[(usize, Option<&Line>)]) {
+        for &(slot, was) in swapped {
+            lines.end(slot);
+            lines.backends[slot] = Arc::new(Gone);
+            let Some(l) = was else {
+                // An added line's slot: its series go, as a removed line's do.
+                lock(&self.stats).remove_line(slot);
+                continue;
+            };
+            self.restarting(slot, l);
+            // It started before with these settings; a port that cannot be opened now
+            // starts it down, to be reopened.
+            if let Ok((backend, task)) = start::line(l, self.slot(slot), true, &self.opening).await
+            {
+                lines.backends[slot] = backend;
+                lines.tasks[slot] = task;
+            }
+        }
+        lock(&self.stats).order = lines.slots.clone();
     }
 
     /// Serve the clients until [`Shutdown::shutdown`] (`Ok`), or until a listening server

@@ -18,8 +18,55 @@
 //! | `si_gateway_demoted_units` | gauge | line | units whose requests are refused with 0BH now |
 //! | `si_gateway_response_time_seconds` | histogram | line | time a request spent on the line, retries included |
 //! | `si_gateway_rtu_over_tcp_frames_total` | counter | outcome | frames on `rtu_over_tcp_listen`: `ok`, `crc_error` (dropped), `dropped` (no frame) |
+//!
+//! A request is counted without building a label or allocating: each line's series, and
+//! those of the units it serves, are looked up once when the line is added (at the start, or
+//! by a reload) and counted by their ids ([`crate::metrics::SeriesId`]). A unit the line was
+//! not configured with (a broadcast's 0), or an exception code first seen, is looked up the
+//! first time only.
 
-use super::metrics::{Counter, Gauge, Histogram, Labels, Registry, RESPONSE_TIME_BUCKETS};
+use super::metrics::{Counter, Gauge, Histogram, Registry, SeriesId, RESPONSE_TIME_BUCKETS};
+use std::collections::BTreeMap;
+
+/// The `outcome` label values of `si_gateway_requests_total`, the table's order.
+const OUTCOMES: [&str; 7] = [
+    "answer",
+    "exception",
+    "timeout",
+    "busy",
+    "other",
+    "sent",
+    "demoted",
+];
+
+/// The `event` label values of `si_gateway_demotion_events_total`.
+const DEMOTION_EVENTS: [&str; 3] = ["demoted", "probe_failed", "restored"];
+
+/// One unit's series on one line.
+#[derive(Debug, Clone)]
+struct UnitSeries {
+    /// `requests_total`, by [`OUTCOMES`].
+    requests: [SeriesId; OUTCOMES.len()],
+    crc_errors: SeriesId,
+    retries: SeriesId,
+    /// `exceptions_total` by code, as they occur.
+    exceptions: Vec<(u8, SeriesId)>,
+}
+
+/// One line's series, and its units'.
+#[derive(Debug, Clone)]
+struct LineSeries {
+    /// The line's `line` label value.
+    name: String,
+    units: BTreeMap<u8, UnitSeries>,
+    response_time: SeriesId,
+    /// `demotion_events_total`, by [`DEMOTION_EVENTS`].
+    demotion_events: [SeriesId; DEMOTION_EVENTS.len()],
+    reconnects: SeriesId,
+    line_up: SeriesId,
+    queue_depth: SeriesId,
+    demoted: SeriesId,
+}
 
 /// What a scrape reads from a line's state at that moment.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -45,11 +92,12 @@ pub struct RtuNow {
     pub dropped: u64,
 }
 
-/// The registry with the gateway's families, and the line names its labels use.
+/// The registry with the gateway's families, and each line's series.
 #[derive(Debug, Clone)]
 pub struct GatewayMetrics {
     registry: Registry,
-    lines: Vec<String>,
+    /// By slot: the line's series (`None`: removed by a reload, its series are gone).
+    lines: Vec<Option<LineSeries>>,
     requests: Counter,
     exceptions: Counter,
     retries: Counter,
@@ -70,8 +118,18 @@ impl Default for GatewayMetrics {
 }
 
 impl GatewayMetrics {
-    /// The families, empty, for lines named `lines` in slot order.
+    /// The families, empty, for lines named `lines` in slot order (their units looked up as
+    /// they come).
     pub fn new(lines: Vec<String>) -> Self {
+        let mut m = GatewayMetrics::families();
+        for name in lines {
+            m.add_line(name, &[]);
+        }
+        m
+    }
+
+    /// The families, empty, with no line.
+    fn families() -> Self {
         let mut r = Registry::new();
         let requests = r.counter(
             "si_gateway_requests_total",
@@ -118,7 +176,7 @@ impl GatewayMetrics {
         GatewayMetrics {
             rtu_frames,
             registry: r,
-            lines,
+            lines: Vec::new(),
             requests,
             exceptions,
             retries,
@@ -132,20 +190,85 @@ impl GatewayMetrics {
         }
     }
 
-    /// Label the next line slot `name` (a line started, or added by a reload).
-    pub fn add_line(&mut self, name: String) {
-        self.lines.push(name);
+    /// Label the next line slot `name` (a line started, or added by a reload), and look up
+    /// its series and those of the slave addresses `units` it serves, so their requests are
+    /// counted without allocating.
+    pub fn add_line(&mut self, name: String, units: &[u8]) {
+        let line = || vec![("line", name.clone())];
+        let r = &mut self.registry;
+        let with = |key, value: &str| {
+            let mut l = line();
+            l.push((key, value.to_string()));
+            l
+        };
+        let mut series = LineSeries {
+            response_time: r.histogram_series(self.response_time, line()),
+            demotion_events: DEMOTION_EVENTS
+                .map(|e| r.counter_series(self.demotion_events, with("event", e))),
+            reconnects: r.counter_series(self.reconnects, line()),
+            line_up: r.gauge_series(self.line_up, line()),
+            queue_depth: r.gauge_series(self.queue_depth, line()),
+            demoted: r.gauge_series(self.demoted, line()),
+            units: BTreeMap::new(),
+            name: name.clone(),
+        };
+        for &unit in units {
+            self.unit_series(&name, &mut series.units, unit);
+        }
+        self.lines.push(Some(series));
     }
 
-    fn line(&self, index: usize) -> String {
-        self.lines
-            .get(index)
-            .cloned()
-            .unwrap_or_else(|| index.to_string())
+    /// Line slot `index`'s series, taken out to count (put back with [`Self::put`]); a slot
+    /// never added is labelled by its number, as counters kept without names are; `None` for
+    /// a removed line.
+    fn take(&mut self, index: usize) -> Option<LineSeries> {
+        while self.lines.len() <= index {
+            self.add_line(self.lines.len().to_string(), &[]);
+        }
+        self.lines[index].take()
     }
 
-    fn unit_labels(&self, index: usize, unit: u8) -> Labels {
-        vec![("line", self.line(index)), ("unit", unit.to_string())]
+    /// Put line slot `index`'s series back after [`Self::take`].
+    fn put(&mut self, index: usize, line: LineSeries) {
+        self.lines[index] = Some(line);
+    }
+
+    /// Unit `unit`'s series among line `name`'s `units`, looked up the first time.
+    fn unit_series<'a>(
+        &mut self,
+        name: &str,
+        units: &'a mut BTreeMap<u8, UnitSeries>,
+        unit: u8,
+    ) -> &'a mut UnitSeries {
+        let r = &mut self.registry;
+        let (requests, crc_errors, retries) = (self.requests, self.crc_errors, self.retries);
+        units.entry(unit).or_insert_with(|| {
+            let labels = || vec![("line", name.to_string()), ("unit", unit.to_string())];
+            let with_outcome = |o: &str| {
+                let mut l = labels();
+                l.push(("outcome", o.to_string()));
+                l
+            };
+            UnitSeries {
+                requests: OUTCOMES.map(|o| r.counter_series(requests, with_outcome(o))),
+                crc_errors: r.counter_series(crc_errors, labels()),
+                retries: r.counter_series(retries, labels()),
+                exceptions: Vec::new(),
+            }
+        })
+    }
+
+    /// The line in slot `index` was removed: its series (every family's with its `line`
+    /// label) disappear from the scrape, as a gone target's do in Prometheus, and it is no
+    /// longer reported. A line of the same name added later starts its series from 0, a
+    /// counter reset Prometheus's `rate()` and `increase()` handle.
+    pub fn remove_line(&mut self, index: usize) {
+        let Some(line) = self.lines.get_mut(index).and_then(Option::take) else {
+            return;
+        };
+        let name = line.name;
+        self.registry
+            .drop_series(|labels| labels.iter().any(|(k, v)| *k == "line" && *v == name));
     }
 
     /// Count one request to `unit` on line `index`: its outcome (a name of the table above),
@@ -158,40 +281,67 @@ impl GatewayMetrics {
         exception: Option<u8>,
         crc_errors: u64,
     ) {
-        let mut labels = self.unit_labels(index, unit);
-        labels.push(("outcome", outcome.to_string()));
-        self.registry.inc(self.requests, labels, 1);
-        if let Some(code) = exception {
-            let mut labels = self.unit_labels(index, unit);
-            labels.push(("code", format!("0x{code:02X}")));
-            self.registry.inc(self.exceptions, labels, 1);
+        let Some(mut line) = self.take(index) else {
+            return;
+        };
+        let exceptions = self.exceptions;
+        let name = line.name.as_str();
+        let u = self.unit_series(name, &mut line.units, unit);
+        let at = OUTCOMES.iter().position(|&o| o == outcome);
+        let (requests, crc) = (at.map(|at| u.requests[at]), u.crc_errors);
+        let code = exception.map(|code| match u.exceptions.iter().find(|(c, _)| *c == code) {
+            Some(&(_, id)) => id,
+            None => {
+                let labels = vec![
+                    ("line", name.to_string()),
+                    ("unit", unit.to_string()),
+                    ("code", format!("0x{code:02X}")),
+                ];
+                let id = self.registry.counter_series(exceptions, labels);
+                u.exceptions.push((code, id));
+                id
+            }
+        });
+        self.put(index, line);
+        if let Some(id) = requests {
+            self.registry.add(id, 1);
+        }
+        if let Some(id) = code {
+            self.registry.add(id, 1);
         }
         // Also by 0: the series exists from the unit's first request, as `retries_total`'s
         // does, so `rate()` and `increase()` see the first error.
-        let labels = self.unit_labels(index, unit);
-        self.registry.inc(self.crc_errors, labels, crc_errors);
+        self.registry.add(crc, crc_errors);
     }
 
     /// Count the retries one request to `unit` on line `index` needed.
     pub fn retried(&mut self, index: usize, unit: u8, retries: u64) {
-        let labels = self.unit_labels(index, unit);
-        if retries > 0 {
-            self.registry.inc(self.retries, labels, retries);
-        } else {
-            self.registry.touch(self.retries, labels);
-        }
+        let Some(mut line) = self.take(index) else {
+            return;
+        };
+        let id = self.unit_series(&line.name, &mut line.units, unit).retries;
+        self.put(index, line);
+        // By 0 too: the series exists from the unit's first request.
+        self.registry.add(id, retries);
     }
 
     /// Record how long one request spent on line `index`.
     pub fn response_time(&mut self, index: usize, seconds: f64) {
-        let labels = vec![("line", self.line(index))];
-        self.registry.observe(self.response_time, labels, seconds);
+        if let Some(line) = self.take(index) {
+            self.registry.record(line.response_time, seconds);
+            self.put(index, line);
+        }
     }
 
     /// Count a demotion event (`demoted`, `probe_failed`, `restored`) on line `index`.
     pub fn demotion_event(&mut self, index: usize, event: &'static str) {
-        let labels = vec![("line", self.line(index)), ("event", event.to_string())];
-        self.registry.inc(self.demotion_events, labels, 1);
+        let Some(line) = self.take(index) else {
+            return;
+        };
+        if let Some(at) = DEMOTION_EVENTS.iter().position(|&e| e == event) {
+            self.registry.add(line.demotion_events[at], 1);
+        }
+        self.put(index, line);
     }
 
     /// The text exposition, with the gauges and reconnects read from `now` (one per slot) and
@@ -207,13 +357,19 @@ impl GatewayMetrics {
                 self.registry.raise(self.rtu_frames, labels, n);
             }
         }
-        for (index, l) in now.iter().enumerate() {
-            let labels = vec![("line", self.line(index))];
+        if let Some(last) = now.len().checked_sub(1) {
+            // Slots never added are labelled by their number.
+            if let Some(line) = self.take(last) {
+                self.put(last, line);
+            }
+        }
+        for (line, l) in self.lines.iter().zip(now) {
+            let Some(line) = line else { continue };
             let r = &mut self.registry;
-            r.set(self.line_up, labels.clone(), f64::from(u8::from(l.up)));
-            r.set(self.queue_depth, labels.clone(), l.queue_depth as f64);
-            r.set(self.demoted, labels.clone(), l.demoted as f64);
-            r.raise(self.reconnects, labels, l.reconnects);
+            r.set_to(line.line_up, f64::from(u8::from(l.up)));
+            r.set_to(line.queue_depth, l.queue_depth as f64);
+            r.set_to(line.demoted, l.demoted as f64);
+            r.raise_to(line.reconnects, l.reconnects);
         }
         self.registry.render()
     }
@@ -272,6 +428,27 @@ mod tests {
     }
 
     #[test]
+    fn a_removed_lines_series_disappear() {
+        let mut m = GatewayMetrics::new(vec!["a".into(), "b".into()]);
+        m.request(0, 7, "answer", None, 0);
+        m.request(1, 8, "answer", None, 0);
+        m.response_time(1, 0.02);
+        m.remove_line(1);
+        let text = m.render(&[LineNow::default(), LineNow::default()], None);
+        assert!(!text.contains("line=\"b\""), "{text}");
+        assert!(
+            text.contains("si_gateway_line_up{line=\"a\"} 0\n"),
+            "{text}"
+        );
+        assert!(
+            text.contains(
+                "si_gateway_requests_total{line=\"a\",unit=\"7\",outcome=\"answer\"} 1\n"
+            ),
+            "{text}"
+        );
+    }
+
+    #[test]
     fn reconnects_never_go_down() {
         let mut m = GatewayMetrics::new(vec!["a".into()]);
         let at = |n| LineNow {
@@ -284,5 +461,54 @@ mod tests {
             text.contains("si_gateway_reconnects_total{line=\"a\"} 5\n"),
             "{text}"
         );
+    }
+
+    /// A sequence touching every family: two lines, units, outcomes, codes, retries, times,
+    /// demotion events, gauges and the RTU listener's counters.
+    fn sequence(m: &mut GatewayMetrics) -> String {
+        m.request(0, 7, "answer", None, 0);
+        m.request(0, 7, "timeout", Some(0x0B), 2);
+        m.request(0, 3, "exception", Some(0x02), 0);
+        m.request(1, 12, "answer", None, 1);
+        m.request(1, 0, "sent", None, 0);
+        m.request(0, 7, "demoted", Some(0x0B), 0);
+        m.request(1, 12, "other", Some(0x0A), 0);
+        m.retried(0, 7, 2);
+        m.retried(0, 3, 0);
+        m.retried(1, 12, 1);
+        m.response_time(0, 0.004);
+        m.response_time(0, 0.3);
+        m.response_time(1, 12.0);
+        m.demotion_event(0, "demoted");
+        m.demotion_event(0, "restored");
+        m.demotion_event(1, "probe_failed");
+        let now = |up, depth, demoted, reconnects| LineNow {
+            up,
+            queue_depth: depth,
+            demoted,
+            reconnects,
+        };
+        let rtu = RtuNow {
+            frames: 5,
+            crc_errors: 1,
+            dropped: 2,
+        };
+        m.render(&[now(true, 2, 1, 0), now(false, 0, 0, 3)], Some(rtu))
+    }
+
+    /// The exposition of [`sequence`] as the registry rendered it when every request built
+    /// its labels: counting by precomputed series must not change a byte of it.
+    const EXPOSITION: &str = include_str!("../tests/data/metrics_exposition.prom");
+
+    #[test]
+    fn counting_by_precomputed_series_renders_byte_for_byte_as_before() {
+        let names = || vec!["a".to_string(), "b \"q\"".to_string()];
+        // Units looked up as they come.
+        assert_eq!(sequence(&mut GatewayMetrics::new(names())), EXPOSITION);
+        // Units looked up when the line is added, one (5) never asked: not in the scrape.
+        let mut m = GatewayMetrics::families();
+        m.add_line("a".into(), &[3, 5, 7]);
+        m.add_line("b \"q\"".into(), &[12]);
+        assert_eq!(sequence(&mut m), EXPOSITION);
     }
 }

@@ -10,6 +10,7 @@ use super::demotion::{Admit, Change};
 use super::quantities;
 use super::queue::FairQueue;
 use super::reopen::{self, Closed, LineLog, Opened};
+use si_core::driver::Clock;
 use si_modbus::frame::{DecodeErrorKind, ExceptionCode};
 use si_modbus::mbap::TcpAdu;
 use si_modbus::tokio::{Error, Master};
@@ -101,11 +102,14 @@ pub async fn run(
     // be `Send` for every lifetime, which `tokio::spawn` asks.
     let (index, stats) = (log.index, Arc::clone(&log.stats));
     let (q, events) = (Arc::clone(&queue), log.clone());
+    // The demotion times of the line's units, on si-core's clock: one for the task, so they
+    // stay comparable across reopenings (a restarted line's units start healthy).
+    let clock = Clock::start();
     reopen::supervise(
         log,
         first,
         open,
-        move |master, closed| serve(events.clone(), Arc::clone(&q), master, closed, pause),
+        move |master, closed| serve(events.clone(), Arc::clone(&q), master, closed, pause, clock),
         move || refuse(index, Arc::clone(&queue), Arc::clone(&stats)),
     )
     .await;
@@ -118,8 +122,10 @@ async fn serve(
     mut master: Master,
     mut closed: Closed,
     pause: Duration,
+    clock: Clock,
 ) -> String {
     let (index, stats) = (log.index, Arc::clone(&log.stats));
+    let now = || clock.now();
     loop {
         let (client, job, depth) = tokio::select! {
             why = &mut closed => return why,
@@ -222,16 +228,6 @@ fn report(log: &LineLog, c: Change) {
         Change::Restored { unit } => crate::Event::UnitRestored { line, name, unit },
     };
     (log.events)(&event);
-}
-
-/// Now, on the process's one clock for demotion times (tokio's, so paused test time works).
-fn now() -> si_core::Instant {
-    static EPOCH: std::sync::OnceLock<tokio::time::Instant> = std::sync::OnceLock::new();
-    let epoch = *EPOCH.get_or_init(tokio::time::Instant::now);
-    let micros = tokio::time::Instant::now()
-        .duration_since(epoch)
-        .as_micros();
-    si_core::Instant::from_micros(u64::try_from(micros).unwrap_or(u64::MAX))
 }
 
 /// While the line is down: every request it takes is answered with 0AH, "gateway path

@@ -41,7 +41,12 @@ pub async fn start(
             let counters = Arc::new(rtu_listener::RtuCounters::default());
             let handler = Arc::new(top.clone());
             let id_base = (faces as u64) << crate::faces::CONNECTION_BITS;
-            let run = rtu_listener::run(listener, handler, Arc::clone(&counters), id_base);
+            // The Modbus TCP faces' limits, from the same keys.
+            let limits = rtu_listener::Limits {
+                max_connections: gw.max_connections,
+                idle_timeout: gw.idle_timeout,
+            };
+            let run = rtu_listener::run(listener, handler, Arc::clone(&counters), id_base, limits);
             let task = tokio::spawn(async move { match run.await {} });
             bound.push(Extra {
                 event: "rtu_over_tcp_listening",

@@ -13,6 +13,11 @@
 //! lives (keep one registry for the process and counters survive reconnects and reloads).
 //! Families render in registration order, series sorted by their labels, so a scrape is
 //! deterministic.
+//!
+//! A series can also be looked up once ([`Registry::counter_series`] and its siblings) and
+//! then counted by its [`SeriesId`], with no label built and nothing allocated: the hot path
+//! of a program counting per request. A series looked up so is not in the scrape until it is
+//! first counted, set or observed, exactly as if it had been created then.
 
 use std::collections::BTreeMap;
 use std::fmt::Write;
@@ -47,19 +52,36 @@ enum Series {
     },
 }
 
+/// One series of a registry, looked up by its labels once and counted by this id after.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SeriesId(usize);
+
 #[derive(Debug, Clone)]
 struct Family {
     name: &'static str,
     help: &'static str,
     kind: &'static str,
     bounds: &'static [f64],
-    series: BTreeMap<Labels, Series>,
+    /// The series by their labels: indices in [`Registry::values`].
+    series: BTreeMap<Labels, usize>,
+}
+
+/// A series' value, and whether it shows in the scrape yet.
+#[derive(Debug, Clone)]
+struct Value {
+    series: Series,
+    shown: bool,
+    /// Its family (a histogram's bounds).
+    family: usize,
 }
 
 /// The registry: families in registration order.
 #[derive(Debug, Clone, Default)]
 pub struct Registry {
     families: Vec<Family>,
+    /// Every series' value, by [`SeriesId`]. A dropped series' value stays, unreachable
+    /// ([`Registry::drop_series`]; reloads that remove lines are rare).
+    values: Vec<Value>,
 }
 
 impl Registry {
@@ -68,7 +90,7 @@ impl Registry {
         Registry::default()
     }
 
-    fn add(
+    fn family(
         &mut self,
         name: &'static str,
         help: &'static str,
@@ -88,12 +110,12 @@ impl Registry {
 
     /// Register a counter family (its name should end in `_total`).
     pub fn counter(&mut self, name: &'static str, help: &'static str) -> Counter {
-        Counter(self.add(name, help, "counter", &[]))
+        Counter(self.family(name, help, "counter", &[]))
     }
 
     /// Register a gauge family.
     pub fn gauge(&mut self, name: &'static str, help: &'static str) -> Gauge {
-        Gauge(self.add(name, help, "gauge", &[]))
+        Gauge(self.family(name, help, "gauge", &[]))
     }
 
     /// Register a histogram family with these upper bounds, ascending (the `+Inf` bucket is
@@ -104,30 +126,102 @@ impl Registry {
         help: &'static str,
         bounds: &'static [f64],
     ) -> Histogram {
-        Histogram(self.add(name, help, "histogram", bounds))
+        Histogram(self.family(name, help, "histogram", bounds))
+    }
+
+    /// The series of family `family` with `labels`, created empty and unshown if new.
+    fn series(&mut self, family: usize, labels: Labels) -> SeriesId {
+        let f = &mut self.families[family];
+        if let Some(&at) = f.series.get(&labels) {
+            return SeriesId(at);
+        }
+        let series = match f.kind {
+            "counter" => Series::Counter(0),
+            "gauge" => Series::Gauge(0.0),
+            _ => Series::Histogram {
+                counts: vec![0; f.bounds.len() + 1],
+                sum: 0.0,
+            },
+        };
+        let at = self.values.len();
+        f.series.insert(labels, at);
+        self.values.push(Value {
+            series,
+            shown: false,
+            family,
+        });
+        SeriesId(at)
+    }
+
+    /// A counter's series with `labels`, to count by its id (not in the scrape until counted).
+    pub fn counter_series(&mut self, counter: Counter, labels: Labels) -> SeriesId {
+        self.series(counter.0, labels)
+    }
+
+    /// A gauge's series with `labels`, to set by its id (not in the scrape until set).
+    pub fn gauge_series(&mut self, gauge: Gauge, labels: Labels) -> SeriesId {
+        self.series(gauge.0, labels)
+    }
+
+    /// A histogram's series with `labels`, to observe by its id (not in the scrape until an
+    /// observation).
+    pub fn histogram_series(&mut self, histogram: Histogram, labels: Labels) -> SeriesId {
+        self.series(histogram.0, labels)
+    }
+
+    /// Add `by` to counter series `id` (0 too: it is then in the scrape).
+    pub fn add(&mut self, id: SeriesId, by: u64) {
+        let v = &mut self.values[id.0];
+        v.shown = true;
+        if let Series::Counter(n) = &mut v.series {
+            *n = n.saturating_add(by);
+        }
+    }
+
+    /// Raise counter series `id` to `total` if it is below; never lowers it.
+    pub fn raise_to(&mut self, id: SeriesId, total: u64) {
+        let v = &mut self.values[id.0];
+        v.shown = true;
+        if let Series::Counter(n) = &mut v.series {
+            *n = (*n).max(total);
+        }
+    }
+
+    /// Set gauge series `id`.
+    pub fn set_to(&mut self, id: SeriesId, value: f64) {
+        let v = &mut self.values[id.0];
+        v.shown = true;
+        if let Series::Gauge(g) = &mut v.series {
+            *g = value;
+        }
+    }
+
+    /// Record one observation in histogram series `id`.
+    pub fn record(&mut self, id: SeriesId, value: f64) {
+        let v = &mut self.values[id.0];
+        v.shown = true;
+        let bounds = self.families[v.family].bounds;
+        if let Series::Histogram { counts, sum } = &mut v.series {
+            let at = bounds
+                .iter()
+                .position(|&b| value <= b)
+                .unwrap_or(bounds.len());
+            counts[at] += 1;
+            *sum += value;
+        }
     }
 
     /// Add `by` to a counter's series (created at 0 if new).
     pub fn inc(&mut self, counter: Counter, labels: Labels, by: u64) {
-        let series = self.families[counter.0]
-            .series
-            .entry(labels)
-            .or_insert(Series::Counter(0));
-        if let Series::Counter(v) = series {
-            *v = v.saturating_add(by);
-        }
+        let id = self.counter_series(counter, labels);
+        self.add(id, by);
     }
 
     /// Raise a counter's series to `total` if it is below (a count kept elsewhere that only
     /// grows, read at scrape time); never lowers it.
     pub fn raise(&mut self, counter: Counter, labels: Labels, total: u64) {
-        let series = self.families[counter.0]
-            .series
-            .entry(labels)
-            .or_insert(Series::Counter(0));
-        if let Series::Counter(v) = series {
-            *v = (*v).max(total);
-        }
+        let id = self.counter_series(counter, labels);
+        self.raise_to(id, total);
     }
 
     /// Create a counter's series at 0 if it does not exist, so a scrape shows it before its
@@ -136,42 +230,37 @@ impl Registry {
         self.inc(counter, labels, 0);
     }
 
+    /// Drop every series whose labels `gone` says so, of every family (a target that is gone:
+    /// its series disappear from the scrape, as Prometheus expects). Their ids count nowhere
+    /// visible after.
+    pub fn drop_series(&mut self, gone: impl Fn(&Labels) -> bool) {
+        for f in &mut self.families {
+            f.series.retain(|labels, _| !gone(labels));
+        }
+    }
+
     /// A counter's value (0 if the series does not exist).
     #[cfg(test)]
     pub fn counter_value(&self, counter: Counter, labels: &Labels) -> u64 {
         match self.families[counter.0].series.get(labels) {
-            Some(Series::Counter(v)) => *v,
-            _ => 0,
+            Some(&at) => match self.values[at].series {
+                Series::Counter(v) => v,
+                _ => 0,
+            },
+            None => 0,
         }
     }
 
     /// Set a gauge's series.
     pub fn set(&mut self, gauge: Gauge, labels: Labels, value: f64) {
-        self.families[gauge.0]
-            .series
-            .insert(labels, Series::Gauge(value));
+        let id = self.gauge_series(gauge, labels);
+        self.set_to(id, value);
     }
 
     /// Record one observation (seconds, for response times) in a histogram's series.
     pub fn observe(&mut self, histogram: Histogram, labels: Labels, value: f64) {
-        let family = &mut self.families[histogram.0];
-        let buckets = family.bounds.len() + 1;
-        let series = family
-            .series
-            .entry(labels)
-            .or_insert_with(|| Series::Histogram {
-                counts: vec![0; buckets],
-                sum: 0.0,
-            });
-        if let Series::Histogram { counts, sum } = series {
-            let at = family
-                .bounds
-                .iter()
-                .position(|&b| value <= b)
-                .unwrap_or(family.bounds.len());
-            counts[at] += 1;
-            *sum += value;
-        }
+        let id = self.histogram_series(histogram, labels);
+        self.record(id, value);
     }
 
     /// The text exposition of every family.
@@ -180,8 +269,12 @@ impl Registry {
         for f in &self.families {
             let _ = writeln!(out, "# HELP {} {}", f.name, escape_help(f.help));
             let _ = writeln!(out, "# TYPE {} {}", f.name, f.kind);
-            for (labels, series) in &f.series {
-                match series {
+            for (labels, &at) in &f.series {
+                let value = &self.values[at];
+                if !value.shown {
+                    continue;
+                }
+                match &value.series {
                     Series::Counter(v) => {
                         let _ = writeln!(out, "{}{} {v}", f.name, label_set(labels, None));
                     }
@@ -344,6 +437,46 @@ mod tests {
             "# HELP x_total a \\\\ b\\nc\n\
              # TYPE x_total counter\n\
              x_total{line=\"q\\\"u\\\\o\\nte\"} 1\n"
+        );
+    }
+
+    #[test]
+    fn a_series_looked_up_shows_once_counted_as_if_created_then() {
+        let mut r = Registry::new();
+        let c = r.counter("x_total", "x");
+        let h = r.histogram("t_seconds", "t", &[0.1]);
+        let id = r.counter_series(c, line("a"));
+        let t = r.histogram_series(h, line("a"));
+        let empty = "# HELP x_total x\n# TYPE x_total counter\n\
+                     # HELP t_seconds t\n# TYPE t_seconds histogram\n";
+        assert_eq!(r.render(), empty);
+        assert_eq!(r.counter_series(c, line("a")), id, "one series per labels");
+        r.add(id, 2);
+        r.inc(c, line("a"), 1);
+        r.record(t, 0.05);
+        assert_eq!(
+            r.render(),
+            "# HELP x_total x\n# TYPE x_total counter\nx_total{line=\"a\"} 3\n\
+             # HELP t_seconds t\n# TYPE t_seconds histogram\n\
+             t_seconds_bucket{line=\"a\",le=\"0.1\"} 1\n\
+             t_seconds_bucket{line=\"a\",le=\"+Inf\"} 1\n\
+             t_seconds_sum{line=\"a\"} 0.05\n\
+             t_seconds_count{line=\"a\"} 1\n"
+        );
+    }
+
+    #[test]
+    fn dropped_series_disappear_and_the_others_stay() {
+        let mut r = Registry::new();
+        let c = r.counter("x_total", "x");
+        let g = r.gauge("y", "y");
+        r.inc(c, line("a"), 1);
+        r.inc(c, line("b"), 2);
+        r.set(g, line("a"), 1.0);
+        r.drop_series(|l| l == &line("a"));
+        assert_eq!(
+            r.render(),
+            "# HELP x_total x\n# TYPE x_total counter\nx_total{line=\"b\"} 2\n# HELP y y\n# TYPE y gauge\n"
         );
     }
 

@@ -35,6 +35,29 @@ pub fn check_pause(
     Ok(std::time::Duration::from_millis(pause_ms))
 }
 
+/// The response timeouts a Modbus line (RTU or TCP) accepts, in ms: the module's "Response
+/// Time", [Modbus/USS] §3.4.3, Table 3-17 (the range `si_modbus::MasterConfig::validate`
+/// checks).
+pub const RESPONSE_TIMEOUT_MS: (u32, u32) = (50, 655_000);
+/// The most retries of a Modbus line (RTU or TCP): mbusd's (`MAX_MAXTRY` 15).
+pub const MAX_RETRIES: u8 = 15;
+
+/// A Modbus line's `retries` (0 … [`MAX_RETRIES`]) and `response_timeout_ms`
+/// ([`RESPONSE_TIMEOUT_MS`]), each with the kind's default when absent, checked: one check
+/// for every Modbus line kind.
+pub fn check_exchange(
+    retries: Option<u8>,
+    default_retries: u8,
+    response_timeout_ms: Option<u32>,
+    default_timeout_ms: u32,
+) -> Result<(u8, Duration), RangeError> {
+    let retries = retries.unwrap_or(default_retries);
+    RangeError::check("retries", (0, MAX_RETRIES), "", retries)?;
+    let timeout = response_timeout_ms.unwrap_or(default_timeout_ms);
+    RangeError::check("response_timeout_ms", RESPONSE_TIMEOUT_MS, " ms", timeout)?;
+    Ok((retries, Duration::from_millis(timeout.into())))
+}
+
 /// Declares a line kind's file form: a struct refusing unknown keys, with the keys every line
 /// has (`kind`, `name`, `device`, `baud`, `data_bits`, `parity`, `stop_bits`, `rs485`,
 /// `rs485_file`, `rs485_delay_before_ms`, `rs485_delay_after_ms`, `local_echo`,

@@ -9,7 +9,9 @@
 //! 10 000 ms, `DEFAULT_RESPWAIT` 500 ms). mbusd's pause is 1–10 000 ms; we also allow 0.
 
 use crate::demotion::DemotionConfig;
-use crate::port_config::{check_baud, check_pause, check_queue, line_file, parse_unit_map};
+use crate::port_config::{
+    check_baud, check_exchange, check_pause, check_queue, line_file, parse_unit_map,
+};
 use si_core::RangeError;
 use std::time::Duration;
 
@@ -109,22 +111,15 @@ pub struct RtuLine {
 impl RtuFile {
     /// Check the line's own keys (the shared ones are checked by the caller).
     pub fn check(&self) -> Result<RtuLine, RangeError> {
-        let retries = self.retries.unwrap_or(2);
-        RangeError::check("retries", (0, 15), "", retries)?;
+        let (retries, response_timeout) =
+            check_exchange(self.retries, 2, self.response_timeout_ms, 500)?;
         let pause = check_pause(self.pause_ms, 100)?;
-        let response_timeout_ms = self.response_timeout_ms.unwrap_or(500);
-        RangeError::check(
-            "response_timeout_ms",
-            (50, 655_000),
-            " ms",
-            response_timeout_ms,
-        )?;
         let queue = check_queue(self.queue)?;
         check_baud(self.baud.unwrap_or(9600), &si_core::BAUD_RATES)?;
         Ok(RtuLine {
             retries,
             pause,
-            response_timeout: Duration::from_millis(response_timeout_ms.into()),
+            response_timeout: response_timeout.into(),
             broadcast: self.broadcast,
             queue,
             framing: self.framing()?,

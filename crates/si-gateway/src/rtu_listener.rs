@@ -8,6 +8,11 @@
 //! Frames whose CRC does not check are dropped without an answer and counted, as a slave on a
 //! line drops them ([Modbus serial] §2.5.1.2); so are bytes that make no frame. Requests on one
 //! connection are answered one after the other.
+//!
+//! The listener keeps the Modbus TCP faces' limits, from the same configuration keys
+//! (`max_connections`, `idle_timeout_ms`) and in the same way as si-modbus's TCP server: a
+//! connection beyond [`Limits::max_connections`] is accepted and closed at once, as mbusd
+//! does, and one that sends nothing for [`Limits::idle_timeout`] is closed.
 
 use si_modbus::frame::crc16;
 use si_modbus::mbap::TcpAdu;
@@ -19,6 +24,7 @@ use std::sync::Arc;
 use std::time::Duration;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
+use tokio::sync::Semaphore;
 
 /// Silence that ends a frame whose length cannot be predicted (an unknown function code):
 /// a device server forwards a frame in one burst, so 50 ms without a byte ends it. `[derived]`:
@@ -37,20 +43,42 @@ pub struct RtuCounters {
     pub dropped: AtomicU64,
 }
 
+/// The connections a listener serves: the gateway's `max_connections` and
+/// `idle_timeout_ms`, as its Modbus TCP faces have them
+/// (`si_modbus::tokio::tcp::ServerConfig`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Limits {
+    /// Connections served at once; one more is accepted and closed at once.
+    pub max_connections: usize,
+    /// A connection that sends nothing for this long is closed (`None`: never).
+    pub idle_timeout: Option<Duration>,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_connections: si_modbus::tokio::tcp::DEFAULT_MAX_CONNECTIONS,
+            idle_timeout: Some(si_modbus::tokio::tcp::DEFAULT_IDLE_TIMEOUT),
+        }
+    }
+}
+
 /// Pause after a failed accept (out of file descriptors and the like) before the next, as the
 /// Modbus TCP server does: one failing connection attempt must not end the listener, and
 /// retrying at once would spin.
 pub const ACCEPT_RETRY: Duration = Duration::from_millis(100);
 
 /// Accept connections on `listener` for ever (a failed accept is retried after
-/// [`ACCEPT_RETRY`]); each is served by `handler`. Connection ids given to the handler are
-/// `id_base` + the connection's number from 1.
+/// [`ACCEPT_RETRY`]), up to `limits`; each is served by `handler`. Connection ids given to
+/// the handler are `id_base` + the connection's number from 1.
 pub async fn run<H: Handler>(
     listener: TcpListener,
     handler: Arc<H>,
     counters: Arc<RtuCounters>,
     id_base: u64,
+    limits: Limits,
 ) -> std::convert::Infallible {
+    let slots = Arc::new(Semaphore::new(limits.max_connections));
     let mut next = 0u64;
     loop {
         let (stream, addr) = match listener.accept().await {
@@ -60,6 +88,11 @@ pub async fn run<H: Handler>(
                 continue;
             }
         };
+        // Over the limit: closed at once, a clear refusal instead of a hang.
+        let Ok(slot) = Arc::clone(&slots).try_acquire_owned() else {
+            drop(stream);
+            continue;
+        };
         next += 1;
         let peer = Peer {
             id: id_base | next,
@@ -67,19 +100,24 @@ pub async fn run<H: Handler>(
         };
         let (h, c) = (Arc::clone(&handler), Arc::clone(&counters));
         tokio::spawn(async move {
+            let mut stream = stream;
             h.connected(&peer);
-            let _ = connection(stream, &*h, &peer, &c).await;
+            let _ = connection(&mut stream, &*h, &peer, &c, limits.idle_timeout).await;
             h.disconnected(&peer);
+            // The slot is free before the client sees the connection close.
+            drop(slot);
+            drop(stream);
         });
     }
 }
 
-/// Serve one connection until it closes.
+/// Serve one connection until it closes, or is silent for `idle` between frames.
 async fn connection<H: Handler>(
-    mut stream: TcpStream,
+    stream: &mut TcpStream,
     handler: &H,
     peer: &Peer,
     counters: &RtuCounters,
+    idle: Option<Duration>,
 ) -> std::io::Result<()> {
     let _ = stream.set_nodelay(true);
     let mut rtu = RtuStream::new(Expect::Request);
@@ -87,20 +125,25 @@ async fn connection<H: Handler>(
     loop {
         let read = if rtu.pending() > 0 {
             tokio::time::timeout(GAP, stream.read(&mut buf)).await
+        } else if let Some(idle) = idle {
+            match tokio::time::timeout(idle, stream.read(&mut buf)).await {
+                Ok(read) => Ok(read),
+                Err(_idle) => return Ok(()),
+            }
         } else {
             Ok(stream.read(&mut buf).await)
         };
         match read {
             Err(_silence) => {
                 while let Some(cut) = rtu.gap() {
-                    answer(&mut stream, handler, peer, counters, cut).await?;
+                    answer(stream, handler, peer, counters, cut).await?;
                 }
             }
             Ok(Ok(0)) => return Ok(()),
             Ok(Ok(n)) => {
                 let mut input = &buf[..n];
                 while let Some(cut) = rtu.push(&mut input) {
-                    answer(&mut stream, handler, peer, counters, cut).await?;
+                    answer(stream, handler, peer, counters, cut).await?;
                 }
             }
             Ok(Err(e)) => return Err(e),
@@ -173,7 +216,14 @@ mod tests {
         let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
         let addr = listener.local_addr().unwrap();
         let counters = Arc::new(RtuCounters::default());
-        tokio::spawn(run(listener, Arc::new(Echo), Arc::clone(&counters), 0));
+        let limits = Limits::default();
+        tokio::spawn(run(
+            listener,
+            Arc::new(Echo),
+            Arc::clone(&counters),
+            0,
+            limits,
+        ));
         let mut client = TcpStream::connect(addr).await.unwrap();
         let mut bad = fc03(1, 0x0102);
         bad[7] ^= 0x55;
@@ -194,5 +244,81 @@ mod tests {
         assert_eq!(got[7..], want(3, 0x05, 0x06)[..]);
         assert_eq!(counters.crc_errors.load(Ordering::Relaxed), 1);
         assert_eq!(counters.frames.load(Ordering::Relaxed), 3);
+    }
+
+    /// A listener with `limits` on a free port, answering with [`Echo`].
+    async fn listening(limits: Limits) -> std::net::SocketAddr {
+        let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let addr = listener.local_addr().unwrap();
+        let counters = Arc::new(RtuCounters::default());
+        tokio::spawn(run(listener, Arc::new(Echo), counters, 0, limits));
+        addr
+    }
+
+    /// Whether the listener closed `client`'s connection (end of stream or reset) rather than
+    /// answering or keeping it open, waiting an hour at most (a bound only: on the paused
+    /// clock it passes at once when nothing else would happen).
+    async fn closed(client: &mut TcpStream) -> bool {
+        let mut byte = [0u8; 1];
+        let read = tokio::time::timeout(Duration::from_secs(3600), client.read(&mut byte));
+        matches!(read.await, Ok(Ok(0) | Err(_)))
+    }
+
+    #[tokio::test]
+    async fn a_connection_over_max_connections_is_closed_at_once() {
+        let addr = listening(Limits {
+            max_connections: 1,
+            idle_timeout: None,
+        })
+        .await;
+        let mut first = TcpStream::connect(addr).await.unwrap();
+        first.write_all(&fc03(2, 0x0304)).await.unwrap();
+        let mut got = [0u8; 7];
+        first.read_exact(&mut got).await.unwrap();
+        assert_eq!(got[..5], [2, 0x03, 2, 0x03, 0x04], "the first is served");
+        let mut second = TcpStream::connect(addr).await.unwrap();
+        // Its request is never answered: the connection is closed.
+        let _ = second.write_all(&fc03(3, 0x0506)).await;
+        assert!(closed(&mut second).await, "the second is refused");
+        // The first is still served.
+        first.write_all(&fc03(4, 0x0708)).await.unwrap();
+        first.read_exact(&mut got).await.unwrap();
+        assert_eq!(got[..5], [4, 0x03, 2, 0x07, 0x08]);
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_silent_connection_is_closed_after_the_idle_timeout() {
+        let idle = Duration::from_secs(60);
+        let addr = listening(Limits {
+            max_connections: 4,
+            idle_timeout: Some(idle),
+        })
+        .await;
+        let mut client = TcpStream::connect(addr).await.unwrap();
+        client.write_all(&fc03(2, 0x0304)).await.unwrap();
+        let mut got = [0u8; 7];
+        client.read_exact(&mut got).await.unwrap();
+        let answered = tokio::time::Instant::now();
+        // Silent from here: the listener closes it once the idle time has passed (tokio's
+        // paused clock runs on while every task waits), and not before.
+        assert!(closed(&mut client).await);
+        assert!(
+            answered.elapsed() >= idle,
+            "closed after {:?}",
+            answered.elapsed()
+        );
+        // Without an idle timeout, the same silence keeps the connection.
+        let addr = listening(Limits {
+            max_connections: 4,
+            idle_timeout: None,
+        })
+        .await;
+        let mut kept = TcpStream::connect(addr).await.unwrap();
+        let mut byte = [0u8; 1];
+        let waited = tokio::time::timeout(idle * 2, kept.read(&mut byte)).await;
+        assert!(
+            waited.is_err(),
+            "still open after twice the time: {waited:?}"
+        );
     }
 }

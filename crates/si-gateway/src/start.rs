@@ -34,7 +34,7 @@ pub struct Started {
 pub async fn lines(gw: &Config, opening: &Opening, events: &Events) -> Result<Started, Error> {
     let mut counters = Stats::new(0);
     for l in &gw.lines {
-        counters.add_line(l.name.clone(), l.demotion);
+        counters.add_line(l.name.clone(), l.demotion, &l.addresses());
     }
     let stats = Arc::new(Mutex::new(counters));
     let mut handles = Vec::with_capacity(gw.lines.len());
@@ -181,13 +181,19 @@ async fn open_uss(
     u: &UssLine,
 ) -> Result<reopen::Opened<si_uss::tokio::Handle>, Error> {
     let rates = &si_uss::config::USS_BAUD_RATES[..];
-    open_engine(o, l, "uss", rates, |settings| {
-        let mut config = u.master.clone();
-        config.settings = settings;
-        si_uss::Master::new(config)
-    })
-    .await
-    .map(|o| o.spawn(si_uss::tokio::Handle::spawn_engine))
+    open_engine(o, l, "uss", rates, |settings| uss_master(u, settings))
+        .await
+        .map(|o| o.spawn(si_uss::tokio::Handle::spawn_engine))
+}
+
+/// A USS line's master for its serial settings.
+fn uss_master(
+    u: &UssLine,
+    settings: si_core::SerialSettings,
+) -> Result<si_uss::Master, si_uss::config::ConfigError> {
+    let mut config = u.master.clone();
+    config.settings = settings;
+    si_uss::Master::new(config)
 }
 
 /// Open an RK 512 line and start its station: active only, or serving the line's memory in
@@ -199,24 +205,34 @@ async fn open_rk512(
     kept: Option<&rk512_own::Kept>,
 ) -> Result<reopen::Opened<si_rk512::tokio::Handle>, Error> {
     open_engine(o, l, "rk512", &si_core::BAUD_RATES, |settings| {
-        match r.role {
-            Role::Active => si_rk512::Station::new(r.config.with_settings(settings)),
-            Role::Passive => {
-                let server = si_rk512::passive::ServerConfig {
-                    memory: r.memory.clone(),
-                    ..si_rk512::passive::ServerConfig::default()
-                };
-                let mut station =
-                    si_rk512::Station::serving(r.config.with_settings(settings), &server)?;
-                if let Some(kept) = kept {
-                    kept.restore(&mut station);
-                }
-                Ok(station)
-            }
-        }
+        rk512_station(r, settings, kept)
     })
     .await
     .map(|o| o.spawn(si_rk512::tokio::Handle::spawn_engine))
+}
+
+/// An RK 512 line's station for its serial settings: active only, or serving the line's
+/// memory in the passive role, from the memory `kept` if any.
+fn rk512_station(
+    r: &Rk512Line,
+    settings: si_core::SerialSettings,
+    kept: Option<&rk512_own::Kept>,
+) -> Result<si_rk512::Station, si_3964r::ConfigError> {
+    match r.role {
+        Role::Active => si_rk512::Station::new(r.config.with_settings(settings)),
+        Role::Passive => {
+            let server = si_rk512::passive::ServerConfig {
+                memory: r.memory.clone(),
+                ..si_rk512::passive::ServerConfig::default()
+            };
+            let mut station =
+                si_rk512::Station::serving(r.config.with_settings(settings), &server)?;
+            if let Some(kept) = kept {
+                kept.restore(&mut station);
+            }
+            Ok(station)
+        }
+    }
 }
 
 /// Open a plain 3964(R) line and start its link.
@@ -237,6 +253,18 @@ async fn open_modbus(
     o: &Opening,
     l: &Line,
 ) -> Result<reopen::Opened<si_modbus::tokio::Master>, Error> {
+    open_engine(o, l, "modbus", &si_core::BAUD_RATES, |settings| {
+        modbus_master(l, settings)
+    })
+    .await
+    .map(|o| o.spawn(si_modbus::tokio::Master::spawn_engine))
+}
+
+/// A Modbus RTU line's master for its serial settings.
+fn modbus_master(
+    l: &Line,
+    settings: si_core::SerialSettings,
+) -> Result<si_modbus::Master, si_modbus::config::ConfigError> {
     // On RS-485 a response is recognised by its address, skipping a turnaround glitch ([Modbus/USS]
     // §3.4.1, §3.4.3).
     let interface = if l.port.as_ref().is_some_and(|p| p.rs485.is_some()) {
@@ -244,7 +272,7 @@ async fn open_modbus(
     } else {
         si_core::Interface::Rs232
     };
-    open_engine(o, l, "modbus", &si_core::BAUD_RATES, |settings| {
+    {
         let gap = spec_gap(&settings);
         let config = MasterConfig {
             line: LineConfig {
@@ -274,9 +302,7 @@ async fn open_modbus(
                 m
             }
         })
-    })
-    .await
-    .map(|o| o.spawn(si_modbus::tokio::Master::spawn_engine))
+    }
 }
 
 /// The Modbus specification's inter-frame silence t3.5 ([Modbus serial] §2.5.1.1): 3.5
@@ -303,8 +329,7 @@ async fn open_engine<E, F: std::error::Error>(
     engine: impl FnOnce(si_core::SerialSettings) -> Result<E, F>,
 ) -> Result<reopen::Opened<(E, Box<dyn si_core::driver::Transport>)>, Error> {
     let prefix = format!("line {}: ", l.name);
-    let settings = open::settings(l, rates).map_err(|e| e.prefixed(&prefix))?;
-    let engine = engine(settings).map_err(|e| Error::Config(format!("{prefix}{e}")))?;
+    let (settings, engine) = build(l, rates, engine)?;
     let port = open::open(l, &settings, protocol, o)
         .await
         .map_err(|e| match e {
@@ -315,6 +340,38 @@ async fn open_engine<E, F: std::error::Error>(
         link: (engine, port),
         closed,
     })
+}
+
+/// Line `l`'s serial settings (a baud rate from `rates`) and its engine built for them, or
+/// the [`Error::Config`] naming the line.
+fn build<E, F: std::error::Error>(
+    l: &Line,
+    rates: &'static [u32],
+    engine: impl FnOnce(si_core::SerialSettings) -> Result<E, F>,
+) -> Result<(si_core::SerialSettings, E), Error> {
+    let prefix = format!("line {}: ", l.name);
+    let settings = open::settings(l, rates).map_err(|e| e.prefixed(&prefix))?;
+    let engine = engine(settings).map_err(|e| Error::Config(format!("{prefix}{e}")))?;
+    Ok((settings, engine))
+}
+
+/// Whether line `l` would start, short of its port: its settings and its engine's
+/// configuration are accepted, with the error [`line()`] would give if not. Nothing is opened
+/// (an engine is state only), so a reload checks every line it would start before it ends
+/// any ([`crate::Gateway::reload`]).
+pub fn check(l: &Line) -> Result<(), Error> {
+    let serial = &si_core::BAUD_RATES;
+    match &l.kind {
+        Kind::ModbusRtu => build(l, serial, |s| modbus_master(l, s)).map(drop),
+        Kind::Uss(u) => build(l, &si_uss::config::USS_BAUD_RATES, |s| uss_master(u, s)).map(drop),
+        Kind::Rk512(r) => build(l, serial, |s| rk512_station(r, s, None)).map(drop),
+        Kind::R3964(link) => {
+            build(l, serial, |s| si_3964r::Link::new(link.with_settings(s))).map(drop)
+        }
+        // A Modbus TCP line has nothing to check before it connects; a program's own kind
+        // was built by the program.
+        Kind::ModbusTcp(_) | Kind::Custom(_) => Ok(()),
+    }
 }
 
 #[cfg(test)]

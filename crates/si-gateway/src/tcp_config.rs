@@ -15,7 +15,7 @@
 //! A Modbus TCP slave times its own answers, so there is no character format, framing or
 //! RS-485 key; the timeout default is si-modbus's TCP client's own.
 
-use crate::port_config::{check_pause, check_queue, parse_unit_map};
+use crate::port_config::{check_exchange, check_pause, check_queue, parse_unit_map};
 use si_core::RangeError;
 use std::collections::BTreeMap;
 use std::time::Duration;
@@ -69,16 +69,14 @@ impl TcpFile {
             .address
             .clone()
             .ok_or_else(|| RangeError::new("address", "HOST:PORT of the slave", "", "none"))?;
-        let timeout = self.response_timeout_ms.unwrap_or(1000);
-        RangeError::check("response_timeout_ms", (50, 655_000), " ms", timeout)?;
-        let retries = self.retries.unwrap_or(0);
-        RangeError::check("retries", (0, 15), "", retries)?;
+        let (retries, response_timeout) =
+            check_exchange(self.retries, 0, self.response_timeout_ms, 1000)?;
         let pause = check_pause(self.pause_ms, 0)?;
         let queue = check_queue(self.queue)?;
         Ok(TcpLine {
             address,
             client: si_modbus::tokio::tcp::ClientConfig {
-                response_timeout: si_core::Duration::from_millis(timeout.into()),
+                response_timeout,
                 retries,
             },
             pause,

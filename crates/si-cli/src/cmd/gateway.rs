@@ -34,7 +34,9 @@ pub struct GatewayArgs {
     #[arg(
         long,
         value_name = "FILE",
-        conflicts_with_all = ["line", "units", "retries", "timeout", "pause", "queue", "broadcast"]
+        conflicts_with_all = [
+            "line", "units", "retries", "response_timeout_ms", "pause_ms", "queue", "broadcast"
+        ]
     )]
     config: Option<PathBuf>,
     /// Check the TOML configuration FILE and exit: 0 and a summary if it is valid, 2 and the
@@ -55,10 +57,10 @@ pub struct GatewayArgs {
     retries: Option<u8>,
     /// Response timeout, 50–655000 ms (default 500, mbusd's).
     #[arg(long, value_name = "MS")]
-    timeout: Option<u32>,
+    response_timeout_ms: Option<u32>,
     /// Pause after each request before the next, 0–10000 ms (default 100, mbusd's).
     #[arg(long, value_name = "MS")]
-    pause: Option<u64>,
+    pause_ms: Option<u64>,
     /// Requests waiting per line, 1–1024 (default 32); one more is refused with 06H.
     #[arg(long)]
     queue: Option<usize>,
@@ -148,8 +150,8 @@ impl GatewayArgs {
             rx_latency_ms: conn.rx_latency,
             units: self.units.clone(),
             retries: self.retries,
-            pause_ms: self.pause,
-            response_timeout_ms: self.timeout,
+            pause_ms: self.pause_ms,
+            response_timeout_ms: self.response_timeout_ms,
             broadcast: self.broadcast,
             queue: self.queue,
             ..RtuFile::default()

@@ -43,6 +43,33 @@ fn a_bad_flag_names_key_and_value() {
 }
 
 #[test]
+fn the_timing_flags_name_their_unit_and_are_checked_as_the_file_keys() {
+    let line = ["gateway", "--line", "/dev/null", "--units", "1"];
+    let o = si(&[&line[..], &["--response-timeout-ms", "10"]].concat());
+    assert!(
+        stderr(&o).contains("response_timeout_ms = 10 ms is out of range"),
+        "{}",
+        stderr(&o)
+    );
+    let o = si(&[&line[..], &["--pause-ms", "20000"]].concat());
+    assert!(
+        stderr(&o).contains("pause_ms = 20000 ms is out of range"),
+        "{}",
+        stderr(&o)
+    );
+    // The names before the naming rule are gone (nothing was released with them).
+    for old in ["--timeout", "--pause"] {
+        let o = si(&[&line[..], &[old, "100"]].concat());
+        assert!(!o.status.success());
+        assert!(
+            stderr(&o).contains("unexpected argument"),
+            "{old}: {}",
+            stderr(&o)
+        );
+    }
+}
+
+#[test]
 fn a_50_mb_bad_value_gives_a_short_error_naming_the_file_and_the_key() {
     let path = test_dir("gateway-config").join("huge.toml");
     // 50 MB: over the cap of every file si reads, refused before parsing, naming the file.

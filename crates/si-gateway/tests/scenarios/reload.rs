@@ -126,3 +126,39 @@ async fn a_reload_that_changes_the_listening_addresses_is_refused_and_the_old_on
     let h = gateway.handler();
     assert_eq!(h.call(read(1, 9, 0)).await.unwrap().unit_pdu()[1], 0x03);
 }
+
+#[tokio::test]
+async fn a_reload_whose_changed_line_cannot_start_is_refused_and_that_line_keeps_serving() {
+    let (gateway, slaves) = start(LINES).await;
+    let h = gateway.handler();
+    assert_eq!(h.call(read(1, 8, 1)).await.unwrap().unit_pdu()[1], 0x03);
+    // b changed to a character format its Modbus RTU master refuses (8 data bits only), and
+    // d added: the file checks, but b's engine cannot be built.
+    let refused = changed().replace(
+        "units = \"8\"\npause_ms = 1",
+        "units = \"8\"\ndata_bits = 7",
+    );
+    let e = gateway.reload(config(&refused)).await.unwrap_err();
+    assert!(e.to_string().contains("line b"), "{e}");
+    let running = gateway.config().await;
+    assert_eq!(running.lines.len(), 3, "the old configuration runs");
+    assert_eq!(running.lines[2].name, "c");
+    for (t, unit, want) in [(2, 7, 0x02BD), (3, 8, 0x0321), (4, 9, 0x0385)] {
+        // A bound only, so that a line left without its task fails here instead of hanging.
+        let answer = tokio::time::timeout(Duration::from_secs(10), h.call(read(t, unit, 1)));
+        let got = answer.await.expect("an answer").unwrap();
+        assert_eq!(
+            got.unit_pdu(),
+            [unit, 0x03, 2, (want >> 8) as u8, want as u8],
+            "unit {unit} is served as before"
+        );
+    }
+    assert_eq!(
+        h.call(read(5, 10, 1)).await.unwrap().unit_pdu(),
+        [10, 0x83, 0x0A],
+        "the line the refused file adds is not there"
+    );
+    assert_eq!(gateway.stats().lines.len(), 3, "no slot was added");
+    // Nothing was opened for the refused file: b kept its pipe.
+    assert_eq!(slaves.lock().unwrap().len(), 3);
+}
