@@ -770,11 +770,16 @@ pub(super) mod tests {
     fn rtu_framing_keys_are_checked_and_belong_to_modbus_rtu_lines() {
         let base = "[[line]]\nname = \"m\"\ndevice = \"/dev/null\"\nunits = \"1\"\n";
         let g = check(&format!(
-            "{base}char_delay_multiplier = 3\nframe_end = \"length\"\n"
+            "{base}char_delay_multiplier = 3\nframe_end = \"gap\"\n"
         ));
         let rtu = g.unwrap().lines[0].rtu;
         assert_eq!(rtu.char_delay_multiplier, 3);
-        assert_eq!(rtu.frame_end, si_modbus::FrameEnd::Length);
+        assert_eq!(rtu.frame_end, si_modbus::FrameEnd::Gap);
+        assert_eq!(
+            check(base).unwrap().lines[0].rtu.frame_end,
+            si_modbus::FrameEnd::Length,
+            "answers end at their predicted length by default"
+        );
         let e = check(&format!("{base}char_delay_multiplier = 11\n")).unwrap_err();
         assert!(
             e.contains("char_delay_multiplier = 11 is out of range: 1 … 10"),

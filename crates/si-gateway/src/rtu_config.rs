@@ -67,7 +67,9 @@ line_file! {
 pub struct RtuFraming {
     /// fMUL 1–10 ([Modbus/USS] §3.3.5, Table 3-11).
     pub char_delay_multiplier: u8,
-    /// At the gap, or also at the predicted length.
+    /// At the gap, or also at the predicted length (the default: an answer is handed back
+    /// when its last byte is in, and a pause inside it is waited out, as mbusd does; the
+    /// module's gap-only framing stays an option).
     pub frame_end: si_modbus::FrameEnd,
     /// The specification's t3.5 (`true`) or the module's gap.
     pub spec_gap: bool,
@@ -80,7 +82,7 @@ impl Default for RtuFraming {
     fn default() -> Self {
         RtuFraming {
             char_delay_multiplier: 1,
-            frame_end: si_modbus::FrameEnd::Gap,
+            frame_end: si_modbus::FrameEnd::Length,
             spec_gap: true,
             quiet_after_timeout_ms: None,
         }
@@ -149,8 +151,8 @@ impl RtuFile {
         let char_delay_multiplier = self.char_delay_multiplier.unwrap_or(1);
         RangeError::check("char_delay_multiplier", (1, 10), "", char_delay_multiplier)?;
         let frame_end = match self.frame_end.as_deref() {
-            None | Some("gap") => si_modbus::FrameEnd::Gap,
-            Some("length") => si_modbus::FrameEnd::Length,
+            Some("gap") => si_modbus::FrameEnd::Gap,
+            None | Some("length") => si_modbus::FrameEnd::Length,
             Some(other) => return Err(RangeError::new("frame_end", "gap or length", "", other)),
         };
         let spec_gap = match (self.frame_gap.as_deref(), self.char_delay_multiplier) {
