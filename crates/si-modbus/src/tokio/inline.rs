@@ -214,70 +214,78 @@ impl<T: Transport> Inner<T> {
             // below take microseconds at most.
             let now = fresh.take().unwrap_or_else(|| self.now());
             let stale_now = std::mem::take(&mut stale);
-            let wait = loop {
-                // Read the output where the engine's queue keeps it: an output is as large as a
-                // completion (two ADUs inline), and one handed out by value, or kept across the
-                // write's `await`, would be copied whole; only the frame's handle crosses.
-                let ours_ended = self.engine.running_job().is_none_or(|r| Some(r) != id);
-                let out = match self.engine.next_output_mut() {
-                    Ok(out) => out,
-                    Err(deadline) => break deadline,
+            // A turn on the reading from before a yield (`stale_now`) has nothing to drain or
+            // check: the engine has not run since the turn before the yield emptied its outputs
+            // and checked its deadlines against this same reading. It only polls the read (the
+            // timer is not armed on a stale reading), so its deadline is not computed again.
+            let next = if stale_now {
+                None
+            } else {
+                let wait = loop {
+                    // Read the output where the engine's queue keeps it: an output is as large as a
+                    // completion (two ADUs inline), and one handed out by value, or kept across the
+                    // write's `await`, would be copied whole; only the frame's handle crosses.
+                    let ours_ended = self.engine.running_job().is_none_or(|r| Some(r) != id);
+                    let out = match self.engine.next_output_mut() {
+                        Ok(out) => out,
+                        Err(deadline) => break deadline,
+                    };
+                    let bytes = match out {
+                        Output::Transmit(bytes) => std::mem::take(bytes),
+                        Output::SetSignals(update) => {
+                            let update = *update;
+                            self.engine.consume_output();
+                            self.port.set_signals(update)?;
+                            continue;
+                        }
+                        Output::Event(MasterEvent::Diagnostic(s)) => {
+                            self.diagnostics.keep(*s);
+                            self.engine.consume_output();
+                            continue;
+                        }
+                        // The job's end: one job at a time, so once it is no longer the running
+                        // one, this event ended it ([`master::Master::outcome`] has it by id).
+                        Output::Event(MasterEvent::Completed(c)) if ours_ended => {
+                            let picked = pick(c);
+                            self.engine.consume_output();
+                            return Ok(Ok(picked));
+                        }
+                        Output::Event(MasterEvent::Failed { status, .. }) if ours_ended => {
+                            let status = *status;
+                            self.engine.consume_output();
+                            return Ok(Err(status));
+                        }
+                        Output::Event(_) => {
+                            self.engine.consume_output();
+                            continue;
+                        }
+                        Output::Wait(deadline) => {
+                            let deadline = *deadline;
+                            self.engine.consume_output();
+                            break deadline;
+                        }
+                    };
+                    self.engine.consume_output();
+                    let start = now;
+                    self.port.write_all(&bytes).await?;
+                    skip_read = true;
+                    yielded = false;
+                    let settings = self.engine.config().line.settings;
+                    self.tx_done = Some(start + settings.chars_time(bytes.len() as u64));
                 };
-                let bytes = match out {
-                    Output::Transmit(bytes) => std::mem::take(bytes),
-                    Output::SetSignals(update) => {
-                        let update = *update;
-                        self.engine.consume_output();
-                        self.port.set_signals(update)?;
-                        continue;
-                    }
-                    Output::Event(MasterEvent::Diagnostic(s)) => {
-                        self.diagnostics.keep(*s);
-                        self.engine.consume_output();
-                        continue;
-                    }
-                    // The job's end: one job at a time, so once it is no longer the running
-                    // one, this event ended it ([`master::Master::outcome`] has it by id).
-                    Output::Event(MasterEvent::Completed(c)) if ours_ended => {
-                        let picked = pick(c);
-                        self.engine.consume_output();
-                        return Ok(Ok(picked));
-                    }
-                    Output::Event(MasterEvent::Failed { status, .. }) if ours_ended => {
-                        let status = *status;
-                        self.engine.consume_output();
-                        return Ok(Err(status));
-                    }
-                    Output::Event(_) => {
-                        self.engine.consume_output();
-                        continue;
-                    }
-                    Output::Wait(deadline) => {
-                        let deadline = *deadline;
-                        self.engine.consume_output();
-                        break deadline;
-                    }
-                };
-                self.engine.consume_output();
-                let start = now;
-                self.port.write_all(&bytes).await?;
-                skip_read = true;
-                yielded = false;
-                let settings = self.engine.config().line.settings;
-                self.tx_done = Some(start + settings.chars_time(bytes.len() as u64));
+                if self.tx_done.is_some_and(|t| t <= now) {
+                    self.tx_done = None;
+                    self.engine.handle_tx_done(now);
+                    fresh = Some(now);
+                    continue;
+                }
+                if wait.is_some_and(|d| d <= now) {
+                    self.engine.handle_timeout(now);
+                    fresh = Some(now);
+                    continue;
+                }
+                Instant::earliest(wait, self.tx_done)
             };
-            if self.tx_done.is_some_and(|t| t <= now) {
-                self.tx_done = None;
-                self.engine.handle_tx_done(now);
-                fresh = Some(now);
-                continue;
-            }
-            if wait.is_some_and(|d| d <= now) {
-                self.engine.handle_timeout(now);
-                fresh = Some(now);
-                continue;
-            }
-            let next = Instant::earliest(wait, self.tx_done);
             let origin = self.origin;
             // Armed when first polled: only once the read (polled first) is pending, so a
             // response already there costs no timer (no wheel entry).
