@@ -32,7 +32,7 @@
 use crate::config::{FrameEnd, MasterConfig, Mode};
 use crate::frame::{self, fc, Adu, Request, Response, BROADCAST};
 use crate::quiet_guard::QuietGuard;
-use crate::rx::{Counters, Expect, Fault, Received, Receiver};
+use crate::rx::{Counters, Expect, Fault, FrameAt, Receiver};
 use crate::status;
 use crate::transmitter::{Gate, Transmitter};
 use si_core::job::{JobId, JobSlot};
@@ -517,11 +517,13 @@ impl Master {
     }
 
     /// End the running job with its completion: the request is moved out of the job, not
-    /// copied (an ADU is 264 bytes inline).
-    fn complete(&mut self, response: Option<&[u8]>) {
+    /// copied (an ADU is 264 bytes inline); the response is read where the receiver assembled
+    /// it.
+    fn complete(&mut self, response: Option<FrameAt>) {
         let Some((request, _)) = self.job.as_ref() else {
             return;
         };
+        let response = response.as_ref().map(|at| self.rx.frame(at));
         // Pushed empty, then filled where the queue keeps it: the ADUs' bytes are copied once,
         // not the whole inline arrays several times on their way in.
         self.out
@@ -599,7 +601,7 @@ impl Master {
         }
     }
 
-    fn on_frame(&mut self, now: Instant, frame: Received) {
+    fn on_frame(&mut self, now: Instant, frame: FrameAt) {
         let waiting = matches!(self.state, State::Waiting { .. });
         if let Some(fault) = frame.fault {
             let status = fault_status(fault);
@@ -612,7 +614,7 @@ impl Master {
             return;
         }
         let Some((request, _)) = self.job.as_ref().filter(|_| waiting) else {
-            if !frame.adu.as_bytes().is_empty() {
+            if !frame.is_empty() {
                 self.rx.count_discarded();
                 self.out.push_back(Output::Event(MasterEvent::Diagnostic(
                     status::UNSOLICITED_RESPONSE,
@@ -620,8 +622,8 @@ impl Master {
             }
             return;
         };
-        let response = frame.adu.as_bytes();
-        // Checked where it lies (the job's request is not copied out to compare against).
+        let response = self.rx.frame(&frame);
+        // Checked where they lie (neither the job's request nor the response is copied out).
         let checked = (response.first() == Some(&request.unit()))
             .then(|| check_response_with(request.as_bytes(), response, frame.crc_good));
         match checked {
@@ -635,7 +637,7 @@ impl Master {
                 // be one.
                 self.fail(self.rx.delivery().annotate(status::WRONG_SLAVE_ADDRESS));
             }
-            Some(Ok(())) => self.complete(Some(frame.adu.as_bytes())),
+            Some(Ok(())) => self.complete(Some(frame)),
             Some(Err(s)) => {
                 self.rx.count_discarded();
                 // CRC, length and structure errors may be a frame cut by a late packet; a
@@ -651,7 +653,7 @@ impl Master {
     }
 
     fn tick(&mut self, now: Instant) {
-        if let Some(frame) = self.rx.poll(now) {
+        if let Some(frame) = self.rx.poll_in_place(now) {
             self.on_frame(now, frame);
         }
         let gate = self.tx.on_timeout(now, &mut self.out);
@@ -926,7 +928,7 @@ impl Engine for Master {
             }
             // A frame complete by its length (FrameEnd::Length) is handed up at once; the
             // rest of the bytes start the next frame.
-            if let Some(frame) = self.rx.poll(now) {
+            if let Some(frame) = self.rx.poll_in_place(now) {
                 self.on_frame(now, frame);
             }
         }
