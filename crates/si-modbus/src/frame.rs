@@ -1371,11 +1371,21 @@ fn read_response(r: Reader<'_>) -> Result<(u8, Response<'_>), DecodeError> {
 }
 
 /// One ADU held inline ([`MAX_ADU`] bytes, no heap): what the engines hand to the application.
-#[derive(Clone, Copy, PartialEq, Eq)]
+/// Two ADUs are equal when their bytes ([`Adu::as_bytes`]) are: what lies in the buffer beyond
+/// them is not part of the ADU (an engine refills a kept ADU without zeroing it first).
+#[derive(Clone, Copy)]
 pub struct Adu {
     buf: [u8; MAX_ADU],
     len: u16,
 }
+
+impl PartialEq for Adu {
+    fn eq(&self, other: &Self) -> bool {
+        self.as_bytes() == other.as_bytes()
+    }
+}
+
+impl Eq for Adu {}
 
 impl Adu {
     /// An empty ADU.

@@ -90,6 +90,20 @@ impl Completion {
     pub fn response_bytes(&self) -> Option<&[u8]> {
         self.response.as_ref().map(Adu::as_bytes)
     }
+
+    /// Make this the completion of `job` with these ADUs, copying only their bytes into the
+    /// buffers it has (the engine's kept last completion).
+    fn refill(&mut self, job: JobId, request: &[u8], response: Option<&[u8]>) {
+        self.job = job;
+        self.request.fill(request);
+        match (self.response.as_mut(), response) {
+            (Some(adu), Some(bytes)) => {
+                adu.fill(bytes);
+            }
+            (None, Some(bytes)) => self.response = Adu::from_slice(bytes),
+            (_, None) => self.response = None,
+        }
+    }
 }
 
 /// `unit | PDU` of an ADU whose CRC is known good (computed when the request was encoded,
@@ -206,8 +220,12 @@ pub struct Master {
     tx: Transmitter,
     /// The running job's id and the last job's outcome: every job, whoever started it, gets a
     /// [`JobId`] from [`Master::request`], and its outcome stays readable by that id
-    /// ([`Master::outcome`]) until the next job ends.
-    jobs: JobSlot<Completion>,
+    /// ([`Master::outcome`]) until the next job ends; a completion's own data is in
+    /// `last_completion`.
+    jobs: JobSlot<()>,
+    /// The last completed job's completion, for [`Master::outcome`]: refilled in place with the
+    /// bytes of its ADUs (a whole completion copied into the slot is 540 bytes per job).
+    last_completion: Completion,
     /// The job S_SEND started and S_RCV's reception not yet taken: kept here for the FB
     /// equivalents, whose `JobPort` impl (the `fb` module) alone reads and writes them; the
     /// engine never looks at them.
@@ -241,6 +259,11 @@ impl Master {
             guard: QuietGuard::default(),
             out,
             jobs: JobSlot::default(),
+            last_completion: Completion {
+                job: JobId(0),
+                request: Adu::new(),
+                response: None,
+            },
             job_id: JobId(0),
             fb_job: None,
             fb_reception: None,
@@ -380,7 +403,9 @@ impl Master {
     /// The outcome of job `id` once it has ended: the completion, or the failure's STATUS.
     /// `None` while it runs, and once a later job has ended (the engine keeps one outcome).
     pub fn outcome(&self, id: JobId) -> Option<Result<Completion, Status>> {
-        self.jobs.outcome(id)
+        self.jobs
+            .outcome(id)
+            .map(|r| r.map(|()| self.last_completion))
     }
 
     /// The job that is running, if any.
@@ -509,7 +534,10 @@ impl Master {
         self.job_deadline = None;
         self.state = State::Idle;
         match &event {
-            MasterEvent::Completed(c) => self.jobs.finish(Ok(*c)),
+            MasterEvent::Completed(c) => {
+                self.last_completion.refill(c.job, c.request.as_bytes(), c.response_bytes());
+                self.jobs.finish(Ok(()))
+            }
             MasterEvent::Failed { status, .. } => self.jobs.finish(Err(*status)),
             MasterEvent::Diagnostic(_) => None,
         };
@@ -537,7 +565,9 @@ impl Master {
             if let (Some(adu), Some(bytes)) = (c.response.as_mut(), response) {
                 adu.fill(bytes);
             }
-            self.jobs.finish(Ok(*c));
+            self.last_completion
+                .refill(c.job, request.as_bytes(), response);
+            self.jobs.finish(Ok(()));
         }
         self.job = None;
         self.job_deadline = None;
