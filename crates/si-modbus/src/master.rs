@@ -206,7 +206,11 @@ pub struct Master {
     config: MasterConfig,
     rx: Receiver,
     state: State,
-    job: Option<(Adu, u8)>,
+    /// The running job's attempts left; `None` while no job runs.
+    job: Option<u8>,
+    /// The running job's request as sent (read only while `job` is `Some`). Kept between jobs
+    /// so a request is encoded into it in place, with no new 264-byte ADU zeroed per job.
+    request: Adu,
     /// What the running job's attempts met so far, or the last job's once it ended.
     attempts: Attempts,
     /// The running job fails with 0830H at this instant ([`MasterConfig::job_bound`]).
@@ -253,6 +257,7 @@ impl Master {
             config,
             state: State::Idle,
             job: None,
+            request: Adu::new(),
             attempts: Attempts::default(),
             job_deadline: None,
             hold_limit: Instant::ZERO,
@@ -359,12 +364,8 @@ impl Master {
         if self.job.is_some() {
             return Err(RequestError::Busy);
         }
-        // Encoded straight into the job slot: no ADU returned and moved in.
-        let (adu, _) = self.job.insert((Adu::new(), 0));
-        if let Err(e) = Self::check_job_into(unit, request, adu) {
-            self.job = None;
-            return Err(e);
-        }
+        // Encoded straight into the request's place: no ADU returned and moved in.
+        Self::check_job_into(unit, request, &mut self.request)?;
         Ok(self.start_placed(now))
     }
 
@@ -415,17 +416,15 @@ impl Master {
 
     /// Start the job of request `adu` at `now`: its id.
     fn start(&mut self, now: Instant, adu: Adu) -> JobId {
-        self.job = Some((adu, 0));
+        self.request = adu;
         self.start_placed(now)
     }
 
-    /// Start the job whose request is already in the job slot, at `now`: its id.
+    /// Start the job whose request is already in its place (`request`), at `now`: its id.
     fn start_placed(&mut self, now: Instant) -> JobId {
         let id = self.jobs.start();
         self.job_id = id;
-        if let Some((_, attempts)) = self.job.as_mut() {
-            *attempts = 1 + self.config.retries;
-        }
+        self.job = Some(1 + self.config.retries);
         self.attempts = Attempts::default();
         // A request the quiet guard holds has its bound counted from the guard's end.
         let held = self
@@ -485,12 +484,14 @@ impl Master {
             return;
         }
         self.guard.clear();
-        let Some((adu, attempts)) = self.job.as_mut() else {
+        let Some(attempts) = self.job.as_mut() else {
             return;
         };
         *attempts = attempts.saturating_sub(1);
         self.attempts.sent = self.attempts.sent.saturating_add(1);
-        let gate = self.tx.transmit(now, adu.as_bytes(), &mut self.out);
+        let gate = self
+            .tx
+            .transmit(now, self.request.as_bytes(), &mut self.out);
         self.on_gate(now, gate);
     }
 
@@ -510,10 +511,7 @@ impl Master {
 
     fn sent(&mut self, now: Instant) {
         if let State::Sending { .. } = self.state {
-            let broadcast = self
-                .job
-                .as_ref()
-                .is_some_and(|(a, _)| a.unit() == BROADCAST);
+            let broadcast = self.job.is_some() && self.request.unit() == BROADCAST;
             self.state = if broadcast {
                 State::Turnaround {
                     until: now + self.config.broadcast_turnaround,
@@ -535,7 +533,8 @@ impl Master {
         self.state = State::Idle;
         match &event {
             MasterEvent::Completed(c) => {
-                self.last_completion.refill(c.job, c.request.as_bytes(), c.response_bytes());
+                self.last_completion
+                    .refill(c.job, c.request.as_bytes(), c.response_bytes());
                 self.jobs.finish(Ok(()))
             }
             MasterEvent::Failed { status, .. } => self.jobs.finish(Err(*status)),
@@ -548,9 +547,10 @@ impl Master {
     /// copied (an ADU is 264 bytes inline); the response is read where the receiver assembled
     /// it.
     fn complete(&mut self, response: Option<FrameAt>) {
-        let Some((request, _)) = self.job.as_ref() else {
+        if self.job.is_none() {
             return;
-        };
+        }
+        let request = &self.request;
         let response = response.as_ref().map(|at| self.rx.frame(at));
         // Pushed empty, then filled where the queue keeps it: the ADUs' bytes are copied once,
         // not the whole inline arrays several times on their way in.
@@ -594,10 +594,9 @@ impl Master {
     }
 
     fn fail(&mut self, status: Status) {
-        let (unit, function) = self
-            .job
-            .as_ref()
-            .map_or((0, 0), |(a, _)| (a.unit(), a.as_bytes()[1]));
+        let (unit, function) = self.job.map_or((0, 0), |_| {
+            (self.request.unit(), self.request.as_bytes()[1])
+        });
         self.finish(MasterEvent::Failed {
             job: self.job_id,
             unit,
@@ -609,7 +608,7 @@ impl Master {
     /// Fail, or send again if retries are left and the failure is one a retry can cure.
     fn fail_or_retry(&mut self, now: Instant, status: Status) {
         self.count_attempt(status);
-        let retry = self.job.as_ref().is_some_and(|&(_, left)| left > 0)
+        let retry = self.job.is_some_and(|left| left > 0)
             && (status == status::RESPONSE_TIMEOUT || status == status::RESPONSE_CRC);
         if retry {
             self.attempt(now);
@@ -643,7 +642,7 @@ impl Master {
             }
             return;
         }
-        let Some((request, _)) = self.job.as_ref().filter(|_| waiting) else {
+        let Some(request) = self.job.filter(|_| waiting).map(|_| &self.request) else {
             if !frame.is_empty() {
                 self.rx.count_discarded();
                 self.out.push_back(Output::Event(MasterEvent::Diagnostic(
@@ -739,8 +738,8 @@ impl Master {
     /// What the receiver may predict the length of: the response to the running job's
     /// request once it is being sent (a broadcast has none).
     fn expect(&self) -> Expect {
-        match (self.job.as_ref(), self.state) {
-            (Some((request, _)), State::Sending { .. } | State::Waiting { .. })
+        match (self.job.map(|_| &self.request), self.state) {
+            (Some(request), State::Sending { .. } | State::Waiting { .. })
                 if request.unit() != BROADCAST =>
             {
                 Expect::ResponseTo(request.as_bytes()[1])
@@ -947,7 +946,7 @@ impl Engine for Master {
             return; // [Modbus/USS] §3.2.2 item 6: nothing is received while DSR = OFF
         }
         while !bytes.is_empty() {
-            let unit = self.job.as_ref().map(|(a, _)| a.unit());
+            let unit = self.job.map(|_| self.request.unit());
             let taken = self.rx.push(now, bytes, |b| Some(b) == unit, self.expect());
             bytes = &bytes[taken..];
             if matches!(self.state, State::Sending { .. }) && self.rx.is_receiving() {

@@ -475,7 +475,9 @@ impl Receiver {
     /// The bytes of a frame [`poll_in_place`](Self::poll_in_place) reported, valid until the
     /// next [`push`](Self::push).
     pub(crate) fn frame(&self, at: &FrameAt) -> &[u8] {
-        self.buf.get(at.start..at.start + at.len).unwrap_or_default()
+        self.buf
+            .get(at.start..at.start + at.len)
+            .unwrap_or_default()
     }
 
     /// Bytes from the line at `now`; returns how many of them it took. Call
