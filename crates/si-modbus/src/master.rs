@@ -593,6 +593,23 @@ impl Master {
         self.out.pop_front();
     }
 
+    /// From now on, a request that goes out at once is queued as an empty
+    /// [`Output::Transmit`], which stands for [`Master::request_bytes`]: for
+    /// [`crate::tokio::InlineMaster`], which writes the request from here instead of a frame
+    /// cut for it (a cut and a drop per request). Only for a caller that writes every
+    /// `Transmit` before the engine starts another job.
+    #[cfg(feature = "tokio")]
+    pub(crate) fn transmit_in_place(&mut self) {
+        self.tx.set_in_place();
+    }
+
+    /// The running (or last) job's request as sent: what an empty [`Output::Transmit`] stands
+    /// for after [`Master::transmit_in_place`].
+    #[cfg(feature = "tokio")]
+    pub(crate) fn request_bytes(&self) -> &[u8] {
+        self.request.as_bytes()
+    }
+
     fn fail(&mut self, status: Status) {
         let (unit, function) = self.job.map_or((0, 0), |_| {
             (self.request.unit(), self.request.as_bytes()[1])

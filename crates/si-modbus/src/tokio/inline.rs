@@ -60,7 +60,8 @@ impl<T: Transport> InlineMaster<T> {
 
     /// A master with an engine built by the caller (for options beyond [`MasterConfig`], such
     /// as [`master::Master::with_frame_end`]).
-    pub fn from_engine(engine: master::Master, transport: T) -> Self {
+    pub fn from_engine(mut engine: master::Master, transport: T) -> Self {
+        engine.transmit_in_place();
         InlineMaster {
             inner: Mutex::new(Inner {
                 engine,
@@ -267,11 +268,19 @@ impl<T: Transport> Inner<T> {
                     };
                     self.engine.consume_output();
                     let start = now;
-                    self.port.write_all(&bytes).await?;
+                    // An empty frame is the job's request, written from where the engine keeps
+                    // it ([`master::Master::transmit_in_place`]): no frame cut per request.
+                    let frame: &[u8] = if bytes.is_empty() {
+                        self.engine.request_bytes()
+                    } else {
+                        &bytes
+                    };
+                    let len = frame.len() as u64;
+                    self.port.write_all(frame).await?;
                     skip_read = true;
                     yielded = false;
                     let settings = self.engine.config().line.settings;
-                    self.tx_done = Some(start + settings.chars_time(bytes.len() as u64));
+                    self.tx_done = Some(start + settings.chars_time(len));
                 };
                 if self.tx_done.is_some_and(|t| t <= now) {
                     self.tx_done = None;
