@@ -68,7 +68,11 @@ impl Completion {
     /// The response, `None` for a broadcast. Coil and input reads are cut to the quantity
     /// requested.
     pub fn response(&self) -> Option<Response<'_>> {
-        let (_, r) = frame::decode_unit_pdu_response(unit_pdu(self.response.as_ref()?)).ok()?;
+        let pdu = unit_pdu(self.response.as_ref()?);
+        if let Some(r) = frame::register_response(pdu) {
+            return Some(r);
+        }
+        let (_, r) = frame::decode_unit_pdu_response(pdu).ok()?;
         // Only bit reads need the request (for its quantity): decoding it for every response
         // would cost a round trip more than the rest of the decode.
         Some(match r {
