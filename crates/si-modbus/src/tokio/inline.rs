@@ -154,36 +154,36 @@ impl<T: Transport> Inner<T> {
         }
         // A job abandoned by a dropped future runs to its end first (its outcome is nobody's).
         while self.engine.is_busy() {
-            let _abandoned = self.drive(None, |_| (), None).await?;
+            let abandoned = self.drive(None, |_| (), None).await;
+            let _abandoned = self.note_stop(abandoned)?;
         }
         let now = self.now();
         let id = self
             .engine
             .request(now, unit, request)
             .map_err(|reason| Error::Refused { job, reason })?;
-        match self.drive(Some(id), pick, Some(now)).await? {
+        let outcome = self.drive(Some(id), pick, Some(now)).await;
+        match self.note_stop(outcome)? {
             Ok(r) => Ok(r),
             Err(status) => Err(Error::failed(job, status)),
         }
     }
 
-    /// Run the engine until the running job ends: its outcome, `pick`ed from the completion
-    /// (`Ok(Err(status))` for a failed job); `Err` if the port failed. `now`: a clock reading
-    /// just taken (the job's start), reused for the first turn.
-    async fn drive<R>(
-        &mut self,
-        id: Option<si_core::job::JobId>,
-        pick: impl FnOnce(&Completion) -> R,
-        now: Option<Instant>,
-    ) -> Result<Result<R, Status>, Error> {
-        let result = self.drive_inner(id, pick, now).await;
+    /// What [`drive`](Self::drive) returned, noting a port that failed or closed: every later
+    /// job fails with [`Error::Stopped`]. A plain function after the `await`, not a wrapping
+    /// future: each nested future is one more state machine to enter at every poll.
+    fn note_stop<R>(&mut self, result: Result<R, Error>) -> Result<R, Error> {
         if matches!(result, Err(Error::Stopped | Error::Io(_))) {
             self.stopped = true;
         }
         result
     }
 
-    async fn drive_inner<R>(
+    /// Run the engine until the running job ends: its outcome, `pick`ed from the completion
+    /// (`Ok(Err(status))` for a failed job); `Err` if the port failed (the caller passes it
+    /// through [`note_stop`](Self::note_stop)). `now`: a clock reading just taken (the job's
+    /// start), reused for the first turn.
+    async fn drive<R>(
         &mut self,
         id: Option<si_core::job::JobId>,
         pick: impl FnOnce(&Completion) -> R,
@@ -365,7 +365,7 @@ impl<T: Transport> Inner<T> {
     }
 }
 
-/// What ended a wait of [`Inner::drive_inner`].
+/// What ended a wait of [`Inner::drive`].
 enum Woke {
     /// The port's read returned.
     Read(std::io::Result<usize>),
