@@ -1259,7 +1259,7 @@ pub(crate) fn register_response(unit_pdu: &[u8]) -> Option<Response<'_>> {
         return None;
     };
     let n = *count as usize;
-    if data.len() != n || n < 2 || n > 2 * MAX_REGISTERS as usize || n % 2 != 0 {
+    if data.len() != n || n < 2 || n > 2 * MAX_REGISTERS as usize || !n.is_multiple_of(2) {
         return None;
     }
     let registers = Registers::Wire(data);
