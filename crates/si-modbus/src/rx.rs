@@ -520,7 +520,16 @@ impl Receiver {
         self.last = Some(now);
         let mut taken = total - bytes.len();
         while !bytes.is_empty() {
-            let prediction = self.prediction(expect);
+            // At a frame's start the bytes at hand are its head: predicted from them at once, a
+            // frame that came whole is taken in one step instead of one per header field (a
+            // prediction reads fixed header positions, so more of the head gives the answer
+            // the steps would reach).
+            let head = if self.len == 0 {
+                bytes
+            } else {
+                &self.buf[..self.len]
+            };
+            let prediction = self.prediction(expect, head);
             let n = match prediction {
                 Prediction::NeedMore(k) | Prediction::Len(k) if k > self.len => {
                     (k - self.len).min(bytes.len())
@@ -542,17 +551,17 @@ impl Receiver {
             }
         }
         self.more_predicted = (self.patient || self.delivery.packetises())
-            && matches!(self.prediction(expect),
+            && matches!(self.prediction(expect, &self.buf[..self.len]),
                 Prediction::NeedMore(k) | Prediction::Len(k) if k > self.len);
         taken
     }
 
-    /// What the bytes so far predict, with [`FrameEnd::Length`].
-    fn prediction(&self, expect: Expect) -> Prediction {
+    /// What `head`, the frame's bytes so far (or, at its start, the bytes about to be taken),
+    /// predicts with [`FrameEnd::Length`].
+    fn prediction(&self, expect: Expect, head: &[u8]) -> Prediction {
         if !self.ends_by_length() || self.fault.is_some() || self.unpredictable {
             return Prediction::Unknown;
         }
-        let head = &self.buf[..self.len];
         let p = match expect {
             Expect::Nothing => Prediction::Unknown,
             Expect::Request => request_len(head),
