@@ -204,6 +204,21 @@ enum State {
     },
 }
 
+/// An event as the engine queues it: a completion is queued as a mark standing for the kept
+/// last completion (`Master::last_completion`), so its ADUs are filled once per job, there, and
+/// copied whole only when [`Engine::poll_output`] hands the event out by value. As large as
+/// the events it carries, as [`MasterEvent`] is.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug)]
+pub(crate) enum Queued {
+    /// This event.
+    Event(MasterEvent),
+    /// [`MasterEvent::Completed`] with the kept last completion. At most one is queued: a job
+    /// that completes while an earlier one's mark is still queued gives that mark its own copy
+    /// first.
+    Completed,
+}
+
 /// The Sans-IO Modbus master.
 #[derive(Debug)]
 pub struct Master {
@@ -221,7 +236,7 @@ pub struct Master {
     job_deadline: Option<Instant>,
     /// The current attempt's request goes out by then even if the line is never quiet.
     hold_limit: Instant,
-    out: VecDeque<Output<MasterEvent>>,
+    out: VecDeque<Output<Queued>>,
     /// Silence kept after a timeout before the next request ([`crate::quiet_guard`]).
     guard: QuietGuard,
     /// Frames out, with automatic V.24 operation ([Modbus/USS] §3.2.2) around each if configured.
@@ -544,7 +559,7 @@ impl Master {
             MasterEvent::Failed { status, .. } => self.jobs.finish(Err(*status)),
             MasterEvent::Diagnostic(_) => None,
         };
-        self.out.push_back(Output::Event(event));
+        self.out.push_back(Output::Event(Queued::Event(event)));
     }
 
     /// End the running job with its completion: the request is moved out of the job, not
@@ -554,25 +569,19 @@ impl Master {
         if self.job.is_none() {
             return;
         }
-        let request = &self.request;
-        let response = response.as_ref().map(|at| self.rx.frame(at));
-        // Pushed empty, then filled where the queue keeps it: the ADUs' bytes are copied once,
-        // not the whole inline arrays several times on their way in.
-        self.out
-            .push_back(Output::Event(MasterEvent::Completed(Completion {
-                job: self.job_id,
-                request: Adu::new(),
-                response: response.map(|_| Adu::new()),
-            })));
-        if let Some(Output::Event(MasterEvent::Completed(c))) = self.out.back_mut() {
-            c.request.fill(request.as_bytes());
-            if let (Some(adu), Some(bytes)) = (c.response.as_mut(), response) {
-                adu.fill(bytes);
+        // An earlier completion nobody has taken yet stands for the kept one: it gets its own
+        // copy before the kept one is refilled.
+        for queued in self.out.iter_mut() {
+            if let Output::Event(mark @ Queued::Completed) = queued {
+                *mark = Queued::Event(MasterEvent::Completed(self.last_completion));
             }
-            self.last_completion
-                .refill(c.job, request.as_bytes(), response);
-            self.jobs.finish(Ok(()));
         }
+        // The ADUs' bytes are copied once, into the kept completion; the queue holds a mark.
+        let response = response.as_ref().map(|at| self.rx.frame(at));
+        self.last_completion
+            .refill(self.job_id, self.request.as_bytes(), response);
+        self.jobs.finish(Ok(()));
+        self.out.push_back(Output::Event(Queued::Completed));
         self.job = None;
         self.job_deadline = None;
         self.state = State::Idle;
@@ -583,12 +592,19 @@ impl Master {
     /// completion (two ADUs inline), and handing it out by value copies all of it, also for a
     /// transmission. `Err(deadline)` when the queue is empty (what `poll_output` reports as
     /// [`Output::Wait`]); the caller drops an output it read with [`Master::consume_output`].
+    /// A [`Queued::Completed`] mark is read with the kept completion, given beside it.
     #[cfg(feature = "tokio")]
-    pub(crate) fn next_output_mut(&mut self) -> Result<&mut Output<MasterEvent>, Option<Instant>> {
+    pub(crate) fn next_output_mut(
+        &mut self,
+    ) -> Result<(&mut Output<Queued>, &Completion), Option<Instant>> {
         if self.out.is_empty() {
             return Err(self.deadline());
         }
-        self.out.front_mut().ok_or(None)
+        let completion = &self.last_completion;
+        self.out
+            .front_mut()
+            .map(|out| (out, completion))
+            .ok_or(None)
     }
 
     /// Drop the output [`Master::next_output_mut`] showed.
@@ -659,16 +675,19 @@ impl Master {
                 self.fail(status);
             } else {
                 self.out
-                    .push_back(Output::Event(MasterEvent::Diagnostic(status)));
+                    .push_back(Output::Event(Queued::Event(MasterEvent::Diagnostic(
+                        status,
+                    ))));
             }
             return;
         }
         let Some(request) = self.job.filter(|_| waiting).map(|_| &self.request) else {
             if !frame.is_empty() {
                 self.rx.count_discarded();
-                self.out.push_back(Output::Event(MasterEvent::Diagnostic(
-                    status::UNSOLICITED_RESPONSE,
-                )));
+                self.out
+                    .push_back(Output::Event(Queued::Event(MasterEvent::Diagnostic(
+                        status::UNSOLICITED_RESPONSE,
+                    ))));
             }
             return;
         };
@@ -1029,9 +1048,16 @@ impl Engine for Master {
     }
 
     fn poll_output(&mut self) -> Output<MasterEvent> {
-        self.out
-            .pop_front()
-            .unwrap_or_else(|| Output::Wait(self.deadline()))
+        match self.out.pop_front() {
+            None => Output::Wait(self.deadline()),
+            Some(Output::Event(Queued::Event(event))) => Output::Event(event),
+            Some(Output::Event(Queued::Completed)) => {
+                Output::Event(MasterEvent::Completed(self.last_completion))
+            }
+            Some(Output::Transmit(frame)) => Output::Transmit(frame),
+            Some(Output::SetSignals(update)) => Output::SetSignals(update),
+            Some(Output::Wait(deadline)) => Output::Wait(deadline),
+        }
     }
 }
 
@@ -1089,6 +1115,52 @@ mod tests {
             check_response(&req, &with_crc(adu("01 06 00 01 00 04"))),
             Err(status::ECHO_WRONG)
         );
+    }
+
+    /// Two jobs complete before anyone polls the engine: each completion event carries its
+    /// own job's ADUs (the queue marks a completion standing for the kept last one, and an
+    /// earlier mark gets its own copy when the next job completes), and `outcome` has the last.
+    #[test]
+    fn completions_left_in_the_queue_keep_their_own_adus() {
+        use crate::frame::Registers;
+        let mut m = Master::new(MasterConfig::default())
+            .unwrap()
+            .with_frame_end(FrameEnd::Length);
+        let mut t = Instant::from_micros(1_000);
+        let mut expected = Vec::new();
+        for (quantity, values) in [(3u16, &[7u16, 8, 9][..]), (1, &[5][..])] {
+            let request = Request::ReadHoldingRegisters {
+                address: 0,
+                quantity,
+            };
+            let id = m.request(t, 1, &request).unwrap();
+            t = t + Duration::from_millis(1);
+            m.handle_tx_done(t);
+            let answer =
+                Adu::response(1, &Response::ReadHoldingRegisters(Registers::Words(values)))
+                    .unwrap();
+            m.handle_rx(t, answer.as_bytes());
+            assert!(!m.is_busy(), "job {id:?} completed");
+            expected.push((id, Adu::request(1, &request).unwrap(), answer));
+            // Past the gap, so the next request is not held.
+            t = t + Duration::from_millis(10);
+            m.handle_timeout(t);
+        }
+        let mut completions = Vec::new();
+        loop {
+            match m.poll_output() {
+                Output::Wait(_) => break,
+                Output::Event(MasterEvent::Completed(c)) => completions.push(c),
+                _ => {}
+            }
+        }
+        assert_eq!(completions.len(), 2);
+        for (c, (id, request, answer)) in completions.iter().zip(&expected) {
+            assert_eq!(c.job(), *id);
+            assert_eq!(c.request, *request);
+            assert_eq!(c.response_bytes(), Some(answer.as_bytes()));
+        }
+        assert_eq!(m.outcome(expected[1].0), Some(Ok(completions[1])));
     }
 
     #[test]

@@ -5,7 +5,7 @@ use super::error::{Error, Job};
 use super::master::Diagnostics;
 use crate::config::MasterConfig;
 use crate::frame::{Request, Response};
-use crate::master::{self, Attempts, Completion, MasterEvent};
+use crate::master::{self, Attempts, Completion, MasterEvent, Queued};
 use si_core::driver::Transport;
 use si_core::{Engine, Instant, Output, Status};
 use std::future::Future;
@@ -227,8 +227,8 @@ impl<T: Transport> Inner<T> {
                     // completion (two ADUs inline), and one handed out by value, or kept across the
                     // write's `await`, would be copied whole; only the frame's handle crosses.
                     let ours_ended = self.engine.running_job().is_none_or(|r| Some(r) != id);
-                    let out = match self.engine.next_output_mut() {
-                        Ok(out) => out,
+                    let (out, kept) = match self.engine.next_output_mut() {
+                        Ok(next) => next,
                         Err(deadline) => break deadline,
                     };
                     let bytes = match out {
@@ -239,19 +239,26 @@ impl<T: Transport> Inner<T> {
                             self.port.set_signals(update)?;
                             continue;
                         }
-                        Output::Event(MasterEvent::Diagnostic(s)) => {
+                        Output::Event(Queued::Event(MasterEvent::Diagnostic(s))) => {
                             self.diagnostics.keep(*s);
                             self.engine.consume_output();
                             continue;
                         }
                         // The job's end: one job at a time, so once it is no longer the running
                         // one, this event ended it ([`master::Master::outcome`] has it by id).
-                        Output::Event(MasterEvent::Completed(c)) if ours_ended => {
+                        Output::Event(Queued::Completed) if ours_ended => {
+                            let picked = pick(kept);
+                            self.engine.consume_output();
+                            return Ok(Ok(picked));
+                        }
+                        Output::Event(Queued::Event(MasterEvent::Completed(c))) if ours_ended => {
                             let picked = pick(c);
                             self.engine.consume_output();
                             return Ok(Ok(picked));
                         }
-                        Output::Event(MasterEvent::Failed { status, .. }) if ours_ended => {
+                        Output::Event(Queued::Event(MasterEvent::Failed { status, .. }))
+                            if ours_ended =>
+                        {
                             let status = *status;
                             self.engine.consume_output();
                             return Ok(Err(status));
