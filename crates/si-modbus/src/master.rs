@@ -1134,7 +1134,7 @@ mod tests {
                 quantity,
             };
             let id = m.request(t, 1, &request).unwrap();
-            t = t + Duration::from_millis(1);
+            t += Duration::from_millis(1);
             m.handle_tx_done(t);
             let answer =
                 Adu::response(1, &Response::ReadHoldingRegisters(Registers::Words(values)))
@@ -1143,7 +1143,7 @@ mod tests {
             assert!(!m.is_busy(), "job {id:?} completed");
             expected.push((id, Adu::request(1, &request).unwrap(), answer));
             // Past the gap, so the next request is not held.
-            t = t + Duration::from_millis(10);
+            t += Duration::from_millis(10);
             m.handle_timeout(t);
         }
         let mut completions = Vec::new();
