@@ -1250,6 +1250,26 @@ pub fn decode_unit_pdu_response(bytes: &[u8]) -> Result<(u8, Response<'_>), Deco
     read_response(open_unit_pdu(bytes, FrameKind::Response)?)
 }
 
+/// A register read's answer (FC03, FC04) in `unit | PDU` as [`decode_unit_pdu_response`]
+/// reads it, or `None` for any other answer and for one the decoder refuses: a master's typed
+/// read, the commonest job, without the general decoder's bookkeeping (a reader, error
+/// contexts) on its path.
+pub(crate) fn register_response(unit_pdu: &[u8]) -> Option<Response<'_>> {
+    let [_, function, count, data @ ..] = unit_pdu else {
+        return None;
+    };
+    let n = *count as usize;
+    if data.len() != n || n < 2 || n > 2 * MAX_REGISTERS as usize || !n.is_multiple_of(2) {
+        return None;
+    }
+    let registers = Registers::Wire(data);
+    match *function {
+        fc::READ_HOLDING_REGISTERS => Some(Response::ReadHoldingRegisters(registers)),
+        fc::READ_INPUT_REGISTERS => Some(Response::ReadInputRegisters(registers)),
+        _ => None,
+    }
+}
+
 fn read_response(r: Reader<'_>) -> Result<(u8, Response<'_>), DecodeError> {
     let adu = r.adu;
     let unit = adu[0];
@@ -1371,11 +1391,21 @@ fn read_response(r: Reader<'_>) -> Result<(u8, Response<'_>), DecodeError> {
 }
 
 /// One ADU held inline ([`MAX_ADU`] bytes, no heap): what the engines hand to the application.
-#[derive(Clone, Copy, PartialEq, Eq)]
+/// Two ADUs are equal when their bytes ([`Adu::as_bytes`]) are: what lies in the buffer beyond
+/// them is not part of the ADU (an engine refills a kept ADU without zeroing it first).
+#[derive(Clone, Copy)]
 pub struct Adu {
     buf: [u8; MAX_ADU],
     len: u16,
 }
+
+impl PartialEq for Adu {
+    fn eq(&self, other: &Self) -> bool {
+        self.as_bytes() == other.as_bytes()
+    }
+}
+
+impl Eq for Adu {}
 
 impl Adu {
     /// An empty ADU.
@@ -1480,6 +1510,40 @@ mod tests {
 
     fn hex(s: &str) -> Vec<u8> {
         si_core::hex::parse(s).unwrap()
+    }
+
+    #[test]
+    fn a_register_read_is_read_by_the_short_path_as_the_decoder_reads_it() {
+        let mut accepted = 0;
+        for function in [0x03, 0x04, 0x01, 0x83] {
+            for count in [0u8, 1, 2, 3, 20, 254, 255] {
+                for extra in [0usize, 1] {
+                    let mut pdu = vec![0x01, function, count];
+                    pdu.extend((0..count as usize + extra).map(|i| i as u8));
+                    pdu.truncate(3 + (count as usize + extra).min(252));
+                    let short = register_response(&pdu);
+                    let decoded = decode_unit_pdu_response(&pdu).ok().map(|(_, r)| r);
+                    match short {
+                        Some(r) => {
+                            accepted += 1;
+                            assert_eq!(Some(r), decoded, "{pdu:02X?}");
+                        }
+                        None => assert!(
+                            !matches!(
+                                decoded,
+                                Some(
+                                    Response::ReadHoldingRegisters(_)
+                                        | Response::ReadInputRegisters(_)
+                                )
+                            ),
+                            "{pdu:02X?}"
+                        ),
+                    }
+                }
+            }
+        }
+        // FC03 and FC04 with 2 and 20 bytes, each exact.
+        assert_eq!(accepted, 4);
     }
 
     fn req(unit: u8, r: Request<'_>) -> Vec<u8> {

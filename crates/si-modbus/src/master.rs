@@ -32,7 +32,7 @@
 use crate::config::{FrameEnd, MasterConfig, Mode};
 use crate::frame::{self, fc, Adu, Request, Response, BROADCAST};
 use crate::quiet_guard::QuietGuard;
-use crate::rx::{Counters, Expect, Fault, Received, Receiver};
+use crate::rx::{Counters, Expect, Fault, FrameAt, Receiver};
 use crate::status;
 use crate::transmitter::{Gate, Transmitter};
 use si_core::job::{JobId, JobSlot};
@@ -68,7 +68,11 @@ impl Completion {
     /// The response, `None` for a broadcast. Coil and input reads are cut to the quantity
     /// requested.
     pub fn response(&self) -> Option<Response<'_>> {
-        let (_, r) = frame::decode_unit_pdu_response(unit_pdu(self.response.as_ref()?)).ok()?;
+        let pdu = unit_pdu(self.response.as_ref()?);
+        if let Some(r) = frame::register_response(pdu) {
+            return Some(r);
+        }
+        let (_, r) = frame::decode_unit_pdu_response(pdu).ok()?;
         // Only bit reads need the request (for its quantity): decoding it for every response
         // would cost a round trip more than the rest of the decode.
         Some(match r {
@@ -89,6 +93,20 @@ impl Completion {
     /// The response ADU as received (CRC included).
     pub fn response_bytes(&self) -> Option<&[u8]> {
         self.response.as_ref().map(Adu::as_bytes)
+    }
+
+    /// Make this the completion of `job` with these ADUs, copying only their bytes into the
+    /// buffers it has (the engine's kept last completion).
+    fn refill(&mut self, job: JobId, request: &[u8], response: Option<&[u8]>) {
+        self.job = job;
+        self.request.fill(request);
+        match (self.response.as_mut(), response) {
+            (Some(adu), Some(bytes)) => {
+                adu.fill(bytes);
+            }
+            (None, Some(bytes)) => self.response = Adu::from_slice(bytes),
+            (_, None) => self.response = None,
+        }
     }
 }
 
@@ -186,28 +204,51 @@ enum State {
     },
 }
 
+/// An event as the engine queues it: a completion is queued as a mark standing for the kept
+/// last completion (`Master::last_completion`), so its ADUs are filled once per job, there, and
+/// copied whole only when [`Engine::poll_output`] hands the event out by value. As large as
+/// the events it carries, as [`MasterEvent`] is.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug)]
+pub(crate) enum Queued {
+    /// This event.
+    Event(MasterEvent),
+    /// [`MasterEvent::Completed`] with the kept last completion. At most one is queued: a job
+    /// that completes while an earlier one's mark is still queued gives that mark its own copy
+    /// first.
+    Completed,
+}
+
 /// The Sans-IO Modbus master.
 #[derive(Debug)]
 pub struct Master {
     config: MasterConfig,
     rx: Receiver,
     state: State,
-    job: Option<(Adu, u8)>,
+    /// The running job's attempts left; `None` while no job runs.
+    job: Option<u8>,
+    /// The running job's request as sent (read only while `job` is `Some`). Kept between jobs
+    /// so a request is encoded into it in place, with no new 264-byte ADU zeroed per job.
+    request: Adu,
     /// What the running job's attempts met so far, or the last job's once it ended.
     attempts: Attempts,
     /// The running job fails with 0830H at this instant ([`MasterConfig::job_bound`]).
     job_deadline: Option<Instant>,
     /// The current attempt's request goes out by then even if the line is never quiet.
     hold_limit: Instant,
-    out: VecDeque<Output<MasterEvent>>,
+    out: VecDeque<Output<Queued>>,
     /// Silence kept after a timeout before the next request ([`crate::quiet_guard`]).
     guard: QuietGuard,
     /// Frames out, with automatic V.24 operation ([Modbus/USS] §3.2.2) around each if configured.
     tx: Transmitter,
     /// The running job's id and the last job's outcome: every job, whoever started it, gets a
     /// [`JobId`] from [`Master::request`], and its outcome stays readable by that id
-    /// ([`Master::outcome`]) until the next job ends.
-    jobs: JobSlot<Completion>,
+    /// ([`Master::outcome`]) until the next job ends; a completion's own data is in
+    /// `last_completion`.
+    jobs: JobSlot<()>,
+    /// The last completed job's completion, for [`Master::outcome`]: refilled in place with the
+    /// bytes of its ADUs (a whole completion copied into the slot is 540 bytes per job).
+    last_completion: Completion,
     /// The job S_SEND started and S_RCV's reception not yet taken: kept here for the FB
     /// equivalents, whose `JobPort` impl (the `fb` module) alone reads and writes them; the
     /// engine never looks at them.
@@ -235,12 +276,18 @@ impl Master {
             config,
             state: State::Idle,
             job: None,
+            request: Adu::new(),
             attempts: Attempts::default(),
             job_deadline: None,
             hold_limit: Instant::ZERO,
             guard: QuietGuard::default(),
             out,
             jobs: JobSlot::default(),
+            last_completion: Completion {
+                job: JobId(0),
+                request: Adu::new(),
+                response: None,
+            },
             job_id: JobId(0),
             fb_job: None,
             fb_reception: None,
@@ -346,12 +393,8 @@ impl Master {
         if self.job.is_some() {
             return Err(RequestError::Busy);
         }
-        // Encoded straight into the job slot: no ADU returned and moved in.
-        let (adu, _) = self.job.insert((Adu::new(), 0));
-        if let Err(e) = Self::check_job_into(unit, request, adu) {
-            self.job = None;
-            return Err(e);
-        }
+        // Encoded straight into the request's place: no ADU returned and moved in.
+        Self::check_job_into(unit, request, &mut self.request)?;
         Ok(self.start_placed(now))
     }
 
@@ -390,7 +433,9 @@ impl Master {
     /// The outcome of job `id` once it has ended: the completion, or the failure's STATUS.
     /// `None` while it runs, and once a later job has ended (the engine keeps one outcome).
     pub fn outcome(&self, id: JobId) -> Option<Result<Completion, Status>> {
-        self.jobs.outcome(id)
+        self.jobs
+            .outcome(id)
+            .map(|r| r.map(|()| self.last_completion))
     }
 
     /// The job that is running, if any.
@@ -400,17 +445,15 @@ impl Master {
 
     /// Start the job of request `adu` at `now`: its id.
     fn start(&mut self, now: Instant, adu: Adu) -> JobId {
-        self.job = Some((adu, 0));
+        self.request = adu;
         self.start_placed(now)
     }
 
-    /// Start the job whose request is already in the job slot, at `now`: its id.
+    /// Start the job whose request is already in its place (`request`), at `now`: its id.
     fn start_placed(&mut self, now: Instant) -> JobId {
         let id = self.jobs.start();
         self.job_id = id;
-        if let Some((_, attempts)) = self.job.as_mut() {
-            *attempts = 1 + self.config.retries;
-        }
+        self.job = Some(1 + self.config.retries);
         self.attempts = Attempts::default();
         // A request the quiet guard holds has its bound counted from the guard's end.
         let held = self
@@ -470,12 +513,14 @@ impl Master {
             return;
         }
         self.guard.clear();
-        let Some((adu, attempts)) = self.job.as_mut() else {
+        let Some(attempts) = self.job.as_mut() else {
             return;
         };
         *attempts = attempts.saturating_sub(1);
         self.attempts.sent = self.attempts.sent.saturating_add(1);
-        let gate = self.tx.transmit(now, adu.as_bytes(), &mut self.out);
+        let gate = self
+            .tx
+            .transmit(now, self.request.as_bytes(), &mut self.out);
         self.on_gate(now, gate);
     }
 
@@ -495,10 +540,7 @@ impl Master {
 
     fn sent(&mut self, now: Instant) {
         if let State::Sending { .. } = self.state {
-            let broadcast = self
-                .job
-                .as_ref()
-                .is_some_and(|(a, _)| a.unit() == BROADCAST);
+            let broadcast = self.job.is_some() && self.request.unit() == BROADCAST;
             self.state = if broadcast {
                 State::Turnaround {
                     until: now + self.config.broadcast_turnaround,
@@ -519,34 +561,37 @@ impl Master {
         self.job_deadline = None;
         self.state = State::Idle;
         match &event {
-            MasterEvent::Completed(c) => self.jobs.finish(Ok(*c)),
+            MasterEvent::Completed(c) => {
+                self.last_completion
+                    .refill(c.job, c.request.as_bytes(), c.response_bytes());
+                self.jobs.finish(Ok(()))
+            }
             MasterEvent::Failed { status, .. } => self.jobs.finish(Err(*status)),
             MasterEvent::Diagnostic(_) => None,
         };
-        self.out.push_back(Output::Event(event));
+        self.out.push_back(Output::Event(Queued::Event(event)));
     }
 
     /// End the running job with its completion: the request is moved out of the job, not
-    /// copied (an ADU is 264 bytes inline).
-    fn complete(&mut self, response: Option<&[u8]>) {
-        let Some((request, _)) = self.job.as_ref() else {
+    /// copied (an ADU is 264 bytes inline); the response is read where the receiver assembled
+    /// it.
+    fn complete(&mut self, response: Option<FrameAt>) {
+        if self.job.is_none() {
             return;
-        };
-        // Pushed empty, then filled where the queue keeps it: the ADUs' bytes are copied once,
-        // not the whole inline arrays several times on their way in.
-        self.out
-            .push_back(Output::Event(MasterEvent::Completed(Completion {
-                job: self.job_id,
-                request: Adu::new(),
-                response: response.map(|_| Adu::new()),
-            })));
-        if let Some(Output::Event(MasterEvent::Completed(c))) = self.out.back_mut() {
-            c.request.fill(request.as_bytes());
-            if let (Some(adu), Some(bytes)) = (c.response.as_mut(), response) {
-                adu.fill(bytes);
-            }
-            self.jobs.finish(Ok(*c));
         }
+        // An earlier completion nobody has taken yet stands for the kept one: it gets its own
+        // copy before the kept one is refilled.
+        for queued in self.out.iter_mut() {
+            if let Output::Event(mark @ Queued::Completed) = queued {
+                *mark = Queued::Event(MasterEvent::Completed(self.last_completion));
+            }
+        }
+        // The ADUs' bytes are copied once, into the kept completion; the queue holds a mark.
+        let response = response.as_ref().map(|at| self.rx.frame(at));
+        self.last_completion
+            .refill(self.job_id, self.request.as_bytes(), response);
+        self.jobs.finish(Ok(()));
+        self.out.push_back(Output::Event(Queued::Completed));
         self.job = None;
         self.job_deadline = None;
         self.state = State::Idle;
@@ -557,12 +602,19 @@ impl Master {
     /// completion (two ADUs inline), and handing it out by value copies all of it, also for a
     /// transmission. `Err(deadline)` when the queue is empty (what `poll_output` reports as
     /// [`Output::Wait`]); the caller drops an output it read with [`Master::consume_output`].
+    /// A [`Queued::Completed`] mark is read with the kept completion, given beside it.
     #[cfg(feature = "tokio")]
-    pub(crate) fn next_output_mut(&mut self) -> Result<&mut Output<MasterEvent>, Option<Instant>> {
+    pub(crate) fn next_output_mut(
+        &mut self,
+    ) -> Result<(&mut Output<Queued>, &Completion), Option<Instant>> {
         if self.out.is_empty() {
             return Err(self.deadline());
         }
-        self.out.front_mut().ok_or(None)
+        let completion = &self.last_completion;
+        self.out
+            .front_mut()
+            .map(|out| (out, completion))
+            .ok_or(None)
     }
 
     /// Drop the output [`Master::next_output_mut`] showed.
@@ -571,11 +623,27 @@ impl Master {
         self.out.pop_front();
     }
 
+    /// From now on, a request that goes out at once is queued as an empty
+    /// [`Output::Transmit`], which stands for [`Master::request_bytes`]: for
+    /// [`crate::tokio::InlineMaster`], which writes the request from here instead of a frame
+    /// cut for it (a cut and a drop per request). Only for a caller that writes every
+    /// `Transmit` before the engine starts another job.
+    #[cfg(feature = "tokio")]
+    pub(crate) fn transmit_in_place(&mut self) {
+        self.tx.set_in_place();
+    }
+
+    /// The running (or last) job's request as sent: what an empty [`Output::Transmit`] stands
+    /// for after [`Master::transmit_in_place`].
+    #[cfg(feature = "tokio")]
+    pub(crate) fn request_bytes(&self) -> &[u8] {
+        self.request.as_bytes()
+    }
+
     fn fail(&mut self, status: Status) {
-        let (unit, function) = self
-            .job
-            .as_ref()
-            .map_or((0, 0), |(a, _)| (a.unit(), a.as_bytes()[1]));
+        let (unit, function) = self.job.map_or((0, 0), |_| {
+            (self.request.unit(), self.request.as_bytes()[1])
+        });
         self.finish(MasterEvent::Failed {
             job: self.job_id,
             unit,
@@ -587,7 +655,7 @@ impl Master {
     /// Fail, or send again if retries are left and the failure is one a retry can cure.
     fn fail_or_retry(&mut self, now: Instant, status: Status) {
         self.count_attempt(status);
-        let retry = self.job.as_ref().is_some_and(|&(_, left)| left > 0)
+        let retry = self.job.is_some_and(|left| left > 0)
             && (status == status::RESPONSE_TIMEOUT || status == status::RESPONSE_CRC);
         if retry {
             self.attempt(now);
@@ -609,7 +677,7 @@ impl Master {
         }
     }
 
-    fn on_frame(&mut self, now: Instant, frame: Received) {
+    fn on_frame(&mut self, now: Instant, frame: FrameAt) {
         let waiting = matches!(self.state, State::Waiting { .. });
         if let Some(fault) = frame.fault {
             let status = fault_status(fault);
@@ -617,21 +685,24 @@ impl Master {
                 self.fail(status);
             } else {
                 self.out
-                    .push_back(Output::Event(MasterEvent::Diagnostic(status)));
+                    .push_back(Output::Event(Queued::Event(MasterEvent::Diagnostic(
+                        status,
+                    ))));
             }
             return;
         }
-        let Some((request, _)) = self.job.as_ref().filter(|_| waiting) else {
-            if !frame.adu.as_bytes().is_empty() {
+        let Some(request) = self.job.filter(|_| waiting).map(|_| &self.request) else {
+            if !frame.is_empty() {
                 self.rx.count_discarded();
-                self.out.push_back(Output::Event(MasterEvent::Diagnostic(
-                    status::UNSOLICITED_RESPONSE,
-                )));
+                self.out
+                    .push_back(Output::Event(Queued::Event(MasterEvent::Diagnostic(
+                        status::UNSOLICITED_RESPONSE,
+                    ))));
             }
             return;
         };
-        let response = frame.adu.as_bytes();
-        // Checked where it lies (the job's request is not copied out to compare against).
+        let response = self.rx.frame(&frame);
+        // Checked where they lie (neither the job's request nor the response is copied out).
         let checked = (response.first() == Some(&request.unit()))
             .then(|| check_response_with(request.as_bytes(), response, frame.crc_good));
         match checked {
@@ -645,7 +716,7 @@ impl Master {
                 // be one.
                 self.fail(self.rx.delivery().annotate(status::WRONG_SLAVE_ADDRESS));
             }
-            Some(Ok(())) => self.complete(Some(frame.adu.as_bytes())),
+            Some(Ok(())) => self.complete(Some(frame)),
             Some(Err(s)) => {
                 self.rx.count_discarded();
                 // CRC, length and structure errors may be a frame cut by a late packet; a
@@ -661,7 +732,7 @@ impl Master {
     }
 
     fn tick(&mut self, now: Instant) {
-        if let Some(frame) = self.rx.poll(now) {
+        if let Some(frame) = self.rx.poll_in_place(now) {
             self.on_frame(now, frame);
         }
         let gate = self.tx.on_timeout(now, &mut self.out);
@@ -717,8 +788,8 @@ impl Master {
     /// What the receiver may predict the length of: the response to the running job's
     /// request once it is being sent (a broadcast has none).
     fn expect(&self) -> Expect {
-        match (self.job.as_ref(), self.state) {
-            (Some((request, _)), State::Sending { .. } | State::Waiting { .. })
+        match (self.job.map(|_| &self.request), self.state) {
+            (Some(request), State::Sending { .. } | State::Waiting { .. })
                 if request.unit() != BROADCAST =>
             {
                 Expect::ResponseTo(request.as_bytes()[1])
@@ -925,7 +996,7 @@ impl Engine for Master {
             return; // [Modbus/USS] §3.2.2 item 6: nothing is received while DSR = OFF
         }
         while !bytes.is_empty() {
-            let unit = self.job.as_ref().map(|(a, _)| a.unit());
+            let unit = self.job.map(|_| self.request.unit());
             let taken = self.rx.push(now, bytes, |b| Some(b) == unit, self.expect());
             bytes = &bytes[taken..];
             if matches!(self.state, State::Sending { .. }) && self.rx.is_receiving() {
@@ -936,7 +1007,7 @@ impl Engine for Master {
             }
             // A frame complete by its length (FrameEnd::Length) is handed up at once; the
             // rest of the bytes start the next frame.
-            if let Some(frame) = self.rx.poll(now) {
+            if let Some(frame) = self.rx.poll_in_place(now) {
                 self.on_frame(now, frame);
             }
         }
@@ -987,9 +1058,16 @@ impl Engine for Master {
     }
 
     fn poll_output(&mut self) -> Output<MasterEvent> {
-        self.out
-            .pop_front()
-            .unwrap_or_else(|| Output::Wait(self.deadline()))
+        match self.out.pop_front() {
+            None => Output::Wait(self.deadline()),
+            Some(Output::Event(Queued::Event(event))) => Output::Event(event),
+            Some(Output::Event(Queued::Completed)) => {
+                Output::Event(MasterEvent::Completed(self.last_completion))
+            }
+            Some(Output::Transmit(frame)) => Output::Transmit(frame),
+            Some(Output::SetSignals(update)) => Output::SetSignals(update),
+            Some(Output::Wait(deadline)) => Output::Wait(deadline),
+        }
     }
 }
 
@@ -1047,6 +1125,52 @@ mod tests {
             check_response(&req, &with_crc(adu("01 06 00 01 00 04"))),
             Err(status::ECHO_WRONG)
         );
+    }
+
+    /// Two jobs complete before anyone polls the engine: each completion event carries its
+    /// own job's ADUs (the queue marks a completion standing for the kept last one, and an
+    /// earlier mark gets its own copy when the next job completes), and `outcome` has the last.
+    #[test]
+    fn completions_left_in_the_queue_keep_their_own_adus() {
+        use crate::frame::Registers;
+        let mut m = Master::new(MasterConfig::default())
+            .unwrap()
+            .with_frame_end(FrameEnd::Length);
+        let mut t = Instant::from_micros(1_000);
+        let mut expected = Vec::new();
+        for (quantity, values) in [(3u16, &[7u16, 8, 9][..]), (1, &[5][..])] {
+            let request = Request::ReadHoldingRegisters {
+                address: 0,
+                quantity,
+            };
+            let id = m.request(t, 1, &request).unwrap();
+            t += Duration::from_millis(1);
+            m.handle_tx_done(t);
+            let answer =
+                Adu::response(1, &Response::ReadHoldingRegisters(Registers::Words(values)))
+                    .unwrap();
+            m.handle_rx(t, answer.as_bytes());
+            assert!(!m.is_busy(), "job {id:?} completed");
+            expected.push((id, Adu::request(1, &request).unwrap(), answer));
+            // Past the gap, so the next request is not held.
+            t += Duration::from_millis(10);
+            m.handle_timeout(t);
+        }
+        let mut completions = Vec::new();
+        loop {
+            match m.poll_output() {
+                Output::Wait(_) => break,
+                Output::Event(MasterEvent::Completed(c)) => completions.push(c),
+                _ => {}
+            }
+        }
+        assert_eq!(completions.len(), 2);
+        for (c, (id, request, answer)) in completions.iter().zip(&expected) {
+            assert_eq!(c.job(), *id);
+            assert_eq!(c.request, *request);
+            assert_eq!(c.response_bytes(), Some(answer.as_bytes()));
+        }
+        assert_eq!(m.outcome(expected[1].0), Some(Ok(completions[1])));
     }
 
     #[test]

@@ -177,6 +177,25 @@ pub struct Received {
     pub crc_good: bool,
 }
 
+/// A frame that ended, left in the receiver's buffer ([`Receiver::poll_in_place`]): what
+/// [`Received`] says, with the bytes read by [`Receiver::frame`] instead of carried.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct FrameAt {
+    start: usize,
+    len: usize,
+    /// As [`Received::fault`].
+    pub(crate) fault: Option<Fault>,
+    /// As [`Received::crc_good`].
+    pub(crate) crc_good: bool,
+}
+
+impl FrameAt {
+    /// No bytes (a line error between frames).
+    pub(crate) fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
 /// The frame assembler the master and slave share: silence ends a frame, and with
 /// [`FrameEnd::Length`] also a complete frame with a good CRC.
 #[derive(Debug, Clone)]
@@ -377,6 +396,18 @@ impl Receiver {
     /// The frame that ended by `now`: complete by length, or the gap has passed since its
     /// last character.
     pub fn poll(&mut self, now: Instant) -> Option<Received> {
+        let at = self.poll_in_place(now)?;
+        Some(Received {
+            adu: Adu::from_slice(self.frame(&at)).unwrap_or_default(),
+            fault: at.fault,
+            crc_good: at.crc_good,
+        })
+    }
+
+    /// [`poll`](Self::poll), the frame left where the receiver assembled it: the master reads
+    /// it there ([`frame`](Self::frame)) before it pushes more bytes, so a response is not
+    /// copied into an [`Adu`] (264 bytes zeroed and moved) only to be read once.
+    pub(crate) fn poll_in_place(&mut self, now: Instant) -> Option<FrameAt> {
         let last = self.last?;
         if core::mem::take(&mut self.complete) {
             // Complete by length: no fault, at least 4 bytes, CRC checked in `push`.
@@ -384,14 +415,12 @@ impl Receiver {
             self.unpredictable = false;
             let len = core::mem::take(&mut self.len);
             self.counters.frames += 1;
-            // Filled where it is returned (the receiver's buffer holds at most `MAX_ADU`).
-            let mut frame = Received {
-                adu: Adu::new(),
+            return Some(FrameAt {
+                start: 0,
+                len,
                 fault: None,
                 crc_good: true,
-            };
-            frame.adu.fill(&self.buf[..len]);
-            return Some(frame);
+            });
         }
         if now < last + self.effective_gap() {
             return None;
@@ -399,30 +428,27 @@ impl Receiver {
         self.last = None;
         self.more_predicted = false;
         self.unpredictable = false;
-        let bytes = &self.buf[..self.len];
         let fault = self.fault.take();
         let len = core::mem::take(&mut self.len);
-        let mut adu = Adu::from_slice(bytes).unwrap_or_default();
+        let mut at = FrameAt {
+            start: 0,
+            len,
+            fault,
+            crc_good: false,
+        };
         match (self.mode, fault) {
             (Mode::InterferenceSuppression, Some(_)) => {
                 self.counters.suppressed += 1;
                 return None;
             }
-            (_, Some(f)) => {
-                return Some(Received {
-                    adu,
-                    fault: Some(f),
-                    crc_good: false,
-                })
-            }
+            (_, Some(_)) => return Some(at),
             _ => {}
         }
         if len < 4 {
             self.counters.discarded += 1;
             return None;
         }
-        let mut crc_good = false;
-        if self.starts_at_address() && !crc_ok(adu.as_bytes()) {
+        if self.starts_at_address() && !crc_ok(&self.buf[..len]) {
             // The start is a correctly received address: try the later ones. On RS-485 in
             // Normal mode too (`[derived]` from [Modbus/USS] §3.4.1, §3.4.3: a message starts at
             // a correctly received address): behind a port that hands bytes over late, a
@@ -435,18 +461,23 @@ impl Receiver {
                 .find(|&k| (self.buf[k] == first || rs485) && crc_ok(&self.buf[k..len]));
             if let Some(k) = restart {
                 self.counters.skipped_bytes += k as u64;
-                adu = Adu::from_slice(&self.buf[k..len]).unwrap_or_default();
-                crc_good = true;
+                at.start = k;
+                at.len = len - k;
+                at.crc_good = true;
             }
         } else if self.starts_at_address() {
-            crc_good = true;
+            at.crc_good = true;
         }
         self.counters.frames += 1;
-        Some(Received {
-            adu,
-            fault: None,
-            crc_good,
-        })
+        Some(at)
+    }
+
+    /// The bytes of a frame [`poll_in_place`](Self::poll_in_place) reported, valid until the
+    /// next [`push`](Self::push).
+    pub(crate) fn frame(&self, at: &FrameAt) -> &[u8] {
+        self.buf
+            .get(at.start..at.start + at.len)
+            .unwrap_or_default()
     }
 
     /// Bytes from the line at `now`; returns how many of them it took. Call
@@ -489,7 +520,16 @@ impl Receiver {
         self.last = Some(now);
         let mut taken = total - bytes.len();
         while !bytes.is_empty() {
-            let prediction = self.prediction(expect);
+            // At a frame's start the bytes at hand are its head: predicted from them at once, a
+            // frame that came whole is taken in one step instead of one per header field (a
+            // prediction reads fixed header positions, so more of the head gives the answer
+            // the steps would reach).
+            let head = if self.len == 0 {
+                bytes
+            } else {
+                &self.buf[..self.len]
+            };
+            let prediction = self.prediction(expect, head);
             let n = match prediction {
                 Prediction::NeedMore(k) | Prediction::Len(k) if k > self.len => {
                     (k - self.len).min(bytes.len())
@@ -511,17 +551,17 @@ impl Receiver {
             }
         }
         self.more_predicted = (self.patient || self.delivery.packetises())
-            && matches!(self.prediction(expect),
+            && matches!(self.prediction(expect, &self.buf[..self.len]),
                 Prediction::NeedMore(k) | Prediction::Len(k) if k > self.len);
         taken
     }
 
-    /// What the bytes so far predict, with [`FrameEnd::Length`].
-    fn prediction(&self, expect: Expect) -> Prediction {
+    /// What `head`, the frame's bytes so far (or, at its start, the bytes about to be taken),
+    /// predicts with [`FrameEnd::Length`].
+    fn prediction(&self, expect: Expect, head: &[u8]) -> Prediction {
         if !self.ends_by_length() || self.fault.is_some() || self.unpredictable {
             return Prediction::Unknown;
         }
-        let head = &self.buf[..self.len];
         let p = match expect {
             Expect::Nothing => Prediction::Unknown,
             Expect::Request => request_len(head),

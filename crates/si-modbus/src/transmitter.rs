@@ -35,6 +35,9 @@ pub(crate) struct Transmitter {
     pool: FramePool,
     sequence: Option<AutoV24>,
     held: Option<Bytes>,
+    /// The caller writes a frame that goes out at once from where the engine keeps it
+    /// ([`set_in_place`](Self::set_in_place)): it is queued as an empty `Transmit`, not cut.
+    in_place: bool,
 }
 
 impl Transmitter {
@@ -50,7 +53,18 @@ impl Transmitter {
             pool: FramePool::preallocated(4 * crate::frame::MAX_ADU),
             sequence,
             held: None,
+            in_place: false,
         }
+    }
+
+    /// Queue a frame that goes out at once (no V.24 sequence holds it) as an empty
+    /// `Transmit`: the caller ([`crate::tokio::InlineMaster`]) writes the engine's request from
+    /// where the engine keeps it, so no frame is cut from the pool and dropped per request. A
+    /// frame a V.24 sequence holds is still cut (the engine's request may be gone by the time
+    /// CTS comes).
+    #[cfg(feature = "tokio")]
+    pub(crate) fn set_in_place(&mut self) {
+        self.in_place = true;
     }
 
     /// Transmit `bytes` now, or once CTS = ON ([Modbus/USS] §3.2.2 item 3).
@@ -60,6 +74,10 @@ impl Transmitter {
         bytes: &[u8],
         out: &mut VecDeque<Output<E>>,
     ) -> Gate {
+        if self.in_place && self.sequence.is_none() {
+            out.push_back(Output::Transmit(Bytes::new()));
+            return Gate::Sent(bytes.len());
+        }
         let frame = self.pool.cut(bytes);
         let step = match self.sequence.as_mut() {
             None => Step::Send,

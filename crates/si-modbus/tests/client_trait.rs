@@ -170,3 +170,57 @@ async fn close_returns_once_the_port_is_released() {
     let mut buf = [0u8; 1];
     assert_eq!(b.read(&mut buf).await.unwrap(), 0, "the port was released");
 }
+
+/// The inline master writes a job's request from where the engine keeps it: a silent unit's
+/// retries put the same request on the line again, a longer request before it leaves nothing
+/// behind, and the engine still gives a completed job's outcome by its id.
+#[tokio::test(start_paused = true)]
+async fn an_inline_request_and_its_retries_go_out_as_encoded() {
+    use si_modbus::frame::{Adu, Registers};
+    use tokio::io::AsyncReadExt;
+    let (port, mut far) = tokio::io::duplex(1024);
+    let config = MasterConfig {
+        retries: 2,
+        response_timeout: std::time::Duration::from_millis(100).into(),
+        ..MasterConfig::default()
+    };
+    let m = InlineMaster::new(config, port).unwrap();
+    let long = Request::WriteMultipleRegisters {
+        address: 0,
+        values: Registers::Words(&[1, 2, 3, 4]),
+    };
+    let short = Request::ReadCoils {
+        address: 4,
+        quantity: 1,
+    };
+    let (result, attempts) = m.request_with_attempts(9, &long).await;
+    assert_eq!(
+        result.unwrap_err().status(),
+        Some(si_modbus::status::RESPONSE_TIMEOUT)
+    );
+    assert_eq!(attempts.sent, 3);
+    let (result, attempts) = m.request_with_attempts(9, &short).await;
+    assert!(result.is_err());
+    assert_eq!(attempts.sent, 3);
+    let long = Adu::request(9, &long).unwrap();
+    let short = Adu::request(9, &short).unwrap();
+    let mut expected = Vec::new();
+    for adu in [long; 3].iter().chain(&[short; 3]) {
+        expected.extend_from_slice(adu.as_bytes());
+    }
+    let mut sent = vec![0u8; expected.len()];
+    far.read_exact(&mut sent).await.unwrap();
+    assert_eq!(sent, expected);
+
+    // A completed job's outcome, by its id, is the completion the caller got, also after a
+    // longer answer before it.
+    let (port, _slave) = rtu_line();
+    let m = InlineMaster::new(MasterConfig::default(), port).unwrap();
+    for (address, quantity) in [(3, 4), (0, 1)] {
+        let request = Request::ReadHoldingRegisters { address, quantity };
+        let c = m.request(7, &request).await.unwrap();
+        let kept = m.call(move |engine, _| engine.outcome(c.job())).await;
+        assert_eq!(kept, Some(Ok(c)));
+        assert_eq!(kept.unwrap().unwrap().response_bytes(), c.response_bytes());
+    }
+}

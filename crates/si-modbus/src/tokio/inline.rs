@@ -5,7 +5,7 @@ use super::error::{Error, Job};
 use super::master::Diagnostics;
 use crate::config::MasterConfig;
 use crate::frame::{Request, Response};
-use crate::master::{self, Attempts, Completion, MasterEvent};
+use crate::master::{self, Attempts, Completion, MasterEvent, Queued};
 use si_core::driver::Transport;
 use si_core::{Engine, Instant, Output, Status};
 use std::future::Future;
@@ -60,7 +60,8 @@ impl<T: Transport> InlineMaster<T> {
 
     /// A master with an engine built by the caller (for options beyond [`MasterConfig`], such
     /// as [`master::Master::with_frame_end`]).
-    pub fn from_engine(engine: master::Master, transport: T) -> Self {
+    pub fn from_engine(mut engine: master::Master, transport: T) -> Self {
+        engine.transmit_in_place();
         InlineMaster {
             inner: Mutex::new(Inner {
                 engine,
@@ -153,36 +154,36 @@ impl<T: Transport> Inner<T> {
         }
         // A job abandoned by a dropped future runs to its end first (its outcome is nobody's).
         while self.engine.is_busy() {
-            let _abandoned = self.drive(None, |_| (), None).await?;
+            let abandoned = self.drive(None, |_| (), None).await;
+            let _abandoned = self.note_stop(abandoned)?;
         }
         let now = self.now();
         let id = self
             .engine
             .request(now, unit, request)
             .map_err(|reason| Error::Refused { job, reason })?;
-        match self.drive(Some(id), pick, Some(now)).await? {
+        let outcome = self.drive(Some(id), pick, Some(now)).await;
+        match self.note_stop(outcome)? {
             Ok(r) => Ok(r),
             Err(status) => Err(Error::failed(job, status)),
         }
     }
 
-    /// Run the engine until the running job ends: its outcome, `pick`ed from the completion
-    /// (`Ok(Err(status))` for a failed job); `Err` if the port failed. `now`: a clock reading
-    /// just taken (the job's start), reused for the first turn.
-    async fn drive<R>(
-        &mut self,
-        id: Option<si_core::job::JobId>,
-        pick: impl FnOnce(&Completion) -> R,
-        now: Option<Instant>,
-    ) -> Result<Result<R, Status>, Error> {
-        let result = self.drive_inner(id, pick, now).await;
+    /// What [`drive`](Self::drive) returned, noting a port that failed or closed: every later
+    /// job fails with [`Error::Stopped`]. A plain function after the `await`, not a wrapping
+    /// future: each nested future is one more state machine to enter at every poll.
+    fn note_stop<R>(&mut self, result: Result<R, Error>) -> Result<R, Error> {
         if matches!(result, Err(Error::Stopped | Error::Io(_))) {
             self.stopped = true;
         }
         result
     }
 
-    async fn drive_inner<R>(
+    /// Run the engine until the running job ends: its outcome, `pick`ed from the completion
+    /// (`Ok(Err(status))` for a failed job); `Err` if the port failed (the caller passes it
+    /// through [`note_stop`](Self::note_stop)). `now`: a clock reading just taken (the job's
+    /// start), reused for the first turn.
+    async fn drive<R>(
         &mut self,
         id: Option<si_core::job::JobId>,
         pick: impl FnOnce(&Completion) -> R,
@@ -214,70 +215,93 @@ impl<T: Transport> Inner<T> {
             // below take microseconds at most.
             let now = fresh.take().unwrap_or_else(|| self.now());
             let stale_now = std::mem::take(&mut stale);
-            let wait = loop {
-                // Read the output where the engine's queue keeps it: an output is as large as a
-                // completion (two ADUs inline), and one handed out by value, or kept across the
-                // write's `await`, would be copied whole; only the frame's handle crosses.
-                let ours_ended = self.engine.running_job().is_none_or(|r| Some(r) != id);
-                let out = match self.engine.next_output_mut() {
-                    Ok(out) => out,
-                    Err(deadline) => break deadline,
+            // A turn on the reading from before a yield (`stale_now`) has nothing to drain or
+            // check: the engine has not run since the turn before the yield emptied its outputs
+            // and checked its deadlines against this same reading. It only polls the read (the
+            // timer is not armed on a stale reading), so its deadline is not computed again.
+            let next = if stale_now {
+                None
+            } else {
+                let wait = loop {
+                    // Read the output where the engine's queue keeps it: an output is as large as a
+                    // completion (two ADUs inline), and one handed out by value, or kept across the
+                    // write's `await`, would be copied whole; only the frame's handle crosses.
+                    let ours_ended = self.engine.running_job().is_none_or(|r| Some(r) != id);
+                    let (out, kept) = match self.engine.next_output_mut() {
+                        Ok(next) => next,
+                        Err(deadline) => break deadline,
+                    };
+                    let bytes = match out {
+                        Output::Transmit(bytes) => std::mem::take(bytes),
+                        Output::SetSignals(update) => {
+                            let update = *update;
+                            self.engine.consume_output();
+                            self.port.set_signals(update)?;
+                            continue;
+                        }
+                        Output::Event(Queued::Event(MasterEvent::Diagnostic(s))) => {
+                            self.diagnostics.keep(*s);
+                            self.engine.consume_output();
+                            continue;
+                        }
+                        // The job's end: one job at a time, so once it is no longer the running
+                        // one, this event ended it ([`master::Master::outcome`] has it by id).
+                        Output::Event(Queued::Completed) if ours_ended => {
+                            let picked = pick(kept);
+                            self.engine.consume_output();
+                            return Ok(Ok(picked));
+                        }
+                        Output::Event(Queued::Event(MasterEvent::Completed(c))) if ours_ended => {
+                            let picked = pick(c);
+                            self.engine.consume_output();
+                            return Ok(Ok(picked));
+                        }
+                        Output::Event(Queued::Event(MasterEvent::Failed { status, .. }))
+                            if ours_ended =>
+                        {
+                            let status = *status;
+                            self.engine.consume_output();
+                            return Ok(Err(status));
+                        }
+                        Output::Event(_) => {
+                            self.engine.consume_output();
+                            continue;
+                        }
+                        Output::Wait(deadline) => {
+                            let deadline = *deadline;
+                            self.engine.consume_output();
+                            break deadline;
+                        }
+                    };
+                    self.engine.consume_output();
+                    let start = now;
+                    // An empty frame is the job's request, written from where the engine keeps
+                    // it ([`master::Master::transmit_in_place`]): no frame cut per request.
+                    let frame: &[u8] = if bytes.is_empty() {
+                        self.engine.request_bytes()
+                    } else {
+                        &bytes
+                    };
+                    let len = frame.len() as u64;
+                    self.port.write_all(frame).await?;
+                    skip_read = true;
+                    yielded = false;
+                    let settings = self.engine.config().line.settings;
+                    self.tx_done = Some(start + settings.chars_time(len));
                 };
-                let bytes = match out {
-                    Output::Transmit(bytes) => std::mem::take(bytes),
-                    Output::SetSignals(update) => {
-                        let update = *update;
-                        self.engine.consume_output();
-                        self.port.set_signals(update)?;
-                        continue;
-                    }
-                    Output::Event(MasterEvent::Diagnostic(s)) => {
-                        self.diagnostics.keep(*s);
-                        self.engine.consume_output();
-                        continue;
-                    }
-                    // The job's end: one job at a time, so once it is no longer the running
-                    // one, this event ended it ([`master::Master::outcome`] has it by id).
-                    Output::Event(MasterEvent::Completed(c)) if ours_ended => {
-                        let picked = pick(c);
-                        self.engine.consume_output();
-                        return Ok(Ok(picked));
-                    }
-                    Output::Event(MasterEvent::Failed { status, .. }) if ours_ended => {
-                        let status = *status;
-                        self.engine.consume_output();
-                        return Ok(Err(status));
-                    }
-                    Output::Event(_) => {
-                        self.engine.consume_output();
-                        continue;
-                    }
-                    Output::Wait(deadline) => {
-                        let deadline = *deadline;
-                        self.engine.consume_output();
-                        break deadline;
-                    }
-                };
-                self.engine.consume_output();
-                let start = now;
-                self.port.write_all(&bytes).await?;
-                skip_read = true;
-                yielded = false;
-                let settings = self.engine.config().line.settings;
-                self.tx_done = Some(start + settings.chars_time(bytes.len() as u64));
+                if self.tx_done.is_some_and(|t| t <= now) {
+                    self.tx_done = None;
+                    self.engine.handle_tx_done(now);
+                    fresh = Some(now);
+                    continue;
+                }
+                if wait.is_some_and(|d| d <= now) {
+                    self.engine.handle_timeout(now);
+                    fresh = Some(now);
+                    continue;
+                }
+                Instant::earliest(wait, self.tx_done)
             };
-            if self.tx_done.is_some_and(|t| t <= now) {
-                self.tx_done = None;
-                self.engine.handle_tx_done(now);
-                fresh = Some(now);
-                continue;
-            }
-            if wait.is_some_and(|d| d <= now) {
-                self.engine.handle_timeout(now);
-                fresh = Some(now);
-                continue;
-            }
-            let next = Instant::earliest(wait, self.tx_done);
             let origin = self.origin;
             // Armed when first polled: only once the read (polled first) is pending, so a
             // response already there costs no timer (no wheel entry).
@@ -348,7 +372,7 @@ impl<T: Transport> Inner<T> {
     }
 }
 
-/// What ended a wait of [`Inner::drive_inner`].
+/// What ended a wait of [`Inner::drive`].
 enum Woke {
     /// The port's read returned.
     Read(std::io::Result<usize>),
