@@ -126,6 +126,14 @@ async fn serve(
 ) -> String {
     let (index, stats) = (log.index, Arc::clone(&log.stats));
     let now = || clock.now();
+    // The master keeps its gap of silence after the last character received before the next
+    // request, on the driver's precise timer; a pause no longer than the gap is kept by that
+    // and needs no sleep of its own (tokio's 1 ms wheel would make a 1 ms sleep 1–2 ms). The
+    // pause after a broadcast, which has no answer to count the gap from, is always slept.
+    let gap: Duration = master
+        .call(|m, _| m.gap())
+        .await
+        .map_or(Duration::ZERO, Duration::from);
     loop {
         let (client, job, depth) = tokio::select! {
             why = &mut closed => return why,
@@ -174,7 +182,7 @@ async fn serve(
             report(&log, e);
         }
         answered(index, &stats, client, job, answer, outcome, crc_errors);
-        if !pause.is_zero() {
+        if !pause.is_zero() && (pause > gap || unit == 0) {
             tokio::time::sleep(pause).await;
         }
     }

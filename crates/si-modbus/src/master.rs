@@ -351,6 +351,14 @@ impl Master {
         self
     }
 
+    /// The silence that ends a received frame and that the master keeps after the last
+    /// character received before its next request ([Modbus/USS] §3.3.5, Table 3-11 × fMUL, or
+    /// [`with_gap`](Self::with_gap)'s): a caller's own pause between requests that is no
+    /// longer than this is already kept, on the driver's precise timer.
+    pub fn gap(&self) -> Duration {
+        self.rx.gap()
+    }
+
     /// How received frames end.
     pub fn frame_end(&self) -> FrameEnd {
         self.rx.frame_end()
