@@ -250,16 +250,18 @@ impl AioModbusClient {
         future_into_py(py, async move { Ok(slf) })
     }
 
-    #[pyo3(signature = (*_args))]
+    /// Closes the client; a failed close raises unless an exception already propagates
+    /// (`lifecycle::exit`'s rule).
+    #[pyo3(signature = (*args))]
     fn __aexit__<'py>(
         &self,
         py: Python<'py>,
-        _args: &Bound<'_, PyTuple>,
+        args: &Bound<'_, PyTuple>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let close = self.jobs.close();
+        let propagating = crate::lifecycle::propagating(args);
         future_into_py(py, async move {
-            close.await?;
-            Ok(false)
+            crate::lifecycle::exit_with(close.await, propagating)
         })
     }
 }

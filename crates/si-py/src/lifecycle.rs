@@ -10,7 +10,16 @@ use pyo3::types::PyTuple;
 /// already propagates: that one is the cause the caller needs, and raising here would
 /// replace it.
 pub fn exit(closed: PyResult<()>, args: &Bound<'_, PyTuple>) -> PyResult<bool> {
-    let propagating = args.get_item(0).is_ok_and(|exc_type| !exc_type.is_none());
+    exit_with(closed, propagating(args))
+}
+
+/// An exception ended the `with` block: `__exit__`'s `(exc_type, exc_value, traceback)` say so.
+pub fn propagating(args: &Bound<'_, PyTuple>) -> bool {
+    args.get_item(0).is_ok_and(|exc_type| !exc_type.is_none())
+}
+
+/// [`exit`] once [`propagating`] is known (an `__aexit__` decides it before its awaitable runs).
+pub fn exit_with(closed: PyResult<()>, propagating: bool) -> PyResult<bool> {
     if !propagating {
         closed?;
     }
