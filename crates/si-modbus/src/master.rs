@@ -986,12 +986,10 @@ pub(crate) fn check_structure(request: &[u8], response: &[u8]) -> Result<(), Sta
     Ok(())
 }
 
-impl Engine for Master {
-    type Event = MasterEvent;
-
-    fn handle_rx(&mut self, now: Instant, mut bytes: &[u8]) {
-        self.rx.observe_read(now, bytes.len());
-        self.tick(now);
+impl Master {
+    /// The bytes of a read, after the read's clock check ([`Engine::handle_rx`] minus its
+    /// `tick`).
+    fn receive(&mut self, now: Instant, mut bytes: &[u8]) {
         if !self.tx.may_receive() {
             return; // [Modbus/USS] §3.2.2 item 6: nothing is received while DSR = OFF
         }
@@ -1011,6 +1009,38 @@ impl Engine for Master {
                 self.on_frame(now, frame);
             }
         }
+    }
+
+    /// [`Engine::handle_tx_done`] and then [`Engine::handle_rx`] at the same instant, for
+    /// [`crate::tokio::InlineMaster`], whose read usually finds both the request's end due and
+    /// the whole response. The read's `tick` is left out where it provably does nothing: the
+    /// receiver has no frame open (nothing to end), no automatic V.24 sequence runs (no RTS or
+    /// CTS step), and the response is awaited until an instant still ahead (no timeout; the
+    /// job's bound was checked by the first `tick` at this same instant). Anything else (a
+    /// broadcast's turnaround, a zero response timeout, stray bytes before the request's end)
+    /// goes the two calls' way.
+    #[cfg(feature = "tokio")]
+    pub(crate) fn handle_tx_done_and_rx(&mut self, now: Instant, bytes: &[u8]) {
+        self.handle_tx_done(now);
+        let nothing_due = !self.rx.is_receiving()
+            && self.tx.is_plain()
+            && matches!(self.state, State::Waiting { deadline, .. } if now < deadline);
+        if nothing_due {
+            self.rx.observe_read(now, bytes.len());
+            self.receive(now, bytes);
+        } else {
+            self.handle_rx(now, bytes);
+        }
+    }
+}
+
+impl Engine for Master {
+    type Event = MasterEvent;
+
+    fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+        self.rx.observe_read(now, bytes.len());
+        self.tick(now);
+        self.receive(now, bytes);
     }
 
     fn handle_timeout(&mut self, now: Instant) {

@@ -347,12 +347,15 @@ impl<T: Transport> Inner<T> {
                     }
                     let now = self.now();
                     // The request's end first, if it is due (the turn after a yield did
-                    // not read the clock to see it): the engine hears of its events in order.
+                    // not read the clock to see it): the engine hears of its events in order,
+                    // both in one call that checks the engine's timers once where a second
+                    // check at the same instant has nothing to do.
                     if self.tx_done.is_some_and(|t| t <= now) {
                         self.tx_done = None;
-                        self.engine.handle_tx_done(now);
+                        self.engine.handle_tx_done_and_rx(now, &self.rx[..n]);
+                    } else {
+                        self.engine.handle_rx(now, &self.rx[..n]);
                     }
-                    self.engine.handle_rx(now, &self.rx[..n]);
                     fresh = Some(now);
                 }
                 Woke::Yielded => {
