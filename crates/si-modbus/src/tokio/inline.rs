@@ -307,7 +307,13 @@ impl<T: Transport> Inner<T> {
             // response already there costs no timer (no wheel entry).
             // The read, the yield and the timer, polled in that order by hand: `select!`
             // would build and poll the same three futures with more bookkeeping per turn.
-            let mut yield_now = std::pin::pin!(tokio::task::yield_now());
+            // The yield by hand too: the task wakes itself and is pending once. tokio's
+            // `yield_now` defers the wake to the runtime's list of deferred wakers, which a
+            // `block_on` per request (a caller's plain `block_on(master.read(..))`) builds anew
+            // each time: an allocation and its release per request. Woken at once, the task
+            // still runs only after the tasks already queued (the partner that answers); on
+            // the multi-threaded runtime's `block_on` tokio's yield wakes at once anyway.
+            let mut wake_sent = false;
             let (port, rx) = (&mut self.port, &mut self.rx);
             let woke = std::future::poll_fn(|cx| {
                 if !skip_read {
@@ -317,7 +323,12 @@ impl<T: Transport> Inner<T> {
                     }
                 }
                 if !yielded {
-                    return yield_now.as_mut().poll(cx).map(|()| Woke::Yielded);
+                    if wake_sent {
+                        return Poll::Ready(Woke::Yielded);
+                    }
+                    wake_sent = true;
+                    cx.waker().wake_by_ref();
+                    return Poll::Pending;
                 }
                 if stale_now {
                     return Poll::Ready(Woke::Timer);
