@@ -202,7 +202,7 @@ impl<T: Transport> Inner<T> {
         // Just wrote a request: the first wait skips the read and only yields. The answer
         // cannot be there before the partner has run, and a read polled now would register
         // its waker, so the partner's write would wake this task once and the yield's
-        // deferred wake a second time, two wake-ups (an eventfd write each on tokio's
+        // own wake a second time, two wake-ups (an eventfd write each on tokio's
         // current-thread runtime) where one is enough.
         let mut skip_read = false;
         // A clock reading taken just before (a read's arrival, a deadline handled) that the
