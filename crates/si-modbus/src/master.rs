@@ -1157,6 +1157,74 @@ mod tests {
         );
     }
 
+    /// The request's end and the response in one call (what `InlineMaster` uses) give the
+    /// engine's outputs of the two calls, also where the second call's clock check matters: a
+    /// broadcast whose turnaround of zero is over at the very instant the request ended.
+    #[cfg(feature = "tokio")]
+    #[test]
+    fn tx_done_and_rx_in_one_call_give_the_two_calls_outputs() {
+        use crate::frame::Registers;
+        fn outputs(m: &mut Master) -> Vec<String> {
+            let mut all = Vec::new();
+            loop {
+                let out = m.poll_output();
+                let wait = matches!(out, Output::Wait(_));
+                all.push(format!("{out:?}"));
+                if wait {
+                    return all;
+                }
+            }
+        }
+        let config = MasterConfig {
+            broadcast_turnaround: Duration::ZERO,
+            ..MasterConfig::default()
+        };
+        let answer = Adu::response(
+            1,
+            &Response::ReadHoldingRegisters(Registers::Words(&[7, 8])),
+        )
+        .unwrap();
+        let jobs = [
+            (
+                1,
+                Request::ReadHoldingRegisters {
+                    address: 0,
+                    quantity: 2,
+                },
+                answer.as_bytes(),
+            ),
+            (
+                BROADCAST,
+                Request::WriteSingleRegister {
+                    address: 0,
+                    value: 1,
+                },
+                &[0x01][..],
+            ),
+        ];
+        for (unit, request, bytes) in jobs {
+            let [mut two, mut one] = [(); 2].map(|()| {
+                Master::new(config)
+                    .unwrap()
+                    .with_frame_end(FrameEnd::Length)
+            });
+            let t = Instant::from_micros(1_000);
+            two.request(t, unit, &request).unwrap();
+            one.request(t, unit, &request).unwrap();
+            assert_eq!(outputs(&mut two), outputs(&mut one));
+            let t = t + Duration::from_millis(1);
+            two.handle_tx_done(t);
+            two.handle_rx(t, bytes);
+            one.handle_tx_done_and_rx(t, bytes);
+            let expected = outputs(&mut two);
+            assert!(
+                expected.iter().any(|o| o.contains("Completed")),
+                "{expected:?}"
+            );
+            assert_eq!(outputs(&mut one), expected, "unit {unit}");
+        }
+    }
+
     /// Two jobs complete before anyone polls the engine: each completion event carries its
     /// own job's ADUs (the queue marks a completion standing for the kept last one, and an
     /// earlier mark gets its own copy when the next job completes), and `outcome` has the last.
