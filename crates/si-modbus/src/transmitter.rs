@@ -146,6 +146,7 @@ impl Transmitter {
 
     /// No automatic V.24 sequence: [`on_timeout`](Self::on_timeout) and
     /// [`sent`](Self::sent) do nothing, and the line may always receive.
+    #[cfg(feature = "tokio")]
     pub(crate) fn is_plain(&self) -> bool {
         self.sequence.is_none()
     }
