@@ -994,12 +994,10 @@ pub(crate) fn check_structure(request: &[u8], response: &[u8]) -> Result<(), Sta
     Ok(())
 }
 
-impl Engine for Master {
-    type Event = MasterEvent;
-
-    fn handle_rx(&mut self, now: Instant, mut bytes: &[u8]) {
-        self.rx.observe_read(now, bytes.len());
-        self.tick(now);
+impl Master {
+    /// The bytes of a read, after the read's clock check ([`Engine::handle_rx`] minus its
+    /// `tick`).
+    fn receive(&mut self, now: Instant, mut bytes: &[u8]) {
         if !self.tx.may_receive() {
             return; // [Modbus/USS] §3.2.2 item 6: nothing is received while DSR = OFF
         }
@@ -1019,6 +1017,38 @@ impl Engine for Master {
                 self.on_frame(now, frame);
             }
         }
+    }
+
+    /// [`Engine::handle_tx_done`] and then [`Engine::handle_rx`] at the same instant, for
+    /// [`crate::tokio::InlineMaster`], whose read usually finds both the request's end due and
+    /// the whole response. The read's `tick` is left out where it provably does nothing: the
+    /// receiver has no frame open (nothing to end), no automatic V.24 sequence runs (no RTS or
+    /// CTS step), and the response is awaited until an instant still ahead (no timeout; the
+    /// job's bound was checked by the first `tick` at this same instant). Anything else (a
+    /// broadcast's turnaround, a zero response timeout, stray bytes before the request's end)
+    /// goes the two calls' way.
+    #[cfg(feature = "tokio")]
+    pub(crate) fn handle_tx_done_and_rx(&mut self, now: Instant, bytes: &[u8]) {
+        self.handle_tx_done(now);
+        let nothing_due = !self.rx.is_receiving()
+            && self.tx.is_plain()
+            && matches!(self.state, State::Waiting { deadline, .. } if now < deadline);
+        if nothing_due {
+            self.rx.observe_read(now, bytes.len());
+            self.receive(now, bytes);
+        } else {
+            self.handle_rx(now, bytes);
+        }
+    }
+}
+
+impl Engine for Master {
+    type Event = MasterEvent;
+
+    fn handle_rx(&mut self, now: Instant, bytes: &[u8]) {
+        self.rx.observe_read(now, bytes.len());
+        self.tick(now);
+        self.receive(now, bytes);
     }
 
     fn handle_timeout(&mut self, now: Instant) {
@@ -1133,6 +1163,74 @@ mod tests {
             check_response(&req, &with_crc(adu("01 06 00 01 00 04"))),
             Err(status::ECHO_WRONG)
         );
+    }
+
+    /// The request's end and the response in one call (what `InlineMaster` uses) give the
+    /// engine's outputs of the two calls, also where the second call's clock check matters: a
+    /// broadcast whose turnaround of zero is over at the very instant the request ended.
+    #[cfg(feature = "tokio")]
+    #[test]
+    fn tx_done_and_rx_in_one_call_give_the_two_calls_outputs() {
+        use crate::frame::Registers;
+        fn outputs(m: &mut Master) -> Vec<String> {
+            let mut all = Vec::new();
+            loop {
+                let out = m.poll_output();
+                let wait = matches!(out, Output::Wait(_));
+                all.push(format!("{out:?}"));
+                if wait {
+                    return all;
+                }
+            }
+        }
+        let config = MasterConfig {
+            broadcast_turnaround: Duration::ZERO,
+            ..MasterConfig::default()
+        };
+        let answer = Adu::response(
+            1,
+            &Response::ReadHoldingRegisters(Registers::Words(&[7, 8])),
+        )
+        .unwrap();
+        let jobs = [
+            (
+                1,
+                Request::ReadHoldingRegisters {
+                    address: 0,
+                    quantity: 2,
+                },
+                answer.as_bytes(),
+            ),
+            (
+                BROADCAST,
+                Request::WriteSingleRegister {
+                    address: 0,
+                    value: 1,
+                },
+                &[0x01][..],
+            ),
+        ];
+        for (unit, request, bytes) in jobs {
+            let [mut two, mut one] = [(); 2].map(|()| {
+                Master::new(config)
+                    .unwrap()
+                    .with_frame_end(FrameEnd::Length)
+            });
+            let t = Instant::from_micros(1_000);
+            two.request(t, unit, &request).unwrap();
+            one.request(t, unit, &request).unwrap();
+            assert_eq!(outputs(&mut two), outputs(&mut one));
+            let t = t + Duration::from_millis(1);
+            two.handle_tx_done(t);
+            two.handle_rx(t, bytes);
+            one.handle_tx_done_and_rx(t, bytes);
+            let expected = outputs(&mut two);
+            assert!(
+                expected.iter().any(|o| o.contains("Completed")),
+                "{expected:?}"
+            );
+            assert_eq!(outputs(&mut one), expected, "unit {unit}");
+        }
     }
 
     /// Two jobs complete before anyone polls the engine: each completion event carries its

@@ -144,6 +144,13 @@ impl Transmitter {
         self.sequence.as_ref().is_none_or(AutoV24::may_receive)
     }
 
+    /// No automatic V.24 sequence: [`on_timeout`](Self::on_timeout) and
+    /// [`sent`](Self::sent) do nothing, and the line may always receive.
+    #[cfg(feature = "tokio")]
+    pub(crate) fn is_plain(&self) -> bool {
+        self.sequence.is_none()
+    }
+
     /// When [`on_timeout`](Self::on_timeout) has something to do.
     pub(crate) fn deadline(&self) -> Option<Instant> {
         self.sequence.as_ref().and_then(AutoV24::deadline)

@@ -280,14 +280,17 @@ pub trait Client: Sync {
     }
 }
 
-/// The registers as numbers, allocated once at their count (`chunks_exact` knows its length).
+/// The registers as numbers, allocated once at their count.
 fn words(w: Registers<'_>) -> Vec<u16> {
     match w {
-        // Straight from the wire's pairs: a loop the compiler can unroll, without the
-        // per-register bounds check of `Registers::get`.
+        // Straight from the wire's pairs, taken as arrays (`as_chunks`): a loop with no bounds
+        // check at all (neither `Registers::get`'s per register nor a slice chunk's per byte),
+        // which the compiler vectorises.
         Registers::Wire(bytes) => bytes
-            .chunks_exact(2)
-            .map(|p| u16::from_be_bytes([p[0], p[1]]))
+            .as_chunks::<2>()
+            .0
+            .iter()
+            .map(|&pair| u16::from_be_bytes(pair))
             .collect(),
         Registers::Words(words) => words.to_vec(),
     }

@@ -202,7 +202,7 @@ impl<T: Transport> Inner<T> {
         // Just wrote a request: the first wait skips the read and only yields. The answer
         // cannot be there before the partner has run, and a read polled now would register
         // its waker, so the partner's write would wake this task once and the yield's
-        // deferred wake a second time, two wake-ups (an eventfd write each on tokio's
+        // own wake a second time, two wake-ups (an eventfd write each on tokio's
         // current-thread runtime) where one is enough.
         let mut skip_read = false;
         // A clock reading taken just before (a read's arrival, a deadline handled) that the
@@ -307,7 +307,13 @@ impl<T: Transport> Inner<T> {
             // response already there costs no timer (no wheel entry).
             // The read, the yield and the timer, polled in that order by hand: `select!`
             // would build and poll the same three futures with more bookkeeping per turn.
-            let mut yield_now = std::pin::pin!(tokio::task::yield_now());
+            // The yield by hand too: the task wakes itself and is pending once. tokio's
+            // `yield_now` defers the wake to the runtime's list of deferred wakers, which a
+            // `block_on` per request (a caller's plain `block_on(master.read(..))`) builds anew
+            // each time: an allocation and its release per request. Woken at once, the task
+            // still runs only after the tasks already queued (the partner that answers); on
+            // the multi-threaded runtime's `block_on` tokio's yield wakes at once anyway.
+            let mut wake_sent = false;
             let (port, rx) = (&mut self.port, &mut self.rx);
             let woke = std::future::poll_fn(|cx| {
                 if !skip_read {
@@ -317,7 +323,12 @@ impl<T: Transport> Inner<T> {
                     }
                 }
                 if !yielded {
-                    return yield_now.as_mut().poll(cx).map(|()| Woke::Yielded);
+                    if wake_sent {
+                        return Poll::Ready(Woke::Yielded);
+                    }
+                    wake_sent = true;
+                    cx.waker().wake_by_ref();
+                    return Poll::Pending;
                 }
                 if stale_now {
                     return Poll::Ready(Woke::Timer);
@@ -347,12 +358,15 @@ impl<T: Transport> Inner<T> {
                     }
                     let now = self.now();
                     // The request's end first, if it is due (the turn after a yield did
-                    // not read the clock to see it): the engine hears of its events in order.
+                    // not read the clock to see it): the engine hears of its events in order,
+                    // both in one call that checks the engine's timers once where a second
+                    // check at the same instant has nothing to do.
                     if self.tx_done.is_some_and(|t| t <= now) {
                         self.tx_done = None;
-                        self.engine.handle_tx_done(now);
+                        self.engine.handle_tx_done_and_rx(now, &self.rx[..n]);
+                    } else {
+                        self.engine.handle_rx(now, &self.rx[..n]);
                     }
-                    self.engine.handle_rx(now, &self.rx[..n]);
                     fresh = Some(now);
                 }
                 Woke::Yielded => {
