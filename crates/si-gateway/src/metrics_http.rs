@@ -8,7 +8,8 @@
 use super::counters::Stats;
 use super::gateway_metrics::RtuNow;
 use super::line::lock;
-use super::rtu_listener::{RtuCounters, ACCEPT_RETRY};
+use super::rtu_listener::RtuCounters;
+use si_modbus::tokio::tcp::ACCEPT_RETRY;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -44,7 +45,7 @@ impl Source {
 }
 
 /// Serve scrapes on `listener` for ever (a failed accept is retried after
-/// [`ACCEPT_RETRY`], as the RTU-over-TCP listener does).
+/// [`ACCEPT_RETRY`], as the Modbus TCP faces do).
 pub async fn run(listener: TcpListener, source: Source) -> std::convert::Infallible {
     loop {
         let (stream, _) = match listener.accept().await {

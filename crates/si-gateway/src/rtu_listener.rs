@@ -18,13 +18,12 @@ use si_modbus::frame::crc16;
 use si_modbus::mbap::TcpAdu;
 use si_modbus::rtu_stream::{Cut, RtuStream};
 use si_modbus::rx::Expect;
-use si_modbus::tokio::tcp::{Handler, Peer};
+use si_modbus::tokio::tcp::{accept_limited, Handler, Peer};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
-use tokio::sync::Semaphore;
 
 /// Silence that ends a frame whose length cannot be predicted (an unknown function code):
 /// a device server forwards a frame in one burst, so 50 ms without a byte ends it. `[derived]`:
@@ -63,14 +62,9 @@ impl Default for Limits {
     }
 }
 
-/// Pause after a failed accept (out of file descriptors and the like) before the next, as the
-/// Modbus TCP server does: one failing connection attempt must not end the listener, and
-/// retrying at once would spin.
-pub const ACCEPT_RETRY: Duration = Duration::from_millis(100);
-
-/// Accept connections on `listener` for ever (a failed accept is retried after
-/// [`ACCEPT_RETRY`]), up to `limits`; each is served by `handler`. Connection ids given to
-/// the handler are `id_base` + the connection's number from 1.
+/// Accept connections on `listener` for ever, up to `limits`, as the Modbus TCP server does
+/// (`si_modbus::tokio::tcp::accept_limited`); each is served by `handler`. Connection ids
+/// given to the handler are `id_base` + the connection's number from 1.
 pub async fn run<H: Handler>(
     listener: TcpListener,
     handler: Arc<H>,
@@ -78,37 +72,21 @@ pub async fn run<H: Handler>(
     id_base: u64,
     limits: Limits,
 ) -> std::convert::Infallible {
-    let slots = Arc::new(Semaphore::new(limits.max_connections));
-    let mut next = 0u64;
-    loop {
-        let (stream, addr) = match listener.accept().await {
-            Ok(accepted) => accepted,
-            Err(_) => {
-                tokio::time::sleep(ACCEPT_RETRY).await;
-                continue;
-            }
-        };
-        // Over the limit: closed at once, a clear refusal instead of a hang.
-        let Ok(slot) = Arc::clone(&slots).try_acquire_owned() else {
-            drop(stream);
-            continue;
-        };
-        next += 1;
+    accept_limited(&listener, limits.max_connections, |stream, n, addr| {
         let peer = Peer {
-            id: id_base | next,
+            id: id_base | n,
             addr,
         };
         let (h, c) = (Arc::clone(&handler), Arc::clone(&counters));
-        tokio::spawn(async move {
+        async move {
             let mut stream = stream;
             h.connected(&peer);
             let _ = connection(&mut stream, &*h, &peer, &c, limits.idle_timeout).await;
             h.disconnected(&peer);
-            // The slot is free before the client sees the connection close.
-            drop(slot);
-            drop(stream);
-        });
-    }
+            stream
+        }
+    })
+    .await
 }
 
 /// Serve one connection until it closes, or is silent for `idle` between frames.

@@ -36,9 +36,11 @@
 //! # Ok(()) }
 //! ```
 
+mod accept;
 mod client;
 mod server;
 
+pub use accept::{accept_limited, ACCEPT_RETRY};
 pub use client::{Client, ClientConfig, DEFAULT_RESPONSE_TIMEOUT};
 pub use server::{
     Handler, Peer, Server, ServerConfig, StoreHandler, Units, DEFAULT_IDLE_TIMEOUT,

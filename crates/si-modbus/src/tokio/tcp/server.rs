@@ -8,7 +8,6 @@ use std::time::Duration;
 
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream, ToSocketAddrs};
-use tokio::sync::Semaphore;
 
 use crate::frame::{ExceptionCode, Response};
 use crate::mbap::{Decoder, TcpAdu};
@@ -24,9 +23,6 @@ pub const DEFAULT_MAX_CONNECTIONS: usize = 32;
 /// otherwise: mbusd's default (`-T`, `DEFAULT_CONNTIMEOUT` 60 s in
 /// mbusd's `src/conn.h`), so idle clients cannot hold every slot for ever.
 pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(60);
-
-/// The pause after a failed accept (no file descriptors left) before the next.
-const ACCEPT_RETRY: Duration = Duration::from_millis(100);
 
 /// Bytes read from a connection at once.
 const RX_CHUNK: usize = 1024;
@@ -218,41 +214,28 @@ impl<H: Handler> Server<H> {
         self.listener.local_addr()
     }
 
-    /// Accept and serve connections until the task is dropped or aborted.
+    /// Accept and serve connections until the task is dropped or aborted
+    /// ([`accept_limited`](super::accept_limited): at most `max_connections` at once).
     pub async fn run(self) -> std::io::Result<()> {
-        let slots = Arc::new(Semaphore::new(self.config.max_connections));
         let units = Arc::new(self.config.units);
         let idle = self.config.idle_timeout;
-        let mut accepted = 0u64;
-        loop {
-            let (stream, addr) = match self.listener.accept().await {
-                Ok(accepted) => accepted,
-                // Out of file descriptors and the like: a failing connection attempt must not
-                // end the server, and retrying at once would spin; the next accept after a
-                // pause may succeed.
-                Err(_) => {
-                    tokio::time::sleep(ACCEPT_RETRY).await;
-                    continue;
+        let handler = self.handler;
+        match super::accept_limited(
+            &self.listener,
+            self.config.max_connections,
+            |stream, id, addr| {
+                let peer = Peer { id, addr };
+                let (handler, units) = (Arc::clone(&handler), Arc::clone(&units));
+                async move {
+                    let mut stream = stream;
+                    handler.connected(&peer);
+                    let _ = serve_connection(&mut stream, &*handler, &peer, &units, idle).await;
+                    handler.disconnected(&peer);
+                    stream
                 }
-            };
-            let Ok(slot) = Arc::clone(&slots).try_acquire_owned() else {
-                drop(stream);
-                continue;
-            };
-            accepted += 1;
-            let peer = Peer { id: accepted, addr };
-            let handler = Arc::clone(&self.handler);
-            let units = Arc::clone(&units);
-            tokio::spawn(async move {
-                let mut stream = stream;
-                handler.connected(&peer);
-                let _ = serve_connection(&mut stream, &*handler, &peer, &units, idle).await;
-                handler.disconnected(&peer);
-                // The slot is free before the client sees the connection close.
-                drop(slot);
-                drop(stream);
-            });
-        }
+            },
+        )
+        .await {}
     }
 }
 
