@@ -29,6 +29,17 @@ macro_rules! on_line {
     };
 }
 
+/// A read (FC01 to FC04) as a job: its arguments checked ([`Jobs::read_args`]), then the
+/// client's `$method` on whichever line the client holds.
+macro_rules! read_job {
+    ($jobs:ident, $address:expr, $count:expr, $unit:expr, $method:ident) => {{
+        let (line, a, n, u) = $jobs.read_args($address, $count, $unit)?;
+        Ok(Box::pin(async move {
+            on_line!(line, c => c.$method(u, a, n).await).map_err(modbus)
+        }))
+    }};
+}
+
 /// FC12's answer: status, event count, message count, events.
 pub type EventLog = (u16, u16, u16, Vec<u8>);
 
@@ -155,10 +166,7 @@ impl Jobs {
 
     /// FC01.
     pub fn read_coils(&self, address: i64, count: i64, unit: i64) -> PyResult<Job<Vec<bool>>> {
-        let (line, a, n, u) = self.read_args(address, count, unit)?;
-        Ok(Box::pin(async move {
-            on_line!(line, c => c.read_coils(u, a, n).await).map_err(modbus)
-        }))
+        read_job!(self, address, count, unit, read_coils)
     }
 
     /// FC02.
@@ -168,10 +176,7 @@ impl Jobs {
         count: i64,
         unit: i64,
     ) -> PyResult<Job<Vec<bool>>> {
-        let (line, a, n, u) = self.read_args(address, count, unit)?;
-        Ok(Box::pin(async move {
-            on_line!(line, c => c.read_discrete_inputs(u, a, n).await).map_err(modbus)
-        }))
+        read_job!(self, address, count, unit, read_discrete_inputs)
     }
 
     /// FC03.
@@ -181,10 +186,7 @@ impl Jobs {
         count: i64,
         unit: i64,
     ) -> PyResult<Job<Vec<u16>>> {
-        let (line, a, n, u) = self.read_args(address, count, unit)?;
-        Ok(Box::pin(async move {
-            on_line!(line, c => c.read_holding_registers(u, a, n).await).map_err(modbus)
-        }))
+        read_job!(self, address, count, unit, read_holding_registers)
     }
 
     /// FC04.
@@ -194,10 +196,7 @@ impl Jobs {
         count: i64,
         unit: i64,
     ) -> PyResult<Job<Vec<u16>>> {
-        let (line, a, n, u) = self.read_args(address, count, unit)?;
-        Ok(Box::pin(async move {
-            on_line!(line, c => c.read_input_registers(u, a, n).await).map_err(modbus)
-        }))
+        read_job!(self, address, count, unit, read_input_registers)
     }
 
     /// FC05.
